@@ -1,0 +1,1 @@
+"""Harness: timed sweeps, statistics and the ``tribench`` command line."""

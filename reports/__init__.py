@@ -1,0 +1,1 @@
+"""Reports: tidy CSVs, the HTML report, plots and pictures. Never measures."""

@@ -1,0 +1,181 @@
+"""Float64 reference answers for ray-triangle tests.
+
+This is the ground truth every kernel and every generator is checked against.
+It is written from the geometry, not from any kernel: a ray ``o + t d`` meets
+the plane of a triangle ``v0 + u e1 + v e2`` where the 3x3 linear system
+
+    [-d  e1  e2] @ [t, u, v] = o - v0
+
+holds, and the triangle is hit when the barycentrics ``u, v, w = 1 - u - v``
+are all non-negative and ``t > t_min``. The system is solved with
+``numpy.linalg.solve`` (LU with partial pivoting), never with the scalar triple
+products the C kernels use, so a shared algebra slip cannot hide in both.
+
+Conventions (shared with the C kernels' clean forms):
+
+* the triangle is closed: points on an edge or a vertex are inside;
+* a singular system (ray parallel to the plane, or a degenerate triangle) is
+  a miss;
+* a miss has ``t = nan``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["PairAnswers", "intersect_pairs", "intersect_closest"]
+
+# Pairs solved per call of numpy.linalg.solve: bounds the temporary memory.
+_CHUNK = 1 << 16
+
+
+@dataclass(frozen=True)
+class PairAnswers:
+    """Reference answers for N (ray, triangle) pairs, all float64.
+
+    Attributes
+    ----------
+    hit : bool[N]
+    t : float64[N]
+        Ray parameter of the plane crossing; ``nan`` where the system is singular
+        (kept for misses too, so generators can see *why* a pair misses).
+    u, v : float64[N]
+        Barycentric coordinates of the crossing (weights of ``v1`` and ``v2``).
+    """
+
+    hit: np.ndarray
+    t: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+
+    @property
+    def w(self) -> np.ndarray:
+        """Weight of ``v0``: ``1 - u - v``."""
+        return 1.0 - self.u - self.v
+
+    @property
+    def edge_margin(self) -> np.ndarray:
+        """Smallest barycentric, ``min(u, v, w)``: negative outside, 0 on an edge."""
+        return np.minimum(np.minimum(self.u, self.v), self.w)
+
+
+def _as_f64(name: str, a: np.ndarray, shape_tail: tuple[int, ...]) -> np.ndarray:
+    a = np.asarray(a, dtype=np.float64)
+    if a.ndim != 1 + len(shape_tail) or a.shape[1:] != shape_tail:
+        want = "(N, " + ", ".join(map(str, shape_tail)) + ")"
+        raise ValueError(f"{name} must have shape {want}, got {a.shape}")
+    return a
+
+
+def _solve(origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray):
+    """Solve the crossing system for each row; singular rows give nan."""
+    v0, v1, v2 = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    a = np.stack([-directions, v1 - v0, v2 - v0], axis=-1)  # columns: -d, e1, e2
+    b = origins - v0
+    # Singular (or numerically singular) systems are misses: detect them by the
+    # scale-free determinant so a tiny but valid triangle is not rejected.
+    scale = np.prod(np.linalg.norm(a, axis=1), axis=-1)
+    det = np.linalg.det(a)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        regular = np.abs(det) > 1e-14 * scale
+    x = np.full(b.shape, np.nan)
+    if regular.any():
+        x[regular] = np.linalg.solve(a[regular], b[regular][..., None])[..., 0]
+    return x[:, 0], x[:, 1], x[:, 2]
+
+
+def intersect_pairs(
+    origins: np.ndarray,
+    directions: np.ndarray,
+    triangles: np.ndarray,
+    t_min: float = 0.0,
+) -> PairAnswers:
+    """Test ray ``i`` against triangle ``i`` in float64.
+
+    Parameters
+    ----------
+    origins, directions : array_like, shape (N, 3)
+    triangles : array_like, shape (N, 3, 3)
+        ``triangles[i, j]`` is vertex ``j`` of triangle ``i``.
+    t_min : float
+        A crossing counts only where ``t > t_min``.
+
+    Returns
+    -------
+    PairAnswers
+
+    Examples
+    --------
+    >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
+    >>> r = intersect_pairs([[0.25, 0.25, 1]], [[0., 0, -1]], tri)
+    >>> bool(r.hit[0]), float(r.t[0])
+    (True, 1.0)
+    """
+    o = _as_f64("origins", origins, (3,))
+    d = _as_f64("directions", directions, (3,))
+    tri = _as_f64("triangles", triangles, (3, 3))
+    if not (len(o) == len(d) == len(tri)):
+        raise ValueError(
+            f"origins, directions and triangles need one row each per pair, "
+            f"got {len(o)}, {len(d)} and {len(tri)}"
+        )
+    t = np.empty(len(o))
+    u = np.empty(len(o))
+    v = np.empty(len(o))
+    for lo in range(0, len(o), _CHUNK):
+        hi = lo + _CHUNK
+        t[lo:hi], u[lo:hi], v[lo:hi] = _solve(o[lo:hi], d[lo:hi], tri[lo:hi])
+    with np.errstate(invalid="ignore"):
+        hit = (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min)
+    return PairAnswers(hit=hit, t=t, u=u, v=v)
+
+
+def intersect_closest(
+    origins: np.ndarray,
+    directions: np.ndarray,
+    triangles: np.ndarray,
+    t_min: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closest hit of every ray against every triangle (brute force, float64).
+
+    Ties in ``t`` go to the lowest triangle index.
+
+    Returns
+    -------
+    index : int64[M]
+        Index of the closest triangle hit, ``-1`` for a miss.
+    t : float64[M]
+        Its ``t``; ``nan`` for a miss.
+
+    Examples
+    --------
+    >>> tris = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]],
+    ...                  [[0., 0, 1], [1, 0, 1], [0, 1, 1]]])
+    >>> intersect_closest([[0.2, 0.2, 3]], [[0., 0, -1]], tris)
+    (array([1]), array([2.]))
+    """
+    o = _as_f64("origins", origins, (3,))
+    d = _as_f64("directions", directions, (3,))
+    tri = _as_f64("triangles", triangles, (3, 3))
+    m, k = len(o), len(tri)
+    index = np.full(m, -1, dtype=np.int64)
+    best = np.full(m, np.inf)
+    rays_per_chunk = max(1, _CHUNK // max(k, 1))
+    for lo in range(0, m, rays_per_chunk):
+        hi = min(lo + rays_per_chunk, m)
+        n = hi - lo
+        ans = intersect_pairs(
+            np.repeat(o[lo:hi], k, axis=0),
+            np.repeat(d[lo:hi], k, axis=0),
+            np.tile(tri, (n, 1, 1)),
+            t_min=t_min,
+        )
+        t = np.where(ans.hit, ans.t, np.inf).reshape(n, k)
+        j = np.argmin(t, axis=1)  # argmin returns the first of equal minima
+        tj = t[np.arange(n), j]
+        found = np.isfinite(tj)
+        index[lo:hi] = np.where(found, j, -1)
+        best[lo:hi] = tj
+    return index, np.where(index >= 0, best, np.nan)
