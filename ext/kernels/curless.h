@@ -1,0 +1,77 @@
+/* curless: Curless's plane-then-inside test, cleaned up.
+ *
+ * Reference: B. Curless, "Ray-triangle intersection", University of Washington
+ * CSE 457 lecture notes, 2004.
+ *
+ * How it differs from curless_seed (and why):
+ *  - prepared data v0 v1 v2, the unnormalised normal n = (v1-v0) x (v2-v0) and
+ *    the plane offset n.v0 (13 reals), computed in double and rounded, so the
+ *    float32 form's plane is as good as float32 can store;
+ *  - no absolute epsilon: t > 0 accepts, so small and far triangles are kept;
+ *  - edge rule: the triangle is closed, an edge test rejects only on < 0
+ *    (points on an edge or vertex are inside), the same rule as the float64
+ *    reference and moller_trumbore;
+ *  - every rejection is written as !(accept condition), so a NaN anywhere is
+ *    a miss, and a t that overflows to infinity is a miss;
+ *  - degenerate triangles have n = 0 and miss through the parallel test. */
+
+#define tb_curless_stride 13 /* reals per prepared triangle, either precision */
+
+static void TB_FN(tb_curless_prepare)(const real *vertices, size_t n, real *out)
+{
+    for (size_t i = 0; i < n; ++i) {
+        const real *v = vertices + 9 * i;
+        real *rec = out + 13 * i;
+        double a[3], e1[3], e2[3];
+        for (int k = 0; k < 3; ++k) {
+            a[k] = v[k];
+            e1[k] = (double)v[3 + k] - v[k];
+            e2[k] = (double)v[6 + k] - v[k];
+        }
+        double nrm[3] = {e1[1] * e2[2] - e1[2] * e2[1],
+                         e1[2] * e2[0] - e1[0] * e2[2],
+                         e1[0] * e2[1] - e1[1] * e2[0]};
+        memcpy(rec, v, 9 * sizeof(real));
+        for (int k = 0; k < 3; ++k)
+            rec[9 + k] = (real)nrm[k];
+        rec[12] = (real)(nrm[0] * a[0] + nrm[1] * a[1] + nrm[2] * a[2]);
+    }
+}
+
+static inline int TB_FN(tb_curless_test)(const real *restrict o, const real *restrict d,
+                                         const real *restrict tri, real *restrict t_out)
+{
+    const real *a = tri, *b = tri + 3, *c = tri + 6, *n = tri + 9;
+
+    /* plane: parallel rays (and degenerate triangles) have n.d == 0 */
+    real nd = TB_FN(dot3)(n, d);
+    if (nd == 0)
+        return 0;
+    real t = (tri[12] - TB_FN(dot3)(n, o)) / nd;
+    if (!(t > 0 && t < (real)INFINITY))
+        return 0;
+
+    /* point on the plane */
+    real q[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
+
+    /* three inside tests, closed triangle */
+    real edge[3], toq[3], side[3];
+    TB_FN(sub3)(b, a, edge);
+    TB_FN(sub3)(q, a, toq);
+    TB_FN(cross3)(edge, toq, side);
+    if (!(TB_FN(dot3)(side, n) >= 0))
+        return 0;
+    TB_FN(sub3)(c, b, edge);
+    TB_FN(sub3)(q, b, toq);
+    TB_FN(cross3)(edge, toq, side);
+    if (!(TB_FN(dot3)(side, n) >= 0))
+        return 0;
+    TB_FN(sub3)(a, c, edge);
+    TB_FN(sub3)(q, c, toq);
+    TB_FN(cross3)(edge, toq, side);
+    if (!(TB_FN(dot3)(side, n) >= 0))
+        return 0;
+
+    *t_out = t;
+    return 1;
+}

@@ -1,0 +1,81 @@
+/* curless_seed: Curless's plane-then-inside test, as the seed's code wrote it.
+ *
+ * Reference: B. Curless, "Ray-triangle intersection", University of Washington
+ * CSE 457 lecture notes, 2004. Seed: M. Vitse, "Curless versus Moller pour
+ * l'intersection d'un triangle avec un rayon", ULCO, 2022 (Triangle.cpp,
+ * branch without MOLLER).
+ *
+ * Faithful to the seed, on purpose:
+ *  - the unit normal n = normalise((v1 - v0) x (v2 - v0)) is stored per
+ *    triangle (prepared data: v0 v1 v2 n, 12 reals); n.v0 is recomputed per test;
+ *  - exact-zero parallel test (n.d == 0), then t = (n.v0 - n.o) / n.d;
+ *  - t < 1e-4 rejects, before the inside tests (absolute epsilon);
+ *  - q = o + t d, then three edge tests ((b - a) x (q - a)).n, rejecting on
+ *    <= 0, so points on an edge miss (strict interior), in the order
+ *    v0v1, v1v2, v2v0;
+ *  - comparisons written as the seed wrote them: a NaN in the ray slips past
+ *    every test and is reported as a hit with t = NaN.
+ * Deviations from the seed:
+ *  - a degenerate triangle (zero-length normal) stores n = 0, so the parallel
+ *    test rejects every ray; the seed divides by zero and stores NaN, which
+ *    makes every ray "hit" it at t = NaN;
+ *  - the seed's Vecteur holds float, so its arithmetic is single precision:
+ *    the float32 form is the faithful replay, the float64 form is the same
+ *    code in double. */
+
+#define tb_curless_seed_stride 12 /* reals per prepared triangle, either precision */
+
+static void TB_FN(tb_curless_seed_prepare)(const real *vertices, size_t n, real *out)
+{
+    for (size_t i = 0; i < n; ++i) {
+        const real *v = vertices + 9 * i;
+        real *rec = out + 12 * i;
+        real e1[3], e2[3], nrm[3];
+        memcpy(rec, v, 9 * sizeof(real));
+        TB_FN(sub3)(v + 3, v, e1);
+        TB_FN(sub3)(v + 6, v, e2);
+        TB_FN(cross3)(e1, e2, nrm);
+        real len = (real)sqrt((double)TB_FN(dot3)(nrm, nrm));
+        for (int k = 0; k < 3; ++k)
+            rec[9 + k] = len > 0 ? nrm[k] / len : 0;
+    }
+}
+
+static inline int TB_FN(tb_curless_seed_test)(const real *restrict o, const real *restrict d,
+                                              const real *restrict tri, real *restrict t_out)
+{
+    const real eps = (real)1e-4;
+    const real *a = tri, *b = tri + 3, *c = tri + 6, *n = tri + 9;
+
+    /* plane: parallel test on the exact zero, then t, rejected below eps */
+    real nd = TB_FN(dot3)(n, d);
+    if (nd == 0)
+        return 0;
+    real t = (TB_FN(dot3)(n, a) - TB_FN(dot3)(n, o)) / nd;
+    if (t < eps)
+        return 0;
+
+    /* point on the plane */
+    real q[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
+
+    /* three inside tests, strict: on an edge is outside */
+    real edge[3], toq[3], side[3];
+    TB_FN(sub3)(b, a, edge);
+    TB_FN(sub3)(q, a, toq);
+    TB_FN(cross3)(edge, toq, side);
+    if (TB_FN(dot3)(side, n) <= 0)
+        return 0;
+    TB_FN(sub3)(c, b, edge);
+    TB_FN(sub3)(q, b, toq);
+    TB_FN(cross3)(edge, toq, side);
+    if (TB_FN(dot3)(side, n) <= 0)
+        return 0;
+    TB_FN(sub3)(a, c, edge);
+    TB_FN(sub3)(q, c, toq);
+    TB_FN(cross3)(edge, toq, side);
+    if (TB_FN(dot3)(side, n) <= 0)
+        return 0;
+
+    *t_out = t;
+    return 1;
+}

@@ -1,0 +1,56 @@
+/* moller_seed: Moller-Trumbore, divide-first, as the seed's code wrote it.
+ *
+ * Reference: T. Moller, B. Trumbore, "Fast, Minimum Storage Ray-Triangle
+ * Intersection", Journal of Graphics Tools 2(1):21-28, 1997 (the seed cites it
+ * as 2012). Seed: M. Vitse, ULCO 2022 (Triangle.cpp, MOLLER branch), which
+ * follows the paper's first listing (no culling, division first).
+ *
+ * Faithful to the seed, on purpose:
+ *  - raw vertices, edges recomputed per test (prepared data: 9 reals);
+ *  - parallel test |det| < 1e-4 on the unnormalised determinant: an absolute
+ *    epsilon, so a small enough triangle is missed by every ray;
+ *  - inv_det = 1 / det computed before the inside tests, u and v scaled by it;
+ *  - bounds as written: u < 0 || u > 1, then v < 0 || u + v > 1 reject, so
+ *    edges are inside; t > 1e-4 accepts;
+ *  - a NaN anywhere fails the final t > 1e-4 and so is a miss.
+ * Deviation: the seed keeps det, u, v and t in float and its vectors in float;
+ * the float32 form is the faithful replay, the float64 form the same code in
+ * double. */
+
+#define tb_moller_seed_stride 9 /* reals per prepared triangle, either precision */
+#define tb_moller_seed_prepare_f32 tb_prepare_vertices_f32
+#define tb_moller_seed_prepare_f64 tb_prepare_vertices_f64
+
+static inline int TB_FN(tb_moller_seed_test)(const real *restrict o, const real *restrict d,
+                                             const real *restrict tri, real *restrict t_out)
+{
+    const real eps = (real)1e-4;
+    real e1[3], e2[3], p[3], s[3], q[3];
+
+    /* determinant, with the seed's absolute epsilon */
+    TB_FN(sub3)(tri + 3, tri, e1);
+    TB_FN(sub3)(tri + 6, tri, e2);
+    TB_FN(cross3)(d, e2, p);
+    real det = TB_FN(dot3)(e1, p);
+    if (det > -eps && det < eps)
+        return 0;
+    real inv_det = 1 / det;
+
+    /* u, then v, divided first */
+    TB_FN(sub3)(o, tri, s);
+    real u = TB_FN(dot3)(s, p) * inv_det;
+    if (u < 0 || u > 1)
+        return 0;
+    TB_FN(cross3)(s, e1, q);
+    real v = TB_FN(dot3)(q, d) * inv_det;
+    if (v < 0 || u + v > 1)
+        return 0;
+
+    /* distance */
+    real t = TB_FN(dot3)(e2, q) * inv_det;
+    if (t > eps) {
+        *t_out = t;
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,58 @@
+/* moller_trumbore: Moller-Trumbore with late division, no epsilon.
+ *
+ * Reference: T. Moller, B. Trumbore, "Fast, Minimum Storage Ray-Triangle
+ * Intersection", Journal of Graphics Tools 2(1):21-28, 1997; the paper's
+ * second listing (test the scaled barycentrics against det, divide once on a
+ * hit), without back-face culling.
+ *
+ * How it differs from the paper and from moller_seed (and why):
+ *  - no epsilon on det: only det == 0 (a ray in the plane, or a degenerate
+ *    triangle) is rejected there, so small triangles are not erased; a
+ *    near-parallel ray fails the bounds instead;
+ *  - the sign of det is folded into U, V, T (multiplying by +-1 is exact), so
+ *    one set of bounds serves front and back faces;
+ *  - edge rule: closed triangle, 0 <= U, 0 <= V, U + V <= |det| (points on an
+ *    edge or vertex are inside), the same rule as the float64 reference;
+ *  - t > 0 accepts, and a t that overflows to infinity is a miss;
+ *  - every rejection is written as !(accept condition), so a NaN is a miss.
+ * Prepared data: the raw vertices (9 reals). */
+
+#define tb_moller_trumbore_stride 9 /* reals per prepared triangle, either precision */
+#define tb_moller_trumbore_prepare_f32 tb_prepare_vertices_f32
+#define tb_moller_trumbore_prepare_f64 tb_prepare_vertices_f64
+
+static inline int TB_FN(tb_moller_trumbore_test)(const real *restrict o, const real *restrict d,
+                                                 const real *restrict tri, real *restrict t_out)
+{
+    real e1[3], e2[3], p[3], s[3], q[3];
+
+    /* determinant */
+    TB_FN(sub3)(tri + 3, tri, e1);
+    TB_FN(sub3)(tri + 6, tri, e2);
+    TB_FN(cross3)(d, e2, p);
+    real det = TB_FN(dot3)(e1, p);
+    if (det == 0)
+        return 0;
+    real sign = det < 0 ? -1 : 1;
+    real abs_det = sign * det;
+
+    /* scaled barycentrics against |det| */
+    TB_FN(sub3)(o, tri, s);
+    real u = sign * TB_FN(dot3)(s, p);
+    if (!(u >= 0 && u <= abs_det))
+        return 0;
+    TB_FN(cross3)(s, e1, q);
+    real v = sign * TB_FN(dot3)(d, q);
+    if (!(v >= 0 && u + v <= abs_det))
+        return 0;
+
+    /* distance, one division on a hit */
+    real scaled_t = sign * TB_FN(dot3)(e2, q);
+    if (!(scaled_t > 0))
+        return 0;
+    real t = scaled_t / abs_det;
+    if (!(t < (real)INFINITY))
+        return 0;
+    *t_out = t;
+    return 1;
+}

@@ -1,0 +1,28 @@
+/* Small 3-vector helpers over `real`, instantiated once per precision.
+ * No include guard: kernels.h includes this file once for float, once for
+ * double. Everything is static inline so the kernels inline into the loops. */
+
+static inline void TB_FN(sub3)(const real *a, const real *b, real *out)
+{
+    out[0] = a[0] - b[0];
+    out[1] = a[1] - b[1];
+    out[2] = a[2] - b[2];
+}
+
+static inline void TB_FN(cross3)(const real *a, const real *b, real *out)
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static inline real TB_FN(dot3)(const real *a, const real *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* Prepared data of the kernels that test raw vertices: the 9 coordinates. */
+static void TB_FN(tb_prepare_vertices)(const real *vertices, size_t n, real *out)
+{
+    memcpy(out, vertices, n * 9 * sizeof(real));
+}

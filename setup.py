@@ -1,0 +1,39 @@
+"""Build of the C extension tribench.ext._core (everything else is in pyproject.toml).
+
+The extension lives here rather than in pyproject.toml for one reason: its
+exact compile flags are baked into the module (TB_BUILD_FLAGS) so every run
+can record how its kernels were built.
+
+Environment:
+  TRIBENCH_SANITIZE=1  build with AddressSanitizer and UndefinedBehaviorSanitizer
+                       (for the CI's sanitizer step; run with libasan preloaded).
+"""
+
+import os
+import sysconfig
+
+from setuptools import Extension, setup
+
+# -ffp-contract=off: no silent FMA contraction (it changes results, and breaks
+# watertight kernels); never -ffast-math (it removes the NaN/Inf handling the
+# suite measures). No -march: one build runs on any CPU of its architecture.
+KERNEL_FLAGS = ["-std=c11", "-O3", "-ffp-contract=off", "-fno-math-errno", "-Wall", "-Wextra"]
+SANITIZE_FLAGS = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", "-O1", "-g"]
+
+compile_flags = KERNEL_FLAGS + (SANITIZE_FLAGS if os.environ.get("TRIBENCH_SANITIZE") == "1" else [])
+link_flags = SANITIZE_FLAGS[:1] if os.environ.get("TRIBENCH_SANITIZE") == "1" else []
+recorded = " ".join([sysconfig.get_config_var("CFLAGS") or ""] + compile_flags).strip()
+
+setup(
+    ext_modules=[
+        Extension(
+            "tribench.ext._core",
+            sources=["ext/_core.c"],
+            include_dirs=["ext"],
+            depends=["ext/kernels.h"] + [os.path.join("ext/kernels", f) for f in sorted(os.listdir("ext/kernels"))],
+            extra_compile_args=compile_flags,
+            extra_link_args=link_flags,
+            define_macros=[("TB_BUILD_FLAGS", '"' + recorded.replace('"', "'") + '"')],
+        )
+    ]
+)
