@@ -13,12 +13,12 @@
  *  - q = o + t d, then three edge tests ((b - a) x (q - a)).n, rejecting on
  *    <= 0, so points on an edge miss (strict interior), in the order
  *    v0v1, v1v2, v2v0;
- *  - comparisons written as the seed wrote them: a NaN in the ray slips past
- *    every test and is reported as a hit with t = NaN.
+ *  - comparisons written as the seed wrote them: a NaN or Inf in the ray
+ *    slips past every test and is reported as a hit with t = NaN.
  * Deviations from the seed:
- *  - a degenerate triangle (zero-length normal) stores n = 0, so the parallel
- *    test rejects every ray; the seed divides by zero and stores NaN, which
- *    makes every ray "hit" it at t = NaN;
+ *  - a degenerate triangle (zero-length or non-finite normal) stores n = 0,
+ *    so the parallel test rejects every ray; the seed divides by zero and
+ *    stores NaN, which makes every ray "hit" it at t = NaN;
  *  - the seed's Vecteur holds float, so its arithmetic is single precision:
  *    the float32 form is the faithful replay, the float64 form is the same
  *    code in double. */

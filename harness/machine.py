@@ -1,0 +1,106 @@
+"""What machine and build produced a measurement: read once, recorded with every run."""
+
+from __future__ import annotations
+
+import os
+import platform
+import subprocess
+import sys
+from importlib import metadata
+from pathlib import Path
+
+# CPU features that decide which kernel variants can run, as /proc/cpuinfo names them.
+SIMD_FLAGS = ("sse2", "sse4_1", "sse4_2", "avx", "avx2", "fma", "avx512f", "avx512vl", "asimd", "sve")
+
+
+def _cpuinfo() -> dict[str, str]:
+    """First processor's fields from /proc/cpuinfo (empty off Linux)."""
+    fields: dict[str, str] = {}
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return fields
+    for line in text.splitlines():
+        if not line.strip():
+            if fields:
+                break
+            continue
+        key, _, value = line.partition(":")
+        fields.setdefault(key.strip(), value.strip())
+    return fields
+
+
+def _read(path: str) -> str | None:
+    try:
+        return Path(path).read_text().strip()
+    except OSError:
+        return None
+
+
+def cpu_model() -> str:
+    info = _cpuinfo()
+    return info.get("model name") or info.get("Model") or platform.processor() or platform.machine()
+
+
+def simd_features() -> list[str]:
+    """The SIMD-relevant CPU features this machine reports."""
+    info = _cpuinfo()
+    flags = set((info.get("flags") or info.get("Features") or "").split())
+    return [f for f in SIMD_FLAGS if f in flags]
+
+
+def cache_sizes() -> dict[str, str]:
+    """Cache sizes of CPU 0 by level and type, e.g. {'L1d': '32K', 'L2': '512K'}."""
+    sizes = {}
+    for index in sorted(Path("/sys/devices/system/cpu/cpu0/cache").glob("index*")):
+        level, kind, size = (_read(str(index / f)) for f in ("level", "type", "size"))
+        if level and size:
+            suffix = {"Data": "d", "Instruction": "i"}.get(kind or "", "")
+            sizes[f"L{level}{suffix}"] = size
+    return sizes
+
+
+def git_revision() -> str | None:
+    """The source checkout's revision, if tribench runs from one."""
+    here = Path(__file__).resolve().parent
+    try:
+        out = subprocess.run(
+            ["git", "-C", str(here), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() or None if out.returncode == 0 else None
+
+
+def version() -> str:
+    try:
+        return metadata.version("tribench")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def machine_record() -> dict:
+    """Machine, build and versions, as one JSON-ready dict."""
+    import numpy
+
+    from tribench import ext
+
+    load = os.getloadavg() if hasattr(os, "getloadavg") else None
+    return {
+        "tribench": version(),
+        "git_revision": git_revision(),
+        "cpu_model": cpu_model(),
+        "simd_features": simd_features(),
+        "logical_cpus": os.cpu_count(),
+        "usable_cpus": sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
+        "caches": cache_sizes(),
+        "governor": _read("/sys/devices/system/cpu/cpu0/cpufreq/scaling_governor"),
+        "cpu_mhz": _cpuinfo().get("cpu MHz"),
+        "load_average": list(load) if load else None,
+        "platform": platform.platform(),
+        "machine": platform.machine(),
+        "python": sys.version.split()[0],
+        "numpy": numpy.__version__,
+        "build": ext.build_info(),
+        "kernels": list(ext.kernel_names()),
+    }

@@ -1,0 +1,65 @@
+"""Shared test data: ray-triangle pairs at a safe margin from every decision boundary."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tribench.workloads import reference
+
+# Barycentric margin from every edge, and the smallest |cos| between a ray and
+# the triangle's normal: far enough from every boundary that float32 and the
+# seed's epsilons cannot flip an answer.
+MARGIN = 0.05
+MIN_COS = 0.2
+
+
+def safe_pairs(n: int, seed: int, hit_rate: float = 0.5):
+    """n (origin, direction, triangle) float64 pairs; about hit_rate of them hit.
+
+    Hits aim at a point inside the triangle, misses at a point outside one
+    edge, each at least MARGIN (barycentric) from any edge; t in [0.5, 4].
+    """
+    rng = np.random.default_rng(seed)
+    tris = rng.normal(size=(4 * n, 3, 3))
+    normal = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    area2 = np.linalg.norm(normal, axis=1)
+    tris, normal, area2 = tris[area2 > 0.5][:n], normal[area2 > 0.5][:n], area2[area2 > 0.5][:n]
+    assert len(tris) == n
+    hits = rng.random(n) < hit_rate
+    bary = rng.dirichlet([2, 2, 2], n) * (1 - 3 * MARGIN) + MARGIN  # all >= MARGIN
+    # a miss: push the point outside one edge by at least MARGIN
+    out = rng.integers(0, 3, n)
+    push = rng.uniform(MARGIN, 1.0, n)
+    miss_bary = bary.copy()
+    miss_bary[np.arange(n), out] = -push
+    rest = 1 + push
+    for k in range(3):
+        others = out != k
+        miss_bary[others, k] = rest[others] * bary[others, k] / (1 - bary[np.arange(n), out])[others]
+    b = np.where(hits[:, None], bary, miss_bary)
+    target = np.einsum("nk,nkj->nj", b, tris)
+    # directions within MIN_COS of the normal's line, random side
+    unit_n = normal / area2[:, None]
+    tangent = rng.normal(size=(n, 3))
+    tangent -= np.einsum("nj,nj->n", tangent, unit_n)[:, None] * unit_n
+    tangent /= np.linalg.norm(tangent, axis=1)[:, None]
+    cos = rng.uniform(MIN_COS, 1.0, n) * rng.choice([-1, 1], n)
+    d = cos[:, None] * unit_n + np.sqrt(1 - cos**2)[:, None] * tangent
+    t = rng.uniform(0.5, 4.0, n)
+    o = target - t[:, None] * d
+    return o, d, tris
+
+
+@pytest.fixture
+def pairs_f64():
+    return safe_pairs(2000, seed=7)
+
+
+def as_dtype(arrays, dtype):
+    return tuple(np.ascontiguousarray(a, dtype=dtype) for a in arrays)
+
+
+def reference_answers(o, d, tris):
+    """Reference on the arrays as the kernel sees them (after any rounding)."""
+    return reference.intersect_pairs(o.astype(np.float64), d.astype(np.float64), tris.astype(np.float64))

@@ -1,0 +1,72 @@
+"""The float64 reference itself, checked against answers known independently."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tribench.workloads import reference
+
+from conftest import safe_pairs
+
+TRI = np.array([[[0.0, 0, 0], [2, 0, 0], [0, 2, 0]]])
+
+
+@pytest.mark.parametrize(
+    "origin, direction, hit, t, u, v",
+    [
+        ([0.5, 0.5, 3], [0, 0, -1], True, 3.0, 0.25, 0.25),  # inside
+        ([0.5, 0.5, 3], [0, 0, -2], True, 1.5, 0.25, 0.25),  # t scales with |d|
+        ([1.0, 0.0, 1], [0, 0, -1], True, 1.0, 0.5, 0.0),  # on an edge: closed
+        ([2.0, 0.0, 1], [0, 0, -1], True, 1.0, 1.0, 0.0),  # on a vertex
+        ([1.5, 1.5, 1], [0, 0, -1], False, 1.0, 0.75, 0.75),  # outside the hypotenuse
+        ([0.5, 0.5, -1], [0, 0, -1], False, -1.0, 0.25, 0.25),  # behind the origin
+    ],
+)
+def test_hand_computed_answers(origin, direction, hit, t, u, v):
+    r = reference.intersect_pairs([origin], [direction], TRI)
+    assert r.hit[0] == hit
+    assert (r.t[0], r.u[0], r.v[0]) == pytest.approx((t, u, v))
+
+
+def test_parallel_and_degenerate_are_misses_with_nan():
+    flat = np.array([[[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]])
+    r = reference.intersect_pairs([[0.5, 0.5, 1], [0.5, 0.5, 1]], [[1, 0, 0], [0, 0, -1]], np.vstack([TRI, flat]))
+    assert not r.hit.any() and np.isnan(r.t).all()
+
+
+def test_hit_points_lie_on_the_ray_and_in_the_triangle():
+    o, d, tris = safe_pairs(3000, seed=2)
+    r = reference.intersect_pairs(o, d, tris)
+    on_ray = o + r.t[:, None] * d
+    in_plane = np.einsum("nk,nkj->nj", np.stack([r.w, r.u, r.v], axis=1), tris)
+    np.testing.assert_allclose(on_ray, in_plane, atol=1e-9)
+    # and the barycentrics agree with an independent area-ratio computation
+    def area(a, b, c):
+        return np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    full = area(tris[:, 0], tris[:, 1], tris[:, 2])
+    u_area = area(tris[:, 0], on_ray, tris[:, 2]) / full
+    np.testing.assert_allclose(np.abs(r.u[r.hit]), u_area[r.hit], atol=1e-9)
+
+
+def test_closest_matches_pairs_and_breaks_ties_low():
+    rng = np.random.default_rng(4)
+    tris = rng.normal(size=(40, 3, 3))
+    o = rng.normal(size=(50, 3)) * 3
+    d = -o / np.linalg.norm(o, axis=1)[:, None]
+    d[::2] *= -1  # half the rays look away from the triangles
+    index, t = reference.intersect_closest(o, d, tris)
+    every = reference.intersect_pairs(np.repeat(o, 40, 0), np.repeat(d, 40, 0), np.tile(tris, (50, 1, 1)))
+    tt = np.where(every.hit, every.t, np.inf).reshape(50, 40)
+    np.testing.assert_array_equal(index, np.where(np.isfinite(tt.min(1)), tt.argmin(1), -1))
+    assert (index >= 0).any() and (index < 0).any()
+    twice = np.vstack([TRI, TRI])
+    index, _ = reference.intersect_closest([[0.5, 0.5, 1]], [[0, 0, -1]], twice)
+    assert index[0] == 0
+
+
+def test_bad_shapes_are_errors():
+    with pytest.raises(ValueError, match="origins must have shape"):
+        reference.intersect_pairs([[0, 0]], [[0, 0, 1]], TRI)
+    with pytest.raises(ValueError, match="one row each"):
+        reference.intersect_pairs([[0, 0, 0]] * 2, [[0, 0, 1]], TRI)
