@@ -5,7 +5,7 @@ import importlib
 
 import pytest
 
-MODULES = ["tribench.ext", "tribench.workloads.reference"]
+MODULES = ["tribench.ext", "tribench.workloads.reference", "tribench.harness.stats"]
 
 
 @pytest.mark.parametrize("name", MODULES)
