@@ -1,0 +1,465 @@
+"""The seed's scene files: reader, writer and the two built-in scenes.
+
+The seed (Vitse 2022, on C. Renaud's teaching ray tracer) describes a scene in
+a text file, one keyword per line followed by its numbers, ``#`` starting a
+comment::
+
+    fond r g b                            background colour
+    ambiant r g b                         ambient light
+    source x y z r g b                    point light: position, intensity
+    materiau r g b ka kd ks shininess     material of the objects that follow
+    plan a b c d                          the plane a x + b y + c z + d = 0
+    sphere x y z radius
+    tri x1 y1 z1 x2 y2 z2 x3 y3 z3        triangle; its normal is (v1-v0) x (v2-v0)
+
+What the seed's loader does (``Scene::charger`` in ``LR/Src/Scene.cpp``): it
+reads whitespace-separated words, silently skips words it does not know,
+reads numbers with ``>>`` (a bad number leaves garbage behind), and applies
+the current material -- ``Materiau()``'s default, colour 0.8 0.8 0.8,
+ka 0.05, kd 0.5, ks 0.1, shininess 10 (``Materiau.cpp``, ``Couleur.cpp``) --
+to every object, including objects before any ``materiau`` line. The scene's
+defaults are ambient 0.2 0.2 0.2 (``Scene::Scene``) and background
+0.8 0.8 0.8 (``Couleur``'s default). A later ``fond`` or ``ambiant`` replaces
+an earlier one.
+
+This reader keeps those semantics (including the default material: an object
+before any ``materiau`` gets :data:`DEFAULT_MATERIAL`, as in the seed) but is
+line-based and strict where the seed is silent: every line is blank, a
+comment, or one keyword with exactly its count of finite numbers (a trailing
+``# comment`` is allowed). Keywords are matched case-insensitively; spaces,
+tabs, blank lines and Windows line ends are fine. Anything else raises
+:class:`SceneError` naming the file, the line and what was expected::
+
+    scene02.txt:14: 'sphere' expects 4 numbers (x y z radius), got 3
+
+Values are checked too: a sphere's radius must be positive, a plane's normal
+(a, b, c) non-zero, a triangle non-degenerate (the seed would divide by its
+zero normal), colours, intensities and coefficients non-negative.
+
+Built-in scenes (:data:`BUILTIN_SCENES`) live in ``workloads/data`` as text in
+this format; ``scene03.txt`` is generated from ``suzanne.obj`` by
+:func:`write_scene03`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "BUILTIN_SCENES",
+    "DEFAULT_AMBIENT",
+    "DEFAULT_BACKGROUND",
+    "DEFAULT_MATERIAL",
+    "KEYWORDS",
+    "Light",
+    "Material",
+    "Scene",
+    "SceneError",
+    "builtin_scene",
+    "builtin_scene_path",
+    "format_scene",
+    "load_scene",
+    "parse_scene",
+    "read_scene",
+    "scene03_text",
+    "write_scene03",
+]
+
+DATA_DIR = Path(__file__).resolve().parent / "data"
+BUILTIN_SCENES = ("scene02", "scene03")
+
+# keyword -> names of its numbers, in order
+KEYWORDS: dict[str, tuple[str, ...]] = {
+    "fond": ("r", "g", "b"),
+    "ambiant": ("r", "g", "b"),
+    "source": ("x", "y", "z", "r", "g", "b"),
+    "materiau": ("r", "g", "b", "ka", "kd", "ks", "shininess"),
+    "plan": ("a", "b", "c", "d"),
+    "sphere": ("x", "y", "z", "radius"),
+    "tri": ("x1", "y1", "z1", "x2", "y2", "z2", "x3", "y3", "z3"),
+}
+
+# Suzanne's placement in scene03: Blender (x, y, z) -> (x, z, -y), then moved.
+SUZANNE_OFFSET = (0.0, 0.5, -2.0)
+
+
+class SceneError(ValueError):
+    """A scene file that cannot be read: the message names file, line and what was expected."""
+
+
+@dataclass(frozen=True)
+class Material:
+    """Phong material: ``colour`` (r, g, b), ambient/diffuse/specular coefficients, shininess."""
+
+    colour: tuple[float, float, float]
+    ka: float
+    kd: float
+    ks: float
+    shininess: float
+
+    @property
+    def reflective(self) -> bool:
+        """The seed shoots a reflected ray where ``ks != 0`` (``Objet::isSpecular``)."""
+        return self.ks != 0.0
+
+
+@dataclass(frozen=True)
+class Light:
+    """Point light: ``position`` (x, y, z) and ``intensity`` (r, g, b)."""
+
+    position: tuple[float, float, float]
+    intensity: tuple[float, float, float]
+
+
+DEFAULT_MATERIAL = Material((0.8, 0.8, 0.8), 0.05, 0.5, 0.1, 10.0)
+DEFAULT_AMBIENT = (0.2, 0.2, 0.2)
+DEFAULT_BACKGROUND = (0.8, 0.8, 0.8)
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A scene in the seed's model, with geometry as float64 arrays.
+
+    Attributes
+    ----------
+    name : str
+    background, ambient : (r, g, b)
+    lights : tuple of Light
+    materials : tuple of Material
+        Distinct materials in order of first use; objects refer to them by index.
+    planes : float64 (P, 4)
+        ``a b c d`` of ``a x + b y + c z + d = 0`` (as written, not normalised).
+    spheres : float64 (S, 4)
+        ``x y z radius``.
+    triangles : float64 (K, 3, 3)
+        ``triangles[k, j]`` is vertex j of triangle k.
+    plane_material, sphere_material, triangle_material : int64 (P,), (S,), (K,)
+        Index into ``materials``.
+    objects : int64 (P + S + K, 2)
+        File order of all objects as ``(kind, index)`` rows, kind 0 plane,
+        1 sphere, 2 triangle. The seed tests objects in this order (its shadow
+        test stops at the first occluder; ties in ``t`` go to the earlier).
+    """
+
+    name: str
+    background: tuple[float, float, float]
+    ambient: tuple[float, float, float]
+    lights: tuple[Light, ...]
+    materials: tuple[Material, ...]
+    planes: np.ndarray
+    plane_material: np.ndarray
+    spheres: np.ndarray
+    sphere_material: np.ndarray
+    triangles: np.ndarray
+    triangle_material: np.ndarray
+    objects: np.ndarray
+
+    PLANE, SPHERE, TRIANGLE = 0, 1, 2
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """Objects and lights by kind.
+
+        >>> builtin_scene("scene02").counts
+        {'planes': 1, 'spheres': 3, 'triangles': 12, 'lights': 2}
+        """
+        return {
+            "planes": len(self.planes),
+            "spheres": len(self.spheres),
+            "triangles": len(self.triangles),
+            "lights": len(self.lights),
+        }
+
+
+# ------------------------------------------------------------------- reading
+
+
+def _number(word: str, where: str, keyword: str, what: str) -> float:
+    try:
+        x = float(word)
+    except ValueError:
+        raise SceneError(f"{where}: '{keyword}' expects a number for {what}, got {word!r}") from None
+    if not math.isfinite(x):
+        raise SceneError(f"{where}: '{keyword}' expects a finite number for {what}, got {word!r}")
+    return x
+
+
+def _check_values(keyword: str, v: list[float], where: str) -> None:
+    """Value checks beyond the count: the seed would render nonsense or divide by zero."""
+    names = KEYWORDS[keyword]
+    nonneg = {
+        "fond": range(3),
+        "ambiant": range(3),
+        "source": range(3, 6),
+        "materiau": range(7),
+    }.get(keyword, ())
+    for i in nonneg:
+        if v[i] < 0:
+            raise SceneError(f"{where}: '{keyword}' expects {names[i]} >= 0, got {v[i]!r}")
+    if keyword == "sphere" and not v[3] > 0:
+        raise SceneError(f"{where}: 'sphere' expects a positive radius, got {v[3]!r}")
+    if keyword == "plan" and v[0] == v[1] == v[2] == 0:
+        raise SceneError(f"{where}: 'plan' expects a non-zero normal (a b c), got 0 0 0")
+    if keyword == "tri":
+        p = np.array(v, dtype=np.float64).reshape(3, 3)
+        n = np.cross(p[1] - p[0], p[2] - p[0])
+        if not np.any(n != 0):
+            raise SceneError(f"{where}: 'tri' is degenerate (its three vertices are collinear)")
+
+
+def parse_scene(text: str, name: str = "<string>") -> Scene:
+    """Read a scene from the text of a scene file.
+
+    Parameters
+    ----------
+    text : str
+    name : str
+        Used in error messages (``name:line: ...``) and as the scene's name.
+
+    Raises
+    ------
+    SceneError
+
+    Examples
+    --------
+    >>> s = parse_scene("materiau 1 0 0 0.1 0.5 0 10\\nsphere 0 0 -3 1  # red ball\\n")
+    >>> s.spheres.tolist(), s.materials[0].colour
+    ([[0.0, 0.0, -3.0, 1.0]], (1.0, 0.0, 0.0))
+    >>> parse_scene("sphere 0 0 -3", name="mine.txt")
+    Traceback (most recent call last):
+    ...
+    tribench.workloads.seed_scene.SceneError: mine.txt:1: 'sphere' expects 4 numbers (x y z radius), got 3
+    """
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    background, ambient = DEFAULT_BACKGROUND, DEFAULT_AMBIENT
+    lights: list[Light] = []
+    materials: list[Material] = []
+    material_index: dict[Material, int] = {}
+    current = DEFAULT_MATERIAL
+    planes: list[list[float]] = []
+    spheres: list[list[float]] = []
+    tris: list[list[float]] = []
+    mats: tuple[list[int], list[int], list[int]] = ([], [], [])
+    objects: list[tuple[int, int]] = []
+
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        words = line.split()
+        where = f"{name}:{lineno}"
+        keyword = words[0].lower()
+        if keyword not in KEYWORDS:
+            guess = difflib.get_close_matches(keyword, KEYWORDS, n=1)
+            hint = f" (did you mean '{guess[0]}'?)" if guess else ""
+            raise SceneError(
+                f"{where}: unknown keyword {words[0]!r}{hint}; expected one of "
+                + ", ".join(KEYWORDS)
+            )
+        names = KEYWORDS[keyword]
+        args = words[1:]
+        if len(args) != len(names):
+            raise SceneError(
+                f"{where}: '{keyword}' expects {len(names)} numbers ({' '.join(names)}), got {len(args)}"
+            )
+        v = [_number(w, where, keyword, n) for w, n in zip(args, names)]
+        _check_values(keyword, v, where)
+
+        if keyword == "fond":
+            background = (v[0], v[1], v[2])
+        elif keyword == "ambiant":
+            ambient = (v[0], v[1], v[2])
+        elif keyword == "source":
+            lights.append(Light((v[0], v[1], v[2]), (v[3], v[4], v[5])))
+        elif keyword == "materiau":
+            current = Material((v[0], v[1], v[2]), v[3], v[4], v[5], v[6])
+        else:
+            if current not in material_index:
+                material_index[current] = len(materials)
+                materials.append(current)
+            kind = ("plan", "sphere", "tri").index(keyword)
+            store = (planes, spheres, tris)[kind]
+            objects.append((kind, len(store)))
+            store.append(v)
+            mats[kind].append(material_index[current])
+
+    def arr(rows, shape):
+        a = np.array(rows, dtype=np.float64).reshape(shape)
+        a.flags.writeable = False
+        return a
+
+    def idx(rows):
+        a = np.array(rows, dtype=np.int64)
+        a.flags.writeable = False
+        return a
+
+    return Scene(
+        name=name,
+        background=background,
+        ambient=ambient,
+        lights=tuple(lights),
+        materials=tuple(materials),
+        planes=arr(planes, (-1, 4)),
+        plane_material=idx(mats[0]),
+        spheres=arr(spheres, (-1, 4)),
+        sphere_material=idx(mats[1]),
+        triangles=arr(tris, (-1, 3, 3)),
+        triangle_material=idx(mats[2]),
+        objects=idx(objects).reshape(-1, 2),
+    )
+
+
+def read_scene(path_or_text: str | os.PathLike, name: str | None = None) -> Scene:
+    """Read a scene file (a path), or scene text (a ``str`` holding a newline).
+
+    A ``str`` without a newline is a path. The scene's name is ``name``, else
+    the file's stem (``"scene02"``), else ``"<string>"``; error messages name
+    the file as given.
+
+    Raises
+    ------
+    SceneError
+        Missing or unreadable file, or a line that cannot be understood.
+    """
+    if isinstance(path_or_text, str) and "\n" in path_or_text:
+        return parse_scene(path_or_text, name or "<string>")
+    path = Path(path_or_text)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SceneError(f"{path}: no such scene file") from None
+    except IsADirectoryError:
+        raise SceneError(f"{path}: is a directory, not a scene file") from None
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{path}: not a text file ({e.reason} at byte {e.start})") from None
+    except OSError as e:
+        raise SceneError(f"{path}: cannot read scene file ({e.strerror})") from None
+    scene = parse_scene(text, str(path_or_text))
+    return _renamed(scene, name or path.stem)
+
+
+def _renamed(scene: Scene, name: str) -> Scene:
+    return Scene(**{**scene.__dict__, "name": name})
+
+
+def builtin_scene_path(name: str) -> Path:
+    """Path of a built-in scene's text file (``scene02``, ``scene03``)."""
+    if name not in BUILTIN_SCENES:
+        raise ValueError(f"unknown built-in scene {name!r}; built-in scenes: {', '.join(BUILTIN_SCENES)}")
+    return DATA_DIR / f"{name}.txt"
+
+
+def builtin_scene(name: str) -> Scene:
+    """One of the seed's scenes, read from its committed text file."""
+    return read_scene(builtin_scene_path(name), name=name)
+
+
+def load_scene(name_or_path: str | os.PathLike) -> Scene:
+    """A built-in scene by name, else a scene file by path (what a CLI argument means)."""
+    if isinstance(name_or_path, str) and name_or_path in BUILTIN_SCENES:
+        return builtin_scene(name_or_path)
+    return read_scene(name_or_path)
+
+
+# ------------------------------------------------------------------- writing
+
+
+def _num(x: float) -> str:
+    """Shortest text that reads back as exactly ``x`` (``1.0`` is written ``1``)."""
+    s = repr(float(x))
+    return s[:-2] if s.endswith(".0") else s
+
+
+def _line(keyword: str, values) -> str:
+    return " ".join([keyword, *(_num(v) for v in values)])
+
+
+def format_scene(scene: Scene, header: str = "") -> str:
+    """The scene as text in the seed's format; :func:`parse_scene` reads it back exactly.
+
+    Objects are written in ``scene.objects`` order, with a ``materiau`` line
+    wherever the material changes. ``header`` lines are written as comments.
+
+    >>> s = parse_scene("fond 1 1 1\\nsphere 0 0.1 -3 1\\n")
+    >>> print(format_scene(s), end="")
+    fond 1 1 1
+    ambiant 0.2 0.2 0.2
+    materiau 0.8 0.8 0.8 0.05 0.5 0.1 10
+    sphere 0 0.1 -3 1
+    """
+    out = [f"# {h}".rstrip() for h in header.splitlines()]
+    out.append(_line("fond", scene.background))
+    out.append(_line("ambiant", scene.ambient))
+    for light in scene.lights:
+        out.append(_line("source", (*light.position, *light.intensity)))
+    current = None
+    for kind, i in scene.objects.tolist():
+        m = (scene.plane_material, scene.sphere_material, scene.triangle_material)[kind][i]
+        if m != current:
+            mat = scene.materials[m]
+            out.append(_line("materiau", (*mat.colour, mat.ka, mat.kd, mat.ks, mat.shininess)))
+            current = m
+        if kind == Scene.PLANE:
+            out.append(_line("plan", scene.planes[i]))
+        elif kind == Scene.SPHERE:
+            out.append(_line("sphere", scene.spheres[i]))
+        else:
+            out.append(_line("tri", scene.triangles[i].ravel()))
+    return "\n".join(out) + "\n"
+
+
+# -------------------------------------------------------------------- scene03
+
+_SCENE03_HEADER = """\
+scene03: the seed's second scene (Vitse 2022): Suzanne, Blender's monkey head
+(968 triangles), on scene02's floor, under scene02's lights and background.
+GENERATED by tribench.workloads.seed_scene.write_scene03() from suzanne.obj:
+every vertex turned Y-up facing +z, Blender (x, y, z) -> (x, z, -y), then
+moved by (0, 0.5, -2). Suzanne's coordinates are multiples of 1/128, so the
+numbers below are exact. Do not edit by hand: rerun write_scene03()."""
+
+_SCENE03_SETUP = """\
+fond 1 1 1
+ambiant 1 1 1
+source -2 2 0 2 2 2
+source 4 5 0 2 2 2
+materiau 0.2 0.2 0.98 0.3 0.5 0.7 10
+plan 0 1 0 0.5
+materiau 0.2 0.6 0.3 0.2 0.5 0.5 100
+"""
+
+
+def scene03_text(obj_path: str | os.PathLike | None = None) -> str:
+    """The text of ``scene03.txt``, built from ``suzanne.obj`` (see :func:`write_scene03`)."""
+    import trimesh  # lazy: slow to import
+
+    path = Path(obj_path) if obj_path is not None else DATA_DIR / "suzanne.obj"
+    mesh = trimesh.load(str(path), force="mesh", process=False)  # keep the 507 vertices as made
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    placed = np.column_stack([v[:, 0], v[:, 2], -v[:, 1]]) + np.array(SUZANNE_OFFSET)
+    tris = placed[np.asarray(mesh.faces, dtype=np.int64)]
+    lines = [f"# {h}".rstrip() for h in _SCENE03_HEADER.splitlines()]
+    lines += _SCENE03_SETUP.splitlines()
+    lines += [_line("tri", t.ravel()) for t in tris]
+    return "\n".join(lines) + "\n"
+
+
+def write_scene03(path: str | os.PathLike | None = None, obj_path: str | os.PathLike | None = None) -> Path:
+    """Write ``scene03.txt`` (default: the committed ``workloads/data/scene03.txt``).
+
+    Reproducible: the same ``suzanne.obj`` gives the same bytes. Returns the path.
+    """
+    out = Path(path) if path is not None else DATA_DIR / "scene03.txt"
+    out.write_text(scene03_text(obj_path), encoding="utf-8")
+    return out
+
+
+if __name__ == "__main__":  # python -m tribench.workloads.seed_scene  -> regenerates scene03.txt
+    print(write_scene03())
