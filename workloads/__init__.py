@@ -1,8 +1,35 @@
 """Workloads: meshes and ray sets from frozen specs, with float64 reference answers.
 
 ``tribench.workloads`` never times anything.
+
+A workload is a pure function of a frozen spec (:class:`PairSpec` or
+:class:`MeshSpec`); :func:`make` returns it from the cache or builds and caches
+it, :func:`load` finds it by id, :func:`list_cached` lists the cache. Importing
+this package does not import trimesh or matplotlib.
 """
 
+from .cache import CacheWarning, CachedWorkload, cache_dir, generate, list_cached, load, make
+from .pairs import classify_misses
 from .reference import PairAnswers, intersect_closest, intersect_pairs
+from .spec import MISS_STAGES, MeshSpec, PairSpec, spec_from_dict, workload_id
+from .workload import Workload
 
-__all__ = ["PairAnswers", "intersect_closest", "intersect_pairs"]
+__all__ = [
+    "PairAnswers",
+    "intersect_closest",
+    "intersect_pairs",
+    "MISS_STAGES",
+    "PairSpec",
+    "MeshSpec",
+    "spec_from_dict",
+    "workload_id",
+    "Workload",
+    "make",
+    "load",
+    "generate",
+    "list_cached",
+    "cache_dir",
+    "CacheWarning",
+    "CachedWorkload",
+    "classify_misses",
+]

@@ -1,0 +1,549 @@
+"""Tests of tribench.workloads: specs, pairs, meshes, ray sets, cache and CLI.
+
+Every check of a generated workload recomputes the answer independently from
+the stored arrays (the float64 reference, brute force, or a float32
+Moller-Trumbore written here), never by reading back the generator's own
+figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+from tribench.workloads import (
+    MISS_STAGES,
+    CacheWarning,
+    MeshSpec,
+    PairSpec,
+    cache_dir,
+    classify_misses,
+    generate,
+    intersect_closest,
+    intersect_pairs,
+    list_cached,
+    load,
+    make,
+    spec_from_dict,
+    workload_id,
+)
+from tribench.workloads.cli import add_parser
+from tribench.workloads.meshes import BASE_COUNTS, base_mesh, build_mesh, place
+from tribench.workloads.pairs import BARY_MARGIN, HIT, OTHER, T_MARGIN
+from tribench.workloads.rays import camera_candidates, camera_rays, closest_hits, sphere_candidates
+from tribench.workloads.workload import arrays_sha256
+
+
+@pytest.fixture(autouse=True)
+def private_cache(tmp_path, monkeypatch):
+    """Every test gets its own cache directory: the user's cache is never touched."""
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def inputs_sha256(w) -> str:
+    return arrays_sha256({"origins": w.origins, "directions": w.directions, "triangles": w.triangles})
+
+
+def moller_trumbore(o, d, tri, dtype):
+    """A plain Moller-Trumbore in ``dtype`` arithmetic (no epsilon), as a kernel would run it."""
+    o, d, tri = (np.asarray(a, dtype=dtype) for a in (o, d, tri))
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    p = np.cross(d, e2)
+    det = (e1 * p).sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = dtype(1) / det
+        s = o - tri[:, 0]
+        u = (s * p).sum(axis=1) * inv
+        q = np.cross(s, e1)
+        v = (d * q).sum(axis=1) * inv
+        t = (e2 * q).sum(axis=1) * inv
+        return (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+
+
+# ---------------------------------------------------------------- specs
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(hit_rate=-0.1), "hit_rate must be in"),
+        (dict(hit_rate=1.5), "hit_rate must be in"),
+        (dict(hit_rate=float("nan")), "finite"),
+        (dict(n=0), "between 1 and"),
+        (dict(n=-5), "between 1 and"),
+        (dict(n=2.5), "integer"),
+        (dict(n=True), "integer"),
+        (dict(order="random"), "unknown order"),
+        (dict(shape="cube"), "unknown shape"),
+        (dict(dtype="float16"), "unknown dtype"),
+        (dict(miss_mix={"parallel": 0.5}), "sum to 1"),
+        (dict(miss_mix={"parallel": 1.5, "behind_origin": -0.5}), ">= 0"),
+        (dict(miss_mix={"outside_edge_4": 1.0}), "unknown miss stage"),
+        (dict(miss_mix="most"), "unknown miss_mix"),
+        (dict(scale=0.0), "scale must be > 0"),
+        (dict(offset=float("inf")), "finite"),
+        (dict(seed=-1), "between 0 and"),
+    ],
+)
+def test_pair_spec_rejects_impossible_requests(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        PairSpec(**kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(mesh="teapot"), "unknown mesh 'teapot'"),
+        (dict(triangles=0), "between 1 and"),
+        (dict(triangles=-3), "between 1 and"),
+        (dict(rays="laser"), "unknown rays"),
+        (dict(hit_rate=0.5), "applies to rays='hit_rate' only"),
+        (dict(n_rays=100), "applies to rays='hit_rate' only"),
+        (dict(rays="hit_rate", width=64), "applies to rays='camera' only"),
+        (dict(rays="hit_rate", hit_rate=1.01), "hit_rate must be in"),
+        (dict(rays="hit_rate", n_rays=0), "between 1 and"),
+        (dict(width=0), "between 1 and"),
+        (dict(dtype="int32"), "unknown dtype"),
+    ],
+)
+def test_mesh_spec_rejects_impossible_requests(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        MeshSpec(**kwargs)
+
+
+def test_spec_dicts_round_trip_and_are_toml_friendly():
+    specs = [
+        PairSpec(n=7, hit_rate=0.25, miss_mix={"parallel": 0.5, "outside_edge_2": 0.5}, order="sorted"),
+        MeshSpec("icosphere", 100, rays="hit_rate", hit_rate=0.2, n_rays=50, dtype="float32", seed=3),
+        MeshSpec("suzanne", width=32, height=16),
+    ]
+    for spec in specs:
+        d = spec.to_dict()
+        flat = json.loads(json.dumps(d))
+        assert spec_from_dict(flat) == spec
+        # TOML has no null and only str/int/float/bool/tables: no None anywhere.
+        assert all(v is not None for v in d.values())
+        assert all(isinstance(v, (str, int, float, dict)) for v in d.values())
+    with pytest.raises(ValueError, match="unknown pairs spec field"):
+        spec_from_dict({"kind": "pairs", "n": 3, "colour": "red"})
+    with pytest.raises(ValueError, match="unknown workload kind"):
+        spec_from_dict({"kind": "teapot"})
+
+
+def test_workload_id_is_canonical_and_sensitive():
+    base = PairSpec(n=100, hit_rate=0.5)
+    assert workload_id(base) == workload_id(PairSpec(n=100.0, hit_rate=1 / 2))
+    assert workload_id(base) == workload_id(PairSpec(n=100, miss_mix="edges"))
+    others = [PairSpec(n=101), PairSpec(n=100, seed=1), PairSpec(n=100, dtype="float32"), PairSpec(n=100, order="sorted")]
+    ids = {workload_id(s) for s in others}
+    assert workload_id(base) not in ids and len(ids) == len(others)
+    assert workload_id(MeshSpec("suzanne")) != workload_id(MeshSpec("suzanne", 968))
+
+
+# ---------------------------------------------------------------- pairs
+
+
+@pytest.mark.parametrize("h", [i / 10 for i in range(11)])
+def test_pairs_hit_exactly_round_h_n_by_the_reference(h):
+    n = 2000
+    w = generate(PairSpec(n=n, hit_rate=h, miss_mix="uniform", seed=11))
+    ans = intersect_pairs(w.origins, w.directions, w.triangles)  # independent of the stored answers
+    assert int(ans.hit.sum()) == round(h * n)
+    assert np.array_equal(ans.hit, w.ref_hit)
+    np.testing.assert_array_equal(w.ref_t[w.ref_hit], ans.t[ans.hit])
+    assert np.isnan(w.ref_t[~w.ref_hit]).all()
+    assert w.expected_checksum() == (round(h * n), pytest.approx(float(ans.t[ans.hit].sum()), rel=1e-12))
+
+
+@pytest.mark.parametrize(
+    "mix",
+    [
+        "edges",
+        "uniform",
+        "behind_origin",
+        {"parallel": 0.1, "behind_origin": 0.3, "outside_edge_1": 0.6},
+        {"outside_edge_2": 0.25, "outside_edge_3": 0.75},
+    ],
+)
+def test_achieved_miss_mix_within_one_percent(mix):
+    spec = PairSpec(n=2000, hit_rate=0.4, miss_mix=mix, seed=5)
+    w = generate(spec)
+    codes = classify_misses(w.origins, w.directions, w.triangles)
+    misses = codes[codes != HIT]
+    assert not (misses == OTHER).any()
+    for k, stage in enumerate(MISS_STAGES):
+        achieved = float((misses == k).mean())
+        assert abs(achieved - spec.miss_fractions()[stage]) <= 0.01, stage
+        assert w.achieved["miss_mix"][stage] == pytest.approx(achieved)
+
+
+def test_order_sorted_groups_outcomes_and_shuffled_mixes_them():
+    common = dict(n=600, hit_rate=0.5, miss_mix="uniform", seed=2)
+    codes = classify_misses(*_inputs(generate(PairSpec(order="sorted", **common))))
+    assert (np.diff(codes.astype(int)) >= 0).all() and codes[0] == HIT and codes[-1] == len(MISS_STAGES) - 1
+    shuffled = classify_misses(*_inputs(generate(PairSpec(order="shuffled", **common))))
+    assert np.array_equal(np.sort(shuffled), codes)  # same outcomes...
+    assert (np.diff(shuffled.astype(int)) < 0).sum() > 100  # ...interleaved
+
+
+def _inputs(w):
+    return w.origins, w.directions, w.triangles
+
+
+@pytest.mark.parametrize("shape", ["sphere", "equilateral", "sliver"])
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_margins_survive_rounding_and_kernels_agree(shape, dtype):
+    spec = PairSpec(n=2000, hit_rate=0.5, miss_mix="uniform", shape=shape, dtype=dtype, offset=3.0, scale=2.0, seed=9)
+    w = generate(spec)
+    assert w.origins.dtype == w.triangles.dtype == np.dtype(dtype)
+    assert w.origins.flags.c_contiguous and w.triangles.flags.c_contiguous
+    np.testing.assert_allclose(np.linalg.norm(w.directions.astype(np.float64), axis=1), 1.0, atol=1e-6)
+
+    ans = intersect_pairs(*_inputs(w))
+    codes = classify_misses(*_inputs(w))
+    b = np.column_stack([ans.w, ans.u, ans.v])
+    inside = (codes == HIT) | (codes == MISS_STAGES.index("behind_origin"))
+    assert b[inside].min() >= BARY_MARGIN
+    for e, j in ((1, 2), (2, 0), (3, 1)):  # outside edge e: the weight of the opposite vertex < 0
+        sel = codes == MISS_STAGES.index(f"outside_edge_{e}")
+        assert sel.any()
+        assert b[sel, j].max() <= -BARY_MARGIN
+        assert np.delete(b[sel], j, axis=1).min() >= BARY_MARGIN
+    crossing = codes != MISS_STAGES.index("parallel")
+    assert np.abs(ans.t[crossing]).min() >= T_MARGIN * spec.scale
+    # The point of the margins: a kernel in the workload's own precision agrees on every pair.
+    kernel = moller_trumbore(*_inputs(w), dtype=np.dtype(dtype).type)
+    assert np.array_equal(kernel, w.ref_hit)
+
+
+def test_shapes_have_the_stated_aspect_ratios():
+    from tribench.workloads.geometry import aspect_ratios
+
+    def aspect(shape):
+        return aspect_ratios(generate(PairSpec(n=500, shape=shape)).triangles.astype(np.float64))
+
+    assert aspect("equilateral").max() < 1.4
+    sliver = aspect("sliver")
+    assert 9.9 < sliver.min() and sliver.max() < 1010 and np.median(sliver) > 50
+    assert aspect("sphere").max() <= 1e3
+
+
+def test_extreme_offset_in_float32_is_a_clear_error():
+    with pytest.raises(ValueError, match="too large for this precision"):
+        generate(PairSpec(n=200, dtype="float32", offset=1e6, scale=1e-3, shape="sliver"))
+
+
+def test_same_spec_same_bytes():
+    spec = PairSpec(n=1500, hit_rate=0.3, miss_mix="uniform", shape="sliver", dtype="float32", seed=4)
+    a, b = generate(spec), generate(spec)
+    assert a.checksum() == b.checksum()
+    assert generate(PairSpec(n=1500, hit_rate=0.3, seed=5)).checksum() != a.checksum()
+    mesh = MeshSpec("suzanne", 300, rays="hit_rate", n_rays=100, seed=1)
+    assert generate(mesh).checksum() == generate(mesh).checksum()
+
+
+def test_pair_inputs_match_the_recorded_bytes():
+    # Pair inputs use only + - * / sqrt on PCG64 draws: these bytes must come out on any
+    # IEEE-754 machine. If a deliberate generator change alters them, bump PAIRS_VERSION.
+    w = generate(PairSpec(n=64, hit_rate=0.5, miss_mix="uniform", shape="sliver", dtype="float64", seed=7))
+    assert inputs_sha256(w) == "fb00ea41166edf61770b01f7c73855919de28d6b72fd3928edf3f0fe90615a76"
+
+
+def test_determinism_across_two_fresh_processes(tmp_path):
+    code = (
+        "from tribench.workloads import make, PairSpec, MeshSpec\n"
+        "for s in [PairSpec(n=500, hit_rate=0.3, miss_mix='uniform', dtype='float32', shape='sliver'),\n"
+        "          MeshSpec('suzanne', 300, rays='hit_rate', n_rays=128),\n"
+        "          MeshSpec('heightfield', 2000, width=16, height=16, dtype='float32')]:\n"
+        "    w = make(s)\n"
+        "    print(w.workload_id, w.checksum())\n"
+    )
+    outputs = []
+    for run in ("first", "second"):
+        env = dict(os.environ, TRIBENCH_CACHE=str(tmp_path / run), PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+        done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        outputs.append(done.stdout)
+        assert len(list((tmp_path / run).glob("*.npz"))) == 3  # each process built its own
+    assert outputs[0] == outputs[1]
+    assert len(outputs[0].splitlines()) == 3
+
+
+# ---------------------------------------------------------------- meshes
+
+
+@pytest.mark.parametrize("count", [100, 968, 5000, 20000])
+def test_suzanne_exact_triangle_counts(count):
+    mesh = build_mesh("suzanne", count, seed=0)
+    assert mesh.faces.shape == (count, 3)
+    assert mesh.faces.min() >= 0 and mesh.faces.max() < len(mesh.vertices)
+    assert len(np.unique(mesh.faces)) == len(mesh.vertices)  # no unreferenced vertex
+    if count == 968:
+        assert mesh.method == "base"
+
+
+def test_suzanne_base_is_the_file_turned_and_moved():
+    v, f = base_mesh("suzanne")
+    assert v.shape == (507, 3) and f.shape == (968, 3)
+    mesh = build_mesh("suzanne", None, seed=0)
+    np.testing.assert_array_equal(mesh.faces, f)
+    x, y, z = v.T
+    np.testing.assert_array_equal(mesh.vertices, np.column_stack([x, z, -y]) + [0.0, 0.5, -2.0])
+
+
+@pytest.mark.parametrize("name, counts", [("icosphere", [501, 2000]), ("uvsphere", [777]), ("heightfield", [99, 3001])])
+def test_other_meshes_exact_triangle_counts(name, counts):
+    for count in counts:
+        assert build_mesh(name, count, seed=0).faces.shape == (count, 3)
+
+
+def test_tiny_counts_are_exact_too():
+    for count in (1, 2, 3):
+        assert len(build_mesh("suzanne", count, seed=0).faces) == count
+
+
+def test_soup_is_seeded_and_exact():
+    a, b = build_mesh("soup", 321, seed=1), build_mesh("soup", 321, seed=2)
+    assert a.faces.shape == (321, 3)
+    assert not np.array_equal(a.vertices, b.vertices)
+    assert np.array_equal(a.vertices, build_mesh("soup", 321, seed=1).vertices)
+
+
+def test_other_meshes_are_placed_in_view():
+    for name in ("icosphere", "uvsphere", "heightfield", "soup"):
+        v = place(name, base_mesh(name)[0])
+        centre = (v.min(axis=0) + v.max(axis=0)) / 2
+        np.testing.assert_allclose(centre, [0, 0, -2], atol=1e-12)
+        assert np.linalg.norm(v - centre, axis=1).max() == pytest.approx(1.5)
+
+
+def _write_tetrahedron(path):
+    path.write_text(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+        "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n"
+    )
+    return path
+
+
+def test_mesh_file_input(tmp_path):
+    path = _write_tetrahedron(tmp_path / "tet.obj")
+    spec = MeshSpec(str(path), rays="hit_rate", hit_rate=0.5, n_rays=64)
+    w = make(spec)
+    assert w.triangles.shape == (4, 3, 3)
+    assert int(w.hits.sum()) == 32
+    # The same content elsewhere is the same workload; other content is another.
+    copy = shutil.copy(path, tmp_path / "other_name.obj")
+    assert workload_id(MeshSpec(copy, rays="hit_rate", hit_rate=0.5, n_rays=64)) == w.workload_id
+    with open(copy, "a") as f:
+        f.write("# changed\n")
+    assert workload_id(MeshSpec(copy, rays="hit_rate", hit_rate=0.5, n_rays=64)) != w.workload_id
+    assert make(MeshSpec(str(path), 30, width=8, height=8)).triangles.shape == (30, 3, 3)
+
+
+@pytest.mark.parametrize(
+    "content, name, message",
+    [
+        (b"\x00\xff\xfe garbage \x13" * 40, "bad.obj", "cannot read mesh file"),
+        (b"v 0 0 0\nv 1 0 0\n", "points.obj", "holds no triangles"),
+        (b"ply\nformat nonsense\n", "bad.ply", "cannot read mesh file"),
+        (b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n", "flat.obj", "no triangle of non-zero area"),
+    ],
+)
+def test_corrupt_mesh_file_is_a_clear_error(tmp_path, content, name, message):
+    path = tmp_path / name
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match=message):
+        MeshSpec(str(path))
+
+
+def test_missing_mesh_file_is_a_clear_error(tmp_path):
+    with pytest.raises(ValueError, match="no such file"):
+        MeshSpec(str(tmp_path / "nothing.obj"))
+
+
+# ---------------------------------------------------------------- ray sets
+
+
+def test_culled_camera_reference_equals_brute_force():
+    tri = build_mesh("suzanne", 300, seed=0).triangles
+    # Add triangles that straddle the eye's plane, lie behind the eye, or fill the view.
+    extra = np.array([
+        [[-0.2, -0.2, 1.0], [0.3, -0.1, 2.5], [0.0, 0.3, 1.5]],
+        [[-1.0, -1.0, 3.0], [1.0, -1.0, 3.0], [0.0, 1.0, 3.0]],
+        [[-9.0, -9.0, -5.0], [9.0, -9.0, -5.0], [0.0, 9.0, -5.0]],
+    ])
+    tri = np.concatenate([tri, extra])
+    o, d = camera_rays(24, 24)
+    culled = closest_hits(o, d, tri, *camera_candidates(tri, 24, 24))
+    index, t = intersect_closest(o, d, tri)
+    assert np.array_equal(culled.index, index)
+    np.testing.assert_array_equal(culled.t, t)
+    assert 0 < (index >= 0).mean() < 1 and (index == len(tri) - 1).any() and (index == len(tri) - 3).any()
+    assert culled.tests < len(o) * len(tri)
+
+
+def test_sphere_culled_reference_equals_brute_force():
+    rng = np.random.default_rng(3)
+    tri = build_mesh("soup", 400, seed=0).triangles
+    o = rng.normal(size=(300, 3)) * 3
+    d = rng.normal(size=(300, 3)) * 1.5 + ([0, 0, -2] - o)
+    culled = closest_hits(o, d, tri, *sphere_candidates(o, d, tri))
+    index, t = intersect_closest(o, d, tri)
+    assert np.array_equal(culled.index, index)
+    np.testing.assert_array_equal(culled.t, t)
+    assert 0.2 < (index >= 0).mean() < 0.9
+
+
+@pytest.mark.parametrize("h", [0.0, 0.3, 1.0])
+def test_per_ray_hit_rate_is_exact_by_brute_force(h):
+    w = generate(MeshSpec("suzanne", 400, rays="hit_rate", hit_rate=h, n_rays=150, dtype="float32", seed=2))
+    index, t = intersect_closest(*_inputs(w))
+    assert int((index >= 0).sum()) == round(h * 150)
+    assert np.array_equal(index, w.ref_index)
+    assert np.all(np.abs(w.ref_edge_margin) >= BARY_MARGIN)  # no ray near an edge
+    assert w.achieved["ray_hit_rate"] == round(h * 150) / 150
+
+
+def test_suzanne_camera_sees_the_monkey():
+    w = make(MeshSpec("suzanne", width=64, height=64))
+    hits = w.hits.reshape(64, 64)
+    assert 0.15 < hits.mean() < 0.22  # the face fills about a fifth of the view
+    assert hits[:, :20].any() and hits[:, -20:].any()  # the ears reach both sides
+    assert not hits[-16:].any()  # nothing below the chin
+    assert w.achieved["test_hit_rate"] < w.achieved["ray_hit_rate"] / 100
+    assert w.achieved["ray_hits"] == int(hits.sum())
+
+
+# ---------------------------------------------------------------- cache
+
+
+def _corrupt(path, how, other=None):
+    if how == "truncated":
+        path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    elif how == "garbage":
+        path.write_bytes(os.urandom(4096))
+    elif how == "checksum":
+        with np.load(path) as z:
+            arrays = {k: z[k] for k in z.files}
+        arrays["origins"] = arrays["origins"] + 1.0
+        np.savez(path, **arrays)
+    elif how == "other_spec":
+        shutil.copy(other, path)
+    elif how == "version":
+        with np.load(path) as z:
+            arrays = {k: z[k] for k in z.files}
+        meta = json.loads(str(arrays["meta"][()]))
+        meta["version"] = 999
+        arrays["meta"] = np.array(json.dumps(meta))
+        np.savez(path, **arrays)
+
+
+@pytest.mark.parametrize("how", ["truncated", "garbage", "checksum", "other_spec", "version"])
+def test_corrupted_cache_file_is_detected_and_rebuilt(how, private_cache):
+    spec = PairSpec(n=300, hit_rate=0.5)
+    fresh = make(spec)
+    path = private_cache / f"{fresh.workload_id}.npz"
+    other = make(PairSpec(n=300, hit_rate=0.4))
+    _corrupt(path, how, private_cache / f"{other.workload_id}.npz")
+    with pytest.warns(CacheWarning, match="invalid"):
+        rebuilt = make(spec)
+    assert rebuilt.checksum() == fresh.checksum()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the rebuilt file is valid again: no warning
+        assert make(spec).checksum() == fresh.checksum()
+
+
+def test_load_by_id_and_rebuild_from_stored_spec(private_cache):
+    w = make(PairSpec(n=100, hit_rate=0.2))
+    assert load(w.workload_id).checksum() == w.checksum()
+    _corrupt(private_cache / f"{w.workload_id}.npz", "checksum")
+    with pytest.warns(CacheWarning):
+        assert load(w.workload_id).checksum() == w.checksum()
+    with pytest.raises(FileNotFoundError, match="no cached workload"):
+        load("pairs-000000000000")
+    _corrupt(private_cache / f"{w.workload_id}.npz", "garbage")
+    with pytest.raises(ValueError, match="no spec that still gives this id"):
+        load(w.workload_id)
+
+
+def test_cache_files_are_written_whole_and_listed(private_cache):
+    a = make(PairSpec(n=50))
+    b = make(MeshSpec("icosphere", 40, rays="hit_rate", n_rays=20))
+    assert sorted(p.name for p in private_cache.iterdir()) == sorted([f"{a.workload_id}.npz", f"{b.workload_id}.npz"])
+    listed = {c.workload_id: c for c in list_cached()}
+    assert set(listed) == {a.workload_id, b.workload_id}
+    assert listed[b.workload_id].spec == b.spec.to_dict() and listed[b.workload_id].problem is None
+    assert listed[a.workload_id].achieved["hits"] == 25
+    assert cache_dir() == private_cache
+
+
+def test_workload_arrays_are_read_only():
+    w = generate(PairSpec(n=10))
+    with pytest.raises(ValueError):
+        w.origins[0, 0] = 1.0
+
+
+# ---------------------------------------------------------------- CLI
+
+
+def run_cli(*argv):
+    parser = argparse.ArgumentParser(prog="tribench")
+    add_parser(parser.add_subparsers())
+    args = parser.parse_args(["workloads", *argv])
+    return args.func(args)
+
+
+def test_cli_make_list_show_and_picture(tmp_path, capsys):
+    assert run_cli("make", "pairs", "--n", "500", "--hit-rate", "0.3", "--miss-mix", "uniform") == 0
+    out = capsys.readouterr().out
+    wid = out.split()[0]
+    assert wid.startswith("pairs-") and "miss_mix.parallel" in out
+    assert run_cli("make", "suzanne", "--width", "48", "--height", "48") == 0
+    mesh_id = capsys.readouterr().out.split()[0]
+    assert run_cli("list") == 0
+    listed = capsys.readouterr().out
+    assert wid in listed and mesh_id in listed
+    for shown, png in ((wid[:10], tmp_path / "pairs.png"), (mesh_id, tmp_path / "mesh.png")):
+        assert run_cli("show", shown, "--png", str(png)) == 0
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+    assert "ray_hit_rate" in capsys.readouterr().out
+    assert run_cli("make", "icosphere", "--hit-rate", "0.5", "--n-rays", "64", "--json") == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["spec"]["rays"] == "hit_rate" and report["achieved"]["ray_hits"] == 32
+    png = tmp_path / "rays.png"
+    assert run_cli("show", report["workload_id"], "--png", str(png)) == 0 and png.stat().st_size > 20_000
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["make", "pairs", "--hit-rate", "1.5"], "hit_rate must be in [0, 1]"),
+        (["make", "pairs", "--n", "0"], "between 1 and"),
+        (["make", "suzanne", "--triangles", "0"], "between 1 and"),
+        (["make", "suzanne", "--n", "10"], "--n applies to pairs"),
+        (["make", "pairs", "--triangles", "10"], "--triangles applies to meshes"),
+        (["make", "no/such/mesh.obj"], "no such file"),
+        (["make", "pairs", "--miss-mix", "parallel=x"], "bad miss-mix item"),
+        (["show", "pairs-ffffffffffff"], "no cached workload"),
+    ],
+)
+def test_cli_user_errors_are_one_line(argv, message, capsys):
+    assert run_cli(*argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_cli_corrupt_mesh_file(tmp_path, capsys):
+    bad = tmp_path / "bad.ply"
+    bad.write_bytes(b"ply\nformat nonsense\n")
+    assert run_cli("make", str(bad)) == 2
+    assert "cannot read mesh file" in capsys.readouterr().err

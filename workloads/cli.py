@@ -1,0 +1,226 @@
+"""``tribench workloads``: make, list and show cached workloads.
+
+The harness's command line calls :func:`add_parser` with its subparsers
+object; each leaf command stores its handler in ``func`` (``args.func(args)``
+returns the exit code). User errors -- an impossible spec, an unknown id, a
+mesh file that does not exist or does not parse -- print one line to stderr
+and return 2, without a traceback. Heavy modules (trimesh, matplotlib) are
+imported inside the handlers only, so ``tribench --help`` stays fast.
+
+Examples
+--------
+::
+
+    tribench workloads make pairs --n 10000 --hit-rate 0.3 --miss-mix uniform
+    tribench workloads make suzanne --triangles 5000            # camera rays
+    tribench workloads make icosphere --hit-rate 0.5 --n-rays 4096
+    tribench workloads make ~/meshes/bunny.ply --triangles 20000
+    tribench workloads list
+    tribench workloads show mesh-3f2a --png suzanne.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+__all__ = ["add_parser", "main", "parse_miss_mix"]
+
+_PAIR_OPTIONS = ("n", "order", "miss_mix", "shape", "scale", "offset")
+_MESH_OPTIONS = ("triangles", "rays", "n_rays", "width", "height")
+
+
+def parse_miss_mix(text: str) -> str | dict[str, float]:
+    """A preset name, or ``stage=fraction`` items separated by commas.
+
+    Examples
+    --------
+    >>> parse_miss_mix("parallel=0.5,behind_origin=0.5")
+    {'parallel': 0.5, 'behind_origin': 0.5}
+    >>> parse_miss_mix("edges")
+    'edges'
+    """
+    if "=" not in text:
+        return text
+    mix = {}
+    for item in text.split(","):
+        stage, sep, value = item.partition("=")
+        try:
+            mix[stage.strip()] = float(value)
+        except ValueError:
+            raise ValueError(f"bad miss-mix item {item!r}: expected stage=fraction") from None
+    return mix
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add the ``workloads`` command (``make``, ``list``, ``show``) to ``subparsers``."""
+    parser = subparsers.add_parser(
+        "workloads",
+        help="make, list and show workloads (meshes, rays, reference answers)",
+        description="Workloads are pure functions of a spec, cached by the spec's hash "
+        "(directory: $TRIBENCH_CACHE, default ~/.cache/tribench/workloads).",
+    )
+    parser.set_defaults(func=lambda args: _usage(parser))
+    sub = parser.add_subparsers(title="commands", metavar="COMMAND")
+
+    make = sub.add_parser(
+        "make",
+        help="make (or find in the cache) the workload of a spec",
+        description="KIND is 'pairs' (N independent ray-triangle pairs at a per-test hit rate), "
+        "a built-in mesh (suzanne, icosphere, uvsphere, soup, heightfield) or the path of a mesh "
+        "file trimesh reads. Meshes get the seed's camera rays unless --hit-rate or --n-rays asks "
+        "for rays at a per-ray hit rate.",
+    )
+    make.add_argument("kind", metavar="KIND")
+    pairs = make.add_argument_group("pairs")
+    pairs.add_argument("--n", type=int, help="number of pairs (default 10000)")
+    pairs.add_argument("--order", choices=("shuffled", "sorted"), help="default shuffled")
+    pairs.add_argument(
+        "--miss-mix",
+        metavar="MIX",
+        help="edges (default), uniform, one stage name, or stage=fraction,... over parallel, "
+        "behind_origin, outside_edge_1, outside_edge_2, outside_edge_3",
+    )
+    pairs.add_argument("--shape", choices=("sphere", "equilateral", "sliver"), help="default sphere")
+    pairs.add_argument("--scale", type=float, help="size of every pair (default 1)")
+    pairs.add_argument("--offset", type=float, help="distance moved from the origin (default 0)")
+    mesh = make.add_argument_group("meshes")
+    mesh.add_argument("--triangles", type=int, help="exact triangle count (default: the base mesh)")
+    mesh.add_argument("--rays", choices=("camera", "hit_rate"), help="default camera")
+    mesh.add_argument("--n-rays", type=int, help="rays at a per-ray hit rate (default 4096)")
+    mesh.add_argument("--width", type=int, help="camera width in pixels (default 512)")
+    mesh.add_argument("--height", type=int, help="camera height in pixels (default 512)")
+    both = make.add_argument_group("both")
+    both.add_argument("--hit-rate", type=float, help="per-test (pairs) or per-ray (meshes) hit rate, default 0.5")
+    both.add_argument("--dtype", choices=("float64", "float32"), help="default float64")
+    both.add_argument("--seed", type=int, help="default 0")
+    both.add_argument("--json", action="store_true", help="print the spec and figures as JSON")
+    make.set_defaults(func=_make)
+
+    lister = sub.add_parser("list", help="list the cached workloads")
+    lister.set_defaults(func=_list)
+
+    show = sub.add_parser("show", help="targets vs achieved figures of a cached workload, and a picture")
+    show.add_argument("workload_id", metavar="ID", help="a workload id, or a unique prefix of one")
+    show.add_argument("--png", metavar="FILE", help="draw the workload into FILE")
+    show.add_argument("--json", action="store_true", help="print the spec and figures as JSON")
+    show.set_defaults(func=_show)
+    return parser
+
+
+def _usage(parser: argparse.ArgumentParser) -> int:
+    parser.print_help(sys.stderr)
+    return 2
+
+
+def _error(message: str) -> int:
+    print(f"tribench workloads: error: {message}", file=sys.stderr)
+    return 2
+
+
+def _spec_from_args(args: argparse.Namespace):
+    from .spec import MeshSpec, PairSpec
+
+    given = {k: v for k, v in vars(args).items() if v is not None and k not in ("kind", "func", "json")}
+    if "miss_mix" in given:  # parsed here, not by argparse, so a bad mix is a one-line error
+        given["miss_mix"] = parse_miss_mix(given["miss_mix"])
+    if args.kind == "pairs":
+        wrong = sorted(set(given) & set(_MESH_OPTIONS))
+        if wrong:
+            raise ValueError(f"--{wrong[0].replace('_', '-')} applies to meshes, not pairs")
+        return PairSpec(**given)
+    wrong = sorted(set(given) & set(_PAIR_OPTIONS))
+    if wrong:
+        raise ValueError(f"--{wrong[0].replace('_', '-')} applies to pairs, not meshes")
+    if "rays" not in given and ("hit_rate" in given or "n_rays" in given):
+        given["rays"] = "hit_rate"  # asking for a hit rate means rays aimed at one
+    return MeshSpec(args.kind, **given)
+
+
+def _format(value: Any) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, list):
+        return "(" + ", ".join(_format(v) for v in value) + ")"
+    return str(value)
+
+
+def _report(w, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps({"workload_id": w.workload_id, "spec": w.spec.to_dict(),
+                          "targets": w.targets(), "achieved": w.achieved}, indent=2))
+        return
+    print(f"{w.workload_id}  {w.spec.summary()}")
+    rows = [(name, _format(t), _format(a)) for name, t, a in w.compare()]
+    width = max(len(r[0]) for r in rows)
+    twidth = max(len("target"), *(len(r[1]) for r in rows))
+    print(f"  {'figure':<{width}}  {'target':>{twidth}}  achieved")
+    for name, t, a in rows:
+        print(f"  {name:<{width}}  {t:>{twidth}}  {a}")
+    hits, sum_t = w.expected_checksum()
+    print(f"  expected checksum: {hits} hits, sum of t = {sum_t!r}")
+
+
+def _make(args: argparse.Namespace) -> int:
+    from .cache import make
+
+    try:
+        w = make(_spec_from_args(args))
+    except (ValueError, FileNotFoundError) as e:
+        return _error(str(e))
+    _report(w, args.json)
+    return 0
+
+
+def _list(args: argparse.Namespace) -> int:
+    from .cache import cache_dir, list_cached
+    from .spec import spec_from_dict
+
+    entries = list_cached()
+    if not entries:
+        print(f"no workloads cached in {cache_dir()}")
+        return 0
+    for e in entries:
+        try:
+            summary = spec_from_dict(e.spec).summary()
+        except Exception:  # a spec this version cannot rebuild (moved mesh file, old field...)
+            summary = json.dumps(e.spec)
+        size = f"{e.size_bytes / 1e6:.1f} MB"
+        status = f"  [{e.problem}]" if e.problem else ""
+        print(f"{e.workload_id}  {size:>9}  {summary}{status}")
+    return 0
+
+
+def _show(args: argparse.Namespace) -> int:
+    from .cache import load, resolve_id
+
+    try:
+        w = load(resolve_id(args.workload_id))
+    except (ValueError, FileNotFoundError) as e:
+        return _error(str(e))
+    _report(w, args.json)
+    if args.png:
+        from .picture import draw
+
+        try:
+            draw(w, args.png)
+        except OSError as e:
+            return _error(f"cannot write {args.png}: {e}")
+        print(f"wrote {args.png}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``workloads`` alone (``python -m tribench.workloads.cli make pairs``)."""
+    parser = argparse.ArgumentParser(prog="tribench")
+    add_parser(parser.add_subparsers(metavar="COMMAND"))
+    args = parser.parse_args(["workloads", *(sys.argv[1:] if argv is None else argv)])
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,334 @@
+"""Meshes at controlled triangle counts.
+
+Base meshes (``triangles=None`` in a :class:`~tribench.workloads.spec.MeshSpec`):
+
+========== ======= ===========================================================
+name       count   what
+========== ======= ===========================================================
+suzanne    968     Blender's monkey, ``data/suzanne.obj`` read as generated
+icosphere  1280    trimesh icosphere, 3 subdivisions
+uvsphere   896     trimesh UV sphere, 16 x 16
+heightfield 1152   24 x 24 grid over [-1, 1]^2, six smooth random bumps (seeded)
+soup       1000    random triangles in a box (seeded); any count directly
+file       --      any mesh file trimesh reads, loaded with ``process=False``
+========== ======= ===========================================================
+
+Placement (before the count is changed, so every count of a mesh sits in the
+same place): Suzanne is turned Y-up facing +z, Blender ``(x, y, z)`` ->
+``(x, z, -y)``, and moved by (0, 0.5, -2), as in the seed's scene03, where the
+seed's camera (eye at (0, 0, 2) looking down -z) sees it. Every other mesh is
+scaled and moved so that its bounding sphere (centred on the bounding box) has
+radius 1.5 -- about Suzanne's -- and centre (0, 0, -2), in the middle of the
+view. The heightfield lies in the x-y plane, facing the camera.
+
+The exact triangle count is reached by :func:`with_triangle_count`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .geometry import norm, random_unit_vectors, triangle_areas
+
+__all__ = [
+    "SUZANNE_PATH",
+    "BASE_COUNTS",
+    "Mesh",
+    "read_mesh_file",
+    "base_mesh",
+    "soup",
+    "heightfield",
+    "place",
+    "bounding_sphere",
+    "with_triangle_count",
+    "build_mesh",
+]
+
+SUZANNE_PATH = Path(__file__).parent / "data" / "suzanne.obj"
+BASE_COUNTS = {"suzanne": 968, "icosphere": 1280, "uvsphere": 896, "heightfield": 1152, "soup": 1000}
+
+SUZANNE_OFFSET = np.array([0.0, 0.5, -2.0])
+VIEW_CENTRE = np.array([0.0, 0.0, -2.0])
+VIEW_RADIUS = 1.5
+
+# fast-simplification's aggressiveness values to try, default first.
+_AGGS = (7.0, 8.0, 9.0, 10.0, 6.0, 5.0)
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """An indexed triangle mesh and how its triangle count was reached."""
+
+    vertices: np.ndarray  # float64 (V, 3)
+    faces: np.ndarray  # int64 (F, 3)
+    method: str = "base"
+
+    @property
+    def triangles(self) -> np.ndarray:
+        """Vertex coordinates per face, float64 (F, 3, 3)."""
+        return self.vertices[self.faces]
+
+
+def _compact(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Drop unreferenced vertices, keeping the order of the rest."""
+    used = np.unique(faces)
+    remap = np.full(len(vertices), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return np.ascontiguousarray(vertices[used], dtype=np.float64), remap[faces]
+
+
+def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and faces of a mesh file, as trimesh reads it with ``process=False``.
+
+    Raises
+    ------
+    ValueError
+        The file cannot be read as a mesh, or holds no triangle of non-zero area.
+    """
+    import trimesh  # lazy: slow to import
+
+    try:
+        mesh = trimesh.load(str(path), force="mesh", process=False)
+        vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+    except Exception as e:  # trimesh raises many types for malformed files
+        raise ValueError(f"cannot read mesh file {str(path)!r}: {type(e).__name__}: {e}") from None
+    if len(faces) == 0:
+        raise ValueError(f"mesh file {str(path)!r} holds no triangles")
+    if not np.isfinite(vertices).all():
+        raise ValueError(f"mesh file {str(path)!r} has non-finite vertex coordinates")
+    if not (triangle_areas(vertices[faces]) > 0).any():
+        raise ValueError(f"mesh file {str(path)!r} has no triangle of non-zero area")
+    return _compact(vertices, faces)
+
+
+def soup(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` random triangles in the cube [-1, 1]^3, unconnected.
+
+    Each triangle's vertices lie on a sphere of radius ``0.25 * sqrt(1000 / n)``
+    around a uniform centre, so the soup keeps about the same look at any count.
+
+    Examples
+    --------
+    >>> v, f = soup(5, seed=0)
+    >>> v.shape, f.shape
+    ((15, 3), (5, 3))
+    """
+    rng = np.random.default_rng(seed)
+    size = 0.25 * np.sqrt(1000.0 / n)
+    centres = rng.random((n, 3)) * 2.0 - 1.0
+    verts = centres[:, None] + size * random_unit_vectors(rng, 3 * n).reshape(n, 3, 3)
+    return verts.reshape(-1, 3), np.arange(3 * n, dtype=np.int64).reshape(n, 3)
+
+
+def heightfield(cells: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A ``cells`` x ``cells`` grid over [-1, 1]^2 with six smooth bumps; normals toward +z.
+
+    The bumps are ``a / (1 + r^2 / s^2)``: rational, so the heights need no
+    transcendental function.
+
+    Examples
+    --------
+    >>> v, f = heightfield(2, seed=0)
+    >>> v.shape, f.shape
+    ((9, 3), (8, 3))
+    """
+    rng = np.random.default_rng(seed)
+    g = np.linspace(-1.0, 1.0, cells + 1)
+    x, y = np.meshgrid(g, g)  # row j, column i
+    z = np.zeros_like(x)
+    bumps = zip(rng.random(6) * 2 - 1, rng.random(6) * 2 - 1, rng.random(6) * 0.6 - 0.3, 0.2 + 0.4 * rng.random(6))
+    for cx, cy, a, s in bumps:
+        z += a / (1.0 + ((x - cx) ** 2 + (y - cy) ** 2) / (s * s))
+    vertices = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    i, j = np.meshgrid(np.arange(cells), np.arange(cells))
+    v00 = (j * (cells + 1) + i).ravel()
+    v10, v01 = v00 + 1, v00 + cells + 1
+    faces = np.concatenate([np.column_stack([v00, v10, v01 + 1]), np.column_stack([v00, v01 + 1, v01])])
+    return vertices, faces.astype(np.int64)
+
+
+def base_mesh(name: str, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and faces of a base mesh by name (see the module table) or file path.
+
+    Examples
+    --------
+    >>> v, f = base_mesh("suzanne")
+    >>> v.shape, f.shape
+    ((507, 3), (968, 3))
+    """
+    if name == "suzanne":
+        return read_mesh_file(SUZANNE_PATH)
+    if name == "soup":
+        return soup(BASE_COUNTS["soup"], seed)
+    if name == "heightfield":
+        return heightfield(24, seed)
+    if name in ("icosphere", "uvsphere"):
+        import trimesh  # lazy: slow to import
+
+        if name == "icosphere":
+            m = trimesh.creation.icosphere(subdivisions=3)
+        else:
+            m = trimesh.creation.uv_sphere(count=[16, 16])
+        return np.asarray(m.vertices, dtype=np.float64), np.asarray(m.faces, dtype=np.int64)
+    return read_mesh_file(name)
+
+
+def bounding_sphere(vertices: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre of the bounding box and the largest distance from it to a vertex."""
+    centre = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
+    return centre, float(norm(vertices - centre).max())
+
+
+def place(name: str, vertices: np.ndarray, like: np.ndarray | None = None) -> np.ndarray:
+    """Vertices moved where the seed's camera sees them (see the module docstring).
+
+    ``like`` (default ``vertices``) is the mesh whose bounding sphere sets the
+    move, so finer versions of a mesh are placed exactly as the base mesh.
+
+    Examples
+    --------
+    >>> place("suzanne", np.array([[1.0, 2.0, 3.0]]))
+    array([[ 1. ,  3.5, -4. ]])
+    """
+    if name == "suzanne":
+        x, y, z = vertices.T
+        return np.column_stack([x, z, -y]) + SUZANNE_OFFSET
+    centre, radius = bounding_sphere(vertices if like is None else like)
+    return (vertices - centre) * (VIEW_RADIUS / radius) + VIEW_CENTRE
+
+
+def _split_longest_edges(vertices: np.ndarray, faces: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Add exactly ``k`` triangles, splitting ``k`` times the triangle with the longest edge.
+
+    Triangle (a, b, c) with longest edge a-b becomes (a, m, c) and (m, b, c), m
+    the midpoint of a-b: winding and surface unchanged. The neighbour across
+    a-b is left whole (a T-junction at m).
+    """
+    v, f = vertices, faces.copy()
+    for _ in range(k):
+        edge_vec = v[f[:, [1, 2, 0]]] - v[f]  # edge j runs from corner j to corner j+1
+        length2 = (edge_vec**2).sum(axis=2)
+        face, j = np.unravel_index(np.argmax(length2), length2.shape)  # first maximum: deterministic
+        a, b, c = f[face, j], f[face, (j + 1) % 3], f[face, (j + 2) % 3]
+        m = len(v)
+        v = np.vstack([v, 0.5 * (v[a] + v[b])])
+        f = np.vstack([f, [[m, b, c]]])
+        f[face] = [a, m, c]
+    return v, f
+
+
+def _drop_smallest(vertices: np.ndarray, faces: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Remove the ``k`` triangles of smallest area (stable: ties keep the lower index)."""
+    order = np.argsort(triangle_areas(vertices[faces]), kind="stable")
+    keep = np.sort(order[k:])
+    return _compact(vertices, faces[keep])
+
+
+def with_triangle_count(vertices: np.ndarray, faces: np.ndarray, n: int) -> Mesh:
+    """The mesh with exactly ``n`` triangles.
+
+    1. ``n`` equal to the current count: the mesh unchanged.
+    2. Fewer triangles than ``n``: trimesh loop subdivision (x4 per step)
+       until there are at least ``n``.
+    3. More than ``n``: ``fast_simplification.simplify(target_count=n)``,
+       trying aggressiveness 7 (the default), 8, 9, 10, 6, 5 and keeping the
+       first result with exactly ``n`` triangles.
+    4. If none is exact -- the simplifier collapses edges, each removing two
+       triangles inside the surface (one on a border), so it lands one short
+       when the parity is wrong, and a closed mesh always has an even count --
+       the result closest below ``n`` is topped up by splitting the triangle
+       with the longest edge in two at its midpoint, once per missing triangle
+       (the surface is unchanged; the neighbour across that edge keeps it
+       whole, leaving a T-junction).
+    5. If every result stays above ``n`` or comes back empty (a count too
+       small for the mesh's topology, e.g. under 12 for Suzanne), the smallest
+       triangles of the smallest result above ``n`` (or of the mesh itself)
+       are removed: exact, but no longer a closed surface.
+
+    ``Mesh.method`` says which steps were taken.
+
+    Examples
+    --------
+    >>> v, f = base_mesh("icosphere")
+    >>> m = with_triangle_count(v, f, 501)
+    >>> len(m.faces), m.method
+    (501, 'simplified (agg=7) + 1 split(s)')
+    """
+    import fast_simplification  # lazy: heavy compiled modules
+    import trimesh
+
+    if len(faces) == n:
+        return Mesh(vertices, faces, "base")
+    steps = []
+    iterations = 0
+    while len(faces) * 4**iterations < n:
+        iterations += 1
+    if iterations:
+        try:
+            vertices, faces = trimesh.remesh.subdivide_loop(vertices, faces, iterations=iterations)
+        except Exception as e:  # a mesh loop subdivision cannot handle (non-manifold, say)
+            raise ValueError(f"cannot subdivide this mesh to reach {n} triangles: {e}") from None
+        faces = np.asarray(faces, dtype=np.int64)
+        steps.append(f"subdivided x{iterations}")
+        if len(faces) == n:
+            return Mesh(np.asarray(vertices, dtype=np.float64), faces, steps[0])
+
+    results = []
+    for agg in _AGGS:
+        v, f = fast_simplification.simplify(vertices, faces, target_count=n, agg=agg)
+        v, f = _compact(np.asarray(v, dtype=np.float64), np.asarray(f, dtype=np.int64))
+        if len(f) == n:
+            return Mesh(v, f, ", ".join([*steps, f"simplified (agg={agg:g})"]))
+        results.append((agg, v, f))
+    below = [r for r in results if 0 < len(r[2]) < n]
+    if below:
+        agg, v, f = max(below, key=lambda r: len(r[2]))  # first of the closest: deterministic
+        missing = n - len(f)
+        v, f = _split_longest_edges(v, f, missing)
+        return Mesh(v, f, ", ".join([*steps, f"simplified (agg={agg:g}) + {missing} split(s)"]))
+    # Every result is above n, or empty: trim the smallest result above n (or the input).
+    above = [r for r in results if len(r[2]) > n]
+    if above:
+        agg, v, f = min(above, key=lambda r: len(r[2]))
+        steps.append(f"simplified (agg={agg:g})")
+    else:
+        v, f = np.asarray(vertices, dtype=np.float64), faces
+    extra = len(f) - n
+    v, f = _drop_smallest(v, f, extra)
+    return Mesh(v, f, ", ".join([*steps, f"{extra} smallest dropped"]))
+
+
+def build_mesh(mesh: str, triangles: int | None, seed: int) -> Mesh:
+    """The placed mesh of a spec's ``mesh``/``triangles``/``seed`` fields.
+
+    Two meshes are made at the count directly rather than subdivided: the
+    soup (random anyway), and the heightfield above its base count, which is
+    sampled on the finest grid it needs (``2 c^2 >= triangles``) and then
+    simplified -- a finer grid of the same height function is its exact
+    subdivision (and trimesh's loop subdivision moves the corners of a grid
+    outward).
+
+    Examples
+    --------
+    >>> len(build_mesh("suzanne", 100, seed=0).faces)
+    100
+    """
+    if mesh == "soup":
+        n = BASE_COUNTS["soup"] if triangles is None else triangles
+        v, f = soup(n, seed)
+        return Mesh(place(mesh, v), f, "generated")
+    v, f = base_mesh(mesh, seed)
+    if triangles is None:
+        return Mesh(place(mesh, v), f, "base")
+    if mesh == "heightfield" and triangles > len(f):
+        cells = math.isqrt(-(-triangles // 2))
+        cells += 2 * cells * cells < triangles
+        fine_v, fine_f = heightfield(cells, seed)
+        m = with_triangle_count(place(mesh, fine_v, like=v), fine_f, triangles)
+        return Mesh(m.vertices, m.faces, f"grid {cells}x{cells}" + ("" if m.method == "base" else f", {m.method}"))
+    return with_triangle_count(place(mesh, v), f, triangles)

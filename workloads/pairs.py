@@ -1,0 +1,385 @@
+"""Pair workloads: N (ray, triangle) pairs with an exact per-test hit rate and miss-stage mix.
+
+Construction
+------------
+Every pair is built for one outcome, its *kind*, decided before any geometry
+is drawn: ``round(h * N)`` hits, and the misses shared among the stages of
+:data:`~tribench.workloads.spec.MISS_STAGES` by largest-remainder rounding of
+the target mix. The triangle comes first (its shape from the spec), then a
+point of its plane chosen by barycentric weights ``(w, u, v)`` (of v0, v1, v2):
+
+* **hit** -- a point uniform over the triangle (uniform by area within the
+  triangle, never by rejection, so no bias toward large triangles), reached
+  from an origin 1 to 3 units away (times ``scale``);
+* **behind_origin** -- the same kind of point, but the ray starts past it and
+  points away, so the crossing is at ``t < 0``;
+* **outside_edge_e** -- a point outside edge ``e`` only: edge 1 = v0->v1
+  (``v < 0``), edge 2 = v1->v2 (``w < 0``), edge 3 = v2->v0 (``u < 0``); the
+  negative weight is in ``[-1, -margin]``, the other two are positive;
+* **parallel** -- a direction in the triangle's plane (perpendicular to the
+  normal of the triangle *as rounded*), the origin 0.1 to 1 unit off the plane.
+
+Non-parallel rays meet the plane at least ~5.7 degrees off it (``|cos| >=
+0.1``). Ray directions are uniform otherwise, so both faces are hit (the
+achieved fraction of front-facing hits is recorded).
+
+Safe margins
+------------
+Every hit and every miss is kept at a margin so that all kernels agree: the
+smallest barycentric of a hit or behind-origin crossing is at least
+:data:`BARY_MARGIN`, the negative weight of an edge miss at most
+``-BARY_MARGIN`` with the other two at least ``BARY_MARGIN``, ``|t|`` at least
+:data:`T_MARGIN` times ``scale``, and a parallel ray's origin at least
+:data:`PLANE_MARGIN` times ``scale`` off the plane. The margins are checked on
+the arrays *after* rounding to the spec's dtype (the reference runs in float64
+on the rounded values) and any pair that lost one is redrawn. A parallel ray
+stays parallel within rounding: ``|cos(direction, normal)| <``
+:data:`PARALLEL_COS`; in float64 the reference finds the system singular, in
+float32 the crossing is millions of units away, far outside every edge.
+
+Scale and offset move whole pairs, so extreme ``offset / scale`` ratios in
+float32 cost margins (and eventually raise a ValueError): that is the
+precision experiment, and what the robustness suite is for.
+
+Triangle shapes
+---------------
+``sphere``: three vertices uniform on the unit sphere (Loefstedt &
+Akenine-Moeller 2005); ``equilateral``: circumradius 0.5, each vertex jittered
+by up to 5% of it; ``sliver``: base 1 and altitude 1/aspect with the aspect
+ratio uniform in [10, 100) or [100, 1000) (half each), the long edge any of
+the three. All shapes are limited to aspect ratio :data:`MAX_ASPECT`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import (
+    aspect_ratios,
+    dot,
+    normalise,
+    random_in_ball,
+    random_perpendicular,
+    random_unit_vectors,
+    round_to,
+    sample_inside,
+    triangle_normals,
+)
+from .reference import PairAnswers, intersect_pairs
+from .spec import MISS_STAGES, PairSpec
+from .workload import Workload, library_versions
+
+__all__ = [
+    "BARY_MARGIN",
+    "T_MARGIN",
+    "PLANE_MARGIN",
+    "PARALLEL_COS",
+    "MAX_ASPECT",
+    "HIT",
+    "OTHER",
+    "apportion",
+    "classify_misses",
+    "stage_counts",
+    "generate_pairs",
+]
+
+BARY_MARGIN = 1e-3
+T_MARGIN = 1e-3
+PLANE_MARGIN = 0.05
+PARALLEL_COS = 1e-6
+MAX_ASPECT = 1e3
+MIN_COS = 0.1
+
+#: Codes returned by :func:`classify_misses`: a stage's index in MISS_STAGES,
+#: or HIT, or OTHER for a miss of no single stage (outside two edges, say).
+HIT = -1
+OTHER = len(MISS_STAGES)
+_PARALLEL, _BEHIND = MISS_STAGES.index("parallel"), MISS_STAGES.index("behind_origin")
+
+_MAX_ROUNDS = 50
+_OFFSET_AXIS = np.full(3, 1.0) / np.sqrt(3.0)
+
+
+def _edge_stage(e: int) -> int:
+    return MISS_STAGES.index(f"outside_edge_{e}")
+
+
+def _opposite(e: int) -> int:
+    """Column in ``(w, u, v)`` of the weight that is negative outside edge ``e``."""
+    return (e + 1) % 3
+
+
+def apportion(fractions: list[float], total: int) -> list[int]:
+    """Split ``total`` by ``fractions`` with largest-remainder rounding (ties to the first).
+
+    Examples
+    --------
+    >>> apportion([1/3, 1/3, 1/3], 10)
+    [4, 3, 3]
+    >>> apportion([0.5, 0.0, 0.5], 3)
+    [2, 0, 1]
+    """
+    s = sum(fractions)
+    exact = [f / s * total for f in fractions] if s > 0 else [0.0] * len(fractions)
+    counts = [int(x) for x in exact]
+    by_remainder = sorted(range(len(exact)), key=lambda i: (-(exact[i] - counts[i]), i))
+    for i in by_remainder[: total - sum(counts)]:
+        counts[i] += 1
+    return counts
+
+
+def _classify(ans: PairAnswers, directions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    cos = np.abs(dot(normalise(directions), normalise(triangle_normals(triangles))))
+    b = np.column_stack([ans.w, ans.u, ans.v])
+    t = ans.t
+    codes = np.full(len(t), OTHER, dtype=np.int8)
+    with np.errstate(invalid="ignore"):
+        parallel = ~np.isfinite(t) | (cos < PARALLEL_COS)
+        crossing = ~ans.hit & ~parallel
+        codes[crossing & (b.min(axis=1) >= 0) & (t <= 0)] = _BEHIND
+        for e in (1, 2, 3):
+            j = _opposite(e)
+            others = np.delete(b, j, axis=1)
+            only_e = (b[:, j] < 0) & (others.min(axis=1) >= 0)
+            codes[crossing & only_e & (t > 0)] = _edge_stage(e)
+    codes[~ans.hit & parallel] = _PARALLEL
+    codes[ans.hit] = HIT
+    return codes
+
+
+def classify_misses(origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Which stage rejects each (ray, triangle) pair, by the float64 reference.
+
+    Returns int8 codes: :data:`HIT` (-1) for a hit, the index in
+    ``MISS_STAGES`` for a miss of one stage, :data:`OTHER` for a miss of none
+    (outside two edges, or outside an edge behind the origin). Parallel means
+    no crossing: the reference finds the system singular or the direction is
+    within :data:`PARALLEL_COS` of the plane.
+
+    Examples
+    --------
+    >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]] * 3)
+    >>> o = np.array([[0.2, 0.2, 1], [0.2, -0.5, 1], [0.2, 0.2, -1]])
+    >>> d = np.array([[0., 0, -1], [0, 0, -1], [0, 0, -1]])
+    >>> [MISS_STAGES[c] if 0 <= c < OTHER else int(c) for c in classify_misses(o, d, tri)]
+    [-1, 'outside_edge_1', 'behind_origin']
+    """
+    o = np.asarray(origins, dtype=np.float64)
+    d = np.asarray(directions, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.float64)
+    return _classify(intersect_pairs(o, d, tri), d, tri)
+
+
+def stage_counts(codes: np.ndarray) -> dict[str, int]:
+    """Misses per stage (``"other"`` included only when present).
+
+    Examples
+    --------
+    >>> stage_counts(np.array([-1, 2, 2, 0], dtype=np.int8))["outside_edge_1"]
+    2
+    """
+    counts = np.bincount(codes[codes != HIT], minlength=OTHER + 1)
+    out = {s: int(counts[i]) for i, s in enumerate(MISS_STAGES)}
+    if counts[OTHER]:
+        out["other"] = int(counts[OTHER])
+    return out
+
+
+def _kinds(spec: PairSpec, rng: np.random.Generator) -> np.ndarray:
+    hits = round(spec.hit_rate * spec.n)
+    misses = apportion([f for _, f in spec.miss_mix], spec.n - hits)
+    kinds = np.repeat(np.arange(HIT, OTHER, dtype=np.int8), [hits, *misses])
+    return rng.permutation(kinds) if spec.order == "shuffled" else kinds
+
+
+def _triangles(shape: str, k: int, rng: np.random.Generator) -> np.ndarray:
+    """``k`` triangles of the given shape, within the unit ball (unit scale, at the origin)."""
+    if shape == "sphere":
+        out = np.empty((k, 3, 3))
+        todo = np.arange(k)
+        while len(todo):
+            t = random_unit_vectors(rng, 3 * len(todo)).reshape(-1, 3, 3)
+            ok = aspect_ratios(t) <= MAX_ASPECT
+            out[todo[ok]] = t[ok]
+            todo = todo[~ok]
+        return out
+    centre = 0.5 * random_in_ball(rng, k)
+    normal = random_unit_vectors(rng, k)
+    a = random_perpendicular(rng, normal)
+    b = np.cross(normal, a)
+    if shape == "equilateral":
+        radius = 0.5
+        cx = np.array([1.0, -0.5, -0.5])
+        cy = np.array([0.0, 0.5, -0.5]) * np.sqrt(3.0)
+        jitter = 0.05 * radius * random_in_ball(rng, 3 * k).reshape(k, 3, 3)
+        return centre[:, None] + radius * (cx[:, None] * a[:, None] + cy[:, None] * b[:, None]) + jitter
+    # Sliver: base of length 1 along a, apex above a point of the base at height 1/aspect.
+    aspect = np.where(rng.random(k) < 0.5, 10.0, 100.0) * (1.0 + 9.0 * rng.random(k))
+    s = 0.05 + 0.9 * rng.random(k)
+    verts = np.stack([-0.5 * a, 0.5 * a, (s - 0.5)[:, None] * a + b / aspect[:, None]], axis=1)
+    verts = verts - (verts[:, 0] + verts[:, 1] + verts[:, 2])[:, None] / 3.0 + centre[:, None]
+    roll = (np.arange(3) + rng.integers(0, 3, k)[:, None]) % 3  # cyclic: keeps the winding
+    return np.take_along_axis(verts, roll[:, :, None], axis=1)
+
+
+def _sample_outside(rng: np.random.Generator, n: int, j: int, margin: float) -> np.ndarray:
+    """Weights ``(w, u, v)`` with column ``j`` in ``[-1, -margin]`` and the other two >= margin."""
+    neg = -(margin + (1.0 - margin) * rng.random(n))
+    a = margin + (1.0 - neg - 2.0 * margin) * rng.random(n)
+    b = np.empty((n, 3))
+    b[:, j] = neg
+    b[:, (j + 1) % 3] = a
+    b[:, (j + 2) % 3] = 1.0 - neg - a
+    return b
+
+
+def _oblique(rng: np.random.Generator, normal: np.ndarray) -> np.ndarray:
+    """Random unit directions at least MIN_COS off each plane (either side)."""
+    out = np.empty_like(normal)
+    todo = np.arange(len(normal))
+    while len(todo):
+        d = random_unit_vectors(rng, len(todo))
+        ok = np.abs(dot(d, normal[todo])) >= MIN_COS
+        out[todo[ok]] = d[ok]
+        todo = todo[~ok]
+    return out
+
+
+def _rays(kinds: np.ndarray, tri: np.ndarray, scale: float, rng: np.random.Generator):
+    """Origins and directions realising each kind against its (already rounded) triangle."""
+    k = len(kinds)
+    normal = normalise(triangle_normals(tri))
+    margin = 2.0 * BARY_MARGIN  # twice the checked margin: rounding rarely costs a redraw
+    bary = np.empty((k, 3))
+    inside = kinds <= _BEHIND
+    bary[inside] = sample_inside(rng, int(inside.sum()), margin)
+    for e in (1, 2, 3):
+        sel = kinds == _edge_stage(e)
+        bary[sel] = _sample_outside(rng, int(sel.sum()), _opposite(e), margin)
+    point = bary[:, 0:1] * tri[:, 0] + bary[:, 1:2] * tri[:, 1] + bary[:, 2:3] * tri[:, 2]
+
+    parallel = kinds == _PARALLEL
+    d = np.empty((k, 3))
+    d[~parallel] = _oblique(rng, normal[~parallel])
+    d[parallel] = random_perpendicular(rng, normal[parallel])
+    dist = scale * (1.0 + 2.0 * rng.random(k))
+    away = np.where(kinds == _BEHIND, -1.0, 1.0)  # behind: start past the point, look away
+    o = point - (away * dist)[:, None] * d
+    height = scale * (0.1 + 0.9 * rng.random(int(parallel.sum())))
+    height *= np.where(rng.random(len(height)) < 0.5, -1.0, 1.0)
+    o[parallel] += height[:, None] * normal[parallel]
+    return o, d
+
+
+def _keeps_margins(kinds, ans: PairAnswers, o, d, tri, scale: float) -> np.ndarray:
+    """Whether each pair is its kind with every safe margin (on the rounded arrays)."""
+    b = np.column_stack([ans.w, ans.u, ans.v])
+    t = ans.t
+    t_tol = T_MARGIN * scale
+    normal = normalise(triangle_normals(tri))
+    ok = np.zeros(len(kinds), dtype=bool)
+    with np.errstate(invalid="ignore"):
+        deep = b.min(axis=1) >= BARY_MARGIN
+        sel = kinds == HIT
+        ok[sel] = (ans.hit & deep & (t >= t_tol))[sel]
+        sel = kinds == _BEHIND
+        ok[sel] = (deep & (t <= -t_tol))[sel]
+        for e in (1, 2, 3):
+            j = _opposite(e)
+            sel = kinds == _edge_stage(e)
+            outside = (b[:, j] <= -BARY_MARGIN) & (np.delete(b, j, axis=1).min(axis=1) >= BARY_MARGIN)
+            ok[sel] = (outside & (t >= t_tol))[sel]
+        sel = kinds == _PARALLEL
+        flat = ~np.isfinite(t) | (np.abs(dot(normalise(d), normal)) < PARALLEL_COS)
+        off_plane = np.abs(dot(o - tri[:, 0], normal)) >= PLANE_MARGIN * scale
+        ok[sel] = (flat & off_plane & ~ans.hit)[sel]
+    return ok
+
+
+def _figures(spec: PairSpec, ans: PairAnswers, codes, d, tri, redrawn: int) -> dict:
+    hits = ans.hit
+    n_hits, n_misses = int(hits.sum()), int((~hits).sum())
+    counts = stage_counts(codes)
+    b = np.column_stack([ans.w, ans.u, ans.v])
+    front = dot(d, triangle_normals(tri)) < 0
+
+    def smallest(x):
+        return float(x.min()) if len(x) else None
+
+    edge_miss = np.zeros(len(codes), dtype=bool)
+    outside_by = np.full(len(codes), np.inf)
+    for e in (1, 2, 3):
+        sel = codes == _edge_stage(e)
+        edge_miss |= sel
+        outside_by[sel] = -b[sel, _opposite(e)]
+    inside_kinds = (codes == HIT) | (codes == _BEHIND)
+    aspect = aspect_ratios(tri)
+    return {
+        "pairs": spec.n,
+        "hits": n_hits,
+        "hit_rate": n_hits / spec.n,
+        "miss_counts": counts,
+        "miss_mix": {s: (c / n_misses if n_misses else 0.0) for s, c in counts.items()},
+        "hits_front_facing": float(front[hits].mean()) if n_hits else None,
+        "redrawn_pairs": redrawn,
+        "min_inside_margin": smallest(b[inside_kinds].min(axis=1)),
+        "min_outside_margin": smallest(outside_by[edge_miss]),
+        "min_abs_t_over_scale": smallest(np.abs(ans.t[codes != _PARALLEL]) / spec.scale),
+        "aspect_ratio": {
+            "min": float(aspect.min()),
+            "median": float(np.median(aspect)),
+            "max": float(aspect.max()),
+        },
+        "generated_with": library_versions("numpy"),
+    }
+
+
+def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
+    """Build the pair workload of ``spec`` (no caching: see :func:`tribench.workloads.make`).
+
+    Examples
+    --------
+    >>> w = generate_pairs(PairSpec(n=20, hit_rate=0.25), "doc")
+    >>> w.expected_checksum()[0], w.achieved["miss_counts"]["outside_edge_1"]
+    (5, 5)
+    """
+    rng = np.random.default_rng(spec.seed)
+    kinds = _kinds(spec, rng)
+    n, dtype, scale = spec.n, spec.dtype, spec.scale
+    shift = spec.offset * _OFFSET_AXIS
+    tri, o, d = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3))
+    todo, redrawn = np.arange(n), 0
+    for _ in range(_MAX_ROUNDS):
+        # Rays are built against the triangle as rounded, then rounded in turn.
+        tri[todo] = round_to(scale * _triangles(spec.shape, len(todo), rng) + shift, dtype)
+        ok = np.zeros(len(todo), dtype=bool)
+        sound = np.flatnonzero(aspect_ratios(tri[todo]) <= 2.0 * MAX_ASPECT)  # rounding can flatten one
+        slots = todo[sound]
+        o_new, d_new = _rays(kinds[slots], tri[slots], scale, rng)
+        o[slots], d[slots] = round_to(o_new, dtype), round_to(d_new, dtype)
+        ans = intersect_pairs(o[slots], d[slots], tri[slots])
+        ok[sound] = _keeps_margins(kinds[slots], ans, o[slots], d[slots], tri[slots], scale)
+        todo = todo[~ok]
+        if not len(todo):
+            break
+        redrawn += len(todo)
+    else:
+        raise ValueError(
+            f"{len(todo)} pair(s) kept losing their safe margins when rounded to {dtype}: "
+            f"offset/scale = {abs(spec.offset) / scale:.3g} is too large for this precision"
+        )
+    ans = intersect_pairs(o, d, tri)
+    codes = _classify(ans, d, tri)
+    if not np.array_equal(codes, kinds):  # construction and classification disagree: a bug
+        raise RuntimeError(f"{int((codes != kinds).sum())} pairs are not of the kind they were built as")
+    return Workload(
+        workload_id=workload_id,
+        spec=spec,
+        origins=o.astype(dtype),
+        directions=d.astype(dtype),
+        triangles=tri.astype(dtype),
+        ref_hit=ans.hit,
+        ref_t=np.where(ans.hit, ans.t, np.nan),
+        ref_edge_margin=ans.edge_margin,
+        achieved=_figures(spec, ans, codes, d, tri, redrawn),
+    )

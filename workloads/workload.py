@@ -1,0 +1,186 @@
+"""The workload record: arrays for the kernels plus float64 reference answers.
+
+A :class:`Workload` is what a spec generates and what the cache stores. Its
+arrays are read-only and C-contiguous:
+
+* ``origins (M, 3)``, ``directions (M, 3)`` (unit length) and
+  ``triangles (K, 3, 3)`` in the spec's dtype;
+* mode ``"pairs"`` (M == K, ray i against triangle i): ``ref_hit bool[M]``,
+  ``ref_t float64[M]`` (nan for misses) and ``ref_edge_margin float64[M]`` =
+  ``min(u, v, w)`` of the plane crossing (negative outside, nan when parallel);
+* mode ``"closest"`` (every ray against every triangle): ``ref_index
+  int64[M]`` (-1 for a miss, ties to the lowest index), ``ref_t float64[M]``
+  and ``ref_edge_margin float64[M]``: for a hit, the smallest ``|min(u, v,
+  w)|`` over its closest hit and any nearer near-miss; for a miss, minus the
+  smallest ``|min(u, v, w)|`` over the forward plane crossings tested (``-inf``
+  when none came near). Rays with a small ``|ref_edge_margin|`` are the ones a
+  finite-precision kernel may legitimately answer differently (camera rays
+  through shared edges are such rays by nature).
+
+The reference answers are those of the arrays as stored (rounded to the
+dtype), computed in float64 by :mod:`tribench.workloads.reference`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .spec import Spec
+
+__all__ = ["AMBIGUOUS_MARGIN", "Workload", "arrays_sha256", "library_versions"]
+
+#: Default ``|ref_edge_margin|`` below which a ray counts as ambiguous.
+AMBIGUOUS_MARGIN = 1e-5
+
+_ARRAY_NAMES = ("origins", "directions", "triangles", "ref_hit", "ref_index", "ref_t", "ref_edge_margin")
+
+
+def arrays_sha256(arrays: Mapping[str, np.ndarray]) -> str:
+    """sha256 over named arrays: name, dtype, shape and bytes, in name order.
+
+    Examples
+    --------
+    >>> a = {"x": np.zeros(2)}
+    >>> arrays_sha256(a) == arrays_sha256({"x": np.zeros(2, dtype=np.float32)})
+    False
+    """
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}|{a.dtype.str}|{a.shape}|".encode())
+        h.update(a.data)
+    return h.hexdigest()
+
+
+def library_versions(*names: str) -> dict[str, str]:
+    """Installed versions of the named distributions (recorded with each workload).
+
+    Examples
+    --------
+    >>> list(library_versions("numpy"))
+    ['numpy']
+    """
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for name in names:
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = "unknown"
+    return out
+
+
+def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        if isinstance(v, Mapping):
+            out.update(_flatten(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Workload:
+    """Arrays, reference answers and achieved figures of one spec.
+
+    ``achieved`` holds the figures actually reached, keyed like
+    ``spec.targets()`` for those that have a target, plus diagnostics.
+    """
+
+    workload_id: str
+    spec: Spec
+    origins: np.ndarray
+    directions: np.ndarray
+    triangles: np.ndarray
+    ref_t: np.ndarray
+    ref_edge_margin: np.ndarray
+    ref_hit: np.ndarray | None = None
+    ref_index: np.ndarray | None = None
+    achieved: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        dtype = np.dtype(self.spec.dtype)
+        m = len(self.origins)
+        want = {
+            "origins": (dtype, (m, 3)),
+            "directions": (dtype, (m, 3)),
+            "triangles": (dtype, (len(self.triangles), 3, 3)),
+            "ref_t": (np.float64, (m,)),
+            "ref_edge_margin": (np.float64, (m,)),
+        }
+        if self.mode == "pairs":
+            want["ref_hit"] = (np.bool_, (m,))
+            if len(self.triangles) != m:
+                raise ValueError(f"pairs need one triangle per ray, got {len(self.triangles)} for {m}")
+        else:
+            want["ref_index"] = (np.int64, (m,))
+        for name, (dt, shape) in want.items():
+            a = getattr(self, name)
+            if a is None or a.dtype != dt or a.shape != shape:
+                got = None if a is None else (a.dtype, a.shape)
+                raise ValueError(f"{name} must be {np.dtype(dt)} {shape}, got {got}")
+            a = np.ascontiguousarray(a)
+            a.setflags(write=False)  # shared with the cache and the kernels: never modified
+            object.__setattr__(self, name, a)
+
+    @property
+    def mode(self) -> str:
+        """``"pairs"`` (ray i vs triangle i) or ``"closest"`` (every ray vs every triangle)."""
+        return self.spec.mode
+
+    @property
+    def hits(self) -> np.ndarray:
+        """Boolean mask of the rays (or pairs) that hit, by the reference."""
+        return self.ref_hit if self.mode == "pairs" else self.ref_index >= 0
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The stored arrays by name (those that apply to the mode)."""
+        return {n: getattr(self, n) for n in _ARRAY_NAMES if getattr(self, n) is not None}
+
+    def checksum(self) -> str:
+        """sha256 of every array's name, dtype, shape and bytes."""
+        return arrays_sha256(self.arrays())
+
+    def expected_checksum(self) -> tuple[int, float]:
+        """``(hits, sum of t over the hits)`` in float64, the sum exactly rounded (``math.fsum``).
+
+        A kernel run over the workload should reproduce the count exactly and the
+        sum to within its precision (its own summation order aside).
+        """
+        hits = self.hits
+        return int(hits.sum()), math.fsum(self.ref_t[hits].tolist())
+
+    def ambiguous(self, margin: float = AMBIGUOUS_MARGIN) -> np.ndarray:
+        """Mask of the rays within ``margin`` (barycentric) of changing answer.
+
+        Parallel pairs (nan margin) are not ambiguous: no crossing exists.
+        """
+        with np.errstate(invalid="ignore"):
+            return np.abs(self.ref_edge_margin) < margin
+
+    def targets(self) -> dict[str, Any]:
+        """The spec's target figures (see ``achieved`` for what was reached)."""
+        return self.spec.targets()
+
+    def compare(self) -> list[tuple[str, Any, Any]]:
+        """``(figure, target, achieved)`` rows: targeted figures first, then the other achieved ones.
+
+        Nested figures are flattened with dotted names (``miss_mix.parallel``);
+        a figure without a target has target ``None``.
+        """
+        targets, achieved = _flatten(self.targets()), _flatten(dict(self.achieved))
+        rows = [(k, v, achieved.get(k)) for k, v in targets.items()]
+        return rows + [(k, None, v) for k, v in achieved.items() if k not in targets]
+
+    @property
+    def kind(self) -> str:
+        """``"pairs"`` or ``"mesh"``."""
+        return self.spec.kind
