@@ -64,6 +64,7 @@ typedef struct {
 
 typedef struct {
     const char *name;
+    int internal; /* from TB_INTERNAL_KERNEL_LIST: hidden from the user's list */
     tb_variant f32, f64;
 } tb_kernel;
 
@@ -76,9 +77,10 @@ typedef struct {
             TB_CAT(tb_##name##_time_pairs, suffix),                     \
             TB_CAT(tb_##name##_time_closest, suffix),                   \
     }
-#define TB_ENTRY(name) {#name, TB_VARIANT(name, _f32), TB_VARIANT(name, _f64)},
+#define TB_ENTRY(name) {#name, 0, TB_VARIANT(name, _f32), TB_VARIANT(name, _f64)},
+#define TB_INTERNAL_ENTRY(name) {#name, 1, TB_VARIANT(name, _f32), TB_VARIANT(name, _f64)},
 
-static const tb_kernel tb_kernels[] = {TB_KERNEL_LIST(TB_ENTRY)};
+static const tb_kernel tb_kernels[] = {TB_KERNEL_LIST(TB_ENTRY) TB_INTERNAL_KERNEL_LIST(TB_INTERNAL_ENTRY)};
 static const size_t tb_n_kernels = sizeof tb_kernels / sizeof tb_kernels[0];
 
 /* The variant for a kernel name and an item size (4 or 8), or NULL with a
@@ -139,22 +141,33 @@ static int64_t tb_now_ns(void)
     return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
 }
 
+#include "fma_peak.h"
+
 /* ------------------------------------------------------------- entry points */
 
-static PyObject *py_kernel_names(PyObject *Py_UNUSED(self), PyObject *Py_UNUSED(unused))
+/* kernel_names(internal=False): registry order, internal kernels only if asked */
+static PyObject *py_kernel_names(PyObject *Py_UNUSED(self), PyObject *args)
 {
-    PyObject *names = PyTuple_New((Py_ssize_t)tb_n_kernels);
+    int internal = 0;
+    if (!PyArg_ParseTuple(args, "|p:kernel_names", &internal))
+        return NULL;
+    PyObject *names = PyList_New(0);
     if (!names)
         return NULL;
     for (size_t i = 0; i < tb_n_kernels; ++i) {
+        if (tb_kernels[i].internal && !internal)
+            continue;
         PyObject *s = PyUnicode_FromString(tb_kernels[i].name);
-        if (!s) {
+        if (!s || PyList_Append(names, s) < 0) {
+            Py_XDECREF(s);
             Py_DECREF(names);
             return NULL;
         }
-        PyTuple_SET_ITEM(names, (Py_ssize_t)i, s);
+        Py_DECREF(s);
     }
-    return names;
+    PyObject *tuple = PyList_AsTuple(names);
+    Py_DECREF(names);
+    return tuple;
 }
 
 static PyObject *py_stride(PyObject *Py_UNUSED(self), PyObject *args)
@@ -296,6 +309,24 @@ done:
     return result;
 }
 
+/* fma_peak(iterations, force_scalar) -> (flops, elapsed_ns, isa, sink) */
+static PyObject *py_fma_peak(PyObject *Py_UNUSED(self), PyObject *args)
+{
+    long long iterations;
+    int force_scalar = 0;
+    if (!PyArg_ParseTuple(args, "L|p:fma_peak", &iterations, &force_scalar))
+        return NULL;
+    if (iterations < 1) {
+        PyErr_Format(PyExc_ValueError, "iterations must be at least 1, got %lld", iterations);
+        return NULL;
+    }
+    tb_peak r;
+    Py_BEGIN_ALLOW_THREADS
+    r = tb_fma_peak((uint64_t)iterations, force_scalar);
+    Py_END_ALLOW_THREADS
+    return Py_BuildValue("dLsd", r.flops, (long long)r.elapsed_ns, r.isa, r.sink);
+}
+
 static PyObject *py_build_info(PyObject *Py_UNUSED(self), PyObject *Py_UNUSED(unused))
 {
     struct timespec res;
@@ -327,7 +358,10 @@ static PyObject *py_build_info(PyObject *Py_UNUSED(self), PyObject *Py_UNUSED(un
 }
 
 static PyMethodDef tb_methods[] = {
-    {"kernel_names", py_kernel_names, METH_NOARGS, "Registered kernel names."},
+    {"kernel_names", py_kernel_names, METH_VARARGS,
+     "kernel_names(internal=False): registered kernel names."},
+    {"fma_peak", py_fma_peak, METH_VARARGS,
+     "fma_peak(iterations, force_scalar=False) -> (flops, elapsed_ns, isa, sink)."},
     {"stride", py_stride, METH_VARARGS, "stride(name): reals per prepared triangle."},
     {"prepare", py_prepare, METH_VARARGS,
      "prepare(name, itemsize, vertices, n, out): fill a kernel's records."},

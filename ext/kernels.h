@@ -20,6 +20,8 @@
 #include "kernels/moller_seed.h"
 #include "kernels/curless.h"
 #include "kernels/moller_trumbore.h"
+#include "kernels/moller_trumbore_aa.h"
+#include "kernels/moller_trumbore_twice.h"
 
 /* The four loops of one kernel. `always_inline` plus a constant function
  * pointer lets GCC and Clang inline the test into each instantiation. */
@@ -122,6 +124,7 @@ TB_FN(tb_time_closest)(TB_FN(tb_test_fn) test, size_t stride, tb_job *job)
         TB_FN(tb_time_closest)(TB_FN(tb_##name##_test), tb_##name##_stride, job); \
     }
 TB_KERNEL_LIST(TB_INSTANTIATE)
+TB_INTERNAL_KERNEL_LIST(TB_INSTANTIATE)
 #undef TB_INSTANTIATE
 
 #undef TB_FN

@@ -8,6 +8,7 @@ prints one line to stderr and exits 2, without a traceback.
 from __future__ import annotations
 
 import argparse
+import datetime as _dt
 import sys
 
 
@@ -40,6 +41,157 @@ def _info(args: argparse.Namespace) -> int:
     return 0
 
 
+# ------------------------------------------------------------------ sweep
+
+
+def _split(text: str | None, kind=str) -> list:
+    """Comma-separated list; a bad item is a ValueError naming it."""
+    if text is None:
+        return []
+    items = []
+    for item in (t.strip() for t in text.split(",")):
+        if not item:
+            continue
+        try:
+            items.append(kind(item))
+        except ValueError:
+            raise ValueError(f"bad list item {item!r} in {text!r}") from None
+    return items
+
+
+def _camera(text: str) -> tuple[int, int]:
+    width, sep, height = text.lower().partition("x")
+    try:
+        return int(width), int(height)
+    except ValueError:
+        raise ValueError(f"--camera must be WIDTHxHEIGHT, e.g. 64x64, got {text!r}") from None
+
+
+def _workloads_from_flags(args: argparse.Namespace) -> list:
+    """The workload grid of the sweep flags (see `tribench sweep --help`)."""
+    from tribench.workloads.spec import MeshSpec, PairSpec
+
+    dtypes = _split(args.dtype) or ["float64"]
+    specs: list = []
+    if not args.mesh or args.pairs is not None:
+        for h in _split(args.hit_rates, float) or [0.5]:
+            specs += [PairSpec(n=args.pairs or 10_000, hit_rate=h, dtype=d) for d in dtypes]
+    width, height = _camera(args.camera)
+    for mesh in _split(args.mesh):
+        for triangles in _split(args.triangles, int) or [None]:
+            specs += [MeshSpec(mesh, triangles=triangles, width=width, height=height, dtype=d) for d in dtypes]
+    return specs
+
+
+def _sweep_from_args(args: argparse.Namespace):
+    from tribench import ext
+
+    from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP, Sweep, load_sweep_file
+
+    design = {"processes": args.processes, "rounds": args.rounds, "warmup": args.warmup,
+              "target_ms": args.target_ms, "seed": args.seed}
+    if args.file:
+        return load_sweep_file(args.file, {**design, "kernels": _split(args.kernels) or None})
+    defaults = {"processes": DEFAULT_PROCESSES, "rounds": DEFAULT_ROUNDS, "warmup": DEFAULT_WARMUP,
+                "target_ms": DEFAULT_TARGET_MS, "seed": 0}
+    design = {k: defaults[k] if v is None else v for k, v in design.items()}
+    kernels = tuple(_split(args.kernels)) or ext.kernel_names()
+    return Sweep(kernels, tuple(_workloads_from_flags(args)), **design)
+
+
+def _report_run(result, stream=sys.stderr) -> None:
+    print(f"{result.batches_run} batches run in {result.elapsed_s:.1f} s; "
+          f"{result.batches_done}/{result.batches_total} in {result.run_dir}", file=stream)
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from . import runner
+
+    progress = False if args.no_progress else None
+    try:
+        if args.resume:
+            if any(getattr(args, k) is not None for k in _SWEEP_DESIGN_FLAGS):
+                raise ValueError("--resume takes no other sweep options: the run's own sweep is used")
+            result = runner.resume(args.resume, progress=progress)
+        else:
+            sweep = _sweep_from_args(args)
+            out = args.out or f"runs/{_dt.datetime.now():%Y%m%d-%H%M%S}"
+            print(f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
+                  f"{sweep.processes} processes x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
+                  f"{sweep.n_batches} batches -> {out}", file=sys.stderr)
+            result = runner.start(sweep, out, cpu=args.cpu, progress=progress)
+    except runner.SweepError as exc:
+        print(f"tribench sweep: error: {exc}", file=sys.stderr)
+        return 1
+    except runner.SweepInterrupted as exc:
+        print(f"tribench sweep: {exc}", file=sys.stderr)
+        return 130
+    _report_run(result)
+    print(f"next: tribench stats {result.run_dir}", file=sys.stderr)
+    return 0
+
+
+_SWEEP_DESIGN_FLAGS = ("file", "kernels", "hit_rates", "pairs", "mesh", "triangles", "dtype", "processes",
+                       "rounds", "warmup", "target_ms", "seed", "cpu", "out")
+
+
+def _add_design_flags(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--processes", type=int, help="worker processes, the replicates (default 10)")
+    p.add_argument("--rounds", type=int, help="timed rounds per workload per process (default 5)")
+    p.add_argument("--warmup", type=int, help="warm-up rounds per workload per process (default 1)")
+    p.add_argument("--target-ms", type=float, help="wanted length of one batch in ms (default 2)")
+    p.add_argument("--seed", type=int, help="seed of the plan and the layout randomisation (default 0)")
+
+
+# ------------------------------------------------------------------ stats
+
+
+def _stats(args: argparse.Namespace) -> int:
+    from .analysis import analyse, format_tables, write_tables
+
+    analysis = analyse(args.run_dir, baseline=args.baseline, margin=args.margin)
+    paths = write_tables(args.run_dir, analysis)
+    print(format_tables(analysis))
+    print(f"wrote {paths[0]} and {paths[1]}", file=sys.stderr)
+    return 0
+
+
+# -------------------------------------------------------------- calibrate
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    from . import runner
+    from .calibration import calibrate, user_calibration_path
+
+    workloads = ()
+    if args.workload:
+        from tribench.workloads import cache
+
+        workloads = (cache.load(cache.resolve_id(args.workload)).spec,)
+    out = args.out or f"runs/calibrate-{_dt.datetime.now():%Y%m%d-%H%M%S}"
+    kwargs = {k: v for k, v in {"rounds": args.rounds, "warmup": args.warmup, "target_ms": args.target_ms,
+                                "seed": args.seed, "processes": args.processes,
+                                "experiments": args.experiments}.items() if v is not None}
+    try:
+        cal = calibrate(out, kernel=args.kernel, workloads=workloads, save=not args.no_save,
+                        progress=False if args.no_progress else None, **kwargs)
+    except runner.SweepError as exc:
+        print(f"tribench calibrate: error: {exc}", file=sys.stderr)
+        return 1
+    except runner.SweepInterrupted as exc:
+        print(f"tribench calibrate: {exc}", file=sys.stderr)
+        return 130
+    print(f"A/A: {cal['kernel']} vs {cal['copy']}, {cal['experiments']} comparisons of "
+          f"{cal['processes_per_experiment']} processes each")
+    print(f"  coverage of 1          {100 * cal['coverage']:.0f}%  (intervals are 95%)")
+    print(f"  false positives        {100 * cal['false_positive_rate']:.0f}%  (expected 5%)")
+    print(f"  p-values vs uniform    KS {cal['ks_statistic']:.3f}, p = {cal['ks_p_value']:.3f}")
+    print(f"  noise floor            {cal['noise_floor']:.4f} (log), margin {100 * cal['margin']:.2f}%")
+    saved = "" if args.no_save else f" and {user_calibration_path()}"
+    print(f"wrote {out}/calibration.json{saved}", file=sys.stderr)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .machine import version
 
@@ -51,6 +203,60 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     info = sub.add_parser("info", help="version, build flags, CPU and SIMD features, kernel list")
     info.set_defaults(func=_info)
+
+    sweep = sub.add_parser(
+        "sweep",
+        help="time kernels x workloads in fresh worker processes; write a run folder",
+        description="Time every kernel on every workload: replicates are fresh worker processes "
+        "pinned to one CPU, rounds run every kernel once in a random order, every batch's checksum "
+        "is checked. Workloads come from a TOML file (--file) or from the flags: pairs at each "
+        "hit rate and precision, and with --mesh, camera rays on each mesh, triangle count and "
+        "precision. Results: RUN_DIR/batches.csv (one row per batch, appended as it finishes), "
+        "processes.csv, run.json.",
+    )
+    sweep.add_argument("--out", metavar="RUN_DIR", help="new run folder (default runs/<date-time>)")
+    sweep.add_argument("--resume", metavar="RUN_DIR", help="finish the missing batches of an interrupted run")
+    sweep.add_argument("--file", metavar="SWEEP.toml", help="sweep file (flags given too override its values)")
+    sweep.add_argument("--kernels", metavar="A,B", help="kernels (default: all of `tribench info`)")
+    sweep.add_argument("--hit-rates", metavar="H,..", help="per-test hit rates of pair workloads (default 0.5)")
+    sweep.add_argument("--pairs", type=int, metavar="N", help="pairs per pair workload (default 10000)")
+    sweep.add_argument("--mesh", metavar="NAME,..", help="mesh workloads (suzanne, icosphere, ... or a file)")
+    sweep.add_argument("--triangles", metavar="K,..", help="triangle counts of the meshes (default: base mesh)")
+    sweep.add_argument("--camera", metavar="WxH", default="64x64", help="camera rays of mesh workloads (64x64)")
+    sweep.add_argument("--dtype", metavar="float32,float64", help="precisions (default float64)")
+    _add_design_flags(sweep)
+    sweep.add_argument("--cpu", type=int, help="CPU to pin workers to (default: the last usable one)")
+    sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
+    sweep.set_defaults(func=_sweep)
+
+    st = sub.add_parser("stats", help="estimates.csv and speedups.csv of a run (never re-measures)")
+    st.add_argument("run_dir", metavar="RUN_DIR")
+    st.add_argument("--baseline", metavar="NAME", help="baseline kernel (default moller_seed, else the first)")
+    st.add_argument("--margin", type=float, help="equivalence margin (default: the one run.json records)")
+    st.set_defaults(func=_stats)
+
+    cal = sub.add_parser(
+        "calibrate",
+        help="A/A calibration: a kernel against its identical copy; sets the equivalence margin",
+        description="Times KERNEL against its copy compiled under another name, in EXPERIMENTS "
+        "groups of PROCESSES processes; reports the coverage of 1, the A/A p-values and the noise "
+        "floor, and saves the margin that later sweeps on this CPU use.",
+    )
+    cal.add_argument("--kernel", default="moller_trumbore", help="kernel with an A/A copy (moller_trumbore)")
+    cal.add_argument("--workload", metavar="ID", help="cached workload id or prefix (default: 10000 pairs, hit rate 0.5)")
+    cal.add_argument("--experiments", type=int, help="number of A/A comparisons (default 10)")
+    cal.add_argument("--out", metavar="DIR", help="run folder (default runs/calibrate-<date-time>)")
+    cal.add_argument("--no-save", action="store_true", help="do not update the user-level calibration")
+    cal.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_design_flags(cal)
+    cal.set_defaults(func=_calibrate)
+
+    try:
+        from tribench.workloads.cli import add_parser as add_workloads
+    except ImportError:  # the workloads command is optional
+        add_workloads = None
+    if add_workloads is not None:
+        add_workloads(sub)
     return parser
 
 

@@ -9,3 +9,12 @@
     X(moller_seed)        \
     X(curless)            \
     X(moller_trumbore)
+
+/* Internal kernels: honesty checks of the harness, not algorithms to compare.
+ * They are compiled and callable like any kernel but kept out of the user's
+ * list (tribench.ext.kernel_names() leaves them out; kernel_names(internal=True)
+ * includes them). moller_trumbore_aa is an A/A copy of moller_trumbore,
+ * moller_trumbore_twice does each of its tests twice (a known 2x effect). */
+#define TB_INTERNAL_KERNEL_LIST(X) \
+    X(moller_trumbore_aa)          \
+    X(moller_trumbore_twice)

@@ -1,0 +1,17 @@
+/* moller_trumbore_aa: moller_trumbore compiled a second time under another name.
+ *
+ * Internal kernel (TB_INTERNAL_KERNEL_LIST), for the A/A calibration of
+ * `tribench calibrate`: the same source compiled twice is the same algorithm
+ * as a separate function with its own code layout, so any difference the
+ * harness measures between the two is noise (layout, alignment, drift) and
+ * sets the equivalence margin. The source is included again with its test
+ * renamed, which defines a new function (not an alias: the built module has
+ * the two at different addresses). See moller_trumbore.h for the algorithm. */
+
+#define tb_moller_trumbore_test tb_moller_trumbore_aa_test
+#include "moller_trumbore.h"
+#undef tb_moller_trumbore_test
+
+#define tb_moller_trumbore_aa_stride tb_moller_trumbore_stride
+#define tb_moller_trumbore_aa_prepare_f32 tb_prepare_vertices_f32
+#define tb_moller_trumbore_aa_prepare_f64 tb_prepare_vertices_f64

@@ -1,0 +1,137 @@
+"""``tribench stats``: estimates and speedups of a run, from its files alone.
+
+Reads ``batches.csv``, ``processes.csv`` and ``run.json``; never measures.
+All statistics come from :mod:`tribench.harness.stats`.
+
+``estimates.csv``: the columns of :func:`~tribench.harness.stats.estimate_table`
+(``kernel, workload_id, mean, ci_low, ci_high, bootstrap_low, bootstrap_high,
+minimum, sd, n, confidence``; times in ns per ray-triangle test), then
+``workload`` (the spec's one-line summary), ``peak_gflops`` (mean FMA peak of
+the processes) and ``peak_flops_per_test, peak_flops_per_test_ci_low,
+peak_flops_per_test_ci_high``: the cost of one test in flops at the machine's
+peak of that moment (``ns_per_test * peak_gflops`` per process, then the same
+t-interval), a machine-normalised figure steadier than raw time.
+
+``speedups.csv``: the columns of :func:`~tribench.harness.stats.speedup_table`
+(``workload_id, kernel, baseline, ratio, ci_low, ci_high, p_value, p_holm, n,
+confidence, margin, verdict``), then ``workload`` and ``margin_source``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from . import records, stats
+from .calibration import Margin
+
+__all__ = ["Analysis", "analyse", "format_tables", "write_tables", "ESTIMATES", "SPEEDUPS"]
+
+ESTIMATES = "estimates.csv"
+SPEEDUPS = "speedups.csv"
+DEFAULT_BASELINE = "moller_seed"
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """Tables of one run and the choices behind them."""
+
+    estimates: pd.DataFrame
+    speedups: pd.DataFrame
+    baseline: str
+    margin: Margin
+    batches: int
+    processes: int
+
+
+def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | None = None) -> Analysis:
+    """Estimates and speedups of ``run_dir``.
+
+    Parameters
+    ----------
+    baseline : str, optional
+        Default ``moller_seed`` if the run has it, else the sweep's first kernel.
+    margin : float, optional
+        Equivalence margin; default the one recorded in ``run.json``.
+    """
+    run = records.read_run(run_dir)
+    batches = records.read_batches(run_dir)
+    timed = batches.loc[~batches["warmup"]]
+    if timed.empty:
+        raise ValueError(f"{run_dir} has no timed batches yet")
+    kernels = [k for k in run["sweep"]["kernels"] if k in set(timed["kernel"])]
+    if baseline is None:
+        baseline = DEFAULT_BASELINE if DEFAULT_BASELINE in kernels else kernels[0]
+    elif baseline not in kernels:
+        raise ValueError(f"baseline {baseline!r} is not in this run; its kernels: {', '.join(kernels)}")
+    m = (Margin(margin, "--margin") if margin is not None
+         else Margin(run["margin"]["value"], run["margin"]["source"]))
+    names = {wid: _summary(spec) for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"])}
+
+    table = stats.per_process(batches)
+    estimates = stats.estimate_table(table)
+    estimates["workload"] = estimates["workload_id"].map(names)
+    estimates = estimates.join(_peak_columns(table, records.read_processes(run_dir)),
+                               on=["kernel", "workload_id"])
+    speedups = stats.speedup_table(table, baseline, margin=m.value)
+    speedups["workload"] = speedups["workload_id"].map(names)
+    speedups["margin_source"] = m.source
+    return Analysis(estimates, speedups, baseline, m, len(batches), int(table["process"].nunique()))
+
+
+def _summary(spec: dict) -> str:
+    from tribench.workloads.spec import spec_from_dict
+
+    return spec_from_dict(spec).summary()
+
+
+def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame) -> pd.DataFrame:
+    """Per kernel and workload: mean peak and cost in peak flops per test."""
+    columns = ["peak_gflops", "peak_flops_per_test", "peak_flops_per_test_ci_low", "peak_flops_per_test_ci_high"]
+    if processes.empty:
+        return pd.DataFrame(columns=["kernel", "workload_id", *columns]).set_index(["kernel", "workload_id"])
+    peak = processes.groupby("process")["peak_gflops"].mean().rename("peak_gflops")
+    joined = table.join(peak, on="process").dropna(subset=["peak_gflops"])
+    scaled = joined.assign(ns_per_test=joined["ns_per_test"] * joined["peak_gflops"])
+    est = stats.estimate_table(scaled).set_index(["kernel", "workload_id"])
+    out = pd.DataFrame({
+        "peak_gflops": joined.groupby(["kernel", "workload_id"])["peak_gflops"].mean(),
+        "peak_flops_per_test": est["mean"],
+        "peak_flops_per_test_ci_low": est["ci_low"],
+        "peak_flops_per_test_ci_high": est["ci_high"],
+    })
+    return out
+
+
+def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
+    """Write ``estimates.csv`` and ``speedups.csv`` into ``run_dir``."""
+    run_dir = Path(run_dir)
+    paths = run_dir / ESTIMATES, run_dir / SPEEDUPS
+    analysis.estimates.to_csv(paths[0], index=False)
+    analysis.speedups.to_csv(paths[1], index=False)
+    return paths
+
+
+def format_tables(analysis: Analysis) -> str:
+    """A compact terminal table of estimates, then speedups with verdicts."""
+    lines = [f"{analysis.batches} batches, {analysis.processes} processes; "
+             f"intervals {100 * stats.DEFAULTS.confidence:g}% (speedups: simultaneous, Bonferroni)"]
+    est, spd = analysis.estimates, analysis.speedups
+    for wid in est["workload_id"].unique():
+        rows = est.loc[est["workload_id"] == wid]
+        lines += ["", f"{wid}  {rows['workload'].iloc[0]}",
+                  f"  {'kernel':<24}{'ns/test':>9}  {'95% CI':<19}{'min':>8}{'flops@peak':>12}"]
+        for r in rows.itertuples(index=False):
+            ci = f"[{r.ci_low:.3f}, {r.ci_high:.3f}]"
+            flops = f"{r.peak_flops_per_test:.1f}" if pd.notna(r.peak_flops_per_test) else "-"
+            lines.append(f"  {r.kernel:<24}{r.mean:9.3f}  {ci:<19}{r.minimum:8.3f}{flops:>12}")
+        sub = spd.loc[spd["workload_id"] == wid]
+        if not sub.empty:
+            lines.append(f"  speedup over {analysis.baseline} (time_{analysis.baseline} / time_kernel):")
+            for r in sub.itertuples(index=False):
+                ci = f"[{r.ci_low:.3f}, {r.ci_high:.3f}]"
+                lines.append(f"  {r.kernel:<24}{r.ratio:9.3f}  {ci:<19}  {r.verdict}")
+    lines += ["", f"equivalence margin {100 * analysis.margin.value:.2f}% from {analysis.margin.source}"]
+    return "\n".join(lines)

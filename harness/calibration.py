@@ -1,0 +1,159 @@
+"""A/A calibration: how large a speedup this machine shows between identical code.
+
+``tribench calibrate`` times a kernel against its ``_aa`` copy (the same
+source compiled under another name, see ``ext/kernels/moller_trumbore_aa.h``)
+in the normal protocol. Its processes are split into ``experiments`` disjoint
+groups of ``processes`` each; each group gives one A/A speedup with its
+interval, exactly as a sweep of that many processes would. From those,
+:func:`tribench.harness.stats.aa_summary` gives the coverage of 1, the
+distribution of the p-values (KS test against uniform) and the noise floor,
+whose relative form is the equivalence margin later verdicts use.
+
+The result goes to ``RUN_DIR/calibration.json`` and to a user-level file
+(:func:`user_calibration_path`); a sweep on the same CPU model takes its margin
+from there, else ``stats.DEFAULTS.margin``, and records which in ``run.json``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from .stats import DEFAULTS
+
+__all__ = ["AA_COPIES", "Margin", "aa_speedups", "calibrate", "latest_margin", "user_calibration_path"]
+
+#: Kernels that have an A/A copy, and its name.
+AA_COPIES = {"moller_trumbore": "moller_trumbore_aa"}
+
+CALIBRATION = "calibration.json"
+
+
+@dataclass(frozen=True)
+class Margin:
+    """An equivalence margin (relative, 0.01 = 1 %) and where it came from."""
+
+    value: float
+    source: str
+
+
+def user_calibration_path() -> Path:
+    """The latest calibration of this user: next to the workload cache.
+
+    ``$TRIBENCH_CACHE/../calibration.json`` when ``TRIBENCH_CACHE`` is set,
+    else ``~/.cache/tribench/calibration.json``.
+    """
+    cache = os.environ.get("TRIBENCH_CACHE")
+    base = Path(cache).expanduser().parent if cache else Path("~/.cache/tribench").expanduser()
+    return base / CALIBRATION
+
+
+def latest_margin(cpu_model: str | None = None) -> Margin:
+    """The latest calibration's margin, if it was measured on ``cpu_model``; else the default.
+
+    >>> m = latest_margin("no such cpu")
+    >>> m.value == DEFAULTS.margin and m.source.startswith("default")
+    True
+    """
+    path = user_calibration_path()
+    try:
+        cal = json.loads(path.read_text())
+        value = float(cal["margin"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return Margin(DEFAULTS.margin, "default (stats.DEFAULTS.margin: no calibration found)")
+    if cpu_model is not None and cal.get("cpu_model") != cpu_model:
+        return Margin(DEFAULTS.margin, f"default (stats.DEFAULTS.margin: {path} is for another CPU)")
+    return Margin(value, f"calibration {path} ({cal.get('created', '?')}, run {cal.get('run_dir', '?')})")
+
+
+def aa_speedups(batches: Any, kernel: str, copy: str, processes: int) -> list:
+    """One A/A :class:`~tribench.harness.stats.Speedup` per group of ``processes``
+    consecutive process indices and per workload (incomplete groups are left out)."""
+    from . import stats
+
+    table = stats.per_process(batches)
+    out = []
+    for _, group in table.groupby("workload_id", sort=True):
+        wide = group.pivot(index="process", columns="kernel", values="ns_per_test").dropna()
+        wide = wide.assign(experiment=wide.index // processes)
+        for _, exp in wide.groupby("experiment"):
+            if len(exp) == processes:
+                out.append(stats.speedup(exp[kernel], exp[copy]))
+    return out
+
+
+def calibrate(
+    run_dir: str | Path,
+    *,
+    kernel: str = "moller_trumbore",
+    workloads: tuple = (),
+    processes: int = 10,
+    experiments: int = 10,
+    rounds: int = 5,
+    warmup: int = 1,
+    target_ms: float = 2.0,
+    seed: int = 0,
+    progress: bool | None = None,
+    save: bool = True,
+) -> dict[str, Any]:
+    """Run an A/A calibration into ``run_dir`` and return its record.
+
+    Parameters
+    ----------
+    kernel : str
+        A kernel of :data:`AA_COPIES`.
+    workloads : tuple of specs
+        Default: 10 000 pairs at hit rate 0.5, float64.
+    processes : int
+        Processes per A/A comparison (use the number your sweeps use).
+    experiments : int
+        Number of A/A comparisons (``processes * experiments`` processes run).
+    save : bool
+        Also write the user-level calibration file.
+    """
+    from . import records, runner
+    from .machine import cpu_model
+    from .plan import Sweep
+    from .stats import aa_summary
+    from tribench.workloads.spec import PairSpec
+
+    if kernel not in AA_COPIES:
+        raise ValueError(f"no A/A copy of {kernel!r}; kernels with one: {', '.join(AA_COPIES)}")
+    if processes < 2 or experiments < 1:
+        raise ValueError("an A/A calibration needs processes >= 2 and experiments >= 1")
+    copy = AA_COPIES[kernel]
+    sweep = Sweep((kernel, copy), tuple(workloads) or (PairSpec(n=10_000, hit_rate=0.5),),
+                  processes=processes * experiments, rounds=rounds, warmup=warmup,
+                  target_ms=target_ms, seed=seed)
+    run_dir = Path(run_dir)
+    # an A/A run records the default margin: the margin is what it measures
+    runner.start(sweep, run_dir, margin=Margin(DEFAULTS.margin, "default (this is a calibration run)"),
+                 progress=progress, extra={"calibration": {"kernel": kernel, "copy": copy,
+                                                            "processes_per_experiment": processes}})
+    results = aa_speedups(records.read_batches(run_dir), kernel, copy, processes)
+    summary = aa_summary(results)
+    record = {
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "cpu_model": cpu_model(),
+        "kernel": kernel,
+        "copy": copy,
+        "processes_per_experiment": processes,
+        "experiments": len(results),
+        "run_dir": str(run_dir.resolve()),
+        **asdict(summary),
+        "ratios": [r.ratio for r in results],
+        "p_values": [r.p_value for r in results],
+    }
+    text = json.dumps(record, indent=2, allow_nan=False) + "\n"
+    (run_dir / CALIBRATION).write_text(text)
+    if save:
+        path = user_calibration_path()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".json.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    return record

@@ -1,0 +1,273 @@
+"""What a sweep measures, and in which order: the sweep spec and its batch plan.
+
+A :class:`Sweep` is a grid of kernels x workload specs plus the design
+(processes, rounds, warm-up rounds, batch length, seed). :func:`plan` expands
+it into the exact list of batches to run, in execution order, as
+:class:`BatchKey` values. The plan is a pure function of the sweep, so a
+resumed run knows exactly which batches are missing (see
+:func:`tribench.harness.runner.resume`).
+
+Order inside one process (the replicate):
+
+* the workloads in a random order (one block of rounds per workload, so all
+  kernels share the same buffers while it lasts);
+* for each workload, ``warmup`` warm-up rounds (numbered ``-warmup .. -1``,
+  labelled ``warmup=True`` and kept), then ``rounds`` timed rounds
+  (``0 .. rounds-1``);
+* in every round each kernel runs once, in a fresh random order.
+
+Every random choice comes from :func:`process_seed`, derived from the sweep
+seed and the process index only, so the plan is reproducible.
+
+Sweep files are TOML (read with :mod:`tomllib`)::
+
+    kernels = ["moller_trumbore", "curless"]
+    processes = 10
+    rounds = 5
+    warmup = 1
+    target_ms = 2.0
+    seed = 1
+
+    [[workloads]]            # lists expand to every combination
+    kind = "pairs"
+    n = 10000
+    hit_rate = [0.1, 0.5, 0.9]
+    dtype = ["float32", "float64"]
+
+    [[workloads]]
+    kind = "mesh"
+    mesh = "suzanne"
+    triangles = [100, 968]
+    width = 64
+    height = 64
+"""
+
+from __future__ import annotations
+
+import itertools
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tribench.workloads.spec import Spec, spec_from_dict, workload_id
+
+__all__ = [
+    "BatchKey",
+    "Sweep",
+    "expand_workloads",
+    "load_sweep_file",
+    "plan",
+    "process_seed",
+]
+
+# Defaults of a sweep, in one place: about 10 s per process-minute budget on a
+# laptop core, and enough processes for a t-interval with 9 degrees of freedom.
+DEFAULT_PROCESSES = 10
+DEFAULT_ROUNDS = 5
+DEFAULT_WARMUP = 1
+DEFAULT_TARGET_MS = 2.0
+
+
+@dataclass(frozen=True, order=True)
+class BatchKey:
+    """The identity of one batch: unique within a run.
+
+    ``round < 0`` is a warm-up round.
+    """
+
+    process: int
+    workload_id: str
+    round: int
+    position: int
+    kernel: str
+
+    @property
+    def warmup(self) -> bool:
+        return self.round < 0
+
+    def to_list(self) -> list:
+        """Compact JSON form, as the worker receives it."""
+        return [self.process, self.workload_id, self.round, self.position, self.kernel]
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A grid of kernels x workloads and the design that measures it.
+
+    Parameters
+    ----------
+    kernels : tuple of str
+        Kernel names (internal kernels allowed: the harness's own checks use them).
+    workloads : tuple of PairSpec or MeshSpec
+    processes : int
+        Replicates: fresh worker processes, run one at a time.
+    rounds : int
+        Timed rounds per workload per process.
+    warmup : int
+        Warm-up rounds per workload per process (kept, labelled).
+    target_ms : float
+        Wanted length of one batch; ``loops`` is calibrated to it once per
+        kernel, workload and process.
+    seed : int
+        Seed of every random choice of the plan and of the layout randomisation.
+    """
+
+    kernels: tuple[str, ...]
+    workloads: tuple[Spec, ...]
+    processes: int = DEFAULT_PROCESSES
+    rounds: int = DEFAULT_ROUNDS
+    warmup: int = DEFAULT_WARMUP
+    target_ms: float = DEFAULT_TARGET_MS
+    seed: int = 0
+    workload_ids: tuple[str, ...] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        from tribench import ext
+
+        put = object.__setattr__  # frozen: normalise once, here
+        put(self, "kernels", tuple(self.kernels))
+        put(self, "workloads", tuple(self.workloads))
+        if not self.kernels:
+            raise ValueError("a sweep needs at least one kernel")
+        known = ext.kernel_names(internal=True)
+        for k in self.kernels:
+            if k not in known:
+                raise ValueError(f"unknown kernel {k!r}; known kernels: {', '.join(ext.kernel_names())}")
+        if len(set(self.kernels)) != len(self.kernels):
+            raise ValueError(f"kernels listed twice: {', '.join(self.kernels)}")
+        if not self.workloads:
+            raise ValueError("a sweep needs at least one workload")
+        ids = tuple(workload_id(s) for s in self.workloads)
+        if len(set(ids)) != len(ids):
+            raise ValueError("the same workload is listed twice")
+        put(self, "workload_ids", ids)
+        for name, lo in (("processes", 1), ("rounds", 1), ("warmup", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < lo:
+                raise ValueError(f"{name} must be an integer >= {lo}, got {value!r}")
+        if not (isinstance(self.target_ms, (int, float)) and 0.01 <= self.target_ms <= 1000):
+            raise ValueError(f"target_ms must be between 0.01 and 1000, got {self.target_ms!r}")
+        put(self, "target_ms", float(self.target_ms))
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
+
+    @property
+    def n_batches(self) -> int:
+        return self.processes * len(self.workloads) * (self.warmup + self.rounds) * len(self.kernels)
+
+    def spec_of(self, wid: str) -> Spec:
+        return self.workloads[self.workload_ids.index(wid)]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form; :meth:`from_dict` inverts it."""
+        return {
+            "kernels": list(self.kernels),
+            "workloads": [s.to_dict() for s in self.workloads],
+            "workload_ids": list(self.workload_ids),
+            "processes": self.processes,
+            "rounds": self.rounds,
+            "warmup": self.warmup,
+            "target_ms": self.target_ms,
+            "seed": self.seed,
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Sweep":
+        return cls(
+            kernels=tuple(d["kernels"]),
+            workloads=tuple(spec_from_dict(w) for w in d["workloads"]),
+            processes=d["processes"],
+            rounds=d["rounds"],
+            warmup=d["warmup"],
+            target_ms=d["target_ms"],
+            seed=d["seed"],
+        )
+
+
+def process_seed(seed: int, process: int) -> int:
+    """The seed of one process's random choices (kernel orders, layout).
+
+    >>> process_seed(0, 3) == process_seed(0, 3) != process_seed(0, 4)
+    True
+    """
+    return int(np.random.SeedSequence([seed, process]).generate_state(1, np.uint64)[0])
+
+
+def plan(sweep: Sweep) -> list[BatchKey]:
+    """Every batch of ``sweep``, in execution order.
+
+    Examples
+    --------
+    >>> from tribench.workloads.spec import PairSpec
+    >>> s = Sweep(("moller_trumbore", "curless"), (PairSpec(n=10),), processes=2, rounds=2)
+    >>> keys = plan(s)
+    >>> len(keys) == s.n_batches == 2 * 1 * 3 * 2
+    True
+    >>> keys == plan(s), len(set(keys)) == len(keys)
+    (True, True)
+    >>> [k.round for k in keys[:6]]
+    [-1, -1, 0, 0, 1, 1]
+    """
+    keys = []
+    for p in range(sweep.processes):
+        rng = np.random.default_rng(process_seed(sweep.seed, p))
+        for w in rng.permutation(len(sweep.workloads)):
+            wid = sweep.workload_ids[w]
+            for r in range(-sweep.warmup, sweep.rounds):
+                order = rng.permutation(len(sweep.kernels))
+                keys += [BatchKey(p, wid, r, pos, sweep.kernels[k]) for pos, k in enumerate(order)]
+    return keys
+
+
+def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
+    """One spec per combination of the list-valued fields of a workload table.
+
+    >>> specs = expand_workloads({"kind": "pairs", "n": 10, "hit_rate": [0.1, 0.9],
+    ...                           "dtype": ["float32", "float64"]})
+    >>> [(s.hit_rate, s.dtype) for s in specs]
+    [(0.1, 'float32'), (0.1, 'float64'), (0.9, 'float32'), (0.9, 'float64')]
+    """
+    # miss_mix may legitimately be a table; only lists are grid axes.
+    axes = {k: v for k, v in table.items() if isinstance(v, list)}
+    fixed = {k: v for k, v in table.items() if k not in axes}
+    if any(len(v) == 0 for v in axes.values()):
+        raise ValueError("an empty list in a workload table gives no workloads")
+    return [spec_from_dict({**fixed, **dict(zip(axes, combo))}) for combo in itertools.product(*axes.values())]
+
+
+def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Sweep:
+    """Read a TOML sweep file (see the module docstring).
+
+    ``overrides`` (e.g. from command-line flags) replace the file's top-level
+    values; ``None`` values are ignored.
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise FileNotFoundError(f"no sweep file {path}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: not valid TOML ({exc})") from None
+    allowed = {"kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed"}
+    unknown = sorted(set(data) - allowed)
+    if unknown:
+        raise ValueError(f"{path}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(sorted(allowed))}")
+    data.update({k: v for k, v in (overrides or {}).items() if v is not None})
+    if "kernels" not in data or "workloads" not in data:
+        raise ValueError(f"{path}: a sweep file needs 'kernels' and at least one [[workloads]] table")
+    workloads: list[Spec] = []
+    for table in _as_tables(data.pop("workloads"), path):
+        workloads += expand_workloads(table)
+    return Sweep(workloads=tuple(workloads), **{k: data[k] for k in data if k != "workloads"})
+
+
+def _as_tables(value: Any, path: Path) -> Sequence[Mapping[str, Any]]:
+    if isinstance(value, Mapping):
+        return [value]
+    if not isinstance(value, list) or not all(isinstance(t, Mapping) for t in value):
+        raise ValueError(f"{path}: 'workloads' must be a list of tables ([[workloads]])")
+    return value

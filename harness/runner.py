@@ -1,0 +1,349 @@
+"""The runner: starts worker processes one at a time and keeps every batch they time.
+
+:func:`start` creates a run folder (``run.json`` first, see
+:mod:`tribench.harness.records`) and runs the whole plan; :func:`resume`
+finishes an interrupted one. Batches stream from the worker as JSON lines and
+are appended to ``batches.csv`` one row at a time, so a Ctrl-C, a SIGKILL of
+the runner or of a worker, or a crash of the machine loses at most the batch
+in flight.
+
+Resume: the plan (:func:`tribench.harness.plan.plan`) is a pure function of
+the sweep stored in ``run.json``, so the missing batches are exactly the
+planned keys absent from ``batches.csv``. A process whose batches are all
+missing runs as planned. A process cut off half-way keeps its finished
+batches and its remaining ones run in a new worker process with the same
+``process`` index and ``attempt`` + 1 (recorded in both CSVs): its loops are
+calibrated again, and warm-up batches already done are not repeated, so the
+set of batch keys is exactly the plan's, none lost and none duplicated. The
+two halves of such a process had different memory layouts; ``attempt`` lets
+an analysis find them.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+import os
+import secrets
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from . import records
+from .plan import BatchKey, Sweep, plan, process_seed
+from .records import BATCH_COLUMNS, CHECK_COLUMNS, PROCESS_COLUMNS, BatchRow, CheckRow, ProcessRow, RowWriter
+
+__all__ = [
+    "Progress",
+    "RunResult",
+    "SweepError",
+    "SweepInterrupted",
+    "default_cpu",
+    "done_keys",
+    "missing_keys",
+    "resume",
+    "start",
+]
+
+WORKER = (sys.executable, "-m", "tribench.harness.worker")
+
+
+class SweepError(Exception):
+    """A sweep stopped: a kernel failed its checks, or a worker died."""
+
+
+class SweepInterrupted(Exception):
+    """Ctrl-C: the sweep stopped cleanly; every finished batch is on disk."""
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """What one invocation of the runner did."""
+
+    run_dir: Path
+    batches_total: int
+    batches_done: int
+    batches_run: int
+    elapsed_s: float
+
+
+class Progress:
+    """A one-line progress bar with an estimate of the time left.
+
+    Draws on ``stream`` only if it is a terminal (or ``force``); the estimate
+    uses the rate of this invocation only, so a resume is not misled by the
+    batches it did not run.
+    """
+
+    def __init__(self, total: int, done: int, stream: TextIO | None = None, force: bool = False) -> None:
+        self.total, self.done, self._start_done = total, done, done
+        self.stream = stream if stream is not None else sys.stderr
+        self.enabled = force or (hasattr(self.stream, "isatty") and self.stream.isatty())
+        self._t0 = time.monotonic()
+        self._last = 0.0
+
+    def advance(self, n: int = 1) -> None:
+        self.done += n
+        now = time.monotonic()
+        if self.enabled and (now - self._last > 0.1 or self.done == self.total):
+            self._last = now
+            self.stream.write("\r" + self.line(now - self._t0))
+            self.stream.flush()
+
+    def line(self, elapsed: float) -> str:
+        """The bar's text after ``elapsed`` seconds."""
+        frac = self.done / self.total if self.total else 1.0
+        bar = "#" * int(30 * frac) + "-" * (30 - int(30 * frac))
+        ran = self.done - self._start_done
+        left = "?" if ran == 0 else _clock(elapsed / ran * (self.total - self.done))
+        return f"[{bar}] {100 * frac:5.1f}% {self.done}/{self.total} batches, {left} left "
+
+    def close(self) -> None:
+        if self.enabled:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _clock(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+def default_cpu() -> int | None:
+    """The CPU workers are pinned to: the last usable one (CPU 0 takes most interrupts)."""
+    if not hasattr(os, "sched_getaffinity"):
+        return None
+    return max(os.sched_getaffinity(0))
+
+
+def _plan_digest(keys: Sequence[BatchKey]) -> str:
+    return hashlib.sha256(json.dumps([k.to_list() for k in keys]).encode()).hexdigest()
+
+
+def _key(row: Any) -> BatchKey:
+    return BatchKey(int(row.process), str(row.workload_id), int(row.round), int(row.position), str(row.kernel))
+
+
+def done_keys(run_dir: str | Path) -> list[BatchKey]:
+    """Keys of the batches in ``batches.csv`` (a partial last line is ignored)."""
+    frame = records.read_batches(run_dir)
+    return [_key(r) for r in frame.itertuples(index=False)]
+
+
+def missing_keys(sweep: Sweep, done: Sequence[BatchKey]) -> list[BatchKey]:
+    """Planned keys not in ``done``, in plan order."""
+    have = set(done)
+    return [k for k in plan(sweep) if k not in have]
+
+
+# ------------------------------------------------------------------- running
+
+
+def start(
+    sweep: Sweep,
+    run_dir: str | Path,
+    *,
+    margin: Any = None,
+    cpu: int | None = None,
+    progress: bool | None = None,
+    worker: Sequence[str] = WORKER,
+    extra: dict[str, Any] | None = None,
+) -> RunResult:
+    """Create ``run_dir`` and run every batch of ``sweep``.
+
+    Parameters
+    ----------
+    sweep : Sweep
+    run_dir : path
+        Must not exist, or be an empty directory.
+    margin : tribench.harness.calibration.Margin, optional
+        Equivalence margin to record (default: the latest calibration's, or
+        ``stats.DEFAULTS.margin``).
+    cpu : int, optional
+        CPU to pin workers to (default :func:`default_cpu`).
+    progress : bool, optional
+        Force the progress bar on or off (default: on if stderr is a terminal).
+    worker : sequence of str
+        Command that runs a worker (tests substitute a faulty one).
+    extra : dict, optional
+        More fields for ``run.json`` (e.g. what a calibration run is for).
+
+    Raises
+    ------
+    SweepError, SweepInterrupted
+    """
+    from .calibration import latest_margin
+    from .machine import machine_record
+    from .worker import kernel_isa
+
+    run_dir = Path(run_dir)
+    if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
+        raise ValueError(f"{run_dir} exists and is not empty (use --resume to finish a run)")
+    machine = machine_record()
+    margin = margin if margin is not None else latest_margin(machine["cpu_model"])
+    keys = plan(sweep)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    record = {
+        "run_id": _dt.datetime.now().strftime("%Y%m%dT%H%M%S-") + secrets.token_hex(3),
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "sweep": sweep.to_dict(),
+        "n_batches": len(keys),
+        "plan_sha256": _plan_digest(keys),
+        "process_seeds": [process_seed(sweep.seed, p) for p in range(sweep.processes)],
+        "cpu": default_cpu() if cpu is None else cpu,
+        "isa": {k: kernel_isa(k) for k in sweep.kernels},
+        "margin": {"value": margin.value, "source": margin.source},
+        "machine": machine,
+        "python_executable": sys.executable,
+        "batch_columns": list(BATCH_COLUMNS),
+        "process_columns": list(PROCESS_COLUMNS),
+        **(extra or {}),
+    }
+    records.write_run(run_dir, record)
+    return _execute(run_dir, record, sweep, keys, 0, progress, worker)
+
+
+def resume(
+    run_dir: str | Path, *, progress: bool | None = None, worker: Sequence[str] = WORKER
+) -> RunResult:
+    """Run the batches of ``run_dir``'s plan that ``batches.csv`` lacks.
+
+    A partial last line of ``batches.csv`` or ``processes.csv`` (a write cut
+    by a kill) is removed first. See the module docstring for how a
+    half-finished process is completed.
+    """
+    run_dir = Path(run_dir)
+    record = records.read_run(run_dir)
+    sweep = Sweep.from_dict(record["sweep"])
+    keys = plan(sweep)
+    if _plan_digest(keys) != record["plan_sha256"]:
+        raise ValueError(f"{run_dir}: the plan of its sweep changed (another tribench version?); cannot resume")
+    for name in (records.BATCHES, records.PROCESSES, records.CHECKS):
+        if records.repair_csv(run_dir / name):
+            print(f"tribench: dropped a partial last line of {run_dir / name}", file=sys.stderr)
+    done = done_keys(run_dir) if (run_dir / records.BATCHES).exists() else []
+    todo = missing_keys(sweep, done)
+    return _execute(run_dir, record, sweep, todo, len(keys) - len(todo), progress, worker)
+
+
+def _attempts(run_dir: Path) -> dict[int, int]:
+    """The next attempt number of every process that has started before."""
+    out: dict[int, int] = {}
+    for frame in (records.read_processes(run_dir),
+                  records.read_batches(run_dir) if (run_dir / records.BATCHES).exists() else None):
+        if frame is None or frame.empty:
+            continue
+        for p, a in frame.groupby("process")["attempt"].max().items():
+            out[int(p)] = max(out.get(int(p), 0), int(a) + 1)
+    return out
+
+
+def _execute(
+    run_dir: Path,
+    record: dict[str, Any],
+    sweep: Sweep,
+    todo: Sequence[BatchKey],
+    done_before: int,
+    progress: bool | None,
+    worker: Sequence[str],
+) -> RunResult:
+    t0 = time.monotonic()
+    total = record["n_batches"]
+    by_process: dict[int, list[BatchKey]] = {}
+    for k in todo:
+        by_process.setdefault(k.process, []).append(k)
+    attempts = _attempts(run_dir)
+    bar = Progress(total, done_before, force=bool(progress)) if progress is not False else None
+    ran = 0
+    with RowWriter(run_dir / records.BATCHES, BATCH_COLUMNS) as batches, \
+            RowWriter(run_dir / records.PROCESSES, PROCESS_COLUMNS) as processes, \
+            RowWriter(run_dir / records.CHECKS, CHECK_COLUMNS) as checks:
+
+        def on_batch(row: BatchRow) -> None:
+            nonlocal ran
+            batches.append(row)
+            ran += 1
+            if bar:
+                bar.advance()
+
+        try:
+            for p, keys in by_process.items():
+                _run_process(record, sweep, p, attempts.get(p, 0), keys, worker, on_batch, processes.append,
+                             checks.append)
+        except KeyboardInterrupt:
+            raise SweepInterrupted(
+                f"interrupted: {done_before + ran} of {total} batches saved in {run_dir}; "
+                f"finish with: tribench sweep --resume {run_dir}"
+            ) from None
+        finally:
+            if bar:
+                bar.close()
+    return RunResult(run_dir, total, done_before + ran, ran, time.monotonic() - t0)
+
+
+def _run_process(
+    record: dict[str, Any],
+    sweep: Sweep,
+    process: int,
+    attempt: int,
+    keys: Sequence[BatchKey],
+    worker: Sequence[str],
+    on_batch: Callable[[BatchRow], None],
+    on_process: Callable[[ProcessRow], None],
+    on_check: Callable[[CheckRow], None],
+) -> None:
+    """One worker process: send its job, keep its rows, raise on its error."""
+    from .worker import PAD_VARIABLE, WorkerJob
+
+    seed = record["process_seeds"][process]
+    # environment padding moves the worker's initial stack: part of the layout randomisation
+    pad = int(np.random.default_rng([seed, attempt, 1]).integers(0, 4096))
+    env = {**os.environ, PAD_VARIABLE: "x" * pad}
+    wids = sorted({k.workload_id for k in keys})
+    job = WorkerJob(record["run_id"], process, attempt, seed, record["cpu"], sweep.target_ms,
+                    tuple(tuple(k.to_list()) for k in keys),
+                    {w: sweep.spec_of(w).to_dict() for w in wids})
+    expected = set(keys)
+    error = None
+    with tempfile.TemporaryFile("w+") as err:
+        proc = subprocess.Popen(list(worker), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err,
+                                env=env, text=True)
+        try:
+            proc.stdin.write(job.to_json())
+            proc.stdin.close()
+            for line in proc.stdout:
+                message = json.loads(line)
+                kind = message.pop("type")
+                if kind == "batch":
+                    row = BatchRow(**message)
+                    if _key(row) not in expected:
+                        raise SweepError(f"worker of process {process} sent an unplanned batch {_key(row)}")
+                    expected.discard(_key(row))
+                    on_batch(row)
+                elif kind == "process":
+                    on_process(ProcessRow(**message))
+                elif kind == "check":
+                    on_check(CheckRow(**message))
+                elif kind == "error":
+                    error = message["message"]
+            code = proc.wait()
+        except BaseException:
+            proc.kill()
+            proc.wait()
+            raise
+        if error is not None:
+            raise SweepError(error)
+        if code != 0 or expected:
+            err.seek(0)
+            tail = err.read().strip().splitlines()[-5:]
+            detail = f": {' | '.join(tail)}" if tail else ""
+            raise SweepError(f"worker of process {process} exited with code {code} "
+                             f"({len(expected)} batches not run){detail}")

@@ -1,0 +1,325 @@
+"""The worker: one replicate of a sweep, in a fresh process.
+
+Run as ``python -m tribench.harness.worker`` by :mod:`tribench.harness.runner`,
+never by hand. It reads one JSON job from stdin (:class:`WorkerJob`) and
+writes JSON lines to stdout, the only thing it ever writes there:
+
+* ``{"type": "process", ...}``: a :class:`~tribench.harness.records.ProcessRow`
+  (an FMA peak probe, at the start and at the end);
+* ``{"type": "check", ...}``: a :class:`~tribench.harness.records.CheckRow`,
+  a kernel's answers on a workload against the reference, before its batches;
+* ``{"type": "batch", ...}``: a :class:`~tribench.harness.records.BatchRow`,
+  sent as soon as the batch is timed and checked;
+* ``{"type": "error", "message": ...}``: the worker stops (exit code 3).
+
+What it does, in order:
+
+1. pins itself to the CPU it is given (``os.sched_setaffinity``);
+2. varies its memory layout: the parent padded its environment by a random
+   number of bytes (which moves the stack); here a random number of dummy
+   allocations comes first, then every array is copied into a fresh buffer
+   at a random offset of 0-15 elements (which moves the data's alignment
+   within cache lines and pages). The seed is recorded;
+3. runs the FMA peak probe;
+4. per workload, before its first batch: checks each kernel's per-ray answers
+   against the reference (differences allowed only on the workload's
+   ambiguous rays), then calibrates ``loops`` so that one batch takes about
+   ``target_ms`` (kept for the whole process; calibration batches are not
+   recorded);
+5. runs its batches in the order given; every batch's checksum must equal
+   ``loops`` times the kernel's verified one-pass checksum (hits exactly, the
+   sum of ``t`` within :data:`T_SUM_RTOL`);
+6. runs the FMA peak probe again.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import resource
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from tribench import ext
+
+from .records import BatchRow, CheckRow, ProcessRow
+
+__all__ = [
+    "KernelCheckError",
+    "T_SUM_RTOL",
+    "WorkerJob",
+    "calibrate_loops",
+    "kernel_isa",
+    "main",
+    "one_pass_checksum",
+    "run_job",
+]
+
+#: Relative tolerance on sums of t, by precision: a kernel's own sum against
+#: the reference's (on the rays both hit), and a batch's sum against
+#: ``loops`` times the one-pass sum (only summation order differs there).
+T_SUM_RTOL = {"float32": 1e-4, "float64": 1e-9}
+
+#: Iterations of the FMA probe: 192 flops each, about 0.4 ms at 100 GFLOP/s.
+PEAK_ITERATIONS = 200_000
+
+#: Environment variable the parent pads to vary the worker's stack position.
+PAD_VARIABLE = "TRIBENCH_LAYOUT_PAD"
+
+
+class KernelCheckError(Exception):
+    """A kernel gave answers that disagree with the reference."""
+
+
+@dataclass(frozen=True)
+class WorkerJob:
+    """Everything one worker process needs (sent as JSON on its stdin)."""
+
+    run_id: str
+    process: int
+    attempt: int
+    seed: int
+    cpu: int | None
+    target_ms: float
+    keys: tuple[tuple[int, str, int, int, str], ...]
+    workloads: Mapping[str, Mapping[str, Any]]
+
+    @classmethod
+    def from_json(cls, text: str) -> "WorkerJob":
+        d = json.loads(text)
+        d["keys"] = tuple(tuple(k) for k in d["keys"])
+        return cls(**d)
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self))
+
+
+def kernel_isa(kernel: str) -> str:
+    """Instruction set a kernel variant runs with.
+
+    Every kernel is scalar C for now, built for the compiler's baseline of
+    the architecture (no ``-march``); SIMD variants will name their own.
+
+    >>> kernel_isa("moller_trumbore").startswith("scalar/")
+    True
+    """
+    import platform
+
+    build = ext.build_info()
+    machine = platform.machine()
+    baseline = "avx2" if build.get("baseline_avx2") else {"x86_64": "sse2", "AMD64": "sse2"}.get(machine, machine)
+    return f"scalar/{baseline}"
+
+
+# ------------------------------------------------------------------ checks
+
+
+@dataclass(frozen=True)
+class Checksum:
+    """A kernel's one-pass checksum on a workload: hits and the sum of t."""
+
+    hits: int
+    t_sum: float
+
+
+def replicates_a_flawed_original(kernel: str) -> bool:
+    """True for the seed's kernels, faithful copies of code with known flaws.
+
+    Their absolute epsilons and strict edges make them answer some rays
+    differently from the reference by design (a small triangle vanishes for
+    ``moller_seed``); that difference is what the seed experiment is about,
+    so it is recorded in checks.csv rather than stopping the sweep. Every
+    other kernel must agree with the reference outside the ambiguous rays.
+    """
+    return kernel.endswith("_seed")
+
+
+def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, int]]:
+    """Check ``kernel``'s per-ray answers on ``workload``; return its checksum.
+
+    Answers (hit or miss in pairs mode, the closest triangle in closest mode)
+    must equal the reference's on every ray outside ``workload.ambiguous()``,
+    and the sum of t over the rays where kernel and reference agree on a hit
+    must match the reference's within :data:`T_SUM_RTOL`. The counts of
+    disagreements are returned for checks.csv.
+
+    Raises
+    ------
+    KernelCheckError
+        Naming the kernel, the workload and the first ray that differs
+        (never for :func:`replicates_a_flawed_original` kernels' differences).
+    """
+    w = workload
+    if w.mode == "pairs":
+        hit, t = ext.intersect_pairs(kernel, w.origins, w.directions, w.triangles)
+        differs = hit != w.ref_hit
+    else:
+        index, t = ext.intersect_closest(kernel, w.origins, w.directions, w.triangles)
+        hit = index >= 0
+        differs = index != w.ref_index
+    ambiguous = w.ambiguous()
+    wrong = differs & ~ambiguous
+    counts = {"rays": len(differs), "ambiguous_rays": int(ambiguous.sum()),
+              "disagreements": int(differs.sum()), "ambiguous_disagreements": int((differs & ambiguous).sum())}
+    where = f"kernel {kernel!r} on workload {w.workload_id} ({w.spec.summary()})"
+    if wrong.any() and not replicates_a_flawed_original(kernel):
+        first = int(np.argmax(wrong))
+        raise KernelCheckError(
+            f"{where}: {int(wrong.sum())} of {len(wrong)} rays differ from the reference "
+            f"outside the ambiguous ones (first: ray {first})"
+        )
+    agree = hit & w.hits & ~differs
+    own, ref = math.fsum(t[agree].astype(float).tolist()), math.fsum(w.ref_t[agree].tolist())
+    if not math.isclose(own, ref, rel_tol=T_SUM_RTOL[w.spec.dtype], abs_tol=1e-300):
+        raise KernelCheckError(f"{where}: sum of t {own!r} differs from the reference's {ref!r}")
+    return Checksum(int(hit.sum()), math.fsum(t[hit].astype(float).tolist())), counts
+
+
+def check_batch(batch: ext.Batch, expected: Checksum, kernel: str, workload: Any) -> None:
+    """Raise :class:`KernelCheckError` unless ``batch`` is ``loops`` one-pass checksums."""
+    hits = batch.loops * expected.hits
+    t_sum = batch.loops * expected.t_sum
+    where = f"kernel {kernel!r} on workload {workload.workload_id} ({workload.spec.summary()})"
+    if batch.hits != hits:
+        raise KernelCheckError(f"{where}: checksum failed, {batch.hits} hits in {batch.loops} loops, expected {hits}")
+    if not math.isclose(batch.t_sum, t_sum, rel_tol=T_SUM_RTOL["float64"], abs_tol=1e-300):
+        raise KernelCheckError(f"{where}: checksum failed, sum of t {batch.t_sum!r}, expected {t_sum!r}")
+
+
+def calibrate_loops(job: ext.Job, target_ns: float) -> int:
+    """``loops`` for which one batch of ``job`` takes about ``target_ns``.
+
+    Doubles ``loops`` until a batch takes a quarter of the target, then
+    scales by the median time of three batches at that size.
+    """
+    loops = 1
+    while ext.time_batch(job, loops).elapsed_ns < target_ns / 4 and loops < 2**30:
+        loops *= 2
+    per_loop = float(np.median([ext.time_batch(job, loops).elapsed_ns for _ in range(3)])) / loops
+    return max(1, round(target_ns / max(per_loop, 1.0)))
+
+
+# ------------------------------------------------------------------ layout
+
+
+def _dummy_allocations(rng: np.random.Generator) -> list[bytearray]:
+    """A random number of small allocations, kept alive: shifts later heap addresses."""
+    return [bytearray(int(size)) for size in rng.integers(16, 4096, size=int(rng.integers(0, 64)))]
+
+
+def _fresh_copy(a: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """``a`` copied into a new buffer at a random offset of 0-15 elements."""
+    offset = int(rng.integers(0, 16))
+    flat = np.empty(a.size + offset, dtype=a.dtype)
+    out = flat[offset:].reshape(a.shape)
+    out[...] = a
+    return out
+
+
+def _steal_ticks() -> int:
+    """The machine's steal time so far, in clock ticks (-1 where unreadable)."""
+    try:
+        with open("/proc/stat") as f:
+            fields = f.readline().split()
+        return int(fields[8]) if fields[0] == "cpu" and len(fields) > 8 else -1
+    except (OSError, ValueError):
+        return -1
+
+
+def _peak_row(job: WorkerJob, phase: str, cpu: int, pad: int, dummies: int) -> ProcessRow:
+    p = ext.fma_peak(PEAK_ITERATIONS)
+    return ProcessRow(job.run_id, job.process, job.attempt, phase, os.getpid(), cpu, job.seed, pad,
+                      dummies, p.gflops, p.flops, p.elapsed_ns, p.isa, time.monotonic_ns())
+
+
+# -------------------------------------------------------------------- run
+
+
+def run_job(job: WorkerJob, emit) -> None:
+    """Run one worker job; ``emit(type, record)`` receives every message.
+
+    Raises
+    ------
+    KernelCheckError
+        A kernel's answers or a batch's checksum disagree with the reference.
+    """
+    from tribench.workloads import cache
+    from tribench.workloads.spec import spec_from_dict, workload_id
+
+    if job.cpu is not None and hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {job.cpu})
+    cpu = job.cpu if job.cpu is not None else -1
+    rng = np.random.default_rng([job.seed, job.attempt])
+    pad = len(os.environ.get(PAD_VARIABLE, ""))
+    dummies = _dummy_allocations(rng)
+
+    workloads, arrays = {}, {}
+    for wid, spec_dict in job.workloads.items():
+        spec = spec_from_dict(spec_dict)
+        if workload_id(spec) != wid:
+            raise ValueError(f"workload {wid}: its spec has id {workload_id(spec)} (generator changed?)")
+        w = cache.make(spec)
+        workloads[wid] = w
+        arrays[wid] = tuple(_fresh_copy(a, rng) for a in (w.origins, w.directions, w.triangles))
+    emit("process", _peak_row(job, "start", cpu, pad, len(dummies)))
+
+    isa = {k: kernel_isa(k) for k in {key[4] for key in job.keys}}
+    kernels_of: dict[str, list[str]] = {}
+    for _, wid, _, _, kernel in job.keys:
+        if kernel not in kernels_of.setdefault(wid, []):
+            kernels_of[wid].append(kernel)
+    prepared: dict[tuple[str, str], tuple[ext.Job, int, Checksum]] = {}
+    target_ns = job.target_ms * 1e6
+
+    for process, wid, rnd, position, kernel in job.keys:
+        w = workloads[wid]
+        if (kernel, wid) not in prepared:
+            # a new workload block: check and calibrate all its kernels before any batch
+            for k in kernels_of[wid]:
+                expected, counts = one_pass_checksum(k, w)
+                emit("check", CheckRow(job.run_id, process, job.attempt, wid, k, **counts,
+                                       hits=expected.hits, t_sum=expected.t_sum))
+                kjob = ext.make_job(k, *arrays[wid], w.mode)
+                prepared[(k, wid)] = (kjob, calibrate_loops(kjob, target_ns), expected)
+        kjob, loops, expected = prepared[(kernel, wid)]
+        before, steal = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw, _steal_ticks()
+        start = time.monotonic_ns()
+        batch = ext.time_batch(kjob, loops)
+        switches = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
+        steal = _steal_ticks() - steal if steal >= 0 else -1
+        check_batch(batch, expected, kernel, w)
+        emit("batch", BatchRow(job.run_id, process, rnd, position, kernel, wid, w.spec.dtype, w.mode,
+                               rnd < 0, batch.loops, batch.tests, batch.elapsed_ns, start, switches,
+                               batch.hits, batch.t_sum, cpu, isa[kernel], job.attempt, steal))
+    emit("process", _peak_row(job, "end", cpu, pad, len(dummies)))
+
+
+def _emit_json(kind: str, record: Any) -> None:
+    sys.stdout.write(json.dumps({"type": kind, **asdict(record)}) + "\n")
+    sys.stdout.flush()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``python -m tribench.harness.worker``: job on stdin, JSON lines out."""
+    job = WorkerJob.from_json(sys.stdin.read())
+    try:
+        run_job(job, _emit_json)
+    except KeyboardInterrupt:
+        return 130  # Ctrl-C reaches the whole process group; the parent reports it
+    except BrokenPipeError:
+        return 141  # the parent is gone: nothing to report to
+    except (KernelCheckError, ValueError, FileNotFoundError) as exc:
+        sys.stdout.write(json.dumps({"type": "error", "message": str(exc)}) + "\n")
+        sys.stdout.flush()
+        return 3
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

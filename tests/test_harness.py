@@ -1,0 +1,240 @@
+"""Harness pieces in-process: plan, run files, checks, internal kernels, FMA probe."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from tribench import ext
+from tribench.harness import calibration, records, worker
+from tribench.harness.plan import BatchKey, Sweep, expand_workloads, load_sweep_file, plan
+from tribench.workloads import cache, reference
+from tribench.workloads.spec import MeshSpec, PairSpec, workload_id
+
+from conftest import safe_pairs
+
+INTERNAL = ("moller_trumbore_aa", "moller_trumbore_twice")
+
+
+@pytest.fixture(autouse=True)
+def _cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+
+
+def small_sweep(**kw) -> Sweep:
+    base = dict(kernels=("moller_trumbore", "curless", "moller_seed"),
+                workloads=(PairSpec(n=50, hit_rate=0.3), PairSpec(n=50, hit_rate=0.7)),
+                processes=3, rounds=4, warmup=2, seed=5)
+    return Sweep(**{**base, **kw})
+
+
+# ------------------------------------------------------------------ plan
+
+
+def test_plan_is_deterministic_and_complete():
+    s = small_sweep()
+    keys = plan(s)
+    assert keys == plan(small_sweep())
+    assert len(keys) == len(set(keys)) == s.n_batches
+    # every (process, workload, round) has each kernel exactly once, positions 0..K-1
+    groups: dict = {}
+    for k in keys:
+        groups.setdefault((k.process, k.workload_id, k.round), []).append(k)
+    assert len(groups) == 3 * 2 * (2 + 4)
+    for g in groups.values():
+        assert sorted(k.kernel for k in g) == sorted(s.kernels)
+        assert [k.position for k in g] == [0, 1, 2]
+    assert {k.round for k in keys} == set(range(-2, 4))
+    assert sum(k.warmup for k in keys) == 3 * 2 * 2 * 3
+    # orders are randomised, and depend on the seed
+    orders = {tuple(k.kernel for k in g) for g in groups.values()}
+    assert len(orders) > 1
+    assert plan(small_sweep(seed=6)) != keys
+
+
+def test_sweep_round_trips_through_json_and_rejects_bad_input():
+    s = small_sweep()
+    assert Sweep.from_dict(s.to_dict()) == s
+    with pytest.raises(ValueError, match="unknown kernel 'nope'"):
+        small_sweep(kernels=("nope",))
+    with pytest.raises(ValueError, match="processes"):
+        small_sweep(processes=0)
+    with pytest.raises(ValueError, match="listed twice"):
+        small_sweep(workloads=(PairSpec(n=5), PairSpec(n=5)))
+
+
+def test_sweep_file_expands_lists_into_a_grid(tmp_path):
+    path = tmp_path / "sweep.toml"
+    path.write_text(
+        'kernels = ["moller_trumbore"]\nprocesses = 2\nrounds = 3\n'
+        '[[workloads]]\nkind = "pairs"\nn = 20\nhit_rate = [0.1, 0.9]\ndtype = ["float32", "float64"]\n'
+        '[[workloads]]\nkind = "mesh"\nmesh = "icosphere"\ntriangles = [20, 80]\nwidth = 4\nheight = 4\n'
+    )
+    s = load_sweep_file(path, {"rounds": 2, "seed": None})
+    assert (s.processes, s.rounds, s.seed) == (2, 2, 0)
+    assert len(s.workloads) == 6
+    assert s.workloads[4] == MeshSpec("icosphere", triangles=20, width=4, height=4)
+    assert len(expand_workloads({"kind": "pairs", "n": 3})) == 1
+    path.write_text('kernels = ["moller_trumbore"]\nbogus = 1\n')
+    with pytest.raises(ValueError, match="unknown key"):
+        load_sweep_file(path)
+
+
+# ------------------------------------------------------------ run files
+
+
+def _row(i: int, **kw) -> records.BatchRow:
+    base = dict(run_id="r", process=i % 2, round=i - 1, position=0, kernel="k,1", workload_id="w",
+                dtype="float64", mode="pairs", warmup=i == 0, loops=3, tests=30, elapsed_ns=1000 + i,
+                start_ns=10**12 + i, invol_ctx_switches=0, hits=9, t_sum=0.1 + i / 3, cpu=1,
+                isa="scalar/sse2", attempt=0, steal_ticks=-1)
+    return records.BatchRow(**{**base, **kw})
+
+
+def test_batch_rows_round_trip_and_a_partial_last_line_is_dropped(tmp_path):
+    rows = [_row(i) for i in range(4)]
+    with records.RowWriter(tmp_path / "batches.csv", records.BATCH_COLUMNS) as w:
+        for r in rows:
+            w.append(r)
+    frame = records.read_batches(tmp_path)
+    assert tuple(frame.columns) == records.BATCH_COLUMNS
+    back = [records.BatchRow(**r) for r in frame.to_dict("records")]
+    assert back == rows  # incl. a comma in a name, bools and full float precision
+    assert frame["warmup"].dtype == bool
+    # a write cut by a kill: the partial row is ignored on read, cut off by repair
+    with open(tmp_path / "batches.csv", "a") as f:
+        f.write("r,1,5,0,moller")
+    assert len(records.read_batches(tmp_path)) == 4
+    assert records.repair_csv(tmp_path / "batches.csv")
+    assert not records.repair_csv(tmp_path / "batches.csv")
+    assert (tmp_path / "batches.csv").read_text().endswith("\n")
+    assert len(records.read_batches(tmp_path)) == 4
+
+
+def test_missing_run_files_are_file_not_found(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        records.read_run(tmp_path / "nope")
+    with pytest.raises(FileNotFoundError):
+        records.read_batches(tmp_path)
+
+
+# ------------------------------------------------------------------ checks
+
+
+def test_one_pass_checksum_matches_the_reference_and_batches_check():
+    w = cache.make(PairSpec(n=200, hit_rate=0.4))
+    c, counts = worker.one_pass_checksum("moller_trumbore", w)
+    assert counts == {"rays": 200, "ambiguous_rays": 0, "disagreements": 0, "ambiguous_disagreements": 0}
+    hits, t_sum = w.expected_checksum()
+    assert c.hits == hits and math.isclose(c.t_sum, t_sum, rel_tol=1e-12)
+    job = ext.make_job("moller_trumbore", w.origins, w.directions, w.triangles, w.mode)
+    batch = ext.time_batch(job, 3)
+    worker.check_batch(batch, c, "moller_trumbore", w)
+    bad = dataclasses.replace(batch, hits=batch.hits - 1)
+    with pytest.raises(worker.KernelCheckError, match="'moller_trumbore'.*checksum failed"):
+        worker.check_batch(bad, c, "moller_trumbore", w)
+
+
+def test_a_tampered_reference_is_caught_naming_the_kernel():
+    w = cache.make(PairSpec(n=200, hit_rate=0.4))
+    flipped = w.ref_hit.copy()
+    flipped[7] = ~flipped[7]
+    tampered = dataclasses.replace(w, ref_hit=flipped)
+    with pytest.raises(worker.KernelCheckError, match=r"kernel 'curless' on workload pairs-.*1 of 200 rays.*ray 7"):
+        worker.one_pass_checksum("curless", tampered)
+
+
+def test_the_seed_kernels_differences_are_counted_not_fatal():
+    # a triangle too small for moller_seed's |det| < 1e-4: it misses every hit,
+    # by design; the check records that instead of stopping the sweep
+    w = cache.make(PairSpec(n=200, hit_rate=0.5, scale=1e-3))
+    checksum, counts = worker.one_pass_checksum("moller_seed", w)
+    assert checksum.hits == 0
+    assert counts["disagreements"] == int(w.ref_hit.sum()) == 100
+    with pytest.raises(worker.KernelCheckError):
+        worker.one_pass_checksum("moller_trumbore", dataclasses.replace(w, ref_hit=~w.ref_hit))
+
+
+def test_calibrated_loops_hit_the_target_roughly():
+    w = cache.make(PairSpec(n=500, hit_rate=0.5))
+    job = ext.make_job("moller_trumbore", w.origins, w.directions, w.triangles, w.mode)
+    loops = worker.calibrate_loops(job, 1e6)
+    elapsed = min(ext.time_batch(job, loops).elapsed_ns for _ in range(5))
+    assert 0.3e6 < elapsed < 3e6
+
+
+# ------------------------------------------------------ internal kernels
+
+
+def test_internal_kernels_are_hidden_but_callable():
+    public = ext.kernel_names()
+    everything = ext.kernel_names(internal=True)
+    assert not set(INTERNAL) & set(public)
+    assert everything == public + INTERNAL
+    assert ext.bytes_per_triangle("moller_trumbore_twice", "float64") == 72
+
+
+@pytest.mark.parametrize("kernel", INTERNAL)
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_internal_kernels_agree_with_the_reference_on_pairs(kernel, dtype):
+    o, d, tris = (np.ascontiguousarray(a, dtype=dtype) for a in safe_pairs(500, seed=3))
+    ref = reference.intersect_pairs(o.astype(float), d.astype(float), tris.astype(float))
+    hit, t = ext.intersect_pairs(kernel, o, d, tris)
+    assert np.array_equal(hit, ref.hit)
+    rtol = 1e-4 if dtype == np.float32 else 1e-12
+    assert np.allclose(t[hit], ref.t[ref.hit], rtol=rtol)
+    # and the same answers as the kernel they copy, bit for bit
+    hit2, t2 = ext.intersect_pairs("moller_trumbore", o, d, tris)
+    assert np.array_equal(hit, hit2) and np.array_equal(t[hit], t2[hit2])
+
+
+@pytest.mark.parametrize("kernel", INTERNAL)
+def test_internal_kernels_agree_with_the_reference_on_closest_hits(kernel):
+    w = cache.make(MeshSpec("icosphere", triangles=80, width=12, height=12, dtype="float32"))
+    assert worker.one_pass_checksum(kernel, w) == worker.one_pass_checksum("moller_trumbore", w)
+
+
+# -------------------------------------------------------------- FMA probe
+
+
+@pytest.mark.parametrize("force_scalar", [False, True])
+def test_fma_peak_is_positive_and_finite(force_scalar):
+    p = ext.fma_peak(20_000, force_scalar=force_scalar)
+    assert p.flops > 0 and p.elapsed_ns > 0
+    assert math.isfinite(p.gflops) and p.gflops > 0
+    assert p.isa in ("avx2+fma", "scalar")
+    if force_scalar:
+        assert p.isa == "scalar"
+    with pytest.raises(ValueError):
+        ext.fma_peak(0)
+
+
+# ------------------------------------------------------------ calibration
+
+
+def test_latest_margin_uses_a_calibration_of_this_cpu_only(tmp_path):
+    path = calibration.user_calibration_path()
+    assert path == tmp_path / "calibration.json"
+    assert calibration.latest_margin("cpu x").source.startswith("default")
+    path.write_text('{"margin": 0.02, "cpu_model": "cpu x", "created": "today"}')
+    m = calibration.latest_margin("cpu x")
+    assert m.value == 0.02 and str(path) in m.source
+    assert calibration.latest_margin("cpu y").value == 0.01
+
+
+def test_batch_key_warmup_flag():
+    assert BatchKey(0, "w", -1, 0, "k").warmup and not BatchKey(0, "w", 0, 0, "k").warmup
+    assert workload_id(PairSpec(n=5)) in {k.workload_id for k in plan(small_sweep(workloads=(PairSpec(n=5),)))}
+
+
+@pytest.mark.parametrize("name", ["tribench.harness.plan", "tribench.harness.calibration",
+                                  "tribench.harness.worker"])
+def test_docstring_examples(name):
+    import doctest
+    import importlib
+
+    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0 and result.failed == 0

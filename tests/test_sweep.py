@@ -1,0 +1,182 @@
+"""Sweeps end to end: real worker processes, run folders, resume after SIGKILL, the CLI."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+from tribench.harness import analysis, records, runner
+from tribench.harness.plan import Sweep, plan
+from tribench.workloads.spec import PairSpec
+
+# A tiny design: 2 kernels, one workload, 3 processes x 2 rounds (+1 warm-up).
+TINY = ["--kernels", "moller_trumbore,curless", "--pairs", "300", "--processes", "3", "--rounds", "2",
+        "--warmup", "1", "--target-ms", "0.2", "--no-progress"]
+
+
+@pytest.fixture
+def env(tmp_path, monkeypatch):
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    return {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
+
+
+def cli(*args, env=None, **kw):
+    return subprocess.run([sys.executable, "-m", "tribench.harness.cli", *args], capture_output=True,
+                          text=True, timeout=120, env=env, **kw)
+
+
+def keys_of(run_dir):
+    return runner.done_keys(run_dir)
+
+
+def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
+    out = tmp_path / "run"
+    done = cli("sweep", "--out", str(out), *TINY, env=env)
+    assert done.returncode == 0, done.stderr
+    run = records.read_run(out)
+    sweep = Sweep.from_dict(run["sweep"])
+    keys = keys_of(out)
+    assert sorted(keys) == sorted(plan(sweep)) and len(keys) == 3 * 3 * 2
+    assert run["margin"]["source"].startswith("default")
+    assert set(run["isa"]) == {"moller_trumbore", "curless"}
+    assert run["machine"]["build"]["flags"] and len(run["process_seeds"]) == 3
+    batches = records.read_batches(out)
+    assert (batches["hits"] % batches["loops"] == 0).all()
+    assert batches["warmup"].sum() == 3 * 2
+    peaks = records.read_processes(out)
+    assert sorted(peaks["phase"]) == ["end"] * 3 + ["start"] * 3
+    assert (peaks["peak_gflops"] > 0).all()
+    checks = records.read_checks(out)  # every kernel x workload x process, checked once
+    assert len(checks) == 2 * 1 * 3 and (checks["disagreements"] == 0).all()
+    assert (checks["rays"] > 0).all()
+
+    stats = cli("stats", str(out), env=env)
+    assert stats.returncode == 0, stats.stderr
+    assert "moller_trumbore" in stats.stdout and "speedup over" in stats.stdout
+    est = records._read_csv(out / analysis.ESTIMATES, [], {})
+    spd = records._read_csv(out / analysis.SPEEDUPS, [], {})
+    for col in ("kernel", "workload_id", "mean", "ci_low", "ci_high", "minimum", "n", "peak_flops_per_test"):
+        assert col in est.columns
+    for col in ("kernel", "baseline", "ratio", "ci_low", "ci_high", "p_holm", "margin", "verdict",
+                "margin_source"):
+        assert col in spd.columns
+    assert set(est["kernel"]) == {"moller_trumbore", "curless"} and (est["n"] == 3).all()
+    assert list(spd["baseline"]) == ["moller_trumbore"] and list(spd["kernel"]) == ["curless"]
+    # re-analysis reads files only: the same tables again, with another baseline on request
+    again = analysis.analyse(out, baseline="curless")
+    assert list(again.speedups["kernel"]) == ["moller_trumbore"]
+
+
+def test_sigkill_mid_sweep_then_resume_gives_exactly_the_planned_batches(tmp_path, env):
+    # long enough batches (20 ms) that the kill lands inside a worker process
+    args = ["--kernels", "moller_trumbore,curless", "--pairs", "300", "--processes", "4", "--rounds", "3",
+            "--warmup", "1", "--target-ms", "20", "--no-progress"]
+    killed = tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-m", "tribench.harness.cli", "sweep", "--out", str(killed), *args],
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    csv = killed / "batches.csv"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if csv.exists() and csv.read_text().count("\n") >= 12:  # header + process 0 + part of process 1
+            break
+        time.sleep(0.005)
+    os.killpg(proc.pid, signal.SIGKILL)  # the runner and its worker, mid-write or not
+    proc.wait()
+    partial = keys_of(killed)
+    sweep = Sweep.from_dict(records.read_run(killed)["sweep"])
+    assert 0 < len(partial) < sweep.n_batches
+
+    resumed = cli("sweep", "--resume", str(killed), "--no-progress", env=env)
+    assert resumed.returncode == 0, resumed.stderr
+    after = keys_of(killed)
+    assert len(after) == len(set(after))  # nothing duplicated
+    assert set(partial) <= set(after)  # nothing finished was lost
+
+    whole = tmp_path / "whole"
+    assert cli("sweep", "--out", str(whole), *args, env=env).returncode == 0
+    assert sorted(after) == sorted(keys_of(whole)) == sorted(plan(sweep))
+    # a process cut in half finished in a second attempt, recorded as such
+    batches = records.read_batches(killed)
+    per_process = batches.groupby("process")["attempt"].nunique()
+    assert per_process.max() <= 2
+    # resuming a finished run runs nothing
+    again = cli("sweep", "--resume", str(killed), "--no-progress", env=env)
+    assert again.returncode == 0 and "0 batches run" in again.stderr
+
+
+def test_resume_drops_a_truncated_last_line(tmp_path, env):
+    out = tmp_path / "run"
+    sweep = Sweep(("moller_trumbore",), (PairSpec(n=100),), processes=2, rounds=2, target_ms=0.2)
+    runner.start(sweep, out, progress=False)
+    lines = (out / "batches.csv").read_text().splitlines(keepends=True)
+    # lose the last two batches, leave half of the first of them as if cut mid-write
+    (out / "batches.csv").write_text("".join(lines[:-2]) + lines[-2][:25])
+    result = runner.resume(out, progress=False)
+    assert result.batches_run == 2
+    assert sorted(keys_of(out)) == sorted(plan(sweep))
+
+
+def test_a_wrong_kernel_stops_the_sweep_naming_it(tmp_path, env):
+    faulty = tmp_path / "faulty_worker.py"
+    faulty.write_text(textwrap.dedent("""
+        import dataclasses, sys
+        from tribench import ext
+        from tribench.harness import worker
+        real = ext.time_batch
+        def wrong(job, loops):  # curless miscounts one hit per batch
+            b = real(job, loops)
+            return dataclasses.replace(b, hits=b.hits + 1) if job.kernel == "curless" else b
+        ext.time_batch = wrong
+        sys.exit(worker.main())
+    """))
+    sweep = Sweep(("moller_trumbore", "curless"), (PairSpec(n=100),), processes=3, rounds=2, target_ms=0.2)
+    with pytest.raises(runner.SweepError, match="kernel 'curless' on workload pairs-.*checksum failed"):
+        runner.start(sweep, tmp_path / "run", progress=False, worker=[sys.executable, str(faulty)])
+    # the sweep stopped in the first process: no later process ran
+    assert set(records.read_batches(tmp_path / "run")["process"]) <= {0}
+
+
+@pytest.mark.parametrize("args, message", [
+    (["sweep", "--kernels", "nope"], "unknown kernel 'nope'"),
+    (["sweep", "--hit-rates", "1.5"], "hit_rate must be in [0, 1], got 1.5"),
+    (["sweep", "--resume", "/no/such/run"], "no run directory"),
+    (["stats", "/no/such/run"], "no run directory"),
+    (["sweep", "--camera", "big"], "--camera must be WIDTHxHEIGHT"),
+])
+def test_bad_flags_exit_2_with_one_line(tmp_path, env, args, message):
+    if args[0] == "sweep" and "--resume" not in args:
+        args = [*args, "--out", str(tmp_path / "run")]
+    out = cli(*args, env=env)
+    assert out.returncode == 2
+    assert len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert message in out.stderr
+    assert not (tmp_path / "run").exists()
+
+
+def test_sweep_refuses_a_non_empty_out_dir(tmp_path, env):
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "x").write_text("")
+    out = cli("sweep", "--out", str(tmp_path / "run"), *TINY, env=env)
+    assert out.returncode == 2 and "not empty" in out.stderr
+
+
+def test_calibrate_writes_its_summary_and_the_user_margin(tmp_path, env):
+    out = tmp_path / "cal"
+    done = cli("calibrate", "--processes", "2", "--experiments", "3", "--rounds", "2", "--target-ms", "0.2",
+               "--out", str(out), "--no-progress", env=env)
+    assert done.returncode == 0, done.stderr
+    assert "coverage of 1" in done.stdout and "noise floor" in done.stdout
+    assert (out / "calibration.json").is_file()
+    user = Path(env["TRIBENCH_CACHE"]).parent / "calibration.json"
+    assert user.read_text() == (out / "calibration.json").read_text()
+    # the next sweep uses it, and says so
+    run = tmp_path / "run"
+    assert cli("sweep", "--out", str(run), *TINY, env=env).returncode == 0
+    assert str(user) in records.read_run(run)["margin"]["source"]
