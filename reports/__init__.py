@@ -1,1 +1,92 @@
-"""Reports: tidy CSVs, the HTML report, plots and pictures. Never measures."""
+"""Reports: tidy CSVs, the HTML report, plots and pictures. Never measures.
+
+Public API (heavy modules are imported on first use):
+
+* :func:`write_report` — ``RUN_DIR/report.html`` (one self-contained page) and
+  ``RUN_DIR/sweep.toml`` (the sweep, to run it again); makes
+  ``estimates.csv``/``speedups.csv`` with the harness's analysis if missing.
+* :func:`write_compare` — the same kernels on two runs: ratio of their
+  speedups with CIs, as an HTML page.
+* :func:`format_tables` — compact terminal tables of estimates and speedups.
+
+The CSV columns are documented in :mod:`tribench.reports.columns`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["write_report", "write_compare", "format_tables", "format_compare", "RunError", "REPORT"]
+
+REPORT = "report.html"
+SWEEP_FILE = "sweep.toml"
+
+
+def _load(run_dir: str | Path, baseline: str | None = None):
+    from .rundata import load_run
+
+    return load_run(run_dir, baseline=baseline)
+
+
+def write_report(run_dir: str | Path, baseline: str | None = None) -> Path:
+    """Write ``RUN_DIR/report.html`` and return its path.
+
+    Parameters
+    ----------
+    run_dir : path
+        A run folder written by ``tribench sweep`` (``run.json``, ``batches.csv``).
+    baseline : str, optional
+        Re-analyse against this baseline (rewrites estimates.csv/speedups.csv);
+        default: the tables as they are, or the harness's default baseline.
+
+    Raises
+    ------
+    RunError
+        The folder is missing, incomplete or unreadable (a one-line reason).
+    """
+    from .html import render, sweep_toml
+
+    data = _load(run_dir, baseline)
+    page = render(data, SWEEP_FILE)
+    (data.run_dir / SWEEP_FILE).write_text(sweep_toml(data.run["sweep"]))
+    out = data.run_dir / REPORT
+    tmp = out.with_suffix(".html.tmp")
+    tmp.write_text(page, encoding="utf-8")
+    tmp.replace(out)
+    return out
+
+
+def write_compare(run_a: str | Path, run_b: str | Path, out: str | Path | None = None) -> Path:
+    """Write the comparison page of two runs (default ``RUN_B/compare.html``) and return its path."""
+    from .compare import compare_runs, render_compare
+
+    a, b = _load(run_a), _load(run_b)
+    result = compare_runs(a, b)
+    path = Path(out) if out is not None else b.run_dir / "compare.html"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(render_compare(a, b, result), encoding="utf-8")
+    return path
+
+
+def format_tables(run_dir: str | Path) -> str:
+    """Compact terminal tables of a run's estimates and speedups with CIs and verdicts."""
+    from .terminal import format_run
+
+    return format_run(_load(run_dir))
+
+
+def format_compare(run_a: str | Path, run_b: str | Path) -> str:
+    """The ratio-of-speedups table of two runs, for the terminal."""
+    from .compare import compare_runs, format_comparison
+
+    a, b = _load(run_a), _load(run_b)
+    return format_comparison(a, b, compare_runs(a, b))
+
+
+def __getattr__(name: str):
+    # RunError is defined in rundata (so that module has no import cycle); expose the same class.
+    if name == "RunError":
+        from .rundata import RunError as _RunError
+
+        return _RunError
+    raise AttributeError(name)

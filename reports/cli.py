@@ -1,0 +1,100 @@
+"""``tribench report`` and ``tribench compare``: subcommands for the harness's CLI.
+
+:func:`add_parser` adds both to the ``tribench`` sub-parsers. Handlers import
+the heavy modules when they run, return an exit code, and turn a user error
+into one line on stderr and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+__all__ = ["add_parser", "report_main", "compare_main"]
+
+
+def _error(command: str, exc: BaseException) -> int:
+    print(f"tribench {command}: error: {exc}", file=sys.stderr)
+    return 2
+
+
+def report_main(args: argparse.Namespace) -> int:
+    """Write RUN_DIR/report.html, print the compact tables, optionally open the page."""
+    from . import format_tables, write_report
+    from .rundata import RunError
+
+    try:
+        path = write_report(args.run_dir, baseline=args.baseline)
+        if not args.quiet:
+            print(format_tables(args.run_dir))
+    except (RunError, FileNotFoundError, ValueError) as exc:
+        return _error("report", exc)
+    print(f"wrote {path}", file=sys.stderr)
+    if args.open:
+        import webbrowser
+
+        webbrowser.open(path.resolve().as_uri())
+    return 0
+
+
+def compare_main(args: argparse.Namespace) -> int:
+    """Print the ratio-of-speedups table of two runs and write it as an HTML page."""
+    from .compare import compare_runs, format_comparison, render_compare
+    from .rundata import RunError, load_run
+
+    try:
+        a, b = load_run(args.run_a), load_run(args.run_b)
+        result = compare_runs(a, b)
+    except (RunError, FileNotFoundError, ValueError) as exc:
+        return _error("compare", exc)
+    from pathlib import Path
+
+    out = Path(args.out) if args.out else b.run_dir / "compare.html"
+    print(format_comparison(a, b, result))
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(render_compare(a, b, result), encoding="utf-8")
+    except OSError as exc:
+        return _error("compare", exc)
+    print(f"wrote {out}", file=sys.stderr)
+    return 0
+
+
+def add_parser(subparsers) -> None:
+    """Add ``report`` and ``compare`` to the ``tribench`` sub-parsers."""
+    rep = subparsers.add_parser(
+        "report",
+        help="write RUN_DIR/report.html: speedups, curves, diagnostics, workloads (never re-measures)",
+        description="Reads a run folder (run.json, batches.csv; estimates.csv and speedups.csv are made "
+        "with `tribench stats`'s analysis if missing) and writes one self-contained HTML page that opens "
+        "offline, plus sweep.toml to run the sweep again. Prints the estimates and speedups.",
+    )
+    rep.add_argument("run_dir", metavar="RUN_DIR")
+    rep.add_argument("--baseline", metavar="NAME", help="re-analyse against this baseline kernel")
+    rep.add_argument("--open", action="store_true", help="open the report in a web browser")
+    rep.add_argument("--quiet", action="store_true", help="do not print the tables")
+    rep.set_defaults(func=report_main)
+
+    cmp_ = subparsers.add_parser(
+        "compare",
+        help="the same kernels on two runs: ratio of speedups (B / A) with CIs",
+        description="For each workload and kernel present in both runs (same baseline), the ratio of the "
+        "two runs' speedups with a Welch confidence interval (the runs are independent), and each "
+        "kernel's time ratio. Prints a table and writes an HTML page (default RUN_B/compare.html).",
+    )
+    cmp_.add_argument("run_a", metavar="RUN_A")
+    cmp_.add_argument("run_b", metavar="RUN_B")
+    cmp_.add_argument("--out", metavar="FILE", help="HTML file to write (default RUN_B/compare.html)")
+    cmp_.set_defaults(func=compare_main)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Stand-alone entry (``python -m tribench.reports.cli``) until the harness CLI wires it in."""
+    parser = argparse.ArgumentParser(prog="tribench")
+    add_parser(parser.add_subparsers(dest="command", required=True, metavar="COMMAND"))
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

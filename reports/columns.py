@@ -1,0 +1,119 @@
+"""The documented, stable columns of the CSVs next to ``report.html``.
+
+Every CSV of a run folder is tidy: one row per observation, snake_case
+column names, raw units (nanoseconds, counts, fractions; never scaled for
+printing). The order below is the order in the file; tests check that the
+files a run writes match these lists exactly, so a change here is a change
+of the format and must be deliberate.
+
+``batches.csv`` and ``processes.csv`` are written by the harness while it
+measures; ``estimates.csv`` and ``speedups.csv`` by ``tribench stats`` (or by
+``tribench report`` when they are missing). The report never changes them.
+"""
+
+from __future__ import annotations
+
+__all__ = ["BATCHES", "ESTIMATES", "SPEEDUPS", "PROCESSES", "FILES", "describe"]
+
+#: ``batches.csv``: one row per timed batch, warm-up batches included.
+BATCHES: dict[str, str] = {
+    "run_id": "identifier of the run (as in run.json)",
+    "process": "index of the worker process, the replicate (0-based)",
+    "round": "round inside the process; negative for warm-up rounds",
+    "position": "position of the kernel inside its round (random order, 0-based)",
+    "kernel": "kernel name, as registered in the C extension",
+    "workload_id": "workload identifier (hash of its spec; see run.json sweep.workloads)",
+    "dtype": "precision of the workload's arrays: float32 or float64",
+    "mode": "pairs (ray i against triangle i) or closest (every ray against every triangle)",
+    "warmup": "True for a warm-up batch (kept, left out of every estimate)",
+    "loops": "passes over the whole workload in this batch",
+    "tests": "ray-triangle tests in this batch (loops x tests per pass)",
+    "elapsed_ns": "wall time of the batch in nanoseconds (CLOCK_MONOTONIC, inside C)",
+    "start_ns": "CLOCK_MONOTONIC time at the start of the batch, in nanoseconds",
+    "invol_ctx_switches": "involuntary context switches during the batch (getrusage)",
+    "hits": "hits counted in the batch (checksum; loops x hits per pass)",
+    "t_sum": "sum of t over the hits of the batch (checksum)",
+    "cpu": "CPU the worker was pinned to",
+    "isa": "instruction set the kernel variant ran with",
+    "attempt": "worker attempt of this process index (above 0 only after a resume)",
+    "steal_ticks": "steal time during the batch in clock ticks from /proc/stat (-1: unreadable)",
+}
+
+#: ``estimates.csv``: one row per kernel and workload; times in ns per ray-triangle test.
+ESTIMATES: dict[str, str] = {
+    "kernel": "kernel name",
+    "workload_id": "workload identifier",
+    "mean": "ns per ray-triangle test: mean over processes of each process's median",
+    "ci_low": "ns per test: lower end of the Student-t confidence interval of the mean",
+    "ci_high": "ns per test: upper end of the Student-t confidence interval of the mean",
+    "bootstrap_low": "ns per test: lower end of the BCa bootstrap interval over processes (cross-check)",
+    "bootstrap_high": "ns per test: upper end of the BCa bootstrap interval over processes",
+    "minimum": "ns per test: smallest per-process median (robust secondary figure)",
+    "sd": "ns per test: standard deviation across processes",
+    "n": "number of processes",
+    "confidence": "two-sided confidence level of both intervals (0.95)",
+    "workload": "the workload's spec in one line",
+    "peak_gflops": "mean measured FMA peak of the processes, GFLOP/s",
+    "peak_flops_per_test": "cost of one test in flops at the machine's measured peak (ns x GFLOP/s)",
+    "peak_flops_per_test_ci_low": "lower end of its confidence interval",
+    "peak_flops_per_test_ci_high": "upper end of its confidence interval",
+}
+
+#: ``speedups.csv``: one row per kernel (other than the baseline) and workload.
+SPEEDUPS: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "kernel": "kernel compared with the baseline",
+    "baseline": "baseline kernel",
+    "ratio": "speedup, time_baseline / time_kernel (above 1: the kernel is faster); unitless",
+    "ci_low": "lower end of the simultaneous (Bonferroni) confidence interval of the ratio",
+    "ci_high": "upper end of that interval",
+    "p_value": "two-sided paired t-test of the per-process log ratios against 0",
+    "p_holm": "Holm-adjusted p-value over the kernels compared on this workload",
+    "n": "number of paired processes",
+    "confidence": "per-comparison confidence level actually used (Bonferroni-adjusted)",
+    "margin": "relative equivalence margin of the verdict (0.01 = 1 %)",
+    "verdict": "faster, slower, equivalent or inconclusive (stats.verdict)",
+    "workload": "the workload's spec in one line",
+    "margin_source": "where the margin came from (A/A calibration or default)",
+}
+
+#: ``processes.csv``: one row per FMA peak probe of a worker process.
+PROCESSES: dict[str, str] = {
+    "run_id": "identifier of the run",
+    "process": "index of the worker process",
+    "attempt": "worker attempt of this process index",
+    "phase": "start or end of the process",
+    "pid": "operating-system process id",
+    "cpu": "CPU the worker was pinned to",
+    "seed": "seed of the process's random choices (kernel orders, layout)",
+    "env_pad_bytes": "bytes of environment padding (layout randomisation)",
+    "dummy_allocs": "small allocations made before the arrays (layout randomisation)",
+    "peak_gflops": "measured FMA peak, GFLOP/s",
+    "peak_flops": "flops of the probe",
+    "peak_elapsed_ns": "duration of the probe in nanoseconds",
+    "peak_isa": "instruction set of the probe",
+    "start_ns": "CLOCK_MONOTONIC time of the probe, in nanoseconds",
+}
+
+#: File name -> its columns.
+FILES: dict[str, dict[str, str]] = {
+    "batches.csv": BATCHES,
+    "processes.csv": PROCESSES,
+    "estimates.csv": ESTIMATES,
+    "speedups.csv": SPEEDUPS,
+}
+
+
+def describe(name: str) -> str:
+    """The column documentation of one CSV as plain text.
+
+    Examples
+    --------
+    >>> print(describe("speedups.csv").splitlines()[0])
+    speedups.csv
+    >>> "elapsed_ns" in describe("batches.csv")
+    True
+    """
+    columns = FILES[name]
+    width = max(len(c) for c in columns)
+    return "\n".join([name] + [f"  {c:<{width}}  {d}" for c, d in columns.items()])

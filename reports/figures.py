@@ -1,0 +1,458 @@
+"""The report's figures: each a function from tidy DataFrames to a matplotlib Figure.
+
+matplotlib runs with the Agg backend and is imported here only. Figures are
+embedded in the page as ``data:`` URIs (:func:`svg_data_uri`,
+:func:`png_data_uri`): SVG with text drawn as paths, so the page needs no
+font and references nothing outside itself; dense scatters are rasterised
+inside the SVG to keep the file small.
+
+No figure computes a statistic: intervals, crossovers and labels arrive in
+the frames, computed by :mod:`tribench.harness.stats`.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import math
+import re
+from typing import Any, Sequence
+
+import matplotlib
+
+matplotlib.use("Agg", force=False)
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.ticker import FuncFormatter, NullFormatter, PercentFormatter  # noqa: E402
+
+__all__ = [
+    "VERDICT_COLOURS",
+    "kernel_colours",
+    "forest",
+    "hit_rate_curves",
+    "speedup_vs_hit_rate",
+    "scaling",
+    "process_dots",
+    "drift_panel",
+    "rounds_panel",
+    "svg_data_uri",
+    "png_data_uri",
+    "cache_bytes",
+]
+
+VERDICT_COLOURS = {"faster": "#1a7f37", "slower": "#c62828", "equivalent": "#5f6b7a", "inconclusive": "#d97706"}
+_PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+            "#bcbd22", "#17becf"]
+_STYLE = {
+    "font.size": 9,
+    "axes.titlesize": 10,
+    "axes.labelsize": 9,
+    "legend.fontsize": 8,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "svg.fonttype": "path",  # glyphs as paths: no font files, nothing external
+    "svg.hashsalt": "tribench",  # stable ids: the same run gives the same bytes
+}
+
+
+def kernel_colours(kernels: Sequence[str]) -> dict[str, str]:
+    """One colour per kernel, stable in the sweep's kernel order."""
+    return {k: _PALETTE[i % len(_PALETTE)] for i, k in enumerate(kernels)}
+
+
+def _figure(width: float, height: float) -> Figure:
+    with plt.rc_context(_STYLE):
+        return plt.figure(figsize=(width, height))
+
+
+def svg_data_uri(fig: Figure) -> str:
+    """The figure as a ``data:image/svg+xml;base64,...`` URI (and closes it)."""
+    buf = io.StringIO()
+    with plt.rc_context(_STYLE):
+        fig.savefig(buf, format="svg", metadata={"Date": None, "Creator": None}, bbox_inches="tight", dpi=110)
+    plt.close(fig)
+    text = buf.getvalue()
+    # The RDF metadata block and the DOCTYPE name schema URLs; nothing needs them.
+    text = re.sub(r"<metadata>.*?</metadata>", "", text, flags=re.S)
+    text = re.sub(r"<!DOCTYPE[^>]*>", "", text)
+    return "data:image/svg+xml;base64," + base64.b64encode(text.encode()).decode()
+
+
+def png_data_uri(data: bytes) -> str:
+    """PNG bytes as a ``data:image/png;base64,...`` URI."""
+    return "data:image/png;base64," + base64.b64encode(data).decode()
+
+
+def cache_bytes(size: str) -> float:
+    """A cache size as Linux prints it ('32K', '1M', '512') in bytes.
+
+    >>> cache_bytes("32K"), cache_bytes("2M"), cache_bytes("512")
+    (32768.0, 2097152.0, 512.0)
+    """
+    m = re.fullmatch(r"\s*([0-9.]+)\s*([KMG]?)i?B?\s*", str(size), flags=re.I)
+    if not m:
+        return math.nan
+    return float(m.group(1)) * {"": 1, "K": 1024, "M": 1024**2, "G": 1024**3}[m.group(2).upper()]
+
+
+def _empty(message: str, width: float = 7.0, height: float = 1.2) -> Figure:
+    fig = _figure(width, height)
+    fig.text(0.5, 0.5, message, ha="center", va="center", color="#555")
+    return fig
+
+
+def _fmt_ratio(x: float) -> str:
+    return f"{x:.3g}" if x < 10 else f"{x:.0f}"
+
+
+def _log_ratio_axis(ax, low: float, high: float) -> None:
+    """A log x axis for ratios with plain-number ticks (0.8, 1, 1.25...)."""
+    ax.set_xscale("log")
+    lo, hi = min(low, 1 / 1.02), max(high, 1.02)
+    pad = (hi / lo) ** 0.06
+    ax.set_xlim(lo / pad, hi * pad)
+    if hi / lo > 2.5:
+        candidates = [0.1, 0.2, 0.25, 0.33, 0.5, 0.67, 1.0, 1.5, 2, 3, 4, 5, 10]
+    else:
+        candidates = [0.5, 0.67, 0.8, 0.9, 1.0, 1.1, 1.25, 1.5, 2]
+    ticks = [t for t in candidates if lo / pad <= t <= hi * pad]
+    if len(ticks) < 3:
+        ticks = sorted(set(ticks) | {round(lo, 2), round(hi, 2)})
+    ax.set_xticks(ticks)
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}×"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
+# ------------------------------------------------------------------- forest
+
+
+def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | None = None,
+           verdict_words: dict[str, str] | None = None) -> Figure:
+    """Forest plot: every kernel's speedup over the baseline, per workload family.
+
+    Parameters
+    ----------
+    speedups : DataFrame
+        ``speedups.csv`` rows with ``family`` and ``label`` columns added
+        (``ratio, ci_low, ci_high, verdict, kernel, n, confidence``).
+    baseline : str
+    margin : float
+        Relative equivalence margin, drawn as a band around 1.
+    xlabel : str, optional
+        Axis label (default: speedup over the baseline).
+    verdict_words : dict, optional
+        How to print each verdict (e.g. for a ratio of ratios).
+    """
+    words = verdict_words or {}
+    if speedups.empty:
+        return _empty(f"no speedups: the run has no kernel other than the baseline {baseline}")
+    families = list(dict.fromkeys(speedups["family"]))
+    sizes = [int((speedups["family"] == f).sum()) for f in families]
+    height = 0.9 + sum(0.27 * s + 0.55 for s in sizes)
+    fig = _figure(9.5, height)
+    axes = fig.subplots(len(families), 1, sharex=True, squeeze=False,
+                        gridspec_kw={"height_ratios": [s + 1.2 for s in sizes]})[:, 0]
+    low = float(np.nanmin(speedups[["ci_low", "ratio"]].to_numpy()))
+    high = float(np.nanmax(speedups[["ci_high", "ratio"]].to_numpy()))
+    for ax, family in zip(axes, families):
+        rows = speedups.loc[speedups["family"] == family]
+        korder = {k: i for i, k in enumerate(dict.fromkeys(speedups["kernel"]))}
+        rows = rows.sort_values("kernel", key=lambda s: s.map(korder), kind="stable").reset_index(drop=True)
+        y = np.arange(len(rows))[::-1]
+        ax.axvspan(1 / (1 + margin), 1 + margin, color="#d0d7de", alpha=0.6, lw=0,
+                   label=f"equivalence margin ±{100 * margin:.2g}%")
+        ax.axvline(1.0, color="#333", lw=0.8)
+        for yi, r in zip(y, rows.itertuples(index=False)):
+            colour = VERDICT_COLOURS.get(r.verdict, "#333")
+            if np.isfinite(r.ci_low) and np.isfinite(r.ci_high):
+                ax.plot([r.ci_low, r.ci_high], [yi, yi], color=colour, lw=2.2, solid_capstyle="butt")
+            ax.plot([r.ratio], [yi], "o", color=colour, ms=6, mec="white", mew=0.8)
+            ci = (f"[{_fmt_ratio(r.ci_low)}, {_fmt_ratio(r.ci_high)}]"
+                  if np.isfinite(r.ci_low) else "[no interval]")
+            ax.text(1.01, yi, f"{r.ratio:.3g}×  {ci}  {words.get(r.verdict, r.verdict)}", transform=ax.get_yaxis_transform(),
+                    va="center", ha="left", color=colour, fontsize=8.5, clip_on=False)
+        ax.set_yticks(y)
+        ax.set_yticklabels([f"{r.kernel}  ·  {r.label}" for r in rows.itertuples(index=False)])
+        ax.set_ylim(-0.7, len(rows) - 0.3)
+        ax.set_title(family, loc="left", fontsize=9.5, color="#333")
+        ax.grid(axis="x", color="#eee", lw=0.6)
+        ax.tick_params(axis="y", length=0)
+    _log_ratio_axis(axes[-1], low, high)
+    level = speedups["confidence"].iloc[0] if "confidence" in speedups else math.nan
+    axes[-1].set_xlabel(xlabel or (f"speedup over {baseline} = time_{baseline} / time_kernel   "
+                                   f"(log axis; > 1: faster; bars: simultaneous 95% CIs"
+                                   + (f", {100 * level:.3g}% each)" if np.isfinite(level) else ")")))
+    handles = [plt.Line2D([], [], color=c, marker="o", lw=2, label=words.get(v, v))
+               for v, c in VERDICT_COLOURS.items()]
+    handles.append(plt.Rectangle((0, 0), 1, 1, color="#d0d7de", label=f"equivalence margin ±{100 * margin:.2g}%"))
+    axes[0].legend(handles=handles, loc="lower left", bbox_to_anchor=(0, 1.12), ncol=5, frameon=False)
+    fig.subplots_adjust(right=0.72, hspace=0.55)
+    return fig
+
+
+# ---------------------------------------------------------------- hit rate
+
+
+def _pct_axis(ax) -> None:
+    ax.xaxis.set_major_formatter(PercentFormatter(1.0, decimals=0))
+
+
+def _mark_crossovers(ax, cross: pd.DataFrame) -> None:
+    for r in cross.itertuples(index=False):
+        if not np.isfinite(r.hit_rate):
+            continue
+        if np.isfinite(r.ci_low) and np.isfinite(r.ci_high):
+            ax.axvspan(r.ci_low, r.ci_high, color="#7c3aed", alpha=0.10, lw=0)
+        ax.axvline(r.hit_rate, color="#7c3aed", lw=1, ls="--")
+        ax.text(r.hit_rate, 1.0, f" {r.kernel_a} = {r.kernel_b}\n at {100 * r.hit_rate:.3g}%",
+                transform=ax.get_xaxis_transform(), va="top", ha="left", fontsize=7.5, color="#7c3aed")
+
+
+def hit_rate_curves(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, str]) -> Figure:
+    """ns/test against the per-test hit rate, one line per kernel with its CI band.
+
+    Parameters
+    ----------
+    est : DataFrame
+        Estimates of pair workloads with ``family``, ``test_hit_rate``.
+    cross : DataFrame
+        :func:`tribench.reports.content.crossovers` rows; crossings are
+        drawn as dashed lines with their interval shaded.
+    """
+    pairs = est.loc[est["kind"] == "pairs"]
+    families = [f for f, g in pairs.groupby("family", sort=False) if g["test_hit_rate"].nunique() >= 2]
+    if not families:
+        return _empty("no pair workload family with two or more per-test hit rates in this run")
+    fig = _figure(9.5, 3.6 * len(families))
+    axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
+    for ax, family in zip(axes, families):
+        rows = pairs.loc[pairs["family"] == family]
+        for kernel, g in rows.groupby("kernel", sort=False):
+            g = g.sort_values("test_hit_rate")
+            c = colours.get(kernel, "#333")
+            ax.fill_between(g["test_hit_rate"], g["ci_low"], g["ci_high"], color=c, alpha=0.18, lw=0)
+            ax.plot(g["test_hit_rate"], g["mean"], "o-", color=c, ms=3.5, lw=1.5, label=kernel)
+        _mark_crossovers(ax, cross.loc[cross["family"] == family])
+        ax.set_title(family, loc="left", fontsize=9.5)
+        ax.set_ylabel("ns per ray–triangle test")
+        ax.set_xlabel("per-test hit rate (fraction of ray–triangle tests that hit), achieved")
+        _pct_axis(ax)
+        ax.set_ylim(bottom=0)
+        ax.grid(color="#eee", lw=0.6)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), frameon=False)
+    fig.subplots_adjust(right=0.8, hspace=0.45)
+    return fig
+
+
+def speedup_vs_hit_rate(spd: pd.DataFrame, baseline: str, margin: float, colours: dict[str, str]) -> Figure:
+    """Speedup over the baseline against the per-test hit rate, with CI bands (log axis)."""
+    pairs = spd.loc[spd["kind"] == "pairs"]
+    families = [f for f, g in pairs.groupby("family", sort=False) if g["test_hit_rate"].nunique() >= 2]
+    if not families:
+        return _empty("no pair workload family with two or more per-test hit rates in this run")
+    fig = _figure(9.5, 3.3 * len(families))
+    axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
+    for ax, family in zip(axes, families):
+        rows = pairs.loc[pairs["family"] == family]
+        ax.axhspan(1 / (1 + margin), 1 + margin, color="#d0d7de", alpha=0.6, lw=0)
+        ax.axhline(1.0, color="#333", lw=0.8)
+        for kernel, g in rows.groupby("kernel", sort=False):
+            g = g.sort_values("test_hit_rate")
+            c = colours.get(kernel, "#333")
+            ax.fill_between(g["test_hit_rate"], g["ci_low"], g["ci_high"], color=c, alpha=0.18, lw=0)
+            ax.plot(g["test_hit_rate"], g["ratio"], "o-", color=c, ms=3.5, lw=1.5, label=kernel)
+        ax.set_yscale("log")
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}×"))
+        ax.yaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}×"))
+        ax.set_title(family, loc="left", fontsize=9.5)
+        ax.set_ylabel(f"speedup over {baseline}")
+        ax.set_xlabel("per-test hit rate (fraction of ray–triangle tests that hit), achieved")
+        _pct_axis(ax)
+        ax.grid(color="#eee", lw=0.6)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), frameon=False)
+    fig.subplots_adjust(right=0.8, hspace=0.45)
+    return fig
+
+
+# ----------------------------------------------------------------- scaling
+
+
+def _bytes_label(v: float, _=None) -> str:
+    for unit, size in (("GiB", 1024**3), ("MiB", 1024**2), ("KiB", 1024)):
+        if v >= size:
+            return f"{v / size:.3g} {unit}"
+    return f"{v:.3g} B"
+
+
+def scaling(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) -> Figure:
+    """ns/test against triangle count (mesh families) and against working-set size (all).
+
+    Both axes logarithmic; the machine's data cache sizes are marked on the
+    working-set panel. Lines join the workloads of one family.
+    """
+    mesh = est.loc[(est["kind"] == "mesh") & est["triangles"].notna()]
+    fig = _figure(11, 4.2)
+    ax1, ax2 = fig.subplots(1, 2)
+    styles = ["-", "--", ":", "-."]
+    fam_style = {f: styles[i % len(styles)] for i, f in enumerate(dict.fromkeys(est["family"]))}
+    if mesh.empty:
+        ax1.text(0.5, 0.5, "no mesh workloads in this run", transform=ax1.transAxes, ha="center", color="#555")
+    for (family, kernel), g in mesh.groupby(["family", "kernel"], sort=False):
+        g = g.sort_values("triangles")
+        c = colours.get(kernel, "#333")
+        ax1.fill_between(g["triangles"], g["ci_low"], g["ci_high"], color=c, alpha=0.18, lw=0)
+        ax1.plot(g["triangles"], g["mean"], "o", ls=fam_style[family], color=c, ms=3.5, lw=1.4, label=kernel)
+    ax1.set_xscale("log")
+    ax1.set_yscale("log")
+    ax1.set_xlabel("triangles in the mesh (achieved count; brute force: every ray tests every triangle)")
+    ax1.set_ylabel("ns per ray–triangle test")
+    ax1.set_title("cost against triangle count", loc="left")
+    _dedupe_legend(ax1)
+
+    ws = est.dropna(subset=["working_set_bytes"])
+    for (family, kernel), g in ws.groupby(["family", "kernel"], sort=False):
+        g = g.sort_values("working_set_bytes")
+        c = colours.get(kernel, "#333")
+        ax2.errorbar(g["working_set_bytes"], g["mean"], yerr=[g["mean"] - g["ci_low"], g["ci_high"] - g["mean"]],
+                     fmt="o", ls=fam_style[family], color=c, ms=3.5, lw=1.2, capsize=2, label=kernel)
+    ax2.set_xscale("log")
+    ax2.set_yscale("log")
+    for name, size in (caches or {}).items():
+        if name.endswith("i"):
+            continue  # instruction caches hold no data
+        b = cache_bytes(size)
+        if np.isfinite(b):
+            ax2.axvline(b, color="#888", lw=0.9, ls="--")
+            ax2.text(b, 0.98, f" {name} {size}", transform=ax2.get_xaxis_transform(), rotation=90,
+                     va="top", ha="right", fontsize=7.5, color="#555")
+    ax2.xaxis.set_major_formatter(FuncFormatter(_bytes_label))
+    ax2.set_xlabel("working set: prepared triangles + rays (bytes)")
+    ax2.set_title("cost against working-set size, cache sizes marked", loc="left")
+    _dedupe_legend(ax2)
+    for ax in (ax1, ax2):
+        ax.grid(color="#eee", lw=0.6, which="both")
+    fig.tight_layout()
+    return fig
+
+
+def _dedupe_legend(ax) -> None:
+    handles, labels = ax.get_legend_handles_labels()
+    seen = dict(zip(labels, handles))
+    if seen:
+        ax.legend(seen.values(), seen.keys(), frameon=False)
+
+
+# --------------------------------------------------------------- processes
+
+
+def process_dots(pp: pd.DataFrame, est: pd.DataFrame, labels: dict[str, str], kernels: Sequence[str],
+                 colours: dict[str, str], ncols: int = 3) -> Figure:
+    """Per-process medians (dots) under each kernel's estimate (mean and CI), per workload."""
+    wids = list(dict.fromkeys(est["workload_id"]))
+    if not wids:
+        return _empty("no estimates")
+    nrows = math.ceil(len(wids) / ncols)
+    fig = _figure(3.4 * ncols, 0.5 + nrows * (0.45 * len(kernels) + 1.0))
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    order = [k for k in kernels if k in set(est["kernel"])]
+    for ax, wid in zip(axes, wids):
+        for i, kernel in enumerate(order[::-1]):
+            dots = pp.loc[(pp["kernel"] == kernel) & (pp["workload_id"] == wid), "ns_per_test"].to_numpy()
+            e = est.loc[(est["kernel"] == kernel) & (est["workload_id"] == wid)]
+            c = colours.get(kernel, "#333")
+            jitter = (np.arange(dots.size) % 5 - 2) * 0.05
+            ax.plot(dots, i + 0.22 + jitter, "o", color=c, ms=3, alpha=0.75, mew=0)
+            if not e.empty:
+                r = e.iloc[0]
+                if np.isfinite(r["ci_low"]):
+                    ax.plot([r["ci_low"], r["ci_high"]], [i - 0.1, i - 0.1], color=c, lw=2.2)
+                ax.plot([r["mean"]], [i - 0.1], "D", color=c, ms=4.5, mec="white", mew=0.6)
+        ax.set_yticks(range(len(order)))
+        ax.set_yticklabels(order[::-1], fontsize=8)
+        ax.set_ylim(-0.6, len(order) - 0.4)
+        ax.set_title(labels.get(wid, wid), fontsize=8, loc="left")
+        ax.set_xlabel("ns per test", fontsize=8)
+        ax.grid(axis="x", color="#eee", lw=0.6)
+        ax.tick_params(axis="y", length=0)
+    for ax in axes[len(wids):]:
+        ax.axis("off")
+    fig.tight_layout()
+    return fig
+
+
+# ------------------------------------------------------------- drift, rounds
+
+
+def _robust_ylim(ax, values: np.ndarray) -> None:
+    v = values[np.isfinite(values)]
+    if v.size:
+        lo, hi = np.quantile(v, [0.005, 0.995])
+        pad = 0.15 * (hi - lo) + 1e-3
+        ax.set_ylim(lo - pad, hi + pad)
+
+
+def drift_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
+    """Each timed batch's ns/test relative to its process median, against time in the process.
+
+    A flat cloud around 1 means no drift; a slope shared by every kernel is
+    harmless when rounds interleave them; kernels drifting apart is what
+    ``stats.drift`` flags. Lines: binned medians per kernel.
+    """
+    timed = batches.loc[~batches["warmup"]]
+    if timed.empty:
+        return _empty("no timed batches")
+    fig = _figure(9.5, 3.4)
+    ax = fig.subplots()
+    edges = np.linspace(timed["t_in_process_s"].min(), timed["t_in_process_s"].max() + 1e-9, 13)
+    for kernel, g in timed.groupby("kernel", sort=False):
+        c = colours.get(kernel, "#333")
+        ax.scatter(g["t_in_process_s"], g["rel_to_median"], s=6, color=c, alpha=0.45, lw=0, rasterized=True)
+        bins = pd.cut(g["t_in_process_s"], edges, include_lowest=True)
+        med = g.groupby(bins, observed=True).agg(t=("t_in_process_s", "median"), y=("rel_to_median", "median"))
+        ax.plot(med["t"], med["y"], "-", color=c, lw=1.6, label=kernel)
+    ax.axhline(1.0, color="#333", lw=0.8)
+    _robust_ylim(ax, timed["rel_to_median"].to_numpy())
+    ax.set_xlabel("seconds since the worker process started")
+    ax.set_ylabel("ns/test ÷ process median")
+    ax.grid(color="#eee", lw=0.6)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), frameon=False)
+    fig.subplots_adjust(right=0.8)
+    return fig
+
+
+def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
+    """Every batch (warm-up included) against its round, Tukey outliers circled.
+
+    Values are ns/test relative to the process's timed median for that kernel
+    and workload; warm-up rounds (negative) are shaded.
+    """
+    if batches.empty:
+        return _empty("no batches")
+    fig = _figure(9.5, 3.2)
+    ax = fig.subplots()
+    kernels = list(dict.fromkeys(batches["kernel"]))
+    width = 0.7 / max(len(kernels), 1)
+    for i, kernel in enumerate(kernels):
+        g = batches.loc[batches["kernel"] == kernel]
+        x = g["round"] + (i - (len(kernels) - 1) / 2) * width
+        ax.scatter(x, g["rel_to_median"], s=7, color=colours.get(kernel, "#333"), alpha=0.55, lw=0,
+                   label=kernel, rasterized=True)
+    out = batches.loc[batches["outlier"] & ~batches["far_out"]]
+    far = batches.loc[batches["far_out"]]
+    ax.scatter(out["round"], out["rel_to_median"], s=40, facecolors="none", edgecolors="#c62828", lw=0.9,
+               label="outlier (Tukey 1.5 IQR)")
+    ax.scatter(far["round"], far["rel_to_median"], s=40, marker="x", color="#c62828", lw=1.1,
+               label="far out (3 IQR)")
+    if (batches["round"] < 0).any():
+        ax.axvspan(batches["round"].min() - 0.5, -0.5, color="#fde68a", alpha=0.35, lw=0, label="warm-up")
+    ax.axhline(1.0, color="#333", lw=0.8)
+    _robust_ylim(ax, batches["rel_to_median"].to_numpy())
+    ax.set_xlabel("round inside the process (negative: warm-up)")
+    ax.set_ylabel("ns/test ÷ process median")
+    ax.xaxis.get_major_locator().set_params(integer=True)
+    ax.grid(color="#eee", lw=0.6)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), frameon=False)
+    fig.subplots_adjust(right=0.78)
+    return fig

@@ -1,0 +1,660 @@
+"""``report.html``: one self-contained page per run.
+
+Plain HTML with a small inline stylesheet and no script; every figure is a
+``data:`` URI, so the file opens offline and references nothing outside
+itself. All text goes through :func:`html.escape`.
+
+Sections (ids): ``headline``, ``speedups``, ``hit-rate``, ``scaling``,
+``processes``, ``drift``, ``diagnostics``, ``correctness``, ``workloads``,
+``machine``, ``reproduce``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+import tempfile
+from html import escape
+from pathlib import Path
+from typing import Any, Iterable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from . import columns, content, figures
+from .rundata import RunData
+
+__all__ = ["SECTIONS", "render", "headline_sentences", "sweep_toml", "MAX_PICTURES"]
+
+#: Section ids, in page order, with their titles.
+SECTIONS = {
+    "headline": "Headline",
+    "speedups": "Speedups",
+    "hit-rate": "Hit rate",
+    "scaling": "Size and working set",
+    "processes": "Per-process values",
+    "drift": "Drift",
+    "diagnostics": "Diagnostics",
+    "correctness": "Correctness",
+    "workloads": "Workloads",
+    "machine": "Machine and build",
+    "reproduce": "Reproduce",
+}
+
+#: At most this many workload pictures are drawn (the rest are listed).
+MAX_PICTURES = 16
+
+_CSS = """
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:0;
+ color:#1f2328;background:#fff;line-height:1.45}
+main{max-width:1180px;margin:0 auto;padding:12px 28px 60px}
+h1{font-size:1.6em;margin:.4em 0 .1em}h2{font-size:1.3em;border-bottom:2px solid #d0d7de;
+ padding-bottom:.2em;margin-top:2.2em}h3{font-size:1.05em;margin:1.3em 0 .4em}
+nav{position:sticky;top:0;background:#f6f8fa;border-bottom:1px solid #d0d7de;padding:6px 28px;
+ font-size:.9em;z-index:2}nav a{margin-right:.9em;color:#0b57d0;text-decoration:none}
+.sub{color:#57606a;margin:0 0 1em}
+.verdicts{font-size:1.08em;padding-left:1.2em}.verdicts li{margin:.25em 0}
+.faster{color:#1a7f37;font-weight:600}.slower{color:#c62828;font-weight:600}
+.equivalent{color:#5f6b7a;font-weight:600}.inconclusive{color:#b45309;font-weight:600}.mixed{font-weight:600}
+.warn{background:#fff8c5;border:1px solid #d4a72c;border-radius:6px;padding:6px 12px;margin:.6em 0}
+.note{color:#57606a;font-size:.92em}
+table{border-collapse:collapse;font-size:.86em;margin:.5em 0 1em}
+th,td{border-bottom:1px solid #e5e7eb;padding:3px 9px;text-align:left;vertical-align:top}
+th{background:#f6f8fa;font-weight:600}td.num{text-align:right;font-variant-numeric:tabular-nums}
+figure{margin:.8em 0 1.4em}figure img{max-width:100%;height:auto;display:block}
+figcaption{color:#57606a;font-size:.9em;margin-top:.3em}
+pre{background:#f6f8fa;border:1px solid #d0d7de;border-radius:6px;padding:10px;overflow-x:auto;font-size:.85em}
+code{font-family:ui-monospace,SFMono-Regular,Menlo,Consolas,monospace;font-size:.92em}
+.pictures{display:grid;grid-template-columns:repeat(auto-fill,minmax(520px,1fr));gap:18px}
+details summary{cursor:pointer;color:#0b57d0}
+"""
+
+
+# ------------------------------------------------------------------ helpers
+
+
+def _num(x: Any, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    if isinstance(x, (bool, np.bool_)):
+        return "yes" if x else "no"
+    if isinstance(x, (int, np.integer)):
+        return f"{int(x):,}"
+    if isinstance(x, (float, np.floating)):
+        if x == 0:
+            return "0"
+        return f"{x:.{digits}g}" if abs(x) < 1e5 else f"{x:.{digits}e}"
+    return str(x)
+
+
+def _table(frame: pd.DataFrame, cols: Sequence[tuple[str, str]], digits: int = 4,
+           classes: dict[str, Any] | None = None) -> str:
+    """An HTML table of ``frame``; ``cols`` pairs a column with its header (units in it)."""
+    if frame.empty:
+        return '<p class="note">(none)</p>'
+    head = "".join(f"<th>{escape(h)}</th>" for _, h in cols)
+    body = []
+    for _, row in frame.iterrows():
+        cells = []
+        for c, _ in cols:
+            v = row.get(c)
+            numeric = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+            text = _num(v, digits) if v is not None and not (isinstance(v, float) and math.isnan(v)) else "–"
+            cls = ' class="num"' if numeric else ""
+            if c == "verdict" and isinstance(v, str):
+                cls = f' class="{escape(v)}"'
+            cells.append(f"<td{cls}>{escape(text)}</td>")
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+
+
+def _kv_table(items: Iterable[tuple[str, Any]]) -> str:
+    rows = "".join(f"<tr><th>{escape(str(k))}</th><td>{escape(_plain(v))}</td></tr>" for k, v in items)
+    return f"<table>{rows}</table>"
+
+
+def _plain(v: Any) -> str:
+    if v is None:
+        return "–"
+    if isinstance(v, (list, tuple)):
+        return ", ".join(_plain(x) for x in v)
+    if isinstance(v, dict):
+        return ", ".join(f"{k} {_plain(x)}" for k, x in v.items())
+    return str(v)
+
+
+def _ordered(frame: pd.DataFrame, data: RunData) -> pd.DataFrame:
+    """Rows in sweep order: workloads, then kernels."""
+    if frame.empty:
+        return frame
+    w = {x: i for i, x in enumerate(data.workload_ids)}
+    k = {x: i for i, x in enumerate(data.kernels)}
+    key = frame["workload_id"].map(w) * 1000 + frame["kernel"].map(k)
+    return frame.assign(_key=key).sort_values("_key", kind="stable").drop(columns="_key").reset_index(drop=True)
+
+
+def _figure(uri: str, alt: str, caption: str) -> str:
+    return (f'<figure><img src="{escape(uri)}" alt="{escape(alt)}">'
+            f"<figcaption>{escape(caption)}</figcaption></figure>")
+
+
+def _section(sid: str, body: str, heading: bool = True) -> str:
+    h2 = f"<h2>{escape(SECTIONS[sid])}</h2>" if heading else ""
+    return f'<section id="{sid}">{h2}{body}</section>'
+
+
+def _p(text: str, cls: str = "") -> str:
+    c = f' class="{cls}"' if cls else ""
+    return f"<p{c}>{escape(text)}</p>"
+
+
+def _ci(low: float, high: float) -> str:
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return "no interval: too few processes"
+    return f"{low:.3g}–{high:.3g}"
+
+
+# ----------------------------------------------------------------- headline
+
+
+def headline_sentences(spd: pd.DataFrame) -> dict[str, list[tuple[str, str]]]:
+    """One sentence per kernel against the baseline, per workload family.
+
+    ``spd`` is ``speedups.csv`` with ``family`` and ``label`` columns (and
+    ``test_hit_rate``); returns ``{family: [(verdict, sentence), ...]}``.
+    Verdicts are the ones in the table (``stats.verdict``); nothing is
+    recomputed here.
+
+    Examples
+    --------
+    >>> spd = pd.DataFrame({"family": ["pairs n=10"], "label": ["per-test hit rate 50%"],
+    ...     "kernel": ["mt"], "baseline": ["seed"], "ratio": [1.18], "ci_low": [1.15],
+    ...     "ci_high": [1.21], "n": [10], "verdict": ["faster"], "confidence": [0.975]})
+    >>> headline_sentences(spd)["pairs n=10"][0][1]
+    'mt is faster than seed: 1.18× (95% CI 1.15–1.21, 10 processes) on pairs n=10 at per-test hit rate 50%.'
+    """
+    out: dict[str, list[tuple[str, str]]] = {}
+    for family, fam in spd.groupby("family", sort=False):
+        for kernel, g in fam.groupby("kernel", sort=False):
+            base = g["baseline"].iloc[0]
+            n = int(g["n"].min())
+            procs = f"{n} processes" if n != 1 else "1 process"
+            verdicts = list(dict.fromkeys(g["verdict"]))
+            if len(g) == 1:
+                r = g.iloc[0]
+                where = f"on {family} at {r['label']}" if r["label"] not in family else f"on {family}"
+                out.setdefault(family, []).append(
+                    (r["verdict"], f"{kernel} {_verdict_phrase(r['verdict'], base)}: {r['ratio']:.3g}× "
+                                   f"(95% CI {_ci(r['ci_low'], r['ci_high'])}, {procs}) {where}."))
+                continue
+            lo, hi = g.loc[g["ratio"].idxmin()], g.loc[g["ratio"].idxmax()]
+            span = (f"from {lo['ratio']:.3g}× (95% CI {_ci(lo['ci_low'], lo['ci_high'])}) at {lo['label']} "
+                    f"to {hi['ratio']:.3g}× (95% CI {_ci(hi['ci_low'], hi['ci_high'])}) at {hi['label']}")
+            if len(verdicts) == 1:
+                text = f"{kernel} {_verdict_phrase(verdicts[0], base)} on all {len(g)} workloads: {span}; {procs}."
+                out.setdefault(family, []).append((verdicts[0], text))
+            else:
+                parts = "; ".join(f"{v} at " + ", ".join(g.loc[g['verdict'] == v, 'label']) for v in verdicts)
+                text = f"{kernel} against {base} depends on the workload — {parts}: {span}; {procs}."
+                out.setdefault(family, []).append(("mixed", text))
+    return out
+
+
+def _verdict_phrase(verdict: str, base: str) -> str:
+    return {
+        "faster": f"is faster than {base}",
+        "slower": f"is slower than {base}",
+        "equivalent": f"is equivalent to {base} (inside the equivalence margin)",
+    }.get(verdict, f"cannot be told apart from {base} (inconclusive)")
+
+
+def _headline(data: RunData, spd: pd.DataFrame, wl: pd.DataFrame, warnings: list[str]) -> str:
+    m = data.machine
+    sweep = data.run["sweep"]
+    families = list(dict.fromkeys(wl["family"]))
+    parts = [
+        f"<h1>{escape(', '.join(k for k in data.kernels if k != data.baseline))} against {escape(data.baseline)}"
+        f"</h1>",
+        _p(f"Run {data.run.get('run_id', data.run_dir.name)}, {data.run.get('created', '')}: "
+           f"{len(data.kernels)} kernels on {len(wl)} workloads in {len(families)} families, "
+           f"{data.n_processes} worker processes × {sweep.get('rounds')} rounds "
+           f"(+{sweep.get('warmup')} warm-up), on {m.get('cpu_model', 'an unknown CPU')} "
+           f"({m.get('build', {}).get('compiler', 'unknown compiler')}). Baseline: {data.baseline}. "
+           f"Speedup = time_{data.baseline} / time_kernel, so above 1 means faster.", "sub"),
+    ]
+    sentences = headline_sentences(spd)
+    if not sentences:
+        parts.append(_p("No speedups: this run has a single kernel. Its estimates are below."))
+    for family in families:
+        if family not in sentences:
+            continue
+        items = "".join(f'<li><span class="{escape(v)}">{escape(v)}</span> — {escape(s)}</li>'
+                        for v, s in sentences[family])
+        parts.append(f"<h3>{escape(family)}</h3><ul class=\"verdicts\">{items}</ul>")
+    parts.append(_p(
+        f"Intervals are simultaneous 95% intervals over the kernels compared on each workload "
+        f"(Bonferroni; p-values Holm-adjusted), with the worker process as the replicate. "
+        f"Verdicts use an equivalence margin of ±{100 * data.margin:.2g}% ({data.margin_source}). "
+        f"Pair workloads are described by their per-test hit rate (fraction of ray–triangle tests that hit); "
+        f"mesh workloads by their per-ray hit rate (fraction of rays that hit the mesh at all).", "note"))
+    parts += [f'<div class="warn">{escape(w)}</div>' for w in warnings]
+    return _section("headline", "".join(parts), heading=False)
+
+
+def _warnings(data: RunData, drift: pd.DataFrame, correct: pd.DataFrame) -> list[str]:
+    out = []
+    if data.n_processes < 5:
+        out.append(f"Only {data.n_processes} worker processes: intervals rest on {data.n_processes - 1} "
+                   f"degrees of freedom and are wide; use 10 or more for conclusions.")
+    if data.margin_source.startswith("default"):
+        out.append("The equivalence margin is the default, not an A/A calibration of this machine "
+                   "(run `tribench calibrate`).")
+    flagged = drift.loc[drift["flagged"] == True]  # noqa: E712 (nullable column)
+    for r in flagged.itertuples(index=False):
+        out.append(f"Drift: {r.kernel} against {data.baseline} on {r.label} ({r.reason}); see the drift section.")
+    bad = correct.loc[correct["agrees"] == False]  # noqa: E712
+    for r in bad.itertuples(index=False):
+        out.append(f"Correctness: {r.kernel} on {r.workload_id} differs from the reference by "
+                   f"{_num(r.hit_difference)} hits per pass (see the correctness table).")
+    expected = data.run.get("n_batches")
+    if expected and len(data.batches) < expected:
+        out.append(f"Incomplete run: {len(data.batches)} of {expected} planned batches "
+                   f"(finish it with `tribench sweep --resume {data.run_dir}`).")
+    return out
+
+
+# ----------------------------------------------------------------- sections
+
+
+_EST_COLS = [("kernel", "kernel"), ("label", "workload"), ("mean", "ns/test (mean)"),
+             ("ci_low", "95% CI low (ns)"), ("ci_high", "95% CI high (ns)"), ("minimum", "min (ns)"),
+             ("bootstrap_low", "BCa low (ns)"), ("bootstrap_high", "BCa high (ns)"), ("n", "processes"),
+             ("peak_flops_per_test", "flops at peak per test")]
+_SPD_COLS = [("kernel", "kernel"), ("label", "workload"), ("ratio", "speedup (×)"), ("ci_low", "CI low (×)"),
+             ("ci_high", "CI high (×)"), ("p_holm", "p (Holm)"), ("n", "processes"), ("verdict", "verdict")]
+
+
+def _speedups(data: RunData, spd: pd.DataFrame, est: pd.DataFrame) -> str:
+    fig = figures.forest(spd, data.baseline, data.margin)
+    body = [
+        _figure(figures.svg_data_uri(fig), "forest plot of speedups",
+                f"Every kernel against {data.baseline}, per workload family: the dot is the speedup "
+                f"(time_{data.baseline} / time_kernel), the bar its simultaneous 95% confidence interval, "
+                f"the grey band the equivalence margin ±{100 * data.margin:.2g}%. Log axis."),
+        "<h3>Speedups</h3>", _table(spd, _SPD_COLS),
+        "<h3>Estimates</h3>",
+        _p("ns per ray–triangle test: per process the median of its timed batches, then the mean over "
+           "processes with a Student-t interval; the BCa bootstrap over processes is a cross-check and the "
+           "minimum a robust secondary figure. flops at peak per test = ns/test × the process's measured "
+           "FMA peak in GFLOP/s.", "note"),
+        _table(est, _EST_COLS),
+    ]
+    return _section("speedups", "".join(body))
+
+
+def _hit_rate(data: RunData, est: pd.DataFrame, spd: pd.DataFrame, cross: pd.DataFrame,
+              colours: dict[str, str]) -> str:
+    body = [_p("Pair workloads: N independent (ray, triangle) pairs at an exact per-test hit rate, "
+               "the fraction of ray–triangle tests that hit (Löfstedt & Akenine-Möller 2005). "
+               "Misses are spread over the three edges unless the family says otherwise; pair order "
+               "is shuffled unless it says sorted.", "note")]
+    body.append(_figure(figures.svg_data_uri(figures.hit_rate_curves(est, cross, colours)),
+                        "ns per test against per-test hit rate",
+                        "ns per test against the per-test hit rate, one line per kernel, bands: 95% CIs of "
+                        "the mean. Dashed purple: a crossover where two kernels swap rank, with its 95% "
+                        "Fieller interval shaded (stats.crossover)."))
+    body.append(_figure(figures.svg_data_uri(figures.speedup_vs_hit_rate(spd, data.baseline, data.margin,
+                                                                         colours)),
+                        "speedup against per-test hit rate",
+                        f"Speedup over {data.baseline} against the per-test hit rate (log axis), bands: "
+                        f"simultaneous 95% CIs; grey: the equivalence margin."))
+    body.append("<h3>Crossovers</h3>")
+    found = cross.loc[np.isfinite(cross["hit_rate"].astype(float))] if not cross.empty else cross
+    if cross.empty:
+        body.append(_p("No family with two or more per-test hit rates: no crossover to look for.", "note"))
+    else:
+        none = cross.loc[~cross.index.isin(found.index)]
+        if found.empty:
+            body.append(_p("No ranking flips inside the measured per-test hit rates.", "note"))
+        else:
+            body.append(_p(f"Kernel pairs whose ranking flips inside the measured per-test hit rates "
+                           f"({len(none)} other pairs keep their order throughout).", "note"))
+        if not found.empty:
+            shown = found.assign(hit_rate_pct=100 * found["hit_rate"], low_pct=100 * found["ci_low"],
+                                 high_pct=100 * found["ci_high"])
+            body.append(_table(shown, [("family", "family"), ("kernel_a", "kernel A"), ("kernel_b", "kernel B"),
+                                       ("hit_rate_pct", "crossover (% per-test hit rate)"),
+                                       ("low_pct", "95% CI low (%)"), ("high_pct", "95% CI high (%)"),
+                                       ("n", "processes")]))
+    return _section("hit-rate", "".join(body))
+
+
+def _scaling(data: RunData, est: pd.DataFrame, slopes: pd.DataFrame, colours: dict[str, str]) -> str:
+    caches = data.machine.get("caches", {})
+    body = [
+        _figure(figures.svg_data_uri(figures.scaling(est, caches, colours)), "cost against size",
+                "Left: ns per test against the mesh's triangle count (camera or per-ray hit-rate rays, "
+                "every ray against every triangle), bands: 95% CIs. Right: ns per test against the working "
+                "set, bytes of the kernel's prepared triangles plus the rays, for every workload; dashed: "
+                "the machine's data caches (" + (", ".join(f"{k} {v}" for k, v in caches.items()) or
+                                                 "unknown") + "). Both axes log."),
+        "<h3>Log–log slopes against triangle count</h3>",
+        _p("Per process the least-squares slope of log ns/test on log triangles, then a t-interval "
+           "across processes (stats.scaling_slope); 0 = cost per test independent of size.", "note"),
+        _table(slopes, [("family", "family"), ("kernel", "kernel"), ("slope", "slope"), ("ci_low", "95% CI low"),
+                        ("ci_high", "95% CI high"), ("sizes", "triangle counts"), ("n", "processes")]),
+    ]
+    return _section("scaling", "".join(body))
+
+
+def _processes(data: RunData, pp: pd.DataFrame, est: pd.DataFrame, wl: pd.DataFrame,
+               colours: dict[str, str]) -> str:
+    labels = {r.workload_id: f"{r.label}\n{r.family}" for r in wl.itertuples(index=False)}
+    fig = figures.process_dots(pp, est, labels, data.kernels, colours)
+    return _section("processes", _figure(
+        figures.svg_data_uri(fig), "per-process values",
+        "Each dot is one worker process's median ns per test; below the dots, the estimate (diamond, mean "
+        "over processes) and its 95% CI. The process is the replicate: batches inside one process share "
+        "its memory layout and are not independent."))
+
+
+def _drift(data: RunData, batches: pd.DataFrame, drift: pd.DataFrame, colours: dict[str, str]) -> str:
+    body = [
+        _figure(figures.svg_data_uri(figures.drift_panel(batches, colours)), "drift panel",
+                "Every timed batch, ns/test relative to its process's median for that kernel and workload, "
+                "against time since the process started; lines: binned medians per kernel. Kernels moving "
+                "apart over time is drift that can bias a ratio."),
+        _p("stats.drift per kernel against the baseline and workload: slopes are per second on the log "
+           "scale; ratio change = the log speedup's move across one process; confound bias = what unequal "
+           "timing of the two kernels on a drifting machine adds to the log speedup.", "note"),
+        _table(drift, [("kernel", "kernel"), ("label", "workload"), ("baseline_slope", "baseline slope (/s)"),
+                       ("ratio_slope", "ratio slope (/s)"), ("ratio_p", "p"), ("ratio_change", "ratio change"),
+                       ("confound_bias", "confound bias"), ("confound_p", "p (confound)"),
+                       ("flagged", "flagged"), ("reason", "reason")]),
+    ]
+    return _section("drift", "".join(body))
+
+
+def _calibration(data: RunData) -> str:
+    source = data.margin_source
+    body = [_p(f"Equivalence margin used: ±{100 * data.margin:.3g}% — {source}.")]
+    cal = None
+    if (data.run_dir / "calibration.json").is_file():
+        cal_path = data.run_dir / "calibration.json"
+    elif source.startswith("calibration "):
+        cal_path = Path(source.split(" ", 2)[1])
+    else:
+        cal_path = None
+    if cal_path is not None:
+        try:
+            cal = json.loads(cal_path.read_text())
+        except (OSError, ValueError):
+            cal = None
+    if cal is None:
+        body.append(_p("No A/A calibration record is available to this report: the verdicts rest on the "
+                       "default margin. `tribench calibrate` measures this machine's noise floor "
+                       "(a kernel against its identical copy) and later sweeps use it.", "note"))
+    else:
+        if cal_path != data.run_dir / "calibration.json" and cal.get("created") not in source:
+            body.append(_p(f"{cal_path} has been replaced since this run; shown for reference only.", "note"))
+        body.append(_kv_table([
+            ("A/A pair", f"{cal.get('kernel')} vs {cal.get('copy')}"),
+            ("comparisons", f"{cal.get('experiments')} of {cal.get('processes_per_experiment')} processes"),
+            ("coverage of 1 by 95% CIs", f"{100 * cal.get('coverage', math.nan):.0f}%"),
+            ("false positives (p < 0.05)", f"{100 * cal.get('false_positive_rate', math.nan):.0f}% (expect 5%)"),
+            ("p-values vs uniform", f"KS {cal.get('ks_statistic', math.nan):.3f}, "
+                                    f"p = {cal.get('ks_p_value', math.nan):.3f}"),
+            ("noise floor (97.5% of |log ratio|)", f"{cal.get('noise_floor', math.nan):.4g}"),
+            ("margin", f"{100 * cal.get('margin', math.nan):.3g}%"),
+            ("source", str(cal_path)),
+        ]))
+    return "".join(body)
+
+
+def _diagnostics(data: RunData, batches: pd.DataFrame, wl: pd.DataFrame) -> str:
+    from tribench.harness import stats
+
+    colours = figures.kernel_colours(data.kernels)
+    warm = _ordered(content.warmup_table(batches, wl), data)
+    outl = _ordered(content.outlier_table(batches, wl), data)
+    var = content.variance_table(data, wl)
+    timed = data.batches.loc[~data.batches["warmup"]]
+    ctx = int(timed["invol_ctx_switches"].sum())
+    steal = timed.loc[timed["steal_ticks"] > 0, "steal_ticks"].sum() if "steal_ticks" in timed else 0
+    body = [
+        _figure(figures.svg_data_uri(figures.rounds_panel(batches, colours)), "batches by round",
+                f"Every batch against its round (shaded: warm-up rounds, kept and labelled, left out of every "
+                f"estimate), relative to its process's median. Red rings: Tukey outliers (beyond "
+                f"{stats.DEFAULTS.tukey_k} IQR within the process), crosses: far out "
+                f"({stats.DEFAULTS.tukey_far_k} IQR). Outliers are labelled, never dropped: the per-process "
+                f"median keeps the estimates robust."),
+        "<h3>Warm-up</h3>",
+        _table(warm, [("kernel", "kernel"), ("label", "workload"), ("warmup_batches", "warm-up batches"),
+                      ("warmup_rel", "warm-up ns/test ÷ timed median")]),
+        "<h3>Outliers (Tukey fences, per process)</h3>",
+        _table(outl, [("kernel", "kernel"), ("label", "workload"), ("batches", "timed batches"),
+                      ("outliers", "outliers"), ("far_out", "far out"), ("worst_rel", "worst ÷ median")]),
+        "<h3>Variance components</h3>",
+        _p("Kalibera & Jones (2013): between rounds inside a process and between processes, as standard "
+           "deviations relative to the mean (stats.variance_components on a balanced processes × rounds "
+           "matrix). Where processes dominate, more processes narrow the intervals; more rounds do not.",
+           "note"),
+        _table(var, [("kernel", "kernel"), ("label", "workload"), ("mean_ns", "mean ns/test"),
+                     ("round_sd_pct", "between rounds (sd %)"), ("process_sd_pct", "between processes (sd %)"),
+                     ("n_processes", "processes"), ("n_rounds", "rounds")]),
+        "<h3>A/A calibration</h3>", _calibration(data),
+        "<h3>Interference</h3>",
+        _p(f"{ctx:,} involuntary context switches over {len(timed):,} timed batches; steal time "
+           f"{'not readable' if (timed['steal_ticks'] < 0).all() else f'{int(steal)} ticks'}; "
+           f"workers pinned to CPU {data.run.get('cpu', '?')}."),
+    ]
+    if not data.processes.empty:
+        peak = data.processes.groupby("phase")["peak_gflops"].agg(["mean", "min", "max"]).reset_index()
+        body += ["<h3>FMA peak per process (GFLOP/s)</h3>",
+                 _table(peak, [("phase", "phase"), ("mean", "mean"), ("min", "min"), ("max", "max")])]
+    return _section("diagnostics", "".join(body))
+
+
+def _correctness(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) -> str:
+    labels = dict(zip(wl["workload_id"], wl["label"]))
+    frame = correct.assign(label=correct["workload_id"].map(labels))
+    body = [
+        _p("Every batch returns a checksum (hits and the sum of t) that the worker checked against the "
+           "float64 reference before keeping it: a kernel that is fast because it is wrong stops the run. "
+           "Hits may differ from the reference only on ambiguous rays (within 1e-5, in barycentric terms, "
+           "of an edge). Mesh workloads count rays that hit; pair workloads count pairs that hit.", "note"),
+        _table(frame, [("kernel", "kernel"), ("label", "workload"), ("batches", "batches"),
+                       ("ref_hits", "reference hits per pass"), ("hits_per_pass_min", "kernel hits per pass"),
+                       ("hit_difference", "|difference|"), ("ambiguous_rays", "ambiguous rays"),
+                       ("t_sum_rel_diff", "sum of t, relative difference"), ("agrees", "agrees")], digits=3),
+    ]
+    water = data.run_dir / "watertightness.csv"
+    if water.is_file():
+        w = pd.read_csv(water)
+        body += ["<h3>Watertightness</h3>", _table(w, [(c, c) for c in w.columns])]
+    else:
+        body.append(_p("Watertightness: not measured in this run (no watertightness.csv in the run folder).",
+                       "note"))
+    return _section("correctness", "".join(body))
+
+
+def _pictures(data: RunData, workloads: dict[str, content.WorkloadInfo], wl: pd.DataFrame) -> str:
+    from tribench.workloads import picture
+
+    body = [_p("What the kernels were timed on. Pair pictures map every pair's plane crossing into one "
+               "reference triangle; mesh pictures show the mesh with its rays, hits and misses. Each title "
+               "gives the targets against the achieved figures.", "note")]
+    cards = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, r in enumerate(wl.itertuples(index=False)):
+            info = workloads.get(r.workload_id)
+            rows = [("workload", f"{r.workload_id}: {r.summary}"), ("obtained from", info.note if info else "?")]
+            if info is not None and info.workload is not None:
+                rows += [(f"{k}", f"target {_plain(t)}, achieved {_plain(a)}" if t is not None else _plain(a))
+                         for k, t, a in info.workload.compare() if not k.startswith("generated_with")]
+            img = ""
+            if info is not None and info.workload is not None and i < MAX_PICTURES:
+                path = Path(tmp) / f"{r.workload_id}.png"
+                try:
+                    picture.draw(info.workload, path)
+                    img = _figure(figures.png_data_uri(path.read_bytes()), f"picture of {r.workload_id}",
+                                  f"{r.label} ({r.family})")
+                except Exception as exc:  # a picture must never stop the report
+                    img = _p(f"picture failed: {type(exc).__name__}: {exc}", "note")
+            elif i >= MAX_PICTURES:
+                img = _p(f"(picture not drawn: only the first {MAX_PICTURES} workloads are pictured)", "note")
+            cards.append(f"<div><h3>{escape(r.label)} · {escape(r.family)}</h3>{img}"
+                         f"<details><summary>targets and achieved figures</summary>{_kv_table(rows)}</details></div>")
+    body.append(f'<div class="pictures">{"".join(cards)}</div>')
+    return _section("workloads", "".join(body))
+
+
+def _machine(data: RunData) -> str:
+    m = data.machine
+    build = m.get("build", {})
+    rows = [
+        ("CPU", m.get("cpu_model")), ("logical CPUs", m.get("logical_cpus")), ("usable CPUs", m.get("usable_cpus")),
+        ("workers pinned to CPU", data.run.get("cpu")), ("SIMD features", m.get("simd_features")),
+        ("caches", m.get("caches")), ("governor", m.get("governor")), ("CPU MHz (at start)", m.get("cpu_mhz")),
+        ("load average (at start)", m.get("load_average")), ("platform", m.get("platform")),
+        ("Python", m.get("python")), ("numpy", m.get("numpy")), ("tribench", m.get("tribench")),
+        ("git revision", m.get("git_revision")),
+    ]
+    brows = [(k, v) for k, v in build.items()]
+    isa = data.run.get("isa", {})
+    return _section("machine", "".join([
+        _kv_table(rows), "<h3>Build of the C extension</h3>", _kv_table(brows),
+        "<h3>Instruction set of each kernel</h3>", _kv_table(isa.items()),
+        "<h3>Seeds and plan</h3>",
+        _kv_table([("sweep seed", data.run["sweep"].get("seed")),
+                   ("process seeds", data.run.get("process_seeds")),
+                   ("plan sha256", data.run.get("plan_sha256")),
+                   ("batches planned / recorded", f"{data.run.get('n_batches')} / {len(data.batches)}")]),
+    ]))
+
+
+# ---------------------------------------------------------------- reproduce
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")
+
+
+def sweep_toml(sweep: dict[str, Any]) -> str:
+    """The run's sweep as a sweep file that ``tribench sweep --file`` reads back.
+
+    Examples
+    --------
+    >>> print(sweep_toml({"kernels": ["a"], "processes": 2, "rounds": 3, "warmup": 1,
+    ...     "target_ms": 2.0, "seed": 0, "workloads": [{"kind": "pairs", "n": 10}]}))
+    # tribench sweep file, written by tribench report
+    kernels = ["a"]
+    processes = 2
+    rounds = 3
+    warmup = 1
+    target_ms = 2.0
+    seed = 0
+    <BLANKLINE>
+    [[workloads]]
+    kind = "pairs"
+    n = 10
+    <BLANKLINE>
+    """
+    lines = ["# tribench sweep file, written by tribench report"]
+    for key in ("kernels", "processes", "rounds", "warmup", "target_ms", "seed"):
+        if key in sweep:
+            lines.append(f"{key} = {_toml_value(sweep[key])}")
+    for spec in sweep.get("workloads", []):
+        lines += ["", "[[workloads]]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items() if v is not None]
+    return "\n".join(lines) + "\n"
+
+
+def _reproduce(data: RunData, sweep_file: str) -> str:
+    rev = data.machine.get("git_revision")
+    command = data.run.get("command")
+    steps = []
+    if rev:
+        steps.append(f"git checkout {rev}")
+    steps += ["pip install -e .", f"tribench sweep --file {sweep_file} --out NEW_RUN_DIR",
+              "tribench report NEW_RUN_DIR"]
+    body = [
+        _p("The plan (which batches run, in which order, with which layout seeds) is a pure function of the "
+           "sweep below, and every workload a pure function of its spec: the same sweep on the same revision "
+           "repeats the run. The times will differ by the machine's noise; compare two runs with "
+           "`tribench compare RUN_A RUN_B`."),
+    ]
+    if command:
+        body += ["<h3>The command that made this run</h3>", f"<pre><code>{escape(_plain(command))}</code></pre>"]
+    body += ["<h3>To run it again</h3>", f"<pre><code>{escape(chr(10).join(steps))}</code></pre>",
+             f"<h3>{escape(sweep_file)} (written next to this report)</h3>",
+             f"<pre><code>{escape(sweep_toml(data.run['sweep']))}</code></pre>",
+             f"<h3>To redraw this report</h3><pre><code>tribench report {escape(str(data.run_dir))}"
+             f"</code></pre>",
+             "<h3>Files of the run folder</h3>",
+             _p("Tidy CSVs, one row per observation, raw units (nanoseconds, counts, fractions).", "note")]
+    for name, cols in columns.FILES.items():
+        present = (data.run_dir / name).is_file()
+        body.append(f"<details><summary>{escape(name)}{'' if present else ' (absent)'}</summary>"
+                    + _kv_table(cols.items()) + "</details>")
+    return _section("reproduce", "".join(body))
+
+
+# -------------------------------------------------------------------- page
+
+
+def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
+    """The whole page for one run, as a string."""
+    workloads = content.load_workloads(data)
+    wl = content.workload_table(data, workloads)
+    est = content.estimates_table(data, wl)
+    spd = data.speedups.merge(wl.drop(columns=["dtype"]), on="workload_id", how="left",
+                              suffixes=("", "_wl"))
+    order = {w: i for i, w in enumerate(data.workload_ids)}
+    korder = {k: i for i, k in enumerate(data.kernels)}
+    spd = spd.assign(_w=spd["workload_id"].map(order), _k=spd["kernel"].map(korder)).sort_values(
+        ["_w", "_k"]).drop(columns=["_w", "_k"]).reset_index(drop=True)
+    est = est.assign(_w=est["workload_id"].map(order), _k=est["kernel"].map(korder)).sort_values(
+        ["_w", "_k"]).drop(columns=["_w", "_k"]).reset_index(drop=True)
+    pp = content.per_process_table(data)
+    batches = content.batch_table(data)
+    cross = content.crossovers(data, wl, pp)
+    slopes = content.scaling_slopes(data, est, pp)
+    drift = content.drift_table(data, wl)
+    correct = content.correctness_table(data, workloads)
+    colours = figures.kernel_colours(data.kernels)
+
+    title = f"tribench report — {data.run.get('run_id', data.run_dir.name)}"
+    nav = "".join(f'<a href="#{sid}">{escape(t)}</a>' for sid, t in SECTIONS.items())
+    sections = [
+        _headline(data, spd, wl, _warnings(data, drift, correct)),
+        _speedups(data, spd, est),
+        _hit_rate(data, est, spd, cross, colours),
+        _scaling(data, est, slopes, colours),
+        _processes(data, pp, est, wl, colours),
+        _drift(data, batches, drift, colours),
+        _diagnostics(data, batches, wl),
+        _correctness(data, correct, wl),
+        _pictures(data, workloads, wl),
+        _machine(data),
+        _reproduce(data, sweep_file),
+    ]
+    made = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    footer = _p(f"Written by tribench report at {made} from {data.run_dir}"
+                + (" (estimates.csv and speedups.csv computed now by the harness's analysis)"
+                   if data.analysed_now else "") + ". Statistics: tribench.harness.stats.", "note")
+    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+            f"<title>{escape(title)}</title><style>{_CSS}</style></head><body>"
+            f"<nav>{nav}</nav><main>{''.join(sections)}<footer>{footer}</footer></main></body></html>\n")

@@ -1,0 +1,187 @@
+"""Everything the report needs from one run folder, read once.
+
+The report reads files only: ``run.json``, ``batches.csv``, ``processes.csv``
+and the tables ``estimates.csv``/``speedups.csv``. When those two are missing
+(or older than ``batches.csv``, after a resume) they are made by the harness's
+own analysis (:func:`tribench.harness.analysis.analyse`) and written next to
+the batches: the report never measures and never computes an interval itself.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+__all__ = ["RunData", "RunError", "load_run", "family_of", "short_label"]
+
+
+class RunError(ValueError):
+    """A run folder the report cannot use (one line saying why)."""
+
+
+@dataclass
+class RunData:
+    """One run folder, read."""
+
+    run_dir: Path
+    run: dict[str, Any]
+    batches: pd.DataFrame
+    processes: pd.DataFrame
+    estimates: pd.DataFrame
+    speedups: pd.DataFrame
+    baseline: str
+    margin: float
+    margin_source: str
+    #: workload id -> spec dict, in sweep order
+    specs: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: True when estimates/speedups were computed by this call
+    analysed_now: bool = False
+
+    @property
+    def kernels(self) -> list[str]:
+        """Kernels of the run that have timed batches, in sweep order."""
+        present = set(self.batches["kernel"])
+        return [k for k in self.run["sweep"]["kernels"] if k in present]
+
+    @property
+    def workload_ids(self) -> list[str]:
+        present = set(self.batches["workload_id"])
+        return [w for w in self.specs if w in present]
+
+    @property
+    def n_processes(self) -> int:
+        timed = self.batches.loc[~self.batches["warmup"]]
+        return int(timed["process"].nunique())
+
+    @property
+    def machine(self) -> dict[str, Any]:
+        return self.run.get("machine", {})
+
+
+def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
+    """Read a run folder; make its tables with the harness's analysis if missing.
+
+    Raises
+    ------
+    RunError
+        The folder does not exist, or lacks ``run.json``/``batches.csv``, or
+        they cannot be read, or there is nothing timed in it yet.
+    """
+    from tribench.harness import analysis, records
+
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise RunError(f"no run directory {run_dir}")
+    try:
+        run = records.read_run(run_dir)
+    except (FileNotFoundError, ValueError) as exc:
+        raise RunError(str(exc)) from None
+    if not isinstance(run, dict) or "sweep" not in run:
+        raise RunError(f"{run_dir / 'run.json'} is not a tribench run record (no 'sweep')")
+    try:
+        batches = records.read_batches(run_dir)
+        processes = records.read_processes(run_dir)
+    except FileNotFoundError as exc:
+        raise RunError(f"{exc} (was the sweep started?)") from None
+    except (ValueError, pd.errors.ParserError) as exc:
+        raise RunError(f"cannot read the batches of {run_dir}: {exc}") from None
+    if batches.loc[~batches["warmup"]].empty:
+        raise RunError(f"{run_dir} has no timed batches yet")
+
+    est_path, spd_path = run_dir / analysis.ESTIMATES, run_dir / analysis.SPEEDUPS
+    batches_mtime = (run_dir / "batches.csv").stat().st_mtime
+    fresh = all(p.is_file() and p.stat().st_mtime >= batches_mtime for p in (est_path, spd_path))
+    analysed_now = False
+    if baseline is not None or not fresh:
+        try:
+            result = analysis.analyse(run_dir, baseline=baseline)
+        except (ValueError, KeyError) as exc:
+            raise RunError(f"cannot analyse {run_dir}: {exc}") from None
+        analysis.write_tables(run_dir, result)
+        analysed_now = True
+    estimates = pd.read_csv(est_path)
+    speedups = pd.read_csv(spd_path)
+    if speedups.empty:
+        kernels = [k for k in run["sweep"]["kernels"] if k in set(batches["kernel"])]
+        base = baseline or (analysis.DEFAULT_BASELINE if analysis.DEFAULT_BASELINE in kernels else kernels[0])
+    else:
+        base = str(speedups["baseline"].iloc[0])
+    margin = run.get("margin", {})
+    m_value = float(speedups["margin"].iloc[0]) if not speedups.empty else float(margin.get("value", 0.01))
+    m_source = (str(speedups["margin_source"].iloc[0]) if "margin_source" in speedups and not speedups.empty
+                else str(margin.get("source", "unknown")))
+    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"]))
+    return RunData(run_dir, run, batches, processes, estimates, speedups, base, m_value, m_source,
+                   specs, analysed_now)
+
+
+# ------------------------------------------------------------ workload labels
+
+
+def family_of(spec: dict[str, Any]) -> str:
+    """The family a workload belongs to: its spec without the swept axis.
+
+    Pair workloads that differ only in hit rate form one family (the hit-rate
+    curves); mesh workloads that differ only in triangle count form another
+    (the scaling curves).
+
+    Examples
+    --------
+    >>> family_of({"kind": "pairs", "n": 100, "hit_rate": 0.5, "order": "shuffled",
+    ...            "shape": "sphere", "dtype": "float64", "seed": 0, "scale": 1.0, "offset": 0.0})
+    'pairs n=100 shuffled sphere float64'
+    >>> family_of({"kind": "mesh", "mesh": "suzanne", "triangles": 200, "rays": "camera",
+    ...            "width": 64, "height": 64, "dtype": "float64", "seed": 0})
+    'mesh suzanne camera 64x64 float64'
+    """
+    if spec.get("kind") == "pairs":
+        extra = "" if (spec.get("scale", 1.0), spec.get("offset", 0.0)) == (1.0, 0.0) else \
+            f" scale={spec['scale']:g} offset={spec['offset']:g}"
+        mix = spec.get("miss_mix")
+        mix_text = ""
+        if isinstance(mix, dict) and not _even_edges(mix):
+            mix_text = " misses[" + ",".join(f"{k}={v:.2g}" for k, v in mix.items() if v) + "]"
+        return (f"pairs n={spec.get('n')} {spec.get('order', '')} {spec.get('shape', '')} "
+                f"{spec.get('dtype', '')}{mix_text}{extra}").replace("  ", " ")
+    mesh = Path(str(spec.get("mesh", "?"))).name
+    if spec.get("rays") == "hit_rate":
+        rays = f"{spec.get('n_rays')} rays per-ray hit rate {spec.get('hit_rate'):g}"
+    else:
+        rays = f"camera {spec.get('width')}x{spec.get('height')}"
+    return f"mesh {mesh} {rays} {spec.get('dtype', '')}"
+
+
+def _even_edges(mix: dict[str, float]) -> bool:
+    edges = [mix.get(f"outside_edge_{i}", 0.0) for i in (1, 2, 3)]
+    return all(abs(e - 1 / 3) < 1e-6 for e in edges)
+
+
+def short_label(spec: dict[str, Any]) -> str:
+    """What varies inside a family, in words (for table rows and plot labels).
+
+    Examples
+    --------
+    >>> short_label({"kind": "pairs", "hit_rate": 0.5})
+    'per-test hit rate 50%'
+    >>> short_label({"kind": "mesh", "mesh": "suzanne", "triangles": None})
+    'suzanne, base mesh'
+    """
+    if spec.get("kind") == "pairs":
+        return f"per-test hit rate {100 * spec['hit_rate']:.4g}%"
+    count = spec.get("triangles")
+    mesh = Path(str(spec.get("mesh", "?"))).name
+    return f"{mesh}, {count} triangles" if count else f"{mesh}, base mesh"
+
+
+def spec_text(spec: dict[str, Any]) -> str:
+    """The spec's own one-line summary (falls back to JSON for an unknown spec)."""
+    try:
+        from tribench.workloads.spec import spec_from_dict
+
+        return spec_from_dict(spec).summary()
+    except Exception:  # an old or foreign spec: still show something true
+        return json.dumps(spec, sort_keys=True)

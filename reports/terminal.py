@@ -1,0 +1,50 @@
+"""Compact terminal tables of a run: estimates and speedups with CIs and verdicts."""
+
+from __future__ import annotations
+
+import math
+
+from .rundata import RunData, short_label
+
+__all__ = ["format_run"]
+
+
+def _ci(low: float, high: float, digits: int = 3) -> str:
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return "[no interval]"
+    return f"[{low:.{digits}f}, {high:.{digits}f}]"
+
+
+def format_run(data: RunData, width: int = 24) -> str:
+    """Per workload: each kernel's ns/test with its 95% CI, then its speedup and verdict.
+
+    One block per workload, workloads in sweep order, kernels in sweep order;
+    hit rates are named per-test (pairs) or per-ray (meshes).
+    """
+    est, spd = data.estimates, data.speedups
+    sweep = data.run["sweep"]
+    lines = [
+        f"run {data.run.get('run_id', data.run_dir.name)}: {len(data.kernels)} kernels x "
+        f"{len(data.workload_ids)} workloads, {data.n_processes} processes x {sweep.get('rounds')} rounds",
+        f"ns/test: mean over processes, 95% CI; speedup = time_{data.baseline} / time_kernel, "
+        f"simultaneous 95% CI; margin ±{100 * data.margin:.2g}%",
+    ]
+    korder = {k: i for i, k in enumerate(data.kernels)}
+    for wid in data.workload_ids:
+        spec = data.specs[wid]
+        rows = est.loc[est["workload_id"] == wid].sort_values("kernel", key=lambda s: s.map(korder))
+        if rows.empty:
+            continue
+        sp = spd.loc[spd["workload_id"] == wid].set_index("kernel")
+        lines += ["", f"{short_label(spec)}  [{wid}]",
+                  f"  {'kernel':<{width}}{'ns/test':>9}  {'95% CI':<18}{'speedup':>8}  {'CI':<16}  verdict"]
+        for r in rows.itertuples(index=False):
+            left = f"  {r.kernel:<{width}}{r.mean:9.3f}  {_ci(r.ci_low, r.ci_high):<18}"
+            if r.kernel in sp.index:
+                s = sp.loc[r.kernel]
+                left += f"{s['ratio']:7.3f}x  {_ci(s['ci_low'], s['ci_high']):<16}  {s['verdict']}"
+            elif r.kernel == data.baseline:
+                left += "(baseline)"
+            lines.append(left.rstrip())
+    return "\n".join(lines)
+

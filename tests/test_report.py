@@ -1,0 +1,206 @@
+"""The HTML report: structure from a small real run, offline-ness, the headline, bad input."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+import shutil
+import subprocess
+import sys
+from html.parser import HTMLParser
+
+import pandas as pd
+import pytest
+
+from test_report_run import run_fixture_dir
+
+from tribench import reports
+from tribench.reports import html as report_html
+from tribench.reports.rundata import RunError
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    run_dir, cache = run_fixture_dir(tmp_path_factory)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("TRIBENCH_CACHE", str(cache))
+        path = reports.write_report(run_dir)
+        yield run_dir, path, path.read_text(encoding="utf-8")
+
+
+class _Page(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.ids, self.imgs, self.scripts, self.links, self.tags = [], [], 0, [], []
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        self.tags.append(tag)
+        if "id" in a:
+            self.ids.append(a["id"])
+        if tag == "img":
+            self.imgs.append(a.get("src", ""))
+        if tag == "script":
+            self.scripts += 1
+        if tag in ("link", "iframe", "object", "embed"):
+            self.links.append(a)
+
+
+def _parse(text):
+    p = _Page()
+    p.feed(text)
+    return p
+
+
+def test_report_has_every_section_in_order(rendered):
+    _, path, text = rendered
+    assert path.name == "report.html"
+    ids = _parse(text).ids
+    sections = [i for i in ids if i in report_html.SECTIONS]
+    assert sections == list(report_html.SECTIONS)
+
+
+def test_report_figures_are_inline_svg_and_png(rendered):
+    _, _, text = rendered
+    imgs = _parse(text).imgs
+    svgs = [s for s in imgs if s.startswith("data:image/svg+xml;base64,")]
+    pngs = [s for s in imgs if s.startswith("data:image/png;base64,")]
+    # forest, hit rate, speedup vs hit rate, scaling, processes, drift, rounds
+    assert len(svgs) == 7
+    assert len(pngs) == 4  # one picture per workload
+    assert len(imgs) == len(svgs) + len(pngs)
+    for uri in svgs:
+        svg = base64.b64decode(uri.split(",", 1)[1]).decode()
+        assert svg.lstrip().startswith("<?xml") or svg.lstrip().startswith("<svg")
+        assert "<svg" in svg and "</svg>" in svg
+        # nothing an SVG could fetch: no external href, no font files, no stylesheet imports
+        assert not re.search(r'href="(?!#|data:image/png;base64,)', svg)
+        assert "@import" not in svg and "@font-face" not in svg and "url(http" not in svg
+    for uri in pngs:
+        assert base64.b64decode(uri.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_report_opens_offline_no_external_references(rendered):
+    _, _, text = rendered
+    page = _parse(text)
+    assert page.scripts == 0 and page.links == []
+    assert "http://" not in text and "https://" not in text
+    assert 'src="//' not in text and "href=\"//" not in text
+    hrefs = re.findall(r'href="([^"]*)"', text)
+    assert hrefs and all(h.startswith("#") for h in hrefs)
+    srcs = re.findall(r'src="([^"]*)"', text)
+    assert all(s.startswith("data:") for s in srcs)
+
+
+def test_headline_states_verdicts_and_hit_rate_meaning(rendered):
+    run_dir, _, text = rendered
+    head = text[text.index('id="headline"'):text.index('id="speedups"')]
+    spd = pd.read_csv(run_dir / "speedups.csv")
+    for kernel in spd["kernel"].unique():
+        assert f"{kernel} " in head
+    assert "moller_seed" in head  # the baseline is named
+    assert "per-test hit rate" in head and "per-ray hit rate" in head
+    assert "95% CI" in head and "3 processes" in head
+    assert "AMD" in head or "cpu" in head.lower() or "on " in head
+    # every verdict word in the headline is one stats.verdict can give (or "mixed")
+    words = re.findall(r'<span class="(\w+)">', head)
+    assert words and set(words) <= {"faster", "slower", "equivalent", "inconclusive", "mixed"}
+
+
+def test_tables_carry_units_and_escaped_text(rendered):
+    _, _, text = rendered
+    assert "ns/test (mean)" in text and "speedup (×)" in text
+    assert "<script" not in text
+
+
+def test_reproduce_section_gives_a_sweep_file_that_reads_back(rendered, tmp_path):
+    from tribench.harness.plan import Sweep, load_sweep_file
+
+    run_dir, _, text = rendered
+    assert "tribench sweep --file sweep.toml" in text
+    sweep = load_sweep_file(run_dir / "sweep.toml")
+    recorded = Sweep.from_dict(json.loads((run_dir / "run.json").read_text())["sweep"])
+    assert sweep.workload_ids == recorded.workload_ids
+    assert (sweep.kernels, sweep.processes, sweep.rounds, sweep.seed) == \
+        (recorded.kernels, recorded.processes, recorded.rounds, recorded.seed)
+
+
+def test_machine_section_shows_caches_and_build(rendered):
+    run_dir, _, text = rendered
+    run = json.loads((run_dir / "run.json").read_text())
+    machine = text[text.index('id="machine"'):text.index('id="reproduce"')]
+    assert run["machine"]["build"]["compiler"] in machine
+    for level in run["machine"]["caches"]:
+        assert level in machine
+
+
+def test_correctness_table_agrees_on_a_clean_run(rendered):
+    _, _, text = rendered
+    corr = text[text.index('id="correctness"'):text.index('id="workloads"')]
+    assert corr.count("<td>yes</td>") == 3 * 4  # every kernel on every workload agrees
+    assert "<td>no</td>" not in corr
+
+
+def test_report_rebuilds_a_workload_missing_from_the_cache(tmp_path_factory, monkeypatch):
+    run_dir, cache = run_fixture_dir(tmp_path_factory)
+    copy = tmp_path_factory.mktemp("rebuild") / "run"
+    shutil.copytree(run_dir, copy)
+    monkeypatch.setenv("TRIBENCH_CACHE", str(copy.parent / "empty-cache"))
+    text = reports.write_report(copy).read_text()
+    assert "rebuilt from the spec recorded in run.json" in text
+
+
+def test_headline_sentence_for_one_workload():
+    spd = pd.DataFrame({"family": ["pairs n=10"], "label": ["per-test hit rate 50%"], "kernel": ["mt"],
+                        "baseline": ["seed"], "ratio": [0.8], "ci_low": [0.7], "ci_high": [0.9], "n": [10],
+                        "verdict": ["slower"], "confidence": [0.975]})
+    (verdict, sentence), = report_html.headline_sentences(spd)["pairs n=10"]
+    assert verdict == "slower"
+    assert sentence.startswith("mt is slower than seed: 0.8×") and "10 processes" in sentence
+
+
+def test_format_tables_lists_estimates_and_speedups(rendered):
+    run_dir, _, _ = rendered
+    text = reports.format_tables(run_dir)
+    assert "per-test hit rate 20%" in text and "suzanne, 300 triangles" in text
+    assert "(baseline)" in text and "ns/test" in text
+    assert re.search(r"moller_trumbore\s+[\d.]+\s+\[[\d.]+, [\d.]+\]\s+[\d.]+x", text)
+
+
+# ----------------------------------------------------------------- bad input
+
+
+def test_missing_run_dir_is_a_clear_error(tmp_path):
+    with pytest.raises(RunError, match="no run directory"):
+        reports.write_report(tmp_path / "nope")
+
+
+def test_run_dir_without_batches_is_a_clear_error(tmp_path_factory):
+    run_dir, _ = run_fixture_dir(tmp_path_factory)
+    bare = tmp_path_factory.mktemp("bare")
+    shutil.copy(run_dir / "run.json", bare / "run.json")
+    with pytest.raises(RunError, match="batches.csv"):
+        reports.write_report(bare)
+
+
+def test_corrupt_run_json_is_a_clear_error(tmp_path):
+    (tmp_path / "run.json").write_text("{not json")
+    with pytest.raises(RunError, match="not valid JSON"):
+        reports.write_report(tmp_path)
+
+
+@pytest.mark.parametrize("setup, message", [
+    ("missing", "no run directory"),
+    ("corrupt", "not valid JSON"),
+])
+def test_cli_bad_input_exits_2_with_one_line(tmp_path, setup, message):
+    target = tmp_path / "run"
+    if setup == "corrupt":
+        target.mkdir()
+        (target / "run.json").write_text("[")
+    proc = subprocess.run([sys.executable, "-m", "tribench.reports.cli", "report", str(target)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("tribench report: error:") and message in lines[0]

@@ -1,0 +1,80 @@
+"""One small real run, made once per test session, for every report test; and its CSV columns.
+
+Other report test modules import :func:`run_fixture_dir` from here.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from tribench.harness import records, runner
+from tribench.harness.plan import Sweep
+from tribench.reports import columns
+from tribench.workloads.spec import MeshSpec, PairSpec
+
+KERNELS = ("moller_seed", "moller_trumbore", "curless")
+WORKLOADS = (
+    PairSpec(n=500, hit_rate=0.2),
+    PairSpec(n=500, hit_rate=0.8),
+    MeshSpec("suzanne", triangles=100, width=16, height=16),
+    MeshSpec("suzanne", triangles=300, width=16, height=16),
+)
+
+
+def run_fixture_dir(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """``(run_dir, cache_dir)`` of the session's small run, made on first use.
+
+    3 kernels x 4 workloads (pairs at two per-test hit rates, Suzanne at two
+    triangle counts), 3 processes x 3 rounds (+1 warm-up). The caller sets
+    ``TRIBENCH_CACHE`` to ``cache_dir`` while it reads the run.
+    """
+    base = tmp_path_factory.getbasetemp() / "report-run"
+    run_dir, cache = base / "run", base / "cache"
+    if not (run_dir / "batches.csv").is_file():
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setenv("TRIBENCH_CACHE", str(cache))
+            sweep = Sweep(KERNELS, WORKLOADS, processes=3, rounds=3, warmup=1, target_ms=0.2, seed=5)
+            runner.start(sweep, run_dir, progress=False)
+    return run_dir, cache
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    run_dir, cache = run_fixture_dir(tmp_path_factory)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("TRIBENCH_CACHE", str(cache))
+        yield run_dir
+
+
+def test_the_run_folder_csvs_have_exactly_the_documented_columns(small_run):
+    from tribench import reports
+
+    reports.write_report(small_run)  # makes estimates.csv and speedups.csv if missing
+    for name, documented in columns.FILES.items():
+        header = list(pd.read_csv(small_run / name, nrows=0).columns)
+        assert header == list(documented), f"{name}: columns changed; update reports/columns.py deliberately"
+
+
+def test_documented_columns_match_the_harness_records():
+    assert tuple(columns.BATCHES) == records.BATCH_COLUMNS
+    assert tuple(columns.PROCESSES) == records.PROCESS_COLUMNS
+
+
+def test_every_documented_column_has_a_description_and_snake_case_name():
+    for name, cols in columns.FILES.items():
+        for column, text in cols.items():
+            assert column == column.lower() and " " not in column, (name, column)
+            assert len(text) > 10, (name, column)
+
+
+@pytest.mark.parametrize("name", ["tribench.reports.columns", "tribench.reports.rundata", "tribench.reports.html",
+                                  "tribench.reports.compare", "tribench.reports.figures"])
+def test_report_docstring_examples(name):
+    import doctest
+    import importlib
+
+    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0 and result.failed == 0
