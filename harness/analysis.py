@@ -27,7 +27,7 @@ import pandas as pd
 from . import records, stats
 from .calibration import Margin
 
-__all__ = ["Analysis", "analyse", "format_tables", "write_tables", "ESTIMATES", "SPEEDUPS"]
+__all__ = ["Analysis", "analyse", "write_tables", "ESTIMATES", "SPEEDUPS"]
 
 ESTIMATES = "estimates.csv"
 SPEEDUPS = "speedups.csv"
@@ -112,26 +112,3 @@ def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
     analysis.estimates.to_csv(paths[0], index=False)
     analysis.speedups.to_csv(paths[1], index=False)
     return paths
-
-
-def format_tables(analysis: Analysis) -> str:
-    """A compact terminal table of estimates, then speedups with verdicts."""
-    lines = [f"{analysis.batches} batches, {analysis.processes} processes; "
-             f"intervals {100 * stats.DEFAULTS.confidence:g}% (speedups: simultaneous, Bonferroni)"]
-    est, spd = analysis.estimates, analysis.speedups
-    for wid in est["workload_id"].unique():
-        rows = est.loc[est["workload_id"] == wid]
-        lines += ["", f"{wid}  {rows['workload'].iloc[0]}",
-                  f"  {'kernel':<24}{'ns/test':>9}  {'95% CI':<19}{'min':>8}{'flops@peak':>12}"]
-        for r in rows.itertuples(index=False):
-            ci = f"[{r.ci_low:.3f}, {r.ci_high:.3f}]"
-            flops = f"{r.peak_flops_per_test:.1f}" if pd.notna(r.peak_flops_per_test) else "-"
-            lines.append(f"  {r.kernel:<24}{r.mean:9.3f}  {ci:<19}{r.minimum:8.3f}{flops:>12}")
-        sub = spd.loc[spd["workload_id"] == wid]
-        if not sub.empty:
-            lines.append(f"  speedup over {analysis.baseline} (time_{analysis.baseline} / time_kernel):")
-            for r in sub.itertuples(index=False):
-                ci = f"[{r.ci_low:.3f}, {r.ci_high:.3f}]"
-                lines.append(f"  {r.kernel:<24}{r.ratio:9.3f}  {ci:<19}  {r.verdict}")
-    lines += ["", f"equivalence margin {100 * analysis.margin.value:.2f}% from {analysis.margin.source}"]
-    return "\n".join(lines)

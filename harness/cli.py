@@ -143,15 +143,48 @@ def _add_design_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, help="seed of the plan and the layout randomisation (default 0)")
 
 
+# -------------------------------------------------------------------- run
+
+
+def _run(args: argparse.Namespace) -> int:
+    from tribench.reports import format_tables, write_report
+
+    from . import runner
+    from .analysis import analyse, write_tables
+    from .plan import default_sweep
+
+    sweep = default_sweep(quick=args.quick)
+    out = args.out or f"runs/{'quick-' if args.quick else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
+    print(f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads, "
+          f"{sweep.processes} processes x {sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
+          file=sys.stderr)
+    try:
+        result = runner.start(sweep, out, progress=False if args.no_progress else None)
+    except runner.SweepError as exc:
+        print(f"tribench run: error: {exc}", file=sys.stderr)
+        return 1
+    except runner.SweepInterrupted as exc:
+        print(f"tribench run: {exc}", file=sys.stderr)
+        return 130
+    _report_run(result)
+    write_tables(out, analyse(out))
+    report = write_report(out)
+    print(format_tables(out))
+    print(f"\nreport: {report}")
+    return 0
+
+
 # ------------------------------------------------------------------ stats
 
 
 def _stats(args: argparse.Namespace) -> int:
-    from .analysis import analyse, format_tables, write_tables
+    from tribench.reports import format_tables
+
+    from .analysis import analyse, write_tables
 
     analysis = analyse(args.run_dir, baseline=args.baseline, margin=args.margin)
     paths = write_tables(args.run_dir, analysis)
-    print(format_tables(analysis))
+    print(format_tables(args.run_dir))
     print(f"wrote {paths[0]} and {paths[1]}", file=sys.stderr)
     return 0
 
@@ -251,12 +284,23 @@ def build_parser() -> argparse.ArgumentParser:
     _add_design_flags(cal)
     cal.set_defaults(func=_calibrate)
 
-    try:
-        from tribench.workloads.cli import add_parser as add_workloads
-    except ImportError:  # the workloads command is optional
-        add_workloads = None
-    if add_workloads is not None:
-        add_workloads(sub)
+    run = sub.add_parser(
+        "run",
+        help="the main job: the default sweep (about 4 minutes), its statistics and its HTML report",
+        description="Runs the default sweep (tribench.harness.plan.default_sweep: the seed's two kernels "
+        "and the clean Moller-Trumbore over per-test hit rates 0..1 and Suzanne at three triangle "
+        "counts), writes estimates.csv and speedups.csv, prints them, and writes report.html.",
+    )
+    run.add_argument("--quick", action="store_true", help="the same shape in under a minute (wide intervals)")
+    run.add_argument("--out", metavar="RUN_DIR", help="run folder (default runs/<date-time>)")
+    run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    run.set_defaults(func=_run)
+
+    from tribench.reports.cli import add_parser as add_reports
+    from tribench.workloads.cli import add_parser as add_workloads
+
+    add_workloads(sub)
+    add_reports(sub)
     return parser
 
 

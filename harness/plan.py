@@ -58,6 +58,7 @@ from tribench.workloads.spec import Spec, spec_from_dict, workload_id
 __all__ = [
     "BatchKey",
     "Sweep",
+    "default_sweep",
     "expand_workloads",
     "load_sweep_file",
     "plan",
@@ -186,6 +187,33 @@ class Sweep:
             target_ms=d["target_ms"],
             seed=d["seed"],
         )
+
+
+def default_sweep(quick: bool = False) -> Sweep:
+    """The main job's sweep (``tribench run``): the seed's question, answered.
+
+    The seed's two kernels and the clean Moller-Trumbore, on
+    * pairs across the per-test hit rate 0..1 (4096 pairs: in L2 at either
+      precision, so the curve shows the algorithms, not the memory), float32
+      (the seed's own precision) and float64;
+    * Suzanne at 100, 968 (the seed's mesh) and 5000 triangles, seen by the
+      seed's camera at 48x48 pixels (per-ray hit rate about 17%), float32.
+    20 processes x 6 rounds: about 3 minutes on 2 cores (10 x 8 measured
+    94 s; processes, not rounds, carry the between-layout variance, so the
+    time goes to processes). ``quick`` keeps the shape in a few seconds
+    (3 processes: intervals are wide) for tests and CI.
+    """
+    from tribench.workloads.spec import MeshSpec, PairSpec
+
+    kernels = ("curless_seed", "moller_seed", "moller_trumbore")
+    if quick:
+        pairs = [PairSpec(n=1024, hit_rate=h, dtype="float32") for h in (0.0, 0.5, 1.0)]
+        meshes = [MeshSpec("suzanne", triangles=n, width=16, height=16, dtype="float32") for n in (100, 968)]
+        return Sweep(kernels, tuple(pairs + meshes), processes=3, rounds=3, warmup=1, target_ms=1.0)
+    hit_rates = [round(0.1 * i, 1) for i in range(11)]
+    pairs = [PairSpec(n=4096, hit_rate=h, dtype=d) for d in ("float32", "float64") for h in hit_rates]
+    meshes = [MeshSpec("suzanne", triangles=n, width=48, height=48, dtype="float32") for n in (100, 968, 5000)]
+    return Sweep(kernels, tuple(pairs + meshes), processes=20, rounds=6, warmup=1)
 
 
 def process_seed(seed: int, process: int) -> int:

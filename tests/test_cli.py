@@ -1,5 +1,6 @@
 """The tribench command line, run as a user runs it."""
 
+import os
 import subprocess
 import sys
 
@@ -25,3 +26,19 @@ def test_unknown_command_is_a_usage_error():
     out = run("frobnicate")
     assert out.returncode == 2
     assert "invalid choice" in out.stderr
+
+
+def test_run_quick_is_the_main_job_end_to_end(tmp_path):
+    # the README's main job, in its quick form: sweep, statistics, report
+    env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
+    out = tmp_path / "run"
+    done = subprocess.run(
+        [sys.executable, "-m", "tribench.harness.cli", "run", "--quick", "--out", str(out), "--no-progress"],
+        capture_output=True, text=True, timeout=300, env=env,
+    )
+    assert done.returncode == 0, done.stderr
+    for name in ("batches.csv", "checks.csv", "estimates.csv", "speedups.csv", "run.json", "report.html"):
+        assert (out / name).is_file(), name
+    assert f"report: {out / 'report.html'}" in done.stdout
+    for kernel in ("curless_seed", "moller_seed", "moller_trumbore"):
+        assert kernel in done.stdout

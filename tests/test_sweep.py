@@ -59,7 +59,7 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
 
     stats = cli("stats", str(out), env=env)
     assert stats.returncode == 0, stats.stderr
-    assert "moller_trumbore" in stats.stdout and "speedup over" in stats.stdout
+    assert "moller_trumbore" in stats.stdout and "(baseline)" in stats.stdout and "95% CI" in stats.stdout
     est = records._read_csv(out / analysis.ESTIMATES, [], {})
     spd = records._read_csv(out / analysis.SPEEDUPS, [], {})
     for col in ("kernel", "workload_id", "mean", "ci_low", "ci_high", "minimum", "n", "peak_flops_per_test"):
