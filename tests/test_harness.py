@@ -228,13 +228,3 @@ def test_latest_margin_uses_a_calibration_of_this_cpu_only(tmp_path):
 def test_batch_key_warmup_flag():
     assert BatchKey(0, "w", -1, 0, "k").warmup and not BatchKey(0, "w", 0, 0, "k").warmup
     assert workload_id(PairSpec(n=5)) in {k.workload_id for k in plan(small_sweep(workloads=(PairSpec(n=5),)))}
-
-
-@pytest.mark.parametrize("name", ["tribench.harness.plan", "tribench.harness.calibration",
-                                  "tribench.harness.worker"])
-def test_docstring_examples(name):
-    import doctest
-    import importlib
-
-    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.NORMALIZE_WHITESPACE)
-    assert result.attempted > 0 and result.failed == 0

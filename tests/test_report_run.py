@@ -68,13 +68,3 @@ def test_every_documented_column_has_a_description_and_snake_case_name():
         for column, text in cols.items():
             assert column == column.lower() and " " not in column, (name, column)
             assert len(text) > 10, (name, column)
-
-
-@pytest.mark.parametrize("name", ["tribench.reports.columns", "tribench.reports.rundata", "tribench.reports.html",
-                                  "tribench.reports.compare", "tribench.reports.figures"])
-def test_report_docstring_examples(name):
-    import doctest
-    import importlib
-
-    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.NORMALIZE_WHITESPACE)
-    assert result.attempted > 0 and result.failed == 0

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import doctest
-
 import numpy as np
 import pytest
 
@@ -33,11 +31,6 @@ materiau 0.9 0.2 0.2 0.2 0.2 0.7 100
 sphere 0 1 -3 1   # the red one
 tri 1 -0.4 -3  3 -0.4 -3  2 1 -4
 """
-
-
-def test_doctests():
-    result = doctest.testmod(seed_scene, optionflags=doctest.NORMALIZE_WHITESPACE)
-    assert result.attempted > 0 and result.failed == 0
 
 
 def test_reads_a_good_file_with_tabs_blank_lines_and_comments(tmp_path):

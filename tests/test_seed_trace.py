@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import doctest
-
 import numpy as np
 import pytest
 
@@ -30,11 +28,6 @@ tri -50 -50 -1   50 -50 -1   0 50 -1
 materiau 1 1 1 0.1 0.5 {back_ks} 10
 tri -50 -50 3   0 50 3   50 -50 3
 """
-
-
-def test_doctests():
-    result = doctest.testmod(seed_trace, optionflags=doctest.NORMALIZE_WHITESPACE)
-    assert result.attempted > 0 and result.failed == 0
 
 
 def test_camera_is_the_seeds():
