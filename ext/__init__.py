@@ -156,12 +156,18 @@ def _check_same_dtype(**arrays: np.ndarray) -> np.dtype:
     return dtypes.pop()
 
 
-def _check_rays(origins, directions, allow_nonfinite: bool) -> tuple[np.ndarray, np.ndarray]:
+def _check_workload(kernel, origins, directions, triangles, mode: str, allow_nonfinite: bool):
+    """Every check of a kernel call on a workload; returns (o, d, triangles, dtype)."""
+    _check_kernel(kernel)
     o = _check_array("origins", origins, (3,), allow_nonfinite)
     d = _check_array("directions", directions, (3,), allow_nonfinite)
     if len(o) != len(d):
         raise ValueError(f"origins and directions differ in length: {len(o)} and {len(d)}")
-    return o, d
+    tris = _check_array("triangles", triangles, (3, 3), allow_nonfinite)
+    dtype = _check_same_dtype(origins=o, directions=d, triangles=tris)
+    if mode == "pairs" and len(tris) != len(o):
+        raise ValueError(f"pairs need one triangle per ray, got {len(tris)} and {len(o)} rays")
+    return o, d, tris, dtype
 
 
 # ------------------------------------------------------------------ prepared
@@ -232,12 +238,7 @@ def intersect_pairs(
     hit : bool ndarray, shape (N,)
     t : ndarray, shape (N,), the input precision; nan where ``hit`` is False.
     """
-    _check_kernel(kernel)
-    o, d = _check_rays(origins, directions, allow_nonfinite)
-    tris = _check_array("triangles", triangles, (3, 3), allow_nonfinite)
-    dtype = _check_same_dtype(origins=o, directions=d, triangles=tris)
-    if len(tris) != len(o):
-        raise ValueError(f"pairs need one triangle per ray, got {len(tris)} and {len(o)} rays")
+    o, d, tris, dtype = _check_workload(kernel, origins, directions, triangles, "pairs", allow_nonfinite)
     prepared = prepare(kernel, tris, allow_nonfinite=allow_nonfinite)
     hit = np.empty(len(o), dtype=np.uint8)
     t = np.empty(len(o), dtype=dtype)
@@ -270,10 +271,7 @@ def intersect_closest(
         Closest triangle hit, ``-1`` for a miss; ties go to the lowest index.
     t : ndarray, shape (M,), the input precision; nan for a miss.
     """
-    _check_kernel(kernel)
-    o, d = _check_rays(origins, directions, allow_nonfinite)
-    tris = _check_array("triangles", triangles, (3, 3), allow_nonfinite)
-    dtype = _check_same_dtype(origins=o, directions=d, triangles=tris)
+    o, d, tris, dtype = _check_workload(kernel, origins, directions, triangles, "closest", allow_nonfinite)
     prepared = prepare(kernel, tris, allow_nonfinite=allow_nonfinite)
     index = np.empty(len(o), dtype=np.int64)
     t = np.empty(len(o), dtype=dtype)
@@ -319,14 +317,9 @@ def make_job(
     (every ray against every triangle, closest hit). Inputs must be finite.
     The arrays are kept as read-only views, not copied.
     """
-    _check_kernel(kernel)
     if mode not in ("pairs", "closest"):
         raise ValueError(f"mode must be 'pairs' or 'closest', got {mode!r}")
-    o, d = _check_rays(origins, directions, False)
-    tris = _check_array("triangles", triangles, (3, 3))
-    _check_same_dtype(origins=o, directions=d, triangles=tris)
-    if mode == "pairs" and len(tris) != len(o):
-        raise ValueError(f"pairs need one triangle per ray, got {len(tris)} and {len(o)} rays")
+    o, d, tris, _ = _check_workload(kernel, origins, directions, triangles, mode, False)
     views = []
     for a in (o, d):
         v = a.view()

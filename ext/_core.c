@@ -202,12 +202,16 @@ done:
     return result;
 }
 
-/* Parses the inputs shared by every loop entry point and fills `job`.
- * format: name, itemsize, origins, directions, n_rays, records, n_records */
-static const tb_variant *tb_parse_job(const char *name, Py_ssize_t itemsize, Py_buffer *o,
+/* Checks the inputs shared by every loop entry point and fills `job`. */
+static const tb_variant *tb_parse_job(const char *name, Py_ssize_t itemsize, int closest, Py_buffer *o,
                                       Py_buffer *d, Py_ssize_t n_rays, Py_buffer *rec,
                                       Py_ssize_t n_records, tb_job *job)
 {
+    if (!closest && n_rays != n_records) {
+        PyErr_Format(PyExc_ValueError, "pairs need as many records as rays, got %zd and %zd",
+                     n_records, n_rays);
+        return NULL;
+    }
     const tb_variant *v = tb_lookup(name, itemsize);
     if (!v || tb_check_count("n_rays", n_rays, 16) || tb_check_count("n_records", n_records, 16) ||
         tb_check_buffer(o, "origins", 3 * n_rays, itemsize) ||
@@ -237,14 +241,9 @@ static PyObject *py_run(PyObject *Py_UNUSED(self), PyObject *args)
     if (!PyArg_ParseTuple(args, "snpy*y*ny*nw*w*:run", &name, &itemsize, &closest, &o, &d,
                           &n_rays, &rec, &n_records, &first, &t_out))
         return NULL;
-    const tb_variant *v = tb_parse_job(name, itemsize, &o, &d, n_rays, &rec, n_records, &job);
+    const tb_variant *v = tb_parse_job(name, itemsize, closest, &o, &d, n_rays, &rec, n_records, &job);
     if (!v)
         goto done;
-    if (!closest && n_rays != n_records) {
-        PyErr_Format(PyExc_ValueError, "pairs need as many records as rays, got %zd and %zd",
-                     n_records, n_rays);
-        goto done;
-    }
     if (tb_check_buffer(&first, closest ? "index_out" : "hit_out", n_rays, closest ? 8 : 1) ||
         tb_check_buffer(&t_out, "t_out", n_rays, itemsize))
         goto done;
@@ -280,14 +279,9 @@ static PyObject *py_time(PyObject *Py_UNUSED(self), PyObject *args)
     if (!PyArg_ParseTuple(args, "snpy*y*ny*nL:time", &name, &itemsize, &closest, &o, &d,
                           &n_rays, &rec, &n_records, &loops))
         return NULL;
-    const tb_variant *v = tb_parse_job(name, itemsize, &o, &d, n_rays, &rec, n_records, &job);
+    const tb_variant *v = tb_parse_job(name, itemsize, closest, &o, &d, n_rays, &rec, n_records, &job);
     if (!v)
         goto done;
-    if (!closest && n_rays != n_records) {
-        PyErr_Format(PyExc_ValueError, "pairs need as many records as rays, got %zd and %zd",
-                     n_records, n_rays);
-        goto done;
-    }
     if (loops < 1) {
         PyErr_Format(PyExc_ValueError, "loops must be at least 1, got %lld", loops);
         goto done;

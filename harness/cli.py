@@ -108,24 +108,17 @@ def _sweep(args: argparse.Namespace) -> int:
     from . import runner
 
     progress = False if args.no_progress else None
-    try:
-        if args.resume:
-            if any(getattr(args, k) is not None for k in _SWEEP_DESIGN_FLAGS):
-                raise ValueError("--resume takes no other sweep options: the run's own sweep is used")
-            result = runner.resume(args.resume, progress=progress)
-        else:
-            sweep = _sweep_from_args(args)
-            out = args.out or f"runs/{_dt.datetime.now():%Y%m%d-%H%M%S}"
-            print(f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
-                  f"{sweep.processes} processes x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
-                  f"{sweep.n_batches} batches -> {out}", file=sys.stderr)
-            result = runner.start(sweep, out, cpu=args.cpu, progress=progress)
-    except runner.SweepError as exc:
-        print(f"tribench sweep: error: {exc}", file=sys.stderr)
-        return 1
-    except runner.SweepInterrupted as exc:
-        print(f"tribench sweep: {exc}", file=sys.stderr)
-        return 130
+    if args.resume:
+        if any(getattr(args, k) is not None for k in _SWEEP_DESIGN_FLAGS):
+            raise ValueError("--resume takes no other sweep options: the run's own sweep is used")
+        result = runner.resume(args.resume, progress=progress)
+    else:
+        sweep = _sweep_from_args(args)
+        out = args.out or f"runs/{_dt.datetime.now():%Y%m%d-%H%M%S}"
+        print(f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
+              f"{sweep.processes} processes x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
+              f"{sweep.n_batches} batches -> {out}", file=sys.stderr)
+        result = runner.start(sweep, out, cpu=args.cpu, progress=progress)
     _report_run(result)
     print(f"next: tribench stats {result.run_dir}", file=sys.stderr)
     return 0
@@ -158,14 +151,7 @@ def _run(args: argparse.Namespace) -> int:
     print(f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads, "
           f"{sweep.processes} processes x {sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
           file=sys.stderr)
-    try:
-        result = runner.start(sweep, out, progress=False if args.no_progress else None)
-    except runner.SweepError as exc:
-        print(f"tribench run: error: {exc}", file=sys.stderr)
-        return 1
-    except runner.SweepInterrupted as exc:
-        print(f"tribench run: {exc}", file=sys.stderr)
-        return 130
+    result = runner.start(sweep, out, progress=False if args.no_progress else None)
     _report_run(result)
     write_tables(out, analyse(out))
     report = write_report(out)
@@ -193,7 +179,6 @@ def _stats(args: argparse.Namespace) -> int:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from . import runner
     from .calibration import calibrate, user_calibration_path
 
     workloads = ()
@@ -205,15 +190,8 @@ def _calibrate(args: argparse.Namespace) -> int:
     kwargs = {k: v for k, v in {"rounds": args.rounds, "warmup": args.warmup, "target_ms": args.target_ms,
                                 "seed": args.seed, "processes": args.processes,
                                 "experiments": args.experiments}.items() if v is not None}
-    try:
-        cal = calibrate(out, kernel=args.kernel, workloads=workloads, save=not args.no_save,
-                        progress=False if args.no_progress else None, **kwargs)
-    except runner.SweepError as exc:
-        print(f"tribench calibrate: error: {exc}", file=sys.stderr)
-        return 1
-    except runner.SweepInterrupted as exc:
-        print(f"tribench calibrate: {exc}", file=sys.stderr)
-        return 130
+    cal = calibrate(out, kernel=args.kernel, workloads=workloads, save=not args.no_save,
+                    progress=False if args.no_progress else None, **kwargs)
     print(f"A/A: {cal['kernel']} vs {cal['copy']}, {cal['experiments']} comparisons of "
           f"{cal['processes_per_experiment']} processes each")
     print(f"  coverage of 1          {100 * cal['coverage']:.0f}%  (intervals are 95%)")
@@ -305,9 +283,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one subcommand; map its failures to exit codes, one line on stderr.
+
+    1: a measurement failed (a kernel disagreed with the reference, a worker
+    died); 130: interrupted, every finished batch kept; 2: a user error.
+    """
     args = build_parser().parse_args(argv)
+    from .runner import SweepError, SweepInterrupted
+
     try:
         return args.func(args)
+    except SweepError as exc:
+        print(f"tribench {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except SweepInterrupted as exc:
+        print(f"tribench {args.command}: {exc}", file=sys.stderr)
+        return 130
     except (ValueError, TypeError, FileNotFoundError) as exc:
         print(f"tribench {args.command}: error: {exc}", file=sys.stderr)
         return 2
