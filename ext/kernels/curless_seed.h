@@ -59,21 +59,8 @@ static inline int TB_FN(tb_curless_seed_test)(const real *restrict o, const real
     real q[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
 
     /* three inside tests, strict: on an edge is outside */
-    real edge[3], toq[3], side[3];
-    TB_FN(sub3)(b, a, edge);
-    TB_FN(sub3)(q, a, toq);
-    TB_FN(cross3)(edge, toq, side);
-    if (TB_FN(dot3)(side, n) <= 0)
-        return 0;
-    TB_FN(sub3)(c, b, edge);
-    TB_FN(sub3)(q, b, toq);
-    TB_FN(cross3)(edge, toq, side);
-    if (TB_FN(dot3)(side, n) <= 0)
-        return 0;
-    TB_FN(sub3)(a, c, edge);
-    TB_FN(sub3)(q, c, toq);
-    TB_FN(cross3)(edge, toq, side);
-    if (TB_FN(dot3)(side, n) <= 0)
+    if (TB_FN(edge_side)(a, b, q, n) <= 0 || TB_FN(edge_side)(b, c, q, n) <= 0 ||
+        TB_FN(edge_side)(c, a, q, n) <= 0)
         return 0;
 
     *t_out = t;
