@@ -210,6 +210,16 @@ def _mark_crossovers(ax, cross: pd.DataFrame) -> None:
                 transform=ax.get_xaxis_transform(), va="top", ha="left", fontsize=7.5, color="#7c3aed")
 
 
+_NO_HIT_RATE_CURVE = "no pair workload family with two or more per-test hit rates in this run"
+
+
+def _hit_rate_families(table: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
+    """The pair rows of ``table`` and the families that have a curve (two or more hit rates)."""
+    pairs = table.loc[table["kind"] == "pairs"]
+    families = [f for f, g in pairs.groupby("family", sort=False) if g["test_hit_rate"].nunique() >= 2]
+    return pairs, families
+
+
 def hit_rate_curves(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, str]) -> Figure:
     """ns/test against the per-test hit rate, one line per kernel with its CI band.
 
@@ -221,10 +231,9 @@ def hit_rate_curves(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, s
         :func:`tribench.reports.content.crossovers` rows; crossings are
         drawn as dashed lines with their interval shaded.
     """
-    pairs = est.loc[est["kind"] == "pairs"]
-    families = [f for f, g in pairs.groupby("family", sort=False) if g["test_hit_rate"].nunique() >= 2]
+    pairs, families = _hit_rate_families(est)
     if not families:
-        return _empty("no pair workload family with two or more per-test hit rates in this run")
+        return _empty(_NO_HIT_RATE_CURVE)
     fig = _figure(9.5, 3.6 * len(families))
     axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
     for ax, family in zip(axes, families):
@@ -248,10 +257,9 @@ def hit_rate_curves(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, s
 
 def speedup_vs_hit_rate(spd: pd.DataFrame, baseline: str, margin: float, colours: dict[str, str]) -> Figure:
     """Speedup over the baseline against the per-test hit rate, with CI bands (log axis)."""
-    pairs = spd.loc[spd["kind"] == "pairs"]
-    families = [f for f, g in pairs.groupby("family", sort=False) if g["test_hit_rate"].nunique() >= 2]
+    pairs, families = _hit_rate_families(spd)
     if not families:
-        return _empty("no pair workload family with two or more per-test hit rates in this run")
+        return _empty(_NO_HIT_RATE_CURVE)
     fig = _figure(9.5, 3.3 * len(families))
     axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
     for ax, family in zip(axes, families):
