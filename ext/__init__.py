@@ -11,7 +11,11 @@ Kernels (see ``kernel_names()``; each C file's header cites its paper):
   wrote them (absolute epsilons 1e-4, divide-first Moller, stored unit normal
   and strict edges for Curless);
 * ``curless``, ``moller_trumbore``: clean versions (no absolute epsilon,
-  late division, closed triangles).
+  late division, closed triangles);
+* ``<name>_x8``: the wide form of a kernel (branchless, one ray against
+  blocks of 8 triangles stored structure of arrays), compiled for several
+  instruction sets and run with the best one this CPU has (see
+  ``kernel_info``; ``TRIBENCH_ISA=baseline`` forces the build's baseline).
 
 Internal kernels, for the harness's honesty checks (listed only by
 ``kernel_names(internal=True)``, accepted everywhere a kernel name is):
@@ -24,8 +28,11 @@ Internal kernels, for the harness's honesty checks (listed only by
 ``fma_peak()`` measures the core's arithmetic peak with a short loop of
 independent 8-lane FMAs.
 
-Results: a miss has ``t = nan`` (and index ``-1`` in closest-hit form).
-Conventions of the clean kernels match ``tribench.workloads.reference``.
+Modes (what a call answers per ray): ``pairs`` (ray i against triangle i),
+``any`` (some hit, as shadow rays ask), ``closest`` (the closest hit's t),
+``closest_uv`` (its t, u, v). Every ray may carry a ``t_max``: only hits
+with ``0 < t < t_max`` count. A miss has index ``-1`` and ``t = u = v =
+nan``. Conventions of the clean kernels match ``tribench.workloads.reference``.
 
 Examples
 --------
@@ -39,30 +46,37 @@ Examples
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 
 from . import _core
 
 __all__ = [
+    "MODES",
     "Batch",
+    "Hits",
     "Job",
+    "KernelInfo",
     "Peak",
     "Prepared",
     "build_info",
     "bytes_per_triangle",
     "fma_peak",
+    "intersect",
     "intersect_closest",
     "intersect_pairs",
+    "kernel_info",
     "kernel_names",
     "make_job",
     "prepare",
     "time_batch",
 ]
 
-Mode = Literal["pairs", "closest"]
+Mode = Literal["pairs", "any", "closest", "closest_uv"]
+MODES: tuple[str, ...] = ("pairs", "any", "closest", "closest_uv")  # the C enum's order
 _DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
 _PUBLIC: tuple[str, ...] = _core.kernel_names(False)
 _KERNELS: tuple[str, ...] = _core.kernel_names(True)  # every name a call accepts
@@ -85,6 +99,65 @@ def kernel_names(internal: bool = False) -> tuple[str, ...]:
     return _KERNELS if internal else _PUBLIC
 
 
+@dataclass(frozen=True)
+class KernelInfo:
+    """What the registry says of one kernel.
+
+    Attributes
+    ----------
+    name : str
+    lanes : int
+        1 for a scalar early-exit kernel, 8 for a wide form.
+    stride : int
+        Reals of prepared data per triangle.
+    internal : bool
+        One of the harness's honesty-check kernels.
+    isas : dict[str, bool]
+        Instruction sets the kernel is compiled for (best first), and whether
+        this CPU can run each. Scalar kernels have one, ``"scalar"``.
+    isa : str
+        The ISA calls use by default: ``TRIBENCH_ISA`` if set and runnable,
+        else the best runnable one.
+    """
+
+    name: str
+    lanes: int
+    stride: int
+    internal: bool
+    isas: dict
+    isa: str
+
+    @property
+    def modes(self) -> tuple[str, ...]:
+        """Modes the kernel runs (wide forms have no pairs mode)."""
+        return MODES if self.lanes == 1 else MODES[1:]
+
+
+def kernel_info(kernel: str) -> KernelInfo:
+    """Lanes, storage and instruction sets of ``kernel``.
+
+    >>> kernel_info("moller_trumbore").isa
+    'scalar'
+    >>> info = kernel_info("moller_trumbore_x8")
+    >>> info.lanes, info.isas["baseline"]
+    (8, True)
+    """
+    _check_kernel(kernel)
+    lanes, stride, internal, isas = _core.kernel_info(kernel)
+    runnable = dict(isas)
+    wanted = os.environ.get("TRIBENCH_ISA")
+    if lanes > 1 and wanted:
+        if not runnable.get(wanted):
+            raise ValueError(
+                f"TRIBENCH_ISA={wanted!r} cannot run {kernel}: "
+                f"runnable here: {', '.join(i for i, ok in isas if ok)}"
+            )
+        isa = wanted
+    else:
+        isa = next(i for i, ok in isas if ok)
+    return KernelInfo(kernel, lanes, stride, bool(internal), runnable, isa)
+
+
 def build_info() -> dict:
     """How the extension was built: compiler, exact flags, FMA and fast-math
     macros, and the resolution of the clock that times batches."""
@@ -97,8 +170,7 @@ def bytes_per_triangle(kernel: str, dtype: np.dtype | type | str) -> int:
     >>> bytes_per_triangle("moller_trumbore", "float32")
     36
     """
-    _check_kernel(kernel)
-    return _core.stride(kernel) * _check_dtype_name(dtype).itemsize
+    return kernel_info(kernel).stride * _check_dtype_name(dtype).itemsize
 
 
 # ----------------------------------------------------------------- validation
@@ -156,9 +228,23 @@ def _check_same_dtype(**arrays: np.ndarray) -> np.dtype:
     return dtypes.pop()
 
 
-def _check_workload(kernel, origins, directions, triangles, mode: str, allow_nonfinite: bool):
-    """Every check of a kernel call on a workload; returns (o, d, triangles, dtype)."""
-    _check_kernel(kernel)
+def _check_workload(kernel, origins, directions, triangles, mode, t_max, isa, allow_nonfinite):
+    """Every check of a kernel call on a workload.
+
+    Returns (o, d, triangles, t_max, isa): t_max as an array of the
+    workload's precision (a new array when given None or a scalar), isa the
+    checked ISA name."""
+    info = kernel_info(kernel)
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
+    if mode not in info.modes:
+        raise ValueError(f"{kernel} has no {mode!r} mode (its modes: {', '.join(info.modes)})")
+    if isa is None:
+        isa = info.isa
+    elif isa not in info.isas:
+        raise ValueError(f"{kernel} has no ISA {isa!r} (compiled: {', '.join(info.isas)})")
+    elif not info.isas[isa]:
+        raise ValueError(f"{kernel}: ISA {isa!r} is not available on this CPU")
     o = _check_array("origins", origins, (3,), allow_nonfinite)
     d = _check_array("directions", directions, (3,), allow_nonfinite)
     if len(o) != len(d):
@@ -167,7 +253,25 @@ def _check_workload(kernel, origins, directions, triangles, mode: str, allow_non
     dtype = _check_same_dtype(origins=o, directions=d, triangles=tris)
     if mode == "pairs" and len(tris) != len(o):
         raise ValueError(f"pairs need one triangle per ray, got {len(tris)} and {len(o)} rays")
-    return o, d, tris, dtype
+    return o, d, tris, _check_t_max(t_max, len(o), dtype), isa
+
+
+def _check_t_max(t_max, n: int, dtype: np.dtype) -> np.ndarray:
+    """t_max per ray: None means +inf; a scalar applies to every ray. NaN
+    and values <= 0 are errors (no hit could ever count)."""
+    if t_max is None:
+        return np.full(n, np.inf, dtype=dtype)
+    if np.isscalar(t_max):
+        t_max = np.full(n, t_max, dtype=dtype)
+    if not isinstance(t_max, np.ndarray):
+        raise TypeError(f"t_max must be None, a number or a numpy.ndarray, got {type(t_max).__name__}")
+    if t_max.shape != (n,):
+        raise ValueError(f"t_max must have shape ({n},), one per ray, got {t_max.shape}")
+    if t_max.dtype != dtype:
+        raise TypeError(f"t_max must have the rays' dtype {dtype}, got {t_max.dtype}")
+    if not (t_max > 0).all():
+        raise ValueError(f"t_max must be > 0 (inf allowed), got {t_max[~(t_max > 0)][0]!r}")
+    return np.ascontiguousarray(t_max)
 
 
 # ------------------------------------------------------------------ prepared
@@ -180,17 +284,18 @@ class Prepared:
     Attributes
     ----------
     kernel : str
-    records : ndarray, shape (K, stride), read-only
-        Raw vertices for kernels that test them directly; vertices plus
-        precomputed planes or normals for the others.
+    records : ndarray, read-only
+        Shape (K, stride) for a scalar kernel: raw vertices for kernels that
+        test them directly; vertices plus precomputed planes or normals for
+        the others. A wide kernel's are the same records in blocks of 8
+        triangles, structure of arrays: shape (ceil(K / 8), stride, 8), lanes
+        past the last triangle zero.
+    n_triangles : int
     """
 
     kernel: str
     records: np.ndarray
-
-    @property
-    def n_triangles(self) -> int:
-        return len(self.records)
+    n_triangles: int
 
     @property
     def dtype(self) -> np.dtype:
@@ -199,84 +304,103 @@ class Prepared:
 
 def prepare(kernel: str, triangles: np.ndarray, *, allow_nonfinite: bool = False) -> Prepared:
     """Compute ``kernel``'s records for ``triangles`` of shape (K, 3, 3)."""
-    _check_kernel(kernel)
+    info = kernel_info(kernel)
     tris = _check_array("triangles", triangles, (3, 3), allow_nonfinite)
-    records = np.empty((len(tris), _core.stride(kernel)), dtype=tris.dtype)
-    _core.prepare(kernel, tris.itemsize, tris, len(tris), records)
+    n = len(tris)
+    shape = (n, info.stride) if info.lanes == 1 else (-(-n // 8), info.stride, 8)
+    records = np.empty(shape, dtype=tris.dtype)
+    _core.prepare(kernel, tris.itemsize, tris, n, records)
     records.flags.writeable = False
-    return Prepared(kernel, records)
+    return Prepared(kernel, records, n)
 
 
 # ------------------------------------------------------------------- results
 
 
-def intersect_pairs(
+class Hits(NamedTuple):
+    """Per-ray answers of ``intersect``.
+
+    index : int64 ndarray, shape (N,)
+        Triangle hit (``-1`` for a miss). Closest modes: ties go to the
+        lowest index. ``any``: some hit triangle, not necessarily the
+        closest. ``pairs``: ``i`` or ``-1``.
+    t, u, v : ndarray, shape (N,), the input precision
+        Distance and barycentrics of that hit (the point is
+        ``(1-u-v) v0 + u v1 + v v2``); nan for a miss.
+    """
+
+    index: np.ndarray
+    t: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+
+    @property
+    def hit(self) -> np.ndarray:
+        return self.index >= 0
+
+
+def intersect(
     kernel: str,
     origins: np.ndarray,
     directions: np.ndarray,
     triangles: np.ndarray,
+    mode: Mode = "closest",
     *,
+    t_max: np.ndarray | float | None = None,
+    isa: str | None = None,
     allow_nonfinite: bool = False,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Test ray ``i`` against triangle ``i``.
+) -> Hits:
+    """Run ``kernel`` on a workload (untimed) and return every ray's answer.
 
     Parameters
     ----------
     kernel : str
         One of ``kernel_names()``.
     origins, directions : ndarray, shape (N, 3)
-    triangles : ndarray, shape (N, 3, 3)
-        All three arrays float32, or all float64: the kernel runs at that
-        precision.
+    triangles : ndarray, shape (K, 3, 3)
+        All three float32, or all float64: the kernel runs at that precision.
+        ``pairs`` needs K == N.
+    mode : str
+        ``pairs``, ``any``, ``closest`` or ``closest_uv`` (``closest`` and
+        ``closest_uv`` both return u and v here; they differ when timed).
+    t_max : None, number or ndarray (N,)
+        Only hits with ``t < t_max`` count (default: +inf).
+    isa : str, optional
+        Instruction set of a wide kernel (default: ``kernel_info(kernel).isa``).
     allow_nonfinite : bool
         By default NaN or Inf in any input is a ``ValueError``. With True they
         reach the kernel, whose documented behaviour applies (the clean
         kernels report a miss; see each kernel's header).
 
-    Returns
-    -------
-    hit : bool ndarray, shape (N,)
-    t : ndarray, shape (N,), the input precision; nan where ``hit`` is False.
+    >>> import numpy as np
+    >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
+    >>> r = intersect("moller_trumbore_x8", np.array([[0.25, 0.5, 1.0]]),
+    ...               np.array([[0.0, 0, -1]]), tri)
+    >>> int(r.index[0]), float(r.t[0]), float(r.u[0]), float(r.v[0])
+    (0, 1.0, 0.25, 0.5)
     """
-    o, d, tris, dtype = _check_workload(kernel, origins, directions, triangles, "pairs", allow_nonfinite)
+    o, d, tris, tm, isa = _check_workload(
+        kernel, origins, directions, triangles, mode, t_max, isa, allow_nonfinite
+    )
     prepared = prepare(kernel, tris, allow_nonfinite=allow_nonfinite)
-    hit = np.empty(len(o), dtype=np.uint8)
-    t = np.empty(len(o), dtype=dtype)
-    _core.run(kernel, dtype.itemsize, False, o, d, len(o), prepared.records, len(tris), hit, t)
-    return hit.view(bool), t
+    n, dtype = len(o), tris.dtype
+    out = Hits(np.empty(n, np.int64), np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype))
+    _core.run(kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm,
+              prepared.records, len(tris), *out)
+    return out
 
 
-def intersect_closest(
-    kernel: str,
-    origins: np.ndarray,
-    directions: np.ndarray,
-    triangles: np.ndarray,
-    *,
-    allow_nonfinite: bool = False,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Closest hit of every ray against every triangle (brute force).
+def intersect_pairs(kernel, origins, directions, triangles, **options) -> tuple[np.ndarray, np.ndarray]:
+    """Ray ``i`` against triangle ``i``: ``(hit, t)`` (see ``intersect``)."""
+    r = intersect(kernel, origins, directions, triangles, "pairs", **options)
+    return r.hit, r.t
 
-    Parameters
-    ----------
-    kernel : str
-    origins, directions : ndarray, shape (M, 3)
-    triangles : ndarray, shape (K, 3, 3)
-        One precision for all three, as in ``intersect_pairs``.
-    allow_nonfinite : bool
-        As in ``intersect_pairs``.
 
-    Returns
-    -------
-    triangle_index : int64 ndarray, shape (M,)
-        Closest triangle hit, ``-1`` for a miss; ties go to the lowest index.
-    t : ndarray, shape (M,), the input precision; nan for a miss.
-    """
-    o, d, tris, dtype = _check_workload(kernel, origins, directions, triangles, "closest", allow_nonfinite)
-    prepared = prepare(kernel, tris, allow_nonfinite=allow_nonfinite)
-    index = np.empty(len(o), dtype=np.int64)
-    t = np.empty(len(o), dtype=dtype)
-    _core.run(kernel, dtype.itemsize, True, o, d, len(o), prepared.records, len(tris), index, t)
-    return index, t
+def intersect_closest(kernel, origins, directions, triangles, **options) -> tuple[np.ndarray, np.ndarray]:
+    """Closest hit of every ray against every triangle: ``(index, t)``
+    (see ``intersect``)."""
+    r = intersect(kernel, origins, directions, triangles, "closest", **options)
+    return r.index, r.t
 
 
 # --------------------------------------------------------------------- timing
@@ -294,11 +418,15 @@ class Job:
     mode: Mode
     origins: np.ndarray
     directions: np.ndarray
+    t_max: np.ndarray
     prepared: Prepared
+    isa: str
 
     @property
     def tests_per_pass(self) -> int:
-        """Ray-triangle tests in one pass over the workload."""
+        """Ray-triangle tests in one pass over the workload; for ``any`` the
+        most there can be (a batch counts the tests it did, up to each ray's
+        first hit)."""
         if self.mode == "pairs":
             return len(self.origins)
         return len(self.origins) * self.prepared.n_triangles
@@ -310,22 +438,22 @@ def make_job(
     directions: np.ndarray,
     triangles: np.ndarray,
     mode: Mode,
+    *,
+    t_max: np.ndarray | float | None = None,
+    isa: str | None = None,
 ) -> Job:
     """Validate a workload for timing and prepare ``kernel``'s records.
 
-    ``mode`` is ``"pairs"`` (ray i against triangle i) or ``"closest"``
-    (every ray against every triangle, closest hit). Inputs must be finite.
-    The arrays are kept as read-only views, not copied.
+    ``mode``, ``t_max`` and ``isa`` are as in ``intersect``. Inputs must be
+    finite. The arrays are kept as read-only views, not copied.
     """
-    if mode not in ("pairs", "closest"):
-        raise ValueError(f"mode must be 'pairs' or 'closest', got {mode!r}")
-    o, d, tris, _ = _check_workload(kernel, origins, directions, triangles, mode, False)
+    o, d, tris, tm, isa = _check_workload(kernel, origins, directions, triangles, mode, t_max, isa, False)
     views = []
-    for a in (o, d):
+    for a in (o, d, tm):
         v = a.view()
         v.flags.writeable = False
         views.append(v)
-    return Job(kernel, mode, views[0], views[1], prepare(kernel, tris))
+    return Job(kernel, mode, views[0], views[1], views[2], prepare(kernel, tris), isa)
 
 
 @dataclass(frozen=True)
@@ -333,7 +461,8 @@ class Batch:
     """One timed batch: ``loops`` passes of a job, timed inside C.
 
     ``hits`` and ``t_sum`` are summed over all passes; compare them with
-    ``loops`` times the reference's hit count and sum of ``t``.
+    ``loops`` times the reference's hit count and sum of ``t``. ``uv_sum``
+    is the sum of ``u + v`` in mode ``closest_uv``, else 0.
     """
 
     elapsed_ns: int
@@ -341,6 +470,7 @@ class Batch:
     tests: int
     hits: int
     t_sum: float
+    uv_sum: float = 0.0
 
     @property
     def ns_per_test(self) -> float:
@@ -359,18 +489,20 @@ def time_batch(job: Job, loops: int) -> Batch:
     if not 1 <= loops <= 2**40:
         raise ValueError(f"loops must be between 1 and 2**40, got {loops}")
     p = job.prepared
-    elapsed, hits, t_sum = _core.time(
+    elapsed, hits, tests, t_sum, uv_sum = _core.time(
         job.kernel,
         p.dtype.itemsize,
-        job.mode == "closest",
+        MODES.index(job.mode),
+        job.isa,
         job.origins,
         job.directions,
         len(job.origins),
+        job.t_max,
         p.records,
         p.n_triangles,
         int(loops),
     )
-    return Batch(elapsed, int(loops), int(loops) * job.tests_per_pass, hits, t_sum)
+    return Batch(elapsed, int(loops), tests, hits, t_sum, uv_sum)
 
 
 # ------------------------------------------------------------------ FMA peak

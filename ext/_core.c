@@ -12,6 +12,7 @@
 #include <Python.h>
 
 #include <math.h>
+#include <stdlib.h>
 #include <stdint.h>
 #include <string.h>
 #include <time.h>
@@ -25,30 +26,39 @@
 #define TB_BUILD_FLAGS "unknown"
 #endif
 
+/* What a loop answers per ray: pairs (ray i against triangle i), any hit,
+ * the closest hit's t, or the closest hit's t, u and v. */
+enum { TB_PAIRS, TB_ANY, TB_CLOSEST, TB_CLOSEST_UV, TB_N_MODES };
+static const char *const tb_mode_names[TB_N_MODES] = {"pairs", "any", "closest", "closest_uv"};
+
 /* One batch of work for a loop: inputs, outputs, and the checksum it returns. */
 typedef struct {
     const void *origins, *directions, *records;
+    const void *t_max; /* per ray: hits must have t < t_max (may be +inf) */
     size_t n_rays, n_records;
     uint64_t loops;
-    uint8_t *hit_out;   /* run_pairs */
-    int64_t *index_out; /* run_closest */
-    void *t_out;        /* run_* */
-    uint64_t hits;      /* time_*: hits summed over all passes */
-    double t_sum;       /* time_*: t of those hits, summed in double */
+    int64_t *index_out;                /* run: triangle hit, -1 on a miss */
+    void *t_out, *u_out, *v_out;       /* run: NaN on a miss */
+    uint64_t hits, tests;              /* time: hits and tests summed over all passes */
+    double t_sum, uv_sum;              /* time: their t, and u + v (closest_uv), in double */
 } tb_job;
 
 #include "kernels/list.h"
 
 #define TB_REAL float
+#define TB_REAL_IS_DOUBLE 0
 #define TB_SUFFIX _f32
 #include "kernels.h"
 #undef TB_REAL
+#undef TB_REAL_IS_DOUBLE
 #undef TB_SUFFIX
 
 #define TB_REAL double
+#define TB_REAL_IS_DOUBLE 1
 #define TB_SUFFIX _f64
 #include "kernels.h"
 #undef TB_REAL
+#undef TB_REAL_IS_DOUBLE
 #undef TB_SUFFIX
 
 /* ------------------------------------------------------------------ registry */
@@ -56,48 +66,135 @@ typedef struct {
 typedef void (*tb_loop_fn)(tb_job *);
 typedef void (*tb_prepare_fn)(const void *, size_t, void *);
 
+#define TB_MAX_ISAS 3
+static const char *const tb_isa_names[] = TB_ISA_NAMES;
+static const char *const tb_scalar_isa_names[] = {"scalar"};
+
+/* A kernel's loops for one ISA: untimed (run) and timed (time) per mode;
+ * NULL where the form has no such mode (wide kernels have no pairs). */
 typedef struct {
-    size_t stride; /* reals per prepared record */
-    tb_prepare_fn prepare;
-    tb_loop_fn run_pairs, run_closest, time_pairs, time_closest;
+    tb_loop_fn run[TB_N_MODES], time[TB_N_MODES];
+} tb_loops;
+
+typedef struct {
+    tb_prepare_fn prepare; /* the scalar record layout; wide kernels transpose it */
+    tb_loops isa[TB_MAX_ISAS];
 } tb_variant;
 
 typedef struct {
     const char *name;
     int internal; /* from TB_INTERNAL_KERNEL_LIST: hidden from the user's list */
+    int lanes;    /* 1: scalar early-exit form; 8: wide form, blocks of 8 triangles */
+    size_t stride; /* reals per prepared triangle */
+    int n_isas;
+    const char *const *isa_names;
     tb_variant f32, f64;
 } tb_kernel;
 
-#define TB_VARIANT(name, suffix)                                        \
-    {                                                                   \
-        tb_##name##_stride,                             \
-            (tb_prepare_fn)TB_CAT(tb_##name##_prepare, suffix),         \
-            TB_CAT(tb_##name##_run_pairs, suffix),                      \
-            TB_CAT(tb_##name##_run_closest, suffix),                    \
-            TB_CAT(tb_##name##_time_pairs, suffix),                     \
-            TB_CAT(tb_##name##_time_closest, suffix),                   \
-    }
-#define TB_ENTRY(name) {#name, 0, TB_VARIANT(name, _f32), TB_VARIANT(name, _f64)},
-#define TB_INTERNAL_ENTRY(name) {#name, 1, TB_VARIANT(name, _f32), TB_VARIANT(name, _f64)},
+#define TB_SCALAR_LOOPS(name, sfx)                                                           \
+    {{{TB_CAT(tb_##name##_run_pairs, sfx), TB_CAT(tb_##name##_run_any, sfx),                 \
+       TB_CAT(tb_##name##_run_closest, sfx), TB_CAT(tb_##name##_run_closest, sfx)},          \
+      {TB_CAT(tb_##name##_time_pairs, sfx), TB_CAT(tb_##name##_time_any, sfx),               \
+       TB_CAT(tb_##name##_time_closest, sfx), TB_CAT(tb_##name##_time_closest_uv, sfx)}}}
+#define TB_SCALAR_ENTRY_(name, internal)                                                     \
+    {#name, internal, 1, tb_##name##_stride, 1, tb_scalar_isa_names,                         \
+     {(tb_prepare_fn)tb_##name##_prepare_f32, TB_SCALAR_LOOPS(name, _f32)},                  \
+     {(tb_prepare_fn)tb_##name##_prepare_f64, TB_SCALAR_LOOPS(name, _f64)}},
+#define TB_ENTRY(name) TB_SCALAR_ENTRY_(name, 0)
+#define TB_INTERNAL_ENTRY(name) TB_SCALAR_ENTRY_(name, 1)
 
-static const tb_kernel tb_kernels[] = {TB_KERNEL_LIST(TB_ENTRY) TB_INTERNAL_KERNEL_LIST(TB_INTERNAL_ENTRY)};
+#define TB_WIDE_LOOPS(name, isa, target, sfx)                                                \
+    {{NULL, TB_CAT(tb_##name##_x8_run_any_##isa, sfx), TB_CAT(tb_##name##_x8_run_closest_##isa, sfx), \
+      TB_CAT(tb_##name##_x8_run_closest_##isa, sfx)},                                        \
+     {NULL, TB_CAT(tb_##name##_x8_time_any_##isa, sfx),                                      \
+      TB_CAT(tb_##name##_x8_time_closest_##isa, sfx),                                        \
+      TB_CAT(tb_##name##_x8_time_closest_uv_##isa, sfx)}},
+#define TB_WIDE_LOOPS_F32(name, isa, target) TB_WIDE_LOOPS(name, isa, target, _f32)
+#define TB_WIDE_LOOPS_F64(name, isa, target) TB_WIDE_LOOPS(name, isa, target, _f64)
+#define TB_WIDE_KERNEL_ENTRY(name)                                                               \
+    {#name "_x8", 0, 8, tb_##name##_stride, (int)(sizeof tb_isa_names / sizeof *tb_isa_names), \
+     tb_isa_names,                                                                           \
+     {(tb_prepare_fn)tb_##name##_prepare_f32, {TB_ISA_LIST(TB_WIDE_LOOPS_F32, name)}},        \
+     {(tb_prepare_fn)tb_##name##_prepare_f64, {TB_ISA_LIST(TB_WIDE_LOOPS_F64, name)}}},
+
+static const tb_kernel tb_kernels[] = {TB_KERNEL_LIST(TB_ENTRY) TB_WIDE_KERNEL_LIST(TB_WIDE_KERNEL_ENTRY)
+                                           TB_INTERNAL_KERNEL_LIST(TB_INTERNAL_ENTRY)};
 static const size_t tb_n_kernels = sizeof tb_kernels / sizeof tb_kernels[0];
 
-/* The variant for a kernel name and an item size (4 or 8), or NULL with a
- * Python exception set. */
-static const tb_variant *tb_lookup(const char *name, Py_ssize_t itemsize)
+/* Whether this CPU can run ISA `i` of a wide kernel (scalar kernels: always). */
+static int tb_isa_runnable(const tb_kernel *k, int i)
+{
+    if (k->lanes == 1)
+        return 1;
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_cpu_init();
+#endif
+    const int runnable[] = TB_ISA_RUNNABLE;
+    return runnable[i];
+}
+
+/* The kernel for a name, or NULL with a Python exception set. */
+static const tb_kernel *tb_find(const char *name)
 {
     for (size_t i = 0; i < tb_n_kernels; ++i)
-        if (strcmp(tb_kernels[i].name, name) == 0) {
-            if (itemsize == 4)
-                return &tb_kernels[i].f32;
-            if (itemsize == 8)
-                return &tb_kernels[i].f64;
-            PyErr_Format(PyExc_ValueError, "itemsize must be 4 or 8, got %zd", itemsize);
-            return NULL;
-        }
+        if (strcmp(tb_kernels[i].name, name) == 0)
+            return &tb_kernels[i];
     PyErr_Format(PyExc_ValueError, "unknown kernel '%s'", name);
     return NULL;
+}
+
+static int tb_check_itemsize(Py_ssize_t itemsize)
+{
+    if (itemsize == 4 || itemsize == 8)
+        return 0;
+    PyErr_Format(PyExc_ValueError, "itemsize must be 4 or 8, got %zd", itemsize);
+    return -1;
+}
+
+/* The loops of a kernel at an item size (4 or 8) and an ISA name, checked
+ * runnable; NULL with a Python exception set. */
+static const tb_loops *tb_lookup(const tb_kernel *k, Py_ssize_t itemsize, const char *isa)
+{
+    if (tb_check_itemsize(itemsize))
+        return NULL;
+    const tb_variant *v = itemsize == 4 ? &k->f32 : &k->f64;
+    for (int i = 0; i < k->n_isas; ++i)
+        if (strcmp(k->isa_names[i], isa) == 0) {
+            if (!tb_isa_runnable(k, i)) {
+                PyErr_Format(PyExc_ValueError, "kernel '%s': ISA '%s' is not available on this CPU",
+                             k->name, isa);
+                return NULL;
+            }
+            return &v->isa[i];
+        }
+    PyErr_Format(PyExc_ValueError, "kernel '%s' has no ISA '%s'", k->name, isa);
+    return NULL;
+}
+
+/* Records of a wide kernel: the scalar records of each block of 8
+ * triangles, transposed to structure of arrays (field f of lane l at
+ * 8 f + l); lanes past the last triangle are zero (the loops mask them). */
+static int tb_prepare_blocked(const tb_kernel *k, const tb_variant *v, Py_ssize_t itemsize,
+                              const void *vertices, size_t n, void *out)
+{
+    size_t stride = k->stride, blocks = (n + 7) / 8;
+    char *scalar = malloc(n * stride * (size_t)itemsize);
+    if (!scalar)
+        return -1;
+    v->prepare(vertices, n, scalar);
+    memset(out, 0, blocks * 8 * stride * (size_t)itemsize);
+    for (size_t i = 0; i < n; ++i)
+        for (size_t f = 0; f < stride; ++f)
+            memcpy((char *)out + ((i / 8) * 8 * stride + f * 8 + i % 8) * (size_t)itemsize,
+                   scalar + (i * stride + f) * (size_t)itemsize, (size_t)itemsize);
+    free(scalar);
+    return 0;
+}
+
+/* Reals a kernel's records take for n triangles (wide: whole blocks). */
+static Py_ssize_t tb_record_reals(const tb_kernel *k, Py_ssize_t n)
+{
+    return (Py_ssize_t)k->stride * (k->lanes == 1 ? n : (n + 7) / 8 * 8);
 }
 
 /* ----------------------------------------------------------- buffer checks */
@@ -170,13 +267,29 @@ static PyObject *py_kernel_names(PyObject *Py_UNUSED(self), PyObject *args)
     return tuple;
 }
 
-static PyObject *py_stride(PyObject *Py_UNUSED(self), PyObject *args)
+/* kernel_info(name) -> (lanes, stride, internal, ((isa, runnable), ...)) */
+static PyObject *py_kernel_info(PyObject *Py_UNUSED(self), PyObject *args)
 {
     const char *name;
-    if (!PyArg_ParseTuple(args, "s:stride", &name))
+    if (!PyArg_ParseTuple(args, "s:kernel_info", &name))
         return NULL;
-    const tb_variant *v = tb_lookup(name, 8);
-    return v ? PyLong_FromSize_t(v->stride) : NULL;
+    const tb_kernel *k = tb_find(name);
+    if (!k)
+        return NULL;
+    PyObject *isas = PyTuple_New(k->n_isas);
+    if (!isas)
+        return NULL;
+    for (int i = 0; i < k->n_isas; ++i) {
+        PyObject *item = Py_BuildValue("(sO)", k->isa_names[i],
+                                       tb_isa_runnable(k, i) ? Py_True : Py_False);
+        if (!item) {
+            Py_DECREF(isas);
+            return NULL;
+        }
+        PyTuple_SET_ITEM(isas, i, item);
+    }
+    return Py_BuildValue("(inON)", k->lanes, (Py_ssize_t)k->stride,
+                         k->internal ? Py_True : Py_False, isas);
 }
 
 /* prepare(name, itemsize, vertices, n, out) */
@@ -188,117 +301,147 @@ static PyObject *py_prepare(PyObject *Py_UNUSED(self), PyObject *args)
     PyObject *result = NULL;
     if (!PyArg_ParseTuple(args, "sny*nw*:prepare", &name, &itemsize, &vertices, &n, &out))
         return NULL;
-    const tb_variant *v = tb_lookup(name, itemsize);
-    if (!v || tb_check_count("n", n, 16) || tb_check_buffer(&vertices, "vertices", 9 * n, itemsize) ||
-        tb_check_buffer(&out, "out", (Py_ssize_t)v->stride * n, itemsize))
+    const tb_kernel *k = tb_find(name);
+    if (!k || tb_check_itemsize(itemsize) || tb_check_count("n", n, 64) ||
+        tb_check_buffer(&vertices, "vertices", 9 * n, itemsize) ||
+        tb_check_buffer(&out, "out", tb_record_reals(k, n), itemsize))
         goto done;
+    const tb_variant *v = itemsize == 4 ? &k->f32 : &k->f64;
+    int failed = 0;
     Py_BEGIN_ALLOW_THREADS
-    v->prepare(vertices.buf, (size_t)n, out.buf);
+    if (k->lanes == 1)
+        v->prepare(vertices.buf, (size_t)n, out.buf);
+    else
+        failed = tb_prepare_blocked(k, v, itemsize, vertices.buf, (size_t)n, out.buf);
     Py_END_ALLOW_THREADS
-    result = Py_NewRef(Py_None);
+    if (failed)
+        PyErr_NoMemory();
+    else
+        result = Py_NewRef(Py_None);
 done:
     PyBuffer_Release(&vertices);
     PyBuffer_Release(&out);
     return result;
 }
 
-/* Checks the inputs shared by every loop entry point and fills `job`. */
-static const tb_variant *tb_parse_job(const char *name, Py_ssize_t itemsize, int closest, Py_buffer *o,
-                                      Py_buffer *d, Py_ssize_t n_rays, Py_buffer *rec,
-                                      Py_ssize_t n_records, tb_job *job)
+/* Checks the inputs shared by every loop entry point and fills `job`;
+ * returns the loop to call, or NULL with a Python exception set. */
+static tb_loop_fn tb_parse_job(const char *name, Py_ssize_t itemsize, int mode, const char *isa,
+                               int timed, Py_buffer *o, Py_buffer *d, Py_ssize_t n_rays,
+                               Py_buffer *t_max, Py_buffer *rec, Py_ssize_t n_records, tb_job *job)
 {
-    if (!closest && n_rays != n_records) {
+    if (mode < 0 || mode >= TB_N_MODES) {
+        PyErr_Format(PyExc_ValueError, "mode must be 0..%d, got %d", TB_N_MODES - 1, mode);
+        return NULL;
+    }
+    if (mode == TB_PAIRS && n_rays != n_records) {
         PyErr_Format(PyExc_ValueError, "pairs need as many records as rays, got %zd and %zd",
                      n_records, n_rays);
         return NULL;
     }
-    const tb_variant *v = tb_lookup(name, itemsize);
-    if (!v || tb_check_count("n_rays", n_rays, 16) || tb_check_count("n_records", n_records, 16) ||
+    const tb_kernel *k = tb_find(name);
+    const tb_loops *loops = k ? tb_lookup(k, itemsize, isa) : NULL;
+    if (!loops || tb_check_count("n_rays", n_rays, 16) || tb_check_count("n_records", n_records, 64) ||
         tb_check_buffer(o, "origins", 3 * n_rays, itemsize) ||
         tb_check_buffer(d, "directions", 3 * n_rays, itemsize) ||
-        tb_check_buffer(rec, "records", (Py_ssize_t)v->stride * n_records, itemsize))
+        tb_check_buffer(t_max, "t_max", n_rays, itemsize) ||
+        tb_check_buffer(rec, "records", tb_record_reals(k, n_records), itemsize))
         return NULL;
+    /* wide float32 loops carry triangle indices in 32-bit lanes */
+    if (k->lanes > 1 && n_records > INT32_MAX - 8) {
+        PyErr_Format(PyExc_ValueError, "wide kernels take at most %d triangles", INT32_MAX - 8);
+        return NULL;
+    }
+    tb_loop_fn loop = timed ? loops->time[mode] : loops->run[mode];
+    if (!loop) {
+        PyErr_Format(PyExc_ValueError, "kernel '%s' has no '%s' mode", name, tb_mode_names[mode]);
+        return NULL;
+    }
     memset(job, 0, sizeof *job);
     job->origins = o->buf;
     job->directions = d->buf;
+    job->t_max = t_max->buf;
     job->records = rec->buf;
     job->n_rays = (size_t)n_rays;
     job->n_records = (size_t)n_records;
     job->loops = 1;
-    return v;
+    return loop;
 }
 
-/* run(name, itemsize, closest, origins, directions, n_rays, records, n_records,
- *     hit_or_index_out, t_out): closest = 0 writes uint8 hits, 1 int64 indices */
+/* run(name, itemsize, mode, isa, origins, directions, n_rays, t_max, records,
+ *     n_records, index_out, t_out, u_out, v_out) */
 static PyObject *py_run(PyObject *Py_UNUSED(self), PyObject *args)
 {
-    const char *name;
+    const char *name, *isa;
     Py_ssize_t itemsize, n_rays, n_records;
-    int closest;
-    Py_buffer o = {0}, d = {0}, rec = {0}, first = {0}, t_out = {0};
+    int mode;
+    Py_buffer o = {0}, d = {0}, t_max = {0}, rec = {0}, index = {0}, t = {0}, u = {0}, v = {0};
     PyObject *result = NULL;
     tb_job job;
-    if (!PyArg_ParseTuple(args, "snpy*y*ny*nw*w*:run", &name, &itemsize, &closest, &o, &d,
-                          &n_rays, &rec, &n_records, &first, &t_out))
+    if (!PyArg_ParseTuple(args, "snisy*y*ny*y*nw*w*w*w*:run", &name, &itemsize, &mode, &isa, &o,
+                          &d, &n_rays, &t_max, &rec, &n_records, &index, &t, &u, &v))
         return NULL;
-    const tb_variant *v = tb_parse_job(name, itemsize, closest, &o, &d, n_rays, &rec, n_records, &job);
-    if (!v)
+    tb_loop_fn loop = tb_parse_job(name, itemsize, mode, isa, 0, &o, &d, n_rays, &t_max, &rec,
+                                   n_records, &job);
+    if (!loop || tb_check_buffer(&index, "index_out", n_rays, 8) ||
+        tb_check_buffer(&t, "t_out", n_rays, itemsize) || tb_check_buffer(&u, "u_out", n_rays, itemsize) ||
+        tb_check_buffer(&v, "v_out", n_rays, itemsize))
         goto done;
-    if (tb_check_buffer(&first, closest ? "index_out" : "hit_out", n_rays, closest ? 8 : 1) ||
-        tb_check_buffer(&t_out, "t_out", n_rays, itemsize))
-        goto done;
-    job.t_out = t_out.buf;
-    if (closest)
-        job.index_out = first.buf;
-    else
-        job.hit_out = first.buf;
+    job.index_out = index.buf;
+    job.t_out = t.buf;
+    job.u_out = u.buf;
+    job.v_out = v.buf;
     Py_BEGIN_ALLOW_THREADS
-    (closest ? v->run_closest : v->run_pairs)(&job);
+    loop(&job);
     Py_END_ALLOW_THREADS
     result = Py_NewRef(Py_None);
 done:
     PyBuffer_Release(&o);
     PyBuffer_Release(&d);
+    PyBuffer_Release(&t_max);
     PyBuffer_Release(&rec);
-    PyBuffer_Release(&first);
-    PyBuffer_Release(&t_out);
+    PyBuffer_Release(&index);
+    PyBuffer_Release(&t);
+    PyBuffer_Release(&u);
+    PyBuffer_Release(&v);
     return result;
 }
 
-/* time(name, itemsize, closest, origins, directions, n_rays, records, n_records,
- *      loops) -> (elapsed_ns, hits, t_sum) */
+/* time(name, itemsize, mode, isa, origins, directions, n_rays, t_max, records,
+ *      n_records, loops) -> (elapsed_ns, hits, tests, t_sum, uv_sum) */
 static PyObject *py_time(PyObject *Py_UNUSED(self), PyObject *args)
 {
-    const char *name;
+    const char *name, *isa;
     Py_ssize_t itemsize, n_rays, n_records;
     long long loops;
-    int closest;
-    Py_buffer o = {0}, d = {0}, rec = {0};
+    int mode;
+    Py_buffer o = {0}, d = {0}, t_max = {0}, rec = {0};
     PyObject *result = NULL;
     tb_job job;
-    if (!PyArg_ParseTuple(args, "snpy*y*ny*nL:time", &name, &itemsize, &closest, &o, &d,
-                          &n_rays, &rec, &n_records, &loops))
+    if (!PyArg_ParseTuple(args, "snisy*y*ny*y*nL:time", &name, &itemsize, &mode, &isa, &o, &d,
+                          &n_rays, &t_max, &rec, &n_records, &loops))
         return NULL;
-    const tb_variant *v = tb_parse_job(name, itemsize, closest, &o, &d, n_rays, &rec, n_records, &job);
-    if (!v)
+    tb_loop_fn loop = tb_parse_job(name, itemsize, mode, isa, 1, &o, &d, n_rays, &t_max, &rec,
+                                   n_records, &job);
+    if (!loop)
         goto done;
     if (loops < 1) {
         PyErr_Format(PyExc_ValueError, "loops must be at least 1, got %lld", loops);
         goto done;
     }
     job.loops = (uint64_t)loops;
-    tb_loop_fn loop = closest ? v->time_closest : v->time_pairs;
     int64_t start, stop;
     Py_BEGIN_ALLOW_THREADS
     start = tb_now_ns();
     loop(&job);
     stop = tb_now_ns();
     Py_END_ALLOW_THREADS
-    result = Py_BuildValue("LKd", (long long)(stop - start), (unsigned long long)job.hits,
-                           job.t_sum);
+    result = Py_BuildValue("LKKdd", (long long)(stop - start), (unsigned long long)job.hits,
+                           (unsigned long long)job.tests, job.t_sum, job.uv_sum);
 done:
     PyBuffer_Release(&o);
     PyBuffer_Release(&d);
+    PyBuffer_Release(&t_max);
     PyBuffer_Release(&rec);
     return result;
 }
@@ -356,14 +499,16 @@ static PyMethodDef tb_methods[] = {
      "kernel_names(internal=False): registered kernel names."},
     {"fma_peak", py_fma_peak, METH_VARARGS,
      "fma_peak(iterations, force_scalar=False) -> (flops, elapsed_ns, isa, sink)."},
-    {"stride", py_stride, METH_VARARGS, "stride(name): reals per prepared triangle."},
+    {"kernel_info", py_kernel_info, METH_VARARGS,
+     "kernel_info(name) -> (lanes, stride, internal, ((isa, runnable), ...))."},
     {"prepare", py_prepare, METH_VARARGS,
      "prepare(name, itemsize, vertices, n, out): fill a kernel's records."},
     {"run", py_run, METH_VARARGS,
-     "run(name, itemsize, closest, o, d, n_rays, records, n_records, first_out, t_out)."},
+     "run(name, itemsize, mode, isa, o, d, n_rays, t_max, records, n_records, index_out, "
+     "t_out, u_out, v_out)."},
     {"time", py_time, METH_VARARGS,
-     "time(name, itemsize, closest, o, d, n_rays, records, n_records, loops) -> "
-     "(elapsed_ns, hits, t_sum)."},
+     "time(name, itemsize, mode, isa, o, d, n_rays, t_max, records, n_records, loops) -> "
+     "(elapsed_ns, hits, tests, t_sum, uv_sum)."},
     {"build_info", py_build_info, METH_NOARGS, "Compiler, flags and clock of this build."},
     {NULL, NULL, 0, NULL},
 };

@@ -5,15 +5,62 @@
  * kernel is written once over `real` (one typedef for the precision, as pbrt
  * does) and every symbol gets the precision as a suffix.
  *
- * A kernel file defines, for the current precision:
- *   tb_<name>_stride              macro: reals per prepared triangle record
- *   void   tb_<name>_prepare(const real *vertices, size_t n, real *out)
- *   int    tb_<name>_test(o, d, record, &t)   1 and t on a hit, 0 on a miss
- * and nothing else; the loops below are instantiated once per kernel, so the
- * test inlines into them and dispatch happens once per batch. */
+ * A scalar kernel file kernels/<name>.h defines, for the current precision:
+ *   tb_<name>_stride     macro: reals per prepared triangle record
+ *   void tb_<name>_prepare(const real *vertices, size_t n, real *out)
+ *   void tb_<name>_ray(const real *o, const real *d, tb_ray *r)
+ *                        per-ray precomputation, done once per ray outside
+ *                        the triangle loop (most kernels: tb_ray_plain)
+ *   int  tb_<name>_test(const tb_ray *r, const real *record, real t_max, tb_hit *h)
+ *                        1 on a hit with 0 < t < t_max, writing t, u, v
+ *                        (the hit point is (1-u-v) v0 + u v1 + v v2); 0 else
+ * A wide kernel file kernels/<name>_x8.h adds, for a kernel of the same name:
+ *   vmask tb_<name>_x8_test(const tb_ray *r, const real *block, vreal t_max, tb_vhit *h)
+ *                        the same test, branchless, on the 8 triangles of a
+ *                        block (field f of lane l at block[8 f + l]); a lane
+ *                        of the mask is all ones on a hit
+ * and reuses the scalar stride, prepare and ray. The loops below are
+ * instantiated once per kernel, mode and ISA, so tests inline into them and
+ * dispatch happens once per batch. The loops pass the best t so far as
+ * t_max, as a ray tracer shrinks its interval; a kernel that reads u and v
+ * only for the closest_uv mode has their arithmetic removed elsewhere as
+ * dead code. */
 
 #define real TB_REAL
 #define TB_FN(name) TB_CAT(name, TB_SUFFIX)
+#define tb_ray TB_FN(tb_ray)
+#define tb_hit TB_FN(tb_hit)
+#define vreal TB_FN(tb_vreal)
+#define vmask TB_FN(tb_vmask)
+#define tb_vhit TB_FN(tb_vhit)
+
+/* A ray as the kernels see it: origin, direction, and the per-ray
+ * precomputation of the kernels that have one (Woop's axes and shear). */
+typedef struct {
+    real o[3], d[3];
+    int kx, ky, kz;
+    real sx, sy, sz;
+} tb_ray;
+
+typedef struct {
+    real t, u, v;
+} tb_hit;
+
+/* 8 lanes of the precision, and masks of the same width (lane = all ones or
+ * zero, as vector comparisons yield). GCC/Clang vector extensions: the
+ * compiler lowers them to the ISA of the function they are used in. */
+typedef real vreal __attribute__((vector_size(8 * sizeof(real))));
+#define mask_elem TB_FN(tb_mask_elem)
+#if TB_REAL_IS_DOUBLE
+typedef int64_t mask_elem;
+#else
+typedef int32_t mask_elem;
+#endif
+typedef mask_elem vmask __attribute__((vector_size(8 * sizeof(real))));
+
+typedef struct {
+    vreal t, u, v;
+} tb_vhit;
 
 #include "kernels/vec.h"
 #include "kernels/curless_seed.h"
@@ -21,111 +68,200 @@
 #include "kernels/curless.h"
 #include "kernels/moller_trumbore.h"
 #include "kernels/moller_trumbore_aa.h"
-#include "kernels/moller_trumbore_twice.h"
 
-/* The four loops of one kernel. `always_inline` plus a constant function
- * pointer lets GCC and Clang inline the test into each instantiation. */
-typedef int (*TB_FN(tb_test_fn))(const real *restrict, const real *restrict,
-                                 const real *restrict, real *restrict);
+#include "kernels/curless_x8.h"
+#include "kernels/moller_trumbore_x8.h"
 
-/* ray i against record i, writing hit and t (t = NaN on a miss) */
+typedef int (*TB_FN(tb_test_fn))(const tb_ray *restrict, const real *restrict, real,
+                                 tb_hit *restrict);
+typedef void (*TB_FN(tb_ray_fn))(const real *, const real *, tb_ray *);
+typedef vmask (*TB_FN(tb_wide_fn))(const tb_ray *restrict, const real *restrict, vreal,
+                                   tb_vhit *restrict);
+
+/* One batch of a scalar kernel. `mode` and `timed` are constants at every
+ * call site, so each instantiation keeps only its own branch. Untimed, the
+ * loop writes index, t, u, v per ray (NaN and -1 on a miss); timed, it runs
+ * `loops` passes and folds the answers into the job's checksum (which also
+ * keeps the compiler from deleting the work). Both count the tests done:
+ * every triangle for closest, up to the first hit for any. Closest: ties go to the lowest
+ * index (a later triangle must be strictly closer). */
 static inline __attribute__((always_inline)) void
-TB_FN(tb_run_pairs)(TB_FN(tb_test_fn) test, size_t stride, const tb_job *job)
+TB_FN(tb_scalar_loop)(TB_FN(tb_test_fn) test, TB_FN(tb_ray_fn) make_ray, size_t stride,
+                      tb_job *job, const int mode, const int timed)
 {
-    const real *o = job->origins, *d = job->directions, *tri = job->records;
-    real *t_out = job->t_out;
-    for (size_t i = 0; i < job->n_rays; ++i) {
-        real t = (real)NAN;
-        job->hit_out[i] = (uint8_t)test(o + 3 * i, d + 3 * i, tri + stride * i, &t);
-        t_out[i] = job->hit_out[i] ? t : (real)NAN;
-    }
-}
-
-/* every ray against every record; the closest hit, ties to the lowest index */
-static inline __attribute__((always_inline)) void
-TB_FN(tb_run_closest)(TB_FN(tb_test_fn) test, size_t stride, const tb_job *job)
-{
-    const real *o = job->origins, *d = job->directions, *tri = job->records;
-    real *t_out = job->t_out;
-    for (size_t i = 0; i < job->n_rays; ++i) {
-        real best = (real)INFINITY, t;
-        int64_t index = -1;
-        for (size_t j = 0; j < job->n_records; ++j)
-            if (test(o + 3 * i, d + 3 * i, tri + stride * j, &t) && t < best) {
-                best = t;
-                index = (int64_t)j;
-            }
-        job->index_out[i] = index;
-        t_out[i] = index >= 0 ? best : (real)NAN;
-    }
-}
-
-/* timed form of run_pairs: `loops` passes, results folded into a checksum
- * (the checksum also keeps the compiler from deleting the work) */
-static inline __attribute__((always_inline)) void
-TB_FN(tb_time_pairs)(TB_FN(tb_test_fn) test, size_t stride, tb_job *job)
-{
-    const real *o = job->origins, *d = job->directions, *tri = job->records;
-    uint64_t hits = 0;
-    double t_sum = 0;
-    for (uint64_t pass = 0; pass < job->loops; ++pass)
+    const real *o = job->origins, *d = job->directions, *rec = job->records;
+    const real *t_max = job->t_max;
+    uint64_t hits = 0, tests = 0;
+    double t_sum = 0, uv_sum = 0;
+    const uint64_t loops = timed ? job->loops : 1;
+    for (uint64_t pass = 0; pass < loops; ++pass)
         for (size_t i = 0; i < job->n_rays; ++i) {
-            real t;
-            if (test(o + 3 * i, d + 3 * i, tri + stride * i, &t)) {
-                ++hits;
-                t_sum += t;
-            }
-        }
-    job->hits = hits;
-    job->t_sum = t_sum;
-}
-
-/* timed form of run_closest */
-static inline __attribute__((always_inline)) void
-TB_FN(tb_time_closest)(TB_FN(tb_test_fn) test, size_t stride, tb_job *job)
-{
-    const real *o = job->origins, *d = job->directions, *tri = job->records;
-    uint64_t hits = 0;
-    double t_sum = 0;
-    for (uint64_t pass = 0; pass < job->loops; ++pass)
-        for (size_t i = 0; i < job->n_rays; ++i) {
-            real best = (real)INFINITY, t;
-            int found = 0;
-            for (size_t j = 0; j < job->n_records; ++j)
-                if (test(o + 3 * i, d + 3 * i, tri + stride * j, &t) && t < best) {
-                    best = t;
-                    found = 1;
+            tb_ray r;
+            make_ray(o + 3 * i, d + 3 * i, &r);
+            tb_hit best = {t_max[i], (real)NAN, (real)NAN}, h;
+            int64_t index = -1;
+            if (mode == TB_PAIRS) {
+                if (test(&r, rec + stride * i, t_max[i], &h)) {
+                    best = h;
+                    index = (int64_t)i;
                 }
-            if (found) {
-                ++hits;
-                t_sum += best;
+                tests += 1;
+            } else {
+                size_t j = 0;
+                for (; j < job->n_records; ++j)
+                    if (test(&r, rec + stride * j, best.t, &h)) {
+                        best = h;
+                        index = (int64_t)j;
+                        if (mode == TB_ANY) {
+                            ++j;
+                            break;
+                        }
+                    }
+                tests += j;
+            }
+            if (timed) {
+                if (index >= 0) {
+                    ++hits;
+                    t_sum += best.t;
+                    if (mode == TB_CLOSEST_UV)
+                        uv_sum += (double)best.u + best.v;
+                }
+            } else {
+                real *t_out = job->t_out, *u_out = job->u_out, *v_out = job->v_out;
+                job->index_out[i] = index;
+                t_out[i] = index >= 0 ? best.t : (real)NAN;
+                u_out[i] = index >= 0 ? best.u : (real)NAN;
+                v_out[i] = index >= 0 ? best.v : (real)NAN;
             }
         }
     job->hits = hits;
+    job->tests = tests;
     job->t_sum = t_sum;
+    job->uv_sum = uv_sum;
 }
 
-/* One set of entry points per kernel: the only place loops meet kernels. */
-#define TB_INSTANTIATE(name)                                                              \
-    static void TB_FN(tb_##name##_run_pairs)(tb_job *job)                                 \
-    {                                                                                     \
-        TB_FN(tb_run_pairs)(TB_FN(tb_##name##_test), tb_##name##_stride, job);    \
-    }                                                                                     \
-    static void TB_FN(tb_##name##_run_closest)(tb_job *job)                               \
-    {                                                                                     \
-        TB_FN(tb_run_closest)(TB_FN(tb_##name##_test), tb_##name##_stride, job);  \
-    }                                                                                     \
-    static void TB_FN(tb_##name##_time_pairs)(tb_job *job)                                \
-    {                                                                                     \
-        TB_FN(tb_time_pairs)(TB_FN(tb_##name##_test), tb_##name##_stride, job);   \
-    }                                                                                     \
-    static void TB_FN(tb_##name##_time_closest)(tb_job *job)                              \
-    {                                                                                     \
-        TB_FN(tb_time_closest)(TB_FN(tb_##name##_test), tb_##name##_stride, job); \
+/* One batch of a wide kernel: each ray against blocks of 8 triangles. Each
+ * lane keeps its own closest hit (its t is that lane's t_max for the next
+ * block), so lanes never talk to each other inside the triangle loop; one
+ * reduction per ray picks the closest lane, ties to the lowest index. Lanes
+ * past the last triangle are masked off. Pairs are not a wide mode (one ray
+ * against one triangle has no triangles to spread over lanes). */
+static inline __attribute__((always_inline)) void
+TB_FN(tb_wide_loop)(TB_FN(tb_wide_fn) test, TB_FN(tb_ray_fn) make_ray, size_t stride,
+                    tb_job *job, const int mode, const int timed)
+{
+    const real *o = job->origins, *d = job->directions, *rec = job->records;
+    const real *t_max = job->t_max;
+    const size_t n_blocks = (job->n_records + 7) / 8;
+    vmask lane, tail;
+    for (int l = 0; l < 8; ++l) {
+        lane[l] = l;
+        tail[l] = (size_t)((n_blocks - 1) * 8 + l) < job->n_records ? -1 : 0;
     }
-TB_KERNEL_LIST(TB_INSTANTIATE)
-TB_INTERNAL_KERNEL_LIST(TB_INSTANTIATE)
-#undef TB_INSTANTIATE
+    uint64_t hits = 0, tests = 0;
+    double t_sum = 0, uv_sum = 0;
+    const uint64_t loops = timed ? job->loops : 1;
+    for (uint64_t pass = 0; pass < loops; ++pass)
+        for (size_t i = 0; i < job->n_rays; ++i) {
+            tb_ray r;
+            make_ray(o + 3 * i, d + 3 * i, &r);
+            tb_vhit best = {TB_FN(vsplat)(t_max[i]), TB_FN(vsplat)((real)NAN),
+                            TB_FN(vsplat)((real)NAN)};
+            vmask index = lane * 0 - 1;
+            size_t b = 0;
+            for (; b < n_blocks; ++b) {
+                tb_vhit h;
+                vmask m = test(&r, rec + stride * 8 * b, best.t, &h);
+                if (b == n_blocks - 1)
+                    m &= tail;
+                best.t = TB_FN(vselect)(m, h.t, best.t);
+                if (mode == TB_CLOSEST_UV || !timed) {
+                    best.u = TB_FN(vselect)(m, h.u, best.u);
+                    best.v = TB_FN(vselect)(m, h.v, best.v);
+                }
+                index = (m & (lane + (mask_elem)(8 * b))) | (~m & index);
+                if (mode == TB_ANY && TB_FN(vany)(m)) {
+                    ++b;
+                    break;
+                }
+            }
+            /* triangles tested (the masked lanes of the last block are not tests) */
+            tests += b < n_blocks ? 8 * b : job->n_records;
+            /* the closest lane; ties to the lowest triangle index */
+            int best_lane = -1;
+            for (int l = 0; l < 8; ++l)
+                if (index[l] >= 0 &&
+                    (best_lane < 0 || best.t[l] < best.t[best_lane] ||
+                     (best.t[l] == best.t[best_lane] && index[l] < index[best_lane])))
+                    best_lane = l;
+            if (timed) {
+                if (best_lane >= 0) {
+                    ++hits;
+                    t_sum += best.t[best_lane];
+                    if (mode == TB_CLOSEST_UV)
+                        uv_sum += (double)best.u[best_lane] + best.v[best_lane];
+                }
+            } else {
+                real *t_out = job->t_out, *u_out = job->u_out, *v_out = job->v_out;
+                int found = best_lane >= 0;
+                job->index_out[i] = found ? (int64_t)index[best_lane] : -1;
+                t_out[i] = found ? best.t[best_lane] : (real)NAN;
+                u_out[i] = found ? best.u[best_lane] : (real)NAN;
+                v_out[i] = found ? best.v[best_lane] : (real)NAN;
+            }
+        }
+    job->hits = hits;
+    job->tests = tests;
+    job->t_sum = t_sum;
+    job->uv_sum = uv_sum;
+}
 
+/* Entry points of one scalar kernel: the only place loops meet kernels.
+ * run_<kernel> handles every mode (untimed: speed does not matter);
+ * time_<kernel>_<mode> is one function per mode. */
+#define TB_SCALAR_ENTRY(name, fn_mode, mode, timed)                                         \
+    static void TB_FN(tb_##name##_##fn_mode)(tb_job *job)                                   \
+    {                                                                                       \
+        TB_FN(tb_scalar_loop)(TB_FN(tb_##name##_test), TB_FN(tb_##name##_ray),              \
+                              tb_##name##_stride, job, mode, timed);                        \
+    }
+#define TB_INSTANTIATE(name)                                         \
+    TB_SCALAR_ENTRY(name, run_pairs, TB_PAIRS, 0)                    \
+    TB_SCALAR_ENTRY(name, run_any, TB_ANY, 0)                        \
+    TB_SCALAR_ENTRY(name, run_closest, TB_CLOSEST_UV, 0)             \
+    TB_SCALAR_ENTRY(name, time_pairs, TB_PAIRS, 1)                   \
+    TB_SCALAR_ENTRY(name, time_any, TB_ANY, 1)                       \
+    TB_SCALAR_ENTRY(name, time_closest, TB_CLOSEST, 1)               \
+    TB_SCALAR_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1)
+TB_KERNEL_LIST(TB_INSTANTIATE)
+TB_INSTANTIATE(moller_trumbore_aa)
+#undef TB_INSTANTIATE
+#include "kernels/moller_trumbore_twice.h" /* its own entry points, from moller_trumbore's */
+
+/* Entry points of one wide kernel for one ISA: the same source compiled
+ * for each instruction set by a target attribute (the kernels and helpers
+ * are always_inline, so they are compiled with their caller's ISA). */
+#define TB_WIDE_ENTRY(name, isa, target, fn_mode, mode, timed)                              \
+    target static void TB_FN(tb_##name##_x8_##fn_mode##_##isa)(tb_job *job)                 \
+    {                                                                                       \
+        TB_FN(tb_wide_loop)(TB_FN(tb_##name##_x8_test), TB_FN(tb_##name##_ray),             \
+                            tb_##name##_stride, job, mode, timed);                          \
+    }
+#define TB_WIDE_ISA(name, isa, target)                                   \
+    TB_WIDE_ENTRY(name, isa, target, run_any, TB_ANY, 0)                 \
+    TB_WIDE_ENTRY(name, isa, target, run_closest, TB_CLOSEST_UV, 0)      \
+    TB_WIDE_ENTRY(name, isa, target, time_any, TB_ANY, 1)                \
+    TB_WIDE_ENTRY(name, isa, target, time_closest, TB_CLOSEST, 1)        \
+    TB_WIDE_ENTRY(name, isa, target, time_closest_uv, TB_CLOSEST_UV, 1)
+#define TB_INSTANTIATE_WIDE(name) TB_ISA_LIST(TB_WIDE_ISA, name)
+TB_WIDE_KERNEL_LIST(TB_INSTANTIATE_WIDE)
+#undef TB_INSTANTIATE_WIDE
+
+#undef tb_vhit
+#undef vmask
+#undef mask_elem
+#undef vreal
+#undef tb_hit
+#undef tb_ray
 #undef TB_FN
 #undef real

@@ -63,3 +63,15 @@ def as_dtype(arrays, dtype):
 def reference_answers(o, d, tris):
     """Reference on the arrays as the kernel sees them (after any rounding)."""
     return reference.intersect_pairs(o.astype(np.float64), d.astype(np.float64), tris.astype(np.float64))
+
+
+def run_pairs(kernel, o, d, tris, **options):
+    """(hit, t) of ray i against triangle i for any kernel: a wide kernel,
+    which has no pairs mode, answers each pair as a one-triangle closest call."""
+    from tribench import ext
+
+    if "pairs" in ext.kernel_info(kernel).modes:
+        return ext.intersect_pairs(kernel, o, d, tris, **options)
+    answers = [ext.intersect(kernel, o[i : i + 1], d[i : i + 1], tris[i : i + 1], "closest", **options)
+               for i in range(len(o))]
+    return np.array([a.index[0] >= 0 for a in answers]), np.array([a.t[0] for a in answers])

@@ -56,17 +56,38 @@ def test_unaligned_array_is_rejected():
 def test_private_module_checks_buffer_sizes_itself():
     # a direct call that lies about counts must raise, not read out of bounds
     records = ext.prepare("moller_trumbore", TRI).records
-    hit, t = np.empty(5, np.uint8), np.empty(5)
+    t_max = np.full(1, np.inf)
+    index, t, u, v = np.empty(5, np.int64), np.empty(5), np.empty(5), np.empty(5)
     with pytest.raises(ValueError, match="origins: buffer has"):
-        _core.run("moller_trumbore", 8, False, O, D, 5, records, 5, hit, t)
+        _core.run("moller_trumbore", 8, 0, "scalar", O, D, 5, t_max, records, 5, index, t, u, v)
+    with pytest.raises(ValueError, match="t_max: buffer has"):
+        _core.run("moller_trumbore", 8, 2, "scalar", O, D, 1, np.full(3, 1.0), records, 1, index[:1], t[:1], u[:1], v[:1])
     with pytest.raises(ValueError, match="records: buffer has"):
-        _core.time("moller_trumbore", 8, True, O, D, 1, records, 1000, 10)
+        _core.time("moller_trumbore", 8, 2, "scalar", O, D, 1, t_max, records, 1000, 10)
     with pytest.raises(ValueError, match="itemsize"):
-        _core.time("moller_trumbore", 2, True, O, D, 1, records, 1, 10)
+        _core.time("moller_trumbore", 2, 2, "scalar", O, D, 1, t_max, records, 1, 10)
+    with pytest.raises(ValueError, match="mode must be"):
+        _core.time("moller_trumbore", 8, 7, "scalar", O, D, 1, t_max, records, 1, 10)
+    with pytest.raises(ValueError, match="no ISA"):
+        _core.time("moller_trumbore", 8, 2, "avx2", O, D, 1, t_max, records, 1, 10)
+    with pytest.raises(ValueError, match="no 'pairs' mode"):
+        wide = ext.prepare("moller_trumbore_x8", TRI).records
+        _core.time("moller_trumbore_x8", 8, 0, "baseline", O, D, 1, t_max, wide, 1, 10)
+    with pytest.raises(ValueError, match="records: buffer has"):
+        # a wide kernel's records are whole blocks of 8
+        _core.time("moller_trumbore_x8", 8, 2, "baseline", O, D, 1, t_max, records, 1, 10)
     with pytest.raises(ValueError, match="unknown kernel"):
-        _core.stride("nope")
+        _core.kernel_info("nope")
     with pytest.raises(ValueError, match="at least 1"):
-        _core.time("moller_trumbore", 8, True, O, D, -1, records, 1, 10)
+        _core.time("moller_trumbore", 8, 2, "scalar", O, D, -1, t_max, records, 1, 10)
+
+
+def test_t_max_is_checked():
+    for bad, err in [(np.zeros(1), ValueError), (np.full(1, np.nan), ValueError),
+                     (np.ones(2), ValueError), (np.ones(1, np.float32), TypeError), ([1.0], TypeError)]:
+        with pytest.raises(err, match="t_max"):
+            ext.intersect("moller_trumbore", O, D, TRI, "pairs", t_max=bad)
+    assert not ext.intersect("moller_trumbore", O, D, TRI, "pairs", t_max=0.5).hit[0]
 
 
 def test_results_do_not_alias_inputs_and_inputs_are_untouched():
@@ -101,20 +122,17 @@ def _arrays(draw):
     o=_arrays(),
     d=_arrays(),
     tri=_arrays(),
-    closest=st.booleans(),
+    mode=st.sampled_from(ext.MODES + ("nope",)),
     allow_nonfinite=st.booleans(),
 )
-def test_random_inputs_give_results_or_clear_errors(kernel, o, d, tri, closest, allow_nonfinite):
-    fn = ext.intersect_closest if closest else ext.intersect_pairs
+def test_random_inputs_give_results_or_clear_errors(kernel, o, d, tri, mode, allow_nonfinite):
     try:
-        first, t = fn(kernel, o, d, tri, allow_nonfinite=allow_nonfinite)
+        r = ext.intersect(kernel, o, d, tri, mode, allow_nonfinite=allow_nonfinite)
     except (TypeError, ValueError):
         return
-    assert first.shape == t.shape == (len(o),)
-    hit = first >= 0 if closest else first
-    if kernel != "curless_seed":
-        # every hit has a finite, positive t (the seed's Curless may report NaN)
-        assert (t[hit] > 0).all() and np.isfinite(t[hit]).all()
+    assert r.index.shape == r.t.shape == r.u.shape == (len(o),)
+    # every hit has a finite, positive t
+    assert (r.t[r.hit] > 0).all() and np.isfinite(r.t[r.hit]).all()
 
 
 @settings(max_examples=200, deadline=None)
@@ -128,9 +146,10 @@ def test_any_float_values_reach_the_kernels_safely(values, kernel, dtype):
     with np.errstate(over="ignore"):
         v = values.astype(dtype)
     o, d, tri = v[:, :3].copy(), v[:, 3:6].copy(), v[:, 6:].reshape(4, 3, 3).copy()
-    hit, t = ext.intersect_pairs(kernel, o, d, tri, allow_nonfinite=True)
-    index, tc = ext.intersect_closest(kernel, o, d, tri, allow_nonfinite=True)
-    assert ((index >= -1) & (index < 4)).all()
-    if kernel != "curless_seed":
+    if "pairs" in ext.kernel_info(kernel).modes:
+        hit, t = ext.intersect_pairs(kernel, o, d, tri, allow_nonfinite=True)
         assert np.isfinite(t[hit]).all() and (t[hit] > 0).all()
-        assert np.isfinite(tc[index >= 0]).all()
+    for mode in ("any", "closest_uv"):
+        index, tc, _, _ = ext.intersect(kernel, o, d, tri, mode, allow_nonfinite=True)
+        assert ((index >= -1) & (index < 4)).all()
+        assert np.isfinite(tc[index >= 0]).all() and (tc[index >= 0] > 0).all()

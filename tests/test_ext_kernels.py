@@ -9,9 +9,10 @@ import trimesh
 from tribench import ext
 from tribench.workloads import reference
 
-from conftest import as_dtype, reference_answers, safe_pairs
+from conftest import as_dtype, reference_answers, run_pairs, safe_pairs
 
 KERNELS = ext.kernel_names()
+WIDE = [k for k in KERNELS if ext.kernel_info(k).lanes > 1]
 DTYPES = [np.float32, np.float64]
 # Relative tolerance on t at the safe margin, per precision.
 T_RTOL = {np.float32: 1e-4, np.float64: 1e-10}
@@ -26,9 +27,9 @@ def test_registry_lists_the_foundation_kernels():
 @pytest.mark.parametrize("kernel", KERNELS)
 @pytest.mark.parametrize("hit_rate", [0.0, 0.5, 1.0])
 def test_pairs_agree_with_reference(kernel, dtype, hit_rate):
-    o, d, tris = as_dtype(safe_pairs(3000, seed=11, hit_rate=hit_rate), dtype)
+    o, d, tris = as_dtype(safe_pairs(3000 if kernel not in WIDE else 300, seed=11, hit_rate=hit_rate), dtype)
     ref = reference_answers(o, d, tris)
-    hit, t = ext.intersect_pairs(kernel, o, d, tris)
+    hit, t = run_pairs(kernel, o, d, tris)
     assert hit.dtype == bool and t.dtype == dtype
     np.testing.assert_array_equal(hit, ref.hit)
     np.testing.assert_allclose(t[hit], ref.t[hit], rtol=T_RTOL[dtype])
@@ -60,29 +61,107 @@ def test_closest_on_a_mesh_agrees_with_reference(kernel, dtype):
     ref_index, ref_t = reference.intersect_closest(o, d, tris)
     assert 0.2 < (ref_index >= 0).mean() < 0.95
     o, d, tris = as_dtype((o, d, tris), dtype)
-    index, t = ext.intersect_closest(kernel, o, d, tris)
+    index, t, u, v = ext.intersect(kernel, o, d, tris, "closest_uv")
     np.testing.assert_array_equal(index, ref_index)
     hit = index >= 0
     np.testing.assert_allclose(t[hit], ref_t[hit], rtol=T_RTOL[dtype])
-    assert np.isnan(t[~hit]).all()
+    assert np.isnan(t[~hit]).all() and np.isnan(u[~hit]).all() and np.isnan(v[~hit]).all()
+    # barycentrics of the closest hit, against the reference's for that triangle
+    f64 = [a.astype(np.float64) for a in (o[hit], d[hit], tris[index[hit]])]
+    ref = reference.intersect_pairs(*f64)
+    np.testing.assert_allclose(u[hit], ref.u, atol=1e-3 if dtype == np.float32 else 1e-9)
+    np.testing.assert_allclose(v[hit], ref.v, atol=1e-3 if dtype == np.float32 else 1e-9)
+    # any hit: the same rays hit, each on a triangle the ray really hits
+    any_hit = ext.intersect(kernel, o, d, tris, "any")
+    np.testing.assert_array_equal(any_hit.hit, hit)
+    assert reference.intersect_pairs(*[a.astype(np.float64) for a in (o[hit], d[hit], tris[any_hit.index[hit]])]).hit.all()
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
 @pytest.mark.parametrize("kernel", KERNELS)
-@pytest.mark.parametrize("mode", ["pairs", "closest"])
+def test_t_max_turns_farther_hits_into_misses(kernel, dtype):
+    o, d, tris = _mesh_and_safe_rays(seed=6)
+    ref_index, ref_t = reference.intersect_closest(o, d, tris)
+    hit = ref_index >= 0
+    # half the hitting rays get a t_max just short of their hit, half just past
+    t_max = np.full(len(o), np.inf)
+    short = hit & (np.arange(len(o)) % 2 == 0)
+    t_max[short] = ref_t[short] * 0.99
+    t_max[hit & ~short] = ref_t[hit & ~short] * 1.01
+    o, d, tris, t_max = as_dtype((o, d, tris, t_max), dtype)
+    # closest: a ray whose nearest hit is beyond t_max can still hit a nearer-than-t_max triangle
+    # (none here: the rays are checked against every triangle by the reference)
+    r = ext.intersect(kernel, o, d, tris, "closest", t_max=t_max)
+    everything = reference.intersect_pairs(
+        np.repeat(o.astype(np.float64), len(tris), 0), np.repeat(d.astype(np.float64), len(tris), 0),
+        np.tile(tris.astype(np.float64), (len(o), 1, 1)))
+    within = (everything.hit & (everything.t < np.repeat(t_max.astype(np.float64), len(tris)))).reshape(len(o), -1)
+    np.testing.assert_array_equal(r.hit, within.any(axis=1))
+    assert (r.t[r.hit] < t_max[r.hit]).all()
+    if "pairs" in ext.kernel_info(kernel).modes:
+        rays = np.flatnonzero(hit)
+        tri_of_ray = tris[ref_index[rays]]
+        p = ext.intersect(kernel, o[rays], d[rays], np.ascontiguousarray(tri_of_ray), "pairs", t_max=t_max[rays])
+        np.testing.assert_array_equal(p.hit, ~short[rays])
+
+
+@pytest.mark.parametrize("kernel", WIDE)
+def test_every_isa_of_a_wide_kernel_gives_the_scalar_answers(kernel):
+    # same operations in the same order: bit for bit, on every runnable ISA,
+    # against the wide kernel's own scalar form, including non-finite inputs
+    scalar = kernel.removesuffix("_x8")
+    for dtype in DTYPES:
+        o, d, tris = (a.copy() for a in as_dtype(_mesh_and_safe_rays(seed=9), dtype))
+        o[::7, 1] = np.nan
+        tris[::11, 2, 0] = np.inf
+        want = ext.intersect(scalar, o, d, tris, "closest_uv", allow_nonfinite=True)
+        for isa, runnable in ext.kernel_info(kernel).isas.items():
+            if not runnable:
+                with pytest.raises(ValueError, match="not available on this CPU"):
+                    ext.intersect(kernel, o, d, tris, isa=isa)
+                continue
+            got = ext.intersect(kernel, o, d, tris, "closest_uv", isa=isa, allow_nonfinite=True)
+            for w, g in zip(want, got):
+                np.testing.assert_array_equal(g, w, err_msg=f"{kernel} {isa} {dtype.__name__}")
+
+
+def test_wide_kernels_mask_the_lanes_past_the_last_triangle():
+    # 9 triangles = one full block + one lane; the eight empty lanes must never hit
+    tris = np.tile(UNIT_TRI, (9, 1, 1)) + np.arange(9)[:, None, None] * np.array([0, 0, -1.0])
+    o, d = np.array([[0.25, 0.25, 1.0]]), DOWN
+    for kernel in WIDE:
+        r = ext.intersect(kernel, o, d, tris, "closest")
+        assert r.index[0] == 0 and r.t[0] == 1.0
+        r = ext.intersect(kernel, o, d, np.ascontiguousarray(tris[8:]), "closest")
+        assert r.index[0] == 0 and r.t[0] == 9.0
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
+@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize("mode", ext.MODES)
 def test_timed_checksum_matches_results(kernel, dtype, mode):
+    if mode not in ext.kernel_info(kernel).modes:
+        with pytest.raises(ValueError, match="has no 'pairs' mode"):
+            ext.make_job(kernel, *as_dtype(safe_pairs(8, seed=5), dtype), mode)
+        return
     if mode == "pairs":
         o, d, tris = as_dtype(safe_pairs(500, seed=5), dtype)
-        hit, t = ext.intersect_pairs(kernel, o, d, tris)
     else:
         o, d, tris = as_dtype(_mesh_and_safe_rays(seed=4), dtype)
-        index, t = ext.intersect_closest(kernel, o, d, tris)
-        hit = index >= 0
+    r = ext.intersect(kernel, o, d, tris, mode)
     job = ext.make_job(kernel, o, d, tris, mode)
     batch = ext.time_batch(job, loops=3)
-    assert batch.hits == 3 * hit.sum()
-    assert batch.t_sum == pytest.approx(3 * t[hit].astype(np.float64).sum(), rel=1e-9)
-    assert batch.tests == 3 * job.tests_per_pass
+    assert batch.hits == 3 * r.hit.sum()
+    if mode == "any":
+        # tests stop at each ray's first hit: the index found, within its block for wide forms
+        lanes = ext.kernel_info(kernel).lanes
+        found = np.where(r.hit, np.minimum((r.index // lanes + 1) * lanes, len(tris)), len(tris))
+        assert batch.tests == 3 * found.sum() < 3 * job.tests_per_pass
+    else:
+        assert batch.t_sum == pytest.approx(3 * r.t[r.hit].astype(np.float64).sum(), rel=1e-9)
+        assert batch.tests == 3 * job.tests_per_pass
+    uv = (r.u[r.hit].astype(np.float64) + r.v[r.hit]).sum()
+    assert batch.uv_sum == (pytest.approx(3 * uv, rel=1e-9) if mode == "closest_uv" else 0)
     assert batch.elapsed_ns > 0
 
 
@@ -94,7 +173,7 @@ DOWN = np.array([[0.0, 0, -1]])
 
 def _pairs(kernel, o, d, tris, dtype=np.float64, **kw):
     o, d, tris = as_dtype((o, d, tris), dtype)
-    return ext.intersect_pairs(kernel, o, d, tris, **kw)
+    return run_pairs(kernel, o, d, tris, **kw)
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
@@ -188,7 +267,7 @@ def test_what_each_kernel_does_on_a_shared_edge(kernel):
     # recorded behaviour, not an ideal: closed-triangle kernels hit both
     # triangles (a double hit), the seed's Curless hits neither
     o = np.array([[0.25, 0.0, 1.0]] * 2)
-    hit, _ = ext.intersect_pairs(kernel, o, np.repeat(DOWN, 2, 0), SHARED_EDGE)
+    hit, _ = run_pairs(kernel, o, np.repeat(DOWN, 2, 0), SHARED_EDGE)
     expected = {"curless_seed": [False, False]}.get(kernel, [True, True])
     np.testing.assert_array_equal(hit, expected)
 
@@ -203,12 +282,9 @@ def test_nonfinite_inputs_have_defined_results(kernel, dtype, where, value):
     with pytest.raises(ValueError, match="NaN or Inf"):
         _pairs(kernel, o, d, tri, dtype)
     hit, t = _pairs(kernel, o, d, tri, dtype, allow_nonfinite=True)
-    if kernel == "curless_seed" and where != "vertex":
-        # documented in its header: the seed's comparisons let a non-finite
-        # ray through, reported as a hit at t = NaN
-        assert hit[0] and np.isnan(t[0])
-    else:
-        assert not hit[0] and np.isnan(t[0])
+    # every kernel misses; curless_seed's own tests let a non-finite ray
+    # through with t = NaN, and the comparison with t_max drops it (header)
+    assert not hit[0] and np.isnan(t[0])
 
 
 @pytest.mark.parametrize("kernel", KERNELS)

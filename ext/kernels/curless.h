@@ -13,9 +13,14 @@
  *    reference and moller_trumbore;
  *  - every rejection is written as !(accept condition), so a NaN anywhere is
  *    a miss, and a t that overflows to infinity is a miss;
- *  - degenerate triangles have n = 0 and miss through the parallel test. */
+ *  - degenerate triangles have n = 0 and miss through the parallel test;
+ *  - 0 < t < t_max is checked on the plane, before the inside tests;
+ *  - u, v (which Curless's notes derive from the same edge values) are the
+ *    edge values over their sum, computed on a hit only. */
 
 #define tb_curless_stride 13 /* reals per prepared triangle, either precision */
+#define tb_curless_ray_f32 tb_ray_plain_f32
+#define tb_curless_ray_f64 tb_ray_plain_f64
 
 static void TB_FN(tb_curless_prepare)(const real *vertices, size_t n, real *out)
 {
@@ -38,9 +43,10 @@ static void TB_FN(tb_curless_prepare)(const real *vertices, size_t n, real *out)
     }
 }
 
-static inline int TB_FN(tb_curless_test)(const real *restrict o, const real *restrict d,
-                                         const real *restrict tri, real *restrict t_out)
+static inline int TB_FN(tb_curless_test)(const tb_ray *restrict r, const real *restrict tri,
+                                         real t_max, tb_hit *restrict h)
 {
+    const real *o = r->o, *d = r->d;
     const real *a = tri, *b = tri + 3, *c = tri + 6, *n = tri + 9;
 
     /* plane: parallel rays (and degenerate triangles) have n.d == 0 */
@@ -48,17 +54,21 @@ static inline int TB_FN(tb_curless_test)(const real *restrict o, const real *res
     if (nd == 0)
         return 0;
     real t = (tri[12] - TB_FN(dot3)(n, o)) / nd;
-    if (!(t > 0 && t < (real)INFINITY))
+    if (!(t > 0 && t < t_max))
         return 0;
 
     /* point on the plane */
     real q[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
 
     /* three inside tests, closed triangle */
-    if (!(TB_FN(edge_side)(a, b, q, n) >= 0 && TB_FN(edge_side)(b, c, q, n) >= 0 &&
-          TB_FN(edge_side)(c, a, q, n) >= 0))
+    real side_ab = TB_FN(edge_side)(a, b, q, n), side_bc, side_ca;
+    if (!(side_ab >= 0 && (side_bc = TB_FN(edge_side)(b, c, q, n)) >= 0 &&
+          (side_ca = TB_FN(edge_side)(c, a, q, n)) >= 0))
         return 0;
 
-    *t_out = t;
+    real sum = side_ab + side_bc + side_ca;
+    h->t = t;
+    h->u = side_ca / sum;
+    h->v = side_ab / sum;
     return 1;
 }

@@ -14,7 +14,11 @@
  *    <= 0, so points on an edge miss (strict interior), in the order
  *    v0v1, v1v2, v2v0;
  *  - comparisons written as the seed wrote them: a NaN or Inf in the ray
- *    slips past every test and is reported as a hit with t = NaN.
+ *    slips past every test with t = NaN; only the final t < t_max (the
+ *    seed's caller comparing t with the closest hit so far) drops it.
+ * The seed computes no barycentrics and has no t_max (its caller compares t
+ * with the closest hit so far); here t < t_max follows the seed's test, and
+ * u, v are the edge values over their sum, computed on a hit only.
  * Deviations from the seed:
  *  - a degenerate triangle (zero-length or non-finite normal) stores n = 0,
  *    so the parallel test rejects every ray; the seed divides by zero and
@@ -24,6 +28,8 @@
  *    code in double. */
 
 #define tb_curless_seed_stride 12 /* reals per prepared triangle, either precision */
+#define tb_curless_seed_ray_f32 tb_ray_plain_f32
+#define tb_curless_seed_ray_f64 tb_ray_plain_f64
 
 static void TB_FN(tb_curless_seed_prepare)(const real *vertices, size_t n, real *out)
 {
@@ -41,9 +47,10 @@ static void TB_FN(tb_curless_seed_prepare)(const real *vertices, size_t n, real 
     }
 }
 
-static inline int TB_FN(tb_curless_seed_test)(const real *restrict o, const real *restrict d,
-                                              const real *restrict tri, real *restrict t_out)
+static inline int TB_FN(tb_curless_seed_test)(const tb_ray *restrict r, const real *restrict tri,
+                                              real t_max, tb_hit *restrict h)
 {
+    const real *o = r->o, *d = r->d;
     const real eps = (real)1e-4;
     const real *a = tri, *b = tri + 3, *c = tri + 6, *n = tri + 9;
 
@@ -59,10 +66,14 @@ static inline int TB_FN(tb_curless_seed_test)(const real *restrict o, const real
     real q[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
 
     /* three inside tests, strict: on an edge is outside */
-    if (TB_FN(edge_side)(a, b, q, n) <= 0 || TB_FN(edge_side)(b, c, q, n) <= 0 ||
-        TB_FN(edge_side)(c, a, q, n) <= 0)
+    real side_ab = TB_FN(edge_side)(a, b, q, n), side_bc, side_ca;
+    if (side_ab <= 0 || (side_bc = TB_FN(edge_side)(b, c, q, n)) <= 0 ||
+        (side_ca = TB_FN(edge_side)(c, a, q, n)) <= 0)
         return 0;
 
-    *t_out = t;
-    return 1;
+    real sum = side_ab + side_bc + side_ca;
+    h->t = t;
+    h->u = side_ca / sum;
+    h->v = side_ab / sum;
+    return t < t_max;
 }

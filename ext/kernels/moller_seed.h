@@ -13,6 +13,8 @@
  *  - bounds as written: u < 0 || u > 1, then v < 0 || u + v > 1 reject, so
  *    edges are inside; t > 1e-4 accepts;
  *  - a NaN anywhere fails the final t > 1e-4 and so is a miss.
+ * The seed's code has no t_max (its caller compares t with the closest hit so
+ * far); here the comparison t < t_max follows the seed's test, unchanged.
  * Deviation: the seed keeps det, u, v and t in float and its vectors in float;
  * the float32 form is the faithful replay, the float64 form the same code in
  * double. */
@@ -20,10 +22,13 @@
 #define tb_moller_seed_stride 9 /* reals per prepared triangle, either precision */
 #define tb_moller_seed_prepare_f32 tb_prepare_vertices_f32
 #define tb_moller_seed_prepare_f64 tb_prepare_vertices_f64
+#define tb_moller_seed_ray_f32 tb_ray_plain_f32
+#define tb_moller_seed_ray_f64 tb_ray_plain_f64
 
-static inline int TB_FN(tb_moller_seed_test)(const real *restrict o, const real *restrict d,
-                                             const real *restrict tri, real *restrict t_out)
+static inline int TB_FN(tb_moller_seed_test)(const tb_ray *restrict r, const real *restrict tri,
+                                             real t_max, tb_hit *restrict h)
 {
+    const real *o = r->o, *d = r->d;
     const real eps = (real)1e-4;
     real e1[3], e2[3], p[3], s[3], q[3];
 
@@ -49,8 +54,10 @@ static inline int TB_FN(tb_moller_seed_test)(const real *restrict o, const real 
     /* distance */
     real t = TB_FN(dot3)(e2, q) * inv_det;
     if (t > eps) {
-        *t_out = t;
-        return 1;
+        h->t = t;
+        h->u = u;
+        h->v = v;
+        return t < t_max;
     }
     return 0;
 }

@@ -13,17 +13,22 @@
  *    one set of bounds serves front and back faces;
  *  - edge rule: closed triangle, 0 <= U, 0 <= V, U + V <= |det| (points on an
  *    edge or vertex are inside), the same rule as the float64 reference;
- *  - t > 0 accepts, and a t that overflows to infinity is a miss;
+ *  - 0 < t < t_max accepts: the scaled t is compared with t_max |det| before
+ *    the division (a farther hit costs no division), then t itself, so a t
+ *    rounded up to t_max, or overflowing to infinity, is a miss;
  *  - every rejection is written as !(accept condition), so a NaN is a miss.
  * Prepared data: the raw vertices (9 reals). */
 
 #define tb_moller_trumbore_stride 9 /* reals per prepared triangle, either precision */
 #define tb_moller_trumbore_prepare_f32 tb_prepare_vertices_f32
 #define tb_moller_trumbore_prepare_f64 tb_prepare_vertices_f64
+#define tb_moller_trumbore_ray_f32 tb_ray_plain_f32
+#define tb_moller_trumbore_ray_f64 tb_ray_plain_f64
 
-static inline int TB_FN(tb_moller_trumbore_test)(const real *restrict o, const real *restrict d,
-                                                 const real *restrict tri, real *restrict t_out)
+static inline int TB_FN(tb_moller_trumbore_test)(const tb_ray *restrict r, const real *restrict tri,
+                                                 real t_max, tb_hit *restrict h)
 {
+    const real *o = r->o, *d = r->d;
     real e1[3], e2[3], p[3], s[3], q[3];
 
     /* determinant */
@@ -48,11 +53,14 @@ static inline int TB_FN(tb_moller_trumbore_test)(const real *restrict o, const r
 
     /* distance, one division on a hit */
     real scaled_t = sign * TB_FN(dot3)(e2, q);
-    if (!(scaled_t > 0))
+    if (!(scaled_t > 0 && scaled_t < t_max * abs_det))
         return 0;
-    real t = scaled_t / abs_det;
-    if (!(t < (real)INFINITY))
+    real inv_det = 1 / abs_det;
+    real t = scaled_t * inv_det;
+    if (!(t < t_max))
         return 0;
-    *t_out = t;
+    h->t = t;
+    h->u = u * inv_det;
+    h->v = v * inv_det;
     return 1;
 }

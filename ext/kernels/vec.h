@@ -37,3 +37,70 @@ static void TB_FN(tb_prepare_vertices)(const real *vertices, size_t n, real *out
 {
     memcpy(out, vertices, n * 9 * sizeof(real));
 }
+
+/* Per-ray data of the kernels without a per-ray precomputation. */
+static inline void TB_FN(tb_ray_plain)(const real *o, const real *d, tb_ray *r)
+{
+    memset(r, 0, sizeof *r);
+    for (int k = 0; k < 3; ++k) {
+        r->o[k] = o[k];
+        r->d[k] = d[k];
+    }
+}
+
+/* ---- 8-lane helpers of the wide kernels. always_inline: they are compiled
+ * with the ISA of the loop they inline into (see TB_WIDE_ENTRY). */
+#define TB_WIDE static inline __attribute__((always_inline))
+
+TB_WIDE vreal TB_FN(vsplat)(real x)
+{
+    return (vreal){0} + x;
+}
+
+/* lane f of a block: 8 consecutive reals, any alignment */
+TB_WIDE vreal TB_FN(vload)(const real *p)
+{
+    vreal v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+/* m ? a : b, lane by lane (m lanes all ones or zero) */
+TB_WIDE vreal TB_FN(vselect)(vmask m, vreal a, vreal b)
+{
+    return (vreal)((m & (vmask)a) | (~m & (vmask)b));
+}
+
+TB_WIDE int TB_FN(vany)(vmask m)
+{
+    uint64_t w[sizeof m / 8], any = 0;
+    memcpy(w, &m, sizeof m);
+    for (size_t k = 0; k < sizeof m / 8; ++k)
+        any |= w[k];
+    return any != 0;
+}
+
+TB_WIDE void TB_FN(vsub3)(const vreal *a, const vreal *b, vreal *out)
+{
+    for (int k = 0; k < 3; ++k)
+        out[k] = a[k] - b[k];
+}
+
+TB_WIDE void TB_FN(vcross3)(const vreal *a, const vreal *b, vreal *out)
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+TB_WIDE vreal TB_FN(vdot3)(const vreal *a, const vreal *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* fields first..first+2 of a block, as three vectors */
+TB_WIDE void TB_FN(vload3)(const real *block, int first, vreal *out)
+{
+    for (int k = 0; k < 3; ++k)
+        out[k] = TB_FN(vload)(block + 8 * (first + k));
+}
