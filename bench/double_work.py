@@ -1,5 +1,8 @@
 """Known-effect check: a kernel doing every test twice must cost 2.0x, within its CI.
 
+``moller_trumbore_twice`` runs every timed pass twice (see its C header for
+why the doubling is per pass), so its true cost ratio is 2.0 to within 1e-4.
+
 A real short sweep through the harness (fresh pinned worker processes,
 randomised rounds, checked checksums) of ``moller_trumbore`` against
 ``moller_trumbore_twice``, then the speedup of the first over the second with
@@ -47,10 +50,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'workload':<60}{'twice/once':>11}  95% CI            2.0 inside")
     inside = 0
     for r in tables.speedups.itertuples(index=False):
-        ok = r.ci_low <= 2.0 <= r.ci_high
+        ok = r.ratio_ci_low <= 2.0 <= r.ratio_ci_high
         inside += ok
         name = r.workload.replace(" shuffled sphere", "").split(" misses")[0] + " " + r.workload.split()[-2]
-        print(f"{name:<60}{r.ratio:11.3f}  [{r.ci_low:.3f}, {r.ci_high:.3f}]  {'yes' if ok else 'NO'}")
+        print(f"{name:<60}{r.ratio:11.3f}  [{r.ratio_ci_low:.3f}, {r.ratio_ci_high:.3f}]  {'yes' if ok else 'NO'}")
     peak = tables.estimates["peak_gflops"].mean()
     print(f"FMA peak during the run: {peak:.1f} GFLOP/s per core")
     print(f"2.0 inside the interval on {inside} of {len(tables.speedups)} workloads")
