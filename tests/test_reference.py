@@ -65,6 +65,24 @@ def test_closest_matches_pairs_and_breaks_ties_low():
     assert index[0] == 0
 
 
+def test_t_max_limits_hits_per_ray_and_keeps_t():
+    o = [[0.5, 0.5, 3]] * 4
+    d = [[0, 0, -1]] * 4
+    tris = np.repeat(TRI, 4, axis=0)
+    r = reference.intersect_pairs(o, d, tris, t_max=[np.inf, 3.5, 3.0, 2.5])
+    assert r.hit.tolist() == [True, True, False, False]  # t = 3: t < t_max only
+    assert r.t.tolist() == [3.0] * 4  # a miss past t_max keeps its crossing
+    assert np.array_equal(r.hit, reference.intersect_pairs(o, d, tris, t_max=None).hit & (r.t < [np.inf, 3.5, 3.0, 2.5]))
+    # closest: a limit between two triangles leaves the nearer one, below both leaves none
+    twice = np.vstack([TRI, TRI + [0, 0, 1]])
+    index, t = reference.intersect_closest([[0.5, 0.5, 3]] * 3, [[0, 0, -1]] * 3, twice, t_max=[np.inf, 2.5, 1.5])
+    assert index.tolist() == [1, 1, -1] and t[0] == t[1] == 2.0 and np.isnan(t[2])
+    index, _ = reference.intersect_closest([[0.5, 0.5, 3]], [[0, 0, -1]], twice, t_max=[2.0])
+    assert index.tolist() == [-1]  # t == t_max does not count
+    with pytest.raises(ValueError, match="t_max must have shape"):
+        reference.intersect_pairs(o, d, tris, t_max=[1.0])
+
+
 def test_bad_shapes_are_errors():
     with pytest.raises(ValueError, match="origins must have shape"):
         reference.intersect_pairs([[0, 0]], [[0, 0, 1]], TRI)

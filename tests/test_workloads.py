@@ -172,12 +172,13 @@ def test_pairs_hit_exactly_round_h_n_by_the_reference(h):
         "behind_origin",
         {"parallel": 0.1, "behind_origin": 0.3, "outside_edge_1": 0.6},
         {"outside_edge_2": 0.25, "outside_edge_3": 0.75},
+        {"beyond_t_max": 0.5, "parallel": 0.2, "outside_edge_1": 0.3},
     ],
 )
 def test_achieved_miss_mix_within_one_percent(mix):
     spec = PairSpec(n=2000, hit_rate=0.4, miss_mix=mix, seed=5)
     w = generate(spec)
-    codes = classify_misses(w.origins, w.directions, w.triangles)
+    codes = classify_misses(w.origins, w.directions, w.triangles, t_max=w.t_max)
     misses = codes[codes != HIT]
     assert not (misses == OTHER).any()
     for k, stage in enumerate(MISS_STAGES):
@@ -189,7 +190,8 @@ def test_achieved_miss_mix_within_one_percent(mix):
 def test_order_sorted_groups_outcomes_and_shuffled_mixes_them():
     common = dict(n=600, hit_rate=0.5, miss_mix="uniform", seed=2)
     codes = classify_misses(*_inputs(generate(PairSpec(order="sorted", **common))))
-    assert (np.diff(codes.astype(int)) >= 0).all() and codes[0] == HIT and codes[-1] == len(MISS_STAGES) - 1
+    assert (np.diff(codes.astype(int)) >= 0).all() and codes[0] == HIT
+    assert codes[-1] == MISS_STAGES.index("outside_edge_3")  # uniform: the five stages before beyond_t_max
     shuffled = classify_misses(*_inputs(generate(PairSpec(order="shuffled", **common))))
     assert np.array_equal(np.sort(shuffled), codes)  # same outcomes...
     assert (np.diff(shuffled.astype(int)) < 0).sum() > 100  # ...interleaved
@@ -223,6 +225,93 @@ def test_margins_survive_rounding_and_kernels_agree(shape, dtype):
     # The point of the margins: a kernel in the workload's own precision agrees on every pair.
     kernel = moller_trumbore(*_inputs(w), dtype=np.dtype(dtype).type)
     assert np.array_equal(kernel, w.ref_hit)
+
+
+BEYOND = MISS_STAGES.index("beyond_t_max")
+
+
+@pytest.mark.parametrize(
+    "mix, counts",
+    [
+        ("beyond_t_max", {"beyond_t_max": 700}),
+        # apportion([0, .25, 0, .35, 0, .4], 700) = [0, 175, 0, 245, 0, 280]
+        ({"behind_origin": 0.25, "outside_edge_2": 0.35, "beyond_t_max": 0.4},
+         {"behind_origin": 175, "outside_edge_2": 245, "beyond_t_max": 280}),
+    ],
+)
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_beyond_t_max_counts_are_exact(mix, counts, dtype):
+    w = generate(PairSpec(n=1000, hit_rate=0.3, miss_mix=mix, dtype=dtype, seed=3))
+    assert w.t_max is not None and w.t_max.dtype == np.dtype(dtype) and w.t_max.shape == (1000,)
+    codes = classify_misses(*_inputs(w), t_max=w.t_max)
+    want = {s: counts.get(s, 0) for s in MISS_STAGES}
+    assert {s: int((codes == k).sum()) for k, s in enumerate(MISS_STAGES)} == want
+    assert int((codes == HIT).sum()) == 300 and not (codes == OTHER).any()
+    assert w.achieved["miss_counts"] == want and w.achieved["hits"] == 300
+    # Without t_max the beyond_t_max pairs are hits: the limit is what makes them miss.
+    assert int((classify_misses(*_inputs(w)) == HIT).sum()) == 300 + counts["beyond_t_max"]
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_beyond_t_max_pairs_hit_without_the_limit_and_miss_with_it_by_a_margin(dtype):
+    spec = PairSpec(n=2000, hit_rate=0.3, miss_mix={"beyond_t_max": 0.5, "outside_edge_3": 0.5},
+                    shape="sliver", dtype=dtype, scale=2.0, offset=3.0, seed=8)
+    w = generate(spec)
+    tm = w.t_max.astype(np.float64)
+    free = intersect_pairs(*_inputs(w))
+    limited = intersect_pairs(*_inputs(w), t_max=tm)
+    beyond = classify_misses(*_inputs(w), t_max=w.t_max) == BEYOND
+    assert beyond.sum() == 700
+    assert free.hit[beyond].all() and not limited.hit[beyond].any()
+    assert np.column_stack([free.w, free.u, free.v])[beyond].min() >= BARY_MARGIN
+    assert (free.t[beyond] - tm[beyond]).min() >= T_MARGIN * spec.scale
+    assert tm[beyond].min() >= T_MARGIN * spec.scale
+    assert np.isinf(tm[~beyond]).all() and (tm[~beyond] > 0).all()  # no limit on the other pairs
+    # The stored answers are the limited ones.
+    assert np.array_equal(w.ref_hit, limited.hit)
+    assert np.isnan(w.ref_t[beyond]).all()
+    np.testing.assert_array_equal(w.ref_edge_margin, limited.edge_margin)
+
+
+def test_beyond_t_max_is_deterministic_and_t_max_only_with_the_stage():
+    spec = PairSpec(n=1000, hit_rate=0.3, miss_mix="beyond_t_max", dtype="float32", seed=6)
+    a, b = generate(spec), generate(spec)
+    assert a.checksum() == b.checksum() and a.t_max.tobytes() == b.t_max.tobytes()
+    assert "t_max" in a.arrays()
+    assert generate(PairSpec(n=1000, hit_rate=0.3, miss_mix="beyond_t_max", dtype="float32", seed=7)).checksum() != a.checksum()
+    for mix in ("edges", "uniform", "parallel", {"beyond_t_max": 0.0, "outside_edge_1": 1.0}):
+        w = generate(PairSpec(n=200, miss_mix=mix))
+        assert w.t_max is None and "t_max" not in w.arrays()
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_every_pairs_kernel_agrees_with_the_reference_on_beyond_t_max(dtype):
+    from tribench import ext
+
+    spec = PairSpec(n=3000, hit_rate=0.3, miss_mix={"beyond_t_max": 0.6, "outside_edge_1": 0.2, "behind_origin": 0.2},
+                    shape="sliver", dtype=dtype, seed=12)
+    w = generate(spec)
+    kernels = [k for k in ext.kernel_names() if "pairs" in ext.kernel_info(k).modes]
+    assert {"curless_seed", "moller_seed", "curless", "moller_trumbore"} <= set(kernels)
+    for k in kernels:
+        hit, _ = ext.intersect_pairs(k, w.origins, w.directions, w.triangles, t_max=w.t_max)
+        assert np.array_equal(hit, w.ref_hit), k
+        # and the same kernel without the limit sees the beyond_t_max pairs as hits
+        free, _ = ext.intersect_pairs(k, w.origins, w.directions, w.triangles)
+        assert int(free.sum()) == 900 + 1260, k
+
+
+def test_cache_round_trip_keeps_t_max(private_cache):
+    spec = PairSpec(n=500, hit_rate=0.3, miss_mix={"beyond_t_max": 0.5, "outside_edge_2": 0.5}, dtype="float32")
+    w = make(spec)
+    for again in (make(spec), load(w.workload_id)):
+        assert again.t_max is not None and again.t_max.dtype == np.float32
+        assert again.t_max.tobytes() == w.t_max.tobytes()
+        assert again.checksum() == w.checksum()
+        assert again.achieved["miss_counts"]["beyond_t_max"] == 175
+    # A workload without the stage is stored without t_max and loads back without it.
+    plain = make(PairSpec(n=100))
+    assert load(plain.workload_id).t_max is None
 
 
 def test_shapes_have_the_stated_aspect_ratios():

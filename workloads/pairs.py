@@ -17,7 +17,15 @@ point of its plane chosen by barycentric weights ``(w, u, v)`` (of v0, v1, v2):
   (``v < 0``), edge 2 = v1->v2 (``w < 0``), edge 3 = v2->v0 (``u < 0``); the
   negative weight is in ``[-1, -margin]``, the other two are positive;
 * **parallel** -- a direction in the triangle's plane (perpendicular to the
-  normal of the triangle *as rounded*), the origin 0.1 to 1 unit off the plane.
+  normal of the triangle *as rounded*), the origin 0.1 to 1 unit off the plane;
+* **beyond_t_max** -- built as a hit, but the ray's ``t_max`` is drawn
+  uniform in ``[0.2, 0.8]`` times the distance to the point, so the crossing
+  lies past it: a miss for every kernel that honours ``t_max``.
+
+Only a mix with beyond_t_max pairs gives the workload a ``t_max`` array (in
+the spec's dtype): ``+inf`` for every other pair. Without the stage,
+``t_max`` is None and the arrays are those of a workload without a limit.
+The reference answers and :func:`classify_misses` apply ``t_max``.
 
 Non-parallel rays meet the plane at least ~5.7 degrees off it (``|cos| >=
 0.1``). Ray directions are uniform otherwise, so both faces are hit (the
@@ -29,7 +37,10 @@ Every hit and every miss is kept at a margin so that all kernels agree: the
 smallest barycentric of a hit or behind-origin crossing is at least
 :data:`BARY_MARGIN`, the negative weight of an edge miss at most
 ``-BARY_MARGIN`` with the other two at least ``BARY_MARGIN``, ``|t|`` at least
-:data:`T_MARGIN` times ``scale``, and a parallel ray's origin at least
+:data:`T_MARGIN` times ``scale``, a beyond_t_max crossing at least ``T_MARGIN``
+times ``scale`` past its ``t_max`` (itself at least that far from 0; as drawn
+the gap is at least a fifth of ``t``, i.e. 0.2 ``scale``, so this check only
+catches rounding), and a parallel ray's origin at least
 :data:`PLANE_MARGIN` times ``scale`` off the plane. The margins are checked on
 the arrays *after* rounding to the spec's dtype (the reference runs in float64
 on the rounded values) and any pair that lost one is redrawn. A parallel ray
@@ -95,6 +106,7 @@ MIN_COS = 0.1
 HIT = -1
 OTHER = len(MISS_STAGES)
 _PARALLEL, _BEHIND = MISS_STAGES.index("parallel"), MISS_STAGES.index("behind_origin")
+_BEYOND = MISS_STAGES.index("beyond_t_max")
 
 _MAX_ROUNDS = 50
 _OFFSET_AXIS = np.full(3, 1.0) / np.sqrt(3.0)
@@ -128,33 +140,42 @@ def apportion(fractions: list[float], total: int) -> list[int]:
     return counts
 
 
-def _classify(ans: PairAnswers, directions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+def _classify(ans: PairAnswers, directions: np.ndarray, triangles: np.ndarray, t_max=None) -> np.ndarray:
+    """Codes of ``ans``, which must have been computed with the same ``t_max``."""
     cos = np.abs(dot(normalise(directions), normalise(triangle_normals(triangles))))
     b = np.column_stack([ans.w, ans.u, ans.v])
     t = ans.t
+    limit = np.inf if t_max is None else np.asarray(t_max, dtype=np.float64)
     codes = np.full(len(t), OTHER, dtype=np.int8)
     with np.errstate(invalid="ignore"):
         parallel = ~np.isfinite(t) | (cos < PARALLEL_COS)
         crossing = ~ans.hit & ~parallel
-        codes[crossing & (b.min(axis=1) >= 0) & (t <= 0)] = _BEHIND
+        inside = b.min(axis=1) >= 0
+        codes[crossing & inside & (t <= 0)] = _BEHIND
+        codes[crossing & inside & (t > 0) & (t >= limit)] = _BEYOND
+        ahead = (t > 0) & (t < limit)  # outside an edge and past t_max too: two stages, OTHER
         for e in (1, 2, 3):
             j = _opposite(e)
             others = np.delete(b, j, axis=1)
             only_e = (b[:, j] < 0) & (others.min(axis=1) >= 0)
-            codes[crossing & only_e & (t > 0)] = _edge_stage(e)
+            codes[crossing & only_e & ahead] = _edge_stage(e)
     codes[~ans.hit & parallel] = _PARALLEL
     codes[ans.hit] = HIT
     return codes
 
 
-def classify_misses(origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+def classify_misses(
+    origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray, t_max: np.ndarray | None = None
+) -> np.ndarray:
     """Which stage rejects each (ray, triangle) pair, by the float64 reference.
 
     Returns int8 codes: :data:`HIT` (-1) for a hit, the index in
     ``MISS_STAGES`` for a miss of one stage, :data:`OTHER` for a miss of none
-    (outside two edges, or outside an edge behind the origin). Parallel means
-    no crossing: the reference finds the system singular or the direction is
-    within :data:`PARALLEL_COS` of the plane.
+    (outside two edges, or outside an edge behind the origin or past
+    ``t_max``). Parallel means no crossing: the reference finds the system
+    singular or the direction is within :data:`PARALLEL_COS` of the plane.
+    ``t_max`` (per pair, or None for no limit) is the workload's: without it
+    a beyond_t_max pair is a hit.
 
     Examples
     --------
@@ -163,11 +184,13 @@ def classify_misses(origins: np.ndarray, directions: np.ndarray, triangles: np.n
     >>> d = np.array([[0., 0, -1], [0, 0, -1], [0, 0, -1]])
     >>> [MISS_STAGES[c] if 0 <= c < OTHER else int(c) for c in classify_misses(o, d, tri)]
     [-1, 'outside_edge_1', 'behind_origin']
+    >>> int(classify_misses(o, d, tri, t_max=[0.5, np.inf, np.inf])[0]) == MISS_STAGES.index("beyond_t_max")
+    True
     """
     o = np.asarray(origins, dtype=np.float64)
     d = np.asarray(directions, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.float64)
-    return _classify(intersect_pairs(o, d, tri), d, tri)
+    return _classify(intersect_pairs(o, d, tri, t_max=t_max), d, tri, t_max)
 
 
 def stage_counts(codes: np.ndarray) -> dict[str, int]:
@@ -246,12 +269,12 @@ def _oblique(rng: np.random.Generator, normal: np.ndarray) -> np.ndarray:
 
 
 def _rays(kinds: np.ndarray, tri: np.ndarray, scale: float, rng: np.random.Generator):
-    """Origins and directions realising each kind against its (already rounded) triangle."""
+    """Origins, directions and t_max realising each kind against its (already rounded) triangle."""
     k = len(kinds)
     normal = normalise(triangle_normals(tri))
     margin = 2.0 * BARY_MARGIN  # twice the checked margin: rounding rarely costs a redraw
     bary = np.empty((k, 3))
-    inside = kinds <= _BEHIND
+    inside = (kinds <= _BEHIND) | (kinds == _BEYOND)
     bary[inside] = sample_inside(rng, int(inside.sum()), margin)
     for e in (1, 2, 3):
         sel = kinds == _edge_stage(e)
@@ -268,11 +291,18 @@ def _rays(kinds: np.ndarray, tri: np.ndarray, scale: float, rng: np.random.Gener
     height = scale * (0.1 + 0.9 * rng.random(int(parallel.sum())))
     height *= np.where(rng.random(len(height)) < 0.5, -1.0, 1.0)
     o[parallel] += height[:, None] * normal[parallel]
-    return o, d
+    # Drawn last: without beyond_t_max pairs no draw, so the other arrays are unchanged.
+    beyond = kinds == _BEYOND
+    t_max = np.full(k, np.inf)
+    t_max[beyond] = (0.2 + 0.6 * rng.random(int(beyond.sum()))) * dist[beyond]  # d is unit: t = dist
+    return o, d, t_max
 
 
-def _keeps_margins(kinds, ans: PairAnswers, o, d, tri, scale: float) -> np.ndarray:
-    """Whether each pair is its kind with every safe margin (on the rounded arrays)."""
+def _keeps_margins(kinds, ans: PairAnswers, o, d, tri, t_max, scale: float) -> np.ndarray:
+    """Whether each pair is its kind with every safe margin (on the rounded arrays).
+
+    ``ans`` is without ``t_max``: a beyond_t_max pair must be a deep hit without it.
+    """
     b = np.column_stack([ans.w, ans.u, ans.v])
     t = ans.t
     t_tol = T_MARGIN * scale
@@ -284,6 +314,8 @@ def _keeps_margins(kinds, ans: PairAnswers, o, d, tri, scale: float) -> np.ndarr
         ok[sel] = (ans.hit & deep & (t >= t_tol))[sel]
         sel = kinds == _BEHIND
         ok[sel] = (deep & (t <= -t_tol))[sel]
+        sel = kinds == _BEYOND
+        ok[sel] = (ans.hit & deep & (t_max >= t_tol) & (t - t_max >= t_tol))[sel]
         for e in (1, 2, 3):
             j = _opposite(e)
             sel = kinds == _edge_stage(e)
@@ -296,7 +328,7 @@ def _keeps_margins(kinds, ans: PairAnswers, o, d, tri, scale: float) -> np.ndarr
     return ok
 
 
-def _figures(spec: PairSpec, ans: PairAnswers, codes, d, tri, redrawn: int) -> dict:
+def _figures(spec: PairSpec, ans: PairAnswers, codes, d, tri, t_max, redrawn: int) -> dict:
     hits = ans.hit
     n_hits, n_misses = int(hits.sum()), int((~hits).sum())
     counts = stage_counts(codes)
@@ -312,7 +344,8 @@ def _figures(spec: PairSpec, ans: PairAnswers, codes, d, tri, redrawn: int) -> d
         sel = codes == _edge_stage(e)
         edge_miss |= sel
         outside_by[sel] = -b[sel, _opposite(e)]
-    inside_kinds = (codes == HIT) | (codes == _BEHIND)
+    inside_kinds = (codes == HIT) | (codes == _BEHIND) | (codes == _BEYOND)
+    beyond = codes == _BEYOND
     aspect = aspect_ratios(tri)
     return {
         "pairs": spec.n,
@@ -325,6 +358,7 @@ def _figures(spec: PairSpec, ans: PairAnswers, codes, d, tri, redrawn: int) -> d
         "min_inside_margin": smallest(b[inside_kinds].min(axis=1)),
         "min_outside_margin": smallest(outside_by[edge_miss]),
         "min_abs_t_over_scale": smallest(np.abs(ans.t[codes != _PARALLEL]) / spec.scale),
+        "min_t_past_t_max_over_scale": smallest((ans.t[beyond] - t_max[beyond]) / spec.scale),
         "aspect_ratio": {
             "min": float(aspect.min()),
             "median": float(np.median(aspect)),
@@ -348,6 +382,7 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
     n, dtype, scale = spec.n, spec.dtype, spec.scale
     shift = spec.offset * _OFFSET_AXIS
     tri, o, d = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3))
+    t_max = np.full(n, np.inf)
     todo, redrawn = np.arange(n), 0
     for _ in range(_MAX_ROUNDS):
         # Rays are built against the triangle as rounded, then rounded in turn.
@@ -355,10 +390,11 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
         ok = np.zeros(len(todo), dtype=bool)
         sound = np.flatnonzero(aspect_ratios(tri[todo]) <= 2.0 * MAX_ASPECT)  # rounding can flatten one
         slots = todo[sound]
-        o_new, d_new = _rays(kinds[slots], tri[slots], scale, rng)
+        o_new, d_new, t_max_new = _rays(kinds[slots], tri[slots], scale, rng)
         o[slots], d[slots] = round_to(o_new, dtype), round_to(d_new, dtype)
+        t_max[slots] = round_to(t_max_new, dtype)
         ans = intersect_pairs(o[slots], d[slots], tri[slots])
-        ok[sound] = _keeps_margins(kinds[slots], ans, o[slots], d[slots], tri[slots], scale)
+        ok[sound] = _keeps_margins(kinds[slots], ans, o[slots], d[slots], tri[slots], t_max[slots], scale)
         todo = todo[~ok]
         if not len(todo):
             break
@@ -368,8 +404,8 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
             f"{len(todo)} pair(s) kept losing their safe margins when rounded to {dtype}: "
             f"offset/scale = {abs(spec.offset) / scale:.3g} is too large for this precision"
         )
-    ans = intersect_pairs(o, d, tri)
-    codes = _classify(ans, d, tri)
+    ans = intersect_pairs(o, d, tri, t_max=t_max)
+    codes = _classify(ans, d, tri, t_max)
     if not np.array_equal(codes, kinds):  # construction and classification disagree: a bug
         raise RuntimeError(f"{int((codes != kinds).sum())} pairs are not of the kind they were built as")
     return Workload(
@@ -381,5 +417,6 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
         ref_hit=ans.hit,
         ref_t=np.where(ans.hit, ans.t, np.nan),
         ref_edge_margin=ans.edge_margin,
-        achieved=_figures(spec, ans, codes, d, tri, redrawn),
+        t_max=t_max.astype(dtype) if spec.miss_fractions()["beyond_t_max"] > 0 else None,
+        achieved=_figures(spec, ans, codes, d, tri, t_max, redrawn),
     )

@@ -36,13 +36,19 @@ _STAGE_COLOURS = {
     "outside_edge_1": "#ff7f0e",
     "outside_edge_2": "#1f77b4",
     "outside_edge_3": "#e377c2",
+    "beyond_t_max": "#bcbd22",
     "other": "#7f7f7f",
 }
 _MAX_DRAWN_TRIANGLES = 25000
 
 
-def draw(w: Workload, path: str | Path) -> None:
-    """Draw workload ``w`` into the PNG file ``path``."""
+def draw(w: Workload, path: str | Path, dpi: float = 110) -> None:
+    """Draw workload ``w`` into the PNG file ``path``.
+
+    ``dpi`` sets the resolution only: the figures are 14 to 18 inches wide,
+    so 110 gives about 2000 pixels, for ``workloads show --png``; the report
+    passes less, as it shows each picture about 550 pixels wide.
+    """
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -54,7 +60,7 @@ def draw(w: Workload, path: str | Path) -> None:
         fig = _draw_camera(plt, w)
     else:
         fig = _draw_hit_rate(plt, w)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
 
 
@@ -245,8 +251,9 @@ def _draw_pairs(plt, w: Workload):
     tri = w.triangles.astype(np.float64)
     rng = np.random.default_rng(0)
     sample = np.sort(rng.choice(len(o), size=min(len(o), 4000), replace=False))
-    ans = intersect_pairs(o[sample], d[sample], tri[sample])
-    codes = classify_misses(o[sample], d[sample], tri[sample])
+    t_max = None if w.t_max is None else w.t_max[sample]
+    ans = intersect_pairs(o[sample], d[sample], tri[sample], t_max=t_max)
+    codes = classify_misses(o[sample], d[sample], tri[sample], t_max=t_max)
     names = np.array(["hit" if c == HIT else (MISS_STAGES[c] if c < OTHER else "other") for c in codes])
     colours = {"hit": _HIT, **_STAGE_COLOURS}
 

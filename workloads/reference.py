@@ -7,7 +7,7 @@ the plane of a triangle ``v0 + u e1 + v e2`` where the 3x3 linear system
     [-d  e1  e2] @ [t, u, v] = o - v0
 
 holds, and the triangle is hit when the barycentrics ``u, v, w = 1 - u - v``
-are all non-negative and ``t > t_min``. The system is solved with
+are all non-negative and ``t_min < t < t_max``. The system is solved with
 ``numpy.linalg.solve`` (LU with partial pivoting), never with the scalar triple
 products the C kernels use, so a shared algebra slip cannot hide in both.
 
@@ -16,7 +16,9 @@ Conventions (shared with the C kernels' clean forms):
 * the triangle is closed: points on an edge or a vertex are inside;
 * a singular system (ray parallel to the plane, or a degenerate triangle) is
   a miss;
-* a miss has ``t = nan``.
+* a miss has ``t = nan`` (in :func:`intersect_closest`; :func:`intersect_pairs`
+  keeps the plane crossing's ``t`` of a miss);
+* ``t_max`` is per ray (``None``: no limit), as in the kernels' API.
 """
 
 from __future__ import annotations
@@ -86,11 +88,22 @@ def _solve(origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray):
     return x[:, 0], x[:, 1], x[:, 2]
 
 
+def _as_t_max(t_max, n: int) -> np.ndarray:
+    """Per-ray limit as float64 (N,); None means +inf."""
+    if t_max is None:
+        return np.full(n, np.inf)
+    t_max = np.asarray(t_max, dtype=np.float64)
+    if t_max.shape != (n,):
+        raise ValueError(f"t_max must have shape ({n},), one per ray, got {t_max.shape}")
+    return t_max
+
+
 def intersect_pairs(
     origins: np.ndarray,
     directions: np.ndarray,
     triangles: np.ndarray,
     t_min: float = 0.0,
+    t_max: np.ndarray | None = None,
 ) -> PairAnswers:
     """Test ray ``i`` against triangle ``i`` in float64.
 
@@ -101,6 +114,10 @@ def intersect_pairs(
         ``triangles[i, j]`` is vertex ``j`` of triangle ``i``.
     t_min : float
         A crossing counts only where ``t > t_min``.
+    t_max : array_like, shape (N,), or None
+        A crossing counts only where ``t < t_max`` (pair ``i``'s own limit);
+        ``None``: no limit. A crossing at ``t >= t_max`` is a miss that keeps
+        its ``t``.
 
     Returns
     -------
@@ -112,6 +129,9 @@ def intersect_pairs(
     >>> r = intersect_pairs([[0.25, 0.25, 1]], [[0., 0, -1]], tri)
     >>> bool(r.hit[0]), float(r.t[0])
     (True, 1.0)
+    >>> r = intersect_pairs([[0.25, 0.25, 1]] * 2, [[0., 0, -1]] * 2, np.vstack([tri, tri]), t_max=[1.5, 0.5])
+    >>> r.hit.tolist(), r.t.tolist()
+    ([True, False], [1.0, 1.0])
     """
     o = _as_f64("origins", origins, (3,))
     d = _as_f64("directions", directions, (3,))
@@ -121,6 +141,7 @@ def intersect_pairs(
             f"origins, directions and triangles need one row each per pair, "
             f"got {len(o)}, {len(d)} and {len(tri)}"
         )
+    limit = _as_t_max(t_max, len(o))
     t = np.empty(len(o))
     u = np.empty(len(o))
     v = np.empty(len(o))
@@ -128,7 +149,7 @@ def intersect_pairs(
         hi = lo + _CHUNK
         t[lo:hi], u[lo:hi], v[lo:hi] = _solve(o[lo:hi], d[lo:hi], tri[lo:hi])
     with np.errstate(invalid="ignore"):
-        hit = (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min)
+        hit = (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min) & (t < limit)
     return PairAnswers(hit=hit, t=t, u=u, v=v)
 
 
@@ -137,10 +158,12 @@ def intersect_closest(
     directions: np.ndarray,
     triangles: np.ndarray,
     t_min: float = 0.0,
+    t_max: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Closest hit of every ray against every triangle (brute force, float64).
 
-    Ties in ``t`` go to the lowest triangle index.
+    Ties in ``t`` go to the lowest triangle index. ``t_min`` and ``t_max``
+    (per ray, shape (M,), or None) are as in :func:`intersect_pairs`.
 
     Returns
     -------
@@ -155,11 +178,14 @@ def intersect_closest(
     ...                  [[0., 0, 1], [1, 0, 1], [0, 1, 1]]])
     >>> intersect_closest([[0.2, 0.2, 3]], [[0., 0, -1]], tris)
     (array([1]), array([2.]))
+    >>> intersect_closest([[0.2, 0.2, 3]] * 2, [[0., 0, -1]] * 2, tris, t_max=[2.5, 1.5])
+    (array([ 1, -1]), array([ 2., nan]))
     """
     o = _as_f64("origins", origins, (3,))
     d = _as_f64("directions", directions, (3,))
     tri = _as_f64("triangles", triangles, (3, 3))
     m, k = len(o), len(tri)
+    limit = _as_t_max(t_max, m)
     index = np.full(m, -1, dtype=np.int64)
     best = np.full(m, np.inf)
     rays_per_chunk = max(1, _CHUNK // max(k, 1))
@@ -171,6 +197,7 @@ def intersect_closest(
             np.repeat(d[lo:hi], k, axis=0),
             np.tile(tri, (n, 1, 1)),
             t_min=t_min,
+            t_max=np.repeat(limit[lo:hi], k),
         )
         t = np.where(ans.hit, ans.t, np.inf).reshape(n, k)
         j = np.argmin(t, axis=1)  # argmin returns the first of equal minima

@@ -5,8 +5,10 @@ Two kinds:
 * :class:`PairSpec` -- N independent (ray, triangle) pairs at a target
   per-test hit rate and miss-stage mix (mode ``"pairs"``: ray i vs triangle i);
 * :class:`MeshSpec` -- a mesh at a target triangle count with a set of rays,
-  pinhole camera rays or rays at a target per-ray hit rate (mode
-  ``"closest"``: every ray against every triangle, closest hit).
+  pinhole camera rays or rays at a target per-ray hit rate, every ray against
+  every triangle; its ``result`` is the mode: ``"closest"`` (the closest
+  hit's t), ``"closest_uv"`` (and its barycentrics) or ``"any"`` (some hit,
+  as shadow rays ask).
 
 A spec's identity is its canonical JSON plus its generator version (plus the
 sha256 of the file for a mesh read from disk): :func:`workload_id` hashes it
@@ -48,6 +50,7 @@ __all__ = [
     "DTYPES",
     "MESH_NAMES",
     "RAY_SETS",
+    "RESULTS",
     "PairSpec",
     "MeshSpec",
     "Spec",
@@ -58,19 +61,29 @@ __all__ = [
 ]
 
 #: Generator versions: bump when a generator's output for the same spec changes.
-PAIRS_VERSION = 1
+PAIRS_VERSION = 2  # 2: the beyond_t_max stage (a t_max array, a new key in every mix)
 MESHES_VERSION = 1
 
 #: Why a miss misses, in the order an early-exit kernel meets the stages.
 #: Edge e joins vertices v[e-1] and v[e mod 3]: a point is outside edge 1
 #: (v0->v1) when v < 0, outside edge 2 (v1->v2) when w < 0, outside edge 3
-#: (v2->v0) when u < 0 (u, v, w: weights of v1, v2, v0).
-MISS_STAGES = ("parallel", "behind_origin", "outside_edge_1", "outside_edge_2", "outside_edge_3")
+#: (v2->v0) when u < 0 (u, v, w: weights of v1, v2, v0). ``beyond_t_max``:
+#: the ray crosses the triangle, but at ``t >= t_max`` (the ray's own limit).
+#: New stages go at the end, so a stage's index keeps its meaning.
+MISS_STAGES = (
+    "parallel",
+    "behind_origin",
+    "outside_edge_1",
+    "outside_edge_2",
+    "outside_edge_3",
+    "beyond_t_max",
+)
 
-#: Named mixes; ``"edges"`` is the default (see :class:`PairSpec`).
+#: Named mixes; ``"edges"`` is the default (see :class:`PairSpec`). ``"uniform"``
+#: is over the five stages it had before beyond_t_max (which needs a t_max array).
 MISS_MIX_PRESETS = {
     "edges": {"outside_edge_1": 1 / 3, "outside_edge_2": 1 / 3, "outside_edge_3": 1 / 3},
-    "uniform": {stage: 1 / 5 for stage in MISS_STAGES},
+    "uniform": {stage: 1 / 5 for stage in MISS_STAGES[:5]},
     **{stage: {stage: 1.0} for stage in MISS_STAGES},
 }
 
@@ -79,6 +92,8 @@ ORDERS = ("shuffled", "sorted")
 DTYPES = ("float32", "float64")
 MESH_NAMES = ("suzanne", "icosphere", "uvsphere", "soup", "heightfield")
 RAY_SETS = ("camera", "hit_rate")
+#: What a mesh workload asks of each ray (the kernels' modes other than pairs).
+RESULTS = ("closest", "closest_uv", "any")
 
 # Sizes beyond these are a typo, not a benchmark (and would exhaust memory).
 _MAX_PAIRS = 100_000_000
@@ -157,8 +172,9 @@ class PairSpec:
         spreads the misses evenly over the three edges: in a scene nearly every
         rejected test is a ray passing beside a triangle in front of it, an
         exactly parallel ray never happens, and an even spread favours no
-        kernel's order of edge tests. Behind-origin and parallel misses are
-        there to be asked for.
+        kernel's order of edge tests. Behind-origin, parallel and
+        beyond-t_max misses are there to be asked for; a mix with
+        ``beyond_t_max`` gives the workload a per-ray ``t_max`` array.
     shape : {"sphere", "equilateral", "sliver"}
         Vertices uniform on the unit sphere (Loefstedt & Akenine-Moeller 2005),
         near-equilateral triangles, or slivers (aspect ratio 10 to 1000).
@@ -255,6 +271,9 @@ class MeshSpec:
     width, height : only with ``rays="camera"`` (default 512 x 512).
     dtype : {"float64", "float32"}
     seed : int
+    result : {"closest", "closest_uv", "any"}
+        What is asked of each ray (the kernels' mode); the geometry and the
+        reference answers do not depend on it.
 
     Examples
     --------
@@ -275,10 +294,15 @@ class MeshSpec:
     height: int | None = None
     dtype: str = "float64"
     seed: int = 0
+    result: str = "closest"
 
     kind: ClassVar[str] = "mesh"
-    mode: ClassVar[str] = "closest"
     version: ClassVar[int] = MESHES_VERSION
+
+    @property
+    def mode(self) -> str:
+        """The kernels' mode: the spec's ``result``."""
+        return self.result
 
     def __post_init__(self) -> None:
         put = object.__setattr__  # frozen: normalise the fields once, here
@@ -310,6 +334,7 @@ class MeshSpec:
             put(self, "n_rays", _int("n_rays", 4096 if self.n_rays is None else self.n_rays, 1, _MAX_RAYS))
         _choice("dtype", self.dtype, DTYPES)
         put(self, "seed", _int("seed", self.seed, 0, 2**63 - 1))
+        _choice("result", self.result, RESULTS)
 
     @property
     def is_file(self) -> bool:
@@ -346,7 +371,8 @@ class MeshSpec:
             if self.rays == "camera"
             else f"{self.n_rays} rays hit_rate={self.hit_rate:g}"
         )
-        return f"mesh {name} triangles={count} {rays} {self.dtype} seed={self.seed}"
+        result = "" if self.result == "closest" else f" {self.result}"
+        return f"mesh {name} triangles={count} {rays}{result} {self.dtype} seed={self.seed}"
 
 
 Spec = Union[PairSpec, MeshSpec]

@@ -8,7 +8,10 @@ arrays are read-only and C-contiguous:
 * mode ``"pairs"`` (M == K, ray i against triangle i): ``ref_hit bool[M]``,
   ``ref_t float64[M]`` (nan for misses) and ``ref_edge_margin float64[M]`` =
   ``min(u, v, w)`` of the plane crossing (negative outside, nan when parallel);
-* mode ``"closest"`` (every ray against every triangle): ``ref_index
+* optionally ``t_max (M,)`` in the spec's dtype: hits at ``t >= t_max`` do
+  not count (absent: no limit); the reference answers already apply it;
+* modes ``"closest"``, ``"closest_uv"``, ``"any"`` (every ray against every
+  triangle; the mode is what is asked, the reference is the same): ``ref_index
   int64[M]`` (-1 for a miss, ties to the lowest index), ``ref_t float64[M]``
   and ``ref_edge_margin float64[M]``: for a hit, the smallest ``|min(u, v,
   w)|`` over its closest hit and any nearer near-miss; for a miss, minus the
@@ -38,7 +41,7 @@ __all__ = ["AMBIGUOUS_MARGIN", "Workload", "arrays_sha256", "library_versions"]
 #: Default ``|ref_edge_margin|`` below which a ray counts as ambiguous.
 AMBIGUOUS_MARGIN = 1e-5
 
-_ARRAY_NAMES = ("origins", "directions", "triangles", "ref_hit", "ref_index", "ref_t", "ref_edge_margin")
+_ARRAY_NAMES = ("origins", "directions", "triangles", "t_max", "ref_hit", "ref_index", "ref_t", "ref_edge_margin")
 
 
 def arrays_sha256(arrays: Mapping[str, np.ndarray]) -> str:
@@ -104,6 +107,7 @@ class Workload:
     ref_edge_margin: np.ndarray
     ref_hit: np.ndarray | None = None
     ref_index: np.ndarray | None = None
+    t_max: np.ndarray | None = None
     achieved: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -122,6 +126,8 @@ class Workload:
                 raise ValueError(f"pairs need one triangle per ray, got {len(self.triangles)} for {m}")
         else:
             want["ref_index"] = (np.int64, (m,))
+        if self.t_max is not None:
+            want["t_max"] = (dtype, (m,))
         for name, (dt, shape) in want.items():
             a = getattr(self, name)
             if a is None or a.dtype != dt or a.shape != shape:
@@ -133,7 +139,8 @@ class Workload:
 
     @property
     def mode(self) -> str:
-        """``"pairs"`` (ray i vs triangle i) or ``"closest"`` (every ray vs every triangle)."""
+        """``"pairs"`` (ray i vs triangle i), or what is asked of every ray
+        against every triangle: ``"closest"``, ``"closest_uv"`` or ``"any"``."""
         return self.spec.mode
 
     @property
