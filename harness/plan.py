@@ -146,6 +146,10 @@ class Sweep:
         if len(set(ids)) != len(ids):
             raise ValueError("the same workload is listed twice")
         put(self, "workload_ids", ids)
+        for spec in self.workloads:
+            if not self.kernels_for(spec):
+                raise ValueError(f"no kernel of the sweep runs mode {spec.mode!r} ({spec.summary()}): "
+                                 f"wide kernels (*_x8) have no pairs mode")
         for name, lo in (("processes", 1), ("rounds", 1), ("warmup", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < lo:
@@ -156,9 +160,17 @@ class Sweep:
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
 
+    def kernels_for(self, spec: Spec) -> tuple[str, ...]:
+        """The sweep's kernels that run ``spec``'s mode (wide kernels have no
+        pairs mode), in sweep order."""
+        from tribench import ext
+
+        return tuple(k for k in self.kernels if spec.mode in ext.kernel_info(k).modes)
+
     @property
     def n_batches(self) -> int:
-        return self.processes * len(self.workloads) * (self.warmup + self.rounds) * len(self.kernels)
+        per_round = sum(len(self.kernels_for(w)) for w in self.workloads)
+        return self.processes * (self.warmup + self.rounds) * per_round
 
     def spec_of(self, wid: str) -> Spec:
         return self.workloads[self.workload_ids.index(wid)]
@@ -246,8 +258,9 @@ def plan(sweep: Sweep) -> list[BatchKey]:
         for w in rng.permutation(len(sweep.workloads)):
             wid = sweep.workload_ids[w]
             for r in range(-sweep.warmup, sweep.rounds):
-                order = rng.permutation(len(sweep.kernels))
-                keys += [BatchKey(p, wid, r, pos, sweep.kernels[k]) for pos, k in enumerate(order)]
+                kernels = sweep.kernels_for(sweep.workloads[w])
+                order = rng.permutation(len(kernels))
+                keys += [BatchKey(p, wid, r, pos, kernels[k]) for pos, k in enumerate(order)]
     return keys
 
 

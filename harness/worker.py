@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from tribench import ext
+from tribench.workloads import reference
 
 from .records import BatchRow, CheckRow, ProcessRow
 
@@ -101,16 +102,20 @@ class WorkerJob:
 
 
 def kernel_isa(kernel: str) -> str:
-    """Instruction set a kernel variant runs with.
-
-    Every kernel is scalar C for now, built for the compiler's baseline of
-    the architecture (no ``-march``); SIMD variants will name their own.
+    """Form and instruction set a kernel runs with: ``scalar/<baseline>``
+    for scalar kernels (built for the architecture's baseline, no
+    ``-march``), ``x8/<isa>`` for wide ones (the ISA chosen at run time).
 
     >>> kernel_isa("moller_trumbore").startswith("scalar/")
+    True
+    >>> kernel_isa("moller_trumbore_x8").startswith("x8/")
     True
     """
     import platform
 
+    info = ext.kernel_info(kernel)
+    if info.lanes > 1:
+        return f"x{info.lanes}/{info.isa}"
     build = ext.build_info()
     machine = platform.machine()
     baseline = "avx2" if build.get("baseline_avx2") else {"x86_64": "sse2", "AMD64": "sse2"}.get(machine, machine)
@@ -122,10 +127,12 @@ def kernel_isa(kernel: str) -> str:
 
 @dataclass(frozen=True)
 class Checksum:
-    """A kernel's one-pass checksum on a workload: hits and the sum of t."""
+    """A kernel's one-pass checksum on a workload: hits, the sum of t, and
+    the sum of u + v (mode ``closest_uv`` only, else 0)."""
 
     hits: int
     t_sum: float
+    uv_sum: float = 0.0
 
 
 def replicates_a_flawed_original(kernel: str) -> bool:
@@ -143,11 +150,13 @@ def replicates_a_flawed_original(kernel: str) -> bool:
 def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, int]]:
     """Check ``kernel``'s per-ray answers on ``workload``; return its checksum.
 
-    Answers (hit or miss in pairs mode, the closest triangle in closest mode)
-    must equal the reference's on every ray outside ``workload.ambiguous()``,
-    and the sum of t over the rays where kernel and reference agree on a hit
-    must match the reference's within :data:`T_SUM_RTOL`. The counts of
-    disagreements are returned for checks.csv.
+    Answers (hit or miss in pairs and any-hit modes, the closest triangle in
+    the closest modes) must equal the reference's on every ray outside
+    ``workload.ambiguous()``; the sum of t (closest modes also u + v) over the
+    rays where kernel and reference agree on a hit must match the
+    reference's within :data:`T_SUM_RTOL`. An any-hit answer may be any hit
+    triangle, so there it is its t that is checked, against the reference for
+    that triangle. The counts of disagreements are returned for checks.csv.
 
     Raises
     ------
@@ -156,13 +165,9 @@ def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, i
         (never for :func:`replicates_a_flawed_original` kernels' differences).
     """
     w = workload
-    if w.mode == "pairs":
-        hit, t = ext.intersect_pairs(kernel, w.origins, w.directions, w.triangles)
-        differs = hit != w.ref_hit
-    else:
-        index, t = ext.intersect_closest(kernel, w.origins, w.directions, w.triangles)
-        hit = index >= 0
-        differs = index != w.ref_index
+    r = ext.intersect(kernel, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max)
+    hit, t = r.hit, r.t
+    differs = hit != w.hits if w.mode in ("pairs", "any") else r.index != w.ref_index
     ambiguous = w.ambiguous()
     wrong = differs & ~ambiguous
     counts = {"rays": len(differs), "ambiguous_rays": int(ambiguous.sum()),
@@ -175,10 +180,20 @@ def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, i
             f"outside the ambiguous ones (first: ray {first})"
         )
     agree = hit & w.hits & ~differs
-    own, ref = math.fsum(t[agree].astype(float).tolist()), math.fsum(w.ref_t[agree].tolist())
-    if not math.isclose(own, ref, rel_tol=T_SUM_RTOL[w.spec.dtype], abs_tol=1e-300):
-        raise KernelCheckError(f"{where}: sum of t {own!r} differs from the reference's {ref!r}")
-    return Checksum(int(hit.sum()), math.fsum(t[hit].astype(float).tolist())), counts
+    own = {"t": t[agree], "u + v": r.u[agree] + r.v[agree]}
+    if w.mode in ("any", "closest_uv"):
+        # the reference on the triangle each ray's answer names
+        tri = w.triangles[r.index[agree]]
+        ref_pairs = reference.intersect_pairs(w.origins[agree], w.directions[agree], tri)
+        ref = {"t": ref_pairs.t, "u + v": ref_pairs.u + ref_pairs.v}
+    else:
+        ref = {"t": w.ref_t[agree]}
+    for name in ref if w.mode != "any" else ("t",):
+        a, b = math.fsum(own[name].astype(float).tolist()), math.fsum(ref[name].tolist())
+        if not math.isclose(a, b, rel_tol=T_SUM_RTOL[w.spec.dtype], abs_tol=1e-300):
+            raise KernelCheckError(f"{where}: sum of {name} {a!r} differs from the reference's {b!r}")
+    uv_sum = math.fsum((r.u[hit].astype(float) + r.v[hit]).tolist()) if w.mode == "closest_uv" else 0.0
+    return Checksum(int(hit.sum()), math.fsum(t[hit].astype(float).tolist()), uv_sum), counts
 
 
 def check_batch(batch: ext.Batch, expected: Checksum, kernel: str, workload: Any) -> None:
@@ -190,6 +205,9 @@ def check_batch(batch: ext.Batch, expected: Checksum, kernel: str, workload: Any
         raise KernelCheckError(f"{where}: checksum failed, {batch.hits} hits in {batch.loops} loops, expected {hits}")
     if not math.isclose(batch.t_sum, t_sum, rel_tol=T_SUM_RTOL["float64"], abs_tol=1e-300):
         raise KernelCheckError(f"{where}: checksum failed, sum of t {batch.t_sum!r}, expected {t_sum!r}")
+    uv_sum = batch.loops * expected.uv_sum
+    if not math.isclose(batch.uv_sum, uv_sum, rel_tol=T_SUM_RTOL["float64"], abs_tol=1e-300):
+        raise KernelCheckError(f"{where}: checksum failed, sum of u + v {batch.uv_sum!r}, expected {uv_sum!r}")
 
 
 def calibrate_loops(job: ext.Job, target_ns: float) -> int:
@@ -285,7 +303,7 @@ def run_job(job: WorkerJob, emit) -> None:
                 expected, counts = one_pass_checksum(k, w)
                 emit("check", CheckRow(job.run_id, process, job.attempt, wid, k, **counts,
                                        hits=expected.hits, t_sum=expected.t_sum))
-                kjob = ext.make_job(k, *arrays[wid], w.mode)
+                kjob = ext.make_job(k, *arrays[wid], w.mode, t_max=w.t_max)
                 prepared[(k, wid)] = (kjob, calibrate_loops(kjob, target_ns), expected)
         kjob, loops, expected = prepared[(kernel, wid)]
         before, steal = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw, _steal_ticks()
