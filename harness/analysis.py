@@ -3,18 +3,25 @@
 Reads ``batches.csv``, ``processes.csv`` and ``run.json``; never measures.
 All statistics come from :mod:`tribench.harness.stats`.
 
-``estimates.csv``: the columns of :func:`~tribench.harness.stats.estimate_table`
-(``kernel, workload_id, mean, ci_low, ci_high, bootstrap_low, bootstrap_high,
-minimum, sd, n, confidence``; times in ns per ray-triangle test), then
-``workload`` (the spec's one-line summary), ``peak_gflops`` (mean FMA peak of
-the processes) and ``peak_flops_per_test, peak_flops_per_test_ci_low,
+``estimates.csv``: the fields of :func:`~tribench.harness.stats.estimate_table`
+renamed by :data:`ESTIMATE_COLUMNS` so each name carries its unit
+(``kernel, workload_id, ns_per_test, ns_per_test_ci_low, ns_per_test_ci_high,
+ns_per_test_bootstrap_low, ns_per_test_bootstrap_high, ns_per_test_min,
+ns_per_test_sd, n_processes, confidence``), then ``workload`` (the spec's
+one-line summary), ``peak_gflops`` (mean FMA peak of the processes) and
+``peak_flops_per_test, peak_flops_per_test_ci_low,
 peak_flops_per_test_ci_high``: the cost of one test in flops at the machine's
 peak of that moment (``ns_per_test * peak_gflops`` per process, then the same
 t-interval), a machine-normalised figure steadier than raw time.
 
 ``speedups.csv``: the columns of :func:`~tribench.harness.stats.speedup_table`
-(``workload_id, kernel, baseline, ratio, ci_low, ci_high, p_value, p_holm, n,
-confidence, margin, verdict``), then ``workload`` and ``margin_source``.
+renamed by :data:`SPEEDUP_COLUMNS` (``workload_id, kernel, baseline, ratio,
+ratio_ci_low, ratio_ci_high, p_value, p_holm, n_processes, confidence,
+margin, verdict``), then ``workload`` and ``margin_source``.
+
+The renaming happens here and only here: :mod:`~tribench.harness.stats`
+keeps its generic names (``mean``, ``ci_low``...), which fit any quantity,
+and :class:`Analysis` holds the tables exactly as the files have them.
 """
 
 from __future__ import annotations
@@ -27,16 +34,35 @@ import pandas as pd
 from . import records, stats
 from .calibration import Margin
 
-__all__ = ["Analysis", "analyse", "write_tables", "ESTIMATES", "SPEEDUPS"]
+__all__ = ["Analysis", "analyse", "write_tables", "ESTIMATES", "SPEEDUPS", "ESTIMATE_COLUMNS",
+           "SPEEDUP_COLUMNS"]
 
 ESTIMATES = "estimates.csv"
 SPEEDUPS = "speedups.csv"
 DEFAULT_BASELINE = "moller_seed"
 
+#: ``stats.estimate_table`` column -> its name in estimates.csv (times in ns per ray-triangle test).
+ESTIMATE_COLUMNS = {
+    "mean": "ns_per_test",
+    "ci_low": "ns_per_test_ci_low",
+    "ci_high": "ns_per_test_ci_high",
+    "bootstrap_low": "ns_per_test_bootstrap_low",
+    "bootstrap_high": "ns_per_test_bootstrap_high",
+    "minimum": "ns_per_test_min",
+    "sd": "ns_per_test_sd",
+    "n": "n_processes",
+}
+#: ``stats.speedup_table`` column -> its name in speedups.csv (the ratio is unitless).
+SPEEDUP_COLUMNS = {"ci_low": "ratio_ci_low", "ci_high": "ratio_ci_high", "n": "n_processes"}
+
 
 @dataclass(frozen=True)
 class Analysis:
-    """Tables of one run and the choices behind them."""
+    """Tables of one run and the choices behind them.
+
+    ``estimates`` and ``speedups`` have the columns of estimates.csv and
+    speedups.csv (documented in :mod:`tribench.reports.columns`).
+    """
 
     estimates: pd.DataFrame
     speedups: pd.DataFrame
@@ -71,11 +97,11 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
     names = {wid: _summary(spec) for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"])}
 
     table = stats.per_process(batches)
-    estimates = stats.estimate_table(table)
+    estimates = stats.estimate_table(table).rename(columns=ESTIMATE_COLUMNS)
     estimates["workload"] = estimates["workload_id"].map(names)
     estimates = estimates.join(_peak_columns(table, records.read_processes(run_dir)),
                                on=["kernel", "workload_id"])
-    speedups = stats.speedup_table(table, baseline, margin=m.value)
+    speedups = stats.speedup_table(table, baseline, margin=m.value).rename(columns=SPEEDUP_COLUMNS)
     speedups["workload"] = speedups["workload_id"].map(names)
     speedups["margin_source"] = m.source
     return Analysis(estimates, speedups, baseline, m, len(batches), int(table["process"].nunique()))

@@ -556,7 +556,9 @@ def estimate_table(table: pd.DataFrame, confidence: float = DEFAULTS.confidence)
     Returns
     -------
     DataFrame
-        ``kernel, workload_id`` and the fields of :class:`Estimate`.
+        ``kernel, workload_id`` and the fields of :class:`Estimate`, named
+        for any quantity; estimates.csv gives them units
+        (``tribench.harness.analysis.ESTIMATE_COLUMNS``).
 
     Examples
     --------
@@ -605,7 +607,8 @@ def speedup_table(
     DataFrame
         ``workload_id, kernel, baseline, ratio, ci_low, ci_high, p_value,
         p_holm, n, confidence, margin, verdict``; ``confidence`` is the
-        per-comparison level actually used.
+        per-comparison level actually used. speedups.csv renames some of
+        them (``tribench.harness.analysis.SPEEDUP_COLUMNS``).
 
     Examples
     --------

@@ -6,14 +6,14 @@ printing). The order below is the order in the file; tests check that the
 files a run writes match these lists exactly, so a change here is a change
 of the format and must be deliberate.
 
-``batches.csv`` and ``processes.csv`` are written by the harness while it
-measures; ``estimates.csv`` and ``speedups.csv`` by ``tribench stats`` (or by
+``batches.csv``, ``processes.csv`` and ``checks.csv`` are written by the
+harness while it measures; ``estimates.csv`` and ``speedups.csv`` by ``tribench stats`` (or by
 ``tribench report`` when they are missing). The report never changes them.
 """
 
 from __future__ import annotations
 
-__all__ = ["BATCHES", "ESTIMATES", "SPEEDUPS", "PROCESSES", "FILES", "describe"]
+__all__ = ["BATCHES", "CHECKS", "ESTIMATES", "SPEEDUPS", "PROCESSES", "FILES", "describe"]
 
 #: ``batches.csv``: one row per timed batch, warm-up batches included.
 BATCHES: dict[str, str] = {
@@ -43,14 +43,14 @@ BATCHES: dict[str, str] = {
 ESTIMATES: dict[str, str] = {
     "kernel": "kernel name",
     "workload_id": "workload identifier",
-    "mean": "ns per ray-triangle test: mean over processes of each process's median",
-    "ci_low": "ns per test: lower end of the Student-t confidence interval of the mean",
-    "ci_high": "ns per test: upper end of the Student-t confidence interval of the mean",
-    "bootstrap_low": "ns per test: lower end of the BCa bootstrap interval over processes (cross-check)",
-    "bootstrap_high": "ns per test: upper end of the BCa bootstrap interval over processes",
-    "minimum": "ns per test: smallest per-process median (robust secondary figure)",
-    "sd": "ns per test: standard deviation across processes",
-    "n": "number of processes",
+    "ns_per_test": "ns per ray-triangle test: mean over processes of each process's median",
+    "ns_per_test_ci_low": "lower end of the Student-t confidence interval of ns_per_test",
+    "ns_per_test_ci_high": "upper end of the Student-t confidence interval of ns_per_test",
+    "ns_per_test_bootstrap_low": "lower end of the BCa bootstrap interval over processes (cross-check), ns",
+    "ns_per_test_bootstrap_high": "upper end of the BCa bootstrap interval over processes, ns",
+    "ns_per_test_min": "smallest per-process median, ns (robust secondary figure)",
+    "ns_per_test_sd": "standard deviation of the per-process medians, ns",
+    "n_processes": "number of processes (replicates) behind the estimate",
     "confidence": "two-sided confidence level of both intervals (0.95)",
     "workload": "the workload's spec in one line",
     "peak_gflops": "mean measured FMA peak of the processes, GFLOP/s",
@@ -65,11 +65,11 @@ SPEEDUPS: dict[str, str] = {
     "kernel": "kernel compared with the baseline",
     "baseline": "baseline kernel",
     "ratio": "speedup, time_baseline / time_kernel (above 1: the kernel is faster); unitless",
-    "ci_low": "lower end of the simultaneous (Bonferroni) confidence interval of the ratio",
-    "ci_high": "upper end of that interval",
+    "ratio_ci_low": "lower end of the simultaneous (Bonferroni) confidence interval of the ratio",
+    "ratio_ci_high": "upper end of that interval",
     "p_value": "two-sided paired t-test of the per-process log ratios against 0",
     "p_holm": "Holm-adjusted p-value over the kernels compared on this workload",
-    "n": "number of paired processes",
+    "n_processes": "number of paired processes",
     "confidence": "per-comparison confidence level actually used (Bonferroni-adjusted)",
     "margin": "relative equivalence margin of the verdict (0.01 = 1 %)",
     "verdict": "faster, slower, equivalent or inconclusive (stats.verdict)",
@@ -95,10 +95,26 @@ PROCESSES: dict[str, str] = {
     "start_ns": "CLOCK_MONOTONIC time of the probe, in nanoseconds",
 }
 
+#: ``checks.csv``: one row per kernel, workload and process, written before its first batch.
+CHECKS: dict[str, str] = {
+    "run_id": "identifier of the run",
+    "process": "index of the worker process",
+    "attempt": "worker attempt of this process index",
+    "workload_id": "workload identifier",
+    "kernel": "kernel name",
+    "rays": "rays of the workload (count)",
+    "ambiguous_rays": "rays within 1e-5 barycentric of an edge, which rounding may answer either way (count)",
+    "disagreements": "rays the kernel answered differently from the float64 reference (count)",
+    "ambiguous_disagreements": "of those, how many are ambiguous rays (count)",
+    "hits": "hits of the kernel in one pass (its checksum)",
+    "t_sum": "sum of t over the kernel's hits in one pass (its checksum)",
+}
+
 #: File name -> its columns.
 FILES: dict[str, dict[str, str]] = {
     "batches.csv": BATCHES,
     "processes.csv": PROCESSES,
+    "checks.csv": CHECKS,
     "estimates.csv": ESTIMATES,
     "speedups.csv": SPEEDUPS,
 }

@@ -43,6 +43,7 @@ TIME_WORDS = {"faster": "B slower", "slower": "B faster", "equivalent": "same on
 class Comparison:
     """Both tables of a comparison and what they rest on."""
 
+    # Columns named as in speedups.csv (ratio, ratio_ci_low, ratio_ci_high), so figures.forest draws both.
     speedups: pd.DataFrame  # ratio of speedups, per workload and kernel
     times: pd.DataFrame  # time ratio, per workload and kernel
     baseline: str
@@ -91,15 +92,16 @@ def compare_runs(a: RunData, b: RunData, confidence: float = 0.95) -> Comparison
             r = stats.unpaired_ratio(da, db, level_s)
             spd_rows.append({**info, "kernel": k, "baseline": a.baseline,
                              "speedup_a": math.exp(da.mean()), "speedup_b": math.exp(db.mean()),
-                             "ratio": r.ratio, "ci_low": r.ci_low, "ci_high": r.ci_high, "p_value": r.p_value,
+                             "ratio": r.ratio, "ratio_ci_low": r.ci_low, "ratio_ci_high": r.ci_high,
+                             "p_value": r.p_value,
                              "df": r.df, "n_a": r.n_a, "n_b": r.n_b, "confidence": level_s,
                              "verdict": stats.verdict(r.ci_low, r.ci_high, margin)})
         for k in present:
             ta, tb = wa[k].dropna(), wb[k].dropna()
             r = stats.unpaired_ratio(ta, tb, level_t)
             time_rows.append({**info, "kernel": k, "ns_per_test_a": math.exp(ta.mean()),
-                              "ns_per_test_b": math.exp(tb.mean()), "ratio": r.ratio, "ci_low": r.ci_low,
-                              "ci_high": r.ci_high, "p_value": r.p_value, "df": r.df, "n_a": r.n_a,
+                              "ns_per_test_b": math.exp(tb.mean()), "ratio": r.ratio, "ratio_ci_low": r.ci_low,
+                              "ratio_ci_high": r.ci_high, "p_value": r.p_value, "df": r.df, "n_a": r.n_a,
                               "n_b": r.n_b, "confidence": level_t,
                               "verdict": stats.verdict(r.ci_low, r.ci_high, margin)})
     return Comparison(pd.DataFrame(spd_rows), pd.DataFrame(time_rows), a.baseline, margin,
@@ -130,12 +132,12 @@ def format_comparison(a: RunData, b: RunData, c: Comparison) -> str:
                   f"  {'kernel':<22}{'on A':>8}{'on B':>8}{'B/A':>8}  {'CI':<18}verdict"]
         for r in g.itertuples(index=False):
             lines.append(f"  {r.kernel:<22}{r.speedup_a:8.3f}{r.speedup_b:8.3f}{r.ratio:8.3f}  "
-                         f"{_ci(r.ci_low, r.ci_high):<18}{RATIO_WORDS.get(r.verdict, r.verdict)}")
+                         f"{_ci(r.ratio_ci_low, r.ratio_ci_high):<18}{RATIO_WORDS.get(r.verdict, r.verdict)}")
     if c.speedups.empty:
         lines += ["", "no kernel besides the baseline in both runs: time ratios only"]
     lines += ["", "time ratio time_B / time_A (above 1: B is slower):"]
     for r in c.times.itertuples(index=False):
-        lines.append(f"  {r.kernel:<22}{r.label:<30}{r.ratio:8.3f}  {_ci(r.ci_low, r.ci_high):<18}"
+        lines.append(f"  {r.kernel:<22}{r.label:<30}{r.ratio:8.3f}  {_ci(r.ratio_ci_low, r.ratio_ci_high):<18}"
                      f"{TIME_WORDS.get(r.verdict, r.verdict)}")
     if c.only_a or c.only_b:
         lines.append(f"\nnot compared: {len(c.only_a)} workloads only in A, {len(c.only_b)} only in B")
@@ -161,8 +163,8 @@ def render_compare(a: RunData, b: RunData, c: Comparison) -> str:
         '<section id="speedup-ratios"><h2>Ratio of speedups (B / A)</h2>',
         _table(spd.assign(verdict=spd["verdict"].map(RATIO_WORDS)) if not spd.empty else spd,
                [("kernel", "kernel"), ("label", "workload"), ("speedup_a", "speedup on A (×)"),
-                ("speedup_b", "speedup on B (×)"), ("ratio", "B / A"), ("ci_low", "CI low"),
-                ("ci_high", "CI high"), ("df", "Welch df"), ("n_a", "processes A"), ("n_b", "processes B"),
+                ("speedup_b", "speedup on B (×)"), ("ratio", "B / A"), ("ratio_ci_low", "CI low"),
+                ("ratio_ci_high", "CI high"), ("df", "Welch df"), ("n_a", "processes A"), ("n_b", "processes B"),
                 ("verdict", "verdict")]),
         "</section>",
         '<section id="time-ratios"><h2>Time ratio (B / A)</h2>',
@@ -170,8 +172,8 @@ def render_compare(a: RunData, b: RunData, c: Comparison) -> str:
         "is the steadier figure.</p>",
         _table(c.times.assign(verdict=c.times["verdict"].map(TIME_WORDS)) if not c.times.empty else c.times,
                [("kernel", "kernel"), ("label", "workload"), ("ns_per_test_a", "ns/test on A (geo. mean)"),
-                ("ns_per_test_b", "ns/test on B (geo. mean)"), ("ratio", "B / A"), ("ci_low", "CI low"),
-                ("ci_high", "CI high"), ("verdict", "verdict")]),
+                ("ns_per_test_b", "ns/test on B (geo. mean)"), ("ratio", "B / A"), ("ratio_ci_low", "CI low"),
+                ("ratio_ci_high", "CI high"), ("verdict", "verdict")]),
         "</section>",
         '<section id="machines"><h2>Machines and builds</h2>',
     ]

@@ -39,6 +39,7 @@ __all__ = [
     "rounds_panel",
     "svg_data_uri",
     "png_data_uri",
+    "palette_png",
     "cache_bytes",
 ]
 
@@ -77,12 +78,28 @@ def svg_data_uri(fig: Figure) -> str:
     # The RDF metadata block and the DOCTYPE name schema URLs; nothing needs them.
     text = re.sub(r"<metadata>.*?</metadata>", "", text, flags=re.S)
     text = re.sub(r"<!DOCTYPE[^>]*>", "", text)
+    # Indentation and line breaks are a tenth of the bytes; with text as paths no element holds text.
+    text = re.sub(r"\s+", " ", re.sub(r">\s+<", "><", text))
     return "data:image/svg+xml;base64," + base64.b64encode(text.encode()).decode()
 
 
 def png_data_uri(data: bytes) -> str:
     """PNG bytes as a ``data:image/png;base64,...`` URI."""
     return "data:image/png;base64," + base64.b64encode(data).decode()
+
+
+def palette_png(data: bytes) -> bytes:
+    """PNG bytes re-encoded with a palette of 256 colours.
+
+    A plot is a few flat colours and their anti-aliased edges, so the palette
+    leaves it looking the same at about a third of the bytes.
+    """
+    from PIL import Image  # a dependency of matplotlib
+
+    out = io.BytesIO()
+    with Image.open(io.BytesIO(data)) as im:
+        im.convert("RGB").quantize(256, method=Image.Quantize.FASTOCTREE).save(out, format="PNG", optimize=True)
+    return out.getvalue()
 
 
 def cache_bytes(size: str) -> float:
@@ -136,7 +153,7 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
     ----------
     speedups : DataFrame
         ``speedups.csv`` rows with ``family`` and ``label`` columns added
-        (``ratio, ci_low, ci_high, verdict, kernel, n, confidence``).
+        (``ratio, ratio_ci_low, ratio_ci_high, verdict, kernel, confidence``).
     baseline : str
     margin : float
         Relative equivalence margin, drawn as a band around 1.
@@ -154,8 +171,8 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
     fig = _figure(9.5, height)
     axes = fig.subplots(len(families), 1, sharex=True, squeeze=False,
                         gridspec_kw={"height_ratios": [s + 1.2 for s in sizes]})[:, 0]
-    low = float(np.nanmin(speedups[["ci_low", "ratio"]].to_numpy()))
-    high = float(np.nanmax(speedups[["ci_high", "ratio"]].to_numpy()))
+    low = float(np.nanmin(speedups[["ratio_ci_low", "ratio"]].to_numpy()))
+    high = float(np.nanmax(speedups[["ratio_ci_high", "ratio"]].to_numpy()))
     for ax, family in zip(axes, families):
         rows = speedups.loc[speedups["family"] == family]
         korder = {k: i for i, k in enumerate(dict.fromkeys(speedups["kernel"]))}
@@ -166,11 +183,11 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
         ax.axvline(1.0, color="#333", lw=0.8)
         for yi, r in zip(y, rows.itertuples(index=False)):
             colour = VERDICT_COLOURS.get(r.verdict, "#333")
-            if np.isfinite(r.ci_low) and np.isfinite(r.ci_high):
-                ax.plot([r.ci_low, r.ci_high], [yi, yi], color=colour, lw=2.2, solid_capstyle="butt")
+            if np.isfinite(r.ratio_ci_low) and np.isfinite(r.ratio_ci_high):
+                ax.plot([r.ratio_ci_low, r.ratio_ci_high], [yi, yi], color=colour, lw=2.2, solid_capstyle="butt")
             ax.plot([r.ratio], [yi], "o", color=colour, ms=6, mec="white", mew=0.8)
-            ci = (f"[{_fmt_ratio(r.ci_low)}, {_fmt_ratio(r.ci_high)}]"
-                  if np.isfinite(r.ci_low) else "[no interval]")
+            ci = (f"[{_fmt_ratio(r.ratio_ci_low)}, {_fmt_ratio(r.ratio_ci_high)}]"
+                  if np.isfinite(r.ratio_ci_low) else "[no interval]")
             ax.text(1.01, yi, f"{r.ratio:.3g}×  {ci}  {words.get(r.verdict, r.verdict)}", transform=ax.get_yaxis_transform(),
                     va="center", ha="left", color=colour, fontsize=8.5, clip_on=False)
         ax.set_yticks(y)
@@ -241,8 +258,9 @@ def hit_rate_curves(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, s
         for kernel, g in rows.groupby("kernel", sort=False):
             g = g.sort_values("test_hit_rate")
             c = colours.get(kernel, "#333")
-            ax.fill_between(g["test_hit_rate"], g["ci_low"], g["ci_high"], color=c, alpha=0.18, lw=0)
-            ax.plot(g["test_hit_rate"], g["mean"], "o-", color=c, ms=3.5, lw=1.5, label=kernel)
+            ax.fill_between(g["test_hit_rate"], g["ns_per_test_ci_low"], g["ns_per_test_ci_high"], color=c,
+                            alpha=0.18, lw=0)
+            ax.plot(g["test_hit_rate"], g["ns_per_test"], "o-", color=c, ms=3.5, lw=1.5, label=kernel)
         _mark_crossovers(ax, cross.loc[cross["family"] == family])
         ax.set_title(family, loc="left", fontsize=9.5)
         ax.set_ylabel("ns per ray–triangle test")
@@ -269,7 +287,7 @@ def speedup_vs_hit_rate(spd: pd.DataFrame, baseline: str, margin: float, colours
         for kernel, g in rows.groupby("kernel", sort=False):
             g = g.sort_values("test_hit_rate")
             c = colours.get(kernel, "#333")
-            ax.fill_between(g["test_hit_rate"], g["ci_low"], g["ci_high"], color=c, alpha=0.18, lw=0)
+            ax.fill_between(g["test_hit_rate"], g["ratio_ci_low"], g["ratio_ci_high"], color=c, alpha=0.18, lw=0)
             ax.plot(g["test_hit_rate"], g["ratio"], "o-", color=c, ms=3.5, lw=1.5, label=kernel)
         ax.set_yscale("log")
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}×"))
@@ -310,8 +328,8 @@ def scaling(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) 
     for (family, kernel), g in mesh.groupby(["family", "kernel"], sort=False):
         g = g.sort_values("triangles")
         c = colours.get(kernel, "#333")
-        ax1.fill_between(g["triangles"], g["ci_low"], g["ci_high"], color=c, alpha=0.18, lw=0)
-        ax1.plot(g["triangles"], g["mean"], "o", ls=fam_style[family], color=c, ms=3.5, lw=1.4, label=kernel)
+        ax1.fill_between(g["triangles"], g["ns_per_test_ci_low"], g["ns_per_test_ci_high"], color=c, alpha=0.18, lw=0)
+        ax1.plot(g["triangles"], g["ns_per_test"], "o", ls=fam_style[family], color=c, ms=3.5, lw=1.4, label=kernel)
     ax1.set_xscale("log")
     ax1.set_yscale("log")
     ax1.set_xlabel("triangles in the mesh (achieved count; brute force: every ray tests every triangle)")
@@ -323,8 +341,10 @@ def scaling(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) 
     for (family, kernel), g in ws.groupby(["family", "kernel"], sort=False):
         g = g.sort_values("working_set_bytes")
         c = colours.get(kernel, "#333")
-        ax2.errorbar(g["working_set_bytes"], g["mean"], yerr=[g["mean"] - g["ci_low"], g["ci_high"] - g["mean"]],
-                     fmt="o", ls=fam_style[family], color=c, ms=3.5, lw=1.2, capsize=2, label=kernel)
+        mean = g["ns_per_test"]
+        yerr = [mean - g["ns_per_test_ci_low"], g["ns_per_test_ci_high"] - mean]
+        ax2.errorbar(g["working_set_bytes"], mean, yerr=yerr, fmt="o", ls=fam_style[family], color=c, ms=3.5,
+                     lw=1.2, capsize=2, label=kernel)
     ax2.set_xscale("log")
     ax2.set_yscale("log")
     for name, size in (caches or {}).items():
@@ -374,9 +394,9 @@ def process_dots(pp: pd.DataFrame, est: pd.DataFrame, labels: dict[str, str], ke
             ax.plot(dots, i + 0.22 + jitter, "o", color=c, ms=3, alpha=0.75, mew=0)
             if not e.empty:
                 r = e.iloc[0]
-                if np.isfinite(r["ci_low"]):
-                    ax.plot([r["ci_low"], r["ci_high"]], [i - 0.1, i - 0.1], color=c, lw=2.2)
-                ax.plot([r["mean"]], [i - 0.1], "D", color=c, ms=4.5, mec="white", mew=0.6)
+                if np.isfinite(r["ns_per_test_ci_low"]):
+                    ax.plot([r["ns_per_test_ci_low"], r["ns_per_test_ci_high"]], [i - 0.1, i - 0.1], color=c, lw=2.2)
+                ax.plot([r["ns_per_test"]], [i - 0.1], "D", color=c, ms=4.5, mec="white", mew=0.6)
         ax.set_yticks(range(len(order)))
         ax.set_yticklabels(order[::-1], fontsize=8)
         ax.set_ylim(-0.6, len(order) - 0.4)

@@ -1,10 +1,11 @@
 """Everything the report needs from one run folder, read once.
 
 The report reads files only: ``run.json``, ``batches.csv``, ``processes.csv``
-and the tables ``estimates.csv``/``speedups.csv``. When those two are missing
-(or older than ``batches.csv``, after a resume) they are made by the harness's
-own analysis (:func:`tribench.harness.analysis.analyse`) and written next to
-the batches: the report never measures and never computes an interval itself.
+and the tables ``estimates.csv``/``speedups.csv``. When those two are missing,
+older than ``batches.csv`` (after a resume) or not in today's columns (written
+by an older tribench), they are made by the harness's own analysis
+(:func:`tribench.harness.analysis.analyse`) and written next to the batches:
+the report never measures and never computes an interval itself.
 """
 
 from __future__ import annotations
@@ -73,6 +74,8 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
     """
     from tribench.harness import analysis, records
 
+    from . import columns
+
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         raise RunError(f"no run directory {run_dir}")
@@ -94,7 +97,8 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
 
     est_path, spd_path = run_dir / analysis.ESTIMATES, run_dir / analysis.SPEEDUPS
     batches_mtime = (run_dir / "batches.csv").stat().st_mtime
-    fresh = all(p.is_file() and p.stat().st_mtime >= batches_mtime for p in (est_path, spd_path))
+    fresh = all(p.is_file() and p.stat().st_mtime >= batches_mtime and _has_columns(p, columns.FILES[p.name])
+                for p in (est_path, spd_path))
     analysed_now = False
     if baseline is not None or not fresh:
         try:
@@ -117,6 +121,12 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
     specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"]))
     return RunData(run_dir, run, batches, processes, estimates, speedups, base, m_value, m_source,
                    specs, analysed_now)
+
+
+def _has_columns(path: Path, documented: dict[str, str]) -> bool:
+    """True if the CSV's header is exactly the documented columns."""
+    with open(path, encoding="utf-8") as f:
+        return f.readline().rstrip("\r\n").split(",") == list(documented)
 
 
 # ------------------------------------------------------------ workload labels

@@ -39,10 +39,10 @@ def format_run(data: RunData, width: int = 24) -> str:
         lines += ["", f"{short_label(spec)}  [{wid}]",
                   f"  {'kernel':<{width}}{'ns/test':>9}  {'95% CI':<18}{'speedup':>8}  {'CI':<16}  verdict"]
         for r in rows.itertuples(index=False):
-            left = f"  {r.kernel:<{width}}{r.mean:9.3f}  {_ci(r.ci_low, r.ci_high):<18}"
+            left = f"  {r.kernel:<{width}}{r.ns_per_test:9.3f}  {_ci(r.ns_per_test_ci_low, r.ns_per_test_ci_high):<18}"
             if r.kernel in sp.index:
                 s = sp.loc[r.kernel]
-                left += f"{s['ratio']:7.3f}x  {_ci(s['ci_low'], s['ci_high']):<16}  {s['verdict']}"
+                left += f"{s['ratio']:7.3f}x  {_ci(s['ratio_ci_low'], s['ratio_ci_high']):<16}  {s['verdict']}"
             elif r.kernel == data.baseline:
                 left += "(baseline)"
             lines.append(left.rstrip())

@@ -79,6 +79,7 @@ def test_report_figures_are_inline_svg_and_png(rendered):
         assert "@import" not in svg and "@font-face" not in svg and "url(http" not in svg
     for uri in pngs:
         assert base64.b64decode(uri.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n"
+        assert len(uri) < 120_000  # low-dpi palette pictures: the report stays a few MB
 
 
 def test_report_opens_offline_no_external_references(rendered):
@@ -153,7 +154,8 @@ def test_report_rebuilds_a_workload_missing_from_the_cache(tmp_path_factory, mon
 
 def test_headline_sentence_for_one_workload():
     spd = pd.DataFrame({"family": ["pairs n=10"], "label": ["per-test hit rate 50%"], "kernel": ["mt"],
-                        "baseline": ["seed"], "ratio": [0.8], "ci_low": [0.7], "ci_high": [0.9], "n": [10],
+                        "baseline": ["seed"], "ratio": [0.8], "ratio_ci_low": [0.7], "ratio_ci_high": [0.9],
+                        "n_processes": [10],
                         "verdict": ["slower"], "confidence": [0.975]})
     (verdict, sentence), = report_html.headline_sentences(spd)["pairs n=10"]
     assert verdict == "slower"

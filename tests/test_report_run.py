@@ -5,6 +5,7 @@ Other report test modules import :func:`run_fixture_dir` from here.
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import pandas as pd
@@ -61,6 +62,31 @@ def test_the_run_folder_csvs_have_exactly_the_documented_columns(small_run):
 def test_documented_columns_match_the_harness_records():
     assert tuple(columns.BATCHES) == records.BATCH_COLUMNS
     assert tuple(columns.PROCESSES) == records.PROCESS_COLUMNS
+    assert tuple(columns.CHECKS) == records.CHECK_COLUMNS
+
+
+def test_estimate_and_speedup_columns_say_their_unit():
+    from tribench.harness import analysis
+
+    # every renamed column is documented, and no bare statistic name is left in the files
+    assert set(analysis.ESTIMATE_COLUMNS.values()) <= set(columns.ESTIMATES)
+    assert set(analysis.SPEEDUP_COLUMNS.values()) <= set(columns.SPEEDUPS)
+    for cols in (columns.ESTIMATES, columns.SPEEDUPS):
+        assert not {"mean", "ci_low", "ci_high", "minimum", "sd", "n"} & set(cols)
+
+
+def test_report_redoes_tables_written_in_old_columns(tmp_path_factory, monkeypatch):
+    from tribench.reports.rundata import load_run
+
+    run_dir, cache = run_fixture_dir(tmp_path_factory)
+    monkeypatch.setenv("TRIBENCH_CACHE", str(cache))
+    copy = tmp_path_factory.mktemp("old-columns") / "run"
+    shutil.copytree(run_dir, copy)
+    load_run(copy)  # makes the tables if the copy has none yet
+    est = pd.read_csv(copy / "estimates.csv")
+    est.rename(columns={"ns_per_test": "mean"}).to_csv(copy / "estimates.csv", index=False)
+    assert load_run(copy).analysed_now  # as an older tribench wrote them: made again
+    assert list(pd.read_csv(copy / "estimates.csv", nrows=0).columns) == list(columns.ESTIMATES)
 
 
 def test_every_documented_column_has_a_description_and_snake_case_name():

@@ -62,12 +62,13 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
     assert "moller_trumbore" in stats.stdout and "(baseline)" in stats.stdout and "95% CI" in stats.stdout
     est = records._read_csv(out / analysis.ESTIMATES, [], {})
     spd = records._read_csv(out / analysis.SPEEDUPS, [], {})
-    for col in ("kernel", "workload_id", "mean", "ci_low", "ci_high", "minimum", "n", "peak_flops_per_test"):
+    for col in ("kernel", "workload_id", "ns_per_test", "ns_per_test_ci_low", "ns_per_test_ci_high",
+                "ns_per_test_min", "n_processes", "peak_flops_per_test"):
         assert col in est.columns
-    for col in ("kernel", "baseline", "ratio", "ci_low", "ci_high", "p_holm", "margin", "verdict",
+    for col in ("kernel", "baseline", "ratio", "ratio_ci_low", "ratio_ci_high", "p_holm", "margin", "verdict",
                 "margin_source"):
         assert col in spd.columns
-    assert set(est["kernel"]) == {"moller_trumbore", "curless"} and (est["n"] == 3).all()
+    assert set(est["kernel"]) == {"moller_trumbore", "curless"} and (est["n_processes"] == 3).all()
     assert list(spd["baseline"]) == ["moller_trumbore"] and list(spd["kernel"]) == ["curless"]
     # re-analysis reads files only: the same tables again, with another baseline on request
     again = analysis.analyse(out, baseline="curless")
