@@ -34,10 +34,15 @@ def _info(args: argparse.Namespace) -> int:
     caches = ", ".join(f"{k} {v}" for k, v in rec["caches"].items())
     print(f"caches    {caches or 'unknown'}")
     print()
-    print(f"{'kernel':<18}{'bytes/tri f32':>14}{'bytes/tri f64':>14}")
+    width = max(map(len, ext.kernel_names())) + 2
+    print(f"{'kernel':<{width}}{'form':<8}{'bytes/tri f32':>14}{'bytes/tri f64':>14}  ISA (* = runs here, > = chosen)")
     for name in ext.kernel_names():
-        print(f"{name:<18}{ext.bytes_per_triangle(name, 'float32'):>14}"
-              f"{ext.bytes_per_triangle(name, 'float64'):>14}")
+        info = ext.kernel_info(name)
+        form = "scalar" if info.lanes == 1 else f"{info.lanes} lanes"
+        isas = " ".join(("> " if i == info.isa else "* " if ok else "  ") + i
+                        for i, ok in info.isas.items()) if info.lanes > 1 else "baseline build"
+        print(f"{name:<{width}}{form:<8}{ext.bytes_per_triangle(name, 'float32'):>14}"
+              f"{ext.bytes_per_triangle(name, 'float64'):>14}  {isas}")
     return 0
 
 
