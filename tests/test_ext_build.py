@@ -1,0 +1,55 @@
+"""The built module is what it claims: wide kernels really run on their ISA's registers.
+
+The wide forms are written with vector extensions and compiled once per ISA
+by a target attribute; this reads the machine code back (objdump) and checks
+that each ISA's timed loop uses that ISA's vector registers, and the
+baseline's does not, so "avx2" in a result means 256-bit instructions ran.
+"""
+
+from __future__ import annotations
+
+import platform
+import re
+import shutil
+import subprocess
+
+import pytest
+
+from tribench import ext
+from tribench.ext import _core
+
+WIDE = [k for k in ext.kernel_names() if ext.kernel_info(k).lanes > 1]
+
+pytestmark = [
+    pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="x86-64 ISAs only"),
+    pytest.mark.skipif(shutil.which("objdump") is None, reason="needs objdump (binutils)"),
+]
+
+
+@pytest.fixture(scope="module")
+def disassembly() -> dict[str, str]:
+    """Machine code of the module, by function name."""
+    text = subprocess.run(["objdump", "-d", "--no-show-raw-insn", _core.__file__],
+                          capture_output=True, text=True, check=True).stdout
+    functions, name = {}, None
+    for line in text.splitlines():
+        head = re.match(r"^[0-9a-f]+ <([^>]+)>:$", line)
+        if head:
+            name = head.group(1)
+            functions[name] = []
+        elif name:
+            functions[name].append(line)
+    return {k: "\n".join(v) for k, v in functions.items()}
+
+
+@pytest.mark.parametrize("kernel", WIDE)
+@pytest.mark.parametrize("suffix", ["f32", "f64"])
+def test_each_isa_uses_its_registers(disassembly, kernel, suffix):
+    base = f"tb_{kernel}_time_closest"
+    code = {isa: disassembly.get(f"{base}_{isa}_{suffix}") for isa in ext.kernel_info(kernel).isas}
+    assert all(code.values()), f"missing symbols for {base}: {[i for i, c in code.items() if not c]}"
+    assert "ymm" not in code["baseline"] and "zmm" not in code["baseline"]
+    assert len(re.findall(r"\bv\w+ps\b|\bv\w+pd\b", code["avx2"])) > 20  # packed AVX arithmetic
+    assert "ymm" in code["avx2"] and "zmm" not in code["avx2"]
+    if suffix == "f64":  # 8 doubles fill one 512-bit register
+        assert "zmm" in code["avx512"]
