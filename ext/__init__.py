@@ -12,6 +12,10 @@ Kernels (see ``kernel_names()``; each C file's header cites its paper):
   and strict edges for Curless);
 * ``curless``, ``moller_trumbore``: clean versions (no absolute epsilon,
   late division, closed triangles);
+* ``moller_trumbore_cull`` (back faces culled), ``baldwin_weber_12`` and
+  ``baldwin_weber_9`` (Baldwin & Weber 2016, 12- and 9-float storage),
+  ``havel_herout`` (Havel & Herout 2010), ``woop`` (Woop, Benthin & Wald
+  2013, watertight), ``plucker`` (origin-shifted Pluecker tests);
 * ``<name>_x8``: the wide form of a kernel (branchless, one ray against
   blocks of 8 triangles stored structure of arrays), compiled for several
   instruction sets and run with the best one this CPU has (see
@@ -118,6 +122,10 @@ class KernelInfo:
     isa : str
         The ISA calls use by default: ``TRIBENCH_ISA`` if set and runnable,
         else the best runnable one.
+
+    By convention a name says three more things: ``_seed`` (a faithful copy
+    of the seed's code, flaws included), ``_cull`` (back faces are culled)
+    and ``_x8`` (the wide form).
     """
 
     name: str
@@ -126,6 +134,12 @@ class KernelInfo:
     internal: bool
     isas: dict
     isa: str
+
+    @property
+    def culls_back_faces(self) -> bool:
+        """Only front faces count: ``det = e1 . (d x e2) > 0``, the vertices
+        counter-clockwise seen from the ray's origin."""
+        return "_cull" in self.name
 
     @property
     def modes(self) -> tuple[str, ...]:

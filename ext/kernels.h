@@ -68,9 +68,17 @@ typedef struct {
 #include "kernels/curless.h"
 #include "kernels/moller_trumbore.h"
 #include "kernels/moller_trumbore_aa.h"
+#include "kernels/moller_trumbore_cull.h"
+#include "kernels/baldwin_weber_12.h"
+#include "kernels/baldwin_weber_9.h"
+#include "kernels/havel_herout.h"
 
 #include "kernels/curless_x8.h"
 #include "kernels/moller_trumbore_x8.h"
+#include "kernels/moller_trumbore_cull_x8.h"
+#include "kernels/baldwin_weber_12_x8.h"
+#include "kernels/baldwin_weber_9_x8.h"
+#include "kernels/havel_herout_x8.h"
 
 typedef int (*TB_FN(tb_test_fn))(const tb_ray *restrict, const real *restrict, real,
                                  tb_hit *restrict);

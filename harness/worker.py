@@ -156,7 +156,9 @@ def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, i
     rays where kernel and reference agree on a hit must match the
     reference's within :data:`T_SUM_RTOL`. An any-hit answer may be any hit
     triangle, so there it is its t that is checked, against the reference for
-    that triangle. The counts of disagreements are returned for checks.csv.
+    that triangle. A kernel that culls back faces is held to the reference
+    with back faces culled. The counts of disagreements are returned for
+    checks.csv.
 
     Raises
     ------
@@ -167,7 +169,16 @@ def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, i
     w = workload
     r = ext.intersect(kernel, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max)
     hit, t = r.hit, r.t
-    differs = hit != w.hits if w.mode in ("pairs", "any") else r.index != w.ref_index
+    ref_index, ref_t = (w.ref_index, w.ref_t) if w.mode != "pairs" else (None, w.ref_t)
+    ref_hits = w.hits
+    if ext.kernel_info(kernel).culls_back_faces:
+        args = (w.origins, w.directions, w.triangles)
+        if w.mode == "pairs":
+            ref_hits = reference.intersect_pairs(*args, t_max=w.t_max, front_only=True).hit
+        else:
+            ref_index, ref_t = reference.intersect_closest(*args, t_max=w.t_max, front_only=True)
+            ref_hits = ref_index >= 0
+    differs = hit != ref_hits if w.mode in ("pairs", "any") else r.index != ref_index
     ambiguous = w.ambiguous()
     wrong = differs & ~ambiguous
     counts = {"rays": len(differs), "ambiguous_rays": int(ambiguous.sum()),
@@ -179,7 +190,7 @@ def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, i
             f"{where}: {int(wrong.sum())} of {len(wrong)} rays differ from the reference "
             f"outside the ambiguous ones (first: ray {first})"
         )
-    agree = hit & w.hits & ~differs
+    agree = hit & ref_hits & ~differs
     own = {"t": t[agree], "u + v": r.u[agree] + r.v[agree]}
     if w.mode in ("any", "closest_uv"):
         # the reference on the triangle each ray's answer names
@@ -187,7 +198,7 @@ def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, i
         ref_pairs = reference.intersect_pairs(w.origins[agree], w.directions[agree], tri)
         ref = {"t": ref_pairs.t, "u + v": ref_pairs.u + ref_pairs.v}
     else:
-        ref = {"t": w.ref_t[agree]}
+        ref = {"t": ref_t[agree]}
     for name in ref if w.mode != "any" else ("t",):
         a, b = math.fsum(own[name].astype(float).tolist()), math.fsum(ref[name].tolist())
         if not math.isclose(a, b, rel_tol=T_SUM_RTOL[w.spec.dtype], abs_tol=1e-300):

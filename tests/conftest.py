@@ -60,9 +60,10 @@ def as_dtype(arrays, dtype):
     return tuple(np.ascontiguousarray(a, dtype=dtype) for a in arrays)
 
 
-def reference_answers(o, d, tris):
+def reference_answers(o, d, tris, front_only: bool = False):
     """Reference on the arrays as the kernel sees them (after any rounding)."""
-    return reference.intersect_pairs(o.astype(np.float64), d.astype(np.float64), tris.astype(np.float64))
+    return reference.intersect_pairs(o.astype(np.float64), d.astype(np.float64), tris.astype(np.float64),
+                                     front_only=front_only)
 
 
 def run_pairs(kernel, o, d, tris, **options):

@@ -28,7 +28,7 @@ def test_registry_lists_the_foundation_kernels():
 @pytest.mark.parametrize("hit_rate", [0.0, 0.5, 1.0])
 def test_pairs_agree_with_reference(kernel, dtype, hit_rate):
     o, d, tris = as_dtype(safe_pairs(3000 if kernel not in WIDE else 300, seed=11, hit_rate=hit_rate), dtype)
-    ref = reference_answers(o, d, tris)
+    ref = reference_answers(o, d, tris, front_only=ext.kernel_info(kernel).culls_back_faces)
     hit, t = run_pairs(kernel, o, d, tris)
     assert hit.dtype == bool and t.dtype == dtype
     np.testing.assert_array_equal(hit, ref.hit)
@@ -288,8 +288,11 @@ def test_nonfinite_inputs_have_defined_results(kernel, dtype, where, value):
 
 
 @pytest.mark.parametrize("kernel", KERNELS)
-def test_hit_both_faces_without_culling(kernel):
+def test_hit_both_faces_unless_culling(kernel):
+    # the unit triangle is counter-clockwise seen from +z: its front faces +z
     up = np.array([[0.0, 0, 1]])
     hit, t = _pairs(kernel, [[0.25, 0.25, -2.0]], up, UNIT_TRI)
+    assert hit[0] != ext.kernel_info(kernel).culls_back_faces
+    hit, t = _pairs(kernel, [[0.25, 0.25, 2.0]], DOWN, UNIT_TRI)
     assert hit[0] and t[0] == pytest.approx(2.0)
 

@@ -158,6 +158,24 @@ def test_the_seed_kernels_differences_are_counted_not_fatal():
         worker.one_pass_checksum("moller_trumbore", dataclasses.replace(w, ref_hit=~w.ref_hit))
 
 
+@pytest.mark.parametrize("kernel", ext.kernel_names())
+@pytest.mark.parametrize("mode", ["pairs", "any", "closest_uv"])
+def test_every_kernel_passes_its_checks_in_every_mode(kernel, mode):
+    # culling kernels are held to the culled reference, wide ones run no pairs
+    if mode == "pairs":
+        spec = PairSpec(n=300, hit_rate=0.5, miss_mix={"outside_edge_1": 0.5, "beyond_t_max": 0.5})
+    else:
+        spec = MeshSpec("icosphere", triangles=80, width=10, height=10, dtype="float32", result=mode)
+    if mode not in ext.kernel_info(kernel).modes:
+        return
+    w = cache.make(spec)
+    checksum, counts = worker.one_pass_checksum(kernel, w)
+    if not kernel.endswith("_seed"):
+        assert counts["disagreements"] == counts["ambiguous_disagreements"]
+    job = ext.make_job(kernel, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max)
+    worker.check_batch(ext.time_batch(job, 2), checksum, kernel, w)
+
+
 def test_calibrated_loops_hit_the_target_roughly():
     w = cache.make(PairSpec(n=500, hit_rate=0.5))
     job = ext.make_job("moller_trumbore", w.origins, w.directions, w.triangles, w.mode)

@@ -104,6 +104,7 @@ def intersect_pairs(
     triangles: np.ndarray,
     t_min: float = 0.0,
     t_max: np.ndarray | None = None,
+    front_only: bool = False,
 ) -> PairAnswers:
     """Test ray ``i`` against triangle ``i`` in float64.
 
@@ -118,6 +119,10 @@ def intersect_pairs(
         A crossing counts only where ``t < t_max`` (pair ``i``'s own limit);
         ``None``: no limit. A crossing at ``t >= t_max`` is a miss that keeps
         its ``t``.
+    front_only : bool
+        Back-face culling: only crossings where the ray meets the triangle's
+        front, ``d . ((v1 - v0) x (v2 - v0)) < 0`` (vertices counter-clockwise
+        seen from the origin), count.
 
     Returns
     -------
@@ -132,6 +137,8 @@ def intersect_pairs(
     >>> r = intersect_pairs([[0.25, 0.25, 1]] * 2, [[0., 0, -1]] * 2, np.vstack([tri, tri]), t_max=[1.5, 0.5])
     >>> r.hit.tolist(), r.t.tolist()
     ([True, False], [1.0, 1.0])
+    >>> bool(intersect_pairs([[0.25, 0.25, -1]], [[0., 0, 1]], tri, front_only=True).hit[0])
+    False
     """
     o = _as_f64("origins", origins, (3,))
     d = _as_f64("directions", directions, (3,))
@@ -150,6 +157,9 @@ def intersect_pairs(
         t[lo:hi], u[lo:hi], v[lo:hi] = _solve(o[lo:hi], d[lo:hi], tri[lo:hi])
     with np.errstate(invalid="ignore"):
         hit = (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min) & (t < limit)
+    if front_only:
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        hit &= np.einsum("ij,ij->i", d, normal) < 0
     return PairAnswers(hit=hit, t=t, u=u, v=v)
 
 
@@ -159,11 +169,13 @@ def intersect_closest(
     triangles: np.ndarray,
     t_min: float = 0.0,
     t_max: np.ndarray | None = None,
+    front_only: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Closest hit of every ray against every triangle (brute force, float64).
 
-    Ties in ``t`` go to the lowest triangle index. ``t_min`` and ``t_max``
-    (per ray, shape (M,), or None) are as in :func:`intersect_pairs`.
+    Ties in ``t`` go to the lowest triangle index. ``t_min``, ``t_max``
+    (per ray, shape (M,), or None) and ``front_only`` are as in
+    :func:`intersect_pairs`.
 
     Returns
     -------
@@ -198,6 +210,7 @@ def intersect_closest(
             np.tile(tri, (n, 1, 1)),
             t_min=t_min,
             t_max=np.repeat(limit[lo:hi], k),
+            front_only=front_only,
         )
         t = np.where(ans.hit, ans.t, np.inf).reshape(n, k)
         j = np.argmin(t, axis=1)  # argmin returns the first of equal minima

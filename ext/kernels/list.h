@@ -6,17 +6,25 @@
  * here. Its wide form is one file kernels/<name>_x8.h, one include and one
  * line in TB_WIDE_KERNEL_LIST. Python learns the names from these lists;
  * order is the order `tribench info` prints. */
-#define TB_KERNEL_LIST(X) \
-    X(curless_seed)       \
-    X(moller_seed)        \
-    X(curless)            \
-    X(moller_trumbore)
+#define TB_KERNEL_LIST(X)   \
+    X(curless_seed)         \
+    X(moller_seed)          \
+    X(curless)              \
+    X(moller_trumbore)      \
+    X(moller_trumbore_cull) \
+    X(baldwin_weber_12)     \
+    X(baldwin_weber_9)      \
+    X(havel_herout)
 
 /* Kernels that also have a wide form, registered as <name>_x8: branchless,
  * one ray against blocks of 8 triangles stored structure of arrays. */
 #define TB_WIDE_KERNEL_LIST(X) \
     X(curless)                 \
-    X(moller_trumbore)
+    X(moller_trumbore)         \
+    X(moller_trumbore_cull)    \
+    X(baldwin_weber_12)        \
+    X(baldwin_weber_9)         \
+    X(havel_herout)
 
 /* Internal kernels: honesty checks of the harness, not algorithms to compare.
  * They are compiled and callable like any kernel but kept out of the user's

@@ -1,0 +1,39 @@
+/* baldwin_weber_12_x8: baldwin_weber_12, branchless, one ray against 8
+ * triangles.
+ *
+ * Reference: as baldwin_weber_12.h (Baldwin & Weber, JCGT 5(3), 2016). The
+ * same arithmetic in the same order on 8 lanes, so each lane's answer is the
+ * scalar kernel's bit for bit: the t test and the barycentric tests are all
+ * evaluated and combined into one mask, with no early exit. Records:
+ * baldwin_weber_12's 12 reals (rows U, V, W), in blocks of 8 triangles,
+ * structure of arrays. */
+
+TB_WIDE vmask TB_FN(tb_baldwin_weber_12_x8_test)(const tb_ray *restrict r,
+                                                 const real *restrict block, vreal t_max,
+                                                 tb_vhit *restrict h)
+{
+    vreal row_u[3], row_v[3], row_w[3], o[3], d[3];
+    TB_FN(vload3)(block, 0, row_u);
+    vreal const_u = TB_FN(vload)(block + 8 * 3);
+    TB_FN(vload3)(block, 4, row_v);
+    vreal const_v = TB_FN(vload)(block + 8 * 7);
+    TB_FN(vload3)(block, 8, row_w);
+    vreal const_w = TB_FN(vload)(block + 8 * 11);
+    for (int k = 0; k < 3; ++k) {
+        o[k] = TB_FN(vsplat)(r->o[k]);
+        d[k] = TB_FN(vsplat)(r->d[k]);
+    }
+    vreal w_o = TB_FN(vdot3)(row_w, o) + const_w;
+    vreal w_d = TB_FN(vdot3)(row_w, d);
+    vreal t = -w_o / w_d;
+    vreal p[3];
+    for (int k = 0; k < 3; ++k)
+        p[k] = o[k] + t * d[k];
+    vreal u = TB_FN(vdot3)(row_u, p) + const_u;
+    vreal v = TB_FN(vdot3)(row_v, p) + const_v;
+    vmask hit = (t > 0) & (t < t_max) & (u >= 0) & (u <= 1) & (v >= 0) & (u + v <= 1);
+    h->t = t;
+    h->u = u;
+    h->v = v;
+    return hit;
+}
