@@ -15,7 +15,8 @@
  *    edge or vertex are inside), the same rule as the float64 reference;
  *  - 0 < t < t_max accepts: the scaled t is compared with t_max |det| before
  *    the division (a farther hit costs no division), then t itself, so a t
- *    rounded up to t_max, or overflowing to infinity, is a miss;
+ *    rounded up to t_max, overflowing to infinity, or rounded to 0 (an
+ *    infinite det from an infinite direction) is a miss;
  *  - every rejection is written as !(accept condition), so a NaN is a miss.
  * Prepared data: the raw vertices (9 reals). */
 
@@ -57,7 +58,7 @@ static inline int TB_FN(tb_moller_trumbore_test)(const tb_ray *restrict r, const
         return 0;
     real inv_det = 1 / abs_det;
     real t = scaled_t * inv_det;
-    if (!(t < t_max))
+    if (!(t > 0 && t < t_max)) /* t > 0 again: an infinite det gives t = 0 */
         return 0;
     h->t = t;
     h->u = u * inv_det;

@@ -37,7 +37,7 @@ TB_WIDE vmask TB_FN(tb_moller_trumbore_x8_test)(const tb_ray *restrict r, const 
     vreal inv_det = one / abs_det;
     vreal t = scaled_t * inv_det;
     vmask hit = (det != 0) & (u >= 0) & (u <= abs_det) & (v >= 0) & (u + v <= abs_det) &
-                (scaled_t > 0) & (scaled_t < t_max * abs_det) & (t < t_max);
+                (scaled_t > 0) & (scaled_t < t_max * abs_det) & (t > 0) & (t < t_max);
     h->t = t;
     h->u = u * inv_det;
     h->v = v * inv_det;
