@@ -15,10 +15,11 @@
  *                        1 on a hit with 0 < t < t_max, writing t, u, v
  *                        (the hit point is (1-u-v) v0 + u v1 + v v2); 0 else
  * A wide kernel file kernels/<name>_x8.h adds, for a kernel of the same name:
- *   vmask tb_<name>_x8_test(const tb_ray *r, const real *block, vreal t_max, tb_vhit *h)
- *                        the same test, branchless, on the 8 triangles of a
- *                        block (field f of lane l at block[8 f + l]); a lane
- *                        of the mask is all ones on a hit
+ *   vmask tb_<name>_x8_test(const tb_ray *r, const real *lanes, vreal t_max, tb_vhit *h)
+ *                        the same test, branchless, on one vector's worth of
+ *                        the triangles of a block of 8 (field f of lane l at
+ *                        lanes[8 f + l]: the block, or its second half for
+ *                        double); a lane of the mask is all ones on a hit
  * and reuses the scalar stride, prepare and ray. The loops below are
  * instantiated once per kernel, mode and ISA, so tests inline into them and
  * dispatch happens once per batch. The loops pass the best t so far as
@@ -46,17 +47,23 @@ typedef struct {
     real t, u, v;
 } tb_hit;
 
-/* 8 lanes of the precision, and masks of the same width (lane = all ones or
- * zero, as vector comparisons yield). GCC/Clang vector extensions: the
- * compiler lowers them to the ISA of the function they are used in. */
-typedef real vreal __attribute__((vector_size(8 * sizeof(real))));
+/* One 32-byte vector of the precision (8 floats or 4 doubles: one AVX
+ * register), and masks of the same width (lane = all ones or zero, as vector
+ * comparisons yield). GCC/Clang vector extensions: the compiler lowers them to
+ * the ISA of the function they are used in. A block of 8 triangles is one
+ * vector of floats or two of doubles. (Wider generic vectors are no gain:
+ * GCC lowers a 64-byte vector comparison to scalar compares without
+ * AVX-512, which made an 8-double form 7x slower than the 8-float one.) */
+typedef real vreal __attribute__((vector_size(32)));
 #define mask_elem TB_FN(tb_mask_elem)
 #if TB_REAL_IS_DOUBLE
 typedef int64_t mask_elem;
 #else
 typedef int32_t mask_elem;
 #endif
-typedef mask_elem vmask __attribute__((vector_size(8 * sizeof(real))));
+typedef mask_elem vmask __attribute__((vector_size(32)));
+#define TB_VLANES ((int)(sizeof(vreal) / sizeof(real))) /* lanes per vector */
+#define TB_VPB (8 / TB_VLANES)                           /* vectors per block */
 
 typedef struct {
     vreal t, u, v;
@@ -148,12 +155,13 @@ TB_FN(tb_scalar_loop)(TB_FN(tb_test_fn) test, TB_FN(tb_ray_fn) make_ray, size_t 
     job->uv_sum = uv_sum;
 }
 
-/* One batch of a wide kernel: each ray against blocks of 8 triangles. Each
- * lane keeps its own closest hit (its t is that lane's t_max for the next
- * block), so lanes never talk to each other inside the triangle loop; one
- * reduction per ray picks the closest lane, ties to the lowest index. Lanes
- * past the last triangle are masked off. Pairs are not a wide mode (one ray
- * against one triangle has no triangles to spread over lanes). */
+/* One batch of a wide kernel: each ray against blocks of 8 triangles, one
+ * vector (float) or two (double) at a time. Each lane keeps its own closest
+ * hit (its t is that lane's t_max for the next block), so lanes never talk to
+ * each other inside the triangle loop; one reduction per ray picks the
+ * closest lane, ties to the lowest index. Lanes past the last triangle are
+ * masked off. Pairs are not a wide mode (one ray against one triangle has no
+ * triangles to spread over lanes). */
 static inline __attribute__((always_inline)) void
 TB_FN(tb_wide_loop)(TB_FN(tb_wide_fn) test, TB_FN(tb_ray_fn) make_ray, size_t stride,
                     tb_job *job, const int mode, const int timed)
@@ -161,11 +169,13 @@ TB_FN(tb_wide_loop)(TB_FN(tb_wide_fn) test, TB_FN(tb_ray_fn) make_ray, size_t st
     const real *o = job->origins, *d = job->directions, *rec = job->records;
     const real *t_max = job->t_max;
     const size_t n_blocks = (job->n_records + 7) / 8;
-    vmask lane, tail;
-    for (int l = 0; l < 8; ++l) {
-        lane[l] = l;
-        tail[l] = (size_t)((n_blocks - 1) * 8 + l) < job->n_records ? -1 : 0;
-    }
+    vmask lane[TB_VPB], tail[TB_VPB]; /* triangle index within a block; lanes in use in the last */
+    for (int v = 0; v < TB_VPB; ++v)
+        for (int l = 0; l < TB_VLANES; ++l) {
+            size_t in_block = (size_t)(v * TB_VLANES + l);
+            lane[v][l] = (mask_elem)in_block;
+            tail[v][l] = (n_blocks - 1) * 8 + in_block < job->n_records ? -1 : 0;
+        }
     uint64_t hits = 0, tests = 0;
     double t_sum = 0, uv_sum = 0;
     const uint64_t loops = timed ? job->loops : 1;
@@ -173,22 +183,31 @@ TB_FN(tb_wide_loop)(TB_FN(tb_wide_fn) test, TB_FN(tb_ray_fn) make_ray, size_t st
         for (size_t i = 0; i < job->n_rays; ++i) {
             tb_ray r;
             make_ray(o + 3 * i, d + 3 * i, &r);
-            tb_vhit best = {TB_FN(vsplat)(t_max[i]), TB_FN(vsplat)((real)NAN),
-                            TB_FN(vsplat)((real)NAN)};
-            vmask index = lane * 0 - 1;
+            tb_vhit best[TB_VPB];
+            vmask index[TB_VPB];
+            for (int v = 0; v < TB_VPB; ++v) {
+                best[v].t = TB_FN(vsplat)(t_max[i]);
+                best[v].u = best[v].v = TB_FN(vsplat)((real)NAN);
+                index[v] = lane[v] * 0 - 1;
+            }
             size_t b = 0;
             for (; b < n_blocks; ++b) {
-                tb_vhit h;
-                vmask m = test(&r, rec + stride * 8 * b, best.t, &h);
-                if (b == n_blocks - 1)
-                    m &= tail;
-                best.t = TB_FN(vselect)(m, h.t, best.t);
-                if (mode == TB_CLOSEST_UV || !timed) {
-                    best.u = TB_FN(vselect)(m, h.u, best.u);
-                    best.v = TB_FN(vselect)(m, h.v, best.v);
+                int found = 0;
+                for (int v = 0; v < TB_VPB; ++v) {
+                    tb_vhit h;
+                    vmask m = test(&r, rec + stride * 8 * b + v * TB_VLANES, best[v].t, &h);
+                    if (b == n_blocks - 1)
+                        m &= tail[v];
+                    best[v].t = TB_FN(vselect)(m, h.t, best[v].t);
+                    if (mode == TB_CLOSEST_UV || !timed) {
+                        best[v].u = TB_FN(vselect)(m, h.u, best[v].u);
+                        best[v].v = TB_FN(vselect)(m, h.v, best[v].v);
+                    }
+                    index[v] = (m & (lane[v] + (mask_elem)(8 * b))) | (~m & index[v]);
+                    if (mode == TB_ANY)
+                        found |= TB_FN(vany)(m);
                 }
-                index = (m & (lane + (mask_elem)(8 * b))) | (~m & index);
-                if (mode == TB_ANY && TB_FN(vany)(m)) {
+                if (found) {
                     ++b;
                     break;
                 }
@@ -196,26 +215,30 @@ TB_FN(tb_wide_loop)(TB_FN(tb_wide_fn) test, TB_FN(tb_ray_fn) make_ray, size_t st
             /* triangles tested (the masked lanes of the last block are not tests) */
             tests += b < n_blocks ? 8 * b : job->n_records;
             /* the closest lane; ties to the lowest triangle index */
-            int best_lane = -1;
-            for (int l = 0; l < 8; ++l)
-                if (index[l] >= 0 &&
-                    (best_lane < 0 || best.t[l] < best.t[best_lane] ||
-                     (best.t[l] == best.t[best_lane] && index[l] < index[best_lane])))
-                    best_lane = l;
+            int best_v = -1, best_l = -1;
+            for (int v = 0; v < TB_VPB; ++v)
+                for (int l = 0; l < TB_VLANES; ++l)
+                    if (index[v][l] >= 0 &&
+                        (best_v < 0 || best[v].t[l] < best[best_v].t[best_l] ||
+                         (best[v].t[l] == best[best_v].t[best_l] &&
+                          index[v][l] < index[best_v][best_l]))) {
+                        best_v = v;
+                        best_l = l;
+                    }
             if (timed) {
-                if (best_lane >= 0) {
+                if (best_v >= 0) {
                     ++hits;
-                    t_sum += best.t[best_lane];
+                    t_sum += best[best_v].t[best_l];
                     if (mode == TB_CLOSEST_UV)
-                        uv_sum += (double)best.u[best_lane] + best.v[best_lane];
+                        uv_sum += (double)best[best_v].u[best_l] + best[best_v].v[best_l];
                 }
             } else {
                 real *t_out = job->t_out, *u_out = job->u_out, *v_out = job->v_out;
-                int found = best_lane >= 0;
-                job->index_out[i] = found ? (int64_t)index[best_lane] : -1;
-                t_out[i] = found ? best.t[best_lane] : (real)NAN;
-                u_out[i] = found ? best.u[best_lane] : (real)NAN;
-                v_out[i] = found ? best.v[best_lane] : (real)NAN;
+                int found = best_v >= 0;
+                job->index_out[i] = found ? (int64_t)index[best_v][best_l] : -1;
+                t_out[i] = found ? best[best_v].t[best_l] : (real)NAN;
+                u_out[i] = found ? best[best_v].u[best_l] : (real)NAN;
+                v_out[i] = found ? best[best_v].v[best_l] : (real)NAN;
             }
         }
     job->hits = hits;
@@ -265,6 +288,8 @@ TB_INSTANTIATE(moller_trumbore_aa)
 TB_WIDE_KERNEL_LIST(TB_INSTANTIATE_WIDE)
 #undef TB_INSTANTIATE_WIDE
 
+#undef TB_VPB
+#undef TB_VLANES
 #undef tb_vhit
 #undef vmask
 #undef mask_elem

@@ -51,5 +51,6 @@ def test_each_isa_uses_its_registers(disassembly, kernel, suffix):
     assert "ymm" not in code["baseline"] and "zmm" not in code["baseline"]
     assert len(re.findall(r"\bv\w+ps\b|\bv\w+pd\b", code["avx2"])) > 20  # packed AVX arithmetic
     assert "ymm" in code["avx2"] and "zmm" not in code["avx2"]
-    if suffix == "f64":  # 8 doubles fill one 512-bit register
-        assert "zmm" in code["avx512"]
+    # no lane lowered to scalar compares (GCC does that to vector comparisons
+    # wider than the ISA's registers; the per-ray reduction has a few)
+    assert len(re.findall(r"\bv?u?comis[sd]\b", code["avx2"])) < 30
