@@ -165,6 +165,28 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
+# ------------------------------------------------------------------- seed
+
+
+def _seed(args: argparse.Namespace) -> int:
+    import shlex
+
+    from tribench.reports.seed import write_seed_report
+
+    from .seed import KINDS_CSV, SEED_CSV, WORKLOADS_CSV, format_table, run_seed
+
+    out = args.out or f"runs/seed-{'quick-' if args.quick else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
+    words = ["tribench", "seed", *[w for s in args.scene or [] for w in ("--scene", s)],
+             *(["--quick"] if args.quick else []), "--out", out,
+             *[w for k in ("size", "sample") if getattr(args, k) for w in (f"--{k}", str(getattr(args, k)))]]
+    result = run_seed(out, scenes=args.scene, quick=args.quick, size=args.size, sample=args.sample,
+                      progress=False if args.no_progress else None, command=shlex.join(words))
+    report = write_seed_report(out)
+    print(format_table(result.tables[SEED_CSV], result.tables[WORKLOADS_CSV]))
+    print(f"\n{result.elapsed_s:.0f} s; tables: {out}/{SEED_CSV}, {KINDS_CSV}, {WORKLOADS_CSV}; report: {report}")
+    return 0
+
+
 # ------------------------------------------------------------------ stats
 
 
@@ -205,6 +227,27 @@ def _calibrate(args: argparse.Namespace) -> int:
     print(f"  noise floor            {cal['noise_floor']:.4f} (log), margin {100 * cal['margin']:.2f}%")
     saved = "" if args.no_save else f" and {user_calibration_path()}"
     print(f"wrote {out}/calibration.json{saved}", file=sys.stderr)
+    return 0
+
+
+# --------------------------------------------------------------- validate
+
+
+def _validate(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from . import validate
+
+    kernels = _split(",".join(args.kernels or [])) or None
+    dtypes = _split(",".join(args.dtype or [])) or validate.DTYPES
+    df = validate.run(kernels, dtypes, quick=args.quick, seed=args.seed)
+    out = Path(args.out or "validate.csv")
+    if out.is_dir():
+        out = out / "validate.csv"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    df.to_csv(out, index=False)
+    print(validate.format_table(df))
+    print(f"{len(df)} rows in {df.attrs['seconds']:.1f} s; wrote {out}", file=sys.stderr)
     return 0
 
 
@@ -278,6 +321,41 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", metavar="RUN_DIR", help="run folder (default runs/<date-time>)")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
+
+    val = sub.add_parser(
+        "validate",
+        help="robustness suite: cracks at shared edges and vertices, Embree's sphere, extreme input, per kernel",
+        description="Asks every kernel, at each precision, rays aimed exactly at shared edges and vertices of "
+        "exactly coplanar meshes, rays from inside a finely tessellated sphere far from the origin (Embree's "
+        "test), and pairs at scales 1e-8 to 1e8, tiny and needle triangles, grazing and parallel rays, "
+        "degenerate triangles, NaN and Inf (see tribench.harness.validate). Prints one row per kernel and "
+        "precision, one column per test, and writes the tidy CSV: kernel, dtype, isa, test, rays, failures, "
+        "rate, expected, verdict, detail. Exits 0 even where a promise is broken.",
+    )
+    val.add_argument("--kernels", nargs="+", metavar="K", help="kernels (default: all of `tribench info`)")
+    val.add_argument("--dtype", nargs="+", metavar="D", help="float32 and/or float64 (default both)")
+    val.add_argument("--out", metavar="FILE.csv", help="the CSV (default ./validate.csv; in a directory: validate.csv)")
+    val.add_argument("--quick", action="store_true", help="small sets, a few seconds (the tests' size)")
+    val.add_argument("--seed", type=int, default=0, help="seed of every test's rays (default 0)")
+    val.set_defaults(func=_validate)
+
+    seed = sub.add_parser(
+        "seed",
+        help="replay the seed's renders (scene02, scene03) through the harness, beside the paper's table",
+        description="Traces each scene as the seed's ray tracer does, times every kernel on a sample of each "
+        "kind of ray (primary, reflected, shadow) in fresh worker processes, scales to one render's "
+        "time with 95%% CIs, and sets it beside the paper's Unix times. Writes the run folder, "
+        "seed.csv (the table), seed_kinds.csv, seed_workloads.csv (per-test hit rate, miss-stage mix), "
+        "both seed kernels' pictures with their difference mask, and seed.html.",
+    )
+    seed.add_argument("--scene", action="append", metavar="FILE",
+                      help="a scene file in the seed's format, instead of scene02 and scene03 (repeatable)")
+    seed.add_argument("--quick", action="store_true", help="the same shape in under a minute (128x128, wide intervals)")
+    seed.add_argument("--out", metavar="RUN_DIR", help="run folder (default runs/seed-<date-time>)")
+    seed.add_argument("--no-progress", action="store_true", help="no progress bar")
+    seed.add_argument("--size", type=int, help=argparse.SUPPRESS)  # image side, for tests
+    seed.add_argument("--sample", type=int, help=argparse.SUPPRESS)  # rays sampled per kind, for tests
+    seed.set_defaults(func=_seed)
 
     from tribench.reports.cli import add_parser as add_reports
     from tribench.workloads.cli import add_parser as add_workloads

@@ -81,6 +81,10 @@ def generate(spec: Spec) -> Workload:
         from .pairs import generate_pairs
 
         return generate_pairs(spec, wid)
+    if spec.kind == "seed":
+        from .seed_workload import generate_seed_workload  # lazy: traces a scene on use
+
+        return generate_seed_workload(spec, wid)
     from .rays import generate_mesh_workload  # lazy: pulls in trimesh on use
 
     return generate_mesh_workload(spec, wid)
@@ -236,7 +240,10 @@ def list_cached() -> list[CachedWorkload]:
             with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
                 meta = _read_meta(npz)
             spec, achieved = meta.get("spec"), meta.get("achieved")
-            cls = {"pairs": PairSpec, "mesh": MeshSpec}.get((spec or {}).get("kind"))
+            kind = (spec or {}).get("kind")
+            cls = {"pairs": PairSpec, "mesh": MeshSpec}.get(kind)
+            if kind == "seed":
+                from .seed_workload import SeedSpec as cls
             if cls is None:
                 problem = "unknown kind"
             elif meta.get("version") != cls.version:

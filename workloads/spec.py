@@ -10,6 +10,9 @@ Two kinds:
   hit's t), ``"closest_uv"`` (and its barycentrics) or ``"any"`` (some hit,
   as shadow rays ask).
 
+A third kind, :class:`~tribench.workloads.seed_workload.SeedSpec` (the seed's ray
+stream), lives in :mod:`~tribench.workloads.seed_workload`.
+
 A spec's identity is its canonical JSON plus its generator version (plus the
 sha256 of the file for a mesh read from disk): :func:`workload_id` hashes it
 into the short name of the cached workload. Fields that do not apply to a
@@ -38,7 +41,10 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any, ClassVar, Union
+from typing import TYPE_CHECKING, Any, ClassVar, Union
+
+if TYPE_CHECKING:
+    from .seed_workload import SeedSpec
 
 __all__ = [
     "PAIRS_VERSION",
@@ -375,7 +381,8 @@ class MeshSpec:
         return f"mesh {name} triangles={count} {rays}{result} {self.dtype} seed={self.seed}"
 
 
-Spec = Union[PairSpec, MeshSpec]
+# SeedSpec (the seed's ray stream) lives in seed_workload, which imports this module.
+Spec = Union[PairSpec, MeshSpec, "SeedSpec"]
 
 
 def _checked_mesh_file(path: str) -> str:
@@ -403,8 +410,12 @@ def spec_from_dict(d: Mapping[str, Any]) -> Spec:
     d = dict(d)
     kind = d.pop("kind", None)
     cls = {"pairs": PairSpec, "mesh": MeshSpec}.get(kind)
+    if kind == "seed":
+        from .seed_workload import SeedSpec
+
+        cls = SeedSpec
     if cls is None:
-        raise ValueError(f"unknown workload kind {kind!r}: expected 'pairs' or 'mesh'")
+        raise ValueError(f"unknown workload kind {kind!r}: expected 'pairs', 'mesh' or 'seed'")
     names = {f.name for f in fields(cls)}
     unknown = sorted(set(d) - names)
     if unknown:
@@ -438,6 +449,8 @@ def identity(spec: Spec) -> dict[str, Any]:
     not by its path, so the same file anywhere gives the same id.
     """
     d = {**spec.to_dict(), "version": spec.version}
+    if spec.kind == "seed":
+        d.update(spec.scene_identity())
     if isinstance(spec, MeshSpec) and spec.is_file:
         d["mesh"] = "file"
         d["mesh_sha256"] = _file_sha256(spec.mesh)

@@ -1,0 +1,504 @@
+"""``tribench seed``: the seed's two renders replayed through the harness, beside the paper's table.
+
+The seed (Vitse 2022) timed whole 512 x 512 renders of scene02 and scene03
+with Unix ``time``, once per algorithm. Here each render's ray stream is cut
+into its three kinds of ray (primary, reflected, shadow), each kind is a
+workload (:class:`~tribench.workloads.seed_workload.SeedSpec`: a uniform
+sample of its rays against every triangle), and every kernel is timed on
+every workload by the ordinary runner (fresh pinned processes, interleaved
+rounds, checked checksums). Per process, one render's time is then
+
+    render_s = sum over ray kinds of  ns_per_test x tests_per_pass x stream_tests / sample_tests
+
+i.e. the time of one pass over the sample scaled by the ratio of the
+render's ray-triangle tests of that kind to the sample's (exact counts, see
+the workload). Each process gives one render time; the estimate is their
+mean with a Student-t interval, and a ratio to ``moller_seed`` is paired
+per process (log scale, t-interval): :mod:`tribench.harness.stats`.
+
+What the replay covers: the ray-triangle tests of the render, and only
+them. The seed's times also cover spheres, the floor, shading, writing the
+image and starting the program (scene02's 12 triangles are a small part of
+its time; scene03's 968 dominate). So the replay's seconds are smaller than
+the paper's, and its ratio is the kernels' own, undiluted.
+
+Files written into the run folder, besides the runner's (run.json,
+batches.csv, processes.csv, checks.csv) and the analysis's (estimates.csv,
+speedups.csv): :data:`COLUMNS` documents each one's columns.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+import pandas as pd
+
+from . import records, stats
+
+__all__ = [
+    "BASELINE",
+    "COLUMNS",
+    "FULL",
+    "PAPER",
+    "QUICK",
+    "Design",
+    "SeedResult",
+    "format_table",
+    "make_pictures",
+    "render_per_process",
+    "render_table",
+    "run_seed",
+    "seed_kernels",
+    "seed_tables",
+]
+
+#: The seed's table: Unix ``time`` of the whole 512 x 512 render, seconds
+#: (2.3 GHz Core i9; Vitse 2022, "Performances").
+PAPER = {
+    "scene02": {"curless_seed": {"real": 4.131, "user": 2.029}, "moller_seed": {"real": 3.544, "user": 1.704}},
+    "scene03": {"curless_seed": {"real": 96.438, "user": 94.305}, "moller_seed": {"real": 57.970, "user": 55.691}},
+}
+BASELINE = "moller_seed"
+PAIR = ("curless_seed", "moller_seed")
+FIRST_KERNELS = ("curless_seed", "moller_seed", "curless", "moller_trumbore")
+#: The pictures are rendered as the seed computed them: float triangle tests.
+PICTURE_DTYPE = "float32"
+#: A differing pixel is explained when one of its rays passes within this
+#: (barycentric) distance of a triangle's boundary: float32 rounding and the
+#: seed kernels' absolute epsilons decide such rays differently.
+EDGE_TOLERANCE = 5e-3
+#: ... or when its colours differ by less than this (an 8-bit truncation flipped).
+LAST_BIT = 1e-5
+
+SEED_CSV = "seed.csv"
+KINDS_CSV = "seed_kinds.csv"
+WORKLOADS_CSV = "seed_workloads.csv"
+PICTURES_CSV = "seed_pictures.csv"
+
+_MISS_STAGES = ("parallel", "behind_origin", "outside_edge_1", "outside_edge_2", "outside_edge_3")
+
+#: Every file this module writes, with its columns and their units.
+COLUMNS: dict[str, dict[str, str]] = {
+    SEED_CSV: {
+        "scene": "scene name (file stem for a scene file)",
+        "kernel": "kernel name",
+        "triangles": "triangles of the scene",
+        "render_tests": "ray-triangle tests of one render (all ray kinds; shadow rays stop at the first occluder)",
+        "render_s": "replayed time of one render's triangle tests, seconds: mean over processes",
+        "render_s_ci_low": "lower end of its 95% Student-t interval over processes, seconds",
+        "render_s_ci_high": "upper end of that interval, seconds",
+        "render_s_min": "smallest per-process value, seconds",
+        "replay_ns_per_test": "render_s / render_tests, nanoseconds",
+        "ratio_to_moller_seed": "render time of this kernel / that of moller_seed "
+                                "(geometric mean of per-process ratios)",
+        "ratio_to_moller_seed_ci_low": "lower end of its 95% paired interval",
+        "ratio_to_moller_seed_ci_high": "upper end of that interval",
+        "n_processes": "processes (replicates) behind the estimate",
+        "paper_real_s": "the seed's Unix time 'real' for this kernel and scene, seconds (empty: not in the paper)",
+        "paper_user_s": "the seed's Unix time 'user', seconds",
+        "paper_ratio_real": "paper_real_s / moller_seed's paper_real_s",
+        "paper_ratio_user": "paper_user_s / moller_seed's paper_user_s",
+        "paper_user_ns_per_test": "paper_user_s / render_tests, nanoseconds: an upper bound on the seed's cost per "
+                                  "test (its user time also covers spheres, the floor and shading)",
+    },
+    KINDS_CSV: {
+        "scene": "scene name",
+        "rays": "ray kind: primary, reflected or shadow",
+        "kernel": "kernel name",
+        "workload_id": "the sample's workload id (tribench workloads show ID)",
+        "mode": "closest (primary, reflected) or any (shadow)",
+        "ns_per_test": "nanoseconds per ray-triangle test the kernel ran: mean over processes of the "
+                       "per-process median",
+        "ns_per_test_ci_low": "lower end of its 95% Student-t interval",
+        "ns_per_test_ci_high": "upper end of that interval",
+        "tests_per_pass": "tests the kernel runs in one pass over the sample (any mode: up to each ray's first "
+                          "hit, in blocks of 8 for wide kernels)",
+        "sample_tests": "tests a scalar kernel runs in one pass over the sample",
+        "stream_tests": "tests a scalar kernel runs on all of the render's rays of this kind",
+        "render_s": "this kind's share of render_s, seconds (mean over processes)",
+        "render_share": "render_s / the render's render_s",
+        "n_processes": "processes behind the estimate",
+    },
+    WORKLOADS_CSV: {
+        "scene": "scene name",
+        "rays": "ray kind, or 'render' for the three together (weighted by the render's tests)",
+        "workload_id": "workload id (empty for 'render')",
+        "mode": "closest or any",
+        "triangles": "triangles of the scene",
+        "stream_rays": "rays of this kind in the render that test the triangles",
+        "stream_tests": "their ray-triangle tests",
+        "sample_rays": "rays in the sample",
+        "sample_tests": "tests of one pass over the sample",
+        "test_hit_rate": "per-test hit rate: hits / tests run, by the float64 reference (fraction)",
+        "ray_hit_rate": "per-ray hit rate: rays that hit a triangle / rays (fraction)",
+        "ambiguous_rays": "sampled rays a finite-precision kernel may answer either way",
+        **{f"miss_{s}": f"fraction of the misses rejected at stage {s} of Curless's test" for s in _MISS_STAGES},
+    },
+    PICTURES_CSV: {
+        "scene": "scene name",
+        "width": "image width, pixels",
+        "height": "image height, pixels",
+        "dtype": "precision of the triangle tests",
+        "differing_pixels": "pixels whose 8-bit colours differ between curless_seed and moller_seed",
+        "near_edge_pixels": "of those, pixels with a ray passing within edge_tolerance of a triangle's boundary",
+        "last_bit_pixels": "of the others, pixels whose colours differ by less than 1e-5 (a truncation flipped)",
+        "other_pixels": "differing pixels explained by neither",
+        "edge_tolerance": "barycentric tolerance of near_edge_pixels",
+        "curless_seed_png": "the curless_seed render",
+        "moller_seed_png": "the moller_seed render",
+        "difference_png": "the differing pixels in red over the moller_seed render",
+    },
+}
+
+
+@dataclass(frozen=True)
+class Design:
+    """How much ``tribench seed`` measures."""
+
+    processes: int
+    rounds: int
+    warmup: int
+    target_ms: float
+    sample: int
+    size: int
+
+
+# Like default_sweep: 20 processes x 6 rounds. A pass over a 4096-ray sample of
+# scene03 takes 5-55 ms, so a batch is one pass there: about 3 minutes on 2 cores.
+FULL = Design(processes=20, rounds=6, warmup=1, target_ms=2.0, sample=4096, size=512)
+QUICK = Design(processes=3, rounds=2, warmup=1, target_ms=1.0, sample=256, size=128)
+
+
+@dataclass(frozen=True)
+class SeedResult:
+    run_dir: Path
+    tables: dict[str, pd.DataFrame]
+    elapsed_s: float
+
+
+def seed_kernels() -> tuple[str, ...]:
+    """The seed's two kernels, their clean forms, then every other public kernel (the faster wide ones)."""
+    from tribench import ext
+
+    names = ext.kernel_names()
+    return tuple(k for k in FIRST_KERNELS if k in names) + tuple(k for k in names if k not in FIRST_KERNELS)
+
+
+def _labels(scenes: Sequence[str]) -> dict[str, str]:
+    """A short unique name per scene (file stems; a repeated stem gets -2, -3...)."""
+    out: dict[str, str] = {}
+    for s in scenes:
+        base = Path(s).stem if s not in PAPER else s
+        label, n = base, 1
+        while label in out.values():
+            n += 1
+            label = f"{base}-{n}"
+        out[s] = label
+    return out
+
+
+# ------------------------------------------------------------------ running
+
+
+def run_seed(
+    out: str | Path,
+    scenes: Sequence[str] | None = None,
+    quick: bool = False,
+    size: int | None = None,
+    sample: int | None = None,
+    progress: bool | None = None,
+    command: str | None = None,
+    log: TextIO = sys.stderr,
+) -> SeedResult:
+    """Make the workloads, run the sweep into ``out``, write the tables and the pictures.
+
+    Parameters
+    ----------
+    scenes : built-in names or scene files (default scene02 and scene03)
+    quick : the same shape in well under a minute (:data:`QUICK`; wide intervals)
+    size, sample : override the image side and the rays sampled per kind
+    """
+    from tribench.workloads import cache
+    from tribench.workloads.seed_workload import RAY_KINDS, EmptyStream, SeedSpec
+    from tribench.workloads.spec import workload_id
+
+    from . import runner
+    from .analysis import analyse, write_tables
+    from .plan import Sweep
+
+    t0 = time.monotonic()
+    design = QUICK if quick else FULL
+    size, sample = size or design.size, sample or design.sample
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ValueError(f"{out} exists and is not empty")
+    specs: list = []
+    info: dict[str, dict[str, Any]] = {}
+    scenes = [str(s) for s in (scenes or tuple(PAPER))]
+    resolved = [SeedSpec(s, sample=sample, width=size, height=size).scene for s in scenes]
+    labels = _labels(resolved)
+    for scene in resolved:
+        for rays in RAY_KINDS:
+            spec = SeedSpec(scene, rays, sample=sample, width=size, height=size)
+            print(f"workload: {spec.summary()}", file=log)
+            try:
+                w = cache.make(spec)  # the first time, traces the scene (seconds at 512 x 512)
+            except EmptyStream as exc:
+                print(f"  skipped: {exc}", file=log)
+                continue
+            specs.append(spec)
+            a = w.achieved
+            info[workload_id(spec)] = {
+                "scene": labels[scene], "paper": scene if scene in PAPER else None, "rays": rays, "mode": spec.mode,
+                **{k: a[k] for k in ("triangles", "stream_rays", "stream_tests", "sample_rays", "sample_tests",
+                                     "test_hit_rate", "ray_hit_rate", "ambiguous_rays", "miss_mix")},
+            }
+    if not specs:
+        raise ValueError("no scene shoots a ray that tests a triangle: nothing to replay")
+
+    sweep = Sweep(seed_kernels(), tuple(specs), processes=design.processes, rounds=design.rounds,
+                  warmup=design.warmup, target_ms=design.target_ms)
+    print(f"sweep: {len(sweep.kernels)} kernels x {len(specs)} workloads, {sweep.processes} processes x "
+          f"{sweep.rounds} rounds: {sweep.n_batches} batches -> {out}", file=log)
+    extra = {"command": command, "seed_replay": {"scenes": [labels[s] for s in resolved], "quick": quick,
+                                                 "width": size, "height": size, "sample": sample,
+                                                 "paper": PAPER, "workloads": info}}
+    runner.start(sweep, out, progress=progress, extra=extra)
+    write_tables(out, analyse(out, baseline=BASELINE))
+
+    pictures = []
+    for scene in resolved:
+        if any(v["scene"] == labels[scene] for v in info.values()):
+            print(f"pictures: {labels[scene]}, curless_seed and moller_seed at {size}x{size}", file=log)
+            pictures.append(make_pictures(scene, labels[scene], size, out))
+    pd.DataFrame(pictures, columns=list(COLUMNS[PICTURES_CSV])).to_csv(out / PICTURES_CSV, index=False)
+    tables = seed_tables(out)
+    for name in (SEED_CSV, KINDS_CSV, WORKLOADS_CSV):
+        tables[name].to_csv(out / name, index=False)
+    tables[PICTURES_CSV] = pd.read_csv(out / PICTURES_CSV)
+    return SeedResult(out, tables, time.monotonic() - t0)
+
+
+def make_pictures(scene: str, label: str, size: int, out: Path) -> dict[str, Any]:
+    """Render ``scene`` with both seed kernels, save the PNGs and the difference mask; count the differences."""
+    from tribench.workloads.seed_scene import load_scene
+    from tribench.workloads.seed_trace import difference_mask, pixel_edge_margins, save_mask_png, trace
+
+    s = load_scene(scene)
+    traces = {k: trace(s, k, PICTURE_DTYPE, size, size) for k in PAIR}
+    row: dict[str, Any] = {"scene": label, "width": size, "height": size, "dtype": PICTURE_DTYPE}
+    for k, tr in traces.items():
+        row[f"{k}_png"] = tr.to_png(out / f"{label}_{k}.png").name
+    a, b = traces["curless_seed"], traces["moller_seed"]
+    mask, count = difference_mask(a, b)
+    row["difference_png"] = save_mask_png(mask, out / f"{label}_difference.png", b.to_uint8()).name
+    margin = np.minimum(pixel_edge_margins(a, mask), pixel_edge_margins(b, mask))
+    near = margin < EDGE_TOLERANCE
+    tiny = np.abs(a.image - b.image)[mask].max(axis=1) < LAST_BIT
+    row.update(differing_pixels=count, near_edge_pixels=int(near.sum()), last_bit_pixels=int((~near & tiny).sum()),
+               other_pixels=int((~near & ~tiny).sum()), edge_tolerance=EDGE_TOLERANCE)
+    return row
+
+
+# ------------------------------------------------------------------ figures
+
+
+def render_per_process(pp: pd.DataFrame, workloads: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
+    """One render's time per scene, kernel and process.
+
+    Parameters
+    ----------
+    pp : DataFrame
+        ``kernel, workload_id, process, ns_per_test, tests_per_pass`` (the
+        per-process median ns/test of :func:`stats.per_process`, and the
+        tests of one pass over the sample).
+    workloads : mapping
+        workload id -> ``scene``, ``stream_tests``, ``sample_tests``.
+
+    Returns
+    -------
+    DataFrame
+        ``scene, kernel, process, render_s``: the sum over the scene's ray
+        kinds of ``ns_per_test * tests_per_pass * stream_tests / sample_tests``,
+        in seconds. A process that lacks one of the scene's kinds is left out
+        (its sum would be short).
+
+    Examples
+    --------
+    >>> pp = pd.DataFrame({"kernel": ["k"] * 2, "workload_id": ["a", "b"], "process": [0, 0],
+    ...                    "ns_per_test": [2.0, 4.0], "tests_per_pass": [100, 50]})
+    >>> w = {"a": {"scene": "s", "stream_tests": 1000, "sample_tests": 100},
+    ...      "b": {"scene": "s", "stream_tests": 600, "sample_tests": 60}}
+    >>> round(float(render_per_process(pp, w)["render_s"].iloc[0]) * 1e9, 6)  # 2*100*10 + 4*50*10
+    4000.0
+    """
+    info = pd.DataFrame.from_dict(dict(workloads), orient="index")[["scene", "stream_tests", "sample_tests"]]
+    d = pp.join(info, on="workload_id", how="inner")
+    d = d.assign(render_s=d["ns_per_test"] * d["tests_per_pass"] * d["stream_tests"] / d["sample_tests"] * 1e-9)
+    kinds = info.groupby("scene").size()
+    g = (d.groupby(["scene", "kernel", "process"], sort=False)["render_s"]
+         .agg(render_s="sum", kinds="size").reset_index())
+    return g.loc[g["kinds"] == g["scene"].map(kinds)].drop(columns="kinds").reset_index(drop=True)
+
+
+def _paired_ratio(per: pd.DataFrame, scene: str, kernel: str) -> tuple[float, float, float]:
+    """time_kernel / time_baseline, paired by process (nan when the baseline is absent)."""
+    if kernel == BASELINE:
+        return 1.0, 1.0, 1.0
+    sel = per.loc[per["scene"] == scene].pivot(index="process", columns="kernel", values="render_s")
+    if BASELINE not in sel or kernel not in sel:
+        return math.nan, math.nan, math.nan
+    both = sel[[kernel, BASELINE]].dropna()
+    # stats.speedup(b, k) is time_b / time_k: the kernel goes first to get time_kernel / time_baseline
+    s = stats.speedup(both[kernel].to_numpy(), both[BASELINE].to_numpy())
+    return s.ratio, s.ci_low, s.ci_high
+
+
+def render_table(per: pd.DataFrame, scenes: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
+    """The table beside the paper: one row per scene and kernel (columns: :data:`COLUMNS` ``seed.csv``).
+
+    ``scenes`` maps a scene name to ``triangles``, ``render_tests``,
+    ``paper`` (the key of :data:`PAPER`, or None) and optionally
+    ``paper_size`` (False when the replay's image is not the paper's
+    512 x 512: then the paper's ns/test bound is left empty).
+    """
+    rows = []
+    for (scene, kernel), g in per.groupby(["scene", "kernel"], sort=False):
+        e = stats.estimate(g["render_s"].to_numpy())
+        ratio, low, high = _paired_ratio(per, scene, kernel)
+        sc = scenes[scene]
+        paper = PAPER.get(sc.get("paper") or "", {})
+        mine, base = paper.get(kernel, {}), paper.get(BASELINE, {})
+        tests = sc["render_tests"]
+        rows.append({
+            "scene": scene, "kernel": kernel, "triangles": sc["triangles"], "render_tests": tests,
+            "render_s": e.mean, "render_s_ci_low": e.ci_low, "render_s_ci_high": e.ci_high, "render_s_min": e.minimum,
+            "replay_ns_per_test": e.mean / tests * 1e9,
+            "ratio_to_moller_seed": ratio, "ratio_to_moller_seed_ci_low": low, "ratio_to_moller_seed_ci_high": high,
+            "n_processes": e.n,
+            "paper_real_s": mine.get("real", math.nan), "paper_user_s": mine.get("user", math.nan),
+            "paper_ratio_real": mine["real"] / base["real"] if mine and base else math.nan,
+            "paper_ratio_user": mine["user"] / base["user"] if mine and base else math.nan,
+            "paper_user_ns_per_test": mine["user"] / tests * 1e9 if mine and sc.get("paper_size", True) else math.nan,
+        })
+    return pd.DataFrame(rows, columns=list(COLUMNS[SEED_CSV]))
+
+
+def _workloads_table(info: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
+    rows = []
+    for wid, w in info.items():
+        rows.append({"scene": w["scene"], "rays": w["rays"], "workload_id": wid, "mode": w["mode"],
+                     **{k: w[k] for k in ("triangles", "stream_rays", "stream_tests", "sample_rays", "sample_tests",
+                                          "test_hit_rate", "ray_hit_rate", "ambiguous_rays")},
+                     **{f"miss_{s}": w["miss_mix"].get(s, 0.0) for s in _MISS_STAGES}})
+    table = pd.DataFrame(rows, columns=list(COLUMNS[WORKLOADS_CSV]))
+    out = []
+    for scene, g in table.groupby("scene", sort=False):
+        # the render as a whole: hit rate weighted by tests, the mix by (estimated) misses
+        tests = g["stream_tests"].astype(float)
+        misses = tests * (1 - g["test_hit_rate"])
+        total = {"scene": scene, "rays": "render", "workload_id": "", "mode": "",
+                 "triangles": g["triangles"].iloc[0], "stream_rays": g["stream_rays"].sum(),
+                 "stream_tests": g["stream_tests"].sum(), "sample_rays": g["sample_rays"].sum(),
+                 "sample_tests": g["sample_tests"].sum(),
+                 "test_hit_rate": float((g["test_hit_rate"] * tests).sum() / tests.sum()),
+                 "ray_hit_rate": float((g["ray_hit_rate"] * g["stream_rays"]).sum() / g["stream_rays"].sum()),
+                 "ambiguous_rays": g["ambiguous_rays"].sum()}
+        for s in _MISS_STAGES:
+            total[f"miss_{s}"] = float((g[f"miss_{s}"] * misses).sum() / misses.sum()) if misses.sum() else 0.0
+        out += [g, pd.DataFrame([total], columns=table.columns)]
+    return pd.concat(out, ignore_index=True)
+
+
+def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
+    """``seed.csv``, ``seed_kinds.csv`` and ``seed_workloads.csv`` of a seed run, from its files alone."""
+    from tribench.workloads.seed_workload import RAY_KINDS
+
+    run = records.read_run(run_dir)
+    scene_order = {s: i for i, s in enumerate(run["seed_replay"]["scenes"])}
+    info = dict(sorted(run["seed_replay"]["workloads"].items(),  # scenes as given, kinds in ray order
+                       key=lambda kv: (scene_order.get(kv[1]["scene"], 0), RAY_KINDS.index(kv[1]["rays"]))))
+    kernels = run["sweep"]["kernels"]
+    batches = records.read_batches(run_dir)
+    pp = stats.per_process(batches)
+    timed = batches.loc[~batches["warmup"]]
+    passes = (timed["tests"] / timed["loops"]).groupby([timed["kernel"], timed["workload_id"]]).median()
+    pp = pp.join(passes.rename("tests_per_pass"), on=["kernel", "workload_id"])
+    korder = {k: i for i, k in enumerate(kernels)}
+    pp = pp.sort_values("kernel", key=lambda s: s.map(korder), kind="stable")
+
+    wl = _workloads_table(info)
+    paper_size = (run["seed_replay"]["width"], run["seed_replay"]["height"]) == (512, 512)
+    scenes = {r.scene: {"triangles": r.triangles, "render_tests": r.stream_tests, "paper_size": paper_size,
+                        "paper": next((w["paper"] for w in info.values() if w["scene"] == r.scene), None)}
+              for r in wl.loc[wl["rays"] == "render"].itertuples()}
+    per = render_per_process(pp, info)
+    seed = render_table(per, scenes)
+    sorder = {s: i for i, s in enumerate(scenes)}
+    seed = seed.assign(_o=seed["scene"].map(sorder) * 1000 + seed["kernel"].map(korder))
+    seed = seed.sort_values("_o").drop(columns="_o").reset_index(drop=True)
+
+    kinds = []
+    d = pp.join(pd.DataFrame.from_dict(info, orient="index"), on="workload_id", how="inner")
+    d["share_s"] = d["ns_per_test"] * d["tests_per_pass"] * d["stream_tests"] / d["sample_tests"] * 1e-9
+    for (wid, kernel), g in d.groupby(["workload_id", "kernel"], sort=False):
+        w = info[wid]
+        e = stats.estimate(g["ns_per_test"].to_numpy())
+        total = seed.loc[(seed["scene"] == w["scene"]) & (seed["kernel"] == kernel), "render_s"]
+        share = float(g["share_s"].mean())
+        kinds.append({"scene": w["scene"], "rays": w["rays"], "kernel": kernel, "workload_id": wid,
+                      "mode": w["mode"], "ns_per_test": e.mean, "ns_per_test_ci_low": e.ci_low,
+                      "ns_per_test_ci_high": e.ci_high, "tests_per_pass": float(g["tests_per_pass"].iloc[0]),
+                      "sample_tests": w["sample_tests"], "stream_tests": w["stream_tests"], "render_s": share,
+                      "render_share": share / float(total.iloc[0]) if len(total) else math.nan, "n_processes": e.n})
+    kt = pd.DataFrame(kinds, columns=list(COLUMNS[KINDS_CSV]))
+    order = {(s, r): i for i, (s, r) in enumerate(zip(wl["scene"], wl["rays"]))}
+    kt = kt.assign(_o=[order[(s, r)] * 1000 + korder[k] for s, r, k in zip(kt["scene"], kt["rays"], kt["kernel"])])
+    kt = kt.sort_values("_o").drop(columns="_o").reset_index(drop=True)
+    return {SEED_CSV: seed, KINDS_CSV: kt, WORKLOADS_CSV: wl}
+
+
+# ------------------------------------------------------------------ terminal
+
+
+def _ci(low: float, high: float, fmt: str) -> str:
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return "[no interval]"
+    return f"[{low:{fmt}}, {high:{fmt}}]"
+
+
+def format_table(seed: pd.DataFrame, workloads: pd.DataFrame | None = None) -> str:
+    """The table beside the paper, for the terminal."""
+    lines = ["The seed's renders replayed: triangle tests only, mean over processes with 95% CIs;",
+             "ratio = time_kernel / time_moller_seed (paired per process). Paper: Unix time of the whole render."]
+    for scene, g in seed.groupby("scene", sort=False):
+        first = g.iloc[0]
+        lines += ["", f"{scene}: {first['triangles']} triangles, {first['render_tests']:.3g} ray-triangle tests "
+                      f"per render, {first['n_processes']} processes"]
+        if workloads is not None:
+            r = workloads.loc[(workloads["scene"] == scene) & (workloads["rays"] == "render")]
+            if len(r):
+                r = r.iloc[0]
+                mix = ", ".join(f"{s.replace('outside_', '')} {100 * r[f'miss_{s}']:.1f}%" for s in _MISS_STAGES)
+                lines.append(f"  per-test hit rate {100 * r['test_hit_rate']:.3f}%; misses: {mix}")
+        lines.append(f"  {'kernel':<20}{'paper real s':>13}{'replay s':>11}  {'95% CI':<22}{'ratio':>7}  95% CI")
+        for r in g.itertuples(index=False):
+            paper = f"{r.paper_real_s:13.3f}" if math.isfinite(r.paper_real_s) else f"{'':13}"
+            lines.append(f"  {r.kernel:<20}{paper}{r.render_s:11.4g}  "
+                         f"{_ci(r.render_s_ci_low, r.render_s_ci_high, '.4g'):<22}{r.ratio_to_moller_seed:7.3f}  "
+                         f"{_ci(r.ratio_to_moller_seed_ci_low, r.ratio_to_moller_seed_ci_high, '.3f')}")
+        cur = g.loc[g["kernel"] == "curless_seed"]
+        if len(cur) and BASELINE in set(g["kernel"]):
+            c = cur.iloc[0]
+            paper = (f"paper {c.paper_ratio_real:.3f} (real), {c.paper_ratio_user:.3f} (user); "
+                     if math.isfinite(c.paper_ratio_real) else "")
+            lines.append(f"  Curless / Moller: {paper}replay {c.ratio_to_moller_seed:.3f} "
+                         f"{_ci(c.ratio_to_moller_seed_ci_low, c.ratio_to_moller_seed_ci_high, '.3f')}")
+    return "\n".join(lines)

@@ -1,0 +1,270 @@
+"""``seed.html``: the page of a ``tribench seed`` run, one self-contained file.
+
+Reads only the run folder: ``run.json``, the tables :mod:`tribench.harness.seed`
+wrote (``seed.csv``, ``seed_kinds.csv``, ``seed_workloads.csv``,
+``seed_pictures.csv``) and the pictures, which are inlined as base64 PNG.
+No script, no network; all text goes through :func:`html.escape`.
+
+Sections: the table beside the paper, ratios, ns/test per kernel and ray
+kind, the workload (per-test hit rate, miss-stage mix), pictures, machine,
+reproduce.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+from html import escape
+from pathlib import Path
+
+import pandas as pd
+
+from . import figures
+from .html import _CSS, _kv_table, _p, _table
+
+__all__ = ["SEED_REPORT", "render_seed", "write_seed_report"]
+
+SEED_REPORT = "seed.html"
+
+SECTIONS = {
+    "paper": "The table beside the paper",
+    "kinds": "Cost per test, by ray kind",
+    "workload": "The seed's workload: hit rate and miss stages",
+    "pictures": "Pictures",
+    "machine": "Machine and build",
+    "reproduce": "Reproduce",
+}
+
+
+def _v(x: float, fmt: str = ".4g") -> str:
+    return "–" if x is None or not math.isfinite(float(x)) else f"{x:{fmt}}"
+
+
+def _ci(low: float, high: float, fmt: str = ".4g") -> str:
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return "no interval"
+    return f"{low:{fmt}} – {high:{fmt}}"
+
+
+def _section(sid: str, body: str) -> str:
+    return f'<section id="{sid}"><h2>{escape(SECTIONS[sid])}</h2>{body}</section>'
+
+
+def _ratio_figure(seed: pd.DataFrame) -> str:
+    """Each kernel's render time over moller_seed's with its CI, per scene; the paper's ratio marked."""
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    scenes = list(dict.fromkeys(seed["scene"]))
+    kernels = list(dict.fromkeys(seed["kernel"]))
+    colours = figures.kernel_colours(kernels)
+    fig, axes = plt.subplots(1, len(scenes), figsize=(4.6 * len(scenes), 0.45 * len(kernels) + 1.3),
+                             squeeze=False, sharey=True)
+    for ax, scene in zip(axes[0], scenes):
+        rows = seed.loc[seed["scene"] == scene].set_index("kernel").reindex(kernels)
+        y = list(range(len(kernels)))[::-1]
+        for yi, (k, r) in zip(y, rows.iterrows()):
+            if not math.isfinite(r["ratio_to_moller_seed"]):
+                continue
+            if math.isfinite(r["ratio_to_moller_seed_ci_low"]):
+                ax.plot([r["ratio_to_moller_seed_ci_low"], r["ratio_to_moller_seed_ci_high"]], [yi, yi],
+                        color=colours[k], lw=2.4)
+            ax.plot([r["ratio_to_moller_seed"]], [yi], "o", color=colours[k], ms=6)
+            if math.isfinite(r["paper_ratio_real"]) and k != "moller_seed":
+                ax.plot([r["paper_ratio_real"]], [yi], "D", color="#333", ms=5, mfc="white", label="paper (real)")
+                ax.plot([r["paper_ratio_user"]], [yi], "D", color="#333", ms=5, label="paper (user)")
+        ax.axvline(1.0, color="#999", lw=0.8)
+        ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+        ax.xaxis.set_minor_formatter(NullFormatter())  # minor labels of a short log axis overlap
+        ax.set_yticks(y)
+        ax.set_yticklabels(kernels)
+        ax.set_title(scene, loc="left")
+        ax.set_xlabel("time / time of moller_seed (log; bars: 95% CI)")
+        handles, labels = ax.get_legend_handles_labels()
+        if handles:
+            keep = dict(zip(labels, handles))
+            ax.legend(keep.values(), keep.keys(), frameon=False, loc="lower right", fontsize=8)
+    fig.tight_layout()
+    return figures.svg_data_uri(fig)
+
+
+def _paper(seed: pd.DataFrame, wl: pd.DataFrame, replay: dict) -> str:
+    size = f"{replay['width']}×{replay['height']}"
+    body = [_p("Paper: the seed's Unix time of the whole 512×512 render (2.3 GHz Core i9, one run per cell). "
+               "Replay: the same render's ray–triangle tests, and only them, timed here on every kernel: "
+               "each kind of ray (primary, reflected, shadow) is a sampled workload, a pass over the sample "
+               "is scaled by the render's tests of that kind over the sample's, and the kinds are added; one "
+               "render time per worker process, mean with a 95% Student-t interval over processes. The ratio "
+               "to moller_seed is paired per process (log scale). The paper's times also cover spheres, the "
+               "floor, shading, output and start-up, so its seconds are larger and its ratio is diluted where "
+               "triangles are a small part of the work (scene02 has 12).")]
+    if size != "512×512":
+        warn = (f"This replay renders {size}, not the paper's 512×512: compare its ratios with the paper's, "
+                "not its seconds.")
+        body.append(f'<p class="warn">{escape(warn)}</p>')
+    for scene, g in seed.groupby("scene", sort=False):
+        first = g.iloc[0]
+        body.append(f"<h3>{escape(str(scene))}: {int(first['triangles'])} triangles, "
+                    f"{first['render_tests']:.4g} ray–triangle tests per {size} render</h3>")
+        rows = pd.DataFrame({
+            "kernel": g["kernel"],
+            "paper real (s)": [_v(x, ".3f") for x in g["paper_real_s"]],
+            "paper user (s)": [_v(x, ".3f") for x in g["paper_user_s"]],
+            "replay (s)": [_v(x) for x in g["render_s"]],
+            "95% CI (s)": [_ci(a, b) for a, b in zip(g["render_s_ci_low"], g["render_s_ci_high"])],
+            "replay ns/test": [_v(x, ".3g") for x in g["replay_ns_per_test"]],
+            "paper user ns/test (bound)": [_v(x, ".3g") for x in g["paper_user_ns_per_test"]],
+            "paper ratio real / user": [f"{_v(a, '.3f')} / {_v(b, '.3f')}" if math.isfinite(a) else "–"
+                                        for a, b in zip(g["paper_ratio_real"], g["paper_ratio_user"])],
+            "replay ratio to moller_seed": [_v(x, ".3f") for x in g["ratio_to_moller_seed"]],
+            "95% CI": [_ci(a, b, ".3f") for a, b in zip(g["ratio_to_moller_seed_ci_low"],
+                                                       g["ratio_to_moller_seed_ci_high"])],
+            "processes": g["n_processes"],
+        })
+        body.append(_table(rows, [(c, c) for c in rows.columns]))
+        cur = g.loc[g["kernel"] == "curless_seed"]
+        if len(cur):
+            c = cur.iloc[0]
+            paper = (f"the paper's {c['paper_ratio_real']:.3f} (real) and {c['paper_ratio_user']:.3f} (user), "
+                     if math.isfinite(c["paper_ratio_real"]) else "")
+            r = wl.loc[(wl["scene"] == scene) & (wl["rays"] == "render")]
+            why = ""
+            if len(r):
+                r = r.iloc[0]
+                why = (f" Its workload: per-test hit rate {100 * r['test_hit_rate']:.3g}%, and of the misses "
+                       f"{100 * r['miss_behind_origin']:.3g}% are behind the origin, which Curless rejects right "
+                       f"after its plane test and Möller–Trumbore only after u, v and t; "
+                       f"{100 * (1 - r['miss_behind_origin'] - r['miss_parallel']):.3g}% pass beside the triangle, "
+                       f"where Curless computes t, the point and one to three edge tests, and Möller–Trumbore "
+                       f"stops at u or v.")
+            body.append(_p(f"Curless over Möller: {paper}the replay's {c['ratio_to_moller_seed']:.3f} "
+                           f"(95% CI {_ci(c['ratio_to_moller_seed_ci_low'], c['ratio_to_moller_seed_ci_high'], '.3f')}"
+                           ")."
+                           + why))
+    body.append(f'<figure><img src="{escape(_ratio_figure(seed))}" alt="ratios to moller_seed">'
+                f"<figcaption>Render time of each kernel over moller_seed's, 95% CIs; diamonds: the paper's "
+                f"Curless/Möller ratio (open: real, filled: user).</figcaption></figure>")
+    return _section("paper", "".join(body))
+
+
+def _kinds(kinds: pd.DataFrame) -> str:
+    rows = pd.DataFrame({
+        "scene": kinds["scene"], "rays": kinds["rays"], "mode": kinds["mode"], "kernel": kinds["kernel"],
+        "ns/test": [_v(x, ".4g") for x in kinds["ns_per_test"]],
+        "95% CI": [_ci(a, b) for a, b in zip(kinds["ns_per_test_ci_low"], kinds["ns_per_test_ci_high"])],
+        "tests per pass": kinds["tests_per_pass"].astype(int),
+        "render tests": kinds["stream_tests"],
+        "share of render (s)": [_v(x) for x in kinds["render_s"]],
+        "share of render": [_v(100 * x, ".3g") + "%" for x in kinds["render_share"]],
+    })
+    return _section("kinds", _p("Mean over processes of each process's median ns per test, with a 95% "
+                                "Student-t interval. Shadow rays (mode any) stop at their first occluder, so a "
+                                "pass runs fewer tests than rays × triangles; wide kernels count them in blocks "
+                                "of 8.") + _table(rows, [(c, c) for c in rows.columns]))
+
+
+def _workload(wl: pd.DataFrame) -> str:
+    stages = [c for c in wl.columns if c.startswith("miss_")]
+    rows = pd.DataFrame({
+        "scene": wl["scene"], "rays": wl["rays"],
+        "render rays": wl["stream_rays"], "render tests": wl["stream_tests"], "sampled rays": wl["sample_rays"],
+        "per-test hit rate": [_v(100 * x, ".3g") + "%" for x in wl["test_hit_rate"]],
+        "per-ray hit rate": [_v(100 * x, ".3g") + "%" for x in wl["ray_hit_rate"]],
+        **{c.removeprefix("miss_").replace("_", " "): [_v(100 * x, ".3g") + "%" for x in wl[c]] for c in stages},
+    })
+    text = _p("By the float64 reference on the sampled rays. Per-test hit rate: hits over the tests a kernel runs "
+              "(the axis of Löfstedt & Akenine-Möller 2005); per-ray: rays that hit a triangle. Each miss is "
+              "counted at the stage where Curless's test rejects it, in its order: parallel (no crossing), "
+              "behind the origin (t ≤ 0), then outside edge v0v1, v1v2, v2v0 (the first edge test that fails). "
+              "The 'render' row weighs the kinds by the render's tests (and misses).")
+    return _section("workload", text + _table(rows, [(c, c) for c in rows.columns]))
+
+
+def _pictures(run_dir: Path, pics: pd.DataFrame) -> str:
+    body = [_p("Both seed kernels at float precision, as the seed renders (the seed's shading and depth-2 "
+               "reflections). A differing pixel is explained when one of its rays passes within the tolerance "
+               "of a triangle's edge (barycentric), where float rounding and the seeds' absolute epsilons decide "
+               "differently, or when its colours differ by under 1e-5 (an 8-bit truncation flipped).")]
+    for r in pics.itertuples(index=False):
+        cards = []
+        for col, caption in (("curless_seed_png", "curless_seed"), ("moller_seed_png", "moller_seed"),
+                             ("difference_png", f"difference: {r.differing_pixels} pixels")):
+            path = run_dir / str(getattr(r, col))
+            uri = figures.png_data_uri(path.read_bytes()) if path.is_file() else ""
+            cards.append(f'<figure><img src="{escape(uri)}" alt="{escape(caption)}" '
+                         f'style="width:100%;image-rendering:pixelated">'
+                         f"<figcaption>{escape(caption)}</figcaption></figure>")
+        body.append(f"<h3>{escape(str(r.scene))} ({r.width}×{r.height}, {escape(str(r.dtype))})</h3>")
+        body.append(f'<div class="pictures" style="grid-template-columns:repeat(3,1fr)">{"".join(cards)}</div>')
+        body.append(_p(f"{r.differing_pixels} differing pixels: {r.near_edge_pixels} within {r.edge_tolerance:g} of "
+                       f"a triangle edge, {r.last_bit_pixels} last-bit colour flips, {r.other_pixels} other."))
+    return _section("pictures", "".join(body))
+
+
+def _machine(run: dict) -> str:
+    m = run.get("machine", {})
+    rows = [("CPU", m.get("cpu_model")), ("logical CPUs", m.get("logical_cpus")),
+            ("workers pinned to CPU", run.get("cpu")), ("SIMD features", m.get("simd_features")),
+            ("caches", m.get("caches")), ("governor", m.get("governor")), ("CPU MHz (at start)", m.get("cpu_mhz")),
+            ("load average (at start)", m.get("load_average")), ("platform", m.get("platform")),
+            ("Python", m.get("python")), ("numpy", m.get("numpy")), ("tribench", m.get("tribench")),
+            ("git revision", m.get("git_revision"))]
+    sweep = run["sweep"]
+    design = [("processes", sweep["processes"]), ("rounds (+ warm-up)", f"{sweep['rounds']} (+{sweep['warmup']})"),
+              ("batch target (ms)", sweep["target_ms"]), ("sweep seed", sweep["seed"]),
+              ("process seeds", run.get("process_seeds")), ("equivalence margin", run.get("margin"))]
+    return _section("machine", "".join([
+        _kv_table(rows), "<h3>Build of the C extension</h3>", _kv_table(m.get("build", {}).items()),
+        "<h3>Instruction set of each kernel</h3>", _kv_table(run.get("isa", {}).items()),
+        "<h3>Design</h3>", _kv_table(design)]))
+
+
+def _reproduce(run: dict) -> str:
+    from tribench.harness.seed import COLUMNS
+
+    rev = run.get("machine", {}).get("git_revision")
+    steps = ([f"git checkout {rev}"] if rev else []) + ["pip install -e .", run.get("command") or "tribench seed"]
+    body = ["<h3>The command that made this run</h3>",
+            f"<pre><code>{escape(str(run.get('command') or '(not recorded)'))}</code></pre>",
+            "<h3>To run it again</h3>", f"<pre><code>{escape(chr(10).join(steps))}</code></pre>",
+            _p("Every workload is a pure function of its spec (the sampled rays are drawn with a fixed seed) and "
+               "the plan a pure function of the sweep in run.json; times differ by the machine's noise. The run "
+               "folder also holds the runner's batches.csv, processes.csv, checks.csv and the analysis's "
+               "estimates.csv and speedups.csv.", "note"),
+            "<h3>Files of this page</h3>"]
+    for name, cols in COLUMNS.items():
+        body.append(f"<details><summary>{escape(name)}</summary>{_kv_table(cols.items())}</details>")
+    return _section("reproduce", "".join(body))
+
+
+def render_seed(run_dir: str | Path) -> str:
+    """The whole page of a seed run, as a string."""
+    from tribench.harness import records
+    from tribench.harness.seed import KINDS_CSV, PICTURES_CSV, SEED_CSV, WORKLOADS_CSV
+
+    run_dir = Path(run_dir)
+    run = records.read_run(run_dir)
+    seed, kinds, wl, pics = (pd.read_csv(run_dir / n) for n in (SEED_CSV, KINDS_CSV, WORKLOADS_CSV, PICTURES_CSV))
+    title = f"tribench seed — {run.get('run_id', run_dir.name)}"
+    nav = "".join(f'<a href="#{sid}">{escape(t)}</a>' for sid, t in SECTIONS.items())
+    made = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    sections = [_paper(seed, wl, run["seed_replay"]), _kinds(kinds), _workload(wl), _pictures(run_dir, pics),
+                _machine(run), _reproduce(run)]
+    head = (f"<h1>{escape(title)}</h1>"
+            + _p(f"The seed's renders (Vitse 2022: Curless vs Möller, Unix time) replayed through the harness: "
+                 f"{run.get('created')}, {run['sweep']['processes']} processes.", "sub"))
+    footer = _p(f"Written by tribench seed at {made} from {run_dir}. Statistics: tribench.harness.stats.", "note")
+    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+            f"<title>{escape(title)}</title><style>{_CSS}</style></head><body>"
+            f"<nav>{nav}</nav><main>{head}{''.join(sections)}<footer>{footer}</footer></main></body></html>\n")
+
+
+def write_seed_report(run_dir: str | Path) -> Path:
+    """Write ``RUN_DIR/seed.html`` (atomically) and return its path."""
+    out = Path(run_dir) / SEED_REPORT
+    tmp = out.with_suffix(".html.tmp")
+    tmp.write_text(render_seed(run_dir), encoding="utf-8")
+    tmp.replace(out)
+    return out

@@ -1,0 +1,385 @@
+"""The seed's ray stream as a workload: a uniform sample of one kind of ray from a render.
+
+A whole replay of scene03 is about 10^9 ray-triangle tests, too long for one
+timed batch. A :class:`SeedSpec` names one kind of ray (``primary``,
+``reflected`` or ``shadow``) of one scene's render; its workload is a
+reproducible uniform sample of those rays against every triangle of the
+scene, with float64 reference answers, and it records what is needed to
+scale a timing of the sample back to the whole render (``achieved``):
+
+``stream_rays``, ``stream_tests``
+    Rays of this kind in the render that test the triangles, and the
+    ray-triangle tests they run there. Primary and reflected rays (mode
+    ``closest``) test every triangle: rays x triangles. Shadow rays (mode
+    ``any``) stop at the first triangle that cuts them, in file order, as the
+    seed's ``Scene::coupe`` does: the count is exact, from one pass of a
+    scalar any-hit kernel over the whole stream. A shadow ray cut by a sphere
+    never reaches the triangles (the spheres come first in the file) and is
+    left out.
+``sample_tests``
+    The same count on the sample, so ``stream_tests / sample_tests`` scales
+    the time of one pass over the sample to the render.
+``test_hit_rate``, ``miss_mix``
+    Per-test hit rate and miss-stage mix of the tests the sample runs, by
+    the float64 reference. Each miss is put at the stage where Curless's
+    early-exit test rejects it: ``parallel``, ``behind_origin`` (t <= 0), then
+    the first edge it is outside of in Curless's order (v0v1, v1v2, v2v0:
+    ``outside_edge_1..3``). Unlike :func:`~tribench.workloads.pairs.classify_misses`,
+    which calls a point outside two edges ``other`` (most misses in a scene),
+    this says which test pays for each miss.
+
+The stream
+----------
+Each scene is traced once (:func:`stream_trace`, memoised) with the seed's
+semantics (:mod:`~tribench.workloads.seed_trace`) in float64 with
+``curless_seed``: a clean kernel (``t > 0``) would hit the triangle a
+secondary ray leaves at ``t ~ 0`` (shadow acne, a different stream), and in
+double precision Curless's only other flaw, strict edges, touches a null set
+of rays; ``moller_seed``'s absolute determinant epsilon drops grazing hits.
+
+Secondary rays (reflected, shadow) start where the seed starts them, on a
+surface; the seed's kernels then reject ``t < 1e-4``. The API has no
+``t_min``, so here their origins move ``1e-4`` along the ray
+(:data:`ORIGIN_SHIFT`, in units of the direction): ``t > 0`` from the new
+origin is ``t > 1e-4`` from the old one, every kernel -- seed or clean --
+sees the surface it leaves behind it, and the reference answers are well
+posed. Shadow directions are ``light - p`` as the seed shoots them (not unit:
+the light is at ``t = 1 - 1e-4``), and, as in the seed, there is **no upper
+bound on t** (no ``t_max``): an object beyond the light still shadows.
+``occluded_beyond_light`` counts the sampled shadow rays that only an object
+beyond the light occludes.
+
+Rays are kept in the seed's shooting order (columns, then rows, then the
+ray tree). A ray is ambiguous (``ref_edge_margin`` near 0) when it passes
+near an edge, crosses an inside point at ``|t| < 1e-5``, or has two hits
+within a relative ``1e-4`` in t (surfaces that cross).
+
+Examples
+--------
+>>> s = SeedSpec("scene02", "shadow", sample=64, width=16, height=16)
+>>> s.mode, s.summary()
+('any', 'seed scene02 shadow sample=64 of 16x16 float32 seed=0')
+>>> SeedSpec(rays="diffuse")
+Traceback (most recent call last):
+...
+ValueError: unknown rays 'diffuse': choose one of primary, reflected, shadow
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .reference import intersect_pairs
+from .seed_scene import BUILTIN_SCENES, Scene, builtin_scene_path, load_scene, read_scene
+from .spec import _MAX_RAYS, DTYPES, MISS_STAGES, _choice, _file_sha256, _int
+from .workload import AMBIGUOUS_MARGIN, Workload, library_versions
+
+__all__ = [
+    "EmptyStream",
+    "ORIGIN_SHIFT",
+    "RAY_KINDS",
+    "SEED_VERSION",
+    "STREAM_KERNEL",
+    "SeedSpec",
+    "generate_seed_workload",
+    "stream_indices",
+    "stream_trace",
+]
+
+SEED_VERSION = 1
+RAY_KINDS = ("primary", "reflected", "shadow")
+#: Kernel and precision that trace the stream (see the module docstring).
+STREAM_KERNEL = ("curless_seed", "float64")
+#: Secondary rays start this far along their direction: the seed's 1e-4 on t.
+ORIGIN_SHIFT = 1e-4
+#: An inside crossing at |t| below this is on the ray's own surface: ambiguous.
+T_NEAR_ZERO = 1e-5
+#: Two hits within this relative distance in t: either may be the closest.
+TIE_RTOL = 1e-4
+#: Counts the full shadow stream's tests (scalar: stops at the first hit in index order).
+_COUNTING_KERNEL = "moller_trumbore"
+_MAX_SIDE = 4096  # a 4096 x 4096 trace is about 4 GB of ray records
+
+
+class EmptyStream(ValueError):
+    """The render shoots no ray of the asked kind that tests a triangle (e.g. no reflective material)."""
+
+
+@dataclass(frozen=True)
+class SeedSpec:
+    """A uniform sample of one kind of ray from the seed's render of a scene.
+
+    Parameters
+    ----------
+    scene : str
+        ``"scene02"``, ``"scene03"`` or the path of a scene file in the seed's
+        format (stored absolute; a file that does not parse is refused here).
+    rays : {"primary", "reflected", "shadow"}
+        Primary and reflected rays ask for the closest hit; shadow rays for
+        any hit (mode ``any``).
+    sample : int
+        Rays drawn, uniformly without replacement (all of them if fewer).
+    width, height : int
+        Image size of the render (the seed: 512 x 512).
+    dtype : {"float32", "float64"}
+        The seed's ``Vecteur`` holds float: float32 is the faithful replay.
+    seed : int
+    """
+
+    scene: str = "scene02"
+    rays: str = "primary"
+    sample: int = 4096
+    width: int = 512
+    height: int = 512
+    dtype: str = "float32"
+    seed: int = 0
+
+    kind: ClassVar[str] = "seed"
+    version: ClassVar[int] = SEED_VERSION
+
+    def __post_init__(self) -> None:
+        put = object.__setattr__  # frozen: normalise the fields once, here
+        if isinstance(self.scene, os.PathLike):
+            put(self, "scene", os.fspath(self.scene))
+        if not isinstance(self.scene, str) or not self.scene:
+            raise ValueError(f"scene must be a built-in scene name or a file path, got {self.scene!r}")
+        if self.scene not in BUILTIN_SCENES:
+            path = Path(self.scene).expanduser()
+            if not path.is_file():
+                raise ValueError(f"unknown scene {self.scene!r}: not one of {', '.join(BUILTIN_SCENES)} "
+                                 f"and no such file")
+            read_scene(path)  # SceneError (a ValueError) names the bad line
+            put(self, "scene", str(path.resolve()))
+        _choice("rays", self.rays, RAY_KINDS)
+        put(self, "sample", _int("sample", self.sample, 1, _MAX_RAYS))
+        put(self, "width", _int("width", self.width, 1, _MAX_SIDE))
+        put(self, "height", _int("height", self.height, 1, _MAX_SIDE))
+        _choice("dtype", self.dtype, DTYPES)
+        put(self, "seed", _int("seed", self.seed, 0, 2**63 - 1))
+
+    @property
+    def mode(self) -> str:
+        """``"any"`` for shadow rays (stop at the first occluder), else ``"closest"``."""
+        return "any" if self.rays == "shadow" else "closest"
+
+    @property
+    def is_file(self) -> bool:
+        return self.scene not in BUILTIN_SCENES
+
+    @property
+    def scene_path(self) -> Path:
+        return Path(self.scene) if self.is_file else builtin_scene_path(self.scene)
+
+    @property
+    def scene_label(self) -> str:
+        """Short name for tables: the built-in name or the file's stem."""
+        return Path(self.scene).stem if self.is_file else self.scene
+
+    def scene_identity(self) -> dict[str, Any]:
+        """What names the scene in a workload id: its text's sha256, not its path."""
+        return {"scene": "file" if self.is_file else self.scene, "scene_sha256": _file_sha256(str(self.scene_path))}
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON- and TOML-friendly fields, with ``kind``."""
+        return {"kind": self.kind, **{f.name: getattr(self, f.name) for f in fields(self)}}
+
+    def targets(self) -> dict[str, Any]:
+        """Target figures, keyed like the achieved figures they are compared with."""
+        return {"sample_rays": self.sample}
+
+    def summary(self) -> str:
+        """One line for listings."""
+        return (f"seed {self.scene_label} {self.rays} sample={self.sample} of {self.width}x{self.height} "
+                f"{self.dtype} seed={self.seed}")
+
+
+# ------------------------------------------------------------------ stream
+
+
+@functools.lru_cache(maxsize=1)  # a 512 x 512 trace holds about 10^6 rays
+def _trace(scene: str, sha256: str, width: int, height: int):
+    from .seed_trace import trace
+
+    kernel, dtype = STREAM_KERNEL
+    return trace(load_scene(scene), kernel, dtype, width, height)
+
+
+def stream_trace(spec: SeedSpec):
+    """The render whose rays ``spec`` samples (memoised: the three kinds of a scene share it)."""
+    return _trace(spec.scene, spec.scene_identity()["scene_sha256"], spec.width, spec.height)
+
+
+def stream_indices(tr, rays: str) -> np.ndarray:
+    """Rows of ``tr``'s ``rays`` set that test the triangles, in the seed's shooting order."""
+    from .seed_trace import KINDS
+
+    kind, index = tr.seed_order()
+    rows = index[kind == KINDS.index(rays)]
+    if rays == "shadow":
+        rows = rows[tr.shadow.hit_kind[rows] != Scene.SPHERE]  # stopped by a sphere first
+    return rows
+
+
+def _shifted(rs, rows: np.ndarray, rays: str) -> tuple[np.ndarray, np.ndarray]:
+    o, d = rs.origins[rows], rs.directions[rows]
+    if rays != "primary":
+        o = o + ORIGIN_SHIFT * d
+    return o, d
+
+
+def _any_hit_tests(o, d, tri) -> np.ndarray:
+    """Tests a scalar any-hit kernel runs per ray: up to its first hit in index order."""
+    from tribench import ext
+
+    index = ext.intersect(_COUNTING_KERNEL, o, d, tri, "any").index
+    return np.where(index >= 0, index + 1, len(tri))
+
+
+# --------------------------------------------------------------- reference
+
+
+def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> dict[str, Any]:
+    """Closest hits, edge margins and Curless-order miss stages of every ray against every triangle."""
+    m, k = len(o), len(tri)
+    index = np.full(m, -1, np.int64)
+    best = np.full(m, np.nan)
+    margin = np.empty(m)
+    stages = np.zeros(len(MISS_STAGES), np.int64)
+    tests = test_hits = ties = on_surface = beyond_light = 0
+    step = max(1, (1 << 16) // k)
+    for lo in range(0, m, step):
+        hi = min(lo + step, m)
+        n = hi - lo
+        a = intersect_pairs(np.repeat(o[lo:hi], k, 0), np.repeat(d[lo:hi], k, 0), np.tile(tri, (n, 1, 1)))
+        hit, t = a.hit.reshape(n, k), a.t.reshape(n, k)
+        u, v, w = a.u.reshape(n, k), a.v.reshape(n, k), a.w.reshape(n, k)
+        th = np.where(hit, t, np.inf)
+        j = np.argmin(th, axis=1)  # the first of equal minima: ties to the lowest index
+        tj = th[np.arange(n), j]
+        found = np.isfinite(tj)
+        index[lo:hi] = np.where(found, j, -1)
+        best[lo:hi] = np.where(found, tj, np.nan)
+        # margin as in rays.closest_hits: the nearest brush with an edge among crossings that decide
+        edge = np.abs(a.edge_margin.reshape(n, k))
+        with np.errstate(invalid="ignore"):
+            decisive = np.isfinite(t) & (t > 0) & (t <= tj[:, None])
+            near = np.where(decisive, edge, np.inf).min(axis=1)
+            surface = (np.abs(t) < T_NEAR_ZERO) & (a.edge_margin.reshape(n, k) > -AMBIGUOUS_MARGIN)
+        second = np.partition(th, 1, axis=1)[:, 1] if k > 1 else np.full(n, np.inf)
+        with np.errstate(invalid="ignore"):
+            tie = found & (second - tj <= TIE_RTOL * tj)
+        unsure = surface.any(axis=1) | tie
+        near = np.where(unsure, 0.0, near)
+        margin[lo:hi] = np.where(found, near, -near)
+        ties += int(tie.sum())
+        on_surface += int(surface.any(axis=1).sum())
+        # the tests a kernel runs: all, or up to the first hit in index order
+        ran = np.ones((n, k), bool)
+        if any_hit:
+            first = np.where(hit.any(axis=1), np.argmax(hit, axis=1), k - 1)
+            ran = np.arange(k)[None, :] <= first[:, None]
+            beyond_light += int((found & (tj >= 1.0 - ORIGIN_SHIFT)).sum())
+        tests += int(ran.sum())
+        test_hits += int((hit & ran).sum())
+        # Curless's order: parallel, t, then the edges v0v1 (v < 0), v1v2 (w < 0), v2v0 (u < 0)
+        miss = ran & ~hit
+        with np.errstate(invalid="ignore"):
+            parallel = miss & ~np.isfinite(t)
+            behind = miss & ~parallel & (t <= 0)
+            rest = miss & ~parallel & ~behind
+            e1 = rest & (v < 0)
+            e2 = rest & ~e1 & (w < 0)
+            e3 = rest & ~e1 & ~e2  # a finite forward crossing that misses is outside some edge
+        for name, mask in (("parallel", parallel), ("behind_origin", behind), ("outside_edge_1", e1),
+                           ("outside_edge_2", e2), ("outside_edge_3", e3)):
+            stages[MISS_STAGES.index(name)] += int(mask.sum())
+    misses = int(stages.sum())
+    return {
+        "index": index, "t": best, "edge_margin": margin,
+        "figures": {
+            "tests": tests,
+            "test_hits": test_hits,
+            "test_hit_rate": test_hits / tests if tests else math.nan,
+            "miss_counts": {s: int(c) for s, c in zip(MISS_STAGES, stages)},
+            "miss_mix": {s: (int(c) / misses if misses else 0.0) for s, c in zip(MISS_STAGES, stages)},
+            "tied_hits": ties,
+            "rays_on_a_surface": on_surface,
+            **({"occluded_beyond_light": beyond_light} if any_hit else {}),
+        },
+    }
+
+
+# ---------------------------------------------------------------- generator
+
+
+def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
+    """Build the workload of ``spec`` (no caching: see :func:`tribench.workloads.make`).
+
+    Examples
+    --------
+    >>> w = generate_seed_workload(SeedSpec("scene02", "primary", sample=50, width=12, height=12), "doc")
+    >>> w.triangles.shape, len(w.origins), w.achieved["stream_rays"], w.mode
+    ((12, 3, 3), 50, 144, 'closest')
+    """
+    tr = stream_trace(spec)
+    tri64 = tr.scene.triangles
+    k = len(tri64)
+    if k == 0:
+        raise ValueError(f"scene {spec.scene_label} has no triangles: nothing to replay")
+    rows = stream_indices(tr, spec.rays)
+    if len(rows) == 0:
+        raise EmptyStream(f"scene {spec.scene_label} at {spec.width}x{spec.height} shoots no {spec.rays} "
+                          f"rays that test its triangles")
+    rs = getattr(tr, spec.rays)
+    n_stream = len(rows)
+    rng = np.random.default_rng(spec.seed)
+    pick = np.sort(rng.choice(n_stream, size=min(spec.sample, n_stream), replace=False))
+
+    dt = np.dtype(spec.dtype)
+    o_all, d_all = _shifted(rs, rows, spec.rays)
+    o_all, d_all = o_all.astype(dt), d_all.astype(dt)
+    tri = np.ascontiguousarray(tri64.astype(dt))
+    o, d = np.ascontiguousarray(o_all[pick]), np.ascontiguousarray(d_all[pick])
+    if spec.mode == "any":
+        per_ray = _any_hit_tests(o_all, d_all, tri)
+        stream_tests, sample_tests = int(per_ray.sum()), int(per_ray[pick].sum())
+    else:
+        stream_tests, sample_tests = n_stream * k, len(pick) * k
+
+    ref = _reference(o.astype(np.float64), d.astype(np.float64), tri.astype(np.float64), spec.mode == "any")
+    hits = int((ref["index"] >= 0).sum())
+    kernel, precision = STREAM_KERNEL
+    achieved = {
+        "scene": spec.scene_label,
+        "triangles": k,
+        "sample_rays": len(pick),
+        "stream_rays": n_stream,
+        "stream_tests": stream_tests,
+        "sample_tests": sample_tests,
+        "render_rays": tr.counts,
+        "ray_hits": hits,
+        "ray_hit_rate": hits / len(pick),
+        **ref["figures"],
+        "ambiguous_rays": int((np.abs(ref["edge_margin"]) < AMBIGUOUS_MARGIN).sum()),
+        "origin_shift": ORIGIN_SHIFT if spec.rays != "primary" else 0.0,
+        "stream_traced_with": f"{kernel} {precision}",
+        "generated_with": library_versions("numpy"),
+    }
+    return Workload(
+        workload_id=workload_id,
+        spec=spec,
+        origins=o,
+        directions=d,
+        triangles=tri,
+        ref_index=ref["index"],
+        ref_t=ref["t"],
+        ref_edge_margin=ref["edge_margin"],
+        achieved=achieved,
+    )
