@@ -79,6 +79,8 @@ typedef struct {
 #include "kernels/baldwin_weber_12.h"
 #include "kernels/baldwin_weber_9.h"
 #include "kernels/havel_herout.h"
+#include "kernels/woop.h"
+#include "kernels/plucker.h"
 
 #include "kernels/curless_x8.h"
 #include "kernels/moller_trumbore_x8.h"
@@ -86,6 +88,8 @@ typedef struct {
 #include "kernels/baldwin_weber_12_x8.h"
 #include "kernels/baldwin_weber_9_x8.h"
 #include "kernels/havel_herout_x8.h"
+#include "kernels/woop_x8.h"
+#include "kernels/plucker_x8.h"
 
 typedef int (*TB_FN(tb_test_fn))(const tb_ray *restrict, const real *restrict, real,
                                  tb_hit *restrict);

@@ -14,7 +14,9 @@
     X(moller_trumbore_cull) \
     X(baldwin_weber_12)     \
     X(baldwin_weber_9)      \
-    X(havel_herout)
+    X(havel_herout)         \
+    X(woop)                 \
+    X(plucker)
 
 /* Kernels that also have a wide form, registered as <name>_x8: branchless,
  * one ray against blocks of 8 triangles stored structure of arrays. */
@@ -24,7 +26,9 @@
     X(moller_trumbore_cull)    \
     X(baldwin_weber_12)        \
     X(baldwin_weber_9)         \
-    X(havel_herout)
+    X(havel_herout)            \
+    X(woop)                    \
+    X(plucker)
 
 /* Internal kernels: honesty checks of the harness, not algorithms to compare.
  * They are compiled and callable like any kernel but kept out of the user's

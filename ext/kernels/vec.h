@@ -52,9 +52,11 @@ static inline void TB_FN(tb_ray_plain)(const real *o, const real *d, tb_ray *r)
  * with the ISA of the loop they inline into (see TB_WIDE_ENTRY). */
 #define TB_WIDE static inline __attribute__((always_inline))
 
+/* x in every lane; x - 0 (not 0 + x) keeps the sign of a -0, as the
+ * scalar kernels do */
 TB_WIDE vreal TB_FN(vsplat)(real x)
 {
-    return (vreal){0} + x;
+    return x - (vreal){0};
 }
 
 /* lane f of a block: 8 consecutive reals, any alignment */
