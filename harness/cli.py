@@ -145,9 +145,11 @@ def _add_design_flags(p: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
     from tribench.reports import format_tables, write_report
 
-    from . import runner
+    from . import runner, validate
     from .analysis import analyse, write_tables
     from .plan import default_sweep
 
@@ -159,6 +161,11 @@ def _run(args: argparse.Namespace) -> int:
     result = runner.start(sweep, out, progress=False if args.no_progress else None)
     _report_run(result)
     write_tables(out, analyse(out))
+    # the report's robustness section: the suite on the run's kernels and precisions (a second or two)
+    checks = validate.run(sweep.kernels, sorted({w.dtype for w in sweep.workloads}))
+    checks.to_csv(Path(out) / "validate.csv", index=False)
+    print(f"validate: {int((checks.verdict == 'fail').sum())} of {int((checks.verdict != 'measured').sum())} "
+          f"promises broken, {checks.attrs['seconds']:.1f} s -> {Path(out) / 'validate.csv'}", file=sys.stderr)
     report = write_report(out)
     print(format_tables(out))
     print(f"\nreport: {report}")

@@ -8,12 +8,14 @@ of the format and must be deliberate.
 
 ``batches.csv``, ``processes.csv`` and ``checks.csv`` are written by the
 harness while it measures; ``estimates.csv`` and ``speedups.csv`` by ``tribench stats`` (or by
-``tribench report`` when they are missing). The report never changes them.
+``tribench report`` when they are missing); ``validate.csv`` by ``tribench run`` or
+``tribench validate --out RUN_DIR`` (or by ``tribench report`` when it is missing). The report never
+changes them.
 """
 
 from __future__ import annotations
 
-__all__ = ["BATCHES", "CHECKS", "ESTIMATES", "SPEEDUPS", "PROCESSES", "FILES", "describe"]
+__all__ = ["BATCHES", "CHECKS", "ESTIMATES", "SPEEDUPS", "PROCESSES", "VALIDATE", "FILES", "describe"]
 
 #: ``batches.csv``: one row per timed batch, warm-up batches included.
 BATCHES: dict[str, str] = {
@@ -110,6 +112,20 @@ CHECKS: dict[str, str] = {
     "t_sum": "sum of t over the kernel's hits in one pass (its checksum)",
 }
 
+#: ``validate.csv``: one row per kernel, precision and robustness test (tribench.harness.validate).
+VALIDATE: dict[str, str] = {
+    "kernel": "kernel name, as registered in the C extension",
+    "dtype": "precision of every array: float32 or float64",
+    "isa": "instruction set the kernel ran with (scalar kernels: scalar)",
+    "test": "robustness test (see tribench.harness.validate)",
+    "rays": "rays asked (count, after dropping rays rounding made ambiguous)",
+    "failures": "cracks, double hits, misses, wrong answers or hits, as the test defines (count)",
+    "rate": "failures / rays (fraction)",
+    "expected": "what the papers promise for this kernel, or 'measured'",
+    "verdict": "pass or fail against the promise; 'measured' where there is none",
+    "detail": "a short breakdown of the failures",
+}
+
 #: File name -> its columns.
 FILES: dict[str, dict[str, str]] = {
     "batches.csv": BATCHES,
@@ -117,6 +133,7 @@ FILES: dict[str, dict[str, str]] = {
     "checks.csv": CHECKS,
     "estimates.csv": ESTIMATES,
     "speedups.csv": SPEEDUPS,
+    "validate.csv": VALIDATE,
 }
 
 

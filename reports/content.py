@@ -23,6 +23,7 @@ __all__ = [
     "WorkloadInfo",
     "workload_table",
     "load_workloads",
+    "kernel_table",
     "per_process_table",
     "crossovers",
     "scaling_slopes",
@@ -136,6 +137,60 @@ def estimates_table(data: RunData, wl: pd.DataFrame) -> pd.DataFrame:
         working_set_bytes(r.kernel, r.dtype, r.triangles, r.rays) for r in est.itertuples(index=False)
     ]
     return est
+
+
+def _form(kernel: str) -> str:
+    from tribench import ext
+
+    try:
+        lanes = ext.kernel_info(kernel).lanes
+    except ValueError:  # a kernel this build no longer has
+        return "?"
+    return "scalar" if lanes == 1 else f"{lanes} lanes"
+
+
+def _isas(data: RunData, kernel: str) -> str:
+    """The instruction sets the kernel's batches ran with (run.json's record for older runs)."""
+    if "isa" not in data.batches:
+        return str(data.run.get("isa", {}).get(kernel, "?"))
+    return ", ".join(dict.fromkeys(data.batches.loc[data.batches["kernel"] == kernel, "isa"].astype(str)))
+
+
+def kernel_table(data: RunData, est: pd.DataFrame, spd: pd.DataFrame) -> pd.DataFrame:
+    """Per kernel and workload family: how the kernel stores a triangle, beside how fast it ran there.
+
+    ``est`` and ``spd`` are the estimates and speedups joined with the workload
+    table (``family``, and ``dtype`` in ``est``). Columns ``kernel, form, isa,
+    family, dtype, bytes_per_triangle, workloads, ns_per_test_median,
+    ns_per_test_min, ns_per_test_max, ratio_median, ratio_min, ratio_max,
+    verdicts``: ``form`` is ``scalar`` or ``N lanes``, ``isa`` what its batches
+    ran with, ``bytes_per_triangle`` its prepared data per triangle at the
+    family's precision (one per family). The times summarise the estimates of
+    the family's workloads and the ratios their speedups over the baseline
+    (median, lowest, highest; nan for the baseline); ``verdicts`` counts those
+    workloads by verdict. Families where the kernel has no estimate (a wide
+    kernel has no pairs mode) have no row.
+    """
+    rows = []
+    for kernel in data.kernels:
+        form, isa = _form(kernel), _isas(data, kernel)
+        for family, g in est.loc[est["kernel"] == kernel].groupby("family", sort=False):
+            s = spd.loc[(spd["kernel"] == kernel) & (spd["family"] == family)]
+            dtype = str(g["dtype"].iloc[0])
+            verdicts = ", ".join(f"{v} {n}" for v, n in s["verdict"].value_counts(sort=False).items())
+            rows.append({
+                "kernel": kernel, "form": form, "isa": isa, "family": family, "dtype": dtype,
+                "bytes_per_triangle": _bytes_per_triangle(kernel, dtype), "workloads": len(g),
+                "ns_per_test_median": g["ns_per_test"].median(), "ns_per_test_min": g["ns_per_test"].min(),
+                "ns_per_test_max": g["ns_per_test"].max(),
+                "ratio_median": s["ratio"].median() if len(s) else math.nan,
+                "ratio_min": s["ratio"].min() if len(s) else math.nan,
+                "ratio_max": s["ratio"].max() if len(s) else math.nan,
+                "verdicts": verdicts or ("baseline" if kernel == data.baseline else "no comparison"),
+            })
+    return pd.DataFrame(rows, columns=["kernel", "form", "isa", "family", "dtype", "bytes_per_triangle",
+                                       "workloads", "ns_per_test_median", "ns_per_test_min", "ns_per_test_max",
+                                       "ratio_median", "ratio_min", "ratio_max", "verdicts"])
 
 
 def per_process_table(data: RunData) -> pd.DataFrame:

@@ -4,9 +4,9 @@ Plain HTML with a small inline stylesheet and no script; every figure is a
 ``data:`` URI, so the file opens offline and references nothing outside
 itself. All text goes through :func:`html.escape`.
 
-Sections (ids): ``headline``, ``speedups``, ``hit-rate``, ``scaling``,
-``processes``, ``drift``, ``diagnostics``, ``correctness``, ``workloads``,
-``machine``, ``reproduce``.
+Sections (ids): ``headline``, ``kernels``, ``speedups``, ``hit-rate``,
+``scaling``, ``processes``, ``drift``, ``diagnostics``, ``correctness``,
+``robustness``, ``workloads``, ``machine``, ``reproduce``.
 """
 
 from __future__ import annotations
@@ -17,19 +17,20 @@ import math
 import tempfile
 from html import escape
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 import pandas as pd
 
 from . import columns, content, figures
-from .rundata import RunData
+from .rundata import VALIDATE, RunData, load_validation
 
 __all__ = ["SECTIONS", "render", "headline_sentences", "sweep_toml", "MAX_PICTURES"]
 
 #: Section ids, in page order, with their titles.
 SECTIONS = {
     "headline": "Headline",
+    "kernels": "Kernels",
     "speedups": "Speedups",
     "hit-rate": "Hit rate",
     "scaling": "Size and working set",
@@ -37,6 +38,7 @@ SECTIONS = {
     "drift": "Drift",
     "diagnostics": "Diagnostics",
     "correctness": "Correctness",
+    "robustness": "Robustness",
     "workloads": "Workloads",
     "machine": "Machine and build",
     "reproduce": "Reproduce",
@@ -60,6 +62,7 @@ nav{position:sticky;top:0;background:#f6f8fa;border-bottom:1px solid #d0d7de;pad
 .verdicts{font-size:1.08em;padding-left:1.2em}.verdicts li{margin:.25em 0}
 .faster{color:#1a7f37;font-weight:600}.slower{color:#c62828;font-weight:600}
 .equivalent{color:#5f6b7a;font-weight:600}.inconclusive{color:#b45309;font-weight:600}.mixed{font-weight:600}
+.broken{color:#c62828;font-weight:700;background:#ffebe9}
 .warn{background:#fff8c5;border:1px solid #d4a72c;border-radius:6px;padding:6px 12px;margin:.6em 0}
 .note{color:#57606a;font-size:.92em}
 table{border-collapse:collapse;font-size:.86em;margin:.5em 0 1em}
@@ -92,8 +95,11 @@ def _num(x: Any, digits: int = 3) -> str:
 
 
 def _table(frame: pd.DataFrame, cols: Sequence[tuple[str, str]], digits: int = 4,
-           classes: dict[str, Any] | None = None) -> str:
-    """An HTML table of ``frame``; ``cols`` pairs a column with its header (units in it)."""
+           classes: dict[str, Callable[[Any], str]] | None = None) -> str:
+    """An HTML table of ``frame``; ``cols`` pairs a column with its header (units in it).
+
+    ``classes`` maps a column to a function giving each of its cells' CSS class from the value.
+    """
     if frame.empty:
         return '<p class="note">(none)</p>'
     head = "".join(f"<th>{escape(h)}</th>" for _, h in cols)
@@ -107,6 +113,8 @@ def _table(frame: pd.DataFrame, cols: Sequence[tuple[str, str]], digits: int = 4
             cls = ' class="num"' if numeric else ""
             if c == "verdict" and isinstance(v, str):
                 cls = f' class="{escape(v)}"'
+            if classes and c in classes:
+                cls = f' class="{escape(classes[c](v))}"'
             cells.append(f"<td{cls}>{escape(text)}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
@@ -299,6 +307,35 @@ def _speedups(data: RunData, spd: pd.DataFrame, est: pd.DataFrame) -> str:
     return _section("speedups", "".join(body))
 
 
+_KERNEL_COLS = [("kernel", "kernel"), ("form", "form"), ("isa", "ISA"), ("family", "workload family"),
+                ("dtype", "precision"), ("bytes_per_triangle", "bytes per triangle"), ("workloads", "workloads"),
+                ("ns_per_test_median", "ns/test (median)"), ("ns_range", "ns/test (lowest–highest)"),
+                ("ratio_median", "speedup (median, ×)"), ("ratio_range", "speedup (lowest–highest, ×)"),
+                ("verdicts", "verdicts")]
+
+
+def _range(low: float, high: float) -> str:
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return "–"
+    return f"{low:.3g}" if f"{low:.3g}" == f"{high:.3g}" else f"{low:.3g}–{high:.3g}"
+
+
+def _kernels(data: RunData, kern: pd.DataFrame) -> str:
+    shown = kern.assign(
+        ns_range=[_range(a, b) for a, b in zip(kern["ns_per_test_min"], kern["ns_per_test_max"])],
+        ratio_range=[_range(a, b) for a, b in zip(kern["ratio_min"], kern["ratio_max"])])
+    note = (f"Each kernel's storage beside its speed, per workload family (a family has one precision). "
+            f"Form: scalar (one triangle per test, early exit) or 8 lanes (eight triangles per step in SIMD "
+            f"registers); ISA: the instruction set its batches ran with. Bytes per triangle: its prepared data "
+            f"for one triangle at the family's precision, which the working set (section ")
+    tail = (f") counts. ns/test and the speedup over {data.baseline} summarise the family's workloads (median, "
+            f"lowest, highest); their 95% CIs are in the speedups section, and verdicts counts the workloads "
+            f"by verdict.")
+    body = [f'<p class="note">{escape(note)}<a href="#scaling">size and working set</a>{escape(tail)}</p>',
+            _table(shown, _KERNEL_COLS, digits=3)]
+    return _section("kernels", "".join(body))
+
+
 def _hit_rate(data: RunData, est: pd.DataFrame, spd: pd.DataFrame, cross: pd.DataFrame,
               colours: dict[str, str]) -> str:
     body = [_p("Pair workloads: N independent (ray, triangle) pairs at an exact per-test hit rate, "
@@ -479,10 +516,86 @@ def _correctness(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) -> str:
     if water.is_file():
         w = pd.read_csv(water)
         body += ["<h3>Watertightness</h3>", _table(w, [(c, c) for c in w.columns])]
-    else:
-        body.append(_p("Watertightness: not measured in this run (no watertightness.csv in the run folder).",
-                       "note"))
+    body.append('<p class="note">Watertightness figures (cracks at exactly shared edges and vertices, misses '
+                "from inside Embree's far-off sphere) and every kernel's answers at extreme input are in "
+                '<a href="#robustness">Robustness</a>.</p>')
     return _section("correctness", "".join(body))
+
+
+#: What each robustness test measures, in one sentence (after tribench.harness.validate's documentation).
+_TEST_TEXT = {
+    "shared_edges": "Cracks: rays aimed exactly at a point inside an edge shared by two triangles of an exactly "
+                    "coplanar mesh (dyadic coordinates, exact at both precisions) that hit no triangle of it.",
+    "shared_edges_double": "Double hits: those rays hitting both triangles of their edge, each asked alone; by "
+                           "design for closed-triangle rules (the reference's, Woop's), a defect only where "
+                           "crossings are counted.",
+    "shared_vertices": "Cracks: rays aimed exactly at an interior vertex of six triangles that hit no triangle "
+                       "of the mesh.",
+    "inside_sphere": "Misses: rays from inside a radius-2 icosphere of 20,480 triangles centred at "
+                     "(148376, 1234, −223423), where float32 spacing is 1/64 (Embree's watertightness test, "
+                     "which fails above 0.002%).",
+    "scales": "Answers other than the float64 reference's on safe pairs (every crossing at least 1e-3 "
+              "barycentric from an edge) scaled by 1e-8, 1e-4, 1, 1e4 and 1e8.",
+    "tiny_triangles": "Misses on near-equilateral triangles from 1e-2 down to about 100 ulps across, rays aimed "
+                      "at least 0.2 barycentric inside.",
+    "needle_triangles": "Misses on needles of base 1 and aspect ratios 1e3 to 1e6, rays aimed at least 0.2 "
+                        "barycentric inside.",
+    "grazing_rays": "Misses on unit triangles met at slopes of 1e-3 to 1e-6 to their plane, rays aimed at least "
+                    "0.2 barycentric inside.",
+    "parallel_rays": "Hits by rays lying exactly in the triangle's plane or exactly parallel just above it: "
+                     "every one must miss.",
+    "degenerate_triangles": "Hits on a point, a segment with a repeated vertex and three collinear points, rays "
+                            "aimed exactly at them: every one must miss.",
+    "nonfinite": "Hits on safe pairs with one NaN, +Inf or −Inf in the origin, the direction or a vertex: the "
+                 "call must return, and miss.",
+}
+
+
+def _rate_class(cell: Any) -> str:
+    # validate.format_rate ends a broken promise's cell with "!"
+    return "num broken" if isinstance(cell, str) and cell.endswith("!") else "num"
+
+
+def _robustness(val: pd.DataFrame, note: str) -> str:
+    from tribench.harness import validate
+
+    body = [
+        _p("Rays no timing workload asks (tribench.harness.validate, as `tribench validate`): aimed exactly at "
+           "shared edges and vertices of exactly coplanar meshes, from inside a far-off sphere, and at extreme "
+           "scales, sizes, shapes, angles and non-finite input. A cell is a kernel's failure rate on a test at "
+           "one precision (failures / rays, 0 = none). What the papers promise (validate's expected column): "
+           "no crack at shared edges and vertices, and Embree's 0.002% on the sphere, for Woop, Benthin & "
+           "Wald's watertight test; no hit on parallel rays and degenerate triangles for every kernel, nor on "
+           "non-finite input except for the seed kernels, faithful copies of flawed code. A cell marked ! in "
+           "red breaks its promise; every other rate is measured, not judged. A culling kernel is asked about "
+           "triangles facing the ray, so its rates measure robustness, not culling.", "note"),
+        _p(note, "note"),
+    ]
+    if val.empty:
+        return _section("robustness", "".join(body))
+    tests = [t for t in validate.TESTS if t in set(val["test"])]
+    names = [validate.SHORT_NAMES[t] for t in tests]
+    broken = val.loc[val["verdict"] == "fail"]
+    body.append(_p(f"{int((val['verdict'] != 'measured').sum())} promises checked, {len(broken)} broken."))
+    body.append(_table(validate.table(val), [("kernel", "kernel"), ("dtype", "precision"), ("isa", "ISA")]
+                       + [(n, n) for n in names], classes={n: _rate_class for n in names}))
+    if not broken.empty:
+        shown = broken.assign(cell=[validate.format_rate(f, r, v) for f, r, v in
+                                    zip(broken["failures"], broken["rate"], broken["verdict"])])
+        body += ["<h3>Broken promises</h3>",
+                 _table(shown, [("kernel", "kernel"), ("dtype", "precision"), ("test", "test"), ("cell", "rate"),
+                                ("failures", "failures"), ("rays", "rays"), ("expected", "promised"),
+                                ("detail", "breakdown")], classes={"cell": _rate_class})]
+    rays = val.groupby(["test", "dtype"])["rays"].max()
+    dtypes = list(dict.fromkeys(val["dtype"]))
+    legend = pd.DataFrame([{"column": validate.SHORT_NAMES[t], "test": t, "what": _TEST_TEXT.get(t, ""),
+                            **{f"rays {d}": rays.get((t, d)) for d in dtypes}} for t in tests])
+    body += ["<h3>The tests</h3>",
+             _p(f"Every kernel is asked the same rays at a precision. The breakdown of every rate is in "
+                f"{VALIDATE}'s detail column.", "note"),
+             _table(legend, [("column", "column"), ("test", "test"), ("what", "what is measured")]
+                    + [(f"rays {d}", f"rays ({d})") for d in dtypes])]
+    return _section("robustness", "".join(body))
 
 
 def _pictures(data: RunData, workloads: dict[str, content.WorkloadInfo], wl: pd.DataFrame) -> str:
@@ -639,12 +752,15 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     slopes = content.scaling_slopes(data, est, pp)
     drift = content.drift_table(data, wl)
     correct = content.correctness_table(data, workloads)
+    kern = content.kernel_table(data, est, spd)
+    val, val_note = load_validation(data)
     colours = figures.kernel_colours(data.kernels)
 
     title = f"tribench report — {data.run.get('run_id', data.run_dir.name)}"
     nav = "".join(f'<a href="#{sid}">{escape(t)}</a>' for sid, t in SECTIONS.items())
     sections = [
         _headline(data, spd, wl, _warnings(data, drift, correct)),
+        _kernels(data, kern),
         _speedups(data, spd, est),
         _hit_rate(data, est, spd, cross, colours),
         _scaling(data, est, slopes, colours),
@@ -652,6 +768,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         _drift(data, batches, drift, colours),
         _diagnostics(data, batches, wl),
         _correctness(data, correct, wl),
+        _robustness(val, val_note),
         _pictures(data, workloads, wl),
         _machine(data),
         _reproduce(data, sweep_file),

@@ -5,7 +5,9 @@ and the tables ``estimates.csv``/``speedups.csv``. When those two are missing,
 older than ``batches.csv`` (after a resume) or not in today's columns (written
 by an older tribench), they are made by the harness's own analysis
 (:func:`tribench.harness.analysis.analyse`) and written next to the batches:
-the report never measures and never computes an interval itself.
+the report never measures and never computes an interval itself. Likewise
+``validate.csv``, the robustness table (:func:`load_validation`), is made by
+the harness's suite (:func:`tribench.harness.validate.run`) when missing.
 """
 
 from __future__ import annotations
@@ -17,7 +19,10 @@ from typing import Any
 
 import pandas as pd
 
-__all__ = ["RunData", "RunError", "load_run", "family_of", "short_label"]
+__all__ = ["RunData", "RunError", "load_run", "load_validation", "family_of", "short_label", "VALIDATE"]
+
+#: The robustness table in a run folder (columns: ``columns.VALIDATE``).
+VALIDATE = "validate.csv"
 
 
 class RunError(ValueError):
@@ -52,6 +57,11 @@ class RunData:
     def workload_ids(self) -> list[str]:
         present = set(self.batches["workload_id"])
         return [w for w in self.specs if w in present]
+
+    @property
+    def dtypes(self) -> list[str]:
+        """Precisions of the run's batches, float32 first."""
+        return sorted(set(self.batches["dtype"]))
 
     @property
     def n_processes(self) -> int:
@@ -121,6 +131,52 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
     specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"]))
     return RunData(run_dir, run, batches, processes, estimates, speedups, base, m_value, m_source,
                    specs, analysed_now)
+
+
+def load_validation(data: RunData, quick: bool = False) -> tuple[pd.DataFrame, str]:
+    """The robustness table of the run's kernels and precisions, and a sentence saying where it came from.
+
+    ``RUN_DIR/validate.csv`` when it is there in today's columns (``tribench run`` writes it);
+    else the suite runs now (full sizes unless ``quick``) and its table is written there, so
+    later reports reuse it. Rows of other kernels or precisions are left out, rows are in the
+    run's kernel order. The suite must never stop a report: when it cannot run, the frame is
+    empty and the sentence says why.
+    """
+    from tribench import ext
+    from tribench.harness import validate
+
+    from . import columns
+
+    path = data.run_dir / VALIDATE
+    if path.is_file() and _has_columns(path, columns.VALIDATE):
+        df = pd.read_csv(path)
+        note = f"Read from {VALIDATE} in the run folder."
+    else:
+        # an older run may name kernels this build no longer has: validate the others
+        known = [k for k in data.kernels if k in ext.kernel_names(internal=True)]
+        try:
+            if not known:
+                raise ValueError("none of the run's kernels is in this build of the extension")
+            df = validate.run(known, data.dtypes, quick=quick)
+        except Exception as exc:
+            return (pd.DataFrame(columns=list(columns.VALIDATE)),
+                    f"The robustness suite could not run: {type(exc).__name__}: {exc}")
+        note = (f"Computed now by tribench.harness.validate ({df.attrs['size']} sizes, seed {df.attrs['seed']}, "
+                f"{df.attrs['seconds']:.1f} s)")
+        try:
+            tmp = path.with_suffix(".csv.tmp")
+            df.to_csv(tmp, index=False)
+            tmp.replace(path)
+            note += f" and written to {VALIDATE} in the run folder, which later reports read."
+        except OSError as exc:
+            note += f"; not saved ({exc})."
+    missing = [f"{k} {d}" for k in data.kernels for d in data.dtypes
+               if not ((df["kernel"] == k) & (df["dtype"] == d)).any()]
+    if missing:
+        note += f" Not in the table: {', '.join(missing)}."
+    order = {k: i for i, k in enumerate(data.kernels)}
+    df = df.loc[df["kernel"].isin(order) & df["dtype"].isin(data.dtypes)]
+    return df.sort_values("kernel", key=lambda s: s.map(order), kind="stable").reset_index(drop=True), note
 
 
 def _has_columns(path: Path, documented: dict[str, str]) -> bool:

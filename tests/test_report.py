@@ -96,7 +96,7 @@ def test_report_opens_offline_no_external_references(rendered):
 
 def test_headline_states_verdicts_and_hit_rate_meaning(rendered):
     run_dir, _, text = rendered
-    head = text[text.index('id="headline"'):text.index('id="speedups"')]
+    head = text[text.index('id="headline"'):text.index('id="kernels"')]
     spd = pd.read_csv(run_dir / "speedups.csv")
     for kernel in spd["kernel"].unique():
         assert f"{kernel} " in head
@@ -138,9 +138,71 @@ def test_machine_section_shows_caches_and_build(rendered):
 
 def test_correctness_table_agrees_on_a_clean_run(rendered):
     _, _, text = rendered
-    corr = text[text.index('id="correctness"'):text.index('id="workloads"')]
+    corr = text[text.index('id="correctness"'):text.index('id="robustness"')]
     assert corr.count("<td>yes</td>") == 3 * 4  # every kernel on every workload agrees
     assert "<td>no</td>" not in corr
+    assert '<a href="#robustness">' in corr  # the watertightness figures are there
+
+
+def _section_rows(text, sid):
+    """The cells of every table row of one section, tags stripped."""
+    part = text[text.index(f'id="{sid}"'):]
+    part = part[:part.index("</section>")]
+    return [[re.sub(r"<[^>]+>", "", c) for c in re.findall(r"<t[dh][^>]*>(.*?)</t[dh]>", row)]
+            for row in re.findall(r"<tr>(.*?)</tr>", part)]
+
+
+def test_kernels_section_gives_bytes_per_triangle_beside_speed(rendered):
+    from tribench import ext
+    from test_report_run import KERNELS
+
+    _, _, text = rendered
+    rows = _section_rows(text, "kernels")
+    head = rows[0]
+    assert {"form", "ISA", "bytes per triangle", "ns/test (median)", "speedup (median, ×)"} <= set(head)
+    col = {h: i for i, h in enumerate(head)}
+    for kernel in KERNELS:
+        mine = [r for r in rows[1:] if r[col["kernel"]] == kernel]
+        assert len(mine) == 2  # the pair family and the mesh family, both float64
+        for r in mine:
+            assert r[col["form"]] == "scalar" and r[col["precision"]] == "float64"
+            assert r[col["bytes per triangle"]] == str(ext.bytes_per_triangle(kernel, "float64"))
+            assert float(r[col["ns/test (median)"]]) > 0
+            assert (r[col["verdicts"]] == "baseline") == (kernel == "moller_seed")
+
+
+def test_robustness_section_shows_the_validate_table_per_kernel_and_dtype(rendered):
+    from tribench.harness import validate
+    from test_report_run import KERNELS
+
+    run_dir, _, text = rendered
+    part = text[text.index('id="robustness"'):text.index('id="workloads"')]
+    assert "Read from validate.csv" in part
+    rows = _section_rows(text, "robustness")
+    head = rows[0]
+    assert head[:3] == ["kernel", "precision", "ISA"] and head[3:] == list(validate.SHORT_NAMES.values())
+    table = [r for r in rows if len(r) == len(head)][1:len(KERNELS) + 1]
+    assert [(r[0], r[1]) for r in table] == [(k, "float64") for k in KERNELS]
+    # the rays per test, and one sentence on what each measures
+    tests = [r for r in rows if len(r) > 1 and r[1] in validate.TESTS]
+    assert [r[1] for r in tests] == list(validate.TESTS)
+    assert all(int(r[-1].replace(",", "")) > 0 and len(r[2]) > 40 for r in tests)
+    # a broken promise is marked in its cell, and only there
+    fails = pd.read_csv(run_dir / "validate.csv").query("verdict == 'fail'")
+    marked = re.findall(r'<td class="num broken">[^<]*!</td>', part)
+    assert len(marked) == 2 * len(fails)  # in the table and in the list of broken promises
+    assert part.count("!</td>") == len(marked)
+
+
+def test_a_broken_promise_is_marked_red_in_the_robustness_table(rendered):
+    run_dir, _, _ = rendered
+    val = pd.read_csv(run_dir / "validate.csv")
+    row = (val["kernel"] == "curless") & (val["test"] == "parallel_rays")
+    val.loc[row, ["failures", "rate", "verdict"]] = [3, 3 / 32, "fail"]
+    part = report_html._robustness(val, "a note")
+    assert "1 broken" in part and "Broken promises" in part
+    assert part.count('<td class="num broken">9.38%!</td>') == 2  # the table and the list
+    assert part.count("!</td>") == 2
 
 
 def test_report_rebuilds_a_workload_missing_from_the_cache(tmp_path_factory, monkeypatch):
