@@ -46,7 +46,8 @@ def main(argv: list[str] | None = None) -> int:
         spd = analysis.analyse(result.run_dir, baseline=baseline).speedups
         print(f"\nspeedup over {baseline} (> 1: Baldwin-Weber is faster), 95% CI, verdict")
         print(f"{'workload':<44}" + "".join(f"{k:>40}" for k in CLAIMANTS))
-        for workload, rows in spd.groupby("workload", sort=False):
+        # by precision, then hit rate
+        for workload, rows in sorted(spd.groupby("workload"), key=lambda g: (g[0].split()[-2], g[0])):
             cells = {r.kernel: f"{r.ratio:.3f} [{r.ratio_ci_low:.3f}, {r.ratio_ci_high:.3f}] {r.verdict}"
                      for r in rows.itertuples(index=False)}
             name = f"{workload.split(' shuffled')[0]} {workload.split()[-2]}"
