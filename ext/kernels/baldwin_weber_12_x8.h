@@ -19,10 +19,7 @@ TB_WIDE vmask TB_FN(tb_baldwin_weber_12_x8_test)(const tb_ray *restrict r,
     vreal const_v = TB_FN(vload)(block + 8 * 7);
     TB_FN(vload3)(block, 8, row_w);
     vreal const_w = TB_FN(vload)(block + 8 * 11);
-    for (int k = 0; k < 3; ++k) {
-        o[k] = TB_FN(vsplat)(r->o[k]);
-        d[k] = TB_FN(vsplat)(r->d[k]);
-    }
+    TB_FN(vsplat_ray)(r, o, d);
     vreal w_o = TB_FN(vdot3)(row_w, o) + const_w;
     vreal w_d = TB_FN(vdot3)(row_w, d);
     vreal t = -w_o / w_d;

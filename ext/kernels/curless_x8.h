@@ -27,10 +27,7 @@ TB_WIDE vmask TB_FN(tb_curless_x8_test)(const tb_ray *restrict r, const real *re
     TB_FN(vload3)(block, 6, c);
     TB_FN(vload3)(block, 9, n);
     vreal plane = TB_FN(vload)(block + 8 * 12);
-    for (int k = 0; k < 3; ++k) {
-        o[k] = TB_FN(vsplat)(r->o[k]);
-        d[k] = TB_FN(vsplat)(r->d[k]);
-    }
+    TB_FN(vsplat_ray)(r, o, d);
     vreal nd = TB_FN(vdot3)(n, d);
     vreal t = (plane - TB_FN(vdot3)(n, o)) / nd;
     vreal q[3];

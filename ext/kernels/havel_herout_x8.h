@@ -18,10 +18,7 @@ TB_WIDE vmask TB_FN(tb_havel_herout_x8_test)(const tb_ray *restrict r, const rea
     vreal plane_u_c = TB_FN(vload)(block + 8 * 7);
     TB_FN(vload3)(block, 8, plane_v);
     vreal plane_v_c = TB_FN(vload)(block + 8 * 11);
-    for (int k = 0; k < 3; ++k) {
-        o[k] = TB_FN(vsplat)(r->o[k]);
-        d[k] = TB_FN(vsplat)(r->d[k]);
-    }
+    TB_FN(vsplat_ray)(r, o, d);
     vreal det = TB_FN(vdot3)(plane, d);
     vreal scaled_t = plane_c - TB_FN(vdot3)(plane, o);
     vreal one = TB_FN(vsplat)(1);

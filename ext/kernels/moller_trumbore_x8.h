@@ -14,10 +14,7 @@ TB_WIDE vmask TB_FN(tb_moller_trumbore_x8_test)(const tb_ray *restrict r, const 
     TB_FN(vload3)(block, 0, a);
     TB_FN(vload3)(block, 3, b);
     TB_FN(vload3)(block, 6, c);
-    for (int k = 0; k < 3; ++k) {
-        o[k] = TB_FN(vsplat)(r->o[k]);
-        d[k] = TB_FN(vsplat)(r->d[k]);
-    }
+    TB_FN(vsplat_ray)(r, o, d);
     vreal e1[3], e2[3], p[3], s[3], q[3];
     TB_FN(vsub3)(b, a, e1);
     TB_FN(vsub3)(c, a, e2);

@@ -24,10 +24,7 @@ TB_WIDE vmask TB_FN(tb_plucker_x8_test)(const tb_ray *restrict r, const real *re
     TB_FN(vload3)(block, 0, a);
     TB_FN(vload3)(block, 3, b);
     TB_FN(vload3)(block, 6, c);
-    for (int k = 0; k < 3; ++k) {
-        o[k] = TB_FN(vsplat)(r->o[k]);
-        d[k] = TB_FN(vsplat)(r->d[k]);
-    }
+    TB_FN(vsplat_ray)(r, o, d);
     /* vertices relative to the origin, and the edges a -> b -> c -> a */
     TB_FN(vsub3)(a, o, a);
     TB_FN(vsub3)(b, o, b);

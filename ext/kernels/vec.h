@@ -59,6 +59,15 @@ TB_WIDE vreal TB_FN(vsplat)(real x)
     return x - (vreal){0};
 }
 
+/* the ray's origin and direction in every lane */
+TB_WIDE void TB_FN(vsplat_ray)(const tb_ray *r, vreal *o, vreal *d)
+{
+    for (int k = 0; k < 3; ++k) {
+        o[k] = TB_FN(vsplat)(r->o[k]);
+        d[k] = TB_FN(vsplat)(r->d[k]);
+    }
+}
+
 /* lane f of a block: 8 consecutive reals, any alignment */
 TB_WIDE vreal TB_FN(vload)(const real *p)
 {
