@@ -104,12 +104,5 @@ static inline int TB_FN(tb_havel_herout_test)(const tb_ray *restrict r, const re
         return 0;
 
     /* one division on a hit */
-    real inv_det = 1 / abs_det;
-    real t = t_s * inv_det;
-    if (!(t > 0 && t < t_max))
-        return 0;
-    h->t = t;
-    h->u = u * inv_det;
-    h->v = v * inv_det;
-    return 1;
+    return TB_FN(tb_divide_hit)(t_s, u, v, abs_det, t_max, h);
 }

@@ -57,12 +57,5 @@ static inline int TB_FN(tb_moller_trumbore_cull_test)(const tb_ray *restrict r,
     real scaled_t = TB_FN(dot3)(e2, q);
     if (!(scaled_t > 0 && scaled_t < t_max * det))
         return 0;
-    real inv_det = 1 / det;
-    real t = scaled_t * inv_det;
-    if (!(t > 0 && t < t_max))
-        return 0;
-    h->t = t;
-    h->u = u * inv_det;
-    h->v = v * inv_det;
-    return 1;
+    return TB_FN(tb_divide_hit)(scaled_t, u, v, det, t_max, h);
 }

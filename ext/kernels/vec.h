@@ -32,6 +32,22 @@ static inline real TB_FN(edge_side)(const real *a, const real *b, const real *q,
     return TB_FN(dot3)(side, n);
 }
 
+/* The end of a late-division test: one division, then 0 < t < t_max on the
+ * divided t (an infinite or tiny denominator can round t to 0 or to t_max),
+ * and t, u, v of the hit. The scaled values and denominator share a sign. */
+static inline int TB_FN(tb_divide_hit)(real scaled_t, real scaled_u, real scaled_v, real det,
+                                       real t_max, tb_hit *h)
+{
+    real inv_det = 1 / det;
+    real t = scaled_t * inv_det;
+    if (!(t > 0 && t < t_max))
+        return 0;
+    h->t = t;
+    h->u = scaled_u * inv_det;
+    h->v = scaled_v * inv_det;
+    return 1;
+}
+
 /* Prepared data of the kernels that test raw vertices: the 9 coordinates. */
 static void TB_FN(tb_prepare_vertices)(const real *vertices, size_t n, real *out)
 {

@@ -157,12 +157,5 @@ static inline int TB_FN(tb_woop_test)(const tb_ray *restrict r, const real *rest
         return 0;
 
     /* one division on a hit */
-    real inv_det = 1 / det;
-    real t = scaled_t * inv_det;
-    if (!(t > 0 && t < t_max))
-        return 0;
-    h->t = t;
-    h->u = edge_ca * inv_det;
-    h->v = edge_ab * inv_det;
-    return 1;
+    return TB_FN(tb_divide_hit)(scaled_t, edge_ca, edge_ab, det, t_max, h);
 }
