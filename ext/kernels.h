@@ -15,7 +15,7 @@
  *                        1 on a hit with 0 < t < t_max, writing t, u, v
  *                        (the hit point is (1-u-v) v0 + u v1 + v v2); 0 else
  * A wide kernel file kernels/<name>_x8.h adds, for a kernel of the same name:
- *   vmask tb_<name>_x8_test(const tb_ray *r, const real *lanes, vreal t_max, tb_vhit *h)
+ *   vmask tb_<name>_x8_test(const tb_vray *r, const real *lanes, vreal t_max, tb_vhit *h)
  *                        the same test, branchless, on one vector's worth of
  *                        the triangles of a block of 8 (field f of lane l at
  *                        lanes[8 f + l]: the block, or its second half for
@@ -34,6 +34,7 @@
 #define vreal TB_FN(tb_vreal)
 #define vmask TB_FN(tb_vmask)
 #define tb_vhit TB_FN(tb_vhit)
+#define tb_vray TB_FN(tb_vray)
 
 /* A ray as the kernels see it: origin, direction, and the per-ray
  * precomputation of the kernels that have one (Woop's axes and shear). */
@@ -69,6 +70,16 @@ typedef struct {
     vreal t, u, v;
 } tb_vhit;
 
+/* A ray with every real field in every lane, built once per ray by the wide
+ * loop: a splat written inside a kernel is redone for every block (the
+ * compiler does not hoist it out of the triangle loop), which cost MT_x8
+ * about a third of its time. */
+typedef struct {
+    vreal o[3], d[3];
+    int kx, ky, kz;
+    vreal sx, sy, sz;
+} tb_vray;
+
 #include "kernels/vec.h"
 #include "kernels/curless_seed.h"
 #include "kernels/moller_seed.h"
@@ -94,7 +105,7 @@ typedef struct {
 typedef int (*TB_FN(tb_test_fn))(const tb_ray *restrict, const real *restrict, real,
                                  tb_hit *restrict);
 typedef void (*TB_FN(tb_ray_fn))(const real *, const real *, tb_ray *);
-typedef vmask (*TB_FN(tb_wide_fn))(const tb_ray *restrict, const real *restrict, vreal,
+typedef vmask (*TB_FN(tb_wide_fn))(const tb_vray *restrict, const real *restrict, vreal,
                                    tb_vhit *restrict);
 
 /* One batch of a scalar kernel. `mode` and `timed` are constants at every
@@ -185,8 +196,10 @@ TB_FN(tb_wide_loop)(TB_FN(tb_wide_fn) test, TB_FN(tb_ray_fn) make_ray, size_t st
     const uint64_t loops = timed ? job->loops : 1;
     for (uint64_t pass = 0; pass < loops; ++pass)
         for (size_t i = 0; i < job->n_rays; ++i) {
-            tb_ray r;
-            make_ray(o + 3 * i, d + 3 * i, &r);
+            tb_ray scalar_ray;
+            tb_vray r;
+            make_ray(o + 3 * i, d + 3 * i, &scalar_ray);
+            TB_FN(vray_splat)(&scalar_ray, &r);
             tb_vhit best[TB_VPB];
             vmask index[TB_VPB];
             for (int v = 0; v < TB_VPB; ++v) {
@@ -295,6 +308,7 @@ TB_WIDE_KERNEL_LIST(TB_INSTANTIATE_WIDE)
 #undef TB_VPB
 #undef TB_VLANES
 #undef tb_vhit
+#undef tb_vray
 #undef vmask
 #undef mask_elem
 #undef vreal

@@ -8,18 +8,18 @@
  * baldwin_weber_12's 12 reals (rows U, V, W), in blocks of 8 triangles,
  * structure of arrays. */
 
-TB_WIDE vmask TB_FN(tb_baldwin_weber_12_x8_test)(const tb_ray *restrict r,
+TB_WIDE vmask TB_FN(tb_baldwin_weber_12_x8_test)(const tb_vray *restrict r,
                                                  const real *restrict block, vreal t_max,
                                                  tb_vhit *restrict h)
 {
-    vreal row_u[3], row_v[3], row_w[3], o[3], d[3];
+    vreal row_u[3], row_v[3], row_w[3];
+    const vreal *o = r->o, *d = r->d;
     TB_FN(vload3)(block, 0, row_u);
     vreal const_u = TB_FN(vload)(block + 8 * 3);
     TB_FN(vload3)(block, 4, row_v);
     vreal const_v = TB_FN(vload)(block + 8 * 7);
     TB_FN(vload3)(block, 8, row_w);
     vreal const_w = TB_FN(vload)(block + 8 * 11);
-    TB_FN(vsplat_ray)(r, o, d);
     vreal w_o = TB_FN(vdot3)(row_w, o) + const_w;
     vreal w_d = TB_FN(vdot3)(row_w, d);
     vreal t = -w_o / w_d;

@@ -15,7 +15,7 @@
  * baldwin_weber_9's 10 reals, in blocks of 8 triangles, structure of
  * arrays. */
 
-TB_WIDE vmask TB_FN(tb_baldwin_weber_9_x8_test)(const tb_ray *restrict r,
+TB_WIDE vmask TB_FN(tb_baldwin_weber_9_x8_test)(const tb_vray *restrict r,
                                                 const real *restrict block, vreal t_max,
                                                 tb_vhit *restrict h)
 {
@@ -29,10 +29,10 @@ TB_WIDE vmask TB_FN(tb_baldwin_weber_9_x8_test)(const tb_ray *restrict r,
     vreal o_k[3], d_k[3];
     for (int j = 0; j < 3; ++j) {
         /* component (j + k) % 3 for k = 0, 1, 2 */
-        vreal o0 = TB_FN(vsplat)(r->o[j]), o1 = TB_FN(vsplat)(r->o[(j + 1) % 3]),
-              o2 = TB_FN(vsplat)(r->o[(j + 2) % 3]);
-        vreal d0 = TB_FN(vsplat)(r->d[j]), d1 = TB_FN(vsplat)(r->d[(j + 1) % 3]),
-              d2 = TB_FN(vsplat)(r->d[(j + 2) % 3]);
+        vreal o0 = r->o[j], o1 = r->o[(j + 1) % 3],
+              o2 = r->o[(j + 2) % 3];
+        vreal d0 = r->d[j], d1 = r->d[(j + 1) % 3],
+              d2 = r->d[(j + 2) % 3];
         o_k[j] = TB_FN(vselect)(is1, o1, TB_FN(vselect)(is2, o2, o0));
         d_k[j] = TB_FN(vselect)(is1, d1, TB_FN(vselect)(is2, d2, d0));
     }

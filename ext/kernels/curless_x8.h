@@ -18,16 +18,16 @@ TB_WIDE vreal TB_FN(tb_curless_x8_side)(const vreal *a, const vreal *b, const vr
     return TB_FN(vdot3)(side, n);
 }
 
-TB_WIDE vmask TB_FN(tb_curless_x8_test)(const tb_ray *restrict r, const real *restrict block,
+TB_WIDE vmask TB_FN(tb_curless_x8_test)(const tb_vray *restrict r, const real *restrict block,
                                         vreal t_max, tb_vhit *restrict h)
 {
-    vreal a[3], b[3], c[3], n[3], o[3], d[3];
+    vreal a[3], b[3], c[3], n[3];
+    const vreal *o = r->o, *d = r->d;
     TB_FN(vload3)(block, 0, a);
     TB_FN(vload3)(block, 3, b);
     TB_FN(vload3)(block, 6, c);
     TB_FN(vload3)(block, 9, n);
     vreal plane = TB_FN(vload)(block + 8 * 12);
-    TB_FN(vsplat_ray)(r, o, d);
     vreal nd = TB_FN(vdot3)(n, d);
     vreal t = (plane - TB_FN(vdot3)(n, o)) / nd;
     vreal q[3];

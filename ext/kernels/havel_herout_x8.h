@@ -8,17 +8,17 @@
  * only kept where the mask is set). Records: havel_herout's 12 reals, in
  * blocks of 8 triangles, structure of arrays. */
 
-TB_WIDE vmask TB_FN(tb_havel_herout_x8_test)(const tb_ray *restrict r, const real *restrict block,
+TB_WIDE vmask TB_FN(tb_havel_herout_x8_test)(const tb_vray *restrict r, const real *restrict block,
                                              vreal t_max, tb_vhit *restrict h)
 {
-    vreal plane[3], plane_u[3], plane_v[3], o[3], d[3];
+    vreal plane[3], plane_u[3], plane_v[3];
+    const vreal *o = r->o, *d = r->d;
     TB_FN(vload3)(block, 0, plane);
     vreal plane_c = TB_FN(vload)(block + 8 * 3);
     TB_FN(vload3)(block, 4, plane_u);
     vreal plane_u_c = TB_FN(vload)(block + 8 * 7);
     TB_FN(vload3)(block, 8, plane_v);
     vreal plane_v_c = TB_FN(vload)(block + 8 * 11);
-    TB_FN(vsplat_ray)(r, o, d);
     vreal det = TB_FN(vdot3)(plane, d);
     vreal scaled_t = plane_c - TB_FN(vdot3)(plane, o);
     vreal one = TB_FN(vsplat)(1);

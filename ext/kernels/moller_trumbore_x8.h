@@ -7,14 +7,14 @@
  * for all lanes (its result is only kept where the mask is set). Records:
  * moller_trumbore's 9 reals, in blocks of 8 triangles, structure of arrays. */
 
-TB_WIDE vmask TB_FN(tb_moller_trumbore_x8_test)(const tb_ray *restrict r, const real *restrict block,
+TB_WIDE vmask TB_FN(tb_moller_trumbore_x8_test)(const tb_vray *restrict r, const real *restrict block,
                                                 vreal t_max, tb_vhit *restrict h)
 {
-    vreal a[3], b[3], c[3], o[3], d[3];
+    vreal a[3], b[3], c[3];
+    const vreal *o = r->o, *d = r->d;
     TB_FN(vload3)(block, 0, a);
     TB_FN(vload3)(block, 3, b);
     TB_FN(vload3)(block, 6, c);
-    TB_FN(vsplat_ray)(r, o, d);
     vreal e1[3], e2[3], p[3], s[3], q[3];
     TB_FN(vsub3)(b, a, e1);
     TB_FN(vsub3)(c, a, e2);

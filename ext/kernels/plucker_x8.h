@@ -17,14 +17,14 @@ TB_WIDE vreal TB_FN(tb_plucker_x8_side)(const vreal *p, const vreal *q, const vr
     return TB_FN(vdot3)(moment, d);
 }
 
-TB_WIDE vmask TB_FN(tb_plucker_x8_test)(const tb_ray *restrict r, const real *restrict block,
+TB_WIDE vmask TB_FN(tb_plucker_x8_test)(const tb_vray *restrict r, const real *restrict block,
                                         vreal t_max, tb_vhit *restrict h)
 {
-    vreal a[3], b[3], c[3], o[3], d[3];
+    vreal a[3], b[3], c[3];
+    const vreal *o = r->o, *d = r->d;
     TB_FN(vload3)(block, 0, a);
     TB_FN(vload3)(block, 3, b);
     TB_FN(vload3)(block, 6, c);
-    TB_FN(vsplat_ray)(r, o, d);
     /* vertices relative to the origin, and the edges a -> b -> c -> a */
     TB_FN(vsub3)(a, o, a);
     TB_FN(vsub3)(b, o, b);

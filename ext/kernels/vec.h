@@ -75,13 +75,19 @@ TB_WIDE vreal TB_FN(vsplat)(real x)
     return x - (vreal){0};
 }
 
-/* the ray's origin and direction in every lane */
-TB_WIDE void TB_FN(vsplat_ray)(const tb_ray *r, vreal *o, vreal *d)
+/* the ray in every lane (see tb_vray) */
+TB_WIDE void TB_FN(vray_splat)(const tb_ray *r, tb_vray *v)
 {
     for (int k = 0; k < 3; ++k) {
-        o[k] = TB_FN(vsplat)(r->o[k]);
-        d[k] = TB_FN(vsplat)(r->d[k]);
+        v->o[k] = TB_FN(vsplat)(r->o[k]);
+        v->d[k] = TB_FN(vsplat)(r->d[k]);
     }
+    v->kx = r->kx;
+    v->ky = r->ky;
+    v->kz = r->kz;
+    v->sx = TB_FN(vsplat)(r->sx);
+    v->sy = TB_FN(vsplat)(r->sy);
+    v->sz = TB_FN(vsplat)(r->sz);
 }
 
 /* lane f of a block: 8 consecutive reals, any alignment */

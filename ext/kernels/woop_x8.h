@@ -14,13 +14,13 @@
  * bit for bit the scalar answer. Records: woop's 9 reals (raw vertices), in
  * blocks of 8 triangles, structure of arrays. */
 
-TB_WIDE vmask TB_FN(tb_woop_x8_test)(const tb_ray *restrict r, const real *restrict block,
+TB_WIDE vmask TB_FN(tb_woop_x8_test)(const tb_vray *restrict r, const real *restrict block,
                                      vreal t_max, tb_vhit *restrict h)
 {
     const int kx = r->kx, ky = r->ky, kz = r->kz;
     /* vertex v's coordinate k is field 3 v + k, minus the origin's */
-    vreal o_x = TB_FN(vsplat)(r->o[kx]), o_y = TB_FN(vsplat)(r->o[ky]),
-          o_z = TB_FN(vsplat)(r->o[kz]);
+    vreal o_x = r->o[kx], o_y = r->o[ky],
+          o_z = r->o[kz];
     vreal a_x = TB_FN(vload)(block + 8 * (0 + kx)) - o_x;
     vreal a_y = TB_FN(vload)(block + 8 * (0 + ky)) - o_y;
     vreal a_z = TB_FN(vload)(block + 8 * (0 + kz)) - o_z;
@@ -32,8 +32,8 @@ TB_WIDE vmask TB_FN(tb_woop_x8_test)(const tb_ray *restrict r, const real *restr
     vreal c_z = TB_FN(vload)(block + 8 * (6 + kz)) - o_z;
 
     /* shear: the ray is the +z axis */
-    vreal sx = TB_FN(vsplat)(r->sx), sy = TB_FN(vsplat)(r->sy),
-          sz = TB_FN(vsplat)(r->sz);
+    vreal sx = r->sx, sy = r->sy,
+          sz = r->sz;
     vreal ax = a_x - sx * a_z, ay = a_y - sy * a_z;
     vreal bx = b_x - sx * b_z, by = b_y - sy * b_z;
     vreal cx = c_x - sx * c_z, cy = c_y - sy * c_z;
