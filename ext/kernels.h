@@ -215,16 +215,18 @@ TB_FN(tb_wide_loop)(TB_FN(tb_wide_fn) test, TB_FN(tb_ray_fn) make_ray, size_t st
                     vmask m = test(&r, rec + stride * 8 * b + v * TB_VLANES, best[v].t, &h);
                     if (b == n_blocks - 1)
                         m &= tail[v];
+                    /* most blocks have no hit: skip the bookkeeping on one branch */
+                    if (!TB_FN(vany)(m))
+                        continue;
                     best[v].t = TB_FN(vselect)(m, h.t, best[v].t);
                     if (mode == TB_CLOSEST_UV || !timed) {
                         best[v].u = TB_FN(vselect)(m, h.u, best[v].u);
                         best[v].v = TB_FN(vselect)(m, h.v, best[v].v);
                     }
                     index[v] = (m & (lane[v] + (mask_elem)(8 * b))) | (~m & index[v]);
-                    if (mode == TB_ANY)
-                        found |= TB_FN(vany)(m);
+                    found = 1;
                 }
-                if (found) {
+                if (mode == TB_ANY && found) {
                     ++b;
                     break;
                 }
