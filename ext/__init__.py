@@ -114,6 +114,10 @@ class KernelInfo:
         1 for a scalar early-exit kernel, 8 for a wide form.
     stride : int
         Reals of prepared data per triangle.
+    ops : int
+        Arithmetic operations per test (per lane for a wide form; a scalar
+        kernel's count is the path of a hit). Documented per kernel in its
+        header, with the counting rules in ``ext/kernels.h``.
     internal : bool
         One of the harness's honesty-check kernels.
     isas : dict[str, bool]
@@ -131,6 +135,7 @@ class KernelInfo:
     name: str
     lanes: int
     stride: int
+    ops: int
     internal: bool
     isas: dict
     isa: str
@@ -157,7 +162,7 @@ def kernel_info(kernel: str) -> KernelInfo:
     (8, True)
     """
     _check_kernel(kernel)
-    lanes, stride, internal, isas = _core.kernel_info(kernel)
+    lanes, stride, ops, internal, isas = _core.kernel_info(kernel)
     runnable = dict(isas)
     wanted = os.environ.get("TRIBENCH_ISA")
     if lanes > 1 and wanted:
@@ -169,7 +174,7 @@ def kernel_info(kernel: str) -> KernelInfo:
         isa = wanted
     else:
         isa = next(i for i, ok in isas if ok)
-    return KernelInfo(kernel, lanes, stride, bool(internal), runnable, isa)
+    return KernelInfo(kernel, lanes, stride, ops, bool(internal), runnable, isa)
 
 
 def build_info() -> dict:

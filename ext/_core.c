@@ -86,6 +86,7 @@ typedef struct {
     int internal; /* from TB_INTERNAL_KERNEL_LIST: hidden from the user's list */
     int lanes;    /* 1: scalar early-exit form; 8: wide form, blocks of 8 triangles */
     size_t stride; /* reals per prepared triangle */
+    int ops;       /* arithmetic operations per test (and lane), see kernels.h */
     int n_isas;
     const char *const *isa_names;
     tb_variant f32, f64;
@@ -97,7 +98,7 @@ typedef struct {
       {TB_CAT(tb_##name##_time_pairs, sfx), TB_CAT(tb_##name##_time_any, sfx),               \
        TB_CAT(tb_##name##_time_closest, sfx), TB_CAT(tb_##name##_time_closest_uv, sfx)}}}
 #define TB_SCALAR_ENTRY_(name, internal)                                                     \
-    {#name, internal, 1, tb_##name##_stride, 1, tb_scalar_isa_names,                         \
+    {#name, internal, 1, tb_##name##_stride, tb_##name##_ops, 1, tb_scalar_isa_names,                         \
      {(tb_prepare_fn)tb_##name##_prepare_f32, TB_SCALAR_LOOPS(name, _f32)},                  \
      {(tb_prepare_fn)tb_##name##_prepare_f64, TB_SCALAR_LOOPS(name, _f64)}},
 #define TB_ENTRY(name) TB_SCALAR_ENTRY_(name, 0)
@@ -112,8 +113,8 @@ typedef struct {
 #define TB_WIDE_LOOPS_F32(name, isa, target) TB_WIDE_LOOPS(name, isa, target, _f32)
 #define TB_WIDE_LOOPS_F64(name, isa, target) TB_WIDE_LOOPS(name, isa, target, _f64)
 #define TB_WIDE_KERNEL_ENTRY(name)                                                               \
-    {#name "_x8", 0, 8, tb_##name##_stride, (int)(sizeof tb_isa_names / sizeof *tb_isa_names), \
-     tb_isa_names,                                                                           \
+    {#name "_x8", 0, 8, tb_##name##_stride, tb_##name##_x8_ops,                              \
+     (int)(sizeof tb_isa_names / sizeof *tb_isa_names), tb_isa_names,                        \
      {(tb_prepare_fn)tb_##name##_prepare_f32, {TB_ISA_LIST(TB_WIDE_LOOPS_F32, name)}},        \
      {(tb_prepare_fn)tb_##name##_prepare_f64, {TB_ISA_LIST(TB_WIDE_LOOPS_F64, name)}}},
 
@@ -267,7 +268,7 @@ static PyObject *py_kernel_names(PyObject *Py_UNUSED(self), PyObject *args)
     return tuple;
 }
 
-/* kernel_info(name) -> (lanes, stride, internal, ((isa, runnable), ...)) */
+/* kernel_info(name) -> (lanes, stride, ops, internal, ((isa, runnable), ...)) */
 static PyObject *py_kernel_info(PyObject *Py_UNUSED(self), PyObject *args)
 {
     const char *name;
@@ -288,7 +289,7 @@ static PyObject *py_kernel_info(PyObject *Py_UNUSED(self), PyObject *args)
         }
         PyTuple_SET_ITEM(isas, i, item);
     }
-    return Py_BuildValue("(inON)", k->lanes, (Py_ssize_t)k->stride,
+    return Py_BuildValue("(iniON)", k->lanes, (Py_ssize_t)k->stride, k->ops,
                          k->internal ? Py_True : Py_False, isas);
 }
 
@@ -500,7 +501,7 @@ static PyMethodDef tb_methods[] = {
     {"fma_peak", py_fma_peak, METH_VARARGS,
      "fma_peak(iterations, force_scalar=False) -> (flops, elapsed_ns, isa, sink)."},
     {"kernel_info", py_kernel_info, METH_VARARGS,
-     "kernel_info(name) -> (lanes, stride, internal, ((isa, runnable), ...))."},
+     "kernel_info(name) -> (lanes, stride, ops, internal, ((isa, runnable), ...))."},
     {"prepare", py_prepare, METH_VARARGS,
      "prepare(name, itemsize, vertices, n, out): fill a kernel's records."},
     {"run", py_run, METH_VARARGS,

@@ -7,6 +7,7 @@
  *
  * A scalar kernel file kernels/<name>.h defines, for the current precision:
  *   tb_<name>_stride     macro: reals per prepared triangle record
+ *   tb_<name>_ops        macro: arithmetic operations per test (see below)
  *   void tb_<name>_prepare(const real *vertices, size_t n, real *out)
  *   void tb_<name>_ray(const real *o, const real *d, tb_ray *r)
  *                        per-ray precomputation, done once per ray outside
@@ -20,12 +21,24 @@
  *                        the triangles of a block of 8 (field f of lane l at
  *                        lanes[8 f + l]: the block, or its second half for
  *                        double); a lane of the mask is all ones on a hit
+ *   tb_<name>_x8_ops     macro: operations per test and lane
  * and reuses the scalar stride, prepare and ray. The loops below are
  * instantiated once per kernel, mode and ISA, so tests inline into them and
  * dispatch happens once per batch. The loops pass the best t so far as
  * t_max, as a ray tracer shrinks its interval; a kernel that reads u and v
  * only for the closest_uv mode has their arithmetic removed elsewhere as
- * dead code. */
+ * dead code.
+ *
+ * Operation counts (the work behind `tribench info --peak`'s bound): every
+ * floating-point add, subtract, multiply, divide, square root, comparison
+ * and min/max one test does counts 1; loads, selects, mask logic, sign flips
+ * and fabs (bit operations), the per-ray and per-triangle precomputations,
+ * and the arithmetic only the u and v outputs use do not count. A scalar
+ * kernel counts the path of a hit (every stage runs); a test that exits
+ * early does less. A wide kernel does every operation on every lane; its
+ * count equals the vector arithmetic instructions of its compiled triangle
+ * loop per vector (tests/test_ext_build.py checks this). The kernels are
+ * built without FMA contraction, so each operation is one instruction. */
 
 #define real TB_REAL
 #define TB_FN(name) TB_CAT(name, TB_SUFFIX)

@@ -8,11 +8,12 @@ renamed by :data:`ESTIMATE_COLUMNS` so each name carries its unit
 (``kernel, workload_id, ns_per_test, ns_per_test_ci_low, ns_per_test_ci_high,
 ns_per_test_bootstrap_low, ns_per_test_bootstrap_high, ns_per_test_min,
 ns_per_test_sd, n_processes, confidence``), then ``workload`` (the spec's
-one-line summary), ``peak_gflops`` (mean FMA peak of the processes) and
-``peak_flops_per_test, peak_flops_per_test_ci_low,
-peak_flops_per_test_ci_high``: the cost of one test in flops at the machine's
-peak of that moment (``ns_per_test * peak_gflops`` per process, then the same
-t-interval), a machine-normalised figure steadier than raw time.
+one-line summary), ``peak_gflops`` (mean FMA peak of the processes),
+``ops_per_test`` (the kernel's documented arithmetic), ``bound_ns_per_test``
+(that arithmetic at the peak) and ``peak_fraction, peak_fraction_ci_low,
+peak_fraction_ci_high``: bound over measured time, each process against its
+own peak of that moment, a machine-normalised figure steadier than raw time
+(:mod:`tribench.harness.peak`).
 
 ``speedups.csv``: the columns of :func:`~tribench.harness.stats.speedup_table`
 renamed by :data:`SPEEDUP_COLUMNS` (``workload_id, kernel, baseline, ratio,
@@ -29,6 +30,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from . import records, stats
@@ -99,7 +101,8 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
     table = stats.per_process(batches)
     estimates = stats.estimate_table(table).rename(columns=ESTIMATE_COLUMNS)
     estimates["workload"] = estimates["workload_id"].map(names)
-    estimates = estimates.join(_peak_columns(table, records.read_processes(run_dir)),
+    dtypes = {wid: spec["dtype"] for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"])}
+    estimates = estimates.join(_peak_columns(table, records.read_processes(run_dir), dtypes),
                                on=["kernel", "workload_id"])
     speedups = stats.speedup_table(table, baseline, margin=m.value).rename(columns=SPEEDUP_COLUMNS)
     speedups["workload"] = speedups["workload_id"].map(names)
@@ -113,22 +116,42 @@ def _summary(spec: dict) -> str:
     return spec_from_dict(spec).summary()
 
 
-def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame) -> pd.DataFrame:
-    """Per kernel and workload: mean peak and cost in peak flops per test."""
-    columns = ["peak_gflops", "peak_flops_per_test", "peak_flops_per_test_ci_low", "peak_flops_per_test_ci_high"]
+def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str, str]) -> pd.DataFrame:
+    """Per kernel and workload: mean peak, operations per test, the bound and the fraction of it.
+
+    Per process, one test's time in lane-operation slots at that process's
+    peak (``ns_per_test * lane_ops_per_ns``); the t-interval of their mean
+    maps to the fraction ``ops / slots`` (a monotone map, so the interval
+    carries over, ends swapped). See :mod:`tribench.harness.peak`."""
+    from tribench import ext
+
+    from .peak import lane_ops_per_ns
+
+    columns = ["peak_gflops", "ops_per_test", "bound_ns_per_test", "peak_fraction", "peak_fraction_ci_low",
+               "peak_fraction_ci_high"]
     if processes.empty:
         return pd.DataFrame(columns=["kernel", "workload_id", *columns]).set_index(["kernel", "workload_id"])
-    peak = processes.groupby("process")["peak_gflops"].mean().rename("peak_gflops")
+    peak = processes.groupby("process").agg(peak_gflops=("peak_gflops", "mean"), peak_isa=("peak_isa", "first"))
     joined = table.join(peak, on="process").dropna(subset=["peak_gflops"])
-    scaled = joined.assign(ns_per_test=joined["ns_per_test"] * joined["peak_gflops"])
-    est = stats.estimate_table(scaled).set_index(["kernel", "workload_id"])
-    out = pd.DataFrame({
-        "peak_gflops": joined.groupby(["kernel", "workload_id"])["peak_gflops"].mean(),
-        "peak_flops_per_test": est["mean"],
-        "peak_flops_per_test_ci_low": est["ci_low"],
-        "peak_flops_per_test_ci_high": est["ci_high"],
-    })
-    return out
+    rate = [lane_ops_per_ns(g, dtypes[w], isa)
+            for g, w, isa in zip(joined["peak_gflops"], joined["workload_id"], joined["peak_isa"])]
+    slots = stats.estimate_table(joined.assign(ns_per_test=joined["ns_per_test"] * rate))
+    slots = slots.set_index(["kernel", "workload_id"])
+    keys = ["kernel", "workload_id"]
+    peaks = joined.groupby(keys).agg(peak_gflops=("peak_gflops", "mean"), peak_isa=("peak_isa", "first"))
+    peaks = peaks.reindex(slots.index)
+    known = set(ext.kernel_names(internal=True))
+    ops = np.array([ext.kernel_info(k).ops if k in known else np.nan for k, _ in peaks.index], dtype=float)
+    mean_rate = np.array([lane_ops_per_ns(g, dtypes[w], isa)
+                          for (_, w), g, isa in zip(peaks.index, peaks["peak_gflops"], peaks["peak_isa"])])
+    return pd.DataFrame({
+        "peak_gflops": peaks["peak_gflops"],
+        "ops_per_test": ops,
+        "bound_ns_per_test": ops / mean_rate,
+        "peak_fraction": ops / slots["mean"],
+        "peak_fraction_ci_low": ops / slots["ci_high"],
+        "peak_fraction_ci_high": ops / slots["ci_low"],
+    }, index=slots.index)
 
 
 def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:

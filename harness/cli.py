@@ -43,7 +43,25 @@ def _info(args: argparse.Namespace) -> int:
                         for i, ok in info.isas.items()) if info.lanes > 1 else "baseline build"
         print(f"{name:<{width}}{form:<8}{ext.bytes_per_triangle(name, 'float32'):>14}"
               f"{ext.bytes_per_triangle(name, 'float64'):>14}  {isas}")
+    if args.peak:
+        _print_peak(width)
     return 0
+
+
+def _print_peak(width: int) -> None:
+    from .peak import camera_fractions
+
+    print("\nmeasuring the FMA peak and every kernel on the in-cache camera workload "
+          "(Suzanne 968 triangles, 64x64 rays, closest hit)...", file=sys.stderr)
+    gflops, isa, table = camera_fractions()
+    print(f"\nFMA peak  {gflops:.1f} GFLOP/s ({isa}; {gflops / 2:.1f} float lane-ops/ns, "
+          f"an FMA = 1 op = 2 flops)")
+    print("bound = ops per test / lane-ops per ns; % = bound / measured (rules: tribench.harness.peak)")
+    for dtype, g in table.groupby("dtype", sort=False):
+        print(f"\n{dtype:<{width}}{'form':<18}{'ops/test':>9}{'bound ns':>10}{'ns/test':>10}{'% of bound':>12}")
+        for r in g.itertuples(index=False):
+            print(f"{r.kernel:<{width}}{r.form:<18}{r.ops_per_test:>9}{r.bound_ns_per_test:>10.3f}"
+                  f"{r.ns_per_test:>10.3f}{100 * r.fraction:>11.1f}%")
 
 
 # ------------------------------------------------------------------ sweep
@@ -268,6 +286,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"tribench {version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     info = sub.add_parser("info", help="version, build flags, CPU and SIMD features, kernel list")
+    info.add_argument("--peak", action="store_true",
+                      help="also measure the FMA peak and each kernel's ns/test on the in-cache camera "
+                           "workload, as a fraction of its arithmetic bound (about half a minute)")
     info.set_defaults(func=_info)
 
     sweep = sub.add_parser(

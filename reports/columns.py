@@ -56,9 +56,11 @@ ESTIMATES: dict[str, str] = {
     "confidence": "two-sided confidence level of both intervals (0.95)",
     "workload": "the workload's spec in one line",
     "peak_gflops": "mean measured FMA peak of the processes, GFLOP/s",
-    "peak_flops_per_test": "cost of one test in flops at the machine's measured peak (ns x GFLOP/s)",
-    "peak_flops_per_test_ci_low": "lower end of its confidence interval",
-    "peak_flops_per_test_ci_high": "upper end of its confidence interval",
+    "ops_per_test": "the kernel's arithmetic operations per test (documented in its header)",
+    "bound_ns_per_test": "those operations at the measured FMA peak, ns (the arithmetic bound)",
+    "peak_fraction": "bound / measured time (1 = at the bound), each process against its own peak",
+    "peak_fraction_ci_low": "lower end of its 95% confidence interval",
+    "peak_fraction_ci_high": "upper end of its 95% confidence interval",
 }
 
 #: ``speedups.csv``: one row per kernel (other than the baseline) and workload.

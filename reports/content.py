@@ -161,11 +161,15 @@ def kernel_table(data: RunData, est: pd.DataFrame, spd: pd.DataFrame) -> pd.Data
 
     ``est`` and ``spd`` are the estimates and speedups joined with the workload
     table (``family``, and ``dtype`` in ``est``). Columns ``kernel, form, isa,
-    family, dtype, bytes_per_triangle, workloads, ns_per_test_median,
+    family, dtype, bytes_per_triangle, workloads, ops_per_test,
+    peak_fraction_median, ns_per_test_median,
     ns_per_test_min, ns_per_test_max, ratio_median, ratio_min, ratio_max,
     verdicts``: ``form`` is ``scalar`` or ``N lanes``, ``isa`` what its batches
     ran with, ``bytes_per_triangle`` its prepared data per triangle at the
-    family's precision (one per family). The times summarise the estimates of
+    family's precision (one per family), ``ops_per_test`` its documented
+    arithmetic and ``peak_fraction_median`` the median over the family's
+    workloads of its fraction of the arithmetic bound (nan in runs without
+    peak probes). The times summarise the estimates of
     the family's workloads and the ratios their speedups over the baseline
     (median, lowest, highest; nan for the baseline); ``verdicts`` counts those
     workloads by verdict. Families where the kernel has no estimate (a wide
@@ -181,6 +185,8 @@ def kernel_table(data: RunData, est: pd.DataFrame, spd: pd.DataFrame) -> pd.Data
             rows.append({
                 "kernel": kernel, "form": form, "isa": isa, "family": family, "dtype": dtype,
                 "bytes_per_triangle": _bytes_per_triangle(kernel, dtype), "workloads": len(g),
+                "ops_per_test": g["ops_per_test"].iloc[0] if "ops_per_test" in g else math.nan,
+                "peak_fraction_median": g["peak_fraction"].median() if "peak_fraction" in g else math.nan,
                 "ns_per_test_median": g["ns_per_test"].median(), "ns_per_test_min": g["ns_per_test"].min(),
                 "ns_per_test_max": g["ns_per_test"].max(),
                 "ratio_median": s["ratio"].median() if len(s) else math.nan,
@@ -189,7 +195,7 @@ def kernel_table(data: RunData, est: pd.DataFrame, spd: pd.DataFrame) -> pd.Data
                 "verdicts": verdicts or ("baseline" if kernel == data.baseline else "no comparison"),
             })
     return pd.DataFrame(rows, columns=["kernel", "form", "isa", "family", "dtype", "bytes_per_triangle",
-                                       "workloads", "ns_per_test_median", "ns_per_test_min", "ns_per_test_max",
+                                       "workloads", "ops_per_test", "peak_fraction_median", "ns_per_test_median", "ns_per_test_min", "ns_per_test_max",
                                        "ratio_median", "ratio_min", "ratio_max", "verdicts"])
 
 

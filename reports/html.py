@@ -283,7 +283,7 @@ _EST_COLS = [("kernel", "kernel"), ("label", "workload"), ("ns_per_test", "ns/te
              ("ns_per_test_ci_low", "95% CI low (ns)"), ("ns_per_test_ci_high", "95% CI high (ns)"),
              ("ns_per_test_min", "min (ns)"), ("ns_per_test_bootstrap_low", "BCa low (ns)"),
              ("ns_per_test_bootstrap_high", "BCa high (ns)"), ("n_processes", "processes"),
-             ("peak_flops_per_test", "flops at peak per test")]
+             ("peak_fraction", "fraction of bound")]
 _SPD_COLS = [("kernel", "kernel"), ("label", "workload"), ("ratio", "speedup (×)"),
              ("ratio_ci_low", "CI low (×)"), ("ratio_ci_high", "CI high (×)"), ("p_holm", "p (Holm)"),
              ("n_processes", "processes"), ("verdict", "verdict")]
@@ -300,8 +300,9 @@ def _speedups(data: RunData, spd: pd.DataFrame, est: pd.DataFrame) -> str:
         "<h3>Estimates</h3>",
         _p("ns per ray–triangle test: per process the median of its timed batches, then the mean over "
            "processes with a Student-t interval; the BCa bootstrap over processes is a cross-check and the "
-           "minimum a robust secondary figure. flops at peak per test = ns/test × the process's measured "
-           "FMA peak in GFLOP/s.", "note"),
+           "minimum a robust secondary figure. Fraction of bound: the kernel's documented operations per "
+           "test at the process's measured FMA peak (an FMA = one operation), over the measured time; "
+           "see the kernels section.", "note"),
         _table(est, _EST_COLS),
     ]
     return _section("speedups", "".join(body))
@@ -309,6 +310,7 @@ def _speedups(data: RunData, spd: pd.DataFrame, est: pd.DataFrame) -> str:
 
 _KERNEL_COLS = [("kernel", "kernel"), ("form", "form"), ("isa", "ISA"), ("family", "workload family"),
                 ("dtype", "precision"), ("bytes_per_triangle", "bytes per triangle"), ("workloads", "workloads"),
+                ("ops_per_test", "ops per test"), ("peak_fraction_median", "fraction of bound (median)"),
                 ("ns_per_test_median", "ns/test (median)"), ("ns_range", "ns/test (lowest–highest)"),
                 ("ratio_median", "speedup (median, ×)"), ("ratio_range", "speedup (lowest–highest, ×)"),
                 ("verdicts", "verdicts")]
@@ -328,9 +330,13 @@ def _kernels(data: RunData, kern: pd.DataFrame) -> str:
             f"Form: scalar (one triangle per test, early exit) or 8 lanes (eight triangles per step in SIMD "
             f"registers); ISA: the instruction set its batches ran with. Bytes per triangle: its prepared data "
             f"for one triangle at the family's precision, which the working set (section ")
-    tail = (f") counts. ns/test and the speedup over {data.baseline} summarise the family's workloads (median, "
-            f"lowest, highest); their 95% CIs are in the speedups section, and verdicts counts the workloads "
-            f"by verdict.")
+    tail = (f") counts. Ops per test: the kernel's arithmetic (adds, multiplies, divides, compares; for a "
+            f"scalar kernel the path of a hit), documented in its header. Fraction of bound: that arithmetic at "
+            f"the machine's measured FMA peak (one FMA = one operation; a double vector holds half the lanes) "
+            f"over the measured time; 1 would be the arithmetic limit, and a scalar kernel, one lane of eight, "
+            f"stays under 1/8 in float. ns/test and the speedup over {data.baseline} summarise the family's "
+            f"workloads (median, lowest, highest); their 95% CIs are in the speedups section, and verdicts "
+            f"counts the workloads by verdict.")
     body = [f'<p class="note">{escape(note)}<a href="#scaling">size and working set</a>{escape(tail)}</p>',
             _table(shown, _KERNEL_COLS, digits=3)]
     return _section("kernels", "".join(body))

@@ -54,3 +54,28 @@ def test_each_isa_uses_its_registers(disassembly, kernel, suffix):
     # no lane lowered to scalar compares (GCC does that to vector comparisons
     # wider than the ISA's registers; the per-ray reduction has a few)
     assert len(re.findall(r"\bv?u?comis[sd]\b", code["avx2"])) < 30
+
+
+def _loop_arithmetic(code: str) -> int:
+    """Packed arithmetic instructions (add, sub, mul, div, sqrt, compare, min, max,
+    FMA) in the largest loop of a function: the block loop of a wide kernel."""
+    lines = [re.match(r"\s*([0-9a-f]+):\s+(\S+)\s*(\S*)", line) for line in code.splitlines()]
+    ins = [(int(m.group(1), 16), m.group(2), m.group(3)) for m in lines if m]
+    arith = re.compile(r"^v(add|sub|mul|div|sqrt|cmp\w*|min|max|f\w*madd\w*|f\w*msub\w*)p[sd]$")
+    best = 0
+    for address, op, target in ins:
+        back = re.fullmatch(r"[0-9a-f]+", target)
+        if op.startswith("j") and back and int(target, 16) < address:
+            body = [o for a, o, _ in ins if int(target, 16) <= a <= address]
+            best = max(best, sum(1 for o in body if arith.match(o)))
+    return best
+
+
+@pytest.mark.parametrize("kernel", WIDE)
+def test_documented_ops_are_the_compiled_arithmetic(disassembly, kernel):
+    """A wide kernel's documented operation count (the bound of `tribench info
+    --peak`) is the arithmetic its compiled block loop does: one float vector
+    per block of 8, so the count per lane. A kernel edited without its count,
+    or arithmetic the compiler fused or dropped, fails here."""
+    code = disassembly[f"tb_{kernel}_time_closest_avx2_f32"]
+    assert _loop_arithmetic(code) == ext.kernel_info(kernel).ops

@@ -230,6 +230,18 @@ def test_fma_peak_is_positive_and_finite(force_scalar):
         ext.fma_peak(0)
 
 
+def test_camera_fractions_put_every_kernel_against_its_bound():
+    from tribench.harness.peak import camera_fractions, lane_ops_per_ns
+
+    gflops, isa, table = camera_fractions(dtypes=("float64",), rounds=1, size=8)
+    assert sorted(table["kernel"]) == sorted(ext.kernel_names())
+    rate = lane_ops_per_ns(gflops, "float64", isa)
+    for r in table.itertuples(index=False):
+        assert r.ops_per_test == ext.kernel_info(r.kernel).ops > 0
+        assert r.bound_ns_per_test == pytest.approx(r.ops_per_test / rate)
+        assert r.fraction == pytest.approx(r.bound_ns_per_test / r.ns_per_test) and r.fraction > 0
+
+
 # ------------------------------------------------------------ calibration
 
 

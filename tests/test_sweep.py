@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from tribench import ext
 from tribench.harness import analysis, records, runner
 from tribench.harness.plan import Sweep, plan
 from tribench.workloads.spec import PairSpec
@@ -63,12 +64,17 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
     est = records._read_csv(out / analysis.ESTIMATES, [], {})
     spd = records._read_csv(out / analysis.SPEEDUPS, [], {})
     for col in ("kernel", "workload_id", "ns_per_test", "ns_per_test_ci_low", "ns_per_test_ci_high",
-                "ns_per_test_min", "n_processes", "peak_flops_per_test"):
+                "ns_per_test_min", "n_processes", "peak_fraction"):
         assert col in est.columns
     for col in ("kernel", "baseline", "ratio", "ratio_ci_low", "ratio_ci_high", "p_holm", "margin", "verdict",
                 "margin_source"):
         assert col in spd.columns
     assert set(est["kernel"]) == {"moller_trumbore", "curless"} and (est["n_processes"] == 3).all()
+    # the fraction of the arithmetic bound: the documented ops at each process's own peak
+    assert list(est["ops_per_test"]) == [ext.kernel_info(k).ops for k in est["kernel"]]
+    assert ((est["peak_fraction_ci_low"] <= est["peak_fraction"])
+            & (est["peak_fraction"] <= est["peak_fraction_ci_high"])).all()
+    assert ((est["peak_fraction"] > 0) & (est["peak_fraction"] < 1)).all()  # scalar kernels: one lane of 8
     assert list(spd["baseline"]) == ["moller_trumbore"] and list(spd["kernel"]) == ["curless"]
     # re-analysis reads files only: the same tables again, with another baseline on request
     again = analysis.analyse(out, baseline="curless")

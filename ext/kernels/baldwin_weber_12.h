@@ -37,6 +37,7 @@
  *    bound u <= 1 is implied by the others, so the answers do not change). */
 
 #define tb_baldwin_weber_12_stride 12 /* reals per prepared triangle, either precision */
+#define tb_baldwin_weber_12_ops 37 /* ops per test on the hit path: W(o) 6, W(d) 5, t 1, p 6, u 6, v 6, tests 7 */
 #define tb_baldwin_weber_12_ray_f32 tb_ray_plain_f32
 #define tb_baldwin_weber_12_ray_f64 tb_ray_plain_f64
 

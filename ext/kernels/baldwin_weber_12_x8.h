@@ -8,6 +8,9 @@
  * baldwin_weber_12's 12 reals (rows U, V, W), in blocks of 8 triangles,
  * structure of arrays. */
 
+/* per lane and test (rules in kernels.h): plane row on o 6 and on d 5, t 1, hit point 6, u 6, v 6, tests 7 */
+#define tb_baldwin_weber_12_x8_ops 37
+
 TB_WIDE vmask TB_FN(tb_baldwin_weber_12_x8_test)(const tb_vray *restrict r,
                                                  const real *restrict block, vreal t_max,
                                                  tb_vhit *restrict h)

@@ -33,6 +33,7 @@
  *    point), so every ray misses it. */
 
 #define tb_baldwin_weber_9_stride 10 /* reals per prepared triangle, either precision */
+#define tb_baldwin_weber_9_ops 31 /* ops per test on the hit path: axis 2, W(o) 5, W(d) 4, t 1, p 4, u 4, v 4, tests 7 */
 #define tb_baldwin_weber_9_ray_f32 tb_ray_plain_f32
 #define tb_baldwin_weber_9_ray_f64 tb_ray_plain_f64
 

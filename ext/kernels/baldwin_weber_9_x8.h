@@ -15,6 +15,9 @@
  * baldwin_weber_9's 10 reals, in blocks of 8 triangles, structure of
  * arrays. */
 
+/* per lane and test (rules in kernels.h): axis 2, plane row on o 5 and on d 4, t 1, hit point 4, u 4, v 4, tests 7 */
+#define tb_baldwin_weber_9_x8_ops 31
+
 TB_WIDE vmask TB_FN(tb_baldwin_weber_9_x8_test)(const tb_vray *restrict r,
                                                 const real *restrict block, vreal t_max,
                                                 tb_vhit *restrict h)

@@ -19,6 +19,7 @@
  *    edge values over their sum, computed on a hit only. */
 
 #define tb_curless_stride 13 /* reals per prepared triangle, either precision */
+#define tb_curless_ops 84 /* ops per test on the hit path: n.d 5, t 7, q 6, edge sides 60, tests 6 */
 #define tb_curless_ray_f32 tb_ray_plain_f32
 #define tb_curless_ray_f64 tb_ray_plain_f64
 

@@ -28,6 +28,7 @@
  *    code in double. */
 
 #define tb_curless_seed_stride 12 /* reals per prepared triangle, either precision */
+#define tb_curless_seed_ops 89 /* ops per test on the hit path: n.d 5, n.v0 5, n.o 5, t 2, q 6, edge sides 60, tests 6 */
 #define tb_curless_seed_ray_f32 tb_ray_plain_f32
 #define tb_curless_seed_ray_f64 tb_ray_plain_f64
 

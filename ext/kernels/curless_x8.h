@@ -18,6 +18,9 @@ TB_WIDE vreal TB_FN(tb_curless_x8_side)(const vreal *a, const vreal *b, const vr
     return TB_FN(vdot3)(side, n);
 }
 
+/* per lane and test (rules in kernels.h): n.d 5, t 7, hit point 6, three edge sides 60, tests 6 */
+#define tb_curless_x8_ops 84
+
 TB_WIDE vmask TB_FN(tb_curless_x8_test)(const tb_vray *restrict r, const real *restrict block,
                                         vreal t_max, tb_vhit *restrict h)
 {

@@ -40,6 +40,7 @@
  *    gets an all-zero record: det == 0, so every ray misses it. */
 
 #define tb_havel_herout_stride 12 /* reals per prepared triangle, either precision */
+#define tb_havel_herout_ops 52 /* ops per test on the hit path: det 5, scaled t 6, sign 3, p 9, u 8, v 8, tests 9, divide 4 */
 #define tb_havel_herout_ray_f32 tb_ray_plain_f32
 #define tb_havel_herout_ray_f64 tb_ray_plain_f64
 

@@ -8,6 +8,9 @@
  * only kept where the mask is set). Records: havel_herout's 12 reals, in
  * blocks of 8 triangles, structure of arrays. */
 
+/* per lane and test (rules in kernels.h): det 5, scaled t 6, sign 3, p 9, u 8, v 8, 1/det and t 2, tests 11 */
+#define tb_havel_herout_x8_ops 52
+
 TB_WIDE vmask TB_FN(tb_havel_herout_x8_test)(const tb_vray *restrict r, const real *restrict block,
                                              vreal t_max, tb_vhit *restrict h)
 {

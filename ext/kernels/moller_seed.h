@@ -20,6 +20,7 @@
  * double. */
 
 #define tb_moller_seed_stride 9 /* reals per prepared triangle, either precision */
+#define tb_moller_seed_ops 60 /* ops per test on the hit path: edges 6, p 9, det 5, 1/det 1, s 3, u 6, q 9, v 6, t 6, tests 9 */
 #define tb_moller_seed_prepare_f32 tb_prepare_vertices_f32
 #define tb_moller_seed_prepare_f64 tb_prepare_vertices_f64
 #define tb_moller_seed_ray_f32 tb_ray_plain_f32

@@ -21,6 +21,7 @@
  * Prepared data: the raw vertices (9 reals). */
 
 #define tb_moller_trumbore_stride 9 /* reals per prepared triangle, either precision */
+#define tb_moller_trumbore_ops 65 /* ops per test on the hit path: edges 6, p 9, det 5, sign 2, s 3, u 6, q 9, v 6, t 6, tests 9, divide 4 */
 #define tb_moller_trumbore_prepare_f32 tb_prepare_vertices_f32
 #define tb_moller_trumbore_prepare_f64 tb_prepare_vertices_f64
 #define tb_moller_trumbore_ray_f32 tb_ray_plain_f32

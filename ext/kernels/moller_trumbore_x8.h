@@ -7,6 +7,9 @@
  * for all lanes (its result is only kept where the mask is set). Records:
  * moller_trumbore's 9 reals, in blocks of 8 triangles, structure of arrays. */
 
+/* per lane and test (rules in kernels.h): edges 6, d x e2 9, det 5, sign 2, s 3, u 6, q 9, v 6, t 6, 1/det and t 2, tests 11 */
+#define tb_moller_trumbore_x8_ops 65
+
 TB_WIDE vmask TB_FN(tb_moller_trumbore_x8_test)(const tb_vray *restrict r, const real *restrict block,
                                                 vreal t_max, tb_vhit *restrict h)
 {

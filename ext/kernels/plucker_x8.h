@@ -17,6 +17,9 @@ TB_WIDE vreal TB_FN(tb_plucker_x8_side)(const vreal *p, const vreal *q, const vr
     return TB_FN(vdot3)(moment, d);
 }
 
+/* per lane and test (rules in kernels.h): translate 9, edges 9, sides 51, sum 2, tolerance 2, signs 6, normal 9, den 5, scaled t 5, sign 2, t 2, tests 8 */
+#define tb_plucker_x8_ops 110
+
 TB_WIDE vmask TB_FN(tb_plucker_x8_test)(const tb_vray *restrict r, const real *restrict block,
                                         vreal t_max, tb_vhit *restrict h)
 {

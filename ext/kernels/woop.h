@@ -51,6 +51,7 @@
  * Prepared data: the raw vertices (9 reals). */
 
 #define tb_woop_stride 9 /* reals per prepared triangle, either precision */
+#define tb_woop_ops 57 /* ops per test on the hit path: shift 9, shear 12, edges 9, zero tests 3, signs 3, det 2, scaled t 8, sign 2, tests 5, divide 4 */
 #define tb_woop_prepare_f32 tb_prepare_vertices_f32
 #define tb_woop_prepare_f64 tb_prepare_vertices_f64
 

@@ -14,6 +14,9 @@
  * bit for bit the scalar answer. Records: woop's 9 reals (raw vertices), in
  * blocks of 8 triangles, structure of arrays. */
 
+/* per lane and test (rules in kernels.h): translate 9, shear 12, edges 9, zero edges 3, signs 6, det 2, scaled t 8, sign 2, 1/det and t 2, tests 7 */
+#define tb_woop_x8_ops 60
+
 TB_WIDE vmask TB_FN(tb_woop_x8_test)(const tb_vray *restrict r, const real *restrict block,
                                      vreal t_max, tb_vhit *restrict h)
 {
