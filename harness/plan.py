@@ -65,12 +65,19 @@ __all__ = [
     "process_seed",
 ]
 
-# Defaults of a sweep, in one place: about 10 s per process-minute budget on a
-# laptop core, and enough processes for a t-interval with 9 degrees of freedom.
+# Defaults of a sweep, in one place, set from measurements (bench/protocol_design.py,
+# bench/harness_overhead.py; the reasoning is in the README, "Choosing the design"):
+# - 10 processes: a t-interval on 9 degrees of freedom, the fewest that give
+#   usable intervals; processes carry the between-layout variance;
+# - 10 rounds: Kalibera & Jones's ceil(sqrt(c2/c1 * T1^2/T2^2)) was 10 and 14 in
+#   two pilots of a one-workload sweep (a process costs about 14 of its rounds,
+#   and the ratio varies 2-4x more between rounds than between processes);
+# - 5 ms batches: the harness spends about 80 us per batch outside the timed C
+#   loop, under 2% of a 5 ms batch (4% of a 2 ms one).
 DEFAULT_PROCESSES = 10
-DEFAULT_ROUNDS = 5
+DEFAULT_ROUNDS = 10
 DEFAULT_WARMUP = 1
-DEFAULT_TARGET_MS = 2.0
+DEFAULT_TARGET_MS = 5.0
 
 
 @dataclass(frozen=True, order=True)
@@ -210,9 +217,14 @@ def default_sweep(quick: bool = False) -> Sweep:
       (the seed's own precision) and float64;
     * Suzanne at 100, 968 (the seed's mesh) and 5000 triangles, seen by the
       seed's camera at 48x48 pixels (per-ray hit rate about 17%), float32.
-    20 processes x 6 rounds: about 3 minutes on 2 cores (10 x 8 measured
-    94 s; processes, not rounds, carry the between-layout variance, so the
-    time goes to processes). ``quick`` keeps the shape in a few seconds
+    20 processes x 6 rounds: about 3.5 minutes on 2 cores. Kalibera &
+    Jones's rounds per process, from the variance components of the ratio
+    and the costs of this sweep (a process: about 5 s of start-up, checks
+    and calibration over its 25 workloads; a round of all of them: about
+    0.65 s), is about 11 for the pair workloads (the ratio varies ~8%
+    between rounds, 0-4% between processes) and 3 for the meshes (3-4%
+    each); 6 sits between, and the time left goes to processes, which carry
+    the between-layout variance. ``quick`` keeps the shape in a few seconds
     (3 processes: intervals are wide) for tests and CI.
     """
     from tribench.workloads.spec import MeshSpec, PairSpec
