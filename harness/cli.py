@@ -288,7 +288,7 @@ def build_parser() -> argparse.ArgumentParser:
     info = sub.add_parser("info", help="version, build flags, CPU and SIMD features, kernel list")
     info.add_argument("--peak", action="store_true",
                       help="also measure the FMA peak and each kernel's ns/test on the in-cache camera "
-                           "workload, as a fraction of its arithmetic bound (about half a minute)")
+                           "workload, as a fraction of its arithmetic bound (about 10 s)")
     info.set_defaults(func=_info)
 
     sweep = sub.add_parser(

@@ -73,6 +73,8 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     from tribench.workloads import cache
     from tribench.workloads.spec import MeshSpec
 
+    from .worker import calibrate_loops
+
     rng = np.random.default_rng(seed)
     jobs = {}
     for dtype in dtypes:
@@ -80,9 +82,7 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
                                 result="closest"))
         for kernel in ext.kernel_names():
             job = ext.make_job(kernel, w.origins, w.directions, w.triangles, "closest")
-            probe = ext.time_batch(job, 1)
-            loops = max(1, round(5e6 / max(probe.elapsed_ns, 1)))
-            jobs[dtype, kernel] = (job, loops)
+            jobs[dtype, kernel] = (job, calibrate_loops(job, 5e6))
     before = measure_peak(3)
     times = {key: [] for key in jobs}
     keys = list(jobs)
