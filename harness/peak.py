@@ -15,12 +15,13 @@ whose adds and multiplies share the FMA pipes).
 The probe runs 8 float lanes; a double vector holds half as many, so the
 double rate is half (the same instructions per cycle on every x86 core with
 FMA). The bound is the machine's, not the form's: a scalar kernel uses one
-lane of eight and cannot pass 1/8 of it in float.
+lane of eight, so in float its arithmetic alone keeps it near 1/8 or below.
 
 ``fraction = bound / measured ns per test``, 1 at the bound. It can exceed 1
-where a core has adders beside its FMA pipes (AMD Zen has two), and for a
-scalar early-exit kernel, whose count is the path of a hit while most tests
-exit earlier.
+where a core has adders beside its FMA pipes (AMD Zen has two). A scalar
+early-exit kernel's count is the path of a hit, while most tests exit
+earlier, so its fraction overstates how busy it keeps the lane (it can pass
+1/8).
 """
 
 from __future__ import annotations

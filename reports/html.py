@@ -333,8 +333,8 @@ def _kernels(data: RunData, kern: pd.DataFrame) -> str:
     tail = (f") counts. Ops per test: the kernel's arithmetic (adds, multiplies, divides, compares; for a "
             f"scalar kernel the path of a hit), documented in its header. Fraction of bound: that arithmetic at "
             f"the machine's measured FMA peak (one FMA = one operation; a double vector holds half the lanes) "
-            f"over the measured time; 1 would be the arithmetic limit, and a scalar kernel, one lane of eight, "
-            f"stays under 1/8 in float. ns/test and the speedup over {data.baseline} summarise the family's "
+            f"over the measured time; 1 would be the arithmetic limit. A scalar kernel uses one lane of eight, "
+            f"and its early exits do less than the count. ns/test and the speedup over {data.baseline} summarise the family's "
             f"workloads (median, lowest, highest); their 95% CIs are in the speedups section, and verdicts "
             f"counts the workloads by verdict.")
     body = [f'<p class="note">{escape(note)}<a href="#scaling">size and working set</a>{escape(tail)}</p>',
