@@ -57,17 +57,6 @@ def pilot(target_ms: float, processes: int, rounds: int, root: str, cpu):
     return ratio, c1, c2, result.elapsed_s
 
 
-def processes_for(vc: stats.VarianceComponents, rounds: int) -> tuple[int, float]:
-    """Processes for the target half-width with ``rounds`` per process, and the half-width reached."""
-    rel_sd = math.sqrt(vc.between_process + vc.between_round / rounds) / vc.mean
-    n = 2
-    while True:
-        half = float(stats.sps.t.ppf(0.975, n - 1)) * rel_sd / math.sqrt(n)
-        if half <= TARGET or n >= 10_000:
-            return n, half
-        n += 1
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--target-ms", default="2,5", help="batch lengths to pilot, comma-separated")
@@ -84,7 +73,8 @@ def main() -> None:
             ratio, c1, c2, elapsed = pilot(target_ms, args.processes, args.rounds, root, cpu)
             vc = stats.variance_components(ratio)
             best = stats.suggest_design(vc, round_cost=c1, process_cost=c2, target_rel_halfwidth=TARGET)
-            n_default, half_default = processes_for(vc, DEFAULT_ROUNDS)
+            default = stats.suggest_design(vc, round_cost=c1, process_cost=c2, target_rel_halfwidth=TARGET,
+                                           rounds=DEFAULT_ROUNDS)
             print(f"\nbatches of {target_ms:g} ms: pilot {elapsed:.1f} s; speedup {vc.mean:.4f}; "
                   f"sd between rounds {100 * math.sqrt(vc.between_round) / vc.mean:.2f}%, "
                   f"between processes {100 * math.sqrt(vc.between_process) / vc.mean:.2f}%; "
@@ -92,8 +82,8 @@ def main() -> None:
             print(f"  suggested: {best.rounds_per_process} rounds x {best.processes} processes -> "
                   f"+-{100 * best.rel_halfwidth:.2f}% in about "
                   f"{best.processes * (c2 + best.rounds_per_process * c1):.0f} s")
-            print(f"  defaults ({DEFAULT_ROUNDS} rounds): {n_default} processes -> +-{100 * half_default:.2f}% "
-                  f"in about {n_default * (c2 + DEFAULT_ROUNDS * c1):.0f} s")
+            print(f"  defaults ({DEFAULT_ROUNDS} rounds): {default.processes} processes -> "
+                  f"+-{100 * default.rel_halfwidth:.2f}% in about {default.processes * (c2 + DEFAULT_ROUNDS * c1):.0f} s")
     finally:
         shutil.rmtree(root)
 

@@ -882,6 +882,7 @@ def suggest_design(
     target_rel_halfwidth: float,
     confidence: float = DEFAULTS.confidence,
     max_rounds: int = DEFAULTS.max_rounds,
+    rounds: int | None = None,
 ) -> Design:
     """Rounds per process and processes needed, from a pilot's components.
 
@@ -909,6 +910,9 @@ def suggest_design(
         Confidence level of that interval.
     max_rounds : int
         Upper bound on rounds per process.
+    rounds : int, optional
+        Rounds per process fixed by the caller (e.g. a sweep's default): only
+        the processes are then chosen.
 
     Returns
     -------
@@ -926,13 +930,17 @@ def suggest_design(
     if round_cost <= 0 or process_cost < 0 or target_rel_halfwidth <= 0:
         raise ValueError("costs must be positive (process_cost may be 0) and the target positive")
     t1, t2 = components.between_round, components.between_process
-    if t1 == 0:
-        rounds = 1
-    elif t2 == 0:
-        rounds = max_rounds
+    if rounds is not None:
+        if rounds < 1:
+            raise ValueError(f"rounds must be at least 1, got {rounds}")
     else:
-        rounds = math.ceil(math.sqrt((process_cost / round_cost) * (t1 / t2)))
-    rounds = int(min(max(rounds, 1), max_rounds))
+        if t1 == 0:
+            rounds = 1
+        elif t2 == 0:
+            rounds = max_rounds
+        else:
+            rounds = math.ceil(math.sqrt((process_cost / round_cost) * (t1 / t2)))
+        rounds = int(min(max(rounds, 1), max_rounds))
 
     rel_sd = math.sqrt(t2 + t1 / rounds) / abs(components.mean)
 

@@ -452,6 +452,22 @@ def test_suggest_design_by_hand():
     assert design.rel_halfwidth == pytest.approx(0.01981, abs=1e-4)
 
 
+def test_suggest_design_with_rounds_fixed_by_hand():
+    vc = stats.VarianceComponents(between_round=9.0, between_process=4.0, mean=50.0,
+                                  n_processes=10, n_rounds=10)
+    design = stats.suggest_design(vc, round_cost=1.0, process_cost=16.0, target_rel_halfwidth=0.02,
+                                  rounds=1, max_rounds=1)
+    # Rounds kept at 1: relative sd sqrt(4 + 9) / 50 = 0.072111. t(52) = 2.0066:
+    # 2.0066 * 0.072111 / sqrt(53) = 0.019876 <= 0.02, while t(51) = 2.0076 gives
+    # 2.0076 * 0.072111 / sqrt(52) = 0.020076 > 0.02: 53 processes.
+    assert design.rounds_per_process == 1
+    assert design.processes == 53
+    # fixed rounds are not capped by max_rounds, and must be at least 1
+    assert stats.suggest_design(vc, 1.0, 16.0, 0.02, rounds=40, max_rounds=10).rounds_per_process == 40
+    with pytest.raises(ValueError):
+        stats.suggest_design(vc, 1.0, 16.0, 0.02, rounds=0)
+
+
 def test_suggest_design_edge_cases():
     no_process_effect = stats.VarianceComponents(9.0, 0.0, 50.0, 10, 10)
     assert stats.suggest_design(no_process_effect, 1.0, 16.0, 0.02, max_rounds=50).rounds_per_process == 50
