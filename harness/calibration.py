@@ -23,6 +23,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
 from .stats import DEFAULTS
 
 __all__ = ["AA_COPIES", "Margin", "aa_speedups", "calibrate", "latest_margin", "user_calibration_path"]
@@ -91,11 +92,11 @@ def calibrate(
     *,
     kernel: str = "moller_trumbore",
     workloads: tuple = (),
-    processes: int = 10,
+    processes: int = DEFAULT_PROCESSES,
     experiments: int = 10,
-    rounds: int = 5,
-    warmup: int = 1,
-    target_ms: float = 2.0,
+    rounds: int = DEFAULT_ROUNDS,
+    warmup: int = DEFAULT_WARMUP,
+    target_ms: float = DEFAULT_TARGET_MS,
     seed: int = 0,
     progress: bool | None = None,
     save: bool = True,
@@ -108,8 +109,10 @@ def calibrate(
         A kernel of :data:`AA_COPIES`.
     workloads : tuple of specs
         Default: 10 000 pairs at hit rate 0.5, float64.
-    processes : int
-        Processes per A/A comparison (use the number your sweeps use).
+    processes, rounds, warmup, target_ms
+        The design of each A/A comparison; the defaults are the sweeps'
+        (``plan.DEFAULT_*``), so the margin measured is that of the default
+        protocol. Use your sweeps' values if they differ.
     experiments : int
         Number of A/A comparisons (``processes * experiments`` processes run).
     save : bool

@@ -152,10 +152,12 @@ _SWEEP_DESIGN_FLAGS = ("file", "kernels", "hit_rates", "pairs", "mesh", "triangl
 
 
 def _add_design_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--processes", type=int, help="worker processes, the replicates (default 10)")
-    p.add_argument("--rounds", type=int, help="timed rounds per workload per process (default 5)")
-    p.add_argument("--warmup", type=int, help="warm-up rounds per workload per process (default 1)")
-    p.add_argument("--target-ms", type=float, help="wanted length of one batch in ms (default 2)")
+    from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
+
+    p.add_argument("--processes", type=int, help=f"worker processes, the replicates (default {DEFAULT_PROCESSES})")
+    p.add_argument("--rounds", type=int, help=f"timed rounds per workload per process (default {DEFAULT_ROUNDS})")
+    p.add_argument("--warmup", type=int, help=f"warm-up rounds per workload per process (default {DEFAULT_WARMUP})")
+    p.add_argument("--target-ms", type=float, help=f"wanted length of one batch in ms (default {DEFAULT_TARGET_MS:g})")
     p.add_argument("--seed", type=int, help="seed of the plan and the layout randomisation (default 0)")
 
 
@@ -340,7 +342,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser(
         "run",
-        help="the main job: the default sweep (about 4 minutes), its statistics and its HTML report",
+        help="the main job: the default sweep (about 5 minutes), its statistics and its HTML report",
         description="Runs the default sweep (tribench.harness.plan.default_sweep: the seed's two kernels "
         "and the clean Moller-Trumbore over per-test hit rates 0..1 and Suzanne at three triangle "
         "counts), writes estimates.csv and speedups.csv, prints them, and writes report.html.",
