@@ -218,7 +218,8 @@ def default_sweep(quick: bool = False) -> Sweep:
       (the seed's own precision) and float64;
     * Suzanne at 100, 968 (the seed's mesh) and 5000 triangles, seen by the
       seed's camera at 48x48 pixels (per-ray hit rate about 17%), float32.
-    20 processes x 6 rounds: about 4 minutes on 2 cores. Kalibera &
+    20 processes x 6 rounds: about 4 minutes of sweep on 2 cores (5 with
+    the statistics, the robustness checks and the report). Kalibera &
     Jones's rounds per process, from the variance components of the ratio
     and the costs of this sweep (a process: about 5 s of start-up, checks
     and calibration over its 25 workloads; a round of all of them: about
