@@ -17,13 +17,14 @@ once as the wall time of that call, and once as the wall time of
 arrays: the like of a peer's one call). The peers: the wall time of
 ``intersects_first`` (Embree's BVH is built once before, and its build time
 printed apart). trimesh is slow, so it runs on a fixed random subset of the
-rays (``--trimesh-rays``), scaled to rays/s. Embree runs a ray stream on a
-helper thread as well as the caller's (and that thread spins for some 40 ms
-after), so the process is pinned to one CPU, the first (the harness's
-workers, anyone's, pin to the last), giving every contender one core, and
-each call follows a 0.1 s pause. The process's CPU time over wall time is
-printed per contender (well below 100%: other processes took the core), and
-rays per CPU-second, which such sharing does not lower. Each peer's closest triangle is
+rays (``--trimesh-rays``), scaled to rays/s. Every contender gets one core:
+the process is pinned to one CPU, the first (the harness's workers,
+anyone's, pin to the last), and runs one BLAS thread (OpenBLAS starts its
+threads at NumPy's import, unpinned, and they spun on the second CPU during
+trimesh's NumPy work: the Embree contender showed 180% CPU). Each call
+follows a 0.1 s pause. The process's CPU time over wall time is printed per
+contender (100% at most; below: other processes took the core), and rays
+per CPU-second, which such sharing does not lower. Each peer's closest triangle is
 compared with tribench's on the rays it ran (shared edges make a few
 legitimate differences; those on the workload's ambiguous rays are counted).
 
@@ -36,12 +37,18 @@ import argparse
 import os
 import time
 
-import numpy as np
-from scipy import stats
+# One BLAS thread: OpenBLAS starts its threads when NumPy is imported, before
+# the process is pinned, so they would keep both CPUs and spin on the second
+# during trimesh's NumPy work (the Embree contender measured 180% CPU).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
-from tribench import ext
-from tribench.workloads import cache
-from tribench.workloads.spec import MeshSpec
+import numpy as np  # noqa: E402  (after the thread settings)
+from scipy import stats  # noqa: E402
+
+from tribench import ext  # noqa: E402
+from tribench.workloads import cache  # noqa: E402
+from tribench.workloads.spec import MeshSpec  # noqa: E402
 
 
 def geo_ci(x) -> tuple[float, float, float]:
