@@ -83,8 +83,9 @@ class Progress:
     batches it did not run.
     """
 
-    def __init__(self, total: int, done: int, stream: TextIO | None = None, force: bool = False) -> None:
-        self.total, self.done, self._start_done = total, done, done
+    def __init__(self, total: int, done: int, stream: TextIO | None = None, force: bool = False,
+                 unit: str = "batches") -> None:
+        self.total, self.done, self._start_done, self.unit = total, done, done, unit
         self.stream = stream if stream is not None else sys.stderr
         self.enabled = force or (hasattr(self.stream, "isatty") and self.stream.isatty())
         self._t0 = time.monotonic()
@@ -104,7 +105,7 @@ class Progress:
         bar = "#" * int(30 * frac) + "-" * (30 - int(30 * frac))
         ran = self.done - self._start_done
         left = "?" if ran == 0 else _clock(elapsed / ran * (self.total - self.done))
-        return f"[{bar}] {100 * frac:5.1f}% {self.done}/{self.total} batches, {left} left "
+        return f"[{bar}] {100 * frac:5.1f}% {self.done}/{self.total} {self.unit}, {left} left "
 
     def close(self) -> None:
         if self.enabled:

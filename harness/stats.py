@@ -43,6 +43,7 @@ __all__ = [
     "Design",
     "Drift",
     "Estimate",
+    "GeometricMean",
     "LogRatio",
     "Slope",
     "Speedup",
@@ -54,6 +55,7 @@ __all__ = [
     "drift",
     "estimate",
     "estimate_table",
+    "geometric_mean",
     "holm",
     "label_outliers",
     "per_process",
@@ -380,6 +382,36 @@ def speedup(
     d = np.log(base) - np.log(kern)
     mean, low, high, p = _t_interval(d, confidence)
     return Speedup(math.exp(mean), math.exp(low), math.exp(high), p, d.size, confidence)
+
+
+@dataclass(frozen=True)
+class GeometricMean:
+    """Geometric mean of positive values with the t interval of their mean log."""
+
+    mean: float
+    ci_low: float
+    ci_high: float
+    n: int
+    confidence: float
+
+
+def geometric_mean(values: npt.ArrayLike, confidence: float = DEFAULTS.confidence) -> GeometricMean:
+    """Geometric mean of rates or ratios, one value per replicate, with its interval.
+
+    Rates and ratios are multiplicative, so the mean and its Student-t
+    interval are taken on their logarithms and mapped back; the interval is
+    nan for one value.
+
+    Examples
+    --------
+    >>> g = geometric_mean([1.0, 4.0])
+    >>> round(g.mean, 6), g.ci_low < 2.0 < g.ci_high
+    (2.0, True)
+    """
+    _check_confidence(confidence)
+    logs = np.log(_vector(values, "values", positive=True))
+    mean, low, high, _ = _t_interval(logs, confidence)
+    return GeometricMean(math.exp(mean), math.exp(low), math.exp(high), logs.size, confidence)
 
 
 # --------------------------------------------------------------------------
