@@ -186,9 +186,69 @@ def _run(args: argparse.Namespace) -> int:
     checks.to_csv(Path(out) / "validate.csv", index=False)
     print(f"validate: {int((checks.verdict == 'fail').sum())} of {int((checks.verdict != 'measured').sum())} "
           f"promises broken, {checks.attrs['seconds']:.1f} s -> {Path(out) / 'validate.csv'}", file=sys.stderr)
+    _run_peers(out, quick=args.quick, progress=False if args.no_progress else None)
     report = write_report(out)
     print(format_tables(out))
     print(f"\nreport: {report}")
+    return 0
+
+
+def _run_peers(out: str, quick: bool, progress: bool | None) -> None:
+    """The report's peers, when one is installed; their failure never stops the run."""
+    from . import peers
+    from .runner import SweepInterrupted
+
+    if not any(peers.available().values()):
+        print("peers: none installed (pip install 'tribench[peers]'); the report has no peers", file=sys.stderr)
+        return
+    design = peers.PeerDesign.quick() if quick else peers.PeerDesign()
+    print(f"peers: tribench's fastest kernel, trimesh and Embree on Suzanne {design.width}x{design.height}, "
+          f"{design.processes} processes x {design.reps} repetitions...", file=sys.stderr)
+    try:
+        frame = peers.measure(out, design, progress=progress)
+    except KeyboardInterrupt:
+        raise SweepInterrupted(f"interrupted during the peers: the sweep, its tables and validate.csv are kept in "
+                               f"{out}; `tribench report {out}` writes the report without peers") from None
+    except RuntimeError as exc:
+        print(f"peers: not measured: {exc}", file=sys.stderr)
+        return
+    _, ratios = peers.summarise(frame)
+    for r in ratios.itertuples(index=False):
+        if r.contender == "tribench" and r.over in peers.PEER_NAMES:
+            print(f"peers: tribench / {r.over}: {r.ratio:.3g}x [{r.ci_low:.3g}, {r.ci_high:.3g}] rays/s",
+                  file=sys.stderr)
+
+
+def _peers(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+    from pathlib import Path
+
+    from . import peers
+
+    design = peers.PeerDesign.quick() if args.quick else peers.PeerDesign()
+    changes = {k: v for k, v in {"processes": args.processes, "reps": args.reps, "triangles": args.triangles,
+                                 "seed": args.seed}.items() if v is not None}
+    if args.camera:
+        changes["width"], changes["height"] = _camera(args.camera)
+    design = replace(design, **changes)
+    if min(design.processes, design.reps, design.width, design.height, design.triangles) < 1:
+        raise ValueError("--processes, --reps, --camera and --triangles must be positive")
+    if args.kernel is not None:
+        from tribench import ext
+
+        if args.kernel not in ext.kernel_names(internal=True) or "closest" not in ext.kernel_info(args.kernel).modes:
+            raise ValueError(f"--kernel {args.kernel!r} is not a kernel with a closest-hit mode "
+                             f"(see tribench info)")
+    out = Path(args.out or peers.PEERS)
+    path = out / peers.PEERS if out.is_dir() else out
+    try:
+        frame = peers.measure(path, design, kernel=args.kernel, cpu=args.cpu,
+                              progress=False if args.no_progress else None)
+    except RuntimeError as exc:
+        print(f"tribench peers: error: {exc}", file=sys.stderr)
+        return 1
+    print(peers.format_summary(*peers.summarise(frame)))
+    print(f"wrote {path}", file=sys.stderr)
     return 0
 
 
@@ -345,12 +405,41 @@ def build_parser() -> argparse.ArgumentParser:
         help="the main job: the default sweep (about 5 minutes), its statistics and its HTML report",
         description="Runs the default sweep (tribench.harness.plan.default_sweep: the seed's two kernels "
         "and the clean Moller-Trumbore over per-test hit rates 0..1 and Suzanne at three triangle "
-        "counts), writes estimates.csv and speedups.csv, prints them, and writes report.html.",
+        "counts), writes estimates.csv and speedups.csv, prints them, runs the robustness suite "
+        "(validate.csv) and, when a peer is installed, tribench peers (peers.csv, about 40 s), and "
+        "writes report.html.",
     )
     run.add_argument("--quick", action="store_true", help="the same shape in under a minute (wide intervals)")
     run.add_argument("--out", metavar="RUN_DIR", help="run folder (default runs/<date-time>)")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
+
+    pe = sub.add_parser(
+        "peers",
+        help="rays/s of tribench's fastest kernel against trimesh and Embree on the seed's camera, as ratios with CIs",
+        description="Times tribench's fastest closest-mode kernel (chosen on a sample of the rays), trimesh's "
+        "intersector and Embree through embreex on Suzanne through a pinhole camera (512x512, float32, closest "
+        "hit): fresh worker processes pinned to one CPU with one BLAS thread, every contender once per "
+        "repetition in a random order. Prints rays/s with 95% CIs and tribench's ratios over each peer, "
+        "paired by process, and writes peers.csv (into a run folder, the report shows it). Needs "
+        "pip install 'tribench[peers]' (embreex, and rtree for trimesh's intersector). About a minute.",
+    )
+    from .peers import PeerDesign
+
+    full, quick = PeerDesign(), PeerDesign.quick()
+    pe.add_argument("--out", metavar="RUN_DIR|FILE.csv", help="where peers.csv goes (default ./peers.csv)")
+    pe.add_argument("--quick", action="store_true", help=f"a {quick.width}x{quick.height} camera, {quick.processes} "
+                    f"processes x {quick.reps} repetitions (seconds)")
+    pe.add_argument("--camera", metavar="WxH", help=f"camera rays (default {full.width}x{full.height})")
+    pe.add_argument("--triangles", type=int, help=f"Suzanne's triangle count (default {full.triangles}, "
+                    "the seed's mesh)")
+    pe.add_argument("--processes", type=int, help=f"worker processes, the replicates (default {full.processes})")
+    pe.add_argument("--reps", type=int, help=f"repetitions per process (default {full.reps})")
+    pe.add_argument("--kernel", help="tribench's kernel (default: the fastest on this workload)")
+    pe.add_argument("--cpu", type=int, help="CPU to pin the workers to (default: the last usable one)")
+    pe.add_argument("--seed", type=int, help="seed of the ray samples and orders (default 0)")
+    pe.add_argument("--no-progress", action="store_true", help="no progress bar")
+    pe.set_defaults(func=_peers)
 
     val = sub.add_parser(
         "validate",
@@ -374,7 +463,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="replay the seed's renders (scene02, scene03) through the harness, beside the paper's table",
         description="Traces each scene as the seed's ray tracer does, times every kernel on a sample of each "
         "kind of ray (primary, reflected, shadow) in fresh worker processes, scales to one render's "
-        "time with 95%% CIs, and sets it beside the paper's Unix times. Writes the run folder, "
+        "time with 95% CIs, and sets it beside the paper's Unix times. Writes the run folder, "
         "seed.csv (the table), seed_kinds.csv, seed_workloads.csv (per-test hit rate, miss-stage mix), "
         "both seed kernels' pictures with their difference mask, and seed.html.",
     )

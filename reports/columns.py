@@ -9,13 +9,15 @@ of the format and must be deliberate.
 ``batches.csv``, ``processes.csv`` and ``checks.csv`` are written by the
 harness while it measures; ``estimates.csv`` and ``speedups.csv`` by ``tribench stats`` (or by
 ``tribench report`` when they are missing); ``validate.csv`` by ``tribench run`` or
-``tribench validate --out RUN_DIR`` (or by ``tribench report`` when it is missing). The report never
+``tribench validate --out RUN_DIR`` (or by ``tribench report`` when it is missing); ``peers.csv`` by
+``tribench run`` or ``tribench peers --out RUN_DIR`` when a peer is installed. The report never
 changes them.
 """
 
 from __future__ import annotations
 
-__all__ = ["BATCHES", "CHECKS", "ESTIMATES", "SPEEDUPS", "PROCESSES", "VALIDATE", "FILES", "describe"]
+__all__ = ["BATCHES", "CHECKS", "ESTIMATES", "SPEEDUPS", "PROCESSES", "VALIDATE", "PEERS", "FILES", "OPTIONAL",
+           "describe"]
 
 #: ``batches.csv``: one row per timed batch, warm-up batches included.
 BATCHES: dict[str, str] = {
@@ -128,6 +130,27 @@ VALIDATE: dict[str, str] = {
     "detail": "a short breakdown of the failures",
 }
 
+#: ``peers.csv``: one row per timed call of a contender (tribench.harness.peers; only when a peer is installed).
+PEERS: dict[str, str] = {
+    "process": "index of the worker process, the replicate (0-based)",
+    "rep": "repetition inside the process (0-based)",
+    "position": "position of the contender inside its repetition (random order, 0-based)",
+    "contender": "tribench (kernel loop timed in C), tribench_call (ext.intersect), trimesh or embree",
+    "implementation": "what ran, with its version (and the kernel's form and ISA for tribench)",
+    "kernel": "the tribench kernel of the run (the fastest closest-mode kernel on this workload)",
+    "workload_id": "workload identifier (the camera workload; see tribench workloads show)",
+    "workload": "the workload's spec in one line",
+    "rays": "rays in the call (count; trimesh runs a fixed random subset)",
+    "elapsed_ns": "time the rate is computed from, ns: the C-timed loop for tribench, else wall_ns",
+    "wall_ns": "wall time of the call from Python, in nanoseconds",
+    "cpu_ns": "CPU time of the process during the call, in nanoseconds",
+    "rays_per_s": "rays / elapsed_ns, per second",
+    "setup_ns": "one-off set-up before the timing, ns (Embree's BVH, trimesh's rtree, tribench's job)",
+    "differ": "rays whose closest triangle differs from the float64 reference's (count)",
+    "differ_ambiguous": "of those, rays within 1e-5 barycentric of an edge (count)",
+    "cpu": "CPU the process was pinned to",
+}
+
 #: File name -> its columns.
 FILES: dict[str, dict[str, str]] = {
     "batches.csv": BATCHES,
@@ -136,7 +159,11 @@ FILES: dict[str, dict[str, str]] = {
     "estimates.csv": ESTIMATES,
     "speedups.csv": SPEEDUPS,
     "validate.csv": VALIDATE,
+    "peers.csv": PEERS,
 }
+
+#: Files a run folder has only sometimes (``peers.csv`` needs an installed peer).
+OPTIONAL = frozenset({"peers.csv"})
 
 
 def describe(name: str) -> str:

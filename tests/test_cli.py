@@ -4,6 +4,8 @@ import os
 import subprocess
 import sys
 
+import pandas as pd
+
 from tribench import ext
 
 
@@ -42,3 +44,12 @@ def test_run_quick_is_the_main_job_end_to_end(tmp_path):
     assert f"report: {out / 'report.html'}" in done.stdout
     for kernel in ("curless_seed", "moller_seed", "moller_trumbore"):
         assert kernel in done.stdout
+    from tribench.harness import peers
+
+    if any(peers.available().values()):  # the report's peers, measured by the run
+        frame = pd.read_csv(out / "peers.csv")
+        assert {"tribench", "tribench_call"} <= set(frame["contender"])
+        assert "brute force, runs at" in (out / "report.html").read_text(encoding="utf-8")
+        assert "peers: tribench / " in done.stderr
+    else:
+        assert not (out / "peers.csv").exists() and "tribench[peers]" in done.stderr

@@ -1,0 +1,380 @@
+"""Peers: tribench's fastest brute-force kernel against trimesh and Embree, in rays/s.
+
+The workload is the seed's camera (Suzanne, 968 triangles; 512x512 pinhole
+camera rays in float32, closest hit), the same arrays for every contender:
+
+``tribench``
+    the fastest public closest-mode kernel (:func:`choose_kernel`), timed in C
+    around its loop (``ext.time_batch``), as the sweeps time it;
+``tribench_call``
+    the wall time of ``ext.intersect`` with that kernel: checks, the run and the
+    output arrays, the like of a peer's one call;
+``trimesh``
+    trimesh's own intersector (``trimesh.ray.ray_triangle``: NumPy after an rtree
+    broad phase, so it needs ``rtree``), on a fixed random subset of the rays
+    because it is slow; its rays/s is scaled from those;
+``embree``
+    Embree through ``embreex`` (``trimesh.ray.ray_pyembree``), after its BVH is
+    built (the build is ``setup_ns``, not timed).
+
+Replicates are fresh worker processes, as in the sweeps. Each pins itself to
+one CPU and runs with one BLAS thread: OpenBLAS starts its threads when NumPy
+is imported, before any pinning, and they spun on the other CPU during
+trimesh's NumPy work (an earlier bench saw 180% CPU). Each repetition runs
+every contender once in a random order, each call after a 0.1 s pause that
+lets the previous one's helper threads go idle. ``peers.csv`` keeps every
+call (:data:`COLUMNS`); :func:`summarise` makes the figures: per contender the
+geometric mean of rays/s over processes (each process's own geometric mean
+over its repetitions) with its t interval, and tribench's ratio over each
+peer paired by process. ``pip install 'tribench[peers]'`` installs both peers.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Sequence
+
+import numpy as np
+
+if TYPE_CHECKING:
+    import pandas as pd  # imported where used: `tribench --help` reads PeerDesign's defaults
+
+__all__ = ["PEERS", "COLUMNS", "CONTENDERS", "PEER_NAMES", "PAUSE_S", "PeerDesign", "available", "camera_spec",
+           "choose_kernel", "measure", "summarise", "format_summary"]
+
+#: The file in a run folder.
+PEERS = "peers.csv"
+
+#: Contender -> what is timed (the report's and the printout's words).
+CONTENDERS = {
+    "tribench": "tribench, kernel loop timed in C",
+    "tribench_call": "tribench, wall time of ext.intersect",
+    "trimesh": "trimesh ray_triangle (NumPy, rtree)",
+    "embree": "Embree via embreex",
+}
+#: The peers, in the order of the ratios.
+PEER_NAMES = ("trimesh", "embree")
+
+#: Pause before each timed call, seconds.
+PAUSE_S = 0.1
+
+
+@dataclass(frozen=True)
+class PeerDesign:
+    """What :func:`measure` runs: the workload and the replicates."""
+
+    width: int = 512
+    height: int = 512
+    triangles: int = 968
+    processes: int = 5
+    reps: int = 3
+    trimesh_rays: int = 8192
+    choice_rays: int = 8192
+    choice_rounds: int = 7
+    seed: int = 0
+
+    @classmethod
+    def quick(cls) -> "PeerDesign":
+        """The same shape in about ten seconds (a 256x256 camera, wide intervals)."""
+        return cls(width=256, height=256, processes=3, reps=2, trimesh_rays=2048, choice_rays=2048,
+                   choice_rounds=3)
+
+
+@dataclass
+class PeerRow:
+    """One timed call: a row of ``peers.csv``."""
+
+    process: int
+    rep: int
+    position: int
+    contender: str
+    implementation: str
+    kernel: str
+    workload_id: str
+    workload: str
+    rays: int
+    elapsed_ns: int
+    wall_ns: int
+    cpu_ns: int
+    rays_per_s: float
+    setup_ns: int
+    differ: int
+    differ_ambiguous: int
+    cpu: int
+
+
+#: Columns of ``peers.csv``, in file order (documented in tribench.reports.columns).
+COLUMNS = tuple(PeerRow.__dataclass_fields__)
+
+
+def available() -> dict[str, str | None]:
+    """Each peer's version when it can run here, else None (trimesh's intersector needs rtree)."""
+    from importlib import metadata
+
+    found: dict[str, str | None] = {}
+    for peer, modules in (("trimesh", ("trimesh", "rtree")), ("embree", ("trimesh", "embreex"))):
+        try:
+            for module in modules:
+                __import__(module)
+            found[peer] = " ".join(f"{m} {metadata.version(m)}" for m in modules)
+        except Exception:  # ImportError, or a binary wheel that cannot load here
+            found[peer] = None
+    return found
+
+
+def camera_spec(design: PeerDesign):
+    """The peers' workload: Suzanne through a pinhole camera, float32, closest hit."""
+    from tribench.workloads.spec import MeshSpec
+
+    return MeshSpec("suzanne", triangles=design.triangles, rays="camera", width=design.width,
+                    height=design.height, dtype="float32")
+
+
+def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> tuple[str, pd.DataFrame]:
+    """The fastest public closest-mode kernel on a random subset of the rays, and every kernel's figure.
+
+    Kernels run interleaved in a random order each round and are judged by the
+    median of the thread's CPU time per test: on a shared core, wall time also
+    counts other processes' time slices, which can reorder close kernels.
+    """
+    import pandas as pd
+
+    from tribench import ext
+
+    rng = np.random.default_rng([seed, 1])
+    kernels = [k for k in ext.kernel_names() if "closest" in ext.kernel_info(k).modes]
+    rows = np.sort(rng.choice(len(workload.origins), size=min(n_rays, len(workload.origins)), replace=False))
+    o, d = np.ascontiguousarray(workload.origins[rows]), np.ascontiguousarray(workload.directions[rows])
+    jobs = {k: ext.make_job(k, o, d, workload.triangles, "closest") for k in kernels}
+    cpu: dict[str, list[float]] = {k: [] for k in kernels}
+    for _ in range(rounds):
+        for k in rng.permutation(kernels):
+            t0 = time.thread_time_ns()
+            batch = ext.time_batch(jobs[k], 1)
+            cpu[k].append((time.thread_time_ns() - t0) / batch.tests)
+    table = pd.DataFrame({"kernel": kernels, "ns_per_test": [float(np.median(cpu[k])) for k in kernels]})
+    table = table.sort_values("ns_per_test", kind="stable").reset_index(drop=True)
+    return str(table["kernel"].iloc[0]), table
+
+
+def measure(out: str | Path, design: PeerDesign = PeerDesign(), *, kernel: str | None = None,
+            cpu: int | None = None, progress: bool | None = None) -> pd.DataFrame:
+    """Run the peers' processes one after another; write ``peers.csv`` (``out``: a file or a folder).
+
+    The file is rewritten after every finished process, so an interruption
+    keeps them. Raises ``RuntimeError`` when no peer is installed or a worker
+    fails (its last lines of stderr say why).
+    """
+    import pandas as pd
+
+    from tribench.workloads import cache
+
+    from .runner import Progress, default_cpu
+
+    peers = [p for p, v in available().items() if v is not None]
+    if not peers:
+        raise RuntimeError("no peer is installed (pip install 'tribench[peers]': embreex and rtree)")
+    path = Path(out) / PEERS if Path(out).is_dir() else Path(out)
+    workload = cache.make(camera_spec(design))  # built once here; the workers read the cache
+    if kernel is None:
+        kernel, _ = choose_kernel(workload, design.choice_rays, design.choice_rounds, design.seed)
+    cpu = default_cpu() if cpu is None else cpu
+    # one BLAS thread, set before the worker imports NumPy (see the module's docstring)
+    env = {**os.environ, **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
+    bar = Progress(design.processes, 0, force=bool(progress), unit="processes") if progress is not False else None
+    rows: list[dict[str, Any]] = []
+    try:
+        for process in range(design.processes):
+            job = {"design": asdict(design), "kernel": kernel, "process": process, "peers": peers,
+                   "cpu": -1 if cpu is None else cpu}
+            rows += _run_worker(job, env)
+            _write(pd.DataFrame(rows, columns=list(COLUMNS)), path)
+            if bar:
+                bar.advance()
+    finally:
+        if bar:
+            bar.close()
+    return pd.read_csv(path)
+
+
+def _run_worker(job: dict[str, Any], env: dict[str, str]) -> list[dict[str, Any]]:
+    with tempfile.TemporaryFile("w+") as err:
+        done = subprocess.run([sys.executable, "-m", "tribench.harness.peers", json.dumps(job)],
+                              stdout=subprocess.PIPE, stderr=err, text=True, env=env)
+        if done.returncode != 0:
+            err.seek(0)
+            tail = " | ".join(err.read().strip().splitlines()[-5:])
+            raise RuntimeError(f"peers worker of process {job['process']} exited with code "
+                               f"{done.returncode}: {tail}")
+    return [json.loads(line) for line in done.stdout.splitlines() if line.strip()]
+
+
+def _write(frame: pd.DataFrame, path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".csv.tmp")
+    frame.to_csv(tmp, index=False)
+    tmp.replace(path)
+
+
+def _worker(job: dict[str, Any]) -> None:
+    """One replicate: build every contender once, then time them ``reps`` times; rows go to stdout."""
+    import trimesh
+
+    from tribench import ext
+    from tribench.workloads import cache
+
+    from .machine import version
+
+    design = PeerDesign(**job["design"])
+    cpu = job["cpu"]
+    if cpu >= 0:
+        os.sched_setaffinity(0, {cpu})
+    else:
+        cpu = os.sched_getcpu()
+    w = cache.make(camera_spec(design))
+    o, d, tris = w.origins, w.directions, w.triangles
+    n, summary = len(o), w.spec.summary()
+    ambiguous = w.ambiguous()
+    rng = np.random.default_rng([design.seed, 2, job["process"]])
+    subset = np.sort(np.random.default_rng([design.seed, 3]).choice(n, size=min(design.trimesh_rays, n),
+                                                                     replace=False))
+    kernel = job["kernel"]
+    info = ext.kernel_info(kernel)
+    form = f"x{info.lanes} {info.isa}" if info.lanes > 1 else "scalar"
+    mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tris.astype(np.float64)), process=False)
+    versions = available()
+
+    def disagreements(index: np.ndarray, rows: np.ndarray | slice) -> tuple[int, int]:
+        wrong = np.asarray(index) != w.ref_index[rows]
+        return int(wrong.sum()), int((wrong & ambiguous[rows]).sum())
+
+    # contender -> (label, the rays it runs, the timed call, set-up time in ns)
+    contenders: dict[str, tuple[str, np.ndarray | slice, Any, int]] = {}
+    label = f"tribench {version()} {kernel} ({form})"
+    t0 = time.perf_counter_ns()
+    batch_job = ext.make_job(kernel, o, d, tris, "closest")
+    contenders["tribench"] = (label, slice(None), lambda: ext.time_batch(batch_job, 1),
+                              time.perf_counter_ns() - t0)
+    contenders["tribench_call"] = (f"{label}, ext.intersect", slice(None),
+                                   lambda: ext.intersect(kernel, o, d, tris, "closest").index, 0)
+    # the C-timed loop returns counts only: its answers are those of the same kernel's call
+    differ = {"tribench": disagreements(ext.intersect(kernel, o, d, tris, "closest").index, slice(None))}
+    if "trimesh" in job["peers"]:
+        from trimesh.ray import ray_triangle
+
+        o_sub, d_sub = o[subset].astype(np.float64), d[subset].astype(np.float64)
+        t0 = time.perf_counter_ns()
+        slow = ray_triangle.RayMeshIntersector(mesh)
+        slow.intersects_first(o_sub[:1], d_sub[:1])  # builds the rtree
+        contenders["trimesh"] = (f"trimesh ray_triangle ({versions['trimesh']})", subset,
+                                 lambda: slow.intersects_first(o_sub, d_sub), time.perf_counter_ns() - t0)
+    if "embree" in job["peers"]:
+        from trimesh.ray import ray_pyembree
+
+        t0 = time.perf_counter_ns()
+        fast = ray_pyembree.RayMeshIntersector(mesh)
+        fast.intersects_first(o[:1], d[:1])  # builds the BVH
+        contenders["embree"] = (f"Embree via trimesh ray_pyembree ({versions['embree']})", slice(None),
+                                lambda: fast.intersects_first(o, d), time.perf_counter_ns() - t0)
+
+    for rep in range(design.reps):
+        for position, name in enumerate(rng.permutation(list(contenders))):
+            label, rows, call, setup_ns = contenders[name]
+            rays = len(o[rows])
+            time.sleep(PAUSE_S)
+            t0, c0 = time.perf_counter_ns(), time.process_time_ns()
+            answer = call()
+            wall, used = time.perf_counter_ns() - t0, time.process_time_ns() - c0
+            elapsed = wall
+            if name == "tribench":
+                elapsed = answer.elapsed_ns  # the loop alone, timed in C
+            elif name not in differ:
+                differ[name] = disagreements(answer, rows)
+            row = PeerRow(job["process"], rep, position, name, label, kernel, w.workload_id, summary, rays,
+                          int(elapsed), int(wall), int(used), rays / elapsed * 1e9, setup_ns, *differ[name], cpu)
+            sys.stdout.write(json.dumps(asdict(row)) + "\n")
+    sys.stdout.flush()
+
+
+def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """``(rates, ratios)`` of a ``peers.csv``.
+
+    ``rates``: per contender the geometric mean of rays/s over processes (each
+    process's own geometric mean over its repetitions), its t interval, the
+    processes behind it, the median CPU share (process CPU time / wall time:
+    1 on one core; below 1, other processes took the core), the median setup
+    time and the disagreements with the float64 reference. ``ratios``:
+    tribench's rays/s over each peer's (and tribench's C loop over its own
+    call), paired by process (:func:`tribench.harness.stats.speedup`).
+    """
+    import pandas as pd
+
+    from . import stats
+
+    rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
+    if peers.empty or not rates_ok.all():
+        raise ValueError(f"{PEERS} needs rows with positive, finite rays_per_s ({int((~rates_ok).sum())} are not)")
+    per_process = (peers.assign(log_rate=np.log(peers["rays_per_s"]), share=peers["cpu_ns"] / peers["wall_ns"])
+                   .groupby(["contender", "process"], sort=False)
+                   .agg(log_rate=("log_rate", "mean"), share=("share", "median"), setup_ns=("setup_ns", "median"),
+                        rays=("rays", "first"), differ=("differ", "max"), differ_ambiguous=("differ_ambiguous", "max"),
+                        implementation=("implementation", "first"))
+                   .reset_index())
+    per_process["rays_per_s"] = np.exp(per_process["log_rate"])
+    order = [c for c in CONTENDERS if c in set(per_process["contender"])]
+    rates = []
+    for name in order:
+        g = per_process.loc[per_process["contender"] == name]
+        gm = stats.geometric_mean(g["rays_per_s"], confidence)
+        rates.append({"contender": name, "implementation": g["implementation"].iloc[0],
+                      "rays": int(g["rays"].iloc[0]), "rays_per_s": gm.mean, "ci_low": gm.ci_low,
+                      "ci_high": gm.ci_high, "n_processes": gm.n, "cpu_share": float(g["share"].median()),
+                      "setup_ms": float(g["setup_ns"].median()) / 1e6, "differ": int(g["differ"].max()),
+                      "differ_ambiguous": int(g["differ_ambiguous"].max())})
+    wide = per_process.pivot(index="process", columns="contender", values="rays_per_s")
+    ratios = []
+    for a, b in [("tribench", p) for p in PEER_NAMES] + [("tribench_call", p) for p in PEER_NAMES] \
+            + [("tribench", "tribench_call")]:
+        if a in wide and b in wide:
+            pair = wide[[a, b]].dropna()
+            # rays/s a over b = time per ray of b over a's: a speedup with b as the baseline
+            s = stats.speedup(1 / pair[b], 1 / pair[a], confidence)
+            ratios.append({"contender": a, "over": b, "ratio": s.ratio, "ci_low": s.ci_low, "ci_high": s.ci_high,
+                           "n_processes": s.n})
+    return pd.DataFrame(rates), pd.DataFrame(ratios)
+
+
+def format_summary(rates: pd.DataFrame, ratios: pd.DataFrame) -> str:
+    """The two tables of :func:`summarise` as text."""
+    lines = [f"{'contender':<15}{'rays':>8}{'rays/s':>12}   {'95% CI':<24}{'CPU':>5}{'setup ms':>10}"
+             "   implementation"]
+    for r in rates.itertuples(index=False):
+        ci = f"[{r.ci_low:.4g}, {r.ci_high:.4g}]"
+        lines.append(f"{r.contender:<15}{r.rays:>8}{r.rays_per_s:>12.4g}   {ci:<24}{r.cpu_share:>5.0%}"
+                     f"{r.setup_ms:>10.1f}   {r.implementation}")
+    lines.append("\nrays/s ratios, paired by process (>1: the first is faster)")
+    for r in ratios.itertuples(index=False):
+        lines.append(f"  {r.contender:<14} / {r.over:<14}{r.ratio:>10.4g}   [{r.ci_low:.4g}, {r.ci_high:.4g}]")
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The worker's entry point: ``python -m tribench.harness.peers JOB_JSON``."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if len(args) != 1:
+        print("usage: python -m tribench.harness.peers JOB_JSON (started by tribench.harness.peers.measure)",
+              file=sys.stderr)
+        return 2
+    _worker(json.loads(args[0]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
