@@ -37,6 +37,7 @@ __all__ = [
     "process_dots",
     "drift_panel",
     "rounds_panel",
+    "peers_rates",
     "svg_data_uri",
     "png_data_uri",
     "palette_png",
@@ -483,4 +484,31 @@ def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
     ax.grid(color="#eee", lw=0.6)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), frameon=False)
     fig.subplots_adjust(right=0.78)
+    return fig
+
+
+def peers_rates(rates: pd.DataFrame) -> Figure:
+    """Rays/s of every contender on one log axis with their 95% intervals (rows of peers.summarise).
+
+    Dots, not bars: on a log axis a bar's length means nothing.
+    """
+    if rates.empty:
+        return _empty("no peers measured")
+    fig = _figure(7.0, 0.42 * len(rates) + 0.9)
+    ax = fig.add_subplot(1, 1, 1)
+    y = np.arange(len(rates))[::-1]
+    for yi, r in zip(y, rates.itertuples(index=False)):
+        colour = "#1f77b4" if r.contender.startswith("tribench") else "#d62728"
+        if math.isfinite(r.ci_low) and math.isfinite(r.ci_high):
+            ax.plot([r.ci_low, r.ci_high], [yi, yi], color=colour, lw=2, solid_capstyle="butt")
+        ax.plot([r.rays_per_s], [yi], "o", color=colour, ms=6)
+        ax.annotate(f"{r.rays_per_s:.3g}", (r.rays_per_s, yi), xytext=(0, 7), textcoords="offset points",
+                    ha="center", va="bottom", fontsize=8)
+    ax.set_xscale("log")
+    values = pd.concat([rates["rays_per_s"], rates["ci_low"], rates["ci_high"]]).dropna()
+    ax.set_xlim(values.min() / 2, values.max() * 2)
+    ax.set_ylim(-0.6, len(rates) - 0.2)
+    ax.set_yticks(y, rates["contender"])
+    ax.grid(axis="x", which="major", color="#e5e7eb", lw=0.8)
+    ax.set_xlabel("rays per second on one core (log scale); dot: geometric mean over processes, line: 95% CI")
     return fig

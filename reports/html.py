@@ -5,7 +5,7 @@ Plain HTML with a small inline stylesheet and no script; every figure is a
 itself. All text goes through :func:`html.escape`.
 
 Sections (ids): ``headline``, ``kernels``, ``speedups``, ``hit-rate``,
-``scaling``, ``processes``, ``drift``, ``diagnostics``, ``correctness``,
+``scaling``, ``peers``, ``processes``, ``drift``, ``diagnostics``, ``correctness``,
 ``robustness``, ``workloads``, ``machine``, ``reproduce``.
 """
 
@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from . import columns, content, figures
-from .rundata import VALIDATE, RunData, load_validation
+from .rundata import VALIDATE, PeerTables, RunData, load_peers, load_validation
 
 __all__ = ["SECTIONS", "render", "headline_sentences", "sweep_toml", "MAX_PICTURES"]
 
@@ -34,6 +34,7 @@ SECTIONS = {
     "speedups": "Speedups",
     "hit-rate": "Hit rate",
     "scaling": "Size and working set",
+    "peers": "Against peers",
     "processes": "Per-process values",
     "drift": "Drift",
     "diagnostics": "Diagnostics",
@@ -221,7 +222,8 @@ def _verdict_phrase(verdict: str, base: str) -> str:
     }.get(verdict, f"cannot be told apart from {base} (inconclusive)")
 
 
-def _headline(data: RunData, spd: pd.DataFrame, wl: pd.DataFrame, warnings: list[str]) -> str:
+def _headline(data: RunData, spd: pd.DataFrame, wl: pd.DataFrame, warnings: list[str],
+              peers: PeerTables | None = None) -> str:
     m = data.machine
     sweep = data.run["sweep"]
     families = list(dict.fromkeys(wl["family"]))
@@ -244,6 +246,8 @@ def _headline(data: RunData, spd: pd.DataFrame, wl: pd.DataFrame, warnings: list
         items = "".join(f'<li><span class="{escape(v)}">{escape(v)}</span> — {escape(s)}</li>'
                         for v, s in sentences[family])
         parts.append(f"<h3>{escape(family)}</h3><ul class=\"verdicts\">{items}</ul>")
+    if peers is not None and (sentence := peer_sentence(peers.ratios, peers.kernel, peers.workload)):
+        parts.append(_p(sentence + " (see Against peers)"))
     parts.append(_p(
         f"Intervals are simultaneous 95% intervals over the kernels compared on each workload "
         f"(Bonferroni; p-values Holm-adjusted), with the worker process as the replicate. "
@@ -395,6 +399,50 @@ def _scaling(data: RunData, est: pd.DataFrame, slopes: pd.DataFrame, colours: di
                         ("ci_high", "95% CI high"), ("sizes", "triangle counts"), ("n", "processes")]),
     ]
     return _section("scaling", "".join(body))
+
+
+def peer_sentence(ratios: pd.DataFrame, kernel: str, workload: str) -> str | None:
+    """tribench's rays/s over each peer's in one sentence (None when no peer was measured)."""
+    rows = ratios.loc[ratios["contender"] == "tribench"]
+    rows = rows.loc[rows["over"] != "tribench_call"]
+    if rows.empty:
+        return None
+    parts = [f"{_num(r.ratio)}× {r.over}'s rays/s (95% CI {_ci(r.ci_low, r.ci_high)})" for r in rows.itertuples()]
+    return f"Against peers ({workload}, one core): tribench's {kernel}, brute force, runs at {' and '.join(parts)}."
+
+
+def _peers(peers: PeerTables | None, note: str) -> str:
+    from tribench.harness.peers import PAUSE_S
+
+    body = [_p("tribench's fastest brute-force kernel against trimesh's own intersector (NumPy after an rtree "
+               "broad phase) and Embree (through embreex, after building its BVH), on the same camera rays, "
+               "closest hit (tribench.harness.peers, as `tribench peers`). Embree's BVH skips most triangles "
+               "of every ray; tribench tests every one: the ratio is what an acceleration structure is worth "
+               "over the fastest brute force, not a comparison of ray–triangle tests.", "note")]
+    if peers is None:
+        return _section("peers", "".join(body + [_p(note, "note")]))
+    body += [
+        _p(peer_sentence(peers.ratios, peers.kernel, peers.workload) or "Only tribench was measured."),
+        _figure(figures.svg_data_uri(figures.peers_rates(peers.rates)), "rays per second of every contender",
+                f"Rays/s on {peers.workload}: geometric mean over processes, lines 95% CI. tribench: "
+                f"{peers.kernel}, the fastest closest-mode kernel on these rays; tribench_call: the same kernel "
+                f"through ext.intersect (checks and output arrays included, like a peer's one call)."),
+        _table(peers.rates, [("contender", "contender"), ("implementation", "implementation"),
+                             ("rays", "rays per call"), ("rays_per_s", "rays/s"), ("ci_low", "95% CI low"),
+                             ("ci_high", "95% CI high"), ("n_processes", "processes"), ("cpu_share", "CPU / wall"),
+                             ("setup_ms", "set-up ms (untimed)"), ("differ", "closest triangle ≠ reference"),
+                             ("differ_ambiguous", "of which ambiguous")]),
+        "<h3>Ratios of rays/s</h3>",
+        _table(peers.ratios, [("contender", "contender"), ("over", "over"), ("ratio", "ratio (>1: faster)"),
+                              ("ci_low", "95% CI low"), ("ci_high", "95% CI high"), ("n_processes", "processes")]),
+        _p(f"Every process is a fresh interpreter pinned to one CPU with one BLAS thread; it times each "
+           f"contender once per repetition in a random order, after a {PAUSE_S:g} s pause. The replicate is the "
+           f"process (its geometric mean over repetitions); ratios are paired by process. trimesh runs a fixed "
+           f"random subset of the rays (it is slow) and its rays/s is scaled from those. CPU / wall below 1: "
+           f"other processes took the core; above 1: a contender used a second thread. Ambiguous rays pass "
+           f"within 1e-5 barycentric of an edge, where rounding may pick either triangle. {note}", "note"),
+    ]
+    return _section("peers", "".join(body))
 
 
 def _processes(data: RunData, pp: pd.DataFrame, est: pd.DataFrame, wl: pd.DataFrame,
@@ -760,16 +808,18 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     correct = content.correctness_table(data, workloads)
     kern = content.kernel_table(data, est, spd)
     val, val_note = load_validation(data)
+    peers, peer_note = load_peers(data)
     colours = figures.kernel_colours(data.kernels)
 
     title = f"tribench report — {data.run.get('run_id', data.run_dir.name)}"
     nav = "".join(f'<a href="#{sid}">{escape(t)}</a>' for sid, t in SECTIONS.items())
     sections = [
-        _headline(data, spd, wl, _warnings(data, drift, correct)),
+        _headline(data, spd, wl, _warnings(data, drift, correct), peers),
         _kernels(data, kern),
         _speedups(data, spd, est),
         _hit_rate(data, est, spd, cross, colours),
         _scaling(data, est, slopes, colours),
+        _peers(peers, peer_note),
         _processes(data, pp, est, wl, colours),
         _drift(data, batches, drift, colours),
         _diagnostics(data, batches, wl),

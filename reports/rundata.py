@@ -8,6 +8,8 @@ by an older tribench), they are made by the harness's own analysis
 the report never measures and never computes an interval itself. Likewise
 ``validate.csv``, the robustness table (:func:`load_validation`), is made by
 the harness's suite (:func:`tribench.harness.validate.run`) when missing.
+``peers.csv`` (:func:`load_peers`) is read when there; a missing one is never
+measured here, since timing belongs to ``tribench run`` and ``tribench peers``.
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ from typing import Any
 
 import pandas as pd
 
-__all__ = ["RunData", "RunError", "load_run", "load_validation", "family_of", "short_label", "VALIDATE"]
+__all__ = ["RunData", "RunError", "load_run", "load_validation", "load_peers", "PeerTables", "family_of", "short_label",
+           "VALIDATE"]
 
 #: The robustness table in a run folder (columns: ``columns.VALIDATE``).
 VALIDATE = "validate.csv"
@@ -177,6 +180,48 @@ def load_validation(data: RunData, quick: bool = False) -> tuple[pd.DataFrame, s
     order = {k: i for i, k in enumerate(data.kernels)}
     df = df.loc[df["kernel"].isin(order) & df["dtype"].isin(data.dtypes)]
     return df.sort_values("kernel", key=lambda s: s.map(order), kind="stable").reset_index(drop=True), note
+
+
+@dataclass
+class PeerTables:
+    """A run's ``peers.csv`` and its figures (:func:`tribench.harness.peers.summarise`)."""
+
+    frame: pd.DataFrame
+    rates: pd.DataFrame
+    ratios: pd.DataFrame
+
+    @property
+    def kernel(self) -> str:
+        return str(self.frame["kernel"].iloc[0])
+
+    @property
+    def workload(self) -> str:
+        return str(self.frame["workload"].iloc[0])
+
+
+def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
+    """The run's peers (rows and figures) and a sentence on where they came from.
+
+    None, with the reason, when ``peers.csv`` is absent, unreadable, in other
+    columns or without usable rows: the report then says how to add them.
+    """
+    from tribench.harness import peers
+
+    from . import columns
+
+    path = data.run_dir / peers.PEERS
+    how = (f"`pip install 'tribench[peers]'` (embreex and rtree), then `tribench peers --out {data.run_dir}` and "
+           f"`tribench report {data.run_dir}` add them")
+    if not path.is_file():
+        return None, f"No peers were measured with this run (no {peers.PEERS}): {how}."
+    try:
+        if not _has_columns(path, columns.PEERS):
+            return None, f"{peers.PEERS} is not in today's columns (an older tribench wrote it): {how}."
+        frame = pd.read_csv(path)
+        rates, ratios = peers.summarise(frame)
+    except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError, KeyError, IndexError) as exc:
+        return None, f"{peers.PEERS} cannot be used ({type(exc).__name__}: {exc}): {how}."
+    return PeerTables(frame, rates, ratios), f"Read from {peers.PEERS} in the run folder."
 
 
 def _has_columns(path: Path, documented: dict[str, str]) -> bool:
