@@ -220,8 +220,8 @@ def _run_peers(out: str, quick: bool, progress: bool | None) -> None:
 
 
 def _peers(args: argparse.Namespace) -> int:
+    import os
     from dataclasses import replace
-    from pathlib import Path
 
     from . import peers
 
@@ -239,8 +239,9 @@ def _peers(args: argparse.Namespace) -> int:
         if args.kernel not in ext.kernel_names(internal=True) or "closest" not in ext.kernel_info(args.kernel).modes:
             raise ValueError(f"--kernel {args.kernel!r} is not a kernel with a closest-hit mode "
                              f"(see tribench info)")
-    out = Path(args.out or peers.PEERS)
-    path = out / peers.PEERS if out.is_dir() else out
+    if args.cpu is not None and args.cpu not in os.sched_getaffinity(0):
+        raise ValueError(f"--cpu {args.cpu} is not one of this process's CPUs {sorted(os.sched_getaffinity(0))}")
+    path = peers.peers_path(args.out or ".")
     try:
         frame = peers.measure(path, design, kernel=args.kernel, cpu=args.cpu,
                               progress=False if args.no_progress else None)

@@ -47,7 +47,7 @@ if TYPE_CHECKING:
     import pandas as pd  # imported where used: `tribench --help` reads PeerDesign's defaults
 
 __all__ = ["PEERS", "COLUMNS", "CONTENDERS", "PEER_NAMES", "PAUSE_S", "PeerDesign", "available", "camera_spec",
-           "choose_kernel", "measure", "summarise", "format_summary"]
+           "choose_kernel", "measure", "peers_path", "summarise", "format_summary"]
 
 #: The file in a run folder.
 PEERS = "peers.csv"
@@ -166,7 +166,7 @@ def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> tup
 
 def measure(out: str | Path, design: PeerDesign = PeerDesign(), *, kernel: str | None = None,
             cpu: int | None = None, progress: bool | None = None) -> pd.DataFrame:
-    """Run the peers' processes one after another; write ``peers.csv`` (``out``: a file or a folder).
+    """Run the peers' processes one after another; write ``peers.csv`` (``out``: see :func:`peers_path`).
 
     The file is rewritten after every finished process, so an interruption
     keeps them. Raises ``RuntimeError`` when no peer is installed or a worker
@@ -181,7 +181,7 @@ def measure(out: str | Path, design: PeerDesign = PeerDesign(), *, kernel: str |
     peers = [p for p, v in available().items() if v is not None]
     if not peers:
         raise RuntimeError("no peer is installed (pip install 'tribench[peers]': embreex and rtree)")
-    path = Path(out) / PEERS if Path(out).is_dir() else Path(out)
+    path = peers_path(out)
     workload = cache.make(camera_spec(design))  # built once here; the workers read the cache
     if kernel is None:
         kernel, _ = choose_kernel(workload, design.choice_rays, design.choice_rounds, design.seed)
@@ -202,6 +202,16 @@ def measure(out: str | Path, design: PeerDesign = PeerDesign(), *, kernel: str |
         if bar:
             bar.close()
     return pd.read_csv(path)
+
+
+def peers_path(out: str | Path) -> Path:
+    """Where ``peers.csv`` goes: ``out`` itself if it names a .csv file, else a file in the folder ``out``.
+
+    >>> peers_path("runs/x").as_posix(), peers_path("mine.csv").as_posix()
+    ('runs/x/peers.csv', 'mine.csv')
+    """
+    out = Path(out)
+    return out if out.suffix.lower() == ".csv" else out / PEERS
 
 
 def _run_worker(job: dict[str, Any], env: dict[str, str]) -> list[dict[str, Any]]:

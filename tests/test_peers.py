@@ -192,6 +192,7 @@ def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
     (["--kernel", "frobnicate"], "not a kernel with a closest-hit mode"),
     (["--processes", "0"], "must be positive"),
     (["--camera", "64by64"], "WIDTHxHEIGHT"),
+    (["--cpu", "4096"], "is not one of this process's CPUs"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message):
     done = subprocess.run([sys.executable, "-m", "tribench.harness.cli", "peers", "--out", str(tmp_path), *flags],
