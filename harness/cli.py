@@ -199,7 +199,7 @@ def _run_peers(out: str, quick: bool, progress: bool | None) -> None:
     from .runner import SweepInterrupted
 
     if not any(peers.available().values()):
-        print("peers: none installed (pip install 'tribench[peers]'); the report has no peers", file=sys.stderr)
+        print(f"peers: none installed ({peers.INSTALL}); the report has no peers", file=sys.stderr)
         return
     design = peers.PeerDesign.quick() if quick else peers.PeerDesign()
     print(f"peers: tribench's fastest kernel, trimesh and Embree on Suzanne {design.width}x{design.height}, "
@@ -423,7 +423,7 @@ def build_parser() -> argparse.ArgumentParser:
         "hit): fresh worker processes pinned to one CPU with one BLAS thread, every contender once per "
         "repetition in a random order. Prints rays/s with 95% CIs and tribench's ratios over each peer, "
         "paired by process, and writes peers.csv (into a run folder, the report shows it). Needs "
-        "pip install 'tribench[peers]' (embreex, and rtree for trimesh's intersector). About a minute.",
+        "pip install 'tribench[peers]' (embreex, and rtree for trimesh's intersector). About 40 s.",
     )
     from .peers import PeerDesign
 

@@ -46,7 +46,7 @@ import numpy as np
 if TYPE_CHECKING:
     import pandas as pd  # imported where used: `tribench --help` reads PeerDesign's defaults
 
-__all__ = ["PEERS", "COLUMNS", "CONTENDERS", "PEER_NAMES", "PAUSE_S", "PeerDesign", "available", "camera_spec",
+__all__ = ["PEERS", "COLUMNS", "CONTENDERS", "PEER_NAMES", "PAUSE_S", "INSTALL", "PeerDesign", "available", "camera_spec",
            "choose_kernel", "measure", "peers_path", "summarise", "format_summary"]
 
 #: The file in a run folder.
@@ -59,6 +59,8 @@ CONTENDERS = {
     "trimesh": "trimesh ray_triangle (NumPy, rtree)",
     "embree": "Embree via embreex",
 }
+#: How to install the peers (embreex, and rtree for trimesh's intersector).
+INSTALL = "pip install 'tribench[peers]'"
 #: The peers, in the order of the ratios.
 PEER_NAMES = ("trimesh", "embree")
 
@@ -176,11 +178,12 @@ def measure(out: str | Path, design: PeerDesign = PeerDesign(), *, kernel: str |
 
     from tribench.workloads import cache
 
+    from .records import write_csv
     from .runner import Progress, default_cpu
 
     peers = [p for p, v in available().items() if v is not None]
     if not peers:
-        raise RuntimeError("no peer is installed (pip install 'tribench[peers]': embreex and rtree)")
+        raise RuntimeError(f"no peer is installed ({INSTALL}: embreex and rtree)")
     path = peers_path(out)
     workload = cache.make(camera_spec(design))  # built once here; the workers read the cache
     if kernel is None:
@@ -190,18 +193,20 @@ def measure(out: str | Path, design: PeerDesign = PeerDesign(), *, kernel: str |
     env = {**os.environ, **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
     bar = Progress(design.processes, 0, force=bool(progress), unit="processes") if progress is not False else None
     rows: list[dict[str, Any]] = []
+    frame = pd.DataFrame(rows, columns=list(COLUMNS))
     try:
         for process in range(design.processes):
             job = {"design": asdict(design), "kernel": kernel, "process": process, "peers": peers,
                    "cpu": -1 if cpu is None else cpu}
             rows += _run_worker(job, env)
-            _write(pd.DataFrame(rows, columns=list(COLUMNS)), path)
+            frame = pd.DataFrame(rows, columns=list(COLUMNS))
+            write_csv(frame, path)
             if bar:
                 bar.advance()
     finally:
         if bar:
             bar.close()
-    return pd.read_csv(path)
+    return frame
 
 
 def peers_path(out: str | Path) -> Path:
@@ -224,13 +229,6 @@ def _run_worker(job: dict[str, Any], env: dict[str, str]) -> list[dict[str, Any]
             raise RuntimeError(f"peers worker of process {job['process']} exited with code "
                                f"{done.returncode}: {tail}")
     return [json.loads(line) for line in done.stdout.splitlines() if line.strip()]
-
-
-def _write(frame: pd.DataFrame, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".csv.tmp")
-    frame.to_csv(tmp, index=False)
-    tmp.replace(path)
 
 
 def _worker(job: dict[str, Any]) -> None:
@@ -274,8 +272,9 @@ def _worker(job: dict[str, Any]) -> None:
                               time.perf_counter_ns() - t0)
     contenders["tribench_call"] = (f"{label}, ext.intersect", slice(None),
                                    lambda: ext.intersect(kernel, o, d, tris, "closest").index, 0)
-    # the C-timed loop returns counts only: its answers are those of the same kernel's call
-    differ = {"tribench": disagreements(ext.intersect(kernel, o, d, tris, "closest").index, slice(None))}
+    # the C-timed loop returns counts only; both tribench contenders run the same kernel on the same rays
+    answers = disagreements(ext.intersect(kernel, o, d, tris, "closest").index, slice(None))
+    differ = {"tribench": answers, "tribench_call": answers}
     if "trimesh" in job["peers"]:
         from trimesh.ray import ray_triangle
 

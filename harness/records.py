@@ -42,6 +42,7 @@ __all__ = [
     "read_processes",
     "read_run",
     "repair_csv",
+    "write_csv",
     "write_run",
 ]
 
@@ -228,6 +229,15 @@ def read_processes(run_dir: str | Path):
     if not path.is_file():
         return pd.DataFrame(columns=list(PROCESS_COLUMNS))
     return _read_csv(path, PROCESS_COLUMNS, {"phase": str, "peak_isa": str, "run_id": str})
+
+
+def write_csv(frame: Any, path: str | Path) -> None:
+    """Write a DataFrame to ``path`` atomically (temporary file, then rename): no reader sees half a file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    frame.to_csv(tmp, index=False)
+    os.replace(tmp, path)
 
 
 def write_run(run_dir: str | Path, record: Mapping[str, Any]) -> None:

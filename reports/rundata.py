@@ -146,7 +146,7 @@ def load_validation(data: RunData, quick: bool = False) -> tuple[pd.DataFrame, s
     empty and the sentence says why.
     """
     from tribench import ext
-    from tribench.harness import validate
+    from tribench.harness import records, validate
 
     from . import columns
 
@@ -167,9 +167,7 @@ def load_validation(data: RunData, quick: bool = False) -> tuple[pd.DataFrame, s
         note = (f"Computed now by tribench.harness.validate ({df.attrs['size']} sizes, seed {df.attrs['seed']}, "
                 f"{df.attrs['seconds']:.1f} s)")
         try:
-            tmp = path.with_suffix(".csv.tmp")
-            df.to_csv(tmp, index=False)
-            tmp.replace(path)
+            records.write_csv(df, path)
             note += f" and written to {VALIDATE} in the run folder, which later reports read."
         except OSError as exc:
             note += f"; not saved ({exc})."
@@ -210,7 +208,7 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
     from . import columns
 
     path = data.run_dir / peers.PEERS
-    how = (f"`pip install 'tribench[peers]'` (embreex and rtree), then `tribench peers --out {data.run_dir}` and "
+    how = (f"`{peers.INSTALL}` (embreex and rtree), then `tribench peers --out {data.run_dir}` and "
            f"`tribench report {data.run_dir}` add them")
     if not path.is_file():
         return None, f"No peers were measured with this run (no {peers.PEERS}): {how}."
