@@ -139,15 +139,13 @@ def camera_spec(design: PeerDesign):
                     height=design.height, dtype="float32")
 
 
-def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> tuple[str, pd.DataFrame]:
-    """The fastest public closest-mode kernel on a random subset of the rays, and every kernel's figure.
+def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str:
+    """The fastest public closest-mode kernel on a random subset of the rays.
 
     Kernels run interleaved in a random order each round and are judged by the
     median of the thread's CPU time per test: on a shared core, wall time also
     counts other processes' time slices, which can reorder close kernels.
     """
-    import pandas as pd
-
     from tribench import ext
 
     rng = np.random.default_rng([seed, 1])
@@ -161,9 +159,7 @@ def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> tup
             t0 = time.thread_time_ns()
             batch = ext.time_batch(jobs[k], 1)
             cpu[k].append((time.thread_time_ns() - t0) / batch.tests)
-    table = pd.DataFrame({"kernel": kernels, "ns_per_test": [float(np.median(cpu[k])) for k in kernels]})
-    table = table.sort_values("ns_per_test", kind="stable").reset_index(drop=True)
-    return str(table["kernel"].iloc[0]), table
+    return min(kernels, key=lambda k: float(np.median(cpu[k])))  # the first of equals, in registry order
 
 
 def measure(out: str | Path, design: PeerDesign = PeerDesign(), *, kernel: str | None = None,
@@ -187,7 +183,7 @@ def measure(out: str | Path, design: PeerDesign = PeerDesign(), *, kernel: str |
     path = peers_path(out)
     workload = cache.make(camera_spec(design))  # built once here; the workers read the cache
     if kernel is None:
-        kernel, _ = choose_kernel(workload, design.choice_rays, design.choice_rounds, design.seed)
+        kernel = choose_kernel(workload, design.choice_rays, design.choice_rounds, design.seed)
     cpu = default_cpu() if cpu is None else cpu
     # one BLAS thread, set before the worker imports NumPy (see the module's docstring)
     env = {**os.environ, **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
@@ -220,14 +216,14 @@ def peers_path(out: str | Path) -> Path:
 
 
 def _run_worker(job: dict[str, Any], env: dict[str, str]) -> list[dict[str, Any]]:
+    from .runner import stderr_tail
+
     with tempfile.TemporaryFile("w+") as err:
         done = subprocess.run([sys.executable, "-m", "tribench.harness.peers", json.dumps(job)],
                               stdout=subprocess.PIPE, stderr=err, text=True, env=env)
         if done.returncode != 0:
-            err.seek(0)
-            tail = " | ".join(err.read().strip().splitlines()[-5:])
             raise RuntimeError(f"peers worker of process {job['process']} exited with code "
-                               f"{done.returncode}: {tail}")
+                               f"{done.returncode}{stderr_tail(err)}")
     return [json.loads(line) for line in done.stdout.splitlines() if line.strip()]
 
 

@@ -51,6 +51,7 @@ __all__ = [
     "missing_keys",
     "resume",
     "start",
+    "stderr_tail",
 ]
 
 WORKER = (sys.executable, "-m", "tribench.harness.worker")
@@ -123,6 +124,13 @@ def default_cpu() -> int | None:
     if not hasattr(os, "sched_getaffinity"):
         return None
     return max(os.sched_getaffinity(0))
+
+
+def stderr_tail(err: TextIO, lines: int = 5) -> str:
+    """The last lines a dead worker wrote to ``err`` (a temporary file), as ": a | b", or "" if none."""
+    err.seek(0)
+    tail = err.read().strip().splitlines()[-lines:]
+    return f": {' | '.join(tail)}" if tail else ""
 
 
 def _plan_digest(keys: Sequence[BatchKey]) -> str:
@@ -343,8 +351,5 @@ def _run_process(
         if error is not None:
             raise SweepError(error)
         if code != 0 or expected:
-            err.seek(0)
-            tail = err.read().strip().splitlines()[-5:]
-            detail = f": {' | '.join(tail)}" if tail else ""
             raise SweepError(f"worker of process {process} exited with code {code} "
-                             f"({len(expected)} batches not run){detail}")
+                             f"({len(expected)} batches not run){stderr_tail(err)}")
