@@ -330,17 +330,17 @@ def _kernels(data: RunData, kern: pd.DataFrame) -> str:
     shown = kern.assign(
         ns_range=[_range(a, b) for a, b in zip(kern["ns_per_test_min"], kern["ns_per_test_max"])],
         ratio_range=[_range(a, b) for a, b in zip(kern["ratio_min"], kern["ratio_max"])])
-    note = (f"Each kernel's storage beside its speed, per workload family (a family has one precision). "
-            f"Form: scalar (one triangle per test, early exit) or 8 lanes (eight triangles per step in SIMD "
-            f"registers); ISA: the instruction set its batches ran with. Bytes per triangle: its prepared data "
-            f"for one triangle at the family's precision, which the working set (section ")
-    tail = (f") counts. Ops per test: the kernel's arithmetic (adds, multiplies, divides, compares; for a "
-            f"scalar kernel the path of a hit), documented in its header. Fraction of bound: that arithmetic at "
-            f"the machine's measured FMA peak (one FMA = one operation; a double vector holds half the lanes) "
-            f"over the measured time; 1 would be the arithmetic limit. A scalar kernel uses one lane of eight, "
-            f"and its early exits do less than the count. ns/test and the speedup over {data.baseline} summarise the family's "
-            f"workloads (median, lowest, highest); their 95% CIs are in the speedups section, and verdicts "
-            f"counts the workloads by verdict.")
+    note = ("Each kernel's storage beside its speed, per workload family (a family has one precision). "
+            "Form: scalar (one triangle per test, early exit) or 8 lanes (eight triangles per step in SIMD "
+            "registers); ISA: the instruction set its batches ran with. Bytes per triangle: its prepared data "
+            "for one triangle at the family's precision, which the working set (section ")
+    tail = (") counts. Ops per test: the kernel's arithmetic (adds, multiplies, divides, compares; for a "
+            "scalar kernel the path of a hit), documented in its header. Fraction of bound: that arithmetic at "
+            "the machine's measured FMA peak (one FMA = one operation; a double vector holds half the lanes) "
+            "over the measured time; 1 would be the arithmetic limit. A scalar kernel uses one lane of eight, "
+            "and its early exits do less than the count. "
+            f"ns/test and the speedup over {data.baseline} summarise the family's workloads (median, lowest, "
+            "highest); their 95% CIs are in the speedups section, and verdicts counts the workloads by verdict.")
     body = [f'<p class="note">{escape(note)}<a href="#scaling">size and working set</a>{escape(tail)}</p>',
             _table(shown, _KERNEL_COLS, digits=3)]
     return _section("kernels", "".join(body))

@@ -259,7 +259,7 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
         n = hi - lo
         a = intersect_pairs(np.repeat(o[lo:hi], k, 0), np.repeat(d[lo:hi], k, 0), np.tile(tri, (n, 1, 1)))
         hit, t = a.hit.reshape(n, k), a.t.reshape(n, k)
-        u, v, w = a.u.reshape(n, k), a.v.reshape(n, k), a.w.reshape(n, k)
+        v, w = a.v.reshape(n, k), a.w.reshape(n, k)
         th = np.where(hit, t, np.inf)
         j = np.argmin(th, axis=1)  # the first of equal minima: ties to the lowest index
         tj = th[np.arange(n), j]
