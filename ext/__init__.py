@@ -56,6 +56,8 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 
+from tribench.common import UserError, UserTypeError
+
 from . import _core
 
 __all__ = [
@@ -66,6 +68,8 @@ __all__ = [
     "KernelInfo",
     "Peak",
     "Prepared",
+    "UserError",
+    "UserTypeError",
     "build_info",
     "bytes_per_triangle",
     "fma_peak",
@@ -167,7 +171,7 @@ def kernel_info(kernel: str) -> KernelInfo:
     wanted = os.environ.get("TRIBENCH_ISA")
     if lanes > 1 and wanted:
         if not runnable.get(wanted):
-            raise ValueError(
+            raise UserError(
                 f"TRIBENCH_ISA={wanted!r} cannot run {kernel}: "
                 f"runnable here: {', '.join(i for i, ok in isas if ok)}"
             )
@@ -197,9 +201,9 @@ def bytes_per_triangle(kernel: str, dtype: np.dtype | type | str) -> int:
 
 def _check_kernel(kernel: object) -> str:
     if not isinstance(kernel, str):
-        raise TypeError(f"kernel must be a str, got {type(kernel).__name__}")
+        raise UserTypeError(f"kernel must be a str, got {type(kernel).__name__}")
     if kernel not in _KERNELS:
-        raise ValueError(f"unknown kernel {kernel!r}; known kernels: {', '.join(_PUBLIC)}")
+        raise UserError(f"unknown kernel {kernel!r}; known kernels: {', '.join(_PUBLIC)}")
     return kernel
 
 
@@ -207,9 +211,9 @@ def _check_dtype_name(dtype: object) -> np.dtype:
     try:
         dt = np.dtype(dtype)
     except TypeError as exc:
-        raise TypeError(f"not a dtype: {dtype!r}") from exc
+        raise UserTypeError(f"not a dtype: {dtype!r}") from exc
     if dt not in _DTYPES:
-        raise TypeError(f"precision must be float32 or float64, got {dt}")
+        raise UserTypeError(f"precision must be float32 or float64, got {dt}")
     return dt
 
 
@@ -218,24 +222,24 @@ def _check_array(
 ) -> np.ndarray:
     """Check one input array; return it unchanged (never a copy)."""
     if not isinstance(a, np.ndarray):
-        raise TypeError(f"{name} must be a numpy.ndarray, got {type(a).__name__}")
+        raise UserTypeError(f"{name} must be a numpy.ndarray, got {type(a).__name__}")
     if a.dtype not in _DTYPES:
-        raise TypeError(
+        raise UserTypeError(
             f"{name} must have dtype float32 or float64 (native byte order), got {a.dtype}"
         )
     shape = "(N, " + ", ".join(map(str, tail)) + ")"
     if a.ndim != 1 + len(tail) or a.shape[1:] != tail:
-        raise ValueError(f"{name} must have shape {shape}, got {a.shape}")
+        raise UserError(f"{name} must have shape {shape}, got {a.shape}")
     if a.shape[0] == 0:
-        raise ValueError(f"{name} is empty")
+        raise UserError(f"{name} is empty")
     if not a.flags.c_contiguous:
-        raise ValueError(f"{name} must be C-contiguous (use numpy.ascontiguousarray)")
+        raise UserError(f"{name} must be C-contiguous (use numpy.ascontiguousarray)")
     if not a.flags.aligned:
-        raise ValueError(f"{name} is not aligned to its dtype")
+        raise UserError(f"{name} is not aligned to its dtype")
     if not allow_nonfinite:
         bad = ~np.isfinite(a.reshape(len(a), -1)).all(axis=1)
         if bad.any():
-            raise ValueError(f"{name} contains NaN or Inf (first at row {int(np.argmax(bad))})")
+            raise UserError(f"{name} contains NaN or Inf (first at row {int(np.argmax(bad))})")
     return a
 
 
@@ -243,7 +247,7 @@ def _check_same_dtype(**arrays: np.ndarray) -> np.dtype:
     dtypes = {a.dtype for a in arrays.values()}
     if len(dtypes) != 1:
         listed = ", ".join(f"{k}={v.dtype}" for k, v in arrays.items())
-        raise TypeError(f"arrays must share one precision, got {listed}")
+        raise UserTypeError(f"arrays must share one precision, got {listed}")
     return dtypes.pop()
 
 
@@ -255,23 +259,23 @@ def _check_workload(kernel, origins, directions, triangles, mode, t_max, isa, al
     checked ISA name."""
     info = kernel_info(kernel)
     if mode not in MODES:
-        raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
+        raise UserError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
     if mode not in info.modes:
-        raise ValueError(f"{kernel} has no {mode!r} mode (its modes: {', '.join(info.modes)})")
+        raise UserError(f"{kernel} has no {mode!r} mode (its modes: {', '.join(info.modes)})")
     if isa is None:
         isa = info.isa
     elif isa not in info.isas:
-        raise ValueError(f"{kernel} has no ISA {isa!r} (compiled: {', '.join(info.isas)})")
+        raise UserError(f"{kernel} has no ISA {isa!r} (compiled: {', '.join(info.isas)})")
     elif not info.isas[isa]:
-        raise ValueError(f"{kernel}: ISA {isa!r} is not available on this CPU")
+        raise UserError(f"{kernel}: ISA {isa!r} is not available on this CPU")
     o = _check_array("origins", origins, (3,), allow_nonfinite)
     d = _check_array("directions", directions, (3,), allow_nonfinite)
     if len(o) != len(d):
-        raise ValueError(f"origins and directions differ in length: {len(o)} and {len(d)}")
+        raise UserError(f"origins and directions differ in length: {len(o)} and {len(d)}")
     tris = _check_array("triangles", triangles, (3, 3), allow_nonfinite)
     dtype = _check_same_dtype(origins=o, directions=d, triangles=tris)
     if mode == "pairs" and len(tris) != len(o):
-        raise ValueError(f"pairs need one triangle per ray, got {len(tris)} and {len(o)} rays")
+        raise UserError(f"pairs need one triangle per ray, got {len(tris)} and {len(o)} rays")
     return o, d, tris, _check_t_max(t_max, len(o), dtype), isa
 
 
@@ -283,13 +287,13 @@ def _check_t_max(t_max, n: int, dtype: np.dtype) -> np.ndarray:
     if np.isscalar(t_max):
         t_max = np.full(n, t_max, dtype=dtype)
     if not isinstance(t_max, np.ndarray):
-        raise TypeError(f"t_max must be None, a number or a numpy.ndarray, got {type(t_max).__name__}")
+        raise UserTypeError(f"t_max must be None, a number or a numpy.ndarray, got {type(t_max).__name__}")
     if t_max.shape != (n,):
-        raise ValueError(f"t_max must have shape ({n},), one per ray, got {t_max.shape}")
+        raise UserError(f"t_max must have shape ({n},), one per ray, got {t_max.shape}")
     if t_max.dtype != dtype:
-        raise TypeError(f"t_max must have the rays' dtype {dtype}, got {t_max.dtype}")
+        raise UserTypeError(f"t_max must have the rays' dtype {dtype}, got {t_max.dtype}")
     if not (t_max > 0).all():
-        raise ValueError(f"t_max must be > 0 (inf allowed), got {t_max[~(t_max > 0)][0]!r}")
+        raise UserError(f"t_max must be > 0 (inf allowed), got {t_max[~(t_max > 0)][0]!r}")
     return np.ascontiguousarray(t_max)
 
 
@@ -502,11 +506,11 @@ def time_batch(job: Job, loops: int) -> Batch:
     The clock is ``CLOCK_MONOTONIC`` read just before and after the loop.
     """
     if not isinstance(job, Job):
-        raise TypeError(f"job must be a tribench.ext.Job (see make_job), got {type(job).__name__}")
+        raise UserTypeError(f"job must be a tribench.ext.Job (see make_job), got {type(job).__name__}")
     if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)):
-        raise TypeError(f"loops must be an int, got {type(loops).__name__}")
+        raise UserTypeError(f"loops must be an int, got {type(loops).__name__}")
     if not 1 <= loops <= 2**40:
-        raise ValueError(f"loops must be between 1 and 2**40, got {loops}")
+        raise UserError(f"loops must be between 1 and 2**40, got {loops}")
     p = job.prepared
     elapsed, hits, tests, t_sum, uv_sum = _core.time(
         job.kernel,
@@ -564,8 +568,8 @@ def fma_peak(iterations: int = 200_000, *, force_scalar: bool = False) -> Peak:
     True
     """
     if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)):
-        raise TypeError(f"iterations must be an int, got {type(iterations).__name__}")
+        raise UserTypeError(f"iterations must be an int, got {type(iterations).__name__}")
     if not 1 <= iterations <= 2**40:
-        raise ValueError(f"iterations must be between 1 and 2**40, got {iterations}")
+        raise UserError(f"iterations must be between 1 and 2**40, got {iterations}")
     flops, elapsed, isa, _sink = _core.fma_peak(int(iterations), bool(force_scalar))
     return Peak(flops, elapsed, isa)

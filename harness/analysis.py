@@ -33,6 +33,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from tribench.common import UserError
+
 from . import records, stats
 from .calibration import Margin
 
@@ -88,12 +90,12 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
     batches = records.read_batches(run_dir)
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
-        raise ValueError(f"{run_dir} has no timed batches yet")
+        raise UserError(f"{run_dir} has no timed batches yet")
     kernels = [k for k in run["sweep"]["kernels"] if k in set(timed["kernel"])]
     if baseline is None:
         baseline = DEFAULT_BASELINE if DEFAULT_BASELINE in kernels else kernels[0]
     elif baseline not in kernels:
-        raise ValueError(f"baseline {baseline!r} is not in this run; its kernels: {', '.join(kernels)}")
+        raise UserError(f"baseline {baseline!r} is not in this run; its kernels: {', '.join(kernels)}")
     m = (Margin(margin, "--margin") if margin is not None
          else Margin(run["margin"]["value"], run["margin"]["source"]))
     names = {wid: _summary(spec) for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"])}

@@ -23,6 +23,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from tribench.common import UserError
+
 from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
 from .stats import DEFAULTS
 
@@ -118,16 +120,17 @@ def calibrate(
     save : bool
         Also write the user-level calibration file.
     """
+    from tribench.workloads.spec import PairSpec
+
     from . import records, runner
     from .machine import cpu_model
     from .plan import Sweep
     from .stats import aa_summary
-    from tribench.workloads.spec import PairSpec
 
     if kernel not in AA_COPIES:
-        raise ValueError(f"no A/A copy of {kernel!r}; kernels with one: {', '.join(AA_COPIES)}")
+        raise UserError(f"no A/A copy of {kernel!r}; kernels with one: {', '.join(AA_COPIES)}")
     if processes < 2 or experiments < 1:
-        raise ValueError("an A/A calibration needs processes >= 2 and experiments >= 1")
+        raise UserError("an A/A calibration needs processes >= 2 and experiments >= 1")
     copy = AA_COPIES[kernel]
     sweep = Sweep((kernel, copy), tuple(workloads) or (PairSpec(n=10_000, hit_rate=0.5),),
                   processes=processes * experiments, rounds=rounds, warmup=warmup,

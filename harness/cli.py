@@ -11,6 +11,8 @@ import argparse
 import datetime as _dt
 import sys
 
+from tribench.common import UserError
+
 
 def _info(args: argparse.Namespace) -> int:
     from tribench import ext
@@ -78,7 +80,7 @@ def _split(text: str | None, kind=str) -> list:
         try:
             items.append(kind(item))
         except ValueError:
-            raise ValueError(f"bad list item {item!r} in {text!r}") from None
+            raise UserError(f"bad list item {item!r} in {text!r}") from None
     return items
 
 
@@ -87,7 +89,7 @@ def _camera(text: str) -> tuple[int, int]:
     try:
         return int(width), int(height)
     except ValueError:
-        raise ValueError(f"--camera must be WIDTHxHEIGHT, e.g. 64x64, got {text!r}") from None
+        raise UserError(f"--camera must be WIDTHxHEIGHT, e.g. 64x64, got {text!r}") from None
 
 
 def _workloads_from_flags(args: argparse.Namespace) -> list:
@@ -109,7 +111,14 @@ def _workloads_from_flags(args: argparse.Namespace) -> list:
 def _sweep_from_args(args: argparse.Namespace):
     from tribench import ext
 
-    from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP, Sweep, load_sweep_file
+    from .plan import (
+        DEFAULT_PROCESSES,
+        DEFAULT_ROUNDS,
+        DEFAULT_TARGET_MS,
+        DEFAULT_WARMUP,
+        Sweep,
+        load_sweep_file,
+    )
 
     design = {"processes": args.processes, "rounds": args.rounds, "warmup": args.warmup,
               "target_ms": args.target_ms, "seed": args.seed}
@@ -133,7 +142,7 @@ def _sweep(args: argparse.Namespace) -> int:
     progress = False if args.no_progress else None
     if args.resume:
         if any(getattr(args, k) is not None for k in _SWEEP_DESIGN_FLAGS):
-            raise ValueError("--resume takes no other sweep options: the run's own sweep is used")
+            raise UserError("--resume takes no other sweep options: the run's own sweep is used")
         result = runner.resume(args.resume, progress=progress)
     else:
         sweep = _sweep_from_args(args)
@@ -152,7 +161,12 @@ _SWEEP_DESIGN_FLAGS = ("file", "kernels", "hit_rates", "pairs", "mesh", "triangl
 
 
 def _add_design_flags(p: argparse.ArgumentParser) -> None:
-    from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
+    from .plan import (
+        DEFAULT_PROCESSES,
+        DEFAULT_ROUNDS,
+        DEFAULT_TARGET_MS,
+        DEFAULT_WARMUP,
+    )
 
     p.add_argument("--processes", type=int, help=f"worker processes, the replicates (default {DEFAULT_PROCESSES})")
     p.add_argument("--rounds", type=int, help=f"timed rounds per workload per process (default {DEFAULT_ROUNDS})")
@@ -232,15 +246,15 @@ def _peers(args: argparse.Namespace) -> int:
         changes["width"], changes["height"] = _camera(args.camera)
     design = replace(design, **changes)
     if min(design.processes, design.reps, design.width, design.height, design.triangles) < 1:
-        raise ValueError("--processes, --reps, --camera and --triangles must be positive")
+        raise UserError("--processes, --reps, --camera and --triangles must be positive")
     if args.kernel is not None:
         from tribench import ext
 
         if args.kernel not in ext.kernel_names(internal=True) or "closest" not in ext.kernel_info(args.kernel).modes:
-            raise ValueError(f"--kernel {args.kernel!r} is not a kernel with a closest-hit mode "
+            raise UserError(f"--kernel {args.kernel!r} is not a kernel with a closest-hit mode "
                              f"(see tribench info)")
     if args.cpu is not None and args.cpu not in os.sched_getaffinity(0):
-        raise ValueError(f"--cpu {args.cpu} is not one of this process's CPUs {sorted(os.sched_getaffinity(0))}")
+        raise UserError(f"--cpu {args.cpu} is not one of this process's CPUs {sorted(os.sched_getaffinity(0))}")
     path = peers.peers_path(args.out or ".")
     try:
         frame = peers.measure(path, design, kernel=args.kernel, cpu=args.cpu,
@@ -502,7 +516,7 @@ def main(argv: list[str] | None = None) -> int:
     except SweepInterrupted as exc:
         print(f"tribench {args.command}: {exc}", file=sys.stderr)
         return 130
-    except (ValueError, TypeError, FileNotFoundError) as exc:
+    except (UserError, FileNotFoundError) as exc:
         print(f"tribench {args.command}: error: {exc}", file=sys.stderr)
         return 2
 

@@ -43,6 +43,8 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
+from tribench.common import UserError
+
 if TYPE_CHECKING:
     import pandas as pd  # imported where used: `tribench --help` reads PeerDesign's defaults
 
@@ -325,7 +327,7 @@ def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFra
 
     rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
     if peers.empty or not rates_ok.all():
-        raise ValueError(f"{PEERS} needs rows with positive, finite rays_per_s ({int((~rates_ok).sum())} are not)")
+        raise UserError(f"{PEERS} needs rows with positive, finite rays_per_s ({int((~rates_ok).sum())} are not)")
     per_process = (peers.assign(log_rate=np.log(peers["rays_per_s"]), share=peers["cpu_ns"] / peers["wall_ns"])
                    .groupby(["contender", "process"], sort=False)
                    .agg(log_rate=("log_rate", "mean"), share=("share", "median"), setup_ns=("setup_ns", "median"),

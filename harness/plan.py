@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 
+from tribench.common import UserError
 from tribench.workloads.spec import Spec, spec_from_dict, workload_id
 
 __all__ = [
@@ -141,32 +142,32 @@ class Sweep:
         put(self, "kernels", tuple(self.kernels))
         put(self, "workloads", tuple(self.workloads))
         if not self.kernels:
-            raise ValueError("a sweep needs at least one kernel")
+            raise UserError("a sweep needs at least one kernel")
         known = ext.kernel_names(internal=True)
         for k in self.kernels:
             if k not in known:
-                raise ValueError(f"unknown kernel {k!r}; known kernels: {', '.join(ext.kernel_names())}")
+                raise UserError(f"unknown kernel {k!r}; known kernels: {', '.join(ext.kernel_names())}")
         if len(set(self.kernels)) != len(self.kernels):
-            raise ValueError(f"kernels listed twice: {', '.join(self.kernels)}")
+            raise UserError(f"kernels listed twice: {', '.join(self.kernels)}")
         if not self.workloads:
-            raise ValueError("a sweep needs at least one workload")
+            raise UserError("a sweep needs at least one workload")
         ids = tuple(workload_id(s) for s in self.workloads)
         if len(set(ids)) != len(ids):
-            raise ValueError("the same workload is listed twice")
+            raise UserError("the same workload is listed twice")
         put(self, "workload_ids", ids)
         for spec in self.workloads:
             if not self.kernels_for(spec):
-                raise ValueError(f"no kernel of the sweep runs mode {spec.mode!r} ({spec.summary()}): "
+                raise UserError(f"no kernel of the sweep runs mode {spec.mode!r} ({spec.summary()}): "
                                  f"wide kernels (*_x8) have no pairs mode")
         for name, lo in (("processes", 1), ("rounds", 1), ("warmup", 0)):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < lo:
-                raise ValueError(f"{name} must be an integer >= {lo}, got {value!r}")
+                raise UserError(f"{name} must be an integer >= {lo}, got {value!r}")
         if not (isinstance(self.target_ms, (int, float)) and 0.01 <= self.target_ms <= 1000):
-            raise ValueError(f"target_ms must be between 0.01 and 1000, got {self.target_ms!r}")
+            raise UserError(f"target_ms must be between 0.01 and 1000, got {self.target_ms!r}")
         put(self, "target_ms", float(self.target_ms))
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
+            raise UserError(f"seed must be a non-negative integer, got {self.seed!r}")
 
     def kernels_for(self, spec: Spec) -> tuple[str, ...]:
         """The sweep's kernels that run ``spec``'s mode (wide kernels have no
@@ -290,7 +291,7 @@ def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
     axes = {k: v for k, v in table.items() if isinstance(v, list)}
     fixed = {k: v for k, v in table.items() if k not in axes}
     if any(len(v) == 0 for v in axes.values()):
-        raise ValueError("an empty list in a workload table gives no workloads")
+        raise UserError("an empty list in a workload table gives no workloads")
     return [spec_from_dict({**fixed, **dict(zip(axes, combo))}) for combo in itertools.product(*axes.values())]
 
 
@@ -306,14 +307,14 @@ def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None
     except FileNotFoundError:
         raise FileNotFoundError(f"no sweep file {path}") from None
     except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML ({exc})") from None
+        raise UserError(f"{path}: not valid TOML ({exc})") from None
     allowed = {"kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed"}
     unknown = sorted(set(data) - allowed)
     if unknown:
-        raise ValueError(f"{path}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(sorted(allowed))}")
+        raise UserError(f"{path}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(sorted(allowed))}")
     data.update({k: v for k, v in (overrides or {}).items() if v is not None})
     if "kernels" not in data or "workloads" not in data:
-        raise ValueError(f"{path}: a sweep file needs 'kernels' and at least one [[workloads]] table")
+        raise UserError(f"{path}: a sweep file needs 'kernels' and at least one [[workloads]] table")
     workloads: list[Spec] = []
     for table in _as_tables(data.pop("workloads"), path):
         workloads += expand_workloads(table)
@@ -324,5 +325,5 @@ def _as_tables(value: Any, path: Path) -> Sequence[Mapping[str, Any]]:
     if isinstance(value, Mapping):
         return [value]
     if not isinstance(value, list) or not all(isinstance(t, Mapping) for t in value):
-        raise ValueError(f"{path}: 'workloads' must be a list of tables ([[workloads]])")
+        raise UserError(f"{path}: 'workloads' must be a list of tables ([[workloads]])")
     return value

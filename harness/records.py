@@ -29,6 +29,8 @@ from dataclasses import astuple, dataclass, fields
 from pathlib import Path
 from typing import Any
 
+from tribench.common import UserError
+
 __all__ = [
     "BATCH_COLUMNS",
     "CHECK_COLUMNS",
@@ -197,7 +199,7 @@ def _read_csv(path: Path, columns: Sequence[str], dtypes: Mapping[str, Any]):
     frame = pd.read_csv(io.StringIO(text), dtype=dict(dtypes))
     missing = [c for c in columns if c not in frame.columns]
     if missing:
-        raise ValueError(f"{path}: missing columns {missing}")
+        raise UserError(f"{path}: missing columns {missing}")
     return frame
 
 
@@ -258,4 +260,4 @@ def read_run(run_dir: str | Path) -> dict[str, Any]:
     try:
         return json.loads(path.read_text())
     except json.JSONDecodeError as exc:
-        raise ValueError(f"{path} is not valid JSON ({exc})") from None
+        raise UserError(f"{path} is not valid JSON ({exc})") from None

@@ -37,9 +37,19 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from tribench.common import UserError
+
 from . import records
 from .plan import BatchKey, Sweep, plan, process_seed
-from .records import BATCH_COLUMNS, CHECK_COLUMNS, PROCESS_COLUMNS, BatchRow, CheckRow, ProcessRow, RowWriter
+from .records import (
+    BATCH_COLUMNS,
+    CHECK_COLUMNS,
+    PROCESS_COLUMNS,
+    BatchRow,
+    CheckRow,
+    ProcessRow,
+    RowWriter,
+)
 
 __all__ = [
     "Progress",
@@ -195,7 +205,7 @@ def start(
 
     run_dir = Path(run_dir)
     if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
-        raise ValueError(f"{run_dir} exists and is not empty (use --resume to finish a run)")
+        raise UserError(f"{run_dir} exists and is not empty (use --resume to finish a run)")
     machine = machine_record()
     margin = margin if margin is not None else latest_margin(machine["cpu_model"])
     keys = plan(sweep)
@@ -234,7 +244,7 @@ def resume(
     sweep = Sweep.from_dict(record["sweep"])
     keys = plan(sweep)
     if _plan_digest(keys) != record["plan_sha256"]:
-        raise ValueError(f"{run_dir}: the plan of its sweep changed (another tribench version?); cannot resume")
+        raise UserError(f"{run_dir}: the plan of its sweep changed (another tribench version?); cannot resume")
     for name in (records.BATCHES, records.PROCESSES, records.CHECKS):
         if records.repair_csv(run_dir / name):
             print(f"tribench: dropped a partial last line of {run_dir / name}", file=sys.stderr)

@@ -40,6 +40,8 @@ from typing import Any, TextIO
 import numpy as np
 import pandas as pd
 
+from tribench.common import UserError
+
 from . import records, stats
 
 __all__ = [
@@ -238,7 +240,7 @@ def run_seed(
     size, sample = size or design.size, sample or design.sample
     out = Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise ValueError(f"{out} exists and is not empty")
+        raise UserError(f"{out} exists and is not empty")
     specs: list = []
     info: dict[str, dict[str, Any]] = {}
     scenes = [str(s) for s in (scenes or tuple(PAPER))]
@@ -261,7 +263,7 @@ def run_seed(
                                      "test_hit_rate", "ray_hit_rate", "ambiguous_rays", "miss_mix")},
             }
     if not specs:
-        raise ValueError("no scene shoots a ray that tests a triangle: nothing to replay")
+        raise UserError("no scene shoots a ray that tests a triangle: nothing to replay")
 
     sweep = Sweep(seed_kernels(), tuple(specs), processes=design.processes, rounds=design.rounds,
                   warmup=design.warmup, target_ms=design.target_ms)
@@ -289,7 +291,12 @@ def run_seed(
 def make_pictures(scene: str, label: str, size: int, out: Path) -> dict[str, Any]:
     """Render ``scene`` with both seed kernels, save the PNGs and the difference mask; count the differences."""
     from tribench.workloads.seed_scene import load_scene
-    from tribench.workloads.seed_trace import difference_mask, pixel_edge_margins, save_mask_png, trace
+    from tribench.workloads.seed_trace import (
+        difference_mask,
+        pixel_edge_margins,
+        save_mask_png,
+        trace,
+    )
 
     s = load_scene(scene)
     traces = {k: trace(s, k, PICTURE_DTYPE, size, size) for k in PAIR}

@@ -100,6 +100,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tribench import ext
+from tribench.common import UserError
 from tribench.workloads import reference
 from tribench.workloads.geometry import (
     dot,
@@ -643,10 +644,10 @@ def build(dtype: str = "float64", quick: bool = False, seed: int = 0, tests=TEST
     (('shared_edges', 'nonfinite'), (64, 2))
     """
     if dtype not in DTYPES:
-        raise ValueError(f"dtype must be float32 or float64, got {dtype!r}")
+        raise UserError(f"dtype must be float32 or float64, got {dtype!r}")
     unknown = [t for t in tests if t not in TESTS]
     if unknown:
-        raise ValueError(f"unknown test(s) {', '.join(unknown)}; tests: {', '.join(TESTS)}")
+        raise UserError(f"unknown test(s) {', '.join(unknown)}; tests: {', '.join(TESTS)}")
     size = QUICK if quick else FULL
     meshes = {}
     if {"shared_edges", "shared_edges_double", "shared_vertices"} & set(tests):

@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from tribench.common import UserError
+
 __all__ = ["add_parser", "report_main", "compare_main"]
 
 
@@ -21,13 +23,11 @@ def _error(command: str, exc: BaseException) -> int:
 def report_main(args: argparse.Namespace) -> int:
     """Write RUN_DIR/report.html, print the compact tables, optionally open the page."""
     from . import format_tables, write_report
-    from .rundata import RunError
-
     try:
         path = write_report(args.run_dir, baseline=args.baseline)
         if not args.quiet:
             print(format_tables(args.run_dir))
-    except (RunError, FileNotFoundError, ValueError) as exc:
+    except (UserError, FileNotFoundError) as exc:
         return _error("report", exc)
     print(f"wrote {path}", file=sys.stderr)
     if args.open:
@@ -40,12 +40,12 @@ def report_main(args: argparse.Namespace) -> int:
 def compare_main(args: argparse.Namespace) -> int:
     """Print the ratio-of-speedups table of two runs and write it as an HTML page."""
     from .compare import compare_runs, format_comparison, render_compare
-    from .rundata import RunError, load_run
+    from .rundata import load_run
 
     try:
         a, b = load_run(args.run_a), load_run(args.run_b)
         result = compare_runs(a, b)
-    except (RunError, FileNotFoundError, ValueError) as exc:
+    except (UserError, FileNotFoundError) as exc:
         return _error("compare", exc)
     from pathlib import Path
 

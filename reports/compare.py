@@ -26,6 +26,7 @@ from html import escape
 import numpy as np
 import pandas as pd
 
+from tribench.common import UserError
 from tribench.harness import stats
 
 from .rundata import RunData, family_of, short_label
@@ -66,14 +67,14 @@ def compare_runs(a: RunData, b: RunData, confidence: float = 0.95) -> Comparison
         The runs share no workload, or their baselines differ.
     """
     if a.baseline != b.baseline:
-        raise ValueError(f"the runs have different baselines ({a.baseline} and {b.baseline}): "
+        raise UserError(f"the runs have different baselines ({a.baseline} and {b.baseline}): "
                          f"re-run `tribench stats --baseline` on one of them")
     shared = [w for w in a.workload_ids if w in set(b.workload_ids)]
     if not shared:
-        raise ValueError("the two runs share no workload (workloads match by id, a hash of their spec)")
+        raise UserError("the two runs share no workload (workloads match by id, a hash of their spec)")
     kernels = [k for k in a.kernels if k in set(b.kernels)]
     if a.baseline not in kernels:
-        raise ValueError(f"baseline {a.baseline} is missing from one run")
+        raise UserError(f"baseline {a.baseline} is missing from one run")
     margin = max(a.margin, b.margin)
     pa, pb = _log_per_process(a), _log_per_process(b)
     spd_rows, time_rows = [], []

@@ -21,6 +21,8 @@ from typing import Any
 
 import pandas as pd
 
+from tribench.common import UserError
+
 __all__ = ["RunData", "RunError", "load_run", "load_validation", "load_peers", "PeerTables", "family_of", "short_label",
            "VALIDATE"]
 
@@ -28,7 +30,7 @@ __all__ = ["RunData", "RunError", "load_run", "load_validation", "load_peers", "
 VALIDATE = "validate.csv"
 
 
-class RunError(ValueError):
+class RunError(UserError):
     """A run folder the report cannot use (one line saying why)."""
 
 
@@ -159,7 +161,7 @@ def load_validation(data: RunData, quick: bool = False) -> tuple[pd.DataFrame, s
         known = [k for k in data.kernels if k in ext.kernel_names(internal=True)]
         try:
             if not known:
-                raise ValueError("none of the run's kernels is in this build of the extension")
+                raise UserError("none of the run's kernels is in this build of the extension")
             df = validate.run(known, data.dtypes, quick=quick)
         except Exception as exc:
             return (pd.DataFrame(columns=list(columns.VALIDATE)),

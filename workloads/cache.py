@@ -24,7 +24,17 @@ from typing import Any
 
 import numpy as np
 
-from .spec import MeshSpec, PairSpec, Spec, canonical_json, identity, spec_from_dict, workload_id
+from tribench.common import UserError
+
+from .spec import (
+    MeshSpec,
+    PairSpec,
+    Spec,
+    canonical_json,
+    identity,
+    spec_from_dict,
+    workload_id,
+)
 from .workload import Workload, arrays_sha256
 
 __all__ = [
@@ -196,7 +206,7 @@ def load(wid: str) -> Workload:
         invalid = e
     spec = _stored_spec(path)
     if spec is None or workload_id(spec) != wid:
-        raise ValueError(
+        raise UserError(
             f"cache file {path} is invalid ({invalid}) and holds no spec that still gives this id "
             f"(a mesh file changed or moved?): make the workload again"
         )
@@ -227,7 +237,7 @@ def resolve_id(prefix: str) -> str:
     if not ids:
         raise FileNotFoundError(f"no cached workload {prefix!r} in {cache_dir()} (see `tribench workloads list`)")
     if len(ids) > 1:
-        raise ValueError(f"{prefix!r} matches several workloads: {', '.join(ids)}")
+        raise UserError(f"{prefix!r} matches several workloads: {', '.join(ids)}")
     return ids[0]
 
 

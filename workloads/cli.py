@@ -26,6 +26,8 @@ import json
 import sys
 from typing import Any
 
+from tribench.common import UserError
+
 __all__ = ["add_parser", "main", "parse_miss_mix"]
 
 _PAIR_OPTIONS = ("n", "order", "miss_mix", "shape", "scale", "offset")
@@ -50,7 +52,7 @@ def parse_miss_mix(text: str) -> str | dict[str, float]:
         try:
             mix[stage.strip()] = float(value)
         except ValueError:
-            raise ValueError(f"bad miss-mix item {item!r}: expected stage=fraction") from None
+            raise UserError(f"bad miss-mix item {item!r}: expected stage=fraction") from None
     return mix
 
 
@@ -129,11 +131,11 @@ def _spec_from_args(args: argparse.Namespace):
     if args.kind == "pairs":
         wrong = sorted(set(given) & set(_MESH_OPTIONS))
         if wrong:
-            raise ValueError(f"--{wrong[0].replace('_', '-')} applies to meshes, not pairs")
+            raise UserError(f"--{wrong[0].replace('_', '-')} applies to meshes, not pairs")
         return PairSpec(**given)
     wrong = sorted(set(given) & set(_PAIR_OPTIONS))
     if wrong:
-        raise ValueError(f"--{wrong[0].replace('_', '-')} applies to pairs, not meshes")
+        raise UserError(f"--{wrong[0].replace('_', '-')} applies to pairs, not meshes")
     if "rays" not in given and ("hit_rate" in given or "n_rays" in given):
         given["rays"] = "hit_rate"  # asking for a hit rate means rays aimed at one
     return MeshSpec(args.kind, **given)
@@ -170,7 +172,7 @@ def _make(args: argparse.Namespace) -> int:
 
     try:
         w = make(_spec_from_args(args))
-    except (ValueError, FileNotFoundError) as e:
+    except (UserError, FileNotFoundError) as e:
         return _error(str(e))
     _report(w, args.json)
     return 0
@@ -200,7 +202,7 @@ def _show(args: argparse.Namespace) -> int:
 
     try:
         w = load(resolve_id(args.workload_id))
-    except (ValueError, FileNotFoundError) as e:
+    except (UserError, FileNotFoundError) as e:
         return _error(str(e))
     _report(w, args.json)
     if args.png:

@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tribench.common import UserError
+
 from .geometry import norm, random_unit_vectors, triangle_areas
 
 __all__ = [
@@ -96,13 +98,13 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         vertices = np.asarray(mesh.vertices, dtype=np.float64)
         faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
     except Exception as e:  # trimesh raises many types for malformed files
-        raise ValueError(f"cannot read mesh file {str(path)!r}: {type(e).__name__}: {e}") from None
+        raise UserError(f"cannot read mesh file {str(path)!r}: {type(e).__name__}: {e}") from None
     if len(faces) == 0:
-        raise ValueError(f"mesh file {str(path)!r} holds no triangles")
+        raise UserError(f"mesh file {str(path)!r} holds no triangles")
     if not np.isfinite(vertices).all():
-        raise ValueError(f"mesh file {str(path)!r} has non-finite vertex coordinates")
+        raise UserError(f"mesh file {str(path)!r} has non-finite vertex coordinates")
     if not (triangle_areas(vertices[faces]) > 0).any():
-        raise ValueError(f"mesh file {str(path)!r} has no triangle of non-zero area")
+        raise UserError(f"mesh file {str(path)!r} has no triangle of non-zero area")
     return _compact(vertices, faces)
 
 
@@ -272,7 +274,7 @@ def with_triangle_count(vertices: np.ndarray, faces: np.ndarray, n: int) -> Mesh
         try:
             vertices, faces = trimesh.remesh.subdivide_loop(vertices, faces, iterations=iterations)
         except Exception as e:  # a mesh loop subdivision cannot handle (non-manifold, say)
-            raise ValueError(f"cannot subdivide this mesh to reach {n} triangles: {e}") from None
+            raise UserError(f"cannot subdivide this mesh to reach {n} triangles: {e}") from None
         faces = np.asarray(faces, dtype=np.int64)
         steps.append(f"subdivided x{iterations}")
         if len(faces) == n:

@@ -65,6 +65,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tribench.common import UserError
+
 from .geometry import (
     aspect_ratios,
     dot,
@@ -400,7 +402,7 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
             break
         redrawn += len(todo)
     else:
-        raise ValueError(
+        raise UserError(
             f"{len(todo)} pair(s) kept losing their safe margins when rounded to {dtype}: "
             f"offset/scale = {abs(spec.offset) / scale:.3g} is too large for this precision"
         )

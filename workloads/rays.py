@@ -48,6 +48,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tribench.common import UserError
+
 from .geometry import (
     norm,
     normalise,
@@ -308,7 +310,7 @@ def hit_rate_rays(triangles: np.ndarray, n: int, hit_rate: float, dtype: str, rn
             break
         redrawn += len(todo)
     else:
-        raise ValueError(f"could not aim {len(todo)} ray(s) clear of every triangle edge; is the mesh degenerate?")
+        raise UserError(f"could not aim {len(todo)} ray(s) clear of every triangle edge; is the mesh degenerate?")
     return o, d, _closest_culled(o, d, tri), {
         "misses_outside_bounding_sphere": int(far_miss.sum()),
         "redrawn_rays": redrawn,

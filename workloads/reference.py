@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tribench.common import UserError
+
 __all__ = ["PairAnswers", "intersect_pairs", "intersect_closest"]
 
 # Pairs solved per call of numpy.linalg.solve: bounds the temporary memory.
@@ -67,7 +69,7 @@ def _as_f64(name: str, a: np.ndarray, shape_tail: tuple[int, ...]) -> np.ndarray
     a = np.asarray(a, dtype=np.float64)
     if a.ndim != 1 + len(shape_tail) or a.shape[1:] != shape_tail:
         want = "(N, " + ", ".join(map(str, shape_tail)) + ")"
-        raise ValueError(f"{name} must have shape {want}, got {a.shape}")
+        raise UserError(f"{name} must have shape {want}, got {a.shape}")
     return a
 
 
@@ -94,7 +96,7 @@ def _as_t_max(t_max, n: int) -> np.ndarray:
         return np.full(n, np.inf)
     t_max = np.asarray(t_max, dtype=np.float64)
     if t_max.shape != (n,):
-        raise ValueError(f"t_max must have shape ({n},), one per ray, got {t_max.shape}")
+        raise UserError(f"t_max must have shape ({n},), one per ray, got {t_max.shape}")
     return t_max
 
 
@@ -144,7 +146,7 @@ def intersect_pairs(
     d = _as_f64("directions", directions, (3,))
     tri = _as_f64("triangles", triangles, (3, 3))
     if not (len(o) == len(d) == len(tri)):
-        raise ValueError(
+        raise UserError(
             f"origins, directions and triangles need one row each per pair, "
             f"got {len(o)}, {len(d)} and {len(tri)}"
         )

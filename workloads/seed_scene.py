@@ -51,6 +51,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tribench.common import UserError
+
 __all__ = [
     "BUILTIN_SCENES",
     "DEFAULT_AMBIENT",
@@ -89,7 +91,7 @@ KEYWORDS: dict[str, tuple[str, ...]] = {
 SUZANNE_OFFSET = (0.0, 0.5, -2.0)
 
 
-class SceneError(ValueError):
+class SceneError(UserError):
     """A scene file that cannot be read: the message names file, line and what was expected."""
 
 
@@ -352,7 +354,7 @@ def _renamed(scene: Scene, name: str) -> Scene:
 def builtin_scene_path(name: str) -> Path:
     """Path of a built-in scene's text file (``scene02``, ``scene03``)."""
     if name not in BUILTIN_SCENES:
-        raise ValueError(f"unknown built-in scene {name!r}; built-in scenes: {', '.join(BUILTIN_SCENES)}")
+        raise UserError(f"unknown built-in scene {name!r}; built-in scenes: {', '.join(BUILTIN_SCENES)}")
     return DATA_DIR / f"{name}.txt"
 
 

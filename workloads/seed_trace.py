@@ -81,6 +81,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tribench.common import UserError
+
 from .reference import intersect_closest as _reference_closest
 from .seed_scene import Scene
 
@@ -362,7 +364,7 @@ def _triangles_closest(
     start = time.perf_counter()
     if kernel is None:
         if m * k > REFERENCE_LIMIT:
-            raise ValueError(
+            raise UserError(
                 f"the float64 reference (kernel=None) would solve {m} x {k} ray-triangle systems; "
                 f"use a C kernel or a smaller image (limit {REFERENCE_LIMIT:,})"
             )
@@ -511,16 +513,16 @@ def trace(
     """
     dt = np.dtype(dtype)
     if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
-        raise ValueError(f"dtype must be float32 or float64, got {dtype!r}")
+        raise UserError(f"dtype must be float32 or float64, got {dtype!r}")
     if not (isinstance(width, (int, np.integer)) and isinstance(height, (int, np.integer))) or width < 1 or height < 1:
-        raise ValueError(f"width and height must be positive integers, got {width!r} and {height!r}")
+        raise UserError(f"width and height must be positive integers, got {width!r} and {height!r}")
     if depth < 0:
-        raise ValueError(f"depth must be >= 0, got {depth}")
+        raise UserError(f"depth must be >= 0, got {depth}")
     if kernel is not None:
         from tribench import ext
 
         if kernel not in ext.kernel_names():
-            raise ValueError(f"unknown kernel {kernel!r}; known kernels: {', '.join(ext.kernel_names())}")
+            raise UserError(f"unknown kernel {kernel!r}; known kernels: {', '.join(ext.kernel_names())}")
 
     start = time.perf_counter()
     clock = [0.0]
@@ -635,19 +637,19 @@ def difference_mask(a: Trace, b: Trace, by: str = "image") -> tuple[np.ndarray, 
     count : int
     """
     if (a.width, a.height) != (b.width, b.height):
-        raise ValueError(f"traces differ in size: {a.width}x{a.height} and {b.width}x{b.height}")
+        raise UserError(f"traces differ in size: {a.width}x{a.height} and {b.width}x{b.height}")
     if by == "image":
         mask = (a.to_uint8() != b.to_uint8()).any(axis=2)
     elif by == "hits":
         if len(a.scene.lights) != len(b.scene.lights) or a.depth != b.depth:
-            raise ValueError("traces of different scenes or depths cannot be compared by hits")
+            raise UserError("traces of different scenes or depths cannot be compared by hits")
         diff = np.setxor1d(_hit_codes(a), _hit_codes(b))
         pixels = (diff >> 23) // a._seq_stride()
         mask = np.zeros(a.width * a.height, bool)
         mask[pixels] = True
         mask = mask.reshape(a.height, a.width)
     else:
-        raise ValueError(f"by must be 'hits' or 'image', got {by!r}")
+        raise UserError(f"by must be 'hits' or 'image', got {by!r}")
     return mask, int(mask.sum())
 
 

@@ -62,7 +62,7 @@ Examples
 >>> SeedSpec(rays="diffuse")
 Traceback (most recent call last):
 ...
-ValueError: unknown rays 'diffuse': choose one of primary, reflected, shadow
+tribench.common.errors.UserError: unknown rays 'diffuse': choose one of primary, reflected, shadow
 """
 
 from __future__ import annotations
@@ -76,8 +76,16 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from tribench.common import UserError
+
 from .reference import intersect_pairs
-from .seed_scene import BUILTIN_SCENES, Scene, builtin_scene_path, load_scene, read_scene
+from .seed_scene import (
+    BUILTIN_SCENES,
+    Scene,
+    builtin_scene_path,
+    load_scene,
+    read_scene,
+)
 from .spec import _MAX_RAYS, DTYPES, MISS_STAGES, _choice, _file_sha256, _int
 from .workload import AMBIGUOUS_MARGIN, Workload, library_versions
 
@@ -108,7 +116,7 @@ _COUNTING_KERNEL = "moller_trumbore"
 _MAX_SIDE = 4096  # a 4096 x 4096 trace is about 4 GB of ray records
 
 
-class EmptyStream(ValueError):
+class EmptyStream(UserError):
     """The render shoots no ray of the asked kind that tests a triangle (e.g. no reflective material)."""
 
 
@@ -149,11 +157,11 @@ class SeedSpec:
         if isinstance(self.scene, os.PathLike):
             put(self, "scene", os.fspath(self.scene))
         if not isinstance(self.scene, str) or not self.scene:
-            raise ValueError(f"scene must be a built-in scene name or a file path, got {self.scene!r}")
+            raise UserError(f"scene must be a built-in scene name or a file path, got {self.scene!r}")
         if self.scene not in BUILTIN_SCENES:
             path = Path(self.scene).expanduser()
             if not path.is_file():
-                raise ValueError(f"unknown scene {self.scene!r}: not one of {', '.join(BUILTIN_SCENES)} "
+                raise UserError(f"unknown scene {self.scene!r}: not one of {', '.join(BUILTIN_SCENES)} "
                                  f"and no such file")
             read_scene(path)  # SceneError (a ValueError) names the bad line
             put(self, "scene", str(path.resolve()))
@@ -332,7 +340,7 @@ def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
     tri64 = tr.scene.triangles
     k = len(tri64)
     if k == 0:
-        raise ValueError(f"scene {spec.scene_label} has no triangles: nothing to replay")
+        raise UserError(f"scene {spec.scene_label} has no triangles: nothing to replay")
     rows = stream_indices(tr, spec.rays)
     if len(rows) == 0:
         raise EmptyStream(f"scene {spec.scene_label} at {spec.width}x{spec.height} shoots no {spec.rays} "

@@ -43,6 +43,8 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Union
 
+from tribench.common import UserError
+
 if TYPE_CHECKING:
     from .seed_workload import SeedSpec
 
@@ -110,29 +112,29 @@ _MIX_TOLERANCE = 1e-6
 
 def _int(name: str, value: Any, lo: int, hi: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value):
-        raise ValueError(f"{name} must be an integer, got {value!r}")
+        raise UserError(f"{name} must be an integer, got {value!r}")
     value = int(value)
     if not lo <= value <= hi:
-        raise ValueError(f"{name} must be between {lo} and {hi}, got {value}")
+        raise UserError(f"{name} must be between {lo} and {hi}, got {value}")
     return value
 
 
 def _float(name: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
+        raise UserError(f"{name} must be a finite number, got {value!r}")
     return float(value)
 
 
 def _hit_rate(value: Any) -> float:
     h = _float("hit_rate", value)
     if not 0.0 <= h <= 1.0:
-        raise ValueError(f"hit_rate must be in [0, 1], got {h}")
+        raise UserError(f"hit_rate must be in [0, 1], got {h}")
     return h
 
 
 def _choice(name: str, value: Any, choices: Sequence[str]) -> str:
     if value not in choices:
-        raise ValueError(f"unknown {name} {value!r}: choose one of {', '.join(choices)}")
+        raise UserError(f"unknown {name} {value!r}: choose one of {', '.join(choices)}")
     return value
 
 
@@ -140,7 +142,7 @@ def _miss_mix(value: Any) -> tuple[tuple[str, float], ...]:
     """Normalise a mix (preset name, mapping or pairs) to a fraction per stage, in stage order."""
     if isinstance(value, str):
         if value not in MISS_MIX_PRESETS:
-            raise ValueError(
+            raise UserError(
                 f"unknown miss_mix {value!r}: choose one of {', '.join(MISS_MIX_PRESETS)} "
                 f"or give a fraction per stage"
             )
@@ -148,13 +150,13 @@ def _miss_mix(value: Any) -> tuple[tuple[str, float], ...]:
     items = dict(value.items() if isinstance(value, Mapping) else value)
     unknown = sorted(set(items) - set(MISS_STAGES))
     if unknown:
-        raise ValueError(f"unknown miss stage(s) {unknown}: stages are {', '.join(MISS_STAGES)}")
+        raise UserError(f"unknown miss stage(s) {unknown}: stages are {', '.join(MISS_STAGES)}")
     mix = tuple((s, _float(f"miss_mix[{s}]", items.get(s, 0.0))) for s in MISS_STAGES)
     if any(f < 0 for _, f in mix):
-        raise ValueError(f"miss_mix fractions must be >= 0, got {dict(mix)}")
+        raise UserError(f"miss_mix fractions must be >= 0, got {dict(mix)}")
     total = sum(f for _, f in mix)
     if abs(total - 1.0) > _MIX_TOLERANCE:
-        raise ValueError(f"miss_mix fractions must sum to 1, got {total:.6g}")
+        raise UserError(f"miss_mix fractions must sum to 1, got {total:.6g}")
     return mix
 
 
@@ -197,7 +199,7 @@ class PairSpec:
     >>> PairSpec(n=10, hit_rate=1.5)
     Traceback (most recent call last):
     ...
-    ValueError: hit_rate must be in [0, 1], got 1.5
+    tribench.common.errors.UserError: hit_rate must be in [0, 1], got 1.5
     """
 
     n: int = 10_000
@@ -223,7 +225,7 @@ class PairSpec:
         _choice("shape", self.shape, SHAPES)
         put(self, "scale", _float("scale", self.scale))
         if self.scale <= 0:
-            raise ValueError(f"scale must be > 0, got {self.scale}")
+            raise UserError(f"scale must be > 0, got {self.scale}")
         put(self, "offset", _float("offset", self.offset))
         _choice("dtype", self.dtype, DTYPES)
         put(self, "seed", _int("seed", self.seed, 0, 2**63 - 1))
@@ -288,7 +290,7 @@ class MeshSpec:
     >>> MeshSpec("icosphere", hit_rate=0.5)
     Traceback (most recent call last):
     ...
-    ValueError: hit_rate applies to rays='hit_rate' only: a camera's hit rate is a result, not a target
+    tribench.common.errors.UserError: hit_rate applies to rays='hit_rate' only: a camera's hit rate is a result, not a target
     """
 
     mesh: str = "suzanne"
@@ -315,7 +317,7 @@ class MeshSpec:
         if isinstance(self.mesh, os.PathLike):
             put(self, "mesh", os.fspath(self.mesh))
         if not isinstance(self.mesh, str) or not self.mesh:
-            raise ValueError(f"mesh must be a name or a file path, got {self.mesh!r}")
+            raise UserError(f"mesh must be a name or a file path, got {self.mesh!r}")
         if self.mesh not in MESH_NAMES:
             put(self, "mesh", _checked_mesh_file(self.mesh))
         if self.triangles is not None:
@@ -324,18 +326,18 @@ class MeshSpec:
         if self.rays == "camera":
             for name in ("hit_rate", "n_rays"):
                 if getattr(self, name) is not None:
-                    raise ValueError(
+                    raise UserError(
                         f"{name} applies to rays='hit_rate' only: "
                         f"a camera's hit rate is a result, not a target"
                     )
             put(self, "width", _int("width", 512 if self.width is None else self.width, 1, 65536))
             put(self, "height", _int("height", 512 if self.height is None else self.height, 1, 65536))
             if self.width * self.height > _MAX_RAYS:
-                raise ValueError(f"width x height must be at most {_MAX_RAYS} rays")
+                raise UserError(f"width x height must be at most {_MAX_RAYS} rays")
         else:
             for name in ("width", "height"):
                 if getattr(self, name) is not None:
-                    raise ValueError(f"{name} applies to rays='camera' only")
+                    raise UserError(f"{name} applies to rays='camera' only")
             put(self, "hit_rate", _hit_rate(0.5 if self.hit_rate is None else self.hit_rate))
             put(self, "n_rays", _int("n_rays", 4096 if self.n_rays is None else self.n_rays, 1, _MAX_RAYS))
         _choice("dtype", self.dtype, DTYPES)
@@ -386,15 +388,15 @@ Spec = Union[PairSpec, MeshSpec, "SeedSpec"]
 
 
 def _checked_mesh_file(path: str) -> str:
-    """Absolute path of a readable mesh file, or a ValueError saying what is wrong."""
+    """Absolute path of a readable mesh file, or a UserError saying what is wrong."""
     p = Path(path).expanduser()
     if not p.is_file():
-        raise ValueError(
+        raise UserError(
             f"unknown mesh {path!r}: not one of {', '.join(MESH_NAMES)} and no such file"
         )
     from .meshes import read_mesh_file  # lazy: trimesh is slow to import
 
-    read_mesh_file(p)  # raises ValueError when trimesh cannot make a mesh of it
+    read_mesh_file(p)  # raises UserError when trimesh cannot make a mesh of it
     return str(p.resolve())
 
 
@@ -415,11 +417,11 @@ def spec_from_dict(d: Mapping[str, Any]) -> Spec:
 
         cls = SeedSpec
     if cls is None:
-        raise ValueError(f"unknown workload kind {kind!r}: expected 'pairs', 'mesh' or 'seed'")
+        raise UserError(f"unknown workload kind {kind!r}: expected 'pairs', 'mesh' or 'seed'")
     names = {f.name for f in fields(cls)}
     unknown = sorted(set(d) - names)
     if unknown:
-        raise ValueError(f"unknown {kind} spec field(s): {', '.join(unknown)}")
+        raise UserError(f"unknown {kind} spec field(s): {', '.join(unknown)}")
     return cls(**d)
 
 

@@ -34,6 +34,8 @@ from typing import Any
 
 import numpy as np
 
+from tribench.common import UserError
+
 from .spec import Spec
 
 __all__ = ["AMBIGUOUS_MARGIN", "Workload", "arrays_sha256", "library_versions"]
@@ -123,7 +125,7 @@ class Workload:
         if self.mode == "pairs":
             want["ref_hit"] = (np.bool_, (m,))
             if len(self.triangles) != m:
-                raise ValueError(f"pairs need one triangle per ray, got {len(self.triangles)} for {m}")
+                raise UserError(f"pairs need one triangle per ray, got {len(self.triangles)} for {m}")
         else:
             want["ref_index"] = (np.int64, (m,))
         if self.t_max is not None:
@@ -132,7 +134,7 @@ class Workload:
             a = getattr(self, name)
             if a is None or a.dtype != dt or a.shape != shape:
                 got = None if a is None else (a.dtype, a.shape)
-                raise ValueError(f"{name} must be {np.dtype(dt)} {shape}, got {got}")
+                raise UserError(f"{name} must be {np.dtype(dt)} {shape}, got {got}")
             a = np.ascontiguousarray(a)
             a.setflags(write=False)  # shared with the cache and the kernels: never modified
             object.__setattr__(self, name, a)

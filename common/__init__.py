@@ -1,0 +1,11 @@
+"""What every tribench package shares, at the bottom of the import order.
+
+``tribench.common`` imports nothing else of tribench, and every other package
+may import it: the one user-error type (:mod:`.errors`) and the one atomic
+file write (:mod:`.files`).
+"""
+
+from .errors import UserError, UserTypeError
+from .files import atomic_write, write_bytes, write_text
+
+__all__ = ["UserError", "UserTypeError", "atomic_write", "write_bytes", "write_text"]

@@ -1,0 +1,80 @@
+"""The one way tribench writes a whole file: atomically, or not at all.
+
+A file is written under a unique temporary name in its own folder, flushed to
+disk, then renamed over the target (``os.replace``, atomic on POSIX), so a
+reader never sees half a file and a full disk or a kill leaves the previous
+version, or nothing, never a truncated one. A failure to write is the
+environment's, not a bug: it raises :class:`~tribench.common.UserError`
+naming the file.
+
+>>> import tempfile, pathlib
+>>> folder = pathlib.Path(tempfile.mkdtemp())
+>>> write_text(folder / "a.txt", "hello\\n")
+>>> (folder / "a.txt").read_text()
+'hello\\n'
+>>> with atomic_write(folder / "b.csv") as f:
+...     _ = f.write("x,y\\n1,2\\n")
+>>> sorted(p.name for p in folder.iterdir())
+['a.txt', 'b.csv']
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import IO, Any
+
+from .errors import UserError
+
+__all__ = ["atomic_write", "write_bytes", "write_text"]
+
+
+@contextmanager
+def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "utf-8") -> Iterator[IO[Any]]:
+    """Open a temporary file beside ``path``; on a clean exit, replace ``path`` with it.
+
+    ``mode`` is ``"w"`` (text, ``encoding``) or ``"wb"``. The parent folder
+    is created. If the body raises, or the write fails, the temporary file is
+    removed and ``path`` is left as it was; an ``OSError`` (a full disk, a
+    missing permission, a file where a folder should be) becomes a
+    ``UserError`` that names ``path``.
+    """
+    if mode not in ("w", "wb"):
+        raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
+    path = Path(path)
+    tmp: str | None = None
+    for folder in (path.parent, *path.parent.parents):
+        if folder.exists() and not folder.is_dir():
+            raise UserError(f"cannot write {path}: {folder} is a file, not a folder")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": encoding, "newline": ""})) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+        tmp = None
+    except OSError as exc:
+        raise UserError(f"cannot write {path}: {exc.strerror or exc}") from exc
+    finally:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+
+
+def write_text(path: str | Path, text: str, *, encoding: str = "utf-8") -> None:
+    """Write ``text`` to ``path`` atomically (see :func:`atomic_write`)."""
+    with atomic_write(path, "w", encoding=encoding) as f:
+        f.write(text)
+
+
+def write_bytes(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_write`)."""
+    with atomic_write(path, "wb") as f:
+        f.write(data)
