@@ -208,21 +208,50 @@ def _check_kernel(kernel: object) -> str:
 
 
 def _check_dtype_name(dtype: object) -> np.dtype:
+    if dtype is None:  # numpy reads None as float64: a precision must be named
+        raise UserTypeError("dtype must be float32 or float64, got None")
     try:
         dt = np.dtype(dtype)
-    except TypeError as exc:
-        raise UserTypeError(f"not a dtype: {dtype!r}") from exc
+    except Exception as exc:  # numpy raises TypeError, ValueError or SyntaxError for a bad spec
+        raise UserTypeError(f"dtype must be float32 or float64, got {dtype!r:.80}") from exc
     if dt not in _DTYPES:
-        raise UserTypeError(f"precision must be float32 or float64, got {dt}")
+        raise UserTypeError(f"dtype must be float32 or float64 (native byte order), got {dt}")
     return dt
+
+
+def _check_name(name: str, value: object, choices: tuple[str, ...]) -> str:
+    """``value`` is one of ``choices`` (a str: a list or an array is not a name)."""
+    if not isinstance(value, str):
+        raise UserTypeError(f"{name} must be a str, one of {', '.join(choices)}; got {type(value).__name__}")
+    if value not in choices:
+        raise UserError(f"{name} must be one of {', '.join(choices)}; got {value!r:.80}")
+    return value
+
+
+def _check_flag(name: str, value: object) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise UserTypeError(f"{name} must be True or False, got {type(value).__name__}")
+    return bool(value)
+
+
+def _plain(name: str, a: np.ndarray) -> np.ndarray:
+    """``a`` as a plain ndarray view (never a copy). A masked array is refused:
+    the kernels read every value, masked or not, so its mask would be ignored
+    silently (and a NaN under the mask would pass the finiteness check)."""
+    if isinstance(a, np.ma.MaskedArray):
+        raise UserTypeError(f"{name} is a numpy.ma.MaskedArray: the kernels would read the masked values "
+                            f"too; pass {name}.filled(...) or only the unmasked rows")
+    return a if type(a) is np.ndarray else a.view(np.ndarray)
 
 
 def _check_array(
     name: str, a: object, tail: tuple[int, ...], allow_nonfinite: bool = False
 ) -> np.ndarray:
-    """Check one input array; return it unchanged (never a copy)."""
+    """Check one input array; return it as a plain ndarray (a view, never a copy)."""
+    allow_nonfinite = _check_flag("allow_nonfinite", allow_nonfinite)
     if not isinstance(a, np.ndarray):
         raise UserTypeError(f"{name} must be a numpy.ndarray, got {type(a).__name__}")
+    a = _plain(name, a)
     if a.dtype not in _DTYPES:
         raise UserTypeError(
             f"{name} must have dtype float32 or float64 (native byte order), got {a.dtype}"
@@ -258,16 +287,15 @@ def _check_workload(kernel, origins, directions, triangles, mode, t_max, isa, al
     workload's precision (a new array when given None or a scalar), isa the
     checked ISA name."""
     info = kernel_info(kernel)
-    if mode not in MODES:
-        raise UserError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
+    _check_name("mode", mode, MODES)
     if mode not in info.modes:
         raise UserError(f"{kernel} has no {mode!r} mode (its modes: {', '.join(info.modes)})")
     if isa is None:
         isa = info.isa
-    elif isa not in info.isas:
-        raise UserError(f"{kernel} has no ISA {isa!r} (compiled: {', '.join(info.isas)})")
-    elif not info.isas[isa]:
-        raise UserError(f"{kernel}: ISA {isa!r} is not available on this CPU")
+    else:
+        _check_name("isa", isa, tuple(info.isas))
+        if not info.isas[isa]:
+            raise UserError(f"{kernel}: isa {isa!r} is not available on this CPU")
     o = _check_array("origins", origins, (3,), allow_nonfinite)
     d = _check_array("directions", directions, (3,), allow_nonfinite)
     if len(o) != len(d):
@@ -275,19 +303,26 @@ def _check_workload(kernel, origins, directions, triangles, mode, t_max, isa, al
     tris = _check_array("triangles", triangles, (3, 3), allow_nonfinite)
     dtype = _check_same_dtype(origins=o, directions=d, triangles=tris)
     if mode == "pairs" and len(tris) != len(o):
-        raise UserError(f"pairs need one triangle per ray, got {len(tris)} and {len(o)} rays")
+        raise UserError(f"triangles: pairs need one triangle per ray, got {len(tris)} for {len(o)} rays")
     return o, d, tris, _check_t_max(t_max, len(o), dtype), isa
 
 
 def _check_t_max(t_max, n: int, dtype: np.dtype) -> np.ndarray:
-    """t_max per ray: None means +inf; a scalar applies to every ray. NaN
-    and values <= 0 are errors (no hit could ever count)."""
+    """t_max per ray: None means +inf; a real number applies to every ray.
+    NaN and values <= 0 are errors (no hit could ever count). A number past
+    the dtype's range rounds to inf, which is what it means: no limit."""
     if t_max is None:
         return np.full(n, np.inf, dtype=dtype)
-    if np.isscalar(t_max):
-        t_max = np.full(n, t_max, dtype=dtype)
-    if not isinstance(t_max, np.ndarray):
-        raise UserTypeError(f"t_max must be None, a number or a numpy.ndarray, got {type(t_max).__name__}")
+    if isinstance(t_max, (int, float, np.integer, np.floating)) and not isinstance(t_max, (bool, np.bool_)):
+        try:
+            value = float(t_max)
+        except OverflowError:  # an int past float64's range: no limit either way
+            value = np.inf if t_max > 0 else -np.inf
+        with np.errstate(over="ignore"):
+            t_max = np.full(n, value, dtype=dtype)
+    elif not isinstance(t_max, np.ndarray):
+        raise UserTypeError(f"t_max must be None, a real number or a numpy.ndarray, got {type(t_max).__name__}")
+    t_max = _plain("t_max", t_max)
     if t_max.shape != (n,):
         raise UserError(f"t_max must have shape ({n},), one per ray, got {t_max.shape}")
     if t_max.dtype != dtype:
