@@ -18,17 +18,18 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import math
 import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from tribench.common import UserError
+from tribench.common import UserError, write_text
 
 from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
 from .stats import DEFAULTS
 
-__all__ = ["AA_COPIES", "Margin", "aa_speedups", "calibrate", "latest_margin", "user_calibration_path"]
+__all__ = ["AA_COPIES", "MAX_MARGIN", "Margin", "check_margin", "aa_speedups", "calibrate", "latest_margin", "user_calibration_path"]
 
 #: Kernels that have an A/A copy, and its name.
 AA_COPIES = {"moller_trumbore": "moller_trumbore_aa"}
@@ -36,12 +37,46 @@ AA_COPIES = {"moller_trumbore": "moller_trumbore_aa"}
 CALIBRATION = "calibration.json"
 
 
+#: The largest equivalence margin tribench accepts. A margin is relative: at
+#: 0.5 two kernels within 1.5x of each other would be "equivalent", which is
+#: not a noise floor but a machine too noisy to compare on (an A/A noise floor
+#: is 1-3 % on this project's machine, and stats.DEFAULTS.margin is 1 %).
+MAX_MARGIN = 0.5
+
+_FIX = "run `tribench calibrate` again, or delete the file to use the default margin"
+
+
+def check_margin(value: object, where: str) -> float:
+    """``value`` as a margin: a finite number in ``[0, MAX_MARGIN]``; else a
+    UserError naming ``where`` (a file and key, or a flag).
+
+    >>> check_margin(0.02, "--margin")
+    0.02
+    >>> check_margin(float("nan"), "--margin")
+    Traceback (most recent call last):
+    ...
+    tribench.common.errors.UserError: --margin: an equivalence margin must be a number between 0 and 0.5 (relative: 0.01 = 1 %), got nan
+    """
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if not ok or not 0 <= value <= MAX_MARGIN:
+        raise UserError(f"{where}: an equivalence margin must be a number between 0 and {MAX_MARGIN:g} "
+                        f"(relative: 0.01 = 1 %), got {value!r:.40}")
+    return float(value)
+
+
 @dataclass(frozen=True)
 class Margin:
-    """An equivalence margin (relative, 0.01 = 1 %) and where it came from."""
+    """An equivalence margin (relative, 0.01 = 1 %) and where it came from.
+
+    The value is checked here, so every margin a verdict uses -- a
+    calibration file's, one recorded in ``run.json``, ``--margin`` -- is a
+    finite number in ``[0, MAX_MARGIN]``."""
 
     value: float
     source: str
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "value", check_margin(self.value, f"margin of {self.source}"))
 
 
 def user_calibration_path() -> Path:
@@ -58,19 +93,49 @@ def user_calibration_path() -> Path:
 def latest_margin(cpu_model: str | None = None) -> Margin:
     """The latest calibration's margin, if it was measured on ``cpu_model``; else the default.
 
+    No calibration file: the default. A file that is there but unusable
+    (not JSON, no margin, a margin that is not a number in ``[0, MAX_MARGIN]``)
+    is a UserError naming the file and the key, raised before a sweep
+    measures anything: falling back silently would give verdicts the user
+    takes for calibrated ones, and the fix is one command.
+
     >>> m = latest_margin("no such cpu")
     >>> m.value == DEFAULTS.margin and m.source.startswith("default")
     True
     """
     path = user_calibration_path()
     try:
-        cal = json.loads(path.read_text())
-        value = float(cal["margin"])
-    except (OSError, ValueError, KeyError, TypeError):
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
         return Margin(DEFAULTS.margin, "default (stats.DEFAULTS.margin: no calibration found)")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: cannot read the calibration file ({exc}); {_FIX}") from None
+    try:
+        cal = json.loads(text)
+    except (ValueError, RecursionError):
+        raise UserError(f"{path}: not a calibration file (not valid JSON); {_FIX}") from None
+    if not isinstance(cal, dict) or "margin" not in cal:
+        raise UserError(f"{path}: not a calibration file (no 'margin' key); {_FIX}")
+    try:
+        value = check_margin(cal["margin"], f"{path}: key 'margin'")
+    except UserError as exc:
+        raise UserError(f"{exc}; {_FIX}") from None
+    if not isinstance(cal.get("cpu_model"), (str, type(None))):
+        raise UserError(f"{path}: key 'cpu_model' must be a string, got {cal['cpu_model']!r:.40}; {_FIX}")
     if cpu_model is not None and cal.get("cpu_model") != cpu_model:
         return Margin(DEFAULTS.margin, f"default (stats.DEFAULTS.margin: {path} is for another CPU)")
-    return Margin(value, f"calibration {path} ({cal.get('created', '?')}, run {cal.get('run_dir', '?')})")
+    created, run = str(cal.get("created", "?"))[:40], str(cal.get("run_dir", "?"))[:200]
+    return Margin(value, f"calibration {path} ({created}, run {run})")
+
+
+def _nan_to_none(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _nan_to_none(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_nan_to_none(v) for v in value]
+    return value
 
 
 def aa_speedups(batches: Any, kernel: str, copy: str, processes: int) -> list:
@@ -154,12 +219,12 @@ def calibrate(
         "ratios": [r.ratio for r in results],
         "p_values": [r.p_value for r in results],
     }
-    text = json.dumps(record, indent=2, allow_nan=False) + "\n"
-    (run_dir / CALIBRATION).write_text(text)
+    # the run keeps its record whatever it measured (NaN as null: JSON has no NaN)
+    text = json.dumps(_nan_to_none(record), indent=2, allow_nan=False) + "\n"
+    write_text(run_dir / CALIBRATION, text)
     if save:
-        path = user_calibration_path()
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".json.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)
+        # only a usable margin becomes the margin of later sweeps
+        check_margin(record["margin"], f"the A/A calibration in {run_dir / CALIBRATION} (not saved as the "
+                                      f"user-level calibration; the default margin stays in use)")
+        write_text(user_calibration_path(), text)
     return record

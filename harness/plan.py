@@ -45,6 +45,7 @@ Sweep files are TOML (read with :mod:`tomllib`)::
 from __future__ import annotations
 
 import itertools
+import math
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -58,6 +59,7 @@ from tribench.workloads.spec import Spec, spec_from_dict, workload_id
 
 __all__ = [
     "BatchKey",
+    "MAX_BATCHES",
     "Sweep",
     "default_sweep",
     "expand_workloads",
@@ -80,6 +82,36 @@ DEFAULT_PROCESSES = 10
 DEFAULT_ROUNDS = 10
 DEFAULT_WARMUP = 1
 DEFAULT_TARGET_MS = 8.0
+
+# Bounds of a sweep, so a typo (--rounds 1000000000) is refused before anything
+# is allocated. The plan is a list of BatchKey (about 150 bytes each), and the
+# main job (`tribench run`) has 10,500 batches. A million batches is about
+# 150 MB of plan and 2.3 hours of timed batches alone at the default 8 ms per
+# batch, 100x the main job: past that, a study is several sweeps.
+MAX_BATCHES = 1_000_000
+MAX_PROCESSES = 10_000  # each process costs about 5 s of start-up and checks: 14 hours
+MAX_ROUNDS = 100_000
+MAX_WARMUP = 1_000
+MAX_WORKLOADS = 1_000  # each is generated, cached and calibrated in every process (the main job has 25)
+_WHY = {
+    "processes": " (each process costs about 5 s of start-up and checks)",
+    "batches": f" (about {MAX_BATCHES * DEFAULT_TARGET_MS / 3.6e6:.1f} hours of timed batches at the "
+               f"default {DEFAULT_TARGET_MS:g} ms each, and about 150 MB of plan)",
+}
+
+
+def check_workload_count(n: int) -> None:
+    """Refuse more than :data:`MAX_WORKLOADS` workloads (before any is built)."""
+    if n > MAX_WORKLOADS:
+        raise UserError(f"the sweep has {n:,} workloads; at most {MAX_WORKLOADS:,} (each is generated, cached "
+                        f"and calibrated in every process; the main job has 25): split it into several sweeps")
+
+
+def _spec_types() -> tuple[type, ...]:
+    from tribench.workloads.seed_workload import SeedSpec
+    from tribench.workloads.spec import MeshSpec, PairSpec
+
+    return (PairSpec, MeshSpec, SeedSpec)
 
 
 @dataclass(frozen=True, order=True)
@@ -139,18 +171,38 @@ class Sweep:
         from tribench import ext
 
         put = object.__setattr__  # frozen: normalise once, here
-        put(self, "kernels", tuple(self.kernels))
-        put(self, "workloads", tuple(self.workloads))
+        # sizes first, arithmetically: nothing is expanded before the plan is known to be bounded
+        for name, lo, hi in (("processes", 1, MAX_PROCESSES), ("rounds", 1, MAX_ROUNDS),
+                             ("warmup", 0, MAX_WARMUP), ("seed", 0, 2**63 - 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise UserError(f"{name} must be an integer, got {value!r:.80}")
+            if not lo <= value <= hi:
+                raise UserError(f"{name} must be between {lo} and {hi:,}, got {value:,}{_WHY.get(name, '')}")
+            put(self, name, int(value))
+        if (isinstance(self.target_ms, bool) or not isinstance(self.target_ms, (int, float, np.integer, np.floating))
+                or not 0.01 <= self.target_ms <= 1000):
+            raise UserError(f"target_ms must be a number between 0.01 and 1000, got {self.target_ms!r:.80}")
+        put(self, "target_ms", float(self.target_ms))
+        for name in ("kernels", "workloads"):
+            value = getattr(self, name)
+            if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Sequence):
+                raise UserError(f"{name} must be a list, got {value!r:.80}")
+            put(self, name, tuple(value))
         if not self.kernels:
             raise UserError("a sweep needs at least one kernel")
         known = ext.kernel_names(internal=True)
         for k in self.kernels:
-            if k not in known:
-                raise UserError(f"unknown kernel {k!r}; known kernels: {', '.join(ext.kernel_names())}")
+            if not isinstance(k, str) or k not in known:
+                raise UserError(f"unknown kernel {k!r:.80}; known kernels: {', '.join(ext.kernel_names())}")
         if len(set(self.kernels)) != len(self.kernels):
             raise UserError(f"kernels listed twice: {', '.join(self.kernels)}")
         if not self.workloads:
             raise UserError("a sweep needs at least one workload")
+        check_workload_count(len(self.workloads))
+        for spec in self.workloads:
+            if not isinstance(spec, _spec_types()):
+                raise UserError(f"a workload must be a PairSpec, MeshSpec or SeedSpec, got {type(spec).__name__}")
         ids = tuple(workload_id(s) for s in self.workloads)
         if len(set(ids)) != len(ids):
             raise UserError("the same workload is listed twice")
@@ -159,15 +211,13 @@ class Sweep:
             if not self.kernels_for(spec):
                 raise UserError(f"no kernel of the sweep runs mode {spec.mode!r} ({spec.summary()}): "
                                  f"wide kernels (*_x8) have no pairs mode")
-        for name, lo in (("processes", 1), ("rounds", 1), ("warmup", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < lo:
-                raise UserError(f"{name} must be an integer >= {lo}, got {value!r}")
-        if not (isinstance(self.target_ms, (int, float)) and 0.01 <= self.target_ms <= 1000):
-            raise UserError(f"target_ms must be between 0.01 and 1000, got {self.target_ms!r}")
-        put(self, "target_ms", float(self.target_ms))
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise UserError(f"seed must be a non-negative integer, got {self.seed!r}")
+        per_round = self.n_batches // (self.processes * (self.warmup + self.rounds))
+        if self.n_batches > MAX_BATCHES:
+            raise UserError(
+                f"the sweep has {self.n_batches:,} batches ({self.processes:,} processes x "
+                f"{self.warmup + self.rounds:,} rounds with warm-up x {per_round:,} kernel-workload pairs); "
+                f"a plan holds at most {MAX_BATCHES:,}{_WHY['batches']}: use fewer processes, rounds or "
+                f"workloads, or split the study into several sweeps")
 
     def kernels_for(self, spec: Spec) -> tuple[str, ...]:
         """The sweep's kernels that run ``spec``'s mode (wide kernels have no
@@ -292,38 +342,68 @@ def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
     fixed = {k: v for k, v in table.items() if k not in axes}
     if any(len(v) == 0 for v in axes.values()):
         raise UserError("an empty list in a workload table gives no workloads")
+    check_workload_count(math.prod(len(v) for v in axes.values()))  # before building the grid
     return [spec_from_dict({**fixed, **dict(zip(axes, combo))}) for combo in itertools.product(*axes.values())]
+
+
+_TOP_LEVEL = ("kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed")
 
 
 def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Sweep:
     """Read a TOML sweep file (see the module docstring).
 
     ``overrides`` (e.g. from command-line flags) replace the file's top-level
-    values; ``None`` values are ignored.
+    values; ``None`` values are ignored. Every mistake in the file is a
+    :class:`~tribench.common.UserError` naming the file and the key
+    (``sweep.toml: workloads[2]: hit_rate must be in [0, 1], got 2.0``).
     """
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise FileNotFoundError(f"no sweep file {path}") from None
+        raise UserError(f"{path}: no such sweep file") from None
+    except IsADirectoryError:
+        raise UserError(f"{path}: is a folder, not a sweep file") from None
+    except UnicodeDecodeError as exc:
+        raise UserError(f"{path}: not a text file ({exc.reason} at byte {exc.start})") from None
+    except OSError as exc:
+        raise UserError(f"{path}: cannot read the sweep file ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise UserError(f"{path}: not valid TOML ({exc})") from None
-    allowed = {"kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed"}
-    unknown = sorted(set(data) - allowed)
+    except RecursionError:
+        raise UserError(f"{path}: not a sweep file (values nested too deeply to read)") from None
+    unknown = sorted(set(data) - set(_TOP_LEVEL))
     if unknown:
-        raise UserError(f"{path}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(sorted(allowed))}")
-    data.update({k: v for k, v in (overrides or {}).items() if v is not None})
+        raise UserError(f"{path}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(sorted(_TOP_LEVEL))}")
+    given = {k: v for k, v in (overrides or {}).items() if v is not None}
+    data.update(given)
     if "kernels" not in data or "workloads" not in data:
         raise UserError(f"{path}: a sweep file needs 'kernels' and at least one [[workloads]] table")
+    kernels = data["kernels"]
+    if not isinstance(kernels, (list, tuple)) or not all(isinstance(k, str) for k in kernels):
+        raise UserError(f"{path}: kernels: expected a list of kernel names (kernels = [\"moller_trumbore\"]), "
+                        f"got {kernels!r:.80}")
+    tables = _as_tables(data.pop("workloads"), path)
+    try:  # the grid's size, before any of it is built
+        check_workload_count(sum(math.prod(len(v) for v in t.values() if isinstance(v, list)) for t in tables))
+    except UserError as exc:
+        raise UserError(f"{path}: {exc}") from None
     workloads: list[Spec] = []
-    for table in _as_tables(data.pop("workloads"), path):
-        workloads += expand_workloads(table)
-    return Sweep(workloads=tuple(workloads), **{k: data[k] for k in data if k != "workloads"})
+    for i, table in enumerate(tables):
+        try:
+            workloads += expand_workloads(table)
+        except UserError as exc:
+            raise UserError(f"{path}: workloads[{i}]: {exc}") from None
+    try:
+        return Sweep(workloads=tuple(workloads), **{k: data[k] for k in data if k != "workloads"})
+    except UserError as exc:
+        where = f"{path} with the command-line flags" if given else str(path)
+        raise UserError(f"{where}: {exc}") from None
 
 
 def _as_tables(value: Any, path: Path) -> Sequence[Mapping[str, Any]]:
     if isinstance(value, Mapping):
         return [value]
     if not isinstance(value, list) or not all(isinstance(t, Mapping) for t in value):
-        raise UserError(f"{path}: 'workloads' must be a list of tables ([[workloads]])")
+        raise UserError(f"{path}: workloads: expected a list of tables ([[workloads]]), got {value!r:.80}")
     return value

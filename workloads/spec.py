@@ -111,7 +111,8 @@ _MIX_TOLERANCE = 1e-6
 
 
 def _int(name: str, value: Any, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value):
+    if (isinstance(value, bool) or not isinstance(value, (int, float))
+            or (isinstance(value, float) and not value.is_integer())):
         raise UserError(f"{name} must be an integer, got {value!r}")
     value = int(value)
     if not lo <= value <= hi:
@@ -120,7 +121,9 @@ def _int(name: str, value: Any, lo: int, hi: int) -> int:
 
 
 def _float(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) < 2**1000:
+        value = float(value)  # an int past float64's range is not a finite number
+    if not isinstance(value, float) or not math.isfinite(value):
         raise UserError(f"{name} must be a finite number, got {value!r}")
     return float(value)
 
@@ -133,7 +136,7 @@ def _hit_rate(value: Any) -> float:
 
 
 def _choice(name: str, value: Any, choices: Sequence[str]) -> str:
-    if value not in choices:
+    if not isinstance(value, str) or value not in choices:
         raise UserError(f"unknown {name} {value!r}: choose one of {', '.join(choices)}")
     return value
 
@@ -147,7 +150,10 @@ def _miss_mix(value: Any) -> tuple[tuple[str, float], ...]:
                 f"or give a fraction per stage"
             )
         value = MISS_MIX_PRESETS[value]
-    items = dict(value.items() if isinstance(value, Mapping) else value)
+    try:
+        items = dict(value.items() if isinstance(value, Mapping) else value)
+    except (TypeError, ValueError):
+        raise UserError(f"miss_mix must be a preset name or a fraction per stage, got {value!r:.80}") from None
     unknown = sorted(set(items) - set(MISS_STAGES))
     if unknown:
         raise UserError(f"unknown miss stage(s) {unknown}: stages are {', '.join(MISS_STAGES)}")
@@ -409,8 +415,12 @@ def spec_from_dict(d: Mapping[str, Any]) -> Spec:
     >>> spec_from_dict(s.to_dict()) == s
     True
     """
+    if not isinstance(d, Mapping):
+        raise UserError(f"a workload spec must be a table of fields, got {d!r:.80}")
     d = dict(d)
     kind = d.pop("kind", None)
+    if not isinstance(kind, str):
+        raise UserError(f"workload kind must be 'pairs', 'mesh' or 'seed', got {kind!r:.80}")
     cls = {"pairs": PairSpec, "mesh": MeshSpec}.get(kind)
     if kind == "seed":
         from .seed_workload import SeedSpec
@@ -419,7 +429,7 @@ def spec_from_dict(d: Mapping[str, Any]) -> Spec:
     if cls is None:
         raise UserError(f"unknown workload kind {kind!r}: expected 'pairs', 'mesh' or 'seed'")
     names = {f.name for f in fields(cls)}
-    unknown = sorted(set(d) - names)
+    unknown = sorted(map(str, set(d) - names))
     if unknown:
         raise UserError(f"unknown {kind} spec field(s): {', '.join(unknown)}")
     return cls(**d)
