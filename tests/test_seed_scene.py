@@ -151,3 +151,38 @@ def test_format_round_trips_exactly(name):
     assert (t.background, t.ambient, t.lights, t.materials) == (s.background, s.ambient, s.lights, s.materials)
     odd = parse_scene("sphere 0.1 1e-300 -3.0000000000000004 0.30000000000000004\n")
     assert parse_scene(format_scene(odd)).spheres.tolist() == odd.spheres.tolist()
+
+
+@pytest.mark.parametrize(
+    "line, message",
+    [
+        ("tri 1e200 0 0 1 0 0 0 1 0", "'tri' expects a number within float32's range"),
+        ("sphere 0 0 -3 1e39", "'sphere' expects a number within float32's range"),
+        ("sphere 0 0 1_0 1", "'sphere' expects a number for z, got '1_0'"),
+        ("sphere 0 0 0x10 1", "'sphere' expects a number for z, got '0x10'"),
+        ("sphere 0 0 \u0661 1", "'sphere' expects a number for z"),  # an Arabic-Indic digit: float() reads 1
+        ("sphere 0 0 -inf 1", "'sphere' expects a finite number for z, got '-inf'"),
+        ("sphere 0 0 Infinity 1", "'sphere' expects a finite number for z, got 'Infinity'"),
+        ("tri 0 0 0 1e-30 0 0 0 1e-30 0", "'tri' is degenerate"),  # its normal is 0 in float32
+    ],
+)
+def test_values_the_seed_cannot_store_name_file_and_line(tmp_path, line, message):
+    path = tmp_path / "scene.txt"
+    path.write_text("fond 1 1 1\n" + line + "\n")
+    with pytest.raises(SceneError, match=f"^{path}:2: ") as err:
+        read_scene(path)
+    assert message in str(err.value)
+
+
+def test_numbers_as_the_seed_writes_them_are_read():
+    scene = parse_scene("sphere +1 -2.5 .5e1 3.4e38\ntri 0 0 0 1. 0 0 0 1E0 0\n")
+    assert scene.spheres.tolist() == [[1.0, -2.5, 5.0, 3.4e38]]
+
+
+def test_a_folder_given_as_a_scene_is_named_a_folder(tmp_path):
+    from tribench.workloads.seed_workload import SeedSpec
+
+    with pytest.raises(SceneError, match=f"{tmp_path}: is a directory, not a scene file"):
+        SeedSpec(scene=str(tmp_path))
+    with pytest.raises(ValueError, match="no such file"):
+        SeedSpec(scene=str(tmp_path / "missing.txt"))

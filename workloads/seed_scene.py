@@ -25,8 +25,9 @@ an earlier one.
 This reader keeps those semantics (including the default material: an object
 before any ``materiau`` gets :data:`DEFAULT_MATERIAL`, as in the seed) but is
 line-based and strict where the seed is silent: every line is blank, a
-comment, or one keyword with exactly its count of finite numbers (a trailing
-``# comment`` is allowed). Keywords are matched case-insensitively; spaces,
+comment, or one keyword with exactly its count of decimal numbers (no
+underscores, no inf or nan) within float32's range, the seed's storage (a
+trailing ``# comment`` is allowed). Keywords are matched case-insensitively; spaces,
 tabs, blank lines and Windows line ends are fine. Anything else raises
 :class:`SceneError` naming the file, the line and what was expected::
 
@@ -44,8 +45,8 @@ this format; ``scene03.txt`` is generated from ``suzanne.obj`` by
 from __future__ import annotations
 
 import difflib
-import math
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -182,13 +183,23 @@ class Scene:
 # ------------------------------------------------------------------- reading
 
 
+# A decimal number as the seed's ``>>`` reads one: no underscores (Python's
+# float() reads "1_0" as 10), no hex, no other scripts' digits, no inf/nan.
+_DECIMAL = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
+_FLOAT32 = np.finfo(np.float32)
+
+
 def _number(word: str, where: str, keyword: str, what: str) -> float:
-    try:
-        x = float(word)
-    except ValueError:
-        raise SceneError(f"{where}: '{keyword}' expects a number for {what}, got {word!r}") from None
-    if not math.isfinite(x):
-        raise SceneError(f"{where}: '{keyword}' expects a finite number for {what}, got {word!r}")
+    if not _DECIMAL.fullmatch(word):
+        if word.lower().lstrip("+-") in ("inf", "infinity", "nan"):
+            raise SceneError(f"{where}: '{keyword}' expects a finite number for {what}, got {word!r}")
+        raise SceneError(f"{where}: '{keyword}' expects a number for {what}, got {word!r} "
+                         f"(a decimal number such as -1.5e3)")
+    x = float(word)
+    # the seed stores float: a value past float32's range would be inf there
+    if not abs(x) <= _FLOAT32.max:
+        raise SceneError(f"{where}: '{keyword}' expects a number within float32's range (the seed stores "
+                         f"float: magnitudes up to {_FLOAT32.max:.3g}) for {what}, got {word!r}")
     return x
 
 
@@ -209,7 +220,7 @@ def _check_values(keyword: str, v: list[float], where: str) -> None:
     if keyword == "plan" and v[0] == v[1] == v[2] == 0:
         raise SceneError(f"{where}: 'plan' expects a non-zero normal (a b c), got 0 0 0")
     if keyword == "tri":
-        p = np.array(v, dtype=np.float64).reshape(3, 3)
+        p = np.array(v, dtype=np.float32).reshape(3, 3)  # the seed's float normal
         n = np.cross(p[1] - p[0], p[2] - p[0])
         if not np.any(n != 0):
             raise SceneError(f"{where}: 'tri' is degenerate (its three vertices are collinear)")

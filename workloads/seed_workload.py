@@ -160,10 +160,10 @@ class SeedSpec:
             raise UserError(f"scene must be a built-in scene name or a file path, got {self.scene!r}")
         if self.scene not in BUILTIN_SCENES:
             path = Path(self.scene).expanduser()
-            if not path.is_file():
+            if not path.exists():
                 raise UserError(f"unknown scene {self.scene!r}: not one of {', '.join(BUILTIN_SCENES)} "
                                  f"and no such file")
-            read_scene(path)  # SceneError (a ValueError) names the bad line
+            read_scene(path)  # SceneError names a folder, an unreadable file or the bad line
             put(self, "scene", str(path.resolve()))
         _choice("rays", self.rays, RAY_KINDS)
         put(self, "sample", _int("sample", self.sample, 1, _MAX_RAYS))
