@@ -2,32 +2,38 @@
 
 Directory: ``$TRIBENCH_CACHE``, default ``~/.cache/tribench/workloads``.
 
-A file holds the arrays and one JSON member, ``meta``: the cache format, the
-workload id, the spec, its identity (spec + generator version + mesh file
-hash), the achieved figures and the sha256 of the arrays. On load all of them
-are checked; a file that fails to open or parse, or whose identity, version or
-checksum does not match, is rebuilt with a :class:`CacheWarning` -- never
-used. Files are written to a temporary name in the same directory and renamed
-(``os.replace``), so an interrupted write never leaves half a file under a
-workload's name.
+A file is an ordinary ``.npz`` holding the arrays and one JSON member,
+``meta``: the cache format, the workload id, the spec, its identity (spec +
+generator version + mesh file hash), the achieved figures and the library
+versions. The zip's comment, its last bytes, seals everything before it:
+``tribench-sha256:`` and the sha256 of the rest of the file. So every byte a
+cache entry carries -- arrays, metadata, the zip's own structure -- is
+checked, and any change to a file (a flipped bit, a cut, an edited figure,
+swapped arrays) is detected. A file that fails the seal, or whose format,
+identity, version or id does not match, is never used: :func:`make` and
+:func:`load` rebuild it with a :class:`CacheWarning` (printed on stderr),
+:func:`list_cached` marks it. Files are written atomically
+(:func:`tribench.common.write_bytes`), so an interrupted write never leaves
+half a file under a workload's name.
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
 import json
 import os
-import secrets
 import warnings
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from tribench.common import UserError
+from tribench.common import UserError, write_bytes
 
 from .spec import (
-    MeshSpec,
     PairSpec,
     Spec,
     canonical_json,
@@ -35,7 +41,7 @@ from .spec import (
     spec_from_dict,
     workload_id,
 )
-from .workload import Workload, arrays_sha256
+from .workload import Workload
 
 __all__ = [
     "CACHE_FORMAT",
@@ -49,7 +55,10 @@ __all__ = [
     "resolve_id",
 ]
 
-CACHE_FORMAT = 1
+# 2: the whole file sealed by a sha256 in the zip comment (1 checked the arrays only)
+CACHE_FORMAT = 2
+_SEAL_PREFIX = b"tribench-sha256:"
+_SEAL_LEN = len(_SEAL_PREFIX) + 64
 
 
 class CacheWarning(UserWarning):
@@ -100,8 +109,11 @@ def generate(spec: Spec) -> Workload:
     return generate_mesh_workload(spec, wid)
 
 
+def _seal(body: bytes) -> bytes:
+    return _SEAL_PREFIX + hashlib.sha256(body).hexdigest().encode()
+
+
 def _write(w: Workload, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
     arrays = w.arrays()
     meta = {
         "format": CACHE_FORMAT,
@@ -111,21 +123,22 @@ def _write(w: Workload, path: Path) -> None:
         "identity": identity(w.spec),
         "achieved": w.achieved,
         "arrays": sorted(arrays),
-        "checksum": arrays_sha256(arrays),
     }
-    # A unique temporary name in the same directory (same file system for os.replace),
-    # created with the usual permissions (mkstemp would make it private).
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, meta=np.array(json.dumps(meta)), **arrays)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    buf = io.BytesIO()
+    np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)
+    with zipfile.ZipFile(buf, "a") as z:
+        z.comment = bytes(_SEAL_LEN)  # room for the seal: the comment is the file's last bytes
+    body = buf.getvalue()[:-_SEAL_LEN]
+    write_bytes(path, body + _seal(body))
+
+
+def _unsealed(path: Path) -> bytes:
+    """The file's bytes, if its seal matches them."""
+    data = path.read_bytes()
+    if len(data) <= _SEAL_LEN or data[-_SEAL_LEN:] != _seal(data[:-_SEAL_LEN]):
+        raise _Invalid("its checksum does not match: the file was changed, cut or not written by this "
+                       "version of tribench")
+    return data
 
 
 def _read_meta(npz) -> dict[str, Any]:
@@ -135,6 +148,9 @@ def _read_meta(npz) -> dict[str, Any]:
         raise _Invalid(f"unreadable metadata ({type(e).__name__})") from None
     if not isinstance(meta, dict) or meta.get("format") != CACHE_FORMAT:
         raise _Invalid("unknown cache format")
+    for key, kind in (("spec", dict), ("identity", dict), ("achieved", dict), ("arrays", list)):
+        if not isinstance(meta.get(key), kind):
+            raise _Invalid(f"metadata key {key!r} is missing or not a {kind.__name__}")
     return meta
 
 
@@ -144,24 +160,27 @@ def _read(path: Path, spec: Spec | None) -> Workload:
         return _read_checked(path, spec)
     except _Invalid:
         raise
-    except Exception as e:  # truncated, garbage, not a zip, missing members, malformed JSON...
+    except Exception as e:  # garbage under a valid seal, a spec this version cannot rebuild...
         raise _Invalid(f"{type(e).__name__}: {e}") from None
 
 
 def _read_checked(path: Path, spec: Spec | None) -> Workload:
-    with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
+    data = _unsealed(path)
+    with np.load(io.BytesIO(data), allow_pickle=False) as npz:
         meta = _read_meta(npz)
         if spec is None:
             spec = spec_from_dict(meta["spec"])
         if meta.get("version") != spec.version:
-            raise _Invalid(f"generator version {meta.get('version')} != {spec.version}")
-        if canonical_json(meta.get("identity")) != canonical_json(identity(spec)):
+            raise _Invalid(f"stale: generator version {meta.get('version')}, current {spec.version}")
+        if canonical_json(meta["identity"]) != canonical_json(identity(spec)):
             raise _Invalid("spec does not match")
+        if canonical_json(meta["spec"]) != canonical_json(spec.to_dict()):
+            raise _Invalid("stored spec does not match")
         if meta.get("workload_id") != path.stem or path.stem != workload_id(spec):
             raise _Invalid("workload id does not match")
+        if sorted(npz.files) != sorted(["meta", *meta["arrays"]]):
+            raise _Invalid("arrays do not match the metadata")
         arrays = {name: npz[name] for name in meta["arrays"]}
-    if arrays_sha256(arrays) != meta.get("checksum"):
-        raise _Invalid("checksum does not match")
     return Workload(workload_id=path.stem, spec=spec, achieved=meta["achieved"], **arrays)
 
 
@@ -214,9 +233,11 @@ def load(wid: str) -> Workload:
 
 
 def _stored_spec(path: Path) -> Spec | None:
+    """The spec of an invalid file, if it can still be read (only used when it
+    gives the file's own id, which is the hash of the spec)."""
     try:
         with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
-            return spec_from_dict(_read_meta(npz)["spec"])
+            return spec_from_dict(json.loads(str(npz["meta"][()]))["spec"])
     except Exception:
         return None
 
@@ -242,25 +263,30 @@ def resolve_id(prefix: str) -> str:
 
 
 def list_cached() -> list[CachedWorkload]:
-    """Every ``.npz`` file of the cache, sorted by id, with its spec and achieved figures."""
+    """Every ``.npz`` file of the cache, sorted by id, with its spec and achieved figures.
+
+    Each file is checked as :func:`load` checks it (the seal, the format, the
+    spec, the version, the id); ``problem`` says why one cannot be used, and
+    its spec and figures are then those it claims (None if unreadable).
+    """
     out = []
     for path in sorted(cache_dir().glob("*.npz")):
         spec = achieved = problem = None
         try:
-            with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
-                meta = _read_meta(npz)
-            spec, achieved = meta.get("spec"), meta.get("achieved")
-            kind = (spec or {}).get("kind")
-            cls = {"pairs": PairSpec, "mesh": MeshSpec}.get(kind)
-            if kind == "seed":
-                from .seed_workload import SeedSpec as cls
-            if cls is None:
-                problem = "unknown kind"
-            elif meta.get("version") != cls.version:
-                problem = f"stale: generator version {meta.get('version')}, current {cls.version}"
+            w = _read(path, None)
+            spec, achieved = w.spec.to_dict(), dict(w.achieved)
         except _Invalid as e:
             problem = str(e)
-        except Exception as e:
-            problem = f"cannot open ({type(e).__name__})"
-        out.append(CachedWorkload(path.stem, path, path.stat().st_size, spec, achieved, problem))
+            try:
+                with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
+                    claimed = json.loads(str(npz["meta"][()]))
+                spec, achieved = claimed.get("spec"), claimed.get("achieved")
+            except Exception:
+                pass
+        try:
+            size = path.stat().st_size
+        except OSError:  # removed meanwhile
+            continue
+        out.append(CachedWorkload(path.stem, path, size, spec if isinstance(spec, dict) else None,
+                                  achieved if isinstance(achieved, dict) else None, problem))
     return out
