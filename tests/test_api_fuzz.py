@@ -22,6 +22,9 @@ from tribench import ext
 from tribench.common import UserError
 from tribench.workloads import reference
 
+# hypothesis casts float32-width values into float16 arrays: overflow to inf is what is wanted there
+pytestmark = pytest.mark.filterwarnings("ignore:overflow encountered in cast:RuntimeWarning")
+
 BUDGET = settings(max_examples=250, deadline=None,
                   suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 

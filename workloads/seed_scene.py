@@ -186,7 +186,7 @@ class Scene:
 # A decimal number as the seed's ``>>`` reads one: no underscores (Python's
 # float() reads "1_0" as 10), no hex, no other scripts' digits, no inf/nan.
 _DECIMAL = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
-_FLOAT32 = np.finfo(np.float32)
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 def _number(word: str, where: str, keyword: str, what: str) -> float:
@@ -197,9 +197,9 @@ def _number(word: str, where: str, keyword: str, what: str) -> float:
                          f"(a decimal number such as -1.5e3)")
     x = float(word)
     # the seed stores float: a value past float32's range would be inf there
-    if not abs(x) <= _FLOAT32.max:
+    if not abs(x) <= _FLOAT32_MAX:
         raise SceneError(f"{where}: '{keyword}' expects a number within float32's range (the seed stores "
-                         f"float: magnitudes up to {_FLOAT32.max:.3g}) for {what}, got {word!r}")
+                         f"float: magnitudes up to {_FLOAT32_MAX:.3g}) for {what}, got {word!r}")
     return x
 
 
