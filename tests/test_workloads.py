@@ -19,6 +19,7 @@ import warnings
 import numpy as np
 import pytest
 
+from tribench.common import UserError
 from tribench.workloads import (
     MISS_STAGES,
     CacheWarning,
@@ -457,8 +458,13 @@ def test_corrupt_mesh_file_is_a_clear_error(tmp_path, content, name, message):
 
 
 def test_missing_mesh_file_is_a_clear_error(tmp_path):
-    with pytest.raises(ValueError, match="no such file"):
+    with pytest.raises(UserError, match="no such file"):
         MeshSpec(str(tmp_path / "nothing.obj"))
+
+
+def test_a_folder_given_as_a_mesh_is_named_a_folder(tmp_path):
+    with pytest.raises(UserError, match="is a folder"):
+        MeshSpec(str(tmp_path))
 
 
 # ---------------------------------------------------------------- ray sets

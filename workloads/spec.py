@@ -396,6 +396,8 @@ Spec = Union[PairSpec, MeshSpec, "SeedSpec"]
 def _checked_mesh_file(path: str) -> str:
     """Absolute path of a readable mesh file, or a UserError saying what is wrong."""
     p = Path(path).expanduser()
+    if p.is_dir():
+        raise UserError(f"mesh {path!r} is a folder: give a mesh file trimesh reads, or one of {', '.join(MESH_NAMES)}")
     if not p.is_file():
         raise UserError(
             f"unknown mesh {path!r}: not one of {', '.join(MESH_NAMES)} and no such file"
