@@ -96,17 +96,12 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
         raise RunError(f"no run directory {run_dir}")
     try:
         run = records.read_run(run_dir)
-    except (FileNotFoundError, ValueError) as exc:
-        raise RunError(str(exc)) from None
-    if not isinstance(run, dict) or "sweep" not in run:
-        raise RunError(f"{run_dir / 'run.json'} is not a tribench run record (no 'sweep')")
-    try:
-        batches = records.read_batches(run_dir)
-        processes = records.read_processes(run_dir)
-    except FileNotFoundError as exc:
+        batches = records.read_batches(run_dir, run)
+        processes = records.read_processes(run_dir, run)
+    except records.MissingRunFile as exc:
         raise RunError(f"{exc} (was the sweep started?)") from None
-    except (ValueError, pd.errors.ParserError) as exc:
-        raise RunError(f"cannot read the batches of {run_dir}: {exc}") from None
+    except UserError as exc:  # the records' validation: file:line and what is wrong
+        raise RunError(str(exc)) from None
     if batches.loc[~batches["warmup"]].empty:
         raise RunError(f"{run_dir} has no timed batches yet")
 
