@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from tribench.common import UserError
+from tribench.common import UserError, write_text
 
 from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
 from .stats import DEFAULTS
@@ -155,11 +155,7 @@ def calibrate(
         "p_values": [r.p_value for r in results],
     }
     text = json.dumps(record, indent=2, allow_nan=False) + "\n"
-    (run_dir / CALIBRATION).write_text(text)
+    write_text(run_dir / CALIBRATION, text)
     if save:
-        path = user_calibration_path()
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".json.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, path)
+        write_text(user_calibration_path(), text)
     return record

@@ -255,12 +255,15 @@ def repair_csv(path: str | Path) -> bool:
 
 def _holder(fd: int) -> dict[str, Any] | None:
     """What the lock file says about the process that holds (or held) it; None if empty or unreadable."""
+    unknown = {"pid": "?", "host": "?", "since": "?"}
     try:
         data = os.pread(fd, 4096, 0)
-        holder = json.loads(data.decode()) if data.strip() else None
+        if not data.strip():
+            return None
+        holder = json.loads(data.decode())
     except (OSError, ValueError):
-        return {"pid": "?", "host": "?", "since": "?"}
-    return holder if isinstance(holder, dict) else {"pid": "?", "host": "?", "since": "?"}
+        return unknown
+    return holder if isinstance(holder, dict) else unknown
 
 
 def _describe(holder: Mapping[str, Any]) -> str:

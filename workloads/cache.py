@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import os
-import secrets
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from tribench.common import UserError
+from tribench.common import UserError, atomic_write
 
 from .spec import (
     MeshSpec,
@@ -113,19 +112,8 @@ def _write(w: Workload, path: Path) -> None:
         "arrays": sorted(arrays),
         "checksum": arrays_sha256(arrays),
     }
-    # A unique temporary name in the same directory (same file system for os.replace),
-    # created with the usual permissions (mkstemp would make it private).
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, meta=np.array(json.dumps(meta)), **arrays)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with atomic_write(path, "wb") as f:  # the usual permissions; a failed write leaves no file
+        np.savez(f, meta=np.array(json.dumps(meta)), **arrays)
 
 
 def _read_meta(npz) -> dict[str, Any]:
