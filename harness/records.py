@@ -236,14 +236,25 @@ class RowWriter:
         self.close()
 
 
+def _cut_partial_line(path: Path, data: bytes) -> bytes:
+    """``data`` without its partial last line: a row cut by a kill, so no longer than a row."""
+    if not data or data.endswith(b"\n"):
+        return data
+    end = data.rfind(b"\n") + 1
+    if len(data) - end > MAX_ROW_BYTES:
+        line = data.count(b"\n") + 1
+        raise UserError(f"{path}:{line}: {len(data) - end} bytes without a line end: not a row cut by a kill")
+    return data[:end]
+
+
 def repair_csv(path: str | Path) -> bool:
     """Cut a partial last line (no final newline) off ``path``; True if one was cut."""
     path = Path(path)
-    if not path.exists():
+    if not os.path.lexists(path):
         return False
     _check_plain_file(path)
     data = path.read_bytes()
-    if not data or data.endswith(b"\n"):
+    if _cut_partial_line(path, data) == data:
         return False
     with open(path, "r+b") as f:
         f.truncate(data.rfind(b"\n") + 1)
@@ -380,8 +391,7 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
     data = path.read_bytes()
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
-    if data and not data.endswith(b"\n"):
-        data = data[: data.rfind(b"\n") + 1]  # a partial last line: a batch that did not finish
+    data = _cut_partial_line(path, data)  # a partial last line: a batch that did not finish
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
