@@ -319,11 +319,13 @@ def writer_lock(run_dir: str | Path) -> Iterator[None]:
             os.pwrite(fd, json.dumps(me).encode() + b"\n", 0)
         except OSError:
             pass  # a full disk: the lock holds all the same, the message will lack the pid
-        yield
         try:
-            os.ftruncate(fd, 0)  # a clean release: an empty lock file
-        except OSError:
-            pass
+            yield
+        finally:  # released by this process, error or not: an empty lock file (a SIGKILL skips this)
+            try:
+                os.ftruncate(fd, 0)
+            except OSError:
+                pass
     finally:
         os.close(fd)
 

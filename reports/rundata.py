@@ -169,7 +169,7 @@ def load_validation(data: RunData, quick: bool = False) -> tuple[pd.DataFrame, s
         try:
             records.write_csv(df, path)
             note += f" and written to {VALIDATE} in the run folder, which later reports read."
-        except OSError as exc:
+        except (OSError, UserError) as exc:  # a full disk or a read-only folder: show it all the same
             note += f"; not saved ({exc})."
     missing = [f"{k} {d}" for k in data.kernels for d in data.dtypes
                if not ((df["kernel"] == k) & (df["dtype"] == d)).any()]
