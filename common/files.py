@@ -21,7 +21,7 @@ naming the file.
 from __future__ import annotations
 
 import os
-import tempfile
+import secrets
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -36,11 +36,13 @@ __all__ = ["atomic_write", "write_bytes", "write_text"]
 def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "utf-8") -> Iterator[IO[Any]]:
     """Open a temporary file beside ``path``; on a clean exit, replace ``path`` with it.
 
-    ``mode`` is ``"w"`` (text, ``encoding``) or ``"wb"``. The parent folder
-    is created. If the body raises, or the write fails, the temporary file is
-    removed and ``path`` is left as it was; an ``OSError`` (a full disk, a
-    missing permission, a file where a folder should be) becomes a
-    ``UserError`` that names ``path``.
+    ``mode`` is ``"w"`` (text, ``encoding``, ``"\\n"`` line ends) or
+    ``"wb"``. The parent folder is created. The file gets the usual
+    permissions (``0o666`` less the umask, as ``open`` would give; not
+    ``mkstemp``'s private ``0o600``). If the body raises (Ctrl-C included),
+    or the write fails, the temporary file is removed and ``path`` is left
+    as it was; an ``OSError`` (a full disk, a missing permission, a file
+    where a folder should be) becomes a ``UserError`` that names ``path``.
     """
     if mode not in ("w", "wb"):
         raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
@@ -51,7 +53,10 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
             raise UserError(f"cannot write {path}: {folder} is a file, not a folder")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        # a unique name in the same folder (same file system, so the rename is atomic)
+        name = str(path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+        fd = os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        tmp = name
         with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": encoding, "newline": ""})) as f:
             yield f
             f.flush()

@@ -27,6 +27,7 @@ and :class:`Analysis` holds the tables exactly as the files have them.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -87,7 +88,11 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
         Equivalence margin; default the one recorded in ``run.json``.
     """
     run = records.read_run(run_dir)
-    batches = records.read_batches(run_dir)
+    batches = records.read_batches(run_dir, run)
+    writer = records.live_writer(run_dir)
+    if writer is not None:
+        print(f"tribench: note: {run_dir} is still being written by {writer}; these tables cover "
+              f"{len(batches)} of its {run['n_batches']} batches", file=sys.stderr)
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
         raise UserError(f"{run_dir} has no timed batches yet")
@@ -104,7 +109,7 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
     estimates = stats.estimate_table(table).rename(columns=ESTIMATE_COLUMNS)
     estimates["workload"] = estimates["workload_id"].map(names)
     dtypes = {wid: spec["dtype"] for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"])}
-    estimates = estimates.join(_peak_columns(table, records.read_processes(run_dir), dtypes),
+    estimates = estimates.join(_peak_columns(table, records.read_processes(run_dir, run), dtypes),
                                on=["kernel", "workload_id"])
     speedups = stats.speedup_table(table, baseline, margin=m.value).rename(columns=SPEEDUP_COLUMNS)
     speedups["workload"] = speedups["workload_id"].map(names)
@@ -157,9 +162,13 @@ def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str
 
 
 def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
-    """Write ``estimates.csv`` and ``speedups.csv`` into ``run_dir``."""
+    """Write ``estimates.csv`` and ``speedups.csv`` into ``run_dir``, each atomically.
+
+    A failed write (a full disk) raises a UserError naming the file and
+    leaves that file as it was, never empty or cut.
+    """
     run_dir = Path(run_dir)
     paths = run_dir / ESTIMATES, run_dir / SPEEDUPS
-    analysis.estimates.to_csv(paths[0], index=False)
-    analysis.speedups.to_csv(paths[1], index=False)
+    records.write_csv(analysis.estimates, paths[0])
+    records.write_csv(analysis.speedups, paths[1])
     return paths

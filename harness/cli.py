@@ -183,7 +183,7 @@ def _run(args: argparse.Namespace) -> int:
 
     from tribench.reports import format_tables, write_report
 
-    from . import runner, validate
+    from . import records, runner, validate
     from .analysis import analyse, write_tables
     from .plan import default_sweep
 
@@ -197,7 +197,7 @@ def _run(args: argparse.Namespace) -> int:
     write_tables(out, analyse(out))
     # the report's robustness section: the suite on the run's kernels and precisions (a second or two)
     checks = validate.run(sweep.kernels, sorted({w.dtype for w in sweep.workloads}))
-    checks.to_csv(Path(out) / "validate.csv", index=False)
+    records.write_csv(checks, Path(out) / "validate.csv")
     print(f"validate: {int((checks.verdict == 'fail').sum())} of {int((checks.verdict != 'measured').sum())} "
           f"promises broken, {checks.attrs['seconds']:.1f} s -> {Path(out) / 'validate.csv'}", file=sys.stderr)
     _run_peers(out, quick=args.quick, progress=False if args.no_progress else None)
@@ -338,7 +338,7 @@ def _calibrate(args: argparse.Namespace) -> int:
 def _validate(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from . import validate
+    from . import records, validate
 
     kernels = _split(",".join(args.kernels or [])) or None
     dtypes = _split(",".join(args.dtype or [])) or validate.DTYPES
@@ -346,8 +346,7 @@ def _validate(args: argparse.Namespace) -> int:
     out = Path(args.out or "validate.csv")
     if out.is_dir():
         out = out / "validate.csv"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    df.to_csv(out, index=False)
+    records.write_csv(df, out)
     print(validate.format_table(df))
     print(f"{len(df)} rows in {df.attrs['seconds']:.1f} s; wrote {out}", file=sys.stderr)
     return 0

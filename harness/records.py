@@ -11,25 +11,49 @@
     RUN_DIR/checks.csv      one row per kernel, workload and process: its answers
                             against the reference (:data:`CHECK_COLUMNS`)
     RUN_DIR/estimates.csv, speedups.csv   written by ``tribench stats``
+    RUN_DIR/.lock           held by the one process writing the folder (:func:`writer_lock`)
+
+One writer per run folder: a sweep or a resume holds an exclusive ``flock``
+on ``.lock`` for as long as it appends, so a second one is refused with the
+first one's pid; the kernel releases the lock of a killed process, and the
+next writer says it takes it over. Readers (``stats``, ``report``) take no
+lock: they may read a folder a live sweep is writing.
 
 Rows are appended with one ``write`` each on a file opened in append mode,
 so a process killed at any moment leaves at most one partial last line; the
 readers here drop such a line (:func:`repair_csv` cuts it off the file before
-a resume appends to it).
+a resume appends to it). A write that fails (a full disk) is undone before
+the error is raised, so it leaves no partial line.
+
+Every reader validates what it reads, in one place (:func:`_read_table`):
+the header, every field's type, the run id of every row against
+``run.json``, kernels and workloads of the run's sweep, positive counts and
+times, and no batch twice or outside the plan. A failure is a
+:class:`~tribench.common.UserError` naming ``file:line`` and what is wrong.
+A UTF-8 byte-order mark and CRLF line ends (an editor's) change no value
+and are accepted.
 """
 
 from __future__ import annotations
 
 import csv
+import datetime as _dt
+import errno
+import fcntl
 import io
 import json
+import math
 import os
-from collections.abc import Mapping, Sequence
+import socket
+import stat
+import sys
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import astuple, dataclass, fields
 from pathlib import Path
 from typing import Any
 
-from tribench.common import UserError
+from tribench.common import UserError, atomic_write, write_text
 
 __all__ = [
     "BATCH_COLUMNS",
@@ -37,8 +61,10 @@ __all__ = [
     "PROCESS_COLUMNS",
     "BatchRow",
     "CheckRow",
+    "MissingRunFile",
     "ProcessRow",
     "RowWriter",
+    "live_writer",
     "read_batches",
     "read_checks",
     "read_processes",
@@ -46,12 +72,21 @@ __all__ = [
     "repair_csv",
     "write_csv",
     "write_run",
+    "writer_lock",
 ]
 
 BATCHES = "batches.csv"
 PROCESSES = "processes.csv"
 CHECKS = "checks.csv"
 RUN = "run.json"
+LOCK = ".lock"
+
+#: No row tribench writes is longer; a file larger than its rows allow is not tribench's.
+MAX_ROW_BYTES = 1024
+
+
+class MissingRunFile(UserError, FileNotFoundError):
+    """A run folder, or a file in it, is missing (a UserError, and a FileNotFoundError as before)."""
 
 
 @dataclass(frozen=True)
@@ -152,16 +187,42 @@ class RowWriter:
 
     The header is written when the file is new or empty. Each row goes to
     the OS at once (unbuffered), so a killed process loses no finished row.
+    A row that cannot be written whole (a full disk) is cut off again before
+    the ``OSError`` is raised, so the file keeps whole lines only. The file
+    must not be a symbolic link (a run folder's files are tribench's own).
     """
 
     def __init__(self, path: str | Path, columns: Sequence[str]) -> None:
         self.path = Path(path)
-        self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
-        if os.fstat(self._fd).st_size == 0:
-            os.write(self._fd, _csv_line(columns).encode())
+        self._fd = -1
+        try:
+            self._fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o666)
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                raise UserError(f"{self.path} is a symbolic link; a run folder's files are plain files") from None
+            raise
+        self._size = os.fstat(self._fd).st_size
+        if self._size == 0:
+            self._write(_csv_line(columns).encode())
 
     def append(self, row: Any) -> None:
-        os.write(self._fd, _csv_line(astuple(row)).encode())
+        self._write(_csv_line(astuple(row)).encode())
+
+    def _write(self, data: bytes) -> None:
+        try:
+            done = 0
+            while done < len(data):  # a short write: the disk filled in the middle of the row
+                n = os.write(self._fd, data[done:])
+                if n == 0:
+                    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+                done += n
+        except OSError as exc:
+            try:
+                os.ftruncate(self._fd, self._size)  # leave no partial line (shrinking needs no space)
+            except OSError:
+                pass
+            raise OSError(exc.errno, exc.strerror, str(self.path)) from None
+        self._size += len(data)
 
     def close(self) -> None:
         if self._fd >= 0:
@@ -175,89 +236,416 @@ class RowWriter:
         self.close()
 
 
+def _cut_partial_line(path: Path, data: bytes) -> bytes:
+    """``data`` without its partial last line: a row cut by a kill, so no longer than a row."""
+    if not data or data.endswith(b"\n"):
+        return data
+    end = data.rfind(b"\n") + 1
+    if len(data) - end > MAX_ROW_BYTES:
+        line = data.count(b"\n") + 1
+        raise UserError(f"{path}:{line}: {len(data) - end} bytes without a line end: not a row cut by a kill")
+    return data[:end]
+
+
 def repair_csv(path: str | Path) -> bool:
     """Cut a partial last line (no final newline) off ``path``; True if one was cut."""
     path = Path(path)
-    if not path.exists():
+    if not os.path.lexists(path):
         return False
+    _check_plain_file(path)
     data = path.read_bytes()
-    if not data or data.endswith(b"\n"):
+    if _cut_partial_line(path, data) == data:
         return False
     with open(path, "r+b") as f:
         f.truncate(data.rfind(b"\n") + 1)
     return True
 
 
-def _read_csv(path: Path, columns: Sequence[str], dtypes: Mapping[str, Any]):
+# ------------------------------------------------------------ one writer
+
+
+def _holder(fd: int) -> dict[str, Any] | None:
+    """What the lock file says about the process that holds (or held) it; None if empty or unreadable."""
+    unknown = {"pid": "?", "host": "?", "since": "?"}
+    try:
+        data = os.pread(fd, 4096, 0)
+        if not data.strip():
+            return None
+        holder = json.loads(data.decode())
+    except (OSError, ValueError):
+        return unknown
+    return holder if isinstance(holder, dict) else unknown
+
+
+def _describe(holder: Mapping[str, Any]) -> str:
+    return f"process {holder.get('pid', '?')} on {holder.get('host', '?')} (since {holder.get('since', '?')})"
+
+
+@contextmanager
+def writer_lock(run_dir: str | Path) -> Iterator[None]:
+    """Hold the run folder's one-writer lock for the body; raise a UserError if a live process holds it.
+
+    An exclusive ``flock`` on ``RUN_DIR/.lock``, which the kernel releases
+    when the holder dies, however it dies. The holder writes its pid, host
+    and start time into the file for the refusal message and empties it
+    on a clean release; a non-empty file found unlocked was left by a
+    killed writer, whose lock is taken over, saying so on stderr. The lock
+    file is never removed (removing it would let two writers lock two
+    different files).
+    """
+    run_dir = Path(run_dir)
+    path = run_dir / LOCK
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o666)
+    except OSError as exc:
+        raise UserError(f"cannot write to the run folder {run_dir} ({path}: {exc.strerror})") from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = _holder(fd) or {}
+            raise UserError(f"{run_dir} is being written by {_describe(holder)}: one writer per run folder; "
+                            f"wait for it to finish, or stop process {holder.get('pid', '?')}") from None
+        except OSError as exc:
+            raise UserError(f"cannot lock {path}: {exc.strerror} (a file system without locks?)") from None
+        previous = _holder(fd)
+        if previous:
+            print(f"tribench: taking over the lock of dead process {previous.get('pid', '?')} on "
+                  f"{previous.get('host', '?')} (since {previous.get('since', '?')}) in {run_dir}", file=sys.stderr)
+        me = {"pid": os.getpid(), "host": socket.gethostname(),
+              "since": _dt.datetime.now().astimezone().isoformat(timespec="seconds"), "argv": sys.argv}
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, json.dumps(me).encode() + b"\n", 0)
+        except OSError:
+            pass  # a full disk: the lock holds all the same, the message will lack the pid
+        try:
+            yield
+        finally:  # released by this process, error or not: an empty lock file (a SIGKILL skips this)
+            try:
+                os.ftruncate(fd, 0)
+            except OSError:
+                pass
+    finally:
+        os.close(fd)
+
+
+def live_writer(run_dir: str | Path) -> str | None:
+    """Who writes ``run_dir`` now ("process N on HOST (since T)"), or None if nobody does."""
+    path = Path(run_dir) / LOCK
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except OSError:
+        return _describe(_holder(fd) or {})
+    else:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    finally:
+        os.close(fd)
+
+
+# ------------------------------------------------------------ reading
+
+
+def _check_plain_file(path: Path, max_bytes: int | None = None) -> None:
+    """A run folder's file must be a regular file (not a link, a FIFO, a device), of a plausible size."""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        raise MissingRunFile(f"no {path.name} in {path.parent}") from None
+    if stat.S_ISLNK(st.st_mode):
+        raise UserError(f"{path} is a symbolic link; a run folder's files are plain files written by tribench")
+    if not stat.S_ISREG(st.st_mode):
+        raise UserError(f"{path} is not a regular file")
+    if max_bytes is not None and st.st_size > max_bytes:
+        raise UserError(f"{path} is {st.st_size} bytes, more than its run can write (at most {max_bytes}): "
+                        "not tribench's file")
+
+
+def _short(value: str) -> str:
+    return repr(value if len(value) <= 40 else value[:37] + "...")
+
+
+_KIND = {"int": "an integer", "float": "a finite number", "bool": "True or False", "str": "text"}
+
+
+#: A rule on parsed rows: a function of the frame giving a bad-row mask, and the message for one bad row.
+Rule = tuple[Callable[[Any], Any], Callable[[Any], str]]
+
+
+def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | None):
+    """``path`` as a DataFrame of ``cls``'s columns and types, every row checked; a partial last line dropped.
+
+    Raises a UserError naming ``path:line`` for the first thing wrong: the
+    header, a field count, a field that is not of its column's type, or a
+    row that breaks one of ``rules``.
+    """
+    import numpy as np
     import pandas as pd
 
-    text = path.read_text()
-    if text and not text.endswith("\n"):
-        text = text[: text.rfind("\n") + 1]  # a partial last line: a batch that did not finish
+    _check_plain_file(path, max_bytes)
+    columns = [f.name for f in fields(cls)]
+    kinds = {f.name: f.type if isinstance(f.type, str) else f.type.__name__ for f in fields(cls)}
+    data = path.read_bytes()
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    data = _cut_partial_line(path, data)  # a partial last line: a batch that did not finish
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise UserError(f"{path}:{line}: not UTF-8 text") from None
     if not text:
-        return pd.DataFrame({c: pd.Series(dtype=dtypes.get(c, object)) for c in columns})
-    frame = pd.read_csv(io.StringIO(text), dtype=dict(dtypes))
-    missing = [c for c in columns if c not in frame.columns]
-    if missing:
-        raise UserError(f"{path}: missing columns {missing}")
+        frame = pd.DataFrame({c: pd.Series(dtype={"int": "int64", "float": "float64", "bool": bool}
+                                           .get(kinds[c], object)) for c in columns})
+        return frame
+    reader = csv.reader(io.StringIO(text))
+    rows: list[list[str]] = []
+    lines: list[int] = []
+    try:
+        header = next(reader)
+        if header != columns:
+            got = ",".join(header)
+            raise UserError(f"{path}:1: the header is not {path.name}'s columns (another tribench version, or "
+                            f"not tribench's file): expected {','.join(columns)}, got {_short(got)}")
+        for row in reader:
+            if len(row) != len(columns):
+                what = "a blank line" if not row else f"{len(row)} fields, expected {len(columns)}"
+                raise UserError(f"{path}:{reader.line_num}: {what}")
+            rows.append(row)
+            lines.append(reader.line_num)
+    except csv.Error as exc:
+        raise UserError(f"{path}:{reader.line_num}: not CSV ({exc})") from None
+    raw = pd.DataFrame(rows, columns=columns, dtype=object)
+    frame = pd.DataFrame(index=raw.index)
+
+    def refuse(bad: Any, message: Callable[[int], str]) -> None:
+        bad = np.asarray(bad, dtype=bool)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise UserError(f"{path}:{lines[i]}: {message(i)}")
+
+    for c in columns:
+        s = raw[c]
+        kind = kinds[c]
+        if kind == "int":
+            bad = ~s.str.fullmatch(r"-?[0-9]{1,20}")
+            refuse(bad, lambda i, c=c: f"{c} is {_short(raw[c].iloc[i])}, not {_KIND['int']}")
+            try:
+                frame[c] = s.astype(np.int64)
+            except OverflowError:  # the layout seeds are unsigned 64-bit
+                try:
+                    frame[c] = s.astype(np.uint64)
+                except (OverflowError, ValueError):
+                    big = s.map(lambda v: not -2**63 <= int(v) < 2**64)
+                    refuse(big, lambda i, c=c: f"{c} is {_short(raw[c].iloc[i])}, out of range")
+                    refuse(s.str.startswith("-"), lambda i, c=c: f"{c} mixes negative and unsigned 64-bit values")
+        elif kind == "float":
+            values = pd.to_numeric(s, errors="coerce").astype(float)
+            refuse(~np.isfinite(values), lambda i, c=c: f"{c} is {_short(raw[c].iloc[i])}, not {_KIND['float']}")
+            frame[c] = values
+        elif kind == "bool":
+            refuse(~s.isin(["True", "False"]), lambda i, c=c: f"{c} is {_short(raw[c].iloc[i])}, not True or False")
+            frame[c] = s == "True"
+        else:
+            refuse(s == "", lambda i, c=c: f"{c} is empty")
+            frame[c] = s.astype(str)
+    for bad, message in rules:
+        refuse(bad(frame), lambda i, message=message: message(frame.iloc[i]))
     return frame
 
 
-def read_batches(run_dir: str | Path):
-    """``batches.csv`` of a run as a DataFrame (a partial last line is ignored)."""
-    path = Path(run_dir) / BATCHES
-    if not path.is_file():
-        raise FileNotFoundError(f"no {BATCHES} in {run_dir}")
-    dtypes = {"warmup": bool, "kernel": str, "workload_id": str, "run_id": str, "isa": str,
-              "dtype": str, "mode": str}
-    return _read_csv(path, BATCH_COLUMNS, dtypes)
+def _positive(*names: str) -> list[Rule]:
+    return [(lambda f, n=n: f[n] <= 0, lambda r, n=n: f"{n} is {r[n]}; must be positive") for n in names]
 
 
-def read_checks(run_dir: str | Path):
-    """``checks.csv`` of a run (empty frame if the run has none yet)."""
+def _not_negative(*names: str) -> list[Rule]:
+    return [(lambda f, n=n: f[n] < 0, lambda r, n=n: f"{n} is {r[n]}; must be 0 or more") for n in names]
+
+
+def _unique(names: Sequence[str], what: str) -> Rule:
+    def bad(f: Any) -> Any:
+        return f.duplicated(subset=list(names), keep="first")
+
+    def message(r: Any) -> str:
+        return f"{what} ({', '.join(f'{n} {r[n]}' for n in names)}) is written twice (two writers?)"
+
+    return bad, message
+
+
+def _run_rules(run: Mapping[str, Any] | None, kernel: bool = True, workload: bool = True) -> list[Rule]:
+    """Rules that need ``run.json``: the run id, the process range, the sweep's kernels and workloads."""
+    if run is None:
+        return []
+    sweep = run["sweep"]
+    rules: list[Rule] = [
+        (lambda f: f["run_id"] != run["run_id"],
+         lambda r: f"run id {_short(r['run_id'])} is not this run's ({run['run_id']}, in {RUN})"),
+        (lambda f: (f["process"] < 0) | (f["process"] >= sweep["processes"]),
+         lambda r: f"process {r['process']} is not one of the run's {sweep['processes']} (0 to "
+                   f"{sweep['processes'] - 1})"),
+    ]
+    if kernel:
+        rules.append((lambda f: ~f["kernel"].isin(sweep["kernels"]),
+                      lambda r: f"unknown kernel {_short(r['kernel'])}: not in the run's sweep "
+                                f"({', '.join(sweep['kernels'])})"))
+    if workload:
+        rules.append((lambda f: ~f["workload_id"].isin(sweep["workload_ids"]),
+                      lambda r: f"unknown workload {_short(r['workload_id'])}: not in the run's sweep"))
+    return rules
+
+
+def _max_bytes(run: Mapping[str, Any] | None, rows_per_batch: int) -> int | None:
+    return None if run is None else MAX_ROW_BYTES * (rows_per_batch * int(run["n_batches"]) + 1024)
+
+
+def _run_or_none(run_dir: Path, run: Mapping[str, Any] | None) -> Mapping[str, Any] | None:
+    if run is not None:
+        return run
+    return read_run(run_dir) if (run_dir / RUN).exists() else None
+
+
+def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
+    """``batches.csv`` of a run as a DataFrame, validated (a partial last line is ignored).
+
+    ``run`` is the run's ``run.json`` record (read when not given, if the
+    folder has one): every row must carry its run id, a kernel and workload
+    of its sweep and a key of its plan, at most once. Without a record only
+    the file's own consistency is checked.
+    """
+    run_dir = Path(run_dir)
+    path = run_dir / BATCHES
+    run = _run_or_none(run_dir, run)
+    rules: list[Rule] = [
+        *_run_rules(run),
+        *_positive("loops", "tests", "elapsed_ns"),
+        *_not_negative("hits", "attempt", "position"),
+        (lambda f: f["warmup"] != (f["round"] < 0),
+         lambda r: f"warmup is {r['warmup']} but round is {r['round']} (warm-up rounds are negative)"),
+        (lambda f: ~f["dtype"].isin(["float32", "float64"]), lambda r: f"dtype {_short(r['dtype'])} is not float32 "
+                                                                          "or float64"),
+        _unique(("process", "workload_id", "round", "position", "kernel"), "the batch"),
+    ]
+    if run is not None:
+        from .plan import Sweep, plan
+
+        planned = {(k.process, k.workload_id, k.round, k.position, k.kernel)
+                   for k in plan(Sweep.from_dict(run["sweep"]))}
+
+        def outside(f: Any) -> Any:
+            return [key not in planned for key in
+                    zip(f["process"], f["workload_id"], f["round"], f["position"], f["kernel"])]
+
+        rules.append((outside, lambda r: f"batch (process {r['process']}, round {r['round']}, position "
+                                         f"{r['position']}, kernel {r['kernel']}) is not in the run's plan"))
+    return _read_table(path, BatchRow, rules, _max_bytes(run, 1))
+
+
+def read_checks(run_dir: str | Path, run: Mapping[str, Any] | None = None):
+    """``checks.csv`` of a run, validated (empty frame if the run has none yet)."""
     import pandas as pd
 
-    path = Path(run_dir) / CHECKS
-    if not path.is_file():
+    run_dir = Path(run_dir)
+    path = run_dir / CHECKS
+    if not os.path.lexists(path):
         return pd.DataFrame(columns=list(CHECK_COLUMNS))
-    return _read_csv(path, CHECK_COLUMNS, {"kernel": str, "workload_id": str, "run_id": str})
+    run = _run_or_none(run_dir, run)
+    rules: list[Rule] = [
+        *_run_rules(run),
+        *_positive("rays"),
+        *_not_negative("attempt", "ambiguous_rays", "disagreements", "ambiguous_disagreements", "hits"),
+        (lambda f: (f["disagreements"] > f["rays"]) | (f["ambiguous_rays"] > f["rays"]),
+         lambda r: f"more disagreements or ambiguous rays than rays ({r['rays']})"),
+        _unique(("process", "attempt", "workload_id", "kernel"), "the check"),
+    ]
+    return _read_table(path, CheckRow, rules, _max_bytes(run, 4))
 
 
-def read_processes(run_dir: str | Path):
-    """``processes.csv`` of a run (empty frame if the run has none yet)."""
+def read_processes(run_dir: str | Path, run: Mapping[str, Any] | None = None):
+    """``processes.csv`` of a run, validated (empty frame if the run has none yet)."""
     import pandas as pd
 
-    path = Path(run_dir) / PROCESSES
-    if not path.is_file():
+    run_dir = Path(run_dir)
+    path = run_dir / PROCESSES
+    if not os.path.lexists(path):
         return pd.DataFrame(columns=list(PROCESS_COLUMNS))
-    return _read_csv(path, PROCESS_COLUMNS, {"phase": str, "peak_isa": str, "run_id": str})
+    run = _run_or_none(run_dir, run)
+    rules: list[Rule] = [
+        *_run_rules(run, kernel=False, workload=False),
+        *_positive("pid", "peak_gflops", "peak_flops", "peak_elapsed_ns"),
+        *_not_negative("attempt", "env_pad_bytes", "dummy_allocs"),
+        (lambda f: ~f["phase"].isin(["start", "end"]), lambda r: f"phase {_short(r['phase'])} is not start or end"),
+        _unique(("process", "attempt", "phase"), "the peak probe"),
+    ]
+    return _read_table(path, ProcessRow, rules, _max_bytes(run, 4))
+
+
+# ------------------------------------------------------------ whole files
 
 
 def write_csv(frame: Any, path: str | Path) -> None:
-    """Write a DataFrame to ``path`` atomically (temporary file, then rename): no reader sees half a file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    frame.to_csv(tmp, index=False)
-    os.replace(tmp, path)
+    """Write a DataFrame to ``path`` atomically (:func:`tribench.common.atomic_write`): no reader sees half a file."""
+    with atomic_write(path) as f:
+        frame.to_csv(f, index=False)
 
 
 def write_run(run_dir: str | Path, record: Mapping[str, Any]) -> None:
-    """Write ``run.json`` atomically (temporary file, then rename)."""
-    path = Path(run_dir) / RUN
-    tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(record, indent=2, sort_keys=True, allow_nan=False) + "\n")
-    os.replace(tmp, path)
+    """Write ``run.json`` atomically (:func:`tribench.common.write_text`)."""
+    write_text(Path(run_dir) / RUN, json.dumps(record, indent=2, sort_keys=True, allow_nan=False) + "\n")
+
+
+#: The fields of run.json every reader relies on, and their types.
+_RUN_FIELDS: dict[str, type | tuple[type, ...]] = {
+    "run_id": str, "sweep": dict, "n_batches": int, "plan_sha256": str, "process_seeds": list,
+    "margin": dict,
+}
 
 
 def read_run(run_dir: str | Path) -> dict[str, Any]:
-    """``run.json`` of a run."""
-    path = Path(run_dir) / RUN
-    if not Path(run_dir).is_dir():
-        raise FileNotFoundError(f"no run directory {run_dir}")
-    if not path.is_file():
-        raise FileNotFoundError(f"{run_dir} is not a run directory (no {RUN})")
+    """``run.json`` of a run, checked: a JSON object with a valid sweep, run id, seeds and margin."""
+    from .plan import Sweep
+
+    run_dir = Path(run_dir)
+    path = run_dir / RUN
+    if not run_dir.is_dir():
+        raise MissingRunFile(f"no run directory {run_dir}")
+    if not os.path.lexists(path):
+        raise MissingRunFile(f"{run_dir} is not a run directory (no {RUN})")
+    _check_plain_file(path, 64 * 1024 * 1024)
     try:
-        return json.loads(path.read_text())
+        run = json.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError:
+        raise UserError(f"{path} is not UTF-8 text") from None
     except json.JSONDecodeError as exc:
-        raise UserError(f"{path} is not valid JSON ({exc})") from None
+        raise UserError(f"{path}:{exc.lineno}: not valid JSON ({exc.msg}); a truncated or edited file?") from None
+    except RecursionError:
+        raise UserError(f"{path}: not a tribench run record (nested too deeply)") from None
+    if not isinstance(run, dict):
+        raise UserError(f"{path} is not a tribench run record (not a JSON object)")
+    for key, kind in _RUN_FIELDS.items():
+        if not isinstance(run.get(key), kind) or isinstance(run.get(key), bool):
+            raise UserError(f"{path}: {key!r} is missing or not a {getattr(kind, '__name__', kind)}; "
+                            "not a tribench run record")
+    try:
+        sweep = Sweep.from_dict(run["sweep"])
+    except UserError as exc:
+        raise UserError(f"{path}: 'sweep' is not valid: {exc}") from None
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise UserError(f"{path}: 'sweep' is not valid ({type(exc).__name__}: {exc})") from None
+    if run["sweep"].get("workload_ids") != sweep.to_dict()["workload_ids"]:
+        raise UserError(f"{path}: 'sweep' workload_ids do not match its workloads (an edited file?)")
+    seeds = run["process_seeds"]
+    if len(seeds) != sweep.processes or not all(isinstance(s, int) and not isinstance(s, bool) for s in seeds):
+        raise UserError(f"{path}: 'process_seeds' must be {sweep.processes} integers, one per process")
+    value = run["margin"].get("value")
+    if (not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value)
+            or not 0 <= value < 1 or not isinstance(run["margin"].get("source"), str)):
+        raise UserError(f"{path}: 'margin' must be {{value: a number in [0, 1), source: text}}, "
+                        f"got {_short(json.dumps(run['margin']))}")
+    if not isinstance(run.get("cpu"), (int, type(None))) or isinstance(run.get("cpu"), bool):
+        raise UserError(f"{path}: 'cpu' must be a CPU number")
+    return run

@@ -5,7 +5,10 @@
 finishes an interrupted one. Batches stream from the worker as JSON lines and
 are appended to ``batches.csv`` one row at a time, so a Ctrl-C, a SIGKILL of
 the runner or of a worker, or a crash of the machine loses at most the batch
-in flight.
+in flight. A full disk stops the sweep with one line that says how to resume
+it, and leaves whole lines only (:class:`~tribench.harness.records.RowWriter`).
+One writer per run folder: :func:`start` and :func:`resume` hold the
+folder's lock (:func:`~tribench.harness.records.writer_lock`) while they run.
 
 Resume: the plan (:func:`tribench.harness.plan.plan`) is a pure function of
 the sweep stored in ``run.json``, so the missing batches are exactly the
@@ -151,9 +154,9 @@ def _key(row: Any) -> BatchKey:
     return BatchKey(int(row.process), str(row.workload_id), int(row.round), int(row.position), str(row.kernel))
 
 
-def done_keys(run_dir: str | Path) -> list[BatchKey]:
-    """Keys of the batches in ``batches.csv`` (a partial last line is ignored)."""
-    frame = records.read_batches(run_dir)
+def done_keys(run_dir: str | Path, run: dict[str, Any] | None = None) -> list[BatchKey]:
+    """Keys of the batches in ``batches.csv``, validated (a partial last line is ignored)."""
+    frame = records.read_batches(run_dir, run)
     return [_key(r) for r in frame.itertuples(index=False)]
 
 
@@ -182,7 +185,8 @@ def start(
     ----------
     sweep : Sweep
     run_dir : path
-        Must not exist, or be an empty directory.
+        Must not exist, or be an empty directory (a lock file left by a
+        start that failed does not count).
     margin : tribench.harness.calibration.Margin, optional
         Equivalence margin to record (default: the latest calibration's, or
         ``stats.DEFAULTS.margin``).
@@ -198,18 +202,37 @@ def start(
     Raises
     ------
     SweepError, SweepInterrupted
+    UserError
+        ``run_dir`` is not empty, another process writes it, or a file
+        cannot be written (a full disk: the message says how to resume).
     """
     from .calibration import latest_margin
     from .machine import machine_record
-    from .worker import kernel_isa
 
     run_dir = Path(run_dir)
-    if run_dir.exists() and (not run_dir.is_dir() or any(run_dir.iterdir())):
-        raise UserError(f"{run_dir} exists and is not empty (use --resume to finish a run)")
+    _refuse_used(run_dir)
     machine = machine_record()
     margin = margin if margin is not None else latest_margin(machine["cpu_model"])
     keys = plan(sweep)
-    run_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"cannot create the run folder {run_dir}: {exc.strerror or exc}") from None
+    with records.writer_lock(run_dir):
+        _refuse_used(run_dir)  # again, under the lock: another start may have been faster
+        return _start_locked(sweep, run_dir, margin, machine, keys, cpu, progress, worker, extra)
+
+
+def _refuse_used(run_dir: Path) -> None:
+    if run_dir.exists() and (not run_dir.is_dir() or any(p.name != records.LOCK for p in run_dir.iterdir())):
+        raise UserError(f"{run_dir} exists and is not empty (use --resume to finish a run)")
+
+
+def _start_locked(sweep: Sweep, run_dir: Path, margin: Any, machine: dict[str, Any], keys: list[BatchKey],
+                  cpu: int | None, progress: bool | None, worker: Sequence[str],
+                  extra: dict[str, Any] | None) -> RunResult:
+    from .worker import kernel_isa
+
     record = {
         "run_id": _dt.datetime.now().strftime("%Y%m%dT%H%M%S-") + secrets.token_hex(3),
         "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
@@ -238,6 +261,12 @@ def resume(
     A partial last line of ``batches.csv`` or ``processes.csv`` (a write cut
     by a kill) is removed first. See the module docstring for how a
     half-finished process is completed.
+
+    Raises
+    ------
+    UserError
+        Another process writes ``run_dir`` (one writer per run folder), its
+        files are not valid, or a file cannot be written.
     """
     run_dir = Path(run_dir)
     record = records.read_run(run_dir)
@@ -245,19 +274,24 @@ def resume(
     keys = plan(sweep)
     if _plan_digest(keys) != record["plan_sha256"]:
         raise UserError(f"{run_dir}: the plan of its sweep changed (another tribench version?); cannot resume")
-    for name in (records.BATCHES, records.PROCESSES, records.CHECKS):
-        if records.repair_csv(run_dir / name):
-            print(f"tribench: dropped a partial last line of {run_dir / name}", file=sys.stderr)
-    done = done_keys(run_dir) if (run_dir / records.BATCHES).exists() else []
-    todo = missing_keys(sweep, done)
-    return _execute(run_dir, record, sweep, todo, len(keys) - len(todo), progress, worker)
+    with records.writer_lock(run_dir):
+        for name in (records.BATCHES, records.PROCESSES, records.CHECKS):
+            try:
+                cut = records.repair_csv(run_dir / name)
+            except OSError as exc:
+                raise UserError(f"cannot repair {run_dir / name}: {exc.strerror or exc}") from None
+            if cut:
+                print(f"tribench: dropped a partial last line of {run_dir / name}", file=sys.stderr)
+        done = done_keys(run_dir, record) if os.path.lexists(run_dir / records.BATCHES) else []
+        todo = missing_keys(sweep, done)
+        return _execute(run_dir, record, sweep, todo, len(keys) - len(todo), progress, worker)
 
 
-def _attempts(run_dir: Path) -> dict[int, int]:
+def _attempts(run_dir: Path, record: dict[str, Any]) -> dict[int, int]:
     """The next attempt number of every process that has started before."""
     out: dict[int, int] = {}
-    for frame in (records.read_processes(run_dir),
-                  records.read_batches(run_dir) if (run_dir / records.BATCHES).exists() else None):
+    for frame in (records.read_processes(run_dir, record),
+                  records.read_batches(run_dir, record) if os.path.lexists(run_dir / records.BATCHES) else None):
         if frame is None or frame.empty:
             continue
         for p, a in frame.groupby("process")["attempt"].max().items():
@@ -279,32 +313,37 @@ def _execute(
     by_process: dict[int, list[BatchKey]] = {}
     for k in todo:
         by_process.setdefault(k.process, []).append(k)
-    attempts = _attempts(run_dir)
+    attempts = _attempts(run_dir, record)
     bar = Progress(total, done_before, force=bool(progress)) if progress is not False else None
     ran = 0
-    with RowWriter(run_dir / records.BATCHES, BATCH_COLUMNS) as batches, \
-            RowWriter(run_dir / records.PROCESSES, PROCESS_COLUMNS) as processes, \
-            RowWriter(run_dir / records.CHECKS, CHECK_COLUMNS) as checks:
+    try:
+        with RowWriter(run_dir / records.BATCHES, BATCH_COLUMNS) as batches, \
+                RowWriter(run_dir / records.PROCESSES, PROCESS_COLUMNS) as processes, \
+                RowWriter(run_dir / records.CHECKS, CHECK_COLUMNS) as checks:
 
-        def on_batch(row: BatchRow) -> None:
-            nonlocal ran
-            batches.append(row)
-            ran += 1
-            if bar:
-                bar.advance()
+            def on_batch(row: BatchRow) -> None:
+                nonlocal ran
+                batches.append(row)
+                ran += 1
+                if bar:
+                    bar.advance()
 
-        try:
             for p, keys in by_process.items():
                 _run_process(record, sweep, p, attempts.get(p, 0), keys, worker, on_batch, processes.append,
                              checks.append)
-        except KeyboardInterrupt:
-            raise SweepInterrupted(
-                f"interrupted: {done_before + ran} of {total} batches saved in {run_dir}; "
-                f"finish with: tribench sweep --resume {run_dir}"
-            ) from None
-        finally:
-            if bar:
-                bar.close()
+    except KeyboardInterrupt:
+        raise SweepInterrupted(
+            f"interrupted: {done_before + ran} of {total} batches saved in {run_dir}; "
+            f"finish with: tribench sweep --resume {run_dir}"
+        ) from None
+    except OSError as exc:  # a full disk, mostly; the writers left whole lines only
+        raise UserError(
+            f"cannot write {exc.filename or run_dir}: {exc.strerror or exc}; {done_before + ran} of {total} "
+            f"batches saved in {run_dir}; make room, then finish with: tribench sweep --resume {run_dir}"
+        ) from None
+    finally:
+        if bar:
+            bar.close()
     return RunResult(run_dir, total, done_before + ran, ran, time.monotonic() - t0)
 
 

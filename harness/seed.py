@@ -280,10 +280,10 @@ def run_seed(
         if any(v["scene"] == labels[scene] for v in info.values()):
             print(f"pictures: {labels[scene]}, curless_seed and moller_seed at {size}x{size}", file=log)
             pictures.append(make_pictures(scene, labels[scene], size, out))
-    pd.DataFrame(pictures, columns=list(COLUMNS[PICTURES_CSV])).to_csv(out / PICTURES_CSV, index=False)
+    records.write_csv(pd.DataFrame(pictures, columns=list(COLUMNS[PICTURES_CSV])), out / PICTURES_CSV)
     tables = seed_tables(out)
     for name in (SEED_CSV, KINDS_CSV, WORKLOADS_CSV):
-        tables[name].to_csv(out / name, index=False)
+        records.write_csv(tables[name], out / name)
     tables[PICTURES_CSV] = pd.read_csv(out / PICTURES_CSV)
     return SeedResult(out, tables, time.monotonic() - t0)
 

@@ -46,13 +46,13 @@ def write_report(run_dir: str | Path, baseline: str | None = None) -> Path:
     """
     from .html import render, sweep_toml
 
+    from tribench.common import write_text
+
     data = _load(run_dir, baseline)
     page = render(data, SWEEP_FILE)
-    (data.run_dir / SWEEP_FILE).write_text(sweep_toml(data.run["sweep"]))
+    write_text(data.run_dir / SWEEP_FILE, sweep_toml(data.run["sweep"]))
     out = data.run_dir / REPORT
-    tmp = out.with_suffix(".html.tmp")
-    tmp.write_text(page, encoding="utf-8")
-    tmp.replace(out)
+    write_text(out, page)
     return out
 
 
@@ -62,9 +62,10 @@ def write_compare(run_a: str | Path, run_b: str | Path, out: str | Path | None =
 
     a, b = _load(run_a), _load(run_b)
     result = compare_runs(a, b)
+    from tribench.common import write_text
+
     path = Path(out) if out is not None else b.run_dir / "compare.html"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(render_compare(a, b, result), encoding="utf-8")
+    write_text(path, render_compare(a, b, result))
     return path
 
 

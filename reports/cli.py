@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tribench.common import UserError
+from tribench.common import UserError, write_text
 
 __all__ = ["add_parser", "report_main", "compare_main"]
 
@@ -52,9 +52,8 @@ def compare_main(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else b.run_dir / "compare.html"
     print(format_comparison(a, b, result))
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(render_compare(a, b, result), encoding="utf-8")
-    except OSError as exc:
+        write_text(out, render_compare(a, b, result))
+    except UserError as exc:
         return _error("compare", exc)
     print(f"wrote {out}", file=sys.stderr)
     return 0

@@ -96,34 +96,32 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
         raise RunError(f"no run directory {run_dir}")
     try:
         run = records.read_run(run_dir)
-    except (FileNotFoundError, ValueError) as exc:
-        raise RunError(str(exc)) from None
-    if not isinstance(run, dict) or "sweep" not in run:
-        raise RunError(f"{run_dir / 'run.json'} is not a tribench run record (no 'sweep')")
-    try:
-        batches = records.read_batches(run_dir)
-        processes = records.read_processes(run_dir)
-    except FileNotFoundError as exc:
+        batches = records.read_batches(run_dir, run)
+        processes = records.read_processes(run_dir, run)
+    except records.MissingRunFile as exc:
         raise RunError(f"{exc} (was the sweep started?)") from None
-    except (ValueError, pd.errors.ParserError) as exc:
-        raise RunError(f"cannot read the batches of {run_dir}: {exc}") from None
+    except UserError as exc:  # the records' validation: file:line and what is wrong
+        raise RunError(str(exc)) from None
     if batches.loc[~batches["warmup"]].empty:
         raise RunError(f"{run_dir} has no timed batches yet")
 
     est_path, spd_path = run_dir / analysis.ESTIMATES, run_dir / analysis.SPEEDUPS
     batches_mtime = (run_dir / "batches.csv").stat().st_mtime
-    fresh = all(p.is_file() and p.stat().st_mtime >= batches_mtime and _has_columns(p, columns.FILES[p.name])
-                for p in (est_path, spd_path))
+    timed = batches.loc[~batches["warmup"]]
+    pairs = set(zip(timed["kernel"], timed["workload_id"]))
+    estimates = _usable_table(est_path, columns.FILES[est_path.name], batches_mtime, pairs, exact=True)
+    speedups = _usable_table(spd_path, columns.FILES[spd_path.name], batches_mtime, pairs, exact=False)
     analysed_now = False
-    if baseline is not None or not fresh:
+    if baseline is not None or estimates is None or speedups is None:
         try:
             result = analysis.analyse(run_dir, baseline=baseline)
+        except UserError:
+            raise
         except (ValueError, KeyError) as exc:
             raise RunError(f"cannot analyse {run_dir}: {exc}") from None
         analysis.write_tables(run_dir, result)
+        estimates, speedups = pd.read_csv(est_path), pd.read_csv(spd_path)  # as the files have them
         analysed_now = True
-    estimates = pd.read_csv(est_path)
-    speedups = pd.read_csv(spd_path)
     if speedups.empty:
         kernels = [k for k in run["sweep"]["kernels"] if k in set(batches["kernel"])]
         base = baseline or (analysis.DEFAULT_BASELINE if analysis.DEFAULT_BASELINE in kernels else kernels[0])
@@ -171,7 +169,7 @@ def load_validation(data: RunData, quick: bool = False) -> tuple[pd.DataFrame, s
         try:
             records.write_csv(df, path)
             note += f" and written to {VALIDATE} in the run folder, which later reports read."
-        except OSError as exc:
+        except (OSError, UserError) as exc:  # a full disk or a read-only folder: show it all the same
             note += f"; not saved ({exc})."
     missing = [f"{k} {d}" for k in data.kernels for d in data.dtypes
                if not ((df["kernel"] == k) & (df["dtype"] == d)).any()]
@@ -226,8 +224,37 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
 
 def _has_columns(path: Path, documented: dict[str, str]) -> bool:
     """True if the CSV's header is exactly the documented columns."""
-    with open(path, encoding="utf-8") as f:
-        return f.readline().rstrip("\r\n").split(",") == list(documented)
+    try:
+        with open(path, encoding="utf-8") as f:
+            return f.readline(65536).rstrip("\r\n").split(",") == list(documented)
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
+#: The text columns of estimates.csv and speedups.csv; every other column is a number.
+_TEXT_COLUMNS = {"kernel", "workload_id", "workload", "baseline", "verdict", "margin_source"}
+
+
+def _usable_table(path: Path, documented: dict[str, str], batches_mtime: float, pairs: set[tuple[str, str]],
+                  exact: bool) -> pd.DataFrame | None:
+    """``estimates.csv`` or ``speedups.csv`` if it can stand for the batches as they are; None to re-analyse.
+
+    Usable: a plain file newer than ``batches.csv``, in today's columns,
+    numbers where numbers belong, and rows of the batches' own kernels and
+    workloads (all of them when ``exact``). An edited, cut or older table is
+    made again from the batches rather than shown.
+    """
+    try:
+        if not (path.is_file() and not path.is_symlink() and path.stat().st_mtime >= batches_mtime
+                and _has_columns(path, documented)):
+            return None
+        frame = pd.read_csv(path)
+    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError):
+        return None
+    if any(not pd.api.types.is_numeric_dtype(frame[c]) for c in frame.columns if c not in _TEXT_COLUMNS):
+        return None
+    rows = set(zip(frame["kernel"].astype(str), frame["workload_id"].astype(str)))
+    return frame if (rows == pairs if exact else rows <= pairs) else None
 
 
 # ------------------------------------------------------------ workload labels

@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from tribench.common import write_text
+
 from . import figures
 from .html import _CSS, _kv_table, _p, _table
 
@@ -264,7 +266,5 @@ def render_seed(run_dir: str | Path) -> str:
 def write_seed_report(run_dir: str | Path) -> Path:
     """Write ``RUN_DIR/seed.html`` (atomically) and return its path."""
     out = Path(run_dir) / SEED_REPORT
-    tmp = out.with_suffix(".html.tmp")
-    tmp.write_text(render_seed(run_dir), encoding="utf-8")
-    tmp.replace(out)
+    write_text(out, render_seed(run_dir))
     return out

@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tribench.common import atomic_write
+
 from .geometry import dot, normalise, triangle_normals
 from .spec import MISS_STAGES
 from .workload import Workload
@@ -60,8 +62,11 @@ def draw(w: Workload, path: str | Path, dpi: float = 110) -> None:
         fig = _draw_camera(plt, w)
     else:
         fig = _draw_hit_rate(plt, w)
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
+    try:
+        with atomic_write(path, "wb") as f:
+            fig.savefig(f, dpi=dpi, format="png")
+    finally:
+        plt.close(fig)
 
 
 def _pct(x: float) -> str:

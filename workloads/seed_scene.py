@@ -52,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tribench.common import UserError
+from tribench.common import UserError, write_text
 
 __all__ = [
     "BUILTIN_SCENES",
@@ -470,7 +470,7 @@ def write_scene03(path: str | os.PathLike | None = None, obj_path: str | os.Path
     Reproducible: the same ``suzanne.obj`` gives the same bytes. Returns the path.
     """
     out = Path(path) if path is not None else DATA_DIR / "scene03.txt"
-    out.write_text(scene03_text(obj_path), encoding="utf-8")
+    write_text(out, scene03_text(obj_path))
     return out
 
 

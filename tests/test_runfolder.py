@@ -1,0 +1,335 @@
+"""The run folder under attack: two writers, kills, a full disk, and files edited, cut or replaced.
+
+Every case ends either in the right tables or in one line on stderr naming the
+file (and line), exit code 2; never a traceback, never a silently wrong table.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from tribench.common import UserError
+from tribench.harness import analysis, records, runner
+from tribench.harness.plan import Sweep, plan
+from tribench.workloads.spec import PairSpec
+
+SLOW = ["--kernels", "moller_trumbore,curless", "--pairs", "300", "--processes", "4", "--rounds", "3",
+        "--warmup", "1", "--target-ms", "20", "--no-progress"]
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    path = tmp_path_factory.mktemp("cache")
+    old = os.environ.get("TRIBENCH_CACHE")
+    os.environ["TRIBENCH_CACHE"] = str(path)
+    yield path
+    if old is None:
+        del os.environ["TRIBENCH_CACHE"]
+    else:
+        os.environ["TRIBENCH_CACHE"] = old
+
+
+@pytest.fixture(scope="module")
+def finished(cache, tmp_path_factory):
+    """A small finished run with its tables (made once; tests work on copies)."""
+    out = tmp_path_factory.mktemp("finished") / "run"
+    sweep = Sweep(("moller_trumbore", "curless"), (PairSpec(n=200),), processes=3, rounds=2, warmup=1,
+                  target_ms=0.2)
+    runner.start(sweep, out, progress=False)
+    analysis.write_tables(out, analysis.analyse(out))
+    return out
+
+
+@pytest.fixture
+def run(finished, tmp_path):
+    copy = tmp_path / "run"
+    shutil.copytree(finished, copy)
+    return copy
+
+
+def cli(*args, limit_bytes=None, **kw):
+    def limit():  # a "full disk": no file may grow past limit_bytes (EFBIG, SIGXFSZ ignored)
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
+
+    return subprocess.run([sys.executable, "-m", "tribench.harness.cli", *args], capture_output=True, text=True,
+                          timeout=180, preexec_fn=limit if limit_bytes else None, **kw)
+
+
+def popen(*args):
+    return subprocess.Popen([sys.executable, "-m", "tribench.harness.cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def one_line_error(done, *words, preamble=0):
+    """Exit 2 and one error line (after ``preamble`` lines of progress a sweep prints first)."""
+    assert done.returncode == 2, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 + preamble and "Traceback" not in done.stderr, done.stderr
+    for w in words:
+        assert w in lines[-1], done.stderr
+
+
+def planned(run_dir):
+    return sorted(plan(Sweep.from_dict(records.read_run(run_dir)["sweep"])))
+
+
+def batch_lines(run_dir):
+    return (run_dir / "batches.csv").read_text().splitlines(keepends=True)
+
+
+def kill_mid_sweep(out: Path) -> int:
+    """Start a sweep, SIGKILL it (and its worker) in the middle; its pid."""
+    proc = popen("sweep", "--out", str(out), *SLOW)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if (out / "batches.csv").exists() and (out / "batches.csv").read_text().count("\n") >= 12:
+            break
+        time.sleep(0.005)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate()
+    return proc.pid
+
+
+# ------------------------------------------------------------ one writer
+
+
+def test_two_resumes_after_a_kill_one_runs_the_other_is_refused(cache, tmp_path):
+    out = tmp_path / "run"
+    dead = kill_mid_sweep(out)
+    before = runner.done_keys(out)
+    assert 0 < len(before) < len(planned(out))
+    first, second = popen("sweep", "--resume", str(out), "--no-progress"), \
+        popen("sweep", "--resume", str(out), "--no-progress")
+    results = {p.pid: (p.wait(timeout=180), *p.communicate()) for p in (first, second)}
+    codes = sorted(code for code, _, _ in results.values())
+    assert codes == [0, 2], results
+    winner = next(pid for pid, (code, _, _) in results.items() if code == 0)
+    loser = next(r for r in results.values() if r[0] == 2)
+    assert len(loser[2].strip().splitlines()) == 1, loser[2]
+    assert f"{out} is being written by process {winner}" in loser[2]
+    assert f"taking over the lock of dead process {dead}" in results[winner][2]
+    after = runner.done_keys(out)
+    assert sorted(after) == planned(out)  # none lost, none twice
+    assert set(before) <= set(after)
+    assert records.live_writer(out) is None  # released
+
+
+def test_a_second_writer_is_refused_while_the_first_lives_and_readers_are_not(run):
+    with records.writer_lock(run):
+        assert records.live_writer(run) == f"process {os.getpid()} on {os.uname().nodename} " + \
+            f"(since {json.loads((run / '.lock').read_text())['since']})"
+        done = cli("sweep", "--resume", str(run), "--no-progress")
+        one_line_error(done, str(run), f"process {os.getpid()}", "one writer per run folder")
+        stats = cli("stats", str(run))  # a reader: allowed, and told the run is being written
+        assert stats.returncode == 0, stats.stderr
+        assert "still being written by process" in stats.stderr
+    assert (run / ".lock").read_text() == ""  # released cleanly: nothing to take over
+    again = cli("sweep", "--resume", str(run), "--no-progress")
+    assert again.returncode == 0 and "taking over" not in again.stderr, again.stderr
+
+
+def test_start_into_a_folder_another_start_is_writing_is_refused(run):
+    other = run.parent / "fresh"
+    other.mkdir()
+    with records.writer_lock(other):
+        done = cli("sweep", "--out", str(other), "--kernels", "moller_trumbore", "--pairs", "200",
+                   "--processes", "1", "--rounds", "1", "--no-progress")
+        one_line_error(done, "is being written by process", preamble=1)  # the sweep's plan line
+    assert not (other / "run.json").exists()
+
+
+# ------------------------------------------------------------ full disk
+
+
+def test_full_disk_mid_sweep_exits_2_with_the_resume_command_and_whole_lines(finished, cache, tmp_path):
+    out = tmp_path / "run"
+    args = ["--kernels", "moller_trumbore,curless", "--pairs", "200", "--processes", "5", "--rounds", "4",
+            "--warmup", "1", "--target-ms", "0.2", "--no-progress"]
+    full = cli("sweep", "--out", str(out), *args, limit_bytes=5000)  # run.json fits, the batches do not
+    one_line_error(full, f"tribench sweep --resume {out}", "batches.csv", preamble=1)
+    lines = batch_lines(out)
+    assert lines and all(line.endswith("\n") for line in lines)
+    kept = runner.done_keys(out)  # validated: every row whole and valid
+    assert 0 < len(kept) < len(planned(out))
+    resumed = cli("sweep", "--resume", str(out), "--no-progress")
+    assert resumed.returncode == 0, resumed.stderr
+    assert "dropped a partial" not in resumed.stderr  # there was none to drop
+    after = runner.done_keys(out)
+    assert sorted(after) == planned(out) and set(kept) <= set(after)
+
+
+def test_stats_on_a_full_disk_keeps_the_previous_tables(run):
+    before = {name: (run / name).read_bytes() for name in (analysis.ESTIMATES, analysis.SPEEDUPS)}
+    full = cli("stats", str(run), limit_bytes=100)
+    one_line_error(full, "cannot write", analysis.ESTIMATES)
+    assert {name: (run / name).read_bytes() for name in before} == before
+    assert not [p for p in run.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_report_on_a_full_disk_is_one_line_and_leaves_no_half_page(run):
+    full = cli("report", str(run), "--quiet", limit_bytes=100)
+    one_line_error(full, "cannot write")
+    assert not (run / "report.html").exists()
+    assert not [p for p in run.iterdir() if p.name.endswith(".tmp")]
+
+
+# ------------------------------------------------------------ validation
+
+
+def _edit(run_dir: Path, line: int, column: str, value: str) -> None:
+    lines = batch_lines(run_dir)
+    header = lines[0].rstrip("\n").split(",")
+    fields = lines[line - 1].rstrip("\n").split(",")
+    fields[header.index(column)] = value
+    lines[line - 1] = ",".join(fields) + "\n"
+    (run_dir / "batches.csv").write_text("".join(lines))
+
+
+@pytest.mark.parametrize("column, value, words", [
+    ("run_id", "20200101T000000-abcdef", ["run id '20200101T000000-abcdef' is not this run's"]),
+    ("kernel", "woop", ["unknown kernel 'woop'"]),
+    ("elapsed_ns", "-5", ["elapsed_ns is -5; must be positive"]),
+    ("elapsed_ns", "0", ["elapsed_ns is 0; must be positive"]),
+    ("elapsed_ns", "nan", ["elapsed_ns is 'nan', not an integer"]),
+    ("tests", "0", ["tests is 0; must be positive"]),
+    ("loops", "-1", ["loops is -1; must be positive"]),
+    ("round", "77", ["not in the run's plan"]),
+    ("process", "9", ["process 9 is not one of the run's 3"]),
+    ("t_sum", "abc", ["t_sum is 'abc', not a finite number"]),
+    ("t_sum", "inf", ["t_sum is 'inf', not a finite number"]),
+    ("warmup", "yes", ["warmup is 'yes', not True or False"]),
+])
+def test_stats_and_report_refuse_a_bad_row_naming_file_and_line(run, column, value, words):
+    _edit(run, 5, column, value)
+    refused(run, f"{run / 'batches.csv'}:5: ", *words)
+    if column == "kernel":  # the installed command too: one line, exit 2
+        for command in ("stats", "report"):
+            one_line_error(cli(command, str(run)), f"{run / 'batches.csv'}:5: ", *words)
+
+
+def refused(run_dir: Path, *words: str, resume: bool = True) -> None:
+    """stats (analyse), the report (load_run) and a resume all refuse with one line holding ``words``."""
+    from tribench.reports.rundata import load_run
+
+    calls = [analysis.analyse, load_run] + ([lambda r: runner.resume(r, progress=False)] if resume else [])
+    for call in calls:
+        with pytest.raises(UserError) as err:
+            call(run_dir)
+        assert "\n" not in str(err.value) and all(w in str(err.value) for w in words), str(err.value)
+
+
+def test_duplicated_batches_are_refused_naming_both(run):
+    lines = batch_lines(run)
+    (run / "batches.csv").write_text("".join(lines + [lines[3]]))
+    refused(run, f"batches.csv:{len(lines) + 1}: ", "is written twice (two writers?)")
+
+
+def _insert(text: str, line: int, new: str) -> str:
+    lines = text.splitlines(keepends=True)
+    return "".join(lines[: line - 1] + [new + "\n"] + lines[line - 1:])
+
+
+@pytest.mark.parametrize("name, mangle, words", [
+    ("header", lambda t: t.replace("elapsed_ns", "elapsed", 1), [":1: the header is not batches.csv's columns"]),
+    ("garbage line", lambda t: _insert(t, 3, "#!garbage\x00"), [":3: "]),
+    ("blank line", lambda t: _insert(t, 3, ""), [":3: a blank line"]),
+    ("quoted newline", lambda t: _insert(t, 3, '"a\nb"'), [":4: 1 fields, expected 20"]),
+    ("short row", lambda t: t.replace("\n", "\n1,2,3\n", 1), [":2: 3 fields, expected 20"]),
+    ("not utf-8", lambda t: t.replace("\n", "\n\udcff\n", 1), [":2: not UTF-8 text"]),
+])
+def test_garbage_in_the_middle_is_refused_with_its_line(run, name, mangle, words):
+    text = (run / "batches.csv").read_text()
+    (run / "batches.csv").write_bytes(mangle(text).encode("utf-8", "surrogateescape"))
+    refused(run, "batches.csv", *words)
+
+
+def test_a_partial_last_line_is_still_tolerated(run):
+    text = (run / "batches.csv").read_text()
+    (run / "batches.csv").write_text(text + text.splitlines()[3][:30])
+    assert cli("stats", str(run)).returncode == 0
+
+
+def test_crlf_and_a_bom_change_no_value_and_are_read(run):
+    before = records.read_batches(run)
+    data = (run / "batches.csv").read_bytes()
+    (run / "batches.csv").write_bytes(b"\xef\xbb\xbf" + data.replace(b"\n", b"\r\n"))
+    assert records.read_batches(run).equals(before)
+
+
+@pytest.mark.parametrize("name, setup, words", [
+    ("run.json cut", lambda r: (r / "run.json").write_text((r / "run.json").read_text()[:200]),
+     ["run.json:", "not valid JSON"]),
+    ("run.json a list", lambda r: (r / "run.json").write_text("[1, 2]"), ["not a tribench run record"]),
+    ("run.json deep", lambda r: (r / "run.json").write_text("[" * 100000 + "]" * 100000), ["run.json"]),
+    ("run.json binary", lambda r: (r / "run.json").write_bytes(b"\xff\xfe{}"), ["run.json is not UTF-8"]),
+    ("run.json no sweep", lambda r: (r / "run.json").write_text('{"run_id": "x"}'), ["'sweep' is missing"]),
+    ("margin nan", lambda r: (r / "run.json").write_text((r / "run.json").read_text().replace(
+        '"value": 0.01', '"value": NaN')), ["'margin' must be"]),
+    ("batches a symlink", lambda r: ((r / "b2").write_bytes((r / "batches.csv").read_bytes()),
+                                     (r / "batches.csv").unlink(), (r / "batches.csv").symlink_to(r / "b2")),
+     ["batches.csv is a symbolic link"]),
+    ("batches a fifo", lambda r: ((r / "batches.csv").unlink(), os.mkfifo(r / "batches.csv")),
+     ["batches.csv is not a regular file"]),
+    ("batches huge", lambda r: (r / "batches.csv").write_bytes(
+        (r / "batches.csv").read_bytes() + b"x" * (records.MAX_ROW_BYTES * 2000)), ["batches.csv", " bytes"]),
+    ("batches a folder", lambda r: ((r / "batches.csv").unlink(), (r / "batches.csv").mkdir()),
+     ["batches.csv is not a regular file"]),
+    ("no batches", lambda r: (r / "batches.csv").unlink(), ["no batches.csv"]),  # resume runs them all
+    ("processes other run", lambda r: (r / "processes.csv").write_text(
+        (r / "processes.csv").read_text().replace(records.read_run(r)["run_id"], "other", 1)),
+     ["processes.csv:2: run id 'other'"]),
+])
+def test_hostile_run_folders_give_one_line_naming_the_file(run, name, setup, words):
+    setup(run)
+    refused(run, *words, resume=name != "no batches")  # a run killed before its first batch resumes
+    if name in ("run.json cut", "batches a symlink"):
+        for command in ("stats", "report"):
+            one_line_error(cli(command, str(run)), *words)
+
+
+def test_a_symlinked_batches_file_is_never_appended_to(run, tmp_path):
+    target = tmp_path / "elsewhere.csv"
+    target.write_bytes((run / "batches.csv").read_bytes())
+    (run / "batches.csv").unlink()
+    (run / "batches.csv").symlink_to(target)
+    before = target.read_bytes()
+    with pytest.raises(UserError, match="symbolic link"):
+        records.RowWriter(run / "batches.csv", records.BATCH_COLUMNS)
+    assert target.read_bytes() == before
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_any_corruption_of_batches_is_a_user_error_or_a_valid_table(finished, tmp_path, data):
+    """Random bytes over a random stretch of batches.csv: a one-line UserError, or rows that are all valid."""
+    run = Path(tempfile.mkdtemp(dir=tmp_path)) / "run"
+    shutil.copytree(finished, run)
+    raw = (run / "batches.csv").read_bytes()
+    at = data.draw(st.integers(0, len(raw) - 1))
+    junk = data.draw(st.binary(min_size=1, max_size=40))
+    (run / "batches.csv").write_bytes(raw[:at] + junk + raw[at + data.draw(st.integers(0, 40)):])
+    try:
+        frame = records.read_batches(run)
+    except UserError as exc:
+        message = str(exc)
+        assert "\n" not in message and "batches.csv" in message
+        return
+    good = records.read_batches(finished)
+    keys = set(zip(frame["process"], frame["round"], frame["position"], frame["kernel"]))
+    assert keys <= set(zip(good["process"], good["round"], good["position"], good["kernel"]))
+    assert (frame["elapsed_ns"] > 0).all() and (frame["tests"] > 0).all()
+    shutil.rmtree(run)
