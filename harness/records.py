@@ -42,7 +42,6 @@ import errno
 import fcntl
 import io
 import json
-import math
 import os
 import socket
 import stat
@@ -608,6 +607,7 @@ _RUN_FIELDS: dict[str, type | tuple[type, ...]] = {
 def read_run(run_dir: str | Path) -> dict[str, Any]:
     """``run.json`` of a run, checked: a JSON object with a valid sweep, run id, seeds and margin."""
     from .plan import Sweep
+    from .stats import check_margin
 
     run_dir = Path(run_dir)
     path = run_dir / RUN
@@ -641,11 +641,10 @@ def read_run(run_dir: str | Path) -> dict[str, Any]:
     seeds = run["process_seeds"]
     if len(seeds) != sweep.processes or not all(isinstance(s, int) and not isinstance(s, bool) for s in seeds):
         raise UserError(f"{path}: 'process_seeds' must be {sweep.processes} integers, one per process")
-    value = run["margin"].get("value")
-    if (not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value)
-            or not 0 <= value < 1 or not isinstance(run["margin"].get("source"), str)):
-        raise UserError(f"{path}: 'margin' must be {{value: a number in [0, 1), source: text}}, "
+    if not isinstance(run["margin"].get("source"), str):
+        raise UserError(f"{path}: 'margin' must be {{value: a number, source: text}}, "
                         f"got {_short(json.dumps(run['margin']))}")
+    check_margin(run["margin"].get("value"), f"{path}: key 'margin.value'")
     if not isinstance(run.get("cpu"), (int, type(None))) or isinstance(run.get("cpu"), bool):
         raise UserError(f"{path}: 'cpu' must be a CPU number")
     return run

@@ -35,8 +35,11 @@ import numpy.typing as npt
 import pandas as pd
 from scipy import stats as sps
 
+from tribench.common import UserError
+
 __all__ = [
     "DEFAULTS",
+    "MAX_MARGIN",
     "Defaults",
     "AASummary",
     "Crossover",
@@ -51,6 +54,7 @@ __all__ = [
     "unpaired_ratio",
     "aa_noise_floor",
     "aa_summary",
+    "check_margin",
     "crossover",
     "drift",
     "estimate",
@@ -69,6 +73,31 @@ __all__ = [
     "variance_components",
     "verdict",
 ]
+
+
+#: The largest equivalence margin tribench accepts. A margin is relative: at
+#: 0.5 two kernels within 1.5x of each other would be "equivalent", which is
+#: not a noise floor but a machine too noisy to compare on (an A/A noise floor
+#: is 1-3 % on this project's machine, and stats.DEFAULTS.margin is 1 %).
+MAX_MARGIN = 0.5
+
+
+def check_margin(value: object, where: str) -> float:
+    """``value`` as a margin: a finite number in ``[0, MAX_MARGIN]``; else a
+    UserError naming ``where`` (a file and key, or a flag).
+
+    >>> check_margin(0.02, "--margin")
+    0.02
+    >>> check_margin(float("nan"), "--margin")
+    Traceback (most recent call last):
+    ...
+    tribench.common.errors.UserError: --margin: an equivalence margin must be a number between 0 and 0.5 (relative: 0.01 = 1 %), got nan
+    """
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if not ok or not 0 <= value <= MAX_MARGIN:
+        raise UserError(f"{where}: an equivalence margin must be a number between 0 and {MAX_MARGIN:g} "
+                        f"(relative: 0.01 = 1 %), got {value!r:.40}")
+    return float(value)
 
 
 @dataclass(frozen=True)

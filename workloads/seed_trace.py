@@ -81,7 +81,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tribench.common import UserError
+from tribench.common import UserError, atomic_write
 
 from .reference import intersect_closest as _reference_closest
 from .seed_scene import Scene
@@ -251,7 +251,8 @@ class Trace:
         import matplotlib.pyplot as plt
 
         path = Path(path)
-        plt.imsave(path, self.to_uint8())
+        with atomic_write(path, "wb") as f:
+            plt.imsave(f, self.to_uint8(), format="png")
         return path
 
     def seed_order(self) -> tuple[np.ndarray, np.ndarray]:
@@ -667,7 +668,8 @@ def save_mask_png(mask: np.ndarray, path: str | Path, background: np.ndarray | N
         rgb = (0.35 * np.asarray(background, np.float64) + 0.65 * 255).astype(np.uint8)
     rgb[mask] = (220, 0, 0)
     path = Path(path)
-    plt.imsave(path, rgb)
+    with atomic_write(path, "wb") as f:
+        plt.imsave(f, rgb, format="png")
     return path
 
 
