@@ -35,7 +35,7 @@ TRI = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
         (lambda: ext.intersect_closest("curless", O, D, np.full_like(TRI, np.nan)), ValueError, r"triangles contains NaN or Inf \(first at row 0\)"),
         (lambda: ext.make_job("curless", O, D, TRI, "sideways"), ValueError, "mode must be"),
         (lambda: ext.time_batch("job", 1), TypeError, "make_job"),
-        (lambda: ext.time_batch(ext.make_job("curless", O, D, TRI, "pairs"), 0), ValueError, "loops must be between"),
+        (lambda: ext.time_batch(ext.make_job("curless", O, D, TRI, "pairs"), 0), ValueError, "loops must be at least 1, got 0"),
         (lambda: ext.time_batch(ext.make_job("curless", O, D, TRI, "pairs"), 1.5), TypeError, "loops must be an int"),
         (lambda: ext.bytes_per_triangle("curless", "int8"), TypeError, "float32 or float64"),
     ],
