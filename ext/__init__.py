@@ -374,8 +374,8 @@ def flat(triangles: np.ndarray) -> np.ndarray:
     [True, False]
     """
     v = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
-    e, f = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
     with np.errstate(all="ignore"):  # overflow and NaN only leave a triangle undecided
+        e, f = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
         left = e[:, [1, 2, 0]] * f[:, [2, 0, 1]]
         right = e[:, [2, 0, 1]] * f[:, [1, 2, 0]]
         clearly_not = (np.abs(left - right) > _FILTER_RELATIVE * (np.abs(left) + np.abs(right))
