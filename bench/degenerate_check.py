@@ -187,6 +187,9 @@ def cpu_model() -> str:
 
 
 def main() -> int:
+    import argparse
+
+    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args()
     cc = os.environ.get("CC") or sysconfig.get_config_var("CC").split()[0] or "cc"
     with tempfile.TemporaryDirectory() as tmp:
         src, exe = Path(tmp, "check.c"), Path(tmp, "check")

@@ -368,10 +368,10 @@ def flat(triangles: np.ndarray) -> np.ndarray:
     a non-finite vertex is not flat. Returns a bool array, one per triangle.
 
     >>> import numpy as np
-    >>> v = np.array([[0.1, 0.2, 0.3], [0.4, 0.5, 0.7]])  # non-dyadic
-    >>> line = np.array([v[0], v[1], v[0] + 2 * (v[1] - v[0])])
-    >>> flat(np.stack([line, line + [[0, 0, 0], [0, 0, 0], [0, 0, 1e-15]]])).tolist()
-    [True, False]
+    >>> a = np.array([0.1, 0.2, 0.3])  # not dyadic
+    >>> line = np.array([a, 2 * a, 4 * a])  # exactly on the line through 0 and a
+    >>> flat(np.stack([line, line + [[0, 0, 0], [0, 0, 0], [0, 0, 1e-15]], [a, a, a]])).tolist()
+    [True, False, True]
     """
     v = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
     with np.errstate(all="ignore"):  # overflow and NaN only leave a triangle undecided
