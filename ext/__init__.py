@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Literal, NamedTuple
 
 import numpy as np
@@ -61,6 +62,8 @@ from tribench.common import UserError, UserTypeError
 from . import _core
 
 __all__ = [
+    "MAX_BATCH_TESTS",
+    "MAX_PEAK_ITERATIONS",
     "MODES",
     "Batch",
     "Hits",
@@ -72,6 +75,7 @@ __all__ = [
     "UserTypeError",
     "build_info",
     "bytes_per_triangle",
+    "flat",
     "fma_peak",
     "intersect",
     "intersect_closest",
@@ -347,7 +351,9 @@ class Prepared:
         test them directly; vertices plus precomputed planes or normals for
         the others. A wide kernel's are the same records in blocks of 8
         triangles, structure of arrays: shape (ceil(K / 8), stride, 8), lanes
-        past the last triangle zero.
+        past the last triangle zero. An exactly flat triangle's record is all
+        NaN (every ray misses it), except for the seed replays, which keep
+        the seed's behaviour (see each kernel's header and :func:`flat`).
     n_triangles : int
     """
 
@@ -361,15 +367,60 @@ class Prepared:
 
 
 def prepare(kernel: str, triangles: np.ndarray, *, allow_nonfinite: bool = False) -> Prepared:
-    """Compute ``kernel``'s records for ``triangles`` of shape (K, 3, 3)."""
+    """Compute ``kernel``'s records for ``triangles`` of shape (K, 3, 3).
+
+    Exactly flat triangles (:func:`flat`) are found here, once, and every
+    kernel but the seed replays gets a record no ray can hit: the promise
+    that zero-area triangles are misses costs no time per test.
+    """
     info = kernel_info(kernel)
     tris = _check_array("triangles", triangles, (3, 3), allow_nonfinite)
     n = len(tris)
     shape = (n, info.stride) if info.lanes == 1 else (-(-n // 8), info.stride, 8)
     records = np.empty(shape, dtype=tris.dtype)
-    _core.prepare(kernel, tris.itemsize, tris, n, records)
+    _core.prepare(kernel, tris.itemsize, tris, n, records, flat(tris).view(np.uint8))
     records.flags.writeable = False
     return Prepared(kernel, records, n)
+
+
+# The float filter of flat(): |computed cross component| above this fraction of
+# |left| + |right| (its two products) cannot come from an exact zero. Rounding
+# the two differences, the two products and their difference moves the result by
+# at most about 5 units of 2**-53 of |left| + |right|; 2**-48 is 32 of them.
+# The absolute term covers products that underflow (errors of 2**-1075 each).
+_FILTER_RELATIVE = 2.0**-48
+_FILTER_ABSOLUTE = 2.0**-1000
+
+
+def flat(triangles: np.ndarray) -> np.ndarray:
+    """Which triangles have exactly zero area: a point, a repeated vertex, or
+    three vertices on one line, in exact arithmetic on the stored values.
+
+    ``cross(v1 - v0, v2 - v0) == 0`` decided exactly: the cross product in
+    float64 with an error bound settles every triangle it is clearly not zero
+    for; the few others (flat or within rounding of it) are decided in rational
+    arithmetic (``fractions.Fraction`` holds a float exactly). A triangle with
+    a non-finite vertex is not flat. Returns a bool array, one per triangle.
+
+    >>> import numpy as np
+    >>> a = np.array([0.1, 0.2, 0.3])  # not dyadic
+    >>> line = np.array([a, 2 * a, 4 * a])  # exactly on the line through 0 and a
+    >>> flat(np.stack([line, line + [[0, 0, 0], [0, 0, 0], [0, 0, 1e-15]], [a, a, a]])).tolist()
+    [True, False, True]
+    """
+    v = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    with np.errstate(all="ignore"):  # overflow and NaN only leave a triangle undecided
+        e, f = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
+        left = e[:, [1, 2, 0]] * f[:, [2, 0, 1]]
+        right = e[:, [2, 0, 1]] * f[:, [1, 2, 0]]
+        clearly_not = (np.abs(left - right) > _FILTER_RELATIVE * (np.abs(left) + np.abs(right))
+                       + _FILTER_ABSOLUTE).any(axis=1)
+    out = np.zeros(len(v), dtype=bool)
+    for i in np.flatnonzero(~clearly_not & np.isfinite(v).all(axis=(1, 2))):
+        a, b, c = ([Fraction(float(x)) for x in vertex] for vertex in v[i])
+        e_i, f_i = [q - p for p, q in zip(a, b)], [q - p for p, q in zip(a, c)]
+        out[i] = all(e_i[j] * f_i[k] == e_i[k] * f_i[j] for j, k in ((1, 2), (2, 0), (0, 1)))
+    return out
 
 
 # ------------------------------------------------------------------- results
@@ -535,17 +586,30 @@ class Batch:
         return self.elapsed_ns / self.tests
 
 
+#: The most tests one timed batch may do: a minute even at 0.1 ns per test
+#: (the fastest kernels here take about 1 ns); a harness batch is about 8 ms.
+MAX_BATCH_TESTS: int = _core.MAX_BATCH_TESTS
+
+
 def time_batch(job: Job, loops: int) -> Batch:
     """Run ``job`` ``loops`` times in C with the GIL released; time it.
 
     The clock is ``CLOCK_MONOTONIC`` read just before and after the loop.
+    ``loops * job.tests_per_pass`` may be at most :data:`MAX_BATCH_TESTS`.
+    The loop looks for signals about every 0.1 s, so Ctrl-C stops a long
+    batch with ``KeyboardInterrupt`` (a short one never takes the GIL).
     """
     if not isinstance(job, Job):
         raise UserTypeError(f"job must be a tribench.ext.Job (see make_job), got {type(job).__name__}")
     if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)):
         raise UserTypeError(f"loops must be an int, got {type(loops).__name__}")
-    if not 1 <= loops <= 2**40:
-        raise UserError(f"loops must be between 1 and 2**40, got {loops}")
+    if loops < 1:
+        raise UserError(f"loops must be at least 1, got {loops}")
+    if loops > MAX_BATCH_TESTS // job.tests_per_pass:
+        raise UserError(
+            f"loops={loops} x {job.tests_per_pass} tests per pass is more than {MAX_BATCH_TESTS:.0e} "
+            f"tests, a minute even at 0.1 ns per test; use at most "
+            f"{MAX_BATCH_TESTS // job.tests_per_pass} loops (the harness's batches take about 8 ms)")
     p = job.prepared
     elapsed, hits, tests, t_sum, uv_sum = _core.time(
         job.kernel,
@@ -590,6 +654,10 @@ class Peak:
         return self.flops / self.elapsed_ns if self.elapsed_ns > 0 else float("nan")
 
 
+#: The most iterations of :func:`fma_peak`: about 4 s of work on a current core.
+MAX_PEAK_ITERATIONS: int = _core.MAX_PEAK_ITERATIONS
+
+
 def fma_peak(iterations: int = 200_000, *, force_scalar: bool = False) -> Peak:
     """Measure this core's arithmetic peak with independent FMA chains.
 
@@ -604,7 +672,8 @@ def fma_peak(iterations: int = 200_000, *, force_scalar: bool = False) -> Peak:
     """
     if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)):
         raise UserTypeError(f"iterations must be an int, got {type(iterations).__name__}")
-    if not 1 <= iterations <= 2**40:
-        raise UserError(f"iterations must be between 1 and 2**40, got {iterations}")
+    if not 1 <= iterations <= MAX_PEAK_ITERATIONS:
+        raise UserError(f"iterations must be between 1 and {MAX_PEAK_ITERATIONS} (2**30, seconds of work), "
+                        f"got {iterations}")
     flops, elapsed, isa, _sink = _core.fma_peak(int(iterations), bool(force_scalar))
     return Peak(flops, elapsed, isa)

@@ -6,7 +6,8 @@
  * raises instead of reading out of bounds. It keeps no state between calls.
  *
  * Arrays cross the boundary without copies through the buffer protocol.
- * Timed loops run with the GIL released, between two CLOCK_MONOTONIC reads. */
+ * Timed loops run with the GIL released, between two CLOCK_MONOTONIC reads;
+ * every loop looks for a pending signal (Ctrl-C) about every 0.1 s (tb_poll). */
 
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -31,6 +32,9 @@
 enum { TB_PAIRS, TB_ANY, TB_CLOSEST, TB_CLOSEST_UV, TB_N_MODES };
 static const char *const tb_mode_names[TB_N_MODES] = {"pairs", "any", "closest", "closest_uv"};
 
+/* What prepare does with an exactly flat triangle (see kernels.h, tb_<name>_flat). */
+enum { TB_FLAT_AS_IS, TB_FLAT_MISS };
+
 /* One batch of work for a loop: inputs, outputs, and the checksum it returns. */
 typedef struct {
     const void *origins, *directions, *records;
@@ -41,7 +45,56 @@ typedef struct {
     void *t_out, *u_out, *v_out;       /* run: NaN on a miss */
     uint64_t hits, tests;              /* time: hits and tests summed over all passes */
     double t_sum, uv_sum;              /* time: their t, and u + v (closest_uv), in double */
+    PyThreadState *thread;             /* the caller's, while the loop runs without the GIL */
+    int64_t start_ns, polled_ns;       /* when the loop started, and last looked for a signal */
+    int interrupted;                   /* a signal handler raised: the loop stopped early */
 } tb_job;
+
+static int64_t tb_now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+/* How often a loop looks for a pending signal. */
+#define TB_POLL_NS 100000000 /* 0.1 s */
+
+/* Called by a loop (GIL released) after `rays` rays, when it asked to be:
+ * once TB_POLL_NS have passed since the last look, takes the GIL back for
+ * Python's signal handlers (a Ctrl-C raises KeyboardInterrupt there) and
+ * releases it again. Returns the ray count at which to be called next, or 0
+ * to stop (job->interrupted set, the handler's exception pending). Calls
+ * come at rays 1, 2, 4, 8, ... until TB_POLL_NS have passed, then about
+ * twice per TB_POLL_NS: a batch of the harness's length (~8 ms) reads the
+ * clock some 20 times and never takes the GIL. */
+static uint64_t tb_poll(tb_job *job, uint64_t rays)
+{
+    int64_t now = tb_now_ns();
+    if (now - job->polled_ns >= TB_POLL_NS) {
+        job->polled_ns = now;
+        PyEval_RestoreThread(job->thread);
+        int failed = PyErr_CheckSignals();
+        job->thread = PyEval_SaveThread();
+        if (failed) {
+            job->interrupted = 1;
+            return 0;
+        }
+    }
+    int64_t elapsed = now - job->start_ns;
+    if (elapsed < TB_POLL_NS)
+        return 2 * rays;
+    double rays_per_ns = (double)rays / (double)elapsed;
+    return rays + 1 + (uint64_t)(rays_per_ns * (TB_POLL_NS / 2));
+}
+
+/* The longest timed batch: TB_MAX_BATCH_TESTS tests take a minute even at
+ * 0.1 ns per test (the fastest kernels here take about 1 ns), and a
+ * harness batch is about 8 ms; more is a mistake, refused up front. */
+#define TB_MAX_BATCH_TESTS 600000000000LL
+/* The most FMA-peak iterations: about 4 s on this project's EPYC, AVX2 or
+ * scalar (200 000, the default, take under 1 ms); not interruptible. */
+#define TB_MAX_PEAK_ITERATIONS (1LL << 30)
 
 #include "kernels/list.h"
 
@@ -84,6 +137,7 @@ typedef struct {
 typedef struct {
     const char *name;
     int internal; /* from TB_INTERNAL_KERNEL_LIST: hidden from the user's list */
+    int flat;     /* TB_FLAT_MISS or TB_FLAT_AS_IS (kernels.h: tb_<name>_flat) */
     int lanes;    /* 1: scalar early-exit form; 8: wide form, blocks of 8 triangles */
     size_t stride; /* reals per prepared triangle */
     int ops;       /* arithmetic operations per test (and lane), see kernels.h */
@@ -98,7 +152,7 @@ typedef struct {
       {TB_CAT(tb_##name##_time_pairs, sfx), TB_CAT(tb_##name##_time_any, sfx),               \
        TB_CAT(tb_##name##_time_closest, sfx), TB_CAT(tb_##name##_time_closest_uv, sfx)}}}
 #define TB_SCALAR_ENTRY_(name, internal)                                                     \
-    {#name, internal, 1, tb_##name##_stride, tb_##name##_ops, 1, tb_scalar_isa_names,                         \
+    {#name, internal, tb_##name##_flat, 1, tb_##name##_stride, tb_##name##_ops, 1, tb_scalar_isa_names,                         \
      {(tb_prepare_fn)tb_##name##_prepare_f32, TB_SCALAR_LOOPS(name, _f32)},                  \
      {(tb_prepare_fn)tb_##name##_prepare_f64, TB_SCALAR_LOOPS(name, _f64)}},
 #define TB_ENTRY(name) TB_SCALAR_ENTRY_(name, 0)
@@ -113,7 +167,7 @@ typedef struct {
 #define TB_WIDE_LOOPS_F32(name, isa, target) TB_WIDE_LOOPS(name, isa, target, _f32)
 #define TB_WIDE_LOOPS_F64(name, isa, target) TB_WIDE_LOOPS(name, isa, target, _f64)
 #define TB_WIDE_KERNEL_ENTRY(name)                                                               \
-    {#name "_x8", 0, 8, tb_##name##_stride, tb_##name##_x8_ops,                              \
+    {#name "_x8", 0, tb_##name##_flat, 8, tb_##name##_stride, tb_##name##_x8_ops,                              \
      (int)(sizeof tb_isa_names / sizeof *tb_isa_names), tb_isa_names,                        \
      {(tb_prepare_fn)tb_##name##_prepare_f32, {TB_ISA_LIST(TB_WIDE_LOOPS_F32, name)}},        \
      {(tb_prepare_fn)tb_##name##_prepare_f64, {TB_ISA_LIST(TB_WIDE_LOOPS_F64, name)}}},
@@ -172,17 +226,35 @@ static const tb_loops *tb_lookup(const tb_kernel *k, Py_ssize_t itemsize, const 
     return NULL;
 }
 
+/* Scalar records of n triangles: the kernel's prepare, then NaN in every
+ * real of an exactly flat triangle's record if the kernel misses those. */
+static void tb_prepare_scalar(const tb_kernel *k, const tb_variant *v, Py_ssize_t itemsize,
+                              const void *vertices, const uint8_t *flat, size_t n, void *out)
+{
+    v->prepare(vertices, n, out);
+    if (k->flat != TB_FLAT_MISS)
+        return;
+    for (size_t i = 0; i < n; ++i)
+        if (flat[i])
+            for (size_t f = 0; f < k->stride; ++f) {
+                if (itemsize == 4)
+                    ((float *)out)[i * k->stride + f] = NAN;
+                else
+                    ((double *)out)[i * k->stride + f] = NAN;
+            }
+}
+
 /* Records of a wide kernel: the scalar records of each block of 8
  * triangles, transposed to structure of arrays (field f of lane l at
  * 8 f + l); lanes past the last triangle are zero (the loops mask them). */
 static int tb_prepare_blocked(const tb_kernel *k, const tb_variant *v, Py_ssize_t itemsize,
-                              const void *vertices, size_t n, void *out)
+                              const void *vertices, const uint8_t *flat, size_t n, void *out)
 {
     size_t stride = k->stride, blocks = (n + 7) / 8;
     char *scalar = malloc(n * stride * (size_t)itemsize);
     if (!scalar)
         return -1;
-    v->prepare(vertices, n, scalar);
+    tb_prepare_scalar(k, v, itemsize, vertices, flat, n, scalar);
     memset(out, 0, blocks * 8 * stride * (size_t)itemsize);
     for (size_t i = 0; i < n; ++i)
         for (size_t f = 0; f < stride; ++f)
@@ -230,13 +302,6 @@ static int tb_check_count(const char *what, Py_ssize_t n, Py_ssize_t factor)
         return -1;
     }
     return 0;
-}
-
-static int64_t tb_now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
 }
 
 #include "fma_peak.h"
@@ -293,27 +358,29 @@ static PyObject *py_kernel_info(PyObject *Py_UNUSED(self), PyObject *args)
                          k->internal ? Py_True : Py_False, isas);
 }
 
-/* prepare(name, itemsize, vertices, n, out) */
+/* prepare(name, itemsize, vertices, n, out, flat): flat holds one byte per
+ * triangle, nonzero for an exactly flat one (tribench.ext decides) */
 static PyObject *py_prepare(PyObject *Py_UNUSED(self), PyObject *args)
 {
     const char *name;
     Py_ssize_t itemsize, n;
-    Py_buffer vertices = {0}, out = {0};
+    Py_buffer vertices = {0}, out = {0}, flat = {0};
     PyObject *result = NULL;
-    if (!PyArg_ParseTuple(args, "sny*nw*:prepare", &name, &itemsize, &vertices, &n, &out))
+    if (!PyArg_ParseTuple(args, "sny*nw*y*:prepare", &name, &itemsize, &vertices, &n, &out, &flat))
         return NULL;
     const tb_kernel *k = tb_find(name);
     if (!k || tb_check_itemsize(itemsize) || tb_check_count("n", n, 64) ||
         tb_check_buffer(&vertices, "vertices", 9 * n, itemsize) ||
-        tb_check_buffer(&out, "out", tb_record_reals(k, n), itemsize))
+        tb_check_buffer(&out, "out", tb_record_reals(k, n), itemsize) ||
+        tb_check_buffer(&flat, "flat", n, 1))
         goto done;
     const tb_variant *v = itemsize == 4 ? &k->f32 : &k->f64;
     int failed = 0;
     Py_BEGIN_ALLOW_THREADS
     if (k->lanes == 1)
-        v->prepare(vertices.buf, (size_t)n, out.buf);
+        tb_prepare_scalar(k, v, itemsize, vertices.buf, flat.buf, (size_t)n, out.buf);
     else
-        failed = tb_prepare_blocked(k, v, itemsize, vertices.buf, (size_t)n, out.buf);
+        failed = tb_prepare_blocked(k, v, itemsize, vertices.buf, flat.buf, (size_t)n, out.buf);
     Py_END_ALLOW_THREADS
     if (failed)
         PyErr_NoMemory();
@@ -322,7 +389,19 @@ static PyObject *py_prepare(PyObject *Py_UNUSED(self), PyObject *args)
 done:
     PyBuffer_Release(&vertices);
     PyBuffer_Release(&out);
+    PyBuffer_Release(&flat);
     return result;
+}
+
+/* Runs a loop without the GIL, looking for signals (tb_poll); returns 0, or
+ * -1 with the signal handler's exception (KeyboardInterrupt) set. */
+static int tb_run_loop(tb_loop_fn loop, tb_job *job)
+{
+    job->start_ns = job->polled_ns = tb_now_ns();
+    job->thread = PyEval_SaveThread();
+    loop(job);
+    PyEval_RestoreThread(job->thread);
+    return job->interrupted ? -1 : 0;
 }
 
 /* Checks the inputs shared by every loop entry point and fills `job`;
@@ -392,10 +471,8 @@ static PyObject *py_run(PyObject *Py_UNUSED(self), PyObject *args)
     job.t_out = t.buf;
     job.u_out = u.buf;
     job.v_out = v.buf;
-    Py_BEGIN_ALLOW_THREADS
-    loop(&job);
-    Py_END_ALLOW_THREADS
-    result = Py_NewRef(Py_None);
+    if (tb_run_loop(loop, &job) == 0)
+        result = Py_NewRef(Py_None);
 done:
     PyBuffer_Release(&o);
     PyBuffer_Release(&d);
@@ -426,17 +503,20 @@ static PyObject *py_time(PyObject *Py_UNUSED(self), PyObject *args)
                                    n_records, &job);
     if (!loop)
         goto done;
-    if (loops < 1) {
-        PyErr_Format(PyExc_ValueError, "loops must be at least 1, got %lld", loops);
+    /* tests in the batch: loops x rays (pairs) or loops x rays x triangles, in
+     * double (exact below 2^53, and the bound is far below) */
+    double tests = (double)loops * (double)n_rays * (mode == TB_PAIRS ? 1.0 : (double)n_records);
+    if (loops < 1 || tests > (double)TB_MAX_BATCH_TESTS) {
+        PyErr_Format(PyExc_ValueError,
+                     "loops must be at least 1 and loops x tests per pass at most %lld, got %lld loops",
+                     TB_MAX_BATCH_TESTS, loops);
         goto done;
     }
     job.loops = (uint64_t)loops;
-    int64_t start, stop;
-    Py_BEGIN_ALLOW_THREADS
-    start = tb_now_ns();
-    loop(&job);
-    stop = tb_now_ns();
-    Py_END_ALLOW_THREADS
+    int64_t start = tb_now_ns();
+    if (tb_run_loop(loop, &job) < 0)
+        goto done;
+    int64_t stop = tb_now_ns();
     result = Py_BuildValue("LKKdd", (long long)(stop - start), (unsigned long long)job.hits,
                            (unsigned long long)job.tests, job.t_sum, job.uv_sum);
 done:
@@ -454,8 +534,9 @@ static PyObject *py_fma_peak(PyObject *Py_UNUSED(self), PyObject *args)
     int force_scalar = 0;
     if (!PyArg_ParseTuple(args, "L|p:fma_peak", &iterations, &force_scalar))
         return NULL;
-    if (iterations < 1) {
-        PyErr_Format(PyExc_ValueError, "iterations must be at least 1, got %lld", iterations);
+    if (iterations < 1 || iterations > TB_MAX_PEAK_ITERATIONS) {
+        PyErr_Format(PyExc_ValueError, "iterations must be between 1 and %lld, got %lld",
+                     TB_MAX_PEAK_ITERATIONS, iterations);
         return NULL;
     }
     tb_peak r;
@@ -503,7 +584,7 @@ static PyMethodDef tb_methods[] = {
     {"kernel_info", py_kernel_info, METH_VARARGS,
      "kernel_info(name) -> (lanes, stride, ops, internal, ((isa, runnable), ...))."},
     {"prepare", py_prepare, METH_VARARGS,
-     "prepare(name, itemsize, vertices, n, out): fill a kernel's records."},
+     "prepare(name, itemsize, vertices, n, out, flat): fill a kernel's records."},
     {"run", py_run, METH_VARARGS,
      "run(name, itemsize, mode, isa, o, d, n_rays, t_max, records, n_records, index_out, "
      "t_out, u_out, v_out)."},
@@ -524,5 +605,14 @@ static struct PyModuleDef tb_module = {
 
 PyMODINIT_FUNC PyInit__core(void)
 {
-    return PyModule_Create(&tb_module);
+    PyObject *m = PyModule_Create(&tb_module);
+    const char *names[] = {"MAX_BATCH_TESTS", "MAX_PEAK_ITERATIONS", "POLL_NS"};
+    const long long values[] = {TB_MAX_BATCH_TESTS, TB_MAX_PEAK_ITERATIONS, TB_POLL_NS};
+    for (int i = 0; m && i < 3; ++i) {
+        PyObject *value = PyLong_FromLongLong(values[i]);
+        if (!value || PyModule_AddObjectRef(m, names[i], value) < 0)
+            Py_CLEAR(m);
+        Py_XDECREF(value);
+    }
+    return m;
 }

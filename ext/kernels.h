@@ -8,6 +8,16 @@
  * A scalar kernel file kernels/<name>.h defines, for the current precision:
  *   tb_<name>_stride     macro: reals per prepared triangle record
  *   tb_<name>_ops        macro: arithmetic operations per test (see below)
+ *   tb_<name>_flat       macro: what becomes of an exactly flat triangle (zero
+ *                        area: its vertices exactly collinear, a repeated
+ *                        vertex or a point; decided once per triangle in exact
+ *                        arithmetic by tribench.ext.prepare, which passes the
+ *                        verdicts to the glue): TB_FLAT_MISS, the glue fills
+ *                        its record with NaN after prepare, and the test, which
+ *                        rejects a NaN anywhere, misses it on every ray at no
+ *                        cost per test; or TB_FLAT_AS_IS, the record is left
+ *                        as prepare made it and the test decides (the seed
+ *                        replays, which do what the seed's code did)
  *   void tb_<name>_prepare(const real *vertices, size_t n, real *out)
  *   void tb_<name>_ray(const real *o, const real *d, tb_ray *r)
  *                        per-ray precomputation, done once per ray outside
@@ -127,18 +137,22 @@ typedef vmask (*TB_FN(tb_wide_fn))(const tb_vray *restrict, const real *restrict
  * `loops` passes and folds the answers into the job's checksum (which also
  * keeps the compiler from deleting the work). Both count the tests done:
  * every triangle for closest, up to the first hit for any. Closest: ties go to the lowest
- * index (a later triangle must be strictly closer). */
+ * index (a later triangle must be strictly closer). After each ray, a counter
+ * against the next count tb_poll asked for: when they meet, tb_poll reads the
+ * clock and looks for a signal, and the loop stops if one was raised. */
 static inline __attribute__((always_inline)) void
 TB_FN(tb_scalar_loop)(TB_FN(tb_test_fn) test, TB_FN(tb_ray_fn) make_ray, size_t stride,
                       tb_job *job, const int mode, const int timed)
 {
     const real *o = job->origins, *d = job->directions, *rec = job->records;
     const real *t_max = job->t_max;
-    uint64_t hits = 0, tests = 0;
+    uint64_t hits = 0, tests = 0, rays = 0, poll_at = 1;
     double t_sum = 0, uv_sum = 0;
     const uint64_t loops = timed ? job->loops : 1;
     for (uint64_t pass = 0; pass < loops; ++pass)
         for (size_t i = 0; i < job->n_rays; ++i) {
+            if (++rays == poll_at && !(poll_at = tb_poll(job, rays)))
+                goto stop;
             tb_ray r;
             make_ray(o + 3 * i, d + 3 * i, &r);
             tb_hit best = {t_max[i], (real)NAN, (real)NAN}, h;
@@ -177,6 +191,7 @@ TB_FN(tb_scalar_loop)(TB_FN(tb_test_fn) test, TB_FN(tb_ray_fn) make_ray, size_t 
                 v_out[i] = index >= 0 ? best.v : (real)NAN;
             }
         }
+stop:
     job->hits = hits;
     job->tests = tests;
     job->t_sum = t_sum;
@@ -189,7 +204,7 @@ TB_FN(tb_scalar_loop)(TB_FN(tb_test_fn) test, TB_FN(tb_ray_fn) make_ray, size_t 
  * each other inside the triangle loop; one reduction per ray picks the
  * closest lane, ties to the lowest index. Lanes past the last triangle are
  * masked off. Pairs are not a wide mode (one ray against one triangle has no
- * triangles to spread over lanes). */
+ * triangles to spread over lanes). Signals: as the scalar loop. */
 static inline __attribute__((always_inline)) void
 TB_FN(tb_wide_loop)(TB_FN(tb_wide_fn) test, TB_FN(tb_ray_fn) make_ray, size_t stride,
                     tb_job *job, const int mode, const int timed)
@@ -204,11 +219,13 @@ TB_FN(tb_wide_loop)(TB_FN(tb_wide_fn) test, TB_FN(tb_ray_fn) make_ray, size_t st
             lane[v][l] = (mask_elem)in_block;
             tail[v][l] = (n_blocks - 1) * 8 + in_block < job->n_records ? -1 : 0;
         }
-    uint64_t hits = 0, tests = 0;
+    uint64_t hits = 0, tests = 0, rays = 0, poll_at = 1;
     double t_sum = 0, uv_sum = 0;
     const uint64_t loops = timed ? job->loops : 1;
     for (uint64_t pass = 0; pass < loops; ++pass)
         for (size_t i = 0; i < job->n_rays; ++i) {
+            if (++rays == poll_at && !(poll_at = tb_poll(job, rays)))
+                goto stop;
             tb_ray scalar_ray;
             tb_vray r;
             make_ray(o + 3 * i, d + 3 * i, &scalar_ray);
@@ -273,6 +290,7 @@ TB_FN(tb_wide_loop)(TB_FN(tb_wide_fn) test, TB_FN(tb_ray_fn) make_ray, size_t st
                 v_out[i] = found ? best[best_v].v[best_l] : (real)NAN;
             }
         }
+stop:
     job->hits = hits;
     job->tests = tests;
     job->t_sum = t_sum;

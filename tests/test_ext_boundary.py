@@ -35,7 +35,7 @@ TRI = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
         (lambda: ext.intersect_closest("curless", O, D, np.full_like(TRI, np.nan)), ValueError, r"triangles contains NaN or Inf \(first at row 0\)"),
         (lambda: ext.make_job("curless", O, D, TRI, "sideways"), ValueError, "mode must be"),
         (lambda: ext.time_batch("job", 1), TypeError, "make_job"),
-        (lambda: ext.time_batch(ext.make_job("curless", O, D, TRI, "pairs"), 0), ValueError, "loops must be between"),
+        (lambda: ext.time_batch(ext.make_job("curless", O, D, TRI, "pairs"), 0), ValueError, "loops must be at least 1, got 0"),
         (lambda: ext.time_batch(ext.make_job("curless", O, D, TRI, "pairs"), 1.5), TypeError, "loops must be an int"),
         (lambda: ext.bytes_per_triangle("curless", "int8"), TypeError, "float32 or float64"),
     ],
@@ -153,3 +153,65 @@ def test_any_float_values_reach_the_kernels_safely(values, kernel, dtype):
         index, tc, _, _ = ext.intersect(kernel, o, d, tri, mode, allow_nonfinite=True)
         assert ((index >= -1) & (index < 4)).all()
         assert np.isfinite(tc[index >= 0]).all() and (tc[index >= 0] > 0).all()
+
+
+# ------------------------------------------------------------ unbounded work
+
+
+def test_a_batch_is_bounded_up_front_with_the_bound_and_why():
+    job = ext.make_job("moller_trumbore", O, D, TRI, "pairs")
+    with pytest.raises(ext.UserError, match=r"more than 6e\+11 tests, a minute even at 0\.1 ns per test; "
+                                            r"use at most 600000000000 loops"):
+        ext.time_batch(job, 2**40)
+    many = ext.make_job("moller_trumbore_x8", np.repeat(O, 100, 0), np.repeat(D, 100, 0), np.repeat(TRI, 10, 0),
+                        "closest")
+    assert many.tests_per_pass == 1000
+    with pytest.raises(ext.UserError, match="use at most 600000000 loops"):
+        ext.time_batch(many, ext.MAX_BATCH_TESTS // 1000 + 1)
+    # the C glue refuses it too, on a direct call
+    with pytest.raises(ValueError, match="at most 600000000000"):
+        _core.time("moller_trumbore", 8, 2, "scalar", O, D, 1, np.full(1, np.inf), job.prepared.records, 1, 2**40)
+    with pytest.raises(ext.UserError, match=r"iterations must be between 1 and 1073741824 \(2\*\*30"):
+        ext.fma_peak(2**31)
+    with pytest.raises(ValueError, match="iterations must be between 1 and 1073741824"):
+        _core.fma_peak(2**31)
+
+
+LONG_CALLS = {
+    # one ray, one triangle, as many loops as the bound allows: hours of work
+    "time_batch": "job = ext.make_job('moller_trumbore', O, D, T, 'pairs')\n"
+                  "go(); ext.time_batch(job, ext.MAX_BATCH_TESTS)",
+    "time_batch_x8": "job = ext.make_job('moller_trumbore_x8', O, D, np.repeat(T, 64, 0), 'closest')\n"
+                     "go(); ext.time_batch(job, ext.MAX_BATCH_TESTS // 64)",
+    # an untimed call of 10**10 tests (about a minute)
+    "intersect": "o = np.repeat(O, 200_000, 0); d = np.repeat(D, 200_000, 0); t = np.repeat(T, 50_000, 0)\n"
+                 "go(); ext.intersect('moller_trumbore', o, d, t, 'closest')",
+}
+
+
+@pytest.mark.parametrize("call", list(LONG_CALLS))
+def test_ctrl_c_stops_a_long_kernel_call_within_a_second(call):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    script = ("import sys, numpy as np\nfrom tribench import ext\n"
+              "O = np.array([[0.25, 0.25, 1.0]], np.float32); D = np.array([[0.0, 0, -1]], np.float32)\n"
+              "T = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]], np.float32)\n"
+              "def go(): print('started', flush=True)\n" + LONG_CALLS[call] + "\nprint('finished')\n")
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "started"
+        time.sleep(0.5)  # well inside the C loop
+        assert proc.poll() is None
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=10)
+        took = time.monotonic() - sent
+    finally:
+        proc.kill()
+    out, err = proc.communicate()
+    assert "finished" not in out
+    assert proc.returncode != 0 and "KeyboardInterrupt" in err, err
+    assert took < 2.0, took

@@ -121,6 +121,20 @@ def test_parallel_rays_are_exactly_parallel_and_degenerate_triangles_exactly_fla
     q = sets.pairs["degenerate_triangles"]
     for t in (exact(t) for t in q.triangles):
         assert cross(sub(t[1], t[0]), sub(t[2], t[0])) == (0, 0, 0)
+    # half of them from coordinates that are not dyadic: repeated and exactly collinear vertices
+    labels = set(q.label)
+    assert {"repeated vertex, non-dyadic", "collinear, non-dyadic"} <= labels
+    non_dyadic = q.triangles[np.unique(q.owner[np.char.endswith(q.label.astype(str), "non-dyadic")])]
+    assert all(max(Fraction(float(x)).denominator for x in t.reshape(-1)) > 8 for t in non_dyadic)  # not eighths
+    collinear = q.triangles[np.unique(q.owner[q.label == "collinear, non-dyadic"])]
+    assert all(len({tuple(v) for v in t}) == 3 for t in collinear)  # three distinct points on a line
+
+
+def test_degenerate_triangles_are_judged_for_clean_kernels_and_measured_for_the_seed(quick):
+    rows = quick[quick.test == "degenerate_triangles"]
+    seed = rows.kernel.str.endswith("_seed")
+    assert (rows[~seed].verdict == "pass").all(), rows[~seed & (rows.verdict != "pass")]
+    assert (rows[seed].verdict == "measured").all()
 
 
 def test_sets_depend_on_the_seed_and_the_test_only():

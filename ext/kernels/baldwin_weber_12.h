@@ -34,10 +34,14 @@
  *  - the paper's `ta <= 0 || ta >= tmax` and bounds are written as
  *    !(accept condition), so a NaN anywhere (non-finite ray) is a miss;
  *  - u is tested against [0, 1] before v is computed (an earlier exit; the
- *    bound u <= 1 is implied by the others, so the answers do not change). */
+ *    bound u <= 1 is implied by the others, so the answers do not change).
+ * Flat triangles: an exactly flat one (zero area, found in exact arithmetic at
+ * prepare time, see kernels.h) gets an all-NaN record and misses every ray.
+ */
 
 #define tb_baldwin_weber_12_stride 12 /* reals per prepared triangle, either precision */
 #define tb_baldwin_weber_12_ops 37 /* ops per test on the hit path: W(o) 6, W(d) 5, t 1, p 6, u 6, v 6, tests 7 */
+#define tb_baldwin_weber_12_flat TB_FLAT_MISS /* exactly flat triangles: NaN records, every ray misses */
 #define tb_baldwin_weber_12_ray_f32 tb_ray_plain_f32
 #define tb_baldwin_weber_12_ray_f64 tb_ray_plain_f64
 

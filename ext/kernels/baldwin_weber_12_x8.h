@@ -6,7 +6,9 @@
  * scalar kernel's bit for bit: the t test and the barycentric tests are all
  * evaluated and combined into one mask, with no early exit. Records:
  * baldwin_weber_12's 12 reals (rows U, V, W), in blocks of 8 triangles,
- * structure of arrays. */
+ * structure of arrays.
+ * Flat triangles: the scalar form's NaN records, a miss in every lane.
+ */
 
 /* per lane and test (rules in kernels.h): plane row on o 6 and on d 5, t 1, hit point 6, u 6, v 6, tests 7 */
 #define tb_baldwin_weber_12_x8_ops 37

@@ -30,10 +30,14 @@
  *    otherwise, so no record can index outside the ray;
  *  - a triangle with no usable map (degenerate or non-finite) gets U = V =
  *    (0, 0, -1), W = (0, 0, 0), k = 0: u = -1 (or NaN for a non-finite
- *    point), so every ray misses it. */
+ *    point), so every ray misses it.
+ * Flat triangles: an exactly flat one (zero area, found in exact arithmetic at
+ * prepare time, see kernels.h) gets an all-NaN record and misses every ray.
+ */
 
 #define tb_baldwin_weber_9_stride 10 /* reals per prepared triangle, either precision */
 #define tb_baldwin_weber_9_ops 31 /* ops per test on the hit path: axis 2, W(o) 5, W(d) 4, t 1, p 4, u 4, v 4, tests 7 */
+#define tb_baldwin_weber_9_flat TB_FLAT_MISS /* exactly flat triangles: NaN records, every ray misses */
 #define tb_baldwin_weber_9_ray_f32 tb_ray_plain_f32
 #define tb_baldwin_weber_9_ray_f64 tb_ray_plain_f64
 

@@ -13,7 +13,9 @@
  * the scalar kernel, so each lane's answer is the scalar's bit for bit; all
  * tests are combined into one mask, with no early exit. Records:
  * baldwin_weber_9's 10 reals, in blocks of 8 triangles, structure of
- * arrays. */
+ * arrays.
+ * Flat triangles: the scalar form's NaN records, a miss in every lane.
+ */
 
 /* per lane and test (rules in kernels.h): axis 2, plane row on o 5 and on d 4, t 1, hit point 4, u 4, v 4, tests 7 */
 #define tb_baldwin_weber_9_x8_ops 31

@@ -16,10 +16,14 @@
  *  - degenerate triangles have n = 0 and miss through the parallel test;
  *  - 0 < t < t_max is checked on the plane, before the inside tests;
  *  - u, v (which Curless's notes derive from the same edge values) are the
- *    edge values over their sum, computed on a hit only. */
+ *    edge values over their sum, computed on a hit only.
+ * Flat triangles: an exactly flat one (zero area, found in exact arithmetic at
+ * prepare time, see kernels.h) gets an all-NaN record and misses every ray.
+ */
 
 #define tb_curless_stride 13 /* reals per prepared triangle, either precision */
 #define tb_curless_ops 84 /* ops per test on the hit path: n.d 5, t 7, q 6, edge sides 60, tests 6 */
+#define tb_curless_flat TB_FLAT_MISS /* exactly flat triangles: NaN records, every ray misses */
 #define tb_curless_ray_f32 tb_ray_plain_f32
 #define tb_curless_ray_f64 tb_ray_plain_f64
 

@@ -23,12 +23,18 @@
  *  - a degenerate triangle (zero-length or non-finite normal) stores n = 0,
  *    so the parallel test rejects every ray; the seed divides by zero and
  *    stores NaN, which makes every ray "hit" it at t = NaN;
+ *  - otherwise flat (zero-area) triangles are left to the seed's test
+ *    (tb_curless_seed_flat is TB_FLAT_AS_IS): one whose rounded normal is
+ *    not exactly 0 (collinear vertices that are not dyadic) gets a unit
+ *    normal made of rounding noise and can be hit (tribench validate
+ *    measures it);
  *  - the seed's Vecteur holds float, so its arithmetic is single precision:
  *    the float32 form is the faithful replay, the float64 form is the same
  *    code in double. */
 
 #define tb_curless_seed_stride 12 /* reals per prepared triangle, either precision */
 #define tb_curless_seed_ops 89 /* ops per test on the hit path: n.d 5, n.v0 5, n.o 5, t 2, q 6, edge sides 60, tests 6 */
+#define tb_curless_seed_flat TB_FLAT_AS_IS /* exactly flat triangles: the seed's own test decides (see above) */
 #define tb_curless_seed_ray_f32 tb_ray_plain_f32
 #define tb_curless_seed_ray_f64 tb_ray_plain_f64
 

@@ -5,7 +5,9 @@
  * scalar kernel's bit for bit: the plane test and the three edge tests are
  * all evaluated and combined into one mask, with no early exit. Records:
  * curless's 13 reals (v0 v1 v2, n, n.v0), in blocks of 8 triangles,
- * structure of arrays. */
+ * structure of arrays.
+ * Flat triangles: the scalar form's NaN records, a miss in every lane.
+ */
 
 /* ((b - a) x (q - a)) . n on 8 lanes (see edge_side in vec.h) */
 TB_WIDE vreal TB_FN(tb_curless_x8_side)(const vreal *a, const vreal *b, const vreal *q,

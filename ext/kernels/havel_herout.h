@@ -37,10 +37,14 @@
  *    infinite det, is a miss);
  *  - a degenerate triangle (n == 0) or one whose planes are not finite
  *    (non-finite vertices, overflow), in double or after rounding to `real`,
- *    gets an all-zero record: det == 0, so every ray misses it. */
+ *    gets an all-zero record: det == 0, so every ray misses it.
+ * Flat triangles: an exactly flat one (zero area, found in exact arithmetic at
+ * prepare time, see kernels.h) gets an all-NaN record and misses every ray.
+ */
 
 #define tb_havel_herout_stride 12 /* reals per prepared triangle, either precision */
 #define tb_havel_herout_ops 52 /* ops per test on the hit path: det 5, scaled t 6, sign 3, p 9, u 8, v 8, tests 9, divide 4 */
+#define tb_havel_herout_flat TB_FLAT_MISS /* exactly flat triangles: NaN records, every ray misses */
 #define tb_havel_herout_ray_f32 tb_ray_plain_f32
 #define tb_havel_herout_ray_f64 tb_ray_plain_f64
 

@@ -6,7 +6,9 @@
  * same order as the scalar kernel on 8 lanes, so each lane's answer is the
  * scalar's bit for bit; the division is done for all lanes (its result is
  * only kept where the mask is set). Records: havel_herout's 12 reals, in
- * blocks of 8 triangles, structure of arrays. */
+ * blocks of 8 triangles, structure of arrays.
+ * Flat triangles: the scalar form's NaN records, a miss in every lane.
+ */
 
 /* per lane and test (rules in kernels.h): det 5, scaled t 6, sign 3, p 9, u 8, v 8, 1/det and t 2, tests 11 */
 #define tb_havel_herout_x8_ops 52

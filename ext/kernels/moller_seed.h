@@ -13,6 +13,11 @@
  *  - bounds as written: u < 0 || u > 1, then v < 0 || u + v > 1 reject, so
  *    edges are inside; t > 1e-4 accepts;
  *  - a NaN anywhere fails the final t > 1e-4 and so is a miss.
+ *  - flat (zero-area) triangles are left to that test (tb_moller_seed_flat
+ *    is TB_FLAT_AS_IS): det is exactly 0 for dyadic ones, which miss, but
+ *    for coordinates that are not dyadic det is rounding noise, which grows
+ *    with the coordinates and passes |det| >= 1e-4 on some of them beyond
+ *    about 100 units: those rays hit (tribench validate measures it).
  * The seed's code has no t_max (its caller compares t with the closest hit so
  * far); here the comparison t < t_max follows the seed's test, unchanged.
  * Deviation: the seed keeps det, u, v and t in float and its vectors in float;
@@ -26,6 +31,7 @@
 
 #define tb_moller_seed_stride 9 /* reals per prepared triangle, either precision */
 #define tb_moller_seed_ops 60 /* ops per test on the hit path: edges 6, p 9, det 5, 1/det 1, s 3, u 6, q 9, v 6, t 6, tests 9 */
+#define tb_moller_seed_flat TB_FLAT_AS_IS /* exactly flat triangles: the seed's own test decides (see above) */
 #define tb_moller_seed_prepare_f32 tb_prepare_vertices_f32
 #define tb_moller_seed_prepare_f64 tb_prepare_vertices_f64
 #define tb_moller_seed_ray_f32 tb_ray_plain_f32

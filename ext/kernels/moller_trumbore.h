@@ -17,11 +17,19 @@
  *    the division (a farther hit costs no division), then t itself, so a t
  *    rounded up to t_max, overflowing to infinity, or rounded to 0 (an
  *    infinite det from an infinite direction) is a miss;
- *  - every rejection is written as !(accept condition), so a NaN is a miss.
- * Prepared data: the raw vertices (9 reals). */
+ *  - every rejection is written as !(accept condition), so a NaN is a miss;
+ *  - det == 0 rejects a ray in the plane, and a flat triangle when
+ *    rounding leaves det exactly 0; with coordinates that are not dyadic
+ *    det is rounding noise, and about 1% of rays aimed at a flat triangle
+ *    hit it: hence the NaN record below.
+ * Prepared data: the raw vertices (9 reals).
+ * Flat triangles: an exactly flat one (zero area, found in exact arithmetic at
+ * prepare time, see kernels.h) gets an all-NaN record and misses every ray.
+ */
 
 #define tb_moller_trumbore_stride 9 /* reals per prepared triangle, either precision */
 #define tb_moller_trumbore_ops 65 /* ops per test on the hit path: edges 6, p 9, det 5, sign 2, s 3, u 6, q 9, v 6, t 6, tests 9, divide 4 */
+#define tb_moller_trumbore_flat TB_FLAT_MISS /* exactly flat triangles: NaN records, every ray misses */
 #define tb_moller_trumbore_prepare_f32 tb_prepare_vertices_f32
 #define tb_moller_trumbore_prepare_f64 tb_prepare_vertices_f64
 #define tb_moller_trumbore_ray_f32 tb_ray_plain_f32

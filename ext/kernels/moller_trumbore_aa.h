@@ -14,6 +14,7 @@
 
 #define tb_moller_trumbore_aa_stride tb_moller_trumbore_stride
 #define tb_moller_trumbore_aa_ops tb_moller_trumbore_ops
+#define tb_moller_trumbore_aa_flat tb_moller_trumbore_flat
 #define tb_moller_trumbore_aa_prepare_f32 tb_prepare_vertices_f32
 #define tb_moller_trumbore_aa_prepare_f64 tb_prepare_vertices_f64
 #define tb_moller_trumbore_aa_ray_f32 tb_ray_plain_f32

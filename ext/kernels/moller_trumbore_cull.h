@@ -20,10 +20,14 @@
  *    (underflow) or to 0 from an infinite det is a miss;
  *  - every rejection is written as !(accept condition), so a NaN anywhere
  *    (non-finite ray or vertex) is a miss.
- * Prepared data: the raw vertices (9 reals). */
+ * Prepared data: the raw vertices (9 reals).
+ * Flat triangles: an exactly flat one (zero area, found in exact arithmetic at
+ * prepare time, see kernels.h) gets an all-NaN record and misses every ray.
+ */
 
 #define tb_moller_trumbore_cull_stride 9 /* reals per prepared triangle, either precision */
 #define tb_moller_trumbore_cull_ops 60 /* ops per test on the hit path: edges 6, p 9, det 5, s 3, u 5, q 9, v 5, t 5, tests 9, divide 4 */
+#define tb_moller_trumbore_cull_flat TB_FLAT_MISS /* exactly flat triangles: NaN records, every ray misses */
 #define tb_moller_trumbore_cull_prepare_f32 tb_prepare_vertices_f32
 #define tb_moller_trumbore_cull_prepare_f64 tb_prepare_vertices_f64
 #define tb_moller_trumbore_cull_ray_f32 tb_ray_plain_f32

@@ -7,7 +7,9 @@
  * bit: every accept condition is evaluated on all lanes and combined into
  * one mask, with no early exit; the division is done for all lanes (its
  * result is only kept where the mask is set). Records: moller_trumbore's 9
- * reals, in blocks of 8 triangles, structure of arrays. */
+ * reals, in blocks of 8 triangles, structure of arrays.
+ * Flat triangles: the scalar form's NaN records, a miss in every lane.
+ */
 
 /* per lane and test (rules in kernels.h): edges 6, d x e2 9, det 5, s 3, u 5, q 9, v 5, t 5, 1/det and t 2, tests 11 */
 #define tb_moller_trumbore_cull_x8_ops 60

@@ -18,6 +18,7 @@
 
 #define tb_moller_trumbore_twice_stride tb_moller_trumbore_stride
 #define tb_moller_trumbore_twice_ops (2 * tb_moller_trumbore_ops)
+#define tb_moller_trumbore_twice_flat tb_moller_trumbore_flat
 #define tb_moller_trumbore_twice_prepare_f32 tb_prepare_vertices_f32
 #define tb_moller_trumbore_twice_prepare_f64 tb_prepare_vertices_f64
 

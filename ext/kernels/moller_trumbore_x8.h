@@ -5,7 +5,9 @@
  * the scalar kernel's bit for bit: every accept condition is evaluated on all
  * lanes and combined into one mask, with no early exit; the division is done
  * for all lanes (its result is only kept where the mask is set). Records:
- * moller_trumbore's 9 reals, in blocks of 8 triangles, structure of arrays. */
+ * moller_trumbore's 9 reals, in blocks of 8 triangles, structure of arrays.
+ * Flat triangles: the scalar form's NaN records, a miss in every lane.
+ */
 
 /* per lane and test (rules in kernels.h): edges 6, d x e2 9, det 5, sign 2, s 3, u 6, q 9, v 6, t 6, 1/det and t 2, tests 11 */
 #define tb_moller_trumbore_x8_ops 65

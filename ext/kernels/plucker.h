@@ -47,10 +47,14 @@
  *  - every rejection is written as !(accept), so a NaN anywhere is a miss;
  *    an infinite input makes a product or the normal non-finite, so the sum
  *    or t is NaN, infinite or 0: a miss.
- * Prepared data: the raw vertices (9 reals). */
+ * Prepared data: the raw vertices (9 reals).
+ * Flat triangles: an exactly flat one (zero area, found in exact arithmetic at
+ * prepare time, see kernels.h) gets an all-NaN record and misses every ray.
+ */
 
 #define tb_plucker_stride 9 /* reals per prepared triangle, either precision */
 #define tb_plucker_ops 107 /* ops per test on the hit path: shift 9, edges 9, sides 51, sum 2, tol 2, signs 3, n 9, n.d 5, n.a 5, sign 2, t 2, tests 8 */
+#define tb_plucker_flat TB_FLAT_MISS /* exactly flat triangles: NaN records, every ray misses */
 #define tb_plucker_prepare_f32 tb_prepare_vertices_f32
 #define tb_plucker_prepare_f64 tb_prepare_vertices_f64
 #define tb_plucker_ray_f32 tb_ray_plain_f32

@@ -6,7 +6,9 @@
  * scalar kernel's bit for bit: every accept condition is evaluated on all
  * lanes and combined into one mask, with no early exit; both divisions are
  * done for all lanes (kept only where the mask is set). Records: plucker's
- * 9 reals (raw vertices), in blocks of 8 triangles, structure of arrays. */
+ * 9 reals (raw vertices), in blocks of 8 triangles, structure of arrays.
+ * Flat triangles: the scalar form's NaN records, a miss in every lane.
+ */
 
 /* ((q - p) x (p + q)) . d on 8 lanes (see tb_plucker_side) */
 TB_WIDE vreal TB_FN(tb_plucker_x8_side)(const vreal *p, const vreal *q, const vreal *edge,

@@ -48,10 +48,14 @@
  *    function NaN or infinite, so det or t is not finite, a miss;
  *  - hit: the contract's u, v are the weights of v1, v2 (the paper's V/det,
  *    W/det).
- * Prepared data: the raw vertices (9 reals). */
+ * Prepared data: the raw vertices (9 reals).
+ * Flat triangles: an exactly flat one (zero area, found in exact arithmetic at
+ * prepare time, see kernels.h) gets an all-NaN record and misses every ray.
+ */
 
 #define tb_woop_stride 9 /* reals per prepared triangle, either precision */
 #define tb_woop_ops 57 /* ops per test on the hit path: shift 9, shear 12, edges 9, zero tests 3, signs 3, det 2, scaled t 8, sign 2, tests 5, divide 4 */
+#define tb_woop_flat TB_FLAT_MISS /* exactly flat triangles: NaN records, every ray misses */
 #define tb_woop_prepare_f32 tb_prepare_vertices_f32
 #define tb_woop_prepare_f64 tb_prepare_vertices_f64
 

@@ -12,7 +12,9 @@
  * representable edges and vertices); it redoes those lanes, and only those,
  * one at a time with the scalar kernel's tb_woop_edge_exact, so they stay
  * bit for bit the scalar answer. Records: woop's 9 reals (raw vertices), in
- * blocks of 8 triangles, structure of arrays. */
+ * blocks of 8 triangles, structure of arrays.
+ * Flat triangles: the scalar form's NaN records, a miss in every lane.
+ */
 
 /* per lane and test (rules in kernels.h): translate 9, shear 12, edges 9, zero edges 3, signs 6, det 2, scaled t 8, sign 2, 1/det and t 2, tests 7 */
 #define tb_woop_x8_ops 60
