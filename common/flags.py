@@ -34,6 +34,7 @@ from typing import TypeVar
 
 __all__ = [
     "MAX_COUNT",
+    "Parser",
     "MAX_SEED",
     "camera",
     "choice_list",
@@ -60,6 +61,16 @@ MAX_COUNT = 10**12
 MAX_SEED = 2**63 - 1
 #: A camera side; a camera's rays are further bounded by the workload specs.
 MAX_SIDE = 65536
+
+
+class Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose usage error is one line, like every other error of tribench.
+
+    Sub-parsers inherit the class. The line ends with where the usage is.
+    """
+
+    def error(self, message: str):  # argparse's hook; never returns
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def _refuse(message: str) -> argparse.ArgumentTypeError:
@@ -119,7 +130,7 @@ def _list_of(item: Callable[[str], T]) -> Callable[[str], list[T]]:
             try:
                 values.append(item(part))
             except argparse.ArgumentTypeError as exc:
-                raise _refuse(f"item {part!r} of {text!r} {exc}") from None
+                raise exc if part == text.strip() else _refuse(f"{exc} (in {text!r})") from None
         return values
 
     check.__name__ = "list"
@@ -172,7 +183,7 @@ def cpu(text: str) -> int:
     except ValueError:
         value = None
     if value not in usable:
-        raise _refuse(f"must be one of this process's CPUs {usable}, got {text!r}")
+        raise _refuse(f"{text!r} is not one of this process's CPUs {usable}")
     return value
 
 
@@ -209,12 +220,12 @@ def existing_file(text: str) -> str:
 
 
 def existing_folder(text: str) -> str:
-    """A folder that exists (a run folder to read or resume)."""
+    """A folder that exists: a run directory to read or resume."""
     path = _path(text)
     if path.exists() and not path.is_dir():
         raise _refuse(f"must be a folder, got the file {text!r}")
     if not path.is_dir():
-        raise _refuse(f"no such folder: {text!r}")
+        raise _refuse(f"no run directory {text!r}")
     return str(path)
 
 

@@ -354,7 +354,6 @@ def _validate(args: argparse.Namespace) -> int:
     # each --kernels/--dtype word may itself be a comma list
     kernels = [k for words in args.kernels for k in words] if args.kernels else None
     dtypes = [d for words in args.dtype for d in words] if args.dtype else validate.DTYPES
-    print(f"validate: {len(kernels) if kernels else 'every'} kernel(s) at {', '.join(dtypes)}...", file=sys.stderr)
     df = validate.run(kernels, dtypes, quick=args.quick, seed=args.seed)
     out = Path(args.out or _validate_out("validate.csv"))
     write_csv(df, out)
@@ -366,7 +365,7 @@ def _validate(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from .machine import version
 
-    parser = argparse.ArgumentParser(
+    parser = flags.Parser(
         prog="tribench",
         description="Statistical benchmarking of ray-triangle intersection algorithms.",
     )

@@ -90,7 +90,7 @@ def add_parser(subparsers) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Stand-alone entry (``python -m tribench.reports.cli``) until the harness CLI wires it in."""
-    parser = argparse.ArgumentParser(prog="tribench")
+    parser = flags.Parser(prog="tribench")
     add_parser(parser.add_subparsers(dest="command", required=True, metavar="COMMAND"))
     args = parser.parse_args(argv)
     return args.func(args)

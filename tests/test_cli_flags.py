@@ -36,8 +36,7 @@ def _refused(argv: list[str], capsys) -> str:
     except SystemExit as exc:  # argparse's usage error
         code = exc.code
     err = capsys.readouterr().err
-    assert code == 2, err
-    assert "Traceback" not in err
+    assert code == 2 and err.count("\n") == 1, err  # one line: no usage block, no traceback
     return err.strip().splitlines()[-1]
 
 
@@ -322,7 +321,7 @@ def test_ctrl_c_stops_a_sweep_keeping_its_batches(tmp_path):
 
 @pytest.mark.parametrize("args, marker", [
     (["info", "--peak"], "measuring the FMA peak"),
-    (["validate", "--kernels", "moller_trumbore"], "validate: "),  # Ctrl-C in `import trimesh` once was lost
+    (["seed", "--quick", "--no-progress", "--out", "seed"], "workload: "),
 ])
 def test_ctrl_c_stops_a_command_with_one_line(args, marker, tmp_path):
     code, err, seconds = _interrupt(args, marker, tmp_path)

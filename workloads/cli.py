@@ -222,7 +222,7 @@ def _show(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Run ``workloads`` alone (``python -m tribench.workloads.cli make pairs``)."""
-    parser = argparse.ArgumentParser(prog="tribench")
+    parser = flags.Parser(prog="tribench")
     add_parser(parser.add_subparsers(metavar="COMMAND"))
     args = parser.parse_args(["workloads", *(sys.argv[1:] if argv is None else argv)])
     return args.func(args)
