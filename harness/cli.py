@@ -9,9 +9,12 @@ from __future__ import annotations
 
 import argparse
 import datetime as _dt
+import os
+import signal
 import sys
+import threading
 
-from tribench.common import UserError
+from tribench.common import UserError, flags
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -69,41 +72,34 @@ def _print_peak(width: int) -> None:
 # ------------------------------------------------------------------ sweep
 
 
-def _split(text: str | None, kind=str) -> list:
-    """Comma-separated list; a bad item is a ValueError naming it."""
-    if text is None:
-        return []
-    items = []
-    for item in (t.strip() for t in text.split(",")):
-        if not item:
-            continue
-        try:
-            items.append(kind(item))
-        except ValueError:
-            raise UserError(f"bad list item {item!r} in {text!r}") from None
-    return items
+def _default_run_dir(kind: str = "") -> str:
+    """The run folder a command writes when --out is not given: runs/[KIND-]<date-time>."""
+    return f"runs/{kind + '-' if kind else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
 
 
-def _camera(text: str) -> tuple[int, int]:
-    width, sep, height = text.lower().partition("x")
-    try:
-        return int(width), int(height)
-    except ValueError:
-        raise UserError(f"--camera must be WIDTHxHEIGHT, e.g. 64x64, got {text!r}") from None
+def _add_run_out(parser: argparse.ArgumentParser, default: str = "runs/<date-time>") -> None:
+    """--out RUN_DIR of a command that creates a run folder (refused up front if it cannot be one)."""
+    parser.add_argument("--out", metavar="RUN_DIR", type=flags.new_run_folder,
+                        help=f"new run folder (default {default})")
+
+
+#: Precisions of the workloads (workloads.spec.DTYPES, kept here so --help imports nothing heavy).
+_DTYPES = ("float32", "float64")
+_DEFAULT_CAMERA = (64, 64)
 
 
 def _workloads_from_flags(args: argparse.Namespace) -> list:
     """The workload grid of the sweep flags (see `tribench sweep --help`)."""
     from tribench.workloads.spec import MeshSpec, PairSpec
 
-    dtypes = _split(args.dtype) or ["float64"]
+    dtypes = args.dtype or ["float64"]
     specs: list = []
-    if not args.mesh or args.pairs is not None:
-        for h in _split(args.hit_rates, float) or [0.5]:
-            specs += [PairSpec(n=args.pairs or 10_000, hit_rate=h, dtype=d) for d in dtypes]
-    width, height = _camera(args.camera)
-    for mesh in _split(args.mesh):
-        for triangles in _split(args.triangles, int) or [None]:
+    if not args.mesh or args.pairs is not None or args.hit_rates is not None:
+        for h in args.hit_rates or [0.5]:
+            specs += [PairSpec(n=10_000 if args.pairs is None else args.pairs, hit_rate=h, dtype=d) for d in dtypes]
+    width, height = args.camera or _DEFAULT_CAMERA
+    for mesh in args.mesh or []:
+        for triangles in args.triangles or [None]:
             specs += [MeshSpec(mesh, triangles=triangles, width=width, height=height, dtype=d) for d in dtypes]
     return specs
 
@@ -123,11 +119,11 @@ def _sweep_from_args(args: argparse.Namespace):
     design = {"processes": args.processes, "rounds": args.rounds, "warmup": args.warmup,
               "target_ms": args.target_ms, "seed": args.seed}
     if args.file:
-        return load_sweep_file(args.file, {**design, "kernels": _split(args.kernels) or None})
+        return load_sweep_file(args.file, {**design, "kernels": args.kernels})
     defaults = {"processes": DEFAULT_PROCESSES, "rounds": DEFAULT_ROUNDS, "warmup": DEFAULT_WARMUP,
                 "target_ms": DEFAULT_TARGET_MS, "seed": 0}
     design = {k: defaults[k] if v is None else v for k, v in design.items()}
-    kernels = tuple(_split(args.kernels)) or ext.kernel_names()
+    kernels = tuple(args.kernels or ext.kernel_names())
     return Sweep(kernels, tuple(_workloads_from_flags(args)), **design)
 
 
@@ -146,7 +142,7 @@ def _sweep(args: argparse.Namespace) -> int:
         result = runner.resume(args.resume, progress=progress)
     else:
         sweep = _sweep_from_args(args)
-        out = args.out or f"runs/{_dt.datetime.now():%Y%m%d-%H%M%S}"
+        out = args.out or _default_run_dir()
         print(f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
               f"{sweep.processes} processes x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
               f"{sweep.n_batches} batches -> {out}", file=sys.stderr)
@@ -156,8 +152,8 @@ def _sweep(args: argparse.Namespace) -> int:
     return 0
 
 
-_SWEEP_DESIGN_FLAGS = ("file", "kernels", "hit_rates", "pairs", "mesh", "triangles", "dtype", "processes",
-                       "rounds", "warmup", "target_ms", "seed", "cpu", "out")
+_SWEEP_DESIGN_FLAGS = ("file", "kernels", "hit_rates", "pairs", "mesh", "triangles", "camera", "dtype",
+                       "processes", "rounds", "warmup", "target_ms", "seed", "cpu", "out")
 
 
 def _add_design_flags(p: argparse.ArgumentParser) -> None:
@@ -168,11 +164,15 @@ def _add_design_flags(p: argparse.ArgumentParser) -> None:
         DEFAULT_WARMUP,
     )
 
-    p.add_argument("--processes", type=int, help=f"worker processes, the replicates (default {DEFAULT_PROCESSES})")
-    p.add_argument("--rounds", type=int, help=f"timed rounds per workload per process (default {DEFAULT_ROUNDS})")
-    p.add_argument("--warmup", type=int, help=f"warm-up rounds per workload per process (default {DEFAULT_WARMUP})")
-    p.add_argument("--target-ms", type=float, help=f"wanted length of one batch in ms (default {DEFAULT_TARGET_MS:g})")
-    p.add_argument("--seed", type=int, help="seed of the plan and the layout randomisation (default 0)")
+    p.add_argument("--processes", type=flags.positive_int,
+                   help=f"worker processes, the replicates (default {DEFAULT_PROCESSES})")
+    p.add_argument("--rounds", type=flags.positive_int,
+                   help=f"timed rounds per workload per process (default {DEFAULT_ROUNDS})")
+    p.add_argument("--warmup", type=flags.int_in(0, flags.MAX_COUNT),
+                   help=f"warm-up rounds per workload per process (default {DEFAULT_WARMUP})")
+    p.add_argument("--target-ms", type=flags.float_in(0.01, 1000),
+                   help=f"wanted length of one batch in ms, 0.01 to 1000 (default {DEFAULT_TARGET_MS:g})")
+    p.add_argument("--seed", type=flags.seed, help="seed of the plan and the layout randomisation (default 0)")
 
 
 # -------------------------------------------------------------------- run
@@ -183,12 +183,13 @@ def _run(args: argparse.Namespace) -> int:
 
     from tribench.reports import format_tables, write_report
 
-    from . import records, runner, validate
+    from . import runner, validate
     from .analysis import analyse, write_tables
     from .plan import default_sweep
+    from .records import write_csv
 
     sweep = default_sweep(quick=args.quick)
-    out = args.out or f"runs/{'quick-' if args.quick else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
+    out = args.out or _default_run_dir("quick" if args.quick else "")
     print(f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads, "
           f"{sweep.processes} processes x {sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
           file=sys.stderr)
@@ -197,7 +198,7 @@ def _run(args: argparse.Namespace) -> int:
     write_tables(out, analyse(out))
     # the report's robustness section: the suite on the run's kernels and precisions (a second or two)
     checks = validate.run(sweep.kernels, sorted({w.dtype for w in sweep.workloads}))
-    records.write_csv(checks, Path(out) / "validate.csv")
+    write_csv(checks, Path(out) / "validate.csv")
     print(f"validate: {int((checks.verdict == 'fail').sum())} of {int((checks.verdict != 'measured').sum())} "
           f"promises broken, {checks.attrs['seconds']:.1f} s -> {Path(out) / 'validate.csv'}", file=sys.stderr)
     _run_peers(out, quick=args.quick, progress=False if args.no_progress else None)
@@ -234,7 +235,6 @@ def _run_peers(out: str, quick: bool, progress: bool | None) -> None:
 
 
 def _peers(args: argparse.Namespace) -> int:
-    import os
     from dataclasses import replace
 
     from . import peers
@@ -243,18 +243,14 @@ def _peers(args: argparse.Namespace) -> int:
     changes = {k: v for k, v in {"processes": args.processes, "reps": args.reps, "triangles": args.triangles,
                                  "seed": args.seed}.items() if v is not None}
     if args.camera:
-        changes["width"], changes["height"] = _camera(args.camera)
+        changes["width"], changes["height"] = args.camera
     design = replace(design, **changes)
-    if min(design.processes, design.reps, design.width, design.height, design.triangles) < 1:
-        raise UserError("--processes, --reps, --camera and --triangles must be positive")
     if args.kernel is not None:
         from tribench import ext
 
         if args.kernel not in ext.kernel_names(internal=True) or "closest" not in ext.kernel_info(args.kernel).modes:
             raise UserError(f"--kernel {args.kernel!r} is not a kernel with a closest-hit mode "
                              f"(see tribench info)")
-    if args.cpu is not None and args.cpu not in os.sched_getaffinity(0):
-        raise UserError(f"--cpu {args.cpu} is not one of this process's CPUs {sorted(os.sched_getaffinity(0))}")
     path = peers.peers_path(args.out or ".")
     try:
         frame = peers.measure(path, design, kernel=args.kernel, cpu=args.cpu,
@@ -277,7 +273,7 @@ def _seed(args: argparse.Namespace) -> int:
 
     from .seed import KINDS_CSV, SEED_CSV, WORKLOADS_CSV, format_table, run_seed
 
-    out = args.out or f"runs/seed-{'quick-' if args.quick else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
+    out = args.out or _default_run_dir("seed-quick" if args.quick else "seed")
     words = ["tribench", "seed", *[w for s in args.scene or [] for w in ("--scene", s)],
              *(["--quick"] if args.quick else []), "--out", out,
              *[w for k in ("size", "sample") if getattr(args, k) for w in (f"--{k}", str(getattr(args, k)))]]
@@ -315,7 +311,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         from tribench.workloads import cache
 
         workloads = (cache.load(cache.resolve_id(args.workload)).spec,)
-    out = args.out or f"runs/calibrate-{_dt.datetime.now():%Y%m%d-%H%M%S}"
+    out = args.out or _default_run_dir("calibrate")
     kwargs = {k: v for k, v in {"rounds": args.rounds, "warmup": args.warmup, "target_ms": args.target_ms,
                                 "seed": args.seed, "processes": args.processes,
                                 "experiments": args.experiments}.items() if v is not None}
@@ -335,18 +331,32 @@ def _calibrate(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------- validate
 
 
+def _validate_out(text: str) -> str:
+    """validate --out: the CSV to write; a folder means FILE/validate.csv."""
+    from pathlib import Path
+
+    return flags.output_file(str(Path(text) / "validate.csv") if text.strip() and Path(text).is_dir() else text)
+
+
+def _peers_out(text: str) -> str:
+    """peers --out: a .csv names the file, anything else a folder (as peers.peers_path reads it)."""
+    from pathlib import Path
+
+    return flags.output_file(text) if Path(text).suffix.lower() == ".csv" else flags.output_folder(text)
+
+
 def _validate(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from . import records, validate
+    from . import validate
+    from .records import write_csv
 
-    kernels = _split(",".join(args.kernels or [])) or None
-    dtypes = _split(",".join(args.dtype or [])) or validate.DTYPES
+    # each --kernels/--dtype word may itself be a comma list
+    kernels = [k for words in args.kernels for k in words] if args.kernels else None
+    dtypes = [d for words in args.dtype for d in words] if args.dtype else validate.DTYPES
     df = validate.run(kernels, dtypes, quick=args.quick, seed=args.seed)
-    out = Path(args.out or "validate.csv")
-    if out.is_dir():
-        out = out / "validate.csv"
-    records.write_csv(df, out)
+    out = Path(args.out or _validate_out("validate.csv"))
+    write_csv(df, out)
     print(validate.format_table(df))
     print(f"{len(df)} rows in {df.attrs['seconds']:.1f} s; wrote {out}", file=sys.stderr)
     return 0
@@ -355,7 +365,7 @@ def _validate(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from .machine import version
 
-    parser = argparse.ArgumentParser(
+    parser = flags.Parser(
         prog="tribench",
         description="Statistical benchmarking of ray-triangle intersection algorithms.",
     )
@@ -377,25 +387,34 @@ def build_parser() -> argparse.ArgumentParser:
         "precision. Results: RUN_DIR/batches.csv (one row per batch, appended as it finishes), "
         "processes.csv, run.json.",
     )
-    sweep.add_argument("--out", metavar="RUN_DIR", help="new run folder (default runs/<date-time>)")
-    sweep.add_argument("--resume", metavar="RUN_DIR", help="finish the missing batches of an interrupted run")
-    sweep.add_argument("--file", metavar="SWEEP.toml", help="sweep file (flags given too override its values)")
-    sweep.add_argument("--kernels", metavar="A,B", help="kernels (default: all of `tribench info`)")
-    sweep.add_argument("--hit-rates", metavar="H,..", help="per-test hit rates of pair workloads (default 0.5)")
-    sweep.add_argument("--pairs", type=int, metavar="N", help="pairs per pair workload (default 10000)")
-    sweep.add_argument("--mesh", metavar="NAME,..", help="mesh workloads (suzanne, icosphere, ... or a file)")
-    sweep.add_argument("--triangles", metavar="K,..", help="triangle counts of the meshes (default: base mesh)")
-    sweep.add_argument("--camera", metavar="WxH", default="64x64", help="camera rays of mesh workloads (64x64)")
-    sweep.add_argument("--dtype", metavar="float32,float64", help="precisions (default float64)")
+    _add_run_out(sweep)
+    sweep.add_argument("--resume", metavar="RUN_DIR", type=flags.existing_folder,
+                       help="finish the missing batches of an interrupted run")
+    sweep.add_argument("--file", metavar="SWEEP.toml", type=flags.existing_file,
+                       help="sweep file (flags given too override its values)")
+    sweep.add_argument("--kernels", metavar="A,B", type=flags.name_list,
+                       help="kernels (default: all of `tribench info`)")
+    sweep.add_argument("--hit-rates", metavar="H,..", type=flags.float_list(0, 1),
+                       help="per-test hit rates of pair workloads, each in [0, 1] (default 0.5)")
+    sweep.add_argument("--pairs", type=flags.positive_int, metavar="N", help="pairs per pair workload (default 10000)")
+    sweep.add_argument("--mesh", metavar="NAME,..", type=flags.name_list,
+                       help="mesh workloads (suzanne, icosphere, ... or a file)")
+    sweep.add_argument("--triangles", metavar="K,..", type=flags.int_list(1, flags.MAX_COUNT),
+                       help="triangle counts of the meshes (default: base mesh)")
+    sweep.add_argument("--camera", metavar="WxH", type=flags.camera,
+                       help="camera rays of mesh workloads (default {}x{})".format(*_DEFAULT_CAMERA))
+    sweep.add_argument("--dtype", metavar="float32,float64", type=flags.choice_list(_DTYPES),
+                       help="precisions (default float64)")
     _add_design_flags(sweep)
-    sweep.add_argument("--cpu", type=int, help="CPU to pin workers to (default: the last usable one)")
+    sweep.add_argument("--cpu", type=flags.cpu, help="CPU to pin workers to (default: the last usable one)")
     sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
     sweep.set_defaults(func=_sweep)
 
     st = sub.add_parser("stats", help="estimates.csv and speedups.csv of a run (never re-measures)")
-    st.add_argument("run_dir", metavar="RUN_DIR")
+    st.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder)
     st.add_argument("--baseline", metavar="NAME", help="baseline kernel (default moller_seed, else the first)")
-    st.add_argument("--margin", type=float, help="equivalence margin (default: the one run.json records)")
+    st.add_argument("--margin", type=flags.float_in(0, 1),
+                    help="equivalence margin, in [0, 1] (default: the one run.json records)")
     st.set_defaults(func=_stats)
 
     cal = sub.add_parser(
@@ -407,8 +426,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     cal.add_argument("--kernel", default="moller_trumbore", help="kernel with an A/A copy (moller_trumbore)")
     cal.add_argument("--workload", metavar="ID", help="cached workload id or prefix (default: 10000 pairs, hit rate 0.5)")
-    cal.add_argument("--experiments", type=int, help="number of A/A comparisons (default 10)")
-    cal.add_argument("--out", metavar="DIR", help="run folder (default runs/calibrate-<date-time>)")
+    cal.add_argument("--experiments", type=flags.positive_int, help="number of A/A comparisons (default 10)")
+    _add_run_out(cal, "runs/calibrate-<date-time>")
     cal.add_argument("--no-save", action="store_true", help="do not update the user-level calibration")
     cal.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_design_flags(cal)
@@ -424,7 +443,7 @@ def build_parser() -> argparse.ArgumentParser:
         "writes report.html.",
     )
     run.add_argument("--quick", action="store_true", help="the same shape in under a minute (wide intervals)")
-    run.add_argument("--out", metavar="RUN_DIR", help="run folder (default runs/<date-time>)")
+    _add_run_out(run, "runs/[quick-]<date-time>")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
 
@@ -441,17 +460,20 @@ def build_parser() -> argparse.ArgumentParser:
     from .peers import PeerDesign
 
     full, quick = PeerDesign(), PeerDesign.quick()
-    pe.add_argument("--out", metavar="RUN_DIR|FILE.csv", help="where peers.csv goes (default ./peers.csv)")
+    pe.add_argument("--out", metavar="RUN_DIR|FILE.csv", type=_peers_out,
+                    help="where peers.csv goes (default ./peers.csv)")
     pe.add_argument("--quick", action="store_true", help=f"a {quick.width}x{quick.height} camera, {quick.processes} "
                     f"processes x {quick.reps} repetitions (seconds)")
-    pe.add_argument("--camera", metavar="WxH", help=f"camera rays (default {full.width}x{full.height})")
-    pe.add_argument("--triangles", type=int, help=f"Suzanne's triangle count (default {full.triangles}, "
-                    "the seed's mesh)")
-    pe.add_argument("--processes", type=int, help=f"worker processes, the replicates (default {full.processes})")
-    pe.add_argument("--reps", type=int, help=f"repetitions per process (default {full.reps})")
+    pe.add_argument("--camera", metavar="WxH", type=flags.camera,
+                    help=f"camera rays (default {full.width}x{full.height})")
+    pe.add_argument("--triangles", type=flags.positive_int, help=f"Suzanne's triangle count (default "
+                    f"{full.triangles}, the seed's mesh)")
+    pe.add_argument("--processes", type=flags.positive_int,
+                    help=f"worker processes, the replicates (default {full.processes})")
+    pe.add_argument("--reps", type=flags.positive_int, help=f"repetitions per process (default {full.reps})")
     pe.add_argument("--kernel", help="tribench's kernel (default: the fastest on this workload)")
-    pe.add_argument("--cpu", type=int, help="CPU to pin the workers to (default: the last usable one)")
-    pe.add_argument("--seed", type=int, help="seed of the ray samples and orders (default 0)")
+    pe.add_argument("--cpu", type=flags.cpu, help="CPU to pin the workers to (default: the last usable one)")
+    pe.add_argument("--seed", type=flags.seed, help="seed of the ray samples and orders (default 0)")
     pe.add_argument("--no-progress", action="store_true", help="no progress bar")
     pe.set_defaults(func=_peers)
 
@@ -465,11 +487,14 @@ def build_parser() -> argparse.ArgumentParser:
         "precision, one column per test, and writes the tidy CSV: kernel, dtype, isa, test, rays, failures, "
         "rate, expected, verdict, detail. Exits 0 even where a promise is broken.",
     )
-    val.add_argument("--kernels", nargs="+", metavar="K", help="kernels (default: all of `tribench info`)")
-    val.add_argument("--dtype", nargs="+", metavar="D", help="float32 and/or float64 (default both)")
-    val.add_argument("--out", metavar="FILE.csv", help="the CSV (default ./validate.csv; in a directory: validate.csv)")
+    val.add_argument("--kernels", nargs="+", metavar="K", type=flags.name_list,
+                     help="kernels (default: all of `tribench info`)")
+    val.add_argument("--dtype", nargs="+", metavar="D", type=flags.choice_list(_DTYPES),
+                     help="float32 and/or float64 (default both)")
+    val.add_argument("--out", metavar="FILE.csv", type=_validate_out,
+                     help="the CSV (default ./validate.csv; in a directory: validate.csv)")
     val.add_argument("--quick", action="store_true", help="small sets, a few seconds (the tests' size)")
-    val.add_argument("--seed", type=int, default=0, help="seed of every test's rays (default 0)")
+    val.add_argument("--seed", type=flags.seed, default=0, help="seed of every test's rays (default 0)")
     val.set_defaults(func=_validate)
 
     seed = sub.add_parser(
@@ -481,13 +506,13 @@ def build_parser() -> argparse.ArgumentParser:
         "seed.csv (the table), seed_kinds.csv, seed_workloads.csv (per-test hit rate, miss-stage mix), "
         "both seed kernels' pictures with their difference mask, and seed.html.",
     )
-    seed.add_argument("--scene", action="append", metavar="FILE",
+    seed.add_argument("--scene", action="append", metavar="FILE", type=flags.existing_file,
                       help="a scene file in the seed's format, instead of scene02 and scene03 (repeatable)")
     seed.add_argument("--quick", action="store_true", help="the same shape in under a minute (128x128, wide intervals)")
-    seed.add_argument("--out", metavar="RUN_DIR", help="run folder (default runs/seed-<date-time>)")
+    _add_run_out(seed, "runs/seed-[quick-]<date-time>")
     seed.add_argument("--no-progress", action="store_true", help="no progress bar")
-    seed.add_argument("--size", type=int, help=argparse.SUPPRESS)  # image side, for tests
-    seed.add_argument("--sample", type=int, help=argparse.SUPPRESS)  # rays sampled per kind, for tests
+    seed.add_argument("--size", type=flags.positive_int, help=argparse.SUPPRESS)  # image side, for tests
+    seed.add_argument("--sample", type=flags.positive_int, help=argparse.SUPPRESS)  # rays sampled per kind, for tests
     seed.set_defaults(func=_seed)
 
     from tribench.reports.cli import add_parser as add_reports
@@ -498,25 +523,72 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _ctrl_c(signum: int, frame) -> None:
+    """SIGINT (and its retry, SIGALRM): KeyboardInterrupt, but never inside an import.
+
+    trimesh's imports catch BaseException around its optional dependencies,
+    so a Ctrl-C during ``import trimesh`` was swallowed and the command ran
+    on for seconds. An interrupt that lands in an import is retried 50 ms later.
+    """
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            signal.setitimer(signal.ITIMER_REAL, 0.05)
+            return
+        frame = frame.f_back
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one subcommand; map its failures to exit codes, one line on stderr.
 
-    1: a measurement failed (a kernel disagreed with the reference, a worker
-    died); 130: interrupted, every finished batch kept; 2: a user error.
+    See :func:`_run_command`; Ctrl-C is deferred past imports (:func:`_ctrl_c`).
     """
-    args = build_parser().parse_args(argv)
-    from .runner import SweepError, SweepInterrupted
-
+    if threading.current_thread() is not threading.main_thread():
+        return _run_command(argv)
+    before = {sig: signal.signal(sig, _ctrl_c) for sig in (signal.SIGINT, signal.SIGALRM)}
     try:
-        return args.func(args)
-    except SweepError as exc:
-        print(f"tribench {args.command}: error: {exc}", file=sys.stderr)
-        return 1
-    except SweepInterrupted as exc:
-        print(f"tribench {args.command}: {exc}", file=sys.stderr)
+        return _run_command(argv)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        for sig, handler in before.items():
+            signal.signal(sig, handler)
+
+
+def _run_command(argv: list[str] | None) -> int:
+    """Run one subcommand; map its failures to exit codes, one line on stderr.
+
+    2: a user error (:class:`~tribench.common.UserError`) or an error of the
+    environment (an ``OSError``: a missing file, a full disk); 1: a
+    measurement failed (a kernel disagreed with the reference, a worker
+    died); 130: interrupted (Ctrl-C), every finished batch kept. Any other
+    exception is a bug in tribench and keeps its traceback.
+    """
+    prog = "tribench"
+    try:
+        args = build_parser().parse_args(argv)
+        prog = f"tribench {args.command}"
+        from .runner import SweepError, SweepInterrupted
+
+        try:
+            return args.func(args)
+        except SweepError as exc:
+            print(f"{prog}: error: {exc}", file=sys.stderr)
+            return 1
+        except SweepInterrupted as exc:
+            print(f"{prog}: {exc}", file=sys.stderr)
+            return 130
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
         return 130
-    except (UserError, FileNotFoundError) as exc:
-        print(f"tribench {args.command}: error: {exc}", file=sys.stderr)
+    except BrokenPipeError:  # `tribench info | head`: the reader left; say nothing more
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except UserError as exc:
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        what = f"{exc.filename}: {exc.strerror}" if exc.filename and exc.strerror else str(exc)
+        print(f"{prog}: error: {what}", file=sys.stderr)
         return 2
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tribench.common import UserError, write_text
+from tribench.common import UserError, flags, write_text
 
 __all__ = ["add_parser", "report_main", "compare_main"]
 
@@ -68,7 +68,7 @@ def add_parser(subparsers) -> None:
         "with `tribench stats`'s analysis if missing) and writes one self-contained HTML page that opens "
         "offline, plus sweep.toml to run the sweep again. Prints the estimates and speedups.",
     )
-    rep.add_argument("run_dir", metavar="RUN_DIR")
+    rep.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder)
     rep.add_argument("--baseline", metavar="NAME", help="re-analyse against this baseline kernel")
     rep.add_argument("--open", action="store_true", help="open the report in a web browser")
     rep.add_argument("--quiet", action="store_true", help="do not print the tables")
@@ -81,15 +81,16 @@ def add_parser(subparsers) -> None:
         "two runs' speedups with a Welch confidence interval (the runs are independent), and each "
         "kernel's time ratio. Prints a table and writes an HTML page (default RUN_B/compare.html).",
     )
-    cmp_.add_argument("run_a", metavar="RUN_A")
-    cmp_.add_argument("run_b", metavar="RUN_B")
-    cmp_.add_argument("--out", metavar="FILE", help="HTML file to write (default RUN_B/compare.html)")
+    cmp_.add_argument("run_a", metavar="RUN_A", type=flags.existing_folder)
+    cmp_.add_argument("run_b", metavar="RUN_B", type=flags.existing_folder)
+    cmp_.add_argument("--out", metavar="FILE", type=flags.output_file,
+                      help="HTML file to write (default RUN_B/compare.html)")
     cmp_.set_defaults(func=compare_main)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Stand-alone entry (``python -m tribench.reports.cli``) until the harness CLI wires it in."""
-    parser = argparse.ArgumentParser(prog="tribench")
+    parser = flags.Parser(prog="tribench")
     add_parser(parser.add_subparsers(dest="command", required=True, metavar="COMMAND"))
     args = parser.parse_args(argv)
     return args.func(args)

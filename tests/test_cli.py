@@ -9,9 +9,11 @@ import pandas as pd
 from tribench import ext
 
 
-def run(*args):
+def run(*args, cwd=None, env=None, timeout=120):
+    """``tribench ARGS`` as a user runs it: a fresh process, the real entry point."""
     return subprocess.run(
-        [sys.executable, "-m", "tribench.harness.cli", *args], capture_output=True, text=True, timeout=120
+        [sys.executable, "-m", "tribench.harness.cli", *map(str, args)], capture_output=True, text=True,
+        timeout=timeout, cwd=cwd, env=None if env is None else {**os.environ, **env},
     )
 
 

@@ -190,8 +190,8 @@ def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
 
 @pytest.mark.parametrize("flags, message", [
     (["--kernel", "frobnicate"], "not a kernel with a closest-hit mode"),
-    (["--processes", "0"], "must be positive"),
-    (["--camera", "64by64"], "WIDTHxHEIGHT"),
+    (["--processes", "0"], "--processes: must be an integer from 1"),
+    (["--camera", "64by64"], "--camera: must be WIDTHxHEIGHT"),
     (["--cpu", "4096"], "is not one of this process's CPUs"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message):

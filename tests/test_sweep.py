@@ -153,10 +153,10 @@ def test_a_wrong_kernel_stops_the_sweep_naming_it(tmp_path, env):
 
 @pytest.mark.parametrize("args, message", [
     (["sweep", "--kernels", "nope"], "unknown kernel 'nope'"),
-    (["sweep", "--hit-rates", "1.5"], "hit_rate must be in [0, 1], got 1.5"),
+    (["sweep", "--hit-rates", "1.5"], "--hit-rates: must be a number in [0, 1], got '1.5'"),
     (["sweep", "--resume", "/no/such/run"], "no run directory"),
     (["stats", "/no/such/run"], "no run directory"),
-    (["sweep", "--camera", "big"], "--camera must be WIDTHxHEIGHT"),
+    (["sweep", "--camera", "big"], "--camera: must be WIDTHxHEIGHT"),
 ])
 def test_bad_flags_exit_2_with_one_line(tmp_path, env, args, message):
     if args[0] == "sweep" and "--resume" not in args:

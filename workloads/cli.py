@@ -26,12 +26,15 @@ import json
 import sys
 from typing import Any
 
-from tribench.common import UserError
+from tribench.common import UserError, flags
 
 __all__ = ["add_parser", "main", "parse_miss_mix"]
 
+# The spec fields `make` has a flag for: the only attributes of the parsed
+# arguments that go into a spec (the namespace also holds the command's own).
 _PAIR_OPTIONS = ("n", "order", "miss_mix", "shape", "scale", "offset")
 _MESH_OPTIONS = ("triangles", "rays", "n_rays", "width", "height")
+_SHARED_OPTIONS = ("hit_rate", "dtype", "seed")
 
 
 def parse_miss_mix(text: str) -> str | dict[str, float]:
@@ -97,7 +100,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     both = make.add_argument_group("both")
     both.add_argument("--hit-rate", type=float, help="per-test (pairs) or per-ray (meshes) hit rate, default 0.5")
     both.add_argument("--dtype", choices=("float64", "float32"), help="default float64")
-    both.add_argument("--seed", type=int, help="default 0")
+    both.add_argument("--seed", type=flags.seed, help="default 0")
     both.add_argument("--json", action="store_true", help="print the spec and figures as JSON")
     make.set_defaults(func=_make)
 
@@ -106,7 +109,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
     show = sub.add_parser("show", help="targets vs achieved figures of a cached workload, and a picture")
     show.add_argument("workload_id", metavar="ID", help="a workload id, or a unique prefix of one")
-    show.add_argument("--png", metavar="FILE", help="draw the workload into FILE")
+    show.add_argument("--png", metavar="FILE", type=flags.output_file, help="draw the workload into FILE")
     show.add_argument("--json", action="store_true", help="print the spec and figures as JSON")
     show.set_defaults(func=_show)
     return parser
@@ -125,7 +128,8 @@ def _error(message: str) -> int:
 def _spec_from_args(args: argparse.Namespace):
     from .spec import MeshSpec, PairSpec
 
-    given = {k: v for k, v in vars(args).items() if v is not None and k not in ("kind", "func", "json")}
+    options = _PAIR_OPTIONS + _MESH_OPTIONS + _SHARED_OPTIONS
+    given = {k: getattr(args, k) for k in options if getattr(args, k) is not None}
     if "miss_mix" in given:  # parsed here, not by argparse, so a bad mix is a one-line error
         given["miss_mix"] = parse_miss_mix(given["miss_mix"])
     if args.kind == "pairs":
@@ -218,7 +222,7 @@ def _show(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Run ``workloads`` alone (``python -m tribench.workloads.cli make pairs``)."""
-    parser = argparse.ArgumentParser(prog="tribench")
+    parser = flags.Parser(prog="tribench")
     add_parser(parser.add_subparsers(metavar="COMMAND"))
     args = parser.parse_args(["workloads", *(sys.argv[1:] if argv is None else argv)])
     return args.func(args)

@@ -1,0 +1,153 @@
+"""Every example the README's command table and ``tribench workloads``'s docstring give, run as a user runs it.
+
+The examples are read from the documents themselves, so a new example fails
+here until it has a concrete form below, and a broken one fails like it would
+for a user (``workloads make`` once failed for every KIND while its own tests,
+which built their own parser, passed). Sizes are appended or chosen tiny so
+the whole file takes seconds per command.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+from test_cli import run
+
+from tribench.harness.cli import build_parser
+from tribench.workloads import cli as workloads_cli
+from tribench.workloads.seed_scene import builtin_scene_path
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+# A sweep as small as a sweep gets: 2 processes x 1 round of 0.05 ms batches.
+TINY_DESIGN = ["--processes", "2", "--rounds", "1", "--warmup", "0", "--target-ms", "0.05", "--no-progress"]
+
+
+def readme_examples() -> list[str]:
+    """The backticked commands in the first column of the README's command table."""
+    examples = []
+    for line in README.read_text(encoding="utf-8").splitlines():
+        cells = line.split(" | ")
+        if line.startswith("| `tribench ") and len(cells) >= 2:
+            examples += re.findall(r"`([^`]+)`", cells[0])
+    return examples
+
+
+def docstring_examples() -> list[str]:
+    """The command lines of the Examples block of tribench.workloads.cli, without their comments."""
+    block = workloads_cli.__doc__.split("Examples")[1]
+    return [line.split("#")[0].strip() for line in block.splitlines() if line.strip().startswith("tribench ")]
+
+
+# Each README example -> the concrete command lines that exercise it ({tmp}, {run}, {mesh}, {scene} filled in).
+# `run` and `info --peak` take minutes and seconds: test_cli runs `run --quick` end to end, and
+# test_cli_flags interrupts `info --peak` once it has started; here they are only parsed.
+SLOW = {"run --quick", "run", "info --peak"}
+CONCRETE = {
+    "tribench info [--peak]": ["info", "info --peak"],
+    "tribench run [--quick]": ["run", "run --quick"],
+    "tribench seed [--scene FILE] [--quick]": [
+        "seed --scene {scene} --quick --size 12 --sample 24 --no-progress --out {tmp}/seed"],
+    "tribench workloads make KIND …": ["workloads make pairs --n 300",
+                                       "workloads make icosphere --triangles 80 --width 8 --height 8"],
+    "list": ["workloads list"],
+    "show ID [--png FILE]": ["workloads show {mesh} --png {tmp}/mesh.png", "workloads show {mesh}"],
+    "tribench sweep --kernels … --hit-rates … --mesh suzanne --triangles 100,968 --out RUN_DIR": [
+        "sweep --kernels moller_trumbore,curless --hit-rates 0.2,0.8 --pairs 100 --mesh suzanne "
+        "--triangles 100,968 --camera 6x6 --out {tmp}/sweep " + shlex.join(TINY_DESIGN)],
+    "tribench peers [--quick] [--out RUN_DIR]": [
+        "peers --quick --camera 8x8 --processes 2 --reps 1 --no-progress --out {run}"],
+    "tribench stats RUN_DIR [--baseline NAME]": ["stats {run}", "stats {run} --baseline curless"],
+    "tribench validate [--kernels K …] [--dtype D …] [--quick] [--out FILE.csv]": [
+        "validate --kernels moller_trumbore curless --dtype float32 --quick --out {tmp}/v.csv"],
+    "tribench calibrate": ["calibrate --processes 2 --experiments 1 --out {tmp}/cal " + shlex.join(TINY_DESIGN)],
+    "tribench report RUN_DIR": ["report {run}"],
+    "tribench compare RUN_A RUN_B": ["compare {run} {run} --out {tmp}/compare.html"],
+}
+
+
+@pytest.fixture(scope="module")
+def env(tmp_path_factory):
+    """A workload cache (and so a user calibration) of this module's own, and a HOME with a mesh file."""
+    root = tmp_path_factory.mktemp("cli-examples")
+    (root / "home" / "meshes").mkdir(parents=True)
+    import trimesh
+
+    trimesh.creation.icosphere(subdivisions=5).export(root / "home" / "meshes" / "bunny.ply")  # 20480 faces
+    return {"TRIBENCH_CACHE": str(root / "cache" / "workloads"), "HOME": str(root / "home")}
+
+
+@pytest.fixture(scope="module")
+def run_dir(env, tmp_path_factory):
+    out = tmp_path_factory.mktemp("cli-run") / "run"
+    done = run("sweep", "--kernels", "moller_trumbore,curless", "--hit-rates", "0.5", "--pairs", "100",
+               *TINY_DESIGN, "--out", out, env=env)
+    assert done.returncode == 0, done.stderr
+    return out
+
+
+@pytest.fixture(scope="module")
+def mesh_prefix(env):
+    """A unique prefix of a cached mesh workload's id, as the docstring's `show mesh-3f2a` uses one."""
+    done = run("workloads", "make", "suzanne", "--triangles", "100", "--width", "6", "--height", "6", "--json",
+               env=env)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)["workload_id"][:12]
+
+
+def test_the_readme_and_the_docstring_have_examples():
+    assert len(readme_examples()) >= 12 and len(docstring_examples()) >= 6
+    assert set(readme_examples()) == set(CONCRETE), "give each README example a concrete form here"
+
+
+@pytest.mark.parametrize("example", sorted(CONCRETE))
+def test_concrete_forms_use_every_flag_of_the_example(example):
+    lines = [shlex.split(c) for c in CONCRETE[example]]
+    words = example.replace("tribench ", "").split()
+    command = words[0] if words[0] not in ("list", "show") else "workloads"
+    assert all(line[0] == command for line in lines)
+    for flag in (w.strip("[]") for w in words if w.strip("[]").startswith("--")):
+        assert any(flag in line for line in lines), f"{flag} of {example!r} is never run"
+    for line in lines:  # the real parser takes it
+        build_parser().parse_args([w.format(tmp="/nonexistent", run="/", mesh="m", scene=README) for w in line])
+
+
+@pytest.mark.parametrize("command", [c for cs in CONCRETE.values() for c in cs if c not in SLOW])
+def test_readme_example_runs(command, env, run_dir, mesh_prefix, tmp_path):
+    argv = shlex.split(command.format(tmp=tmp_path, run=run_dir, mesh=mesh_prefix,
+                                      scene=builtin_scene_path("scene02")))
+    done = run(*argv, env=env, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr
+    if "--png" in argv:
+        assert (tmp_path / "mesh.png").stat().st_size > 0
+    if "--out" in argv and argv[0] != "peers":
+        assert Path(argv[argv.index("--out") + 1]).exists()
+
+
+def _sized(argv: list[str]) -> list[str]:
+    """The docstring's command with tiny sizes appended (argparse: the last value of a flag wins)."""
+    if argv[:2] != ["workloads", "make"] or argv[2] == "pairs":
+        return argv
+    if "--hit-rate" in argv or "--n-rays" in argv:
+        return [*argv, "--n-rays", "64"]
+    return [*argv, "--width", "8", "--height", "8"]
+
+
+@pytest.mark.parametrize("example", docstring_examples())
+def test_workloads_docstring_example_runs(example, env, mesh_prefix, tmp_path):
+    argv = shlex.split(example)[1:]
+    argv = [env["HOME"] + w[1:] if w.startswith("~/") else w for w in argv]  # as the shell expands ~
+    if argv[:2] == ["workloads", "show"]:
+        argv[2] = mesh_prefix
+    done = run(*_sized(argv), env=env, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr
+    if argv[:2] == ["workloads", "make"]:
+        assert re.match(r"(pairs|mesh)-[0-9a-f]{12}  ", done.stdout)
+    if "--png" in argv:
+        assert (tmp_path / argv[argv.index("--png") + 1]).stat().st_size > 0
