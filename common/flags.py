@@ -46,7 +46,6 @@ __all__ = [
     "int_in",
     "int_list",
     "name_list",
-    "new_run_folder",
     "output_file",
     "output_folder",
     "positive_int",
@@ -240,14 +239,6 @@ def output_folder(text: str) -> str:
     else:
         _check_can_create(path)
     return str(path)
-
-
-def new_run_folder(text: str) -> str:
-    """A new run folder: it does not exist yet, or is an empty folder, and can be written."""
-    out = output_folder(text)
-    if Path(out).is_dir() and any(Path(out).iterdir()):
-        raise _refuse(f"{text!r} exists and is not empty: a new run needs a new or empty folder")
-    return out
 
 
 def output_file(text: str) -> str:

@@ -77,9 +77,21 @@ def _default_run_dir(kind: str = "") -> str:
     return f"runs/{kind + '-' if kind else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
 
 
+def _new_run_folder(text: str) -> str:
+    """A run folder to create: writable, and new or empty (the runner's own check, run up front)."""
+    from .records import check_new_run_dir
+
+    out = flags.output_folder(text)
+    try:
+        check_new_run_dir(out)
+    except UserError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return out
+
+
 def _add_run_out(parser: argparse.ArgumentParser, default: str = "runs/<date-time>") -> None:
     """--out RUN_DIR of a command that creates a run folder (refused up front if it cannot be one)."""
-    parser.add_argument("--out", metavar="RUN_DIR", type=flags.new_run_folder,
+    parser.add_argument("--out", metavar="RUN_DIR", type=_new_run_folder,
                         help=f"new run folder (default {default})")
 
 

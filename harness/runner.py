@@ -210,7 +210,7 @@ def start(
     from .machine import machine_record
 
     run_dir = Path(run_dir)
-    _refuse_used(run_dir)
+    records.check_new_run_dir(run_dir)
     machine = machine_record()
     margin = margin if margin is not None else latest_margin(machine["cpu_model"])
     keys = plan(sweep)
@@ -219,13 +219,8 @@ def start(
     except OSError as exc:
         raise UserError(f"cannot create the run folder {run_dir}: {exc.strerror or exc}") from None
     with records.writer_lock(run_dir):
-        _refuse_used(run_dir)  # again, under the lock: another start may have been faster
+        records.check_new_run_dir(run_dir)  # again, under the lock: another start may have been faster
         return _start_locked(sweep, run_dir, margin, machine, keys, cpu, progress, worker, extra)
-
-
-def _refuse_used(run_dir: Path) -> None:
-    if run_dir.exists() and (not run_dir.is_dir() or any(p.name != records.LOCK for p in run_dir.iterdir())):
-        raise UserError(f"{run_dir} exists and is not empty (use --resume to finish a run)")
 
 
 def _start_locked(sweep: Sweep, run_dir: Path, margin: Any, machine: dict[str, Any], keys: list[BatchKey],

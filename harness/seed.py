@@ -239,8 +239,7 @@ def run_seed(
     design = QUICK if quick else FULL
     size, sample = size or design.size, sample or design.sample
     out = Path(out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise UserError(f"{out} exists and is not empty")
+    records.check_new_run_dir(out)
     specs: list = []
     info: dict[str, dict[str, Any]] = {}
     scenes = [str(s) for s in (scenes or tuple(PAPER))]
