@@ -5,7 +5,7 @@ may import it: the one user-error type (:mod:`.errors`) and the one atomic
 file write (:mod:`.files`).
 """
 
-from .errors import UserError, UserTypeError
+from .errors import Notice, UserError, UserTypeError
 from .files import atomic_write, write_bytes, write_text
 
-__all__ = ["UserError", "UserTypeError", "atomic_write", "write_bytes", "write_text"]
+__all__ = ["Notice", "UserError", "UserTypeError", "atomic_write", "write_bytes", "write_text"]

@@ -18,7 +18,7 @@ else is a bug in tribench and keeps its traceback.
 
 from __future__ import annotations
 
-__all__ = ["UserError", "UserTypeError"]
+__all__ = ["Notice", "UserError", "UserTypeError"]
 
 
 class UserError(ValueError):
@@ -27,3 +27,8 @@ class UserError(ValueError):
 
 class UserTypeError(UserError, TypeError):
     """A :class:`UserError` about the type of an argument."""
+
+
+class Notice(UserWarning):
+    """Something the user should know that stops nothing (a corrupt cache file
+    rebuilt, say); the ``tribench`` command prints it as one line."""

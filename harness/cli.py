@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import argparse
 import datetime as _dt
+import functools
 import os
 import signal
 import sys
 import threading
+import warnings
 
-from tribench.common import UserError, flags
+from tribench.common import Notice, UserError, flags
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -559,11 +561,22 @@ def main(argv: list[str] | None = None) -> int:
         return _run_command(argv)
     before = {sig: signal.signal(sig, _ctrl_c) for sig in (signal.SIGINT, signal.SIGALRM)}
     try:
-        return _run_command(argv)
+        with warnings.catch_warnings():
+            shown = warnings.showwarning
+            warnings.showwarning = functools.partial(_show_notice, shown)
+            return _run_command(argv)
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         for sig, handler in before.items():
             signal.signal(sig, handler)
+
+
+def _show_notice(shown, message, category, filename, lineno, file=None, line=None) -> None:
+    """tribench's own notices in one line; any other warning as Python shows it (it may point at a bug)."""
+    if issubclass(category, Notice):
+        print(f"tribench: {message}", file=sys.stderr)
+    else:
+        shown(message, category, filename, lineno, file, line)
 
 
 def _run_command(argv: list[str] | None) -> int:

@@ -180,4 +180,5 @@ def test_the_command_line_marks_and_rebuilds_a_corrupt_file(pristine, tmp_path):
     assert listed.returncode == 0 and "checksum does not match" in line
     shown = subprocess.run([*cli, "show", path.stem], capture_output=True, text=True, env=env, timeout=120)
     assert shown.returncode == 0 and f"cache file {path} is invalid" in shown.stderr
+    assert shown.stderr.count("\n") == 1, "the rebuild is said in one line"
     assert "Traceback" not in shown.stderr and path.read_bytes() == good

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from tribench.common import UserError, write_bytes
+from tribench.common import Notice, UserError, write_bytes
 
 from .spec import (
     PairSpec,
@@ -61,7 +61,7 @@ _SEAL_PREFIX = b"tribench-sha256:"
 _SEAL_LEN = len(_SEAL_PREFIX) + 64
 
 
-class CacheWarning(UserWarning):
+class CacheWarning(Notice):
     """A cache file was invalid and has been rebuilt."""
 
 
