@@ -39,7 +39,7 @@ import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar, Sequence
 
 import numpy as np
 
@@ -83,6 +83,20 @@ class PeerDesign:
     choice_rays: int = 8192
     choice_rounds: int = 7
     seed: int = 0
+
+    #: At most this many timed repetitions (processes x reps): at about a second each
+    #: on the default camera, a few hours; more is a typo, not a design.
+    MAX_REPETITIONS: ClassVar[int] = 10_000
+
+    def __post_init__(self) -> None:
+        for name in ("width", "height", "triangles", "processes", "reps", "trimesh_rays", "choice_rays",
+                     "choice_rounds"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise UserError(f"{name} must be a positive integer, got {value!r}")
+        if self.processes * self.reps > self.MAX_REPETITIONS:
+            raise UserError(f"processes x reps must be at most {self.MAX_REPETITIONS:,} (about a second "
+                            f"each: hours of measuring), got {self.processes:,} x {self.reps:,}")
 
     @classmethod
     def quick(cls) -> "PeerDesign":
