@@ -673,7 +673,7 @@ def fma_peak(iterations: int = 200_000, *, force_scalar: bool = False) -> Peak:
     if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)):
         raise UserTypeError(f"iterations must be an int, got {type(iterations).__name__}")
     if not 1 <= iterations <= MAX_PEAK_ITERATIONS:
-        raise UserError(f"iterations must be between 1 and {MAX_PEAK_ITERATIONS} (2**30, seconds of work), "
+        raise UserError(f"iterations must be between 1 and {MAX_PEAK_ITERATIONS} (2**28, about a second of work), "
                         f"got {iterations}")
     flops, elapsed, isa, _sink = _core.fma_peak(int(iterations), bool(force_scalar))
     return Peak(flops, elapsed, isa)
