@@ -6,6 +6,6 @@ file write (:mod:`.files`).
 """
 
 from .errors import Notice, UserError, UserTypeError
-from .files import atomic_write, write_bytes, write_text
+from .files import atomic_write, read_user_text, write_bytes, write_text
 
-__all__ = ["Notice", "UserError", "UserTypeError", "atomic_write", "write_bytes", "write_text"]
+__all__ = ["Notice", "UserError", "UserTypeError", "atomic_write", "read_user_text", "write_bytes", "write_text"]

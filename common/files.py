@@ -29,7 +29,7 @@ from typing import IO, Any
 
 from .errors import UserError
 
-__all__ = ["atomic_write", "write_bytes", "write_text"]
+__all__ = ["atomic_write", "read_user_text", "write_bytes", "write_text"]
 
 
 @contextmanager
@@ -83,3 +83,23 @@ def write_bytes(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically (see :func:`atomic_write`)."""
     with atomic_write(path, "wb") as f:
         f.write(data)
+
+
+def read_user_text(path: str | Path, what: str, error: type[UserError] = UserError) -> str:
+    """The text of a file the user named (a sweep file, a scene), as UTF-8.
+
+    Every way it can fail is an ``error`` (a :class:`UserError` or a subclass)
+    that starts with the path and names ``what`` the file should be: missing,
+    a folder, not text, unreadable.
+    """
+    path = Path(path)
+    try:
+        return path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise error(f"{path}: no such {what}") from None
+    except IsADirectoryError:
+        raise error(f"{path}: is a folder, not a {what}") from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: not a text file ({exc.reason} at byte {exc.start})") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None

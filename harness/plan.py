@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from tribench.common import UserError
+from tribench.common import UserError, read_user_text
 from tribench.workloads.spec import Spec, spec_from_dict, workload_id
 
 __all__ = [
@@ -358,16 +358,9 @@ def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None
     (``sweep.toml: workloads[2]: hit_rate must be in [0, 1], got 2.0``).
     """
     path = Path(path)
+    text = read_user_text(path, "sweep file")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise UserError(f"{path}: no such sweep file") from None
-    except IsADirectoryError:
-        raise UserError(f"{path}: is a folder, not a sweep file") from None
-    except UnicodeDecodeError as exc:
-        raise UserError(f"{path}: not a text file ({exc.reason} at byte {exc.start})") from None
-    except OSError as exc:
-        raise UserError(f"{path}: cannot read the sweep file ({exc.strerror or exc})") from None
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise UserError(f"{path}: not valid TOML ({exc})") from None
     except RecursionError:

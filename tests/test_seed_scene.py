@@ -98,7 +98,7 @@ def test_malformed_lines_name_file_line_and_expectation(tmp_path, line, message)
 def test_file_errors(tmp_path):
     with pytest.raises(SceneError, match="no such scene file"):
         read_scene(tmp_path / "missing.txt")
-    with pytest.raises(SceneError, match="is a directory"):
+    with pytest.raises(SceneError, match="is a folder"):
         read_scene(tmp_path)
     binary = tmp_path / "bin.txt"
     binary.write_bytes(b"\xff\xfe\x00sphere")
@@ -182,7 +182,7 @@ def test_numbers_as_the_seed_writes_them_are_read():
 def test_a_folder_given_as_a_scene_is_named_a_folder(tmp_path):
     from tribench.workloads.seed_workload import SeedSpec
 
-    with pytest.raises(SceneError, match=f"{tmp_path}: is a directory, not a scene file"):
+    with pytest.raises(SceneError, match=f"{tmp_path}: is a folder, not a scene file"):
         SeedSpec(scene=str(tmp_path))
     with pytest.raises(ValueError, match="no such file"):
         SeedSpec(scene=str(tmp_path / "missing.txt"))

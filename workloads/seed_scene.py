@@ -52,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tribench.common import UserError, write_text
+from tribench.common import UserError, read_user_text, write_text
 
 __all__ = [
     "BUILTIN_SCENES",
@@ -344,16 +344,7 @@ def read_scene(path_or_text: str | os.PathLike, name: str | None = None) -> Scen
     if isinstance(path_or_text, str) and "\n" in path_or_text:
         return parse_scene(path_or_text, name or "<string>")
     path = Path(path_or_text)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SceneError(f"{path}: no such scene file") from None
-    except IsADirectoryError:
-        raise SceneError(f"{path}: is a directory, not a scene file") from None
-    except UnicodeDecodeError as e:
-        raise SceneError(f"{path}: not a text file ({e.reason} at byte {e.start})") from None
-    except OSError as e:
-        raise SceneError(f"{path}: cannot read scene file ({e.strerror})") from None
+    text = read_user_text(path, "scene file", SceneError)
     scene = parse_scene(text, str(path_or_text))
     return _renamed(scene, name or path.stem)
 
