@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 import secrets
+import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -51,6 +52,11 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
     for folder in (path.parent, *path.parent.parents):
         if folder.exists() and not folder.is_dir():
             raise UserError(f"cannot write {path}: {folder} is a file, not a folder")
+    # the rename would put a regular file in place of a device, a folder or a link
+    # (as root, `--out /dev/null` would replace the device): only regular files are replaced
+    if os.path.lexists(path) and not stat.S_ISREG(os.lstat(path).st_mode):
+        raise UserError(f"cannot write {path}: it exists and is not a regular file (a folder, a device or a link); "
+                        f"choose another path")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         # a unique name in the same folder (same file system, so the rename is atomic)

@@ -11,6 +11,7 @@ import os
 import resource
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 import tempfile
@@ -333,3 +334,28 @@ def test_any_corruption_of_batches_is_a_user_error_or_a_valid_table(finished, tm
     assert keys <= set(zip(good["process"], good["round"], good["position"], good["kernel"]))
     assert (frame["elapsed_ns"] > 0).all() and (frame["tests"] > 0).all()
     shutil.rmtree(run)
+
+
+# ------------------------------------------------------------ what a whole-file write may replace
+
+
+@pytest.mark.parametrize("make", [
+    lambda p: p.mkdir(),
+    lambda p: p.symlink_to(p.parent / "elsewhere"),
+    lambda p: os.mkfifo(p),
+    pytest.param(lambda p: os.mknod(p, stat.S_IFCHR | 0o666, os.makedev(1, 3)),  # a /dev/null of our own
+                 marks=pytest.mark.skipif(os.geteuid() != 0, reason="only root makes a device")),
+])
+def test_a_whole_file_write_replaces_only_a_regular_file(tmp_path, make):
+    from tribench.common import write_text
+
+    target = tmp_path / "report.html"
+    make(target)
+    before = os.lstat(target)
+    with pytest.raises(UserError, match="not a regular file"):
+        write_text(target, "x")
+    after = os.lstat(target)
+    assert (after.st_mode, after.st_ino) == (before.st_mode, before.st_ino)
+    assert not (tmp_path / "elsewhere").exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["report.html"]  # no temporary file left
+
