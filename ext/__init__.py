@@ -115,6 +115,11 @@ def kernel_names(internal: bool = False) -> tuple[str, ...]:
 class KernelInfo:
     """What the registry says of one kernel.
 
+    Every property is declared once, on the kernel's registration line in
+    ``ext/kernels/list.h`` (or, for stride, ops and flat, beside the code in
+    its file), and read here from the extension: no property is inferred
+    from a kernel's name.
+
     Attributes
     ----------
     name : str
@@ -127,17 +132,37 @@ class KernelInfo:
         kernel's count is the path of a hit). Documented per kernel in its
         header, with the counting rules in ``ext/kernels.h``.
     internal : bool
-        One of the harness's honesty-check kernels.
+        One of the harness's honesty-check kernels (the A/A copy and the
+        double-work kernel), left out of ``kernel_names()``.
     isas : dict[str, bool]
         Instruction sets the kernel is compiled for (best first), and whether
         this CPU can run each. Scalar kernels have one, ``"scalar"``.
     isa : str
         The ISA calls use by default: ``TRIBENCH_ISA`` if set and runnable,
         else the best runnable one.
-
-    By convention a name says three more things: ``_seed`` (a faithful copy
-    of the seed's code, flaws included), ``_cull`` (back faces are culled)
-    and ``_x8`` (the wide form).
+    scalar_form : str or None
+        For a wide form, the scalar kernel it is the wide form of (same
+        algorithm, properties and answers); None for a scalar kernel.
+    wide_form : str or None
+        For a scalar kernel that has one, the name of its wide form.
+    culls_back_faces : bool
+        Only front faces count: ``det = e1 . (d x e2) > 0``, the vertices
+        counter-clockwise seen from the ray's origin.
+    watertight : str
+        ``"none"``, or ``"edges_and_vertices"``: the kernel's paper promises
+        no crack on shared edges and vertices (``tribench validate`` holds it
+        to that, and to Embree's threshold inside a sphere).
+    watertight_source : str
+        The paper that makes the watertight promise (``""`` if none).
+    seed_replay : bool
+        A faithful copy of the seed's code, flaws included: its differences
+        from the reference are measured and recorded, never judged.
+    flat : str
+        What becomes of an exactly flat triangle: ``"miss"`` (every ray
+        misses it) or ``"as_is"`` (the kernel's own test decides, as the
+        seed's code did).
+    precisions : tuple[str, ...]
+        The dtypes the kernel is compiled for.
     """
 
     name: str
@@ -147,33 +172,47 @@ class KernelInfo:
     internal: bool
     isas: dict
     isa: str
-
-    @property
-    def culls_back_faces(self) -> bool:
-        """Only front faces count: ``det = e1 . (d x e2) > 0``, the vertices
-        counter-clockwise seen from the ray's origin."""
-        return "_cull" in self.name
+    scalar_form: str | None
+    wide_form: str | None
+    culls_back_faces: bool
+    watertight: str
+    watertight_source: str
+    seed_replay: bool
+    flat: str
+    precisions: tuple[str, ...]
 
     @property
     def modes(self) -> tuple[str, ...]:
         """Modes the kernel runs (wide forms have no pairs mode)."""
         return MODES if self.lanes == 1 else MODES[1:]
 
+    @property
+    def bytes_per_triangle(self) -> dict[str, int]:
+        """Bytes of prepared data per triangle, per precision (stride x itemsize)."""
+        return {p: self.stride * np.dtype(p).itemsize for p in self.precisions}
+
+
+# Scalar kernel -> its wide form, from each wide form's declared scalar form.
+_WIDE_FORMS: dict[str, str] = {s: k for k in _KERNELS if (s := _core.kernel_info(k)["scalar_form"])}
+
 
 def kernel_info(kernel: str) -> KernelInfo:
-    """Lanes, storage and instruction sets of ``kernel``.
+    """Lanes, storage, instruction sets and declared properties of ``kernel``.
 
     >>> kernel_info("moller_trumbore").isa
     'scalar'
     >>> info = kernel_info("moller_trumbore_x8")
-    >>> info.lanes, info.isas["baseline"]
-    (8, True)
+    >>> info.lanes, info.isas["baseline"], info.scalar_form
+    (8, True, 'moller_trumbore')
+    >>> kernel_info("woop").watertight, kernel_info("moller_trumbore_cull").culls_back_faces
+    ('edges_and_vertices', True)
     """
     _check_kernel(kernel)
-    lanes, stride, ops, internal, isas = _core.kernel_info(kernel)
+    declared = dict(_core.kernel_info(kernel))  # afresh: which ISAs run can be asked again
+    isas = declared.pop("isas")
     runnable = dict(isas)
     wanted = os.environ.get("TRIBENCH_ISA")
-    if lanes > 1 and wanted:
+    if declared["lanes"] > 1 and wanted:
         if not runnable.get(wanted):
             raise UserError(
                 f"TRIBENCH_ISA={wanted!r} cannot run {kernel}: "
@@ -182,7 +221,7 @@ def kernel_info(kernel: str) -> KernelInfo:
         isa = wanted
     else:
         isa = next(i for i, ok in isas if ok)
-    return KernelInfo(kernel, lanes, stride, ops, bool(internal), runnable, isa)
+    return KernelInfo(name=kernel, isas=runnable, isa=isa, wide_form=_WIDE_FORMS.get(kernel), **declared)
 
 
 def build_info() -> dict:
@@ -197,7 +236,10 @@ def bytes_per_triangle(kernel: str, dtype: np.dtype | type | str) -> int:
     >>> bytes_per_triangle("moller_trumbore", "float32")
     36
     """
-    return kernel_info(kernel).stride * _check_dtype_name(dtype).itemsize
+    info, dt = kernel_info(kernel), _check_dtype_name(dtype)
+    if dt.name not in info.precisions:
+        raise UserError(f"{kernel} is compiled for {', '.join(info.precisions)}, not {dt.name}")
+    return info.bytes_per_triangle[dt.name]
 
 
 # ----------------------------------------------------------------- validation

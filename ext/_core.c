@@ -136,9 +136,16 @@ typedef struct {
     tb_loops isa[TB_MAX_ISAS];
 } tb_variant;
 
+/* One registered kernel: what the registration line in kernels/list.h
+ * declares, what its file defines (stride, ops, flat), and its loops. */
 typedef struct {
     const char *name;
-    int internal; /* from TB_INTERNAL_KERNEL_LIST: hidden from the user's list */
+    const char *scalar_form; /* a wide form: the kernel it is the wide form of; else NULL */
+    int internal;            /* from TB_INTERNAL_KERNEL_LIST: hidden from the user's list */
+    int faces;               /* TB_BOTH_FACES or TB_FRONT_FACES (back faces culled) */
+    int watertight;          /* TB_OPEN or TB_WATERTIGHT */
+    const char *promised_by; /* the paper that promises watertightness ("" if none) */
+    int origin;              /* TB_CLEAN or TB_SEED_REPLAY */
     int flat;     /* TB_FLAT_MISS or TB_FLAT_AS_IS (kernels.h: tb_<name>_flat) */
     int lanes;    /* 1: scalar early-exit form; 8: wide form, blocks of 8 triangles */
     size_t stride; /* reals per prepared triangle */
@@ -153,12 +160,17 @@ typedef struct {
        TB_CAT(tb_##name##_run_closest, sfx), TB_CAT(tb_##name##_run_closest, sfx)},          \
       {TB_CAT(tb_##name##_time_pairs, sfx), TB_CAT(tb_##name##_time_any, sfx),               \
        TB_CAT(tb_##name##_time_closest, sfx), TB_CAT(tb_##name##_time_closest_uv, sfx)}}}
-#define TB_SCALAR_ENTRY_(name, internal)                                                     \
-    {#name, internal, tb_##name##_flat, 1, tb_##name##_stride, tb_##name##_ops, 1, tb_scalar_isa_names,                         \
+#define TB_SCALAR_ENTRY_(name, internal, faces, watertight, promised_by, origin)             \
+    {#name, NULL, internal, faces, watertight, promised_by, origin, tb_##name##_flat, 1,    \
+     tb_##name##_stride, tb_##name##_ops, 1, tb_scalar_isa_names,                            \
      {(tb_prepare_fn)tb_##name##_prepare_f32, TB_SCALAR_LOOPS(name, _f32)},                  \
      {(tb_prepare_fn)tb_##name##_prepare_f64, TB_SCALAR_LOOPS(name, _f64)}},
-#define TB_ENTRY(name) TB_SCALAR_ENTRY_(name, 0)
-#define TB_INTERNAL_ENTRY(name) TB_SCALAR_ENTRY_(name, 1)
+#define TB_ENTRY(name, faces, watertight, promised_by, origin, wide)                         \
+    TB_SCALAR_ENTRY_(name, 0, faces, watertight, promised_by, origin)
+/* an internal kernel has no wide form: TB_X8 in its line does not compile */
+#define TB_SCALAR_ONLY_TB_SCALAR_ONLY
+#define TB_INTERNAL_ENTRY(name, faces, watertight, promised_by, origin, wide)                \
+    TB_SCALAR_ONLY_##wide TB_SCALAR_ENTRY_(name, 1, faces, watertight, promised_by, origin)
 
 #define TB_WIDE_LOOPS(name, isa, target, sfx)                                                \
     {{NULL, TB_CAT(tb_##name##_x8_run_any_##isa, sfx), TB_CAT(tb_##name##_x8_run_closest_##isa, sfx), \
@@ -168,13 +180,18 @@ typedef struct {
       TB_CAT(tb_##name##_x8_time_closest_uv_##isa, sfx)}},
 #define TB_WIDE_LOOPS_F32(name, isa, target) TB_WIDE_LOOPS(name, isa, target, _f32)
 #define TB_WIDE_LOOPS_F64(name, isa, target) TB_WIDE_LOOPS(name, isa, target, _f64)
-#define TB_WIDE_KERNEL_ENTRY(name)                                                               \
-    {#name "_x8", 0, tb_##name##_flat, 8, tb_##name##_stride, tb_##name##_x8_ops,                              \
+/* The wide form <name>_x8 of a line with TB_X8: its kernel's declared
+ * properties, stride, flat and prepare; its own ops and loops. */
+#define TB_WIDE_FORM_ENTRY_(name, faces, watertight, promised_by, origin)                         \
+    {#name "_x8", #name, 0, faces, watertight, promised_by, origin, tb_##name##_flat, 8,    \
+     tb_##name##_stride, tb_##name##_x8_ops,                                                 \
      (int)(sizeof tb_isa_names / sizeof *tb_isa_names), tb_isa_names,                        \
      {(tb_prepare_fn)tb_##name##_prepare_f32, {TB_ISA_LIST(TB_WIDE_LOOPS_F32, name)}},        \
      {(tb_prepare_fn)tb_##name##_prepare_f64, {TB_ISA_LIST(TB_WIDE_LOOPS_F64, name)}}},
+#define TB_WIDE_FORM_ENTRY(name, faces, watertight, promised_by, origin, wide)                    \
+    TB_IF_X8(wide, TB_WIDE_FORM_ENTRY_(name, faces, watertight, promised_by, origin))
 
-static const tb_kernel tb_kernels[] = {TB_KERNEL_LIST(TB_ENTRY) TB_WIDE_KERNEL_LIST(TB_WIDE_KERNEL_ENTRY)
+static const tb_kernel tb_kernels[] = {TB_KERNEL_LIST(TB_ENTRY) TB_KERNEL_LIST(TB_WIDE_FORM_ENTRY)
                                            TB_INTERNAL_KERNEL_LIST(TB_INTERNAL_ENTRY)};
 static const size_t tb_n_kernels = sizeof tb_kernels / sizeof tb_kernels[0];
 
@@ -335,7 +352,8 @@ static PyObject *py_kernel_names(PyObject *Py_UNUSED(self), PyObject *args)
     return tuple;
 }
 
-/* kernel_info(name) -> (lanes, stride, ops, internal, ((isa, runnable), ...)) */
+/* kernel_info(name) -> dict of what the registry says of the kernel (the
+ * keys: tribench.ext.KernelInfo's fields) */
 static PyObject *py_kernel_info(PyObject *Py_UNUSED(self), PyObject *args)
 {
     const char *name;
@@ -356,8 +374,33 @@ static PyObject *py_kernel_info(PyObject *Py_UNUSED(self), PyObject *args)
         }
         PyTuple_SET_ITEM(isas, i, item);
     }
-    return Py_BuildValue("(iniON)", k->lanes, (Py_ssize_t)k->stride, k->ops,
-                         k->internal ? Py_True : Py_False, isas);
+    const char *variants[2];
+    int n_variants = 0;
+    if (k->f32.prepare)
+        variants[n_variants++] = "float32";
+    if (k->f64.prepare)
+        variants[n_variants++] = "float64";
+    PyObject *precisions = PyTuple_New(n_variants);
+    for (int i = 0; precisions && i < n_variants; ++i) {
+        PyObject *s = PyUnicode_FromString(variants[i]);
+        if (!s)
+            Py_CLEAR(precisions);
+        else
+            PyTuple_SET_ITEM(precisions, i, s);
+    }
+    if (!precisions) {
+        Py_DECREF(isas);
+        return NULL;
+    }
+    return Py_BuildValue(
+        "{s:i,s:z,s:n,s:i,s:O,s:N,s:O,s:s,s:s,s:O,s:s,s:N}",
+        "lanes", k->lanes, "scalar_form", k->scalar_form, "stride", (Py_ssize_t)k->stride,
+        "ops", k->ops, "internal", k->internal ? Py_True : Py_False, "isas", isas,
+        "culls_back_faces", k->faces == TB_FRONT_FACES ? Py_True : Py_False,
+        "watertight", k->watertight == TB_WATERTIGHT ? "edges_and_vertices" : "none",
+        "watertight_source", k->promised_by,
+        "seed_replay", k->origin == TB_SEED_REPLAY ? Py_True : Py_False,
+        "flat", k->flat == TB_FLAT_MISS ? "miss" : "as_is", "precisions", precisions);
 }
 
 /* prepare(name, itemsize, vertices, n, out, flat): flat holds one byte per
@@ -584,7 +627,7 @@ static PyMethodDef tb_methods[] = {
     {"fma_peak", py_fma_peak, METH_VARARGS,
      "fma_peak(iterations, force_scalar=False) -> (flops, elapsed_ns, isa, sink)."},
     {"kernel_info", py_kernel_info, METH_VARARGS,
-     "kernel_info(name) -> (lanes, stride, ops, internal, ((isa, runnable), ...))."},
+     "kernel_info(name) -> dict: the registry's declarations of a kernel."},
     {"prepare", py_prepare, METH_VARARGS,
      "prepare(name, itemsize, vertices, n, out, flat): fill a kernel's records."},
     {"run", py_run, METH_VARARGS,

@@ -306,7 +306,7 @@ stop:
         TB_FN(tb_scalar_loop)(TB_FN(tb_##name##_test), TB_FN(tb_##name##_ray),              \
                               tb_##name##_stride, job, mode, timed);                        \
     }
-#define TB_INSTANTIATE(name)                                         \
+#define TB_INSTANTIATE_(name)                                        \
     TB_SCALAR_ENTRY(name, run_pairs, TB_PAIRS, 0)                    \
     TB_SCALAR_ENTRY(name, run_any, TB_ANY, 0)                        \
     TB_SCALAR_ENTRY(name, run_closest, TB_CLOSEST_UV, 0)             \
@@ -314,9 +314,11 @@ stop:
     TB_SCALAR_ENTRY(name, time_any, TB_ANY, 1)                       \
     TB_SCALAR_ENTRY(name, time_closest, TB_CLOSEST, 1)               \
     TB_SCALAR_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1)
+#define TB_INSTANTIATE(name, ...) TB_INSTANTIATE_(name) /* a registration line (list.h) */
 TB_KERNEL_LIST(TB_INSTANTIATE)
-TB_INSTANTIATE(moller_trumbore_aa)
+TB_INSTANTIATE_(moller_trumbore_aa)
 #undef TB_INSTANTIATE
+#undef TB_INSTANTIATE_
 #include "kernels/moller_trumbore_twice.h" /* its own entry points, from moller_trumbore's */
 
 /* Entry points of one wide kernel for one ISA: the same source compiled
@@ -334,8 +336,9 @@ TB_INSTANTIATE(moller_trumbore_aa)
     TB_WIDE_ENTRY(name, isa, target, time_any, TB_ANY, 1)                \
     TB_WIDE_ENTRY(name, isa, target, time_closest, TB_CLOSEST, 1)        \
     TB_WIDE_ENTRY(name, isa, target, time_closest_uv, TB_CLOSEST_UV, 1)
-#define TB_INSTANTIATE_WIDE(name) TB_ISA_LIST(TB_WIDE_ISA, name)
-TB_WIDE_KERNEL_LIST(TB_INSTANTIATE_WIDE)
+#define TB_INSTANTIATE_WIDE(name, faces, watertight, promised_by, origin, wide) \
+    TB_IF_X8(wide, TB_ISA_LIST(TB_WIDE_ISA, name))
+TB_KERNEL_LIST(TB_INSTANTIATE_WIDE)
 #undef TB_INSTANTIATE_WIDE
 
 #undef TB_VPB

@@ -42,14 +42,19 @@ def _info(args: argparse.Namespace) -> int:
     print(f"caches    {caches or 'unknown'}")
     print()
     width = max(map(len, ext.kernel_names())) + 2
-    print(f"{'kernel':<{width}}{'form':<8}{'bytes/tri f32':>14}{'bytes/tri f64':>14}  ISA (* = runs here, > = chosen)")
+    # the registry's declarations (ext/kernels/list.h): faces tested, watertight promise, seed replay or clean
+    print(f"{'kernel':<{width}}{'form':<8}{'bytes/tri f32':>14}{'bytes/tri f64':>14}  {'faces':<6}{'watertight':<11}"
+          f"{'code':<6} ISA (* = runs here, > = chosen)")
     for name in ext.kernel_names():
         info = ext.kernel_info(name)
         form = "scalar" if info.lanes == 1 else f"{info.lanes} lanes"
         isas = " ".join(("> " if i == info.isa else "* " if ok else "  ") + i
                         for i, ok in info.isas.items()) if info.lanes > 1 else "baseline build"
-        print(f"{name:<{width}}{form:<8}{ext.bytes_per_triangle(name, 'float32'):>14}"
-              f"{ext.bytes_per_triangle(name, 'float64'):>14}  {isas}")
+        faces = "front" if info.culls_back_faces else "both"
+        watertight = "yes" if info.watertight != "none" else "-"
+        code = "seed" if info.seed_replay else "clean"
+        print(f"{name:<{width}}{form:<8}{info.bytes_per_triangle['float32']:>14}"
+              f"{info.bytes_per_triangle['float64']:>14}  {faces:<6}{watertight:<11}{code:<6} {isas}")
     if args.peak:
         _print_peak(width)
     return 0

@@ -83,16 +83,17 @@ Tests
     Safe hits with one NaN, +Inf or -Inf in one coordinate of the origin,
     the direction or a vertex, every combination (``allow_nonfinite=True``):
     the call must return (no crash) and a hit is a failure, except for the
-    seed kernels (``*_seed``), faithful copies of flawed code, whose hits are
-    reported, not judged.
+    seed replays (``ext.kernel_info(k).seed_replay``), faithful copies of
+    flawed code, whose hits are reported, not judged.
 
-A kernel that culls back faces (:func:`culls`) is asked about every
+A kernel that culls back faces (:func:`culls`, declared in the registry) is asked about every
 triangle wound to face the ray, so its rates measure robustness, not
 culling.
 
 What the papers promise, the ``expected`` column: zero cracks on shared
-edges and vertices for Woop, Benthin & Wald's watertight test (kernels
-``woop``, ``woop_x8``) and Embree's threshold on the sphere for it; zero
+edges and vertices for a kernel the registry declares watertight
+(``ext.kernel_info(k).watertight``: Woop, Benthin & Wald's test, ``woop`` and
+``woop_x8``) and Embree's threshold on the sphere for it; zero
 hits for parallel rays (every kernel's documented rule), and for degenerate
 triangles and non-finite input (clean kernels). Everything else is
 ``measured``: reported, never judged.
@@ -179,8 +180,10 @@ TESTS = (
     "nonfinite",
 )
 
-#: Kernels that promise no crack on shared edges and vertices (by name, wide form included).
-WATERTIGHT = {"woop": "Woop, Benthin & Wald 2013"}
+#: Kernels that promise no crack on shared edges and vertices, and the paper
+#: that promises it: read from the registry (``ext.kernel_info(k).watertight``).
+WATERTIGHT: dict[str, str] = {k: ext.kernel_info(k).watertight_source for k in ext.kernel_names(internal=True)
+                              if ext.kernel_info(k).watertight == "edges_and_vertices"}
 
 EMBREE_CENTRE = (148376.0, 1234.0, -223423.0)
 EMBREE_RADIUS = 2.0
@@ -733,26 +736,27 @@ def promise(kernel: str, test: str) -> tuple[str, float | None]:
     >>> promise("moller_seed", "nonfinite"), promise("moller_seed", "degenerate_triangles")
     (('measured', None), ('measured', None))
     """
-    base = kernel.removesuffix("_x8")
-    if base in WATERTIGHT and test in ("shared_edges", "shared_vertices"):
-        return f"0 (watertight: {WATERTIGHT[base]})", 0.0
-    if base in WATERTIGHT and test == "inside_sphere":
+    info = ext.kernel_info(kernel)
+    watertight = info.watertight == "edges_and_vertices"
+    if watertight and test in ("shared_edges", "shared_vertices"):
+        return f"0 (watertight: {info.watertight_source})", 0.0
+    if watertight and test == "inside_sphere":
         return "<= 0.002% (Embree's threshold)", EMBREE_MAX_MISS_RATE
     if test == "parallel_rays":
         return "0 (must miss)", 0.0
-    if test in ("degenerate_triangles", "nonfinite") and not base.endswith("_seed"):
+    if test in ("degenerate_triangles", "nonfinite") and not info.seed_replay:
         return "0 (must miss)", 0.0
     return "measured", None
 
 
 def culls(kernel: str) -> bool:
-    """Whether ``kernel`` culls back faces (named as a ``_cull`` variant).
+    """Whether ``kernel`` culls back faces, as its registration declares.
 
     The suite asks such a kernel about every triangle wound to face the ray
     (v1 and v2 swapped for rays from behind), so its rates measure its
     robustness, not its culling.
     """
-    return "_cull" in kernel
+    return ext.kernel_info(kernel).culls_back_faces
 
 
 def _closest(kernel: str, isa: str, rays: MeshRays, triangles: np.ndarray | None = None) -> np.ndarray:

@@ -33,7 +33,7 @@ BUDGET = settings(max_examples=250, deadline=None,
 _TRI = np.array([[[0.0, 0, z], [4, 0, z], [0, 4, z]] for z in range(4)])
 _O = np.array([[0.5, 0.5, 10.0], [1.0, 1.0, 2.5], [9.0, 9.0, 10.0], [-5.0, 0.5, 10.0]])
 _D = np.tile([0.0, 0.0, -1.0], (4, 1))
-KERNELS = tuple(k for k in ext.kernel_names() if not k.endswith("_seed"))  # the seed's keep their epsilons
+KERNELS = tuple(k for k in ext.kernel_names() if not ext.kernel_info(k).seed_replay)  # the seed's keep their epsilons
 
 
 class _Sub(np.ndarray):

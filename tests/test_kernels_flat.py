@@ -15,7 +15,7 @@ from tribench import ext
 from tribench.workloads import reference
 
 DTYPES = [np.float32, np.float64]
-CLEAN = [k for k in ext.kernel_names(internal=True) if not k.endswith("_seed")]
+CLEAN = [k for k in ext.kernel_names(internal=True) if not ext.kernel_info(k).seed_replay]
 # (kernel, isa) for every form and every ISA this CPU runs
 FORMS = [(k, isa) for k in CLEAN for isa, ok in ext.kernel_info(k).isas.items() if ok]
 FORM_IDS = [f"{k}-{isa}" for k, isa in FORMS]
@@ -112,7 +112,7 @@ def test_prepare_poisons_flat_records_of_clean_kernels_only(dtype):
         if ext.kernel_info(kernel).lanes > 1:  # blocks of 8, structure of arrays: back to one row per triangle
             records = records.transpose(0, 2, 1).reshape(-1, records.shape[1])[: len(both)]
         poisoned = np.isnan(records).all(axis=1)
-        assert poisoned.tolist() == ([not kernel.endswith("_seed")] * len(tris) + [False]), kernel
+        assert poisoned.tolist() == ([not ext.kernel_info(kernel).seed_replay] * len(tris) + [False]), kernel
 
 
 # ------------------------------------------------------------- the kernels

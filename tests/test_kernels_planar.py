@@ -21,8 +21,8 @@ CULLS = {"moller_trumbore_cull"}
 DTYPES = [np.float32, np.float64]
 T_RTOL = {np.float32: 1e-4, np.float64: 1e-10}
 UV_ATOL = {np.float32: 1e-4, np.float64: 1e-9}
-# (name suffix, isa): the scalar form, and the wide form on each ISA
-FORMS = [("", None), ("_x8", "avx2"), ("_x8", "baseline")]
+# (form, isa): the scalar form, and the wide form (the registry's wide_form) on each ISA
+FORMS = [("scalar", None), ("wide", "avx2"), ("wide", "baseline")]
 FORM_IDS = ["scalar", "x8-avx2", "x8-baseline"]
 
 kernel_param = pytest.mark.parametrize("kernel", KERNELS)
@@ -31,8 +31,8 @@ form_param = pytest.mark.parametrize("form", FORMS, ids=FORM_IDS)
 
 
 def _run(kernel, form, o, d, tris, mode, **options):
-    suffix, isa = form
-    name = kernel + suffix
+    which, isa = form
+    name = kernel if which == "scalar" else ext.kernel_info(kernel).wide_form
     if isa is not None and not ext.kernel_info(name).isas[isa]:
         pytest.skip(f"{isa} is not available on this CPU")
     return ext.intersect(name, o, d, tris, mode, isa=isa, **options)
@@ -55,8 +55,9 @@ def _expected_pairs(kernel, o, d, tris):
 
 @kernel_param
 def test_bytes_per_triangle(kernel):
-    for name in (kernel, kernel + "_x8"):
+    for name in (kernel, ext.kernel_info(kernel).wide_form):
         assert ext.kernel_info(name).stride == STRIDE[kernel]
+        assert ext.kernel_info(name).culls_back_faces == (kernel in CULLS)
         assert ext.bytes_per_triangle(name, np.float32) == 4 * STRIDE[kernel]
         assert ext.bytes_per_triangle(name, np.float64) == 8 * STRIDE[kernel]
 
@@ -249,7 +250,7 @@ def test_t_max_on_a_mesh(kernel, dtype, form):
 def test_wide_form_equals_scalar_bit_for_bit(kernel, dtype, isa):
     o, d, tris = as_dtype(_mesh_workload()[:3], dtype)
     scalar = _run(kernel, FORMS[0], o, d, tris, "closest_uv")
-    wide = _run(kernel, ("_x8", isa), o, d, tris, "closest_uv")
+    wide = _run(kernel, ("wide", isa), o, d, tris, "closest_uv")
     for a, b in zip(scalar, wide):
         np.testing.assert_array_equal(a, b)
 
@@ -447,6 +448,6 @@ def test_baldwin_weber_float32_far_from_the_origin(kernel, offset):
     np.testing.assert_allclose(r.v, ref.v, atol=atol, rtol=0)
     index_ref, t_ref = reference.intersect_closest(o, d, tris)
     for isa in ("avx2", "baseline"):
-        wide = _run(kernel, ("_x8", isa), o, d, tris, "closest_uv")
+        wide = _run(kernel, ("wide", isa), o, d, tris, "closest_uv")
         np.testing.assert_array_equal(wide.index, index_ref)
         np.testing.assert_allclose(wide.t, t_ref, atol=atol, rtol=0)

@@ -34,14 +34,15 @@ def _intersect(kernel, form, o, d, tris, mode="closest_uv", **options):
     """One call of `kernel` in `form`: "scalar", or the wide form on that ISA."""
     if form == "scalar":
         return ext.intersect(kernel, o, d, tris, mode, **options)
-    return ext.intersect(kernel + "_x8", o, d, tris, mode, isa=form, **options)
+    return ext.intersect(ext.kernel_info(kernel).wide_form, o, d, tris, mode, isa=form, **options)
 
 
 def test_registered_with_raw_vertices_and_a_wide_form():
     for kernel in KERNELS:
-        assert kernel in ext.kernel_names() and kernel + "_x8" in ext.kernel_names()
+        wide = ext.kernel_info(kernel).wide_form
+        assert kernel in ext.kernel_names() and wide in ext.kernel_names()
         assert ext.kernel_info(kernel).stride == 9
-        assert ext.kernel_info(kernel + "_x8").lanes == 8
+        assert ext.kernel_info(wide).lanes == 8 and ext.kernel_info(wide).scalar_form == kernel
         assert ext.bytes_per_triangle(kernel, "float32") == 36
 
 

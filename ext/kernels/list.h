@@ -1,44 +1,65 @@
-/* The kernel registry: the one place a kernel is named.
+/* The kernel registry: the one place a kernel is named, and the one place its
+ * properties are declared. Python reads them through tribench.ext.kernel_info;
+ * nothing infers a property from a kernel's name.
  *
- * Adding a kernel = one file kernels/<name>.h defining, for the current
- * precision, tb_<name>_stride, tb_<name>_prepare, tb_<name>_ray and
- * tb_<name>_test (see kernels.h), one include in kernels.h and one line
- * here. Its wide form is one file kernels/<name>_x8.h, one include and one
- * line in TB_WIDE_KERNEL_LIST. Python learns the names from these lists;
- * order is the order `tribench info` prints. */
-#define TB_KERNEL_LIST(X)   \
-    X(curless_seed)         \
-    X(moller_seed)          \
-    X(curless)              \
-    X(moller_trumbore)      \
-    X(moller_trumbore_cull) \
-    X(baldwin_weber_12)     \
-    X(baldwin_weber_9)      \
-    X(havel_herout)         \
-    X(woop)                 \
-    X(plucker)
+ * Adding a kernel = one file kernels/<name>.h (tb_<name>_stride, _ops, _flat,
+ * _prepare, _ray and _test, see kernels.h; its #include in kernels.h), one
+ * registration line below and one row in the README's Kernels table
+ * (tests/test_registry.py checks all three). A wide form is one file
+ * kernels/<name>_x8.h, its #include, and TB_X8 in its kernel's line. Order is
+ * the order `tribench info` prints: the scalar kernels, then the wide forms.
+ *
+ * The columns of a registration line X(name, faces, watertight, promised_by,
+ * origin, wide):
+ *   faces        TB_BOTH_FACES, or TB_FRONT_FACES: back faces are culled (only
+ *                det = e1 . (d x e2) > 0 counts, the vertices counter-clockwise
+ *                seen from the ray's origin)
+ *   watertight   TB_OPEN: no promise; or TB_WATERTIGHT: its paper promises no
+ *                crack on shared edges and vertices (tribench validate holds it
+ *                to 0 cracks there, and to Embree's threshold inside a sphere)
+ *   promised_by  the paper that makes the watertight promise ("" for TB_OPEN)
+ *   origin       TB_CLEAN, or TB_SEED_REPLAY: a faithful copy of the seed's
+ *                code, flaws included, whose differences from the reference are
+ *                measured and recorded, never judged
+ *   wide         TB_SCALAR_ONLY, or TB_X8: also registered as <name>_x8,
+ *                branchless, one ray against blocks of 8 triangles stored
+ *                structure of arrays; the same properties as <name>
+ * Every kernel is compiled for float32 and float64. Bytes per prepared
+ * triangle (tb_<name>_stride), operations per test (tb_<name>_ops, and
+ * tb_<name>_x8_ops) and what becomes of an exactly flat triangle
+ * (tb_<name>_flat) sit beside the code they describe, in the kernel's file. */
+#define TB_KERNEL_LIST(X)                                                                    \
+    X(curless_seed,         TB_BOTH_FACES,  TB_OPEN,       "",                          TB_SEED_REPLAY, TB_SCALAR_ONLY) \
+    X(moller_seed,          TB_BOTH_FACES,  TB_OPEN,       "",                          TB_SEED_REPLAY, TB_SCALAR_ONLY) \
+    X(curless,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
+    X(moller_trumbore,      TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
+    X(moller_trumbore_cull, TB_FRONT_FACES, TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
+    X(baldwin_weber_12,     TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
+    X(baldwin_weber_9,      TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
+    X(havel_herout,         TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
+    X(woop,                 TB_BOTH_FACES,  TB_WATERTIGHT, "Woop, Benthin & Wald 2013", TB_CLEAN,       TB_X8)          \
+    X(plucker,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)
 
-/* Kernels that also have a wide form, registered as <name>_x8: branchless,
- * one ray against blocks of 8 triangles stored structure of arrays. */
-#define TB_WIDE_KERNEL_LIST(X) \
-    X(curless)                 \
-    X(moller_trumbore)         \
-    X(moller_trumbore_cull)    \
-    X(baldwin_weber_12)        \
-    X(baldwin_weber_9)         \
-    X(havel_herout)            \
-    X(woop)                    \
-    X(plucker)
+/* Internal kernels: honesty checks of the harness, not algorithms to compare,
+ * with the same columns (none has a wide form). They are compiled and callable
+ * like any kernel but kept out of the user's list (tribench.ext.kernel_names()
+ * leaves them out; kernel_names(internal=True) includes them).
+ * moller_trumbore_aa is an A/A copy of moller_trumbore, moller_trumbore_twice
+ * times every pass twice (a known 2x effect). Both are instantiated by name in
+ * kernels.h. */
+#define TB_INTERNAL_KERNEL_LIST(X)                                                           \
+    X(moller_trumbore_aa,    TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
+    X(moller_trumbore_twice, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)
 
-/* Internal kernels: honesty checks of the harness, not algorithms to compare.
- * They are compiled and callable like any kernel but kept out of the user's
- * list (tribench.ext.kernel_names() leaves them out; kernel_names(internal=True)
- * includes them). moller_trumbore_aa is an A/A copy of moller_trumbore,
- * moller_trumbore_twice times every pass twice (a known 2x effect). Both are
- * instantiated by name in kernels.h. */
-#define TB_INTERNAL_KERNEL_LIST(X) \
-    X(moller_trumbore_aa)          \
-    X(moller_trumbore_twice)
+/* The values of the columns. */
+enum { TB_BOTH_FACES, TB_FRONT_FACES };
+enum { TB_OPEN, TB_WATERTIGHT };
+enum { TB_CLEAN, TB_SEED_REPLAY };
+/* TB_IF_X8(wide, ...): the rest of the arguments for a kernel with a wide form,
+ * nothing for one without (the wide column is pasted, not evaluated). */
+#define TB_IF_X8(wide, ...) TB_IF_X8_##wide(__VA_ARGS__)
+#define TB_IF_X8_TB_X8(...) __VA_ARGS__
+#define TB_IF_X8_TB_SCALAR_ONLY(...)
 
 /* The instruction sets each wide kernel is compiled for, best first: name,
  * function attribute, and the run-time test that the CPU can run it. The
