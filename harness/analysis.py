@@ -1,6 +1,10 @@
-"""``tribench stats``: estimates and speedups of a run, from its files alone.
+"""The analysis step: every derived table of a run, from its files alone.
 
-Reads ``batches.csv``, ``processes.csv`` and ``run.json``; never measures.
+:func:`analyse` makes estimates and speedups from ``batches.csv``,
+``processes.csv`` and ``run.json``; never measures. :func:`write_all`, run at
+the end of ``tribench run`` and by ``tribench stats RUN_DIR``, writes every
+table the report reads (:data:`tribench.harness.runfolder.DERIVED`), the
+workload pictures and ``analysis.json``, so the report computes nothing.
 All statistics come from :mod:`tribench.harness.stats`.
 
 ``estimates.csv``: the fields of :func:`~tribench.harness.stats.estimate_table`
@@ -27,23 +31,33 @@ and :class:`Analysis` holds the tables exactly as the files have them.
 
 from __future__ import annotations
 
+import datetime as _dt
+import hashlib
+import json
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from tribench.common import UserError
 
-from . import records, stats
+from tribench.common import write_text
+
+from . import records, runfolder, stats
 from .calibration import Margin
 
-__all__ = ["Analysis", "analyse", "write_tables", "ESTIMATES", "SPEEDUPS", "ESTIMATE_COLUMNS",
-           "SPEEDUP_COLUMNS"]
+__all__ = ["Analysis", "Derived", "analyse", "write_tables", "write_all", "file_digest", "ESTIMATES", "SPEEDUPS",
+           "ESTIMATE_COLUMNS", "SPEEDUP_COLUMNS", "MAX_PICTURES", "PICTURE_DPI"]
 
-ESTIMATES = "estimates.csv"
-SPEEDUPS = "speedups.csv"
+ESTIMATES = runfolder.ESTIMATES
+SPEEDUPS = runfolder.SPEEDUPS
+#: Workloads pictured in a run folder (the first ones of the sweep), and their resolution: at the
+#: 110 dpi of ``workloads show --png`` the pictures were most of the report's bytes.
+MAX_PICTURES = 16
+PICTURE_DPI = 60
 DEFAULT_BASELINE = "moller_seed"
 
 #: ``stats.estimate_table`` column -> its name in estimates.csv (times in ns per ray-triangle test).
@@ -172,3 +186,219 @@ def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
     records.write_csv(analysis.estimates, paths[0])
     records.write_csv(analysis.speedups, paths[1])
     return paths
+
+
+# ------------------------------------------------------------ every derived table
+
+
+@dataclass(frozen=True)
+class Derived:
+    """What :func:`write_all` wrote: the tables by file name (as in the files) and ``analysis.json``."""
+
+    analysis: Analysis
+    tables: dict[str, pd.DataFrame]
+    record: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def estimates(self) -> pd.DataFrame:
+        return self.analysis.estimates
+
+    @property
+    def speedups(self) -> pd.DataFrame:
+        return self.analysis.speedups
+
+
+def file_digest(path: str | Path) -> str | None:
+    """SHA-256 of a file's bytes (None if there is no such file): how the report knows a table is stale."""
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except FileNotFoundError:
+        return None
+
+
+def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], dict[str, str]]:
+    """The run's workloads from the cache, made from their spec where the cache lacks them.
+
+    Workloads are pure functions of their spec, so a rebuilt one has the same
+    bytes; if the spec now gives another id (another generator version or
+    mesh file) it is not used, and its source says why.
+    """
+    import warnings
+
+    from tribench.workloads import cache
+    from tribench.workloads.spec import spec_from_dict, workload_id
+
+    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"]))
+    found: dict[str, Any] = {}
+    sources: dict[str, str] = {}
+    for wid in wids:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                found[wid], sources[wid] = cache.load(wid), "cache"
+            continue
+        except (FileNotFoundError, ValueError):
+            pass
+        try:
+            spec = spec_from_dict(specs[wid])
+            if workload_id(spec) != wid:
+                sources[wid] = (f"not in the cache, and its spec now gives another id ({workload_id(spec)}): "
+                                "generator or mesh file changed; not shown")
+            else:
+                found[wid] = cache.make(spec)
+                sources[wid] = "not in the cache: rebuilt from the spec recorded in run.json (same bytes)"
+        except Exception as exc:  # a mesh file that moved, a spec of another version...
+            sources[wid] = f"not in the cache and cannot be rebuilt ({type(exc).__name__}: {exc})"
+    return found, sources
+
+
+def _pictures(run_dir: Path, wids: list[str], workloads: dict[str, Any]) -> dict[str, str]:
+    """Draw the first :data:`MAX_PICTURES` workloads into ``pictures/``; workload id -> file name or why not.
+
+    A picture already there is kept (it is a pure function of the workload, whose id is its spec's hash)."""
+    from tribench.workloads import picture
+
+    folder = run_dir / runfolder.PICTURES_DIR
+    out: dict[str, str] = {}
+    for i, wid in enumerate(wids):
+        if i >= MAX_PICTURES:
+            out[wid] = f"(picture not drawn: only the first {MAX_PICTURES} workloads are pictured)"
+            continue
+        if wid not in workloads:
+            continue
+        name = f"{runfolder.PICTURES_DIR}/{wid}.png"
+        if not (run_dir / name).is_file():
+            try:
+                folder.mkdir(exist_ok=True)
+                picture.draw(workloads[wid], run_dir / name, dpi=PICTURE_DPI)
+            except Exception as exc:  # a picture must never stop the analysis
+                out[wid] = f"picture failed: {type(exc).__name__}: {exc}"
+                continue
+        out[wid] = name
+    return out
+
+
+def _validation(run_dir: Path, kernels: list[str], dtypes: list[str], quick: bool) -> str:
+    """``validate.csv`` for the run's kernels and precisions, made if missing; a sentence on where it came from."""
+    from tribench import ext
+
+    from . import validate
+
+    path = run_dir / runfolder.VALIDATE
+    if path.is_file():
+        return f"Read from {runfolder.VALIDATE} in the run folder."
+    known = [k for k in kernels if k in ext.kernel_names(internal=True)]
+    try:
+        if not known:
+            raise UserError("none of the run's kernels is in this build of the extension")
+        df = validate.run(known, dtypes, quick=quick)
+    except Exception as exc:  # the suite must never stop the analysis: the report shows why
+        return f"The robustness suite could not run: {type(exc).__name__}: {exc}"
+    records.write_csv(df, path)
+    return (f"Read from {runfolder.VALIDATE} in the run folder, made by the analysis step ({df.attrs['size']} "
+            f"sizes, seed {df.attrs['seed']}, {df.attrs['seconds']:.1f} s).")
+
+
+def _peer_tables(run_dir: Path) -> tuple[dict[str, pd.DataFrame], str]:
+    """``peer_rates.csv`` and ``peer_ratios.csv`` from ``peers.csv`` (none without it), and a sentence."""
+    from . import peers
+
+    path = run_dir / runfolder.PEERS
+    if not path.is_file():
+        return {}, f"no {runfolder.PEERS}"
+    try:
+        with open(path, encoding="utf-8") as f:
+            header = f.readline(65536).rstrip("\r\n").split(",")
+        if header != list(runfolder.FILES[runfolder.PEERS]):
+            return {}, f"{runfolder.PEERS} is not in today's columns (an older tribench wrote it)"
+        rates, ratios = peers.summarise(pd.read_csv(path))
+    except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError, KeyError, IndexError) as exc:
+        return {}, f"{runfolder.PEERS} cannot be used ({type(exc).__name__}: {exc})"
+    return {runfolder.PEER_RATES: rates.reindex(columns=list(runfolder.FILES[runfolder.PEER_RATES])),
+            runfolder.PEER_RATIOS: ratios.reindex(columns=list(runfolder.FILES[runfolder.PEER_RATIOS]))}, "summarised"
+
+
+def write_all(run_dir: str | Path, baseline: str | None = None, margin: float | None = None,
+              validate_quick: bool = False) -> Derived:
+    """Write every derived table of ``run_dir``, its workload pictures and ``analysis.json``.
+
+    The analysis step of ``tribench run`` and ``tribench stats``: estimates
+    and speedups (:func:`analyse`), then from them, the batches and the
+    workloads every table of :data:`~tribench.harness.runfolder.DERIVED`
+    (columns: :data:`~tribench.harness.runfolder.FILES`). Workloads come from
+    the cache, or are made from their spec if it lacks them; ``validate.csv``
+    is made by the robustness suite only when the folder has none; the peer
+    tables only when it has ``peers.csv``. ``analysis.json`` is written last:
+    it records the SHA-256 of ``batches.csv`` and ``peers.csv`` the tables were
+    made from, so a reader can tell stale tables from current ones.
+
+    Parameters
+    ----------
+    run_dir : path
+        A run folder (``run.json``, ``batches.csv``).
+    baseline, margin
+        As for :func:`analyse`.
+    validate_quick : bool
+        Run the robustness suite at its quick sizes when ``validate.csv`` is missing.
+
+    Raises
+    ------
+    UserError
+        The folder cannot be read (``file:line``), has no timed batch, or cannot be written.
+    """
+    from . import tables as t
+
+    run_dir = Path(run_dir)
+    batches_digest = file_digest(run_dir / records.BATCHES)
+    result = analyse(run_dir, baseline=baseline, margin=margin)
+    run = records.read_run(run_dir)
+    batches = records.read_batches(run_dir, run)
+    present_k, present_w = set(batches["kernel"]), set(batches["workload_id"])
+    kernels = [k for k in run["sweep"]["kernels"] if k in present_k]
+    wids = [w for w in run["sweep"]["workload_ids"] if w in present_w]
+    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"]))
+    dtypes = sorted(set(batches["dtype"]))
+
+    workloads, sources = _workloads(run, wids)
+    wl = t.workload_table(specs, wids, workloads, sources)
+    est = t.estimates_with_workloads(result.estimates, wl)
+    spd = result.speedups.merge(wl.drop(columns=["dtype"]), on="workload_id", how="left", suffixes=("", "_wl"))
+    pp = stats.per_process(batches)
+    labels = t.batch_labels(batches)
+    tables: dict[str, pd.DataFrame] = {
+        runfolder.ESTIMATES: result.estimates,
+        runfolder.SPEEDUPS: result.speedups,
+        runfolder.WORKLOADS: wl,
+        runfolder.WORKLOAD_FIGURES: t.workload_figures(wids, workloads),
+        runfolder.CORRECTNESS: t.correctness_table(batches, kernels, workloads),
+        runfolder.PER_PROCESS: pp,
+        runfolder.BATCH_LABELS: labels,
+        runfolder.CROSSOVERS: t.crossovers(kernels, wl, pp),
+        runfolder.SLOPES: t.scaling_slopes(est, pp),
+        runfolder.DRIFT: t.drift_table(batches, kernels, result.baseline, wids, wl),
+        runfolder.VARIANCE: t.variance_table(batches, kernels, wids, wl),
+        runfolder.OUTLIERS: t.outlier_table(labels, wl),
+        runfolder.WARMUP: t.warmup_table(labels, wl),
+        runfolder.KERNELS: t.kernel_table(kernels, batches, run, est, spd, result.baseline),
+    }
+    peer_tables, peer_note = _peer_tables(run_dir)
+    tables.update(peer_tables)
+    for name, frame in tables.items():
+        if list(frame.columns) != list(runfolder.FILES[name]):  # a bug: the table and the contract disagree
+            raise AssertionError(f"{name}: columns {list(frame.columns)} are not runfolder.FILES[{name!r}]")
+        records.write_csv(frame, run_dir / name)
+    validate_note = _validation(run_dir, kernels, dtypes, validate_quick)
+    pictures = _pictures(run_dir, wids, workloads)
+    record = {
+        "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "batches_sha256": batches_digest,
+        "peers_sha256": file_digest(run_dir / runfolder.PEERS) if peer_tables else None,
+        "peers": peer_note,
+        "baseline": result.baseline,
+        "margin": {"value": result.margin.value, "source": result.margin.source},
+        "tables": list(tables),
+        "validate": validate_note,
+        "pictures": pictures,
+    }
+    write_text(run_dir / runfolder.ANALYSIS, json.dumps(record, indent=2, sort_keys=True) + "\n")
+    return Derived(result, tables, record)

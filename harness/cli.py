@@ -167,7 +167,13 @@ def _sweep(args: argparse.Namespace) -> int:
               f"{sweep.n_batches} batches -> {out}", file=sys.stderr)
         result = runner.start(sweep, out, cpu=args.cpu, progress=progress)
     _report_run(result)
-    print(f"next: tribench stats {result.run_dir}", file=sys.stderr)
+    if result.batches_done == result.batches_total:  # the analysis step: every table the report reads
+        from .analysis import write_all
+
+        write_all(result.run_dir)
+        print(f"next: tribench report {result.run_dir}", file=sys.stderr)
+    else:
+        print(f"next: tribench stats {result.run_dir}", file=sys.stderr)
     return 0
 
 
@@ -198,59 +204,16 @@ def _add_design_flags(p: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from tribench.reports import format_tables, write_report
 
-    from . import runner, validate
-    from .analysis import analyse, write_tables
-    from .plan import default_sweep
-    from .records import write_csv
+    from .main_job import run
 
-    sweep = default_sweep(quick=args.quick)
     out = args.out or _default_run_dir("quick" if args.quick else "")
-    print(f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads, "
-          f"{sweep.processes} processes x {sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
-          file=sys.stderr)
-    result = runner.start(sweep, out, progress=False if args.no_progress else None)
-    _report_run(result)
-    write_tables(out, analyse(out))
-    # the report's robustness section: the suite on the run's kernels and precisions (a second or two)
-    checks = validate.run(sweep.kernels, sorted({w.dtype for w in sweep.workloads}))
-    write_csv(checks, Path(out) / "validate.csv")
-    print(f"validate: {int((checks.verdict == 'fail').sum())} of {int((checks.verdict != 'measured').sum())} "
-          f"promises broken, {checks.attrs['seconds']:.1f} s -> {Path(out) / 'validate.csv'}", file=sys.stderr)
-    _run_peers(out, quick=args.quick, progress=False if args.no_progress else None)
+    run(out, quick=args.quick, progress=False if args.no_progress else None)
     report = write_report(out)
     print(format_tables(out))
     print(f"\nreport: {report}")
     return 0
-
-
-def _run_peers(out: str, quick: bool, progress: bool | None) -> None:
-    """The report's peers, when one is installed; their failure never stops the run."""
-    from . import peers
-    from .runner import SweepInterrupted
-
-    if not any(peers.available().values()):
-        print(f"peers: none installed ({peers.INSTALL}); the report has no peers", file=sys.stderr)
-        return
-    design = peers.PeerDesign.quick() if quick else peers.PeerDesign()
-    print(f"peers: tribench's fastest kernel, trimesh and Embree on Suzanne {design.width}x{design.height}, "
-          f"{design.processes} processes x {design.reps} repetitions...", file=sys.stderr)
-    try:
-        frame = peers.measure(out, design, progress=progress)
-    except KeyboardInterrupt:
-        raise SweepInterrupted(f"interrupted during the peers: the sweep, its tables and validate.csv are kept in "
-                               f"{out}; `tribench report {out}` writes the report without peers") from None
-    except RuntimeError as exc:
-        print(f"peers: not measured: {exc}", file=sys.stderr)
-        return
-    _, ratios = peers.summarise(frame)
-    for r in ratios.itertuples(index=False):
-        if r.contender == "tribench" and r.over in peers.PEER_NAMES:
-            print(f"peers: tribench / {r.over}: {r.ratio:.3g}x [{r.ci_low:.3g}, {r.ci_high:.3g}] rays/s",
-                  file=sys.stderr)
 
 
 def _peers(args: argparse.Namespace) -> int:
@@ -310,12 +273,12 @@ def _seed(args: argparse.Namespace) -> int:
 def _stats(args: argparse.Namespace) -> int:
     from tribench.reports import format_tables
 
-    from .analysis import analyse, write_tables
+    from .analysis import write_all
 
-    analysis = analyse(args.run_dir, baseline=args.baseline, margin=args.margin)
-    paths = write_tables(args.run_dir, analysis)
+    derived = write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
     print(format_tables(args.run_dir))
-    print(f"wrote {paths[0]} and {paths[1]}", file=sys.stderr)
+    print(f"wrote {', '.join(derived.tables)}, the workload pictures and analysis.json into {args.run_dir}",
+          file=sys.stderr)
     return 0
 
 
@@ -429,7 +392,8 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
     sweep.set_defaults(func=_sweep)
 
-    st = sub.add_parser("stats", help="estimates.csv and speedups.csv of a run (never re-measures)")
+    st = sub.add_parser("stats", help="every table the report reads: estimates.csv, speedups.csv and the rest "
+                                      "(never times anything)")
     st.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder)
     st.add_argument("--baseline", metavar="NAME", help="baseline kernel (default moller_seed, else the first)")
     st.add_argument("--margin", type=flags.float_in(0, 1),

@@ -45,6 +45,8 @@ import numpy as np
 
 from tribench.common import UserError
 
+from . import runfolder
+
 if TYPE_CHECKING:
     import pandas as pd  # imported where used: `tribench --help` reads PeerDesign's defaults
 
@@ -52,7 +54,7 @@ __all__ = ["PEERS", "COLUMNS", "CONTENDERS", "PEER_NAMES", "PAUSE_S", "INSTALL",
            "choose_kernel", "measure", "peers_path", "summarise", "format_summary"]
 
 #: The file in a run folder.
-PEERS = "peers.csv"
+PEERS = runfolder.PEERS
 
 #: Contender -> what is timed (the report's and the printout's words).
 CONTENDERS = {

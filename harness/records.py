@@ -10,7 +10,8 @@
                             (:data:`PROCESS_COLUMNS`): at its start and its end
     RUN_DIR/checks.csv      one row per kernel, workload and process: its answers
                             against the reference (:data:`CHECK_COLUMNS`)
-    RUN_DIR/estimates.csv, speedups.csv   written by ``tribench stats``
+    RUN_DIR/estimates.csv ... analysis.json   derived by the analysis step
+                            (:mod:`tribench.harness.analysis`)
     RUN_DIR/.lock           held by the one process writing the folder (:func:`writer_lock`)
 
 One writer per run folder: a sweep or a resume holds an exclusive ``flock``
@@ -32,6 +33,10 @@ times, and no batch twice or outside the plan. A failure is a
 :class:`~tribench.common.UserError` naming ``file:line`` and what is wrong.
 A UTF-8 byte-order mark and CRLF line ends (an editor's) change no value
 and are accepted.
+
+Every file name and column list is defined in :mod:`tribench.harness.runfolder`;
+the row dataclasses here give the measured files' types, and the module checks
+on import that their fields are those columns.
 """
 
 from __future__ import annotations
@@ -54,6 +59,8 @@ from typing import Any
 
 from tribench.common import UserError, atomic_write, write_text
 
+from . import runfolder
+
 __all__ = [
     "BATCH_COLUMNS",
     "CHECK_COLUMNS",
@@ -74,11 +81,11 @@ __all__ = [
     "writer_lock",
 ]
 
-BATCHES = "batches.csv"
-PROCESSES = "processes.csv"
-CHECKS = "checks.csv"
-RUN = "run.json"
-LOCK = ".lock"
+BATCHES = runfolder.BATCHES
+PROCESSES = runfolder.PROCESSES
+CHECKS = runfolder.CHECKS
+RUN = runfolder.RUN
+LOCK = runfolder.LOCK
 
 
 def check_new_run_dir(run_dir: str | Path) -> None:
@@ -182,6 +189,10 @@ class CheckRow:
 BATCH_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(BatchRow))
 CHECK_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(CheckRow))
 PROCESS_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(ProcessRow))
+
+for _name, _columns in ((BATCHES, BATCH_COLUMNS), (CHECKS, CHECK_COLUMNS), (PROCESSES, PROCESS_COLUMNS)):
+    if _columns != tuple(runfolder.FILES[_name]):  # a bug: the row type and the contract disagree
+        raise AssertionError(f"{_name}: the row dataclass's fields are not runfolder.FILES[{_name!r}]")
 
 
 def _csv_line(values: Sequence[Any]) -> str:

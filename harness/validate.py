@@ -125,6 +125,8 @@ from tribench.workloads.geometry import (
     triangle_normals,
 )
 
+from . import runfolder
+
 __all__ = [
     "COLUMNS",
     "DTYPES",
@@ -151,19 +153,8 @@ __all__ = [
     "table",
 ]
 
-#: The columns of ``validate.csv``, in file order.
-COLUMNS: dict[str, str] = {
-    "kernel": "kernel name, as registered in the C extension",
-    "dtype": "precision of every array: float32 or float64",
-    "isa": "instruction set the kernel ran with (scalar kernels: scalar)",
-    "test": "robustness test (see tribench.harness.validate)",
-    "rays": "rays asked (after dropping rays rounding made ambiguous)",
-    "failures": "cracks, double hits, misses, wrong answers or hits, as the test defines",
-    "rate": "failures / rays",
-    "expected": "what the papers promise for this kernel, or 'measured'",
-    "verdict": "pass or fail against the promise; 'measured' where there is none",
-    "detail": "a short breakdown of the failures",
-}
+#: The columns of ``validate.csv``, in file order (defined in :mod:`~tribench.harness.runfolder`).
+COLUMNS: dict[str, str] = runfolder.FILES[runfolder.VALIDATE]
 
 DTYPES = ("float32", "float64")
 TESTS = (

@@ -1,15 +1,20 @@
-"""Reports: tidy CSVs, the HTML report, plots and pictures. Never measures.
+"""Reports: the HTML report, plots and terminal tables, from a run folder's files. Never measures.
+
+The report reads what measuring and the analysis step wrote into the run
+folder (:mod:`tribench.harness.runfolder`) and computes nothing: it never
+times, never generates a workload, never runs the robustness suite and never
+writes a table. Missing or stale tables are refused with the command that
+makes them (``tribench stats RUN_DIR``).
 
 Public API (heavy modules are imported on first use):
 
 * :func:`write_report` — ``RUN_DIR/report.html`` (one self-contained page) and
-  ``RUN_DIR/sweep.toml`` (the sweep, to run it again); makes
-  ``estimates.csv``/``speedups.csv`` with the harness's analysis if missing.
+  ``RUN_DIR/sweep.toml`` (the sweep, to run it again).
 * :func:`write_compare` — the same kernels on two runs: ratio of their
   speedups with CIs, as an HTML page.
 * :func:`format_tables` — compact terminal tables of estimates and speedups.
 
-The CSV columns are documented in :mod:`tribench.reports.columns`.
+The CSV columns are defined and documented in :mod:`tribench.harness.runfolder`.
 """
 
 from __future__ import annotations
@@ -18,8 +23,7 @@ from pathlib import Path
 
 __all__ = ["write_report", "write_compare", "format_tables", "format_compare", "RunError", "REPORT"]
 
-REPORT = "report.html"
-SWEEP_FILE = "sweep.toml"
+from tribench.harness.runfolder import REPORT, SWEEP_FILE
 
 
 def _load(run_dir: str | Path, baseline: str | None = None):
@@ -36,13 +40,14 @@ def write_report(run_dir: str | Path, baseline: str | None = None) -> Path:
     run_dir : path
         A run folder written by ``tribench sweep`` (``run.json``, ``batches.csv``).
     baseline : str, optional
-        Re-analyse against this baseline (rewrites estimates.csv/speedups.csv);
-        default: the tables as they are, or the harness's default baseline.
+        The baseline the tables must compare against (``tribench stats --baseline``
+        makes them); default: the tables' own.
 
     Raises
     ------
     RunError
-        The folder is missing, incomplete or unreadable (a one-line reason).
+        The folder is missing, incomplete or unreadable, or its tables are
+        missing or stale (a one-line reason naming ``tribench stats``).
     """
     from .html import render, sweep_toml
 

@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from tribench.common import UserError
-from tribench.harness import stats
+from tribench.harness import runfolder, stats
 
 from .rundata import RunData, family_of, short_label
 
@@ -54,7 +54,7 @@ class Comparison:
 
 
 def _log_per_process(data: RunData) -> pd.DataFrame:
-    pp = stats.per_process(data.batches)
+    pp = data.tables[runfolder.PER_PROCESS]  # written by the analysis step (stats.per_process)
     return pp.assign(log_ns=np.log(pp["ns_per_test"]))
 
 

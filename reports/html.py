@@ -14,13 +14,14 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
-import tempfile
 from html import escape
 from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 import pandas as pd
+
+from tribench.harness import analysis, runfolder
 
 from . import columns, content, figures
 from .rundata import VALIDATE, PeerTables, RunData, load_peers, load_validation
@@ -45,11 +46,9 @@ SECTIONS = {
     "reproduce": "Reproduce",
 }
 
-#: At most this many workload pictures are drawn (the rest are listed).
-MAX_PICTURES = 16
-#: Their resolution: 840 to 1080 px wide, 1.5 to 2 times the ~550 px they are shown at.
-#: At the 110 dpi of ``workloads show --png`` they were most of the page's bytes.
-PICTURE_DPI = 60
+#: At most this many workload pictures are drawn, at this resolution, by the analysis step
+#: (:mod:`tribench.harness.analysis`; 60 dpi: 840 to 1080 px wide, 1.5 to 2 times the ~550 px shown).
+MAX_PICTURES, PICTURE_DPI = analysis.MAX_PICTURES, analysis.PICTURE_DPI
 
 _CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:0;
@@ -513,9 +512,9 @@ def _diagnostics(data: RunData, batches: pd.DataFrame, wl: pd.DataFrame) -> str:
     from tribench.harness import stats
 
     colours = figures.kernel_colours(data.kernels)
-    warm = _ordered(content.warmup_table(batches, wl), data)
-    outl = _ordered(content.outlier_table(batches, wl), data)
-    var = content.variance_table(data, wl)
+    warm = _ordered(content.table(data, runfolder.WARMUP), data)
+    outl = _ordered(content.table(data, runfolder.OUTLIERS), data)
+    var = content.table(data, runfolder.VARIANCE)
     timed = data.batches.loc[~data.batches["warmup"]]
     ctx = int(timed["invol_ctx_switches"].sum())
     steal = timed.loc[timed["steal_ticks"] > 0, "steal_ticks"].sum() if "steal_ticks" in timed else 0
@@ -652,33 +651,21 @@ def _robustness(val: pd.DataFrame, note: str) -> str:
     return _section("robustness", "".join(body))
 
 
-def _pictures(data: RunData, workloads: dict[str, content.WorkloadInfo], wl: pd.DataFrame) -> str:
-    from tribench.workloads import picture
-
+def _pictures(data: RunData, wl: pd.DataFrame) -> str:
     body = [_p("What the kernels were timed on. Pair pictures map every pair's plane crossing into one "
                "reference triangle; mesh pictures show the mesh with its rays, hits and misses. Each title "
                "gives the targets against the achieved figures.", "note")]
     cards = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for i, r in enumerate(wl.itertuples(index=False)):
-            info = workloads.get(r.workload_id)
-            rows = [("workload", f"{r.workload_id}: {r.summary}"), ("obtained from", info.note if info else "?")]
-            if info is not None and info.workload is not None:
-                rows += [(f"{k}", f"target {_plain(t)}, achieved {_plain(a)}" if t is not None else _plain(a))
-                         for k, t, a in info.workload.compare() if not k.startswith("generated_with")]
-            img = ""
-            if info is not None and info.workload is not None and i < MAX_PICTURES:
-                path = Path(tmp) / f"{r.workload_id}.png"
-                try:
-                    picture.draw(info.workload, path, dpi=PICTURE_DPI)
-                    img = _figure(figures.png_data_uri(figures.palette_png(path.read_bytes())),
-                                  f"picture of {r.workload_id}", f"{r.label} ({r.family})")
-                except Exception as exc:  # a picture must never stop the report
-                    img = _p(f"picture failed: {type(exc).__name__}: {exc}", "note")
-            elif i >= MAX_PICTURES:
-                img = _p(f"(picture not drawn: only the first {MAX_PICTURES} workloads are pictured)", "note")
-            cards.append(f"<div><h3>{escape(r.label)} · {escape(r.family)}</h3>{img}"
-                         f"<details><summary>targets and achieved figures</summary>{_kv_table(rows)}</details></div>")
+    achieved = content.workload_figures(data)
+    for r in wl.itertuples(index=False):
+        rows = [("workload", f"{r.workload_id}: {r.summary}"), ("obtained from", r.source)]
+        rows += [(f"{k}", f"target {_plain(t)}, achieved {_plain(a)}" if t is not None else _plain(a))
+                 for k, t, a in achieved.get(r.workload_id, [])]
+        png, why = content.picture(data, r.workload_id)
+        img = (_figure(figures.png_data_uri(figures.palette_png(png)), f"picture of {r.workload_id}",
+                       f"{r.label} ({r.family})") if png is not None else _p(why, "note"))
+        cards.append(f"<div><h3>{escape(r.label)} · {escape(r.family)}</h3>{img}"
+                     f"<details><summary>targets and achieved figures</summary>{_kv_table(rows)}</details></div>")
     body.append(f'<div class="pictures">{"".join(cards)}</div>')
     return _section("workloads", "".join(body))
 
@@ -788,25 +775,23 @@ def _reproduce(data: RunData, sweep_file: str) -> str:
 
 
 def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
-    """The whole page for one run, as a string."""
-    workloads = content.load_workloads(data)
-    wl = content.workload_table(data, workloads)
+    """The whole page for one run, as a string: every number from the run folder's files."""
+    wl = content.workload_table(data)
     est = content.estimates_table(data, wl)
-    spd = data.speedups.merge(wl.drop(columns=["dtype"]), on="workload_id", how="left",
-                              suffixes=("", "_wl"))
+    spd = content.speedups_table(data, wl)
     order = {w: i for i, w in enumerate(data.workload_ids)}
     korder = {k: i for i, k in enumerate(data.kernels)}
     spd = spd.assign(_w=spd["workload_id"].map(order), _k=spd["kernel"].map(korder)).sort_values(
         ["_w", "_k"]).drop(columns=["_w", "_k"]).reset_index(drop=True)
     est = est.assign(_w=est["workload_id"].map(order), _k=est["kernel"].map(korder)).sort_values(
         ["_w", "_k"]).drop(columns=["_w", "_k"]).reset_index(drop=True)
-    pp = content.per_process_table(data)
-    batches = content.batch_table(data)
-    cross = content.crossovers(data, wl, pp)
-    slopes = content.scaling_slopes(data, est, pp)
-    drift = content.drift_table(data, wl)
-    correct = content.correctness_table(data, workloads)
-    kern = content.kernel_table(data, est, spd)
+    pp = content.table(data, runfolder.PER_PROCESS)
+    batches = content.table(data, runfolder.BATCH_LABELS)
+    cross = content.table(data, runfolder.CROSSOVERS)
+    slopes = content.table(data, runfolder.SLOPES)
+    drift = content.table(data, runfolder.DRIFT)
+    correct = content.table(data, runfolder.CORRECTNESS)
+    kern = content.table(data, runfolder.KERNELS)
     val, val_note = load_validation(data)
     peers, peer_note = load_peers(data)
     colours = figures.kernel_colours(data.kernels)
@@ -825,14 +810,13 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         _diagnostics(data, batches, wl),
         _correctness(data, correct, wl),
         _robustness(val, val_note),
-        _pictures(data, workloads, wl),
+        _pictures(data, wl),
         _machine(data),
         _reproduce(data, sweep_file),
     ]
     made = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
-    footer = _p(f"Written by tribench report at {made} from {data.run_dir}"
-                + (" (estimates.csv and speedups.csv computed now by the harness's analysis)"
-                   if data.analysed_now else "") + ". Statistics: tribench.harness.stats.", "note")
+    footer = _p(f"Written by tribench report at {made} from {data.run_dir}; tables made by the analysis step "
+                f"at {data.record.get('created', '?')}. Statistics: tribench.harness.stats.", "note")
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
             f"<title>{escape(title)}</title><style>{_CSS}</style></head><body>"

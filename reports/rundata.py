@@ -1,15 +1,17 @@
-"""Everything the report needs from one run folder, read once.
+"""Everything the report needs from one run folder, read once; nothing is computed or written here.
 
 The report reads files only: ``run.json``, ``batches.csv``, ``processes.csv``
-and the tables ``estimates.csv``/``speedups.csv``. When those two are missing,
-older than ``batches.csv`` (after a resume) or not in today's columns (written
-by an older tribench), they are made by the harness's own analysis
-(:func:`tribench.harness.analysis.analyse`) and written next to the batches:
-the report never measures and never computes an interval itself. Likewise
-``validate.csv``, the robustness table (:func:`load_validation`), is made by
-the harness's suite (:func:`tribench.harness.validate.run`) when missing.
-``peers.csv`` (:func:`load_peers`) is read when there; a missing one is never
-measured here, since timing belongs to ``tribench run`` and ``tribench peers``.
+(validated by :mod:`tribench.harness.records`), and the tables the analysis
+step derived from them (:data:`tribench.harness.runfolder.DERIVED`, listed in
+``analysis.json``). It never measures, never generates a workload, never runs
+the robustness suite and never writes a table. When the tables are missing,
+in other columns (an older tribench), or were made from another
+``batches.csv`` than the folder holds (``analysis.json`` records its SHA-256,
+so a copied folder with new file times is still current), :func:`load_run`
+refuses with one line that says to run ``tribench stats RUN_DIR``: a report
+with half its sections silently empty would be worse than that one command.
+``peers.csv`` is optional (:func:`load_peers`), and so is a robustness table
+the suite could not make (:func:`load_validation`): their sections then say why.
 """
 
 from __future__ import annotations
@@ -22,12 +24,14 @@ from typing import Any
 import pandas as pd
 
 from tribench.common import UserError
+from tribench.harness import runfolder
+from tribench.harness.tables import family_of, short_label, spec_text
 
 __all__ = ["RunData", "RunError", "load_run", "load_validation", "load_peers", "PeerTables", "family_of", "short_label",
-           "VALIDATE"]
+           "spec_text", "VALIDATE"]
 
-#: The robustness table in a run folder (columns: ``columns.VALIDATE``).
-VALIDATE = "validate.csv"
+#: The robustness table in a run folder.
+VALIDATE = runfolder.VALIDATE
 
 
 class RunError(UserError):
@@ -49,8 +53,10 @@ class RunData:
     margin_source: str
     #: workload id -> spec dict, in sweep order
     specs: dict[str, dict[str, Any]] = field(default_factory=dict)
-    #: True when estimates/speedups were computed by this call
-    analysed_now: bool = False
+    #: the derived tables, by file name, as the files have them
+    tables: dict[str, pd.DataFrame] = field(default_factory=dict)
+    #: ``analysis.json``: what the tables were made from
+    record: dict[str, Any] = field(default_factory=dict)
 
     @property
     def kernels(self) -> list[str]:
@@ -78,18 +84,55 @@ class RunData:
         return self.run.get("machine", {})
 
 
+def _stats_hint(run_dir: Path) -> str:
+    return f"run `tribench stats {run_dir}` to make them (the report only reads)"
+
+
+def _read_record(run_dir: Path) -> dict[str, Any]:
+    path = run_dir / runfolder.ANALYSIS
+    if not path.is_file():
+        raise RunError(f"{run_dir} has no analysis tables (no {runfolder.ANALYSIS}): {_stats_hint(run_dir)}")
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+        if not isinstance(record, dict) or not isinstance(record.get("tables"), list):
+            raise ValueError("not an analysis record")
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise RunError(f"{path} cannot be read ({exc}): {_stats_hint(run_dir)}") from None
+    return record
+
+
+def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
+    """A derived table, refused unless it has exactly its documented columns."""
+    path = run_dir / name
+    if name not in runfolder.FILES:
+        raise RunError(f"{run_dir / runfolder.ANALYSIS} lists {name!r}, not a table of this tribench: "
+                       f"{_stats_hint(run_dir)}")
+    if not path.is_file() or path.is_symlink():
+        raise RunError(f"{path} is missing: {_stats_hint(run_dir)}")
+    if not _has_columns(path, runfolder.FILES[name]):
+        raise RunError(f"{path} is not in today's columns (an older tribench, or an edited file): "
+                       f"{_stats_hint(run_dir)}")
+    try:
+        if name == runfolder.WORKLOAD_FIGURES:  # JSON text, read as written
+            return pd.read_csv(path, dtype=str, keep_default_na=False)
+        return pd.read_csv(path)
+    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError) as exc:
+        raise RunError(f"{path} cannot be read ({type(exc).__name__}: {exc}): {_stats_hint(run_dir)}") from None
+
+
 def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
-    """Read a run folder; make its tables with the harness's analysis if missing.
+    """Read a run folder and its derived tables.
 
     Raises
     ------
     RunError
         The folder does not exist, or lacks ``run.json``/``batches.csv``, or
-        they cannot be read, or there is nothing timed in it yet.
+        they cannot be read, or there is nothing timed in it yet; or its
+        derived tables are missing, in other columns, made from another
+        ``batches.csv``, or against another ``baseline`` than asked (each
+        message says to run ``tribench stats``).
     """
     from tribench.harness import analysis, records
-
-    from . import columns
 
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
@@ -105,72 +148,43 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
     if batches.loc[~batches["warmup"]].empty:
         raise RunError(f"{run_dir} has no timed batches yet")
 
-    est_path, spd_path = run_dir / analysis.ESTIMATES, run_dir / analysis.SPEEDUPS
-    batches_mtime = (run_dir / "batches.csv").stat().st_mtime
-    timed = batches.loc[~batches["warmup"]]
-    pairs = set(zip(timed["kernel"], timed["workload_id"]))
-    estimates = _usable_table(est_path, columns.FILES[est_path.name], batches_mtime, pairs, exact=True)
-    speedups = _usable_table(spd_path, columns.FILES[spd_path.name], batches_mtime, pairs, exact=False)
-    analysed_now = False
-    if baseline is not None or estimates is None or speedups is None:
-        try:
-            result = analysis.analyse(run_dir, baseline=baseline)
-        except UserError:
-            raise
-        except (ValueError, KeyError) as exc:
-            raise RunError(f"cannot analyse {run_dir}: {exc}") from None
-        analysis.write_tables(run_dir, result)
-        estimates, speedups = pd.read_csv(est_path), pd.read_csv(spd_path)  # as the files have them
-        analysed_now = True
-    if speedups.empty:
-        kernels = [k for k in run["sweep"]["kernels"] if k in set(batches["kernel"])]
-        base = baseline or (analysis.DEFAULT_BASELINE if analysis.DEFAULT_BASELINE in kernels else kernels[0])
-    else:
-        base = str(speedups["baseline"].iloc[0])
-    margin = run.get("margin", {})
-    m_value = float(speedups["margin"].iloc[0]) if not speedups.empty else float(margin.get("value", 0.01))
-    m_source = (str(speedups["margin_source"].iloc[0]) if "margin_source" in speedups and not speedups.empty
-                else str(margin.get("source", "unknown")))
+    record = _read_record(run_dir)
+    if record.get("batches_sha256") != analysis.file_digest(run_dir / runfolder.BATCHES):
+        raise RunError(f"the tables in {run_dir} were made from another {runfolder.BATCHES} (a resumed or edited "
+                       f"run): {_stats_hint(run_dir)}")
+    if baseline is not None and baseline != record.get("baseline"):
+        raise RunError(f"the tables in {run_dir} compare against {record.get('baseline')}, not {baseline}: run "
+                       f"`tribench stats {run_dir} --baseline {baseline}` to remake them")
+    tables = {name: _read_table(run_dir, name) for name in record["tables"]}
+    for name in (runfolder.ESTIMATES, runfolder.SPEEDUPS):
+        if name not in tables:
+            raise RunError(f"{run_dir / runfolder.ANALYSIS} lists no {name}: {_stats_hint(run_dir)}")
+    estimates, speedups = tables[runfolder.ESTIMATES], tables[runfolder.SPEEDUPS]
+    margin = record.get("margin") or {}
     specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"]))
-    return RunData(run_dir, run, batches, processes, estimates, speedups, base, m_value, m_source,
-                   specs, analysed_now)
+    return RunData(run_dir, run, batches, processes, estimates, speedups, str(record.get("baseline")),
+                   float(margin.get("value", 0.01)), str(margin.get("source", "unknown")), specs, tables, record)
 
 
-def load_validation(data: RunData, quick: bool = False) -> tuple[pd.DataFrame, str]:
+def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
     """The robustness table of the run's kernels and precisions, and a sentence saying where it came from.
 
-    ``RUN_DIR/validate.csv`` when it is there in today's columns (``tribench run`` writes it);
-    else the suite runs now (full sizes unless ``quick``) and its table is written there, so
-    later reports reuse it. Rows of other kernels or precisions are left out, rows are in the
-    run's kernel order. The suite must never stop a report: when it cannot run, the frame is
-    empty and the sentence says why.
+    ``RUN_DIR/validate.csv`` as the analysis step left it (it runs the suite
+    when the folder has none). Rows of other kernels or precisions are left
+    out, rows are in the run's kernel order. A missing or unusable table gives
+    an empty frame and a sentence saying why and what to run.
     """
-    from tribench import ext
-    from tribench.harness import records, validate
-
-    from . import columns
-
     path = data.run_dir / VALIDATE
-    if path.is_file() and _has_columns(path, columns.VALIDATE):
-        df = pd.read_csv(path)
-        note = f"Read from {VALIDATE} in the run folder."
-    else:
-        # an older run may name kernels this build no longer has: validate the others
-        known = [k for k in data.kernels if k in ext.kernel_names(internal=True)]
-        try:
-            if not known:
-                raise UserError("none of the run's kernels is in this build of the extension")
-            df = validate.run(known, data.dtypes, quick=quick)
-        except Exception as exc:
-            return (pd.DataFrame(columns=list(columns.VALIDATE)),
-                    f"The robustness suite could not run: {type(exc).__name__}: {exc}")
-        note = (f"Computed now by tribench.harness.validate ({df.attrs['size']} sizes, seed {df.attrs['seed']}, "
-                f"{df.attrs['seconds']:.1f} s)")
-        try:
-            records.write_csv(df, path)
-            note += f" and written to {VALIDATE} in the run folder, which later reports read."
-        except (OSError, UserError) as exc:  # a full disk or a read-only folder: show it all the same
-            note += f"; not saved ({exc})."
+    columns = runfolder.FILES[VALIDATE]
+    empty = pd.DataFrame(columns=list(columns))
+    if not path.is_file():
+        why = data.record.get("validate") or f"No {VALIDATE} in the run folder."
+        return empty, f"{why} `tribench stats {data.run_dir}` runs the robustness suite and writes it."
+    if not _has_columns(path, columns):
+        return empty, (f"{VALIDATE} is not in today's columns (an older tribench wrote it): remove it and run "
+                       f"`tribench stats {data.run_dir}`.")
+    df = pd.read_csv(path)
+    note = str(data.record.get("validate") or f"Read from {VALIDATE} in the run folder.")
     missing = [f"{k} {d}" for k in data.kernels for d in data.dtypes
                if not ((df["kernel"] == k) & (df["dtype"] == d)).any()]
     if missing:
@@ -182,7 +196,7 @@ def load_validation(data: RunData, quick: bool = False) -> tuple[pd.DataFrame, s
 
 @dataclass
 class PeerTables:
-    """A run's ``peers.csv`` and its figures (:func:`tribench.harness.peers.summarise`)."""
+    """A run's ``peers.csv`` and its figures (``peer_rates.csv``, ``peer_ratios.csv``)."""
 
     frame: pd.DataFrame
     rates: pd.DataFrame
@@ -201,25 +215,32 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
     """The run's peers (rows and figures) and a sentence on where they came from.
 
     None, with the reason, when ``peers.csv`` is absent, unreadable, in other
-    columns or without usable rows: the report then says how to add them.
+    columns, or not yet summarised by the analysis step: the report then says
+    what to run.
     """
-    from tribench.harness import peers
+    from tribench.harness import analysis
+    from tribench.harness.peers import INSTALL
 
-    from . import columns
-
-    path = data.run_dir / peers.PEERS
-    how = (f"`{peers.INSTALL}` (embreex and rtree), then `tribench peers --out {data.run_dir}` and "
-           f"`tribench report {data.run_dir}` add them")
+    path = data.run_dir / runfolder.PEERS
+    how = (f"`{INSTALL}` (embreex and rtree), then `tribench peers --out {data.run_dir}`, "
+           f"`tribench stats {data.run_dir}` and `tribench report {data.run_dir}` add them")
     if not path.is_file():
-        return None, f"No peers were measured with this run (no {peers.PEERS}): {how}."
+        return None, f"No peers were measured with this run (no {runfolder.PEERS}): {how}."
+    if not _has_columns(path, runfolder.FILES[runfolder.PEERS]):
+        return None, f"{runfolder.PEERS} is not in today's columns (an older tribench wrote it): {how}."
+    if runfolder.PEER_RATES not in data.tables or runfolder.PEER_RATIOS not in data.tables:
+        reason = data.record.get("peers") or "not summarised"
+        return None, (f"{runfolder.PEERS} is not summarised by the analysis ({reason}): run "
+                      f"`tribench stats {data.run_dir}`.")
+    if data.record.get("peers_sha256") != analysis.file_digest(path):
+        return None, (f"{runfolder.PEERS} changed since the analysis summarised it: run "
+                      f"`tribench stats {data.run_dir}`.")
     try:
-        if not _has_columns(path, columns.PEERS):
-            return None, f"{peers.PEERS} is not in today's columns (an older tribench wrote it): {how}."
         frame = pd.read_csv(path)
-        rates, ratios = peers.summarise(frame)
-    except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError, KeyError, IndexError) as exc:
-        return None, f"{peers.PEERS} cannot be used ({type(exc).__name__}: {exc}): {how}."
-    return PeerTables(frame, rates, ratios), f"Read from {peers.PEERS} in the run folder."
+    except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError) as exc:
+        return None, f"{runfolder.PEERS} cannot be used ({type(exc).__name__}: {exc}): {how}."
+    return (PeerTables(frame, data.tables[runfolder.PEER_RATES], data.tables[runfolder.PEER_RATIOS]),
+            f"Read from {runfolder.PEERS}, {runfolder.PEER_RATES} and {runfolder.PEER_RATIOS} in the run folder.")
 
 
 def _has_columns(path: Path, documented: dict[str, str]) -> bool:
@@ -229,97 +250,3 @@ def _has_columns(path: Path, documented: dict[str, str]) -> bool:
             return f.readline(65536).rstrip("\r\n").split(",") == list(documented)
     except (OSError, UnicodeDecodeError):
         return False
-
-
-#: The text columns of estimates.csv and speedups.csv; every other column is a number.
-_TEXT_COLUMNS = {"kernel", "workload_id", "workload", "baseline", "verdict", "margin_source"}
-
-
-def _usable_table(path: Path, documented: dict[str, str], batches_mtime: float, pairs: set[tuple[str, str]],
-                  exact: bool) -> pd.DataFrame | None:
-    """``estimates.csv`` or ``speedups.csv`` if it can stand for the batches as they are; None to re-analyse.
-
-    Usable: a plain file newer than ``batches.csv``, in today's columns,
-    numbers where numbers belong, and rows of the batches' own kernels and
-    workloads (all of them when ``exact``). An edited, cut or older table is
-    made again from the batches rather than shown.
-    """
-    try:
-        if not (path.is_file() and not path.is_symlink() and path.stat().st_mtime >= batches_mtime
-                and _has_columns(path, documented)):
-            return None
-        frame = pd.read_csv(path)
-    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError):
-        return None
-    if any(not pd.api.types.is_numeric_dtype(frame[c]) for c in frame.columns if c not in _TEXT_COLUMNS):
-        return None
-    rows = set(zip(frame["kernel"].astype(str), frame["workload_id"].astype(str)))
-    return frame if (rows == pairs if exact else rows <= pairs) else None
-
-
-# ------------------------------------------------------------ workload labels
-
-
-def family_of(spec: dict[str, Any]) -> str:
-    """The family a workload belongs to: its spec without the swept axis.
-
-    Pair workloads that differ only in hit rate form one family (the hit-rate
-    curves); mesh workloads that differ only in triangle count form another
-    (the scaling curves).
-
-    Examples
-    --------
-    >>> family_of({"kind": "pairs", "n": 100, "hit_rate": 0.5, "order": "shuffled",
-    ...            "shape": "sphere", "dtype": "float64", "seed": 0, "scale": 1.0, "offset": 0.0})
-    'pairs n=100 shuffled sphere float64'
-    >>> family_of({"kind": "mesh", "mesh": "suzanne", "triangles": 200, "rays": "camera",
-    ...            "width": 64, "height": 64, "dtype": "float64", "seed": 0})
-    'mesh suzanne camera 64x64 float64'
-    """
-    if spec.get("kind") == "pairs":
-        extra = "" if (spec.get("scale", 1.0), spec.get("offset", 0.0)) == (1.0, 0.0) else \
-            f" scale={spec['scale']:g} offset={spec['offset']:g}"
-        mix = spec.get("miss_mix")
-        mix_text = ""
-        if isinstance(mix, dict) and not _even_edges(mix):
-            mix_text = " misses[" + ",".join(f"{k}={v:.2g}" for k, v in mix.items() if v) + "]"
-        return (f"pairs n={spec.get('n')} {spec.get('order', '')} {spec.get('shape', '')} "
-                f"{spec.get('dtype', '')}{mix_text}{extra}").replace("  ", " ")
-    mesh = Path(str(spec.get("mesh", "?"))).name
-    if spec.get("rays") == "hit_rate":
-        rays = f"{spec.get('n_rays')} rays per-ray hit rate {spec.get('hit_rate'):g}"
-    else:
-        rays = f"camera {spec.get('width')}x{spec.get('height')}"
-    return f"mesh {mesh} {rays} {spec.get('dtype', '')}"
-
-
-def _even_edges(mix: dict[str, float]) -> bool:
-    edges = [mix.get(f"outside_edge_{i}", 0.0) for i in (1, 2, 3)]
-    return all(abs(e - 1 / 3) < 1e-6 for e in edges)
-
-
-def short_label(spec: dict[str, Any]) -> str:
-    """What varies inside a family, in words (for table rows and plot labels).
-
-    Examples
-    --------
-    >>> short_label({"kind": "pairs", "hit_rate": 0.5})
-    'per-test hit rate 50%'
-    >>> short_label({"kind": "mesh", "mesh": "suzanne", "triangles": None})
-    'suzanne, base mesh'
-    """
-    if spec.get("kind") == "pairs":
-        return f"per-test hit rate {100 * spec['hit_rate']:.4g}%"
-    count = spec.get("triangles")
-    mesh = Path(str(spec.get("mesh", "?"))).name
-    return f"{mesh}, {count} triangles" if count else f"{mesh}, base mesh"
-
-
-def spec_text(spec: dict[str, Any]) -> str:
-    """The spec's own one-line summary (falls back to JSON for an unknown spec)."""
-    try:
-        from tribench.workloads.spec import spec_from_dict
-
-        return spec_from_dict(spec).summary()
-    except Exception:  # an old or foreign spec: still show something true
-        return json.dumps(spec, sort_keys=True)

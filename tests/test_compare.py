@@ -14,6 +14,7 @@ import pytest
 from test_report_run import run_fixture_dir
 
 from tribench import reports
+from tribench.harness import analysis
 from tribench.harness.stats import unpaired_ratio
 from tribench.reports.compare import compare_runs
 from tribench.reports.rundata import load_run
@@ -26,7 +27,7 @@ def two_runs(tmp_path_factory):
     run_a, cache = run_fixture_dir(tmp_path_factory)
     run_b = tmp_path_factory.mktemp("compare") / "run_b"
     run_b.mkdir()
-    for name in ("run.json", "processes.csv"):
+    for name in ("run.json", "processes.csv", "validate.csv"):
         shutil.copy(run_a / name, run_b / name)
     b = pd.read_csv(run_a / "batches.csv")
     faster = b["kernel"] == "moller_trumbore"
@@ -34,6 +35,7 @@ def two_runs(tmp_path_factory):
     b.to_csv(run_b / "batches.csv", index=False)
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("TRIBENCH_CACHE", str(cache))
+        analysis.write_all(run_b)  # `tribench stats`: compare reads the tables, as the report does
         yield run_a, run_b
 
 
@@ -74,7 +76,6 @@ def test_compare_refuses_runs_without_shared_workloads(two_runs, tmp_path):
     b = pd.read_csv(other / "batches.csv")
     b["workload_id"] = "pairs-000000000000"
     b.to_csv(other / "batches.csv", index=False)
-    (other / "estimates.csv").unlink(missing_ok=True)
     with pytest.raises((ValueError, reports.RunError)):
         compare_runs(load_run(two_runs[0]), load_run(other))
 

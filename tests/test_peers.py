@@ -13,7 +13,7 @@ import pytest
 from test_report_run import run_fixture_dir
 
 from tribench import reports
-from tribench.harness import peers, stats
+from tribench.harness import analysis, peers, stats
 from tribench.reports import columns
 from tribench.reports import html as report_html
 from tribench.reports.rundata import load_peers, load_run
@@ -149,6 +149,7 @@ def _section(page: str, sid: str) -> str:
 def test_report_shows_the_peers_with_their_ratios_and_a_headline_sentence(run_copy, measured):
     path, frame = measured
     shutil.copy(path, run_copy / peers.PEERS)
+    analysis.write_all(run_copy)  # `tribench stats`: the report reads the peer tables it writes
     page = reports.write_report(run_copy).read_text(encoding="utf-8")
     section = _section(page, "peers")
     kernel = frame["kernel"].iloc[0]
@@ -181,6 +182,7 @@ def test_a_corrupt_peers_file_does_not_stop_the_report(run_copy, content):
 def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
     _rows({"tribench": [100.0], "trimesh": [10.0]}).assign(rays_per_s=-1.0).to_csv(run_copy / peers.PEERS,
                                                                                    index=False)
+    analysis.write_all(run_copy)  # the analysis cannot summarise them, and says why
     section = _peers_section(run_copy)
     assert "cannot be used" in section and "positive" in section
 
@@ -205,10 +207,10 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message):
 
 
 def test_tribench_run_goes_on_without_peers_or_when_they_fail(monkeypatch, capsys, tmp_path):
-    from tribench.harness import cli
+    from tribench.harness import main_job
 
     monkeypatch.setattr(peers, "available", lambda: {"trimesh": None, "embree": None})
-    cli._run_peers(str(tmp_path), quick=True, progress=False)
+    main_job._run_peers(str(tmp_path), quick=True, progress=False)
     assert "none installed (pip install 'tribench[peers]')" in capsys.readouterr().err
 
     def broken(*args, **kwargs):
@@ -216,6 +218,6 @@ def test_tribench_run_goes_on_without_peers_or_when_they_fail(monkeypatch, capsy
 
     monkeypatch.setattr(peers, "available", lambda: {"trimesh": None, "embree": "fake"})
     monkeypatch.setattr(peers, "measure", broken)
-    cli._run_peers(str(tmp_path), quick=True, progress=False)
+    main_job._run_peers(str(tmp_path), quick=True, progress=False)
     assert "peers: not measured: peers worker of process 0 exited with code 1: boom" in capsys.readouterr().err
     assert not (tmp_path / peers.PEERS).exists()

@@ -205,13 +205,19 @@ def test_a_broken_promise_is_marked_red_in_the_robustness_table(rendered):
     assert part.count("!</td>") == 2
 
 
-def test_report_rebuilds_a_workload_missing_from_the_cache(tmp_path_factory, monkeypatch):
+def test_the_analysis_rebuilds_a_workload_missing_from_the_cache(tmp_path_factory, monkeypatch):
+    from tribench.harness import analysis
+
     run_dir, cache = run_fixture_dir(tmp_path_factory)
     copy = tmp_path_factory.mktemp("rebuild") / "run"
     shutil.copytree(run_dir, copy)
     monkeypatch.setenv("TRIBENCH_CACHE", str(copy.parent / "empty-cache"))
+    analysis.write_all(copy)  # `tribench stats` on another machine: the workloads are made from their specs
     text = reports.write_report(copy).read_text()
     assert "rebuilt from the spec recorded in run.json" in text
+    rebuilt, cached = pd.read_csv(copy / "workloads.csv"), pd.read_csv(run_dir / "workloads.csv")
+    assert set(cached["source"]) == {"cache"} and rebuilt["source"].str.startswith("not in the cache: rebuilt").all()
+    assert rebuilt.drop(columns="source").equals(cached.drop(columns="source"))  # the same achieved figures
 
 
 def test_headline_sentence_for_one_workload():

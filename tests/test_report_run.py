@@ -5,13 +5,14 @@ Other report test modules import :func:`run_fixture_dir` from here.
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
-from tribench.harness import peers, records, runner, validate
+from tribench.harness import analysis, peers, records, runfolder, runner, validate
 from tribench.harness.plan import Sweep
 from tribench.reports import columns
 from tribench.workloads.spec import MeshSpec, PairSpec
@@ -29,8 +30,9 @@ def run_fixture_dir(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Pat
     """``(run_dir, cache_dir)`` of the session's small run, made on first use.
 
     3 kernels x 4 workloads (pairs at two per-test hit rates, Suzanne at two
-    triangle counts), 3 processes x 3 rounds (+1 warm-up), and its robustness
-    table at validate's quick sizes (as ``tribench run`` writes it, smaller).
+    triangle counts), 3 processes x 3 rounds (+1 warm-up), its robustness
+    table at validate's quick sizes, then the analysis step (as ``tribench run``
+    does, smaller).
     The caller sets ``TRIBENCH_CACHE`` to ``cache_dir`` while it reads the run.
     """
     base = tmp_path_factory.getbasetemp() / "report-run"
@@ -40,7 +42,8 @@ def run_fixture_dir(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Pat
             mp.setenv("TRIBENCH_CACHE", str(cache))
             sweep = Sweep(KERNELS, WORKLOADS, processes=3, rounds=3, warmup=1, target_ms=0.2, seed=5)
             runner.start(sweep, run_dir, progress=False)
-        validate.run(KERNELS, ["float64"], quick=True).to_csv(run_dir / "validate.csv", index=False)
+            validate.run(KERNELS, ["float64"], quick=True).to_csv(run_dir / "validate.csv", index=False)
+            analysis.write_all(run_dir)
     return run_dir, cache
 
 
@@ -53,27 +56,41 @@ def small_run(tmp_path_factory):
 
 
 def test_the_run_folder_csvs_have_exactly_the_documented_columns(small_run):
-    from tribench import reports
-
-    reports.write_report(small_run)  # makes estimates.csv and speedups.csv if missing
     for name, documented in columns.FILES.items():
         if name in columns.OPTIONAL:  # peers.csv: its own test, when a peer is installed
             continue
         header = list(pd.read_csv(small_run / name, nrows=0).columns)
-        assert header == list(documented), f"{name}: columns changed; update reports/columns.py deliberately"
+        assert header == list(documented), f"{name}: columns changed; update harness/runfolder.py deliberately"
 
 
-def test_documented_columns_match_the_harness_records():
+def test_the_analysis_writes_every_derived_table_and_lists_it(small_run):
+    record = json.loads((small_run / runfolder.ANALYSIS).read_text())
+    assert set(record["tables"]) == set(runfolder.DERIVED) - {runfolder.VALIDATE} - columns.OPTIONAL
+    assert record["batches_sha256"] == analysis.file_digest(small_run / runfolder.BATCHES)
+    wids = list(pd.read_csv(small_run / runfolder.WORKLOADS)["workload_id"])
+    assert record["pictures"] == {w: f"pictures/{w}.png" for w in wids}
+    assert all((small_run / p).read_bytes().startswith(b"\x89PNG") for p in record["pictures"].values())
+    wl = pd.read_csv(small_run / runfolder.WORKLOADS).set_index("workload_id")
+    pairs = wl.loc[wl["kind"] == "pairs"]  # the achieved per-test hit rates the crossover plots need
+    assert sorted(pairs["test_hit_rate"]) == pytest.approx([0.2, 0.8], abs=0.01)
+    cross = pd.read_csv(small_run / runfolder.CROSSOVERS)
+    assert len(cross) == 3 and set(cross["family"]) == set(pairs["family"])  # every pair of the 3 kernels
+
+
+def test_one_module_owns_the_names_and_columns():
+    from tribench.harness import seed
+
     assert tuple(columns.BATCHES) == records.BATCH_COLUMNS
     assert tuple(columns.PROCESSES) == records.PROCESS_COLUMNS
     assert tuple(columns.CHECKS) == records.CHECK_COLUMNS
-    assert list(columns.VALIDATE) == list(validate.COLUMNS)
-    assert tuple(columns.PEERS) == peers.COLUMNS
+    assert validate.COLUMNS is runfolder.FILES[runfolder.VALIDATE]
+    assert tuple(columns.PEERS) == peers.COLUMNS and peers.PEERS == runfolder.PEERS
+    assert seed.COLUMNS is runfolder.SEED_FILES
+    assert columns.FILES is runfolder.FILES
+    assert records.BATCHES == runfolder.BATCHES and analysis.ESTIMATES == runfolder.ESTIMATES
 
 
 def test_estimate_and_speedup_columns_say_their_unit():
-    from tribench.harness import analysis
-
     # every renamed column is documented, and no bare statistic name is left in the files
     assert set(analysis.ESTIMATE_COLUMNS.values()) <= set(columns.ESTIMATES)
     assert set(analysis.SPEEDUP_COLUMNS.values()) <= set(columns.SPEEDUPS)
@@ -81,58 +98,87 @@ def test_estimate_and_speedup_columns_say_their_unit():
         assert not {"mean", "ci_low", "ci_high", "minimum", "sd", "n"} & set(cols)
 
 
-def test_report_redoes_tables_written_in_old_columns(tmp_path_factory, monkeypatch):
-    from tribench.reports.rundata import load_run
-
-    run_dir, cache = run_fixture_dir(tmp_path_factory)
-    monkeypatch.setenv("TRIBENCH_CACHE", str(cache))
-    copy = tmp_path_factory.mktemp("old-columns") / "run"
-    shutil.copytree(run_dir, copy)
-    load_run(copy)  # makes the tables if the copy has none yet
-    est = pd.read_csv(copy / "estimates.csv")
-    est.rename(columns={"ns_per_test": "mean"}).to_csv(copy / "estimates.csv", index=False)
-    assert load_run(copy).analysed_now  # as an older tribench wrote them: made again
-    assert list(pd.read_csv(copy / "estimates.csv", nrows=0).columns) == list(columns.ESTIMATES)
-
-
 def test_every_documented_column_has_a_description_and_snake_case_name():
-    for name, cols in columns.FILES.items():
+    for name, cols in {**columns.FILES, **runfolder.SEED_FILES}.items():
         for column, text in cols.items():
             assert column == column.lower() and " " not in column, (name, column)
             assert len(text) > 10, (name, column)
 
 
-def test_report_computes_a_missing_robustness_table_once(tmp_path_factory, monkeypatch):
+def _copy(tmp_path_factory, name: str) -> Path:
+    run_dir, _ = run_fixture_dir(tmp_path_factory)
+    copy = tmp_path_factory.mktemp(name) / "run"
+    shutil.copytree(run_dir, copy)
+    return copy
+
+
+def test_report_refuses_tables_in_old_columns_and_names_tribench_stats(tmp_path_factory):
+    from tribench.reports.rundata import RunError, load_run
+
+    copy = _copy(tmp_path_factory, "old-columns")
+    est = pd.read_csv(copy / "estimates.csv")
+    est.rename(columns={"ns_per_test": "mean"}).to_csv(copy / "estimates.csv", index=False)
+    with pytest.raises(RunError, match=r"estimates.csv is not in today's columns.*tribench stats"):
+        load_run(copy)
+    assert "mean" in pd.read_csv(copy / "estimates.csv", nrows=0).columns  # left as it was
+
+
+@pytest.mark.parametrize("change, message", [
+    ("no-analysis", "no analysis tables"),
+    ("batches-changed", "made from another batches.csv"),
+    ("table-missing", "drift.csv is missing"),
+    ("other-baseline", "compare against moller_seed, not curless"),
+])
+def test_report_refuses_missing_or_stale_tables(tmp_path_factory, change, message):
+    from tribench.reports.rundata import RunError, load_run
+
+    copy = _copy(tmp_path_factory, change)
+    baseline = None
+    if change == "no-analysis":
+        (copy / runfolder.ANALYSIS).unlink()
+    elif change == "batches-changed":  # a resumed run: one batch more than the tables saw
+        lines = (copy / "batches.csv").read_text().splitlines(keepends=True)
+        (copy / "batches.csv").write_text("".join(lines[:-1]))
+    elif change == "table-missing":
+        (copy / runfolder.DRIFT).unlink()
+    else:
+        baseline = "curless"
+    with pytest.raises(RunError, match=message) as info:
+        load_run(copy, baseline=baseline)
+    assert f"tribench stats {copy}" in str(info.value)
+
+
+def test_stats_makes_a_missing_robustness_table_and_the_report_reads_it(tmp_path_factory, monkeypatch):
     from tribench.reports.rundata import load_run, load_validation
 
     run_dir, cache = run_fixture_dir(tmp_path_factory)
     monkeypatch.setenv("TRIBENCH_CACHE", str(cache))
-    copy = tmp_path_factory.mktemp("no-validate") / "run"
-    shutil.copytree(run_dir, copy)
+    copy = _copy(tmp_path_factory, "no-validate")
     (copy / "validate.csv").unlink()
+    df, note = load_validation(load_run(copy))  # the report alone does not run the suite
+    assert df.empty and f"tribench stats {copy}" in note and not (copy / "validate.csv").exists()
+    analysis.write_all(copy, validate_quick=True)
     data = load_run(copy)
-    df, note = load_validation(data, quick=True)
-    assert note.startswith("Computed now") and "quick sizes" in note
+    df, note = load_validation(data)
+    assert note.startswith("Read from validate.csv") and "made by the analysis step" in note
     assert list(pd.read_csv(copy / "validate.csv", nrows=0).columns) == list(columns.VALIDATE)
     assert len(df) == len(KERNELS) * len(validate.TESTS) and set(df["dtype"]) == {"float64"}
     assert list(dict.fromkeys(df["kernel"])) == list(data.kernels)  # in the run's order
-    again, note = load_validation(data)
-    assert note.startswith("Read from validate.csv") and again.equals(df)
 
 
-def test_a_robustness_suite_that_cannot_run_does_not_stop_the_report(tmp_path_factory, monkeypatch):
+def test_a_robustness_suite_that_cannot_run_does_not_stop_the_analysis(tmp_path_factory, monkeypatch):
     from tribench.reports.rundata import load_run, load_validation
 
     run_dir, cache = run_fixture_dir(tmp_path_factory)
     monkeypatch.setenv("TRIBENCH_CACHE", str(cache))
-    copy = tmp_path_factory.mktemp("broken-validate") / "run"
-    shutil.copytree(run_dir, copy)
+    copy = _copy(tmp_path_factory, "broken-validate")
     (copy / "validate.csv").unlink()
 
     def fail(*args, **kwargs):
         raise RuntimeError("no extension")
 
     monkeypatch.setattr(validate, "run", fail)
+    analysis.write_all(copy)
     df, note = load_validation(load_run(copy))
     assert df.empty and "could not run" in note and "no extension" in note
     assert not (copy / "validate.csv").exists()

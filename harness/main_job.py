@@ -1,0 +1,134 @@
+"""``tribench run`` as a library function: the default sweep, its peers and every derived table.
+
+The command line (``tribench run``) calls :func:`run`, then writes the HTML
+report from the run folder and prints the tables; a notebook calls
+:func:`run` and gets the same run folder and its tables as pandas frames.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+import pandas as pd
+
+from . import analysis, runfolder, runner
+
+__all__ = ["MainResult", "run"]
+
+
+@dataclass(frozen=True)
+class MainResult:
+    """What :func:`run` made: the run folder and its main tables, as the files have them."""
+
+    #: The run folder (every file: :mod:`tribench.harness.runfolder`).
+    run_dir: Path
+    #: ``estimates.csv``: ns per test with 95% CIs, per kernel and workload.
+    estimates: pd.DataFrame
+    #: ``speedups.csv``: every kernel against the baseline, per workload, with verdicts.
+    speedups: pd.DataFrame
+    #: ``validate.csv``: the robustness suite on the run's kernels (empty if it could not run).
+    validate: pd.DataFrame
+    #: ``peers.csv`` rows, or None when no peer is installed or they were not measured.
+    peers: pd.DataFrame | None
+    #: What the runner did (batches run, seconds).
+    sweep: runner.RunResult
+    #: Every derived table by file name (:data:`tribench.harness.runfolder.DERIVED`).
+    tables: dict[str, pd.DataFrame]
+
+
+def _say(log: TextIO | None, text: str) -> None:
+    print(text, file=sys.stderr if log is None else log)
+
+
+def run(out: str | Path, quick: bool = False, progress: bool | None = None, peers: bool = True,
+        log: TextIO | None = None) -> MainResult:
+    """Run the main job into the new folder ``out`` and return its tables.
+
+    The default sweep (:func:`tribench.harness.plan.default_sweep`) in fresh
+    pinned worker processes, then tribench's fastest kernel against its peers
+    when one is installed (their failure never stops the job), then the
+    analysis step (:func:`tribench.harness.analysis.write_all`): estimates,
+    speedups, the robustness suite and every table the report reads. The HTML
+    report is the reports package's job: ``tribench.reports.write_report(out)``.
+
+    Parameters
+    ----------
+    out : path
+        A new or empty folder for the run.
+    quick : bool
+        The same job in seconds, with wide intervals.
+    progress : bool, optional
+        Show the runner's progress bar (default: when stderr is a terminal).
+    peers : bool
+        Time the peers (trimesh, Embree) when installed.
+    log : text stream, optional
+        Where one-line notes go (default: ``sys.stderr`` when called; ``io.StringIO()`` keeps them).
+
+    Returns
+    -------
+    MainResult
+        The run folder and its estimates, speedups, robustness and peer tables.
+
+    Raises
+    ------
+    UserError
+        ``out`` cannot be a new run folder, or cannot be written.
+    SweepInterrupted
+        Ctrl-C: every finished batch is kept; ``tribench sweep --resume`` finishes it.
+
+    Examples
+    --------
+    In a notebook (a minute or so with ``quick=True``)::
+
+        from tribench.harness.main_job import run
+        result = run("runs/notebook", quick=True)
+        result.speedups.query("verdict == 'faster'")[["workload", "kernel", "ratio"]]
+    """
+    from .plan import default_sweep
+
+    sweep = default_sweep(quick=quick)
+    _say(log, f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads, "
+              f"{sweep.processes} processes x {sweep.rounds} rounds: {sweep.n_batches} batches -> {out}")
+    done = runner.start(sweep, out, progress=progress)
+    _say(log, f"{done.batches_run} batches run in {done.elapsed_s:.1f} s; "
+              f"{done.batches_done}/{done.batches_total} in {done.run_dir}")
+    peer_rows = _run_peers(out, quick=quick, progress=progress, log=log) if peers else None
+    derived = analysis.write_all(out)
+    val_path = Path(out) / runfolder.VALIDATE
+    val = (pd.read_csv(val_path) if val_path.is_file()
+           else pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE])))
+    if val.empty:
+        _say(log, f"validate: {derived.record['validate']}")
+    else:
+        _say(log, f"validate: {int((val.verdict == 'fail').sum())} of {int((val.verdict != 'measured').sum())} "
+                  f"promises broken -> {val_path}")
+    return MainResult(Path(out), derived.estimates, derived.speedups, val, peer_rows, done, derived.tables)
+
+
+def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO | None = None) -> pd.DataFrame | None:
+    """The report's peers, when one is installed; their failure never stops the run."""
+    from . import peers
+    from .runner import SweepInterrupted
+
+    if not any(peers.available().values()):
+        _say(log, f"peers: none installed ({peers.INSTALL}); the report has no peers")
+        return None
+    design = peers.PeerDesign.quick() if quick else peers.PeerDesign()
+    _say(log, f"peers: tribench's fastest kernel, trimesh and Embree on Suzanne {design.width}x{design.height}, "
+              f"{design.processes} processes x {design.reps} repetitions...")
+    try:
+        frame = peers.measure(out, design, progress=progress)
+    except KeyboardInterrupt:
+        raise SweepInterrupted(f"interrupted during the peers: the sweep is kept in {out}; `tribench stats {out}` "
+                               f"then `tribench report {out}` write the report without peers") from None
+    except RuntimeError as exc:
+        _say(log, f"peers: not measured: {exc}")
+        return None
+    _, ratios = peers.summarise(frame)
+    for r in ratios.itertuples(index=False):
+        if r.contender == "tribench" and r.over in peers.PEER_NAMES:
+            _say(log, f"peers: tribench / {r.over}: {r.ratio:.3g}x [{r.ci_low:.3g}, {r.ci_high:.3g}] rays/s")
+    return frame

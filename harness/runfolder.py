@@ -1,0 +1,508 @@
+"""The run folder's contract: every file name, and every CSV's columns in file order with their meaning.
+
+The run folder is the only thing measuring hands to reporting. This module
+is where its names and columns are written, once; it imports nothing, so
+every stage reads it (:mod:`tribench.harness.records` writes and checks the
+measured files, :mod:`tribench.harness.analysis` writes the derived ones,
+:mod:`tribench.reports` reads both and renders :data:`FILES` as column docs).
+
+Every CSV is tidy: one row per observation, snake_case names, raw units
+(nanoseconds, counts, fractions; never scaled for printing). The order of
+each column dict is the order in the file; tests check the files a run
+writes against these lists exactly, so a change here is a change of the
+format and must be deliberate.
+
+Who writes what:
+
+* measured, while the sweep runs (:mod:`~tribench.harness.runner`):
+  :data:`RUN`, :data:`BATCHES`, :data:`PROCESSES`, :data:`CHECKS`;
+  ``peers.csv`` by ``tribench peers --out RUN_DIR`` (or ``tribench run``);
+* derived, by the analysis step at the end of ``tribench run`` and by
+  ``tribench stats RUN_DIR`` on demand (:func:`tribench.harness.analysis.write_all`):
+  every name in :data:`DERIVED`, the pictures in :data:`PICTURES_DIR`, and
+  :data:`ANALYSIS`, the record of what the tables were made from;
+* rendered, by ``tribench report`` (:data:`REPORT`, :data:`SWEEP_FILE`),
+  which reads everything above and changes none of it.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ANALYSIS", "BATCHES", "BATCH_LABELS", "CALIBRATION", "CHECKS", "CORRECTNESS", "CROSSOVERS", "DERIVED",
+    "DRIFT", "ESTIMATES", "FILES", "KERNELS", "LOCK", "OPTIONAL", "OUTLIERS", "PEERS", "PEER_RATES", "PEER_RATIOS",
+    "PER_PROCESS", "PICTURES_DIR", "PROCESSES", "REPORT", "RUN", "SEED", "SEED_KINDS", "SEED_PICTURES",
+    "SEED_FILES", "SEED_WORKLOADS", "SLOPES", "SPEEDUPS", "SWEEP_FILE", "VALIDATE", "VARIANCE", "WARMUP", "WORKLOADS",
+    "WORKLOAD_FIGURES", "describe",
+]
+
+# ------------------------------------------------------------------ names
+
+#: Written once at the start of a sweep: sweep, plan seeds, machine, build, margin.
+RUN = "run.json"
+#: Held by the one process writing the folder.
+LOCK = ".lock"
+BATCHES = "batches.csv"
+PROCESSES = "processes.csv"
+CHECKS = "checks.csv"
+PEERS = "peers.csv"
+#: An A/A calibration's record (``tribench calibrate --out RUN_DIR``).
+CALIBRATION = "calibration.json"
+
+ESTIMATES = "estimates.csv"
+SPEEDUPS = "speedups.csv"
+VALIDATE = "validate.csv"
+WORKLOADS = "workloads.csv"
+WORKLOAD_FIGURES = "workload_figures.csv"
+CORRECTNESS = "correctness.csv"
+PER_PROCESS = "per_process.csv"
+BATCH_LABELS = "batch_labels.csv"
+CROSSOVERS = "crossovers.csv"
+SLOPES = "slopes.csv"
+DRIFT = "drift.csv"
+VARIANCE = "variance.csv"
+OUTLIERS = "outliers.csv"
+WARMUP = "warmup.csv"
+KERNELS = "kernels.csv"
+PEER_RATES = "peer_rates.csv"
+PEER_RATIOS = "peer_ratios.csv"
+#: What the derived tables were made from (batches.csv's digest, baseline, margin, tables, pictures).
+ANALYSIS = "analysis.json"
+#: One PNG per workload (``<workload_id>.png``), drawn by the analysis step.
+PICTURES_DIR = "pictures"
+
+REPORT = "report.html"
+SWEEP_FILE = "sweep.toml"
+
+SEED = "seed.csv"
+SEED_KINDS = "seed_kinds.csv"
+SEED_WORKLOADS = "seed_workloads.csv"
+SEED_PICTURES = "seed_pictures.csv"
+
+# ---------------------------------------------------------------- measured
+
+_BATCHES: dict[str, str] = {
+    "run_id": "identifier of the run (as in run.json)",
+    "process": "index of the worker process, the replicate (0-based)",
+    "round": "round inside the process; negative for warm-up rounds",
+    "position": "position of the kernel inside its round (random order, 0-based)",
+    "kernel": "kernel name, as registered in the C extension",
+    "workload_id": "workload identifier (hash of its spec; see run.json sweep.workloads)",
+    "dtype": "precision of the workload's arrays: float32 or float64",
+    "mode": "pairs (ray i against triangle i) or closest (every ray against every triangle)",
+    "warmup": "True for a warm-up batch (kept, left out of every estimate)",
+    "loops": "passes over the whole workload in this batch",
+    "tests": "ray-triangle tests in this batch (loops x tests per pass)",
+    "elapsed_ns": "wall time of the batch in nanoseconds (CLOCK_MONOTONIC, inside C)",
+    "start_ns": "CLOCK_MONOTONIC time at the start of the batch, in nanoseconds",
+    "invol_ctx_switches": "involuntary context switches during the batch (getrusage)",
+    "hits": "hits counted in the batch (checksum; loops x hits per pass)",
+    "t_sum": "sum of t over the hits of the batch (checksum)",
+    "cpu": "CPU the worker was pinned to",
+    "isa": "instruction set the kernel variant ran with",
+    "attempt": "worker attempt of this process index (above 0 only after a resume)",
+    "steal_ticks": "steal time during the batch in clock ticks from /proc/stat (-1: unreadable)",
+}
+
+_PROCESSES: dict[str, str] = {
+    "run_id": "identifier of the run",
+    "process": "index of the worker process",
+    "attempt": "worker attempt of this process index",
+    "phase": "start or end of the process",
+    "pid": "operating-system process id",
+    "cpu": "CPU the worker was pinned to",
+    "seed": "seed of the process's random choices (kernel orders, layout)",
+    "env_pad_bytes": "bytes of environment padding (layout randomisation)",
+    "dummy_allocs": "small allocations made before the arrays (layout randomisation)",
+    "peak_gflops": "measured FMA peak, GFLOP/s",
+    "peak_flops": "flops of the probe",
+    "peak_elapsed_ns": "duration of the probe in nanoseconds",
+    "peak_isa": "instruction set of the probe",
+    "start_ns": "CLOCK_MONOTONIC time of the probe, in nanoseconds",
+}
+
+_CHECKS: dict[str, str] = {
+    "run_id": "identifier of the run",
+    "process": "index of the worker process",
+    "attempt": "worker attempt of this process index",
+    "workload_id": "workload identifier",
+    "kernel": "kernel name",
+    "rays": "rays of the workload (count)",
+    "ambiguous_rays": "rays within 1e-5 barycentric of an edge, which rounding may answer either way (count)",
+    "disagreements": "rays the kernel answered differently from the float64 reference (count)",
+    "ambiguous_disagreements": "of those, how many are ambiguous rays (count)",
+    "hits": "hits of the kernel in one pass (its checksum)",
+    "t_sum": "sum of t over the kernel's hits in one pass (its checksum)",
+}
+
+_PEERS: dict[str, str] = {
+    "process": "index of the worker process, the replicate (0-based)",
+    "rep": "repetition inside the process (0-based)",
+    "position": "position of the contender inside its repetition (random order, 0-based)",
+    "contender": "tribench (kernel loop timed in C), tribench_call (ext.intersect), trimesh or embree",
+    "implementation": "what ran, with its version (and the kernel's form and ISA for tribench)",
+    "kernel": "the tribench kernel of the run (the fastest closest-mode kernel on this workload)",
+    "workload_id": "workload identifier (the camera workload; see tribench workloads show)",
+    "workload": "the workload's spec in one line",
+    "rays": "rays in the call (count; trimesh runs a fixed random subset)",
+    "elapsed_ns": "time the rate is computed from, ns: the C-timed loop for tribench, else wall_ns",
+    "wall_ns": "wall time of the call from Python, in nanoseconds",
+    "cpu_ns": "CPU time of the process during the call, in nanoseconds",
+    "rays_per_s": "rays / elapsed_ns, per second",
+    "setup_ns": "one-off set-up before the timing, ns (Embree's BVH, trimesh's rtree, tribench's job)",
+    "differ": "rays whose closest triangle differs from the float64 reference's (count)",
+    "differ_ambiguous": "of those, rays within 1e-5 barycentric of an edge (count)",
+    "cpu": "CPU the process was pinned to",
+}
+
+# ----------------------------------------------------------------- derived
+
+_ESTIMATES: dict[str, str] = {
+    "kernel": "kernel name",
+    "workload_id": "workload identifier",
+    "ns_per_test": "ns per ray-triangle test: mean over processes of each process's median",
+    "ns_per_test_ci_low": "lower end of the Student-t confidence interval of ns_per_test",
+    "ns_per_test_ci_high": "upper end of the Student-t confidence interval of ns_per_test",
+    "ns_per_test_bootstrap_low": "lower end of the BCa bootstrap interval over processes (cross-check), ns",
+    "ns_per_test_bootstrap_high": "upper end of the BCa bootstrap interval over processes, ns",
+    "ns_per_test_min": "smallest per-process median, ns (robust secondary figure)",
+    "ns_per_test_sd": "standard deviation of the per-process medians, ns",
+    "n_processes": "number of processes (replicates) behind the estimate",
+    "confidence": "two-sided confidence level of both intervals (0.95)",
+    "workload": "the workload's spec in one line",
+    "peak_gflops": "mean measured FMA peak of the processes, GFLOP/s",
+    "ops_per_test": "the kernel's arithmetic operations per test (documented in its header)",
+    "bound_ns_per_test": "those operations at the measured FMA peak, ns (the arithmetic bound)",
+    "peak_fraction": "bound / measured time (1 = at the bound), each process against its own peak",
+    "peak_fraction_ci_low": "lower end of its 95% confidence interval",
+    "peak_fraction_ci_high": "upper end of its 95% confidence interval",
+}
+
+_SPEEDUPS: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "kernel": "kernel compared with the baseline",
+    "baseline": "baseline kernel",
+    "ratio": "speedup, time_baseline / time_kernel (above 1: the kernel is faster); unitless",
+    "ratio_ci_low": "lower end of the simultaneous (Bonferroni) confidence interval of the ratio",
+    "ratio_ci_high": "upper end of that interval",
+    "p_value": "two-sided paired t-test of the per-process log ratios against 0",
+    "p_holm": "Holm-adjusted p-value over the kernels compared on this workload",
+    "n_processes": "number of paired processes",
+    "confidence": "per-comparison confidence level actually used (Bonferroni-adjusted)",
+    "margin": "relative equivalence margin of the verdict (0.01 = 1 %)",
+    "verdict": "faster, slower, equivalent or inconclusive (stats.verdict)",
+    "workload": "the workload's spec in one line",
+    "margin_source": "where the margin came from (A/A calibration or default)",
+}
+
+_VALIDATE: dict[str, str] = {
+    "kernel": "kernel name, as registered in the C extension",
+    "dtype": "precision of every array: float32 or float64",
+    "isa": "instruction set the kernel ran with (scalar kernels: scalar)",
+    "test": "robustness test (see tribench.harness.validate)",
+    "rays": "rays asked (count, after dropping rays rounding made ambiguous)",
+    "failures": "cracks, double hits, misses, wrong answers or hits, as the test defines (count)",
+    "rate": "failures / rays (fraction)",
+    "expected": "what the papers promise for this kernel, or 'measured'",
+    "verdict": "pass or fail against the promise; 'measured' where there is none",
+    "detail": "a short breakdown of the failures",
+}
+
+_WORKLOADS: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "kind": "pairs or mesh",
+    "family": "the spec without its swept axis (hit rate of pairs, triangle count of meshes)",
+    "label": "what varies inside the family, in words",
+    "summary": "the spec's one-line summary",
+    "dtype": "precision of the workload's arrays",
+    "triangles": "triangles of the workload (count)",
+    "rays": "rays of the workload (count)",
+    "tests_per_pass": "ray-triangle tests of one pass (count)",
+    "test_hit_rate": "achieved per-test hit rate: tests that hit / tests (fraction; empty where undefined)",
+    "ray_hit_rate": "achieved per-ray hit rate: rays that hit any triangle / rays (fraction)",
+    "source": "where the analysis got the workload: the cache, rebuilt from its spec, or why it could not",
+}
+
+_WORKLOAD_FIGURES: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "figure": "name of the figure (nested figures joined by dots), as Workload.compare gives it",
+    "target": "the spec's target for it, as JSON text (null: not a target)",
+    "achieved": "the figure the generated workload reached, as JSON text",
+}
+
+_CORRECTNESS: dict[str, str] = {
+    "kernel": "kernel name",
+    "workload_id": "workload identifier",
+    "batches": "batches of the kernel on the workload (count, warm-up included)",
+    "ref_hits": "hits of one pass by the float64 reference (empty: workload not available to the analysis)",
+    "hits_per_pass_min": "fewest hits per pass of a batch (hits / loops)",
+    "hits_per_pass_max": "most hits per pass of a batch",
+    "hit_difference": "largest |hits per pass - ref_hits| over the batches (count)",
+    "ambiguous_rays": "rays within 1e-5 barycentric of an edge, which rounding may answer either way (count)",
+    "t_sum_rel_diff": "largest relative difference of a batch's sum of t per pass from the reference's",
+    "agrees": "True when hit_difference <= ambiguous_rays and every batch has the same hits per pass",
+}
+
+_PER_PROCESS: dict[str, str] = {
+    "kernel": "kernel name",
+    "workload_id": "workload identifier",
+    "process": "index of the worker process",
+    "ns_per_test": "median ns per test of the process's timed batches (stats.per_process)",
+    "n_rounds": "timed batches behind that median (count)",
+}
+
+_BATCH_LABELS: dict[str, str] = {
+    "process": "index of the worker process (with the next five columns, the key of a row of batches.csv)",
+    "attempt": "worker attempt of this process index",
+    "workload_id": "workload identifier",
+    "kernel": "kernel name",
+    "round": "round inside the process; negative for warm-up rounds",
+    "position": "position of the kernel inside its round",
+    "warmup": "True for a warm-up batch",
+    "ns_per_test": "elapsed_ns / tests of the batch, ns",
+    "outlier": "True beyond the Tukey fences (1.5 IQR) of its kernel, workload and process (kept, never dropped)",
+    "far_out": "True beyond 3 IQR",
+    "rel_to_median": "ns_per_test / its process's timed median for that kernel and workload",
+    "t_in_process_s": "seconds since the process's first batch",
+}
+
+_CROSSOVERS: dict[str, str] = {
+    "family": "pair workload family (see workloads.csv)",
+    "kernel_a": "first kernel",
+    "kernel_b": "second kernel",
+    "hit_rate": "per-test hit rate where log(time_b / time_a) crosses 0 (empty: no crossing in the range)",
+    "ci_low": "lower end of its 95% confidence interval (fraction)",
+    "ci_high": "upper end of that interval (fraction)",
+    "slope": "change of log(time_b / time_a) per unit of per-test hit rate",
+    "n": "processes paired across the family's workloads (count)",
+    "confidence": "confidence level of the interval",
+}
+
+_SLOPES: dict[str, str] = {
+    "family": "mesh workload family (see workloads.csv)",
+    "kernel": "kernel name",
+    "slope": "log-log slope of ns per test against triangle count (0: cost per test independent of size)",
+    "ci_low": "lower end of its 95% confidence interval",
+    "ci_high": "upper end of that interval",
+    "n": "processes paired across the triangle counts (count)",
+    "sizes": "triangle counts in the family (count)",
+}
+
+_DRIFT: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "label": "the workload in words (see workloads.csv)",
+    "kernel": "kernel compared with the baseline",
+    "baseline_slope": "the baseline's log ns/test per second in the process (stats.drift)",
+    "ratio_slope": "the log speedup's change per second in the process",
+    "ratio_p": "p-value of ratio_slope against 0",
+    "ratio_change": "the log speedup's move across one process",
+    "confound_bias": "what unequal timing of the two kernels on a drifting machine adds to the log speedup",
+    "confound_p": "p-value of confound_bias against 0",
+    "flagged": "True when the drift may bias the ratio",
+    "reason": "why it is flagged, or why the comparison could not be tested",
+    "n": "processes behind the test (count)",
+}
+
+_VARIANCE: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "label": "the workload in words",
+    "kernel": "kernel name",
+    "mean_ns": "mean ns per test of the balanced processes x rounds matrix",
+    "round_sd_pct": "between-round standard deviation inside a process, % of the mean (Kalibera-Jones)",
+    "process_sd_pct": "between-process standard deviation, % of the mean",
+    "n_processes": "processes of the matrix (count)",
+    "n_rounds": "rounds of the matrix (count)",
+}
+
+_OUTLIERS: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "kernel": "kernel name",
+    "batches": "timed batches (count)",
+    "outliers": "of those, Tukey outliers (1.5 IQR, per process; count)",
+    "far_out": "of those, beyond 3 IQR (count)",
+    "worst_rel": "largest ns/test over its process median",
+    "label": "the workload in words",
+}
+
+_WARMUP: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "kernel": "kernel name",
+    "warmup_rel": "median of warm-up ns/test over its process's timed median (empty: no warm-up batch)",
+    "warmup_batches": "warm-up batches (count)",
+    "label": "the workload in words",
+}
+
+_KERNELS: dict[str, str] = {
+    "kernel": "kernel name",
+    "form": "scalar, or N lanes for a wide kernel (? for a kernel this build lacks)",
+    "isa": "instruction sets the kernel's batches ran with",
+    "family": "workload family",
+    "dtype": "precision of the family",
+    "bytes_per_triangle": "bytes of prepared data per triangle at that precision (empty: unknown to this build)",
+    "workloads": "workloads of the family the kernel ran on (count)",
+    "ops_per_test": "the kernel's arithmetic operations per test",
+    "peak_fraction_median": "median over the family's workloads of the fraction of the arithmetic bound",
+    "ns_per_test_median": "median over the family's workloads of ns_per_test (estimates.csv)",
+    "ns_per_test_min": "lowest of them, ns",
+    "ns_per_test_max": "highest of them, ns",
+    "ratio_median": "median of the speedups over the baseline on the family's workloads (empty: the baseline)",
+    "ratio_min": "lowest of them",
+    "ratio_max": "highest of them",
+    "verdicts": "the family's workloads counted by verdict",
+}
+
+_PEER_RATES: dict[str, str] = {
+    "contender": "tribench, tribench_call, trimesh or embree",
+    "implementation": "what ran, with its version",
+    "rays": "rays per call (count)",
+    "rays_per_s": "geometric mean over processes of rays per second (each process's own geometric mean)",
+    "ci_low": "lower end of its 95% t interval (log scale)",
+    "ci_high": "upper end of that interval",
+    "n_processes": "processes behind it (count)",
+    "cpu_share": "median of process CPU time / wall time (1 on one core)",
+    "setup_ms": "median one-off set-up, ms",
+    "differ": "rays whose closest triangle differs from the float64 reference's (count)",
+    "differ_ambiguous": "of those, rays within 1e-5 barycentric of an edge (count)",
+}
+
+_PEER_RATIOS: dict[str, str] = {
+    "contender": "the contender whose rays per second are divided",
+    "over": "the contender it is divided by",
+    "ratio": "rays/s of contender over rays/s of over, paired by process (>1: contender is faster)",
+    "ci_low": "lower end of its 95% confidence interval",
+    "ci_high": "upper end of that interval",
+    "n_processes": "paired processes (count)",
+}
+
+# -------------------------------------------------------------------- seed
+
+_MISS_STAGES = ("parallel", "behind_origin", "outside_edge_1", "outside_edge_2", "outside_edge_3")
+
+_SEED: dict[str, str] = {
+    "scene": "scene name (file stem for a scene file)",
+    "kernel": "kernel name",
+    "triangles": "triangles of the scene",
+    "render_tests": "ray-triangle tests of one render (all ray kinds; shadow rays stop at the first occluder)",
+    "render_s": "replayed time of one render's triangle tests, seconds: mean over processes",
+    "render_s_ci_low": "lower end of its 95% Student-t interval over processes, seconds",
+    "render_s_ci_high": "upper end of that interval, seconds",
+    "render_s_min": "smallest per-process value, seconds",
+    "replay_ns_per_test": "render_s / render_tests, nanoseconds",
+    "ratio_to_moller_seed": "render time of this kernel / that of moller_seed "
+                            "(geometric mean of per-process ratios)",
+    "ratio_to_moller_seed_ci_low": "lower end of its 95% paired interval",
+    "ratio_to_moller_seed_ci_high": "upper end of that interval",
+    "n_processes": "processes (replicates) behind the estimate",
+    "paper_real_s": "the seed's Unix time 'real' for this kernel and scene, seconds (empty: not in the paper)",
+    "paper_user_s": "the seed's Unix time 'user', seconds",
+    "paper_ratio_real": "paper_real_s / moller_seed's paper_real_s",
+    "paper_ratio_user": "paper_user_s / moller_seed's paper_user_s",
+    "paper_user_ns_per_test": "paper_user_s / render_tests, nanoseconds: an upper bound on the seed's cost per "
+                              "test (its user time also covers spheres, the floor and shading)",
+}
+
+_SEED_KINDS: dict[str, str] = {
+    "scene": "scene name (file stem for a scene file)",
+    "rays": "ray kind: primary, reflected or shadow",
+    "kernel": "kernel name",
+    "workload_id": "the sample's workload id (tribench workloads show ID)",
+    "mode": "closest (primary, reflected) or any (shadow)",
+    "ns_per_test": "nanoseconds per ray-triangle test the kernel ran: mean over processes of the "
+                   "per-process median",
+    "ns_per_test_ci_low": "lower end of its 95% Student-t interval",
+    "ns_per_test_ci_high": "upper end of that interval",
+    "tests_per_pass": "tests the kernel runs in one pass over the sample (any mode: up to each ray's first "
+                      "hit, in blocks of 8 for wide kernels)",
+    "sample_tests": "tests a scalar kernel runs in one pass over the sample",
+    "stream_tests": "tests a scalar kernel runs on all of the render's rays of this kind",
+    "render_s": "this kind's share of render_s, seconds (mean over processes)",
+    "render_share": "render_s / the render's render_s",
+    "n_processes": "processes behind the estimate",
+}
+
+_SEED_WORKLOADS: dict[str, str] = {
+    "scene": "scene name (file stem for a scene file)",
+    "rays": "ray kind, or 'render' for the three together (weighted by the render's tests)",
+    "workload_id": "workload id (empty for 'render')",
+    "mode": "closest or any",
+    "triangles": "triangles of the scene",
+    "stream_rays": "rays of this kind in the render that test the triangles",
+    "stream_tests": "their ray-triangle tests",
+    "sample_rays": "rays in the sample",
+    "sample_tests": "tests of one pass over the sample",
+    "test_hit_rate": "per-test hit rate: hits / tests run, by the float64 reference (fraction)",
+    "ray_hit_rate": "per-ray hit rate: rays that hit a triangle / rays (fraction)",
+    "ambiguous_rays": "sampled rays a finite-precision kernel may answer either way",
+    **{f"miss_{s}": f"fraction of the misses rejected at stage {s} of Curless's test" for s in _MISS_STAGES},
+}
+
+_SEED_PICTURES: dict[str, str] = {
+    "scene": "scene name (file stem for a scene file)",
+    "width": "image width, pixels",
+    "height": "image height, pixels",
+    "dtype": "precision of the triangle tests",
+    "differing_pixels": "pixels whose 8-bit colours differ between curless_seed and moller_seed",
+    "near_edge_pixels": "of those, pixels with a ray passing within edge_tolerance of a triangle's boundary",
+    "last_bit_pixels": "of the others, pixels whose colours differ by less than 1e-5 (a truncation flipped)",
+    "other_pixels": "differing pixels explained by neither",
+    "edge_tolerance": "barycentric tolerance of near_edge_pixels",
+    "curless_seed_png": "the curless_seed render",
+    "moller_seed_png": "the moller_seed render",
+    "difference_png": "the differing pixels in red over the moller_seed render",
+}
+
+#: Every CSV of a run folder: file name -> {column: meaning}, columns in file order.
+FILES: dict[str, dict[str, str]] = {
+    BATCHES: _BATCHES,
+    PROCESSES: _PROCESSES,
+    CHECKS: _CHECKS,
+    ESTIMATES: _ESTIMATES,
+    SPEEDUPS: _SPEEDUPS,
+    VALIDATE: _VALIDATE,
+    PEERS: _PEERS,
+    WORKLOADS: _WORKLOADS,
+    WORKLOAD_FIGURES: _WORKLOAD_FIGURES,
+    CORRECTNESS: _CORRECTNESS,
+    PER_PROCESS: _PER_PROCESS,
+    BATCH_LABELS: _BATCH_LABELS,
+    CROSSOVERS: _CROSSOVERS,
+    SLOPES: _SLOPES,
+    DRIFT: _DRIFT,
+    VARIANCE: _VARIANCE,
+    OUTLIERS: _OUTLIERS,
+    WARMUP: _WARMUP,
+    KERNELS: _KERNELS,
+    PEER_RATES: _PEER_RATES,
+    PEER_RATIOS: _PEER_RATIOS,
+}
+
+#: The CSVs of a seed run (``tribench seed``), beside the runner's and the analysis's.
+SEED_FILES: dict[str, dict[str, str]] = {
+    SEED: _SEED,
+    SEED_KINDS: _SEED_KINDS,
+    SEED_WORKLOADS: _SEED_WORKLOADS,
+    SEED_PICTURES: _SEED_PICTURES,
+}
+
+#: The tables the analysis step derives from the measured files, in the order it writes them
+#: (``peer_rates.csv`` and ``peer_ratios.csv`` only when the folder has ``peers.csv``).
+DERIVED: tuple[str, ...] = (ESTIMATES, SPEEDUPS, VALIDATE, WORKLOADS, WORKLOAD_FIGURES, CORRECTNESS, PER_PROCESS,
+                            BATCH_LABELS, CROSSOVERS, SLOPES, DRIFT, VARIANCE, OUTLIERS, WARMUP, KERNELS,
+                            PEER_RATES, PEER_RATIOS)
+
+#: Files a run folder has only sometimes (the peers need an installed peer).
+OPTIONAL = frozenset({PEERS, PEER_RATES, PEER_RATIOS})
+
+
+def describe(name: str) -> str:
+    """The column documentation of one CSV as plain text.
+
+    Examples
+    --------
+    >>> print(describe("speedups.csv").splitlines()[0])
+    speedups.csv
+    >>> "elapsed_ns" in describe("batches.csv")
+    True
+    """
+    columns = FILES[name] if name in FILES else SEED_FILES[name]
+    width = max(len(c) for c in columns)
+    return "\n".join([name] + [f"  {c:<{width}}  {d}" for c, d in columns.items()])

@@ -1,0 +1,398 @@
+"""The derived tables of a run beyond estimates and speedups: pure functions of frames.
+
+Every interval, slope, crossover, drift test, outlier label and variance
+component is a call into :mod:`tribench.harness.stats`; this module selects,
+pairs and reshapes. :func:`tribench.harness.analysis.write_all` calls these
+at the end of a sweep (and ``tribench stats``) and writes each result into
+the run folder (columns: :data:`tribench.harness.runfolder.FILES`), so the
+report reads them and computes nothing.
+
+Arguments are plain: the batches as :func:`~tribench.harness.records.read_batches`
+gives them, ``kernels`` and ``workload_ids`` in sweep order (those with
+batches), ``specs`` mapping a workload id to its spec dict (``run.json``).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from . import runfolder, stats
+
+__all__ = [
+    "batch_labels",
+    "correctness_table",
+    "crossovers",
+    "drift_table",
+    "estimates_with_workloads",
+    "family_of",
+    "kernel_table",
+    "outlier_table",
+    "scaling_slopes",
+    "short_label",
+    "spec_text",
+    "variance_table",
+    "warmup_table",
+    "workload_figures",
+    "workload_table",
+]
+
+
+def _frame(rows: list[dict[str, Any]], name: str) -> pd.DataFrame:
+    """Rows as a frame with exactly ``name``'s documented columns, in file order."""
+    return pd.DataFrame(rows, columns=list(runfolder.FILES[name]))
+
+
+# ------------------------------------------------------------ workload labels
+
+
+def family_of(spec: Mapping[str, Any]) -> str:
+    """The family a workload belongs to: its spec without the swept axis.
+
+    Pair workloads that differ only in hit rate form one family (the hit-rate
+    curves); mesh workloads that differ only in triangle count form another
+    (the scaling curves).
+
+    Examples
+    --------
+    >>> family_of({"kind": "pairs", "n": 100, "hit_rate": 0.5, "order": "shuffled",
+    ...            "shape": "sphere", "dtype": "float64", "seed": 0, "scale": 1.0, "offset": 0.0})
+    'pairs n=100 shuffled sphere float64'
+    >>> family_of({"kind": "mesh", "mesh": "suzanne", "triangles": 200, "rays": "camera",
+    ...            "width": 64, "height": 64, "dtype": "float64", "seed": 0})
+    'mesh suzanne camera 64x64 float64'
+    """
+    if spec.get("kind") == "pairs":
+        extra = "" if (spec.get("scale", 1.0), spec.get("offset", 0.0)) == (1.0, 0.0) else \
+            f" scale={spec['scale']:g} offset={spec['offset']:g}"
+        mix = spec.get("miss_mix")
+        mix_text = ""
+        if isinstance(mix, dict) and not _even_edges(mix):
+            mix_text = " misses[" + ",".join(f"{k}={v:.2g}" for k, v in mix.items() if v) + "]"
+        return (f"pairs n={spec.get('n')} {spec.get('order', '')} {spec.get('shape', '')} "
+                f"{spec.get('dtype', '')}{mix_text}{extra}").replace("  ", " ")
+    mesh = Path(str(spec.get("mesh", "?"))).name
+    if spec.get("rays") == "hit_rate":
+        rays = f"{spec.get('n_rays')} rays per-ray hit rate {spec.get('hit_rate'):g}"
+    else:
+        rays = f"camera {spec.get('width')}x{spec.get('height')}"
+    return f"mesh {mesh} {rays} {spec.get('dtype', '')}"
+
+
+def _even_edges(mix: Mapping[str, float]) -> bool:
+    edges = [mix.get(f"outside_edge_{i}", 0.0) for i in (1, 2, 3)]
+    return all(abs(e - 1 / 3) < 1e-6 for e in edges)
+
+
+def short_label(spec: Mapping[str, Any]) -> str:
+    """What varies inside a family, in words (for table rows and plot labels).
+
+    Examples
+    --------
+    >>> short_label({"kind": "pairs", "hit_rate": 0.5})
+    'per-test hit rate 50%'
+    >>> short_label({"kind": "mesh", "mesh": "suzanne", "triangles": None})
+    'suzanne, base mesh'
+    """
+    if spec.get("kind") == "pairs":
+        return f"per-test hit rate {100 * spec['hit_rate']:.4g}%"
+    count = spec.get("triangles")
+    mesh = Path(str(spec.get("mesh", "?"))).name
+    return f"{mesh}, {count} triangles" if count else f"{mesh}, base mesh"
+
+
+def spec_text(spec: Mapping[str, Any]) -> str:
+    """The spec's own one-line summary (falls back to JSON for an unknown spec)."""
+    try:
+        from tribench.workloads.spec import spec_from_dict
+
+        return spec_from_dict(dict(spec)).summary()
+    except Exception:  # an old or foreign spec: still show something true
+        return json.dumps(spec, sort_keys=True)
+
+
+# ------------------------------------------------------------ workloads
+
+
+def workload_table(specs: Mapping[str, Mapping[str, Any]], workload_ids: Sequence[str],
+                   workloads: Mapping[str, Any], sources: Mapping[str, str]) -> pd.DataFrame:
+    """One row per workload: family, label and the achieved figures (``workloads.csv``).
+
+    ``workloads`` maps an id to its :class:`~tribench.workloads.Workload` (or
+    None when it could not be had); without it the spec's targets stand in.
+    Hit rates are achieved values (per-test: fraction of ray-triangle tests
+    that hit; per-ray: fraction of rays that hit anything); nan where not defined.
+    """
+    rows = []
+    for wid in workload_ids:
+        spec = specs[wid]
+        w = workloads.get(wid)
+        a = dict(w.achieved) if w is not None else {}
+        if spec["kind"] == "pairs":
+            n = int(a.get("pairs", spec["n"]))
+            hits = a.get("hits", round(spec["hit_rate"] * spec["n"]))
+            triangles, rays, tests = n, n, n
+            test_rate, ray_rate = hits / n, hits / n
+        else:
+            triangles = a.get("triangles", spec.get("triangles") or math.nan)
+            rays = a.get("rays", (spec.get("width") or 0) * (spec.get("height") or 0) or spec.get("n_rays"))
+            tests = a.get("tests", triangles * rays if not pd.isna(triangles) else math.nan)
+            test_rate = a.get("test_hit_rate", math.nan)
+            ray_rate = a.get("ray_hit_rate", spec.get("hit_rate") if spec.get("rays") == "hit_rate" else math.nan)
+        rows.append({
+            "workload_id": wid, "kind": spec["kind"], "family": family_of(spec),
+            "label": short_label(spec), "summary": spec_text(spec), "dtype": spec.get("dtype", "float64"),
+            "triangles": triangles, "rays": rays, "tests_per_pass": tests,
+            "test_hit_rate": test_rate, "ray_hit_rate": ray_rate, "source": sources.get(wid, "cache"),
+        })
+    return _frame(rows, runfolder.WORKLOADS)
+
+
+def workload_figures(workload_ids: Sequence[str], workloads: Mapping[str, Any]) -> pd.DataFrame:
+    """Every workload's targets against its achieved figures (``workload_figures.csv``), values as JSON text."""
+    rows = []
+    for wid in workload_ids:
+        w = workloads.get(wid)
+        if w is None:
+            continue
+        for figure, target, achieved in w.compare():
+            if not figure.startswith("generated_with"):
+                rows.append({"workload_id": wid, "figure": figure, "target": json.dumps(target, default=str),
+                             "achieved": json.dumps(achieved, default=str)})
+    return _frame(rows, runfolder.WORKLOAD_FIGURES)
+
+
+def correctness_table(batches: pd.DataFrame, kernels: Sequence[str], workloads: Mapping[str, Any]) -> pd.DataFrame:
+    """Each kernel's checksums against the float64 reference, per workload (``correctness.csv``).
+
+    ``hits_per_pass`` is a batch's hit count over its loops; the difference
+    to the reference may only come from ambiguous rays (rays within 1e-5
+    barycentric of an edge, whose answer legitimately depends on rounding).
+    """
+    rows = []
+    for (wid, kernel), g in batches.groupby(["workload_id", "kernel"], sort=False):
+        w = workloads.get(wid)
+        hits = g["hits"] / g["loops"]
+        row = {"kernel": kernel, "workload_id": wid, "batches": len(g),
+               "hits_per_pass_min": float(hits.min()), "hits_per_pass_max": float(hits.max())}
+        if w is not None:
+            ref_hits, ref_t = w.expected_checksum()
+            ambiguous = int(w.ambiguous().sum())
+            diff = float(np.max(np.abs(hits - ref_hits)))
+            rel = float(np.max(np.abs(g["t_sum"] / g["loops"] - ref_t))) / abs(ref_t) if ref_t else 0.0
+            row.update(ref_hits=ref_hits, hit_difference=diff, ambiguous_rays=ambiguous, t_sum_rel_diff=rel,
+                       agrees=bool(diff <= ambiguous and hits.nunique() == 1))
+        rows.append(row)
+    order = {k: i for i, k in enumerate(kernels)}
+    out = _frame(rows, runfolder.CORRECTNESS)
+    return out.sort_values("kernel", key=lambda s: s.map(order), kind="stable").reset_index(drop=True)
+
+
+# ------------------------------------------------------------ batches
+
+
+def batch_labels(batches: pd.DataFrame) -> pd.DataFrame:
+    """Every batch's key with ``ns_per_test``, Tukey labels (``stats.label_outliers``),
+    ``rel_to_median`` (ns/test over its process's timed median for that kernel and
+    workload) and ``t_in_process_s`` (seconds since the process's first batch)."""
+    b = stats.label_outliers(batches)
+    timed = b.loc[~b["warmup"]]
+    med = timed.groupby(["kernel", "workload_id", "process"])["ns_per_test"].median().rename("median_ns")
+    b = b.join(med, on=["kernel", "workload_id", "process"])
+    start = b.groupby(["process", "attempt"])["start_ns"].transform("min")
+    b = b.assign(rel_to_median=b["ns_per_test"] / b["median_ns"], t_in_process_s=(b["start_ns"] - start) * 1e-9)
+    return b[list(runfolder.FILES[runfolder.BATCH_LABELS])].reset_index(drop=True)
+
+
+def outlier_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
+    """Counts of Tukey-labelled batches (kept, never dropped) per kernel and workload (``outliers.csv``)."""
+    timed = labels.loc[~labels["warmup"]]
+    g = timed.groupby(["workload_id", "kernel"], sort=False)
+    out = pd.DataFrame({"batches": g.size(), "outliers": g["outlier"].sum(), "far_out": g["far_out"].sum(),
+                        "worst_rel": g["rel_to_median"].max()}).reset_index()
+    out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"])))
+    return out[list(runfolder.FILES[runfolder.OUTLIERS])]
+
+
+def warmup_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
+    """Warm-up against timed batches: median of ``ns/test / process median`` of each (``warmup.csv``)."""
+    g = labels.groupby(["workload_id", "kernel"])
+    warm = labels.loc[labels["warmup"]].groupby(["workload_id", "kernel"])
+    out = pd.DataFrame({
+        "warmup_rel": warm["rel_to_median"].median().reindex(g.size().index),
+        "warmup_batches": warm.size().reindex(g.size().index),
+    }).reset_index()
+    out["warmup_batches"] = out["warmup_batches"].fillna(0).astype(int)
+    out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"])))
+    return out[list(runfolder.FILES[runfolder.WARMUP])]
+
+
+# ------------------------------------------------------------ statistics over workloads
+
+
+def _wide(pp: pd.DataFrame, kernel: str, wids: list[str]) -> pd.DataFrame:
+    sub = pp.loc[(pp["kernel"] == kernel) & pp["workload_id"].isin(wids)]
+    return sub.pivot(index="process", columns="workload_id", values="ns_per_test").reindex(columns=wids)
+
+
+def crossovers(kernels: Sequence[str], wl: pd.DataFrame, pp: pd.DataFrame) -> pd.DataFrame:
+    """Per pair family and pair of kernels: where their ranking flips along the per-test hit rate.
+
+    ``stats.crossover`` of ``log(time_b / time_a)`` against the achieved
+    per-test hit rate, processes paired across the family's workloads. Only
+    families with two or more hit rates; ``hit_rate`` is nan when the lines
+    do not cross inside the measured range.
+    """
+    rows = []
+    for family, group in wl.loc[wl["kind"] == "pairs"].groupby("family", sort=False):
+        group = group.sort_values("test_hit_rate")
+        if group["test_hit_rate"].nunique() < 2:
+            continue
+        wids = list(group["workload_id"])
+        for a, b in itertools.combinations(kernels, 2):
+            wa, wb = _wide(pp, a, wids), _wide(pp, b, wids)
+            both = (np.log(wb) - np.log(wa)).dropna()
+            if len(both) < 2:
+                continue
+            c = stats.crossover(group["test_hit_rate"].to_numpy(), both.to_numpy())
+            rows.append({"family": family, "kernel_a": a, "kernel_b": b, "hit_rate": c.hit_rate,
+                         "ci_low": c.ci_low, "ci_high": c.ci_high, "slope": c.slope, "n": c.n,
+                         "confidence": c.confidence})
+    return _frame(rows, runfolder.CROSSOVERS)
+
+
+def estimates_with_workloads(estimates: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
+    """``estimates.csv`` joined with the workload table (family, kind, triangles, rays...)."""
+    return estimates.merge(wl, on="workload_id", how="left", suffixes=("", "_wl"))
+
+
+def scaling_slopes(est: pd.DataFrame, pp: pd.DataFrame) -> pd.DataFrame:
+    """Log-log slope of ns/test against triangle count, per mesh family and kernel (``slopes.csv``).
+
+    ``est`` is :func:`estimates_with_workloads`; ``stats.scaling_slope``,
+    processes paired across triangle counts.
+    """
+    rows = []
+    mesh = est.loc[est["kind"] == "mesh"]
+    for (family, kernel), group in mesh.groupby(["family", "kernel"], sort=False):
+        group = group.dropna(subset=["triangles"]).sort_values("triangles")
+        if group["triangles"].nunique() < 2:
+            continue
+        wide = _wide(pp, kernel, list(group["workload_id"])).dropna()
+        if len(wide) < 2:
+            continue
+        s = stats.scaling_slope(group["triangles"].to_numpy(dtype=float), wide.to_numpy())
+        rows.append({"family": family, "kernel": kernel, "slope": s.slope, "ci_low": s.ci_low,
+                     "ci_high": s.ci_high, "n": s.n, "sizes": len(group)})
+    return _frame(rows, runfolder.SLOPES)
+
+
+def drift_table(batches: pd.DataFrame, kernels: Sequence[str], baseline: str, workload_ids: Sequence[str],
+                wl: pd.DataFrame) -> pd.DataFrame:
+    """``stats.drift`` of every kernel against the baseline on every workload (``drift.csv``);
+    ``reason`` explains a comparison that could not be tested."""
+    rows = []
+    labels = dict(zip(wl["workload_id"], wl["label"]))
+    for wid in workload_ids:
+        for kernel in kernels:
+            if kernel == baseline:
+                continue
+            row: dict[str, Any] = {"workload_id": wid, "label": labels.get(wid, wid), "kernel": kernel}
+            try:
+                d = stats.drift(batches, kernel, baseline, workload_id=wid)
+            except ValueError as exc:
+                row.update(flagged=False, reason=f"not tested: {exc}")
+            else:
+                row.update(baseline_slope=d.baseline_slope, ratio_slope=d.ratio_slope, ratio_p=d.ratio_p,
+                           ratio_change=d.ratio_change, confound_bias=d.confound_bias,
+                           confound_p=d.confound_p, flagged=d.flagged, reason=d.reason, n=d.n)
+            rows.append(row)
+    return _frame(rows, runfolder.DRIFT)
+
+
+def variance_table(batches: pd.DataFrame, kernels: Sequence[str], workload_ids: Sequence[str],
+                   wl: pd.DataFrame) -> pd.DataFrame:
+    """Kalibera-Jones variance components per kernel and workload (``variance.csv``): square roots of
+    ``stats.variance_components`` relative to the mean, in percent."""
+    rows = []
+    labels = dict(zip(wl["workload_id"], wl["label"]))
+    for wid in workload_ids:
+        for kernel in kernels:
+            try:
+                vc = stats.variance_components(stats.rounds_matrix(batches, kernel, wid))
+            except ValueError:
+                continue
+            rows.append({"workload_id": wid, "label": labels.get(wid, wid), "kernel": kernel, "mean_ns": vc.mean,
+                         "round_sd_pct": 100 * math.sqrt(vc.between_round) / vc.mean,
+                         "process_sd_pct": 100 * math.sqrt(vc.between_process) / vc.mean,
+                         "n_processes": vc.n_processes, "n_rounds": vc.n_rounds})
+    return _frame(rows, runfolder.VARIANCE)
+
+
+# ------------------------------------------------------------ kernels
+
+
+def _bytes_per_triangle(kernel: str, dtype: str) -> int | None:
+    from tribench import ext
+
+    try:
+        return int(ext.bytes_per_triangle(kernel, dtype))
+    except (ValueError, TypeError, KeyError):
+        return None
+
+
+def _form(kernel: str) -> str:
+    from tribench import ext
+
+    try:
+        lanes = ext.kernel_info(kernel).lanes
+    except ValueError:  # a kernel this build no longer has
+        return "?"
+    return "scalar" if lanes == 1 else f"{lanes} lanes"
+
+
+def _isas(batches: pd.DataFrame, run: Mapping[str, Any], kernel: str) -> str:
+    """The instruction sets the kernel's batches ran with (run.json's record for older runs)."""
+    if "isa" not in batches:
+        return str(run.get("isa", {}).get(kernel, "?"))
+    return ", ".join(dict.fromkeys(batches.loc[batches["kernel"] == kernel, "isa"].astype(str)))
+
+
+def kernel_table(kernels: Sequence[str], batches: pd.DataFrame, run: Mapping[str, Any], est: pd.DataFrame,
+                 spd: pd.DataFrame, baseline: str) -> pd.DataFrame:
+    """Per kernel and workload family: how the kernel stores a triangle, beside how fast it ran there.
+
+    ``est`` and ``spd`` are the estimates and speedups joined with the
+    workload table (:func:`estimates_with_workloads`). The times summarise the
+    estimates of the family's workloads and the ratios their speedups over the
+    baseline (median, lowest, highest; nan for the baseline); ``verdicts``
+    counts those workloads by verdict. Families where the kernel has no
+    estimate (a wide kernel has no pairs mode) have no row (``kernels.csv``).
+    """
+    rows = []
+    for kernel in kernels:
+        form, isa = _form(kernel), _isas(batches, run, kernel)
+        for family, g in est.loc[est["kernel"] == kernel].groupby("family", sort=False):
+            s = spd.loc[(spd["kernel"] == kernel) & (spd["family"] == family)]
+            dtype = str(g["dtype"].iloc[0])
+            verdicts = ", ".join(f"{v} {n}" for v, n in s["verdict"].value_counts(sort=False).items())
+            rows.append({
+                "kernel": kernel, "form": form, "isa": isa, "family": family, "dtype": dtype,
+                "bytes_per_triangle": _bytes_per_triangle(kernel, dtype), "workloads": len(g),
+                "ops_per_test": g["ops_per_test"].iloc[0] if "ops_per_test" in g else math.nan,
+                "peak_fraction_median": g["peak_fraction"].median() if "peak_fraction" in g else math.nan,
+                "ns_per_test_median": g["ns_per_test"].median(), "ns_per_test_min": g["ns_per_test"].min(),
+                "ns_per_test_max": g["ns_per_test"].max(),
+                "ratio_median": s["ratio"].median() if len(s) else math.nan,
+                "ratio_min": s["ratio"].min() if len(s) else math.nan,
+                "ratio_max": s["ratio"].max() if len(s) else math.nan,
+                "verdicts": verdicts or ("baseline" if kernel == baseline else "no comparison"),
+            })
+    return _frame(rows, runfolder.KERNELS)
