@@ -34,9 +34,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from tribench import stats
 from tribench.common import UserError
 
-from . import records, stats
+from . import records
 from .calibration import Margin
 
 __all__ = ["Analysis", "analyse", "write_tables", "ESTIMATES", "SPEEDUPS", "ESTIMATE_COLUMNS",
@@ -118,7 +119,7 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
 
 
 def _summary(spec: dict) -> str:
-    from tribench.workloads.spec import spec_from_dict
+    from tribench.workloads.kinds import spec_from_dict
 
     return spec_from_dict(spec).summary()
 

@@ -337,7 +337,7 @@ def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFra
     """
     import pandas as pd
 
-    from . import stats
+    from tribench import stats
 
     rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
     if peers.empty or not rates_ok.all():

@@ -40,9 +40,10 @@ from typing import Any, TextIO
 import numpy as np
 import pandas as pd
 
+from tribench import stats
 from tribench.common import UserError
 
-from . import records, stats
+from . import records
 
 __all__ = [
     "BASELINE",

@@ -26,8 +26,8 @@ from html import escape
 import numpy as np
 import pandas as pd
 
+from tribench import stats
 from tribench.common import UserError
-from tribench.harness import stats
 
 from .rundata import RunData, family_of, short_label
 

@@ -510,7 +510,7 @@ def _calibration(data: RunData) -> str:
 
 
 def _diagnostics(data: RunData, batches: pd.DataFrame, wl: pd.DataFrame) -> str:
-    from tribench.harness import stats
+    from tribench import stats
 
     colours = figures.kernel_colours(data.kernels)
     warm = _ordered(content.warmup_table(batches, wl), data)

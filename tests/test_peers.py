@@ -13,7 +13,8 @@ import pytest
 from test_report_run import run_fixture_dir
 
 from tribench import reports
-from tribench.harness import peers, stats
+from tribench import stats
+from tribench.harness import peers
 from tribench.reports import columns
 from tribench.reports import html as report_html
 from tribench.reports.rundata import load_peers, load_run
@@ -197,7 +198,7 @@ def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
     (["--processes", "1", "--reps", "100000"], "processes x reps must be at most 10,000"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message):
-    done = subprocess.run([sys.executable, "-m", "tribench.harness.cli", "peers", "--out", str(tmp_path), *flags],
+    done = subprocess.run([sys.executable, "-m", "tribench.cli", "peers", "--out", str(tmp_path), *flags],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 2, done.stderr
     assert message in done.stderr and len(done.stderr.strip().splitlines()) == 1
@@ -205,7 +206,7 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message):
 
 
 def test_tribench_run_goes_on_without_peers_or_when_they_fail(monkeypatch, capsys, tmp_path):
-    from tribench.harness import cli
+    from tribench.cli import command as cli
 
     monkeypatch.setattr(peers, "available", lambda: {"trimesh": None, "embree": None})
     cli._run_peers(str(tmp_path), quick=True, progress=False)

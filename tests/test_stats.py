@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tribench.harness import stats
+from tribench import stats
 
 # --------------------------------------------------------------------------
 # A synthetic benchmark with known truth
