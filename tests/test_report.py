@@ -263,7 +263,7 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, setup, message):
     if setup == "corrupt":
         target.mkdir()
         (target / "run.json").write_text("[")
-    proc = subprocess.run([sys.executable, "-m", "tribench.reports.cli", "report", str(target)],
+    proc = subprocess.run([sys.executable, "-m", "tribench.cli", "report", str(target)],
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
