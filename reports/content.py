@@ -54,7 +54,8 @@ def load_workloads(data: RunData) -> dict[str, WorkloadInfo]:
     used and the note says so.
     """
     from tribench.workloads import cache
-    from tribench.workloads.spec import spec_from_dict, workload_id
+    from tribench.workloads.kinds import spec_from_dict
+    from tribench.workloads.spec import workload_id
 
     out = {}
     for wid in data.workload_ids:
@@ -201,7 +202,7 @@ def kernel_table(data: RunData, est: pd.DataFrame, spd: pd.DataFrame) -> pd.Data
 
 def per_process_table(data: RunData) -> pd.DataFrame:
     """``stats.per_process`` of the batches: one median ns/test per kernel, workload, process."""
-    from tribench.harness import stats
+    from tribench import stats
 
     return stats.per_process(data.batches)
 
@@ -220,7 +221,7 @@ def crossovers(data: RunData, wl: pd.DataFrame, pp: pd.DataFrame) -> pd.DataFram
     families with two or more hit rates; ``hit_rate`` is nan when the lines
     do not cross inside the measured range.
     """
-    from tribench.harness import stats
+    from tribench import stats
 
     rows = []
     for family, group in wl.loc[wl["kind"] == "pairs"].groupby("family", sort=False):
@@ -247,7 +248,7 @@ def scaling_slopes(data: RunData, est: pd.DataFrame, pp: pd.DataFrame) -> pd.Dat
     Columns ``family, kernel, slope, ci_low, ci_high, n, sizes``
     (``stats.scaling_slope``, processes paired across triangle counts).
     """
-    from tribench.harness import stats
+    from tribench import stats
 
     rows = []
     mesh = est.loc[est["kind"] == "mesh"]
@@ -271,7 +272,7 @@ def drift_table(data: RunData, wl: pd.DataFrame) -> pd.DataFrame:
     ratio_p, ratio_change, confound_bias, confound_p, flagged, reason, n``;
     ``reason`` explains a comparison that could not be tested.
     """
-    from tribench.harness import stats
+    from tribench import stats
 
     rows = []
     labels = dict(zip(wl["workload_id"], wl["label"]))
@@ -301,7 +302,7 @@ def variance_table(data: RunData, wl: pd.DataFrame) -> pd.DataFrame:
     process_sd_pct, n_processes, n_rounds``: square roots of
     ``stats.variance_components`` relative to the mean, in percent.
     """
-    from tribench.harness import stats
+    from tribench import stats
 
     rows = []
     labels = dict(zip(wl["workload_id"], wl["label"]))
@@ -323,7 +324,7 @@ def batch_table(data: RunData) -> pd.DataFrame:
     """Every batch with ``ns_per_test``, Tukey labels (``stats.label_outliers``),
     ``rel_to_median`` (ns/test over its process's timed median for that kernel and
     workload) and ``t_in_process_s`` (seconds since the process's first batch)."""
-    from tribench.harness import stats
+    from tribench import stats
 
     b = stats.label_outliers(data.batches)
     timed = b.loc[~b["warmup"]]

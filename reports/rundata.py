@@ -318,7 +318,7 @@ def short_label(spec: dict[str, Any]) -> str:
 def spec_text(spec: dict[str, Any]) -> str:
     """The spec's own one-line summary (falls back to JSON for an unknown spec)."""
     try:
-        from tribench.workloads.spec import spec_from_dict
+        from tribench.workloads.kinds import spec_from_dict
 
         return spec_from_dict(spec).summary()
     except Exception:  # an old or foreign spec: still show something true

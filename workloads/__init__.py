@@ -11,7 +11,8 @@ this package does not import trimesh or matplotlib.
 from .cache import CacheWarning, CachedWorkload, cache_dir, generate, list_cached, load, make
 from .pairs import classify_misses
 from .reference import PairAnswers, intersect_closest, intersect_pairs
-from .spec import MISS_STAGES, MeshSpec, PairSpec, spec_from_dict, workload_id
+from .kinds import spec_from_dict
+from .spec import MISS_STAGES, MeshSpec, PairSpec, workload_id
 from .workload import Workload
 
 __all__ = [
