@@ -10,6 +10,10 @@ Public API (heavy modules are imported on first use):
 * :func:`format_tables` — compact terminal tables of estimates and speedups.
 
 The CSV columns are documented in :mod:`tribench.reports.columns`.
+
+``tribench.reports`` owns the CSV column docs, HTML pages, figures and
+terminal tables. It may import ``common``, ``ext``, ``workloads``, ``stats``
+and ``harness`` (to read a run folder); never ``cli``.
 """
 
 from __future__ import annotations
