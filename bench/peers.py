@@ -14,7 +14,7 @@ the same figures in the report when a peer is installed
 
 import sys
 
-from tribench.harness.cli import main
+from tribench.cli.command import main
 
 if __name__ == "__main__":
     sys.exit(main(["peers", *sys.argv[1:]]))

@@ -34,7 +34,8 @@ import tempfile
 
 import numpy as np
 
-from tribench.harness import records, runner, stats
+from tribench import stats
+from tribench.harness import records, runner
 from tribench.harness.plan import DEFAULT_ROUNDS, Sweep
 from tribench.workloads.spec import MeshSpec
 

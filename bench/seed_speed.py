@@ -28,7 +28,8 @@ import argparse
 import shutil
 import tempfile
 
-from tribench.harness import records, runner, stats
+from tribench import stats
+from tribench.harness import records, runner
 from tribench.harness.plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, Sweep
 from tribench.workloads.spec import MeshSpec, workload_id
 

@@ -1,6 +1,6 @@
 """What every tribench package shares, at the bottom of the import order.
 
-``tribench.common`` imports nothing else of tribench, and every other package
+``tribench.common`` may import nothing else of tribench, and every other package
 may import it: the one user-error type (:mod:`.errors`) and the one atomic
 file write (:mod:`.files`).
 """

@@ -38,6 +38,10 @@ Modes (what a call answers per ray): ``pairs`` (ray i against triangle i),
 with ``0 < t < t_max`` count. A miss has index ``-1`` and ``t = u = v =
 nan``. Conventions of the clean kernels match ``tribench.workloads.reference``.
 
+``tribench.ext`` owns the kernels, their registration and the checked C
+boundary. It may import ``tribench.common`` only: it knows nothing of
+workloads, statistics or files.
+
 Examples
 --------
 >>> import numpy as np

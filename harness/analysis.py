@@ -5,9 +5,9 @@
 the end of ``tribench run`` and by ``tribench stats RUN_DIR``, writes every
 table the report reads (:data:`tribench.harness.runfolder.DERIVED`), the
 workload pictures and ``analysis.json``, so the report computes nothing.
-All statistics come from :mod:`tribench.harness.stats`.
+All statistics come from :mod:`tribench.stats`.
 
-``estimates.csv``: the fields of :func:`~tribench.harness.stats.estimate_table`
+``estimates.csv``: the fields of :func:`~tribench.stats.estimate_table`
 renamed by :data:`ESTIMATE_COLUMNS` so each name carries its unit
 (``kernel, workload_id, ns_per_test, ns_per_test_ci_low, ns_per_test_ci_high,
 ns_per_test_bootstrap_low, ns_per_test_bootstrap_high, ns_per_test_min,
@@ -19,12 +19,12 @@ peak_fraction_ci_high``: bound over measured time, each process against its
 own peak of that moment, a machine-normalised figure steadier than raw time
 (:mod:`tribench.harness.peak`).
 
-``speedups.csv``: the columns of :func:`~tribench.harness.stats.speedup_table`
+``speedups.csv``: the columns of :func:`~tribench.stats.speedup_table`
 renamed by :data:`SPEEDUP_COLUMNS` (``workload_id, kernel, baseline, ratio,
 ratio_ci_low, ratio_ci_high, p_value, p_holm, n_processes, confidence,
 margin, verdict``), then ``workload`` and ``margin_source``.
 
-The renaming happens here and only here: :mod:`~tribench.harness.stats`
+The renaming happens here and only here: :mod:`~tribench.stats`
 keeps its generic names (``mean``, ``ci_low``...), which fit any quantity,
 and :class:`Analysis` holds the tables exactly as the files have them.
 """
@@ -42,11 +42,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tribench.common import UserError
+from tribench import stats
+from tribench.common import UserError, write_text
 
-from tribench.common import write_text
-
-from . import records, runfolder, stats
+from . import records, runfolder
 from .calibration import Margin
 
 __all__ = ["Analysis", "Derived", "analyse", "write_tables", "write_all", "file_digest", "ESTIMATES", "SPEEDUPS",
@@ -132,7 +131,7 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
 
 
 def _summary(spec: dict) -> str:
-    from tribench.workloads.spec import spec_from_dict
+    from tribench.workloads.kinds import spec_from_dict
 
     return spec_from_dict(spec).summary()
 
@@ -226,7 +225,8 @@ def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], di
     import warnings
 
     from tribench.workloads import cache
-    from tribench.workloads.spec import spec_from_dict, workload_id
+    from tribench.workloads.kinds import spec_from_dict
+    from tribench.workloads.spec import workload_id
 
     specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"]))
     found: dict[str, Any] = {}

@@ -5,7 +5,7 @@ source compiled under another name, see ``ext/kernels/moller_trumbore_aa.h``)
 in the normal protocol. Its processes are split into ``experiments`` disjoint
 groups of ``processes`` each; each group gives one A/A speedup with its
 interval, exactly as a sweep of that many processes would. From those,
-:func:`tribench.harness.stats.aa_summary` gives the coverage of 1, the
+:func:`tribench.stats.aa_summary` gives the coverage of 1, the
 distribution of the p-values (KS test against uniform) and the noise floor,
 whose relative form is the equivalence margin later verdicts use.
 
@@ -19,89 +19,21 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
-import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 from tribench.common import UserError, write_text
+from tribench.stats import DEFAULTS, MAX_MARGIN, check_margin
 
+# reading the margin is below the runner, which uses it; calibrating is above it
+from .margin import CALIBRATION, Margin, latest_margin, user_calibration_path
 from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
-from .stats import DEFAULTS, MAX_MARGIN, check_margin
 
 __all__ = ["AA_COPIES", "MAX_MARGIN", "Margin", "check_margin", "aa_speedups", "calibrate", "latest_margin", "user_calibration_path"]
 
 #: Kernels that have an A/A copy, and its name.
 AA_COPIES = {"moller_trumbore": "moller_trumbore_aa"}
-
-CALIBRATION = "calibration.json"
-
-
-_FIX = "run `tribench calibrate` again, or delete the file to use the default margin"
-
-
-@dataclass(frozen=True)
-class Margin:
-    """An equivalence margin (relative, 0.01 = 1 %) and where it came from.
-
-    The value is checked here, so every margin a verdict uses -- a
-    calibration file's, one recorded in ``run.json``, ``--margin`` -- is a
-    finite number in ``[0, MAX_MARGIN]``."""
-
-    value: float
-    source: str
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "value", check_margin(self.value, f"margin of {self.source}"))
-
-
-def user_calibration_path() -> Path:
-    """The latest calibration of this user: next to the workload cache.
-
-    ``$TRIBENCH_CACHE/../calibration.json`` when ``TRIBENCH_CACHE`` is set,
-    else ``~/.cache/tribench/calibration.json``.
-    """
-    cache = os.environ.get("TRIBENCH_CACHE")
-    base = Path(cache).expanduser().parent if cache else Path("~/.cache/tribench").expanduser()
-    return base / CALIBRATION
-
-
-def latest_margin(cpu_model: str | None = None) -> Margin:
-    """The latest calibration's margin, if it was measured on ``cpu_model``; else the default.
-
-    No calibration file: the default. A file that is there but unusable
-    (not JSON, no margin, a margin that is not a number in ``[0, MAX_MARGIN]``)
-    is a UserError naming the file and the key, raised before a sweep
-    measures anything: falling back silently would give verdicts the user
-    takes for calibrated ones, and the fix is one command.
-
-    >>> m = latest_margin("no such cpu")
-    >>> m.value == DEFAULTS.margin and m.source.startswith("default")
-    True
-    """
-    path = user_calibration_path()
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        return Margin(DEFAULTS.margin, "default (stats.DEFAULTS.margin: no calibration found)")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{path}: cannot read the calibration file ({exc}); {_FIX}") from None
-    try:
-        cal = json.loads(text)
-    except (ValueError, RecursionError):
-        raise UserError(f"{path}: not a calibration file (not valid JSON); {_FIX}") from None
-    if not isinstance(cal, dict) or "margin" not in cal:
-        raise UserError(f"{path}: not a calibration file (no 'margin' key); {_FIX}")
-    try:
-        value = check_margin(cal["margin"], f"{path}: key 'margin'")
-    except UserError as exc:
-        raise UserError(f"{exc}; {_FIX}") from None
-    if not isinstance(cal.get("cpu_model"), (str, type(None))):
-        raise UserError(f"{path}: key 'cpu_model' must be a string, got {cal['cpu_model']!r:.40}; {_FIX}")
-    if cpu_model is not None and cal.get("cpu_model") != cpu_model:
-        return Margin(DEFAULTS.margin, f"default (stats.DEFAULTS.margin: {path} is for another CPU)")
-    created, run = str(cal.get("created", "?"))[:40], str(cal.get("run_dir", "?"))[:200]
-    return Margin(value, f"calibration {path} ({created}, run {run})")
 
 
 def _nan_to_none(value: Any) -> Any:
@@ -115,9 +47,9 @@ def _nan_to_none(value: Any) -> Any:
 
 
 def aa_speedups(batches: Any, kernel: str, copy: str, processes: int) -> list:
-    """One A/A :class:`~tribench.harness.stats.Speedup` per group of ``processes``
+    """One A/A :class:`~tribench.stats.Speedup` per group of ``processes``
     consecutive process indices and per workload (incomplete groups are left out)."""
-    from . import stats
+    from tribench import stats
 
     table = stats.per_process(batches)
     out = []
@@ -161,12 +93,12 @@ def calibrate(
     save : bool
         Also write the user-level calibration file.
     """
+    from tribench.stats import aa_summary
     from tribench.workloads.spec import PairSpec
 
     from . import records, runner
     from .machine import cpu_model
     from .plan import Sweep
-    from .stats import aa_summary
 
     if kernel not in AA_COPIES:
         raise UserError(f"no A/A copy of {kernel!r}; kernels with one: {', '.join(AA_COPIES)}")

@@ -335,11 +335,11 @@ def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFra
     1 on one core; below 1, other processes took the core), the median setup
     time and the disagreements with the float64 reference. ``ratios``:
     tribench's rays/s over each peer's (and tribench's C loop over its own
-    call), paired by process (:func:`tribench.harness.stats.speedup`).
+    call), paired by process (:func:`tribench.stats.speedup`).
     """
     import pandas as pd
 
-    from . import stats
+    from tribench import stats
 
     rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
     if peers.empty or not rates_ok.all():

@@ -55,7 +55,8 @@ from typing import Any
 import numpy as np
 
 from tribench.common import UserError, read_user_text
-from tribench.workloads.spec import Spec, spec_from_dict, workload_id
+from tribench.workloads.kinds import spec_from_dict
+from tribench.workloads.spec import Spec, workload_id
 
 __all__ = [
     "BatchKey",

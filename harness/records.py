@@ -626,8 +626,9 @@ _RUN_FIELDS: dict[str, type | tuple[type, ...]] = {
 
 def read_run(run_dir: str | Path) -> dict[str, Any]:
     """``run.json`` of a run, checked: a JSON object with a valid sweep, run id, seeds and margin."""
+    from tribench.stats import check_margin
+
     from .plan import Sweep
-    from .stats import check_margin
 
     run_dir = Path(run_dir)
     path = run_dir / RUN

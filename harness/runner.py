@@ -187,7 +187,7 @@ def start(
     run_dir : path
         Must not exist, or be an empty directory (a lock file left by a
         start that failed does not count).
-    margin : tribench.harness.calibration.Margin, optional
+    margin : tribench.harness.margin.Margin, optional
         Equivalence margin to record (default: the latest calibration's, or
         ``stats.DEFAULTS.margin``).
     cpu : int, optional
@@ -206,8 +206,8 @@ def start(
         ``run_dir`` is not empty, another process writes it, or a file
         cannot be written (a full disk: the message says how to resume).
     """
-    from .calibration import latest_margin
     from .machine import machine_record
+    from .margin import latest_margin
 
     run_dir = Path(run_dir)
     records.check_new_run_dir(run_dir)

@@ -14,7 +14,7 @@ i.e. the time of one pass over the sample scaled by the ratio of the
 render's ray-triangle tests of that kind to the sample's (exact counts, see
 the workload). Each process gives one render time; the estimate is their
 mean with a Student-t interval, and a ratio to ``moller_seed`` is paired
-per process (log scale, t-interval): :mod:`tribench.harness.stats`.
+per process (log scale, t-interval): :mod:`tribench.stats`.
 
 What the replay covers: the ray-triangle tests of the render, and only
 them. The seed's times also cover spheres, the floor, shading, writing the
@@ -40,9 +40,10 @@ from typing import Any, TextIO
 import numpy as np
 import pandas as pd
 
+from tribench import stats
 from tribench.common import UserError
 
-from . import records, runfolder, stats
+from . import records, runfolder
 
 __all__ = [
     "BASELINE",

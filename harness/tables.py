@@ -1,7 +1,7 @@
 """The derived tables of a run beyond estimates and speedups: pure functions of frames.
 
 Every interval, slope, crossover, drift test, outlier label and variance
-component is a call into :mod:`tribench.harness.stats`; this module selects,
+component is a call into :mod:`tribench.stats`; this module selects,
 pairs and reshapes. :func:`tribench.harness.analysis.write_all` calls these
 at the end of a sweep (and ``tribench stats``) and writes each result into
 the run folder (columns: :data:`tribench.harness.runfolder.FILES`), so the
@@ -24,7 +24,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from . import runfolder, stats
+from tribench import stats
+
+from . import runfolder
 
 __all__ = [
     "batch_labels",
@@ -111,7 +113,7 @@ def short_label(spec: Mapping[str, Any]) -> str:
 def spec_text(spec: Mapping[str, Any]) -> str:
     """The spec's own one-line summary (falls back to JSON for an unknown spec)."""
     try:
-        from tribench.workloads.spec import spec_from_dict
+        from tribench.workloads.kinds import spec_from_dict
 
         return spec_from_dict(dict(spec)).summary()
     except Exception:  # an old or foreign spec: still show something true

@@ -299,7 +299,8 @@ def run_job(job: WorkerJob, emit) -> None:
         A kernel's answers or a batch's checksum disagree with the reference.
     """
     from tribench.workloads import cache
-    from tribench.workloads.spec import spec_from_dict, workload_id
+    from tribench.workloads.kinds import spec_from_dict
+    from tribench.workloads.spec import workload_id
 
     if job.cpu is not None and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {job.cpu})

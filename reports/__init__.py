@@ -15,6 +15,10 @@ Public API (heavy modules are imported on first use):
 * :func:`format_tables` — compact terminal tables of estimates and speedups.
 
 The CSV columns are defined and documented in :mod:`tribench.harness.runfolder`.
+
+``tribench.reports`` owns the HTML pages, figures and terminal tables, and
+renders the column docs. It may import ``common``, ``ext``, ``workloads``,
+``stats`` and ``harness`` (to read a run folder); never ``cli``.
 """
 
 from __future__ import annotations
@@ -49,9 +53,9 @@ def write_report(run_dir: str | Path, baseline: str | None = None) -> Path:
         The folder is missing, incomplete or unreadable, or its tables are
         missing or stale (a one-line reason naming ``tribench stats``).
     """
-    from .html import render, sweep_toml
-
     from tribench.common import write_text
+
+    from .html import render, sweep_toml
 
     data = _load(run_dir, baseline)
     page = render(data, SWEEP_FILE)

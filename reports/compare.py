@@ -14,7 +14,7 @@ are simultaneous over the kernels of one workload (Bonferroni, as in
 ``stats.speedup_table``); verdicts come from ``stats.verdict`` with the larger
 of the two runs' equivalence margins.
 
-The interval is :func:`tribench.harness.stats.unpaired_ratio`.
+The interval is :func:`tribench.stats.unpaired_ratio`.
 """
 
 from __future__ import annotations
@@ -26,8 +26,9 @@ from html import escape
 import numpy as np
 import pandas as pd
 
+from tribench import stats
 from tribench.common import UserError
-from tribench.harness import runfolder, stats
+from tribench.harness import runfolder
 
 from .rundata import RunData, family_of, short_label
 

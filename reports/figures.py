@@ -7,7 +7,7 @@ font and references nothing outside itself; dense scatters are rasterised
 inside the SVG to keep the file small.
 
 No figure computes a statistic: intervals, crossovers and labels arrive in
-the frames, computed by :mod:`tribench.harness.stats`.
+the frames, computed by :mod:`tribench.stats`.
 """
 
 from __future__ import annotations

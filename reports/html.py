@@ -509,7 +509,7 @@ def _calibration(data: RunData) -> str:
 
 
 def _diagnostics(data: RunData, batches: pd.DataFrame, wl: pd.DataFrame) -> str:
-    from tribench.harness import stats
+    from tribench import stats
 
     colours = figures.kernel_colours(data.kernels)
     warm = _ordered(content.table(data, runfolder.WARMUP), data)

@@ -256,7 +256,7 @@ def render_seed(run_dir: str | Path) -> str:
     head = (f"<h1>{escape(title)}</h1>"
             + _p(f"The seed's renders (Vitse 2022: Curless vs Möller, Unix time) replayed through the harness: "
                  f"{run.get('created')}, {run['sweep']['processes']} processes.", "sub"))
-    footer = _p(f"Written by tribench seed at {made} from {run_dir}. Statistics: tribench.harness.stats.", "note")
+    footer = _p(f"Written by tribench seed at {made} from {run_dir}. Statistics: tribench.stats.", "note")
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
             f"<title>{escape(title)}</title><style>{_CSS}</style></head><body>"

@@ -174,7 +174,7 @@ def test_the_command_line_marks_and_rebuilds_a_corrupt_file(pristine, tmp_path):
     folder, path, good, _, _ = pristine
     path.write_bytes(_rewritten(good, _edit_achieved))
     env = {**os.environ, "TRIBENCH_CACHE": str(folder)}
-    cli = [sys.executable, "-m", "tribench.harness.cli", "workloads"]
+    cli = [sys.executable, "-m", "tribench.cli", "workloads"]
     listed = subprocess.run([*cli, "list"], capture_output=True, text=True, env=env, timeout=120)
     line = next(x for x in listed.stdout.splitlines() if x.startswith(path.stem))
     assert listed.returncode == 0 and "checksum does not match" in line

@@ -12,7 +12,7 @@ from tribench import ext
 def run(*args, cwd=None, env=None, timeout=120):
     """``tribench ARGS`` as a user runs it: a fresh process, the real entry point."""
     return subprocess.run(
-        [sys.executable, "-m", "tribench.harness.cli", *map(str, args)], capture_output=True, text=True,
+        [sys.executable, "-m", "tribench.cli", *map(str, args)], capture_output=True, text=True,
         timeout=timeout, cwd=cwd, env=None if env is None else {**os.environ, **env},
     )
 
@@ -37,7 +37,7 @@ def test_run_quick_is_the_main_job_end_to_end(tmp_path):
     env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
     out = tmp_path / "run"
     done = subprocess.run(
-        [sys.executable, "-m", "tribench.harness.cli", "run", "--quick", "--out", str(out), "--no-progress"],
+        [sys.executable, "-m", "tribench.cli", "run", "--quick", "--out", str(out), "--no-progress"],
         capture_output=True, text=True, timeout=300, env=env,
     )
     assert done.returncode == 0, done.stderr

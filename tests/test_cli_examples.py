@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 from test_cli import run
 
-from tribench.harness.cli import build_parser
-from tribench.workloads import cli as workloads_cli
+from tribench.cli import workloads as workloads_cli
+from tribench.cli.command import build_parser
 from tribench.workloads.seed_scene import builtin_scene_path
 
 README = Path(__file__).resolve().parents[1] / "README.md"
@@ -38,7 +38,7 @@ def readme_examples() -> list[str]:
 
 
 def docstring_examples() -> list[str]:
-    """The command lines of the Examples block of tribench.workloads.cli, without their comments."""
+    """The command lines of the Examples block of tribench.cli.workloads, without their comments."""
     block = workloads_cli.__doc__.split("Examples")[1]
     return [line.split("#")[0].strip() for line in block.splitlines() if line.strip().startswith("tribench ")]
 

@@ -22,8 +22,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_cli import run
 
-from tribench.common import UserError, flags
-from tribench.harness import cli
+from tribench.cli import command as cli
+from tribench.cli import flags
+from tribench.common import UserError
 
 SMALL = ["--kernels", "moller_trumbore", "--pairs", "50", "--processes", "1", "--rounds", "1", "--warmup", "0"]
 NOT_A_CPU = str(max(os.sched_getaffinity(0)) + 1)
@@ -257,7 +258,7 @@ def test_a_bug_keeps_its_traceback(bug, monkeypatch):
 def test_a_bug_shows_its_traceback_from_the_command(tmp_path):
     # the installed console script, with a handler broken at start-up (sitecustomize)
     (tmp_path / "sitecustomize.py").write_text(
-        "import tribench.harness.cli as c\n"
+        "import tribench.cli.command as c\n"
         "def _broken(args):\n    raise KeyError('a bug')\n"
         "c._info = _broken\n")
     script = Path(sys.executable).parent / "tribench"
@@ -267,7 +268,7 @@ def test_a_bug_shows_its_traceback_from_the_command(tmp_path):
 
 
 def test_a_closed_pipe_is_not_an_error(tmp_path):
-    done = subprocess.run(f"{sys.executable} -m tribench.harness.cli info | head -1", shell=True,
+    done = subprocess.run(f"{sys.executable} -m tribench.cli info | head -1", shell=True,
                           capture_output=True, text=True, timeout=60)
     assert done.stdout.startswith("tribench ") and done.stderr == ""
 
@@ -279,7 +280,7 @@ def _interrupt(args: list, marker: str, cwd: Path, deadline: float = 60, ready=l
                ) -> tuple[int, str, float]:
     """Start ``tribench ARGS`` in its own process group, wait for ``marker`` on stderr (and ``ready()``),
     then send SIGINT to the group as a terminal's Ctrl-C does; the exit code, stderr and seconds to exit."""
-    proc = subprocess.Popen([sys.executable, "-m", "tribench.harness.cli", *map(str, args)], cwd=cwd,
+    proc = subprocess.Popen([sys.executable, "-m", "tribench.cli", *map(str, args)], cwd=cwd,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
     seen = []
     try:

@@ -6,7 +6,15 @@ import pkgutil
 
 import pytest
 
-SUBPACKAGES = ["tribench.common", "tribench.ext", "tribench.workloads", "tribench.harness", "tribench.reports"]
+SUBPACKAGES = [
+    "tribench.common",
+    "tribench.ext",
+    "tribench.workloads",
+    "tribench.stats",
+    "tribench.harness",
+    "tribench.reports",
+    "tribench.cli",
+]
 
 
 def _has_examples(name: str) -> bool:
@@ -26,7 +34,7 @@ MODULES = _modules()
 
 
 def test_the_modules_with_examples_are_found():
-    assert {"tribench.common.files", "tribench.ext", "tribench.workloads.reference", "tribench.harness.stats", "tribench.reports.html"} <= set(MODULES)
+    assert {"tribench.common.files", "tribench.ext", "tribench.workloads.reference", "tribench.stats.estimates", "tribench.reports.html"} <= set(MODULES)
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+from conftest import as_dtype, reference_answers, run_pairs, safe_pairs
 
 from tribench import ext
 from tribench.workloads import reference
-
-from conftest import as_dtype, reference_answers, run_pairs, safe_pairs
 
 KERNELS = ext.kernel_names()
 WIDE = [k for k in KERNELS if ext.kernel_info(k).lanes > 1]

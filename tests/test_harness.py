@@ -7,14 +7,13 @@ import math
 
 import numpy as np
 import pytest
+from conftest import safe_pairs
 
 from tribench import ext
 from tribench.harness import calibration, records, worker
 from tribench.harness.plan import BatchKey, Sweep, expand_workloads, load_sweep_file, plan
 from tribench.workloads import cache, reference
 from tribench.workloads.spec import MeshSpec, PairSpec, workload_id
-
-from conftest import safe_pairs
 
 INTERNAL = ("moller_trumbore_aa", "moller_trumbore_twice")
 

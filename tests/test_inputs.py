@@ -14,6 +14,7 @@ import sys
 import tracemalloc
 
 import pytest
+
 from tribench.common import UserError
 from tribench.harness import calibration
 from tribench.harness.calibration import MAX_MARGIN, Margin, latest_margin, user_calibration_path
@@ -154,7 +155,7 @@ def test_plan_bounds_from_the_command_line(tmp_path):
     env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
     for args in (["--file", str(f)], ["--rounds", "1000000000", "--pairs", "100"],
                  ["--processes", str(MAX_PROCESSES + 1), "--pairs", "100"]):
-        r = subprocess.run([sys.executable, "-m", "tribench.harness.cli", "sweep", "--kernels", "moller_trumbore",
+        r = subprocess.run([sys.executable, "-m", "tribench.cli", "sweep", "--kernels", "moller_trumbore",
                             *args, "--out", str(tmp_path / "run")], capture_output=True, text=True, env=env,
                            timeout=120)
         assert r.returncode == 2 and "must be between" in r.stderr, r.stderr
@@ -214,7 +215,7 @@ def test_every_margin_a_verdict_uses_is_checked():
 def test_a_sweep_with_a_bad_calibration_stops_before_measuring(tmp_path):
     env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
     (tmp_path / "calibration.json").write_text('{"margin": NaN, "cpu_model": null}')
-    r = subprocess.run([sys.executable, "-m", "tribench.harness.cli", "sweep", "--kernels", "moller_trumbore",
+    r = subprocess.run([sys.executable, "-m", "tribench.cli", "sweep", "--kernels", "moller_trumbore",
                         "--pairs", "100", "--processes", "2", "--rounds", "1", "--out", str(tmp_path / "run")],
                        capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 2 and f"{tmp_path / 'calibration.json'}: key 'margin'" in r.stderr, r.stderr

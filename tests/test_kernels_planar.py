@@ -9,11 +9,10 @@ import functools
 import numpy as np
 import pytest
 import trimesh
+from conftest import as_dtype, reference_answers, safe_pairs
 
 from tribench import ext
 from tribench.workloads import reference
-
-from conftest import as_dtype, reference_answers, safe_pairs
 
 KERNELS = ["moller_trumbore_cull", "baldwin_weber_12", "baldwin_weber_9", "havel_herout"]
 STRIDE = {"moller_trumbore_cull": 9, "baldwin_weber_12": 12, "baldwin_weber_9": 10, "havel_herout": 12}

@@ -16,11 +16,10 @@ import functools
 import numpy as np
 import pytest
 import trimesh
+from conftest import as_dtype, reference_answers, safe_pairs
 
 from tribench import ext
 from tribench.workloads import reference
-
-from conftest import as_dtype, reference_answers, safe_pairs
 
 KERNELS = ["woop", "plucker"]
 DTYPES = [np.float32, np.float64]

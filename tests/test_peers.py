@@ -9,11 +9,10 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
-
 from test_report_run import run_fixture_dir
 
-from tribench import reports
-from tribench.harness import analysis, peers, stats
+from tribench import reports, stats
+from tribench.harness import analysis, peers
 from tribench.reports import columns
 from tribench.reports import html as report_html
 from tribench.reports.rundata import load_peers, load_run
@@ -199,7 +198,7 @@ def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
     (["--processes", "1", "--reps", "100000"], "processes x reps must be at most 10,000"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message):
-    done = subprocess.run([sys.executable, "-m", "tribench.harness.cli", "peers", "--out", str(tmp_path), *flags],
+    done = subprocess.run([sys.executable, "-m", "tribench.cli", "peers", "--out", str(tmp_path), *flags],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 2, done.stderr
     assert message in done.stderr and len(done.stderr.strip().splitlines()) == 1

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import safe_pairs
 
 from tribench.workloads import reference
-
-from conftest import safe_pairs
 
 TRI = np.array([[[0.0, 0, 0], [2, 0, 0], [0, 2, 0]]])
 

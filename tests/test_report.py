@@ -12,7 +12,6 @@ from html.parser import HTMLParser
 
 import pandas as pd
 import pytest
-
 from test_report_run import run_fixture_dir
 
 from tribench import reports
@@ -153,8 +152,9 @@ def _section_rows(text, sid):
 
 
 def test_kernels_section_gives_bytes_per_triangle_beside_speed(rendered):
-    from tribench import ext
     from test_report_run import KERNELS
+
+    from tribench import ext
 
     _, _, text = rendered
     rows = _section_rows(text, "kernels")
@@ -172,8 +172,9 @@ def test_kernels_section_gives_bytes_per_triangle_beside_speed(rendered):
 
 
 def test_robustness_section_shows_the_validate_table_per_kernel_and_dtype(rendered):
-    from tribench.harness import validate
     from test_report_run import KERNELS
+
+    from tribench.harness import validate
 
     run_dir, _, text = rendered
     part = text[text.index('id="robustness"'):text.index('id="workloads"')]
@@ -269,7 +270,7 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, setup, message):
     if setup == "corrupt":
         target.mkdir()
         (target / "run.json").write_text("[")
-    proc = subprocess.run([sys.executable, "-m", "tribench.reports.cli", "report", str(target)],
+    proc = subprocess.run([sys.executable, "-m", "tribench.cli", "report", str(target)],
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()

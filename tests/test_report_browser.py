@@ -8,7 +8,6 @@ import subprocess
 
 import numpy as np
 import pytest
-
 from test_report_run import run_fixture_dir
 
 from tribench import reports

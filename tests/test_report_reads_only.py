@@ -10,11 +10,10 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from test_report_run import run_fixture_dir
 
-from tribench import ext, reports
-from tribench.harness import analysis, records, stats, validate
+from tribench import ext, reports, stats
+from tribench.harness import analysis, records, validate
 from tribench.workloads import cache
 
 #: Every entry point that measures, makes a workload, runs the suite, computes a statistic or writes a table.
@@ -77,7 +76,7 @@ def test_a_copied_run_renders_the_same_report_with_an_empty_cache_and_nothing_co
 def test_the_report_command_on_a_copied_run_creates_no_cache_file(copied, tmp_path):
     run_dir, _, copy = copied
     empty = tmp_path / "cache"
-    proc = subprocess.run([sys.executable, "-m", "tribench.reports.cli", "report", str(copy), "--quiet"],
+    proc = subprocess.run([sys.executable, "-m", "tribench.cli", "report", str(copy), "--quiet"],
                           capture_output=True, text=True, timeout=300,
                           env={**__import__("os").environ, "TRIBENCH_CACHE": str(empty)})
     assert proc.returncode == 0, proc.stderr
@@ -90,7 +89,7 @@ def test_a_folder_without_tables_is_refused_in_one_line_naming_tribench_stats(co
     bare.mkdir()
     for name in ("run.json", "batches.csv", "processes.csv", "checks.csv"):
         shutil.copy(copy / name, bare / name)
-    proc = subprocess.run([sys.executable, "-m", "tribench.reports.cli", "report", str(bare)],
+    proc = subprocess.run([sys.executable, "-m", "tribench.cli", "report", str(bare)],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()

@@ -66,12 +66,12 @@ def cli(*args, limit_bytes=None, **kw):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
 
-    return subprocess.run([sys.executable, "-m", "tribench.harness.cli", *args], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "tribench.cli", *args], capture_output=True, text=True,
                           timeout=180, preexec_fn=limit if limit_bytes else None, **kw)
 
 
 def popen(*args):
-    return subprocess.Popen([sys.executable, "-m", "tribench.harness.cli", *args], stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-m", "tribench.cli", *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
 
 

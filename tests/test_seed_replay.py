@@ -10,13 +10,14 @@ import pandas as pd
 import pytest
 from scipy import stats as sps
 
+from tribench.cli.command import main
 from tribench.harness import seed as hs
-from tribench.harness.cli import main
 from tribench.workloads import cache, reference
 from tribench.workloads import seed_workload as sw
+from tribench.workloads.kinds import spec_from_dict
 from tribench.workloads.seed_scene import Scene, builtin_scene, builtin_scene_path
 from tribench.workloads.seed_workload import ORIGIN_SHIFT, EmptyStream, SeedSpec
-from tribench.workloads.spec import spec_from_dict, workload_id
+from tribench.workloads.spec import workload_id
 
 # A tiny scene with every kind of ray: a reflective floor, a sphere, and a
 # reflective tetrahedron-ish pair of triangles in front of the camera.

@@ -30,7 +30,7 @@ def env(tmp_path, monkeypatch):
 
 
 def cli(*args, env=None, **kw):
-    return subprocess.run([sys.executable, "-m", "tribench.harness.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "tribench.cli", *args], capture_output=True,
                           text=True, timeout=120, env=env, **kw)
 
 
@@ -87,7 +87,7 @@ def test_sigkill_mid_sweep_then_resume_gives_exactly_the_planned_batches(tmp_pat
     args = ["--kernels", "moller_trumbore,curless", "--pairs", "300", "--processes", "4", "--rounds", "3",
             "--warmup", "1", "--target-ms", "20", "--no-progress"]
     killed = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "tribench.harness.cli", "sweep", "--out", str(killed), *args],
+    proc = subprocess.Popen([sys.executable, "-m", "tribench.cli", "sweep", "--out", str(killed), *args],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     csv = killed / "batches.csv"
     deadline = time.monotonic() + 60

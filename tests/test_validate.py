@@ -12,8 +12,8 @@ import pandas as pd
 import pytest
 
 from tribench import ext
+from tribench.cli.command import main
 from tribench.harness import validate
-from tribench.harness.cli import main
 
 KERNELS = ext.kernel_names()
 WATERTIGHT = [k for k in KERNELS if ext.kernel_info(k).watertight != "none"]
@@ -234,7 +234,7 @@ def test_cli_unknown_kernel_is_a_user_error(capsys):
 
 def test_validate_runs_as_a_command_and_writes_validate_csv_here(tmp_path):
     done = subprocess.run(
-        [sys.executable, "-m", "tribench.harness.cli", "validate", "--quick", "--kernels", KERNELS[0],
+        [sys.executable, "-m", "tribench.cli", "validate", "--quick", "--kernels", KERNELS[0],
          "--dtype", "float64"],
         capture_output=True, text=True, timeout=120, cwd=tmp_path,
     )

@@ -19,6 +19,7 @@ import warnings
 import numpy as np
 import pytest
 
+from tribench.cli.workloads import add_parser
 from tribench.common import UserError
 from tribench.workloads import (
     MISS_STAGES,
@@ -36,7 +37,6 @@ from tribench.workloads import (
     spec_from_dict,
     workload_id,
 )
-from tribench.workloads.cli import add_parser
 from tribench.workloads.meshes import base_mesh, build_mesh, place
 from tribench.workloads.pairs import BARY_MARGIN, HIT, OTHER, T_MARGIN
 from tribench.workloads.rays import camera_candidates, camera_rays, closest_hits, sphere_candidates

@@ -1,17 +1,21 @@
 """Workloads: meshes and ray sets from frozen specs, with float64 reference answers.
 
-``tribench.workloads`` never times anything.
+``tribench.workloads`` owns specs, generators, reference answers, the workload
+cache and pictures of workloads; it never times anything. It may import
+``tribench.common`` and ``tribench.ext`` (to count a stream's tests).
 
-A workload is a pure function of a frozen spec (:class:`PairSpec` or
-:class:`MeshSpec`); :func:`make` returns it from the cache or builds and caches
+A workload is a pure function of a frozen spec (:class:`PairSpec`,
+:class:`MeshSpec` or ``SeedSpec``; :mod:`.kinds` maps a kind to its class and
+generator); :func:`make` returns it from the cache or builds and caches
 it, :func:`load` finds it by id, :func:`list_cached` lists the cache. Importing
 this package does not import trimesh or matplotlib.
 """
 
-from .cache import CacheWarning, CachedWorkload, cache_dir, generate, list_cached, load, make
+from .cache import CachedWorkload, CacheWarning, cache_dir, generate, list_cached, load, make
+from .kinds import spec_from_dict
 from .pairs import classify_misses
 from .reference import PairAnswers, intersect_closest, intersect_pairs
-from .spec import MISS_STAGES, MeshSpec, PairSpec, spec_from_dict, workload_id
+from .spec import MISS_STAGES, MeshSpec, PairSpec, workload_id
 from .workload import Workload
 
 __all__ = [

@@ -33,12 +33,11 @@ import numpy as np
 
 from tribench.common import Notice, UserError, write_bytes
 
+from .kinds import generate, spec_from_dict
 from .spec import (
-    PairSpec,
     Spec,
     canonical_json,
     identity,
-    spec_from_dict,
     workload_id,
 )
 from .workload import Workload
@@ -91,22 +90,6 @@ def cache_dir() -> Path:
 
 def _path(wid: str) -> Path:
     return cache_dir() / f"{wid}.npz"
-
-
-def generate(spec: Spec) -> Workload:
-    """Build the workload of ``spec`` without touching the cache."""
-    wid = workload_id(spec)
-    if isinstance(spec, PairSpec):
-        from .pairs import generate_pairs
-
-        return generate_pairs(spec, wid)
-    if spec.kind == "seed":
-        from .seed_workload import generate_seed_workload  # lazy: traces a scene on use
-
-        return generate_seed_workload(spec, wid)
-    from .rays import generate_mesh_workload  # lazy: pulls in trimesh on use
-
-    return generate_mesh_workload(spec, wid)
 
 
 def _seal(body: bytes) -> bytes:

@@ -110,8 +110,8 @@ def _shading(w: Workload) -> np.ndarray:
 
 
 def _draw_camera(plt, w: Workload):
-    from matplotlib.patches import Patch
     from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
 
     width, height = w.spec.width, w.spec.height
     hit = (w.ref_index >= 0).reshape(height, width)

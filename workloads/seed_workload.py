@@ -69,24 +69,15 @@ from __future__ import annotations
 
 import functools
 import math
-import os
-from dataclasses import dataclass, fields
-from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
 from tribench.common import UserError
 
 from .reference import intersect_pairs
-from .seed_scene import (
-    BUILTIN_SCENES,
-    Scene,
-    builtin_scene_path,
-    load_scene,
-    read_scene,
-)
-from .spec import _MAX_RAYS, DTYPES, MISS_STAGES, _choice, _file_sha256, _int
+from .seed_scene import Scene, load_scene
+from .spec import MISS_STAGES, RAY_KINDS, SEED_VERSION, SeedSpec  # the spec is defined with the others
 from .workload import AMBIGUOUS_MARGIN, Workload, library_versions
 
 __all__ = [
@@ -101,8 +92,6 @@ __all__ = [
     "stream_trace",
 ]
 
-SEED_VERSION = 1
-RAY_KINDS = ("primary", "reflected", "shadow")
 #: Kernel and precision that trace the stream (see the module docstring).
 STREAM_KERNEL = ("curless_seed", "float64")
 #: Secondary rays start this far along their direction: the seed's 1e-4 on t.
@@ -113,99 +102,10 @@ T_NEAR_ZERO = 1e-5
 TIE_RTOL = 1e-4
 #: Counts the full shadow stream's tests (scalar: stops at the first hit in index order).
 _COUNTING_KERNEL = "moller_trumbore"
-_MAX_SIDE = 4096  # a 4096 x 4096 trace is about 4 GB of ray records
 
 
 class EmptyStream(UserError):
     """The render shoots no ray of the asked kind that tests a triangle (e.g. no reflective material)."""
-
-
-@dataclass(frozen=True)
-class SeedSpec:
-    """A uniform sample of one kind of ray from the seed's render of a scene.
-
-    Parameters
-    ----------
-    scene : str
-        ``"scene02"``, ``"scene03"`` or the path of a scene file in the seed's
-        format (stored absolute; a file that does not parse is refused here).
-    rays : {"primary", "reflected", "shadow"}
-        Primary and reflected rays ask for the closest hit; shadow rays for
-        any hit (mode ``any``).
-    sample : int
-        Rays drawn, uniformly without replacement (all of them if fewer).
-    width, height : int
-        Image size of the render (the seed: 512 x 512).
-    dtype : {"float32", "float64"}
-        The seed's ``Vecteur`` holds float: float32 is the faithful replay.
-    seed : int
-    """
-
-    scene: str = "scene02"
-    rays: str = "primary"
-    sample: int = 4096
-    width: int = 512
-    height: int = 512
-    dtype: str = "float32"
-    seed: int = 0
-
-    kind: ClassVar[str] = "seed"
-    version: ClassVar[int] = SEED_VERSION
-
-    def __post_init__(self) -> None:
-        put = object.__setattr__  # frozen: normalise the fields once, here
-        if isinstance(self.scene, os.PathLike):
-            put(self, "scene", os.fspath(self.scene))
-        if not isinstance(self.scene, str) or not self.scene:
-            raise UserError(f"scene must be a built-in scene name or a file path, got {self.scene!r}")
-        if self.scene not in BUILTIN_SCENES:
-            path = Path(self.scene).expanduser()
-            if not path.exists():
-                raise UserError(f"unknown scene {self.scene!r}: not one of {', '.join(BUILTIN_SCENES)} "
-                                 f"and no such file")
-            read_scene(path)  # SceneError names a folder, an unreadable file or the bad line
-            put(self, "scene", str(path.resolve()))
-        _choice("rays", self.rays, RAY_KINDS)
-        put(self, "sample", _int("sample", self.sample, 1, _MAX_RAYS))
-        put(self, "width", _int("width", self.width, 1, _MAX_SIDE))
-        put(self, "height", _int("height", self.height, 1, _MAX_SIDE))
-        _choice("dtype", self.dtype, DTYPES)
-        put(self, "seed", _int("seed", self.seed, 0, 2**63 - 1))
-
-    @property
-    def mode(self) -> str:
-        """``"any"`` for shadow rays (stop at the first occluder), else ``"closest"``."""
-        return "any" if self.rays == "shadow" else "closest"
-
-    @property
-    def is_file(self) -> bool:
-        return self.scene not in BUILTIN_SCENES
-
-    @property
-    def scene_path(self) -> Path:
-        return Path(self.scene) if self.is_file else builtin_scene_path(self.scene)
-
-    @property
-    def scene_label(self) -> str:
-        """Short name for tables: the built-in name or the file's stem."""
-        return Path(self.scene).stem if self.is_file else self.scene
-
-    def scene_identity(self) -> dict[str, Any]:
-        """What names the scene in a workload id: its text's sha256, not its path."""
-        return {"scene": "file" if self.is_file else self.scene, "scene_sha256": _file_sha256(str(self.scene_path))}
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON- and TOML-friendly fields, with ``kind``."""
-        return {"kind": self.kind, **{f.name: getattr(self, f.name) for f in fields(self)}}
-
-    def targets(self) -> dict[str, Any]:
-        """Target figures, keyed like the achieved figures they are compared with."""
-        return {"sample_rays": self.sample}
-
-    def summary(self) -> str:
-        """One line for listings."""
-        return (f"seed {self.scene_label} {self.rays} sample={self.sample} of {self.width}x{self.height} "
-                f"{self.dtype} seed={self.seed}")
 
 
 # ------------------------------------------------------------------ stream

@@ -10,7 +10,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tribench.common import UserError, flags, write_text
+from tribench.common import UserError, write_text
+
+from . import flags
 
 __all__ = ["add_parser", "report_main", "compare_main"]
 
@@ -22,7 +24,7 @@ def _error(command: str, exc: BaseException) -> int:
 
 def report_main(args: argparse.Namespace) -> int:
     """Write RUN_DIR/report.html, print the compact tables, optionally open the page."""
-    from . import format_tables, write_report
+    from tribench.reports import format_tables, write_report
     try:
         path = write_report(args.run_dir, baseline=args.baseline)
         if not args.quiet:
@@ -39,8 +41,8 @@ def report_main(args: argparse.Namespace) -> int:
 
 def compare_main(args: argparse.Namespace) -> int:
     """Print the ratio-of-speedups table of two runs and write it as an HTML page."""
-    from .compare import compare_runs, format_comparison, render_compare
-    from .rundata import load_run
+    from tribench.reports.compare import compare_runs, format_comparison, render_compare
+    from tribench.reports.rundata import load_run
 
     try:
         a, b = load_run(args.run_a), load_run(args.run_b)
@@ -89,7 +91,7 @@ def add_parser(subparsers) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry (``python -m tribench.reports.cli``) until the harness CLI wires it in."""
+    """Stand-alone entry (``python -m tribench.cli.reports``): the same as ``tribench report``/``compare``."""
     parser = flags.Parser(prog="tribench")
     add_parser(parser.add_subparsers(dest="command", required=True, metavar="COMMAND"))
     args = parser.parse_args(argv)

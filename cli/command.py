@@ -16,13 +16,14 @@ import sys
 import threading
 import warnings
 
-from tribench.common import Notice, UserError, flags
+from tribench.common import Notice, UserError
+
+from . import flags
 
 
 def _info(args: argparse.Namespace) -> int:
     from tribench import ext
-
-    from .machine import machine_record
+    from tribench.harness.machine import machine_record
 
     rec = machine_record()
     build = rec["build"]
@@ -61,7 +62,7 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _print_peak(width: int) -> None:
-    from .peak import camera_fractions
+    from tribench.harness.peak import camera_fractions
 
     print("\nmeasuring the FMA peak and every kernel on the in-cache camera workload "
           "(Suzanne 968 triangles, 64x64 rays, closest hit)...", file=sys.stderr)
@@ -86,7 +87,7 @@ def _default_run_dir(kind: str = "") -> str:
 
 def _new_run_folder(text: str) -> str:
     """A run folder to create: writable, and new or empty (the runner's own check, run up front)."""
-    from .records import check_new_run_dir
+    from tribench.harness.records import check_new_run_dir
 
     out = flags.output_folder(text)
     try:
@@ -125,8 +126,7 @@ def _workloads_from_flags(args: argparse.Namespace) -> list:
 
 def _sweep_from_args(args: argparse.Namespace):
     from tribench import ext
-
-    from .plan import (
+    from tribench.harness.plan import (
         DEFAULT_PROCESSES,
         DEFAULT_ROUNDS,
         DEFAULT_TARGET_MS,
@@ -152,7 +152,7 @@ def _report_run(result, stream=sys.stderr) -> None:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from . import runner
+    from tribench.harness import runner
 
     progress = False if args.no_progress else None
     if args.resume:
@@ -168,7 +168,7 @@ def _sweep(args: argparse.Namespace) -> int:
         result = runner.start(sweep, out, cpu=args.cpu, progress=progress)
     _report_run(result)
     if result.batches_done == result.batches_total:  # the analysis step: every table the report reads
-        from .analysis import write_all
+        from tribench.harness.analysis import write_all
 
         write_all(result.run_dir)
         print(f"next: tribench report {result.run_dir}", file=sys.stderr)
@@ -182,7 +182,7 @@ _SWEEP_DESIGN_FLAGS = ("file", "kernels", "hit_rates", "pairs", "mesh", "triangl
 
 
 def _add_design_flags(p: argparse.ArgumentParser) -> None:
-    from .plan import (
+    from tribench.harness.plan import (
         DEFAULT_PROCESSES,
         DEFAULT_ROUNDS,
         DEFAULT_TARGET_MS,
@@ -204,9 +204,8 @@ def _add_design_flags(p: argparse.ArgumentParser) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from tribench.harness.main_job import run
     from tribench.reports import format_tables, write_report
-
-    from .main_job import run
 
     out = args.out or _default_run_dir("quick" if args.quick else "")
     run(out, quick=args.quick, progress=False if args.no_progress else None)
@@ -219,7 +218,7 @@ def _run(args: argparse.Namespace) -> int:
 def _peers(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from . import peers
+    from tribench.harness import peers
 
     design = peers.PeerDesign.quick() if args.quick else peers.PeerDesign()
     changes = {k: v for k, v in {"processes": args.processes, "reps": args.reps, "triangles": args.triangles,
@@ -251,9 +250,8 @@ def _peers(args: argparse.Namespace) -> int:
 def _seed(args: argparse.Namespace) -> int:
     import shlex
 
+    from tribench.harness.seed import KINDS_CSV, SEED_CSV, WORKLOADS_CSV, format_table, run_seed
     from tribench.reports.seed import write_seed_report
-
-    from .seed import KINDS_CSV, SEED_CSV, WORKLOADS_CSV, format_table, run_seed
 
     out = args.out or _default_run_dir("seed-quick" if args.quick else "seed")
     words = ["tribench", "seed", *[w for s in args.scene or [] for w in ("--scene", s)],
@@ -271,9 +269,8 @@ def _seed(args: argparse.Namespace) -> int:
 
 
 def _stats(args: argparse.Namespace) -> int:
+    from tribench.harness.analysis import write_all
     from tribench.reports import format_tables
-
-    from .analysis import write_all
 
     derived = write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
     print(format_tables(args.run_dir))
@@ -286,7 +283,7 @@ def _stats(args: argparse.Namespace) -> int:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from .calibration import calibrate, user_calibration_path
+    from tribench.harness.calibration import calibrate, user_calibration_path
 
     workloads = ()
     if args.workload:
@@ -330,8 +327,8 @@ def _peers_out(text: str) -> str:
 def _validate(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from . import validate
-    from .records import write_csv
+    from tribench.harness import validate
+    from tribench.harness.records import write_csv
 
     # each --kernels/--dtype word may itself be a comma list
     kernels = [k for words in args.kernels for k in words] if args.kernels else None
@@ -345,7 +342,7 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .machine import version
+    from tribench.harness.machine import version
 
     parser = flags.Parser(
         prog="tribench",
@@ -440,7 +437,7 @@ def build_parser() -> argparse.ArgumentParser:
         "paired by process, and writes peers.csv (into a run folder, the report shows it). Needs "
         "pip install 'tribench[peers]' (embreex, and rtree for trimesh's intersector). About 40 s.",
     )
-    from .peers import PeerDesign
+    from tribench.harness.peers import PeerDesign
 
     full, quick = PeerDesign(), PeerDesign.quick()
     pe.add_argument("--out", metavar="RUN_DIR|FILE.csv", type=_peers_out,
@@ -498,8 +495,8 @@ def build_parser() -> argparse.ArgumentParser:
     seed.add_argument("--sample", type=flags.positive_int, help=argparse.SUPPRESS)  # rays sampled per kind, for tests
     seed.set_defaults(func=_seed)
 
-    from tribench.reports.cli import add_parser as add_reports
-    from tribench.workloads.cli import add_parser as add_workloads
+    from .reports import add_parser as add_reports
+    from .workloads import add_parser as add_workloads
 
     add_workloads(sub)
     add_reports(sub)
@@ -561,7 +558,7 @@ def _run_command(argv: list[str] | None) -> int:
     try:
         args = build_parser().parse_args(argv)
         prog = f"tribench {args.command}"
-        from .runner import SweepError, SweepInterrupted
+        from tribench.harness.runner import SweepError, SweepInterrupted
 
         try:
             return args.func(args)

@@ -7,8 +7,8 @@ the flag (``tribench sweep: error: argument --pairs: ...``) and exits 2, before
 the command does anything. A value is never replaced silently: an empty list,
 a zero count or a folder that is a file is refused, not defaulted.
 
-It lives at the bottom of the import order so that every command line
-(``workloads``, ``harness``, ``reports``) uses the same checks.
+It lives in ``tribench.cli``, the one package that parses command lines, so
+that every command (``workloads``, ``sweep``, ``report``...) uses the same checks.
 
 >>> positive_int("12")
 12

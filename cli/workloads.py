@@ -26,7 +26,9 @@ import json
 import sys
 from typing import Any
 
-from tribench.common import UserError, flags
+from tribench.common import UserError
+
+from . import flags
 
 __all__ = ["add_parser", "main", "parse_miss_mix"]
 
@@ -126,7 +128,7 @@ def _error(message: str) -> int:
 
 
 def _spec_from_args(args: argparse.Namespace):
-    from .spec import MeshSpec, PairSpec
+    from tribench.workloads.spec import MeshSpec, PairSpec
 
     options = _PAIR_OPTIONS + _MESH_OPTIONS + _SHARED_OPTIONS
     given = {k: getattr(args, k) for k in options if getattr(args, k) is not None}
@@ -172,7 +174,7 @@ def _report(w, as_json: bool) -> None:
 
 
 def _make(args: argparse.Namespace) -> int:
-    from .cache import make
+    from tribench.workloads.cache import make
 
     try:
         w = make(_spec_from_args(args))
@@ -183,8 +185,8 @@ def _make(args: argparse.Namespace) -> int:
 
 
 def _list(args: argparse.Namespace) -> int:
-    from .cache import cache_dir, list_cached
-    from .spec import spec_from_dict
+    from tribench.workloads.cache import cache_dir, list_cached
+    from tribench.workloads.kinds import spec_from_dict
 
     entries = list_cached()
     if not entries:
@@ -202,7 +204,7 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _show(args: argparse.Namespace) -> int:
-    from .cache import load, resolve_id
+    from tribench.workloads.cache import load, resolve_id
 
     try:
         w = load(resolve_id(args.workload_id))
@@ -210,7 +212,7 @@ def _show(args: argparse.Namespace) -> int:
         return _error(str(e))
     _report(w, args.json)
     if args.png:
-        from .picture import draw
+        from tribench.workloads.picture import draw
 
         try:
             draw(w, args.png)
@@ -221,7 +223,7 @@ def _show(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run ``workloads`` alone (``python -m tribench.workloads.cli make pairs``)."""
+    """Run ``workloads`` alone (``python -m tribench.cli.workloads make pairs``)."""
     parser = flags.Parser(prog="tribench")
     add_parser(parser.add_subparsers(metavar="COMMAND"))
     args = parser.parse_args(["workloads", *(sys.argv[1:] if argv is None else argv)])

@@ -1,0 +1,87 @@
+"""The equivalence margin a sweep uses: the latest A/A calibration's, or the default.
+
+Reading the margin is what the runner needs before a sweep; running a
+calibration (:mod:`.calibration`) needs the runner. Keeping the two apart
+keeps the import order one-way: runner -> margin, calibration -> runner.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from tribench.common import UserError
+from tribench.stats import DEFAULTS, check_margin
+
+__all__ = ["CALIBRATION", "Margin", "latest_margin", "user_calibration_path"]
+
+CALIBRATION = "calibration.json"
+
+
+_FIX = "run `tribench calibrate` again, or delete the file to use the default margin"
+
+
+@dataclass(frozen=True)
+class Margin:
+    """An equivalence margin (relative, 0.01 = 1 %) and where it came from.
+
+    The value is checked here, so every margin a verdict uses -- a
+    calibration file's, one recorded in ``run.json``, ``--margin`` -- is a
+    finite number in ``[0, MAX_MARGIN]``."""
+
+    value: float
+    source: str
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "value", check_margin(self.value, f"margin of {self.source}"))
+
+
+def user_calibration_path() -> Path:
+    """The latest calibration of this user: next to the workload cache.
+
+    ``$TRIBENCH_CACHE/../calibration.json`` when ``TRIBENCH_CACHE`` is set,
+    else ``~/.cache/tribench/calibration.json``.
+    """
+    cache = os.environ.get("TRIBENCH_CACHE")
+    base = Path(cache).expanduser().parent if cache else Path("~/.cache/tribench").expanduser()
+    return base / CALIBRATION
+
+
+def latest_margin(cpu_model: str | None = None) -> Margin:
+    """The latest calibration's margin, if it was measured on ``cpu_model``; else the default.
+
+    No calibration file: the default. A file that is there but unusable
+    (not JSON, no margin, a margin that is not a number in ``[0, MAX_MARGIN]``)
+    is a UserError naming the file and the key, raised before a sweep
+    measures anything: falling back silently would give verdicts the user
+    takes for calibrated ones, and the fix is one command.
+
+    >>> m = latest_margin("no such cpu")
+    >>> m.value == DEFAULTS.margin and m.source.startswith("default")
+    True
+    """
+    path = user_calibration_path()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return Margin(DEFAULTS.margin, "default (stats.DEFAULTS.margin: no calibration found)")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: cannot read the calibration file ({exc}); {_FIX}") from None
+    try:
+        cal = json.loads(text)
+    except (ValueError, RecursionError):
+        raise UserError(f"{path}: not a calibration file (not valid JSON); {_FIX}") from None
+    if not isinstance(cal, dict) or "margin" not in cal:
+        raise UserError(f"{path}: not a calibration file (no 'margin' key); {_FIX}")
+    try:
+        value = check_margin(cal["margin"], f"{path}: key 'margin'")
+    except UserError as exc:
+        raise UserError(f"{exc}; {_FIX}") from None
+    if not isinstance(cal.get("cpu_model"), (str, type(None))):
+        raise UserError(f"{path}: key 'cpu_model' must be a string, got {cal['cpu_model']!r:.40}; {_FIX}")
+    if cpu_model is not None and cal.get("cpu_model") != cpu_model:
+        return Margin(DEFAULTS.margin, f"default (stats.DEFAULTS.margin: {path} is for another CPU)")
+    created, run = str(cal.get("created", "?"))[:40], str(cal.get("run_dir", "?"))[:200]
+    return Margin(value, f"calibration {path} ({created}, run {run})")

@@ -1,0 +1,193 @@
+"""The packages import in one direction only, and no module imports itself back.
+
+The written order (README, "Layout and data flow"), bottom first:
+
+    common <- ext <- workloads <- stats <- harness <- reports <- cli
+
+A module may import its own package and any package below it, never one
+above. Every import counts: at module level, inside a function, under
+``if TYPE_CHECKING``, relative or absolute. Between modules there is no cycle,
+function-level imports included, so each module can be read (and imported)
+knowing only what is below it.
+"""
+
+from __future__ import annotations
+
+import ast
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+ORDER = ["common", "ext", "workloads", "stats", "harness", "reports", "cli"]
+RANK = {package: rank for rank, package in enumerate(ORDER)}
+
+
+@dataclass(frozen=True)
+class Edge:
+    """One import: ``source`` imports ``target`` at ``where`` (path:line)."""
+
+    source: str
+    target: str
+    where: str
+
+    def __str__(self) -> str:
+        return f"{self.source} -> {self.target} ({self.where})"
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(["tribench", *parts])
+
+
+def _sources() -> dict[str, Path]:
+    """Every module of the seven packages, by its import name."""
+    found = {}
+    for package in ORDER:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            found[_module_name(path)] = path
+    return found
+
+
+MODULES = _sources()
+
+
+def _resolve(base: str, names: list[str]) -> list[str]:
+    """What ``from base import names`` loads: each name that is a module, else ``base`` itself."""
+    targets = [f"{base}.{name}" for name in names if f"{base}.{name}" in MODULES]
+    if len(targets) < len(names):
+        targets.append(base)
+    return targets
+
+
+def _imports(module: str, path: Path) -> list[Edge]:
+    """Every tribench import in one file, at any depth of the syntax tree."""
+    is_package = path.name == "__init__.py"
+    edges = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:  # relative: climb from this module's package
+                package = module.split(".") if is_package else module.split(".")[:-1]
+                package = package[: len(package) - (node.level - 1)]
+                base = ".".join(package + ([node.module] if node.module else []))
+            else:
+                base = node.module or ""
+            targets = _resolve(base, [alias.name for alias in node.names])
+        else:
+            continue
+        where = f"{path.relative_to(ROOT)}:{node.lineno}"
+        edges += [Edge(module, t, where) for t in targets if t == "tribench" or t.startswith("tribench.")]
+    return edges
+
+
+EDGES = [edge for module, path in MODULES.items() for edge in _imports(module, path)]
+
+
+def _package(module: str) -> str | None:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else None
+
+
+def test_the_scan_sees_every_package_and_every_kind_of_import():
+    # a scan that found nothing would pass everything below
+    assert {_package(m) for m in MODULES} == set(ORDER)
+    assert len(EDGES) > 100
+    pairs = {(e.source, e.target) for e in EDGES}
+    assert ("tribench.harness.runner", "tribench.harness.records") in pairs  # from . import module
+    assert ("tribench.harness.runner", "tribench.harness.margin") in pairs  # relative, in a function
+    assert ("tribench.harness.analysis", "tribench.stats") in pairs  # from tribench import package
+    assert ("tribench.cli.command", "tribench.harness.runner") in pairs  # absolute, in a function
+    assert ("tribench.workloads.cache", "tribench.workloads.kinds") in pairs  # from .module import name
+
+
+def test_every_import_points_down_the_order():
+    bad = []
+    for edge in EDGES:
+        source, target = _package(edge.source), _package(edge.target)
+        if target not in RANK:
+            bad.append(f"{edge}: {edge.target} is in no package of the order {ORDER}")
+        elif RANK[target] > RANK[source]:
+            bad.append(f"{edge}: {source} may not import {target} (order: {' <- '.join(ORDER)})")
+    assert not bad, "imports against the order:\n" + "\n".join(bad)
+
+
+def _cycles(edges: list[Edge]) -> list[list[Edge]]:
+    """One cycle through each strongly connected group of modules (Tarjan)."""
+    graph: dict[str, dict[str, Edge]] = {}
+    for edge in edges:
+        if edge.source != edge.target:
+            graph.setdefault(edge.source, {}).setdefault(edge.target, edge)
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    groups: list[set[str]] = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for nxt in graph.get(node, {}):
+            if nxt not in index:
+                visit(nxt)
+                low[node] = min(low[node], low[nxt])
+            elif nxt in on_stack:
+                low[node] = min(low[node], index[nxt])
+        if low[node] == index[node]:
+            group = set()
+            while True:
+                top = stack.pop()
+                on_stack.discard(top)
+                group.add(top)
+                if top == node:
+                    break
+            if len(group) > 1:
+                groups.append(group)
+
+    for node in sorted(graph):
+        if node not in index:
+            visit(node)
+
+    cycles = []
+    for group in groups:  # the shortest way from the group's first module back to it
+        start = min(group)
+        came_by: dict[str, Edge] = {}
+        queue = deque([start])
+        while start not in graph[queue[0]]:
+            node = queue.popleft()
+            for nxt in sorted(graph[node]):
+                if nxt in group and nxt != start and nxt not in came_by:
+                    came_by[nxt] = graph[node][nxt]
+                    queue.append(nxt)
+        node = queue[0]
+        path = [graph[node][start]]
+        while node != start:
+            path.insert(0, came_by[node])
+            node = came_by[node].source
+        cycles.append(path)
+    return cycles
+
+
+def test_no_module_imports_itself_back():
+    cycles = _cycles(EDGES)
+    assert not cycles, "import cycles:\n" + "\n".join("  " + "\n   ".join(map(str, c)) for c in cycles)
+
+
+def test_the_cycle_finder_finds_a_cycle_and_names_its_edges():
+    edges = [Edge("a", "b", "a.py:1"), Edge("b", "c", "b.py:2"), Edge("c", "a", "c.py:3"), Edge("c", "d", "c.py:4")]
+    (cycle,) = _cycles(edges)
+    assert [str(e) for e in cycle] == ["a -> b (a.py:1)", "b -> c (b.py:2)", "c -> a (c.py:3)"]
+    assert _cycles(edges[:2] + edges[3:]) == []
+
+
+@pytest.mark.parametrize("package", ORDER)
+def test_each_package_says_what_it_owns_and_may_import(package):
+    doc = ast.get_docstring(ast.parse((ROOT / package / "__init__.py").read_text(encoding="utf-8")))
+    assert doc, f"{package}/__init__.py has no docstring"
+    assert "may import" in doc, f"{package}/__init__.py: the docstring should say what the package may import"

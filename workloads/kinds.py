@@ -1,0 +1,92 @@
+"""The workload kinds, in one registry: each ``kind`` names its spec class and its generator.
+
+A spec's ``kind`` field (in a cache file, a run folder's ``run.json`` or a
+sweep file) is looked up here and nowhere else: :func:`spec_from_dict`
+rebuilds the spec, :func:`generate` builds its workload. A new kind is one
+spec class in :mod:`.spec`, one generator module and one line in
+:data:`KINDS`.
+
+Examples
+--------
+>>> sorted(KINDS)
+['mesh', 'pairs', 'seed']
+>>> s = PairSpec(n=5, hit_rate=0.2, miss_mix="uniform")
+>>> spec_from_dict(s.to_dict()) == s
+True
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, fields
+from typing import Any
+
+from tribench.common import UserError
+
+from .spec import MeshSpec, PairSpec, SeedSpec, Spec, workload_id
+from .workload import Workload
+
+__all__ = ["KINDS", "Kind", "generate", "spec_from_dict"]
+
+
+@dataclass(frozen=True)
+class Kind:
+    """One kind of workload: its frozen spec class and the function that builds it."""
+
+    spec: type
+    #: ``generate(spec, workload_id) -> Workload``; imports its module on first use.
+    generate: Callable[[Any, str], Workload]
+
+
+def _pairs(spec: PairSpec, wid: str) -> Workload:
+    from .pairs import generate_pairs
+
+    return generate_pairs(spec, wid)
+
+
+def _mesh(spec: MeshSpec, wid: str) -> Workload:
+    from .rays import generate_mesh_workload  # lazy: pulls in trimesh on use
+
+    return generate_mesh_workload(spec, wid)
+
+
+def _seed(spec: SeedSpec, wid: str) -> Workload:
+    from .seed_workload import generate_seed_workload  # lazy: traces a scene on use
+
+    return generate_seed_workload(spec, wid)
+
+
+KINDS: dict[str, Kind] = {
+    "pairs": Kind(PairSpec, _pairs),
+    "mesh": Kind(MeshSpec, _mesh),
+    "seed": Kind(SeedSpec, _seed),
+}
+
+
+def _expected() -> str:
+    """``'pairs', 'mesh' or 'seed'``."""
+    *rest, last = map(repr, KINDS)
+    return f"{', '.join(rest)} or {last}"
+
+
+def spec_from_dict(d: Mapping[str, Any]) -> Spec:
+    """Rebuild a spec from its ``to_dict()`` output (the ``kind`` field picks the class)."""
+    if not isinstance(d, Mapping):
+        raise UserError(f"a workload spec must be a table of fields, got {d!r:.80}")
+    d = dict(d)
+    kind = d.pop("kind", None)
+    if not isinstance(kind, str):
+        raise UserError(f"workload kind must be {_expected()}, got {kind!r:.80}")
+    if kind not in KINDS:
+        raise UserError(f"unknown workload kind {kind!r}: expected {_expected()}")
+    cls = KINDS[kind].spec
+    names = {f.name for f in fields(cls)}
+    unknown = sorted(map(str, set(d) - names))
+    if unknown:
+        raise UserError(f"unknown {kind} spec field(s): {', '.join(unknown)}")
+    return cls(**d)
+
+
+def generate(spec: Spec) -> Workload:
+    """Build the workload of ``spec`` without touching the cache."""
+    return KINDS[spec.kind].generate(spec, workload_id(spec))
