@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TypeVar
@@ -76,14 +77,21 @@ def _refuse(message: str) -> argparse.ArgumentTypeError:
     return argparse.ArgumentTypeError(message)
 
 
+# Numbers on the command line are plain ASCII decimals: Python's int() and float()
+# also take "1_000", other scripts' digits and control characters as spaces.
+_INT = re.compile(r"[ \t]*[+-]?[0-9]+[ \t]*")
+_FLOAT = re.compile(r"[ \t]*[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?[ \t]*")
+
+
+def _decimal_int(text: str) -> int | None:
+    return int(text) if _INT.fullmatch(text) else None
+
+
 def int_in(lo: int, hi: int) -> Callable[[str], int]:
     """An integer from ``lo`` to ``hi`` (a decimal literal; ``1e3`` and ``2.0`` are refused)."""
 
     def check(text: str) -> int:
-        try:
-            value = int(text.strip())
-        except ValueError:
-            value = None
+        value = _decimal_int(text)
         if value is None or not lo <= value <= hi:
             raise _refuse(f"must be an integer from {lo} to {hi}, got {text!r}")
         return value
@@ -101,10 +109,7 @@ def float_in(lo: float, hi: float, *, low_open: bool = False) -> Callable[[str],
     interval = f"{'(' if low_open else '['}{lo:g}, {hi:g}]"
 
     def check(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
+        value = float(text) if _FLOAT.fullmatch(text) else math.nan
         if not (math.isfinite(value) and (lo < value if low_open else lo <= value) and value <= hi):
             raise _refuse(f"must be a number in {interval}, got {text!r}")
         return value
@@ -177,10 +182,7 @@ def camera(text: str) -> tuple[int, int]:
 def cpu(text: str) -> int:
     """One of the CPUs this process may run on (``os.sched_getaffinity(0)``)."""
     usable = sorted(os.sched_getaffinity(0))
-    try:
-        value = int(text.strip())
-    except ValueError:
-        value = None
+    value = _decimal_int(text)
     if value not in usable:
         raise _refuse(f"{text!r} is not one of this process's CPUs {usable}")
     return value

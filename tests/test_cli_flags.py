@@ -327,3 +327,17 @@ def test_ctrl_c_stops_a_command_with_one_line(args, marker, tmp_path):
     code, err, seconds = _interrupt(args, marker, tmp_path)
     assert code == 130 and "Traceback" not in err and seconds < 3, err
     assert err.splitlines()[-1] == f"tribench {args[0]}: interrupted"
+
+
+@pytest.mark.parametrize("text", ["1\x1f", "1_000", "\u0661\u0662", "1e3", "2.0", "0x10", "12 3"])
+def test_a_count_is_a_plain_ascii_decimal(text):
+    with pytest.raises(argparse.ArgumentTypeError):
+        flags.positive_int(text)
+
+
+@pytest.mark.parametrize("text, value", [("0.5", 0.5), (".5", 0.5), ("1e-2", 0.01), (" 1 ", 1.0)])
+def test_a_number_is_a_plain_ascii_decimal(text, value):
+    assert flags.float_in(0, 1)(text) == value
+    for bad in ("1_0", "inf", "nan", "0x1", "\u0661"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            flags.float_in(0, 1)(bad)
