@@ -64,9 +64,10 @@ def num(x: Any, digits: int = 3) -> str:
     if isinstance(x, (int, np.integer)):
         return f"{int(x):,}"
     if isinstance(x, (float, np.floating)):
-        if x == 0:
+        v = float(x)
+        if v == 0:
             return "0"
-        return f"{x:.{digits}g}" if abs(x) < 1e5 else f"{x:.{digits}e}"
+        return f"{v:.{digits}g}" if abs(v) < 1e5 else f"{v:.{digits}e}"
     return str(x)
 
 
