@@ -66,12 +66,15 @@ def add_parser(subparsers) -> None:
     rep = subparsers.add_parser(
         "report",
         help="write RUN_DIR/report.html: speedups, curves, diagnostics, workloads (never re-measures)",
-        description="Reads a run folder (run.json, batches.csv; estimates.csv and speedups.csv are made "
-        "with `tribench stats`'s analysis if missing) and writes one self-contained HTML page that opens "
-        "offline, plus sweep.toml to run the sweep again. Prints the estimates and speedups.",
+        description="Reads a run folder (run.json, batches.csv and the tables `tribench stats` made from them) "
+        "and writes one self-contained HTML page that opens offline, plus sweep.toml to run the sweep again. "
+        "Prints the estimates and speedups. It only reads: missing or stale tables are refused with the "
+        "`tribench stats` command that makes them.",
     )
     rep.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder)
-    rep.add_argument("--baseline", metavar="NAME", help="re-analyse against this baseline kernel")
+    rep.add_argument("--baseline", metavar="NAME",
+                     help="the baseline the tables must compare against (refused, naming `tribench stats "
+                     "--baseline NAME`, if they compare against another)")
     rep.add_argument("--open", action="store_true", help="open the report in a web browser")
     rep.add_argument("--quiet", action="store_true", help="do not print the tables")
     rep.set_defaults(func=report_main)

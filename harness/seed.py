@@ -405,12 +405,6 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
 # ------------------------------------------------------------------ terminal
 
 
-def _ci(low: float, high: float, fmt: str) -> str:
-    if not (math.isfinite(low) and math.isfinite(high)):
-        return "[no interval]"
-    return f"[{low:{fmt}}, {high:{fmt}}]"
-
-
 def format_table(seed: pd.DataFrame, workloads: pd.DataFrame | None = None) -> str:
     """The table beside the paper, for the terminal."""
     lines = ["The seed's renders replayed: triangle tests only, mean over processes with 95% CIs;",
@@ -428,14 +422,16 @@ def format_table(seed: pd.DataFrame, workloads: pd.DataFrame | None = None) -> s
         lines.append(f"  {'kernel':<20}{'paper real s':>13}{'replay s':>11}  {'95% CI':<22}{'ratio':>7}  95% CI")
         for r in g.itertuples(index=False):
             paper = f"{r.paper_real_s:13.3f}" if math.isfinite(r.paper_real_s) else f"{'':13}"
-            lines.append(f"  {r.kernel:<20}{paper}{r.render_s:11.4g}  "
-                         f"{_ci(r.render_s_ci_low, r.render_s_ci_high, '.4g'):<22}{r.ratio_to_moller_seed:7.3f}  "
-                         f"{_ci(r.ratio_to_moller_seed_ci_low, r.ratio_to_moller_seed_ci_high, '.3f')}")
+            render_ci = stats.format_interval(None, r.render_s_ci_low, r.render_s_ci_high, ".4g")
+            ratio_ci = stats.format_interval(None, r.ratio_to_moller_seed_ci_low, r.ratio_to_moller_seed_ci_high, ".3f")
+            lines.append(f"  {r.kernel:<20}{paper}{r.render_s:11.4g}  {render_ci:<22}{r.ratio_to_moller_seed:7.3f}  "
+                         f"{ratio_ci}")
         cur = g.loc[g["kernel"] == "curless_seed"]
         if len(cur) and BASELINE in set(g["kernel"]):
             c = cur.iloc[0]
             paper = (f"paper {c.paper_ratio_real:.3f} (real), {c.paper_ratio_user:.3f} (user); "
                      if math.isfinite(c.paper_ratio_real) else "")
-            lines.append(f"  Curless / Moller: {paper}replay {c.ratio_to_moller_seed:.3f} "
-                         f"{_ci(c.ratio_to_moller_seed_ci_low, c.ratio_to_moller_seed_ci_high, '.3f')}")
+            replay = stats.format_interval(c.ratio_to_moller_seed, c.ratio_to_moller_seed_ci_low,
+                                           c.ratio_to_moller_seed_ci_high, ".3f")
+            lines.append(f"  Curless / Moller: {paper}replay {replay}")
     return "\n".join(lines)

@@ -17,7 +17,11 @@ Public API (heavy modules are imported on first use):
 The CSV columns are defined and documented in :mod:`tribench.harness.runfolder`.
 
 ``tribench.reports`` owns the HTML pages, figures and terminal tables, and
-renders the column docs. It may import ``common``, ``ext``, ``workloads``,
+renders the column docs. Every page is built with one kit, :mod:`.page` (the
+shell, the stylesheet, tables, figures, escaping); ``report.html`` is put
+together by :mod:`.html` from its section modules (:mod:`.headline`,
+:mod:`.results`, :mod:`.checks`, :mod:`.about`). Intervals are written by
+:func:`tribench.stats.format_interval`. It may import ``common``, ``ext``, ``workloads``,
 ``stats`` and ``harness`` (to read a run folder); never ``cli``.
 """
 

@@ -30,9 +30,14 @@ from tribench import stats
 from tribench.common import UserError
 from tribench.harness import runfolder
 
+from . import page
 from .rundata import RunData, family_of, short_label
 
 __all__ = ["Comparison", "compare_runs", "format_comparison", "render_compare", "RATIO_WORDS"]
+
+#: The page's sections, by id, in page order.
+SECTIONS = {"speedup-ratios": "Ratio of speedups (B / A)", "time-ratios": "Time ratio (B / A)",
+            "machines": "Machines and builds"}
 
 #: How verdicts read for a ratio of run B to run A.
 RATIO_WORDS = {"faster": "larger on B", "slower": "smaller on B", "equivalent": "same on both",
@@ -111,12 +116,6 @@ def compare_runs(a: RunData, b: RunData, confidence: float = 0.95) -> Comparison
                       [w for w in b.workload_ids if w not in set(a.workload_ids)])
 
 
-def _ci(low: float, high: float) -> str:
-    if not (math.isfinite(low) and math.isfinite(high)):
-        return "[no interval]"
-    return f"[{low:.3f}, {high:.3f}]"
-
-
 def _run_line(tag: str, d: RunData) -> str:
     m = d.machine
     rev = (m.get("git_revision") or "?")[:12]
@@ -133,14 +132,15 @@ def format_comparison(a: RunData, b: RunData, c: Comparison) -> str:
         lines += ["", f"{g['label'].iloc[0]}  ({g['family'].iloc[0]})  [{wid}]",
                   f"  {'kernel':<22}{'on A':>8}{'on B':>8}{'B/A':>8}  {'CI':<18}verdict"]
         for r in g.itertuples(index=False):
+            ci = stats.format_interval(None, r.ratio_ci_low, r.ratio_ci_high, ".3f")
             lines.append(f"  {r.kernel:<22}{r.speedup_a:8.3f}{r.speedup_b:8.3f}{r.ratio:8.3f}  "
-                         f"{_ci(r.ratio_ci_low, r.ratio_ci_high):<18}{RATIO_WORDS.get(r.verdict, r.verdict)}")
+                         f"{ci:<18}{RATIO_WORDS.get(r.verdict, r.verdict)}")
     if c.speedups.empty:
         lines += ["", "no kernel besides the baseline in both runs: time ratios only"]
     lines += ["", "time ratio time_B / time_A (above 1: B is slower):"]
     for r in c.times.itertuples(index=False):
-        lines.append(f"  {r.kernel:<22}{r.label:<30}{r.ratio:8.3f}  {_ci(r.ratio_ci_low, r.ratio_ci_high):<18}"
-                     f"{TIME_WORDS.get(r.verdict, r.verdict)}")
+        ci = stats.format_interval(None, r.ratio_ci_low, r.ratio_ci_high, ".3f")
+        lines.append(f"  {r.kernel:<22}{r.label:<30}{r.ratio:8.3f}  {ci:<18}{TIME_WORDS.get(r.verdict, r.verdict)}")
     if c.only_a or c.only_b:
         lines.append(f"\nnot compared: {len(c.only_a)} workloads only in A, {len(c.only_b)} only in B")
     return "\n".join(lines)
@@ -149,7 +149,6 @@ def format_comparison(a: RunData, b: RunData, c: Comparison) -> str:
 def render_compare(a: RunData, b: RunData, c: Comparison) -> str:
     """The comparison as one self-contained HTML page."""
     from . import figures
-    from .html import _CSS, _kv_table, _table
 
     spd = c.speedups
     parts = [f"<h1>{escape(a.run.get('run_id', 'A'))} vs {escape(b.run.get('run_id', 'B'))}</h1>",
@@ -158,38 +157,33 @@ def render_compare(a: RunData, b: RunData, c: Comparison) -> str:
         fig = figures.forest(spd, c.baseline, c.margin, verdict_words=RATIO_WORDS,
                              xlabel=f"speedup_B / speedup_A (speedup = time_{c.baseline} / time_kernel; log axis; "
                                     f"> 1: the kernel's advantage is larger on B; Welch 95% CIs)")
-        parts.append(f'<figure><img src="{figures.svg_data_uri(fig)}" alt="ratio of speedups">'
-                     f"<figcaption>Ratio of speedups per workload family; grey: the equivalence margin "
-                     f"±{100 * c.margin:.2g}% (the larger of the two runs').</figcaption></figure>")
-    parts += [
-        '<section id="speedup-ratios"><h2>Ratio of speedups (B / A)</h2>',
-        _table(spd.assign(verdict=spd["verdict"].map(RATIO_WORDS)) if not spd.empty else spd,
-               [("kernel", "kernel"), ("label", "workload"), ("speedup_a", "speedup on A (×)"),
-                ("speedup_b", "speedup on B (×)"), ("ratio", "B / A"), ("ratio_ci_low", "CI low"),
-                ("ratio_ci_high", "CI high"), ("df", "Welch df"), ("n_a", "processes A"), ("n_b", "processes B"),
-                ("verdict", "verdict")]),
-        "</section>",
-        '<section id="time-ratios"><h2>Time ratio (B / A)</h2>',
-        "<p>Absolute ns/test across machines moves with clock speed and load; the ratio of speedups above "
-        "is the steadier figure.</p>",
-        _table(c.times.assign(verdict=c.times["verdict"].map(TIME_WORDS)) if not c.times.empty else c.times,
-               [("kernel", "kernel"), ("label", "workload"), ("ns_per_test_a", "ns/test on A (geo. mean)"),
-                ("ns_per_test_b", "ns/test on B (geo. mean)"), ("ratio", "B / A"), ("ratio_ci_low", "CI low"),
-                ("ratio_ci_high", "CI high"), ("verdict", "verdict")]),
-        "</section>",
-        '<section id="machines"><h2>Machines and builds</h2>',
-    ]
+        parts.append(page.figure(figures.svg_data_uri(fig), "ratio of speedups",
+                                 f"Ratio of speedups per workload family; grey: the equivalence margin "
+                                 f"±{100 * c.margin:.2g}% (the larger of the two runs')."))
+    parts.append(page.section("speedup-ratios", SECTIONS["speedup-ratios"], page.table(
+        spd.assign(verdict=spd["verdict"].map(RATIO_WORDS)) if not spd.empty else spd,
+        [("kernel", "kernel"), ("label", "workload"), ("speedup_a", "speedup on A (×)"),
+         ("speedup_b", "speedup on B (×)"), ("ratio", "B / A"), ("ratio_ci_low", "CI low"),
+         ("ratio_ci_high", "CI high"), ("df", "Welch df"), ("n_a", "processes A"), ("n_b", "processes B"),
+         ("verdict", "verdict")])))
+    parts.append(page.section("time-ratios", SECTIONS["time-ratios"], "".join([
+        page.p("Absolute ns/test across machines moves with clock speed and load; the ratio of speedups above "
+               "is the steadier figure."),
+        page.table(c.times.assign(verdict=c.times["verdict"].map(TIME_WORDS)) if not c.times.empty else c.times,
+                   [("kernel", "kernel"), ("label", "workload"), ("ns_per_test_a", "ns/test on A (geo. mean)"),
+                    ("ns_per_test_b", "ns/test on B (geo. mean)"), ("ratio", "B / A"), ("ratio_ci_low", "CI low"),
+                    ("ratio_ci_high", "CI high"), ("verdict", "verdict")])])))
+    machines = []
     for tag, d in (("A", a), ("B", b)):
         m = d.machine
-        parts += [f"<h3>{tag}: {escape(str(d.run_dir))}</h3>",
-                  _kv_table([("CPU", m.get("cpu_model")), ("caches", m.get("caches")),
-                             ("compiler", m.get("build", {}).get("compiler")),
-                             ("flags", m.get("build", {}).get("flags")), ("git", m.get("git_revision")),
-                             ("margin", f"{100 * d.margin:.3g}% ({d.margin_source})")])]
-    parts.append("</section>")
+        machines += [f"<h3>{tag}: {escape(str(d.run_dir))}</h3>",
+                     page.kv_table([("CPU", m.get("cpu_model")), ("caches", m.get("caches")),
+                                    ("compiler", m.get("build", {}).get("compiler")),
+                                    ("flags", m.get("build", {}).get("flags")), ("git", m.get("git_revision")),
+                                    ("margin", f"{100 * d.margin:.3g}% ({d.margin_source})")])]
+    parts.append(page.section("machines", SECTIONS["machines"], "".join(machines)))
     if c.only_a or c.only_b:
-        parts.append(f"<p>Not compared: {escape(', '.join(c.only_a) or 'none')} only in A; "
-                     f"{escape(', '.join(c.only_b) or 'none')} only in B.</p>")
-    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f"<title>tribench compare</title><style>{_CSS}</style></head><body><main>"
-            + "".join(parts) + "</main></body></html>\n")
+        parts.append(page.p(f"Not compared: {', '.join(c.only_a) or 'none'} only in A; "
+                            f"{', '.join(c.only_b) or 'none'} only in B."))
+    footer = page.p(f"Written by tribench compare at {page.now()}. Statistics: tribench.stats.", "note")
+    return page.document("tribench compare", "".join(parts), SECTIONS, footer)

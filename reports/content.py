@@ -36,6 +36,16 @@ def table(data: RunData, name: str) -> pd.DataFrame:
     return data.tables[name]
 
 
+def sweep_order(frame: pd.DataFrame, data: RunData) -> pd.DataFrame:
+    """Rows in sweep order: workloads, then kernels."""
+    if frame.empty:
+        return frame
+    w = {x: i for i, x in enumerate(data.workload_ids)}
+    k = {x: i for i, x in enumerate(data.kernels)}
+    key = frame["workload_id"].map(w) * 1000 + frame["kernel"].map(k)
+    return frame.assign(_key=key).sort_values("_key", kind="stable").drop(columns="_key").reset_index(drop=True)
+
+
 def workload_table(data: RunData) -> pd.DataFrame:
     """``workloads.csv``: one row per workload, family, label and achieved figures."""
     return data.tables[runfolder.WORKLOADS]

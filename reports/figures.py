@@ -16,7 +16,8 @@ import base64
 import io
 import math
 import re
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import matplotlib
 
@@ -26,6 +27,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.ticker import FuncFormatter, NullFormatter, PercentFormatter  # noqa: E402
+
+from tribench.stats import format_interval  # noqa: E402
 
 __all__ = [
     "VERDICT_COLOURS",
@@ -121,10 +124,6 @@ def _empty(message: str, width: float = 7.0, height: float = 1.2) -> Figure:
     return fig
 
 
-def _fmt_ratio(x: float) -> str:
-    return f"{x:.3g}" if x < 10 else f"{x:.0f}"
-
-
 def _log_ratio_axis(ax, low: float, high: float) -> None:
     """A log x axis for ratios with plain-number ticks (0.8, 1, 1.25...)."""
     ax.set_xscale("log")
@@ -187,9 +186,8 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
             if np.isfinite(r.ratio_ci_low) and np.isfinite(r.ratio_ci_high):
                 ax.plot([r.ratio_ci_low, r.ratio_ci_high], [yi, yi], color=colour, lw=2.2, solid_capstyle="butt")
             ax.plot([r.ratio], [yi], "o", color=colour, ms=6, mec="white", mew=0.8)
-            ci = (f"[{_fmt_ratio(r.ratio_ci_low)}, {_fmt_ratio(r.ratio_ci_high)}]"
-                  if np.isfinite(r.ratio_ci_low) else "[no interval]")
-            ax.text(1.01, yi, f"{r.ratio:.3g}×  {ci}  {words.get(r.verdict, r.verdict)}", transform=ax.get_yaxis_transform(),
+            label = format_interval(r.ratio, r.ratio_ci_low, r.ratio_ci_high, unit="×")
+            ax.text(1.01, yi, f"{label}  {words.get(r.verdict, r.verdict)}", transform=ax.get_yaxis_transform(),
                     va="center", ha="left", color=colour, fontsize=8.5, clip_on=False)
         ax.set_yticks(y)
         ax.set_yticklabels([f"{r.kernel}  ·  {r.label}" for r in rows.itertuples(index=False)])

@@ -2,17 +2,11 @@
 
 from __future__ import annotations
 
-import math
+from tribench.stats import format_interval
 
 from .rundata import RunData, short_label
 
 __all__ = ["format_run"]
-
-
-def _ci(low: float, high: float, digits: int = 3) -> str:
-    if not (math.isfinite(low) and math.isfinite(high)):
-        return "[no interval]"
-    return f"[{low:.{digits}f}, {high:.{digits}f}]"
 
 
 def format_run(data: RunData, width: int = 24) -> str:
@@ -39,10 +33,12 @@ def format_run(data: RunData, width: int = 24) -> str:
         lines += ["", f"{short_label(spec)}  [{wid}]",
                   f"  {'kernel':<{width}}{'ns/test':>9}  {'95% CI':<18}{'speedup':>8}  {'CI':<16}  verdict"]
         for r in rows.itertuples(index=False):
-            left = f"  {r.kernel:<{width}}{r.ns_per_test:9.3f}  {_ci(r.ns_per_test_ci_low, r.ns_per_test_ci_high):<18}"
+            ci = format_interval(None, r.ns_per_test_ci_low, r.ns_per_test_ci_high, ".3f")
+            left = f"  {r.kernel:<{width}}{r.ns_per_test:9.3f}  {ci:<18}"
             if r.kernel in sp.index:
                 s = sp.loc[r.kernel]
-                left += f"{s['ratio']:7.3f}x  {_ci(s['ratio_ci_low'], s['ratio_ci_high']):<16}  {s['verdict']}"
+                ci = format_interval(None, s["ratio_ci_low"], s["ratio_ci_high"], ".3f")
+                left += f"{s['ratio']:7.3f}x  {ci:<16}  {s['verdict']}"
             elif r.kernel == data.baseline:
                 left += "(baseline)"
             lines.append(left.rstrip())

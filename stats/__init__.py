@@ -30,7 +30,9 @@ it. One module per section: :mod:`.defaults` (:data:`DEFAULTS`, the margin),
 :mod:`.estimates` (per process, per kernel), :mod:`.compare` (two runs),
 :mod:`.multiplicity` (several kernels against a baseline, verdicts, tables),
 :mod:`.calibration` (A/A), :mod:`.design` (variance components, design),
-:mod:`.curves` (crossover, scaling) and :mod:`.outliers` (drift, outliers).
+:mod:`.curves` (crossover, scaling), :mod:`.outliers` (drift, outliers) and
+:mod:`.formatting` (an estimate with its interval as text, the one style of
+every table and page).
 """
 
 from .calibration import AASummary, aa_noise_floor, aa_summary
@@ -47,6 +49,7 @@ from .estimates import (
     per_process,
     speedup,
 )
+from .formatting import format_interval
 from .multiplicity import estimate_table, holm, simultaneous_confidence, speedup_table, verdict
 from .outliers import Drift, drift, label_outliers, tukey_outliers
 
@@ -72,6 +75,7 @@ __all__ = [
     "drift",
     "estimate",
     "estimate_table",
+    "format_interval",
     "geometric_mean",
     "holm",
     "label_outliers",

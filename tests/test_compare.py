@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import shutil
 import subprocess
 import sys
@@ -14,6 +15,7 @@ from test_report_run import run_fixture_dir
 
 from tribench import reports
 from tribench.harness import analysis
+from tribench.reports import page
 from tribench.reports.compare import compare_runs
 from tribench.reports.rundata import load_run
 from tribench.stats import unpaired_ratio
@@ -60,6 +62,8 @@ def test_compare_cli_prints_a_table_and_writes_html(two_runs, tmp_path):
     assert "B/A" in proc.stdout and f"{FACTOR:.3f}" in proc.stdout
     text = out.read_text()
     assert 'id="speedup-ratios"' in text and "data:image/svg+xml;base64," in text
+    assert re.findall(r"<style>(.*?)</style>", text, re.S) == [page.CSS]  # the report's stylesheet, written once
+    assert re.search(r"moller_trumbore\s+[\d.]+\s+[\d.]+\s+[\d.]+\s+\[[\d.]+, [\d.]+\]\s+\S", proc.stdout)
     assert "http://" not in text and "https://" not in text and "<script" not in text
 
 

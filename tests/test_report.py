@@ -15,6 +15,7 @@ import pytest
 from test_report_run import run_fixture_dir
 
 from tribench import reports
+from tribench.reports import checks, headline
 from tribench.reports import html as report_html
 from tribench.reports.rundata import RunError
 
@@ -200,10 +201,50 @@ def test_a_broken_promise_is_marked_red_in_the_robustness_table(rendered):
     val = pd.read_csv(run_dir / "validate.csv")
     row = (val["kernel"] == "curless") & (val["test"] == "parallel_rays")
     val.loc[row, ["failures", "rate", "verdict"]] = [3, 3 / 32, "fail"]
-    part = report_html._robustness(val, "a note")
+    part = checks.robustness_section(val, "a note")
     assert "1 broken" in part and "Broken promises" in part
     assert part.count('<td class="num broken">9.38%!</td>') == 2  # the table and the list
     assert part.count("!</td>") == 2
+
+
+def test_the_page_uses_the_one_stylesheet_of_the_page_kit(rendered):
+    from tribench.reports import page
+
+    _, _, text = rendered
+    assert re.findall(r"<style>(.*?)</style>", text, re.S) == [page.CSS]
+    assert text.count("<nav>") == 1 and text.endswith("</main></body></html>\n")
+
+
+def test_the_calibration_note_shows_run_json_and_reads_no_file_outside_the_run(rendered, tmp_path):
+    run_dir, _, _ = rendered
+    copy = tmp_path / "run"
+    shutil.copytree(run_dir, copy, ignore=shutil.ignore_patterns("report.html", "sweep.toml", ".lock"))
+    outside = tmp_path / "elsewhere" / "calibration.json"
+    outside.parent.mkdir()
+    outside.write_text(json.dumps({"kernel": "OUTSIDE_KERNEL", "copy": "x", "margin": 0.5}))
+    source = f"calibration {outside} (2026-01-01T00:00:00+00:00, run r)"
+    for name in ("run.json", "analysis.json"):
+        record = json.loads((copy / name).read_text())
+        record["margin"] = {"value": 0.02, "source": source}
+        (copy / name).write_text(json.dumps(record))
+    text = reports.write_report(copy).read_text(encoding="utf-8")
+    part = text[text.index("<h3>A/A calibration</h3>"):text.index("<h3>Interference</h3>")]
+    assert re.sub(r"<[^>]+>", "", part).replace("&#x27;", "'") == (
+        f"A/A calibrationEquivalence margin of the verdicts: ±2% — {source}.That A/A calibration's record is not "
+        "part of this run folder; its margin and source are the ones run.json recorded when the sweep started.")
+    assert "OUTSIDE_KERNEL" not in text
+
+
+def test_a_calibration_run_shows_its_own_record(rendered, tmp_path):
+    run_dir, _, _ = rendered
+    copy = tmp_path / "run"
+    shutil.copytree(run_dir, copy, ignore=shutil.ignore_patterns("report.html", "sweep.toml", ".lock"))
+    (copy / "calibration.json").write_text(json.dumps({"kernel": "moller_trumbore", "copy": "moller_trumbore_aa",
+                                                       "noise_floor": 0.0123, "margin": 0.015}))
+    text = reports.write_report(copy).read_text(encoding="utf-8")
+    part = text[text.index("<h3>A/A calibration</h3>"):text.index("<h3>Interference</h3>")]
+    assert "This run folder is an A/A calibration" in part
+    assert "<td>moller_trumbore vs moller_trumbore_aa</td>" in part and "<td>0.0123</td>" in part
 
 
 def test_the_analysis_rebuilds_a_workload_missing_from_the_cache(tmp_path_factory, monkeypatch):
@@ -226,9 +267,10 @@ def test_headline_sentence_for_one_workload():
                         "baseline": ["seed"], "ratio": [0.8], "ratio_ci_low": [0.7], "ratio_ci_high": [0.9],
                         "n_processes": [10],
                         "verdict": ["slower"], "confidence": [0.975]})
-    (verdict, sentence), = report_html.headline_sentences(spd)["pairs n=10"]
+    (verdict, sentence), = headline.headline_sentences(spd)["pairs n=10"]
     assert verdict == "slower"
-    assert sentence.startswith("mt is slower than seed: 0.8×") and "10 processes" in sentence
+    assert sentence == ("mt is slower than seed: 0.8× [0.7, 0.9] (95% CI, 10 processes) on pairs n=10 "
+                        "at per-test hit rate 50%.")
 
 
 def test_format_tables_lists_estimates_and_speedups(rendered):
@@ -236,7 +278,7 @@ def test_format_tables_lists_estimates_and_speedups(rendered):
     text = reports.format_tables(run_dir)
     assert "per-test hit rate 20%" in text and "suzanne, 300 triangles" in text
     assert "(baseline)" in text and "ns/test" in text
-    assert re.search(r"moller_trumbore\s+[\d.]+\s+\[[\d.]+, [\d.]+\]\s+[\d.]+x", text)
+    assert re.search(r"moller_trumbore\s+[\d.]+\s+\[[\d.]+, [\d.]+\]\s+[\d.]+x\s+\[[\d.]+, [\d.]+\]", text)
 
 
 # ----------------------------------------------------------------- bad input

@@ -609,3 +609,19 @@ def test_label_outliers_labels_and_keeps_every_row():
     # Spikes (2 % x3) and their Tukey labels are few.
     assert labelled["outlier"].mean() < 0.1
     assert "outlier" not in batches.columns  # pure: the input is not modified
+
+
+# ------------------------------------------------------------------ the interval as text
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(allow_nan=True, allow_infinity=True, width=64), st.floats(allow_nan=True, allow_infinity=True),
+       st.floats(allow_nan=True, allow_infinity=True), st.sampled_from([".3g", ".4g", ".3f"]),
+       st.sampled_from(["", "×", " s"]))
+def test_format_interval_writes_the_estimate_then_its_bounds_or_says_there_is_none(value, low, high, spec, unit):
+    text = stats.format_interval(value, low, high, spec, unit)
+    bounds = (f"[{low:{spec}}, {high:{spec}}]" if math.isfinite(low) and math.isfinite(high)
+              else "[no interval]")
+    shown = f"{value:{spec}}" if math.isfinite(value) else "–"
+    assert text == f"{shown}{unit} {bounds}"
+    assert stats.format_interval(None, low, high, spec, unit) == bounds  # the interval alone, no unit
