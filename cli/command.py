@@ -218,7 +218,7 @@ def _run(args: argparse.Namespace) -> int:
 def _peers(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from tribench.harness import peers
+    from tribench.harness import peers, runfolder
 
     design = peers.PeerDesign.quick() if args.quick else peers.PeerDesign()
     changes = {k: v for k, v in {"processes": args.processes, "reps": args.reps, "triangles": args.triangles,
@@ -241,6 +241,26 @@ def _peers(args: argparse.Namespace) -> int:
         return 1
     print(peers.format_summary(*peers.summarise(frame)))
     print(f"wrote {path}", file=sys.stderr)
+    run_dir = path.parent
+    if path.name == runfolder.PEERS and (run_dir / runfolder.ANALYSIS).is_file():
+        # An analysed run folder: redo the analysis step now, so its peer tables (and the
+        # peers.csv digest in analysis.json) match the new peers.csv and the report can show them.
+        import json
+
+        from tribench.harness.analysis import write_all
+
+        try:
+            record = json.loads((run_dir / runfolder.ANALYSIS).read_text(encoding="utf-8"))
+            kept = {"baseline": record["baseline"],  # keep the choices of the last `tribench stats`
+                    "margin": record["margin"]["value"] if record["margin"]["source"] == "--margin" else None}
+        except (OSError, UnicodeDecodeError, ValueError, TypeError, KeyError):
+            kept = {}  # unreadable: the analysis step's defaults, as `tribench stats` would use
+        try:
+            derived = write_all(run_dir, **kept)
+        except UserError as exc:
+            raise UserError(f"wrote {path}, but the analysis step of {run_dir} failed: {exc}") from None
+        print(f"wrote {', '.join(derived.tables)} and {runfolder.ANALYSIS} into {run_dir} (the analysis step, "
+              f"as tribench stats)", file=sys.stderr)
     return 0
 
 

@@ -220,3 +220,24 @@ def test_tribench_run_goes_on_without_peers_or_when_they_fail(monkeypatch, capsy
     main_job._run_peers(str(tmp_path), quick=True, progress=False)
     assert "peers: not measured: peers worker of process 0 exited with code 1: boom" in capsys.readouterr().err
     assert not (tmp_path / peers.PEERS).exists()
+
+
+@needs_a_peer
+def test_peers_into_an_analysed_run_folder_refresh_its_peer_tables(run_copy):
+    import json
+
+    from tribench.harness import runfolder
+
+    analysis.write_all(run_copy, baseline="curless")  # a choice of `tribench stats` the refresh must keep
+    assert load_peers(load_run(run_copy))[0] is None  # no peers yet
+    done = subprocess.run([sys.executable, "-m", "tribench.cli", "peers", "--out", str(run_copy), "--quick",
+                           "--camera", "16x16", "--processes", "2", "--reps", "1", "--no-progress"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert f"{runfolder.ANALYSIS} into {run_copy}" in done.stderr
+    record = json.loads((run_copy / runfolder.ANALYSIS).read_text(encoding="utf-8"))
+    assert record["peers_sha256"] == analysis.file_digest(run_copy / peers.PEERS) and record["peers"] == "summarised"
+    assert record["baseline"] == "curless" and {runfolder.PEER_RATES, runfolder.PEER_RATIOS} <= set(record["tables"])
+    tables, note = load_peers(load_run(run_copy, baseline="curless"))  # the report reads them, no `tribench stats`
+    assert tables is not None, note
+    assert set(tables.rates["contender"]) == set(pd.read_csv(run_copy / peers.PEERS)["contender"])

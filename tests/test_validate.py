@@ -13,7 +13,9 @@ import pytest
 
 from tribench import ext
 from tribench.cli.command import main
+from tribench.common import UserError
 from tribench.harness import validate
+from tribench.workloads import robustness
 
 KERNELS = ext.kernel_names()
 WATERTIGHT = [k for k in KERNELS if ext.kernel_info(k).watertight != "none"]
@@ -135,6 +137,17 @@ def test_degenerate_triangles_are_judged_for_clean_kernels_and_measured_for_the_
     seed = rows.kernel.map(lambda k: ext.kernel_info(k).seed_replay)
     assert (rows[~seed].verdict == "pass").all(), rows[~seed & (rows.verdict != "pass")]
     assert (rows[seed].verdict == "measured").all()
+
+
+def test_the_cases_are_built_in_workloads_and_keep_their_names_here():
+    # validate judges; tribench.workloads.robustness builds the rays (no kernel is asked there)
+    for name in ("TESTS", "DTYPES", "QUICK", "FULL", "RaySets", "MeshRays", "PairRays", "build", "grid_topology",
+                 "sphere_triangles", "EMBREE_MAX_MISS_RATE"):
+        assert getattr(validate, name) is getattr(robustness, name), name
+    sets = robustness.build("float64", quick=True, tests=("scales",))
+    assert sets.tests == ("scales",) and len(sets.pairs["scales"].owner) == 5 * robustness.QUICK.pairs_per_scale
+    with pytest.raises(UserError, match="unknown test"):
+        robustness.build("float64", tests=("no_such_test",))
 
 
 def test_sets_depend_on_the_seed_and_the_test_only():

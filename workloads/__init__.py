@@ -1,8 +1,10 @@
 """Workloads: meshes and ray sets from frozen specs, with float64 reference answers.
 
 ``tribench.workloads`` owns specs, generators, reference answers, the workload
-cache and pictures of workloads; it never times anything. It may import
-``tribench.common`` and ``tribench.ext`` (to count a stream's tests).
+cache, pictures of workloads and the robustness suite's cases
+(:mod:`.robustness`, judged by ``tribench.harness.validate``); it never times
+anything. It may import ``tribench.common`` and ``tribench.ext`` (to count a
+stream's tests).
 
 A workload is a pure function of a frozen spec (:class:`PairSpec`,
 :class:`MeshSpec` or ``SeedSpec``; :mod:`.kinds` maps a kind to its class and
@@ -11,6 +13,7 @@ it, :func:`load` finds it by id, :func:`list_cached` lists the cache. Importing
 this package does not import trimesh or matplotlib.
 """
 
+from . import robustness
 from .cache import CachedWorkload, CacheWarning, cache_dir, generate, list_cached, load, make
 from .kinds import spec_from_dict
 from .pairs import classify_misses
@@ -36,4 +39,5 @@ __all__ = [
     "CacheWarning",
     "CachedWorkload",
     "classify_misses",
+    "robustness",
 ]

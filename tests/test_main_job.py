@@ -1,0 +1,87 @@
+"""``tribench run`` as a library function (tribench.harness.main_job.run): what it returns is what it wrote."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import pandas as pd
+import pytest
+
+from tribench.harness import main_job, plan, runfolder
+from tribench.harness.plan import Sweep
+from tribench.workloads.spec import MeshSpec, PairSpec
+
+#: The default sweep's shape (pairs at two hit rates, a mesh; the baseline and a clean kernel), as small as it goes.
+TINY = Sweep(
+    ("moller_seed", "moller_trumbore"),
+    (
+        PairSpec(n=256, hit_rate=0.2),
+        PairSpec(n=256, hit_rate=0.8),
+        MeshSpec("suzanne", triangles=100, width=8, height=8),
+    ),
+    processes=2,
+    rounds=2,
+    warmup=1,
+    target_ms=0.2,
+    seed=3,
+)
+
+
+@pytest.fixture(scope="module")
+def result(tmp_path_factory):
+    base = tmp_path_factory.mktemp("main-job")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("TRIBENCH_CACHE", str(base / "cache"))
+        asked = []
+        mp.setattr(plan, "default_sweep", lambda quick=False: asked.append(quick) or TINY)
+        log = io.StringIO()
+        done = main_job.run(base / "run", quick=True, progress=False, peers=False, log=log)
+    assert asked == [True]
+    return done, log.getvalue()
+
+
+def _read(run_dir, name: str) -> pd.DataFrame:
+    if name == runfolder.WORKLOAD_FIGURES:  # JSON text, read as written (as the report reads it)
+        return pd.read_csv(run_dir / name, dtype=str, keep_default_na=False)
+    return pd.read_csv(run_dir / name)
+
+
+def _same(returned: pd.DataFrame, name: str, written: pd.DataFrame) -> None:
+    assert list(returned.columns) == list(runfolder.FILES[name]), name
+    # the values as written (floats round-trip through the CSV); a column of no rows reads back as text
+    pd.testing.assert_frame_equal(
+        returned.reset_index(drop=True), written, check_dtype=False, check_exact=True, obj=name
+    )
+
+
+def test_the_returned_frames_are_the_csvs_it_wrote(result):
+    done, _ = result
+    run_dir = done.run_dir
+    _same(done.estimates, runfolder.ESTIMATES, _read(run_dir, runfolder.ESTIMATES))
+    _same(done.speedups, runfolder.SPEEDUPS, _read(run_dir, runfolder.SPEEDUPS))
+    assert set(done.estimates["kernel"]) == set(TINY.kernels) and len(done.estimates) == 2 * len(TINY.workloads)
+    assert set(done.speedups["kernel"]) == {"moller_trumbore"} and set(done.speedups["baseline"]) == {"moller_seed"}
+    for name, frame in done.tables.items():
+        _same(frame, name, _read(run_dir, name))
+    _same(done.validate, runfolder.VALIDATE, _read(run_dir, runfolder.VALIDATE))
+    assert set(done.validate["kernel"]) == set(TINY.kernels)
+
+
+def test_the_run_folder_holds_every_table_of_a_run_without_peers(result):
+    done, log = result
+    run_dir = done.run_dir
+    for name, columns in runfolder.FILES.items():
+        if name in runfolder.OPTIONAL:
+            assert not (run_dir / name).exists(), name  # peers=False: no peers, no peer tables
+            continue
+        assert list(pd.read_csv(run_dir / name, nrows=0).columns) == list(columns), name
+    assert set(done.tables) == set(runfolder.DERIVED) - {runfolder.VALIDATE} - runfolder.OPTIONAL
+    record = json.loads((run_dir / runfolder.ANALYSIS).read_text(encoding="utf-8"))
+    assert record["tables"] == list(done.tables) and record["peers_sha256"] is None
+    pictures = list(record["pictures"].values())
+    assert len(pictures) == len(TINY.workloads)
+    assert all((run_dir / p).read_bytes().startswith(b"\x89PNG") for p in pictures)
+    assert json.loads((run_dir / runfolder.RUN).read_text(encoding="utf-8"))["n_batches"] == TINY.n_batches
+    assert done.peers is None and done.sweep.batches_run == TINY.n_batches
+    assert "tribench run: moller_seed, moller_trumbore on 3 workloads" in log and "validate:" in log
