@@ -170,7 +170,8 @@ def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str
         "bound_ns_per_test": ops / mean_rate,
         "peak_fraction": ops / slots["mean"],
         "peak_fraction_ci_low": ops / slots["ci_high"],
-        "peak_fraction_ci_high": ops / slots["ci_low"],
+        # a time interval reaching 0 or below (few, noisy processes) leaves the fraction unbounded above
+        "peak_fraction_ci_high": np.where(slots["ci_low"] > 0, ops / slots["ci_low"].where(slots["ci_low"] > 0), np.inf),
     }, index=slots.index)
 
 

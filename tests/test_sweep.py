@@ -10,6 +10,7 @@ import textwrap
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -188,3 +189,13 @@ def test_calibrate_writes_its_summary_and_the_user_margin(tmp_path, env):
     run = tmp_path / "run"
     assert cli("sweep", "--out", str(run), *TINY, env=env).returncode == 0
     assert str(user) in records.read_run(run)["margin"]["source"]
+
+
+def test_a_time_interval_reaching_zero_leaves_the_peak_fraction_unbounded_above():
+    # three processes so spread that the t-interval of their mean time starts below 0
+    table = pd.DataFrame({"kernel": ["moller_trumbore"] * 3, "workload_id": ["w"] * 3, "process": [0, 1, 2],
+                          "ns_per_test": [0.1, 0.2, 60.0]})
+    processes = pd.DataFrame({"process": [0, 1, 2], "peak_gflops": [100.0] * 3, "peak_isa": ["avx2+fma"] * 3})
+    row = analysis._peak_columns(table, processes, {"w": "float32"}).iloc[0]
+    assert row["peak_fraction_ci_low"] > 0 and row["peak_fraction_ci_low"] <= row["peak_fraction"]
+    assert row["peak_fraction_ci_high"] == np.inf
