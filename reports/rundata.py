@@ -222,8 +222,8 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
     from tribench.harness.peers import INSTALL
 
     path = data.run_dir / runfolder.PEERS
-    how = (f"`{INSTALL}` (embreex and rtree), then `tribench peers --out {data.run_dir}`, "
-           f"`tribench stats {data.run_dir}` and `tribench report {data.run_dir}` add them")
+    how = (f"`{INSTALL}` (embreex and rtree), then `tribench peers --out {data.run_dir}` (it refreshes the run's "
+           f"tables) and `tribench report {data.run_dir}` add them")
     if not path.is_file():
         return None, f"No peers were measured with this run (no {runfolder.PEERS}): {how}."
     if not _has_columns(path, runfolder.FILES[runfolder.PEERS]):
