@@ -26,7 +26,8 @@ the same from the thread's CPU time (robust to other processes sharing the core)
 the working set and the smallest cache it fits in, and the ratio to the cost
 at the largest K that fits in L1.
 
-    python bench/scaling.py [KERNEL ...] [--rays 64] [--min-tests 1048576] [--max-k 4194304] [--rounds 5] [--target-ms 20] [--pin CPU]
+    python bench/scaling.py [KERNEL ...] [--rays 64] [--min-tests 1048576] [--max-k 4194304]
+                            [--rounds 5] [--target-ms 20] [--pin CPU]
 """
 
 from __future__ import annotations

@@ -37,9 +37,10 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -101,7 +102,7 @@ class PeerDesign:
                             f"each: hours of measuring), got {self.processes:,} x {self.reps:,}")
 
     @classmethod
-    def quick(cls) -> "PeerDesign":
+    def quick(cls) -> PeerDesign:
         """The same shape in about ten seconds (a 256x256 camera, wide intervals)."""
         return cls(width=256, height=256, processes=3, reps=2, trimesh_rays=2048, choice_rays=2048,
                    choice_rounds=3)

@@ -249,7 +249,7 @@ class Sweep:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "Sweep":
+    def from_dict(cls, d: Mapping[str, Any]) -> Sweep:
         return cls(
             kernels=tuple(d["kernels"]),
             workloads=tuple(spec_from_dict(w) for w in d["workloads"]),

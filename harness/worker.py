@@ -92,7 +92,7 @@ class WorkerJob:
     workloads: Mapping[str, Mapping[str, Any]]
 
     @classmethod
-    def from_json(cls, text: str) -> "WorkerJob":
+    def from_json(cls, text: str) -> WorkerJob:
         d = json.loads(text)
         d["keys"] = tuple(tuple(k) for k in d["keys"])
         return cls(**d)

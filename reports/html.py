@@ -14,9 +14,10 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
+from collections.abc import Callable, Iterable, Sequence
 from html import escape
 from pathlib import Path
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -814,7 +815,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         _machine(data),
         _reproduce(data, sweep_file),
     ]
-    made = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    made = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     footer = _p(f"Written by tribench report at {made} from {data.run_dir}; tables made by the analysis step "
                 f"at {data.record.get('created', '?')}. Statistics: tribench.harness.stats.", "note")
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"

@@ -250,7 +250,7 @@ def render_seed(run_dir: str | Path) -> str:
     seed, kinds, wl, pics = (pd.read_csv(run_dir / n) for n in (SEED_CSV, KINDS_CSV, WORKLOADS_CSV, PICTURES_CSV))
     title = f"tribench seed — {run.get('run_id', run_dir.name)}"
     nav = "".join(f'<a href="#{sid}">{escape(t)}</a>' for sid, t in SECTIONS.items())
-    made = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    made = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     sections = [_paper(seed, wl, run["seed_replay"]), _kinds(kinds), _workload(wl), _pictures(run_dir, pics),
                 _machine(run), _reproduce(run)]
     head = (f"<h1>{escape(title)}</h1>"

@@ -41,7 +41,7 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any, ClassVar, Union
+from typing import Any, ClassVar
 
 from tribench.common import UserError
 
@@ -212,7 +212,7 @@ class PairSpec:
     n: int = 10_000
     hit_rate: float = 0.5
     order: str = "shuffled"
-    miss_mix: Union[str, Mapping[str, float], tuple[tuple[str, float], ...]] = "edges"
+    miss_mix: str | Mapping[str, float] | tuple[tuple[str, float], ...] = "edges"
     shape: str = "sphere"
     scale: float = 1.0
     offset: float = 0.0
@@ -297,7 +297,8 @@ class MeshSpec:
     >>> MeshSpec("icosphere", hit_rate=0.5)
     Traceback (most recent call last):
     ...
-    tribench.common.errors.UserError: hit_rate applies to rays='hit_rate' only: a camera's hit rate is a result, not a target
+    tribench.common.errors.UserError: hit_rate applies to rays='hit_rate' only:
+    a camera's hit rate is a result, not a target
     """
 
     mesh: str = "suzanne"
@@ -485,7 +486,7 @@ class SeedSpec:
                 f"{self.dtype} seed={self.seed}")
 
 
-Spec = Union[PairSpec, MeshSpec, SeedSpec]
+Spec = PairSpec | MeshSpec | SeedSpec
 
 
 def _checked_mesh_file(path: str) -> str:
