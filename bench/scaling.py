@@ -175,7 +175,7 @@ def main() -> None:
     for kernel in kernels:
         if {"float32", "float64"} <= set(dtypes):
             f32, f64 = results[kernel, "float32"], results[kernel, "float64"]
-            ratios = " ".join(f"{np.median(b[3]) / np.median(a[3]):.2f}" for a, b in zip(f32, f64))
+            ratios = " ".join(f"{np.median(b[3]) / np.median(a[3]):.2f}" for a, b in zip(f32, f64, strict=True))
             print(f"{kernel}: float64 / float32 cpu ns/test by K ({', '.join(map(str, counts))}): {ratios}")
 
 

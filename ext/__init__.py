@@ -464,7 +464,7 @@ def flat(triangles: np.ndarray) -> np.ndarray:
     out = np.zeros(len(v), dtype=bool)
     for i in np.flatnonzero(~clearly_not & np.isfinite(v).all(axis=(1, 2))):
         a, b, c = ([Fraction(float(x)) for x in vertex] for vertex in v[i])
-        e_i, f_i = [q - p for p, q in zip(a, b)], [q - p for p, q in zip(a, c)]
+        e_i, f_i = [q - p for p, q in zip(a, b, strict=True)], [q - p for p, q in zip(a, c, strict=True)]
         out[i] = all(e_i[j] * f_i[k] == e_i[k] * f_i[j] for j, k in ((1, 2), (2, 0), (0, 1)))
     return out
 

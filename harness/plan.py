@@ -344,7 +344,7 @@ def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
     if any(len(v) == 0 for v in axes.values()):
         raise UserError("an empty list in a workload table gives no workloads")
     check_workload_count(math.prod(len(v) for v in axes.values()))  # before building the grid
-    return [spec_from_dict({**fixed, **dict(zip(axes, combo))}) for combo in itertools.product(*axes.values())]
+    return [spec_from_dict({**fixed, **dict(zip(axes, combo, strict=True))}) for combo in itertools.product(*axes.values())]
 
 
 _TOP_LEVEL = ("kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed")

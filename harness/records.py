@@ -557,7 +557,7 @@ def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
 
         def outside(f: Any) -> Any:
             return [key not in planned for key in
-                    zip(f["process"], f["workload_id"], f["round"], f["position"], f["kernel"])]
+                    zip(f["process"], f["workload_id"], f["round"], f["position"], f["kernel"], strict=True)]
 
         rules.append((outside, lambda r: f"batch (process {r['process']}, round {r['round']}, position "
                                          f"{r['position']}, kernel {r['kernel']}) is not in the run's plan"))

@@ -175,7 +175,7 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
                         gridspec_kw={"height_ratios": [s + 1.2 for s in sizes]})[:, 0]
     low = float(np.nanmin(speedups[["ratio_ci_low", "ratio"]].to_numpy()))
     high = float(np.nanmax(speedups[["ratio_ci_high", "ratio"]].to_numpy()))
-    for ax, family in zip(axes, families):
+    for ax, family in zip(axes, families, strict=True):
         rows = speedups.loc[speedups["family"] == family]
         korder = {k: i for i, k in enumerate(dict.fromkeys(speedups["kernel"]))}
         rows = rows.sort_values("kernel", key=lambda s: s.map(korder), kind="stable").reset_index(drop=True)
@@ -183,7 +183,7 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
         ax.axvspan(1 / (1 + margin), 1 + margin, color="#d0d7de", alpha=0.6, lw=0,
                    label=f"equivalence margin ±{100 * margin:.2g}%")
         ax.axvline(1.0, color="#333", lw=0.8)
-        for yi, r in zip(y, rows.itertuples(index=False)):
+        for yi, r in zip(y, rows.itertuples(index=False), strict=True):
             colour = VERDICT_COLOURS.get(r.verdict, "#333")
             if np.isfinite(r.ratio_ci_low) and np.isfinite(r.ratio_ci_high):
                 ax.plot([r.ratio_ci_low, r.ratio_ci_high], [yi, yi], color=colour, lw=2.2, solid_capstyle="butt")
@@ -255,7 +255,7 @@ def hit_rate_curves(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, s
         return _empty(_NO_HIT_RATE_CURVE)
     fig = _figure(9.5, 3.6 * len(families))
     axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
-    for ax, family in zip(axes, families):
+    for ax, family in zip(axes, families, strict=True):
         rows = pairs.loc[pairs["family"] == family]
         for kernel, g in rows.groupby("kernel", sort=False):
             g = g.sort_values("test_hit_rate")
@@ -282,7 +282,7 @@ def speedup_vs_hit_rate(spd: pd.DataFrame, baseline: str, margin: float, colours
         return _empty(_NO_HIT_RATE_CURVE)
     fig = _figure(9.5, 3.3 * len(families))
     axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
-    for ax, family in zip(axes, families):
+    for ax, family in zip(axes, families, strict=True):
         rows = pairs.loc[pairs["family"] == family]
         ax.axhspan(1 / (1 + margin), 1 + margin, color="#d0d7de", alpha=0.6, lw=0)
         ax.axhline(1.0, color="#333", lw=0.8)
@@ -369,7 +369,7 @@ def scaling(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) 
 
 def _dedupe_legend(ax) -> None:
     handles, labels = ax.get_legend_handles_labels()
-    seen = dict(zip(labels, handles))
+    seen = dict(zip(labels, handles, strict=True))
     if seen:
         ax.legend(seen.values(), seen.keys(), frameon=False)
 
@@ -387,7 +387,7 @@ def process_dots(pp: pd.DataFrame, est: pd.DataFrame, labels: dict[str, str], ke
     fig = _figure(3.4 * ncols, 0.5 + nrows * (0.45 * len(kernels) + 1.0))
     axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
     order = [k for k in kernels if k in set(est["kernel"])]
-    for ax, wid in zip(axes, wids):
+    for ax, wid in zip(axes, wids, strict=False):  # the grid's last row may have spare panels, blanked below
         for i, kernel in enumerate(order[::-1]):
             dots = pp.loc[(pp["kernel"] == kernel) & (pp["workload_id"] == wid), "ns_per_test"].to_numpy()
             e = est.loc[(est["kernel"] == kernel) & (est["workload_id"] == wid)]
@@ -498,7 +498,7 @@ def peers_rates(rates: pd.DataFrame) -> Figure:
     fig = _figure(7.0, 0.42 * len(rates) + 0.9)
     ax = fig.add_subplot(1, 1, 1)
     y = np.arange(len(rates))[::-1]
-    for yi, r in zip(y, rates.itertuples(index=False)):
+    for yi, r in zip(y, rates.itertuples(index=False), strict=True):
         colour = "#1f77b4" if r.contender.startswith("tribench") else "#d62728"
         if math.isfinite(r.ci_low) and math.isfinite(r.ci_high):
             ax.plot([r.ci_low, r.ci_high], [yi, yi], color=colour, lw=2, solid_capstyle="butt")

@@ -62,10 +62,10 @@ def _ratio_figure(seed: pd.DataFrame) -> str:
     colours = figures.kernel_colours(kernels)
     fig, axes = plt.subplots(1, len(scenes), figsize=(4.6 * len(scenes), 0.45 * len(kernels) + 1.3),
                              squeeze=False, sharey=True)
-    for ax, scene in zip(axes[0], scenes):
+    for ax, scene in zip(axes[0], scenes, strict=True):
         rows = seed.loc[seed["scene"] == scene].set_index("kernel").reindex(kernels)
         y = list(range(len(kernels)))[::-1]
-        for yi, (k, r) in zip(y, rows.iterrows()):
+        for yi, (k, r) in zip(y, rows.iterrows(), strict=True):
             if not math.isfinite(r["ratio_to_moller_seed"]):
                 continue
             if math.isfinite(r["ratio_to_moller_seed_ci_low"]):
@@ -85,7 +85,7 @@ def _ratio_figure(seed: pd.DataFrame) -> str:
         ax.set_xlabel("time / time of moller_seed (log; bars: 95% CI)")
         handles, labels = ax.get_legend_handles_labels()
         if handles:
-            keep = dict(zip(labels, handles))
+            keep = dict(zip(labels, handles, strict=True))
             ax.legend(keep.values(), keep.keys(), frameon=False, loc="lower right", fontsize=8)
     fig.tight_layout()
     return figures.svg_data_uri(fig)
@@ -114,14 +114,14 @@ def _paper(seed: pd.DataFrame, wl: pd.DataFrame, replay: dict) -> str:
             "paper real (s)": [_v(x, ".3f") for x in g["paper_real_s"]],
             "paper user (s)": [_v(x, ".3f") for x in g["paper_user_s"]],
             "replay (s)": [_v(x) for x in g["render_s"]],
-            "95% CI (s)": [_ci(a, b) for a, b in zip(g["render_s_ci_low"], g["render_s_ci_high"])],
+            "95% CI (s)": [_ci(a, b) for a, b in zip(g["render_s_ci_low"], g["render_s_ci_high"], strict=True)],
             "replay ns/test": [_v(x, ".3g") for x in g["replay_ns_per_test"]],
             "paper user ns/test (bound)": [_v(x, ".3g") for x in g["paper_user_ns_per_test"]],
             "paper ratio real / user": [f"{_v(a, '.3f')} / {_v(b, '.3f')}" if math.isfinite(a) else "–"
-                                        for a, b in zip(g["paper_ratio_real"], g["paper_ratio_user"])],
+                                        for a, b in zip(g["paper_ratio_real"], g["paper_ratio_user"], strict=True)],
             "replay ratio to moller_seed": [_v(x, ".3f") for x in g["ratio_to_moller_seed"]],
             "95% CI": [_ci(a, b, ".3f") for a, b in zip(g["ratio_to_moller_seed_ci_low"],
-                                                       g["ratio_to_moller_seed_ci_high"])],
+                                                       g["ratio_to_moller_seed_ci_high"], strict=True)],
             "processes": g["n_processes"],
         })
         body.append(_table(rows, [(c, c) for c in rows.columns]))
@@ -154,7 +154,7 @@ def _kinds(kinds: pd.DataFrame) -> str:
     rows = pd.DataFrame({
         "scene": kinds["scene"], "rays": kinds["rays"], "mode": kinds["mode"], "kernel": kinds["kernel"],
         "ns/test": [_v(x, ".4g") for x in kinds["ns_per_test"]],
-        "95% CI": [_ci(a, b) for a, b in zip(kinds["ns_per_test_ci_low"], kinds["ns_per_test_ci_high"])],
+        "95% CI": [_ci(a, b) for a, b in zip(kinds["ns_per_test_ci_low"], kinds["ns_per_test_ci_high"], strict=True)],
         "tests per pass": kinds["tests_per_pass"].astype(int),
         "render tests": kinds["stream_tests"],
         "share of render (s)": [_v(x) for x in kinds["render_s"]],

@@ -250,7 +250,7 @@ def test_wide_form_equals_scalar_bit_for_bit(kernel, dtype, isa):
     o, d, tris = as_dtype(_mesh_workload()[:3], dtype)
     scalar = _run(kernel, FORMS[0], o, d, tris, "closest_uv")
     wide = _run(kernel, ("wide", isa), o, d, tris, "closest_uv")
-    for a, b in zip(scalar, wide):
+    for a, b in zip(scalar, wide, strict=True):
         np.testing.assert_array_equal(a, b)
 
 

@@ -192,7 +192,7 @@ def _draw_hit_rate(plt, w: Workload):
     sample = np.random.default_rng(0).choice(len(o), size=min(len(o), 40), replace=False)
 
     fig, axes = plt.subplots(1, 3, figsize=(18, 6.6), layout="constrained", gridspec_kw={"width_ratios": [1, 1, 0.9]})
-    for ax, (a, b), view in zip(axes, [(0, 1), (2, 1)], ["front view (x, y)", "side view (z, y)"]):
+    for ax, (a, b), view in zip(axes[:2], [(0, 1), (2, 1)], ["front view (x, y)", "side view (z, y)"], strict=True):
         away = 2 if a == 0 else 0  # the axis the view looks along
         _draw_mesh(ax, tri[:, :, [a, b]], depth=tri[:, :, away].mean(axis=1) * (1 if a == 0 else -1))
         ax.add_patch(plt.Circle((centre[a], centre[b]), radius, fill=False, ls="--", color="#555555", lw=0.8))
@@ -300,7 +300,7 @@ def _draw_pairs(plt, w: Workload):
     y = np.arange(len(labels))
     ax.barh(y - 0.2, target_counts, height=0.4, color="#cccccc", label="target")
     ax.barh(y + 0.2, achieved_counts, height=0.4, color=[colours[n] for n in labels], label="achieved")
-    for yi, c in zip(y, achieved_counts):
+    for yi, c in zip(y, achieved_counts, strict=True):
         ax.annotate(str(c), (c, yi + 0.2), xytext=(3, -3), textcoords="offset points", fontsize=8)
     ax.set_yticks(y, labels, fontsize=8)
     ax.invert_yaxis()
@@ -311,7 +311,7 @@ def _draw_pairs(plt, w: Workload):
     # 3. A few pairs in 3-D: the triangle and the ray up to its crossing (or a bit past).
     ax = fig.add_subplot(grid[2], projection="3d")
     few = sample[:: max(1, len(sample) // 8)][:8]
-    for i, j in zip(few, np.searchsorted(sample, few)):
+    for i, j in zip(few, np.searchsorted(sample, few), strict=True):
         colour = colours[names[j]]
         ax.add_collection3d(_poly3d(tri[i], colour))
         t_end = ans.t[j] if np.isfinite(ans.t[j]) and ans.t[j] > 0 else 3.0 * w.spec.scale

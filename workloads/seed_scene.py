@@ -282,7 +282,7 @@ def parse_scene(text: str, name: str = "<string>") -> Scene:
             raise SceneError(
                 f"{where}: '{keyword}' expects {len(names)} numbers ({' '.join(names)}), got {len(args)}"
             )
-        v = [_number(w, where, keyword, n) for w, n in zip(args, names)]
+        v = [_number(w, where, keyword, n) for w, n in zip(args, names, strict=True)]
         _check_values(keyword, v, where)
 
         if keyword == "fond":
