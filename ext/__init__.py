@@ -57,7 +57,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Literal, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -257,7 +257,7 @@ def _check_kernel(kernel: object) -> str:
     return kernel
 
 
-def _check_dtype_name(dtype: object) -> np.dtype:
+def _check_dtype_name(dtype: Any) -> np.dtype:
     if dtype is None:  # numpy reads None as float64: a precision must be named
         raise UserTypeError("dtype must be float32 or float64, got None")
     try:
@@ -484,7 +484,7 @@ class Hits(NamedTuple):
         ``(1-u-v) v0 + u v1 + v v2``); nan for a miss.
     """
 
-    index: np.ndarray
+    index: np.ndarray  # type: ignore[assignment]  # the field hides tuple.index, as meant
     t: np.ndarray
     u: np.ndarray
     v: np.ndarray

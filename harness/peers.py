@@ -259,8 +259,7 @@ def _worker(job: dict[str, Any]) -> None:
     cpu = job["cpu"]
     if cpu >= 0:
         os.sched_setaffinity(0, {cpu})
-    else:
-        cpu = os.sched_getcpu()
+    # else not pinned: the rows say cpu -1, as the sweep worker's do (os has no sched_getcpu)
     w = cache.make(camera_spec(design))
     o, d, tris = w.origins, w.directions, w.triangles
     n, summary = len(o), w.spec.summary()
@@ -275,6 +274,7 @@ def _worker(job: dict[str, Any]) -> None:
     versions = available()
 
     def disagreements(index: np.ndarray, rows: np.ndarray | slice) -> tuple[int, int]:
+        assert w.ref_index is not None  # a camera workload has closest hits
         wrong = np.asarray(index) != w.ref_index[rows]
         return int(wrong.sum()), int((wrong & ambiguous[rows]).sum())
 

@@ -393,7 +393,7 @@ _KIND = {"int": "an integer", "float": "a finite number", "bool": "True or False
 
 
 #: A rule on parsed rows: a function of the frame giving a bad-row mask, and the message for one bad row.
-Rule = tuple[Callable[[Any], Any], Callable[[Any], str]]
+Rule = tuple[Callable[..., Any], Callable[..., str]]  # ...: the lambdas bind names as defaults
 
 
 def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | None):
@@ -442,7 +442,7 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
     raw = pd.DataFrame(rows, columns=columns, dtype=object)
     frame = pd.DataFrame(index=raw.index)
 
-    def refuse(bad: Any, message: Callable[[int], str]) -> None:
+    def refuse(bad: Any, message: Callable[..., str]) -> None:  # ...: the lambdas bind names as defaults
         bad = np.asarray(bad, dtype=bool)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])

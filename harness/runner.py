@@ -369,6 +369,7 @@ def _run_process(
     with tempfile.TemporaryFile("w+") as err:
         proc = subprocess.Popen(list(worker), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err,
                                 env=env, text=True)
+        assert proc.stdin is not None and proc.stdout is not None  # both are pipes
         try:
             proc.stdin.write(job.to_json())
             proc.stdin.close()

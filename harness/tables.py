@@ -137,6 +137,7 @@ def workload_table(specs: Mapping[str, Mapping[str, Any]], workload_ids: Sequenc
         spec = specs[wid]
         w = workloads.get(wid)
         a = dict(w.achieved) if w is not None else {}
+        rays: Any  # a count, or what the run folder holds
         if spec["kind"] == "pairs":
             n = int(a.get("pairs", spec["n"]))
             hits = a.get("hits", round(spec["hit_rate"] * spec["n"]))

@@ -17,7 +17,7 @@ import io
 import math
 import re
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
@@ -25,8 +25,12 @@ matplotlib.use("Agg", force=False)
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from matplotlib.artist import Artist  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.ticker import FuncFormatter, NullFormatter, PercentFormatter  # noqa: E402
+from matplotlib.ticker import FuncFormatter, MaxNLocator, NullFormatter, PercentFormatter  # noqa: E402
+
+if TYPE_CHECKING:  # matplotlib.typing is new in 3.8
+    from matplotlib.typing import RcKeyType
 
 __all__ = [
     "VERDICT_COLOURS",
@@ -48,7 +52,7 @@ __all__ = [
 VERDICT_COLOURS = {"faster": "#1a7f37", "slower": "#c62828", "equivalent": "#5f6b7a", "inconclusive": "#d97706"}
 _PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
             "#bcbd22", "#17becf"]
-_STYLE = {
+_STYLE: dict[RcKeyType, Any] = {
     "font.size": 9,
     "axes.titlesize": 10,
     "axes.labelsize": 9,
@@ -203,7 +207,7 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
     axes[-1].set_xlabel(xlabel or (f"speedup over {baseline} = time_{baseline} / time_kernel   "
                                    f"(log axis; > 1: faster; bars: simultaneous 95% CIs"
                                    + (f", {100 * level:.3g}% each)" if np.isfinite(level) else ")")))
-    handles = [plt.Line2D([], [], color=c, marker="o", lw=2, label=words.get(v, v))
+    handles: list[Artist] = [plt.Line2D([], [], color=c, marker="o", lw=2, label=words.get(v, v))
                for v, c in VERDICT_COLOURS.items()]
     handles.append(plt.Rectangle((0, 0), 1, 1, color="#d0d7de", label=f"equivalence margin ±{100 * margin:.2g}%"))
     axes[0].legend(handles=handles, loc="lower left", bbox_to_anchor=(0, 1.12), ncol=5, frameon=False)
@@ -481,7 +485,9 @@ def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
     _robust_ylim(ax, batches["rel_to_median"].to_numpy())
     ax.set_xlabel("round inside the process (negative: warm-up)")
     ax.set_ylabel("ns/test ÷ process median")
-    ax.xaxis.get_major_locator().set_params(integer=True)
+    locator = ax.xaxis.get_major_locator()
+    assert isinstance(locator, MaxNLocator)  # the default AutoLocator is one
+    locator.set_params(integer=True)
     ax.grid(color="#eee", lw=0.6)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), frameon=False)
     fig.subplots_adjust(right=0.78)

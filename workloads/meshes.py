@@ -95,6 +95,7 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
     try:
         mesh = trimesh.load(str(path), force="mesh", process=False)
+        assert isinstance(mesh, trimesh.Trimesh)  # force="mesh" gives one
         vertices = np.asarray(mesh.vertices, dtype=np.float64)
         faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
     except Exception as e:  # trimesh raises many types for malformed files
