@@ -108,6 +108,7 @@ import time
 import zlib
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import Any
 
 import numpy as np
 
@@ -288,8 +289,9 @@ def _exact(*arrays: np.ndarray) -> None:
             raise RuntimeError("a dyadic construction is not exact in float32 (a bug in validate)")
 
 
-def _as(dtype: str, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    return tuple(np.ascontiguousarray(a, dtype=dtype) for a in arrays)
+def _as(dtype: str, *arrays: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # triangles, origins, directions
+    triangles, origins, directions = (np.ascontiguousarray(a, dtype=dtype) for a in arrays)
+    return triangles, origins, directions
 
 
 def _dyadic_directions(rng: np.random.Generator, normals: np.ndarray, min_cos: float = MIN_COS) -> np.ndarray:
@@ -569,7 +571,7 @@ def exactly_collinear(tri: np.ndarray) -> bool:
     False
     """
     a, b, c = ([Fraction(float(x)) for x in v] for v in tri)
-    e, f = [q - p for p, q in zip(a, b)], [q - p for p, q in zip(a, c)]
+    e, f = [q - p for p, q in zip(a, b, strict=True)], [q - p for p, q in zip(a, c, strict=True)]
     return all(e[j] * f[k] == e[k] * f[j] for j, k in ((1, 2), (2, 0), (0, 1)))
 
 
@@ -578,7 +580,8 @@ def _non_dyadic_flat(rng, g: int, per: int, dtype: str) -> PairRays:
     where that is exact in ``dtype``) from random coordinates that are not dyadic, scaled by
     2**-4 to 2**14 (exact), in any vertex order; rays aimed at points between a and b from
     random directions."""
-    tris, ends = [], []
+    tris: Any = []  # a list, then the array of it
+    ends: Any = []
     while len(tris) < g:
         scale = 2.0 ** int(rng.integers(-4, 15))
         a = round_to(scale * rng.uniform(-2, 2, 3), dtype)
@@ -622,8 +625,8 @@ def _degenerate(rng, size: Size, dtype: str) -> PairRays:
     o = aims - d
     _exact(tris, o, d)
     rest = _non_dyadic_flat(rng, g, per, dtype)
-    return PairRays(*(np.concatenate([x, y]) for x, y in zip(_as(dtype, tris, o, d),
-                                                              (rest.triangles, rest.origins, rest.directions))),
+    return PairRays(*_as(dtype, *(np.concatenate([x, y]) for x, y in zip(_as(dtype, tris, o, d),
+                                                              (rest.triangles, rest.origins, rest.directions), strict=True))),
                     owner=np.concatenate([owner, g + rest.owner]), expect_hit=np.zeros(len(owner) + len(rest.owner), bool),
                     label=np.concatenate([np.array(_DEGENERATE)[kind[owner]], rest.label]))
 
@@ -768,7 +771,7 @@ def _closest(kernel: str, isa: str, rays: MeshRays, triangles: np.ndarray | None
 def _own_hits(kernel: str, isa: str, p: PairRays, allow_nonfinite: bool = False) -> np.ndarray:
     """Whether ray i hits ``triangles[owner[i]]``: pairs mode, or for a wide kernel
     (which has none) one closest call per triangle and side on its rays."""
-    options = {"isa": isa, "allow_nonfinite": allow_nonfinite}
+    options: dict[str, Any] = {"isa": isa, "allow_nonfinite": allow_nonfinite}
     tris = p.triangles[p.owner]
     back = np.zeros(len(p.owner), bool)
     if culls(kernel):
@@ -795,10 +798,11 @@ def _breakdown(failed: np.ndarray, label: np.ndarray, what: str) -> str:
 def _mesh_result(kernel: str, isa: str, test: str, sets: RaySets) -> tuple[int, int, str]:
     groups = sets.meshes["shared_edges" if test == "shared_edges_double" else test]
     if test == "shared_edges_double":  # the lower and the upper triangle of its edge, each asked alone
+        assert all(g.incident is not None for g in groups)  # the shared-edge rays know their triangles
         failed = np.concatenate([
             (_closest(kernel, isa, g, g.triangles[0::2]) == g.incident[:, 0] // 2)
             & (_closest(kernel, isa, g, g.triangles[1::2]) == g.incident[:, 1] // 2)
-            for g in groups])
+            for g in groups if g.incident is not None])  # all of them (asserted): the `if` is for mypy
     else:
         failed = np.concatenate([_closest(kernel, isa, g) < 0 for g in groups])
     if test == "inside_sphere":
@@ -909,9 +913,9 @@ def format_rate(failures: int, rate: float, verdict: str = "measured") -> str:
 
 def table(df):
     """The display table: one row per kernel and dtype, one column per test, cells from :func:`format_rate`."""
-    cells = df.assign(cell=[format_rate(f, r, v) for f, r, v in zip(df.failures, df.rate, df.verdict)])
+    cells = df.assign(cell=[format_rate(f, r, v) for f, r, v in zip(df.failures, df.rate, df.verdict, strict=True)])
     wide = cells.pivot(index=["kernel", "dtype", "isa"], columns="test", values="cell")
-    wide = wide.reindex(index=list(dict.fromkeys(zip(df.kernel, df.dtype, df.isa))),
+    wide = wide.reindex(index=list(dict.fromkeys(zip(df.kernel, df.dtype, df.isa, strict=True))),
                         columns=[t for t in TESTS if t in set(df.test)])
     return wide.rename(columns=SHORT_NAMES).reset_index()
 
@@ -922,11 +926,11 @@ def format_table(df) -> str:
     cells = [list(wide.columns), *wide.astype(str).values.tolist()]
     widths = [max(len(row[i]) for row in cells) for i in range(len(cells[0]))]
     # names left-aligned, rates right-aligned
-    lines = ["  ".join(v.ljust(w) if i < 3 else v.rjust(w) for i, (v, w) in enumerate(zip(row, widths))).rstrip()
+    lines = ["  ".join(v.ljust(w) if i < 3 else v.rjust(w) for i, (v, w) in enumerate(zip(row, widths, strict=True))).rstrip()
              for row in cells]
     first = df[df.kernel == df.kernel.iloc[0]]
     for dtype, rows in first.groupby("dtype", sort=False):
-        counts = ", ".join(f"{SHORT_NAMES[t]} {n}" for t, n in zip(rows.test, rows.rays))
+        counts = ", ".join(f"{SHORT_NAMES[t]} {n}" for t, n in zip(rows.test, rows.rays, strict=True))
         lines.append(f"rays ({dtype}): {counts}")
     lines += [
         "cells: failure rate, 0 = none; edges, vertices: cracks; edges2x: both triangles of an edge hit",

@@ -91,7 +91,7 @@ def _num(x: Any, digits: int = 3) -> str:
     if isinstance(x, (float, np.floating)):
         if x == 0:
             return "0"
-        return f"{x:.{digits}g}" if abs(x) < 1e5 else f"{x:.{digits}e}"
+        return f"{x:.{digits}g}" if abs(float(x)) < 1e5 else f"{x:.{digits}e}"
     return str(x)
 
 
@@ -328,8 +328,8 @@ def _range(low: float, high: float) -> str:
 
 def _kernels(data: RunData, kern: pd.DataFrame) -> str:
     shown = kern.assign(
-        ns_range=[_range(a, b) for a, b in zip(kern["ns_per_test_min"], kern["ns_per_test_max"])],
-        ratio_range=[_range(a, b) for a, b in zip(kern["ratio_min"], kern["ratio_max"])])
+        ns_range=[_range(a, b) for a, b in zip(kern["ns_per_test_min"], kern["ns_per_test_max"], strict=True)],
+        ratio_range=[_range(a, b) for a, b in zip(kern["ratio_min"], kern["ratio_max"], strict=True)])
     note = ("Each kernel's storage beside its speed, per workload family (a family has one precision). "
             "Form: scalar (one triangle per test, early exit) or 8 lanes (eight triangles per step in SIMD "
             "registers); ISA: the instruction set its batches ran with. Bytes per triangle: its prepared data "
@@ -554,7 +554,7 @@ def _diagnostics(data: RunData, batches: pd.DataFrame, wl: pd.DataFrame) -> str:
 
 
 def _correctness(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) -> str:
-    labels = dict(zip(wl["workload_id"], wl["label"]))
+    labels = dict(zip(wl["workload_id"], wl["label"], strict=True))
     frame = correct.assign(label=correct["workload_id"].map(labels))
     body = [
         _p("Every batch returns a checksum (hits and the sum of t) that the worker checked against the "
@@ -635,7 +635,7 @@ def _robustness(val: pd.DataFrame, note: str) -> str:
                        + [(n, n) for n in names], classes={n: _rate_class for n in names}))
     if not broken.empty:
         shown = broken.assign(cell=[validate.format_rate(f, r, v) for f, r, v in
-                                    zip(broken["failures"], broken["rate"], broken["verdict"])])
+                                    zip(broken["failures"], broken["rate"], broken["verdict"], strict=True)])
         body += ["<h3>Broken promises</h3>",
                  _table(shown, [("kernel", "kernel"), ("dtype", "precision"), ("test", "test"), ("cell", "rate"),
                                 ("failures", "failures"), ("rays", "rays"), ("expected", "promised"),
