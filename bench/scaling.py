@@ -26,7 +26,8 @@ the same from the thread's CPU time (robust to other processes sharing the core)
 the working set and the smallest cache it fits in, and the ratio to the cost
 at the largest K that fits in L1.
 
-    python bench/scaling.py [KERNEL ...] [--rays 64] [--min-tests 1048576] [--max-k 4194304] [--rounds 5] [--target-ms 20] [--pin CPU]
+    python bench/scaling.py [KERNEL ...] [--rays 64] [--min-tests 1048576] [--max-k 4194304]
+                            [--rounds 5] [--target-ms 20] [--pin CPU]
 """
 
 from __future__ import annotations
@@ -174,7 +175,7 @@ def main() -> None:
     for kernel in kernels:
         if {"float32", "float64"} <= set(dtypes):
             f32, f64 = results[kernel, "float32"], results[kernel, "float64"]
-            ratios = " ".join(f"{np.median(b[3]) / np.median(a[3]):.2f}" for a, b in zip(f32, f64))
+            ratios = " ".join(f"{np.median(b[3]) / np.median(a[3]):.2f}" for a, b in zip(f32, f64, strict=True))
             print(f"{kernel}: float64 / float32 cpu ns/test by K ({', '.join(map(str, counts))}): {ratios}")
 
 

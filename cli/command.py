@@ -305,7 +305,7 @@ def _stats(args: argparse.Namespace) -> int:
 def _calibrate(args: argparse.Namespace) -> int:
     from tribench.harness.calibration import calibrate, user_calibration_path
 
-    workloads = ()
+    workloads: tuple = ()
     if args.workload:
         from tribench.workloads import cache
 

@@ -194,7 +194,7 @@ def _list(args: argparse.Namespace) -> int:
         return 0
     for e in entries:
         try:
-            summary = spec_from_dict(e.spec).summary()
+            summary = spec_from_dict(e.spec or {}).summary()  # no spec: refused, shown as null
         except Exception:  # a spec this version cannot rebuild (moved mesh file, old field...)
             summary = json.dumps(e.spec)
         size = f"{e.size_bytes / 1e6:.1f} MB"

@@ -63,7 +63,7 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
         name = str(path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
         fd = os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         tmp = name
-        with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": encoding, "newline": ""})) as f:
+        with os.fdopen(fd, mode, encoding=None if mode == "wb" else encoding, newline=None if mode == "wb" else "") as f:
             yield f
             f.flush()
             os.fsync(f.fileno())

@@ -57,7 +57,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Literal, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -257,7 +257,7 @@ def _check_kernel(kernel: object) -> str:
     return kernel
 
 
-def _check_dtype_name(dtype: object) -> np.dtype:
+def _check_dtype_name(dtype: Any) -> np.dtype:
     if dtype is None:  # numpy reads None as float64: a precision must be named
         raise UserTypeError("dtype must be float32 or float64, got None")
     try:
@@ -464,7 +464,7 @@ def flat(triangles: np.ndarray) -> np.ndarray:
     out = np.zeros(len(v), dtype=bool)
     for i in np.flatnonzero(~clearly_not & np.isfinite(v).all(axis=(1, 2))):
         a, b, c = ([Fraction(float(x)) for x in vertex] for vertex in v[i])
-        e_i, f_i = [q - p for p, q in zip(a, b)], [q - p for p, q in zip(a, c)]
+        e_i, f_i = [q - p for p, q in zip(a, b, strict=True)], [q - p for p, q in zip(a, c, strict=True)]
         out[i] = all(e_i[j] * f_i[k] == e_i[k] * f_i[j] for j, k in ((1, 2), (2, 0), (0, 1)))
     return out
 
@@ -484,7 +484,7 @@ class Hits(NamedTuple):
         ``(1-u-v) v0 + u v1 + v v2``); nan for a miss.
     """
 
-    index: np.ndarray
+    index: np.ndarray  # type: ignore[assignment]  # the field hides tuple.index, as meant
     t: np.ndarray
     u: np.ndarray
     v: np.ndarray

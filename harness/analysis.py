@@ -116,12 +116,12 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
         raise UserError(f"baseline {baseline!r} is not in this run; its kernels: {', '.join(kernels)}")
     m = (Margin(margin, "--margin") if margin is not None
          else Margin(run["margin"]["value"], run["margin"]["source"]))
-    names = {wid: _summary(spec) for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"])}
+    names = {wid: _summary(spec) for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True)}
 
     table = stats.per_process(batches)
     estimates = stats.estimate_table(table).rename(columns=ESTIMATE_COLUMNS)
     estimates["workload"] = estimates["workload_id"].map(names)
-    dtypes = {wid: spec["dtype"] for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"])}
+    dtypes = {wid: spec["dtype"] for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True)}
     estimates = estimates.join(_peak_columns(table, records.read_processes(run_dir, run), dtypes),
                                on=["kernel", "workload_id"])
     speedups = stats.speedup_table(table, baseline, margin=m.value).rename(columns=SPEEDUP_COLUMNS)
@@ -154,7 +154,7 @@ def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str
     peak = processes.groupby("process").agg(peak_gflops=("peak_gflops", "mean"), peak_isa=("peak_isa", "first"))
     joined = table.join(peak, on="process").dropna(subset=["peak_gflops"])
     rate = [lane_ops_per_ns(g, dtypes[w], isa)
-            for g, w, isa in zip(joined["peak_gflops"], joined["workload_id"], joined["peak_isa"])]
+            for g, w, isa in zip(joined["peak_gflops"], joined["workload_id"], joined["peak_isa"], strict=True)]
     slots = stats.estimate_table(joined.assign(ns_per_test=joined["ns_per_test"] * rate))
     slots = slots.set_index(["kernel", "workload_id"])
     keys = ["kernel", "workload_id"]
@@ -163,7 +163,7 @@ def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str
     known = set(ext.kernel_names(internal=True))
     ops = np.array([ext.kernel_info(k).ops if k in known else np.nan for k, _ in peaks.index], dtype=float)
     mean_rate = np.array([lane_ops_per_ns(g, dtypes[w], isa)
-                          for (_, w), g, isa in zip(peaks.index, peaks["peak_gflops"], peaks["peak_isa"])])
+                          for (_, w), g, isa in zip(peaks.index, peaks["peak_gflops"], peaks["peak_isa"], strict=True)])
     return pd.DataFrame({
         "peak_gflops": peaks["peak_gflops"],
         "ops_per_test": ops,
@@ -229,7 +229,7 @@ def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], di
     from tribench.workloads.kinds import spec_from_dict
     from tribench.workloads.spec import workload_id
 
-    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"]))
+    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
     found: dict[str, Any] = {}
     sources: dict[str, str] = {}
     for wid in wids:
@@ -357,7 +357,7 @@ def write_all(run_dir: str | Path, baseline: str | None = None, margin: float | 
     present_k, present_w = set(batches["kernel"]), set(batches["workload_id"])
     kernels = [k for k in run["sweep"]["kernels"] if k in present_k]
     wids = [w for w in run["sweep"]["workload_ids"] if w in present_w]
-    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"]))
+    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
     dtypes = sorted(set(batches["dtype"]))
 
     workloads, sources = _workloads(run, wids)

@@ -116,7 +116,7 @@ def calibrate(
     results = aa_speedups(records.read_batches(run_dir), kernel, copy, processes)
     summary = aa_summary(results)
     record = {
-        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "cpu_model": cpu_model(),
         "kernel": kernel,
         "copy": copy,

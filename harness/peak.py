@@ -85,7 +85,7 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
             job = ext.make_job(kernel, w.origins, w.directions, w.triangles, "closest")
             jobs[dtype, kernel] = (job, calibrate_loops(job, 5e6))
     before = measure_peak(3)
-    times = {key: [] for key in jobs}
+    times: dict[tuple[str, str], list[float]] = {key: [] for key in jobs}
     keys = list(jobs)
     for _ in range(rounds):
         for i in rng.permutation(len(keys)):

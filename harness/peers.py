@@ -37,9 +37,10 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -101,7 +102,7 @@ class PeerDesign:
                             f"each: hours of measuring), got {self.processes:,} x {self.reps:,}")
 
     @classmethod
-    def quick(cls) -> "PeerDesign":
+    def quick(cls) -> PeerDesign:
         """The same shape in about ten seconds (a 256x256 camera, wide intervals)."""
         return cls(width=256, height=256, processes=3, reps=2, trimesh_rays=2048, choice_rays=2048,
                    choice_rounds=3)
@@ -258,8 +259,7 @@ def _worker(job: dict[str, Any]) -> None:
     cpu = job["cpu"]
     if cpu >= 0:
         os.sched_setaffinity(0, {cpu})
-    else:
-        cpu = os.sched_getcpu()
+    # else not pinned: the rows say cpu -1, as the sweep worker's do (os has no sched_getcpu)
     w = cache.make(camera_spec(design))
     o, d, tris = w.origins, w.directions, w.triangles
     n, summary = len(o), w.spec.summary()
@@ -274,6 +274,7 @@ def _worker(job: dict[str, Any]) -> None:
     versions = available()
 
     def disagreements(index: np.ndarray, rows: np.ndarray | slice) -> tuple[int, int]:
+        assert w.ref_index is not None  # a camera workload has closest hits
         wrong = np.asarray(index) != w.ref_index[rows]
         return int(wrong.sum()), int((wrong & ambiguous[rows]).sum())
 

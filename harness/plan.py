@@ -249,7 +249,7 @@ class Sweep:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "Sweep":
+    def from_dict(cls, d: Mapping[str, Any]) -> Sweep:
         return cls(
             kernels=tuple(d["kernels"]),
             workloads=tuple(spec_from_dict(w) for w in d["workloads"]),
@@ -287,11 +287,11 @@ def default_sweep(quick: bool = False) -> Sweep:
     if quick:
         pairs = [PairSpec(n=1024, hit_rate=h, dtype="float32") for h in (0.0, 0.5, 1.0)]
         meshes = [MeshSpec("suzanne", triangles=n, width=16, height=16, dtype="float32") for n in (100, 968)]
-        return Sweep(kernels, tuple(pairs + meshes), processes=3, rounds=3, warmup=1, target_ms=1.0)
+        return Sweep(kernels, (*pairs, *meshes), processes=3, rounds=3, warmup=1, target_ms=1.0)
     hit_rates = [round(0.1 * i, 1) for i in range(11)]
     pairs = [PairSpec(n=4096, hit_rate=h, dtype=d) for d in ("float32", "float64") for h in hit_rates]
     meshes = [MeshSpec("suzanne", triangles=n, width=48, height=48, dtype="float32") for n in (100, 968, 5000)]
-    return Sweep(kernels, tuple(pairs + meshes), processes=20, rounds=6, warmup=1)
+    return Sweep(kernels, (*pairs, *meshes), processes=20, rounds=6, warmup=1)
 
 
 def process_seed(seed: int, process: int) -> int:
@@ -344,7 +344,7 @@ def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
     if any(len(v) == 0 for v in axes.values()):
         raise UserError("an empty list in a workload table gives no workloads")
     check_workload_count(math.prod(len(v) for v in axes.values()))  # before building the grid
-    return [spec_from_dict({**fixed, **dict(zip(axes, combo))}) for combo in itertools.product(*axes.values())]
+    return [spec_from_dict({**fixed, **dict(zip(axes, combo, strict=True))}) for combo in itertools.product(*axes.values())]
 
 
 _TOP_LEVEL = ("kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed")

@@ -248,7 +248,7 @@ class RowWriter:
             os.close(self._fd)
             self._fd = -1
 
-    def __enter__(self) -> "RowWriter":
+    def __enter__(self) -> RowWriter:
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -393,7 +393,7 @@ _KIND = {"int": "an integer", "float": "a finite number", "bool": "True or False
 
 
 #: A rule on parsed rows: a function of the frame giving a bad-row mask, and the message for one bad row.
-Rule = tuple[Callable[[Any], Any], Callable[[Any], str]]
+Rule = tuple[Callable[..., Any], Callable[..., str]]  # ...: the lambdas bind names as defaults
 
 
 def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | None):
@@ -442,7 +442,7 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
     raw = pd.DataFrame(rows, columns=columns, dtype=object)
     frame = pd.DataFrame(index=raw.index)
 
-    def refuse(bad: Any, message: Callable[[int], str]) -> None:
+    def refuse(bad: Any, message: Callable[..., str]) -> None:  # ...: the lambdas bind names as defaults
         bad = np.asarray(bad, dtype=bool)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
@@ -557,7 +557,7 @@ def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
 
         def outside(f: Any) -> Any:
             return [key not in planned for key in
-                    zip(f["process"], f["workload_id"], f["round"], f["position"], f["kernel"])]
+                    zip(f["process"], f["workload_id"], f["round"], f["position"], f["kernel"], strict=True)]
 
         rules.append((outside, lambda r: f"batch (process {r['process']}, round {r['round']}, position "
                                          f"{r['position']}, kernel {r['kernel']}) is not in the run's plan"))

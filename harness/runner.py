@@ -230,7 +230,7 @@ def _start_locked(sweep: Sweep, run_dir: Path, margin: Any, machine: dict[str, A
 
     record = {
         "run_id": _dt.datetime.now().strftime("%Y%m%dT%H%M%S-") + secrets.token_hex(3),
-        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "sweep": sweep.to_dict(),
         "n_batches": len(keys),
         "plan_sha256": _plan_digest(keys),
@@ -369,6 +369,7 @@ def _run_process(
     with tempfile.TemporaryFile("w+") as err:
         proc = subprocess.Popen(list(worker), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err,
                                 env=env, text=True)
+        assert proc.stdin is not None and proc.stdout is not None  # both are pipes
         try:
             proc.stdin.write(job.to_json())
             proc.stdin.close()

@@ -396,8 +396,8 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
                       "sample_tests": w["sample_tests"], "stream_tests": w["stream_tests"], "render_s": share,
                       "render_share": share / float(total.iloc[0]) if len(total) else math.nan, "n_processes": e.n})
     kt = pd.DataFrame(kinds, columns=list(COLUMNS[KINDS_CSV]))
-    order = {(s, r): i for i, (s, r) in enumerate(zip(wl["scene"], wl["rays"]))}
-    kt = kt.assign(_o=[order[(s, r)] * 1000 + korder[k] for s, r, k in zip(kt["scene"], kt["rays"], kt["kernel"])])
+    order = {(s, r): i for i, (s, r) in enumerate(zip(wl["scene"], wl["rays"], strict=True))}
+    kt = kt.assign(_o=[order[(s, r)] * 1000 + korder[k] for s, r, k in zip(kt["scene"], kt["rays"], kt["kernel"], strict=True)])
     kt = kt.sort_values("_o").drop(columns="_o").reset_index(drop=True)
     return {SEED_CSV: seed, KINDS_CSV: kt, WORKLOADS_CSV: wl}
 

@@ -137,6 +137,7 @@ def workload_table(specs: Mapping[str, Mapping[str, Any]], workload_ids: Sequenc
         spec = specs[wid]
         w = workloads.get(wid)
         a = dict(w.achieved) if w is not None else {}
+        rays: Any  # a count, or what the run folder holds
         if spec["kind"] == "pairs":
             n = int(a.get("pairs", spec["n"]))
             hits = a.get("hits", round(spec["hit_rate"] * spec["n"]))
@@ -219,7 +220,7 @@ def outlier_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
     g = timed.groupby(["workload_id", "kernel"], sort=False)
     out = pd.DataFrame({"batches": g.size(), "outliers": g["outlier"].sum(), "far_out": g["far_out"].sum(),
                         "worst_rel": g["rel_to_median"].max()}).reset_index()
-    out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"])))
+    out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"], strict=True)))
     return out[list(runfolder.FILES[runfolder.OUTLIERS])]
 
 
@@ -232,7 +233,7 @@ def warmup_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
         "warmup_batches": warm.size().reindex(g.size().index),
     }).reset_index()
     out["warmup_batches"] = out["warmup_batches"].fillna(0).astype(int)
-    out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"])))
+    out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"], strict=True)))
     return out[list(runfolder.FILES[runfolder.WARMUP])]
 
 
@@ -301,7 +302,7 @@ def drift_table(batches: pd.DataFrame, kernels: Sequence[str], baseline: str, wo
     """``stats.drift`` of every kernel against the baseline on every workload (``drift.csv``);
     ``reason`` explains a comparison that could not be tested."""
     rows = []
-    labels = dict(zip(wl["workload_id"], wl["label"]))
+    labels = dict(zip(wl["workload_id"], wl["label"], strict=True))
     for wid in workload_ids:
         for kernel in kernels:
             if kernel == baseline:
@@ -324,7 +325,7 @@ def variance_table(batches: pd.DataFrame, kernels: Sequence[str], workload_ids: 
     """Kalibera-Jones variance components per kernel and workload (``variance.csv``): square roots of
     ``stats.variance_components`` relative to the mean, in percent."""
     rows = []
-    labels = dict(zip(wl["workload_id"], wl["label"]))
+    labels = dict(zip(wl["workload_id"], wl["label"], strict=True))
     for wid in workload_ids:
         for kernel in kernels:
             try:

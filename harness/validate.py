@@ -29,6 +29,7 @@ precision on one core) and :data:`QUICK` (``--quick``, the tests).
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 
@@ -159,7 +160,7 @@ def _closest(kernel: str, isa: str, rays: MeshRays, triangles: np.ndarray | None
 def _own_hits(kernel: str, isa: str, p: PairRays, allow_nonfinite: bool = False) -> np.ndarray:
     """Whether ray i hits ``triangles[owner[i]]``: pairs mode, or for a wide kernel
     (which has none) one closest call per triangle and side on its rays."""
-    options = {"isa": isa, "allow_nonfinite": allow_nonfinite}
+    options: dict[str, Any] = {"isa": isa, "allow_nonfinite": allow_nonfinite}
     tris = p.triangles[p.owner]
     back = np.zeros(len(p.owner), bool)
     if culls(kernel):
@@ -188,11 +189,13 @@ def _breakdown(failed: np.ndarray, label: np.ndarray, what: str) -> str:
 def _mesh_result(kernel: str, isa: str, test: str, sets: RaySets) -> tuple[int, int, str]:
     groups = sets.meshes["shared_edges" if test == "shared_edges_double" else test]
     if test == "shared_edges_double":  # the lower and the upper triangle of its edge, each asked alone
+        assert all(g.incident is not None for g in groups)  # the shared-edge rays know their triangles
         failed = np.concatenate(
             [
                 (_closest(kernel, isa, g, g.triangles[0::2]) == g.incident[:, 0] // 2)
                 & (_closest(kernel, isa, g, g.triangles[1::2]) == g.incident[:, 1] // 2)
                 for g in groups
+                if g.incident is not None  # all of them (asserted): the `if` is for mypy
             ]
         )
     else:

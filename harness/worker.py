@@ -42,7 +42,7 @@ import sys
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -92,7 +92,7 @@ class WorkerJob:
     workloads: Mapping[str, Mapping[str, Any]]
 
     @classmethod
-    def from_json(cls, text: str) -> "WorkerJob":
+    def from_json(cls, text: str) -> WorkerJob:
         d = json.loads(text)
         d["keys"] = tuple(tuple(k) for k in d["keys"])
         return cls(**d)
@@ -336,7 +336,8 @@ def run_job(job: WorkerJob, emit) -> None:
                 expected, counts = one_pass_checksum(k, w)
                 emit("check", CheckRow(job.run_id, process, job.attempt, wid, k, **counts,
                                        hits=expected.hits, t_sum=expected.t_sum))
-                kjob = ext.make_job(k, *arrays[wid], w.mode, t_max=w.t_max)
+                o, d, tris = arrays[wid]
+                kjob = ext.make_job(k, o, d, tris, cast(ext.Mode, w.mode), t_max=w.t_max)  # the spec checked it
                 prepared[(k, wid)] = (kjob, calibrate_loops(kjob, target_ns), expected)
             steal_before = None  # checks and calibration are not a batch
         kjob, loops, expected = prepared[(kernel, wid)]

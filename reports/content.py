@@ -65,7 +65,7 @@ def estimates_table(data: RunData, wl: pd.DataFrame) -> pd.DataFrame:
     kernel and the workload's family (the build that measured the run)."""
     est = data.estimates.merge(wl, on="workload_id", how="left", suffixes=("", "_wl"))
     kern = data.tables[runfolder.KERNELS]
-    per = dict(zip(zip(kern["kernel"], kern["family"]), kern["bytes_per_triangle"]))
+    per = dict(zip(zip(kern["kernel"], kern["family"], strict=True), kern["bytes_per_triangle"], strict=True))
     est["working_set_bytes"] = [
         working_set_bytes(per.get((r.kernel, r.family), math.nan), r.dtype, r.triangles, r.rays)
         for r in est.itertuples(index=False)

@@ -17,7 +17,7 @@ import io
 import math
 import re
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
@@ -25,8 +25,12 @@ matplotlib.use("Agg", force=False)
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from matplotlib.artist import Artist  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.ticker import FuncFormatter, NullFormatter, PercentFormatter  # noqa: E402
+from matplotlib.ticker import FuncFormatter, MaxNLocator, NullFormatter, PercentFormatter  # noqa: E402
+
+if TYPE_CHECKING:  # matplotlib.typing is new in 3.8
+    from matplotlib.typing import RcKeyType
 
 from tribench.stats import format_interval  # noqa: E402
 
@@ -50,7 +54,7 @@ __all__ = [
 VERDICT_COLOURS = {"faster": "#1a7f37", "slower": "#c62828", "equivalent": "#5f6b7a", "inconclusive": "#d97706"}
 _PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
             "#bcbd22", "#17becf"]
-_STYLE = {
+_STYLE: dict[RcKeyType, Any] = {
     "font.size": 9,
     "axes.titlesize": 10,
     "axes.labelsize": 9,
@@ -173,7 +177,7 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
                         gridspec_kw={"height_ratios": [s + 1.2 for s in sizes]})[:, 0]
     low = float(np.nanmin(speedups[["ratio_ci_low", "ratio"]].to_numpy()))
     high = float(np.nanmax(speedups[["ratio_ci_high", "ratio"]].to_numpy()))
-    for ax, family in zip(axes, families):
+    for ax, family in zip(axes, families, strict=True):
         rows = speedups.loc[speedups["family"] == family]
         korder = {k: i for i, k in enumerate(dict.fromkeys(speedups["kernel"]))}
         rows = rows.sort_values("kernel", key=lambda s: s.map(korder), kind="stable").reset_index(drop=True)
@@ -181,7 +185,7 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
         ax.axvspan(1 / (1 + margin), 1 + margin, color="#d0d7de", alpha=0.6, lw=0,
                    label=f"equivalence margin ±{100 * margin:.2g}%")
         ax.axvline(1.0, color="#333", lw=0.8)
-        for yi, r in zip(y, rows.itertuples(index=False)):
+        for yi, r in zip(y, rows.itertuples(index=False), strict=True):
             colour = VERDICT_COLOURS.get(r.verdict, "#333")
             if np.isfinite(r.ratio_ci_low) and np.isfinite(r.ratio_ci_high):
                 ax.plot([r.ratio_ci_low, r.ratio_ci_high], [yi, yi], color=colour, lw=2.2, solid_capstyle="butt")
@@ -200,7 +204,7 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
     axes[-1].set_xlabel(xlabel or (f"speedup over {baseline} = time_{baseline} / time_kernel   "
                                    f"(log axis; > 1: faster; bars: simultaneous 95% CIs"
                                    + (f", {100 * level:.3g}% each)" if np.isfinite(level) else ")")))
-    handles = [plt.Line2D([], [], color=c, marker="o", lw=2, label=words.get(v, v))
+    handles: list[Artist] = [plt.Line2D([], [], color=c, marker="o", lw=2, label=words.get(v, v))
                for v, c in VERDICT_COLOURS.items()]
     handles.append(plt.Rectangle((0, 0), 1, 1, color="#d0d7de", label=f"equivalence margin ±{100 * margin:.2g}%"))
     axes[0].legend(handles=handles, loc="lower left", bbox_to_anchor=(0, 1.12), ncol=5, frameon=False)
@@ -252,7 +256,7 @@ def hit_rate_curves(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, s
         return _empty(_NO_HIT_RATE_CURVE)
     fig = _figure(9.5, 3.6 * len(families))
     axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
-    for ax, family in zip(axes, families):
+    for ax, family in zip(axes, families, strict=True):
         rows = pairs.loc[pairs["family"] == family]
         for kernel, g in rows.groupby("kernel", sort=False):
             g = g.sort_values("test_hit_rate")
@@ -279,7 +283,7 @@ def speedup_vs_hit_rate(spd: pd.DataFrame, baseline: str, margin: float, colours
         return _empty(_NO_HIT_RATE_CURVE)
     fig = _figure(9.5, 3.3 * len(families))
     axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
-    for ax, family in zip(axes, families):
+    for ax, family in zip(axes, families, strict=True):
         rows = pairs.loc[pairs["family"] == family]
         ax.axhspan(1 / (1 + margin), 1 + margin, color="#d0d7de", alpha=0.6, lw=0)
         ax.axhline(1.0, color="#333", lw=0.8)
@@ -366,7 +370,7 @@ def scaling(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) 
 
 def _dedupe_legend(ax) -> None:
     handles, labels = ax.get_legend_handles_labels()
-    seen = dict(zip(labels, handles))
+    seen = dict(zip(labels, handles, strict=True))
     if seen:
         ax.legend(seen.values(), seen.keys(), frameon=False)
 
@@ -384,7 +388,7 @@ def process_dots(pp: pd.DataFrame, est: pd.DataFrame, labels: dict[str, str], ke
     fig = _figure(3.4 * ncols, 0.5 + nrows * (0.45 * len(kernels) + 1.0))
     axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
     order = [k for k in kernels if k in set(est["kernel"])]
-    for ax, wid in zip(axes, wids):
+    for ax, wid in zip(axes, wids, strict=False):  # the grid's last row may have spare panels, blanked below
         for i, kernel in enumerate(order[::-1]):
             dots = pp.loc[(pp["kernel"] == kernel) & (pp["workload_id"] == wid), "ns_per_test"].to_numpy()
             e = est.loc[(est["kernel"] == kernel) & (est["workload_id"] == wid)]
@@ -478,7 +482,9 @@ def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
     _robust_ylim(ax, batches["rel_to_median"].to_numpy())
     ax.set_xlabel("round inside the process (negative: warm-up)")
     ax.set_ylabel("ns/test ÷ process median")
-    ax.xaxis.get_major_locator().set_params(integer=True)
+    locator = ax.xaxis.get_major_locator()
+    assert isinstance(locator, MaxNLocator)  # the default AutoLocator is one
+    locator.set_params(integer=True)
     ax.grid(color="#eee", lw=0.6)
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), frameon=False)
     fig.subplots_adjust(right=0.78)
@@ -495,7 +501,7 @@ def peers_rates(rates: pd.DataFrame) -> Figure:
     fig = _figure(7.0, 0.42 * len(rates) + 0.9)
     ax = fig.add_subplot(1, 1, 1)
     y = np.arange(len(rates))[::-1]
-    for yi, r in zip(y, rates.itertuples(index=False)):
+    for yi, r in zip(y, rates.itertuples(index=False), strict=True):
         colour = "#1f77b4" if r.contender.startswith("tribench") else "#d62728"
         if math.isfinite(r.ci_low) and math.isfinite(r.ci_high):
             ax.plot([r.ci_low, r.ci_high], [yi, yi], color=colour, lw=2, solid_capstyle="butt")

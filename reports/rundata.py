@@ -161,7 +161,7 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
             raise RunError(f"{run_dir / runfolder.ANALYSIS} lists no {name}: {_stats_hint(run_dir)}")
     estimates, speedups = tables[runfolder.ESTIMATES], tables[runfolder.SPEEDUPS]
     margin = record.get("margin") or {}
-    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"]))
+    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
     return RunData(run_dir, run, batches, processes, estimates, speedups, str(record.get("baseline")),
                    float(margin.get("value", 0.01)), str(margin.get("source", "unknown")), specs, tables, record)
 

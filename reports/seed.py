@@ -134,9 +134,9 @@ def _paper(seed: pd.DataFrame, wl: pd.DataFrame, replay: dict) -> str:
                        f"{100 * (1 - r['miss_behind_origin'] - r['miss_parallel']):.3g}% pass beside the triangle, "
                        f"where Curless computes t, the point and one to three edge tests, and Möller–Trumbore "
                        f"stops at u or v.")
-            replay = format_interval(c["ratio_to_moller_seed"], c["ratio_to_moller_seed_ci_low"],
+            ratio = format_interval(c["ratio_to_moller_seed"], c["ratio_to_moller_seed_ci_low"],
                                      c["ratio_to_moller_seed_ci_high"], ".3f")
-            body.append(page.p(f"Curless over Möller: {paper}the replay's {replay} (95% CI)." + why))
+            body.append(page.p(f"Curless over Möller: {paper}the replay's {ratio} (95% CI)." + why))
     body.append(page.figure(_ratio_figure(seed), "ratios to moller_seed",
                             "Render time of each kernel over moller_seed's, 95% CIs; diamonds: the paper's "
                             "Curless/Möller ratio (open: real, filled: user)."))

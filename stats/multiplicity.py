@@ -201,7 +201,7 @@ def speedup_table(
             pair = wide[[baseline, kernel]].dropna()
             results.append((kernel, speedup(pair[baseline], pair[kernel], level)))
         adjusted = holm([s.p_value for _, s in results])
-        for (kernel, s), p_holm in zip(results, adjusted):
+        for (kernel, s), p_holm in zip(results, adjusted, strict=True):
             rows.append({"workload_id": workload, "kernel": kernel, "baseline": baseline,
                          **asdict(s), "p_holm": p_holm, "margin": margin,
                          "verdict": verdict(s.ci_low, s.ci_high, margin)})

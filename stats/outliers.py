@@ -212,7 +212,8 @@ def label_outliers(batches: pd.DataFrame) -> pd.DataFrame:
     ...     "warmup": [True] + [False] * 5, "tests": [1] * 6,
     ...     "elapsed_ns": [99, 10, 11, 10, 12, 30]})
     >>> label_outliers(batches)[["elapsed_ns", "outlier", "far_out"]].to_numpy().tolist()
-    [[99, False, False], [10, False, False], [11, False, False], [10, False, False], [12, False, False], [30, True, True]]
+    [[99, False, False], [10, False, False], [11, False, False], [10, False, False], [12, False, False],
+     [30, True, True]]
     """
     timed = _timed(batches)
     groups = timed.groupby(_GROUP, sort=False)["ns_per_test"]

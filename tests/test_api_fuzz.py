@@ -117,7 +117,7 @@ def _reference_agrees(r: ext.Hits, o, d, tri, mode: str, t_max) -> None:
                      & (np.abs(edge) > 1e-3) & (np.abs(ans.t) > 1e-3) & (np.abs(ans.t - limit[i]) > 1e-3))
         if not clear.all():
             continue
-        hit_j = [j for j, h in zip(js, ans.hit) if h]
+        hit_j = [j for j, h in zip(js, ans.hit, strict=True) if h]
         if mode != "any":
             assert r.hit[i] == bool(hit_j), (i, r, ans)
         else:

@@ -11,7 +11,7 @@ from hypothesis.extra import numpy as hnp
 from tribench import ext
 from tribench.ext import _core
 
-O = np.array([[0.25, 0.25, 1.0]])
+ORIGIN = np.array([[0.25, 0.25, 1.0]])
 D = np.array([[0.0, 0, -1]])
 TRI = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
 
@@ -19,24 +19,24 @@ TRI = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
 @pytest.mark.parametrize(
     "call, error, message",
     [
-        (lambda: ext.intersect_pairs("nope", O, D, TRI), ValueError, "unknown kernel 'nope'"),
-        (lambda: ext.intersect_pairs(3, O, D, TRI), TypeError, "kernel must be a str"),
-        (lambda: ext.intersect_pairs("curless", O.tolist(), D, TRI), TypeError, "origins must be a numpy.ndarray"),
-        (lambda: ext.intersect_pairs("curless", O.astype(np.int64), D, TRI), TypeError, "origins must have dtype"),
-        (lambda: ext.intersect_pairs("curless", O, D.astype(">f8"), TRI), TypeError, "directions must have dtype"),
-        (lambda: ext.intersect_pairs("curless", O, D.astype(np.float32), TRI), TypeError, "one precision"),
-        (lambda: ext.intersect_pairs("curless", O[0], D, TRI), ValueError, r"origins must have shape \(N, 3\)"),
-        (lambda: ext.intersect_pairs("curless", O, D, TRI[0]), ValueError, r"triangles must have shape \(N, 3, 3\)"),
-        (lambda: ext.intersect_pairs("curless", O[:0], D[:0], TRI[:0]), ValueError, "origins is empty"),
-        (lambda: ext.intersect_pairs("curless", np.repeat(O, 2, 0), D, TRI), ValueError, "differ in length"),
-        (lambda: ext.intersect_pairs("curless", np.repeat(O, 2, 0), np.repeat(D, 2, 0), TRI), ValueError, "one triangle per ray"),
-        (lambda: ext.intersect_pairs("curless", np.repeat(O, 4, 0)[::2], np.repeat(D, 2, 0), np.repeat(TRI, 2, 0)), ValueError, "C-contiguous"),
-        (lambda: ext.intersect_pairs("curless", np.asfortranarray(np.repeat(O, 2, 0)), np.repeat(D, 2, 0), np.repeat(TRI, 2, 0)), ValueError, "C-contiguous"),
-        (lambda: ext.intersect_closest("curless", O, D, np.full_like(TRI, np.nan)), ValueError, r"triangles contains NaN or Inf \(first at row 0\)"),
-        (lambda: ext.make_job("curless", O, D, TRI, "sideways"), ValueError, "mode must be"),
+        (lambda: ext.intersect_pairs("nope", ORIGIN, D, TRI), ValueError, "unknown kernel 'nope'"),
+        (lambda: ext.intersect_pairs(3, ORIGIN, D, TRI), TypeError, "kernel must be a str"),
+        (lambda: ext.intersect_pairs("curless", ORIGIN.tolist(), D, TRI), TypeError, "origins must be a numpy.ndarray"),
+        (lambda: ext.intersect_pairs("curless", ORIGIN.astype(np.int64), D, TRI), TypeError, "origins must have dtype"),
+        (lambda: ext.intersect_pairs("curless", ORIGIN, D.astype(">f8"), TRI), TypeError, "directions must have dtype"),
+        (lambda: ext.intersect_pairs("curless", ORIGIN, D.astype(np.float32), TRI), TypeError, "one precision"),
+        (lambda: ext.intersect_pairs("curless", ORIGIN[0], D, TRI), ValueError, r"origins must have shape \(N, 3\)"),
+        (lambda: ext.intersect_pairs("curless", ORIGIN, D, TRI[0]), ValueError, r"triangles must have shape \(N, 3, 3\)"),
+        (lambda: ext.intersect_pairs("curless", ORIGIN[:0], D[:0], TRI[:0]), ValueError, "origins is empty"),
+        (lambda: ext.intersect_pairs("curless", np.repeat(ORIGIN, 2, 0), D, TRI), ValueError, "differ in length"),
+        (lambda: ext.intersect_pairs("curless", np.repeat(ORIGIN, 2, 0), np.repeat(D, 2, 0), TRI), ValueError, "one triangle per ray"),
+        (lambda: ext.intersect_pairs("curless", np.repeat(ORIGIN, 4, 0)[::2], np.repeat(D, 2, 0), np.repeat(TRI, 2, 0)), ValueError, "C-contiguous"),
+        (lambda: ext.intersect_pairs("curless", np.asfortranarray(np.repeat(ORIGIN, 2, 0)), np.repeat(D, 2, 0), np.repeat(TRI, 2, 0)), ValueError, "C-contiguous"),
+        (lambda: ext.intersect_closest("curless", ORIGIN, D, np.full_like(TRI, np.nan)), ValueError, r"triangles contains NaN or Inf \(first at row 0\)"),
+        (lambda: ext.make_job("curless", ORIGIN, D, TRI, "sideways"), ValueError, "mode must be"),
         (lambda: ext.time_batch("job", 1), TypeError, "make_job"),
-        (lambda: ext.time_batch(ext.make_job("curless", O, D, TRI, "pairs"), 0), ValueError, "loops must be at least 1, got 0"),
-        (lambda: ext.time_batch(ext.make_job("curless", O, D, TRI, "pairs"), 1.5), TypeError, "loops must be an int"),
+        (lambda: ext.time_batch(ext.make_job("curless", ORIGIN, D, TRI, "pairs"), 0), ValueError, "loops must be at least 1, got 0"),
+        (lambda: ext.time_batch(ext.make_job("curless", ORIGIN, D, TRI, "pairs"), 1.5), TypeError, "loops must be an int"),
         (lambda: ext.bytes_per_triangle("curless", "int8"), TypeError, "float32 or float64"),
     ],
 )
@@ -59,41 +59,41 @@ def test_private_module_checks_buffer_sizes_itself():
     t_max = np.full(1, np.inf)
     index, t, u, v = np.empty(5, np.int64), np.empty(5), np.empty(5), np.empty(5)
     with pytest.raises(ValueError, match="origins: buffer has"):
-        _core.run("moller_trumbore", 8, 0, "scalar", O, D, 5, t_max, records, 5, index, t, u, v)
+        _core.run("moller_trumbore", 8, 0, "scalar", ORIGIN, D, 5, t_max, records, 5, index, t, u, v)
     with pytest.raises(ValueError, match="t_max: buffer has"):
-        _core.run("moller_trumbore", 8, 2, "scalar", O, D, 1, np.full(3, 1.0), records, 1, index[:1], t[:1], u[:1], v[:1])
+        _core.run("moller_trumbore", 8, 2, "scalar", ORIGIN, D, 1, np.full(3, 1.0), records, 1, index[:1], t[:1], u[:1], v[:1])
     with pytest.raises(ValueError, match="records: buffer has"):
-        _core.time("moller_trumbore", 8, 2, "scalar", O, D, 1, t_max, records, 1000, 10)
+        _core.time("moller_trumbore", 8, 2, "scalar", ORIGIN, D, 1, t_max, records, 1000, 10)
     with pytest.raises(ValueError, match="itemsize"):
-        _core.time("moller_trumbore", 2, 2, "scalar", O, D, 1, t_max, records, 1, 10)
+        _core.time("moller_trumbore", 2, 2, "scalar", ORIGIN, D, 1, t_max, records, 1, 10)
     with pytest.raises(ValueError, match="mode must be"):
-        _core.time("moller_trumbore", 8, 7, "scalar", O, D, 1, t_max, records, 1, 10)
+        _core.time("moller_trumbore", 8, 7, "scalar", ORIGIN, D, 1, t_max, records, 1, 10)
     with pytest.raises(ValueError, match="no ISA"):
-        _core.time("moller_trumbore", 8, 2, "avx2", O, D, 1, t_max, records, 1, 10)
+        _core.time("moller_trumbore", 8, 2, "avx2", ORIGIN, D, 1, t_max, records, 1, 10)
     with pytest.raises(ValueError, match="no 'pairs' mode"):
         wide = ext.prepare("moller_trumbore_x8", TRI).records
-        _core.time("moller_trumbore_x8", 8, 0, "baseline", O, D, 1, t_max, wide, 1, 10)
+        _core.time("moller_trumbore_x8", 8, 0, "baseline", ORIGIN, D, 1, t_max, wide, 1, 10)
     with pytest.raises(ValueError, match="records: buffer has"):
         # a wide kernel's records are whole blocks of 8
-        _core.time("moller_trumbore_x8", 8, 2, "baseline", O, D, 1, t_max, records, 1, 10)
+        _core.time("moller_trumbore_x8", 8, 2, "baseline", ORIGIN, D, 1, t_max, records, 1, 10)
     with pytest.raises(ValueError, match="unknown kernel"):
         _core.kernel_info("nope")
     with pytest.raises(ValueError, match="at least 1"):
-        _core.time("moller_trumbore", 8, 2, "scalar", O, D, -1, t_max, records, 1, 10)
+        _core.time("moller_trumbore", 8, 2, "scalar", ORIGIN, D, -1, t_max, records, 1, 10)
 
 
 def test_t_max_is_checked():
     for bad, err in [(np.zeros(1), ValueError), (np.full(1, np.nan), ValueError),
                      (np.ones(2), ValueError), (np.ones(1, np.float32), TypeError), ([1.0], TypeError)]:
         with pytest.raises(err, match="t_max"):
-            ext.intersect("moller_trumbore", O, D, TRI, "pairs", t_max=bad)
-    assert not ext.intersect("moller_trumbore", O, D, TRI, "pairs", t_max=0.5).hit[0]
+            ext.intersect("moller_trumbore", ORIGIN, D, TRI, "pairs", t_max=bad)
+    assert not ext.intersect("moller_trumbore", ORIGIN, D, TRI, "pairs", t_max=0.5).hit[0]
 
 
 def test_results_do_not_alias_inputs_and_inputs_are_untouched():
-    o, d, tri = O.copy(), D.copy(), TRI.copy()
+    o, d, tri = ORIGIN.copy(), D.copy(), TRI.copy()
     ext.intersect_pairs("curless_seed", o, d, tri)
-    np.testing.assert_array_equal(o, O)
+    np.testing.assert_array_equal(o, ORIGIN)
     np.testing.assert_array_equal(tri, TRI)
     job = ext.make_job("curless", o, d, tri, "pairs")
     assert not job.origins.flags.writeable and not job.prepared.records.flags.writeable
@@ -159,18 +159,18 @@ def test_any_float_values_reach_the_kernels_safely(values, kernel, dtype):
 
 
 def test_a_batch_is_bounded_up_front_with_the_bound_and_why():
-    job = ext.make_job("moller_trumbore", O, D, TRI, "pairs")
+    job = ext.make_job("moller_trumbore", ORIGIN, D, TRI, "pairs")
     with pytest.raises(ext.UserError, match=r"more than 6e\+11 tests, a minute even at 0\.1 ns per test; "
                                             r"use at most 600000000000 loops"):
         ext.time_batch(job, 2**40)
-    many = ext.make_job("moller_trumbore_x8", np.repeat(O, 100, 0), np.repeat(D, 100, 0), np.repeat(TRI, 10, 0),
+    many = ext.make_job("moller_trumbore_x8", np.repeat(ORIGIN, 100, 0), np.repeat(D, 100, 0), np.repeat(TRI, 10, 0),
                         "closest")
     assert many.tests_per_pass == 1000
     with pytest.raises(ext.UserError, match="use at most 600000000 loops"):
         ext.time_batch(many, ext.MAX_BATCH_TESTS // 1000 + 1)
     # the C glue refuses it too, on a direct call
     with pytest.raises(ValueError, match="at most 600000000000"):
-        _core.time("moller_trumbore", 8, 2, "scalar", O, D, 1, np.full(1, np.inf), job.prepared.records, 1, 2**40)
+        _core.time("moller_trumbore", 8, 2, "scalar", ORIGIN, D, 1, np.full(1, np.inf), job.prepared.records, 1, 2**40)
     with pytest.raises(ext.UserError, match=r"iterations must be between 1 and 268435456 \(2\*\*28"):
         ext.fma_peak(2**31)
     with pytest.raises(ValueError, match="iterations must be between 1 and 268435456"):
@@ -179,12 +179,12 @@ def test_a_batch_is_bounded_up_front_with_the_bound_and_why():
 
 LONG_CALLS = {
     # one ray, one triangle, as many loops as the bound allows: hours of work
-    "time_batch": "job = ext.make_job('moller_trumbore', O, D, T, 'pairs')\n"
+    "time_batch": "job = ext.make_job('moller_trumbore', ORIGIN, D, T, 'pairs')\n"
                   "go(); ext.time_batch(job, ext.MAX_BATCH_TESTS)",
-    "time_batch_x8": "job = ext.make_job('moller_trumbore_x8', O, D, np.repeat(T, 64, 0), 'closest')\n"
+    "time_batch_x8": "job = ext.make_job('moller_trumbore_x8', ORIGIN, D, np.repeat(T, 64, 0), 'closest')\n"
                      "go(); ext.time_batch(job, ext.MAX_BATCH_TESTS // 64)",
     # an untimed call of 10**10 tests (about a minute)
-    "intersect": "o = np.repeat(O, 200_000, 0); d = np.repeat(D, 200_000, 0); t = np.repeat(T, 50_000, 0)\n"
+    "intersect": "o = np.repeat(ORIGIN, 200_000, 0); d = np.repeat(D, 200_000, 0); t = np.repeat(T, 50_000, 0)\n"
                  "go(); ext.intersect('moller_trumbore', o, d, t, 'closest')",
 }
 
@@ -197,7 +197,7 @@ def test_ctrl_c_stops_a_long_kernel_call_within_a_second(call):
     import time
 
     script = ("import sys, numpy as np\nfrom tribench import ext\n"
-              "O = np.array([[0.25, 0.25, 1.0]], np.float32); D = np.array([[0.0, 0, -1]], np.float32)\n"
+              "ORIGIN = np.array([[0.25, 0.25, 1.0]], np.float32); D = np.array([[0.0, 0, -1]], np.float32)\n"
               "T = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]], np.float32)\n"
               "def go(): print('started', flush=True)\n" + LONG_CALLS[call] + "\nprint('finished')\n")
     proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

@@ -120,7 +120,7 @@ def test_every_isa_of_a_wide_kernel_gives_the_scalar_answers(kernel):
                     ext.intersect(kernel, o, d, tris, isa=isa)
                 continue
             got = ext.intersect(kernel, o, d, tris, "closest_uv", isa=isa, allow_nonfinite=True)
-            for w, g in zip(want, got):
+            for w, g in zip(want, got, strict=True):
                 np.testing.assert_array_equal(g, w, err_msg=f"{kernel} {isa} {dtype.__name__}")
 
 

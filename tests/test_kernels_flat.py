@@ -23,7 +23,7 @@ FORM_IDS = [f"{k}-{isa}" for k, isa in FORMS]
 
 def exactly_flat(tri) -> bool:
     a, b, c = ([Fraction(float(x)) for x in v] for v in tri)
-    e, f = [q - p for p, q in zip(a, b)], [q - p for p, q in zip(a, c)]
+    e, f = [q - p for p, q in zip(a, b, strict=True)], [q - p for p, q in zip(a, c, strict=True)]
     return all(e[j] * f[k] == e[k] * f[j] for j, k in ((1, 2), (2, 0), (0, 1)))
 
 

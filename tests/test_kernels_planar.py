@@ -146,7 +146,7 @@ def test_which_faces_are_hit(kernel):
 # -------------------------------------------------------------- mesh modes
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _mesh_workload():
     """An icosphere, rays from outside (aimed inside) and from inside, kept only
     where every plane crossing is far from every edge and from t = 0; and the
@@ -250,7 +250,7 @@ def test_wide_form_equals_scalar_bit_for_bit(kernel, dtype, isa):
     o, d, tris = as_dtype(_mesh_workload()[:3], dtype)
     scalar = _run(kernel, FORMS[0], o, d, tris, "closest_uv")
     wide = _run(kernel, ("wide", isa), o, d, tris, "closest_uv")
-    for a, b in zip(scalar, wide):
+    for a, b in zip(scalar, wide, strict=True):
         np.testing.assert_array_equal(a, b)
 
 
@@ -373,7 +373,7 @@ def test_nonfinite_rays_and_triangles_miss(kernel, dtype, form):
 # -------------------------------------------------------- far from the origin
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _far_workload(offset: float, n: int = 400):
     """Unit-size triangles around points ~offset from the origin, rounded to
     float32, and one ray per triangle aimed at its centroid from 1-4 units

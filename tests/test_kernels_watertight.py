@@ -62,7 +62,7 @@ def test_pairs_away_from_edges_agree_with_reference(kernel, dtype):
     assert np.isnan(r.t[~hit]).all()
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _icosphere_rays():
     """An icosphere and rays whose every plane crossing is far from every edge,
     with the reference's closest hit and its barycentrics."""
@@ -268,7 +268,7 @@ def _embed(local, axes, offset):
     return out
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _grid_rays(mesh: int, dtype):
     """Triangles and rays of one mesh, each ray aimed at a shared vertex or
     edge point: `exact` rays (dyadic origin, direction aim - origin, so the
@@ -322,7 +322,7 @@ def _grid_rays(mesh: int, dtype):
     )
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _cracks(kernel, dtype, form):
     """Rays that hit no triangle, over every mesh: {kind: (cracks, rays)}."""
     counts = {"vertex": [0, 0], "edge": [0, 0]}

@@ -330,8 +330,8 @@ def test_any_corruption_of_batches_is_a_user_error_or_a_valid_table(finished, tm
         assert "\n" not in message and "batches.csv" in message
         return
     good = records.read_batches(finished)
-    keys = set(zip(frame["process"], frame["round"], frame["position"], frame["kernel"]))
-    assert keys <= set(zip(good["process"], good["round"], good["position"], good["kernel"]))
+    keys = set(zip(frame["process"], frame["round"], frame["position"], frame["kernel"], strict=True))
+    assert keys <= set(zip(good["process"], good["round"], good["position"], good["kernel"], strict=True))
     assert (frame["elapsed_ns"] > 0).all() and (frame["tests"] > 0).all()
     shutil.rmtree(run)
 

@@ -89,7 +89,7 @@ def test_sample_sizes_seed_order_and_shifted_secondary_rays(cache_dir):
     tr = sw.stream_trace(spec)
     rs, rows = tr.reflected, sw.stream_indices(tr, "reflected")
     p, d = rs.origins[rows], rs.directions[rows]
-    for o_i, d_i in zip(w.origins, w.directions):
+    for o_i, d_i in zip(w.origins, w.directions, strict=True):
         j = np.argmin(np.abs(d - d_i).sum(axis=1))  # the stream ray this one was drawn from
         assert np.array_equal(d[j], d_i) and np.allclose(o_i, p[j] + ORIGIN_SHIFT * d_i, rtol=0, atol=1e-15)
 

@@ -328,7 +328,7 @@ def test_speedup_table_adjusts_for_multiplicity_per_workload():
         assert (row["ratio"], row["ci_low"], row["ci_high"]) == pytest.approx(
             (direct.ratio, direct.ci_low, direct.ci_high))
     assert (result.loc[result["kernel"] == "k1", "verdict"] == "faster").all()
-    expected = [stats.verdict(lo, hi, 0.01) for lo, hi in zip(result["ci_low"], result["ci_high"])]
+    expected = [stats.verdict(lo, hi, 0.01) for lo, hi in zip(result["ci_low"], result["ci_high"], strict=True)]
     assert result["verdict"].tolist() == expected
 
 

@@ -36,7 +36,7 @@ def rate(df, kernel, test, dtype="float32"):
 def test_every_kernel_and_precision_gets_every_test(quick):
     assert list(quick.columns) == list(validate.COLUMNS)
     wanted = {(k, d, t) for k in KERNELS for d in validate.DTYPES for t in validate.TESTS}
-    assert len(quick) == len(wanted) and set(zip(quick.kernel, quick.dtype, quick.test)) == wanted
+    assert len(quick) == len(wanted) and set(zip(quick.kernel, quick.dtype, quick.test, strict=True)) == wanted
     assert (quick.rays > 0).all() and (quick.failures <= quick.rays).all()
     assert quick.rate.between(0, 1).all() and np.allclose(quick.rate, quick.failures / quick.rays)
     assert set(quick.verdict) <= {"pass", "fail", "measured"}
@@ -73,11 +73,11 @@ def exact(a):
 
 
 def sub(a, b):
-    return tuple(x - y for x, y in zip(a, b))
+    return tuple(x - y for x, y in zip(a, b, strict=True))
 
 
 def dot(a, b):
-    return sum(x * y for x, y in zip(a, b))
+    return sum(x * y for x, y in zip(a, b, strict=True))
 
 
 def cross(a, b):
@@ -92,8 +92,8 @@ def test_edge_rays_pass_exactly_through_the_inside_of_a_shared_edge(dtype):
         normal = cross(sub(tris[0][1], tris[0][0]), sub(tris[0][2], tris[0][0]))
         assert all(dot(normal, sub(v, tris[0][0])) == 0 for t in tris for v in t)  # exactly coplanar
         for o, d, aim, (lower, upper) in zip(exact(mesh.origins), exact(mesh.directions), exact(mesh.aims),
-                                             mesh.incident):
-            assert tuple(x + y for x, y in zip(o, d)) == aim  # the ray reaches the aim at t = 1
+                                             mesh.incident, strict=True):
+            assert tuple(x + y for x, y in zip(o, d, strict=True)) == aim  # the ray reaches the aim at t = 1
             assert dot(normal, d) != 0
             a, b = [v for v in tris[lower] if v in tris[upper]]  # the edge the two triangles share
             assert lower % 2 == 0 and upper % 2 == 1
@@ -106,8 +106,8 @@ def test_vertex_rays_pass_exactly_through_a_vertex_of_six_triangles(dtype):
     sets = validate.build(dtype, quick=True, tests=("shared_vertices",))
     for mesh in sets.meshes["shared_vertices"]:
         tris = [exact(t) for t in mesh.triangles]
-        for o, d, aim, around in zip(exact(mesh.origins), exact(mesh.directions), exact(mesh.aims), mesh.incident):
-            assert tuple(x + y for x, y in zip(o, d)) == aim
+        for o, d, aim, around in zip(exact(mesh.origins), exact(mesh.directions), exact(mesh.aims), mesh.incident, strict=True):
+            assert tuple(x + y for x, y in zip(o, d, strict=True)) == aim
             assert {k for k, t in enumerate(tris) if aim in t} == set(around) and len(set(around)) == 6
 
 
@@ -116,7 +116,7 @@ def test_parallel_rays_are_exactly_parallel_and_degenerate_triangles_exactly_fla
     sets = validate.build(dtype, quick=True, tests=("parallel_rays", "degenerate_triangles"))
     p = sets.pairs["parallel_rays"]
     tris = [exact(t) for t in p.triangles]
-    for o, d, k, label in zip(exact(p.origins), exact(p.directions), p.owner, p.label):
+    for o, d, k, label in zip(exact(p.origins), exact(p.directions), p.owner, p.label, strict=True):
         normal = cross(sub(tris[k][1], tris[k][0]), sub(tris[k][2], tris[k][0]))
         assert normal != (0, 0, 0) and dot(normal, d) == 0
         assert (dot(normal, sub(o, tris[k][0])) == 0) == (label == "in plane")

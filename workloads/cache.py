@@ -108,7 +108,7 @@ def _write(w: Workload, path: Path) -> None:
         "arrays": sorted(arrays),
     }
     buf = io.BytesIO()
-    np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)
+    np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)  # type: ignore[arg-type]  # numpy's stub takes **arrays for allow_pickle
     with zipfile.ZipFile(buf, "a") as z:
         z.comment = bytes(_SEAL_LEN)  # room for the seal: the comment is the file's last bytes
     body = buf.getvalue()[:-_SEAL_LEN]

@@ -95,6 +95,7 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
     try:
         mesh = trimesh.load(str(path), force="mesh", process=False)
+        assert isinstance(mesh, trimesh.Trimesh)  # force="mesh" gives one
         vertices = np.asarray(mesh.vertices, dtype=np.float64)
         faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
     except Exception as e:  # trimesh raises many types for malformed files
@@ -143,7 +144,7 @@ def heightfield(cells: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     g = np.linspace(-1.0, 1.0, cells + 1)
     x, y = np.meshgrid(g, g)  # row j, column i
     z = np.zeros_like(x)
-    bumps = zip(rng.random(6) * 2 - 1, rng.random(6) * 2 - 1, rng.random(6) * 0.6 - 0.3, 0.2 + 0.4 * rng.random(6))
+    bumps = zip(rng.random(6) * 2 - 1, rng.random(6) * 2 - 1, rng.random(6) * 0.6 - 0.3, 0.2 + 0.4 * rng.random(6), strict=True)
     for cx, cy, a, s in bumps:
         z += a / (1.0 + ((x - cx) ** 2 + (y - cy) ** 2) / (s * s))
     vertices = np.column_stack([x.ravel(), y.ravel(), z.ravel()])

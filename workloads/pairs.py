@@ -212,7 +212,7 @@ def stage_counts(codes: np.ndarray) -> dict[str, int]:
 
 def _kinds(spec: PairSpec, rng: np.random.Generator) -> np.ndarray:
     hits = round(spec.hit_rate * spec.n)
-    misses = apportion([f for _, f in spec.miss_mix], spec.n - hits)
+    misses = apportion(list(spec.miss_fractions().values()), spec.n - hits)
     kinds = np.repeat(np.arange(HIT, OTHER, dtype=np.int8), [hits, *misses])
     return rng.permutation(kinds) if spec.order == "shuffled" else kinds
 

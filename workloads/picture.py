@@ -23,7 +23,7 @@ import numpy as np
 from tribench.common import atomic_write
 
 from .geometry import dot, normalise, triangle_normals
-from .spec import MISS_STAGES
+from .spec import MISS_STAGES, MeshSpec, PairSpec
 from .workload import Workload
 
 __all__ = ["draw"]
@@ -56,7 +56,7 @@ def draw(w: Workload, path: str | Path, dpi: float = 110) -> None:
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    if w.mode == "pairs":
+    if isinstance(w.spec, PairSpec):  # mode "pairs"
         fig = _draw_pairs(plt, w)
     elif w.spec.rays == "camera":
         fig = _draw_camera(plt, w)
@@ -97,11 +97,12 @@ def _draw_mesh(ax, tri2d: np.ndarray, depth: np.ndarray | None = None) -> None:
     if depth is not None:
         tri2d = tri2d[np.argsort(depth, kind="stable")]
     tri2d = tri2d[::step]
-    ax.add_collection(PolyCollection(tri2d, facecolors="#dde2e8", edgecolors=_MESH, linewidths=0.3, zorder=1))
+    ax.add_collection(PolyCollection(list(tri2d), facecolors="#dde2e8", edgecolors=_MESH, linewidths=0.3, zorder=1))
 
 
 def _shading(w: Workload) -> np.ndarray:
     """Per-ray brightness of the surface hit: |cos| of the angle to the normal (0 for misses)."""
+    assert w.ref_index is not None  # a mesh workload has closest hits
     hit = w.ref_index >= 0
     shade = np.zeros(len(hit))
     tri = w.triangles[w.ref_index[hit]].astype(np.float64)
@@ -113,7 +114,9 @@ def _draw_camera(plt, w: Workload):
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
+    assert isinstance(w.spec, MeshSpec) and w.ref_index is not None  # a camera workload has closest hits
     width, height = w.spec.width, w.spec.height
+    assert width is not None and height is not None  # MeshSpec set them
     hit = (w.ref_index >= 0).reshape(height, width)
     image = np.ones((height, width, 3))
     image[~hit] = (0.96, 0.80, 0.80)  # misses: pale red
@@ -133,7 +136,7 @@ def _draw_camera(plt, w: Workload):
     left.set_ylabel("y")
     left.legend(
         handles=[
-            Patch(color=green, label=f"hit ({int(hit.sum())}; shaded by surface angle)"),
+            Patch(color=tuple(green), label=f"hit ({int(hit.sum())}; shaded by surface angle)"),
             Patch(color=(0.96, 0.80, 0.80), label=f"miss ({int((~hit).sum())})"),
             Patch(color=_AMBIGUOUS, label=f"ambiguous: |edge margin| < 1e-5 ({int(amb.sum())})"),
         ],
@@ -188,11 +191,12 @@ def _draw_hit_rate(plt, w: Workload):
     d = w.directions.astype(np.float64)
     centre = np.array(w.achieved["bounding_sphere"]["centre"])
     radius = w.achieved["bounding_sphere"]["radius"]
+    assert w.ref_index is not None  # a mesh workload has closest hits
     hit = w.ref_index >= 0
     sample = np.random.default_rng(0).choice(len(o), size=min(len(o), 40), replace=False)
 
     fig, axes = plt.subplots(1, 3, figsize=(18, 6.6), layout="constrained", gridspec_kw={"width_ratios": [1, 1, 0.9]})
-    for ax, (a, b), view in zip(axes, [(0, 1), (2, 1)], ["front view (x, y)", "side view (z, y)"]):
+    for ax, (a, b), view in zip(axes[:2], [(0, 1), (2, 1)], ["front view (x, y)", "side view (z, y)"], strict=True):
         away = 2 if a == 0 else 0  # the axis the view looks along
         _draw_mesh(ax, tri[:, :, [a, b]], depth=tri[:, :, away].mean(axis=1) * (1 if a == 0 else -1))
         ax.add_patch(plt.Circle((centre[a], centre[b]), radius, fill=False, ls="--", color="#555555", lw=0.8))
@@ -251,6 +255,7 @@ def _draw_pairs(plt, w: Workload):
     from .pairs import HIT, OTHER, apportion, classify_misses
     from .reference import intersect_pairs
 
+    assert isinstance(w.spec, PairSpec)
     o = w.origins.astype(np.float64)
     d = w.directions.astype(np.float64)
     tri = w.triangles.astype(np.float64)
@@ -278,8 +283,8 @@ def _draw_pairs(plt, w: Workload):
                        lw=0.5 if behind else 0, alpha=0.6 if behind else 0.5,
                        label=f"{name} ({int((names == name).sum())})", zorder=3 if behind else 2)
     ax.fill(*np.vstack([corners, corners[:1]]).T, fc="none", ec="k", lw=1.5, zorder=3)
-    for k, (a, b, where) in enumerate([(0, 1, (0.5, -0.08)), (1, 2, (0.83, 0.47)), (2, 0, (0.17, 0.47))]):
-        ax.annotate(f"edge {k + 1}: v{a}->v{b}", where, ha="center", fontsize=8, zorder=4,
+    for k, (v_a, v_b, where) in enumerate([(0, 1, (0.5, -0.08)), (1, 2, (0.83, 0.47)), (2, 0, (0.17, 0.47))]):
+        ax.annotate(f"edge {k + 1}: v{v_a}->v{v_b}", where, ha="center", fontsize=8, zorder=4,
                     rotation=[0, -60, 60][k], bbox=dict(fc="white", ec="none", alpha=0.7, pad=0.5))
     for k, c in enumerate(corners):
         ax.annotate(f"v{k}", c, xytext=(c[0] + [-0.08, 0.03, -0.02][k], c[1] + [-0.05, -0.05, 0.04][k]), fontsize=9)
@@ -300,7 +305,7 @@ def _draw_pairs(plt, w: Workload):
     y = np.arange(len(labels))
     ax.barh(y - 0.2, target_counts, height=0.4, color="#cccccc", label="target")
     ax.barh(y + 0.2, achieved_counts, height=0.4, color=[colours[n] for n in labels], label="achieved")
-    for yi, c in zip(y, achieved_counts):
+    for yi, c in zip(y, achieved_counts, strict=True):
         ax.annotate(str(c), (c, yi + 0.2), xytext=(3, -3), textcoords="offset points", fontsize=8)
     ax.set_yticks(y, labels, fontsize=8)
     ax.invert_yaxis()
@@ -311,7 +316,7 @@ def _draw_pairs(plt, w: Workload):
     # 3. A few pairs in 3-D: the triangle and the ray up to its crossing (or a bit past).
     ax = fig.add_subplot(grid[2], projection="3d")
     few = sample[:: max(1, len(sample) // 8)][:8]
-    for i, j in zip(few, np.searchsorted(sample, few)):
+    for i, j in zip(few, np.searchsorted(sample, few), strict=True):
         colour = colours[names[j]]
         ax.add_collection3d(_poly3d(tri[i], colour))
         t_end = ans.t[j] if np.isfinite(ans.t[j]) and ans.t[j] > 0 else 3.0 * w.spec.scale

@@ -334,11 +334,13 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
     tri = round_to(mesh.triangles, spec.dtype)
     figures: dict = {}
     if spec.rays == "camera":
+        assert spec.width is not None and spec.height is not None  # MeshSpec set them
         o, d = camera_rays(spec.width, spec.height)
         o, d = round_to(o, spec.dtype), round_to(d, spec.dtype)
         ans = closest_hits(o, d, tri, *camera_candidates(tri, spec.width, spec.height))
     else:
         rng = np.random.default_rng(spec.seed)
+        assert spec.n_rays is not None and spec.hit_rate is not None  # MeshSpec set them
         o, d, ans, figures = hit_rate_rays(tri, spec.n_rays, spec.hit_rate, spec.dtype, rng)
     m, k = len(o), len(tri)
     hits = int((ans.index >= 0).sum())

@@ -97,6 +97,7 @@ from __future__ import annotations
 import zlib
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import Any
 
 import numpy as np
 
@@ -285,8 +286,9 @@ def _exact(*arrays: np.ndarray) -> None:
             raise RuntimeError("a dyadic construction is not exact in float32 (a bug in workloads.robustness)")
 
 
-def _as(dtype: str, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    return tuple(np.ascontiguousarray(a, dtype=dtype) for a in arrays)
+def _as(dtype: str, *arrays: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # triangles, origins, directions
+    triangles, origins, directions = (np.ascontiguousarray(a, dtype=dtype) for a in arrays)
+    return triangles, origins, directions
 
 
 def _dyadic_directions(rng: np.random.Generator, normals: np.ndarray, min_cos: float = MIN_COS) -> np.ndarray:
@@ -591,7 +593,8 @@ def _non_dyadic_flat(rng, g: int, per: int, dtype: str) -> PairRays:
     where that is exact in ``dtype``) from random coordinates that are not dyadic, scaled by
     2**-4 to 2**14 (exact), in any vertex order; rays aimed at points between a and b from
     random directions."""
-    tris, ends = [], []
+    tris: Any = []  # a list, then the array of it
+    ends: Any = []
     while len(tris) < g:
         scale = 2.0 ** int(rng.integers(-4, 15))
         a = round_to(scale * rng.uniform(-2, 2, 3), dtype)
@@ -639,11 +642,10 @@ def _degenerate(rng, size: Size, dtype: str) -> PairRays:
     o = aims - d
     _exact(tris, o, d)
     rest = _non_dyadic_flat(rng, g, per, dtype)
+    dyadic = _as(dtype, tris, o, d)
     return PairRays(
-        *(
-            np.concatenate([x, y])
-            for x, y in zip(_as(dtype, tris, o, d), (rest.triangles, rest.origins, rest.directions), strict=True)
-        ),
+        *_as(dtype, *(np.concatenate([x, y]) for x, y in zip(dyadic, (rest.triangles, rest.origins, rest.directions),
+                                                                  strict=True))),
         owner=np.concatenate([owner, g + rest.owner]),
         expect_hit=np.zeros(len(owner) + len(rest.owner), bool),
         label=np.concatenate([np.array(_DEGENERATE)[kind[owner]], rest.label]),

@@ -282,7 +282,7 @@ def parse_scene(text: str, name: str = "<string>") -> Scene:
             raise SceneError(
                 f"{where}: '{keyword}' expects {len(names)} numbers ({' '.join(names)}), got {len(args)}"
             )
-        v = [_number(w, where, keyword, n) for w, n in zip(args, names)]
+        v = [_number(w, where, keyword, n) for w, n in zip(args, names, strict=True)]
         _check_values(keyword, v, where)
 
         if keyword == "fond":
@@ -446,6 +446,7 @@ def scene03_text(obj_path: str | os.PathLike | None = None) -> str:
 
     path = Path(obj_path) if obj_path is not None else DATA_DIR / "suzanne.obj"
     mesh = trimesh.load(str(path), force="mesh", process=False)  # keep the 507 vertices as made
+    assert isinstance(mesh, trimesh.Trimesh)  # force="mesh" gives one
     v = np.asarray(mesh.vertices, dtype=np.float64)
     placed = np.column_stack([v[:, 0], v[:, 2], -v[:, 1]]) + np.array(SUZANNE_OFFSET)
     tris = placed[np.asarray(mesh.faces, dtype=np.int64)]

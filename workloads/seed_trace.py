@@ -78,6 +78,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO, cast
 
 import numpy as np
 
@@ -252,7 +253,7 @@ class Trace:
 
         path = Path(path)
         with atomic_write(path, "wb") as f:
-            plt.imsave(f, self.to_uint8(), format="png")
+            plt.imsave(cast(BinaryIO, f), self.to_uint8(), format="png")
         return path
 
     def seed_order(self) -> tuple[np.ndarray, np.ndarray]:
@@ -396,7 +397,9 @@ def _closest(scene: Scene, kernel, dtype, o, d, clock):
                 idxs.append(tri_index)
                 tri_done = True
             continue
-        cands.append((tp if kind == PLANE else ts)[i])
+        t_kind = tp if kind == PLANE else ts
+        assert t_kind is not None  # the scene has an object of this kind
+        cands.append(t_kind[i])
         kinds.append(kind)
         idxs.append(np.full(len(o), i, np.int64))
     m = len(o)
@@ -669,7 +672,7 @@ def save_mask_png(mask: np.ndarray, path: str | Path, background: np.ndarray | N
     rgb[mask] = (220, 0, 0)
     path = Path(path)
     with atomic_write(path, "wb") as f:
-        plt.imsave(f, rgb, format="png")
+        plt.imsave(cast(BinaryIO, f), rgb, format="png")  # "wb": a binary file
     return path
 
 

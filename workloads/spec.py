@@ -41,7 +41,7 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any, ClassVar, Union
+from typing import Any, ClassVar
 
 from tribench.common import UserError
 
@@ -212,7 +212,7 @@ class PairSpec:
     n: int = 10_000
     hit_rate: float = 0.5
     order: str = "shuffled"
-    miss_mix: Union[str, Mapping[str, float], tuple[tuple[str, float], ...]] = "edges"
+    miss_mix: str | Mapping[str, float] | tuple[tuple[str, float], ...] = "edges"
     shape: str = "sphere"
     scale: float = 1.0
     offset: float = 0.0
@@ -239,6 +239,7 @@ class PairSpec:
 
     def miss_fractions(self) -> dict[str, float]:
         """The target miss-stage mix as ``{stage: fraction}``."""
+        assert isinstance(self.miss_mix, tuple)  # __post_init__ normalised it
         return dict(self.miss_mix)
 
     def to_dict(self) -> dict[str, Any]:
@@ -258,7 +259,7 @@ class PairSpec:
 
     def summary(self) -> str:
         """One line for listings."""
-        mix = ",".join(f"{s}={f:.3g}" for s, f in self.miss_mix if f)
+        mix = ",".join(f"{s}={f:.3g}" for s, f in self.miss_fractions().items() if f)
         extra = "" if (self.scale, self.offset) == (1.0, 0.0) else f" scale={self.scale:g} offset={self.offset:g}"
         return (
             f"pairs n={self.n} hit_rate={self.hit_rate:g} {self.order} {self.shape} "
@@ -297,7 +298,8 @@ class MeshSpec:
     >>> MeshSpec("icosphere", hit_rate=0.5)
     Traceback (most recent call last):
     ...
-    tribench.common.errors.UserError: hit_rate applies to rays='hit_rate' only: a camera's hit rate is a result, not a target
+    tribench.common.errors.UserError: hit_rate applies to rays='hit_rate' only:
+    a camera's hit rate is a result, not a target
     """
 
     mesh: str = "suzanne"
@@ -337,9 +339,11 @@ class MeshSpec:
                         f"{name} applies to rays='hit_rate' only: "
                         f"a camera's hit rate is a result, not a target"
                     )
-            put(self, "width", _int("width", 512 if self.width is None else self.width, 1, 65536))
-            put(self, "height", _int("height", 512 if self.height is None else self.height, 1, 65536))
-            if self.width * self.height > _MAX_RAYS:
+            width = _int("width", 512 if self.width is None else self.width, 1, 65536)
+            height = _int("height", 512 if self.height is None else self.height, 1, 65536)
+            put(self, "width", width)
+            put(self, "height", height)
+            if width * height > _MAX_RAYS:
                 raise UserError(f"width x height must be at most {_MAX_RAYS} rays")
         else:
             for name in ("width", "height"):
@@ -359,7 +363,11 @@ class MeshSpec:
     @property
     def n_rays_total(self) -> int:
         """Number of rays the workload has."""
-        return self.width * self.height if self.rays == "camera" else self.n_rays
+        if self.rays == "camera":
+            assert self.width is not None and self.height is not None  # __post_init__ set them
+            return self.width * self.height
+        assert self.n_rays is not None  # __post_init__ set it
+        return self.n_rays
 
     def to_dict(self) -> dict[str, Any]:
         """JSON- and TOML-friendly fields (``None`` fields left out), with ``kind``."""
@@ -373,6 +381,7 @@ class MeshSpec:
             "rays": self.n_rays_total,
         }
         if self.rays == "hit_rate":
+            assert self.hit_rate is not None and self.n_rays is not None  # __post_init__ set them
             t["ray_hits"] = round(self.hit_rate * self.n_rays)
             t["ray_hit_rate"] = self.hit_rate
         return t
@@ -485,7 +494,7 @@ class SeedSpec:
                 f"{self.dtype} seed={self.seed}")
 
 
-Spec = Union[PairSpec, MeshSpec, SeedSpec]
+Spec = PairSpec | MeshSpec | SeedSpec
 
 
 def _checked_mesh_file(path: str) -> str:
@@ -529,7 +538,7 @@ def identity(spec: Spec) -> dict[str, Any]:
     not by its path, so the same file anywhere gives the same id.
     """
     d = {**spec.to_dict(), "version": spec.version}
-    if spec.kind == "seed":
+    if isinstance(spec, SeedSpec):
         d.update(spec.scene_identity())
     if isinstance(spec, MeshSpec) and spec.is_file:
         d["mesh"] = "file"

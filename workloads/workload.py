@@ -115,7 +115,7 @@ class Workload:
     def __post_init__(self) -> None:
         dtype = np.dtype(self.spec.dtype)
         m = len(self.origins)
-        want = {
+        want: dict[str, tuple[Any, tuple[int, ...]]] = {
             "origins": (dtype, (m, 3)),
             "directions": (dtype, (m, 3)),
             "triangles": (dtype, (len(self.triangles), 3, 3)),
@@ -148,7 +148,9 @@ class Workload:
     @property
     def hits(self) -> np.ndarray:
         """Boolean mask of the rays (or pairs) that hit, by the reference."""
-        return self.ref_hit if self.mode == "pairs" else self.ref_index >= 0
+        ref = self.ref_hit if self.mode == "pairs" else self.ref_index
+        assert ref is not None  # __post_init__ checked the mode's reference array
+        return ref if self.mode == "pairs" else ref >= 0
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The stored arrays by name (those that apply to the mode)."""

@@ -1,0 +1,53 @@
+# Types of the C module ext/_core.c for mypy; only tribench.ext calls it.
+# Keep in step with tb_methods and the PyArg_ParseTuple formats there.
+from typing import Any
+
+import numpy as np
+
+# the buffers are numpy arrays (any C-contiguous buffer would do, but numpy's
+# stubs give ndarray the buffer protocol only from Python 3.12 on)
+_In = np.ndarray
+_Out = np.ndarray
+
+MAX_BATCH_TESTS: int
+MAX_PEAK_ITERATIONS: int
+POLL_NS: int
+
+def kernel_names(internal: bool = ..., /) -> tuple[str, ...]: ...
+def kernel_info(name: str, /) -> dict[str, Any]: ...
+def build_info() -> dict[str, Any]: ...
+def prepare(
+    name: str, itemsize: int, vertices: _In, n: int, out: _Out, flat: _In, /
+) -> None: ...
+def run(
+    name: str,
+    itemsize: int,
+    mode: int,
+    isa: str,
+    o: _In,
+    d: _In,
+    n_rays: int,
+    t_max: _In,
+    records: _In,
+    n_records: int,
+    index_out: _Out,
+    t_out: _Out,
+    u_out: _Out,
+    v_out: _Out,
+    /,
+) -> None: ...
+def time(
+    name: str,
+    itemsize: int,
+    mode: int,
+    isa: str,
+    o: _In,
+    d: _In,
+    n_rays: int,
+    t_max: _In,
+    records: _In,
+    n_records: int,
+    loops: int,
+    /,
+) -> tuple[int, int, int, float, float]: ...
+def fma_peak(iterations: int, force_scalar: bool = ..., /) -> tuple[float, int, str, float]: ...
