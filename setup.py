@@ -32,7 +32,9 @@ setup(
             "tribench.ext._core",
             sources=["ext/_core.c"],
             include_dirs=["ext"],
-            depends=[os.path.join(d, f) for d in ("ext", "ext/kernels") for f in sorted(os.listdir(d)) if f.endswith(".h")],
+            depends=[
+                os.path.join(d, f) for d in ("ext", "ext/kernels") for f in sorted(os.listdir(d)) if f.endswith(".h")
+            ],
             extra_compile_args=compile_flags,
             extra_link_args=link_flags,
             define_macros=[("TB_BUILD_FLAGS", '"' + recorded.replace('"', "'") + '"')],

@@ -36,8 +36,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--dtype", default="float32,float64")
     args = parser.parse_args(argv)
 
-    workloads = tuple(PairSpec(n=args.pairs, hit_rate=float(h), dtype=d)
-                      for d in args.dtype.split(",") for h in args.hit_rates.split(","))
+    workloads = tuple(
+        PairSpec(n=args.pairs, hit_rate=float(h), dtype=d)
+        for d in args.dtype.split(",")
+        for h in args.hit_rates.split(",")
+    )
     sweep = Sweep(CLAIMANTS + BASELINES, workloads, processes=args.processes, rounds=args.rounds)
     run_dir = args.run_dir or f"{tempfile.mkdtemp(prefix='tribench-bw-')}/run"
     result = runner.start(sweep, run_dir)
@@ -48,8 +51,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{'workload':<44}" + "".join(f"{k:>40}" for k in CLAIMANTS))
         # by precision, then hit rate
         for workload, rows in sorted(spd.groupby("workload"), key=lambda g: (g[0].split()[-2], g[0])):
-            cells = {r.kernel: f"{r.ratio:.3f} [{r.ratio_ci_low:.3f}, {r.ratio_ci_high:.3f}] {r.verdict}"
-                     for r in rows.itertuples(index=False)}
+            cells = {
+                r.kernel: f"{r.ratio:.3f} [{r.ratio_ci_low:.3f}, {r.ratio_ci_high:.3f}] {r.verdict}"
+                for r in rows.itertuples(index=False)
+            }
             name = f"{workload.split(' shuffled')[0]} {workload.split()[-2]}"
             print(f"{name:<44}" + "".join(f"{cells.get(k, '-'):>40}" for k in CLAIMANTS))
     return 0

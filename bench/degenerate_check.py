@@ -194,8 +194,9 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         src, exe = Path(tmp, "check.c"), Path(tmp, "check")
         src.write_text(SOURCE)
-        subprocess.run([cc, "-std=c11", "-O3", "-ffp-contract=off", "-fno-math-errno", str(src), "-o", str(exe)],
-                       check=True)
+        subprocess.run(
+            [cc, "-std=c11", "-O3", "-ffp-contract=off", "-fno-math-errno", str(src), "-o", str(exe)], check=True
+        )
         out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
     print(f"CPU: {cpu_model()}; Moller-Trumbore, closest hit, 1024 rays x 1024 triangles, median of 21")
     print(f"{'precision':9}  {'check':7}  {'ns/test':>8}  {'vs none':>7}")

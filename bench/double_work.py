@@ -38,10 +38,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--dtype", default="float32,float64")
     args = parser.parse_args(argv)
 
-    workloads = tuple(PairSpec(n=args.pairs, hit_rate=float(h), dtype=d)
-                      for h in args.hit_rates.split(",") for d in args.dtype.split(","))
-    sweep = Sweep((KERNEL, TWICE), workloads, processes=args.processes, rounds=args.rounds,
-                  target_ms=args.target_ms)
+    workloads = tuple(
+        PairSpec(n=args.pairs, hit_rate=float(h), dtype=d)
+        for h in args.hit_rates.split(",")
+        for d in args.dtype.split(",")
+    )
+    sweep = Sweep((KERNEL, TWICE), workloads, processes=args.processes, rounds=args.rounds, target_ms=args.target_ms)
     run_dir = args.run_dir or tempfile.mkdtemp(prefix="tribench-double-work-")
     result = runner.start(sweep, f"{run_dir}/run" if not args.run_dir else run_dir)
     # speedup of the single kernel over the double one = cost of doing the work twice

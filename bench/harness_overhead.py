@@ -51,8 +51,10 @@ GOAL = 2.0  # percent
 def workloads() -> tuple:
     # a pairs workload in L2 and a small mesh through a small camera (one pass well
     # under 0.5 ms, so every target_ms is reachable): both kinds of workload the harness runs
-    return (PairSpec(n=4096, hit_rate=0.5, dtype="float32"),
-            MeshSpec("suzanne", triangles=100, width=16, height=16, dtype="float32"))
+    return (
+        PairSpec(n=4096, hit_rate=0.5, dtype="float32"),
+        MeshSpec("suzanne", triangles=100, width=16, height=16, dtype="float32"),
+    )
 
 
 def consecutive_gaps(frame):
@@ -84,9 +86,16 @@ def in_process_gaps(target_ms: float, rounds: int, cpu):
     import pandas as pd
 
     sweep = Sweep(KERNELS, workloads(), processes=1, rounds=rounds, warmup=1, target_ms=target_ms)
-    job = WorkerJob("in-process", 0, 0, process_seed(sweep.seed, 0), cpu, target_ms,
-                    tuple(tuple(k.to_list()) for k in plan(sweep)),
-                    {wid: sweep.spec_of(wid).to_dict() for wid in sweep.workload_ids})
+    job = WorkerJob(
+        "in-process",
+        0,
+        0,
+        process_seed(sweep.seed, 0),
+        cpu,
+        target_ms,
+        tuple(tuple(k.to_list()) for k in plan(sweep)),
+        {wid: sweep.spec_of(wid).to_dict() for wid in sweep.workload_ids},
+    )
     rows = []
     run_job(job, lambda kind, record: rows.append(record) if kind == "batch" else None)
     return consecutive_gaps(pd.DataFrame([asdict(r) for r in rows]))
@@ -111,8 +120,10 @@ def bare_gaps(target_ms: float, n_batches: int, jobs: list):
 
 def row(name: str, target: float, pct, gaps, lengths) -> str:
     med, p90 = np.median(pct), np.percentile(pct, 90)
-    return (f"{name:<9}{target:>8g}{len(pct):>7}{np.median(lengths) / 1e6:>10.3f}{np.median(gaps) / 1e3:>10.1f}"
-            f"{np.percentile(gaps, 90) / 1e3:>10.1f}{med:>9.3f}{p90:>9.3f}   {'yes' if med < GOAL else 'NO'}")
+    return (
+        f"{name:<9}{target:>8g}{len(pct):>7}{np.median(lengths) / 1e6:>10.3f}{np.median(gaps) / 1e3:>10.1f}"
+        f"{np.percentile(gaps, 90) / 1e3:>10.1f}{med:>9.3f}{p90:>9.3f}   {'yes' if med < GOAL else 'NO'}"
+    )
 
 
 def main() -> None:
@@ -134,8 +145,10 @@ def main() -> None:
         jobs += [ext.make_job(k, w.origins, w.directions, w.triangles, w.mode) for k in KERNELS]
     cpu = runner.default_cpu() if args.cpu is None else args.cpu
     print(f"kernels: {', '.join(KERNELS)}; workloads: " + "; ".join(s.summary() for s in specs))
-    print(f"workers and the bare loop pinned to CPU {cpu}; gap = start[i+1] - start[i] - elapsed[i], "
-          f"overhead = gap / elapsed[i]; load average {os.getloadavg()[0]:.2f}")
+    print(
+        f"workers and the bare loop pinned to CPU {cpu}; gap = start[i+1] - start[i] - elapsed[i], "
+        f"overhead = gap / elapsed[i]; load average {os.getloadavg()[0]:.2f}"
+    )
 
     root = args.keep or tempfile.mkdtemp(prefix="tribench-overhead-")
     results = []
@@ -151,17 +164,21 @@ def main() -> None:
             os.sched_setaffinity(0, allowed)  # the next sweep's runner runs unpinned, as usual
         results.append((target, (pct, gaps, lengths), worker, bare, result))
 
-    print(f"\n{'':<9}{'target':>8}{'gaps':>7}{'batch':>10}{'gap':>10}{'gap p90':>10}{'median':>9}{'p90':>9}"
-          f"   median < {GOAL:g}%")
+    print(
+        f"\n{'':<9}{'target':>8}{'gaps':>7}{'batch':>10}{'gap':>10}{'gap p90':>10}{'median':>9}{'p90':>9}"
+        f"   median < {GOAL:g}%"
+    )
     print(f"{'':<9}{'ms':>8}{'':>7}{'ms':>10}{'us':>10}{'us':>10}{'%':>9}{'%':>9}")
     for target, harness, worker, bare, (result, switches) in results:
         print(row("harness", target, *harness))
         print(row("worker", target, *worker))
         print(row("bare", target, *bare))
         gap = np.median(harness[1])
-        print(f"{'':<9}harness - bare: {(gap - np.median(bare[1])) / 1e3:.1f} us per batch; this gap is "
-              f"{GOAL:g}% of a {gap / (GOAL / 100) / 1e6:.1f} ms batch; sweep: {result.batches_run} batches "
-              f"in {result.elapsed_s:.1f} s, {switches:.2f} involuntary context switches per batch")
+        print(
+            f"{'':<9}harness - bare: {(gap - np.median(bare[1])) / 1e3:.1f} us per batch; this gap is "
+            f"{GOAL:g}% of a {gap / (GOAL / 100) / 1e6:.1f} ms batch; sweep: {result.batches_run} batches "
+            f"in {result.elapsed_s:.1f} s, {switches:.2f} involuntary context switches per batch"
+        )
     if args.keep:
         print(f"run folders: {root}")
     else:

@@ -66,25 +66,34 @@ def main() -> None:
     ap.add_argument("--cpu", type=int, help="CPU for the workers (default: the harness's, the last)")
     args = ap.parse_args()
     cpu = runner.default_cpu() if args.cpu is None else args.cpu
-    print(f"pilot: {KERNELS[1]} against {KERNELS[0]} on {WORKLOAD.summary()}; "
-          f"{args.processes} processes x {args.rounds} rounds; target: 95% CI of +-{100 * TARGET:g}% on the speedup")
+    print(
+        f"pilot: {KERNELS[1]} against {KERNELS[0]} on {WORKLOAD.summary()}; "
+        f"{args.processes} processes x {args.rounds} rounds; target: 95% CI of +-{100 * TARGET:g}% on the speedup"
+    )
     root = tempfile.mkdtemp(prefix="tribench-design-")
     try:
         for target_ms in (float(t) for t in args.target_ms.split(",")):
             ratio, c1, c2, elapsed = pilot(target_ms, args.processes, args.rounds, root, cpu)
             vc = stats.variance_components(ratio)
             best = stats.suggest_design(vc, round_cost=c1, process_cost=c2, target_rel_halfwidth=TARGET)
-            default = stats.suggest_design(vc, round_cost=c1, process_cost=c2, target_rel_halfwidth=TARGET,
-                                           rounds=DEFAULT_ROUNDS)
-            print(f"\nbatches of {target_ms:g} ms: pilot {elapsed:.1f} s; speedup {vc.mean:.4f}; "
-                  f"sd between rounds {100 * math.sqrt(vc.between_round) / vc.mean:.2f}%, "
-                  f"between processes {100 * math.sqrt(vc.between_process) / vc.mean:.2f}%; "
-                  f"c1 (a round) {1e3 * c1:.1f} ms, c2 (a process beyond its rounds) {c2:.2f} s")
-            print(f"  suggested: {best.rounds_per_process} rounds x {best.processes} processes -> "
-                  f"+-{100 * best.rel_halfwidth:.2f}% in about "
-                  f"{best.processes * (c2 + best.rounds_per_process * c1):.0f} s")
-            print(f"  defaults ({DEFAULT_ROUNDS} rounds): {default.processes} processes -> "
-                  f"+-{100 * default.rel_halfwidth:.2f}% in about {default.processes * (c2 + DEFAULT_ROUNDS * c1):.0f} s")
+            default = stats.suggest_design(
+                vc, round_cost=c1, process_cost=c2, target_rel_halfwidth=TARGET, rounds=DEFAULT_ROUNDS
+            )
+            print(
+                f"\nbatches of {target_ms:g} ms: pilot {elapsed:.1f} s; speedup {vc.mean:.4f}; "
+                f"sd between rounds {100 * math.sqrt(vc.between_round) / vc.mean:.2f}%, "
+                f"between processes {100 * math.sqrt(vc.between_process) / vc.mean:.2f}%; "
+                f"c1 (a round) {1e3 * c1:.1f} ms, c2 (a process beyond its rounds) {c2:.2f} s"
+            )
+            print(
+                f"  suggested: {best.rounds_per_process} rounds x {best.processes} processes -> "
+                f"+-{100 * best.rel_halfwidth:.2f}% in about "
+                f"{best.processes * (c2 + best.rounds_per_process * c1):.0f} s"
+            )
+            print(
+                f"  defaults ({DEFAULT_ROUNDS} rounds): {default.processes} processes -> "
+                f"+-{100 * default.rel_halfwidth:.2f}% in about {default.processes * (c2 + DEFAULT_ROUNDS * c1):.0f} s"
+            )
     finally:
         shutil.rmtree(root)
 

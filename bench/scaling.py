@@ -83,15 +83,23 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("kernels", nargs="*", help=f"more kernels (always: {', '.join(DEFAULT_KERNELS)})")
     ap.add_argument("--rays", type=int, default=64, help="rays at large K (at least)")
-    ap.add_argument("--min-tests", type=int, default=1 << 20,
-                    help="tests per pass at least (more rays at small K; 0: always --rays)")
+    ap.add_argument(
+        "--min-tests",
+        type=int,
+        default=1 << 20,
+        help="tests per pass at least (more rays at small K; 0: always --rays)",
+    )
     ap.add_argument("--min-k", type=int, default=64)
     ap.add_argument("--max-k", type=int, default=4 * 1024 * 1024)
     ap.add_argument("--dtypes", default="float32,float64")
     ap.add_argument("--rounds", type=int, default=5, help="interleaved rounds per K (3 when a pass is long)")
     ap.add_argument("--target-ms", type=float, default=20.0, help="wanted batch length")
-    ap.add_argument("--pin", type=int, metavar="CPU", help="pin to this CPU (default: not pinned; the "
-                    "harness's workers, everyone's, pin to the last CPU)")
+    ap.add_argument(
+        "--pin",
+        type=int,
+        metavar="CPU",
+        help="pin to this CPU (default: not pinned; the harness's workers, everyone's, pin to the last CPU)",
+    )
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
 
@@ -103,8 +111,10 @@ def main() -> None:
     if args.pin is not None:
         os.sched_setaffinity(0, {args.pin})
     caches = {name: size_bytes(s) for name, s in machine_record()["caches"].items()}
-    print(f"caches: {', '.join(f'{n} {s // 1024} KiB' for n, s in caches.items())}; "
-          f"CPUs: {sorted(os.sched_getaffinity(0))}; load average {os.getloadavg()[0]:.2f}")
+    print(
+        f"caches: {', '.join(f'{n} {s // 1024} KiB' for n, s in caches.items())}; "
+        f"CPUs: {sorted(os.sched_getaffinity(0))}; load average {os.getloadavg()[0]:.2f}"
+    )
 
     rng = np.random.default_rng(args.seed)
     counts = []
@@ -151,14 +161,18 @@ def main() -> None:
         for c in combos:
             results[c].append((K, jobs[c].prepared.records.nbytes, samples[c], cpu[c], hit_rate[c]))
         del jobs
-        print(f"  K={K:>8}: {n_rays[K]:>6} rays, {rounds} rounds, loops {min(loops.values())}-{max(loops.values())}, "
-              f"rays hitting: {hit_rate[combos[0]]:.0%}, CPU share of batches: median {np.median(share):.0%}, "
-              f"min {min(share):.0%}", flush=True)
+        print(
+            f"  K={K:>8}: {n_rays[K]:>6} rays, {rounds} rounds, loops {min(loops.values())}-{max(loops.values())}, "
+            f"rays hitting: {hit_rate[combos[0]]:.0%}, CPU share of batches: median {np.median(share):.0%}, "
+            f"min {min(share):.0%}",
+            flush=True,
+        )
 
-    print("\nns/test: median over rounds of the C-timed batches, 95% t CI; cpu: the same from this "
-          "thread's CPU time")
-    print(f"{'kernel':<20}{'dtype':<9}{'K':>9}{'records':>11}{'fits':>8}{'ns/test':>10}{'95% CI':>20}"
-          f"{'x in-L1':>9}{'cpu ns/test':>13}{'x in-L1':>9}")
+    print("\nns/test: median over rounds of the C-timed batches, 95% t CI; cpu: the same from this thread's CPU time")
+    print(
+        f"{'kernel':<20}{'dtype':<9}{'K':>9}{'records':>11}{'fits':>8}{'ns/test':>10}{'95% CI':>20}"
+        f"{'x in-L1':>9}{'cpu ns/test':>13}{'x in-L1':>9}"
+    )
     for c in combos:
         rows = results[c]
         in_l1 = [r for r in rows if r[1] <= caches.get("L1d", 0)] or rows[:1]
@@ -168,8 +182,10 @@ def main() -> None:
             lo, hi = t_ci(s)
             med, cmed = float(np.median(s)), float(np.median(cs))
             size = f"{nbytes / 1024:.0f} KiB" if nbytes < 1 << 20 else f"{nbytes / (1 << 20):.1f} MiB"
-            print(f"{c[0]:<20}{c[1]:<9}{K:>9}{size:>11}{level(nbytes, caches):>8}{med:>10.3f}"
-                  f"{f'[{lo:.3f}, {hi:.3f}]':>20}{med / base:>9.2f}{cmed:>13.3f}{cmed / cpu_base:>9.2f}")
+            print(
+                f"{c[0]:<20}{c[1]:<9}{K:>9}{size:>11}{level(nbytes, caches):>8}{med:>10.3f}"
+                f"{f'[{lo:.3f}, {hi:.3f}]':>20}{med / base:>9.2f}{cmed:>13.3f}{cmed / cpu_base:>9.2f}"
+            )
         print()
     # the precision question at each K: float64's cost over float32's
     for kernel in kernels:

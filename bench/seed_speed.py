@@ -46,8 +46,9 @@ def main() -> None:
     ap.add_argument("--cpu", type=int, help="CPU for the workers (default: the harness's, the last)")
     args = ap.parse_args()
     kernels = (*SEED_CPP_NS, *CLEAN_FORMS.values())
-    workloads = tuple(MeshSpec("suzanne", triangles=968, width=args.size, height=args.size, dtype=d)
-                      for d in ("float32", "float64"))
+    workloads = tuple(
+        MeshSpec("suzanne", triangles=968, width=args.size, height=args.size, dtype=d) for d in ("float32", "float64")
+    )
     sweep = Sweep(kernels, workloads, processes=args.processes, rounds=args.rounds)
     root = tempfile.mkdtemp(prefix="tribench-seed-speed-")
     try:
@@ -57,10 +58,15 @@ def main() -> None:
         shutil.rmtree(root)
     dtype_of = {workload_id(s): s.dtype for s in workloads}
     table["dtype"] = table["workload_id"].map(dtype_of)
-    print(f"\nSuzanne, 968 triangles, camera {args.size}x{args.size}, closest hit: "
-          f"{args.processes} processes x {args.rounds} rounds")
-    print(f"goal: {GOAL:g}x the seed's C++ (-O2, the issue's figures: "
-          + ", ".join(f"{k} {v:g} ns" for k, v in SEED_CPP_NS.items()) + ")\n")
+    print(
+        f"\nSuzanne, 968 triangles, camera {args.size}x{args.size}, closest hit: "
+        f"{args.processes} processes x {args.rounds} rounds"
+    )
+    print(
+        f"goal: {GOAL:g}x the seed's C++ (-O2, the issue's figures: "
+        + ", ".join(f"{k} {v:g} ns" for k, v in SEED_CPP_NS.items())
+        + ")\n"
+    )
     print(f"{'kernel':<18}{'dtype':<9}{'ns/test':>8}  {'95% CI':<15}{'min':>7}   x seed C++ [95% CI]   goal")
     for seed_kernel, seed_ns in SEED_CPP_NS.items():
         for kernel in (seed_kernel, CLEAN_FORMS[seed_kernel]):
@@ -68,9 +74,11 @@ def main() -> None:
                 row = table[(table["kernel"] == kernel) & (table["dtype"] == dtype)].iloc[0]
                 multiple, low, high = seed_ns / row["mean"], seed_ns / row["ci_high"], seed_ns / row["ci_low"]
                 verdict = "met" if low >= GOAL else "missed" if high < GOAL else "undecided"
-                print(f"{kernel:<18}{dtype:<9}{row['mean']:>8.2f}  [{row['ci_low']:5.2f}, {row['ci_high']:5.2f}]"
-                      f"{row['minimum']:>8.2f}   {multiple:5.2f}x [{low:.2f}, {high:.2f}]   "
-                      + (verdict if kernel == seed_kernel else "(clean form, for reference)"))
+                print(
+                    f"{kernel:<18}{dtype:<9}{row['mean']:>8.2f}  [{row['ci_low']:5.2f}, {row['ci_high']:5.2f}]"
+                    f"{row['minimum']:>8.2f}   {multiple:5.2f}x [{low:.2f}, {high:.2f}]   "
+                    + (verdict if kernel == seed_kernel else "(clean form, for reference)")
+                )
 
 
 if __name__ == "__main__":

@@ -33,29 +33,37 @@ def _info(args: argparse.Namespace) -> int:
     print(f"compiler  {build['compiler']}")
     print(f"flags     {build['flags']}")
     contract = "off" if "-ffp-contract=off" in build["flags"] else "compiler default (may fuse into FMA)"
-    print(f"fp        fast-math {'ON' if build['fast_math'] else 'off'}, fp-contract {contract}; "
-          f"clock resolution {build['clock_resolution_ns']} ns")
+    print(
+        f"fp        fast-math {'ON' if build['fast_math'] else 'off'}, fp-contract {contract}; "
+        f"clock resolution {build['clock_resolution_ns']} ns"
+    )
     print()
-    print(f"cpu       {rec['cpu_model']} ({rec['logical_cpus']} logical CPUs, "
-          f"{len(rec['usable_cpus'] or [])} usable)")
+    print(f"cpu       {rec['cpu_model']} ({rec['logical_cpus']} logical CPUs, {len(rec['usable_cpus'] or [])} usable)")
     print(f"simd      {' '.join(rec['simd_features']) or 'none reported'}")
     caches = ", ".join(f"{k} {v}" for k, v in rec["caches"].items())
     print(f"caches    {caches or 'unknown'}")
     print()
     width = max(map(len, ext.kernel_names())) + 2
     # the registry's declarations (ext/kernels/list.h): faces tested, watertight promise, seed replay or clean
-    print(f"{'kernel':<{width}}{'form':<8}{'bytes/tri f32':>14}{'bytes/tri f64':>14}  {'faces':<6}{'watertight':<11}"
-          f"{'code':<6} ISA (* = runs here, > = chosen)")
+    print(
+        f"{'kernel':<{width}}{'form':<8}{'bytes/tri f32':>14}{'bytes/tri f64':>14}  {'faces':<6}{'watertight':<11}"
+        f"{'code':<6} ISA (* = runs here, > = chosen)"
+    )
     for name in ext.kernel_names():
         info = ext.kernel_info(name)
         form = "scalar" if info.lanes == 1 else f"{info.lanes} lanes"
-        isas = " ".join(("> " if i == info.isa else "* " if ok else "  ") + i
-                        for i, ok in info.isas.items()) if info.lanes > 1 else "baseline build"
+        isas = (
+            " ".join(("> " if i == info.isa else "* " if ok else "  ") + i for i, ok in info.isas.items())
+            if info.lanes > 1
+            else "baseline build"
+        )
         faces = "front" if info.culls_back_faces else "both"
         watertight = "yes" if info.watertight != "none" else "-"
         code = "seed" if info.seed_replay else "clean"
-        print(f"{name:<{width}}{form:<8}{info.bytes_per_triangle['float32']:>14}"
-              f"{info.bytes_per_triangle['float64']:>14}  {faces:<6}{watertight:<11}{code:<6} {isas}")
+        print(
+            f"{name:<{width}}{form:<8}{info.bytes_per_triangle['float32']:>14}"
+            f"{info.bytes_per_triangle['float64']:>14}  {faces:<6}{watertight:<11}{code:<6} {isas}"
+        )
     if args.peak:
         _print_peak(width)
     return 0
@@ -64,17 +72,21 @@ def _info(args: argparse.Namespace) -> int:
 def _print_peak(width: int) -> None:
     from tribench.harness.peak import camera_fractions
 
-    print("\nmeasuring the FMA peak and every kernel on the in-cache camera workload "
-          "(Suzanne 968 triangles, 64x64 rays, closest hit)...", file=sys.stderr)
+    print(
+        "\nmeasuring the FMA peak and every kernel on the in-cache camera workload "
+        "(Suzanne 968 triangles, 64x64 rays, closest hit)...",
+        file=sys.stderr,
+    )
     gflops, isa, table = camera_fractions()
-    print(f"\nFMA peak  {gflops:.1f} GFLOP/s ({isa}; {gflops / 2:.1f} float lane-ops/ns, "
-          f"an FMA = 1 op = 2 flops)")
+    print(f"\nFMA peak  {gflops:.1f} GFLOP/s ({isa}; {gflops / 2:.1f} float lane-ops/ns, an FMA = 1 op = 2 flops)")
     print("bound = ops per test / lane-ops per ns; % = bound / measured (rules: tribench.harness.peak)")
     for dtype, g in table.groupby("dtype", sort=False):
         print(f"\n{dtype:<{width}}{'form':<18}{'ops/test':>9}{'bound ns':>10}{'ns/test':>10}{'% of bound':>12}")
         for r in g.itertuples(index=False):
-            print(f"{r.kernel:<{width}}{r.form:<18}{r.ops_per_test:>9}{r.bound_ns_per_test:>10.3f}"
-                  f"{r.ns_per_test:>10.3f}{100 * r.fraction:>11.1f}%")
+            print(
+                f"{r.kernel:<{width}}{r.form:<18}{r.ops_per_test:>9}{r.bound_ns_per_test:>10.3f}"
+                f"{r.ns_per_test:>10.3f}{100 * r.fraction:>11.1f}%"
+            )
 
 
 # ------------------------------------------------------------------ sweep
@@ -99,8 +111,7 @@ def _new_run_folder(text: str) -> str:
 
 def _add_run_out(parser: argparse.ArgumentParser, default: str = "runs/<date-time>") -> None:
     """--out RUN_DIR of a command that creates a run folder (refused up front if it cannot be one)."""
-    parser.add_argument("--out", metavar="RUN_DIR", type=_new_run_folder,
-                        help=f"new run folder (default {default})")
+    parser.add_argument("--out", metavar="RUN_DIR", type=_new_run_folder, help=f"new run folder (default {default})")
 
 
 #: Precisions of the workloads (workloads.spec.DTYPES, kept here so --help imports nothing heavy).
@@ -135,20 +146,33 @@ def _sweep_from_args(args: argparse.Namespace):
         load_sweep_file,
     )
 
-    design = {"processes": args.processes, "rounds": args.rounds, "warmup": args.warmup,
-              "target_ms": args.target_ms, "seed": args.seed}
+    design = {
+        "processes": args.processes,
+        "rounds": args.rounds,
+        "warmup": args.warmup,
+        "target_ms": args.target_ms,
+        "seed": args.seed,
+    }
     if args.file:
         return load_sweep_file(args.file, {**design, "kernels": args.kernels})
-    defaults = {"processes": DEFAULT_PROCESSES, "rounds": DEFAULT_ROUNDS, "warmup": DEFAULT_WARMUP,
-                "target_ms": DEFAULT_TARGET_MS, "seed": 0}
+    defaults = {
+        "processes": DEFAULT_PROCESSES,
+        "rounds": DEFAULT_ROUNDS,
+        "warmup": DEFAULT_WARMUP,
+        "target_ms": DEFAULT_TARGET_MS,
+        "seed": 0,
+    }
     design = {k: defaults[k] if v is None else v for k, v in design.items()}
     kernels = tuple(args.kernels or ext.kernel_names())
     return Sweep(kernels, tuple(_workloads_from_flags(args)), **design)
 
 
 def _report_run(result, stream=sys.stderr) -> None:
-    print(f"{result.batches_run} batches run in {result.elapsed_s:.1f} s; "
-          f"{result.batches_done}/{result.batches_total} in {result.run_dir}", file=stream)
+    print(
+        f"{result.batches_run} batches run in {result.elapsed_s:.1f} s; "
+        f"{result.batches_done}/{result.batches_total} in {result.run_dir}",
+        file=stream,
+    )
 
 
 def _sweep(args: argparse.Namespace) -> int:
@@ -162,9 +186,12 @@ def _sweep(args: argparse.Namespace) -> int:
     else:
         sweep = _sweep_from_args(args)
         out = args.out or _default_run_dir()
-        print(f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
-              f"{sweep.processes} processes x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
-              f"{sweep.n_batches} batches -> {out}", file=sys.stderr)
+        print(
+            f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
+            f"{sweep.processes} processes x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
+            f"{sweep.n_batches} batches -> {out}",
+            file=sys.stderr,
+        )
         result = runner.start(sweep, out, cpu=args.cpu, progress=progress)
     _report_run(result)
     if result.batches_done == result.batches_total:  # the analysis step: every table the report reads
@@ -177,8 +204,23 @@ def _sweep(args: argparse.Namespace) -> int:
     return 0
 
 
-_SWEEP_DESIGN_FLAGS = ("file", "kernels", "hit_rates", "pairs", "mesh", "triangles", "camera", "dtype",
-                       "processes", "rounds", "warmup", "target_ms", "seed", "cpu", "out")
+_SWEEP_DESIGN_FLAGS = (
+    "file",
+    "kernels",
+    "hit_rates",
+    "pairs",
+    "mesh",
+    "triangles",
+    "camera",
+    "dtype",
+    "processes",
+    "rounds",
+    "warmup",
+    "target_ms",
+    "seed",
+    "cpu",
+    "out",
+)
 
 
 def _add_design_flags(p: argparse.ArgumentParser) -> None:
@@ -189,14 +231,22 @@ def _add_design_flags(p: argparse.ArgumentParser) -> None:
         DEFAULT_WARMUP,
     )
 
-    p.add_argument("--processes", type=flags.positive_int,
-                   help=f"worker processes, the replicates (default {DEFAULT_PROCESSES})")
-    p.add_argument("--rounds", type=flags.positive_int,
-                   help=f"timed rounds per workload per process (default {DEFAULT_ROUNDS})")
-    p.add_argument("--warmup", type=flags.int_in(0, flags.MAX_COUNT),
-                   help=f"warm-up rounds per workload per process (default {DEFAULT_WARMUP})")
-    p.add_argument("--target-ms", type=flags.float_in(0.01, 1000),
-                   help=f"wanted length of one batch in ms, 0.01 to 1000 (default {DEFAULT_TARGET_MS:g})")
+    p.add_argument(
+        "--processes", type=flags.positive_int, help=f"worker processes, the replicates (default {DEFAULT_PROCESSES})"
+    )
+    p.add_argument(
+        "--rounds", type=flags.positive_int, help=f"timed rounds per workload per process (default {DEFAULT_ROUNDS})"
+    )
+    p.add_argument(
+        "--warmup",
+        type=flags.int_in(0, flags.MAX_COUNT),
+        help=f"warm-up rounds per workload per process (default {DEFAULT_WARMUP})",
+    )
+    p.add_argument(
+        "--target-ms",
+        type=flags.float_in(0.01, 1000),
+        help=f"wanted length of one batch in ms, 0.01 to 1000 (default {DEFAULT_TARGET_MS:g})",
+    )
     p.add_argument("--seed", type=flags.seed, help="seed of the plan and the layout randomisation (default 0)")
 
 
@@ -221,8 +271,16 @@ def _peers(args: argparse.Namespace) -> int:
     from tribench.harness import peers, runfolder
 
     design = peers.PeerDesign.quick() if args.quick else peers.PeerDesign()
-    changes = {k: v for k, v in {"processes": args.processes, "reps": args.reps, "triangles": args.triangles,
-                                 "seed": args.seed}.items() if v is not None}
+    changes = {
+        k: v
+        for k, v in {
+            "processes": args.processes,
+            "reps": args.reps,
+            "triangles": args.triangles,
+            "seed": args.seed,
+        }.items()
+        if v is not None
+    }
     if args.camera:
         changes["width"], changes["height"] = args.camera
     design = replace(design, **changes)
@@ -230,12 +288,12 @@ def _peers(args: argparse.Namespace) -> int:
         from tribench import ext
 
         if args.kernel not in ext.kernel_names(internal=True) or "closest" not in ext.kernel_info(args.kernel).modes:
-            raise UserError(f"--kernel {args.kernel!r} is not a kernel with a closest-hit mode "
-                             f"(see tribench info)")
+            raise UserError(f"--kernel {args.kernel!r} is not a kernel with a closest-hit mode (see tribench info)")
     path = peers.peers_path(args.out or ".")
     try:
-        frame = peers.measure(path, design, kernel=args.kernel, cpu=args.cpu,
-                              progress=False if args.no_progress else None)
+        frame = peers.measure(
+            path, design, kernel=args.kernel, cpu=args.cpu, progress=False if args.no_progress else None
+        )
     except RuntimeError as exc:
         print(f"tribench peers: error: {exc}", file=sys.stderr)
         return 1
@@ -251,16 +309,21 @@ def _peers(args: argparse.Namespace) -> int:
 
         try:
             record = json.loads((run_dir / runfolder.ANALYSIS).read_text(encoding="utf-8"))
-            kept = {"baseline": record["baseline"],  # keep the choices of the last `tribench stats`
-                    "margin": record["margin"]["value"] if record["margin"]["source"] == "--margin" else None}
+            kept = {
+                "baseline": record["baseline"],  # keep the choices of the last `tribench stats`
+                "margin": record["margin"]["value"] if record["margin"]["source"] == "--margin" else None,
+            }
         except (OSError, UnicodeDecodeError, ValueError, TypeError, KeyError):
             kept = {}  # unreadable: the analysis step's defaults, as `tribench stats` would use
         try:
             derived = write_all(run_dir, **kept)
         except UserError as exc:
             raise UserError(f"wrote {path}, but the analysis step of {run_dir} failed: {exc}") from None
-        print(f"wrote {', '.join(derived.tables)} and {runfolder.ANALYSIS} into {run_dir} (the analysis step, "
-              f"as tribench stats)", file=sys.stderr)
+        print(
+            f"wrote {', '.join(derived.tables)} and {runfolder.ANALYSIS} into {run_dir} (the analysis step, "
+            f"as tribench stats)",
+            file=sys.stderr,
+        )
     return 0
 
 
@@ -274,11 +337,24 @@ def _seed(args: argparse.Namespace) -> int:
     from tribench.reports.seed import write_seed_report
 
     out = args.out or _default_run_dir("seed-quick" if args.quick else "seed")
-    words = ["tribench", "seed", *[w for s in args.scene or [] for w in ("--scene", s)],
-             *(["--quick"] if args.quick else []), "--out", out,
-             *[w for k in ("size", "sample") if getattr(args, k) for w in (f"--{k}", str(getattr(args, k)))]]
-    result = run_seed(out, scenes=args.scene, quick=args.quick, size=args.size, sample=args.sample,
-                      progress=False if args.no_progress else None, command=shlex.join(words))
+    words = [
+        "tribench",
+        "seed",
+        *[w for s in args.scene or [] for w in ("--scene", s)],
+        *(["--quick"] if args.quick else []),
+        "--out",
+        out,
+        *[w for k in ("size", "sample") if getattr(args, k) for w in (f"--{k}", str(getattr(args, k)))],
+    ]
+    result = run_seed(
+        out,
+        scenes=args.scene,
+        quick=args.quick,
+        size=args.size,
+        sample=args.sample,
+        progress=False if args.no_progress else None,
+        command=shlex.join(words),
+    )
     report = write_seed_report(out)
     print(format_table(result.tables[SEED_CSV], result.tables[WORKLOADS_CSV]))
     print(f"\n{result.elapsed_s:.0f} s; tables: {out}/{SEED_CSV}, {KINDS_CSV}, {WORKLOADS_CSV}; report: {report}")
@@ -294,8 +370,10 @@ def _stats(args: argparse.Namespace) -> int:
 
     derived = write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
     print(format_tables(args.run_dir))
-    print(f"wrote {', '.join(derived.tables)}, the workload pictures and analysis.json into {args.run_dir}",
-          file=sys.stderr)
+    print(
+        f"wrote {', '.join(derived.tables)}, the workload pictures and analysis.json into {args.run_dir}",
+        file=sys.stderr,
+    )
     return 0
 
 
@@ -311,13 +389,30 @@ def _calibrate(args: argparse.Namespace) -> int:
 
         workloads = (cache.load(cache.resolve_id(args.workload)).spec,)
     out = args.out or _default_run_dir("calibrate")
-    kwargs = {k: v for k, v in {"rounds": args.rounds, "warmup": args.warmup, "target_ms": args.target_ms,
-                                "seed": args.seed, "processes": args.processes,
-                                "experiments": args.experiments}.items() if v is not None}
-    cal = calibrate(out, kernel=args.kernel, workloads=workloads, save=not args.no_save,
-                    progress=False if args.no_progress else None, **kwargs)
-    print(f"A/A: {cal['kernel']} vs {cal['copy']}, {cal['experiments']} comparisons of "
-          f"{cal['processes_per_experiment']} processes each")
+    kwargs = {
+        k: v
+        for k, v in {
+            "rounds": args.rounds,
+            "warmup": args.warmup,
+            "target_ms": args.target_ms,
+            "seed": args.seed,
+            "processes": args.processes,
+            "experiments": args.experiments,
+        }.items()
+        if v is not None
+    }
+    cal = calibrate(
+        out,
+        kernel=args.kernel,
+        workloads=workloads,
+        save=not args.no_save,
+        progress=False if args.no_progress else None,
+        **kwargs,
+    )
+    print(
+        f"A/A: {cal['kernel']} vs {cal['copy']}, {cal['experiments']} comparisons of "
+        f"{cal['processes_per_experiment']} processes each"
+    )
     print(f"  coverage of 1          {100 * cal['coverage']:.0f}%  (intervals are 95%)")
     print(f"  false positives        {100 * cal['false_positive_rate']:.0f}%  (expected 5%)")
     print(f"  p-values vs uniform    KS {cal['ks_statistic']:.3f}, p = {cal['ks_p_value']:.3f}")
@@ -371,9 +466,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"tribench {version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     info = sub.add_parser("info", help="version, build flags, CPU and SIMD features, kernel list")
-    info.add_argument("--peak", action="store_true",
-                      help="also measure the FMA peak and each kernel's ns/test on the in-cache camera "
-                           "workload, as a fraction of its arithmetic bound (about 10 s)")
+    info.add_argument(
+        "--peak",
+        action="store_true",
+        help="also measure the FMA peak and each kernel's ns/test on the in-cache camera "
+        "workload, as a fraction of its arithmetic bound (about 10 s)",
+    )
     info.set_defaults(func=_info)
 
     sweep = sub.add_parser(
@@ -387,34 +485,59 @@ def build_parser() -> argparse.ArgumentParser:
         "processes.csv, run.json.",
     )
     _add_run_out(sweep)
-    sweep.add_argument("--resume", metavar="RUN_DIR", type=flags.existing_folder,
-                       help="finish the missing batches of an interrupted run")
-    sweep.add_argument("--file", metavar="SWEEP.toml", type=flags.existing_file,
-                       help="sweep file (flags given too override its values)")
-    sweep.add_argument("--kernels", metavar="A,B", type=flags.name_list,
-                       help="kernels (default: all of `tribench info`)")
-    sweep.add_argument("--hit-rates", metavar="H,..", type=flags.float_list(0, 1),
-                       help="per-test hit rates of pair workloads, each in [0, 1] (default 0.5)")
+    sweep.add_argument(
+        "--resume",
+        metavar="RUN_DIR",
+        type=flags.existing_folder,
+        help="finish the missing batches of an interrupted run",
+    )
+    sweep.add_argument(
+        "--file",
+        metavar="SWEEP.toml",
+        type=flags.existing_file,
+        help="sweep file (flags given too override its values)",
+    )
+    sweep.add_argument(
+        "--kernels", metavar="A,B", type=flags.name_list, help="kernels (default: all of `tribench info`)"
+    )
+    sweep.add_argument(
+        "--hit-rates",
+        metavar="H,..",
+        type=flags.float_list(0, 1),
+        help="per-test hit rates of pair workloads, each in [0, 1] (default 0.5)",
+    )
     sweep.add_argument("--pairs", type=flags.positive_int, metavar="N", help="pairs per pair workload (default 10000)")
-    sweep.add_argument("--mesh", metavar="NAME,..", type=flags.name_list,
-                       help="mesh workloads (suzanne, icosphere, ... or a file)")
-    sweep.add_argument("--triangles", metavar="K,..", type=flags.int_list(1, flags.MAX_COUNT),
-                       help="triangle counts of the meshes (default: base mesh)")
-    sweep.add_argument("--camera", metavar="WxH", type=flags.camera,
-                       help="camera rays of mesh workloads (default {}x{})".format(*_DEFAULT_CAMERA))
-    sweep.add_argument("--dtype", metavar="float32,float64", type=flags.choice_list(_DTYPES),
-                       help="precisions (default float64)")
+    sweep.add_argument(
+        "--mesh", metavar="NAME,..", type=flags.name_list, help="mesh workloads (suzanne, icosphere, ... or a file)"
+    )
+    sweep.add_argument(
+        "--triangles",
+        metavar="K,..",
+        type=flags.int_list(1, flags.MAX_COUNT),
+        help="triangle counts of the meshes (default: base mesh)",
+    )
+    sweep.add_argument(
+        "--camera",
+        metavar="WxH",
+        type=flags.camera,
+        help="camera rays of mesh workloads (default {}x{})".format(*_DEFAULT_CAMERA),
+    )
+    sweep.add_argument(
+        "--dtype", metavar="float32,float64", type=flags.choice_list(_DTYPES), help="precisions (default float64)"
+    )
     _add_design_flags(sweep)
     sweep.add_argument("--cpu", type=flags.cpu, help="CPU to pin workers to (default: the last usable one)")
     sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
     sweep.set_defaults(func=_sweep)
 
-    st = sub.add_parser("stats", help="every table the report reads: estimates.csv, speedups.csv and the rest "
-                                      "(never times anything)")
+    st = sub.add_parser(
+        "stats", help="every table the report reads: estimates.csv, speedups.csv and the rest (never times anything)"
+    )
     st.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder)
     st.add_argument("--baseline", metavar="NAME", help="baseline kernel (default moller_seed, else the first)")
-    st.add_argument("--margin", type=flags.float_in(0, 1),
-                    help="equivalence margin, in [0, 1] (default: the one run.json records)")
+    st.add_argument(
+        "--margin", type=flags.float_in(0, 1), help="equivalence margin, in [0, 1] (default: the one run.json records)"
+    )
     st.set_defaults(func=_stats)
 
     cal = sub.add_parser(
@@ -425,7 +548,9 @@ def build_parser() -> argparse.ArgumentParser:
         "floor, and saves the margin that later sweeps on this CPU use.",
     )
     cal.add_argument("--kernel", default="moller_trumbore", help="kernel with an A/A copy (moller_trumbore)")
-    cal.add_argument("--workload", metavar="ID", help="cached workload id or prefix (default: 10000 pairs, hit rate 0.5)")
+    cal.add_argument(
+        "--workload", metavar="ID", help="cached workload id or prefix (default: 10000 pairs, hit rate 0.5)"
+    )
     cal.add_argument("--experiments", type=flags.positive_int, help="number of A/A comparisons (default 10)")
     _add_run_out(cal, "runs/calibrate-<date-time>")
     cal.add_argument("--no-save", action="store_true", help="do not update the user-level calibration")
@@ -460,16 +585,25 @@ def build_parser() -> argparse.ArgumentParser:
     from tribench.harness.peers import PeerDesign
 
     full, quick = PeerDesign(), PeerDesign.quick()
-    pe.add_argument("--out", metavar="RUN_DIR|FILE.csv", type=_peers_out,
-                    help="where peers.csv goes (default ./peers.csv)")
-    pe.add_argument("--quick", action="store_true", help=f"a {quick.width}x{quick.height} camera, {quick.processes} "
-                    f"processes x {quick.reps} repetitions (seconds)")
-    pe.add_argument("--camera", metavar="WxH", type=flags.camera,
-                    help=f"camera rays (default {full.width}x{full.height})")
-    pe.add_argument("--triangles", type=flags.positive_int, help=f"Suzanne's triangle count (default "
-                    f"{full.triangles}, the seed's mesh)")
-    pe.add_argument("--processes", type=flags.positive_int,
-                    help=f"worker processes, the replicates (default {full.processes})")
+    pe.add_argument(
+        "--out", metavar="RUN_DIR|FILE.csv", type=_peers_out, help="where peers.csv goes (default ./peers.csv)"
+    )
+    pe.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"a {quick.width}x{quick.height} camera, {quick.processes} processes x {quick.reps} repetitions (seconds)",
+    )
+    pe.add_argument(
+        "--camera", metavar="WxH", type=flags.camera, help=f"camera rays (default {full.width}x{full.height})"
+    )
+    pe.add_argument(
+        "--triangles",
+        type=flags.positive_int,
+        help=f"Suzanne's triangle count (default {full.triangles}, the seed's mesh)",
+    )
+    pe.add_argument(
+        "--processes", type=flags.positive_int, help=f"worker processes, the replicates (default {full.processes})"
+    )
     pe.add_argument("--reps", type=flags.positive_int, help=f"repetitions per process (default {full.reps})")
     pe.add_argument("--kernel", help="tribench's kernel (default: the fastest on this workload)")
     pe.add_argument("--cpu", type=flags.cpu, help="CPU to pin the workers to (default: the last usable one)")
@@ -487,12 +621,18 @@ def build_parser() -> argparse.ArgumentParser:
         "precision, one column per test, and writes the tidy CSV: kernel, dtype, isa, test, rays, failures, "
         "rate, expected, verdict, detail. Exits 0 even where a promise is broken.",
     )
-    val.add_argument("--kernels", nargs="+", metavar="K", type=flags.name_list,
-                     help="kernels (default: all of `tribench info`)")
-    val.add_argument("--dtype", nargs="+", metavar="D", type=flags.choice_list(_DTYPES),
-                     help="float32 and/or float64 (default both)")
-    val.add_argument("--out", metavar="FILE.csv", type=_validate_out,
-                     help="the CSV (default ./validate.csv; in a directory: validate.csv)")
+    val.add_argument(
+        "--kernels", nargs="+", metavar="K", type=flags.name_list, help="kernels (default: all of `tribench info`)"
+    )
+    val.add_argument(
+        "--dtype", nargs="+", metavar="D", type=flags.choice_list(_DTYPES), help="float32 and/or float64 (default both)"
+    )
+    val.add_argument(
+        "--out",
+        metavar="FILE.csv",
+        type=_validate_out,
+        help="the CSV (default ./validate.csv; in a directory: validate.csv)",
+    )
     val.add_argument("--quick", action="store_true", help="small sets, a few seconds (the tests' size)")
     val.add_argument("--seed", type=flags.seed, default=0, help="seed of every test's rays (default 0)")
     val.set_defaults(func=_validate)
@@ -506,8 +646,13 @@ def build_parser() -> argparse.ArgumentParser:
         "seed.csv (the table), seed_kinds.csv, seed_workloads.csv (per-test hit rate, miss-stage mix), "
         "both seed kernels' pictures with their difference mask, and seed.html.",
     )
-    seed.add_argument("--scene", action="append", metavar="FILE", type=flags.existing_file,
-                      help="a scene file in the seed's format, instead of scene02 and scene03 (repeatable)")
+    seed.add_argument(
+        "--scene",
+        action="append",
+        metavar="FILE",
+        type=flags.existing_file,
+        help="a scene file in the seed's format, instead of scene02 and scene03 (repeatable)",
+    )
     seed.add_argument("--quick", action="store_true", help="the same shape in under a minute (128x128, wide intervals)")
     _add_run_out(seed, "runs/seed-[quick-]<date-time>")
     seed.add_argument("--no-progress", action="store_true", help="no progress bar")

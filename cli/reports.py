@@ -25,6 +25,7 @@ def _error(command: str, exc: BaseException) -> int:
 def report_main(args: argparse.Namespace) -> int:
     """Write RUN_DIR/report.html, print the compact tables, optionally open the page."""
     from tribench.reports import format_tables, write_report
+
     try:
         path = write_report(args.run_dir, baseline=args.baseline)
         if not args.quiet:
@@ -72,9 +73,12 @@ def add_parser(subparsers) -> None:
         "`tribench stats` command that makes them.",
     )
     rep.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder)
-    rep.add_argument("--baseline", metavar="NAME",
-                     help="the baseline the tables must compare against (refused, naming `tribench stats "
-                     "--baseline NAME`, if they compare against another)")
+    rep.add_argument(
+        "--baseline",
+        metavar="NAME",
+        help="the baseline the tables must compare against (refused, naming `tribench stats "
+        "--baseline NAME`, if they compare against another)",
+    )
     rep.add_argument("--open", action="store_true", help="open the report in a web browser")
     rep.add_argument("--quiet", action="store_true", help="do not print the tables")
     rep.set_defaults(func=report_main)
@@ -88,8 +92,9 @@ def add_parser(subparsers) -> None:
     )
     cmp_.add_argument("run_a", metavar="RUN_A", type=flags.existing_folder)
     cmp_.add_argument("run_b", metavar="RUN_B", type=flags.existing_folder)
-    cmp_.add_argument("--out", metavar="FILE", type=flags.output_file,
-                      help="HTML file to write (default RUN_B/compare.html)")
+    cmp_.add_argument(
+        "--out", metavar="FILE", type=flags.output_file, help="HTML file to write (default RUN_B/compare.html)"
+    )
     cmp_.set_defaults(func=compare_main)
 
 

@@ -159,8 +159,17 @@ def _format(value: Any) -> str:
 
 def _report(w, as_json: bool) -> None:
     if as_json:
-        print(json.dumps({"workload_id": w.workload_id, "spec": w.spec.to_dict(),
-                          "targets": w.targets(), "achieved": w.achieved}, indent=2))
+        print(
+            json.dumps(
+                {
+                    "workload_id": w.workload_id,
+                    "spec": w.spec.to_dict(),
+                    "targets": w.targets(),
+                    "achieved": w.achieved,
+                },
+                indent=2,
+            )
+        )
         return
     print(f"{w.workload_id}  {w.spec.summary()}")
     rows = [(name, _format(t), _format(a)) for name, t, a in w.compare()]

@@ -55,15 +55,19 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
     # the rename would put a regular file in place of a device, a folder or a link
     # (as root, `--out /dev/null` would replace the device): only regular files are replaced
     if os.path.lexists(path) and not stat.S_ISREG(os.lstat(path).st_mode):
-        raise UserError(f"cannot write {path}: it exists and is not a regular file (a folder, a device or a link); "
-                        f"choose another path")
+        raise UserError(
+            f"cannot write {path}: it exists and is not a regular file (a folder, a device or a link); "
+            f"choose another path"
+        )
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         # a unique name in the same folder (same file system, so the rename is atomic)
         name = str(path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
         fd = os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         tmp = name
-        with os.fdopen(fd, mode, encoding=None if mode == "wb" else encoding, newline=None if mode == "wb" else "") as f:
+        with os.fdopen(
+            fd, mode, encoding=None if mode == "wb" else encoding, newline=None if mode == "wb" else ""
+        ) as f:
             yield f
             f.flush()
             os.fsync(f.fileno())

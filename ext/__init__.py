@@ -219,8 +219,7 @@ def kernel_info(kernel: str) -> KernelInfo:
     if declared["lanes"] > 1 and wanted:
         if not runnable.get(wanted):
             raise UserError(
-                f"TRIBENCH_ISA={wanted!r} cannot run {kernel}: "
-                f"runnable here: {', '.join(i for i, ok in isas if ok)}"
+                f"TRIBENCH_ISA={wanted!r} cannot run {kernel}: runnable here: {', '.join(i for i, ok in isas if ok)}"
             )
         isa = wanted
     else:
@@ -289,23 +288,21 @@ def _plain(name: str, a: np.ndarray) -> np.ndarray:
     the kernels read every value, masked or not, so its mask would be ignored
     silently (and a NaN under the mask would pass the finiteness check)."""
     if isinstance(a, np.ma.MaskedArray):
-        raise UserTypeError(f"{name} is a numpy.ma.MaskedArray: the kernels would read the masked values "
-                            f"too; pass {name}.filled(...) or only the unmasked rows")
+        raise UserTypeError(
+            f"{name} is a numpy.ma.MaskedArray: the kernels would read the masked values "
+            f"too; pass {name}.filled(...) or only the unmasked rows"
+        )
     return a if type(a) is np.ndarray else a.view(np.ndarray)
 
 
-def _check_array(
-    name: str, a: object, tail: tuple[int, ...], allow_nonfinite: bool = False
-) -> np.ndarray:
+def _check_array(name: str, a: object, tail: tuple[int, ...], allow_nonfinite: bool = False) -> np.ndarray:
     """Check one input array; return it as a plain ndarray (a view, never a copy)."""
     allow_nonfinite = _check_flag("allow_nonfinite", allow_nonfinite)
     if not isinstance(a, np.ndarray):
         raise UserTypeError(f"{name} must be a numpy.ndarray, got {type(a).__name__}")
     a = _plain(name, a)
     if a.dtype not in _DTYPES:
-        raise UserTypeError(
-            f"{name} must have dtype float32 or float64 (native byte order), got {a.dtype}"
-        )
+        raise UserTypeError(f"{name} must have dtype float32 or float64 (native byte order), got {a.dtype}")
     shape = "(N, " + ", ".join(map(str, tail)) + ")"
     if a.ndim != 1 + len(tail) or a.shape[1:] != tail:
         raise UserError(f"{name} must have shape {shape}, got {a.shape}")
@@ -459,8 +456,9 @@ def flat(triangles: np.ndarray) -> np.ndarray:
         e, f = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
         left = e[:, [1, 2, 0]] * f[:, [2, 0, 1]]
         right = e[:, [2, 0, 1]] * f[:, [1, 2, 0]]
-        clearly_not = (np.abs(left - right) > _FILTER_RELATIVE * (np.abs(left) + np.abs(right))
-                       + _FILTER_ABSOLUTE).any(axis=1)
+        clearly_not = (np.abs(left - right) > _FILTER_RELATIVE * (np.abs(left) + np.abs(right)) + _FILTER_ABSOLUTE).any(
+            axis=1
+        )
     out = np.zeros(len(v), dtype=bool)
     for i in np.flatnonzero(~clearly_not & np.isfinite(v).all(axis=(1, 2))):
         a, b, c = ([Fraction(float(x)) for x in vertex] for vertex in v[i])
@@ -534,14 +532,11 @@ def intersect(
     >>> int(r.index[0]), float(r.t[0]), float(r.u[0]), float(r.v[0])
     (0, 1.0, 0.25, 0.5)
     """
-    o, d, tris, tm, isa = _check_workload(
-        kernel, origins, directions, triangles, mode, t_max, isa, allow_nonfinite
-    )
+    o, d, tris, tm, isa = _check_workload(kernel, origins, directions, triangles, mode, t_max, isa, allow_nonfinite)
     prepared = prepare(kernel, tris, allow_nonfinite=allow_nonfinite)
     n, dtype = len(o), tris.dtype
     out = Hits(np.empty(n, np.int64), np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype))
-    _core.run(kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm,
-              prepared.records, len(tris), *out)
+    _core.run(kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm, prepared.records, len(tris), *out)
     return out
 
 
@@ -655,7 +650,8 @@ def time_batch(job: Job, loops: int) -> Batch:
         raise UserError(
             f"loops={loops} x {job.tests_per_pass} tests per pass is more than {MAX_BATCH_TESTS:.0e} "
             f"tests, a minute even at 0.1 ns per test; use at most "
-            f"{MAX_BATCH_TESTS // job.tests_per_pass} loops (the harness's batches take about 8 ms)")
+            f"{MAX_BATCH_TESTS // job.tests_per_pass} loops (the harness's batches take about 8 ms)"
+        )
     p = job.prepared
     elapsed, hits, tests, t_sum, uv_sum = _core.time(
         job.kernel,
@@ -719,7 +715,8 @@ def fma_peak(iterations: int = 200_000, *, force_scalar: bool = False) -> Peak:
     if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)):
         raise UserTypeError(f"iterations must be an int, got {type(iterations).__name__}")
     if not 1 <= iterations <= MAX_PEAK_ITERATIONS:
-        raise UserError(f"iterations must be between 1 and {MAX_PEAK_ITERATIONS} (2**28, about a second of work), "
-                        f"got {iterations}")
+        raise UserError(
+            f"iterations must be between 1 and {MAX_PEAK_ITERATIONS} (2**28, about a second of work), got {iterations}"
+        )
     flops, elapsed, isa, _sink = _core.fma_peak(int(iterations), bool(force_scalar))
     return Peak(flops, elapsed, isa)

@@ -48,8 +48,20 @@ from tribench.common import UserError, write_text
 from . import records, runfolder
 from .calibration import Margin
 
-__all__ = ["Analysis", "Derived", "analyse", "write_tables", "write_all", "file_digest", "ESTIMATES", "SPEEDUPS",
-           "ESTIMATE_COLUMNS", "SPEEDUP_COLUMNS", "MAX_PICTURES", "PICTURE_DPI"]
+__all__ = [
+    "Analysis",
+    "Derived",
+    "analyse",
+    "write_tables",
+    "write_all",
+    "file_digest",
+    "ESTIMATES",
+    "SPEEDUPS",
+    "ESTIMATE_COLUMNS",
+    "SPEEDUP_COLUMNS",
+    "MAX_PICTURES",
+    "PICTURE_DPI",
+]
 
 ESTIMATES = runfolder.ESTIMATES
 SPEEDUPS = runfolder.SPEEDUPS
@@ -104,8 +116,11 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
     batches = records.read_batches(run_dir, run)
     writer = records.live_writer(run_dir)
     if writer is not None:
-        print(f"tribench: note: {run_dir} is still being written by {writer}; these tables cover "
-              f"{len(batches)} of its {run['n_batches']} batches", file=sys.stderr)
+        print(
+            f"tribench: note: {run_dir} is still being written by {writer}; these tables cover "
+            f"{len(batches)} of its {run['n_batches']} batches",
+            file=sys.stderr,
+        )
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
         raise UserError(f"{run_dir} has no timed batches yet")
@@ -114,16 +129,20 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
         baseline = DEFAULT_BASELINE if DEFAULT_BASELINE in kernels else kernels[0]
     elif baseline not in kernels:
         raise UserError(f"baseline {baseline!r} is not in this run; its kernels: {', '.join(kernels)}")
-    m = (Margin(margin, "--margin") if margin is not None
-         else Margin(run["margin"]["value"], run["margin"]["source"]))
-    names = {wid: _summary(spec) for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True)}
+    m = Margin(margin, "--margin") if margin is not None else Margin(run["margin"]["value"], run["margin"]["source"])
+    names = {
+        wid: _summary(spec) for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True)
+    }
 
     table = stats.per_process(batches)
     estimates = stats.estimate_table(table).rename(columns=ESTIMATE_COLUMNS)
     estimates["workload"] = estimates["workload_id"].map(names)
-    dtypes = {wid: spec["dtype"] for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True)}
-    estimates = estimates.join(_peak_columns(table, records.read_processes(run_dir, run), dtypes),
-                               on=["kernel", "workload_id"])
+    dtypes = {
+        wid: spec["dtype"] for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True)
+    }
+    estimates = estimates.join(
+        _peak_columns(table, records.read_processes(run_dir, run), dtypes), on=["kernel", "workload_id"]
+    )
     speedups = stats.speedup_table(table, baseline, margin=m.value).rename(columns=SPEEDUP_COLUMNS)
     speedups["workload"] = speedups["workload_id"].map(names)
     speedups["margin_source"] = m.source
@@ -147,14 +166,22 @@ def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str
 
     from .peak import lane_ops_per_ns
 
-    columns = ["peak_gflops", "ops_per_test", "bound_ns_per_test", "peak_fraction", "peak_fraction_ci_low",
-               "peak_fraction_ci_high"]
+    columns = [
+        "peak_gflops",
+        "ops_per_test",
+        "bound_ns_per_test",
+        "peak_fraction",
+        "peak_fraction_ci_low",
+        "peak_fraction_ci_high",
+    ]
     if processes.empty:
         return pd.DataFrame(columns=["kernel", "workload_id", *columns]).set_index(["kernel", "workload_id"])
     peak = processes.groupby("process").agg(peak_gflops=("peak_gflops", "mean"), peak_isa=("peak_isa", "first"))
     joined = table.join(peak, on="process").dropna(subset=["peak_gflops"])
-    rate = [lane_ops_per_ns(g, dtypes[w], isa)
-            for g, w, isa in zip(joined["peak_gflops"], joined["workload_id"], joined["peak_isa"], strict=True)]
+    rate = [
+        lane_ops_per_ns(g, dtypes[w], isa)
+        for g, w, isa in zip(joined["peak_gflops"], joined["workload_id"], joined["peak_isa"], strict=True)
+    ]
     slots = stats.estimate_table(joined.assign(ns_per_test=joined["ns_per_test"] * rate))
     slots = slots.set_index(["kernel", "workload_id"])
     keys = ["kernel", "workload_id"]
@@ -162,17 +189,26 @@ def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str
     peaks = peaks.reindex(slots.index)
     known = set(ext.kernel_names(internal=True))
     ops = np.array([ext.kernel_info(k).ops if k in known else np.nan for k, _ in peaks.index], dtype=float)
-    mean_rate = np.array([lane_ops_per_ns(g, dtypes[w], isa)
-                          for (_, w), g, isa in zip(peaks.index, peaks["peak_gflops"], peaks["peak_isa"], strict=True)])
-    return pd.DataFrame({
-        "peak_gflops": peaks["peak_gflops"],
-        "ops_per_test": ops,
-        "bound_ns_per_test": ops / mean_rate,
-        "peak_fraction": ops / slots["mean"],
-        "peak_fraction_ci_low": ops / slots["ci_high"],
-        # a time interval reaching 0 or below (few, noisy processes) leaves the fraction unbounded above
-        "peak_fraction_ci_high": np.where(slots["ci_low"] > 0, ops / slots["ci_low"].where(slots["ci_low"] > 0), np.inf),
-    }, index=slots.index)
+    mean_rate = np.array(
+        [
+            lane_ops_per_ns(g, dtypes[w], isa)
+            for (_, w), g, isa in zip(peaks.index, peaks["peak_gflops"], peaks["peak_isa"], strict=True)
+        ]
+    )
+    return pd.DataFrame(
+        {
+            "peak_gflops": peaks["peak_gflops"],
+            "ops_per_test": ops,
+            "bound_ns_per_test": ops / mean_rate,
+            "peak_fraction": ops / slots["mean"],
+            "peak_fraction_ci_low": ops / slots["ci_high"],
+            # a time interval reaching 0 or below (few, noisy processes) leaves the fraction unbounded above
+            "peak_fraction_ci_high": np.where(
+                slots["ci_low"] > 0, ops / slots["ci_low"].where(slots["ci_low"] > 0), np.inf
+            ),
+        },
+        index=slots.index,
+    )
 
 
 def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
@@ -243,8 +279,10 @@ def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], di
         try:
             spec = spec_from_dict(specs[wid])
             if workload_id(spec) != wid:
-                sources[wid] = (f"not in the cache, and its spec now gives another id ({workload_id(spec)}): "
-                                "generator or mesh file changed; not shown")
+                sources[wid] = (
+                    f"not in the cache, and its spec now gives another id ({workload_id(spec)}): "
+                    "generator or mesh file changed; not shown"
+                )
             else:
                 found[wid] = cache.make(spec)
                 sources[wid] = "not in the cache: rebuilt from the spec recorded in run.json (same bytes)"
@@ -296,8 +334,10 @@ def _validation(run_dir: Path, kernels: list[str], dtypes: list[str], quick: boo
     except Exception as exc:  # the suite must never stop the analysis: the report shows why
         return f"The robustness suite could not run: {type(exc).__name__}: {exc}"
     records.write_csv(df, path)
-    return (f"Read from {runfolder.VALIDATE} in the run folder, made by the analysis step ({df.attrs['size']} "
-            f"sizes, seed {df.attrs['seed']}, {df.attrs['seconds']:.1f} s).")
+    return (
+        f"Read from {runfolder.VALIDATE} in the run folder, made by the analysis step ({df.attrs['size']} "
+        f"sizes, seed {df.attrs['seed']}, {df.attrs['seconds']:.1f} s)."
+    )
 
 
 def _peer_tables(run_dir: Path) -> tuple[dict[str, pd.DataFrame], str]:
@@ -315,12 +355,15 @@ def _peer_tables(run_dir: Path) -> tuple[dict[str, pd.DataFrame], str]:
         rates, ratios = peers.summarise(pd.read_csv(path))
     except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError, KeyError, IndexError) as exc:
         return {}, f"{runfolder.PEERS} cannot be used ({type(exc).__name__}: {exc})"
-    return {runfolder.PEER_RATES: rates.reindex(columns=list(runfolder.FILES[runfolder.PEER_RATES])),
-            runfolder.PEER_RATIOS: ratios.reindex(columns=list(runfolder.FILES[runfolder.PEER_RATIOS]))}, "summarised"
+    return {
+        runfolder.PEER_RATES: rates.reindex(columns=list(runfolder.FILES[runfolder.PEER_RATES])),
+        runfolder.PEER_RATIOS: ratios.reindex(columns=list(runfolder.FILES[runfolder.PEER_RATIOS])),
+    }, "summarised"
 
 
-def write_all(run_dir: str | Path, baseline: str | None = None, margin: float | None = None,
-              validate_quick: bool = False) -> Derived:
+def write_all(
+    run_dir: str | Path, baseline: str | None = None, margin: float | None = None, validate_quick: bool = False
+) -> Derived:
     """Write every derived table of ``run_dir``, its workload pictures and ``analysis.json``.
 
     The analysis step of ``tribench run`` and ``tribench stats``: estimates

@@ -30,7 +30,16 @@ from tribench.stats import DEFAULTS, MAX_MARGIN, check_margin
 from .margin import CALIBRATION, Margin, latest_margin, user_calibration_path
 from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
 
-__all__ = ["AA_COPIES", "MAX_MARGIN", "Margin", "check_margin", "aa_speedups", "calibrate", "latest_margin", "user_calibration_path"]
+__all__ = [
+    "AA_COPIES",
+    "MAX_MARGIN",
+    "Margin",
+    "check_margin",
+    "aa_speedups",
+    "calibrate",
+    "latest_margin",
+    "user_calibration_path",
+]
 
 #: Kernels that have an A/A copy, and its name.
 AA_COPIES = {"moller_trumbore": "moller_trumbore_aa"}
@@ -105,14 +114,24 @@ def calibrate(
     if processes < 2 or experiments < 1:
         raise UserError("an A/A calibration needs processes >= 2 and experiments >= 1")
     copy = AA_COPIES[kernel]
-    sweep = Sweep((kernel, copy), tuple(workloads) or (PairSpec(n=10_000, hit_rate=0.5),),
-                  processes=processes * experiments, rounds=rounds, warmup=warmup,
-                  target_ms=target_ms, seed=seed)
+    sweep = Sweep(
+        (kernel, copy),
+        tuple(workloads) or (PairSpec(n=10_000, hit_rate=0.5),),
+        processes=processes * experiments,
+        rounds=rounds,
+        warmup=warmup,
+        target_ms=target_ms,
+        seed=seed,
+    )
     run_dir = Path(run_dir)
     # an A/A run records the default margin: the margin is what it measures
-    runner.start(sweep, run_dir, margin=Margin(DEFAULTS.margin, "default (this is a calibration run)"),
-                 progress=progress, extra={"calibration": {"kernel": kernel, "copy": copy,
-                                                            "processes_per_experiment": processes}})
+    runner.start(
+        sweep,
+        run_dir,
+        margin=Margin(DEFAULTS.margin, "default (this is a calibration run)"),
+        progress=progress,
+        extra={"calibration": {"kernel": kernel, "copy": copy, "processes_per_experiment": processes}},
+    )
     results = aa_speedups(records.read_batches(run_dir), kernel, copy, processes)
     summary = aa_summary(results)
     record = {
@@ -132,7 +151,10 @@ def calibrate(
     write_text(run_dir / CALIBRATION, text)
     if save:
         # only a usable margin becomes the margin of later sweeps
-        check_margin(record["margin"], f"the A/A calibration in {run_dir / CALIBRATION} (not saved as the "
-                                      f"user-level calibration; the default margin stays in use)")
+        check_margin(
+            record["margin"],
+            f"the A/A calibration in {run_dir / CALIBRATION} (not saved as the "
+            f"user-level calibration; the default margin stays in use)",
+        )
         write_text(user_calibration_path(), text)
     return record

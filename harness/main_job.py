@@ -43,8 +43,9 @@ def _say(log: TextIO | None, text: str) -> None:
     print(text, file=sys.stderr if log is None else log)
 
 
-def run(out: str | Path, quick: bool = False, progress: bool | None = None, peers: bool = True,
-        log: TextIO | None = None) -> MainResult:
+def run(
+    out: str | Path, quick: bool = False, progress: bool | None = None, peers: bool = True, log: TextIO | None = None
+) -> MainResult:
     """Run the main job into the new folder ``out`` and return its tables.
 
     The default sweep (:func:`tribench.harness.plan.default_sweep`) in fresh
@@ -90,21 +91,31 @@ def run(out: str | Path, quick: bool = False, progress: bool | None = None, peer
     from .plan import default_sweep
 
     sweep = default_sweep(quick=quick)
-    _say(log, f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads, "
-              f"{sweep.processes} processes x {sweep.rounds} rounds: {sweep.n_batches} batches -> {out}")
+    _say(
+        log,
+        f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads, "
+        f"{sweep.processes} processes x {sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
+    )
     done = runner.start(sweep, out, progress=progress)
-    _say(log, f"{done.batches_run} batches run in {done.elapsed_s:.1f} s; "
-              f"{done.batches_done}/{done.batches_total} in {done.run_dir}")
+    _say(
+        log,
+        f"{done.batches_run} batches run in {done.elapsed_s:.1f} s; "
+        f"{done.batches_done}/{done.batches_total} in {done.run_dir}",
+    )
     peer_rows = _run_peers(out, quick=quick, progress=progress, log=log) if peers else None
     derived = analysis.write_all(out)
     val_path = Path(out) / runfolder.VALIDATE
-    val = (pd.read_csv(val_path) if val_path.is_file()
-           else pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE])))
+    val = (
+        pd.read_csv(val_path) if val_path.is_file() else pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE]))
+    )
     if val.empty:
         _say(log, f"validate: {derived.record['validate']}")
     else:
-        _say(log, f"validate: {int((val.verdict == 'fail').sum())} of {int((val.verdict != 'measured').sum())} "
-                  f"promises broken -> {val_path}")
+        _say(
+            log,
+            f"validate: {int((val.verdict == 'fail').sum())} of {int((val.verdict != 'measured').sum())} "
+            f"promises broken -> {val_path}",
+        )
     return MainResult(Path(out), derived.estimates, derived.speedups, val, peer_rows, done, derived.tables)
 
 
@@ -117,13 +128,18 @@ def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO 
         _say(log, f"peers: none installed ({peers.INSTALL}); the report has no peers")
         return None
     design = peers.PeerDesign.quick() if quick else peers.PeerDesign()
-    _say(log, f"peers: tribench's fastest kernel, trimesh and Embree on Suzanne {design.width}x{design.height}, "
-              f"{design.processes} processes x {design.reps} repetitions...")
+    _say(
+        log,
+        f"peers: tribench's fastest kernel, trimesh and Embree on Suzanne {design.width}x{design.height}, "
+        f"{design.processes} processes x {design.reps} repetitions...",
+    )
     try:
         frame = peers.measure(out, design, progress=progress)
     except KeyboardInterrupt:
-        raise SweepInterrupted(f"interrupted during the peers: the sweep is kept in {out}; `tribench stats {out}` "
-                               f"then `tribench report {out}` write the report without peers") from None
+        raise SweepInterrupted(
+            f"interrupted during the peers: the sweep is kept in {out}; `tribench stats {out}` "
+            f"then `tribench report {out}` write the report without peers"
+        ) from None
     except RuntimeError as exc:
         _say(log, f"peers: not measured: {exc}")
         return None

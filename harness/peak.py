@@ -79,8 +79,7 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     rng = np.random.default_rng(seed)
     jobs = {}
     for dtype in dtypes:
-        w = cache.make(MeshSpec("suzanne", triangles=968, width=size, height=size, dtype=dtype,
-                                result="closest"))
+        w = cache.make(MeshSpec("suzanne", triangles=968, width=size, height=size, dtype=dtype, result="closest"))
         for kernel in ext.kernel_names():
             job = ext.make_job(kernel, w.origins, w.directions, w.triangles, "closest")
             jobs[dtype, kernel] = (job, calibrate_loops(job, 5e6))
@@ -98,8 +97,15 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
         info = ext.kernel_info(kernel)
         bound = bound_ns_per_test(kernel, dtype, gflops, before.isa)
         ns = float(np.median(ts))
-        rows.append({"dtype": dtype, "kernel": kernel,
-                     "form": "scalar" if info.lanes == 1 else f"{info.lanes} lanes, {info.isa}",
-                     "ops_per_test": info.ops, "bound_ns_per_test": bound, "ns_per_test": ns,
-                     "fraction": bound / ns})
+        rows.append(
+            {
+                "dtype": dtype,
+                "kernel": kernel,
+                "form": "scalar" if info.lanes == 1 else f"{info.lanes} lanes, {info.isa}",
+                "ops_per_test": info.ops,
+                "bound_ns_per_test": bound,
+                "ns_per_test": ns,
+                "fraction": bound / ns,
+            }
+        )
     return gflops, before.isa, pd.DataFrame(rows)

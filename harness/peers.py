@@ -51,8 +51,22 @@ from . import runfolder
 if TYPE_CHECKING:
     import pandas as pd  # imported where used: `tribench --help` reads PeerDesign's defaults
 
-__all__ = ["PEERS", "COLUMNS", "CONTENDERS", "PEER_NAMES", "PAUSE_S", "INSTALL", "PeerDesign", "available", "camera_spec",
-           "choose_kernel", "measure", "peers_path", "summarise", "format_summary"]
+__all__ = [
+    "PEERS",
+    "COLUMNS",
+    "CONTENDERS",
+    "PEER_NAMES",
+    "PAUSE_S",
+    "INSTALL",
+    "PeerDesign",
+    "available",
+    "camera_spec",
+    "choose_kernel",
+    "measure",
+    "peers_path",
+    "summarise",
+    "format_summary",
+]
 
 #: The file in a run folder.
 PEERS = runfolder.PEERS
@@ -92,20 +106,29 @@ class PeerDesign:
     MAX_REPETITIONS: ClassVar[int] = 10_000
 
     def __post_init__(self) -> None:
-        for name in ("width", "height", "triangles", "processes", "reps", "trimesh_rays", "choice_rays",
-                     "choice_rounds"):
+        for name in (
+            "width",
+            "height",
+            "triangles",
+            "processes",
+            "reps",
+            "trimesh_rays",
+            "choice_rays",
+            "choice_rounds",
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise UserError(f"{name} must be a positive integer, got {value!r}")
         if self.processes * self.reps > self.MAX_REPETITIONS:
-            raise UserError(f"processes x reps must be at most {self.MAX_REPETITIONS:,} (about a second "
-                            f"each: hours of measuring), got {self.processes:,} x {self.reps:,}")
+            raise UserError(
+                f"processes x reps must be at most {self.MAX_REPETITIONS:,} (about a second "
+                f"each: hours of measuring), got {self.processes:,} x {self.reps:,}"
+            )
 
     @classmethod
     def quick(cls) -> PeerDesign:
         """The same shape in about ten seconds (a 256x256 camera, wide intervals)."""
-        return cls(width=256, height=256, processes=3, reps=2, trimesh_rays=2048, choice_rays=2048,
-                   choice_rounds=3)
+        return cls(width=256, height=256, processes=3, reps=2, trimesh_rays=2048, choice_rays=2048, choice_rounds=3)
 
 
 @dataclass
@@ -154,8 +177,9 @@ def camera_spec(design: PeerDesign):
     """The peers' workload: Suzanne through a pinhole camera, float32, closest hit."""
     from tribench.workloads.spec import MeshSpec
 
-    return MeshSpec("suzanne", triangles=design.triangles, rays="camera", width=design.width,
-                    height=design.height, dtype="float32")
+    return MeshSpec(
+        "suzanne", triangles=design.triangles, rays="camera", width=design.width, height=design.height, dtype="float32"
+    )
 
 
 def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str:
@@ -181,8 +205,14 @@ def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str
     return min(kernels, key=lambda k: float(np.median(cpu[k])))  # the first of equals, in registry order
 
 
-def measure(out: str | Path, design: PeerDesign = PeerDesign(), *, kernel: str | None = None,
-            cpu: int | None = None, progress: bool | None = None) -> pd.DataFrame:
+def measure(
+    out: str | Path,
+    design: PeerDesign = PeerDesign(),
+    *,
+    kernel: str | None = None,
+    cpu: int | None = None,
+    progress: bool | None = None,
+) -> pd.DataFrame:
     """Run the peers' processes one after another; write ``peers.csv`` (``out``: see :func:`peers_path`).
 
     The file is rewritten after every finished process, so an interruption
@@ -211,8 +241,13 @@ def measure(out: str | Path, design: PeerDesign = PeerDesign(), *, kernel: str |
     frame = pd.DataFrame(rows, columns=list(COLUMNS))
     try:
         for process in range(design.processes):
-            job = {"design": asdict(design), "kernel": kernel, "process": process, "peers": peers,
-                   "cpu": -1 if cpu is None else cpu}
+            job = {
+                "design": asdict(design),
+                "kernel": kernel,
+                "process": process,
+                "peers": peers,
+                "cpu": -1 if cpu is None else cpu,
+            }
             rows += _run_worker(job, env)
             frame = pd.DataFrame(rows, columns=list(COLUMNS))
             write_csv(frame, path)
@@ -238,11 +273,17 @@ def _run_worker(job: dict[str, Any], env: dict[str, str]) -> list[dict[str, Any]
     from .runner import stderr_tail
 
     with tempfile.TemporaryFile("w+") as err:
-        done = subprocess.run([sys.executable, "-m", "tribench.harness.peers", json.dumps(job)],
-                              stdout=subprocess.PIPE, stderr=err, text=True, env=env)
+        done = subprocess.run(
+            [sys.executable, "-m", "tribench.harness.peers", json.dumps(job)],
+            stdout=subprocess.PIPE,
+            stderr=err,
+            text=True,
+            env=env,
+        )
         if done.returncode != 0:
-            raise RuntimeError(f"peers worker of process {job['process']} exited with code "
-                               f"{done.returncode}{stderr_tail(err)}")
+            raise RuntimeError(
+                f"peers worker of process {job['process']} exited with code {done.returncode}{stderr_tail(err)}"
+            )
     return [json.loads(line) for line in done.stdout.splitlines() if line.strip()]
 
 
@@ -265,8 +306,7 @@ def _worker(job: dict[str, Any]) -> None:
     n, summary = len(o), w.spec.summary()
     ambiguous = w.ambiguous()
     rng = np.random.default_rng([design.seed, 2, job["process"]])
-    subset = np.sort(np.random.default_rng([design.seed, 3]).choice(n, size=min(design.trimesh_rays, n),
-                                                                     replace=False))
+    subset = np.sort(np.random.default_rng([design.seed, 3]).choice(n, size=min(design.trimesh_rays, n), replace=False))
     kernel = job["kernel"]
     info = ext.kernel_info(kernel)
     form = f"x{info.lanes} {info.isa}" if info.lanes > 1 else "scalar"
@@ -283,10 +323,13 @@ def _worker(job: dict[str, Any]) -> None:
     label = f"tribench {version()} {kernel} ({form})"
     t0 = time.perf_counter_ns()
     batch_job = ext.make_job(kernel, o, d, tris, "closest")
-    contenders["tribench"] = (label, slice(None), lambda: ext.time_batch(batch_job, 1),
-                              time.perf_counter_ns() - t0)
-    contenders["tribench_call"] = (f"{label}, ext.intersect", slice(None),
-                                   lambda: ext.intersect(kernel, o, d, tris, "closest").index, 0)
+    contenders["tribench"] = (label, slice(None), lambda: ext.time_batch(batch_job, 1), time.perf_counter_ns() - t0)
+    contenders["tribench_call"] = (
+        f"{label}, ext.intersect",
+        slice(None),
+        lambda: ext.intersect(kernel, o, d, tris, "closest").index,
+        0,
+    )
     # the C-timed loop returns counts only; both tribench contenders run the same kernel on the same rays
     answers = disagreements(ext.intersect(kernel, o, d, tris, "closest").index, slice(None))
     differ = {"tribench": answers, "tribench_call": answers}
@@ -297,16 +340,24 @@ def _worker(job: dict[str, Any]) -> None:
         t0 = time.perf_counter_ns()
         slow = ray_triangle.RayMeshIntersector(mesh)
         slow.intersects_first(o_sub[:1], d_sub[:1])  # builds the rtree
-        contenders["trimesh"] = (f"trimesh ray_triangle ({versions['trimesh']})", subset,
-                                 lambda: slow.intersects_first(o_sub, d_sub), time.perf_counter_ns() - t0)
+        contenders["trimesh"] = (
+            f"trimesh ray_triangle ({versions['trimesh']})",
+            subset,
+            lambda: slow.intersects_first(o_sub, d_sub),
+            time.perf_counter_ns() - t0,
+        )
     if "embree" in job["peers"]:
         from trimesh.ray import ray_pyembree
 
         t0 = time.perf_counter_ns()
         fast = ray_pyembree.RayMeshIntersector(mesh)
         fast.intersects_first(o[:1], d[:1])  # builds the BVH
-        contenders["embree"] = (f"Embree via trimesh ray_pyembree ({versions['embree']})", slice(None),
-                                lambda: fast.intersects_first(o, d), time.perf_counter_ns() - t0)
+        contenders["embree"] = (
+            f"Embree via trimesh ray_pyembree ({versions['embree']})",
+            slice(None),
+            lambda: fast.intersects_first(o, d),
+            time.perf_counter_ns() - t0,
+        )
 
     for rep in range(design.reps):
         for position, name in enumerate(rng.permutation(list(contenders))):
@@ -321,8 +372,24 @@ def _worker(job: dict[str, Any]) -> None:
                 elapsed = answer.elapsed_ns  # the loop alone, timed in C
             elif name not in differ:
                 differ[name] = disagreements(answer, rows)
-            row = PeerRow(job["process"], rep, position, name, label, kernel, w.workload_id, summary, rays,
-                          int(elapsed), int(wall), int(used), rays / elapsed * 1e9, setup_ns, *differ[name], cpu)
+            row = PeerRow(
+                job["process"],
+                rep,
+                position,
+                name,
+                label,
+                kernel,
+                w.workload_id,
+                summary,
+                rays,
+                int(elapsed),
+                int(wall),
+                int(used),
+                rays / elapsed * 1e9,
+                setup_ns,
+                *differ[name],
+                cpu,
+            )
             sys.stdout.write(json.dumps(asdict(row)) + "\n")
     sys.stdout.flush()
 
@@ -345,44 +412,74 @@ def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFra
     rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
     if peers.empty or not rates_ok.all():
         raise UserError(f"{PEERS} needs rows with positive, finite rays_per_s ({int((~rates_ok).sum())} are not)")
-    per_process = (peers.assign(log_rate=np.log(peers["rays_per_s"]), share=peers["cpu_ns"] / peers["wall_ns"])
-                   .groupby(["contender", "process"], sort=False)
-                   .agg(log_rate=("log_rate", "mean"), share=("share", "median"), setup_ns=("setup_ns", "median"),
-                        rays=("rays", "first"), differ=("differ", "max"), differ_ambiguous=("differ_ambiguous", "max"),
-                        implementation=("implementation", "first"))
-                   .reset_index())
+    per_process = (
+        peers.assign(log_rate=np.log(peers["rays_per_s"]), share=peers["cpu_ns"] / peers["wall_ns"])
+        .groupby(["contender", "process"], sort=False)
+        .agg(
+            log_rate=("log_rate", "mean"),
+            share=("share", "median"),
+            setup_ns=("setup_ns", "median"),
+            rays=("rays", "first"),
+            differ=("differ", "max"),
+            differ_ambiguous=("differ_ambiguous", "max"),
+            implementation=("implementation", "first"),
+        )
+        .reset_index()
+    )
     per_process["rays_per_s"] = np.exp(per_process["log_rate"])
     order = [c for c in CONTENDERS if c in set(per_process["contender"])]
     rates = []
     for name in order:
         g = per_process.loc[per_process["contender"] == name]
         gm = stats.geometric_mean(g["rays_per_s"], confidence)
-        rates.append({"contender": name, "implementation": g["implementation"].iloc[0],
-                      "rays": int(g["rays"].iloc[0]), "rays_per_s": gm.mean, "ci_low": gm.ci_low,
-                      "ci_high": gm.ci_high, "n_processes": gm.n, "cpu_share": float(g["share"].median()),
-                      "setup_ms": float(g["setup_ns"].median()) / 1e6, "differ": int(g["differ"].max()),
-                      "differ_ambiguous": int(g["differ_ambiguous"].max())})
+        rates.append(
+            {
+                "contender": name,
+                "implementation": g["implementation"].iloc[0],
+                "rays": int(g["rays"].iloc[0]),
+                "rays_per_s": gm.mean,
+                "ci_low": gm.ci_low,
+                "ci_high": gm.ci_high,
+                "n_processes": gm.n,
+                "cpu_share": float(g["share"].median()),
+                "setup_ms": float(g["setup_ns"].median()) / 1e6,
+                "differ": int(g["differ"].max()),
+                "differ_ambiguous": int(g["differ_ambiguous"].max()),
+            }
+        )
     wide = per_process.pivot(index="process", columns="contender", values="rays_per_s")
     ratios = []
-    for a, b in [("tribench", p) for p in PEER_NAMES] + [("tribench_call", p) for p in PEER_NAMES] \
-            + [("tribench", "tribench_call")]:
+    for a, b in (
+        [("tribench", p) for p in PEER_NAMES]
+        + [("tribench_call", p) for p in PEER_NAMES]
+        + [("tribench", "tribench_call")]
+    ):
         if a in wide and b in wide:
             pair = wide[[a, b]].dropna()
             # rays/s a over b = time per ray of b over a's: a speedup with b as the baseline
             s = stats.speedup(1 / pair[b], 1 / pair[a], confidence)
-            ratios.append({"contender": a, "over": b, "ratio": s.ratio, "ci_low": s.ci_low, "ci_high": s.ci_high,
-                           "n_processes": s.n})
+            ratios.append(
+                {
+                    "contender": a,
+                    "over": b,
+                    "ratio": s.ratio,
+                    "ci_low": s.ci_low,
+                    "ci_high": s.ci_high,
+                    "n_processes": s.n,
+                }
+            )
     return pd.DataFrame(rates), pd.DataFrame(ratios)
 
 
 def format_summary(rates: pd.DataFrame, ratios: pd.DataFrame) -> str:
     """The two tables of :func:`summarise` as text."""
-    lines = [f"{'contender':<15}{'rays':>8}{'rays/s':>12}   {'95% CI':<24}{'CPU':>5}{'setup ms':>10}"
-             "   implementation"]
+    lines = [f"{'contender':<15}{'rays':>8}{'rays/s':>12}   {'95% CI':<24}{'CPU':>5}{'setup ms':>10}   implementation"]
     for r in rates.itertuples(index=False):
         ci = f"[{r.ci_low:.4g}, {r.ci_high:.4g}]"
-        lines.append(f"{r.contender:<15}{r.rays:>8}{r.rays_per_s:>12.4g}   {ci:<24}{r.cpu_share:>5.0%}"
-                     f"{r.setup_ms:>10.1f}   {r.implementation}")
+        lines.append(
+            f"{r.contender:<15}{r.rays:>8}{r.rays_per_s:>12.4g}   {ci:<24}{r.cpu_share:>5.0%}"
+            f"{r.setup_ms:>10.1f}   {r.implementation}"
+        )
     lines.append("\nrays/s ratios, paired by process (>1: the first is faster)")
     for r in ratios.itertuples(index=False):
         lines.append(f"  {r.contender:<14} / {r.over:<14}{r.ratio:>10.4g}   [{r.ci_low:.4g}, {r.ci_high:.4g}]")
@@ -393,8 +490,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """The worker's entry point: ``python -m tribench.harness.peers JOB_JSON``."""
     args = list(sys.argv[1:] if argv is None else argv)
     if len(args) != 1:
-        print("usage: python -m tribench.harness.peers JOB_JSON (started by tribench.harness.peers.measure)",
-              file=sys.stderr)
+        print(
+            "usage: python -m tribench.harness.peers JOB_JSON (started by tribench.harness.peers.measure)",
+            file=sys.stderr,
+        )
         return 2
     _worker(json.loads(args[0]))
     return 0

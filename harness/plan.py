@@ -97,15 +97,17 @@ MAX_WORKLOADS = 1_000  # each is generated, cached and calibrated in every proce
 _WHY = {
     "processes": " (each process costs about 5 s of start-up and checks)",
     "batches": f" (about {MAX_BATCHES * DEFAULT_TARGET_MS / 3.6e6:.1f} hours of timed batches at the "
-               f"default {DEFAULT_TARGET_MS:g} ms each, and about 150 MB of plan)",
+    f"default {DEFAULT_TARGET_MS:g} ms each, and about 150 MB of plan)",
 }
 
 
 def check_workload_count(n: int) -> None:
     """Refuse more than :data:`MAX_WORKLOADS` workloads (before any is built)."""
     if n > MAX_WORKLOADS:
-        raise UserError(f"the sweep has {n:,} workloads; at most {MAX_WORKLOADS:,} (each is generated, cached "
-                        f"and calibrated in every process; the main job has 25): split it into several sweeps")
+        raise UserError(
+            f"the sweep has {n:,} workloads; at most {MAX_WORKLOADS:,} (each is generated, cached "
+            f"and calibrated in every process; the main job has 25): split it into several sweeps"
+        )
 
 
 def _spec_types() -> tuple[type, ...]:
@@ -173,16 +175,23 @@ class Sweep:
 
         put = object.__setattr__  # frozen: normalise once, here
         # sizes first, arithmetically: nothing is expanded before the plan is known to be bounded
-        for name, lo, hi in (("processes", 1, MAX_PROCESSES), ("rounds", 1, MAX_ROUNDS),
-                             ("warmup", 0, MAX_WARMUP), ("seed", 0, 2**63 - 1)):
+        for name, lo, hi in (
+            ("processes", 1, MAX_PROCESSES),
+            ("rounds", 1, MAX_ROUNDS),
+            ("warmup", 0, MAX_WARMUP),
+            ("seed", 0, 2**63 - 1),
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
                 raise UserError(f"{name} must be an integer, got {value!r:.80}")
             if not lo <= value <= hi:
                 raise UserError(f"{name} must be between {lo} and {hi:,}, got {value:,}{_WHY.get(name, '')}")
             put(self, name, int(value))
-        if (isinstance(self.target_ms, bool) or not isinstance(self.target_ms, (int, float, np.integer, np.floating))
-                or not 0.01 <= self.target_ms <= 1000):
+        if (
+            isinstance(self.target_ms, bool)
+            or not isinstance(self.target_ms, (int, float, np.integer, np.floating))
+            or not 0.01 <= self.target_ms <= 1000
+        ):
             raise UserError(f"target_ms must be a number between 0.01 and 1000, got {self.target_ms!r:.80}")
         put(self, "target_ms", float(self.target_ms))
         for name in ("kernels", "workloads"):
@@ -210,15 +219,18 @@ class Sweep:
         put(self, "workload_ids", ids)
         for spec in self.workloads:
             if not self.kernels_for(spec):
-                raise UserError(f"no kernel of the sweep runs mode {spec.mode!r} ({spec.summary()}): "
-                                 f"wide kernels (*_x8) have no pairs mode")
+                raise UserError(
+                    f"no kernel of the sweep runs mode {spec.mode!r} ({spec.summary()}): "
+                    f"wide kernels (*_x8) have no pairs mode"
+                )
         per_round = self.n_batches // (self.processes * (self.warmup + self.rounds))
         if self.n_batches > MAX_BATCHES:
             raise UserError(
                 f"the sweep has {self.n_batches:,} batches ({self.processes:,} processes x "
                 f"{self.warmup + self.rounds:,} rounds with warm-up x {per_round:,} kernel-workload pairs); "
                 f"a plan holds at most {MAX_BATCHES:,}{_WHY['batches']}: use fewer processes, rounds or "
-                f"workloads, or split the study into several sweeps")
+                f"workloads, or split the study into several sweeps"
+            )
 
     def kernels_for(self, spec: Spec) -> tuple[str, ...]:
         """The sweep's kernels that run ``spec``'s mode (wide kernels have no
@@ -344,7 +356,9 @@ def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
     if any(len(v) == 0 for v in axes.values()):
         raise UserError("an empty list in a workload table gives no workloads")
     check_workload_count(math.prod(len(v) for v in axes.values()))  # before building the grid
-    return [spec_from_dict({**fixed, **dict(zip(axes, combo, strict=True))}) for combo in itertools.product(*axes.values())]
+    return [
+        spec_from_dict({**fixed, **dict(zip(axes, combo, strict=True))}) for combo in itertools.product(*axes.values())
+    ]
 
 
 _TOP_LEVEL = ("kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed")
@@ -375,8 +389,9 @@ def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None
         raise UserError(f"{path}: a sweep file needs 'kernels' and at least one [[workloads]] table")
     kernels = data["kernels"]
     if not isinstance(kernels, (list, tuple)) or not all(isinstance(k, str) for k in kernels):
-        raise UserError(f"{path}: kernels: expected a list of kernel names (kernels = [\"moller_trumbore\"]), "
-                        f"got {kernels!r:.80}")
+        raise UserError(
+            f'{path}: kernels: expected a list of kernel names (kernels = ["moller_trumbore"]), got {kernels!r:.80}'
+        )
     tables = _as_tables(data.pop("workloads"), path)
     try:  # the grid's size, before any of it is built
         check_workload_count(sum(math.prod(len(v) for v in t.values() if isinstance(v, list)) for t in tables))

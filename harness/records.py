@@ -93,8 +93,11 @@ def check_new_run_dir(run_dir: str | Path) -> None:
     holding nothing but a lock file; else a UserError."""
     run_dir = Path(run_dir)
     if run_dir.exists() and (not run_dir.is_dir() or any(p.name != LOCK for p in run_dir.iterdir())):
-        raise UserError(f"{run_dir} exists and is not empty: a new run needs a new or empty folder "
-                        f"(tribench sweep --resume {run_dir} finishes an interrupted run)")
+        raise UserError(
+            f"{run_dir} exists and is not empty: a new run needs a new or empty folder "
+            f"(tribench sweep --resume {run_dir} finishes an interrupted run)"
+        )
+
 
 #: No row tribench writes is longer; a file larger than its rows allow is not tribench's.
 MAX_ROW_BYTES = 1024
@@ -323,16 +326,25 @@ def writer_lock(run_dir: str | Path) -> Iterator[None]:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             holder = _holder(fd) or {}
-            raise UserError(f"{run_dir} is being written by {_describe(holder)}: one writer per run folder; "
-                            f"wait for it to finish, or stop process {holder.get('pid', '?')}") from None
+            raise UserError(
+                f"{run_dir} is being written by {_describe(holder)}: one writer per run folder; "
+                f"wait for it to finish, or stop process {holder.get('pid', '?')}"
+            ) from None
         except OSError as exc:
             raise UserError(f"cannot lock {path}: {exc.strerror} (a file system without locks?)") from None
         previous = _holder(fd)
         if previous:
-            print(f"tribench: taking over the lock of dead process {previous.get('pid', '?')} on "
-                  f"{previous.get('host', '?')} (since {previous.get('since', '?')}) in {run_dir}", file=sys.stderr)
-        me = {"pid": os.getpid(), "host": socket.gethostname(),
-              "since": _dt.datetime.now().astimezone().isoformat(timespec="seconds"), "argv": sys.argv}
+            print(
+                f"tribench: taking over the lock of dead process {previous.get('pid', '?')} on "
+                f"{previous.get('host', '?')} (since {previous.get('since', '?')}) in {run_dir}",
+                file=sys.stderr,
+            )
+        me = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "since": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+            "argv": sys.argv,
+        }
         try:
             os.ftruncate(fd, 0)
             os.pwrite(fd, json.dumps(me).encode() + b"\n", 0)
@@ -381,8 +393,9 @@ def _check_plain_file(path: Path, max_bytes: int | None = None) -> None:
     if not stat.S_ISREG(st.st_mode):
         raise UserError(f"{path} is not a regular file")
     if max_bytes is not None and st.st_size > max_bytes:
-        raise UserError(f"{path} is {st.st_size} bytes, more than its run can write (at most {max_bytes}): "
-                        "not tribench's file")
+        raise UserError(
+            f"{path} is {st.st_size} bytes, more than its run can write (at most {max_bytes}): not tribench's file"
+        )
 
 
 def _short(value: str) -> str:
@@ -419,8 +432,12 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
         line = data[: exc.start].count(b"\n") + 1
         raise UserError(f"{path}:{line}: not UTF-8 text") from None
     if not text:
-        frame = pd.DataFrame({c: pd.Series(dtype={"int": "int64", "float": "float64", "bool": bool}
-                                           .get(kinds[c], object)) for c in columns})
+        frame = pd.DataFrame(
+            {
+                c: pd.Series(dtype={"int": "int64", "float": "float64", "bool": bool}.get(kinds[c], object))
+                for c in columns
+            }
+        )
         return frame
     reader = csv.reader(io.StringIO(text))
     rows: list[list[str]] = []
@@ -429,8 +446,10 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
         header = next(reader)
         if header != columns:
             got = ",".join(header)
-            raise UserError(f"{path}:1: the header is not {path.name}'s columns (another tribench version, or "
-                            f"not tribench's file): expected {','.join(columns)}, got {_short(got)}")
+            raise UserError(
+                f"{path}:1: the header is not {path.name}'s columns (another tribench version, or "
+                f"not tribench's file): expected {','.join(columns)}, got {_short(got)}"
+            )
         for row in reader:
             if len(row) != len(columns):
                 what = "a blank line" if not row else f"{len(row)} fields, expected {len(columns)}"
@@ -460,7 +479,7 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
                 try:
                     frame[c] = s.astype(np.uint64)
                 except (OverflowError, ValueError):
-                    big = s.map(lambda v: not -2**63 <= int(v) < 2**64)
+                    big = s.map(lambda v: not -(2**63) <= int(v) < 2**64)
                     refuse(big, lambda i, c=c: f"{c} is {_short(raw[c].iloc[i])}, out of range")
                     refuse(s.str.startswith("-"), lambda i, c=c: f"{c} mixes negative and unsigned 64-bit values")
         elif kind == "float":
@@ -502,19 +521,33 @@ def _run_rules(run: Mapping[str, Any] | None, kernel: bool = True, workload: boo
         return []
     sweep = run["sweep"]
     rules: list[Rule] = [
-        (lambda f: f["run_id"] != run["run_id"],
-         lambda r: f"run id {_short(r['run_id'])} is not this run's ({run['run_id']}, in {RUN})"),
-        (lambda f: (f["process"] < 0) | (f["process"] >= sweep["processes"]),
-         lambda r: f"process {r['process']} is not one of the run's {sweep['processes']} (0 to "
-                   f"{sweep['processes'] - 1})"),
+        (
+            lambda f: f["run_id"] != run["run_id"],
+            lambda r: f"run id {_short(r['run_id'])} is not this run's ({run['run_id']}, in {RUN})",
+        ),
+        (
+            lambda f: (f["process"] < 0) | (f["process"] >= sweep["processes"]),
+            lambda r: (
+                f"process {r['process']} is not one of the run's {sweep['processes']} (0 to {sweep['processes'] - 1})"
+            ),
+        ),
     ]
     if kernel:
-        rules.append((lambda f: ~f["kernel"].isin(sweep["kernels"]),
-                      lambda r: f"unknown kernel {_short(r['kernel'])}: not in the run's sweep "
-                                f"({', '.join(sweep['kernels'])})"))
+        rules.append(
+            (
+                lambda f: ~f["kernel"].isin(sweep["kernels"]),
+                lambda r: (
+                    f"unknown kernel {_short(r['kernel'])}: not in the run's sweep ({', '.join(sweep['kernels'])})"
+                ),
+            )
+        )
     if workload:
-        rules.append((lambda f: ~f["workload_id"].isin(sweep["workload_ids"]),
-                      lambda r: f"unknown workload {_short(r['workload_id'])}: not in the run's sweep"))
+        rules.append(
+            (
+                lambda f: ~f["workload_id"].isin(sweep["workload_ids"]),
+                lambda r: f"unknown workload {_short(r['workload_id'])}: not in the run's sweep",
+            )
+        )
     return rules
 
 
@@ -543,24 +576,38 @@ def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
         *_run_rules(run),
         *_positive("loops", "tests", "elapsed_ns"),
         *_not_negative("hits", "attempt", "position"),
-        (lambda f: f["warmup"] != (f["round"] < 0),
-         lambda r: f"warmup is {r['warmup']} but round is {r['round']} (warm-up rounds are negative)"),
-        (lambda f: ~f["dtype"].isin(["float32", "float64"]), lambda r: f"dtype {_short(r['dtype'])} is not float32 "
-                                                                          "or float64"),
+        (
+            lambda f: f["warmup"] != (f["round"] < 0),
+            lambda r: f"warmup is {r['warmup']} but round is {r['round']} (warm-up rounds are negative)",
+        ),
+        (
+            lambda f: ~f["dtype"].isin(["float32", "float64"]),
+            lambda r: f"dtype {_short(r['dtype'])} is not float32 or float64",
+        ),
         _unique(("process", "workload_id", "round", "position", "kernel"), "the batch"),
     ]
     if run is not None:
         from .plan import Sweep, plan
 
-        planned = {(k.process, k.workload_id, k.round, k.position, k.kernel)
-                   for k in plan(Sweep.from_dict(run["sweep"]))}
+        planned = {
+            (k.process, k.workload_id, k.round, k.position, k.kernel) for k in plan(Sweep.from_dict(run["sweep"]))
+        }
 
         def outside(f: Any) -> Any:
-            return [key not in planned for key in
-                    zip(f["process"], f["workload_id"], f["round"], f["position"], f["kernel"], strict=True)]
+            return [
+                key not in planned
+                for key in zip(f["process"], f["workload_id"], f["round"], f["position"], f["kernel"], strict=True)
+            ]
 
-        rules.append((outside, lambda r: f"batch (process {r['process']}, round {r['round']}, position "
-                                         f"{r['position']}, kernel {r['kernel']}) is not in the run's plan"))
+        rules.append(
+            (
+                outside,
+                lambda r: (
+                    f"batch (process {r['process']}, round {r['round']}, position "
+                    f"{r['position']}, kernel {r['kernel']}) is not in the run's plan"
+                ),
+            )
+        )
     return _read_table(path, BatchRow, rules, _max_bytes(run, 1))
 
 
@@ -577,8 +624,10 @@ def read_checks(run_dir: str | Path, run: Mapping[str, Any] | None = None):
         *_run_rules(run),
         *_positive("rays"),
         *_not_negative("attempt", "ambiguous_rays", "disagreements", "ambiguous_disagreements", "hits"),
-        (lambda f: (f["disagreements"] > f["rays"]) | (f["ambiguous_rays"] > f["rays"]),
-         lambda r: f"more disagreements or ambiguous rays than rays ({r['rays']})"),
+        (
+            lambda f: (f["disagreements"] > f["rays"]) | (f["ambiguous_rays"] > f["rays"]),
+            lambda r: f"more disagreements or ambiguous rays than rays ({r['rays']})",
+        ),
         _unique(("process", "attempt", "workload_id", "kernel"), "the check"),
     ]
     return _read_table(path, CheckRow, rules, _max_bytes(run, 4))
@@ -619,7 +668,11 @@ def write_run(run_dir: str | Path, record: Mapping[str, Any]) -> None:
 
 #: The fields of run.json every reader relies on, and their types.
 _RUN_FIELDS: dict[str, type | tuple[type, ...]] = {
-    "run_id": str, "sweep": dict, "n_batches": int, "plan_sha256": str, "process_seeds": list,
+    "run_id": str,
+    "sweep": dict,
+    "n_batches": int,
+    "plan_sha256": str,
+    "process_seeds": list,
     "margin": dict,
 }
 
@@ -649,8 +702,9 @@ def read_run(run_dir: str | Path) -> dict[str, Any]:
         raise UserError(f"{path} is not a tribench run record (not a JSON object)")
     for key, kind in _RUN_FIELDS.items():
         if not isinstance(run.get(key), kind) or isinstance(run.get(key), bool):
-            raise UserError(f"{path}: {key!r} is missing or not a {getattr(kind, '__name__', kind)}; "
-                            "not a tribench run record")
+            raise UserError(
+                f"{path}: {key!r} is missing or not a {getattr(kind, '__name__', kind)}; not a tribench run record"
+            )
     try:
         sweep = Sweep.from_dict(run["sweep"])
     except UserError as exc:
@@ -663,8 +717,9 @@ def read_run(run_dir: str | Path) -> dict[str, Any]:
     if len(seeds) != sweep.processes or not all(isinstance(s, int) and not isinstance(s, bool) for s in seeds):
         raise UserError(f"{path}: 'process_seeds' must be {sweep.processes} integers, one per process")
     if not isinstance(run["margin"].get("source"), str):
-        raise UserError(f"{path}: 'margin' must be {{value: a number, source: text}}, "
-                        f"got {_short(json.dumps(run['margin']))}")
+        raise UserError(
+            f"{path}: 'margin' must be {{value: a number, source: text}}, got {_short(json.dumps(run['margin']))}"
+        )
     check_margin(run["margin"].get("value"), f"{path}: key 'margin.value'")
     if not isinstance(run.get("cpu"), (int, type(None))) or isinstance(run.get("cpu"), bool):
         raise UserError(f"{path}: 'cpu' must be a CPU number")

@@ -28,11 +28,43 @@ Who writes what:
 from __future__ import annotations
 
 __all__ = [
-    "ANALYSIS", "BATCHES", "BATCH_LABELS", "CALIBRATION", "CHECKS", "CORRECTNESS", "CROSSOVERS", "DERIVED",
-    "DRIFT", "ESTIMATES", "FILES", "KERNELS", "LOCK", "OPTIONAL", "OUTLIERS", "PEERS", "PEER_RATES", "PEER_RATIOS",
-    "PER_PROCESS", "PICTURES_DIR", "PROCESSES", "REPORT", "RUN", "SEED", "SEED_KINDS", "SEED_PICTURES",
-    "SEED_FILES", "SEED_WORKLOADS", "SLOPES", "SPEEDUPS", "SWEEP_FILE", "VALIDATE", "VARIANCE", "WARMUP", "WORKLOADS",
-    "WORKLOAD_FIGURES", "describe",
+    "ANALYSIS",
+    "BATCHES",
+    "BATCH_LABELS",
+    "CALIBRATION",
+    "CHECKS",
+    "CORRECTNESS",
+    "CROSSOVERS",
+    "DERIVED",
+    "DRIFT",
+    "ESTIMATES",
+    "FILES",
+    "KERNELS",
+    "LOCK",
+    "OPTIONAL",
+    "OUTLIERS",
+    "PEERS",
+    "PEER_RATES",
+    "PEER_RATIOS",
+    "PER_PROCESS",
+    "PICTURES_DIR",
+    "PROCESSES",
+    "REPORT",
+    "RUN",
+    "SEED",
+    "SEED_KINDS",
+    "SEED_PICTURES",
+    "SEED_FILES",
+    "SEED_WORKLOADS",
+    "SLOPES",
+    "SPEEDUPS",
+    "SWEEP_FILE",
+    "VALIDATE",
+    "VARIANCE",
+    "WARMUP",
+    "WORKLOADS",
+    "WORKLOAD_FIGURES",
+    "describe",
 ]
 
 # ------------------------------------------------------------------ names
@@ -387,8 +419,7 @@ _SEED: dict[str, str] = {
     "render_s_ci_high": "upper end of that interval, seconds",
     "render_s_min": "smallest per-process value, seconds",
     "replay_ns_per_test": "render_s / render_tests, nanoseconds",
-    "ratio_to_moller_seed": "render time of this kernel / that of moller_seed "
-                            "(geometric mean of per-process ratios)",
+    "ratio_to_moller_seed": "render time of this kernel / that of moller_seed (geometric mean of per-process ratios)",
     "ratio_to_moller_seed_ci_low": "lower end of its 95% paired interval",
     "ratio_to_moller_seed_ci_high": "upper end of that interval",
     "n_processes": "processes (replicates) behind the estimate",
@@ -397,7 +428,7 @@ _SEED: dict[str, str] = {
     "paper_ratio_real": "paper_real_s / moller_seed's paper_real_s",
     "paper_ratio_user": "paper_user_s / moller_seed's paper_user_s",
     "paper_user_ns_per_test": "paper_user_s / render_tests, nanoseconds: an upper bound on the seed's cost per "
-                              "test (its user time also covers spheres, the floor and shading)",
+    "test (its user time also covers spheres, the floor and shading)",
 }
 
 _SEED_KINDS: dict[str, str] = {
@@ -406,12 +437,11 @@ _SEED_KINDS: dict[str, str] = {
     "kernel": "kernel name",
     "workload_id": "the sample's workload id (tribench workloads show ID)",
     "mode": "closest (primary, reflected) or any (shadow)",
-    "ns_per_test": "nanoseconds per ray-triangle test the kernel ran: mean over processes of the "
-                   "per-process median",
+    "ns_per_test": "nanoseconds per ray-triangle test the kernel ran: mean over processes of the per-process median",
     "ns_per_test_ci_low": "lower end of its 95% Student-t interval",
     "ns_per_test_ci_high": "upper end of that interval",
     "tests_per_pass": "tests the kernel runs in one pass over the sample (any mode: up to each ray's first "
-                      "hit, in blocks of 8 for wide kernels)",
+    "hit, in blocks of 8 for wide kernels)",
     "sample_tests": "tests a scalar kernel runs in one pass over the sample",
     "stream_tests": "tests a scalar kernel runs on all of the render's rays of this kind",
     "render_s": "this kind's share of render_s, seconds (mean over processes)",
@@ -485,9 +515,25 @@ SEED_FILES: dict[str, dict[str, str]] = {
 
 #: The tables the analysis step derives from the measured files, in the order it writes them
 #: (``peer_rates.csv`` and ``peer_ratios.csv`` only when the folder has ``peers.csv``).
-DERIVED: tuple[str, ...] = (ESTIMATES, SPEEDUPS, VALIDATE, WORKLOADS, WORKLOAD_FIGURES, CORRECTNESS, PER_PROCESS,
-                            BATCH_LABELS, CROSSOVERS, SLOPES, DRIFT, VARIANCE, OUTLIERS, WARMUP, KERNELS,
-                            PEER_RATES, PEER_RATIOS)
+DERIVED: tuple[str, ...] = (
+    ESTIMATES,
+    SPEEDUPS,
+    VALIDATE,
+    WORKLOADS,
+    WORKLOAD_FIGURES,
+    CORRECTNESS,
+    PER_PROCESS,
+    BATCH_LABELS,
+    CROSSOVERS,
+    SLOPES,
+    DRIFT,
+    VARIANCE,
+    OUTLIERS,
+    WARMUP,
+    KERNELS,
+    PEER_RATES,
+    PEER_RATIOS,
+)
 
 #: Files a run folder has only sometimes (the peers need an installed peer).
 OPTIONAL = frozenset({PEERS, PEER_RATES, PEER_RATIOS})

@@ -97,8 +97,9 @@ class Progress:
     batches it did not run.
     """
 
-    def __init__(self, total: int, done: int, stream: TextIO | None = None, force: bool = False,
-                 unit: str = "batches") -> None:
+    def __init__(
+        self, total: int, done: int, stream: TextIO | None = None, force: bool = False, unit: str = "batches"
+    ) -> None:
         self.total, self.done, self._start_done, self.unit = total, done, done, unit
         self.stream = stream if stream is not None else sys.stderr
         self.enabled = force or (hasattr(self.stream, "isatty") and self.stream.isatty())
@@ -223,9 +224,17 @@ def start(
         return _start_locked(sweep, run_dir, margin, machine, keys, cpu, progress, worker, extra)
 
 
-def _start_locked(sweep: Sweep, run_dir: Path, margin: Any, machine: dict[str, Any], keys: list[BatchKey],
-                  cpu: int | None, progress: bool | None, worker: Sequence[str],
-                  extra: dict[str, Any] | None) -> RunResult:
+def _start_locked(
+    sweep: Sweep,
+    run_dir: Path,
+    margin: Any,
+    machine: dict[str, Any],
+    keys: list[BatchKey],
+    cpu: int | None,
+    progress: bool | None,
+    worker: Sequence[str],
+    extra: dict[str, Any] | None,
+) -> RunResult:
     from .worker import kernel_isa
 
     record = {
@@ -248,9 +257,7 @@ def _start_locked(sweep: Sweep, run_dir: Path, margin: Any, machine: dict[str, A
     return _execute(run_dir, record, sweep, keys, 0, progress, worker)
 
 
-def resume(
-    run_dir: str | Path, *, progress: bool | None = None, worker: Sequence[str] = WORKER
-) -> RunResult:
+def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequence[str] = WORKER) -> RunResult:
     """Run the batches of ``run_dir``'s plan that ``batches.csv`` lacks.
 
     A partial last line of ``batches.csv`` or ``processes.csv`` (a write cut
@@ -285,8 +292,10 @@ def resume(
 def _attempts(run_dir: Path, record: dict[str, Any]) -> dict[int, int]:
     """The next attempt number of every process that has started before."""
     out: dict[int, int] = {}
-    for frame in (records.read_processes(run_dir, record),
-                  records.read_batches(run_dir, record) if os.path.lexists(run_dir / records.BATCHES) else None):
+    for frame in (
+        records.read_processes(run_dir, record),
+        records.read_batches(run_dir, record) if os.path.lexists(run_dir / records.BATCHES) else None,
+    ):
         if frame is None or frame.empty:
             continue
         for p, a in frame.groupby("process")["attempt"].max().items():
@@ -312,9 +321,11 @@ def _execute(
     bar = Progress(total, done_before, force=bool(progress)) if progress is not False else None
     ran = 0
     try:
-        with RowWriter(run_dir / records.BATCHES, BATCH_COLUMNS) as batches, \
-                RowWriter(run_dir / records.PROCESSES, PROCESS_COLUMNS) as processes, \
-                RowWriter(run_dir / records.CHECKS, CHECK_COLUMNS) as checks:
+        with (
+            RowWriter(run_dir / records.BATCHES, BATCH_COLUMNS) as batches,
+            RowWriter(run_dir / records.PROCESSES, PROCESS_COLUMNS) as processes,
+            RowWriter(run_dir / records.CHECKS, CHECK_COLUMNS) as checks,
+        ):
 
             def on_batch(row: BatchRow) -> None:
                 nonlocal ran
@@ -324,8 +335,9 @@ def _execute(
                     bar.advance()
 
             for p, keys in by_process.items():
-                _run_process(record, sweep, p, attempts.get(p, 0), keys, worker, on_batch, processes.append,
-                             checks.append)
+                _run_process(
+                    record, sweep, p, attempts.get(p, 0), keys, worker, on_batch, processes.append, checks.append
+                )
     except KeyboardInterrupt:
         raise SweepInterrupted(
             f"interrupted: {done_before + ran} of {total} batches saved in {run_dir}; "
@@ -361,14 +373,22 @@ def _run_process(
     pad = int(np.random.default_rng([seed, attempt, 1]).integers(0, 4096))
     env = {**os.environ, PAD_VARIABLE: "x" * pad}
     wids = sorted({k.workload_id for k in keys})
-    job = WorkerJob(record["run_id"], process, attempt, seed, record["cpu"], sweep.target_ms,
-                    tuple(tuple(k.to_list()) for k in keys),
-                    {w: sweep.spec_of(w).to_dict() for w in wids})
+    job = WorkerJob(
+        record["run_id"],
+        process,
+        attempt,
+        seed,
+        record["cpu"],
+        sweep.target_ms,
+        tuple(tuple(k.to_list()) for k in keys),
+        {w: sweep.spec_of(w).to_dict() for w in wids},
+    )
     expected = set(keys)
     error = None
     with tempfile.TemporaryFile("w+") as err:
-        proc = subprocess.Popen(list(worker), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err,
-                                env=env, text=True)
+        proc = subprocess.Popen(
+            list(worker), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, env=env, text=True
+        )
         assert proc.stdin is not None and proc.stdout is not None  # both are pipes
         try:
             proc.stdin.write(job.to_json())
@@ -396,5 +416,7 @@ def _run_process(
         if error is not None:
             raise SweepError(error)
         if code != 0 or expected:
-            raise SweepError(f"worker of process {process} exited with code {code} "
-                             f"({len(expected)} batches not run){stderr_tail(err)}")
+            raise SweepError(
+                f"worker of process {process} exited with code {code} "
+                f"({len(expected)} batches not run){stderr_tail(err)}"
+            )

@@ -188,20 +188,53 @@ def run_seed(
             specs.append(spec)
             a = w.achieved
             info[workload_id(spec)] = {
-                "scene": labels[scene], "paper": scene if scene in PAPER else None, "rays": rays, "mode": spec.mode,
-                **{k: a[k] for k in ("triangles", "stream_rays", "stream_tests", "sample_rays", "sample_tests",
-                                     "test_hit_rate", "ray_hit_rate", "ambiguous_rays", "miss_mix")},
+                "scene": labels[scene],
+                "paper": scene if scene in PAPER else None,
+                "rays": rays,
+                "mode": spec.mode,
+                **{
+                    k: a[k]
+                    for k in (
+                        "triangles",
+                        "stream_rays",
+                        "stream_tests",
+                        "sample_rays",
+                        "sample_tests",
+                        "test_hit_rate",
+                        "ray_hit_rate",
+                        "ambiguous_rays",
+                        "miss_mix",
+                    )
+                },
             }
     if not specs:
         raise UserError("no scene shoots a ray that tests a triangle: nothing to replay")
 
-    sweep = Sweep(seed_kernels(), tuple(specs), processes=design.processes, rounds=design.rounds,
-                  warmup=design.warmup, target_ms=design.target_ms)
-    print(f"sweep: {len(sweep.kernels)} kernels x {len(specs)} workloads, {sweep.processes} processes x "
-          f"{sweep.rounds} rounds: {sweep.n_batches} batches -> {out}", file=log)
-    extra = {"command": command, "seed_replay": {"scenes": [labels[s] for s in resolved], "quick": quick,
-                                                 "width": size, "height": size, "sample": sample,
-                                                 "paper": PAPER, "workloads": info}}
+    sweep = Sweep(
+        seed_kernels(),
+        tuple(specs),
+        processes=design.processes,
+        rounds=design.rounds,
+        warmup=design.warmup,
+        target_ms=design.target_ms,
+    )
+    print(
+        f"sweep: {len(sweep.kernels)} kernels x {len(specs)} workloads, {sweep.processes} processes x "
+        f"{sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
+        file=log,
+    )
+    extra = {
+        "command": command,
+        "seed_replay": {
+            "scenes": [labels[s] for s in resolved],
+            "quick": quick,
+            "width": size,
+            "height": size,
+            "sample": sample,
+            "paper": PAPER,
+            "workloads": info,
+        },
+    }
     runner.start(sweep, out, progress=progress, extra=extra)
     write_tables(out, analyse(out, baseline=BASELINE))
 
@@ -239,8 +272,13 @@ def make_pictures(scene: str, label: str, size: int, out: Path) -> dict[str, Any
     margin = np.minimum(pixel_edge_margins(a, mask), pixel_edge_margins(b, mask))
     near = margin < EDGE_TOLERANCE
     tiny = np.abs(a.image - b.image)[mask].max(axis=1) < LAST_BIT
-    row.update(differing_pixels=count, near_edge_pixels=int(near.sum()), last_bit_pixels=int((~near & tiny).sum()),
-               other_pixels=int((~near & ~tiny).sum()), edge_tolerance=EDGE_TOLERANCE)
+    row.update(
+        differing_pixels=count,
+        near_edge_pixels=int(near.sum()),
+        last_bit_pixels=int((~near & tiny).sum()),
+        other_pixels=int((~near & ~tiny).sum()),
+        edge_tolerance=EDGE_TOLERANCE,
+    )
     return row
 
 
@@ -280,8 +318,11 @@ def render_per_process(pp: pd.DataFrame, workloads: Mapping[str, Mapping[str, An
     d = pp.join(info, on="workload_id", how="inner")
     d = d.assign(render_s=d["ns_per_test"] * d["tests_per_pass"] * d["stream_tests"] / d["sample_tests"] * 1e-9)
     kinds = info.groupby("scene").size()
-    g = (d.groupby(["scene", "kernel", "process"], sort=False)["render_s"]
-         .agg(render_s="sum", kinds="size").reset_index())
+    g = (
+        d.groupby(["scene", "kernel", "process"], sort=False)["render_s"]
+        .agg(render_s="sum", kinds="size")
+        .reset_index()
+    )
     return g.loc[g["kinds"] == g["scene"].map(kinds)].drop(columns="kinds").reset_index(drop=True)
 
 
@@ -314,40 +355,78 @@ def render_table(per: pd.DataFrame, scenes: Mapping[str, Mapping[str, Any]]) -> 
         paper = PAPER.get(sc.get("paper") or "", {})
         mine, base = paper.get(kernel, {}), paper.get(BASELINE, {})
         tests = sc["render_tests"]
-        rows.append({
-            "scene": scene, "kernel": kernel, "triangles": sc["triangles"], "render_tests": tests,
-            "render_s": e.mean, "render_s_ci_low": e.ci_low, "render_s_ci_high": e.ci_high, "render_s_min": e.minimum,
-            "replay_ns_per_test": e.mean / tests * 1e9,
-            "ratio_to_moller_seed": ratio, "ratio_to_moller_seed_ci_low": low, "ratio_to_moller_seed_ci_high": high,
-            "n_processes": e.n,
-            "paper_real_s": mine.get("real", math.nan), "paper_user_s": mine.get("user", math.nan),
-            "paper_ratio_real": mine["real"] / base["real"] if mine and base else math.nan,
-            "paper_ratio_user": mine["user"] / base["user"] if mine and base else math.nan,
-            "paper_user_ns_per_test": mine["user"] / tests * 1e9 if mine and sc.get("paper_size", True) else math.nan,
-        })
+        rows.append(
+            {
+                "scene": scene,
+                "kernel": kernel,
+                "triangles": sc["triangles"],
+                "render_tests": tests,
+                "render_s": e.mean,
+                "render_s_ci_low": e.ci_low,
+                "render_s_ci_high": e.ci_high,
+                "render_s_min": e.minimum,
+                "replay_ns_per_test": e.mean / tests * 1e9,
+                "ratio_to_moller_seed": ratio,
+                "ratio_to_moller_seed_ci_low": low,
+                "ratio_to_moller_seed_ci_high": high,
+                "n_processes": e.n,
+                "paper_real_s": mine.get("real", math.nan),
+                "paper_user_s": mine.get("user", math.nan),
+                "paper_ratio_real": mine["real"] / base["real"] if mine and base else math.nan,
+                "paper_ratio_user": mine["user"] / base["user"] if mine and base else math.nan,
+                "paper_user_ns_per_test": mine["user"] / tests * 1e9
+                if mine and sc.get("paper_size", True)
+                else math.nan,
+            }
+        )
     return pd.DataFrame(rows, columns=list(COLUMNS[SEED_CSV]))
 
 
 def _workloads_table(info: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
     rows = []
     for wid, w in info.items():
-        rows.append({"scene": w["scene"], "rays": w["rays"], "workload_id": wid, "mode": w["mode"],
-                     **{k: w[k] for k in ("triangles", "stream_rays", "stream_tests", "sample_rays", "sample_tests",
-                                          "test_hit_rate", "ray_hit_rate", "ambiguous_rays")},
-                     **{f"miss_{s}": w["miss_mix"].get(s, 0.0) for s in _MISS_STAGES}})
+        rows.append(
+            {
+                "scene": w["scene"],
+                "rays": w["rays"],
+                "workload_id": wid,
+                "mode": w["mode"],
+                **{
+                    k: w[k]
+                    for k in (
+                        "triangles",
+                        "stream_rays",
+                        "stream_tests",
+                        "sample_rays",
+                        "sample_tests",
+                        "test_hit_rate",
+                        "ray_hit_rate",
+                        "ambiguous_rays",
+                    )
+                },
+                **{f"miss_{s}": w["miss_mix"].get(s, 0.0) for s in _MISS_STAGES},
+            }
+        )
     table = pd.DataFrame(rows, columns=list(COLUMNS[WORKLOADS_CSV]))
     out = []
     for scene, g in table.groupby("scene", sort=False):
         # the render as a whole: hit rate weighted by tests, the mix by (estimated) misses
         tests = g["stream_tests"].astype(float)
         misses = tests * (1 - g["test_hit_rate"])
-        total = {"scene": scene, "rays": "render", "workload_id": "", "mode": "",
-                 "triangles": g["triangles"].iloc[0], "stream_rays": g["stream_rays"].sum(),
-                 "stream_tests": g["stream_tests"].sum(), "sample_rays": g["sample_rays"].sum(),
-                 "sample_tests": g["sample_tests"].sum(),
-                 "test_hit_rate": float((g["test_hit_rate"] * tests).sum() / tests.sum()),
-                 "ray_hit_rate": float((g["ray_hit_rate"] * g["stream_rays"]).sum() / g["stream_rays"].sum()),
-                 "ambiguous_rays": g["ambiguous_rays"].sum()}
+        total = {
+            "scene": scene,
+            "rays": "render",
+            "workload_id": "",
+            "mode": "",
+            "triangles": g["triangles"].iloc[0],
+            "stream_rays": g["stream_rays"].sum(),
+            "stream_tests": g["stream_tests"].sum(),
+            "sample_rays": g["sample_rays"].sum(),
+            "sample_tests": g["sample_tests"].sum(),
+            "test_hit_rate": float((g["test_hit_rate"] * tests).sum() / tests.sum()),
+            "ray_hit_rate": float((g["ray_hit_rate"] * g["stream_rays"]).sum() / g["stream_rays"].sum()),
+            "ambiguous_rays": g["ambiguous_rays"].sum(),
+        }
         for s in _MISS_STAGES:
             total[f"miss_{s}"] = float((g[f"miss_{s}"] * misses).sum() / misses.sum()) if misses.sum() else 0.0
         out += [g, pd.DataFrame([total], columns=table.columns)]
@@ -360,8 +439,12 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
 
     run = records.read_run(run_dir)
     scene_order = {s: i for i, s in enumerate(run["seed_replay"]["scenes"])}
-    info = dict(sorted(run["seed_replay"]["workloads"].items(),  # scenes as given, kinds in ray order
-                       key=lambda kv: (scene_order.get(kv[1]["scene"], 0), RAY_KINDS.index(kv[1]["rays"]))))
+    info = dict(
+        sorted(
+            run["seed_replay"]["workloads"].items(),  # scenes as given, kinds in ray order
+            key=lambda kv: (scene_order.get(kv[1]["scene"], 0), RAY_KINDS.index(kv[1]["rays"])),
+        )
+    )
     kernels = run["sweep"]["kernels"]
     batches = records.read_batches(run_dir)
     pp = stats.per_process(batches)
@@ -373,9 +456,15 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
 
     wl = _workloads_table(info)
     paper_size = (run["seed_replay"]["width"], run["seed_replay"]["height"]) == (512, 512)
-    scenes = {r.scene: {"triangles": r.triangles, "render_tests": r.stream_tests, "paper_size": paper_size,
-                        "paper": next((w["paper"] for w in info.values() if w["scene"] == r.scene), None)}
-              for r in wl.loc[wl["rays"] == "render"].itertuples()}
+    scenes = {
+        r.scene: {
+            "triangles": r.triangles,
+            "render_tests": r.stream_tests,
+            "paper_size": paper_size,
+            "paper": next((w["paper"] for w in info.values() if w["scene"] == r.scene), None),
+        }
+        for r in wl.loc[wl["rays"] == "render"].itertuples()
+    }
     per = render_per_process(pp, info)
     seed = render_table(per, scenes)
     sorder = {s: i for i, s in enumerate(scenes)}
@@ -390,14 +479,29 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
         e = stats.estimate(g["ns_per_test"].to_numpy())
         total = seed.loc[(seed["scene"] == w["scene"]) & (seed["kernel"] == kernel), "render_s"]
         share = float(g["share_s"].mean())
-        kinds.append({"scene": w["scene"], "rays": w["rays"], "kernel": kernel, "workload_id": wid,
-                      "mode": w["mode"], "ns_per_test": e.mean, "ns_per_test_ci_low": e.ci_low,
-                      "ns_per_test_ci_high": e.ci_high, "tests_per_pass": float(g["tests_per_pass"].iloc[0]),
-                      "sample_tests": w["sample_tests"], "stream_tests": w["stream_tests"], "render_s": share,
-                      "render_share": share / float(total.iloc[0]) if len(total) else math.nan, "n_processes": e.n})
+        kinds.append(
+            {
+                "scene": w["scene"],
+                "rays": w["rays"],
+                "kernel": kernel,
+                "workload_id": wid,
+                "mode": w["mode"],
+                "ns_per_test": e.mean,
+                "ns_per_test_ci_low": e.ci_low,
+                "ns_per_test_ci_high": e.ci_high,
+                "tests_per_pass": float(g["tests_per_pass"].iloc[0]),
+                "sample_tests": w["sample_tests"],
+                "stream_tests": w["stream_tests"],
+                "render_s": share,
+                "render_share": share / float(total.iloc[0]) if len(total) else math.nan,
+                "n_processes": e.n,
+            }
+        )
     kt = pd.DataFrame(kinds, columns=list(COLUMNS[KINDS_CSV]))
     order = {(s, r): i for i, (s, r) in enumerate(zip(wl["scene"], wl["rays"], strict=True))}
-    kt = kt.assign(_o=[order[(s, r)] * 1000 + korder[k] for s, r, k in zip(kt["scene"], kt["rays"], kt["kernel"], strict=True)])
+    kt = kt.assign(
+        _o=[order[(s, r)] * 1000 + korder[k] for s, r, k in zip(kt["scene"], kt["rays"], kt["kernel"], strict=True)]
+    )
     kt = kt.sort_values("_o").drop(columns="_o").reset_index(drop=True)
     return {SEED_CSV: seed, KINDS_CSV: kt, WORKLOADS_CSV: wl}
 
@@ -407,12 +511,17 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
 
 def format_table(seed: pd.DataFrame, workloads: pd.DataFrame | None = None) -> str:
     """The table beside the paper, for the terminal."""
-    lines = ["The seed's renders replayed: triangle tests only, mean over processes with 95% CIs;",
-             "ratio = time_kernel / time_moller_seed (paired per process). Paper: Unix time of the whole render."]
+    lines = [
+        "The seed's renders replayed: triangle tests only, mean over processes with 95% CIs;",
+        "ratio = time_kernel / time_moller_seed (paired per process). Paper: Unix time of the whole render.",
+    ]
     for scene, g in seed.groupby("scene", sort=False):
         first = g.iloc[0]
-        lines += ["", f"{scene}: {first['triangles']} triangles, {first['render_tests']:.3g} ray-triangle tests "
-                      f"per render, {first['n_processes']} processes"]
+        lines += [
+            "",
+            f"{scene}: {first['triangles']} triangles, {first['render_tests']:.3g} ray-triangle tests "
+            f"per render, {first['n_processes']} processes",
+        ]
         if workloads is not None:
             r = workloads.loc[(workloads["scene"] == scene) & (workloads["rays"] == "render")]
             if len(r):
@@ -424,14 +533,19 @@ def format_table(seed: pd.DataFrame, workloads: pd.DataFrame | None = None) -> s
             paper = f"{r.paper_real_s:13.3f}" if math.isfinite(r.paper_real_s) else f"{'':13}"
             render_ci = stats.format_interval(None, r.render_s_ci_low, r.render_s_ci_high, ".4g")
             ratio_ci = stats.format_interval(None, r.ratio_to_moller_seed_ci_low, r.ratio_to_moller_seed_ci_high, ".3f")
-            lines.append(f"  {r.kernel:<20}{paper}{r.render_s:11.4g}  {render_ci:<22}{r.ratio_to_moller_seed:7.3f}  "
-                         f"{ratio_ci}")
+            lines.append(
+                f"  {r.kernel:<20}{paper}{r.render_s:11.4g}  {render_ci:<22}{r.ratio_to_moller_seed:7.3f}  {ratio_ci}"
+            )
         cur = g.loc[g["kernel"] == "curless_seed"]
         if len(cur) and BASELINE in set(g["kernel"]):
             c = cur.iloc[0]
-            paper = (f"paper {c.paper_ratio_real:.3f} (real), {c.paper_ratio_user:.3f} (user); "
-                     if math.isfinite(c.paper_ratio_real) else "")
-            replay = stats.format_interval(c.ratio_to_moller_seed, c.ratio_to_moller_seed_ci_low,
-                                           c.ratio_to_moller_seed_ci_high, ".3f")
+            paper = (
+                f"paper {c.paper_ratio_real:.3f} (real), {c.paper_ratio_user:.3f} (user); "
+                if math.isfinite(c.paper_ratio_real)
+                else ""
+            )
+            replay = stats.format_interval(
+                c.ratio_to_moller_seed, c.ratio_to_moller_seed_ci_low, c.ratio_to_moller_seed_ci_high, ".3f"
+            )
             lines.append(f"  Curless / Moller: {paper}replay {replay}")
     return "\n".join(lines)

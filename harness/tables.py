@@ -72,14 +72,19 @@ def family_of(spec: Mapping[str, Any]) -> str:
     'mesh suzanne camera 64x64 float64'
     """
     if spec.get("kind") == "pairs":
-        extra = "" if (spec.get("scale", 1.0), spec.get("offset", 0.0)) == (1.0, 0.0) else \
-            f" scale={spec['scale']:g} offset={spec['offset']:g}"
+        extra = (
+            ""
+            if (spec.get("scale", 1.0), spec.get("offset", 0.0)) == (1.0, 0.0)
+            else f" scale={spec['scale']:g} offset={spec['offset']:g}"
+        )
         mix = spec.get("miss_mix")
         mix_text = ""
         if isinstance(mix, dict) and not _even_edges(mix):
             mix_text = " misses[" + ",".join(f"{k}={v:.2g}" for k, v in mix.items() if v) + "]"
-        return (f"pairs n={spec.get('n')} {spec.get('order', '')} {spec.get('shape', '')} "
-                f"{spec.get('dtype', '')}{mix_text}{extra}").replace("  ", " ")
+        return (
+            f"pairs n={spec.get('n')} {spec.get('order', '')} {spec.get('shape', '')} "
+            f"{spec.get('dtype', '')}{mix_text}{extra}"
+        ).replace("  ", " ")
     mesh = Path(str(spec.get("mesh", "?"))).name
     if spec.get("rays") == "hit_rate":
         rays = f"{spec.get('n_rays')} rays per-ray hit rate {spec.get('hit_rate'):g}"
@@ -123,8 +128,12 @@ def spec_text(spec: Mapping[str, Any]) -> str:
 # ------------------------------------------------------------ workloads
 
 
-def workload_table(specs: Mapping[str, Mapping[str, Any]], workload_ids: Sequence[str],
-                   workloads: Mapping[str, Any], sources: Mapping[str, str]) -> pd.DataFrame:
+def workload_table(
+    specs: Mapping[str, Mapping[str, Any]],
+    workload_ids: Sequence[str],
+    workloads: Mapping[str, Any],
+    sources: Mapping[str, str],
+) -> pd.DataFrame:
     """One row per workload: family, label and the achieved figures (``workloads.csv``).
 
     ``workloads`` maps an id to its :class:`~tribench.workloads.Workload` (or
@@ -149,12 +158,22 @@ def workload_table(specs: Mapping[str, Mapping[str, Any]], workload_ids: Sequenc
             tests = a.get("tests", triangles * rays if not pd.isna(triangles) else math.nan)
             test_rate = a.get("test_hit_rate", math.nan)
             ray_rate = a.get("ray_hit_rate", spec.get("hit_rate") if spec.get("rays") == "hit_rate" else math.nan)
-        rows.append({
-            "workload_id": wid, "kind": spec["kind"], "family": family_of(spec),
-            "label": short_label(spec), "summary": spec_text(spec), "dtype": spec.get("dtype", "float64"),
-            "triangles": triangles, "rays": rays, "tests_per_pass": tests,
-            "test_hit_rate": test_rate, "ray_hit_rate": ray_rate, "source": sources.get(wid, "cache"),
-        })
+        rows.append(
+            {
+                "workload_id": wid,
+                "kind": spec["kind"],
+                "family": family_of(spec),
+                "label": short_label(spec),
+                "summary": spec_text(spec),
+                "dtype": spec.get("dtype", "float64"),
+                "triangles": triangles,
+                "rays": rays,
+                "tests_per_pass": tests,
+                "test_hit_rate": test_rate,
+                "ray_hit_rate": ray_rate,
+                "source": sources.get(wid, "cache"),
+            }
+        )
     return _frame(rows, runfolder.WORKLOADS)
 
 
@@ -167,8 +186,14 @@ def workload_figures(workload_ids: Sequence[str], workloads: Mapping[str, Any]) 
             continue
         for figure, target, achieved in w.compare():
             if not figure.startswith("generated_with"):
-                rows.append({"workload_id": wid, "figure": figure, "target": json.dumps(target, default=str),
-                             "achieved": json.dumps(achieved, default=str)})
+                rows.append(
+                    {
+                        "workload_id": wid,
+                        "figure": figure,
+                        "target": json.dumps(target, default=str),
+                        "achieved": json.dumps(achieved, default=str),
+                    }
+                )
     return _frame(rows, runfolder.WORKLOAD_FIGURES)
 
 
@@ -183,15 +208,25 @@ def correctness_table(batches: pd.DataFrame, kernels: Sequence[str], workloads: 
     for (wid, kernel), g in batches.groupby(["workload_id", "kernel"], sort=False):
         w = workloads.get(wid)
         hits = g["hits"] / g["loops"]
-        row = {"kernel": kernel, "workload_id": wid, "batches": len(g),
-               "hits_per_pass_min": float(hits.min()), "hits_per_pass_max": float(hits.max())}
+        row = {
+            "kernel": kernel,
+            "workload_id": wid,
+            "batches": len(g),
+            "hits_per_pass_min": float(hits.min()),
+            "hits_per_pass_max": float(hits.max()),
+        }
         if w is not None:
             ref_hits, ref_t = w.expected_checksum()
             ambiguous = int(w.ambiguous().sum())
             diff = float(np.max(np.abs(hits - ref_hits)))
             rel = float(np.max(np.abs(g["t_sum"] / g["loops"] - ref_t))) / abs(ref_t) if ref_t else 0.0
-            row.update(ref_hits=ref_hits, hit_difference=diff, ambiguous_rays=ambiguous, t_sum_rel_diff=rel,
-                       agrees=bool(diff <= ambiguous and hits.nunique() == 1))
+            row.update(
+                ref_hits=ref_hits,
+                hit_difference=diff,
+                ambiguous_rays=ambiguous,
+                t_sum_rel_diff=rel,
+                agrees=bool(diff <= ambiguous and hits.nunique() == 1),
+            )
         rows.append(row)
     order = {k: i for i, k in enumerate(kernels)}
     out = _frame(rows, runfolder.CORRECTNESS)
@@ -218,8 +253,14 @@ def outlier_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
     """Counts of Tukey-labelled batches (kept, never dropped) per kernel and workload (``outliers.csv``)."""
     timed = labels.loc[~labels["warmup"]]
     g = timed.groupby(["workload_id", "kernel"], sort=False)
-    out = pd.DataFrame({"batches": g.size(), "outliers": g["outlier"].sum(), "far_out": g["far_out"].sum(),
-                        "worst_rel": g["rel_to_median"].max()}).reset_index()
+    out = pd.DataFrame(
+        {
+            "batches": g.size(),
+            "outliers": g["outlier"].sum(),
+            "far_out": g["far_out"].sum(),
+            "worst_rel": g["rel_to_median"].max(),
+        }
+    ).reset_index()
     out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"], strict=True)))
     return out[list(runfolder.FILES[runfolder.OUTLIERS])]
 
@@ -228,10 +269,12 @@ def warmup_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
     """Warm-up against timed batches: median of ``ns/test / process median`` of each (``warmup.csv``)."""
     g = labels.groupby(["workload_id", "kernel"])
     warm = labels.loc[labels["warmup"]].groupby(["workload_id", "kernel"])
-    out = pd.DataFrame({
-        "warmup_rel": warm["rel_to_median"].median().reindex(g.size().index),
-        "warmup_batches": warm.size().reindex(g.size().index),
-    }).reset_index()
+    out = pd.DataFrame(
+        {
+            "warmup_rel": warm["rel_to_median"].median().reindex(g.size().index),
+            "warmup_batches": warm.size().reindex(g.size().index),
+        }
+    ).reset_index()
     out["warmup_batches"] = out["warmup_batches"].fillna(0).astype(int)
     out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"], strict=True)))
     return out[list(runfolder.FILES[runfolder.WARMUP])]
@@ -265,9 +308,19 @@ def crossovers(kernels: Sequence[str], wl: pd.DataFrame, pp: pd.DataFrame) -> pd
             if len(both) < 2:
                 continue
             c = stats.crossover(group["test_hit_rate"].to_numpy(), both.to_numpy())
-            rows.append({"family": family, "kernel_a": a, "kernel_b": b, "hit_rate": c.hit_rate,
-                         "ci_low": c.ci_low, "ci_high": c.ci_high, "slope": c.slope, "n": c.n,
-                         "confidence": c.confidence})
+            rows.append(
+                {
+                    "family": family,
+                    "kernel_a": a,
+                    "kernel_b": b,
+                    "hit_rate": c.hit_rate,
+                    "ci_low": c.ci_low,
+                    "ci_high": c.ci_high,
+                    "slope": c.slope,
+                    "n": c.n,
+                    "confidence": c.confidence,
+                }
+            )
     return _frame(rows, runfolder.CROSSOVERS)
 
 
@@ -292,13 +345,23 @@ def scaling_slopes(est: pd.DataFrame, pp: pd.DataFrame) -> pd.DataFrame:
         if len(wide) < 2:
             continue
         s = stats.scaling_slope(group["triangles"].to_numpy(dtype=float), wide.to_numpy())
-        rows.append({"family": family, "kernel": kernel, "slope": s.slope, "ci_low": s.ci_low,
-                     "ci_high": s.ci_high, "n": s.n, "sizes": len(group)})
+        rows.append(
+            {
+                "family": family,
+                "kernel": kernel,
+                "slope": s.slope,
+                "ci_low": s.ci_low,
+                "ci_high": s.ci_high,
+                "n": s.n,
+                "sizes": len(group),
+            }
+        )
     return _frame(rows, runfolder.SLOPES)
 
 
-def drift_table(batches: pd.DataFrame, kernels: Sequence[str], baseline: str, workload_ids: Sequence[str],
-                wl: pd.DataFrame) -> pd.DataFrame:
+def drift_table(
+    batches: pd.DataFrame, kernels: Sequence[str], baseline: str, workload_ids: Sequence[str], wl: pd.DataFrame
+) -> pd.DataFrame:
     """``stats.drift`` of every kernel against the baseline on every workload (``drift.csv``);
     ``reason`` explains a comparison that could not be tested."""
     rows = []
@@ -313,15 +376,24 @@ def drift_table(batches: pd.DataFrame, kernels: Sequence[str], baseline: str, wo
             except ValueError as exc:
                 row.update(flagged=False, reason=f"not tested: {exc}")
             else:
-                row.update(baseline_slope=d.baseline_slope, ratio_slope=d.ratio_slope, ratio_p=d.ratio_p,
-                           ratio_change=d.ratio_change, confound_bias=d.confound_bias,
-                           confound_p=d.confound_p, flagged=d.flagged, reason=d.reason, n=d.n)
+                row.update(
+                    baseline_slope=d.baseline_slope,
+                    ratio_slope=d.ratio_slope,
+                    ratio_p=d.ratio_p,
+                    ratio_change=d.ratio_change,
+                    confound_bias=d.confound_bias,
+                    confound_p=d.confound_p,
+                    flagged=d.flagged,
+                    reason=d.reason,
+                    n=d.n,
+                )
             rows.append(row)
     return _frame(rows, runfolder.DRIFT)
 
 
-def variance_table(batches: pd.DataFrame, kernels: Sequence[str], workload_ids: Sequence[str],
-                   wl: pd.DataFrame) -> pd.DataFrame:
+def variance_table(
+    batches: pd.DataFrame, kernels: Sequence[str], workload_ids: Sequence[str], wl: pd.DataFrame
+) -> pd.DataFrame:
     """Kalibera-Jones variance components per kernel and workload (``variance.csv``): square roots of
     ``stats.variance_components`` relative to the mean, in percent."""
     rows = []
@@ -332,10 +404,18 @@ def variance_table(batches: pd.DataFrame, kernels: Sequence[str], workload_ids: 
                 vc = stats.variance_components(stats.rounds_matrix(batches, kernel, wid))
             except ValueError:
                 continue
-            rows.append({"workload_id": wid, "label": labels.get(wid, wid), "kernel": kernel, "mean_ns": vc.mean,
-                         "round_sd_pct": 100 * math.sqrt(vc.between_round) / vc.mean,
-                         "process_sd_pct": 100 * math.sqrt(vc.between_process) / vc.mean,
-                         "n_processes": vc.n_processes, "n_rounds": vc.n_rounds})
+            rows.append(
+                {
+                    "workload_id": wid,
+                    "label": labels.get(wid, wid),
+                    "kernel": kernel,
+                    "mean_ns": vc.mean,
+                    "round_sd_pct": 100 * math.sqrt(vc.between_round) / vc.mean,
+                    "process_sd_pct": 100 * math.sqrt(vc.between_process) / vc.mean,
+                    "n_processes": vc.n_processes,
+                    "n_rounds": vc.n_rounds,
+                }
+            )
     return _frame(rows, runfolder.VARIANCE)
 
 
@@ -368,8 +448,14 @@ def _isas(batches: pd.DataFrame, run: Mapping[str, Any], kernel: str) -> str:
     return ", ".join(dict.fromkeys(batches.loc[batches["kernel"] == kernel, "isa"].astype(str)))
 
 
-def kernel_table(kernels: Sequence[str], batches: pd.DataFrame, run: Mapping[str, Any], est: pd.DataFrame,
-                 spd: pd.DataFrame, baseline: str) -> pd.DataFrame:
+def kernel_table(
+    kernels: Sequence[str],
+    batches: pd.DataFrame,
+    run: Mapping[str, Any],
+    est: pd.DataFrame,
+    spd: pd.DataFrame,
+    baseline: str,
+) -> pd.DataFrame:
     """Per kernel and workload family: how the kernel stores a triangle, beside how fast it ran there.
 
     ``est`` and ``spd`` are the estimates and speedups joined with the
@@ -386,16 +472,24 @@ def kernel_table(kernels: Sequence[str], batches: pd.DataFrame, run: Mapping[str
             s = spd.loc[(spd["kernel"] == kernel) & (spd["family"] == family)]
             dtype = str(g["dtype"].iloc[0])
             verdicts = ", ".join(f"{v} {n}" for v, n in s["verdict"].value_counts(sort=False).items())
-            rows.append({
-                "kernel": kernel, "form": form, "isa": isa, "family": family, "dtype": dtype,
-                "bytes_per_triangle": _bytes_per_triangle(kernel, dtype), "workloads": len(g),
-                "ops_per_test": g["ops_per_test"].iloc[0] if "ops_per_test" in g else math.nan,
-                "peak_fraction_median": g["peak_fraction"].median() if "peak_fraction" in g else math.nan,
-                "ns_per_test_median": g["ns_per_test"].median(), "ns_per_test_min": g["ns_per_test"].min(),
-                "ns_per_test_max": g["ns_per_test"].max(),
-                "ratio_median": s["ratio"].median() if len(s) else math.nan,
-                "ratio_min": s["ratio"].min() if len(s) else math.nan,
-                "ratio_max": s["ratio"].max() if len(s) else math.nan,
-                "verdicts": verdicts or ("baseline" if kernel == baseline else "no comparison"),
-            })
+            rows.append(
+                {
+                    "kernel": kernel,
+                    "form": form,
+                    "isa": isa,
+                    "family": family,
+                    "dtype": dtype,
+                    "bytes_per_triangle": _bytes_per_triangle(kernel, dtype),
+                    "workloads": len(g),
+                    "ops_per_test": g["ops_per_test"].iloc[0] if "ops_per_test" in g else math.nan,
+                    "peak_fraction_median": g["peak_fraction"].median() if "peak_fraction" in g else math.nan,
+                    "ns_per_test_median": g["ns_per_test"].median(),
+                    "ns_per_test_min": g["ns_per_test"].min(),
+                    "ns_per_test_max": g["ns_per_test"].max(),
+                    "ratio_median": s["ratio"].median() if len(s) else math.nan,
+                    "ratio_min": s["ratio"].min() if len(s) else math.nan,
+                    "ratio_max": s["ratio"].max() if len(s) else math.nan,
+                    "verdicts": verdicts or ("baseline" if kernel == baseline else "no comparison"),
+                }
+            )
     return _frame(rows, runfolder.KERNELS)

@@ -181,8 +181,12 @@ def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, i
     differs = hit != ref_hits if w.mode in ("pairs", "any") else r.index != ref_index
     ambiguous = w.ambiguous()
     wrong = differs & ~ambiguous
-    counts = {"rays": len(differs), "ambiguous_rays": int(ambiguous.sum()),
-              "disagreements": int(differs.sum()), "ambiguous_disagreements": int((differs & ambiguous).sum())}
+    counts = {
+        "rays": len(differs),
+        "ambiguous_rays": int(ambiguous.sum()),
+        "disagreements": int(differs.sum()),
+        "ambiguous_disagreements": int((differs & ambiguous).sum()),
+    }
     where = f"kernel {kernel!r} on workload {w.workload_id} ({w.spec.summary()})"
     if wrong.any() and not replicates_a_flawed_original(kernel):
         first = int(np.argmax(wrong))
@@ -214,13 +218,20 @@ def check_batch(batch: ext.Batch, expected: Checksum, kernel: str, workload: Any
     def close(a: float, b: float) -> bool:
         return math.isclose(a, b, rel_tol=T_SUM_RTOL["float64"], abs_tol=1e-300)
 
-    problem = (f"{batch.hits} hits in {batch.loops} loops, expected {hits}" if batch.hits != hits
-               else f"sum of t {batch.t_sum!r}, expected {t_sum!r}" if not close(batch.t_sum, t_sum)
-               else f"sum of u + v {batch.uv_sum!r}, expected {uv_sum!r}" if not close(batch.uv_sum, uv_sum)
-               else None)
+    problem = (
+        f"{batch.hits} hits in {batch.loops} loops, expected {hits}"
+        if batch.hits != hits
+        else f"sum of t {batch.t_sum!r}, expected {t_sum!r}"
+        if not close(batch.t_sum, t_sum)
+        else f"sum of u + v {batch.uv_sum!r}, expected {uv_sum!r}"
+        if not close(batch.uv_sum, uv_sum)
+        else None
+    )
     if problem:  # the message (and the spec's summary) only when it fails: this runs every batch
-        raise KernelCheckError(f"kernel {kernel!r} on workload {workload.workload_id} "
-                               f"({workload.spec.summary()}): checksum failed, {problem}")
+        raise KernelCheckError(
+            f"kernel {kernel!r} on workload {workload.workload_id} "
+            f"({workload.spec.summary()}): checksum failed, {problem}"
+        )
 
 
 def calibrate_loops(job: ext.Job, target_ns: float) -> int:
@@ -283,8 +294,22 @@ class _StealClock:
 
 def _peak_row(job: WorkerJob, phase: str, cpu: int, pad: int, dummies: int) -> ProcessRow:
     p = ext.fma_peak(PEAK_ITERATIONS)
-    return ProcessRow(job.run_id, job.process, job.attempt, phase, os.getpid(), cpu, job.seed, pad,
-                      dummies, p.gflops, p.flops, p.elapsed_ns, p.isa, time.monotonic_ns())
+    return ProcessRow(
+        job.run_id,
+        job.process,
+        job.attempt,
+        phase,
+        os.getpid(),
+        cpu,
+        job.seed,
+        pad,
+        dummies,
+        p.gflops,
+        p.flops,
+        p.elapsed_ns,
+        p.isa,
+        time.monotonic_ns(),
+    )
 
 
 # -------------------------------------------------------------------- run
@@ -334,8 +359,12 @@ def run_job(job: WorkerJob, emit) -> None:
             # a new workload block: check and calibrate all its kernels before any batch
             for k in kernels_of[wid]:
                 expected, counts = one_pass_checksum(k, w)
-                emit("check", CheckRow(job.run_id, process, job.attempt, wid, k, **counts,
-                                       hits=expected.hits, t_sum=expected.t_sum))
+                emit(
+                    "check",
+                    CheckRow(
+                        job.run_id, process, job.attempt, wid, k, **counts, hits=expected.hits, t_sum=expected.t_sum
+                    ),
+                )
                 o, d, tris = arrays[wid]
                 kjob = ext.make_job(k, o, d, tris, cast(ext.Mode, w.mode), t_max=w.t_max)  # the spec checked it
                 prepared[(k, wid)] = (kjob, calibrate_loops(kjob, target_ns), expected)
@@ -353,9 +382,31 @@ def run_job(job: WorkerJob, emit) -> None:
         steal = steal_after - steal_before if steal_before >= 0 and steal_after >= 0 else -1
         steal_before = steal_after
         check_batch(batch, expected, kernel, w)
-        emit("batch", BatchRow(job.run_id, process, rnd, position, kernel, wid, w.spec.dtype, w.mode,
-                               rnd < 0, batch.loops, batch.tests, batch.elapsed_ns, start, switches,
-                               batch.hits, batch.t_sum, cpu, isa[kernel], job.attempt, steal))
+        emit(
+            "batch",
+            BatchRow(
+                job.run_id,
+                process,
+                rnd,
+                position,
+                kernel,
+                wid,
+                w.spec.dtype,
+                w.mode,
+                rnd < 0,
+                batch.loops,
+                batch.tests,
+                batch.elapsed_ns,
+                start,
+                switches,
+                batch.hits,
+                batch.t_sum,
+                cpu,
+                isa[kernel],
+                job.attempt,
+                steal,
+            ),
+        )
     steal_clock.close()
     emit("process", _peak_row(job, "end", cpu, pad, len(dummies)))
 

@@ -20,20 +20,34 @@ __all__ = ["pictures_section", "machine_section", "reproduce_section", "sweep_to
 
 def pictures_section(data: RunData, wl: pd.DataFrame) -> str:
     """A card per workload: its picture (drawn by the analysis step) and its targets against the achieved."""
-    body = [page.p("What the kernels were timed on. Pair pictures map every pair's plane crossing into one "
-                   "reference triangle; mesh pictures show the mesh with its rays, hits and misses. Each title "
-                   "gives the targets against the achieved figures.", "note")]
+    body = [
+        page.p(
+            "What the kernels were timed on. Pair pictures map every pair's plane crossing into one "
+            "reference triangle; mesh pictures show the mesh with its rays, hits and misses. Each title "
+            "gives the targets against the achieved figures.",
+            "note",
+        )
+    ]
     cards = []
     achieved = content.workload_figures(data)
     for r in wl.itertuples(index=False):
         rows = [("workload", f"{r.workload_id}: {r.summary}"), ("obtained from", r.source)]
-        rows += [(f"{k}", f"target {page.plain(t)}, achieved {page.plain(a)}" if t is not None else page.plain(a))
-                 for k, t, a in achieved.get(r.workload_id, [])]
+        rows += [
+            (f"{k}", f"target {page.plain(t)}, achieved {page.plain(a)}" if t is not None else page.plain(a))
+            for k, t, a in achieved.get(r.workload_id, [])
+        ]
         png, why = content.picture(data, r.workload_id)
-        img = (page.figure(figures.png_data_uri(figures.palette_png(png)), f"picture of {r.workload_id}",
-                           f"{r.label} ({r.family})") if png is not None else page.p(why, "note"))
-        cards.append(f"<div><h3>{escape(r.label)} · {escape(r.family)}</h3>{img}"
-                     f"<details><summary>targets and achieved figures</summary>{page.kv_table(rows)}</details></div>")
+        img = (
+            page.figure(
+                figures.png_data_uri(figures.palette_png(png)), f"picture of {r.workload_id}", f"{r.label} ({r.family})"
+            )
+            if png is not None
+            else page.p(why, "note")
+        )
+        cards.append(
+            f"<div><h3>{escape(r.label)} · {escape(r.family)}</h3>{img}"
+            f"<details><summary>targets and achieved figures</summary>{page.kv_table(rows)}</details></div>"
+        )
     body.append(f'<div class="pictures">{"".join(cards)}</div>')
     return "".join(body)
 
@@ -43,24 +57,41 @@ def machine_section(data: RunData) -> str:
     m = data.machine
     build = m.get("build", {})
     rows = [
-        ("CPU", m.get("cpu_model")), ("logical CPUs", m.get("logical_cpus")), ("usable CPUs", m.get("usable_cpus")),
-        ("workers pinned to CPU", data.run.get("cpu")), ("SIMD features", m.get("simd_features")),
-        ("caches", m.get("caches")), ("governor", m.get("governor")), ("CPU MHz (at start)", m.get("cpu_mhz")),
-        ("load average (at start)", m.get("load_average")), ("platform", m.get("platform")),
-        ("Python", m.get("python")), ("numpy", m.get("numpy")), ("tribench", m.get("tribench")),
+        ("CPU", m.get("cpu_model")),
+        ("logical CPUs", m.get("logical_cpus")),
+        ("usable CPUs", m.get("usable_cpus")),
+        ("workers pinned to CPU", data.run.get("cpu")),
+        ("SIMD features", m.get("simd_features")),
+        ("caches", m.get("caches")),
+        ("governor", m.get("governor")),
+        ("CPU MHz (at start)", m.get("cpu_mhz")),
+        ("load average (at start)", m.get("load_average")),
+        ("platform", m.get("platform")),
+        ("Python", m.get("python")),
+        ("numpy", m.get("numpy")),
+        ("tribench", m.get("tribench")),
         ("git revision", m.get("git_revision")),
     ]
     brows = [(k, v) for k, v in build.items()]
     isa = data.run.get("isa", {})
-    return "".join([
-        page.kv_table(rows), "<h3>Build of the C extension</h3>", page.kv_table(brows),
-        "<h3>Instruction set of each kernel</h3>", page.kv_table(isa.items()),
-        "<h3>Seeds and plan</h3>",
-        page.kv_table([("sweep seed", data.run["sweep"].get("seed")),
-                       ("process seeds", data.run.get("process_seeds")),
-                       ("plan sha256", data.run.get("plan_sha256")),
-                       ("batches planned / recorded", f"{data.run.get('n_batches')} / {len(data.batches)}")]),
-    ])
+    return "".join(
+        [
+            page.kv_table(rows),
+            "<h3>Build of the C extension</h3>",
+            page.kv_table(brows),
+            "<h3>Instruction set of each kernel</h3>",
+            page.kv_table(isa.items()),
+            "<h3>Seeds and plan</h3>",
+            page.kv_table(
+                [
+                    ("sweep seed", data.run["sweep"].get("seed")),
+                    ("process seeds", data.run.get("process_seeds")),
+                    ("plan sha256", data.run.get("plan_sha256")),
+                    ("batches planned / recorded", f"{data.run.get('n_batches')} / {len(data.batches)}"),
+                ]
+            ),
+        ]
+    )
 
 
 def _toml_value(v: Any) -> str:
@@ -114,24 +145,36 @@ def reproduce_section(data: RunData, sweep_file: str) -> str:
     steps = []
     if rev:
         steps.append(f"git checkout {rev}")
-    steps += ["pip install -e .", f"tribench sweep --file {sweep_file} --out NEW_RUN_DIR",
-              "tribench report NEW_RUN_DIR"]
+    steps += [
+        "pip install -e .",
+        f"tribench sweep --file {sweep_file} --out NEW_RUN_DIR",
+        "tribench report NEW_RUN_DIR",
+    ]
     body = [
-        page.p("The plan (which batches run, in which order, with which layout seeds) is a pure function of the "
-               "sweep below, and every workload a pure function of its spec: the same sweep on the same revision "
-               "repeats the run. The times will differ by the machine's noise; compare two runs with "
-               "`tribench compare RUN_A RUN_B`."),
+        page.p(
+            "The plan (which batches run, in which order, with which layout seeds) is a pure function of the "
+            "sweep below, and every workload a pure function of its spec: the same sweep on the same revision "
+            "repeats the run. The times will differ by the machine's noise; compare two runs with "
+            "`tribench compare RUN_A RUN_B`."
+        ),
     ]
     if command:
         body += ["<h3>The command that made this run</h3>", page.code(page.plain(command))]
-    body += ["<h3>To run it again</h3>", page.code("\n".join(steps)),
-             f"<h3>{escape(sweep_file)} (written next to this report)</h3>",
-             page.code(sweep_toml(data.run["sweep"])),
-             "<h3>To redraw this report</h3>", page.code(f"tribench report {data.run_dir}"),
-             "<h3>Files of the run folder</h3>",
-             page.p("Tidy CSVs, one row per observation, raw units (nanoseconds, counts, fractions).", "note")]
+    body += [
+        "<h3>To run it again</h3>",
+        page.code("\n".join(steps)),
+        f"<h3>{escape(sweep_file)} (written next to this report)</h3>",
+        page.code(sweep_toml(data.run["sweep"])),
+        "<h3>To redraw this report</h3>",
+        page.code(f"tribench report {data.run_dir}"),
+        "<h3>Files of the run folder</h3>",
+        page.p("Tidy CSVs, one row per observation, raw units (nanoseconds, counts, fractions).", "note"),
+    ]
     for name, cols in columns.FILES.items():
         present = (data.run_dir / name).is_file()
-        body.append(f"<details><summary>{escape(name)}{'' if present else ' (absent)'}</summary>"
-                    + page.kv_table(cols.items()) + "</details>")
+        body.append(
+            f"<details><summary>{escape(name)}{'' if present else ' (absent)'}</summary>"
+            + page.kv_table(cols.items())
+            + "</details>"
+        )
     return "".join(body)

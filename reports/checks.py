@@ -24,17 +24,34 @@ __all__ = ["drift_section", "diagnostics_section", "calibration", "correctness_s
 def drift_section(data: RunData, batches: pd.DataFrame, drift: pd.DataFrame, colours: dict[str, str]) -> str:
     """Batches over time relative to their process, and stats.drift per kernel against the baseline."""
     body = [
-        page.figure(figures.svg_data_uri(figures.drift_panel(batches, colours)), "drift panel",
-                    "Every timed batch, ns/test relative to its process's median for that kernel and workload, "
-                    "against time since the process started; lines: binned medians per kernel. Kernels moving "
-                    "apart over time is drift that can bias a ratio."),
-        page.p("stats.drift per kernel against the baseline and workload: slopes are per second on the log "
-               "scale; ratio change = the log speedup's move across one process; confound bias = what unequal "
-               "timing of the two kernels on a drifting machine adds to the log speedup.", "note"),
-        page.table(drift, [("kernel", "kernel"), ("label", "workload"), ("baseline_slope", "baseline slope (/s)"),
-                           ("ratio_slope", "ratio slope (/s)"), ("ratio_p", "p"), ("ratio_change", "ratio change"),
-                           ("confound_bias", "confound bias"), ("confound_p", "p (confound)"),
-                           ("flagged", "flagged"), ("reason", "reason")]),
+        page.figure(
+            figures.svg_data_uri(figures.drift_panel(batches, colours)),
+            "drift panel",
+            "Every timed batch, ns/test relative to its process's median for that kernel and workload, "
+            "against time since the process started; lines: binned medians per kernel. Kernels moving "
+            "apart over time is drift that can bias a ratio.",
+        ),
+        page.p(
+            "stats.drift per kernel against the baseline and workload: slopes are per second on the log "
+            "scale; ratio change = the log speedup's move across one process; confound bias = what unequal "
+            "timing of the two kernels on a drifting machine adds to the log speedup.",
+            "note",
+        ),
+        page.table(
+            drift,
+            [
+                ("kernel", "kernel"),
+                ("label", "workload"),
+                ("baseline_slope", "baseline slope (/s)"),
+                ("ratio_slope", "ratio slope (/s)"),
+                ("ratio_p", "p"),
+                ("ratio_change", "ratio change"),
+                ("confound_bias", "confound bias"),
+                ("confound_p", "p (confound)"),
+                ("flagged", "flagged"),
+                ("reason", "reason"),
+            ],
+        ),
     ]
     return "".join(body)
 
@@ -49,8 +66,13 @@ def calibration(data: RunData) -> str:
     body = [page.p(f"Equivalence margin of the verdicts: ±{100 * data.margin:.3g}% — {data.margin_source}.")]
     value, source = recorded.get("value"), recorded.get("source")
     if isinstance(value, (int, float)) and (value != data.margin or source != data.margin_source):
-        body.append(page.p(f"The sweep recorded ±{100 * value:.3g}% ({source}) in {runfolder.RUN}; the analysis "
-                           f"was made with the margin above (`tribench stats --margin`).", "note"))
+        body.append(
+            page.p(
+                f"The sweep recorded ±{100 * value:.3g}% ({source}) in {runfolder.RUN}; the analysis "
+                f"was made with the margin above (`tribench stats --margin`).",
+                "note",
+            )
+        )
     path = data.run_dir / runfolder.CALIBRATION
     try:
         cal = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else None
@@ -59,25 +81,41 @@ def calibration(data: RunData) -> str:
         return "".join(body)
     if not isinstance(cal, dict):
         if data.margin_source.startswith("calibration "):
-            body.append(page.p("That A/A calibration's record is not part of this run folder; its margin and "
-                               f"source are the ones {runfolder.RUN} recorded when the sweep started.", "note"))
+            body.append(
+                page.p(
+                    "That A/A calibration's record is not part of this run folder; its margin and "
+                    f"source are the ones {runfolder.RUN} recorded when the sweep started.",
+                    "note",
+                )
+            )
         else:
-            body.append(page.p("No A/A calibration stood behind this run: the verdicts rest on the default margin. "
-                               "`tribench calibrate` measures this machine's noise floor (a kernel against its "
-                               "identical copy) and later sweeps use it.", "note"))
+            body.append(
+                page.p(
+                    "No A/A calibration stood behind this run: the verdicts rest on the default margin. "
+                    "`tribench calibrate` measures this machine's noise floor (a kernel against its "
+                    "identical copy) and later sweeps use it.",
+                    "note",
+                )
+            )
         return "".join(body)
     body.append(page.p(f"This run folder is an A/A calibration; its record ({runfolder.CALIBRATION}):", "note"))
-    body.append(page.kv_table([
+    body.append(
+        page.kv_table(
+            [
                 ("A/A pair", f"{cal.get('kernel')} vs {cal.get('copy')}"),
                 ("comparisons", f"{cal.get('experiments')} of {cal.get('processes_per_experiment')} processes"),
                 ("coverage of 1 by 95% CIs", f"{100 * cal.get('coverage', math.nan):.0f}%"),
                 ("false positives (p < 0.05)", f"{100 * cal.get('false_positive_rate', math.nan):.0f}% (expect 5%)"),
-                ("p-values vs uniform", f"KS {cal.get('ks_statistic', math.nan):.3f}, "
-                                        f"p = {cal.get('ks_p_value', math.nan):.3f}"),
+                (
+                    "p-values vs uniform",
+                    f"KS {cal.get('ks_statistic', math.nan):.3f}, p = {cal.get('ks_p_value', math.nan):.3f}",
+                ),
                 ("noise floor (97.5% of |log ratio|)", f"{cal.get('noise_floor', math.nan):.4g}"),
                 ("margin", f"{100 * cal.get('margin', math.nan):.3g}%"),
                 ("created", cal.get("created")),
-    ]))
+            ]
+        )
+    )
     return "".join(body)
 
 
@@ -91,36 +129,71 @@ def diagnostics_section(data: RunData, batches: pd.DataFrame, wl: pd.DataFrame) 
     ctx = int(timed["invol_ctx_switches"].sum())
     steal = timed.loc[timed["steal_ticks"] > 0, "steal_ticks"].sum() if "steal_ticks" in timed else 0
     body = [
-        page.figure(figures.svg_data_uri(figures.rounds_panel(batches, colours)), "batches by round",
-                    f"Every batch against its round (shaded: warm-up rounds, kept and labelled, left out of every "
-                    f"estimate), relative to its process's median. Red rings: Tukey outliers (beyond "
-                    f"{stats.DEFAULTS.tukey_k} IQR within the process), crosses: far out "
-                    f"({stats.DEFAULTS.tukey_far_k} IQR). Outliers are labelled, never dropped: the per-process "
-                    f"median keeps the estimates robust."),
+        page.figure(
+            figures.svg_data_uri(figures.rounds_panel(batches, colours)),
+            "batches by round",
+            f"Every batch against its round (shaded: warm-up rounds, kept and labelled, left out of every "
+            f"estimate), relative to its process's median. Red rings: Tukey outliers (beyond "
+            f"{stats.DEFAULTS.tukey_k} IQR within the process), crosses: far out "
+            f"({stats.DEFAULTS.tukey_far_k} IQR). Outliers are labelled, never dropped: the per-process "
+            f"median keeps the estimates robust.",
+        ),
         "<h3>Warm-up</h3>",
-        page.table(warm, [("kernel", "kernel"), ("label", "workload"), ("warmup_batches", "warm-up batches"),
-                          ("warmup_rel", "warm-up ns/test ÷ timed median")]),
+        page.table(
+            warm,
+            [
+                ("kernel", "kernel"),
+                ("label", "workload"),
+                ("warmup_batches", "warm-up batches"),
+                ("warmup_rel", "warm-up ns/test ÷ timed median"),
+            ],
+        ),
         "<h3>Outliers (Tukey fences, per process)</h3>",
-        page.table(outl, [("kernel", "kernel"), ("label", "workload"), ("batches", "timed batches"),
-                          ("outliers", "outliers"), ("far_out", "far out"), ("worst_rel", "worst ÷ median")]),
+        page.table(
+            outl,
+            [
+                ("kernel", "kernel"),
+                ("label", "workload"),
+                ("batches", "timed batches"),
+                ("outliers", "outliers"),
+                ("far_out", "far out"),
+                ("worst_rel", "worst ÷ median"),
+            ],
+        ),
         "<h3>Variance components</h3>",
-        page.p("Kalibera & Jones (2013): between rounds inside a process and between processes, as standard "
-               "deviations relative to the mean (stats.variance_components on a balanced processes × rounds "
-               "matrix). Where processes dominate, more processes narrow the intervals; more rounds do not.",
-               "note"),
-        page.table(var, [("kernel", "kernel"), ("label", "workload"), ("mean_ns", "mean ns/test"),
-                         ("round_sd_pct", "between rounds (sd %)"), ("process_sd_pct", "between processes (sd %)"),
-                         ("n_processes", "processes"), ("n_rounds", "rounds")]),
-        "<h3>A/A calibration</h3>", calibration(data),
+        page.p(
+            "Kalibera & Jones (2013): between rounds inside a process and between processes, as standard "
+            "deviations relative to the mean (stats.variance_components on a balanced processes × rounds "
+            "matrix). Where processes dominate, more processes narrow the intervals; more rounds do not.",
+            "note",
+        ),
+        page.table(
+            var,
+            [
+                ("kernel", "kernel"),
+                ("label", "workload"),
+                ("mean_ns", "mean ns/test"),
+                ("round_sd_pct", "between rounds (sd %)"),
+                ("process_sd_pct", "between processes (sd %)"),
+                ("n_processes", "processes"),
+                ("n_rounds", "rounds"),
+            ],
+        ),
+        "<h3>A/A calibration</h3>",
+        calibration(data),
         "<h3>Interference</h3>",
-        page.p(f"{ctx:,} involuntary context switches over {len(timed):,} timed batches; steal time "
-               f"{'not readable' if (timed['steal_ticks'] < 0).all() else f'{int(steal)} ticks'}; "
-               f"workers pinned to CPU {data.run.get('cpu', '?')}."),
+        page.p(
+            f"{ctx:,} involuntary context switches over {len(timed):,} timed batches; steal time "
+            f"{'not readable' if (timed['steal_ticks'] < 0).all() else f'{int(steal)} ticks'}; "
+            f"workers pinned to CPU {data.run.get('cpu', '?')}."
+        ),
     ]
     if not data.processes.empty:
         peak = data.processes.groupby("phase")["peak_gflops"].agg(["mean", "min", "max"]).reset_index()
-        body += ["<h3>FMA peak per process (GFLOP/s)</h3>",
-                 page.table(peak, [("phase", "phase"), ("mean", "mean"), ("min", "min"), ("max", "max")])]
+        body += [
+            "<h3>FMA peak per process (GFLOP/s)</h3>",
+            page.table(peak, [("phase", "phase"), ("mean", "mean"), ("min", "min"), ("max", "max")]),
+        ]
     return "".join(body)
 
 
@@ -129,47 +202,63 @@ def correctness_section(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) 
     labels = dict(zip(wl["workload_id"], wl["label"], strict=True))
     frame = correct.assign(label=correct["workload_id"].map(labels))
     body = [
-        page.p("Every batch returns a checksum (hits and the sum of t) that the worker checked against the "
-               "float64 reference before keeping it: a kernel that is fast because it is wrong stops the run. "
-               "Hits may differ from the reference only on ambiguous rays (within 1e-5, in barycentric terms, "
-               "of an edge). Mesh workloads count rays that hit; pair workloads count pairs that hit.", "note"),
-        page.table(frame, [("kernel", "kernel"), ("label", "workload"), ("batches", "batches"),
-                           ("ref_hits", "reference hits per pass"), ("hits_per_pass_min", "kernel hits per pass"),
-                           ("hit_difference", "|difference|"), ("ambiguous_rays", "ambiguous rays"),
-                           ("t_sum_rel_diff", "sum of t, relative difference"), ("agrees", "agrees")], digits=3),
+        page.p(
+            "Every batch returns a checksum (hits and the sum of t) that the worker checked against the "
+            "float64 reference before keeping it: a kernel that is fast because it is wrong stops the run. "
+            "Hits may differ from the reference only on ambiguous rays (within 1e-5, in barycentric terms, "
+            "of an edge). Mesh workloads count rays that hit; pair workloads count pairs that hit.",
+            "note",
+        ),
+        page.table(
+            frame,
+            [
+                ("kernel", "kernel"),
+                ("label", "workload"),
+                ("batches", "batches"),
+                ("ref_hits", "reference hits per pass"),
+                ("hits_per_pass_min", "kernel hits per pass"),
+                ("hit_difference", "|difference|"),
+                ("ambiguous_rays", "ambiguous rays"),
+                ("t_sum_rel_diff", "sum of t, relative difference"),
+                ("agrees", "agrees"),
+            ],
+            digits=3,
+        ),
     ]
-    body.append('<p class="note">Watertightness figures (cracks at exactly shared edges and vertices, misses '
-                "from inside Embree's far-off sphere) and every kernel's answers at extreme input are in "
-                '<a href="#robustness">Robustness</a>.</p>')
+    body.append(
+        '<p class="note">Watertightness figures (cracks at exactly shared edges and vertices, misses '
+        "from inside Embree's far-off sphere) and every kernel's answers at extreme input are in "
+        '<a href="#robustness">Robustness</a>.</p>'
+    )
     return "".join(body)
 
 
 #: What each robustness test measures, in one sentence (after tribench.harness.validate's documentation).
 _TEST_TEXT = {
     "shared_edges": "Cracks: rays aimed exactly at a point inside an edge shared by two triangles of an exactly "
-                    "coplanar mesh (dyadic coordinates, exact at both precisions) that hit no triangle of it.",
+    "coplanar mesh (dyadic coordinates, exact at both precisions) that hit no triangle of it.",
     "shared_edges_double": "Double hits: those rays hitting both triangles of their edge, each asked alone; by "
-                           "design for closed-triangle rules (the reference's, Woop's), a defect only where "
-                           "crossings are counted.",
+    "design for closed-triangle rules (the reference's, Woop's), a defect only where "
+    "crossings are counted.",
     "shared_vertices": "Cracks: rays aimed exactly at an interior vertex of six triangles that hit no triangle "
-                       "of the mesh.",
+    "of the mesh.",
     "inside_sphere": "Misses: rays from inside a radius-2 icosphere of 20,480 triangles centred at "
-                     "(148376, 1234, −223423), where float32 spacing is 1/64 (Embree's watertightness test, "
-                     "which fails above 0.002%).",
+    "(148376, 1234, −223423), where float32 spacing is 1/64 (Embree's watertightness test, "
+    "which fails above 0.002%).",
     "scales": "Answers other than the float64 reference's on safe pairs (every crossing at least 1e-3 "
-              "barycentric from an edge) scaled by 1e-8, 1e-4, 1, 1e4 and 1e8.",
+    "barycentric from an edge) scaled by 1e-8, 1e-4, 1, 1e4 and 1e8.",
     "tiny_triangles": "Misses on near-equilateral triangles from 1e-2 down to about 100 ulps across, rays aimed "
-                      "at least 0.2 barycentric inside.",
+    "at least 0.2 barycentric inside.",
     "needle_triangles": "Misses on needles of base 1 and aspect ratios 1e3 to 1e6, rays aimed at least 0.2 "
-                        "barycentric inside.",
+    "barycentric inside.",
     "grazing_rays": "Misses on unit triangles met at slopes of 1e-3 to 1e-6 to their plane, rays aimed at least "
-                    "0.2 barycentric inside.",
+    "0.2 barycentric inside.",
     "parallel_rays": "Hits by rays lying exactly in the triangle's plane or exactly parallel just above it: "
-                     "every one must miss.",
+    "every one must miss.",
     "degenerate_triangles": "Hits on a point, a segment with a repeated vertex and three collinear points, rays "
-                            "aimed exactly at them: every one must miss.",
+    "aimed exactly at them: every one must miss.",
     "nonfinite": "Hits on safe pairs with one NaN, +Inf or −Inf in the origin, the direction or a vertex: the "
-                 "call must return, and miss.",
+    "call must return, and miss.",
 }
 
 
@@ -181,15 +270,18 @@ def _rate_class(cell: Any) -> str:
 def robustness_section(val: pd.DataFrame, note: str) -> str:
     """validate.csv: failure rates per kernel, precision and test, broken promises marked; ``note``: its source."""
     body = [
-        page.p("Rays no timing workload asks (tribench.harness.validate, as `tribench validate`): aimed exactly at "
-               "shared edges and vertices of exactly coplanar meshes, from inside a far-off sphere, and at extreme "
-               "scales, sizes, shapes, angles and non-finite input. A cell is a kernel's failure rate on a test at "
-               "one precision (failures / rays, 0 = none). What the papers promise (validate's expected column): "
-               "no crack at shared edges and vertices, and Embree's 0.002% on the sphere, for Woop, Benthin & "
-               "Wald's watertight test; no hit on parallel rays and degenerate triangles for every kernel, nor on "
-               "non-finite input except for the seed kernels, faithful copies of flawed code. A cell marked ! in "
-               "red breaks its promise; every other rate is measured, not judged. A culling kernel is asked about "
-               "triangles facing the ray, so its rates measure robustness, not culling.", "note"),
+        page.p(
+            "Rays no timing workload asks (tribench.harness.validate, as `tribench validate`): aimed exactly at "
+            "shared edges and vertices of exactly coplanar meshes, from inside a far-off sphere, and at extreme "
+            "scales, sizes, shapes, angles and non-finite input. A cell is a kernel's failure rate on a test at "
+            "one precision (failures / rays, 0 = none). What the papers promise (validate's expected column): "
+            "no crack at shared edges and vertices, and Embree's 0.002% on the sphere, for Woop, Benthin & "
+            "Wald's watertight test; no hit on parallel rays and degenerate triangles for every kernel, nor on "
+            "non-finite input except for the seed kernels, faithful copies of flawed code. A cell marked ! in "
+            "red breaks its promise; every other rate is measured, not judged. A culling kernel is asked about "
+            "triangles facing the ray, so its rates measure robustness, not culling.",
+            "note",
+        ),
         page.p(note, "note"),
     ]
     if val.empty:
@@ -198,22 +290,61 @@ def robustness_section(val: pd.DataFrame, note: str) -> str:
     names = [validate.SHORT_NAMES[t] for t in tests]
     broken = val.loc[val["verdict"] == "fail"]
     body.append(page.p(f"{int((val['verdict'] != 'measured').sum())} promises checked, {len(broken)} broken."))
-    body.append(page.table(validate.table(val), [("kernel", "kernel"), ("dtype", "precision"), ("isa", "ISA")]
-                           + [(n, n) for n in names], classes={n: _rate_class for n in names}))
+    body.append(
+        page.table(
+            validate.table(val),
+            [("kernel", "kernel"), ("dtype", "precision"), ("isa", "ISA")] + [(n, n) for n in names],
+            classes={n: _rate_class for n in names},
+        )
+    )
     if not broken.empty:
-        shown = broken.assign(cell=[validate.format_rate(f, r, v) for f, r, v in
-                                    zip(broken["failures"], broken["rate"], broken["verdict"], strict=True)])
-        body += ["<h3>Broken promises</h3>",
-                 page.table(shown, [("kernel", "kernel"), ("dtype", "precision"), ("test", "test"), ("cell", "rate"),
-                                    ("failures", "failures"), ("rays", "rays"), ("expected", "promised"),
-                                    ("detail", "breakdown")], classes={"cell": _rate_class})]
+        shown = broken.assign(
+            cell=[
+                validate.format_rate(f, r, v)
+                for f, r, v in zip(broken["failures"], broken["rate"], broken["verdict"], strict=True)
+            ]
+        )
+        body += [
+            "<h3>Broken promises</h3>",
+            page.table(
+                shown,
+                [
+                    ("kernel", "kernel"),
+                    ("dtype", "precision"),
+                    ("test", "test"),
+                    ("cell", "rate"),
+                    ("failures", "failures"),
+                    ("rays", "rays"),
+                    ("expected", "promised"),
+                    ("detail", "breakdown"),
+                ],
+                classes={"cell": _rate_class},
+            ),
+        ]
     rays = val.groupby(["test", "dtype"])["rays"].max()
     dtypes = list(dict.fromkeys(val["dtype"]))
-    legend = pd.DataFrame([{"column": validate.SHORT_NAMES[t], "test": t, "what": _TEST_TEXT.get(t, ""),
-                            **{f"rays {d}": rays.get((t, d)) for d in dtypes}} for t in tests])
-    body += ["<h3>The tests</h3>",
-             page.p(f"Every kernel is asked the same rays at a precision. The breakdown of every rate is in "
-                    f"{VALIDATE}'s detail column.", "note"),
-             page.table(legend, [("column", "column"), ("test", "test"), ("what", "what is measured")]
-                        + [(f"rays {d}", f"rays ({d})") for d in dtypes])]
+    legend = pd.DataFrame(
+        [
+            {
+                "column": validate.SHORT_NAMES[t],
+                "test": t,
+                "what": _TEST_TEXT.get(t, ""),
+                **{f"rays {d}": rays.get((t, d)) for d in dtypes},
+            }
+            for t in tests
+        ]
+    )
+    body += [
+        "<h3>The tests</h3>",
+        page.p(
+            f"Every kernel is asked the same rays at a precision. The breakdown of every rate is in "
+            f"{VALIDATE}'s detail column.",
+            "note",
+        ),
+        page.table(
+            legend,
+            [("column", "column"), ("test", "test"), ("what", "what is measured")]
+            + [(f"rays {d}", f"rays ({d})") for d in dtypes],
+        ),
+    ]
     return "".join(body)

@@ -11,8 +11,20 @@ from __future__ import annotations
 from tribench.harness import runfolder as _rf
 from tribench.harness.runfolder import DERIVED, FILES, OPTIONAL, SEED_FILES, describe
 
-__all__ = ["BATCHES", "CHECKS", "ESTIMATES", "SPEEDUPS", "PROCESSES", "VALIDATE", "PEERS", "FILES", "OPTIONAL",
-           "SEED_FILES", "DERIVED", "describe"]
+__all__ = [
+    "BATCHES",
+    "CHECKS",
+    "ESTIMATES",
+    "SPEEDUPS",
+    "PROCESSES",
+    "VALIDATE",
+    "PEERS",
+    "FILES",
+    "OPTIONAL",
+    "SEED_FILES",
+    "DERIVED",
+    "describe",
+]
 
 #: Shorthands for the column dicts of the files the report reads most.
 BATCHES = FILES[_rf.BATCHES]

@@ -52,8 +52,18 @@ __all__ = [
 ]
 
 VERDICT_COLOURS = {"faster": "#1a7f37", "slower": "#c62828", "equivalent": "#5f6b7a", "inconclusive": "#d97706"}
-_PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
-            "#bcbd22", "#17becf"]
+_PALETTE = [
+    "#1f77b4",
+    "#ff7f0e",
+    "#2ca02c",
+    "#d62728",
+    "#9467bd",
+    "#8c564b",
+    "#e377c2",
+    "#7f7f7f",
+    "#bcbd22",
+    "#17becf",
+]
 _STYLE: dict[RcKeyType, Any] = {
     "font.size": 9,
     "axes.titlesize": 10,
@@ -149,8 +159,13 @@ def _log_ratio_axis(ax, low: float, high: float) -> None:
 # ------------------------------------------------------------------- forest
 
 
-def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | None = None,
-           verdict_words: dict[str, str] | None = None) -> Figure:
+def forest(
+    speedups: pd.DataFrame,
+    baseline: str,
+    margin: float,
+    xlabel: str | None = None,
+    verdict_words: dict[str, str] | None = None,
+) -> Figure:
     """Forest plot: every kernel's speedup over the baseline, per workload family.
 
     Parameters
@@ -173,8 +188,9 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
     sizes = [int((speedups["family"] == f).sum()) for f in families]
     height = 0.9 + sum(0.27 * s + 0.55 for s in sizes)
     fig = _figure(9.5, height)
-    axes = fig.subplots(len(families), 1, sharex=True, squeeze=False,
-                        gridspec_kw={"height_ratios": [s + 1.2 for s in sizes]})[:, 0]
+    axes = fig.subplots(
+        len(families), 1, sharex=True, squeeze=False, gridspec_kw={"height_ratios": [s + 1.2 for s in sizes]}
+    )[:, 0]
     low = float(np.nanmin(speedups[["ratio_ci_low", "ratio"]].to_numpy()))
     high = float(np.nanmax(speedups[["ratio_ci_high", "ratio"]].to_numpy()))
     for ax, family in zip(axes, families, strict=True):
@@ -182,8 +198,14 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
         korder = {k: i for i, k in enumerate(dict.fromkeys(speedups["kernel"]))}
         rows = rows.sort_values("kernel", key=lambda s: s.map(korder), kind="stable").reset_index(drop=True)
         y = np.arange(len(rows))[::-1]
-        ax.axvspan(1 / (1 + margin), 1 + margin, color="#d0d7de", alpha=0.6, lw=0,
-                   label=f"equivalence margin ±{100 * margin:.2g}%")
+        ax.axvspan(
+            1 / (1 + margin),
+            1 + margin,
+            color="#d0d7de",
+            alpha=0.6,
+            lw=0,
+            label=f"equivalence margin ±{100 * margin:.2g}%",
+        )
         ax.axvline(1.0, color="#333", lw=0.8)
         for yi, r in zip(y, rows.itertuples(index=False), strict=True):
             colour = VERDICT_COLOURS.get(r.verdict, "#333")
@@ -191,8 +213,17 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
                 ax.plot([r.ratio_ci_low, r.ratio_ci_high], [yi, yi], color=colour, lw=2.2, solid_capstyle="butt")
             ax.plot([r.ratio], [yi], "o", color=colour, ms=6, mec="white", mew=0.8)
             label = format_interval(r.ratio, r.ratio_ci_low, r.ratio_ci_high, unit="×")
-            ax.text(1.01, yi, f"{label}  {words.get(r.verdict, r.verdict)}", transform=ax.get_yaxis_transform(),
-                    va="center", ha="left", color=colour, fontsize=8.5, clip_on=False)
+            ax.text(
+                1.01,
+                yi,
+                f"{label}  {words.get(r.verdict, r.verdict)}",
+                transform=ax.get_yaxis_transform(),
+                va="center",
+                ha="left",
+                color=colour,
+                fontsize=8.5,
+                clip_on=False,
+            )
         ax.set_yticks(y)
         ax.set_yticklabels([f"{r.kernel}  ·  {r.label}" for r in rows.itertuples(index=False)])
         ax.set_ylim(-0.7, len(rows) - 0.3)
@@ -201,11 +232,17 @@ def forest(speedups: pd.DataFrame, baseline: str, margin: float, xlabel: str | N
         ax.tick_params(axis="y", length=0)
     _log_ratio_axis(axes[-1], low, high)
     level = speedups["confidence"].iloc[0] if "confidence" in speedups else math.nan
-    axes[-1].set_xlabel(xlabel or (f"speedup over {baseline} = time_{baseline} / time_kernel   "
-                                   f"(log axis; > 1: faster; bars: simultaneous 95% CIs"
-                                   + (f", {100 * level:.3g}% each)" if np.isfinite(level) else ")")))
-    handles: list[Artist] = [plt.Line2D([], [], color=c, marker="o", lw=2, label=words.get(v, v))
-               for v, c in VERDICT_COLOURS.items()]
+    axes[-1].set_xlabel(
+        xlabel
+        or (
+            f"speedup over {baseline} = time_{baseline} / time_kernel   "
+            f"(log axis; > 1: faster; bars: simultaneous 95% CIs"
+            + (f", {100 * level:.3g}% each)" if np.isfinite(level) else ")")
+        )
+    )
+    handles: list[Artist] = [
+        plt.Line2D([], [], color=c, marker="o", lw=2, label=words.get(v, v)) for v, c in VERDICT_COLOURS.items()
+    ]
     handles.append(plt.Rectangle((0, 0), 1, 1, color="#d0d7de", label=f"equivalence margin ±{100 * margin:.2g}%"))
     axes[0].legend(handles=handles, loc="lower left", bbox_to_anchor=(0, 1.12), ncol=5, frameon=False)
     fig.subplots_adjust(right=0.72, hspace=0.55)
@@ -226,8 +263,16 @@ def _mark_crossovers(ax, cross: pd.DataFrame) -> None:
         if np.isfinite(r.ci_low) and np.isfinite(r.ci_high):
             ax.axvspan(r.ci_low, r.ci_high, color="#7c3aed", alpha=0.10, lw=0)
         ax.axvline(r.hit_rate, color="#7c3aed", lw=1, ls="--")
-        ax.text(r.hit_rate, 1.0, f" {r.kernel_a} = {r.kernel_b}\n at {100 * r.hit_rate:.3g}%",
-                transform=ax.get_xaxis_transform(), va="top", ha="left", fontsize=7.5, color="#7c3aed")
+        ax.text(
+            r.hit_rate,
+            1.0,
+            f" {r.kernel_a} = {r.kernel_b}\n at {100 * r.hit_rate:.3g}%",
+            transform=ax.get_xaxis_transform(),
+            va="top",
+            ha="left",
+            fontsize=7.5,
+            color="#7c3aed",
+        )
 
 
 _NO_HIT_RATE_CURVE = "no pair workload family with two or more per-test hit rates in this run"
@@ -261,8 +306,9 @@ def hit_rate_curves(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, s
         for kernel, g in rows.groupby("kernel", sort=False):
             g = g.sort_values("test_hit_rate")
             c = colours.get(kernel, "#333")
-            ax.fill_between(g["test_hit_rate"], g["ns_per_test_ci_low"], g["ns_per_test_ci_high"], color=c,
-                            alpha=0.18, lw=0)
+            ax.fill_between(
+                g["test_hit_rate"], g["ns_per_test_ci_low"], g["ns_per_test_ci_high"], color=c, alpha=0.18, lw=0
+            )
             ax.plot(g["test_hit_rate"], g["ns_per_test"], "o-", color=c, ms=3.5, lw=1.5, label=kernel)
         _mark_crossovers(ax, cross.loc[cross["family"] == family])
         ax.set_title(family, loc="left", fontsize=9.5)
@@ -346,8 +392,18 @@ def scaling(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) 
         c = colours.get(kernel, "#333")
         mean = g["ns_per_test"]
         yerr = [mean - g["ns_per_test_ci_low"], g["ns_per_test_ci_high"] - mean]
-        ax2.errorbar(g["working_set_bytes"], mean, yerr=yerr, fmt="o", ls=fam_style[family], color=c, ms=3.5,
-                     lw=1.2, capsize=2, label=kernel)
+        ax2.errorbar(
+            g["working_set_bytes"],
+            mean,
+            yerr=yerr,
+            fmt="o",
+            ls=fam_style[family],
+            color=c,
+            ms=3.5,
+            lw=1.2,
+            capsize=2,
+            label=kernel,
+        )
     ax2.set_xscale("log")
     ax2.set_yscale("log")
     for name, size in (caches or {}).items():
@@ -356,8 +412,17 @@ def scaling(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) 
         b = cache_bytes(size)
         if np.isfinite(b):
             ax2.axvline(b, color="#888", lw=0.9, ls="--")
-            ax2.text(b, 0.98, f" {name} {size}", transform=ax2.get_xaxis_transform(), rotation=90,
-                     va="top", ha="right", fontsize=7.5, color="#555")
+            ax2.text(
+                b,
+                0.98,
+                f" {name} {size}",
+                transform=ax2.get_xaxis_transform(),
+                rotation=90,
+                va="top",
+                ha="right",
+                fontsize=7.5,
+                color="#555",
+            )
     ax2.xaxis.set_major_formatter(FuncFormatter(_bytes_label))
     ax2.set_xlabel("working set: prepared triangles + rays (bytes)")
     ax2.set_title("cost against working-set size, cache sizes marked", loc="left")
@@ -378,8 +443,14 @@ def _dedupe_legend(ax) -> None:
 # --------------------------------------------------------------- processes
 
 
-def process_dots(pp: pd.DataFrame, est: pd.DataFrame, labels: dict[str, str], kernels: Sequence[str],
-                 colours: dict[str, str], ncols: int = 3) -> Figure:
+def process_dots(
+    pp: pd.DataFrame,
+    est: pd.DataFrame,
+    labels: dict[str, str],
+    kernels: Sequence[str],
+    colours: dict[str, str],
+    ncols: int = 3,
+) -> Figure:
     """Per-process medians (dots) under each kernel's estimate (mean and CI), per workload."""
     wids = list(dict.fromkeys(est["workload_id"]))
     if not wids:
@@ -407,7 +478,7 @@ def process_dots(pp: pd.DataFrame, est: pd.DataFrame, labels: dict[str, str], ke
         ax.set_xlabel("ns per test", fontsize=8)
         ax.grid(axis="x", color="#eee", lw=0.6)
         ax.tick_params(axis="y", length=0)
-    for ax in axes[len(wids):]:
+    for ax in axes[len(wids) :]:
         ax.axis("off")
     fig.tight_layout()
     return fig
@@ -468,14 +539,28 @@ def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
     for i, kernel in enumerate(kernels):
         g = batches.loc[batches["kernel"] == kernel]
         x = g["round"] + (i - (len(kernels) - 1) / 2) * width
-        ax.scatter(x, g["rel_to_median"], s=7, color=colours.get(kernel, "#333"), alpha=0.55, lw=0,
-                   label=kernel, rasterized=True)
+        ax.scatter(
+            x,
+            g["rel_to_median"],
+            s=7,
+            color=colours.get(kernel, "#333"),
+            alpha=0.55,
+            lw=0,
+            label=kernel,
+            rasterized=True,
+        )
     out = batches.loc[batches["outlier"] & ~batches["far_out"]]
     far = batches.loc[batches["far_out"]]
-    ax.scatter(out["round"], out["rel_to_median"], s=40, facecolors="none", edgecolors="#c62828", lw=0.9,
-               label="outlier (Tukey 1.5 IQR)")
-    ax.scatter(far["round"], far["rel_to_median"], s=40, marker="x", color="#c62828", lw=1.1,
-               label="far out (3 IQR)")
+    ax.scatter(
+        out["round"],
+        out["rel_to_median"],
+        s=40,
+        facecolors="none",
+        edgecolors="#c62828",
+        lw=0.9,
+        label="outlier (Tukey 1.5 IQR)",
+    )
+    ax.scatter(far["round"], far["rel_to_median"], s=40, marker="x", color="#c62828", lw=1.1, label="far out (3 IQR)")
     if (batches["round"] < 0).any():
         ax.axvspan(batches["round"].min() - 0.5, -0.5, color="#fde68a", alpha=0.35, lw=0, label="warm-up")
     ax.axhline(1.0, color="#333", lw=0.8)
@@ -506,8 +591,15 @@ def peers_rates(rates: pd.DataFrame) -> Figure:
         if math.isfinite(r.ci_low) and math.isfinite(r.ci_high):
             ax.plot([r.ci_low, r.ci_high], [yi, yi], color=colour, lw=2, solid_capstyle="butt")
         ax.plot([r.rays_per_s], [yi], "o", color=colour, ms=6)
-        ax.annotate(f"{r.rays_per_s:.3g}", (r.rays_per_s, yi), xytext=(0, 7), textcoords="offset points",
-                    ha="center", va="bottom", fontsize=8)
+        ax.annotate(
+            f"{r.rays_per_s:.3g}",
+            (r.rays_per_s, yi),
+            xytext=(0, 7),
+            textcoords="offset points",
+            ha="center",
+            va="bottom",
+            fontsize=8,
+        )
     ax.set_xscale("log")
     values = pd.concat([rates["rays_per_s"], rates["ci_low"], rates["ci_high"]]).dropna()
     ax.set_xlim(values.min() / 2, values.max() * 2)

@@ -45,8 +45,11 @@ def headline_sentences(spd: pd.DataFrame) -> dict[str, list[tuple[str, str]]]:
                 r = g.iloc[0]
                 where = f"on {family} at {r['label']}" if r["label"] not in family else f"on {family}"
                 out.setdefault(family, []).append(
-                    (r["verdict"], f"{kernel} {_verdict_phrase(r['verdict'], base)}: {_ratio(r)} "
-                                   f"(95% CI, {procs}) {where}."))
+                    (
+                        r["verdict"],
+                        f"{kernel} {_verdict_phrase(r['verdict'], base)}: {_ratio(r)} (95% CI, {procs}) {where}.",
+                    )
+                )
                 continue
             lo, hi = g.loc[g["ratio"].idxmin()], g.loc[g["ratio"].idxmax()]
             span = f"from {_ratio(lo)} at {lo['label']} to {_ratio(hi)} at {hi['label']} (95% CIs)"
@@ -54,7 +57,7 @@ def headline_sentences(spd: pd.DataFrame) -> dict[str, list[tuple[str, str]]]:
                 text = f"{kernel} {_verdict_phrase(verdicts[0], base)} on all {len(g)} workloads: {span}; {procs}."
                 out.setdefault(family, []).append((verdicts[0], text))
             else:
-                parts = "; ".join(f"{v} at " + ", ".join(g.loc[g['verdict'] == v, 'label']) for v in verdicts)
+                parts = "; ".join(f"{v} at " + ", ".join(g.loc[g["verdict"] == v, "label"]) for v in verdicts)
                 text = f"{kernel} against {base} depends on the workload — {parts}: {span}; {procs}."
                 out.setdefault(family, []).append(("mixed", text))
     return out
@@ -72,21 +75,24 @@ def _verdict_phrase(verdict: str, base: str) -> str:
     }.get(verdict, f"cannot be told apart from {base} (inconclusive)")
 
 
-def headline_section(data: RunData, spd: pd.DataFrame, wl: pd.DataFrame, warnings: list[str],
-                     peers: PeerTables | None = None) -> str:
+def headline_section(
+    data: RunData, spd: pd.DataFrame, wl: pd.DataFrame, warnings: list[str], peers: PeerTables | None = None
+) -> str:
     """The title, the verdict sentences per family, how to read them, and the run's warnings."""
     m = data.machine
     sweep = data.run["sweep"]
     families = list(dict.fromkeys(wl["family"]))
     parts = [
-        f"<h1>{escape(', '.join(k for k in data.kernels if k != data.baseline))} against {escape(data.baseline)}"
-        f"</h1>",
-        page.p(f"Run {data.run.get('run_id', data.run_dir.name)}, {data.run.get('created', '')}: "
-               f"{len(data.kernels)} kernels on {len(wl)} workloads in {len(families)} families, "
-               f"{data.n_processes} worker processes × {sweep.get('rounds')} rounds "
-               f"(+{sweep.get('warmup')} warm-up), on {m.get('cpu_model', 'an unknown CPU')} "
-               f"({m.get('build', {}).get('compiler', 'unknown compiler')}). Baseline: {data.baseline}. "
-               f"Speedup = time_{data.baseline} / time_kernel, so above 1 means faster.", "sub"),
+        f"<h1>{escape(', '.join(k for k in data.kernels if k != data.baseline))} against {escape(data.baseline)}</h1>",
+        page.p(
+            f"Run {data.run.get('run_id', data.run_dir.name)}, {data.run.get('created', '')}: "
+            f"{len(data.kernels)} kernels on {len(wl)} workloads in {len(families)} families, "
+            f"{data.n_processes} worker processes × {sweep.get('rounds')} rounds "
+            f"(+{sweep.get('warmup')} warm-up), on {m.get('cpu_model', 'an unknown CPU')} "
+            f"({m.get('build', {}).get('compiler', 'unknown compiler')}). Baseline: {data.baseline}. "
+            f"Speedup = time_{data.baseline} / time_kernel, so above 1 means faster.",
+            "sub",
+        ),
     ]
     sentences = headline_sentences(spd)
     if not sentences:
@@ -94,17 +100,22 @@ def headline_section(data: RunData, spd: pd.DataFrame, wl: pd.DataFrame, warning
     for family in families:
         if family not in sentences:
             continue
-        items = "".join(f'<li><span class="{escape(v)}">{escape(v)}</span> — {escape(s)}</li>'
-                        for v, s in sentences[family])
-        parts.append(f"<h3>{escape(family)}</h3><ul class=\"verdicts\">{items}</ul>")
+        items = "".join(
+            f'<li><span class="{escape(v)}">{escape(v)}</span> — {escape(s)}</li>' for v, s in sentences[family]
+        )
+        parts.append(f'<h3>{escape(family)}</h3><ul class="verdicts">{items}</ul>')
     if peers is not None and (sentence := peer_sentence(peers.ratios, peers.kernel, peers.workload)):
         parts.append(page.p(sentence + " (see Against peers)"))
-    parts.append(page.p(
-        f"Intervals are simultaneous 95% intervals over the kernels compared on each workload "
-        f"(Bonferroni; p-values Holm-adjusted), with the worker process as the replicate. "
-        f"Verdicts use an equivalence margin of ±{100 * data.margin:.2g}% ({data.margin_source}). "
-        f"Pair workloads are described by their per-test hit rate (fraction of ray–triangle tests that hit); "
-        f"mesh workloads by their per-ray hit rate (fraction of rays that hit the mesh at all).", "note"))
+    parts.append(
+        page.p(
+            f"Intervals are simultaneous 95% intervals over the kernels compared on each workload "
+            f"(Bonferroni; p-values Holm-adjusted), with the worker process as the replicate. "
+            f"Verdicts use an equivalence margin of ±{100 * data.margin:.2g}% ({data.margin_source}). "
+            f"Pair workloads are described by their per-test hit rate (fraction of ray–triangle tests that hit); "
+            f"mesh workloads by their per-ray hit rate (fraction of rays that hit the mesh at all).",
+            "note",
+        )
+    )
     parts += [page.warn(w) for w in warnings]
     return "".join(parts)
 
@@ -113,22 +124,29 @@ def run_warnings(data: RunData, drift: pd.DataFrame, correct: pd.DataFrame) -> l
     """What the reader must know before trusting the numbers: few processes, default margin, drift, wrong answers."""
     out = []
     if data.n_processes < 5:
-        out.append(f"Only {data.n_processes} worker processes: intervals rest on {data.n_processes - 1} "
-                   f"degrees of freedom and are wide; use 10 or more for conclusions.")
+        out.append(
+            f"Only {data.n_processes} worker processes: intervals rest on {data.n_processes - 1} "
+            f"degrees of freedom and are wide; use 10 or more for conclusions."
+        )
     if data.margin_source.startswith("default"):
-        out.append("The equivalence margin is the default, not an A/A calibration of this machine "
-                   "(run `tribench calibrate`).")
+        out.append(
+            "The equivalence margin is the default, not an A/A calibration of this machine (run `tribench calibrate`)."
+        )
     flagged = drift.loc[drift["flagged"] == True]  # noqa: E712 (nullable column)
     for r in flagged.itertuples(index=False):
         out.append(f"Drift: {r.kernel} against {data.baseline} on {r.label} ({r.reason}); see the drift section.")
     bad = correct.loc[correct["agrees"] == False]  # noqa: E712
     for r in bad.itertuples(index=False):
-        out.append(f"Correctness: {r.kernel} on {r.workload_id} differs from the reference by "
-                   f"{page.num(r.hit_difference)} hits per pass (see the correctness table).")
+        out.append(
+            f"Correctness: {r.kernel} on {r.workload_id} differs from the reference by "
+            f"{page.num(r.hit_difference)} hits per pass (see the correctness table)."
+        )
     expected = data.run.get("n_batches")
     if expected and len(data.batches) < expected:
-        out.append(f"Incomplete run: {len(data.batches)} of {expected} planned batches "
-                   f"(finish it with `tribench sweep --resume {data.run_dir}`).")
+        out.append(
+            f"Incomplete run: {len(data.batches)} of {expected} planned batches "
+            f"(finish it with `tribench sweep --resume {data.run_dir}`)."
+        )
     return out
 
 
@@ -139,5 +157,7 @@ def peer_sentence(ratios: pd.DataFrame, kernel: str, workload: str) -> str | Non
     if rows.empty:
         return None
     parts = [f"{format_interval(r.ratio, r.ci_low, r.ci_high, unit='×')} {r.over}'s rays/s" for r in rows.itertuples()]
-    return (f"Against peers ({workload}, one core): tribench's {kernel}, brute force, runs at {' and '.join(parts)} "
-            f"(95% CIs).")
+    return (
+        f"Against peers ({workload}, one core): tribench's {kernel}, brute force, runs at {' and '.join(parts)} "
+        f"(95% CIs)."
+    )

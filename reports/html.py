@@ -81,8 +81,11 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     }
     # The headline opens the page with its own title, so its section has no heading.
     body = "".join(page.section(sid, None if sid == "headline" else SECTIONS[sid], bodies[sid]) for sid in SECTIONS)
-    footer = page.p(f"Written by tribench report at {page.now()} from {data.run_dir}; tables made by the analysis "
-                    f"step at {data.record.get('created', '?')}. Statistics: tribench.stats.", "note")
+    footer = page.p(
+        f"Written by tribench report at {page.now()} from {data.run_dir}; tables made by the analysis "
+        f"step at {data.record.get('created', '?')}. Statistics: tribench.stats.",
+        "note",
+    )
     return page.document(f"tribench report — {data.run.get('run_id', data.run_dir.name)}", body, SECTIONS, footer)
 
 

@@ -17,8 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-__all__ = ["CSS", "num", "plain", "p", "warn", "code", "table", "kv_table", "figure", "section", "document",
-           "now"]
+__all__ = ["CSS", "num", "plain", "p", "warn", "code", "table", "kv_table", "figure", "section", "document", "now"]
 
 CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:0;
@@ -98,8 +97,12 @@ def code(text: str) -> str:
     return f"<pre><code>{escape(text)}</code></pre>"
 
 
-def table(frame: pd.DataFrame, cols: Sequence[tuple[str, str]], digits: int = 4,
-          classes: Mapping[str, Callable[[Any], str]] | None = None) -> str:
+def table(
+    frame: pd.DataFrame,
+    cols: Sequence[tuple[str, str]],
+    digits: int = 4,
+    classes: Mapping[str, Callable[[Any], str]] | None = None,
+) -> str:
     """An HTML table of ``frame``; ``cols`` pairs a column with its header (units in it).
 
     Numbers go through :func:`num` and are right-aligned; a ``verdict`` cell takes its verdict as
@@ -134,8 +137,9 @@ def kv_table(items: Iterable[tuple[Any, Any]]) -> str:
 def figure(uri: str, alt: str, caption: str, img_class: str = "") -> str:
     """An image (a ``data:`` URI) with its caption."""
     c = f' class="{escape(img_class)}"' if img_class else ""
-    return (f'<figure><img src="{escape(uri)}" alt="{escape(alt)}"{c}>'
-            f"<figcaption>{escape(caption)}</figcaption></figure>")
+    return (
+        f'<figure><img src="{escape(uri)}" alt="{escape(alt)}"{c}><figcaption>{escape(caption)}</figcaption></figure>'
+    )
 
 
 def section(sid: str, title: str | None, body: str) -> str:
@@ -163,7 +167,9 @@ def document(title: str, body: str, nav: Mapping[str, str] | None = None, footer
     links = "".join(f'<a href="#{escape(sid)}">{escape(t)}</a>' for sid, t in (nav or {}).items())
     bar = f"<nav>{links}</nav>" if links else ""
     end = f"<footer>{footer}</footer>" if footer else ""
-    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
-            f"<title>{escape(title)}</title><style>{CSS}</style></head><body>"
-            f"{bar}<main>{body}{end}</main></body></html>\n")
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f"<title>{escape(title)}</title><style>{CSS}</style></head><body>"
+        f"{bar}<main>{body}{end}</main></body></html>\n"
+    )

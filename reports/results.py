@@ -16,46 +16,83 @@ from . import figures, page
 from .headline import peer_sentence
 from .rundata import PeerTables, RunData
 
-__all__ = ["kernels_section", "speedups_section", "hit_rate_section", "scaling_section", "peers_section",
-           "processes_section"]
+__all__ = [
+    "kernels_section",
+    "speedups_section",
+    "hit_rate_section",
+    "scaling_section",
+    "peers_section",
+    "processes_section",
+]
 
 
-_EST_COLS = [("kernel", "kernel"), ("label", "workload"), ("ns_per_test", "ns/test (mean)"),
-             ("ns_per_test_ci_low", "95% CI low (ns)"), ("ns_per_test_ci_high", "95% CI high (ns)"),
-             ("ns_per_test_min", "min (ns)"), ("ns_per_test_bootstrap_low", "BCa low (ns)"),
-             ("ns_per_test_bootstrap_high", "BCa high (ns)"), ("n_processes", "processes"),
-             ("peak_fraction", "fraction of bound")]
-_SPD_COLS = [("kernel", "kernel"), ("label", "workload"), ("ratio", "speedup (×)"),
-             ("ratio_ci_low", "CI low (×)"), ("ratio_ci_high", "CI high (×)"), ("p_holm", "p (Holm)"),
-             ("n_processes", "processes"), ("verdict", "verdict")]
+_EST_COLS = [
+    ("kernel", "kernel"),
+    ("label", "workload"),
+    ("ns_per_test", "ns/test (mean)"),
+    ("ns_per_test_ci_low", "95% CI low (ns)"),
+    ("ns_per_test_ci_high", "95% CI high (ns)"),
+    ("ns_per_test_min", "min (ns)"),
+    ("ns_per_test_bootstrap_low", "BCa low (ns)"),
+    ("ns_per_test_bootstrap_high", "BCa high (ns)"),
+    ("n_processes", "processes"),
+    ("peak_fraction", "fraction of bound"),
+]
+_SPD_COLS = [
+    ("kernel", "kernel"),
+    ("label", "workload"),
+    ("ratio", "speedup (×)"),
+    ("ratio_ci_low", "CI low (×)"),
+    ("ratio_ci_high", "CI high (×)"),
+    ("p_holm", "p (Holm)"),
+    ("n_processes", "processes"),
+    ("verdict", "verdict"),
+]
 
 
 def speedups_section(data: RunData, spd: pd.DataFrame, est: pd.DataFrame) -> str:
     """The forest plot of every speedup, then the speedups and estimates tables."""
     fig = figures.forest(spd, data.baseline, data.margin)
     body = [
-        page.figure(figures.svg_data_uri(fig), "forest plot of speedups",
-                    f"Every kernel against {data.baseline}, per workload family: the dot is the speedup "
-                    f"(time_{data.baseline} / time_kernel), the bar its simultaneous 95% confidence interval, "
-                    f"the grey band the equivalence margin ±{100 * data.margin:.2g}%. Log axis."),
-        "<h3>Speedups</h3>", page.table(spd, _SPD_COLS),
+        page.figure(
+            figures.svg_data_uri(fig),
+            "forest plot of speedups",
+            f"Every kernel against {data.baseline}, per workload family: the dot is the speedup "
+            f"(time_{data.baseline} / time_kernel), the bar its simultaneous 95% confidence interval, "
+            f"the grey band the equivalence margin ±{100 * data.margin:.2g}%. Log axis.",
+        ),
+        "<h3>Speedups</h3>",
+        page.table(spd, _SPD_COLS),
         "<h3>Estimates</h3>",
-        page.p("ns per ray–triangle test: per process the median of its timed batches, then the mean over "
-               "processes with a Student-t interval; the BCa bootstrap over processes is a cross-check and the "
-               "minimum a robust secondary figure. Fraction of bound: the kernel's documented operations per "
-               "test at the process's measured FMA peak (an FMA = one operation), over the measured time; "
-               "see the kernels section.", "note"),
+        page.p(
+            "ns per ray–triangle test: per process the median of its timed batches, then the mean over "
+            "processes with a Student-t interval; the BCa bootstrap over processes is a cross-check and the "
+            "minimum a robust secondary figure. Fraction of bound: the kernel's documented operations per "
+            "test at the process's measured FMA peak (an FMA = one operation), over the measured time; "
+            "see the kernels section.",
+            "note",
+        ),
         page.table(est, _EST_COLS),
     ]
     return "".join(body)
 
 
-_KERNEL_COLS = [("kernel", "kernel"), ("form", "form"), ("isa", "ISA"), ("family", "workload family"),
-                ("dtype", "precision"), ("bytes_per_triangle", "bytes per triangle"), ("workloads", "workloads"),
-                ("ops_per_test", "ops per test"), ("peak_fraction_median", "fraction of bound (median)"),
-                ("ns_per_test_median", "ns/test (median)"), ("ns_range", "ns/test (lowest–highest)"),
-                ("ratio_median", "speedup (median, ×)"), ("ratio_range", "speedup (lowest–highest, ×)"),
-                ("verdicts", "verdicts")]
+_KERNEL_COLS = [
+    ("kernel", "kernel"),
+    ("form", "form"),
+    ("isa", "ISA"),
+    ("family", "workload family"),
+    ("dtype", "precision"),
+    ("bytes_per_triangle", "bytes per triangle"),
+    ("workloads", "workloads"),
+    ("ops_per_test", "ops per test"),
+    ("peak_fraction_median", "fraction of bound (median)"),
+    ("ns_per_test_median", "ns/test (median)"),
+    ("ns_range", "ns/test (lowest–highest)"),
+    ("ratio_median", "speedup (median, ×)"),
+    ("ratio_range", "speedup (lowest–highest, ×)"),
+    ("verdicts", "verdicts"),
+]
 
 
 def _range(low: float, high: float) -> str:
@@ -68,39 +105,59 @@ def kernels_section(data: RunData, kern: pd.DataFrame) -> str:
     """Each kernel's form, storage and arithmetic beside its speed, per workload family."""
     shown = kern.assign(
         ns_range=[_range(a, b) for a, b in zip(kern["ns_per_test_min"], kern["ns_per_test_max"], strict=True)],
-        ratio_range=[_range(a, b) for a, b in zip(kern["ratio_min"], kern["ratio_max"], strict=True)])
-    note = ("Each kernel's storage beside its speed, per workload family (a family has one precision). "
-            "Form: scalar (one triangle per test, early exit) or 8 lanes (eight triangles per step in SIMD "
-            "registers); ISA: the instruction set its batches ran with. Bytes per triangle: its prepared data "
-            "for one triangle at the family's precision, which the working set (section ")
-    tail = (") counts. Ops per test: the kernel's arithmetic (adds, multiplies, divides, compares; for a "
-            "scalar kernel the path of a hit), documented in its header. Fraction of bound: that arithmetic at "
-            "the machine's measured FMA peak (one FMA = one operation; a double vector holds half the lanes) "
-            "over the measured time; 1 would be the arithmetic limit. A scalar kernel uses one lane of eight, "
-            "and its early exits do less than the count. "
-            f"ns/test and the speedup over {data.baseline} summarise the family's workloads (median, lowest, "
-            "highest); their 95% CIs are in the speedups section, and verdicts counts the workloads by verdict.")
-    body = [f'<p class="note">{escape(note)}<a href="#scaling">size and working set</a>{escape(tail)}</p>',
-            page.table(shown, _KERNEL_COLS, digits=3)]
+        ratio_range=[_range(a, b) for a, b in zip(kern["ratio_min"], kern["ratio_max"], strict=True)],
+    )
+    note = (
+        "Each kernel's storage beside its speed, per workload family (a family has one precision). "
+        "Form: scalar (one triangle per test, early exit) or 8 lanes (eight triangles per step in SIMD "
+        "registers); ISA: the instruction set its batches ran with. Bytes per triangle: its prepared data "
+        "for one triangle at the family's precision, which the working set (section "
+    )
+    tail = (
+        ") counts. Ops per test: the kernel's arithmetic (adds, multiplies, divides, compares; for a "
+        "scalar kernel the path of a hit), documented in its header. Fraction of bound: that arithmetic at "
+        "the machine's measured FMA peak (one FMA = one operation; a double vector holds half the lanes) "
+        "over the measured time; 1 would be the arithmetic limit. A scalar kernel uses one lane of eight, "
+        "and its early exits do less than the count. "
+        f"ns/test and the speedup over {data.baseline} summarise the family's workloads (median, lowest, "
+        "highest); their 95% CIs are in the speedups section, and verdicts counts the workloads by verdict."
+    )
+    body = [
+        f'<p class="note">{escape(note)}<a href="#scaling">size and working set</a>{escape(tail)}</p>',
+        page.table(shown, _KERNEL_COLS, digits=3),
+    ]
     return "".join(body)
 
 
-def hit_rate_section(data: RunData, est: pd.DataFrame, spd: pd.DataFrame, cross: pd.DataFrame,
-                     colours: dict[str, str]) -> str:
-    body = [page.p("Pair workloads: N independent (ray, triangle) pairs at an exact per-test hit rate, "
-                   "the fraction of ray–triangle tests that hit (Löfstedt & Akenine-Möller 2005). "
-                   "Misses are spread over the three edges unless the family says otherwise; pair order "
-                   "is shuffled unless it says sorted.", "note")]
-    body.append(page.figure(figures.svg_data_uri(figures.hit_rate_curves(est, cross, colours)),
-                            "ns per test against per-test hit rate",
-                            "ns per test against the per-test hit rate, one line per kernel, bands: 95% CIs of "
-                            "the mean. Dashed purple: a crossover where two kernels swap rank, with its 95% "
-                            "Fieller interval shaded (stats.crossover)."))
-    body.append(page.figure(figures.svg_data_uri(figures.speedup_vs_hit_rate(spd, data.baseline, data.margin,
-                                                                             colours)),
-                        "speedup against per-test hit rate",
-                        f"Speedup over {data.baseline} against the per-test hit rate (log axis), bands: "
-                        f"simultaneous 95% CIs; grey: the equivalence margin."))
+def hit_rate_section(
+    data: RunData, est: pd.DataFrame, spd: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, str]
+) -> str:
+    body = [
+        page.p(
+            "Pair workloads: N independent (ray, triangle) pairs at an exact per-test hit rate, "
+            "the fraction of ray–triangle tests that hit (Löfstedt & Akenine-Möller 2005). "
+            "Misses are spread over the three edges unless the family says otherwise; pair order "
+            "is shuffled unless it says sorted.",
+            "note",
+        )
+    ]
+    body.append(
+        page.figure(
+            figures.svg_data_uri(figures.hit_rate_curves(est, cross, colours)),
+            "ns per test against per-test hit rate",
+            "ns per test against the per-test hit rate, one line per kernel, bands: 95% CIs of "
+            "the mean. Dashed purple: a crossover where two kernels swap rank, with its 95% "
+            "Fieller interval shaded (stats.crossover).",
+        )
+    )
+    body.append(
+        page.figure(
+            figures.svg_data_uri(figures.speedup_vs_hit_rate(spd, data.baseline, data.margin, colours)),
+            "speedup against per-test hit rate",
+            f"Speedup over {data.baseline} against the per-test hit rate (log axis), bands: "
+            f"simultaneous 95% CIs; grey: the equivalence margin.",
+        )
+    )
     body.append("<h3>Crossovers</h3>")
     found = cross.loc[np.isfinite(cross["hit_rate"].astype(float))] if not cross.empty else cross
     if cross.empty:
@@ -110,15 +167,31 @@ def hit_rate_section(data: RunData, est: pd.DataFrame, spd: pd.DataFrame, cross:
         if found.empty:
             body.append(page.p("No ranking flips inside the measured per-test hit rates.", "note"))
         else:
-            body.append(page.p(f"Kernel pairs whose ranking flips inside the measured per-test hit rates "
-                               f"({len(none)} other pairs keep their order throughout).", "note"))
+            body.append(
+                page.p(
+                    f"Kernel pairs whose ranking flips inside the measured per-test hit rates "
+                    f"({len(none)} other pairs keep their order throughout).",
+                    "note",
+                )
+            )
         if not found.empty:
-            shown = found.assign(hit_rate_pct=100 * found["hit_rate"], low_pct=100 * found["ci_low"],
-                                 high_pct=100 * found["ci_high"])
-            body.append(page.table(shown, [("family", "family"), ("kernel_a", "kernel A"), ("kernel_b", "kernel B"),
-                                           ("hit_rate_pct", "crossover (% per-test hit rate)"),
-                                           ("low_pct", "95% CI low (%)"), ("high_pct", "95% CI high (%)"),
-                                           ("n", "processes")]))
+            shown = found.assign(
+                hit_rate_pct=100 * found["hit_rate"], low_pct=100 * found["ci_low"], high_pct=100 * found["ci_high"]
+            )
+            body.append(
+                page.table(
+                    shown,
+                    [
+                        ("family", "family"),
+                        ("kernel_a", "kernel A"),
+                        ("kernel_b", "kernel B"),
+                        ("hit_rate_pct", "crossover (% per-test hit rate)"),
+                        ("low_pct", "95% CI low (%)"),
+                        ("high_pct", "95% CI high (%)"),
+                        ("n", "processes"),
+                    ],
+                )
+            )
     return "".join(body)
 
 
@@ -126,17 +199,34 @@ def scaling_section(data: RunData, est: pd.DataFrame, slopes: pd.DataFrame, colo
     """Cost against triangle count and working set, and the log–log slopes."""
     caches = data.machine.get("caches", {})
     body = [
-        page.figure(figures.svg_data_uri(figures.scaling(est, caches, colours)), "cost against size",
-                    "Left: ns per test against the mesh's triangle count (camera or per-ray hit-rate rays, "
-                    "every ray against every triangle), bands: 95% CIs. Right: ns per test against the working "
-                    "set, bytes of the kernel's prepared triangles plus the rays, for every workload; dashed: "
-                    "the machine's data caches (" + (", ".join(f"{k} {v}" for k, v in caches.items()) or
-                                                     "unknown") + "). Both axes log."),
+        page.figure(
+            figures.svg_data_uri(figures.scaling(est, caches, colours)),
+            "cost against size",
+            "Left: ns per test against the mesh's triangle count (camera or per-ray hit-rate rays, "
+            "every ray against every triangle), bands: 95% CIs. Right: ns per test against the working "
+            "set, bytes of the kernel's prepared triangles plus the rays, for every workload; dashed: "
+            "the machine's data caches ("
+            + (", ".join(f"{k} {v}" for k, v in caches.items()) or "unknown")
+            + "). Both axes log.",
+        ),
         "<h3>Log–log slopes against triangle count</h3>",
-        page.p("Per process the least-squares slope of log ns/test on log triangles, then a t-interval "
-               "across processes (stats.scaling_slope); 0 = cost per test independent of size.", "note"),
-        page.table(slopes, [("family", "family"), ("kernel", "kernel"), ("slope", "slope"), ("ci_low", "95% CI low"),
-                            ("ci_high", "95% CI high"), ("sizes", "triangle counts"), ("n", "processes")]),
+        page.p(
+            "Per process the least-squares slope of log ns/test on log triangles, then a t-interval "
+            "across processes (stats.scaling_slope); 0 = cost per test independent of size.",
+            "note",
+        ),
+        page.table(
+            slopes,
+            [
+                ("family", "family"),
+                ("kernel", "kernel"),
+                ("slope", "slope"),
+                ("ci_low", "95% CI low"),
+                ("ci_high", "95% CI high"),
+                ("sizes", "triangle counts"),
+                ("n", "processes"),
+            ],
+        ),
     ]
     return "".join(body)
 
@@ -145,44 +235,78 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
     """tribench against trimesh and Embree on the same rays, or ``note`` saying why there is nothing."""
     from tribench.harness.peers import PAUSE_S
 
-    body = [page.p("tribench's fastest brute-force kernel against trimesh's own intersector (NumPy after an rtree "
-                   "broad phase) and Embree (through embreex, after building its BVH), on the same camera rays, "
-                   "closest hit (tribench.harness.peers, as `tribench peers`). Embree's BVH skips most triangles "
-                   "of every ray; tribench tests every one: the ratio is what an acceleration structure is worth "
-                   "over the fastest brute force, not a comparison of ray–triangle tests.", "note")]
+    body = [
+        page.p(
+            "tribench's fastest brute-force kernel against trimesh's own intersector (NumPy after an rtree "
+            "broad phase) and Embree (through embreex, after building its BVH), on the same camera rays, "
+            "closest hit (tribench.harness.peers, as `tribench peers`). Embree's BVH skips most triangles "
+            "of every ray; tribench tests every one: the ratio is what an acceleration structure is worth "
+            "over the fastest brute force, not a comparison of ray–triangle tests.",
+            "note",
+        )
+    ]
     if peers is None:
         return "".join(body + [page.p(note, "note")])
     body += [
         page.p(peer_sentence(peers.ratios, peers.kernel, peers.workload) or "Only tribench was measured."),
-        page.figure(figures.svg_data_uri(figures.peers_rates(peers.rates)), "rays per second of every contender",
-                    f"Rays/s on {peers.workload}: geometric mean over processes, lines 95% CI. tribench: "
-                    f"{peers.kernel}, the fastest closest-mode kernel on these rays; tribench_call: the same kernel "
-                    f"through ext.intersect (checks and output arrays included, like a peer's one call)."),
-        page.table(peers.rates, [("contender", "contender"), ("implementation", "implementation"),
-                                 ("rays", "rays per call"), ("rays_per_s", "rays/s"), ("ci_low", "95% CI low"),
-                                 ("ci_high", "95% CI high"), ("n_processes", "processes"), ("cpu_share", "CPU / wall"),
-                                 ("setup_ms", "set-up ms (untimed)"), ("differ", "closest triangle ≠ reference"),
-                                 ("differ_ambiguous", "of which ambiguous")]),
+        page.figure(
+            figures.svg_data_uri(figures.peers_rates(peers.rates)),
+            "rays per second of every contender",
+            f"Rays/s on {peers.workload}: geometric mean over processes, lines 95% CI. tribench: "
+            f"{peers.kernel}, the fastest closest-mode kernel on these rays; tribench_call: the same kernel "
+            f"through ext.intersect (checks and output arrays included, like a peer's one call).",
+        ),
+        page.table(
+            peers.rates,
+            [
+                ("contender", "contender"),
+                ("implementation", "implementation"),
+                ("rays", "rays per call"),
+                ("rays_per_s", "rays/s"),
+                ("ci_low", "95% CI low"),
+                ("ci_high", "95% CI high"),
+                ("n_processes", "processes"),
+                ("cpu_share", "CPU / wall"),
+                ("setup_ms", "set-up ms (untimed)"),
+                ("differ", "closest triangle ≠ reference"),
+                ("differ_ambiguous", "of which ambiguous"),
+            ],
+        ),
         "<h3>Ratios of rays/s</h3>",
-        page.table(peers.ratios, [("contender", "contender"), ("over", "over"), ("ratio", "ratio (>1: faster)"),
-                                  ("ci_low", "95% CI low"), ("ci_high", "95% CI high"), ("n_processes", "processes")]),
-        page.p(f"Every process is a fresh interpreter pinned to one CPU with one BLAS thread; it times each "
-               f"contender once per repetition in a random order, after a {PAUSE_S:g} s pause. The replicate is the "
-               f"process (its geometric mean over repetitions); ratios are paired by process. trimesh runs a fixed "
-               f"random subset of the rays (it is slow) and its rays/s is scaled from those. CPU / wall below 1: "
-               f"other processes took the core; above 1: a contender used a second thread. Ambiguous rays pass "
-               f"within 1e-5 barycentric of an edge, where rounding may pick either triangle. {note}", "note"),
+        page.table(
+            peers.ratios,
+            [
+                ("contender", "contender"),
+                ("over", "over"),
+                ("ratio", "ratio (>1: faster)"),
+                ("ci_low", "95% CI low"),
+                ("ci_high", "95% CI high"),
+                ("n_processes", "processes"),
+            ],
+        ),
+        page.p(
+            f"Every process is a fresh interpreter pinned to one CPU with one BLAS thread; it times each "
+            f"contender once per repetition in a random order, after a {PAUSE_S:g} s pause. The replicate is the "
+            f"process (its geometric mean over repetitions); ratios are paired by process. trimesh runs a fixed "
+            f"random subset of the rays (it is slow) and its rays/s is scaled from those. CPU / wall below 1: "
+            f"other processes took the core; above 1: a contender used a second thread. Ambiguous rays pass "
+            f"within 1e-5 barycentric of an edge, where rounding may pick either triangle. {note}",
+            "note",
+        ),
     ]
     return "".join(body)
 
 
-def processes_section(data: RunData, pp: pd.DataFrame, est: pd.DataFrame, wl: pd.DataFrame,
-                      colours: dict[str, str]) -> str:
+def processes_section(
+    data: RunData, pp: pd.DataFrame, est: pd.DataFrame, wl: pd.DataFrame, colours: dict[str, str]
+) -> str:
     """Every worker process's value beside the estimate: the replicate made visible."""
     labels = {r.workload_id: f"{r.label}\n{r.family}" for r in wl.itertuples(index=False)}
     fig = figures.process_dots(pp, est, labels, data.kernels, colours)
     return page.figure(
-        figures.svg_data_uri(fig), "per-process values",
+        figures.svg_data_uri(fig),
+        "per-process values",
         "Each dot is one worker process's median ns per test; below the dots, the estimate (diamond, mean "
         "over processes) and its 95% CI. The process is the replicate: batches inside one process share "
-        "its memory layout and are not independent.")
+        "its memory layout and are not independent.",
+    )

@@ -27,8 +27,18 @@ from tribench.common import UserError
 from tribench.harness import runfolder
 from tribench.harness.tables import family_of, short_label, spec_text
 
-__all__ = ["RunData", "RunError", "load_run", "load_validation", "load_peers", "PeerTables", "family_of", "short_label",
-           "spec_text", "VALIDATE"]
+__all__ = [
+    "RunData",
+    "RunError",
+    "load_run",
+    "load_validation",
+    "load_peers",
+    "PeerTables",
+    "family_of",
+    "short_label",
+    "spec_text",
+    "VALIDATE",
+]
 
 #: The robustness table in a run folder.
 VALIDATE = runfolder.VALIDATE
@@ -105,13 +115,15 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
     """A derived table, refused unless it has exactly its documented columns."""
     path = run_dir / name
     if name not in runfolder.FILES:
-        raise RunError(f"{run_dir / runfolder.ANALYSIS} lists {name!r}, not a table of this tribench: "
-                       f"{_stats_hint(run_dir)}")
+        raise RunError(
+            f"{run_dir / runfolder.ANALYSIS} lists {name!r}, not a table of this tribench: {_stats_hint(run_dir)}"
+        )
     if not path.is_file() or path.is_symlink():
         raise RunError(f"{path} is missing: {_stats_hint(run_dir)}")
     if not _has_columns(path, runfolder.FILES[name]):
-        raise RunError(f"{path} is not in today's columns (an older tribench, or an edited file): "
-                       f"{_stats_hint(run_dir)}")
+        raise RunError(
+            f"{path} is not in today's columns (an older tribench, or an edited file): {_stats_hint(run_dir)}"
+        )
     try:
         if name == runfolder.WORKLOAD_FIGURES:  # JSON text, read as written
             return pd.read_csv(path, dtype=str, keep_default_na=False)
@@ -150,11 +162,15 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
 
     record = _read_record(run_dir)
     if record.get("batches_sha256") != analysis.file_digest(run_dir / runfolder.BATCHES):
-        raise RunError(f"the tables in {run_dir} were made from another {runfolder.BATCHES} (a resumed or edited "
-                       f"run): {_stats_hint(run_dir)}")
+        raise RunError(
+            f"the tables in {run_dir} were made from another {runfolder.BATCHES} (a resumed or edited "
+            f"run): {_stats_hint(run_dir)}"
+        )
     if baseline is not None and baseline != record.get("baseline"):
-        raise RunError(f"the tables in {run_dir} compare against {record.get('baseline')}, not {baseline}: run "
-                       f"`tribench stats {run_dir} --baseline {baseline}` to remake them")
+        raise RunError(
+            f"the tables in {run_dir} compare against {record.get('baseline')}, not {baseline}: run "
+            f"`tribench stats {run_dir} --baseline {baseline}` to remake them"
+        )
     tables = {name: _read_table(run_dir, name) for name in record["tables"]}
     for name in (runfolder.ESTIMATES, runfolder.SPEEDUPS):
         if name not in tables:
@@ -162,8 +178,20 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
     estimates, speedups = tables[runfolder.ESTIMATES], tables[runfolder.SPEEDUPS]
     margin = record.get("margin") or {}
     specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
-    return RunData(run_dir, run, batches, processes, estimates, speedups, str(record.get("baseline")),
-                   float(margin.get("value", 0.01)), str(margin.get("source", "unknown")), specs, tables, record)
+    return RunData(
+        run_dir,
+        run,
+        batches,
+        processes,
+        estimates,
+        speedups,
+        str(record.get("baseline")),
+        float(margin.get("value", 0.01)),
+        str(margin.get("source", "unknown")),
+        specs,
+        tables,
+        record,
+    )
 
 
 def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
@@ -181,12 +209,15 @@ def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
         why = data.record.get("validate") or f"No {VALIDATE} in the run folder."
         return empty, f"{why} `tribench stats {data.run_dir}` runs the robustness suite and writes it."
     if not _has_columns(path, columns):
-        return empty, (f"{VALIDATE} is not in today's columns (an older tribench wrote it): remove it and run "
-                       f"`tribench stats {data.run_dir}`.")
+        return empty, (
+            f"{VALIDATE} is not in today's columns (an older tribench wrote it): remove it and run "
+            f"`tribench stats {data.run_dir}`."
+        )
     df = pd.read_csv(path)
     note = str(data.record.get("validate") or f"Read from {VALIDATE} in the run folder.")
-    missing = [f"{k} {d}" for k in data.kernels for d in data.dtypes
-               if not ((df["kernel"] == k) & (df["dtype"] == d)).any()]
+    missing = [
+        f"{k} {d}" for k in data.kernels for d in data.dtypes if not ((df["kernel"] == k) & (df["dtype"] == d)).any()
+    ]
     if missing:
         note += f" Not in the table: {', '.join(missing)}."
     order = {k: i for i, k in enumerate(data.kernels)}
@@ -222,25 +253,31 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
     from tribench.harness.peers import INSTALL
 
     path = data.run_dir / runfolder.PEERS
-    how = (f"`{INSTALL}` (embreex and rtree), then `tribench peers --out {data.run_dir}` (it refreshes the run's "
-           f"tables) and `tribench report {data.run_dir}` add them")
+    how = (
+        f"`{INSTALL}` (embreex and rtree), then `tribench peers --out {data.run_dir}` (it refreshes the run's "
+        f"tables) and `tribench report {data.run_dir}` add them"
+    )
     if not path.is_file():
         return None, f"No peers were measured with this run (no {runfolder.PEERS}): {how}."
     if not _has_columns(path, runfolder.FILES[runfolder.PEERS]):
         return None, f"{runfolder.PEERS} is not in today's columns (an older tribench wrote it): {how}."
     if runfolder.PEER_RATES not in data.tables or runfolder.PEER_RATIOS not in data.tables:
         reason = data.record.get("peers") or "not summarised"
-        return None, (f"{runfolder.PEERS} is not summarised by the analysis ({reason}): run "
-                      f"`tribench stats {data.run_dir}`.")
+        return None, (
+            f"{runfolder.PEERS} is not summarised by the analysis ({reason}): run `tribench stats {data.run_dir}`."
+        )
     if data.record.get("peers_sha256") != analysis.file_digest(path):
-        return None, (f"{runfolder.PEERS} changed since the analysis summarised it: run "
-                      f"`tribench stats {data.run_dir}`.")
+        return None, (
+            f"{runfolder.PEERS} changed since the analysis summarised it: run `tribench stats {data.run_dir}`."
+        )
     try:
         frame = pd.read_csv(path)
     except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError) as exc:
         return None, f"{runfolder.PEERS} cannot be used ({type(exc).__name__}: {exc}): {how}."
-    return (PeerTables(frame, data.tables[runfolder.PEER_RATES], data.tables[runfolder.PEER_RATIOS]),
-            f"Read from {runfolder.PEERS}, {runfolder.PEER_RATES} and {runfolder.PEER_RATIOS} in the run folder.")
+    return (
+        PeerTables(frame, data.tables[runfolder.PEER_RATES], data.tables[runfolder.PEER_RATIOS]),
+        f"Read from {runfolder.PEERS}, {runfolder.PEER_RATES} and {runfolder.PEER_RATIOS} in the run folder.",
+    )
 
 
 def _has_columns(path: Path, documented: dict[str, str]) -> bool:

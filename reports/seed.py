@@ -53,8 +53,9 @@ def _ratio_figure(seed: pd.DataFrame) -> str:
     scenes = list(dict.fromkeys(seed["scene"]))
     kernels = list(dict.fromkeys(seed["kernel"]))
     colours = figures.kernel_colours(kernels)
-    fig, axes = plt.subplots(1, len(scenes), figsize=(4.6 * len(scenes), 0.45 * len(kernels) + 1.3),
-                             squeeze=False, sharey=True)
+    fig, axes = plt.subplots(
+        1, len(scenes), figsize=(4.6 * len(scenes), 0.45 * len(kernels) + 1.3), squeeze=False, sharey=True
+    )
     for ax, scene in zip(axes[0], scenes, strict=True):
         rows = seed.loc[seed["scene"] == scene].set_index("kernel").reindex(kernels)
         y = list(range(len(kernels)))[::-1]
@@ -62,8 +63,12 @@ def _ratio_figure(seed: pd.DataFrame) -> str:
             if not math.isfinite(r["ratio_to_moller_seed"]):
                 continue
             if math.isfinite(r["ratio_to_moller_seed_ci_low"]):
-                ax.plot([r["ratio_to_moller_seed_ci_low"], r["ratio_to_moller_seed_ci_high"]], [yi, yi],
-                        color=colours[k], lw=2.4)
+                ax.plot(
+                    [r["ratio_to_moller_seed_ci_low"], r["ratio_to_moller_seed_ci_high"]],
+                    [yi, yi],
+                    color=colours[k],
+                    lw=2.4,
+                )
             ax.plot([r["ratio_to_moller_seed"]], [yi], "o", color=colours[k], ms=6)
             if math.isfinite(r["paper_ratio_real"]) and k != "moller_seed":
                 ax.plot([r["paper_ratio_real"]], [yi], "D", color="#333", ms=5, mfc="white", label="paper (real)")
@@ -86,133 +91,216 @@ def _ratio_figure(seed: pd.DataFrame) -> str:
 
 def _paper(seed: pd.DataFrame, wl: pd.DataFrame, replay: dict) -> str:
     size = f"{replay['width']}×{replay['height']}"
-    body = [page.p("Paper: the seed's Unix time of the whole 512×512 render (2.3 GHz Core i9, one run per cell). "
-                   "Replay: the same render's ray–triangle tests, and only them, timed here on every kernel: "
-                   "each kind of ray (primary, reflected, shadow) is a sampled workload, a pass over the sample "
-                   "is scaled by the render's tests of that kind over the sample's, and the kinds are added; one "
-                   "render time per worker process, mean with a 95% Student-t interval over processes. The ratio "
-                   "to moller_seed is paired per process (log scale). The paper's times also cover spheres, the "
-                   "floor, shading, output and start-up, so its seconds are larger and its ratio is diluted where "
-                   "triangles are a small part of the work (scene02 has 12).")]
+    body = [
+        page.p(
+            "Paper: the seed's Unix time of the whole 512×512 render (2.3 GHz Core i9, one run per cell). "
+            "Replay: the same render's ray–triangle tests, and only them, timed here on every kernel: "
+            "each kind of ray (primary, reflected, shadow) is a sampled workload, a pass over the sample "
+            "is scaled by the render's tests of that kind over the sample's, and the kinds are added; one "
+            "render time per worker process, mean with a 95% Student-t interval over processes. The ratio "
+            "to moller_seed is paired per process (log scale). The paper's times also cover spheres, the "
+            "floor, shading, output and start-up, so its seconds are larger and its ratio is diluted where "
+            "triangles are a small part of the work (scene02 has 12)."
+        )
+    ]
     if size != "512×512":
-        body.append(page.warn(f"This replay renders {size}, not the paper's 512×512: compare its ratios with the "
-                              "paper's, not its seconds."))
+        body.append(
+            page.warn(
+                f"This replay renders {size}, not the paper's 512×512: compare its ratios with the "
+                "paper's, not its seconds."
+            )
+        )
     for scene, g in seed.groupby("scene", sort=False):
         first = g.iloc[0]
-        body.append(f"<h3>{escape(str(scene))}: {int(first['triangles'])} triangles, "
-                    f"{first['render_tests']:.4g} ray–triangle tests per {size} render</h3>")
-        rows = pd.DataFrame({
-            "kernel": g["kernel"],
-            "paper real (s)": [_v(x, ".3f") for x in g["paper_real_s"]],
-            "paper user (s)": [_v(x, ".3f") for x in g["paper_user_s"]],
-            "replay (s)": [_v(x) for x in g["render_s"]],
-            "95% CI (s)": [format_interval(None, a, b, ".4g")
-                           for a, b in zip(g["render_s_ci_low"], g["render_s_ci_high"], strict=True)],
-            "replay ns/test": [_v(x, ".3g") for x in g["replay_ns_per_test"]],
-            "paper user ns/test (bound)": [_v(x, ".3g") for x in g["paper_user_ns_per_test"]],
-            "paper ratio real / user": [f"{_v(a, '.3f')} / {_v(b, '.3f')}" if math.isfinite(a) else "–"
-                                        for a, b in zip(g["paper_ratio_real"], g["paper_ratio_user"], strict=True)],
-            "replay ratio to moller_seed": [_v(x, ".3f") for x in g["ratio_to_moller_seed"]],
-            "95% CI": [format_interval(None, a, b, ".3f")
-                       for a, b in zip(g["ratio_to_moller_seed_ci_low"], g["ratio_to_moller_seed_ci_high"],
-                                       strict=True)],
-            "processes": g["n_processes"],
-        })
+        body.append(
+            f"<h3>{escape(str(scene))}: {int(first['triangles'])} triangles, "
+            f"{first['render_tests']:.4g} ray–triangle tests per {size} render</h3>"
+        )
+        rows = pd.DataFrame(
+            {
+                "kernel": g["kernel"],
+                "paper real (s)": [_v(x, ".3f") for x in g["paper_real_s"]],
+                "paper user (s)": [_v(x, ".3f") for x in g["paper_user_s"]],
+                "replay (s)": [_v(x) for x in g["render_s"]],
+                "95% CI (s)": [
+                    format_interval(None, a, b, ".4g")
+                    for a, b in zip(g["render_s_ci_low"], g["render_s_ci_high"], strict=True)
+                ],
+                "replay ns/test": [_v(x, ".3g") for x in g["replay_ns_per_test"]],
+                "paper user ns/test (bound)": [_v(x, ".3g") for x in g["paper_user_ns_per_test"]],
+                "paper ratio real / user": [
+                    f"{_v(a, '.3f')} / {_v(b, '.3f')}" if math.isfinite(a) else "–"
+                    for a, b in zip(g["paper_ratio_real"], g["paper_ratio_user"], strict=True)
+                ],
+                "replay ratio to moller_seed": [_v(x, ".3f") for x in g["ratio_to_moller_seed"]],
+                "95% CI": [
+                    format_interval(None, a, b, ".3f")
+                    for a, b in zip(g["ratio_to_moller_seed_ci_low"], g["ratio_to_moller_seed_ci_high"], strict=True)
+                ],
+                "processes": g["n_processes"],
+            }
+        )
         body.append(page.table(rows, [(c, c) for c in rows.columns]))
         cur = g.loc[g["kernel"] == "curless_seed"]
         if len(cur):
             c = cur.iloc[0]
-            paper = (f"the paper's {c['paper_ratio_real']:.3f} (real) and {c['paper_ratio_user']:.3f} (user), "
-                     if math.isfinite(c["paper_ratio_real"]) else "")
+            paper = (
+                f"the paper's {c['paper_ratio_real']:.3f} (real) and {c['paper_ratio_user']:.3f} (user), "
+                if math.isfinite(c["paper_ratio_real"])
+                else ""
+            )
             r = wl.loc[(wl["scene"] == scene) & (wl["rays"] == "render")]
             why = ""
             if len(r):
                 r = r.iloc[0]
-                why = (f" Its workload: per-test hit rate {100 * r['test_hit_rate']:.3g}%, and of the misses "
-                       f"{100 * r['miss_behind_origin']:.3g}% are behind the origin, which Curless rejects right "
-                       f"after its plane test and Möller–Trumbore only after u, v and t; "
-                       f"{100 * (1 - r['miss_behind_origin'] - r['miss_parallel']):.3g}% pass beside the triangle, "
-                       f"where Curless computes t, the point and one to three edge tests, and Möller–Trumbore "
-                       f"stops at u or v.")
-            ratio = format_interval(c["ratio_to_moller_seed"], c["ratio_to_moller_seed_ci_low"],
-                                     c["ratio_to_moller_seed_ci_high"], ".3f")
+                why = (
+                    f" Its workload: per-test hit rate {100 * r['test_hit_rate']:.3g}%, and of the misses "
+                    f"{100 * r['miss_behind_origin']:.3g}% are behind the origin, which Curless rejects right "
+                    f"after its plane test and Möller–Trumbore only after u, v and t; "
+                    f"{100 * (1 - r['miss_behind_origin'] - r['miss_parallel']):.3g}% pass beside the triangle, "
+                    f"where Curless computes t, the point and one to three edge tests, and Möller–Trumbore "
+                    f"stops at u or v."
+                )
+            ratio = format_interval(
+                c["ratio_to_moller_seed"], c["ratio_to_moller_seed_ci_low"], c["ratio_to_moller_seed_ci_high"], ".3f"
+            )
             body.append(page.p(f"Curless over Möller: {paper}the replay's {ratio} (95% CI)." + why))
-    body.append(page.figure(_ratio_figure(seed), "ratios to moller_seed",
-                            "Render time of each kernel over moller_seed's, 95% CIs; diamonds: the paper's "
-                            "Curless/Möller ratio (open: real, filled: user)."))
+    body.append(
+        page.figure(
+            _ratio_figure(seed),
+            "ratios to moller_seed",
+            "Render time of each kernel over moller_seed's, 95% CIs; diamonds: the paper's "
+            "Curless/Möller ratio (open: real, filled: user).",
+        )
+    )
     return _section("paper", "".join(body))
 
 
 def _kinds(kinds: pd.DataFrame) -> str:
-    rows = pd.DataFrame({
-        "scene": kinds["scene"], "rays": kinds["rays"], "mode": kinds["mode"], "kernel": kinds["kernel"],
-        "ns/test": [_v(x, ".4g") for x in kinds["ns_per_test"]],
-        "95% CI": [format_interval(None, a, b, ".4g")
-                   for a, b in zip(kinds["ns_per_test_ci_low"], kinds["ns_per_test_ci_high"], strict=True)],
-        "tests per pass": kinds["tests_per_pass"].astype(int),
-        "render tests": kinds["stream_tests"],
-        "share of render (s)": [_v(x) for x in kinds["render_s"]],
-        "share of render": [_v(100 * x, ".3g") + "%" for x in kinds["render_share"]],
-    })
-    return _section("kinds", page.p("Mean over processes of each process's median ns per test, with a 95% "
-                                    "Student-t interval. Shadow rays (mode any) stop at their first occluder, so a "
-                                    "pass runs fewer tests than rays × triangles; wide kernels count them in blocks "
-                                    "of 8.") + page.table(rows, [(c, c) for c in rows.columns]))
+    rows = pd.DataFrame(
+        {
+            "scene": kinds["scene"],
+            "rays": kinds["rays"],
+            "mode": kinds["mode"],
+            "kernel": kinds["kernel"],
+            "ns/test": [_v(x, ".4g") for x in kinds["ns_per_test"]],
+            "95% CI": [
+                format_interval(None, a, b, ".4g")
+                for a, b in zip(kinds["ns_per_test_ci_low"], kinds["ns_per_test_ci_high"], strict=True)
+            ],
+            "tests per pass": kinds["tests_per_pass"].astype(int),
+            "render tests": kinds["stream_tests"],
+            "share of render (s)": [_v(x) for x in kinds["render_s"]],
+            "share of render": [_v(100 * x, ".3g") + "%" for x in kinds["render_share"]],
+        }
+    )
+    return _section(
+        "kinds",
+        page.p(
+            "Mean over processes of each process's median ns per test, with a 95% "
+            "Student-t interval. Shadow rays (mode any) stop at their first occluder, so a "
+            "pass runs fewer tests than rays × triangles; wide kernels count them in blocks "
+            "of 8."
+        )
+        + page.table(rows, [(c, c) for c in rows.columns]),
+    )
 
 
 def _workload(wl: pd.DataFrame) -> str:
     stages = [c for c in wl.columns if c.startswith("miss_")]
-    rows = pd.DataFrame({
-        "scene": wl["scene"], "rays": wl["rays"],
-        "render rays": wl["stream_rays"], "render tests": wl["stream_tests"], "sampled rays": wl["sample_rays"],
-        "per-test hit rate": [_v(100 * x, ".3g") + "%" for x in wl["test_hit_rate"]],
-        "per-ray hit rate": [_v(100 * x, ".3g") + "%" for x in wl["ray_hit_rate"]],
-        **{c.removeprefix("miss_").replace("_", " "): [_v(100 * x, ".3g") + "%" for x in wl[c]] for c in stages},
-    })
-    text = page.p("By the float64 reference on the sampled rays. Per-test hit rate: hits over the tests a kernel runs "
-                  "(the axis of Löfstedt & Akenine-Möller 2005); per-ray: rays that hit a triangle. Each miss is "
-                  "counted at the stage where Curless's test rejects it, in its order: parallel (no crossing), "
-                  "behind the origin (t ≤ 0), then outside edge v0v1, v1v2, v2v0 (the first edge test that fails). "
-                  "The 'render' row weighs the kinds by the render's tests (and misses).")
+    rows = pd.DataFrame(
+        {
+            "scene": wl["scene"],
+            "rays": wl["rays"],
+            "render rays": wl["stream_rays"],
+            "render tests": wl["stream_tests"],
+            "sampled rays": wl["sample_rays"],
+            "per-test hit rate": [_v(100 * x, ".3g") + "%" for x in wl["test_hit_rate"]],
+            "per-ray hit rate": [_v(100 * x, ".3g") + "%" for x in wl["ray_hit_rate"]],
+            **{c.removeprefix("miss_").replace("_", " "): [_v(100 * x, ".3g") + "%" for x in wl[c]] for c in stages},
+        }
+    )
+    text = page.p(
+        "By the float64 reference on the sampled rays. Per-test hit rate: hits over the tests a kernel runs "
+        "(the axis of Löfstedt & Akenine-Möller 2005); per-ray: rays that hit a triangle. Each miss is "
+        "counted at the stage where Curless's test rejects it, in its order: parallel (no crossing), "
+        "behind the origin (t ≤ 0), then outside edge v0v1, v1v2, v2v0 (the first edge test that fails). "
+        "The 'render' row weighs the kinds by the render's tests (and misses)."
+    )
     return _section("workload", text + page.table(rows, [(c, c) for c in rows.columns]))
 
 
 def _pictures(run_dir: Path, pics: pd.DataFrame) -> str:
-    body = [page.p("Both seed kernels at float precision, as the seed renders (the seed's shading and depth-2 "
-                   "reflections). A differing pixel is explained when one of its rays passes within the tolerance "
-                   "of a triangle's edge (barycentric), where float rounding and the seeds' absolute epsilons decide "
-                   "differently, or when its colours differ by under 1e-5 (an 8-bit truncation flipped).")]
+    body = [
+        page.p(
+            "Both seed kernels at float precision, as the seed renders (the seed's shading and depth-2 "
+            "reflections). A differing pixel is explained when one of its rays passes within the tolerance "
+            "of a triangle's edge (barycentric), where float rounding and the seeds' absolute epsilons decide "
+            "differently, or when its colours differ by under 1e-5 (an 8-bit truncation flipped)."
+        )
+    ]
     for r in pics.itertuples(index=False):
         cards = []
-        for col, caption in (("curless_seed_png", "curless_seed"), ("moller_seed_png", "moller_seed"),
-                             ("difference_png", f"difference: {r.differing_pixels} pixels")):
+        for col, caption in (
+            ("curless_seed_png", "curless_seed"),
+            ("moller_seed_png", "moller_seed"),
+            ("difference_png", f"difference: {r.differing_pixels} pixels"),
+        ):
             path = run_dir / str(getattr(r, col))
             uri = figures.png_data_uri(path.read_bytes()) if path.is_file() else ""
             cards.append(page.figure(uri, caption, caption, img_class="pixels"))
         body.append(f"<h3>{escape(str(r.scene))} ({r.width}×{r.height}, {escape(str(r.dtype))})</h3>")
         body.append(f'<div class="pictures three">{"".join(cards)}</div>')
-        body.append(page.p(f"{r.differing_pixels} differing pixels: {r.near_edge_pixels} within "
-                           f"{r.edge_tolerance:g} of a triangle edge, {r.last_bit_pixels} last-bit colour flips, "
-                           f"{r.other_pixels} other."))
+        body.append(
+            page.p(
+                f"{r.differing_pixels} differing pixels: {r.near_edge_pixels} within "
+                f"{r.edge_tolerance:g} of a triangle edge, {r.last_bit_pixels} last-bit colour flips, "
+                f"{r.other_pixels} other."
+            )
+        )
     return _section("pictures", "".join(body))
 
 
 def _machine(run: dict) -> str:
     m = run.get("machine", {})
-    rows = [("CPU", m.get("cpu_model")), ("logical CPUs", m.get("logical_cpus")),
-            ("workers pinned to CPU", run.get("cpu")), ("SIMD features", m.get("simd_features")),
-            ("caches", m.get("caches")), ("governor", m.get("governor")), ("CPU MHz (at start)", m.get("cpu_mhz")),
-            ("load average (at start)", m.get("load_average")), ("platform", m.get("platform")),
-            ("Python", m.get("python")), ("numpy", m.get("numpy")), ("tribench", m.get("tribench")),
-            ("git revision", m.get("git_revision"))]
+    rows = [
+        ("CPU", m.get("cpu_model")),
+        ("logical CPUs", m.get("logical_cpus")),
+        ("workers pinned to CPU", run.get("cpu")),
+        ("SIMD features", m.get("simd_features")),
+        ("caches", m.get("caches")),
+        ("governor", m.get("governor")),
+        ("CPU MHz (at start)", m.get("cpu_mhz")),
+        ("load average (at start)", m.get("load_average")),
+        ("platform", m.get("platform")),
+        ("Python", m.get("python")),
+        ("numpy", m.get("numpy")),
+        ("tribench", m.get("tribench")),
+        ("git revision", m.get("git_revision")),
+    ]
     sweep = run["sweep"]
-    design = [("processes", sweep["processes"]), ("rounds (+ warm-up)", f"{sweep['rounds']} (+{sweep['warmup']})"),
-              ("batch target (ms)", sweep["target_ms"]), ("sweep seed", sweep["seed"]),
-              ("process seeds", run.get("process_seeds")), ("equivalence margin", run.get("margin"))]
-    return _section("machine", "".join([
-        page.kv_table(rows), "<h3>Build of the C extension</h3>", page.kv_table(m.get("build", {}).items()),
-        "<h3>Instruction set of each kernel</h3>", page.kv_table(run.get("isa", {}).items()),
-        "<h3>Design</h3>", page.kv_table(design)]))
+    design = [
+        ("processes", sweep["processes"]),
+        ("rounds (+ warm-up)", f"{sweep['rounds']} (+{sweep['warmup']})"),
+        ("batch target (ms)", sweep["target_ms"]),
+        ("sweep seed", sweep["seed"]),
+        ("process seeds", run.get("process_seeds")),
+        ("equivalence margin", run.get("margin")),
+    ]
+    return _section(
+        "machine",
+        "".join(
+            [
+                page.kv_table(rows),
+                "<h3>Build of the C extension</h3>",
+                page.kv_table(m.get("build", {}).items()),
+                "<h3>Instruction set of each kernel</h3>",
+                page.kv_table(run.get("isa", {}).items()),
+                "<h3>Design</h3>",
+                page.kv_table(design),
+            ]
+        ),
+    )
 
 
 def _reproduce(run: dict) -> str:
@@ -220,14 +308,20 @@ def _reproduce(run: dict) -> str:
 
     rev = run.get("machine", {}).get("git_revision")
     steps = ([f"git checkout {rev}"] if rev else []) + ["pip install -e .", run.get("command") or "tribench seed"]
-    body = ["<h3>The command that made this run</h3>",
-            page.code(str(run.get("command") or "(not recorded)")),
-            "<h3>To run it again</h3>", page.code("\n".join(steps)),
-            page.p("Every workload is a pure function of its spec (the sampled rays are drawn with a fixed seed) and "
-                   "the plan a pure function of the sweep in run.json; times differ by the machine's noise. The run "
-                   "folder also holds the runner's batches.csv, processes.csv, checks.csv and the analysis's "
-                   "estimates.csv and speedups.csv.", "note"),
-            "<h3>Files of this page</h3>"]
+    body = [
+        "<h3>The command that made this run</h3>",
+        page.code(str(run.get("command") or "(not recorded)")),
+        "<h3>To run it again</h3>",
+        page.code("\n".join(steps)),
+        page.p(
+            "Every workload is a pure function of its spec (the sampled rays are drawn with a fixed seed) and "
+            "the plan a pure function of the sweep in run.json; times differ by the machine's noise. The run "
+            "folder also holds the runner's batches.csv, processes.csv, checks.csv and the analysis's "
+            "estimates.csv and speedups.csv.",
+            "note",
+        ),
+        "<h3>Files of this page</h3>",
+    ]
     for name, cols in COLUMNS.items():
         body.append(f"<details><summary>{escape(name)}</summary>{page.kv_table(cols.items())}</details>")
     return _section("reproduce", "".join(body))
@@ -242,11 +336,19 @@ def render_seed(run_dir: str | Path) -> str:
     run = records.read_run(run_dir)
     seed, kinds, wl, pics = (pd.read_csv(run_dir / n) for n in (SEED_CSV, KINDS_CSV, WORKLOADS_CSV, PICTURES_CSV))
     title = f"tribench seed — {run.get('run_id', run_dir.name)}"
-    sections = [_paper(seed, wl, run["seed_replay"]), _kinds(kinds), _workload(wl), _pictures(run_dir, pics),
-                _machine(run), _reproduce(run)]
-    head = (f"<h1>{escape(title)}</h1>"
-            + page.p(f"The seed's renders (Vitse 2022: Curless vs Möller, Unix time) replayed through the harness: "
-                     f"{run.get('created')}, {run['sweep']['processes']} processes.", "sub"))
+    sections = [
+        _paper(seed, wl, run["seed_replay"]),
+        _kinds(kinds),
+        _workload(wl),
+        _pictures(run_dir, pics),
+        _machine(run),
+        _reproduce(run),
+    ]
+    head = f"<h1>{escape(title)}</h1>" + page.p(
+        f"The seed's renders (Vitse 2022: Curless vs Möller, Unix time) replayed through the harness: "
+        f"{run.get('created')}, {run['sweep']['processes']} processes.",
+        "sub",
+    )
     footer = page.p(f"Written by tribench seed at {page.now()} from {run_dir}. Statistics: tribench.stats.", "note")
     return page.document(title, head + "".join(sections), SECTIONS, footer)
 

@@ -30,8 +30,11 @@ def format_run(data: RunData, width: int = 24) -> str:
         if rows.empty:
             continue
         sp = spd.loc[spd["workload_id"] == wid].set_index("kernel")
-        lines += ["", f"{short_label(spec)}  [{wid}]",
-                  f"  {'kernel':<{width}}{'ns/test':>9}  {'95% CI':<18}{'speedup':>8}  {'CI':<16}  verdict"]
+        lines += [
+            "",
+            f"{short_label(spec)}  [{wid}]",
+            f"  {'kernel':<{width}}{'ns/test':>9}  {'95% CI':<18}{'speedup':>8}  {'CI':<16}  verdict",
+        ]
         for r in rows.itertuples(index=False):
             ci = format_interval(None, r.ns_per_test_ci_low, r.ns_per_test_ci_high, ".3f")
             left = f"  {r.kernel:<{width}}{r.ns_per_test:9.3f}  {ci:<18}"
@@ -43,4 +46,3 @@ def format_run(data: RunData, width: int = 24) -> str:
                 left += "(baseline)"
             lines.append(left.rstrip())
     return "\n".join(lines)
-

@@ -101,5 +101,12 @@ def aa_summary(results: Sequence[Speedup]) -> AASummary:
     significant = np.array([r.p_value < 1 - r.confidence for r in results])
     ks = sps.kstest(p, "uniform")
     floor = aa_noise_floor([math.log(r.ratio) for r in results])
-    return AASummary(len(results), float(covered.mean()), float(significant.mean()),
-                     float(ks.statistic), float(ks.pvalue), floor, math.expm1(floor))
+    return AASummary(
+        len(results),
+        float(covered.mean()),
+        float(significant.mean()),
+        float(ks.statistic),
+        float(ks.pvalue),
+        floor,
+        math.expm1(floor),
+    )

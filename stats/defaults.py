@@ -28,8 +28,10 @@ def check_margin(value: object, where: str) -> float:
     """
     ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
     if not ok or not isinstance(value, (int, float)) or not 0 <= value <= MAX_MARGIN:  # isinstance again for mypy
-        raise UserError(f"{where}: an equivalence margin must be a number between 0 and {MAX_MARGIN:g} "
-                        f"(relative: 0.01 = 1 %), got {value!r:.40}")
+        raise UserError(
+            f"{where}: an equivalence margin must be a number between 0 and {MAX_MARGIN:g} "
+            f"(relative: 0.01 = 1 %), got {value!r:.40}"
+        )
     return float(value)
 
 

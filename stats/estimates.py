@@ -41,11 +41,7 @@ def per_process(batches: pd.DataFrame) -> pd.DataFrame:
     0     mt           w        0          2.5         3
     """
     timed = _timed(batches)
-    return (
-        timed.groupby(_GROUP, sort=True)["ns_per_test"]
-        .agg(ns_per_test="median", n_rounds="size")
-        .reset_index()
-    )
+    return timed.groupby(_GROUP, sort=True)["ns_per_test"].agg(ns_per_test="median", n_rounds="size").reset_index()
 
 
 @dataclass(frozen=True)

@@ -41,8 +41,7 @@ def format_interval(value: float | None, low: float, high: float, spec: str = ".
     >>> format_interval(None, 1.0, math.inf)
     '[no interval]'
     """
-    interval = (f"[{low:{spec}}, {high:{spec}}]" if math.isfinite(low) and math.isfinite(high)
-                else NO_INTERVAL)
+    interval = f"[{low:{spec}}, {high:{spec}}]" if math.isfinite(low) and math.isfinite(high) else NO_INTERVAL
     if value is None:
         return interval
     shown = f"{value:{spec}}" if math.isfinite(value) else "–"

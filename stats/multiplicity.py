@@ -185,8 +185,20 @@ def speedup_table(
     ('fast', 2.0, 'faster')
     """
     _check_confidence(confidence)
-    columns = ["workload_id", "kernel", "baseline", "ratio", "ci_low", "ci_high", "p_value",
-               "p_holm", "n", "confidence", "margin", "verdict"]
+    columns = [
+        "workload_id",
+        "kernel",
+        "baseline",
+        "ratio",
+        "ci_low",
+        "ci_high",
+        "p_value",
+        "p_holm",
+        "n",
+        "confidence",
+        "margin",
+        "verdict",
+    ]
     rows = []
     for workload, group in table.groupby("workload_id", sort=True):
         wide = group.pivot(index="process", columns="kernel", values="ns_per_test")
@@ -202,7 +214,15 @@ def speedup_table(
             results.append((kernel, speedup(pair[baseline], pair[kernel], level)))
         adjusted = holm([s.p_value for _, s in results])
         for (kernel, s), p_holm in zip(results, adjusted, strict=True):
-            rows.append({"workload_id": workload, "kernel": kernel, "baseline": baseline,
-                         **asdict(s), "p_holm": p_holm, "margin": margin,
-                         "verdict": verdict(s.ci_low, s.ci_high, margin)})
+            rows.append(
+                {
+                    "workload_id": workload,
+                    "kernel": kernel,
+                    "baseline": baseline,
+                    **asdict(s),
+                    "p_holm": p_holm,
+                    "margin": margin,
+                    "verdict": verdict(s.ci_low, s.ci_high, margin),
+                }
+            )
     return pd.DataFrame(rows, columns=columns)

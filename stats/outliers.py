@@ -65,10 +65,12 @@ class Drift:
 
 def _theil_sen_slopes(frame: pd.DataFrame, by: str | list[str], x: str, y: str) -> pd.Series:
     """Theil–Sen slope of ``y`` on ``x`` in every group (robust to spikes)."""
-    return pd.Series({
-        key: float(sps.theilslopes(group[y].to_numpy(), group[x].to_numpy())[0])
-        for key, group in frame.groupby(by, sort=True)
-    })
+    return pd.Series(
+        {
+            key: float(sps.theilslopes(group[y].to_numpy(), group[x].to_numpy())[0])
+            for key, group in frame.groupby(by, sort=True)
+        }
+    )
 
 
 def drift(
@@ -140,13 +142,15 @@ def drift(
     timed = timed.assign(log_ns=np.log(timed["ns_per_test"]), t_s=timed["start_ns"] * 1e-9)
 
     wide = timed.pivot(index=["process", "round"], columns="kernel", values=["log_ns", "t_s"]).dropna()
-    rounds = pd.DataFrame({
-        "process": wide.index.get_level_values("process"),
-        "log_ratio": (wide["log_ns", baseline] - wide["log_ns", kernel]).to_numpy(),
-        "log_base": wide["log_ns", baseline].to_numpy(),
-        "t_base": wide["t_s", baseline].to_numpy(),
-        "t_pair": ((wide["t_s", baseline] + wide["t_s", kernel]) / 2).to_numpy(),
-    })
+    rounds = pd.DataFrame(
+        {
+            "process": wide.index.get_level_values("process"),
+            "log_ratio": (wide["log_ns", baseline] - wide["log_ns", kernel]).to_numpy(),
+            "log_base": wide["log_ns", baseline].to_numpy(),
+            "t_base": wide["t_s", baseline].to_numpy(),
+            "t_pair": ((wide["t_s", baseline] + wide["t_s", kernel]) / 2).to_numpy(),
+        }
+    )
     # Theil–Sen needs a few rounds; a process with fewer cannot show a trend.
     counts = rounds.groupby("process")["log_ratio"].transform("size")
     rounds = rounds.loc[counts >= 3]
@@ -174,8 +178,19 @@ def drift(
         reasons.append("ratio drift")
     if bias_p < alpha and abs(bias) > threshold:
         reasons.append("time confound")
-    return Drift(base_slope, base_p, ratio_slope, ratio_p, ratio_change, bias, bias_p,
-                 bool(reasons), ", ".join(reasons), int(used.size), confidence)
+    return Drift(
+        base_slope,
+        base_p,
+        ratio_slope,
+        ratio_p,
+        ratio_change,
+        bias,
+        bias_p,
+        bool(reasons),
+        ", ".join(reasons),
+        int(used.size),
+        confidence,
+    )
 
 
 def tukey_outliers(values: npt.ArrayLike, k: float = DEFAULTS.tukey_k) -> np.ndarray:

@@ -62,8 +62,9 @@ def as_dtype(arrays, dtype):
 
 def reference_answers(o, d, tris, front_only: bool = False):
     """Reference on the arrays as the kernel sees them (after any rounding)."""
-    return reference.intersect_pairs(o.astype(np.float64), d.astype(np.float64), tris.astype(np.float64),
-                                     front_only=front_only)
+    return reference.intersect_pairs(
+        o.astype(np.float64), d.astype(np.float64), tris.astype(np.float64), front_only=front_only
+    )
 
 
 def run_pairs(kernel, o, d, tris, **options):
@@ -73,6 +74,7 @@ def run_pairs(kernel, o, d, tris, **options):
 
     if "pairs" in ext.kernel_info(kernel).modes:
         return ext.intersect_pairs(kernel, o, d, tris, **options)
-    answers = [ext.intersect(kernel, o[i : i + 1], d[i : i + 1], tris[i : i + 1], "closest", **options)
-               for i in range(len(o))]
+    answers = [
+        ext.intersect(kernel, o[i : i + 1], d[i : i + 1], tris[i : i + 1], "closest", **options) for i in range(len(o))
+    ]
     return np.array([a.index[0] >= 0 for a in answers]), np.array([a.t[0] for a in answers])

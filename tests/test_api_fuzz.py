@@ -25,8 +25,9 @@ from tribench.workloads import reference
 # hypothesis casts float32-width values into float16 arrays: overflow to inf is what is wanted there
 pytestmark = pytest.mark.filterwarnings("ignore:overflow encountered in cast:RuntimeWarning")
 
-BUDGET = settings(max_examples=250, deadline=None,
-                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+BUDGET = settings(
+    max_examples=250, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large]
+)
 
 # A valid base workload with unambiguous answers: four triangles in the planes
 # z = 0 .. 3 and four rays down -z, two through interiors, two far outside.
@@ -78,12 +79,38 @@ def _bad_array(draw, tail: tuple[int, ...]) -> np.ndarray:
 
 
 _SCALARS = st.one_of(
-    st.none(), st.booleans(), st.integers(), st.integers(min_value=10**300), st.floats(),
-    st.complex_numbers(), st.text(max_size=6), st.binary(max_size=6),
-    st.sampled_from([np.float32(2.0), np.float64(np.nan), np.bool_(True), np.int64(3), np.float16(0.5),
-                     np.longdouble(2), np.complex64(1), np.datetime64("2020"), object(), int, "avx2",
-                     "baseline", "avx512", "scalar", "closest", "pairs", "moller_trumbore", "float32"]),
-    st.lists(st.floats(), max_size=3), st.tuples(st.integers(), st.integers()),
+    st.none(),
+    st.booleans(),
+    st.integers(),
+    st.integers(min_value=10**300),
+    st.floats(),
+    st.complex_numbers(),
+    st.text(max_size=6),
+    st.binary(max_size=6),
+    st.sampled_from(
+        [
+            np.float32(2.0),
+            np.float64(np.nan),
+            np.bool_(True),
+            np.int64(3),
+            np.float16(0.5),
+            np.longdouble(2),
+            np.complex64(1),
+            np.datetime64("2020"),
+            object(),
+            int,
+            "avx2",
+            "baseline",
+            "avx512",
+            "scalar",
+            "closest",
+            "pairs",
+            "moller_trumbore",
+            "float32",
+        ]
+    ),
+    st.lists(st.floats(), max_size=3),
+    st.tuples(st.integers(), st.integers()),
     st.dictionaries(st.text(max_size=2), st.integers(), max_size=2),
 )
 
@@ -106,15 +133,25 @@ def _reference_agrees(r: ext.Hits, o, d, tri, mode: str, t_max) -> None:
     pairs_of = (lambda i: [i]) if mode == "pairs" else (lambda i: range(k))
     for i in range(n):
         js = list(pairs_of(i))
-        ans = reference.intersect_pairs(np.repeat(o[i:i + 1], len(js), 0), np.repeat(d[i:i + 1], len(js), 0),
-                                        tri[js], t_max=np.full(len(js), limit[i]))
+        ans = reference.intersect_pairs(
+            np.repeat(o[i : i + 1], len(js), 0),
+            np.repeat(d[i : i + 1], len(js), 0),
+            tri[js],
+            t_max=np.full(len(js), limit[i]),
+        )
         e1, e2 = tri[js, 1] - tri[js, 0], tri[js, 2] - tri[js, 0]
         area = np.linalg.norm(np.cross(e1, e2), axis=1)
-        cos = np.abs(np.einsum("ij,ij->i", np.cross(e1, e2), np.repeat(d[i:i + 1], len(js), 0)))
+        cos = np.abs(np.einsum("ij,ij->i", np.cross(e1, e2), np.repeat(d[i : i + 1], len(js), 0)))
         with np.errstate(invalid="ignore", divide="ignore"):
             edge = np.minimum(np.minimum(ans.u, ans.v), ans.w)
-            clear = ((area > 1e-3) & (cos > 1e-3 * area * np.linalg.norm(d[i])) & np.isfinite(ans.t)
-                     & (np.abs(edge) > 1e-3) & (np.abs(ans.t) > 1e-3) & (np.abs(ans.t - limit[i]) > 1e-3))
+            clear = (
+                (area > 1e-3)
+                & (cos > 1e-3 * area * np.linalg.norm(d[i]))
+                & np.isfinite(ans.t)
+                & (np.abs(edge) > 1e-3)
+                & (np.abs(ans.t) > 1e-3)
+                & (np.abs(ans.t - limit[i]) > 1e-3)
+            )
         if not clear.all():
             continue
         hit_j = [j for j, h in zip(js, ans.hit, strict=True) if h]
@@ -136,13 +173,24 @@ _INTERSECT_ARGS = ("kernel", "origins", "directions", "triangles", "mode", "t_ma
 
 
 @BUDGET
-@given(data=st.data(), kernel=st.sampled_from(KERNELS), which=st.sampled_from(_INTERSECT_ARGS),
-       dtype=st.sampled_from([np.float32, np.float64]))
+@given(
+    data=st.data(),
+    kernel=st.sampled_from(KERNELS),
+    which=st.sampled_from(_INTERSECT_ARGS),
+    dtype=st.sampled_from([np.float32, np.float64]),
+)
 def test_intersect_with_one_bad_argument(data, kernel, which, dtype):
     modes = ext.kernel_info(kernel).modes
-    args = {"kernel": kernel, "origins": _O.astype(dtype), "directions": _D.astype(dtype),
-            "triangles": _TRI.astype(dtype), "mode": data.draw(st.sampled_from(modes)),
-            "t_max": None, "isa": None, "allow_nonfinite": False}
+    args = {
+        "kernel": kernel,
+        "origins": _O.astype(dtype),
+        "directions": _D.astype(dtype),
+        "triangles": _TRI.astype(dtype),
+        "mode": data.draw(st.sampled_from(modes)),
+        "t_max": None,
+        "isa": None,
+        "allow_nonfinite": False,
+    }
     tail = {"origins": (3,), "directions": (3,), "triangles": (3, 3), "t_max": ()}.get(which, ())
     args[which] = data.draw(_garbage(tail), label=which)
     try:
@@ -156,8 +204,15 @@ def test_intersect_with_one_bad_argument(data, kernel, which, dtype):
 @BUDGET
 @given(data=st.data(), kernel=st.sampled_from(KERNELS), which=st.sampled_from(_INTERSECT_ARGS[:-1]))
 def test_make_job_with_one_bad_argument(data, kernel, which):
-    args = {"kernel": kernel, "origins": _O, "directions": _D, "triangles": _TRI,
-            "mode": data.draw(st.sampled_from(ext.kernel_info(kernel).modes)), "t_max": None, "isa": None}
+    args = {
+        "kernel": kernel,
+        "origins": _O,
+        "directions": _D,
+        "triangles": _TRI,
+        "mode": data.draw(st.sampled_from(ext.kernel_info(kernel).modes)),
+        "t_max": None,
+        "isa": None,
+    }
     tail = {"origins": (3,), "directions": (3,), "triangles": (3, 3), "t_max": ()}.get(which, ())
     args[which] = data.draw(_garbage(tail), label=which)
     try:
@@ -188,8 +243,11 @@ def test_time_batch_with_bad_arguments(job, loops):
 
 
 @BUDGET
-@given(kernel=st.one_of(_SCALARS, st.sampled_from(KERNELS)), triangles=st.one_of(_garbage((3, 3)), st.just(_TRI)),
-       allow_nonfinite=st.one_of(st.booleans(), _SCALARS))
+@given(
+    kernel=st.one_of(_SCALARS, st.sampled_from(KERNELS)),
+    triangles=st.one_of(_garbage((3, 3)), st.just(_TRI)),
+    allow_nonfinite=st.one_of(st.booleans(), _SCALARS),
+)
 def test_prepare_with_bad_arguments(kernel, triangles, allow_nonfinite):
     try:
         p = ext.prepare(kernel, triangles, allow_nonfinite=allow_nonfinite)
@@ -200,8 +258,10 @@ def test_prepare_with_bad_arguments(kernel, triangles, allow_nonfinite):
 
 
 @BUDGET
-@given(kernel=st.one_of(_SCALARS, st.sampled_from(ext.kernel_names(internal=True))),
-       dtype=st.one_of(_SCALARS, st.sampled_from(["float32", "float64", np.float32, ">f4", "f8", "int8", "c16"])))
+@given(
+    kernel=st.one_of(_SCALARS, st.sampled_from(ext.kernel_names(internal=True))),
+    dtype=st.one_of(_SCALARS, st.sampled_from(["float32", "float64", np.float32, ">f4", "f8", "int8", "c16"])),
+)
 def test_kernel_info_and_bytes_per_triangle_with_bad_arguments(kernel, dtype):
     try:
         info = ext.kernel_info(kernel)
@@ -216,10 +276,16 @@ def test_kernel_info_and_bytes_per_triangle_with_bad_arguments(kernel, dtype):
     assert size == info.stride * np.dtype(dtype).itemsize and np.dtype(dtype) in (np.float32, np.float64)
 
 
-@pytest.mark.parametrize("t_max, message", [
-    ("abc", "t_max must be None, a real number"), (1 + 2j, "t_max"), (True, "t_max"), (b"2", "t_max"),
-    (np.ma.masked_array([np.nan] * 4, mask=[True] * 4), "t_max is a numpy.ma.MaskedArray"),
-])
+@pytest.mark.parametrize(
+    "t_max, message",
+    [
+        ("abc", "t_max must be None, a real number"),
+        (1 + 2j, "t_max"),
+        (True, "t_max"),
+        (b"2", "t_max"),
+        (np.ma.masked_array([np.nan] * 4, mask=[True] * 4), "t_max is a numpy.ma.MaskedArray"),
+    ],
+)
 def test_issue_examples_of_t_max_are_refused(t_max, message):
     with pytest.raises(UserError, match=message):
         ext.intersect("moller_trumbore", _O, _D, _TRI, "closest", t_max=t_max)

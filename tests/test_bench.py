@@ -35,7 +35,10 @@ def test_seed_speed_prints_every_kernel_and_precision_with_a_verdict(tmp_path):
     env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}  # its workloads made afresh, not the user's
     done = bench(BENCH / "seed_speed.py", "--processes", "2", "--rounds", "1", "--size", "8", env=env)
     assert done.returncode == 0, done.stderr
-    rows = [line.split() for line in done.stdout.splitlines() if line.split()[:1] in (["moller_seed"], ["curless_seed"])]
-    assert sorted((r[0], r[1]) for r in rows) == [(k, d) for k in ("curless_seed", "moller_seed")
-                                                  for d in ("float32", "float64")]
+    rows = [
+        line.split() for line in done.stdout.splitlines() if line.split()[:1] in (["moller_seed"], ["curless_seed"])
+    ]
+    assert sorted((r[0], r[1]) for r in rows) == [
+        (k, d) for k in ("curless_seed", "moller_seed") for d in ("float32", "float64")
+    ]
     assert all(r[-1] in ("met", "missed", "undecided") for r in rows)

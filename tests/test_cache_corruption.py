@@ -43,8 +43,9 @@ def pristine(tmp_path_factory):
     try:
         w, other = make(SPEC), make(OTHER)
         path = folder / f"{w.workload_id}.npz"
-        yield Pristine((folder, path, path.read_bytes(), (folder / f"{other.workload_id}.npz").read_bytes(),
-                        w.checksum()))
+        yield Pristine(
+            (folder, path, path.read_bytes(), (folder / f"{other.workload_id}.npz").read_bytes(), w.checksum())
+        )
     finally:
         if old is None:
             del os.environ["TRIBENCH_CACHE"]
@@ -97,8 +98,7 @@ def _unchanged(m, meta):
     pass  # the same content, written without the seal
 
 
-_EDITS = [_edit_achieved, _edit_spec, _edit_version, _swap_arrays, _edit_array, _drop_array, _extra_array,
-          _unchanged]
+_EDITS = [_edit_achieved, _edit_spec, _edit_version, _swap_arrays, _edit_array, _drop_array, _extra_array, _unchanged]
 
 
 @st.composite
@@ -106,7 +106,7 @@ def corruption(draw, data: bytes, other: bytes) -> bytes:
     how = draw(st.sampled_from(["flip", "cut", "empty", "append", "edit", "other"]))
     if how == "flip":
         i, bit = draw(st.integers(0, len(data) - 1)), draw(st.integers(0, 7))
-        return data[:i] + bytes([data[i] ^ (1 << bit)]) + data[i + 1:]
+        return data[:i] + bytes([data[i] ^ (1 << bit)]) + data[i + 1 :]
     if how == "cut":
         return data[: draw(st.integers(0, len(data) - 1))]
     if how == "empty":
@@ -130,8 +130,7 @@ def _detected(folder, path, fresh_checksum) -> None:
         except UserError as exc:
             assert f"cache file {path} is invalid" in str(exc) and "make the workload again" in str(exc)
             assert make(SPEC).checksum() == fresh_checksum
-    assert [str(w.message) for w in caught if w.category is CacheWarning][0].startswith(
-        f"cache file {path} is invalid")
+    assert [str(w.message) for w in caught if w.category is CacheWarning][0].startswith(f"cache file {path} is invalid")
     assert {c.workload_id: c.problem for c in list_cached()}[path.stem] is None  # rebuilt whole
     with warnings.catch_warnings():
         warnings.simplefilter("error")

@@ -12,8 +12,12 @@ from tribench import ext
 def run(*args, cwd=None, env=None, timeout=120):
     """``tribench ARGS`` as a user runs it: a fresh process, the real entry point."""
     return subprocess.run(
-        [sys.executable, "-m", "tribench.cli", *map(str, args)], capture_output=True, text=True,
-        timeout=timeout, cwd=cwd, env=None if env is None else {**os.environ, **env},
+        [sys.executable, "-m", "tribench.cli", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=cwd,
+        env=None if env is None else {**os.environ, **env},
     )
 
 
@@ -38,7 +42,10 @@ def test_run_quick_is_the_main_job_end_to_end(tmp_path):
     out = tmp_path / "run"
     done = subprocess.run(
         [sys.executable, "-m", "tribench.cli", "run", "--quick", "--out", str(out), "--no-progress"],
-        capture_output=True, text=True, timeout=300, env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
     )
     assert done.returncode == 0, done.stderr
     for name in ("batches.csv", "checks.csv", "estimates.csv", "speedups.csv", "run.json", "report.html"):

@@ -51,19 +51,25 @@ CONCRETE = {
     "tribench info [--peak]": ["info", "info --peak"],
     "tribench run [--quick]": ["run", "run --quick"],
     "tribench seed [--scene FILE] [--quick]": [
-        "seed --scene {scene} --quick --size 12 --sample 24 --no-progress --out {tmp}/seed"],
-    "tribench workloads make KIND …": ["workloads make pairs --n 300",
-                                       "workloads make icosphere --triangles 80 --width 8 --height 8"],
+        "seed --scene {scene} --quick --size 12 --sample 24 --no-progress --out {tmp}/seed"
+    ],
+    "tribench workloads make KIND …": [
+        "workloads make pairs --n 300",
+        "workloads make icosphere --triangles 80 --width 8 --height 8",
+    ],
     "list": ["workloads list"],
     "show ID [--png FILE]": ["workloads show {mesh} --png {tmp}/mesh.png", "workloads show {mesh}"],
     "tribench sweep --kernels … --hit-rates … --mesh suzanne --triangles 100,968 --out RUN_DIR": [
         "sweep --kernels moller_trumbore,curless --hit-rates 0.2,0.8 --pairs 100 --mesh suzanne "
-        "--triangles 100,968 --camera 6x6 --out {tmp}/sweep " + shlex.join(TINY_DESIGN)],
+        "--triangles 100,968 --camera 6x6 --out {tmp}/sweep " + shlex.join(TINY_DESIGN)
+    ],
     "tribench peers [--quick] [--out RUN_DIR]": [
-        "peers --quick --camera 8x8 --processes 2 --reps 1 --no-progress --out {run}"],
+        "peers --quick --camera 8x8 --processes 2 --reps 1 --no-progress --out {run}"
+    ],
     "tribench stats RUN_DIR [--baseline NAME]": ["stats {run}", "stats {run} --baseline curless"],
     "tribench validate [--kernels K …] [--dtype D …] [--quick] [--out FILE.csv]": [
-        "validate --kernels moller_trumbore curless --dtype float32 --quick --out {tmp}/v.csv"],
+        "validate --kernels moller_trumbore curless --dtype float32 --quick --out {tmp}/v.csv"
+    ],
     "tribench calibrate": ["calibrate --processes 2 --experiments 1 --out {tmp}/cal " + shlex.join(TINY_DESIGN)],
     "tribench report RUN_DIR": ["report {run}"],
     "tribench compare RUN_A RUN_B": ["compare {run} {run} --out {tmp}/compare.html"],
@@ -84,8 +90,19 @@ def env(tmp_path_factory):
 @pytest.fixture(scope="module")
 def run_dir(env, tmp_path_factory):
     out = tmp_path_factory.mktemp("cli-run") / "run"
-    done = run("sweep", "--kernels", "moller_trumbore,curless", "--hit-rates", "0.5", "--pairs", "100",
-               *TINY_DESIGN, "--out", out, env=env)
+    done = run(
+        "sweep",
+        "--kernels",
+        "moller_trumbore,curless",
+        "--hit-rates",
+        "0.5",
+        "--pairs",
+        "100",
+        *TINY_DESIGN,
+        "--out",
+        out,
+        env=env,
+    )
     assert done.returncode == 0, done.stderr
     return out
 
@@ -93,8 +110,7 @@ def run_dir(env, tmp_path_factory):
 @pytest.fixture(scope="module")
 def mesh_prefix(env):
     """A unique prefix of a cached mesh workload's id, as the docstring's `show mesh-3f2a` uses one."""
-    done = run("workloads", "make", "suzanne", "--triangles", "100", "--width", "6", "--height", "6", "--json",
-               env=env)
+    done = run("workloads", "make", "suzanne", "--triangles", "100", "--width", "6", "--height", "6", "--json", env=env)
     assert done.returncode == 0, done.stderr
     return json.loads(done.stdout)["workload_id"][:12]
 
@@ -118,8 +134,7 @@ def test_concrete_forms_use_every_flag_of_the_example(example):
 
 @pytest.mark.parametrize("command", [c for cs in CONCRETE.values() for c in cs if c not in SLOW])
 def test_readme_example_runs(command, env, run_dir, mesh_prefix, tmp_path):
-    argv = shlex.split(command.format(tmp=tmp_path, run=run_dir, mesh=mesh_prefix,
-                                      scene=builtin_scene_path("scene02")))
+    argv = shlex.split(command.format(tmp=tmp_path, run=run_dir, mesh=mesh_prefix, scene=builtin_scene_path("scene02")))
     done = run(*argv, env=env, timeout=120)
     assert done.returncode == 0, done.stderr
     assert "Traceback" not in done.stderr

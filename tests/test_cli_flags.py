@@ -160,9 +160,14 @@ def test_a_hostile_value_is_refused_up_front_naming_it(argv, names, hostile_cwd,
 def test_the_issues_values_are_refused_by_the_installed_command(tmp_path):
     # as the issue found them: replaced silently, or a late failure, or a traceback
     (tmp_path / "afile").write_text("x\n")
-    for argv in (["sweep", "--pairs", "0"], ["sweep", "--hit-rates", ""], ["sweep", "--out", ""],
-                 ["sweep", "--cpu", "999", *SMALL], ["sweep", "--out", "afile/sub"],
-                 ["validate", "--out", "afile/x.csv"]):
+    for argv in (
+        ["sweep", "--pairs", "0"],
+        ["sweep", "--hit-rates", ""],
+        ["sweep", "--out", ""],
+        ["sweep", "--cpu", "999", *SMALL],
+        ["sweep", "--out", "afile/sub"],
+        ["validate", "--out", "afile/x.csv"],
+    ):
         done = run(*argv, cwd=tmp_path)
         assert done.returncode == 2 and "Traceback" not in done.stderr, (argv, done.stderr)
         assert f"tribench {argv[0]}: error: argument {argv[1]}" in done.stderr.splitlines()[-1]
@@ -172,8 +177,9 @@ def test_the_issues_values_are_refused_by_the_installed_command(tmp_path):
 def test_resume_refuses_every_other_sweep_flag(tmp_path, capsys):
     (tmp_path / "run").mkdir()
     for extra in (["--camera", "8x8"], ["--cpu", str(min(os.sched_getaffinity(0)))], ["--seed", "3"]):
-        assert "--resume takes no other sweep options" in _refused(["sweep", "--resume", str(tmp_path / "run"),
-                                                                    *extra], capsys)
+        assert "--resume takes no other sweep options" in _refused(
+            ["sweep", "--resume", str(tmp_path / "run"), *extra], capsys
+        )
 
 
 @pytest.mark.parametrize("flag, value", [("--rounds", "1000000000"), ("--processes", "1000000000000")])
@@ -238,8 +244,10 @@ def test_a_user_error_and_an_environment_error_are_one_line_exit_2(monkeypatch, 
     def mistaken(args):
         raise UserError("the thing is wrong; do this instead")
 
-    for handler, message in ((missing, "/nonexistent/run.json: No such file or directory"),
-                             (mistaken, "the thing is wrong; do this instead")):
+    for handler, message in (
+        (missing, "/nonexistent/run.json: No such file or directory"),
+        (mistaken, "the thing is wrong; do this instead"),
+    ):
         monkeypatch.setattr(cli, "_info", handler)
         assert cli.main(["info"]) == 2
         assert capsys.readouterr().err == f"tribench info: error: {message}\n"
@@ -258,30 +266,36 @@ def test_a_bug_keeps_its_traceback(bug, monkeypatch):
 def test_a_bug_shows_its_traceback_from_the_command(tmp_path):
     # the installed console script, with a handler broken at start-up (sitecustomize)
     (tmp_path / "sitecustomize.py").write_text(
-        "import tribench.cli.command as c\n"
-        "def _broken(args):\n    raise KeyError('a bug')\n"
-        "c._info = _broken\n")
+        "import tribench.cli.command as c\ndef _broken(args):\n    raise KeyError('a bug')\nc._info = _broken\n"
+    )
     script = Path(sys.executable).parent / "tribench"
-    done = subprocess.run([script, "info"], capture_output=True, text=True, timeout=60,
-                          env={**os.environ, "PYTHONPATH": str(tmp_path)})
+    done = subprocess.run(
+        [script, "info"], capture_output=True, text=True, timeout=60, env={**os.environ, "PYTHONPATH": str(tmp_path)}
+    )
     assert done.returncode == 1 and "Traceback" in done.stderr and "KeyError: 'a bug'" in done.stderr
 
 
 def test_a_closed_pipe_is_not_an_error(tmp_path):
-    done = subprocess.run(f"{sys.executable} -m tribench.cli info | head -1", shell=True,
-                          capture_output=True, text=True, timeout=60)
+    done = subprocess.run(
+        f"{sys.executable} -m tribench.cli info | head -1", shell=True, capture_output=True, text=True, timeout=60
+    )
     assert done.stdout.startswith("tribench ") and done.stderr == ""
 
 
 # ------------------------------------------------------------------ Ctrl-C
 
 
-def _interrupt(args: list, marker: str, cwd: Path, deadline: float = 60, ready=lambda: True
-               ) -> tuple[int, str, float]:
+def _interrupt(args: list, marker: str, cwd: Path, deadline: float = 60, ready=lambda: True) -> tuple[int, str, float]:
     """Start ``tribench ARGS`` in its own process group, wait for ``marker`` on stderr (and ``ready()``),
     then send SIGINT to the group as a terminal's Ctrl-C does; the exit code, stderr and seconds to exit."""
-    proc = subprocess.Popen([sys.executable, "-m", "tribench.cli", *map(str, args)], cwd=cwd,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tribench.cli", *map(str, args)],
+        cwd=cwd,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     seen = []
     try:
         end = time.monotonic() + deadline
@@ -311,18 +325,24 @@ def _lines(path: Path) -> int:
 
 def test_ctrl_c_stops_a_sweep_keeping_its_batches(tmp_path):
     out = tmp_path / "run"
-    code, err, seconds = _interrupt(["sweep", "--kernels", "moller_trumbore", "--pairs", "200", "--processes", "50",
-                                     "--no-progress", "--out", out], "sweep: ", tmp_path,
-                                    ready=lambda: _lines(out / "batches.csv") > 1)
+    code, err, seconds = _interrupt(
+        ["sweep", "--kernels", "moller_trumbore", "--pairs", "200", "--processes", "50", "--no-progress", "--out", out],
+        "sweep: ",
+        tmp_path,
+        ready=lambda: _lines(out / "batches.csv") > 1,
+    )
     assert code == 130 and "Traceback" not in err and seconds < 3, err
     assert f"finish with: tribench sweep --resume {out}" in err.splitlines()[-1]
     assert _lines(out / "batches.csv") > 1  # the header and what was measured
 
 
-@pytest.mark.parametrize("args, marker", [
-    (["info", "--peak"], "measuring the FMA peak"),
-    (["seed", "--quick", "--no-progress", "--out", "seed"], "workload: "),
-])
+@pytest.mark.parametrize(
+    "args, marker",
+    [
+        (["info", "--peak"], "measuring the FMA peak"),
+        (["seed", "--quick", "--no-progress", "--out", "seed"], "workload: "),
+    ],
+)
 def test_ctrl_c_stops_a_command_with_one_line(args, marker, tmp_path):
     code, err, seconds = _interrupt(args, marker, tmp_path)
     assert code == 130 and "Traceback" not in err and seconds < 3, err

@@ -56,8 +56,12 @@ def test_ratio_of_speedups_recovers_a_known_factor(two_runs):
 
 def test_compare_cli_prints_a_table_and_writes_html(two_runs, tmp_path):
     out = tmp_path / "cmp.html"
-    proc = subprocess.run([sys.executable, "-m", "tribench.cli", "compare", str(two_runs[0]),
-                           str(two_runs[1]), "--out", str(out)], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "compare", str(two_runs[0]), str(two_runs[1]), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "B/A" in proc.stdout and f"{FACTOR:.3f}" in proc.stdout
     text = out.read_text()
@@ -84,8 +88,12 @@ def test_compare_refuses_runs_without_shared_workloads(two_runs, tmp_path):
 
 
 def test_compare_cli_missing_run_exits_2(tmp_path, two_runs):
-    proc = subprocess.run([sys.executable, "-m", "tribench.cli", "compare", str(two_runs[0]),
-                           str(tmp_path / "nope")], capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "compare", str(two_runs[0]), str(tmp_path / "nope")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "no run directory" in proc.stderr
 
 

@@ -34,7 +34,13 @@ MODULES = _modules()
 
 
 def test_the_modules_with_examples_are_found():
-    assert {"tribench.common.files", "tribench.ext", "tribench.workloads.reference", "tribench.stats.estimates", "tribench.reports.html"} <= set(MODULES)
+    assert {
+        "tribench.common.files",
+        "tribench.ext",
+        "tribench.workloads.reference",
+        "tribench.stats.estimates",
+        "tribench.reports.html",
+    } <= set(MODULES)
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -26,17 +26,49 @@ TRI = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
         (lambda: ext.intersect_pairs("curless", ORIGIN, D.astype(">f8"), TRI), TypeError, "directions must have dtype"),
         (lambda: ext.intersect_pairs("curless", ORIGIN, D.astype(np.float32), TRI), TypeError, "one precision"),
         (lambda: ext.intersect_pairs("curless", ORIGIN[0], D, TRI), ValueError, r"origins must have shape \(N, 3\)"),
-        (lambda: ext.intersect_pairs("curless", ORIGIN, D, TRI[0]), ValueError, r"triangles must have shape \(N, 3, 3\)"),
+        (
+            lambda: ext.intersect_pairs("curless", ORIGIN, D, TRI[0]),
+            ValueError,
+            r"triangles must have shape \(N, 3, 3\)",
+        ),
         (lambda: ext.intersect_pairs("curless", ORIGIN[:0], D[:0], TRI[:0]), ValueError, "origins is empty"),
         (lambda: ext.intersect_pairs("curless", np.repeat(ORIGIN, 2, 0), D, TRI), ValueError, "differ in length"),
-        (lambda: ext.intersect_pairs("curless", np.repeat(ORIGIN, 2, 0), np.repeat(D, 2, 0), TRI), ValueError, "one triangle per ray"),
-        (lambda: ext.intersect_pairs("curless", np.repeat(ORIGIN, 4, 0)[::2], np.repeat(D, 2, 0), np.repeat(TRI, 2, 0)), ValueError, "C-contiguous"),
-        (lambda: ext.intersect_pairs("curless", np.asfortranarray(np.repeat(ORIGIN, 2, 0)), np.repeat(D, 2, 0), np.repeat(TRI, 2, 0)), ValueError, "C-contiguous"),
-        (lambda: ext.intersect_closest("curless", ORIGIN, D, np.full_like(TRI, np.nan)), ValueError, r"triangles contains NaN or Inf \(first at row 0\)"),
+        (
+            lambda: ext.intersect_pairs("curless", np.repeat(ORIGIN, 2, 0), np.repeat(D, 2, 0), TRI),
+            ValueError,
+            "one triangle per ray",
+        ),
+        (
+            lambda: ext.intersect_pairs(
+                "curless", np.repeat(ORIGIN, 4, 0)[::2], np.repeat(D, 2, 0), np.repeat(TRI, 2, 0)
+            ),
+            ValueError,
+            "C-contiguous",
+        ),
+        (
+            lambda: ext.intersect_pairs(
+                "curless", np.asfortranarray(np.repeat(ORIGIN, 2, 0)), np.repeat(D, 2, 0), np.repeat(TRI, 2, 0)
+            ),
+            ValueError,
+            "C-contiguous",
+        ),
+        (
+            lambda: ext.intersect_closest("curless", ORIGIN, D, np.full_like(TRI, np.nan)),
+            ValueError,
+            r"triangles contains NaN or Inf \(first at row 0\)",
+        ),
         (lambda: ext.make_job("curless", ORIGIN, D, TRI, "sideways"), ValueError, "mode must be"),
         (lambda: ext.time_batch("job", 1), TypeError, "make_job"),
-        (lambda: ext.time_batch(ext.make_job("curless", ORIGIN, D, TRI, "pairs"), 0), ValueError, "loops must be at least 1, got 0"),
-        (lambda: ext.time_batch(ext.make_job("curless", ORIGIN, D, TRI, "pairs"), 1.5), TypeError, "loops must be an int"),
+        (
+            lambda: ext.time_batch(ext.make_job("curless", ORIGIN, D, TRI, "pairs"), 0),
+            ValueError,
+            "loops must be at least 1, got 0",
+        ),
+        (
+            lambda: ext.time_batch(ext.make_job("curless", ORIGIN, D, TRI, "pairs"), 1.5),
+            TypeError,
+            "loops must be an int",
+        ),
         (lambda: ext.bytes_per_triangle("curless", "int8"), TypeError, "float32 or float64"),
     ],
 )
@@ -61,7 +93,9 @@ def test_private_module_checks_buffer_sizes_itself():
     with pytest.raises(ValueError, match="origins: buffer has"):
         _core.run("moller_trumbore", 8, 0, "scalar", ORIGIN, D, 5, t_max, records, 5, index, t, u, v)
     with pytest.raises(ValueError, match="t_max: buffer has"):
-        _core.run("moller_trumbore", 8, 2, "scalar", ORIGIN, D, 1, np.full(3, 1.0), records, 1, index[:1], t[:1], u[:1], v[:1])
+        _core.run(
+            "moller_trumbore", 8, 2, "scalar", ORIGIN, D, 1, np.full(3, 1.0), records, 1, index[:1], t[:1], u[:1], v[:1]
+        )
     with pytest.raises(ValueError, match="records: buffer has"):
         _core.time("moller_trumbore", 8, 2, "scalar", ORIGIN, D, 1, t_max, records, 1000, 10)
     with pytest.raises(ValueError, match="itemsize"):
@@ -83,8 +117,13 @@ def test_private_module_checks_buffer_sizes_itself():
 
 
 def test_t_max_is_checked():
-    for bad, err in [(np.zeros(1), ValueError), (np.full(1, np.nan), ValueError),
-                     (np.ones(2), ValueError), (np.ones(1, np.float32), TypeError), ([1.0], TypeError)]:
+    for bad, err in [
+        (np.zeros(1), ValueError),
+        (np.full(1, np.nan), ValueError),
+        (np.ones(2), ValueError),
+        (np.ones(1, np.float32), TypeError),
+        ([1.0], TypeError),
+    ]:
         with pytest.raises(err, match="t_max"):
             ext.intersect("moller_trumbore", ORIGIN, D, TRI, "pairs", t_max=bad)
     assert not ext.intersect("moller_trumbore", ORIGIN, D, TRI, "pairs", t_max=0.5).hit[0]
@@ -160,11 +199,15 @@ def test_any_float_values_reach_the_kernels_safely(values, kernel, dtype):
 
 def test_a_batch_is_bounded_up_front_with_the_bound_and_why():
     job = ext.make_job("moller_trumbore", ORIGIN, D, TRI, "pairs")
-    with pytest.raises(ext.UserError, match=r"more than 6e\+11 tests, a minute even at 0\.1 ns per test; "
-                                            r"use at most 600000000000 loops"):
+    with pytest.raises(
+        ext.UserError,
+        match=r"more than 6e\+11 tests, a minute even at 0\.1 ns per test; "
+        r"use at most 600000000000 loops",
+    ):
         ext.time_batch(job, 2**40)
-    many = ext.make_job("moller_trumbore_x8", np.repeat(ORIGIN, 100, 0), np.repeat(D, 100, 0), np.repeat(TRI, 10, 0),
-                        "closest")
+    many = ext.make_job(
+        "moller_trumbore_x8", np.repeat(ORIGIN, 100, 0), np.repeat(D, 100, 0), np.repeat(TRI, 10, 0), "closest"
+    )
     assert many.tests_per_pass == 1000
     with pytest.raises(ext.UserError, match="use at most 600000000 loops"):
         ext.time_batch(many, ext.MAX_BATCH_TESTS // 1000 + 1)
@@ -180,12 +223,12 @@ def test_a_batch_is_bounded_up_front_with_the_bound_and_why():
 LONG_CALLS = {
     # one ray, one triangle, as many loops as the bound allows: hours of work
     "time_batch": "job = ext.make_job('moller_trumbore', ORIGIN, D, T, 'pairs')\n"
-                  "go(); ext.time_batch(job, ext.MAX_BATCH_TESTS)",
+    "go(); ext.time_batch(job, ext.MAX_BATCH_TESTS)",
     "time_batch_x8": "job = ext.make_job('moller_trumbore_x8', ORIGIN, D, np.repeat(T, 64, 0), 'closest')\n"
-                     "go(); ext.time_batch(job, ext.MAX_BATCH_TESTS // 64)",
+    "go(); ext.time_batch(job, ext.MAX_BATCH_TESTS // 64)",
     # an untimed call of 10**10 tests (about a minute)
     "intersect": "o = np.repeat(ORIGIN, 200_000, 0); d = np.repeat(D, 200_000, 0); t = np.repeat(T, 50_000, 0)\n"
-                 "go(); ext.intersect('moller_trumbore', o, d, t, 'closest')",
+    "go(); ext.intersect('moller_trumbore', o, d, t, 'closest')",
 }
 
 
@@ -196,10 +239,12 @@ def test_ctrl_c_stops_a_long_kernel_call_within_a_second(call):
     import sys
     import time
 
-    script = ("import sys, numpy as np\nfrom tribench import ext\n"
-              "ORIGIN = np.array([[0.25, 0.25, 1.0]], np.float32); D = np.array([[0.0, 0, -1]], np.float32)\n"
-              "T = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]], np.float32)\n"
-              "def go(): print('started', flush=True)\n" + LONG_CALLS[call] + "\nprint('finished')\n")
+    script = (
+        "import sys, numpy as np\nfrom tribench import ext\n"
+        "ORIGIN = np.array([[0.25, 0.25, 1.0]], np.float32); D = np.array([[0.0, 0, -1]], np.float32)\n"
+        "T = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]], np.float32)\n"
+        "def go(): print('started', flush=True)\n" + LONG_CALLS[call] + "\nprint('finished')\n"
+    )
     proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert proc.stdout.readline().strip() == "started"

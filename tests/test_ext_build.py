@@ -29,8 +29,9 @@ pytestmark = [
 @pytest.fixture(scope="module")
 def disassembly() -> dict[str, str]:
     """Machine code of the module, by function name."""
-    text = subprocess.run(["objdump", "-d", "--no-show-raw-insn", _core.__file__],
-                          capture_output=True, text=True, check=True).stdout
+    text = subprocess.run(
+        ["objdump", "-d", "--no-show-raw-insn", _core.__file__], capture_output=True, text=True, check=True
+    ).stdout
     functions, name = {}, None
     for line in text.splitlines():
         head = re.match(r"^[0-9a-f]+ <([^>]+)>:$", line)

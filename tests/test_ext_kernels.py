@@ -73,7 +73,9 @@ def test_closest_on_a_mesh_agrees_with_reference(kernel, dtype):
     # any hit: the same rays hit, each on a triangle the ray really hits
     any_hit = ext.intersect(kernel, o, d, tris, "any")
     np.testing.assert_array_equal(any_hit.hit, hit)
-    assert reference.intersect_pairs(*[a.astype(np.float64) for a in (o[hit], d[hit], tris[any_hit.index[hit]])]).hit.all()
+    assert reference.intersect_pairs(
+        *[a.astype(np.float64) for a in (o[hit], d[hit], tris[any_hit.index[hit]])]
+    ).hit.all()
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
@@ -92,8 +94,10 @@ def test_t_max_turns_farther_hits_into_misses(kernel, dtype):
     # (none here: the rays are checked against every triangle by the reference)
     r = ext.intersect(kernel, o, d, tris, "closest", t_max=t_max)
     everything = reference.intersect_pairs(
-        np.repeat(o.astype(np.float64), len(tris), 0), np.repeat(d.astype(np.float64), len(tris), 0),
-        np.tile(tris.astype(np.float64), (len(o), 1, 1)))
+        np.repeat(o.astype(np.float64), len(tris), 0),
+        np.repeat(d.astype(np.float64), len(tris), 0),
+        np.tile(tris.astype(np.float64), (len(o), 1, 1)),
+    )
     within = (everything.hit & (everything.t < np.repeat(t_max.astype(np.float64), len(tris)))).reshape(len(o), -1)
     np.testing.assert_array_equal(r.hit, within.any(axis=1))
     assert (r.t[r.hit] < t_max[r.hit]).all()
@@ -294,4 +298,3 @@ def test_hit_both_faces_unless_culling(kernel):
     assert hit[0] != ext.kernel_info(kernel).culls_back_faces
     hit, t = _pairs(kernel, [[0.25, 0.25, 2.0]], DOWN, UNIT_TRI)
     assert hit[0] and t[0] == pytest.approx(2.0)
-

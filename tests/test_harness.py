@@ -24,9 +24,14 @@ def _cache(tmp_path, monkeypatch):
 
 
 def small_sweep(**kw) -> Sweep:
-    base = dict(kernels=("moller_trumbore", "curless", "moller_seed"),
-                workloads=(PairSpec(n=50, hit_rate=0.3), PairSpec(n=50, hit_rate=0.7)),
-                processes=3, rounds=4, warmup=2, seed=5)
+    base = dict(
+        kernels=("moller_trumbore", "curless", "moller_seed"),
+        workloads=(PairSpec(n=50, hit_rate=0.3), PairSpec(n=50, hit_rate=0.7)),
+        processes=3,
+        rounds=4,
+        warmup=2,
+        seed=5,
+    )
     return Sweep(**{**base, **kw})
 
 
@@ -86,10 +91,28 @@ def test_sweep_file_expands_lists_into_a_grid(tmp_path):
 
 
 def _row(i: int, **kw) -> records.BatchRow:
-    base = dict(run_id="r", process=i % 2, round=i - 1, position=0, kernel="k,1", workload_id="w",
-                dtype="float64", mode="pairs", warmup=i == 0, loops=3, tests=30, elapsed_ns=1000 + i,
-                start_ns=10**12 + i, invol_ctx_switches=0, hits=9, t_sum=0.1 + i / 3, cpu=1,
-                isa="scalar/sse2", attempt=0, steal_ticks=-1)
+    base = dict(
+        run_id="r",
+        process=i % 2,
+        round=i - 1,
+        position=0,
+        kernel="k,1",
+        workload_id="w",
+        dtype="float64",
+        mode="pairs",
+        warmup=i == 0,
+        loops=3,
+        tests=30,
+        elapsed_ns=1000 + i,
+        start_ns=10**12 + i,
+        invol_ctx_switches=0,
+        hits=9,
+        t_sum=0.1 + i / 3,
+        cpu=1,
+        isa="scalar/sse2",
+        attempt=0,
+        steal_ticks=-1,
+    )
     return records.BatchRow(**{**base, **kw})
 
 

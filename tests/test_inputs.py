@@ -29,20 +29,29 @@ TABLE = '[[workloads]]\nkind = "pairs"\nn = 100\n'
 # ------------------------------------------------------------------ plan size
 
 
-@pytest.mark.parametrize("design, message", [
-    ({"rounds": 1_000_000_000}, "rounds must be between 1 and 100,000"),
-    ({"processes": 1_000_000_000_000}, "processes must be between 1 and 10,000, got 1,000,000,000,000 "
-                                       r"\(each process costs"),
-    ({"processes": 2**63 - 1}, "processes must be between"),
-    ({"processes": 10_000, "rounds": 100}, "the sweep has 1,010,000 batches .* at most 1,000,000 "
-                                           r"\(about 2.2 hours of timed batches at the default 8 ms"),
-    ({"warmup": -1}, "warmup must be between 0"),
-    ({"processes": 2.0}, "processes must be an integer"),
-    ({"processes": True}, "processes must be an integer"),
-    ({"target_ms": True}, "target_ms must be a number"),
-    ({"target_ms": math.nan}, "target_ms must be a number"),
-    ({"seed": 2**64}, "seed must be between 0 and"),
-])
+@pytest.mark.parametrize(
+    "design, message",
+    [
+        ({"rounds": 1_000_000_000}, "rounds must be between 1 and 100,000"),
+        (
+            {"processes": 1_000_000_000_000},
+            "processes must be between 1 and 10,000, got 1,000,000,000,000 "
+            r"\(each process costs",
+        ),
+        ({"processes": 2**63 - 1}, "processes must be between"),
+        (
+            {"processes": 10_000, "rounds": 100},
+            "the sweep has 1,010,000 batches .* at most 1,000,000 "
+            r"\(about 2.2 hours of timed batches at the default 8 ms",
+        ),
+        ({"warmup": -1}, "warmup must be between 0"),
+        ({"processes": 2.0}, "processes must be an integer"),
+        ({"processes": True}, "processes must be an integer"),
+        ({"target_ms": True}, "target_ms must be a number"),
+        ({"target_ms": math.nan}, "target_ms must be a number"),
+        ({"seed": 2**64}, "seed must be between 0 and"),
+    ],
+)
 def test_plan_bounds_from_the_api(design, message):
     tracemalloc.start()
     try:
@@ -67,16 +76,19 @@ def test_kernels_of_the_wrong_type_name_the_file_and_key(tmp_path, bad):
         load_sweep_file(f)
 
 
-@pytest.mark.parametrize("line, message", [
-    ("processes = 9223372036854775807", "processes must be between 1 and 10,000"),
-    ("rounds = 1000000000", "rounds must be between 1 and 100,000"),
-    ("processes = 1.5", "processes must be an integer"),
-    ('processes = "3"', "processes must be an integer"),
-    ("target_ms = true", "target_ms must be a number"),
-    ("seed = -1", "seed must be between 0"),
-    ("seed = 1979-05-27", "seed must be an integer"),
-    ("colour = 3", r"unknown key\(s\) colour"),
-])
+@pytest.mark.parametrize(
+    "line, message",
+    [
+        ("processes = 9223372036854775807", "processes must be between 1 and 10,000"),
+        ("rounds = 1000000000", "rounds must be between 1 and 100,000"),
+        ("processes = 1.5", "processes must be an integer"),
+        ('processes = "3"', "processes must be an integer"),
+        ("target_ms = true", "target_ms must be a number"),
+        ("seed = -1", "seed must be between 0"),
+        ("seed = 1979-05-27", "seed must be an integer"),
+        ("colour = 3", r"unknown key\(s\) colour"),
+    ],
+)
 def test_top_level_values_name_the_file_and_key(tmp_path, line, message):
     f = tmp_path / "sweep.toml"
     f.write_text(f'kernels = ["moller_trumbore"]\n{line}\n{TABLE}')
@@ -84,27 +96,34 @@ def test_top_level_values_name_the_file_and_key(tmp_path, line, message):
         load_sweep_file(f)
 
 
-@pytest.mark.parametrize("lines, message", [
-    ('hit_rate = "x"', r"workloads\[1\]: hit_rate must be a finite number, got 'x'"),
-    ("hit_rate = [0.1, 2.0]", r"workloads\[1\]: hit_rate must be in \[0, 1\], got 2.0"),
-    ("hit_rate = 99999999999999999999999999999999999999", r"workloads\[1\]: hit_rate must be in \[0, 1\]"),
-    ("hit_rate = 1" + "0" * 400, r"workloads\[1\]: hit_rate must be a finite number"),
-    ("n = inf", r"workloads\[1\]: n \(number of pairs\) must be an integer"),
-    ("n = nan", r"workloads\[1\]: n \(number of pairs\) must be an integer"),
-    ("n = 1e400", r"workloads\[1\]: n \(number of pairs\) must be an integer"),
-    ("kind = 5", r"workloads\[1\]: workload kind must be 'pairs', 'mesh' or 'seed', got 5"),
-    ("kind = {a = 1}", r"workloads\[1\]: workload kind must be 'pairs', 'mesh' or 'seed', got \{'a': 1\}"),
-    ("miss_mix = 5", r"workloads\[1\]: miss_mix must be a preset name or a fraction per stage"),
-    ("miss_mix = {parallel = 'x'}", r"workloads\[1\]: miss_mix\[parallel\] must be a finite number"),
-    ("dtype = 3", r"workloads\[1\]: unknown dtype 3"),
-    ("order = {a = 1}", r"workloads\[1\]: unknown order"),
-    ("n = []", r"workloads\[1\]: an empty list"),
-    ("mesh = 'suzanne'", r"workloads\[1\]: unknown pairs spec field\(s\): mesh"),
-])
+@pytest.mark.parametrize(
+    "lines, message",
+    [
+        ('hit_rate = "x"', r"workloads\[1\]: hit_rate must be a finite number, got 'x'"),
+        ("hit_rate = [0.1, 2.0]", r"workloads\[1\]: hit_rate must be in \[0, 1\], got 2.0"),
+        ("hit_rate = 99999999999999999999999999999999999999", r"workloads\[1\]: hit_rate must be in \[0, 1\]"),
+        ("hit_rate = 1" + "0" * 400, r"workloads\[1\]: hit_rate must be a finite number"),
+        ("n = inf", r"workloads\[1\]: n \(number of pairs\) must be an integer"),
+        ("n = nan", r"workloads\[1\]: n \(number of pairs\) must be an integer"),
+        ("n = 1e400", r"workloads\[1\]: n \(number of pairs\) must be an integer"),
+        ("kind = 5", r"workloads\[1\]: workload kind must be 'pairs', 'mesh' or 'seed', got 5"),
+        ("kind = {a = 1}", r"workloads\[1\]: workload kind must be 'pairs', 'mesh' or 'seed', got \{'a': 1\}"),
+        ("miss_mix = 5", r"workloads\[1\]: miss_mix must be a preset name or a fraction per stage"),
+        ("miss_mix = {parallel = 'x'}", r"workloads\[1\]: miss_mix\[parallel\] must be a finite number"),
+        ("dtype = 3", r"workloads\[1\]: unknown dtype 3"),
+        ("order = {a = 1}", r"workloads\[1\]: unknown order"),
+        ("n = []", r"workloads\[1\]: an empty list"),
+        ("mesh = 'suzanne'", r"workloads\[1\]: unknown pairs spec field\(s\): mesh"),
+    ],
+)
 def test_workload_tables_name_the_file_and_table(tmp_path, lines, message):
     f = tmp_path / "sweep.toml"
-    second = "[[workloads]]\n" + "".join(line for line in ('kind = "pairs"\n', "n = 100\n")
-                                          if not lines.startswith(line.split()[0] + " ")) + lines + "\n"
+    second = (
+        "[[workloads]]\n"
+        + "".join(line for line in ('kind = "pairs"\n', "n = 100\n") if not lines.startswith(line.split()[0] + " "))
+        + lines
+        + "\n"
+    )
     f.write_text(HEAD + TABLE + second)
     with pytest.raises(UserError, match=f"^{f}: {message}"):
         load_sweep_file(f)
@@ -153,11 +172,28 @@ def test_plan_bounds_from_the_command_line(tmp_path):
     f = tmp_path / "sweep.toml"
     f.write_text(f"{HEAD.replace('processes = 2', 'processes = 9223372036854775807')}{TABLE}")
     env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
-    for args in (["--file", str(f)], ["--rounds", "1000000000", "--pairs", "100"],
-                 ["--processes", str(MAX_PROCESSES + 1), "--pairs", "100"]):
-        r = subprocess.run([sys.executable, "-m", "tribench.cli", "sweep", "--kernels", "moller_trumbore",
-                            *args, "--out", str(tmp_path / "run")], capture_output=True, text=True, env=env,
-                           timeout=120)
+    for args in (
+        ["--file", str(f)],
+        ["--rounds", "1000000000", "--pairs", "100"],
+        ["--processes", str(MAX_PROCESSES + 1), "--pairs", "100"],
+    ):
+        r = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "tribench.cli",
+                "sweep",
+                "--kernels",
+                "moller_trumbore",
+                *args,
+                "--out",
+                str(tmp_path / "run"),
+            ],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=120,
+        )
         assert r.returncode == 2 and "must be between" in r.stderr, r.stderr
         assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
         assert not (tmp_path / "run").exists()
@@ -182,8 +218,11 @@ def _write_cal(path, **fields):
 @pytest.mark.parametrize("margin", [math.nan, math.inf, -0.5, 1e9, MAX_MARGIN * 1.01, "0.02", True, None, [0.01]])
 def test_a_bad_calibration_margin_names_the_file_and_the_fix(user_cal, margin):
     _write_cal(user_cal, margin=margin)
-    with pytest.raises(UserError, match=f"{user_cal}: key 'margin': an equivalence margin must be .*"
-                                        "run `tribench calibrate` again, or delete the file"):
+    with pytest.raises(
+        UserError,
+        match=f"{user_cal}: key 'margin': an equivalence margin must be .*"
+        "run `tribench calibrate` again, or delete the file",
+    ):
         latest_margin("test cpu")
 
 
@@ -215,9 +254,28 @@ def test_every_margin_a_verdict_uses_is_checked():
 def test_a_sweep_with_a_bad_calibration_stops_before_measuring(tmp_path):
     env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
     (tmp_path / "calibration.json").write_text('{"margin": NaN, "cpu_model": null}')
-    r = subprocess.run([sys.executable, "-m", "tribench.cli", "sweep", "--kernels", "moller_trumbore",
-                        "--pairs", "100", "--processes", "2", "--rounds", "1", "--out", str(tmp_path / "run")],
-                       capture_output=True, text=True, env=env, timeout=120)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "tribench.cli",
+            "sweep",
+            "--kernels",
+            "moller_trumbore",
+            "--pairs",
+            "100",
+            "--processes",
+            "2",
+            "--rounds",
+            "1",
+            "--out",
+            str(tmp_path / "run"),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
     assert r.returncode == 2 and f"{tmp_path / 'calibration.json'}: key 'margin'" in r.stderr, r.stderr
     assert "Traceback" not in r.stderr and not (tmp_path / "run").exists()
     assert calibration.CALIBRATION == "calibration.json"

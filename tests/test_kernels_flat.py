@@ -56,9 +56,13 @@ def flat_set(seed: int, dtype, n: int = 24, scale_exp: tuple[int, int] = (-6, 16
 
 
 def test_the_issue_repro_is_a_miss():
-    hits = ext.intersect("moller_trumbore", np.array([[-1.0865, 0.1745000000000001, 3.3760000000000003]]),
-                         np.array([[0.724, 0.697, -1.312]]),
-                         np.array([[[-0.192, 1.11, 1.44], [-0.533, 0.633, 2.688], [-0.533, 0.633, 2.688]]]), "pairs")
+    hits = ext.intersect(
+        "moller_trumbore",
+        np.array([[-1.0865, 0.1745000000000001, 3.3760000000000003]]),
+        np.array([[0.724, 0.697, -1.312]]),
+        np.array([[[-0.192, 1.11, 1.44], [-0.533, 0.633, 2.688], [-0.533, 0.633, 2.688]]]),
+        "pairs",
+    )
     assert hits.index[0] == -1 and np.isnan(hits.t[0])
 
 
@@ -92,14 +96,16 @@ def test_flat_spares_triangles_one_ulp_from_flat(seed, dtype, ulps):
 
 def test_flat_on_extreme_and_nonfinite_coordinates():
     big, tiny = 1e300, 1e-300
-    tris = np.array([
-        [[big, big, 0], [-big, -big, 0], [0, 0, 0]],  # collinear, differences overflow in float64
-        [[big, big, 0], [-big, -big, 0], [0, tiny, 0]],  # not flat: a tiny offset
-        [[tiny, 0, 0], [0, tiny, 0], [0, 0, tiny]],  # not flat: products underflow
-        [[tiny, tiny, tiny], [2 * tiny, 2 * tiny, 2 * tiny], [3 * tiny, 3 * tiny, 3 * tiny]],  # flat
-        [[np.nan, 0, 0], [0, 0, 0], [0, 0, 0]],  # non-finite: not flat
-        [[np.inf, 0, 0], [np.inf, 0, 0], [np.inf, 0, 0]],
-    ])
+    tris = np.array(
+        [
+            [[big, big, 0], [-big, -big, 0], [0, 0, 0]],  # collinear, differences overflow in float64
+            [[big, big, 0], [-big, -big, 0], [0, tiny, 0]],  # not flat: a tiny offset
+            [[tiny, 0, 0], [0, tiny, 0], [0, 0, tiny]],  # not flat: products underflow
+            [[tiny, tiny, tiny], [2 * tiny, 2 * tiny, 2 * tiny], [3 * tiny, 3 * tiny, 3 * tiny]],  # flat
+            [[np.nan, 0, 0], [0, 0, 0], [0, 0, 0]],  # non-finite: not flat
+            [[np.inf, 0, 0], [np.inf, 0, 0], [np.inf, 0, 0]],
+        ]
+    )
     assert ext.flat(tris).tolist() == [True, False, False, True, False, False]
 
 
@@ -132,9 +138,16 @@ def test_moller_seed_keeps_the_seeds_det_test_on_flat_triangles():
     # 1e-4, so the seed's code hits the segment (documented in moller_seed.h and the README)
     o = np.array([[0.9213621616363525, -168.2555389404297, -372.24993896484375]], np.float32)
     d = np.array([[-55.93600082397461, 12.543999671936035, 83.96800231933594]], np.float32)
-    tri = np.array([[[-89.08799743652344, -184.83200073242188, -174.20799255371094],
-                     [-57.855995178222656, -244.3520050048828, -131.19998168945312],
-                     [-120.31999969482422, -125.31199645996094, -217.21600341796875]]], np.float32)
+    tri = np.array(
+        [
+            [
+                [-89.08799743652344, -184.83200073242188, -174.20799255371094],
+                [-57.855995178222656, -244.3520050048828, -131.19998168945312],
+                [-120.31999969482422, -125.31199645996094, -217.21600341796875],
+            ]
+        ],
+        np.float32,
+    )
     assert exactly_flat(tri[0]) and ext.flat(tri)[0]
     assert ext.intersect("moller_seed", o, d, tri, "pairs").hit[0]
     assert not ext.intersect("moller_trumbore", o, d, tri, "pairs").hit[0]

@@ -284,9 +284,13 @@ def test_degenerate_triangles_miss_in_pairs(kernel, dtype):
         [[0.0, 0, 0], [1, 1, 0], [1, 1, 0]],  # repeated vertex
         [[0.0, 0, 0], [0, 0, 0], [1, 1, 0]],  # repeated vertex (v0 = v1)
     ]
-    rays = [([0.3, 0.3, 1.0], [0.0, 0, -1]), ([0.3, 0.3, 1.0], [0.0, 0, 1]),
-            ([-1.0, 0.3, 0.3], [1.0, 0, 0]), ([0.5, 2.0, 0.5], [0.0, -1, 0]),
-            ([0.6, 0.6, 0.6], [-1.0, -1, -1])]
+    rays = [
+        ([0.3, 0.3, 1.0], [0.0, 0, -1]),
+        ([0.3, 0.3, 1.0], [0.0, 0, 1]),
+        ([-1.0, 0.3, 0.3], [1.0, 0, 0]),
+        ([0.5, 2.0, 0.5], [0.0, -1, 0]),
+        ([0.6, 0.6, 0.6], [-1.0, -1, -1]),
+    ]
     tris = np.array([s for s in shapes for _ in rays])
     o = np.array([r[0] for _ in shapes for r in rays])
     d = np.array([r[1] for _ in shapes for r in rays])

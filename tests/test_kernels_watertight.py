@@ -73,9 +73,7 @@ def _icosphere_rays():
     d = rng.normal(size=(500, 3)) * 0.7 - o
     d /= np.linalg.norm(d, axis=1)[:, None]
     m, k = len(o), len(tris)
-    every = reference.intersect_pairs(
-        np.repeat(o, k, 0), np.repeat(d, k, 0), np.tile(tris, (m, 1, 1))
-    )
+    every = reference.intersect_pairs(np.repeat(o, k, 0), np.repeat(d, k, 0), np.tile(tris, (m, 1, 1)))
     near = (np.abs(every.edge_margin) < 1e-3) | (np.abs(every.t) < 1e-3)
     safe = ~near.reshape(m, k).any(axis=1)
     o, d = o[safe], d[safe]
@@ -352,8 +350,7 @@ def test_plucker_has_no_cracks_through_edges(dtype, form):
     # kernel's header): measured here, and asserted on random fans below
     cracks = _cracks("plucker", dtype, form)
     vertex_cracks, vertex_rays = cracks["vertex"]
-    print(f"\nplucker {np.dtype(dtype)} {form}: cracks {cracks}, "
-          f"vertex crack rate {vertex_cracks / vertex_rays:.2e}")
+    print(f"\nplucker {np.dtype(dtype)} {form}: cracks {cracks}, vertex crack rate {vertex_cracks / vertex_rays:.2e}")
     assert cracks["edge"][0] == 0
 
 
@@ -383,11 +380,15 @@ def test_every_ray_hits_a_triangle_holding_its_aim(kernel, dtype):
             for fam in ("exact", "random_direction", "random_origin"):
                 sel = (kinds == kind) & (family == fam)
                 none, double, n = report.get((kind, fam), (0, 0, 0))
-                report[(kind, fam)] = (none + int((per_ray[sel] == 0).sum()),
-                                       double + int((per_ray[sel] >= 2).sum()), n + int(sel.sum()))
+                report[(kind, fam)] = (
+                    none + int((per_ray[sel] == 0).sum()),
+                    double + int((per_ray[sel] >= 2).sum()),
+                    n + int(sel.sum()),
+                )
     for (kind, fam), (none, double, n) in sorted(report.items()):
-        print(f"\n{kind:6s} {fam:16s} {kernel} {np.dtype(dtype)}: no hit {none}/{n}, "
-              f"double hit {double / n:.3f}", end="")
+        print(
+            f"\n{kind:6s} {fam:16s} {kernel} {np.dtype(dtype)}: no hit {none}/{n}, double hit {double / n:.3f}", end=""
+        )
     for (kind, fam), (none, _, _) in report.items():
         if kernel == "woop" or kind == "edge":
             assert none == 0, (kind, fam)
@@ -456,8 +457,7 @@ def test_woop_is_watertight_at_vertices_of_random_fans(dtype):
 def test_plucker_is_watertight_at_vertices_of_far_fans(dtype):
     near = _fan_cracks("plucker", dtype, _fan_rays(9, 40, 1500, far=False))
     far = _fan_cracks("plucker", dtype, _fan_rays(9, 40, 1500, far=True))
-    print(f"\nplucker {np.dtype(dtype)} fans: near cracks {near[0]}/{near[1]}, "
-          f"far cracks {far[0]}/{far[1]}")
+    print(f"\nplucker {np.dtype(dtype)} fans: near cracks {near[0]}/{near[1]}, far cracks {far[0]}/{far[1]}")
     assert far[0] == 0
 
 

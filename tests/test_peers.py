@@ -17,8 +17,9 @@ from tribench.reports import columns
 from tribench.reports import html as report_html
 from tribench.reports.rundata import load_peers, load_run
 
-TINY = peers.PeerDesign(width=24, height=24, triangles=100, processes=2, reps=2, trimesh_rays=128,
-                        choice_rays=128, choice_rounds=1)
+TINY = peers.PeerDesign(
+    width=24, height=24, triangles=100, processes=2, reps=2, trimesh_rays=128, choice_rays=128, choice_rounds=1
+)
 INSTALLED = [p for p, v in peers.available().items() if v is not None]
 needs_a_peer = pytest.mark.skipif(not INSTALLED, reason="no peer installed (pip install 'tribench[peers]')")
 
@@ -29,17 +30,34 @@ def _rows(rates: dict[str, list[float]], reps: int = 2) -> pd.DataFrame:
     for contender, per_process in rates.items():
         for process, rate in enumerate(per_process):
             for rep in range(reps):
-                rows.append({"process": process, "rep": rep, "position": 0, "contender": contender,
-                             "implementation": contender, "kernel": "k", "workload_id": "w", "workload": "camera",
-                             "rays": 1000, "elapsed_ns": int(1e12 / rate), "wall_ns": int(1e12 / rate),
-                             "cpu_ns": int(1e12 / rate), "rays_per_s": rate, "setup_ns": 5_000_000,
-                             "differ": 0, "differ_ambiguous": 0, "cpu": 1})
+                rows.append(
+                    {
+                        "process": process,
+                        "rep": rep,
+                        "position": 0,
+                        "contender": contender,
+                        "implementation": contender,
+                        "kernel": "k",
+                        "workload_id": "w",
+                        "workload": "camera",
+                        "rays": 1000,
+                        "elapsed_ns": int(1e12 / rate),
+                        "wall_ns": int(1e12 / rate),
+                        "cpu_ns": int(1e12 / rate),
+                        "rays_per_s": rate,
+                        "setup_ns": 5_000_000,
+                        "differ": 0,
+                        "differ_ambiguous": 0,
+                        "cpu": 1,
+                    }
+                )
     return pd.DataFrame(rows, columns=list(peers.COLUMNS))
 
 
 def test_summary_gives_geometric_means_and_ratios_paired_by_process():
-    frame = _rows({"tribench": [100.0, 200.0, 400.0], "trimesh": [10.0, 20.0, 40.0],
-                   "embree": [1000.0, 1000.0, 1000.0]})
+    frame = _rows(
+        {"tribench": [100.0, 200.0, 400.0], "trimesh": [10.0, 20.0, 40.0], "embree": [1000.0, 1000.0, 1000.0]}
+    )
     rates, ratios = peers.summarise(frame)
     assert list(rates["contender"]) == ["tribench", "trimesh", "embree"]
     tb = rates.set_index("contender").loc["tribench"]
@@ -142,7 +160,7 @@ def run_copy(tmp_path_factory, monkeypatch):
 
 def _section(page: str, sid: str) -> str:
     start = page.index(f'<section id="{sid}">')
-    return page[start:page.index("</section>", start)]
+    return page[start : page.index("</section>", start)]
 
 
 def test_report_shows_the_peers_with_their_ratios_and_a_headline_sentence(run_copy, measured):
@@ -179,8 +197,7 @@ def test_a_corrupt_peers_file_does_not_stop_the_report(run_copy, content):
 
 
 def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
-    _rows({"tribench": [100.0], "trimesh": [10.0]}).assign(rays_per_s=-1.0).to_csv(run_copy / peers.PEERS,
-                                                                                   index=False)
+    _rows({"tribench": [100.0], "trimesh": [10.0]}).assign(rays_per_s=-1.0).to_csv(run_copy / peers.PEERS, index=False)
     analysis.write_all(run_copy)  # the analysis cannot summarise them, and says why
     section = _peers_section(run_copy)
     assert "cannot be used" in section and "positive" in section
@@ -189,17 +206,24 @@ def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
 # ------------------------------------------------------------------------ the CLI
 
 
-@pytest.mark.parametrize("flags, message", [
-    (["--kernel", "frobnicate"], "not a kernel with a closest-hit mode"),
-    (["--processes", "0"], "--processes: must be an integer from 1"),
-    (["--camera", "64by64"], "--camera: must be WIDTHxHEIGHT"),
-    (["--cpu", "4096"], "is not one of this process's CPUs"),
-    (["--processes", "1000000000000"], "processes x reps must be at most 10,000"),
-    (["--processes", "1", "--reps", "100000"], "processes x reps must be at most 10,000"),
-])
+@pytest.mark.parametrize(
+    "flags, message",
+    [
+        (["--kernel", "frobnicate"], "not a kernel with a closest-hit mode"),
+        (["--processes", "0"], "--processes: must be an integer from 1"),
+        (["--camera", "64by64"], "--camera: must be WIDTHxHEIGHT"),
+        (["--cpu", "4096"], "is not one of this process's CPUs"),
+        (["--processes", "1000000000000"], "processes x reps must be at most 10,000"),
+        (["--processes", "1", "--reps", "100000"], "processes x reps must be at most 10,000"),
+    ],
+)
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message):
-    done = subprocess.run([sys.executable, "-m", "tribench.cli", "peers", "--out", str(tmp_path), *flags],
-                          capture_output=True, text=True, timeout=60)
+    done = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "peers", "--out", str(tmp_path), *flags],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert done.returncode == 2, done.stderr
     assert message in done.stderr and len(done.stderr.strip().splitlines()) == 1
     assert not (tmp_path / peers.PEERS).exists()
@@ -230,9 +254,27 @@ def test_peers_into_an_analysed_run_folder_refresh_its_peer_tables(run_copy):
 
     analysis.write_all(run_copy, baseline="curless")  # a choice of `tribench stats` the refresh must keep
     assert load_peers(load_run(run_copy))[0] is None  # no peers yet
-    done = subprocess.run([sys.executable, "-m", "tribench.cli", "peers", "--out", str(run_copy), "--quick",
-                           "--camera", "16x16", "--processes", "2", "--reps", "1", "--no-progress"],
-                          capture_output=True, text=True, timeout=300)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "tribench.cli",
+            "peers",
+            "--out",
+            str(run_copy),
+            "--quick",
+            "--camera",
+            "16x16",
+            "--processes",
+            "2",
+            "--reps",
+            "1",
+            "--no-progress",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr
     assert f"{runfolder.ANALYSIS} into {run_copy}" in done.stderr
     record = json.loads((run_copy / runfolder.ANALYSIS).read_text(encoding="utf-8"))

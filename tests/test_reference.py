@@ -40,9 +40,11 @@ def test_hit_points_lie_on_the_ray_and_in_the_triangle():
     on_ray = o + r.t[:, None] * d
     in_plane = np.einsum("nk,nkj->nj", np.stack([r.w, r.u, r.v], axis=1), tris)
     np.testing.assert_allclose(on_ray, in_plane, atol=1e-9)
+
     # and the barycentrics agree with an independent area-ratio computation
     def area(a, b, c):
         return np.linalg.norm(np.cross(b - a, c - a), axis=1)
+
     full = area(tris[:, 0], tris[:, 1], tris[:, 2])
     u_area = area(tris[:, 0], on_ray, tris[:, 2]) / full
     np.testing.assert_allclose(np.abs(r.u[r.hit]), u_area[r.hit], atol=1e-9)
@@ -71,7 +73,9 @@ def test_t_max_limits_hits_per_ray_and_keeps_t():
     r = reference.intersect_pairs(o, d, tris, t_max=[np.inf, 3.5, 3.0, 2.5])
     assert r.hit.tolist() == [True, True, False, False]  # t = 3: t < t_max only
     assert r.t.tolist() == [3.0] * 4  # a miss past t_max keeps its crossing
-    assert np.array_equal(r.hit, reference.intersect_pairs(o, d, tris, t_max=None).hit & (r.t < [np.inf, 3.5, 3.0, 2.5]))
+    assert np.array_equal(
+        r.hit, reference.intersect_pairs(o, d, tris, t_max=None).hit & (r.t < [np.inf, 3.5, 3.0, 2.5])
+    )
     # closest: a limit between two triangles leaves the nearer one, below both leaves none
     twice = np.vstack([TRI, TRI + [0, 0, 1]])
     index, t = reference.intersect_closest([[0.5, 0.5, 3]] * 3, [[0, 0, -1]] * 3, twice, t_max=[np.inf, 2.5, 1.5])

@@ -27,8 +27,20 @@ WIDE = [k for k in KERNELS if INFO[k].scalar_form is not None]
 
 def test_every_property_is_a_field_read_from_the_extension():
     fields = {f.name for f in dataclasses.fields(ext.KernelInfo)}
-    assert {"lanes", "stride", "ops", "internal", "scalar_form", "wide_form", "culls_back_faces", "watertight",
-            "watertight_source", "seed_replay", "flat", "precisions"} <= fields
+    assert {
+        "lanes",
+        "stride",
+        "ops",
+        "internal",
+        "scalar_form",
+        "wide_form",
+        "culls_back_faces",
+        "watertight",
+        "watertight_source",
+        "seed_replay",
+        "flat",
+        "precisions",
+    } <= fields
     for k, info in INFO.items():
         assert info.name == k and info.lanes in (1, 8) and info.stride > 0 and info.ops > 0
         assert isinstance(info.culls_back_faces, bool) and isinstance(info.seed_replay, bool)
@@ -53,8 +65,16 @@ def test_a_wide_form_has_its_scalar_forms_properties():
     for k in WIDE:
         wide, scalar = INFO[k], INFO[INFO[k].scalar_form]
         assert wide.lanes == 8 and scalar.lanes == 1 and scalar.wide_form == k and wide.wide_form is None
-        for prop in ("culls_back_faces", "watertight", "watertight_source", "seed_replay", "flat", "precisions",
-                     "stride", "internal"):
+        for prop in (
+            "culls_back_faces",
+            "watertight",
+            "watertight_source",
+            "seed_replay",
+            "flat",
+            "precisions",
+            "stride",
+            "internal",
+        ):
             assert getattr(wide, prop) == getattr(scalar, prop), (k, prop)
     # and each scalar kernel's wide form points back to it
     assert {i.wide_form for i in INFO.values() if i.wide_form} == set(WIDE)
@@ -106,8 +126,20 @@ def _pieces() -> tuple[set[str], set[str]]:
 
 
 _FRAGMENTS, _RUNS = _pieces()
-_STRING_TESTS = {"startswith", "endswith", "removeprefix", "removesuffix", "replace", "split", "rsplit",
-                 "partition", "rpartition", "find", "index", "count"}
+_STRING_TESTS = {
+    "startswith",
+    "endswith",
+    "removeprefix",
+    "removesuffix",
+    "replace",
+    "split",
+    "rsplit",
+    "partition",
+    "rpartition",
+    "find",
+    "index",
+    "count",
+}
 # file: why a name fragment is legitimate there (one line each)
 ALLOWED: dict[str, str] = {}
 
@@ -142,15 +174,20 @@ def _name_inferences(path: Path, root: Path = ROOT) -> list[str]:
 
 def _python_files() -> list[Path]:
     skip = {".venv", "build", ".git"}
-    return [p for p in sorted(ROOT.rglob("*.py"))
-            if not (set(p.relative_to(ROOT).parts) & skip) and not p.relative_to(ROOT).parts[0].startswith(".")]
+    return [
+        p
+        for p in sorted(ROOT.rglob("*.py"))
+        if not (set(p.relative_to(ROOT).parts) & skip) and not p.relative_to(ROOT).parts[0].startswith(".")
+    ]
 
 
 def test_the_detector_finds_the_old_tricks(tmp_path):
     old = tmp_path / "old.py"
-    old.write_text('def f(kernel):\n    a = "_cull" in kernel\n    b = kernel.endswith("_seed")\n'
-                   '    c = kernel.removesuffix("_x8")\n    d = kernel + "_x8"\n    e = kernel.startswith("woop")\n'
-                   '    return "moller_trumbore" == kernel\n')
+    old.write_text(
+        'def f(kernel):\n    a = "_cull" in kernel\n    b = kernel.endswith("_seed")\n'
+        '    c = kernel.removesuffix("_x8")\n    d = kernel + "_x8"\n    e = kernel.startswith("woop")\n'
+        '    return "moller_trumbore" == kernel\n'
+    )
     found = _name_inferences(old, tmp_path)
     assert sorted({int(line.split(":")[1]) for line in found}) == [2, 3, 4, 5, 6], found
 
@@ -170,8 +207,10 @@ def _registration_lines() -> dict[str, list[list[str]]]:
     text = (ROOT / "ext" / "kernels" / "list.h").read_text()
     lists = {}
     for name, body in re.findall(r"#define (TB_\w*KERNEL_LIST)\(X\)((?:.*\\\n)*.*\n)", text):
-        lists[name] = [[c.strip() for c in re.split(r',(?=(?:[^"]*"[^"]*")*[^"]*$)', args)]
-                       for args in re.findall(r"\bX\((.*?)\)\s*\\?\n", body)]
+        lists[name] = [
+            [c.strip() for c in re.split(r',(?=(?:[^"]*"[^"]*")*[^"]*$)', args)]
+            for args in re.findall(r"\bX\((.*?)\)\s*\\?\n", body)
+        ]
     return lists
 
 
@@ -182,8 +221,9 @@ def test_every_kernel_file_is_included_and_registered_once_and_has_a_readme_row(
     assert len(registered) == len(set(registered)), "a kernel is registered twice"
     # one registration line per scalar kernel, and the wide forms its TB_X8 column asks for
     assert sorted(registered) == sorted(k for k in KERNELS if k not in WIDE)
-    assert sorted(ext.kernel_info(c[0]).wide_form for rows in lines.values() for c in rows if c[5] == "TB_X8") \
-        == sorted(WIDE)
+    assert sorted(
+        ext.kernel_info(c[0]).wide_form for rows in lines.values() for c in rows if c[5] == "TB_X8"
+    ) == sorted(WIDE)
 
     # one file per registered kernel, wide forms included, and no file that is not one
     helpers = {"vec", "list"}

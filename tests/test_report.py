@@ -87,7 +87,7 @@ def test_report_opens_offline_no_external_references(rendered):
     page = _parse(text)
     assert page.scripts == 0 and page.links == []
     assert "http://" not in text and "https://" not in text
-    assert 'src="//' not in text and "href=\"//" not in text
+    assert 'src="//' not in text and 'href="//' not in text
     hrefs = re.findall(r'href="([^"]*)"', text)
     assert hrefs and all(h.startswith("#") for h in hrefs)
     srcs = re.findall(r'src="([^"]*)"', text)
@@ -96,7 +96,7 @@ def test_report_opens_offline_no_external_references(rendered):
 
 def test_headline_states_verdicts_and_hit_rate_meaning(rendered):
     run_dir, _, text = rendered
-    head = text[text.index('id="headline"'):text.index('id="kernels"')]
+    head = text[text.index('id="headline"') : text.index('id="kernels"')]
     spd = pd.read_csv(run_dir / "speedups.csv")
     for kernel in spd["kernel"].unique():
         assert f"{kernel} " in head
@@ -123,14 +123,18 @@ def test_reproduce_section_gives_a_sweep_file_that_reads_back(rendered, tmp_path
     sweep = load_sweep_file(run_dir / "sweep.toml")
     recorded = Sweep.from_dict(json.loads((run_dir / "run.json").read_text())["sweep"])
     assert sweep.workload_ids == recorded.workload_ids
-    assert (sweep.kernels, sweep.processes, sweep.rounds, sweep.seed) == \
-        (recorded.kernels, recorded.processes, recorded.rounds, recorded.seed)
+    assert (sweep.kernels, sweep.processes, sweep.rounds, sweep.seed) == (
+        recorded.kernels,
+        recorded.processes,
+        recorded.rounds,
+        recorded.seed,
+    )
 
 
 def test_machine_section_shows_caches_and_build(rendered):
     run_dir, _, text = rendered
     run = json.loads((run_dir / "run.json").read_text())
-    machine = text[text.index('id="machine"'):text.index('id="reproduce"')]
+    machine = text[text.index('id="machine"') : text.index('id="reproduce"')]
     assert run["machine"]["build"]["compiler"] in machine
     for level in run["machine"]["caches"]:
         assert level in machine
@@ -138,7 +142,7 @@ def test_machine_section_shows_caches_and_build(rendered):
 
 def test_correctness_table_agrees_on_a_clean_run(rendered):
     _, _, text = rendered
-    corr = text[text.index('id="correctness"'):text.index('id="robustness"')]
+    corr = text[text.index('id="correctness"') : text.index('id="robustness"')]
     assert corr.count("<td>yes</td>") == 3 * 4  # every kernel on every workload agrees
     assert "<td>no</td>" not in corr
     assert '<a href="#robustness">' in corr  # the watertightness figures are there
@@ -146,10 +150,12 @@ def test_correctness_table_agrees_on_a_clean_run(rendered):
 
 def _section_rows(text, sid):
     """The cells of every table row of one section, tags stripped."""
-    part = text[text.index(f'id="{sid}"'):]
-    part = part[:part.index("</section>")]
-    return [[re.sub(r"<[^>]+>", "", c) for c in re.findall(r"<t[dh][^>]*>(.*?)</t[dh]>", row)]
-            for row in re.findall(r"<tr>(.*?)</tr>", part)]
+    part = text[text.index(f'id="{sid}"') :]
+    part = part[: part.index("</section>")]
+    return [
+        [re.sub(r"<[^>]+>", "", c) for c in re.findall(r"<t[dh][^>]*>(.*?)</t[dh]>", row)]
+        for row in re.findall(r"<tr>(.*?)</tr>", part)
+    ]
 
 
 def test_kernels_section_gives_bytes_per_triangle_beside_speed(rendered):
@@ -178,12 +184,12 @@ def test_robustness_section_shows_the_validate_table_per_kernel_and_dtype(render
     from tribench.harness import validate
 
     run_dir, _, text = rendered
-    part = text[text.index('id="robustness"'):text.index('id="workloads"')]
+    part = text[text.index('id="robustness"') : text.index('id="workloads"')]
     assert "Read from validate.csv" in part
     rows = _section_rows(text, "robustness")
     head = rows[0]
     assert head[:3] == ["kernel", "precision", "ISA"] and head[3:] == list(validate.SHORT_NAMES.values())
-    table = [r for r in rows if len(r) == len(head)][1:len(KERNELS) + 1]
+    table = [r for r in rows if len(r) == len(head)][1 : len(KERNELS) + 1]
     assert [(r[0], r[1]) for r in table] == [(k, "float64") for k in KERNELS]
     # the rays per test, and one sentence on what each measures
     tests = [r for r in rows if len(r) > 1 and r[1] in validate.TESTS]
@@ -228,10 +234,11 @@ def test_the_calibration_note_shows_run_json_and_reads_no_file_outside_the_run(r
         record["margin"] = {"value": 0.02, "source": source}
         (copy / name).write_text(json.dumps(record))
     text = reports.write_report(copy).read_text(encoding="utf-8")
-    part = text[text.index("<h3>A/A calibration</h3>"):text.index("<h3>Interference</h3>")]
+    part = text[text.index("<h3>A/A calibration</h3>") : text.index("<h3>Interference</h3>")]
     assert re.sub(r"<[^>]+>", "", part).replace("&#x27;", "'") == (
         f"A/A calibrationEquivalence margin of the verdicts: ±2% — {source}.That A/A calibration's record is not "
-        "part of this run folder; its margin and source are the ones run.json recorded when the sweep started.")
+        "part of this run folder; its margin and source are the ones run.json recorded when the sweep started."
+    )
     assert "OUTSIDE_KERNEL" not in text
 
 
@@ -239,10 +246,11 @@ def test_a_calibration_run_shows_its_own_record(rendered, tmp_path):
     run_dir, _, _ = rendered
     copy = tmp_path / "run"
     shutil.copytree(run_dir, copy, ignore=shutil.ignore_patterns("report.html", "sweep.toml", ".lock"))
-    (copy / "calibration.json").write_text(json.dumps({"kernel": "moller_trumbore", "copy": "moller_trumbore_aa",
-                                                       "noise_floor": 0.0123, "margin": 0.015}))
+    (copy / "calibration.json").write_text(
+        json.dumps({"kernel": "moller_trumbore", "copy": "moller_trumbore_aa", "noise_floor": 0.0123, "margin": 0.015})
+    )
     text = reports.write_report(copy).read_text(encoding="utf-8")
-    part = text[text.index("<h3>A/A calibration</h3>"):text.index("<h3>Interference</h3>")]
+    part = text[text.index("<h3>A/A calibration</h3>") : text.index("<h3>Interference</h3>")]
     assert "This run folder is an A/A calibration" in part
     assert "<td>moller_trumbore vs moller_trumbore_aa</td>" in part and "<td>0.0123</td>" in part
 
@@ -263,14 +271,25 @@ def test_the_analysis_rebuilds_a_workload_missing_from_the_cache(tmp_path_factor
 
 
 def test_headline_sentence_for_one_workload():
-    spd = pd.DataFrame({"family": ["pairs n=10"], "label": ["per-test hit rate 50%"], "kernel": ["mt"],
-                        "baseline": ["seed"], "ratio": [0.8], "ratio_ci_low": [0.7], "ratio_ci_high": [0.9],
-                        "n_processes": [10],
-                        "verdict": ["slower"], "confidence": [0.975]})
-    (verdict, sentence), = headline.headline_sentences(spd)["pairs n=10"]
+    spd = pd.DataFrame(
+        {
+            "family": ["pairs n=10"],
+            "label": ["per-test hit rate 50%"],
+            "kernel": ["mt"],
+            "baseline": ["seed"],
+            "ratio": [0.8],
+            "ratio_ci_low": [0.7],
+            "ratio_ci_high": [0.9],
+            "n_processes": [10],
+            "verdict": ["slower"],
+            "confidence": [0.975],
+        }
+    )
+    ((verdict, sentence),) = headline.headline_sentences(spd)["pairs n=10"]
     assert verdict == "slower"
-    assert sentence == ("mt is slower than seed: 0.8× [0.7, 0.9] (95% CI, 10 processes) on pairs n=10 "
-                        "at per-test hit rate 50%.")
+    assert sentence == (
+        "mt is slower than seed: 0.8× [0.7, 0.9] (95% CI, 10 processes) on pairs n=10 at per-test hit rate 50%."
+    )
 
 
 def test_format_tables_lists_estimates_and_speedups(rendered):
@@ -303,17 +322,21 @@ def test_corrupt_run_json_is_a_clear_error(tmp_path):
         reports.write_report(tmp_path)
 
 
-@pytest.mark.parametrize("setup, message", [
-    ("missing", "no run directory"),
-    ("corrupt", "not valid JSON"),
-])
+@pytest.mark.parametrize(
+    "setup, message",
+    [
+        ("missing", "no run directory"),
+        ("corrupt", "not valid JSON"),
+    ],
+)
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, setup, message):
     target = tmp_path / "run"
     if setup == "corrupt":
         target.mkdir()
         (target / "run.json").write_text("[")
-    proc = subprocess.run([sys.executable, "-m", "tribench.cli", "report", str(target)],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "report", str(target)], capture_output=True, text=True, timeout=60
+    )
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("tribench report: error:") and message in lines[0]

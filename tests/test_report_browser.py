@@ -32,14 +32,29 @@ def test_report_renders_in_headless_chromium_without_console_errors(tmp_path_fac
         page = reports.write_report(run_dir)
     shot = tmp_path_factory.mktemp("browser") / "report.png"
     proc = subprocess.run(
-        [browser, "--headless=new", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr", "--v=0",
-         "--no-first-run", "--disable-extensions", f"--screenshot={shot}", "--window-size=1280,2000",
-         page.resolve().as_uri()],
-        capture_output=True, text=True, timeout=120,
+        [
+            browser,
+            "--headless=new",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--enable-logging=stderr",
+            "--v=0",
+            "--no-first-run",
+            "--disable-extensions",
+            f"--screenshot={shot}",
+            "--window-size=1280,2000",
+            page.resolve().as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
-    console = [line for line in proc.stderr.splitlines()
-               if re.search(r"Uncaught|ERROR:CONSOLE|CONSOLE\(\d+\)|Failed to load resource|net::ERR_", line)]
+    console = [
+        line
+        for line in proc.stderr.splitlines()
+        if re.search(r"Uncaught|ERROR:CONSOLE|CONSOLE\(\d+\)|Failed to load resource|net::ERR_", line)
+    ]
     assert console == [], "\n".join(console)
 
     import matplotlib.image as mpimg

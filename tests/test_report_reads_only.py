@@ -18,16 +18,30 @@ from tribench.workloads import cache
 
 #: Every entry point that measures, makes a workload, runs the suite, computes a statistic or writes a table.
 POISONED = [
-    (ext, "time_batch"), (ext, "make_job"), (cache, "make"), (cache, "generate"), (cache, "load"),
-    (validate, "run"), (analysis, "analyse"), (analysis, "write_all"), (analysis, "write_tables"),
-    (records, "write_csv"), (stats, "per_process"), (stats, "estimate_table"), (stats, "speedup_table"),
-    (stats, "crossover"), (stats, "scaling_slope"), (stats, "drift"), (stats, "variance_components"),
+    (ext, "time_batch"),
+    (ext, "make_job"),
+    (cache, "make"),
+    (cache, "generate"),
+    (cache, "load"),
+    (validate, "run"),
+    (analysis, "analyse"),
+    (analysis, "write_all"),
+    (analysis, "write_tables"),
+    (records, "write_csv"),
+    (stats, "per_process"),
+    (stats, "estimate_table"),
+    (stats, "speedup_table"),
+    (stats, "crossover"),
+    (stats, "scaling_slope"),
+    (stats, "drift"),
+    (stats, "variance_components"),
     (stats, "label_outliers"),
 ]
 
 
 def _poison(monkeypatch: pytest.MonkeyPatch) -> None:
     for module, name in POISONED:
+
         def refuse(*args, _name=f"{module.__name__}.{name}", **kwargs):
             raise AssertionError(f"the report called {_name}")
 
@@ -56,8 +70,7 @@ def copied(tmp_path_factory):
     return run_dir, original, copy
 
 
-def test_a_copied_run_renders_the_same_report_with_an_empty_cache_and_nothing_computed(copied, tmp_path,
-                                                                                       monkeypatch):
+def test_a_copied_run_renders_the_same_report_with_an_empty_cache_and_nothing_computed(copied, tmp_path, monkeypatch):
     run_dir, original, copy = copied
     empty = tmp_path / "empty-cache"
     empty.mkdir()
@@ -76,9 +89,13 @@ def test_a_copied_run_renders_the_same_report_with_an_empty_cache_and_nothing_co
 def test_the_report_command_on_a_copied_run_creates_no_cache_file(copied, tmp_path):
     run_dir, _, copy = copied
     empty = tmp_path / "cache"
-    proc = subprocess.run([sys.executable, "-m", "tribench.cli", "report", str(copy), "--quiet"],
-                          capture_output=True, text=True, timeout=300,
-                          env={**__import__("os").environ, "TRIBENCH_CACHE": str(empty)})
+    proc = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "report", str(copy), "--quiet"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**__import__("os").environ, "TRIBENCH_CACHE": str(empty)},
+    )
     assert proc.returncode == 0, proc.stderr
     assert not empty.exists() or _files(empty) == []
 
@@ -89,8 +106,9 @@ def test_a_folder_without_tables_is_refused_in_one_line_naming_tribench_stats(co
     bare.mkdir()
     for name in ("run.json", "batches.csv", "processes.csv", "checks.csv"):
         shutil.copy(copy / name, bare / name)
-    proc = subprocess.run([sys.executable, "-m", "tribench.cli", "report", str(bare)],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "report", str(bare)], capture_output=True, text=True, timeout=120
+    )
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and f"tribench stats {bare}" in lines[0]

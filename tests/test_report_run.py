@@ -123,12 +123,15 @@ def test_report_refuses_tables_in_old_columns_and_names_tribench_stats(tmp_path_
     assert "mean" in pd.read_csv(copy / "estimates.csv", nrows=0).columns  # left as it was
 
 
-@pytest.mark.parametrize("change, message", [
-    ("no-analysis", "no analysis tables"),
-    ("batches-changed", "made from another batches.csv"),
-    ("table-missing", "drift.csv is missing"),
-    ("other-baseline", "compare against moller_seed, not curless"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ("no-analysis", "no analysis tables"),
+        ("batches-changed", "made from another batches.csv"),
+        ("table-missing", "drift.csv is missing"),
+        ("other-baseline", "compare against moller_seed, not curless"),
+    ],
+)
 def test_report_refuses_missing_or_stale_tables(tmp_path_factory, change, message):
     from tribench.reports.rundata import RunError, load_run
 

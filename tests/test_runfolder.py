@@ -27,8 +27,21 @@ from tribench.harness import analysis, records, runner
 from tribench.harness.plan import Sweep, plan
 from tribench.workloads.spec import PairSpec
 
-SLOW = ["--kernels", "moller_trumbore,curless", "--pairs", "300", "--processes", "4", "--rounds", "3",
-        "--warmup", "1", "--target-ms", "20", "--no-progress"]
+SLOW = [
+    "--kernels",
+    "moller_trumbore,curless",
+    "--pairs",
+    "300",
+    "--processes",
+    "4",
+    "--rounds",
+    "3",
+    "--warmup",
+    "1",
+    "--target-ms",
+    "20",
+    "--no-progress",
+]
 
 
 @pytest.fixture(scope="module")
@@ -47,8 +60,7 @@ def cache(tmp_path_factory):
 def finished(cache, tmp_path_factory):
     """A small finished run with its tables (made once; tests work on copies)."""
     out = tmp_path_factory.mktemp("finished") / "run"
-    sweep = Sweep(("moller_trumbore", "curless"), (PairSpec(n=200),), processes=3, rounds=2, warmup=1,
-                  target_ms=0.2)
+    sweep = Sweep(("moller_trumbore", "curless"), (PairSpec(n=200),), processes=3, rounds=2, warmup=1, target_ms=0.2)
     runner.start(sweep, out, progress=False)
     analysis.write_all(out)  # the analysis step: every table the report reads
     return out
@@ -66,13 +78,24 @@ def cli(*args, limit_bytes=None, **kw):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
 
-    return subprocess.run([sys.executable, "-m", "tribench.cli", *args], capture_output=True, text=True,
-                          timeout=180, preexec_fn=limit if limit_bytes else None, **kw)
+    return subprocess.run(
+        [sys.executable, "-m", "tribench.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        preexec_fn=limit if limit_bytes else None,
+        **kw,
+    )
 
 
 def popen(*args):
-    return subprocess.Popen([sys.executable, "-m", "tribench.cli", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    return subprocess.Popen(
+        [sys.executable, "-m", "tribench.cli", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
 
 
 def one_line_error(done, *words, preamble=0):
@@ -113,8 +136,10 @@ def test_two_resumes_after_a_kill_one_runs_the_other_is_refused(cache, tmp_path)
     dead = kill_mid_sweep(out)
     before = runner.done_keys(out)
     assert 0 < len(before) < len(planned(out))
-    first, second = popen("sweep", "--resume", str(out), "--no-progress"), \
-        popen("sweep", "--resume", str(out), "--no-progress")
+    first, second = (
+        popen("sweep", "--resume", str(out), "--no-progress"),
+        popen("sweep", "--resume", str(out), "--no-progress"),
+    )
     results = {p.pid: (p.wait(timeout=180), *p.communicate()) for p in (first, second)}
     codes = sorted(code for code, _, _ in results.values())
     assert codes == [0, 2], results
@@ -131,8 +156,11 @@ def test_two_resumes_after_a_kill_one_runs_the_other_is_refused(cache, tmp_path)
 
 def test_a_second_writer_is_refused_while_the_first_lives_and_readers_are_not(run):
     with records.writer_lock(run):
-        assert records.live_writer(run) == f"process {os.getpid()} on {os.uname().nodename} " + \
-            f"(since {json.loads((run / '.lock').read_text())['since']})"
+        assert (
+            records.live_writer(run)
+            == f"process {os.getpid()} on {os.uname().nodename} "
+            + f"(since {json.loads((run / '.lock').read_text())['since']})"
+        )
         done = cli("sweep", "--resume", str(run), "--no-progress")
         one_line_error(done, str(run), f"process {os.getpid()}", "one writer per run folder")
         stats = cli("stats", str(run))  # a reader: allowed, and told the run is being written
@@ -147,8 +175,20 @@ def test_start_into_a_folder_another_start_is_writing_is_refused(run):
     other = run.parent / "fresh"
     other.mkdir()
     with records.writer_lock(other):
-        done = cli("sweep", "--out", str(other), "--kernels", "moller_trumbore", "--pairs", "200",
-                   "--processes", "1", "--rounds", "1", "--no-progress")
+        done = cli(
+            "sweep",
+            "--out",
+            str(other),
+            "--kernels",
+            "moller_trumbore",
+            "--pairs",
+            "200",
+            "--processes",
+            "1",
+            "--rounds",
+            "1",
+            "--no-progress",
+        )
         one_line_error(done, "is being written by process", preamble=1)  # the sweep's plan line
     assert not (other / "run.json").exists()
 
@@ -158,8 +198,21 @@ def test_start_into_a_folder_another_start_is_writing_is_refused(run):
 
 def test_full_disk_mid_sweep_exits_2_with_the_resume_command_and_whole_lines(finished, cache, tmp_path):
     out = tmp_path / "run"
-    args = ["--kernels", "moller_trumbore,curless", "--pairs", "200", "--processes", "5", "--rounds", "4",
-            "--warmup", "1", "--target-ms", "0.2", "--no-progress"]
+    args = [
+        "--kernels",
+        "moller_trumbore,curless",
+        "--pairs",
+        "200",
+        "--processes",
+        "5",
+        "--rounds",
+        "4",
+        "--warmup",
+        "1",
+        "--target-ms",
+        "0.2",
+        "--no-progress",
+    ]
     full = cli("sweep", "--out", str(out), *args, limit_bytes=5000)  # run.json fits, the batches do not
     one_line_error(full, f"tribench sweep --resume {out}", "batches.csv", preamble=1)
     lines = batch_lines(out)
@@ -200,20 +253,23 @@ def _edit(run_dir: Path, line: int, column: str, value: str) -> None:
     (run_dir / "batches.csv").write_text("".join(lines))
 
 
-@pytest.mark.parametrize("column, value, words", [
-    ("run_id", "20200101T000000-abcdef", ["run id '20200101T000000-abcdef' is not this run's"]),
-    ("kernel", "woop", ["unknown kernel 'woop'"]),
-    ("elapsed_ns", "-5", ["elapsed_ns is -5; must be positive"]),
-    ("elapsed_ns", "0", ["elapsed_ns is 0; must be positive"]),
-    ("elapsed_ns", "nan", ["elapsed_ns is 'nan', not an integer"]),
-    ("tests", "0", ["tests is 0; must be positive"]),
-    ("loops", "-1", ["loops is -1; must be positive"]),
-    ("round", "77", ["not in the run's plan"]),
-    ("process", "9", ["process 9 is not one of the run's 3"]),
-    ("t_sum", "abc", ["t_sum is 'abc', not a finite number"]),
-    ("t_sum", "inf", ["t_sum is 'inf', not a finite number"]),
-    ("warmup", "yes", ["warmup is 'yes', not True or False"]),
-])
+@pytest.mark.parametrize(
+    "column, value, words",
+    [
+        ("run_id", "20200101T000000-abcdef", ["run id '20200101T000000-abcdef' is not this run's"]),
+        ("kernel", "woop", ["unknown kernel 'woop'"]),
+        ("elapsed_ns", "-5", ["elapsed_ns is -5; must be positive"]),
+        ("elapsed_ns", "0", ["elapsed_ns is 0; must be positive"]),
+        ("elapsed_ns", "nan", ["elapsed_ns is 'nan', not an integer"]),
+        ("tests", "0", ["tests is 0; must be positive"]),
+        ("loops", "-1", ["loops is -1; must be positive"]),
+        ("round", "77", ["not in the run's plan"]),
+        ("process", "9", ["process 9 is not one of the run's 3"]),
+        ("t_sum", "abc", ["t_sum is 'abc', not a finite number"]),
+        ("t_sum", "inf", ["t_sum is 'inf', not a finite number"]),
+        ("warmup", "yes", ["warmup is 'yes', not True or False"]),
+    ],
+)
 def test_stats_and_report_refuse_a_bad_row_naming_file_and_line(run, column, value, words):
     _edit(run, 5, column, value)
     refused(run, f"{run / 'batches.csv'}:5: ", *words)
@@ -241,17 +297,20 @@ def test_duplicated_batches_are_refused_naming_both(run):
 
 def _insert(text: str, line: int, new: str) -> str:
     lines = text.splitlines(keepends=True)
-    return "".join(lines[: line - 1] + [new + "\n"] + lines[line - 1:])
+    return "".join(lines[: line - 1] + [new + "\n"] + lines[line - 1 :])
 
 
-@pytest.mark.parametrize("name, mangle, words", [
-    ("header", lambda t: t.replace("elapsed_ns", "elapsed", 1), [":1: the header is not batches.csv's columns"]),
-    ("garbage line", lambda t: _insert(t, 3, "#!garbage\x00"), [":3: "]),
-    ("blank line", lambda t: _insert(t, 3, ""), [":3: a blank line"]),
-    ("quoted newline", lambda t: _insert(t, 3, '"a\nb"'), [":4: 1 fields, expected 20"]),
-    ("short row", lambda t: t.replace("\n", "\n1,2,3\n", 1), [":2: 3 fields, expected 20"]),
-    ("not utf-8", lambda t: t.replace("\n", "\n\udcff\n", 1), [":2: not UTF-8 text"]),
-])
+@pytest.mark.parametrize(
+    "name, mangle, words",
+    [
+        ("header", lambda t: t.replace("elapsed_ns", "elapsed", 1), [":1: the header is not batches.csv's columns"]),
+        ("garbage line", lambda t: _insert(t, 3, "#!garbage\x00"), [":3: "]),
+        ("blank line", lambda t: _insert(t, 3, ""), [":3: a blank line"]),
+        ("quoted newline", lambda t: _insert(t, 3, '"a\nb"'), [":4: 1 fields, expected 20"]),
+        ("short row", lambda t: t.replace("\n", "\n1,2,3\n", 1), [":2: 3 fields, expected 20"]),
+        ("not utf-8", lambda t: t.replace("\n", "\n\udcff\n", 1), [":2: not UTF-8 text"]),
+    ],
+)
 def test_garbage_in_the_middle_is_refused_with_its_line(run, name, mangle, words):
     text = (run / "batches.csv").read_text()
     (run / "batches.csv").write_bytes(mangle(text).encode("utf-8", "surrogateescape"))
@@ -271,29 +330,61 @@ def test_crlf_and_a_bom_change_no_value_and_are_read(run):
     assert records.read_batches(run).equals(before)
 
 
-@pytest.mark.parametrize("name, setup, words", [
-    ("run.json cut", lambda r: (r / "run.json").write_text((r / "run.json").read_text()[:200]),
-     ["run.json:", "not valid JSON"]),
-    ("run.json a list", lambda r: (r / "run.json").write_text("[1, 2]"), ["not a tribench run record"]),
-    ("run.json deep", lambda r: (r / "run.json").write_text("[" * 100000 + "]" * 100000), ["run.json"]),
-    ("run.json binary", lambda r: (r / "run.json").write_bytes(b"\xff\xfe{}"), ["run.json is not UTF-8"]),
-    ("run.json no sweep", lambda r: (r / "run.json").write_text('{"run_id": "x"}'), ["'sweep' is missing"]),
-    ("margin nan", lambda r: (r / "run.json").write_text((r / "run.json").read_text().replace(
-        '"value": 0.01', '"value": NaN')), ["key 'margin.value'"]),
-    ("batches a symlink", lambda r: ((r / "b2").write_bytes((r / "batches.csv").read_bytes()),
-                                     (r / "batches.csv").unlink(), (r / "batches.csv").symlink_to(r / "b2")),
-     ["batches.csv is a symbolic link"]),
-    ("batches a fifo", lambda r: ((r / "batches.csv").unlink(), os.mkfifo(r / "batches.csv")),
-     ["batches.csv is not a regular file"]),
-    ("batches huge", lambda r: (r / "batches.csv").write_bytes(
-        (r / "batches.csv").read_bytes() + b"x" * (records.MAX_ROW_BYTES * 2000)), ["batches.csv", " bytes"]),
-    ("batches a folder", lambda r: ((r / "batches.csv").unlink(), (r / "batches.csv").mkdir()),
-     ["batches.csv is not a regular file"]),
-    ("no batches", lambda r: (r / "batches.csv").unlink(), ["no batches.csv"]),  # resume runs them all
-    ("processes other run", lambda r: (r / "processes.csv").write_text(
-        (r / "processes.csv").read_text().replace(records.read_run(r)["run_id"], "other", 1)),
-     ["processes.csv:2: run id 'other'"]),
-])
+@pytest.mark.parametrize(
+    "name, setup, words",
+    [
+        (
+            "run.json cut",
+            lambda r: (r / "run.json").write_text((r / "run.json").read_text()[:200]),
+            ["run.json:", "not valid JSON"],
+        ),
+        ("run.json a list", lambda r: (r / "run.json").write_text("[1, 2]"), ["not a tribench run record"]),
+        ("run.json deep", lambda r: (r / "run.json").write_text("[" * 100000 + "]" * 100000), ["run.json"]),
+        ("run.json binary", lambda r: (r / "run.json").write_bytes(b"\xff\xfe{}"), ["run.json is not UTF-8"]),
+        ("run.json no sweep", lambda r: (r / "run.json").write_text('{"run_id": "x"}'), ["'sweep' is missing"]),
+        (
+            "margin nan",
+            lambda r: (r / "run.json").write_text(
+                (r / "run.json").read_text().replace('"value": 0.01', '"value": NaN')
+            ),
+            ["key 'margin.value'"],
+        ),
+        (
+            "batches a symlink",
+            lambda r: (
+                (r / "b2").write_bytes((r / "batches.csv").read_bytes()),
+                (r / "batches.csv").unlink(),
+                (r / "batches.csv").symlink_to(r / "b2"),
+            ),
+            ["batches.csv is a symbolic link"],
+        ),
+        (
+            "batches a fifo",
+            lambda r: ((r / "batches.csv").unlink(), os.mkfifo(r / "batches.csv")),
+            ["batches.csv is not a regular file"],
+        ),
+        (
+            "batches huge",
+            lambda r: (r / "batches.csv").write_bytes(
+                (r / "batches.csv").read_bytes() + b"x" * (records.MAX_ROW_BYTES * 2000)
+            ),
+            ["batches.csv", " bytes"],
+        ),
+        (
+            "batches a folder",
+            lambda r: ((r / "batches.csv").unlink(), (r / "batches.csv").mkdir()),
+            ["batches.csv is not a regular file"],
+        ),
+        ("no batches", lambda r: (r / "batches.csv").unlink(), ["no batches.csv"]),  # resume runs them all
+        (
+            "processes other run",
+            lambda r: (r / "processes.csv").write_text(
+                (r / "processes.csv").read_text().replace(records.read_run(r)["run_id"], "other", 1)
+            ),
+            ["processes.csv:2: run id 'other'"],
+        ),
+    ],
+)
 def test_hostile_run_folders_give_one_line_naming_the_file(run, name, setup, words):
     setup(run)
     refused(run, *words, resume=name != "no batches")  # a run killed before its first batch resumes
@@ -322,7 +413,7 @@ def test_any_corruption_of_batches_is_a_user_error_or_a_valid_table(finished, tm
     raw = (run / "batches.csv").read_bytes()
     at = data.draw(st.integers(0, len(raw) - 1))
     junk = data.draw(st.binary(min_size=1, max_size=40))
-    (run / "batches.csv").write_bytes(raw[:at] + junk + raw[at + data.draw(st.integers(0, 40)):])
+    (run / "batches.csv").write_bytes(raw[:at] + junk + raw[at + data.draw(st.integers(0, 40)) :])
     try:
         frame = records.read_batches(run)
     except UserError as exc:
@@ -339,13 +430,18 @@ def test_any_corruption_of_batches_is_a_user_error_or_a_valid_table(finished, tm
 # ------------------------------------------------------------ what a whole-file write may replace
 
 
-@pytest.mark.parametrize("make", [
-    lambda p: p.mkdir(),
-    lambda p: p.symlink_to(p.parent / "elsewhere"),
-    lambda p: os.mkfifo(p),
-    pytest.param(lambda p: os.mknod(p, stat.S_IFCHR | 0o666, os.makedev(1, 3)),  # a /dev/null of our own
-                 marks=pytest.mark.skipif(os.geteuid() != 0, reason="only root makes a device")),
-])
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda p: p.mkdir(),
+        lambda p: p.symlink_to(p.parent / "elsewhere"),
+        lambda p: os.mkfifo(p),
+        pytest.param(
+            lambda p: os.mknod(p, stat.S_IFCHR | 0o666, os.makedev(1, 3)),  # a /dev/null of our own
+            marks=pytest.mark.skipif(os.geteuid() != 0, reason="only root makes a device"),
+        ),
+    ],
+)
 def test_a_whole_file_write_replaces_only_a_regular_file(tmp_path, make):
     from tribench.common import write_text
 
@@ -358,4 +454,3 @@ def test_a_whole_file_write_replaces_only_a_regular_file(tmp_path, make):
     assert (after.st_mode, after.st_ino) == (before.st_mode, before.st_ino)
     assert not (tmp_path / "elsewhere").exists()
     assert [p.name for p in tmp_path.iterdir()] == ["report.html"]  # no temporary file left
-

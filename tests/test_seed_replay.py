@@ -122,8 +122,9 @@ def test_shadow_rays_any_hit_no_t_max_and_exact_test_counts(cache_dir):
 
 def test_a_scene_without_reflections_has_no_reflected_stream(cache_dir, tmp_path):
     path = tmp_path / "matte.txt"
-    path.write_text(TINY.replace("0.5 0.5 10", "0.5 0 10").replace("0.5 0.3 50", "0.5 0 50")
-                    .replace("0.5 0.4 20", "0.5 0 20"))
+    path.write_text(
+        TINY.replace("0.5 0.5 10", "0.5 0 10").replace("0.5 0.3 50", "0.5 0 50").replace("0.5 0.4 20", "0.5 0 20")
+    )
     with pytest.raises(EmptyStream, match="no reflected rays"):
         cache.make(SeedSpec(str(path), "reflected", width=8, height=8))
 
@@ -131,20 +132,25 @@ def test_a_scene_without_reflections_has_no_reflected_stream(cache_dir, tmp_path
 def test_per_render_arithmetic_by_hand():
     # Two processes; kernel A costs 2 ns/test on primary and 4 on shadow in
     # process 0, 3 and 5 in process 1; B is 1 and 2, then 1 and 3.
-    pp = pd.DataFrame({
-        "kernel": ["A"] * 4 + ["moller_seed"] * 4,
-        "workload_id": ["p", "s"] * 4,
-        "process": [0, 0, 1, 1] * 2,
-        "ns_per_test": [2.0, 4.0, 3.0, 5.0, 1.0, 2.0, 1.0, 3.0],
-        "tests_per_pass": [100, 40, 100, 40, 100, 40, 100, 40],
-    })
-    workloads = {"p": {"scene": "s1", "stream_tests": 10_000, "sample_tests": 100},  # x100
-                 "s": {"scene": "s1", "stream_tests": 2_000, "sample_tests": 40}}  # x50
+    pp = pd.DataFrame(
+        {
+            "kernel": ["A"] * 4 + ["moller_seed"] * 4,
+            "workload_id": ["p", "s"] * 4,
+            "process": [0, 0, 1, 1] * 2,
+            "ns_per_test": [2.0, 4.0, 3.0, 5.0, 1.0, 2.0, 1.0, 3.0],
+            "tests_per_pass": [100, 40, 100, 40, 100, 40, 100, 40],
+        }
+    )
+    workloads = {
+        "p": {"scene": "s1", "stream_tests": 10_000, "sample_tests": 100},  # x100
+        "s": {"scene": "s1", "stream_tests": 2_000, "sample_tests": 40},
+    }  # x50
     per = hs.render_per_process(pp, workloads)
     got = {(r.kernel, r.process): r.render_s * 1e9 for r in per.itertuples()}
     # A, process 0: 2*100*100 + 4*40*50 = 28000 ns; process 1: 3*100*100 + 5*40*50 = 40000
-    assert got == pytest.approx({("A", 0): 28_000, ("A", 1): 40_000,
-                                 ("moller_seed", 0): 14_000, ("moller_seed", 1): 16_000})
+    assert got == pytest.approx(
+        {("A", 0): 28_000, ("A", 1): 40_000, ("moller_seed", 0): 14_000, ("moller_seed", 1): 16_000}
+    )
     table = hs.render_table(per, {"s1": {"triangles": 12, "render_tests": 12_000, "paper": "scene03"}})
     a = table.set_index("kernel").loc["A"]
     mean, half = 34_000e-9, sps.t.ppf(0.975, 1) * np.std([28_000e-9, 40_000e-9], ddof=1) / math.sqrt(2)
@@ -167,13 +173,23 @@ def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, cap
     scene = tmp_path / "tiny.txt"
     scene.write_text(TINY)
     out = tmp_path / "run"
-    rc = main(["seed", "--quick", "--scene", str(scene), "--out", str(out), "--size", "16", "--sample", "24",
-               "--no-progress"])
+    rc = main(
+        ["seed", "--quick", "--scene", str(scene), "--out", str(out), "--size", "16", "--sample", "24", "--no-progress"]
+    )
     assert rc == 0
     printed = capsys.readouterr().out
     assert f"report: {out / 'seed.html'}" in printed and "Curless / Moller: replay" in printed
-    for name in ("seed.csv", "seed_kinds.csv", "seed_workloads.csv", "seed_pictures.csv", "seed.html",
-                 "batches.csv", "estimates.csv", "tiny_curless_seed.png", "tiny_difference.png"):
+    for name in (
+        "seed.csv",
+        "seed_kinds.csv",
+        "seed_workloads.csv",
+        "seed_pictures.csv",
+        "seed.html",
+        "batches.csv",
+        "estimates.csv",
+        "tiny_curless_seed.png",
+        "tiny_difference.png",
+    ):
         assert (out / name).is_file(), name
     seed = pd.read_csv(out / "seed.csv")
     assert list(seed.columns) == list(hs.COLUMNS["seed.csv"])
@@ -186,9 +202,14 @@ def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, cap
     wl = pd.read_csv(out / "seed_workloads.csv")
     assert list(wl["rays"]) == ["primary", "reflected", "shadow", "render"]
     page = (out / "seed.html").read_text()
-    assert "data:image/png;base64," in page and "src=\"http" not in page and "<script" not in page
-    for words in ("The table beside the paper", "per-test hit rate", "behind origin", "Machine and build",
-                  "tribench seed --scene"):
+    assert "data:image/png;base64," in page and 'src="http' not in page and "<script" not in page
+    for words in (
+        "The table beside the paper",
+        "per-test hit rate",
+        "behind origin",
+        "Machine and build",
+        "tribench seed --scene",
+    ):
         assert words in page, words
 
 

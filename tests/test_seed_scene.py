@@ -115,7 +115,12 @@ def test_builtin_scenes_have_the_stated_contents():
     assert all(light.intensity == (2, 2, 2) for light in s2.lights)
     assert s2.spheres.tolist() == [[0, 1, -3, 1], [0, 0, -2, 0.5], [0.5, 0, -1.8, 0.5]]
     assert [m.colour for m in s2.materials] == [
-        (0.2, 0.2, 0.98), (0.9, 0.2, 0.2), (0.2, 0.9, 0.2), (0.2, 0.2, 0.9), (0.8, 0.2, 0.2), (0.8, 0.7, 0.2)
+        (0.2, 0.2, 0.98),
+        (0.9, 0.2, 0.2),
+        (0.2, 0.9, 0.2),
+        (0.2, 0.2, 0.9),
+        (0.8, 0.2, 0.2),
+        (0.8, 0.7, 0.2),
     ]
     assert s2.materials[3].ks == 0.0  # the blue sphere does not reflect
     # the pyramids: every triangle's normal points away from its pyramid's centre

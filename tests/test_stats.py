@@ -109,26 +109,26 @@ def batches_of(sim: Sim, experiment: int, workload_id: str = "w") -> pd.DataFram
     _, processes, n_rounds, n_kernels = sim.ns_per_test.shape
     p, r, k = np.meshgrid(np.arange(processes), np.arange(n_rounds), np.arange(n_kernels), indexing="ij")
     ns = sim.ns_per_test[experiment]
-    return pd.DataFrame({
-        "process": p.ravel(),
-        "round": r.ravel(),
-        "position": sim.position[experiment].ravel(),
-        "kernel": np.array(sim.kernels)[k.ravel()],
-        "workload_id": workload_id,
-        "warmup": (r < sim.warmup_rounds).ravel(),
-        "loops": 1000,
-        "tests": TESTS,
-        "elapsed_ns": np.rint(ns * TESTS).astype(np.int64).ravel(),
-        "start_ns": sim.start_ns[experiment].ravel(),
-    })
+    return pd.DataFrame(
+        {
+            "process": p.ravel(),
+            "round": r.ravel(),
+            "position": sim.position[experiment].ravel(),
+            "kernel": np.array(sim.kernels)[k.ravel()],
+            "workload_id": workload_id,
+            "warmup": (r < sim.warmup_rounds).ravel(),
+            "loops": 1000,
+            "tests": TESTS,
+            "elapsed_ns": np.rint(ns * TESTS).astype(np.int64).ravel(),
+            "start_ns": sim.start_ns[experiment].ravel(),
+        }
+    )
 
 
 def coverage(sim: Sim, true_ratio: float, kernel: int = 1) -> float:
     """Fraction of experiments whose speedup interval contains the true ratio."""
     medians = process_medians(sim)
-    covered = [
-        (s := stats.speedup(m[:, 0], m[:, kernel])).ci_low <= true_ratio <= s.ci_high for m in medians
-    ]
+    covered = [(s := stats.speedup(m[:, 0], m[:, kernel])).ci_low <= true_ratio <= s.ci_high for m in medians]
     return float(np.mean(covered))
 
 
@@ -138,14 +138,16 @@ def coverage(sim: Sim, true_ratio: float, kernel: int = 1) -> float:
 
 
 def test_per_process_by_hand_and_warmups_excluded():
-    batches = pd.DataFrame({
-        "process": [0, 0, 0, 0, 1, 1, 1],
-        "kernel": ["a"] * 7,
-        "workload_id": ["w"] * 7,
-        "warmup": [True, False, False, False, True, False, False],
-        "tests": [10] * 7,
-        "elapsed_ns": [1000, 20, 40, 30, 1000, 50, 70],
-    })
+    batches = pd.DataFrame(
+        {
+            "process": [0, 0, 0, 0, 1, 1, 1],
+            "kernel": ["a"] * 7,
+            "workload_id": ["w"] * 7,
+            "warmup": [True, False, False, False, True, False, False],
+            "tests": [10] * 7,
+            "elapsed_ns": [1000, 20, 40, 30, 1000, 50, 70],
+        }
+    )
     table = stats.per_process(batches)
     assert table.columns.tolist() == ["kernel", "workload_id", "process", "ns_per_test", "n_rounds"]
     assert table["ns_per_test"].tolist() == [3.0, 6.0]
@@ -154,8 +156,9 @@ def test_per_process_by_hand_and_warmups_excluded():
 
 
 def test_per_process_rejects_a_warmup_column_that_is_not_bool():
-    batches = pd.DataFrame({"process": [0], "kernel": ["a"], "workload_id": ["w"],
-                            "warmup": ["False"], "tests": [1], "elapsed_ns": [1]})
+    batches = pd.DataFrame(
+        {"process": [0], "kernel": ["a"], "workload_id": ["w"], "warmup": ["False"], "tests": [1], "elapsed_ns": [1]}
+    )
     with pytest.raises(TypeError):
         stats.per_process(batches)
 
@@ -326,7 +329,8 @@ def test_speedup_table_adjusts_for_multiplicity_per_workload():
         direct = stats.speedup(w["base"], w["k1"], 0.975)
         row = family.set_index("kernel").loc["k1"]
         assert (row["ratio"], row["ci_low"], row["ci_high"]) == pytest.approx(
-            (direct.ratio, direct.ci_low, direct.ci_high))
+            (direct.ratio, direct.ci_low, direct.ci_high)
+        )
     assert (result.loc[result["kernel"] == "k1", "verdict"] == "faster").all()
     expected = [stats.verdict(lo, hi, 0.01) for lo, hi in zip(result["ci_low"], result["ci_high"], strict=True)]
     assert result["verdict"].tolist() == expected
@@ -384,9 +388,7 @@ def test_aa_summary_on_honest_and_on_naive_intervals():
     # Treating the batches of a process as independent replicates ignores the
     # layout bias: the intervals are too narrow and the A/A check says so.
     timed = sim.ns_per_test[:, :, sim.warmup_rounds :, :]
-    naive = stats.aa_summary([
-        stats.speedup(t[..., 0].ravel(), t[..., 1].ravel()) for t in timed
-    ])
+    naive = stats.aa_summary([stats.speedup(t[..., 0].ravel(), t[..., 1].ravel()) for t in timed])
     assert naive.coverage < 0.93
     assert naive.ks_p_value < 1e-3
 
@@ -413,8 +415,11 @@ def test_variance_components_by_hand():
 def test_variance_components_recover_known_truth():
     rng = np.random.default_rng(7)
     processes, rounds, between_process, between_round = 400, 20, 4.0, 9.0
-    y = (50.0 + rng.normal(0, math.sqrt(between_process), (processes, 1))
-         + rng.normal(0, math.sqrt(between_round), (processes, rounds)))
+    y = (
+        50.0
+        + rng.normal(0, math.sqrt(between_process), (processes, 1))
+        + rng.normal(0, math.sqrt(between_round), (processes, rounds))
+    )
     vc = stats.variance_components(y)
     assert vc.between_round == pytest.approx(between_round, rel=0.05)
     assert vc.between_process == pytest.approx(between_process, rel=0.25)
@@ -423,15 +428,17 @@ def test_variance_components_recover_known_truth():
 
 
 def test_rounds_matrix_balances_by_keeping_the_first_rounds():
-    batches = pd.DataFrame({
-        "process": [0, 0, 0, 0, 1, 1, 1, 0],
-        "round": [0, 1, 2, 3, 0, 1, 2, 1],
-        "kernel": ["k"] * 7 + ["other"],
-        "workload_id": ["w"] * 8,
-        "warmup": [True, False, False, False, True, False, False, False],
-        "tests": [1] * 8,
-        "elapsed_ns": [99, 3, 1, 2, 99, 7, 8, 1000],
-    })
+    batches = pd.DataFrame(
+        {
+            "process": [0, 0, 0, 0, 1, 1, 1, 0],
+            "round": [0, 1, 2, 3, 0, 1, 2, 1],
+            "kernel": ["k"] * 7 + ["other"],
+            "workload_id": ["w"] * 8,
+            "warmup": [True, False, False, False, True, False, False, False],
+            "tests": [1] * 8,
+            "elapsed_ns": [99, 3, 1, 2, 99, 7, 8, 1000],
+        }
+    )
     np.testing.assert_array_equal(stats.rounds_matrix(batches, "k"), [[3.0, 1.0], [7.0, 8.0]])
     two_workloads = pd.concat([batches, batches.assign(workload_id="v")])
     with pytest.raises(ValueError):
@@ -440,8 +447,7 @@ def test_rounds_matrix_balances_by_keeping_the_first_rounds():
 
 
 def test_suggest_design_by_hand():
-    vc = stats.VarianceComponents(between_round=9.0, between_process=4.0, mean=50.0,
-                                  n_processes=10, n_rounds=10)
+    vc = stats.VarianceComponents(between_round=9.0, between_process=4.0, mean=50.0, n_processes=10, n_rounds=10)
     design = stats.suggest_design(vc, round_cost=1.0, process_cost=16.0, target_rel_halfwidth=0.02)
     # Rounds: ceil(sqrt(16 * 9 / 4)) = 6. Relative sd of a process mean:
     # sqrt(4 + 9/6) / 50 = 0.046904. Printed t-table: t(22) = 2.074 gives
@@ -453,10 +459,10 @@ def test_suggest_design_by_hand():
 
 
 def test_suggest_design_with_rounds_fixed_by_hand():
-    vc = stats.VarianceComponents(between_round=9.0, between_process=4.0, mean=50.0,
-                                  n_processes=10, n_rounds=10)
-    design = stats.suggest_design(vc, round_cost=1.0, process_cost=16.0, target_rel_halfwidth=0.02,
-                                  rounds=1, max_rounds=1)
+    vc = stats.VarianceComponents(between_round=9.0, between_process=4.0, mean=50.0, n_processes=10, n_rounds=10)
+    design = stats.suggest_design(
+        vc, round_cost=1.0, process_cost=16.0, target_rel_halfwidth=0.02, rounds=1, max_rounds=1
+    )
     # Rounds kept at 1: relative sd sqrt(4 + 9) / 50 = 0.072111. t(52) = 2.0066:
     # 2.0066 * 0.072111 / sqrt(53) = 0.019876 <= 0.02, while t(51) = 2.0076 gives
     # 2.0076 * 0.072111 / sqrt(52) = 0.020076 > 0.02: 53 processes.
@@ -475,8 +481,10 @@ def test_suggest_design_edge_cases():
     assert stats.suggest_design(no_round_noise, 1.0, 16.0, 0.02).rounds_per_process == 1
     # More expensive processes -> more rounds in each.
     vc = stats.VarianceComponents(9.0, 4.0, 50.0, 10, 10)
-    assert (stats.suggest_design(vc, 1.0, 100.0, 0.02).rounds_per_process
-            > stats.suggest_design(vc, 1.0, 1.0, 0.02).rounds_per_process)
+    assert (
+        stats.suggest_design(vc, 1.0, 100.0, 0.02).rounds_per_process
+        > stats.suggest_design(vc, 1.0, 1.0, 0.02).rounds_per_process
+    )
 
 
 def test_pilot_to_design_on_simulated_batches():
@@ -615,13 +623,16 @@ def test_label_outliers_labels_and_keeps_every_row():
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.floats(allow_nan=True, allow_infinity=True, width=64), st.floats(allow_nan=True, allow_infinity=True),
-       st.floats(allow_nan=True, allow_infinity=True), st.sampled_from([".3g", ".4g", ".3f"]),
-       st.sampled_from(["", "×", " s"]))
+@given(
+    st.floats(allow_nan=True, allow_infinity=True, width=64),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([".3g", ".4g", ".3f"]),
+    st.sampled_from(["", "×", " s"]),
+)
 def test_format_interval_writes_the_estimate_then_its_bounds_or_says_there_is_none(value, low, high, spec, unit):
     text = stats.format_interval(value, low, high, spec, unit)
-    bounds = (f"[{low:{spec}}, {high:{spec}}]" if math.isfinite(low) and math.isfinite(high)
-              else "[no interval]")
+    bounds = f"[{low:{spec}}, {high:{spec}}]" if math.isfinite(low) and math.isfinite(high) else "[no interval]"
     shown = f"{value:{spec}}" if math.isfinite(value) else "–"
     assert text == f"{shown}{unit} {bounds}"
     assert stats.format_interval(None, low, high, spec, unit) == bounds  # the interval alone, no unit

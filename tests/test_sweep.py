@@ -20,8 +20,21 @@ from tribench.harness.plan import Sweep, plan
 from tribench.workloads.spec import PairSpec
 
 # A tiny design: 2 kernels, one workload, 3 processes x 2 rounds (+1 warm-up).
-TINY = ["--kernels", "moller_trumbore,curless", "--pairs", "300", "--processes", "3", "--rounds", "2",
-        "--warmup", "1", "--target-ms", "0.2", "--no-progress"]
+TINY = [
+    "--kernels",
+    "moller_trumbore,curless",
+    "--pairs",
+    "300",
+    "--processes",
+    "3",
+    "--rounds",
+    "2",
+    "--warmup",
+    "1",
+    "--target-ms",
+    "0.2",
+    "--no-progress",
+]
 
 
 @pytest.fixture
@@ -31,8 +44,9 @@ def env(tmp_path, monkeypatch):
 
 
 def cli(*args, env=None, **kw):
-    return subprocess.run([sys.executable, "-m", "tribench.cli", *args], capture_output=True,
-                          text=True, timeout=120, env=env, **kw)
+    return subprocess.run(
+        [sys.executable, "-m", "tribench.cli", *args], capture_output=True, text=True, timeout=120, env=env, **kw
+    )
 
 
 def keys_of(run_dir):
@@ -65,17 +79,35 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
     assert "moller_trumbore" in stats.stdout and "(baseline)" in stats.stdout and "95% CI" in stats.stdout
     est = pd.read_csv(out / analysis.ESTIMATES)
     spd = pd.read_csv(out / analysis.SPEEDUPS)
-    for col in ("kernel", "workload_id", "ns_per_test", "ns_per_test_ci_low", "ns_per_test_ci_high",
-                "ns_per_test_min", "n_processes", "peak_fraction"):
+    for col in (
+        "kernel",
+        "workload_id",
+        "ns_per_test",
+        "ns_per_test_ci_low",
+        "ns_per_test_ci_high",
+        "ns_per_test_min",
+        "n_processes",
+        "peak_fraction",
+    ):
         assert col in est.columns
-    for col in ("kernel", "baseline", "ratio", "ratio_ci_low", "ratio_ci_high", "p_holm", "margin", "verdict",
-                "margin_source"):
+    for col in (
+        "kernel",
+        "baseline",
+        "ratio",
+        "ratio_ci_low",
+        "ratio_ci_high",
+        "p_holm",
+        "margin",
+        "verdict",
+        "margin_source",
+    ):
         assert col in spd.columns
     assert set(est["kernel"]) == {"moller_trumbore", "curless"} and (est["n_processes"] == 3).all()
     # the fraction of the arithmetic bound: the documented ops at each process's own peak
     assert list(est["ops_per_test"]) == [ext.kernel_info(k).ops for k in est["kernel"]]
-    assert ((est["peak_fraction_ci_low"] <= est["peak_fraction"])
-            & (est["peak_fraction"] <= est["peak_fraction_ci_high"])).all()
+    assert (
+        (est["peak_fraction_ci_low"] <= est["peak_fraction"]) & (est["peak_fraction"] <= est["peak_fraction_ci_high"])
+    ).all()
     assert ((est["peak_fraction"] > 0) & (est["peak_fraction"] < 1)).all()  # scalar kernels: one lane of 8
     assert list(spd["baseline"]) == ["moller_trumbore"] and list(spd["kernel"]) == ["curless"]
     # re-analysis reads files only: the same tables again, with another baseline on request
@@ -85,11 +117,29 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
 
 def test_sigkill_mid_sweep_then_resume_gives_exactly_the_planned_batches(tmp_path, env):
     # long enough batches (20 ms) that the kill lands inside a worker process
-    args = ["--kernels", "moller_trumbore,curless", "--pairs", "300", "--processes", "4", "--rounds", "3",
-            "--warmup", "1", "--target-ms", "20", "--no-progress"]
+    args = [
+        "--kernels",
+        "moller_trumbore,curless",
+        "--pairs",
+        "300",
+        "--processes",
+        "4",
+        "--rounds",
+        "3",
+        "--warmup",
+        "1",
+        "--target-ms",
+        "20",
+        "--no-progress",
+    ]
     killed = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-m", "tribench.cli", "sweep", "--out", str(killed), *args],
-                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tribench.cli", "sweep", "--out", str(killed), *args],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     csv = killed / "batches.csv"
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
@@ -134,7 +184,8 @@ def test_resume_drops_a_truncated_last_line(tmp_path, env):
 
 def test_a_wrong_kernel_stops_the_sweep_naming_it(tmp_path, env):
     faulty = tmp_path / "faulty_worker.py"
-    faulty.write_text(textwrap.dedent("""
+    faulty.write_text(
+        textwrap.dedent("""
         import dataclasses, sys
         from tribench import ext
         from tribench.harness import worker
@@ -144,7 +195,8 @@ def test_a_wrong_kernel_stops_the_sweep_naming_it(tmp_path, env):
             return dataclasses.replace(b, hits=b.hits + 1) if job.kernel == "curless" else b
         ext.time_batch = wrong
         sys.exit(worker.main())
-    """))
+    """)
+    )
     sweep = Sweep(("moller_trumbore", "curless"), (PairSpec(n=100),), processes=3, rounds=2, target_ms=0.2)
     with pytest.raises(runner.SweepError, match="kernel 'curless' on workload pairs-.*checksum failed"):
         runner.start(sweep, tmp_path / "run", progress=False, worker=[sys.executable, str(faulty)])
@@ -152,13 +204,16 @@ def test_a_wrong_kernel_stops_the_sweep_naming_it(tmp_path, env):
     assert set(records.read_batches(tmp_path / "run")["process"]) <= {0}
 
 
-@pytest.mark.parametrize("args, message", [
-    (["sweep", "--kernels", "nope"], "unknown kernel 'nope'"),
-    (["sweep", "--hit-rates", "1.5"], "--hit-rates: must be a number in [0, 1], got '1.5'"),
-    (["sweep", "--resume", "/no/such/run"], "no run directory"),
-    (["stats", "/no/such/run"], "no run directory"),
-    (["sweep", "--camera", "big"], "--camera: must be WIDTHxHEIGHT"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["sweep", "--kernels", "nope"], "unknown kernel 'nope'"),
+        (["sweep", "--hit-rates", "1.5"], "--hit-rates: must be a number in [0, 1], got '1.5'"),
+        (["sweep", "--resume", "/no/such/run"], "no run directory"),
+        (["stats", "/no/such/run"], "no run directory"),
+        (["sweep", "--camera", "big"], "--camera: must be WIDTHxHEIGHT"),
+    ],
+)
 def test_bad_flags_exit_2_with_one_line(tmp_path, env, args, message):
     if args[0] == "sweep" and "--resume" not in args:
         args = [*args, "--out", str(tmp_path / "run")]
@@ -178,8 +233,21 @@ def test_sweep_refuses_a_non_empty_out_dir(tmp_path, env):
 
 def test_calibrate_writes_its_summary_and_the_user_margin(tmp_path, env):
     out = tmp_path / "cal"
-    done = cli("calibrate", "--processes", "2", "--experiments", "3", "--rounds", "2", "--target-ms", "0.2",
-               "--out", str(out), "--no-progress", env=env)
+    done = cli(
+        "calibrate",
+        "--processes",
+        "2",
+        "--experiments",
+        "3",
+        "--rounds",
+        "2",
+        "--target-ms",
+        "0.2",
+        "--out",
+        str(out),
+        "--no-progress",
+        env=env,
+    )
     assert done.returncode == 0, done.stderr
     assert "coverage of 1" in done.stdout and "noise floor" in done.stdout
     assert (out / "calibration.json").is_file()
@@ -193,8 +261,14 @@ def test_calibrate_writes_its_summary_and_the_user_margin(tmp_path, env):
 
 def test_a_time_interval_reaching_zero_leaves_the_peak_fraction_unbounded_above():
     # three processes so spread that the t-interval of their mean time starts below 0
-    table = pd.DataFrame({"kernel": ["moller_trumbore"] * 3, "workload_id": ["w"] * 3, "process": [0, 1, 2],
-                          "ns_per_test": [0.1, 0.2, 60.0]})
+    table = pd.DataFrame(
+        {
+            "kernel": ["moller_trumbore"] * 3,
+            "workload_id": ["w"] * 3,
+            "process": [0, 1, 2],
+            "ns_per_test": [0.1, 0.2, 60.0],
+        }
+    )
     processes = pd.DataFrame({"process": [0, 1, 2], "peak_gflops": [100.0] * 3, "peak_isa": ["avx2+fma"] * 3})
     row = analysis._peak_columns(table, processes, {"w": "float32"}).iloc[0]
     assert row["peak_fraction_ci_low"] > 0 and row["peak_fraction_ci_low"] <= row["peak_fraction"]

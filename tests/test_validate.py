@@ -21,6 +21,7 @@ KERNELS = ext.kernel_names()
 WATERTIGHT = [k for k in KERNELS if ext.kernel_info(k).watertight != "none"]
 CLEAN = [k for k in KERNELS if not ext.kernel_info(k).seed_replay]
 
+
 # Found by this suite: an Inf in the direction can make det, U and V all infinite with one
 # sign; the kernel then accepts the hit with t = T / det = 0 (u = v = nan), though only
 # 0 < t may count. Remove the entry when the kernel is fixed (the xfail is strict).
@@ -91,8 +92,9 @@ def test_edge_rays_pass_exactly_through_the_inside_of_a_shared_edge(dtype):
         tris = [exact(t) for t in mesh.triangles]
         normal = cross(sub(tris[0][1], tris[0][0]), sub(tris[0][2], tris[0][0]))
         assert all(dot(normal, sub(v, tris[0][0])) == 0 for t in tris for v in t)  # exactly coplanar
-        for o, d, aim, (lower, upper) in zip(exact(mesh.origins), exact(mesh.directions), exact(mesh.aims),
-                                             mesh.incident, strict=True):
+        for o, d, aim, (lower, upper) in zip(
+            exact(mesh.origins), exact(mesh.directions), exact(mesh.aims), mesh.incident, strict=True
+        ):
             assert tuple(x + y for x, y in zip(o, d, strict=True)) == aim  # the ray reaches the aim at t = 1
             assert dot(normal, d) != 0
             a, b = [v for v in tris[lower] if v in tris[upper]]  # the edge the two triangles share
@@ -106,7 +108,9 @@ def test_vertex_rays_pass_exactly_through_a_vertex_of_six_triangles(dtype):
     sets = validate.build(dtype, quick=True, tests=("shared_vertices",))
     for mesh in sets.meshes["shared_vertices"]:
         tris = [exact(t) for t in mesh.triangles]
-        for o, d, aim, around in zip(exact(mesh.origins), exact(mesh.directions), exact(mesh.aims), mesh.incident, strict=True):
+        for o, d, aim, around in zip(
+            exact(mesh.origins), exact(mesh.directions), exact(mesh.aims), mesh.incident, strict=True
+        ):
             assert tuple(x + y for x, y in zip(o, d, strict=True)) == aim
             assert {k for k, t in enumerate(tris) if aim in t} == set(around) and len(set(around)) == 6
 
@@ -141,8 +145,19 @@ def test_degenerate_triangles_are_judged_for_clean_kernels_and_measured_for_the_
 
 def test_the_cases_are_built_in_workloads_and_keep_their_names_here():
     # validate judges; tribench.workloads.robustness builds the rays (no kernel is asked there)
-    for name in ("TESTS", "DTYPES", "QUICK", "FULL", "RaySets", "MeshRays", "PairRays", "build", "grid_topology",
-                 "sphere_triangles", "EMBREE_MAX_MISS_RATE"):
+    for name in (
+        "TESTS",
+        "DTYPES",
+        "QUICK",
+        "FULL",
+        "RaySets",
+        "MeshRays",
+        "PairRays",
+        "build",
+        "grid_topology",
+        "sphere_triangles",
+        "EMBREE_MAX_MISS_RATE",
+    ):
         assert getattr(validate, name) is getattr(robustness, name), name
     sets = robustness.build("float64", quick=True, tests=("scales",))
     assert sets.tests == ("scales",) and len(sets.pairs["scales"].owner) == 5 * robustness.QUICK.pairs_per_scale
@@ -167,8 +182,7 @@ def test_sphere_grouping_gives_the_brute_force_answers():
     o = np.concatenate([g.origins for g in groups])
     d = np.concatenate([g.directions for g in groups])
     assert len(o) == validate.QUICK.sphere_rays
-    culled = np.concatenate([ext.intersect("curless", g.origins, g.directions, g.triangles).index < 0
-                             for g in groups])
+    culled = np.concatenate([ext.intersect("curless", g.origins, g.directions, g.triangles).index < 0 for g in groups])
     sphere = np.ascontiguousarray(validate.sphere_triangles("float32"), dtype=np.float32)
     brute = ext.intersect("curless", o, d, sphere).index < 0
     assert brute.any()
@@ -247,9 +261,11 @@ def test_cli_unknown_kernel_is_a_user_error(capsys):
 
 def test_validate_runs_as_a_command_and_writes_validate_csv_here(tmp_path):
     done = subprocess.run(
-        [sys.executable, "-m", "tribench.cli", "validate", "--quick", "--kernels", KERNELS[0],
-         "--dtype", "float64"],
-        capture_output=True, text=True, timeout=120, cwd=tmp_path,
+        [sys.executable, "-m", "tribench.cli", "validate", "--quick", "--kernels", KERNELS[0], "--dtype", "float64"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
     )
     assert done.returncode == 0, done.stderr
     assert len(pd.read_csv(tmp_path / "validate.csv")) == len(validate.TESTS)

@@ -144,7 +144,12 @@ def test_workload_id_is_canonical_and_sensitive():
     base = PairSpec(n=100, hit_rate=0.5)
     assert workload_id(base) == workload_id(PairSpec(n=100.0, hit_rate=1 / 2))
     assert workload_id(base) == workload_id(PairSpec(n=100, miss_mix="edges"))
-    others = [PairSpec(n=101), PairSpec(n=100, seed=1), PairSpec(n=100, dtype="float32"), PairSpec(n=100, order="sorted")]
+    others = [
+        PairSpec(n=101),
+        PairSpec(n=100, seed=1),
+        PairSpec(n=100, dtype="float32"),
+        PairSpec(n=100, order="sorted"),
+    ]
     ids = {workload_id(s) for s in others}
     assert workload_id(base) not in ids and len(ids) == len(others)
     assert workload_id(MeshSpec("suzanne")) != workload_id(MeshSpec("suzanne", 968))
@@ -236,8 +241,10 @@ BEYOND = MISS_STAGES.index("beyond_t_max")
     [
         ("beyond_t_max", {"beyond_t_max": 700}),
         # apportion([0, .25, 0, .35, 0, .4], 700) = [0, 175, 0, 245, 0, 280]
-        ({"behind_origin": 0.25, "outside_edge_2": 0.35, "beyond_t_max": 0.4},
-         {"behind_origin": 175, "outside_edge_2": 245, "beyond_t_max": 280}),
+        (
+            {"behind_origin": 0.25, "outside_edge_2": 0.35, "beyond_t_max": 0.4},
+            {"behind_origin": 175, "outside_edge_2": 245, "beyond_t_max": 280},
+        ),
     ],
 )
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
@@ -255,8 +262,16 @@ def test_beyond_t_max_counts_are_exact(mix, counts, dtype):
 
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
 def test_beyond_t_max_pairs_hit_without_the_limit_and_miss_with_it_by_a_margin(dtype):
-    spec = PairSpec(n=2000, hit_rate=0.3, miss_mix={"beyond_t_max": 0.5, "outside_edge_3": 0.5},
-                    shape="sliver", dtype=dtype, scale=2.0, offset=3.0, seed=8)
+    spec = PairSpec(
+        n=2000,
+        hit_rate=0.3,
+        miss_mix={"beyond_t_max": 0.5, "outside_edge_3": 0.5},
+        shape="sliver",
+        dtype=dtype,
+        scale=2.0,
+        offset=3.0,
+        seed=8,
+    )
     w = generate(spec)
     tm = w.t_max.astype(np.float64)
     free = intersect_pairs(*_inputs(w))
@@ -279,7 +294,10 @@ def test_beyond_t_max_is_deterministic_and_t_max_only_with_the_stage():
     a, b = generate(spec), generate(spec)
     assert a.checksum() == b.checksum() and a.t_max.tobytes() == b.t_max.tobytes()
     assert "t_max" in a.arrays()
-    assert generate(PairSpec(n=1000, hit_rate=0.3, miss_mix="beyond_t_max", dtype="float32", seed=7)).checksum() != a.checksum()
+    assert (
+        generate(PairSpec(n=1000, hit_rate=0.3, miss_mix="beyond_t_max", dtype="float32", seed=7)).checksum()
+        != a.checksum()
+    )
     for mix in ("edges", "uniform", "parallel", {"beyond_t_max": 0.0, "outside_edge_1": 1.0}):
         w = generate(PairSpec(n=200, miss_mix=mix))
         assert w.t_max is None and "t_max" not in w.arrays()
@@ -289,12 +307,19 @@ def test_beyond_t_max_is_deterministic_and_t_max_only_with_the_stage():
 def test_every_pairs_kernel_agrees_with_the_reference_on_beyond_t_max(dtype):
     from tribench import ext
 
-    spec = PairSpec(n=3000, hit_rate=0.3, miss_mix={"beyond_t_max": 0.6, "outside_edge_1": 0.2, "behind_origin": 0.2},
-                    shape="sliver", dtype=dtype, seed=12)
+    spec = PairSpec(
+        n=3000,
+        hit_rate=0.3,
+        miss_mix={"beyond_t_max": 0.6, "outside_edge_1": 0.2, "behind_origin": 0.2},
+        shape="sliver",
+        dtype=dtype,
+        seed=12,
+    )
     w = generate(spec)
     # both faces count here: the culling kernels answer another question
-    kernels = [k for k in ext.kernel_names()
-               if "pairs" in ext.kernel_info(k).modes and not ext.kernel_info(k).culls_back_faces]
+    kernels = [
+        k for k in ext.kernel_names() if "pairs" in ext.kernel_info(k).modes and not ext.kernel_info(k).culls_back_faces
+    ]
     assert {"curless_seed", "moller_seed", "curless", "moller_trumbore"} <= set(kernels)
     for k in kernels:
         hit, _ = ext.intersect_pairs(k, w.origins, w.directions, w.triangles, t_max=w.t_max)
@@ -419,10 +444,7 @@ def test_other_meshes_are_placed_in_view():
 
 
 def _write_tetrahedron(path):
-    path.write_text(
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
-        "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n"
-    )
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n")
     return path
 
 
@@ -473,11 +495,13 @@ def test_a_folder_given_as_a_mesh_is_named_a_folder(tmp_path):
 def test_culled_camera_reference_equals_brute_force():
     tri = build_mesh("suzanne", 300, seed=0).triangles
     # Add triangles that straddle the eye's plane, lie behind the eye, or fill the view.
-    extra = np.array([
-        [[-0.2, -0.2, 1.0], [0.3, -0.1, 2.5], [0.0, 0.3, 1.5]],
-        [[-1.0, -1.0, 3.0], [1.0, -1.0, 3.0], [0.0, 1.0, 3.0]],
-        [[-9.0, -9.0, -5.0], [9.0, -9.0, -5.0], [0.0, 9.0, -5.0]],
-    ])
+    extra = np.array(
+        [
+            [[-0.2, -0.2, 1.0], [0.3, -0.1, 2.5], [0.0, 0.3, 1.5]],
+            [[-1.0, -1.0, 3.0], [1.0, -1.0, 3.0], [0.0, 1.0, 3.0]],
+            [[-9.0, -9.0, -5.0], [9.0, -9.0, -5.0], [0.0, 9.0, -5.0]],
+        ]
+    )
     tri = np.concatenate([tri, extra])
     o, d = camera_rays(24, 24)
     culled = closest_hits(o, d, tri, *camera_candidates(tri, 24, 24))

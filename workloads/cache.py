@@ -119,8 +119,9 @@ def _unsealed(path: Path) -> bytes:
     """The file's bytes, if its seal matches them."""
     data = path.read_bytes()
     if len(data) <= _SEAL_LEN or data[-_SEAL_LEN:] != _seal(data[:-_SEAL_LEN]):
-        raise _Invalid("its checksum does not match: the file was changed, cut or not written by this "
-                       "version of tribench")
+        raise _Invalid(
+            "its checksum does not match: the file was changed, cut or not written by this version of tribench"
+        )
     return data
 
 
@@ -270,6 +271,14 @@ def list_cached() -> list[CachedWorkload]:
             size = path.stat().st_size
         except OSError:  # removed meanwhile
             continue
-        out.append(CachedWorkload(path.stem, path, size, spec if isinstance(spec, dict) else None,
-                                  achieved if isinstance(achieved, dict) else None, problem))
+        out.append(
+            CachedWorkload(
+                path.stem,
+                path,
+                size,
+                spec if isinstance(spec, dict) else None,
+                achieved if isinstance(achieved, dict) else None,
+                problem,
+            )
+        )
     return out

@@ -144,7 +144,9 @@ def heightfield(cells: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     g = np.linspace(-1.0, 1.0, cells + 1)
     x, y = np.meshgrid(g, g)  # row j, column i
     z = np.zeros_like(x)
-    bumps = zip(rng.random(6) * 2 - 1, rng.random(6) * 2 - 1, rng.random(6) * 0.6 - 0.3, 0.2 + 0.4 * rng.random(6), strict=True)
+    bumps = zip(
+        rng.random(6) * 2 - 1, rng.random(6) * 2 - 1, rng.random(6) * 0.6 - 0.3, 0.2 + 0.4 * rng.random(6), strict=True
+    )
     for cx, cy, a, s in bumps:
         z += a / (1.0 + ((x - cx) ** 2 + (y - cy) ** 2) / (s * s))
     vertices = np.column_stack([x.ravel(), y.ravel(), z.ravel()])

@@ -235,8 +235,13 @@ def _draw_hit_rate(plt, w: Workload):
     along = np.einsum("ij,ij->i", w_c, d)
     closest = np.sqrt(np.maximum(np.einsum("ij,ij->i", w_c, w_c) - along * along, 0.0)) / radius
     bins = np.linspace(0, max(1.6, closest.max()), 41)
-    ax.hist([closest[hit], closest[~hit]], bins=bins, color=[_HIT, _MISS], stacked=True,
-            label=[f"hits ({int(hit.sum())})", f"misses ({int((~hit).sum())})"])
+    ax.hist(
+        [closest[hit], closest[~hit]],
+        bins=bins,
+        color=[_HIT, _MISS],
+        stacked=True,
+        label=[f"hits ({int(hit.sum())})", f"misses ({int((~hit).sum())})"],
+    )
     ax.axvline(1.0, color="#555555", ls="--", lw=0.8)
     ax.annotate(
         "bounding sphere", (1.0, ax.get_ylim()[1] * 0.95), xytext=(4, 0), textcoords="offset points", fontsize=8
@@ -279,20 +284,38 @@ def _draw_pairs(plt, w: Workload):
         sel = (names == name) & np.isfinite(p[:, 0])
         if sel.any():
             behind = name == "behind_origin"  # crossings inside the triangle, but at t < 0
-            ax.scatter(p[sel, 0], p[sel, 1], s=7 if behind else 4, c=colours[name], marker="x" if behind else "o",
-                       lw=0.5 if behind else 0, alpha=0.6 if behind else 0.5,
-                       label=f"{name} ({int((names == name).sum())})", zorder=3 if behind else 2)
+            ax.scatter(
+                p[sel, 0],
+                p[sel, 1],
+                s=7 if behind else 4,
+                c=colours[name],
+                marker="x" if behind else "o",
+                lw=0.5 if behind else 0,
+                alpha=0.6 if behind else 0.5,
+                label=f"{name} ({int((names == name).sum())})",
+                zorder=3 if behind else 2,
+            )
     ax.fill(*np.vstack([corners, corners[:1]]).T, fc="none", ec="k", lw=1.5, zorder=3)
     for k, (v_a, v_b, where) in enumerate([(0, 1, (0.5, -0.08)), (1, 2, (0.83, 0.47)), (2, 0, (0.17, 0.47))]):
-        ax.annotate(f"edge {k + 1}: v{v_a}->v{v_b}", where, ha="center", fontsize=8, zorder=4,
-                    rotation=[0, -60, 60][k], bbox=dict(fc="white", ec="none", alpha=0.7, pad=0.5))
+        ax.annotate(
+            f"edge {k + 1}: v{v_a}->v{v_b}",
+            where,
+            ha="center",
+            fontsize=8,
+            zorder=4,
+            rotation=[0, -60, 60][k],
+            bbox=dict(fc="white", ec="none", alpha=0.7, pad=0.5),
+        )
     for k, c in enumerate(corners):
         ax.annotate(f"v{k}", c, xytext=(c[0] + [-0.08, 0.03, -0.02][k], c[1] + [-0.05, -0.05, 0.04][k]), fontsize=9)
     ax.set_xlim(-1.2, 2.2)
     ax.set_ylim(-1.1, 2.1)
     ax.set_aspect("equal")
-    ax.set_title(f"where {len(sample)} sampled rays cross their triangle's plane\n"
-                 "(every triangle mapped onto one; parallel rays never cross)", fontsize=9)
+    ax.set_title(
+        f"where {len(sample)} sampled rays cross their triangle's plane\n"
+        "(every triangle mapped onto one; parallel rays never cross)",
+        fontsize=9,
+    )
     ax.legend(loc="upper left", fontsize=7, markerscale=2, title=f"sample of {len(sample)}", title_fontsize=7)
 
     # 2. Target vs achieved counts per outcome.

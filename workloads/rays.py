@@ -200,9 +200,7 @@ def sphere_candidates(
     starts = np.flatnonzero(np.r_[True, key[members][1:] != key[members][:-1]])
     sizes = np.diff(np.r_[starts, len(members)])
     g_centre = np.add.reduceat(centre[members], starts) / sizes[:, None]
-    g_radius = np.maximum.reduceat(
-        norm(centre[members] - np.repeat(g_centre, sizes, axis=0)) + radius[members], starts
-    )
+    g_radius = np.maximum.reduceat(norm(centre[members] - np.repeat(g_centre, sizes, axis=0)) + radius[members], starts)
 
     rays_out, tris_out = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     step = max(1, _CULL_CHUNK // len(tri))  # bounds the expanded pairs, even if every group is near
@@ -311,10 +309,15 @@ def hit_rate_rays(triangles: np.ndarray, n: int, hit_rate: float, dtype: str, rn
         redrawn += len(todo)
     else:
         raise UserError(f"could not aim {len(todo)} ray(s) clear of every triangle edge; is the mesh degenerate?")
-    return o, d, _closest_culled(o, d, tri), {
-        "misses_outside_bounding_sphere": int(far_miss.sum()),
-        "redrawn_rays": redrawn,
-    }
+    return (
+        o,
+        d,
+        _closest_culled(o, d, tri),
+        {
+            "misses_outside_bounding_sphere": int(far_miss.sum()),
+            "redrawn_rays": redrawn,
+        },
+    )
 
 
 def _closest_culled(o: np.ndarray, d: np.ndarray, tri: np.ndarray) -> ClosestAnswers:

@@ -147,8 +147,7 @@ def intersect_pairs(
     tri = _as_f64("triangles", triangles, (3, 3))
     if not (len(o) == len(d) == len(tri)):
         raise UserError(
-            f"origins, directions and triangles need one row each per pair, "
-            f"got {len(o)}, {len(d)} and {len(tri)}"
+            f"origins, directions and triangles need one row each per pair, got {len(o)}, {len(d)} and {len(tri)}"
         )
     limit = _as_t_max(t_max, len(o))
     t = np.empty(len(o))

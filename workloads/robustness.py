@@ -644,8 +644,13 @@ def _degenerate(rng, size: Size, dtype: str) -> PairRays:
     rest = _non_dyadic_flat(rng, g, per, dtype)
     dyadic = _as(dtype, tris, o, d)
     return PairRays(
-        *_as(dtype, *(np.concatenate([x, y]) for x, y in zip(dyadic, (rest.triangles, rest.origins, rest.directions),
-                                                                  strict=True))),
+        *_as(
+            dtype,
+            *(
+                np.concatenate([x, y])
+                for x, y in zip(dyadic, (rest.triangles, rest.origins, rest.directions), strict=True)
+            ),
+        ),
         owner=np.concatenate([owner, g + rest.owner]),
         expect_hit=np.zeros(len(owner) + len(rest.owner), bool),
         label=np.concatenate([np.array(_DEGENERATE)[kind[owner]], rest.label]),

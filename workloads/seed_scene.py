@@ -193,13 +193,16 @@ def _number(word: str, where: str, keyword: str, what: str) -> float:
     if not _DECIMAL.fullmatch(word):
         if word.lower().lstrip("+-") in ("inf", "infinity", "nan"):
             raise SceneError(f"{where}: '{keyword}' expects a finite number for {what}, got {word!r}")
-        raise SceneError(f"{where}: '{keyword}' expects a number for {what}, got {word!r} "
-                         f"(a decimal number such as -1.5e3)")
+        raise SceneError(
+            f"{where}: '{keyword}' expects a number for {what}, got {word!r} (a decimal number such as -1.5e3)"
+        )
     x = float(word)
     # the seed stores float: a value past float32's range would be inf there
     if not abs(x) <= _FLOAT32_MAX:
-        raise SceneError(f"{where}: '{keyword}' expects a number within float32's range (the seed stores "
-                         f"float: magnitudes up to {_FLOAT32_MAX:.3g}) for {what}, got {word!r}")
+        raise SceneError(
+            f"{where}: '{keyword}' expects a number within float32's range (the seed stores "
+            f"float: magnitudes up to {_FLOAT32_MAX:.3g}) for {what}, got {word!r}"
+        )
     return x
 
 
@@ -272,16 +275,11 @@ def parse_scene(text: str, name: str = "<string>") -> Scene:
         if keyword not in KEYWORDS:
             guess = difflib.get_close_matches(keyword, KEYWORDS, n=1)
             hint = f" (did you mean '{guess[0]}'?)" if guess else ""
-            raise SceneError(
-                f"{where}: unknown keyword {words[0]!r}{hint}; expected one of "
-                + ", ".join(KEYWORDS)
-            )
+            raise SceneError(f"{where}: unknown keyword {words[0]!r}{hint}; expected one of " + ", ".join(KEYWORDS))
         names = KEYWORDS[keyword]
         args = words[1:]
         if len(args) != len(names):
-            raise SceneError(
-                f"{where}: '{keyword}' expects {len(names)} numbers ({' '.join(names)}), got {len(args)}"
-            )
+            raise SceneError(f"{where}: '{keyword}' expects {len(names)} numbers ({' '.join(names)}), got {len(args)}")
         v = [_number(w, where, keyword, n) for w, n in zip(args, names, strict=True)]
         _check_values(keyword, v, where)
 

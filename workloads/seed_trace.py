@@ -176,8 +176,17 @@ class RaySet:
     def empty() -> RaySet:
         z3 = np.zeros((0, 3))
         i64 = np.zeros(0, np.int64)
-        return RaySet(z3, z3.copy(), i64, np.zeros(0, np.int8), np.zeros(0, np.int16),
-                      np.zeros(0, np.int8), i64.copy(), i64.copy(), np.zeros(0))
+        return RaySet(
+            z3,
+            z3.copy(),
+            i64,
+            np.zeros(0, np.int8),
+            np.zeros(0, np.int16),
+            np.zeros(0, np.int8),
+            i64.copy(),
+            i64.copy(),
+            np.zeros(0),
+        )
 
 
 @dataclass(frozen=True, eq=False)

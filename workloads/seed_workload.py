@@ -205,12 +205,19 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
             e1 = rest & (v < 0)
             e2 = rest & ~e1 & (w < 0)
             e3 = rest & ~e1 & ~e2  # a finite forward crossing that misses is outside some edge
-        for name, mask in (("parallel", parallel), ("behind_origin", behind), ("outside_edge_1", e1),
-                           ("outside_edge_2", e2), ("outside_edge_3", e3)):
+        for name, mask in (
+            ("parallel", parallel),
+            ("behind_origin", behind),
+            ("outside_edge_1", e1),
+            ("outside_edge_2", e2),
+            ("outside_edge_3", e3),
+        ):
             stages[MISS_STAGES.index(name)] += int(mask.sum())
     misses = int(stages.sum())
     return {
-        "index": index, "t": best, "edge_margin": margin,
+        "index": index,
+        "t": best,
+        "edge_margin": margin,
         "figures": {
             "tests": tests,
             "test_hits": test_hits,
@@ -243,8 +250,9 @@ def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
         raise UserError(f"scene {spec.scene_label} has no triangles: nothing to replay")
     rows = stream_indices(tr, spec.rays)
     if len(rows) == 0:
-        raise EmptyStream(f"scene {spec.scene_label} at {spec.width}x{spec.height} shoots no {spec.rays} "
-                          f"rays that test its triangles")
+        raise EmptyStream(
+            f"scene {spec.scene_label} at {spec.width}x{spec.height} shoots no {spec.rays} rays that test its triangles"
+        )
     rs = getattr(tr, spec.rays)
     n_stream = len(rows)
     rng = np.random.default_rng(spec.seed)

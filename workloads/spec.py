@@ -112,8 +112,11 @@ _MIX_TOLERANCE = 1e-6
 
 
 def _int(name: str, value: Any, lo: int, hi: int) -> int:
-    if (isinstance(value, bool) or not isinstance(value, (int, float))
-            or (isinstance(value, float) and not value.is_integer())):
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or (isinstance(value, float) and not value.is_integer())
+    ):
         raise UserError(f"{name} must be an integer, got {value!r}")
     value = int(value)
     if not lo <= value <= hi:
@@ -147,8 +150,7 @@ def _miss_mix(value: Any) -> tuple[tuple[str, float], ...]:
     if isinstance(value, str):
         if value not in MISS_MIX_PRESETS:
             raise UserError(
-                f"unknown miss_mix {value!r}: choose one of {', '.join(MISS_MIX_PRESETS)} "
-                f"or give a fraction per stage"
+                f"unknown miss_mix {value!r}: choose one of {', '.join(MISS_MIX_PRESETS)} or give a fraction per stage"
             )
         value = MISS_MIX_PRESETS[value]
     try:
@@ -336,8 +338,7 @@ class MeshSpec:
             for name in ("hit_rate", "n_rays"):
                 if getattr(self, name) is not None:
                     raise UserError(
-                        f"{name} applies to rays='hit_rate' only: "
-                        f"a camera's hit rate is a result, not a target"
+                        f"{name} applies to rays='hit_rate' only: a camera's hit rate is a result, not a target"
                     )
             width = _int("width", 512 if self.width is None else self.width, 1, 65536)
             height = _int("height", 512 if self.height is None else self.height, 1, 65536)
@@ -447,8 +448,9 @@ class SeedSpec:
         if self.scene not in BUILTIN_SCENES:
             path = Path(self.scene).expanduser()
             if not path.exists():
-                raise UserError(f"unknown scene {self.scene!r}: not one of {', '.join(BUILTIN_SCENES)} "
-                                 f"and no such file")
+                raise UserError(
+                    f"unknown scene {self.scene!r}: not one of {', '.join(BUILTIN_SCENES)} and no such file"
+                )
             read_scene(path)  # SceneError names a folder, an unreadable file or the bad line
             put(self, "scene", str(path.resolve()))
         _choice("rays", self.rays, RAY_KINDS)
@@ -490,8 +492,10 @@ class SeedSpec:
 
     def summary(self) -> str:
         """One line for listings."""
-        return (f"seed {self.scene_label} {self.rays} sample={self.sample} of {self.width}x{self.height} "
-                f"{self.dtype} seed={self.seed}")
+        return (
+            f"seed {self.scene_label} {self.rays} sample={self.sample} of {self.width}x{self.height} "
+            f"{self.dtype} seed={self.seed}"
+        )
 
 
 Spec = PairSpec | MeshSpec | SeedSpec
@@ -503,9 +507,7 @@ def _checked_mesh_file(path: str) -> str:
     if p.is_dir():
         raise UserError(f"mesh {path!r} is a folder: give a mesh file trimesh reads, or one of {', '.join(MESH_NAMES)}")
     if not p.is_file():
-        raise UserError(
-            f"unknown mesh {path!r}: not one of {', '.join(MESH_NAMES)} and no such file"
-        )
+        raise UserError(f"unknown mesh {path!r}: not one of {', '.join(MESH_NAMES)} and no such file")
     from .meshes import read_mesh_file  # lazy: trimesh is slow to import
 
     read_mesh_file(p)  # raises UserError when trimesh cannot make a mesh of it
