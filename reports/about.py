@@ -52,15 +52,14 @@ def pictures_section(data: RunData, wl: pd.DataFrame) -> str:
     return "".join(body)
 
 
-def machine_section(data: RunData) -> str:
-    """The CPU, caches, software, build, each kernel's instruction set, seeds and plan."""
-    m = data.machine
-    build = m.get("build", {})
-    rows = [
+def machine_rows(run: dict) -> list[tuple[str, object]]:
+    """The machine and software a run's ``run.json`` records, as (label, value) rows."""
+    m = run.get("machine", {})
+    return [
         ("CPU", m.get("cpu_model")),
         ("logical CPUs", m.get("logical_cpus")),
         ("usable CPUs", m.get("usable_cpus")),
-        ("workers pinned to CPU", data.run.get("cpu")),
+        ("workers pinned to CPU", run.get("cpu")),
         ("SIMD features", m.get("simd_features")),
         ("caches", m.get("caches")),
         ("governor", m.get("governor")),
@@ -72,6 +71,12 @@ def machine_section(data: RunData) -> str:
         ("tribench", m.get("tribench")),
         ("git revision", m.get("git_revision")),
     ]
+
+
+def machine_section(data: RunData) -> str:
+    """The CPU, caches, software, build, each kernel's instruction set, seeds and plan."""
+    build = data.machine.get("build", {})
+    rows = machine_rows(data.run)
     brows = [(k, v) for k, v in build.items()]
     isa = data.run.get("isa", {})
     return "".join(

@@ -70,6 +70,21 @@ def _log_per_process(data: RunData) -> pd.DataFrame:
     return pp.assign(log_ns=np.log(pp["ns_per_test"]))
 
 
+def _ratio_fields(r: stats.LogRatio, confidence: float, margin: float) -> dict[str, float | int | str]:
+    """The columns every row of a comparison has: the ratio, its interval and test, and the verdict."""
+    return {
+        "ratio": r.ratio,
+        "ratio_ci_low": r.ci_low,
+        "ratio_ci_high": r.ci_high,
+        "p_value": r.p_value,
+        "df": r.df,
+        "n_a": r.n_a,
+        "n_b": r.n_b,
+        "confidence": confidence,
+        "verdict": stats.verdict(r.ci_low, r.ci_high, margin),
+    }
+
+
 def compare_runs(a: RunData, b: RunData, confidence: float = 0.95) -> Comparison:
     """Ratio of speedups and time ratios of the kernels and workloads two runs share.
 
@@ -112,15 +127,7 @@ def compare_runs(a: RunData, b: RunData, confidence: float = 0.95) -> Comparison
                     "baseline": a.baseline,
                     "speedup_a": math.exp(da.mean()),
                     "speedup_b": math.exp(db.mean()),
-                    "ratio": r.ratio,
-                    "ratio_ci_low": r.ci_low,
-                    "ratio_ci_high": r.ci_high,
-                    "p_value": r.p_value,
-                    "df": r.df,
-                    "n_a": r.n_a,
-                    "n_b": r.n_b,
-                    "confidence": level_s,
-                    "verdict": stats.verdict(r.ci_low, r.ci_high, margin),
+                    **_ratio_fields(r, level_s, margin),
                 }
             )
         for k in present:
@@ -132,15 +139,7 @@ def compare_runs(a: RunData, b: RunData, confidence: float = 0.95) -> Comparison
                     "kernel": k,
                     "ns_per_test_a": math.exp(ta.mean()),
                     "ns_per_test_b": math.exp(tb.mean()),
-                    "ratio": r.ratio,
-                    "ratio_ci_low": r.ci_low,
-                    "ratio_ci_high": r.ci_high,
-                    "p_value": r.p_value,
-                    "df": r.df,
-                    "n_a": r.n_a,
-                    "n_b": r.n_b,
-                    "confidence": level_t,
-                    "verdict": stats.verdict(r.ci_low, r.ci_high, margin),
+                    **_ratio_fields(r, level_t, margin),
                 }
             )
     return Comparison(

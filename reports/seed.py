@@ -22,6 +22,7 @@ from tribench.common import write_text
 from tribench.stats import format_interval
 
 from . import figures, page
+from .about import machine_rows
 
 __all__ = ["SEED_REPORT", "render_seed", "write_seed_report"]
 
@@ -262,22 +263,7 @@ def _pictures(run_dir: Path, pics: pd.DataFrame) -> str:
 
 
 def _machine(run: dict) -> str:
-    m = run.get("machine", {})
-    rows = [
-        ("CPU", m.get("cpu_model")),
-        ("logical CPUs", m.get("logical_cpus")),
-        ("workers pinned to CPU", run.get("cpu")),
-        ("SIMD features", m.get("simd_features")),
-        ("caches", m.get("caches")),
-        ("governor", m.get("governor")),
-        ("CPU MHz (at start)", m.get("cpu_mhz")),
-        ("load average (at start)", m.get("load_average")),
-        ("platform", m.get("platform")),
-        ("Python", m.get("python")),
-        ("numpy", m.get("numpy")),
-        ("tribench", m.get("tribench")),
-        ("git revision", m.get("git_revision")),
-    ]
+    rows = machine_rows(run)
     sweep = run["sweep"]
     design = [
         ("processes", sweep["processes"]),
@@ -293,7 +279,7 @@ def _machine(run: dict) -> str:
             [
                 page.kv_table(rows),
                 "<h3>Build of the C extension</h3>",
-                page.kv_table(m.get("build", {}).items()),
+                page.kv_table(run.get("machine", {}).get("build", {}).items()),
                 "<h3>Instruction set of each kernel</h3>",
                 page.kv_table(run.get("isa", {}).items()),
                 "<h3>Design</h3>",
