@@ -21,6 +21,16 @@
  *    a float32 computation of the constants ((v2 x v0)_k is a difference of
  *    products of coordinates) loses all of u's digits far from the origin,
  *    and about half of the rays aimed at centroids miss near 1e4;
+ *  - U's and V's constants are computed as the equal (e2 x v0)_k and
+ *    (v0 x e1)_k, not as the paper's (v2 x v0)_k and (v0 x v1)_k: those
+ *    subtract products of size |v0|^2 that cancel to size |v0| s (s the
+ *    triangle's size), so even in double their rounding, about eps |v0|^2,
+ *    divided by n_k ~ s^2, moves u and v by eps |v0|^2 / |n_k|: above 1 for
+ *    triangles of 1e-9 and smaller half a unit from the origin, which every
+ *    ray then misses (37.5% of validate's tiny triangles in float64). The e2
+ *    form's products are of size |v0| s: error about eps |v0| / s, the order
+ *    of the per-test rounding of u = U . p + U_c; no cost per test
+ *    (tests/test_baldwin_weber.py);
  *  - a triangle with no usable map (n_k == 0: zero area, collinear or
  *    repeated vertices; or any entry non-finite, in double or after rounding
  *    to `real`: non-finite vertices, overflow) gets the record U = V =
@@ -70,10 +80,12 @@ static int TB_FN(tb_baldwin_weber_map)(const real *vertices, real m[12])
     double full[12] = {0};
     full[k1] = e2[k2] / nk;
     full[k2] = -e2[k1] / nk;
-    full[3] = (v2[k1] * v0[k2] - v2[k2] * v0[k1]) / nk;
+    /* the constants (v2 x v0)_k and (v0 x v1)_k, written as the equal (e2 x v0)_k
+     * and (v0 x e1)_k: products of size |v0| s, not |v0|^2 (see the header) */
+    full[3] = (e2[k1] * v0[k2] - e2[k2] * v0[k1]) / nk;
     full[4 + k1] = -e1[k2] / nk;
     full[4 + k2] = e1[k1] / nk;
-    full[7] = (v0[k1] * v1[k2] - v0[k2] * v1[k1]) / nk;
+    full[7] = (v0[k1] * e1[k2] - v0[k2] * e1[k1]) / nk;
     full[8 + k] = 1;
     full[8 + k1] = n[k1] / nk;
     full[8 + k2] = n[k2] / nk;

@@ -24,8 +24,8 @@
  * baldwin_weber_12's 48 (96), and moller_trumbore's 36 (72).
  *
  * How it differs from the paper (and why): as baldwin_weber_12 (double
- * precomputation, closed edges, !(accept) tests, t test doing the parallel
- * test), and:
+ * precomputation, U's and V's constants in a form that does not cancel,
+ * closed edges, !(accept) tests, t test doing the parallel test), and:
  *  - k is read as 1 or 2 when the stored real equals 1 or 2 and as 0
  *    otherwise, so no record can index outside the ray;
  *  - a triangle with no usable map (degenerate or non-finite) gets U = V =
