@@ -51,6 +51,7 @@ import os
 import socket
 import stat
 import sys
+import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import astuple, dataclass, fields
@@ -325,7 +326,13 @@ def writer_lock(run_dir: str | Path) -> Iterator[None]:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            holder = _holder(fd) or {}
+            holder = _holder(fd)
+            for _ in range(50):  # a holder writes its record just after it locks: give it a moment
+                if holder:
+                    break
+                time.sleep(0.002)
+                holder = _holder(fd)
+            holder = holder or {}
             raise UserError(
                 f"{run_dir} is being written by {_describe(holder)}: one writer per run folder; "
                 f"wait for it to finish, or stop process {holder.get('pid', '?')}"

@@ -136,10 +136,11 @@ def test_two_resumes_after_a_kill_one_runs_the_other_is_refused(cache, tmp_path)
     dead = kill_mid_sweep(out)
     before = runner.done_keys(out)
     assert 0 < len(before) < len(planned(out))
-    first, second = (
-        popen("sweep", "--resume", str(out), "--no-progress"),
-        popen("sweep", "--resume", str(out), "--no-progress"),
-    )
+    first = popen("sweep", "--resume", str(out), "--no-progress")
+    deadline = time.monotonic() + 60  # the second starts once the first holds the lock, so it meets it
+    while records.live_writer(out) is None and first.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    second = popen("sweep", "--resume", str(out), "--no-progress")
     results = {p.pid: (p.wait(timeout=180), *p.communicate()) for p in (first, second)}
     codes = sorted(code for code, _, _ in results.values())
     assert codes == [0, 2], results
