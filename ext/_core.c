@@ -660,6 +660,34 @@ static PyObject *py_op_classes(PyObject *Py_UNUSED(self), PyObject *Py_UNUSED(un
     return out;
 }
 
+/* Each kernel's operations per test by class, tb_<name>_mix beside its code:
+ * {fma, mul, add, cmp, div, logic}; the first five sum to its ops (kernels.h's
+ * counting rules), logic is the mask and select work those rules leave out. */
+typedef struct {
+    const char *name;
+    int mix[6];
+} tb_mix_entry;
+#define TB_MIX_ENTRY(name, ...) {#name, tb_##name##_mix},
+#define TB_MIX_WIDE_ENTRY(name, faces, watertight, promised_by, origin, wide) \
+    TB_IF_X8(wide, {#name "_x8", tb_##name##_x8_mix},)
+static const tb_mix_entry tb_mixes[] = {TB_KERNEL_LIST(TB_MIX_ENTRY) TB_KERNEL_LIST(TB_MIX_WIDE_ENTRY)
+                                            TB_INTERNAL_KERNEL_LIST(TB_MIX_ENTRY)};
+
+/* kernel_mix(name) -> (fma, mul, add, cmp, div, logic) per test (and lane) */
+static PyObject *py_kernel_mix(PyObject *Py_UNUSED(self), PyObject *args)
+{
+    const char *name;
+    if (!PyArg_ParseTuple(args, "s:kernel_mix", &name))
+        return NULL;
+    for (size_t i = 0; i < sizeof tb_mixes / sizeof *tb_mixes; ++i)
+        if (strcmp(tb_mixes[i].name, name) == 0) {
+            const int *m = tb_mixes[i].mix;
+            return Py_BuildValue("(iiiiii)", m[0], m[1], m[2], m[3], m[4], m[5]);
+        }
+    PyErr_Format(PyExc_ValueError, "unknown kernel '%s'", name);
+    return NULL;
+}
+
 static PyObject *py_build_info(PyObject *Py_UNUSED(self), PyObject *Py_UNUSED(unused))
 {
     struct timespec res;
@@ -695,6 +723,8 @@ static PyMethodDef tb_methods[] = {
      "kernel_names(internal=False): registered kernel names."},
     {"fma_peak", py_fma_peak, METH_VARARGS,
      "fma_peak(iterations, force_scalar=False) -> (flops, elapsed_ns, isa, sink)."},
+    {"kernel_mix", py_kernel_mix, METH_VARARGS,
+     "kernel_mix(name) -> (fma, mul, add, cmp, div, logic) operations per test."},
     {"op_probe", py_op_probe, METH_VARARGS,
      "op_probe(isa, itemsize, op, steps) -> (lane_ops, elapsed_ns, sink): one throughput probe."},
     {"probe_isas", py_probe_isas, METH_NOARGS, "probe_isas() -> ((isa, runnable), ...), best first."},
