@@ -87,7 +87,8 @@ def _print_peak(width: int) -> None:
     print(f"8-lane FMA peak {gflops:.1f} GFLOP/s ({isa}): the old bound, ops / {gflops / 2:.1f}, shown as '% 8-lane'")
     for dtype, g in table.groupby("dtype", sort=False):
         print(
-            f"\n{dtype:<{width}}{'form':<18}{'ops/test':>9}{'bound ns':>10}{'ns/test':>10}{'% of bound':>12}{'% 8-lane':>10}"
+            f"\n{dtype:<{width}}{'form':<18}{'ops/test':>9}{'bound ns':>10}{'ns/test':>10}"
+            f"{'% of bound':>12}{'% 8-lane':>10}"
         )
         for r in g.itertuples(index=False):
             print(

@@ -97,6 +97,15 @@ def measure_rates(repeats: int = 3) -> ext.OpThroughput:
     return ext.op_throughput(repeats=repeats)
 
 
+def throughput_record() -> dict:
+    """The probes' rates and the 8-lane FMA peak of the same moment, as ``run.json``
+    keeps them (key ``throughput``): ``isa, peak_gflops, float32, float64``. The
+    analysis scales the rates to each process's own moment by the ratio of its FMA
+    peak to this one (a clock speed factor), so every process is held to its own bound."""
+    peak, rates = measure_peak(3), measure_rates()
+    return {"isa": rates.isa, "peak_gflops": peak.gflops, "float32": rates.float32, "float64": rates.float64}
+
+
 def bound_8lane_ns_per_test(kernel: str, dtype, peak_gflops: float, peak_isa: str = "avx2+fma") -> float:
     """The old, secondary bound: every operation an FMA-pipe slot at the 8-lane FMA peak, in ns."""
     return ext.kernel_info(kernel).ops / lane_ops_per_ns(peak_gflops, dtype, peak_isa)
