@@ -77,15 +77,23 @@ def _print_peak(width: int) -> None:
         "(Suzanne 968 triangles, 64x64 rays, closest hit)...",
         file=sys.stderr,
     )
-    gflops, isa, table = camera_fractions()
-    print(f"\nFMA peak  {gflops:.1f} GFLOP/s ({isa}; {gflops / 2:.1f} float lane-ops/ns, an FMA = 1 op = 2 flops)")
-    print("bound = ops per test / lane-ops per ns; % = bound / measured (rules: tribench.harness.peak)")
+    gflops, isa, rate_isa, rates, table = camera_fractions()
+    print(f"\nthroughput probes ({rate_isa}, widest vector), lane-ops per ns:")
+    for dtype, r in rates.items():
+        print(f"  {dtype:<8}" + "  ".join(f"{c} {v:.1f}" for c, v in r.items()))
+    print(
+        "bound = the port model over each kernel's operation mix (rules: tribench.harness.peak); % = bound / measured"
+    )
+    print(f"8-lane FMA peak {gflops:.1f} GFLOP/s ({isa}): the old bound, ops / {gflops / 2:.1f}, shown as '% 8-lane'")
     for dtype, g in table.groupby("dtype", sort=False):
-        print(f"\n{dtype:<{width}}{'form':<18}{'ops/test':>9}{'bound ns':>10}{'ns/test':>10}{'% of bound':>12}")
+        print(
+            f"\n{dtype:<{width}}{'form':<18}{'ops/test':>9}{'bound ns':>10}{'ns/test':>10}"
+            f"{'% of bound':>12}{'% 8-lane':>10}"
+        )
         for r in g.itertuples(index=False):
             print(
                 f"{r.kernel:<{width}}{r.form:<18}{r.ops_per_test:>9}{r.bound_ns_per_test:>10.3f}"
-                f"{r.ns_per_test:>10.3f}{100 * r.fraction:>11.1f}%"
+                f"{r.ns_per_test:>10.3f}{100 * r.fraction:>11.1f}%{100 * r.fraction_8lane:>9.1f}%"
             )
 
 

@@ -81,6 +81,10 @@ __all__ = [
     "bytes_per_triangle",
     "flat",
     "fma_peak",
+    "OP_CLASSES",
+    "OpThroughput",
+    "op_throughput",
+    "probe_isas",
     "intersect",
     "intersect_closest",
     "intersect_pairs",
@@ -184,6 +188,15 @@ class KernelInfo:
     seed_replay: bool
     flat: str
     precisions: tuple[str, ...]
+
+    @property
+    def mix(self) -> dict[str, int]:
+        """Operations per test (and lane) by class: ``fma, mul, add, cmp, div`` (summing
+        to :attr:`ops`), ``logic`` (mask and select work, outside ``ops``) and ``load``
+        (reals read per test: the stride). Declared as ``tb_<name>_mix`` in the kernel's
+        file; a wide form's is its compiled loop's (tests/test_ext_build.py)."""
+        counts = dict(zip(("fma", "mul", "add", "cmp", "div", "logic"), _core.kernel_mix(self.name), strict=True))
+        return {**counts, "load": self.stride}
 
     @property
     def modes(self) -> tuple[str, ...]:
@@ -694,6 +707,61 @@ class Peak:
     def gflops(self) -> float:
         """Flops per nanosecond, i.e. GFLOP/s."""
         return self.flops / self.elapsed_ns if self.elapsed_ns > 0 else float("nan")
+
+
+#: Operation classes of the throughput probes (``ext/probes.h``).
+OP_CLASSES: tuple[str, ...] = _core.op_classes()
+
+
+@dataclass(frozen=True)
+class OpThroughput:
+    """Lane-operations per ns of each operation class on one ISA's widest vector.
+
+    Attributes
+    ----------
+    isa : str
+        ``"avx512"``, ``"avx2"`` (with FMA) or ``"baseline"`` (SSE2 on x86-64).
+    float32, float64 : dict[str, float]
+        Per class of :data:`OP_CLASSES` (``fma, mul, add, cmp, logic, div, load,
+        fma_add``), the best rate of the probe's repeats.
+    """
+
+    isa: str
+    float32: dict[str, float]
+    float64: dict[str, float]
+
+    def rates(self, dtype) -> dict[str, float]:
+        """The rates of one precision."""
+        return self.float32 if np.dtype(dtype).itemsize == 4 else self.float64
+
+
+def probe_isas() -> tuple[str, ...]:
+    """ISAs the throughput probes can run on this CPU, widest first."""
+    return tuple(name for name, runnable in _core.probe_isas() if runnable)
+
+
+def op_throughput(isa: str | None = None, *, target_ns: float = 2e6, repeats: int = 3) -> OpThroughput:
+    """Probe every operation class on ``isa`` (default: the widest runnable) in both precisions.
+
+    Each probe runs 12 independent chains of one class (ext/probes.h) for about
+    ``target_ns`` (scaled from a short first run), timed in C with the GIL
+    released; the best of ``repeats`` is kept. About 0.1 s in all.
+    """
+    runnable = probe_isas()
+    isa = runnable[0] if isa is None else isa
+    if isa not in runnable:
+        raise UserError(f"isa must be one of this CPU's probe ISAs {', '.join(runnable)}; got {isa!r}")
+    out: dict[int, dict[str, float]] = {4: {}, 8: {}}
+    for itemsize, rates in out.items():
+        for op in OP_CLASSES:
+            _ops, ns, _ = _core.op_probe(isa, itemsize, op, 1000)
+            steps = int(min(MAX_PEAK_ITERATIONS, max(1000, 1000 * target_ns / max(ns, 1))))
+            best = 0.0
+            for _ in range(repeats):
+                lane_ops, ns, _ = _core.op_probe(isa, itemsize, op, steps)
+                best = max(best, lane_ops / ns if ns > 0 else 0.0)
+            rates[op] = best
+    return OpThroughput(isa, out[4], out[8])
 
 
 #: The most iterations of :func:`fma_peak`: about 4 s of work on a current core.

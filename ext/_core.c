@@ -324,6 +324,7 @@ static int tb_check_count(const char *what, Py_ssize_t n, Py_ssize_t factor)
 }
 
 #include "fma_peak.h"
+#include "probes.h"
 
 /* ------------------------------------------------------------- entry points */
 
@@ -591,6 +592,102 @@ static PyObject *py_fma_peak(PyObject *Py_UNUSED(self), PyObject *args)
     return Py_BuildValue("dLsd", r.flops, (long long)r.elapsed_ns, r.isa, r.sink);
 }
 
+/* op_probe(isa, itemsize, op, steps) -> (lane_ops, elapsed_ns, sink): one
+ * throughput probe (probes.h), timed here with the GIL released */
+static PyObject *py_op_probe(PyObject *Py_UNUSED(self), PyObject *args)
+{
+    const char *isa, *op;
+    Py_ssize_t itemsize;
+    long long steps;
+    if (!PyArg_ParseTuple(args, "snsL:op_probe", &isa, &itemsize, &op, &steps))
+        return NULL;
+    int i = 0, o = 0;
+    while (i < TB_N_PROBE_ISAS && strcmp(tb_probe_isas[i], isa) != 0)
+        ++i;
+    while (o < TB_N_OPS && strcmp(tb_op_names[o], op) != 0)
+        ++o;
+    if (i == TB_N_PROBE_ISAS || !tb_probe_runnable(i)) {
+        PyErr_Format(PyExc_ValueError, "probe ISA '%s' is not built or not runnable on this CPU", isa);
+        return NULL;
+    }
+    if (o == TB_N_OPS) {
+        PyErr_Format(PyExc_ValueError, "unknown operation class '%s'", op);
+        return NULL;
+    }
+    if (tb_check_itemsize(itemsize))
+        return NULL;
+    if (steps < 1 || steps > TB_MAX_PEAK_ITERATIONS) {
+        PyErr_Format(PyExc_ValueError, "steps must be between 1 and %lld, got %lld", TB_MAX_PEAK_ITERATIONS, steps);
+        return NULL;
+    }
+    static const tb_probe_fn fns[][2] = TB_PROBE_FNS;
+    tb_probe_fn fn = fns[i][itemsize == 8];
+    const void *c = tb_probe_constants((int)itemsize);
+    double lane_ops = 0, sink;
+    int64_t start, stop;
+    Py_BEGIN_ALLOW_THREADS
+    start = tb_now_ns();
+    sink = fn(o, (uint64_t)steps, c, &lane_ops);
+    stop = tb_now_ns();
+    Py_END_ALLOW_THREADS
+    return Py_BuildValue("dLd", lane_ops, (long long)(stop - start), sink);
+}
+
+/* probe_isas() -> ((name, runnable), ...) best first; op_classes() -> names */
+static PyObject *py_probe_isas(PyObject *Py_UNUSED(self), PyObject *Py_UNUSED(unused))
+{
+    PyObject *out = PyTuple_New(TB_N_PROBE_ISAS);
+    for (int i = 0; out && i < TB_N_PROBE_ISAS; ++i) {
+        PyObject *item = Py_BuildValue("(sO)", tb_probe_isas[i], tb_probe_runnable(i) ? Py_True : Py_False);
+        if (!item)
+            Py_CLEAR(out);
+        else
+            PyTuple_SET_ITEM(out, i, item);
+    }
+    return out;
+}
+
+static PyObject *py_op_classes(PyObject *Py_UNUSED(self), PyObject *Py_UNUSED(unused))
+{
+    PyObject *out = PyTuple_New(TB_N_OPS);
+    for (int o = 0; out && o < TB_N_OPS; ++o) {
+        PyObject *s = PyUnicode_FromString(tb_op_names[o]);
+        if (!s)
+            Py_CLEAR(out);
+        else
+            PyTuple_SET_ITEM(out, o, s);
+    }
+    return out;
+}
+
+/* Each kernel's operations per test by class, tb_<name>_mix beside its code:
+ * {fma, mul, add, cmp, div, logic}; the first five sum to its ops (kernels.h's
+ * counting rules), logic is the mask and select work those rules leave out. */
+typedef struct {
+    const char *name;
+    int mix[6];
+} tb_mix_entry;
+#define TB_MIX_ENTRY(name, ...) {#name, tb_##name##_mix},
+#define TB_MIX_WIDE_ENTRY(name, faces, watertight, promised_by, origin, wide) \
+    TB_IF_X8(wide, {#name "_x8", tb_##name##_x8_mix},)
+static const tb_mix_entry tb_mixes[] = {TB_KERNEL_LIST(TB_MIX_ENTRY) TB_KERNEL_LIST(TB_MIX_WIDE_ENTRY)
+                                            TB_INTERNAL_KERNEL_LIST(TB_MIX_ENTRY)};
+
+/* kernel_mix(name) -> (fma, mul, add, cmp, div, logic) per test (and lane) */
+static PyObject *py_kernel_mix(PyObject *Py_UNUSED(self), PyObject *args)
+{
+    const char *name;
+    if (!PyArg_ParseTuple(args, "s:kernel_mix", &name))
+        return NULL;
+    for (size_t i = 0; i < sizeof tb_mixes / sizeof *tb_mixes; ++i)
+        if (strcmp(tb_mixes[i].name, name) == 0) {
+            const int *m = tb_mixes[i].mix;
+            return Py_BuildValue("(iiiiii)", m[0], m[1], m[2], m[3], m[4], m[5]);
+        }
+    PyErr_Format(PyExc_ValueError, "unknown kernel '%s'", name);
+    return NULL;
+}
+
 static PyObject *py_build_info(PyObject *Py_UNUSED(self), PyObject *Py_UNUSED(unused))
 {
     struct timespec res;
@@ -626,6 +723,12 @@ static PyMethodDef tb_methods[] = {
      "kernel_names(internal=False): registered kernel names."},
     {"fma_peak", py_fma_peak, METH_VARARGS,
      "fma_peak(iterations, force_scalar=False) -> (flops, elapsed_ns, isa, sink)."},
+    {"kernel_mix", py_kernel_mix, METH_VARARGS,
+     "kernel_mix(name) -> (fma, mul, add, cmp, div, logic) operations per test."},
+    {"op_probe", py_op_probe, METH_VARARGS,
+     "op_probe(isa, itemsize, op, steps) -> (lane_ops, elapsed_ns, sink): one throughput probe."},
+    {"probe_isas", py_probe_isas, METH_NOARGS, "probe_isas() -> ((isa, runnable), ...), best first."},
+    {"op_classes", py_op_classes, METH_NOARGS, "op_classes() -> the probes' operation classes."},
     {"kernel_info", py_kernel_info, METH_VARARGS,
      "kernel_info(name) -> dict: the registry's declarations of a kernel."},
     {"prepare", py_prepare, METH_VARARGS,

@@ -14,10 +14,12 @@ ns_per_test_bootstrap_low, ns_per_test_bootstrap_high, ns_per_test_min,
 ns_per_test_sd, n_processes, confidence``), then ``workload`` (the spec's
 one-line summary), ``peak_gflops`` (mean FMA peak of the processes),
 ``ops_per_test`` (the kernel's documented arithmetic), ``bound_ns_per_test``
-(that arithmetic at the peak) and ``peak_fraction, peak_fraction_ci_low,
+(the port model's bound over the kernel's operation mix at the throughput
+rates run.json recorded) and ``peak_fraction, peak_fraction_ci_low,
 peak_fraction_ci_high``: bound over measured time, each process against its
-own peak of that moment, a machine-normalised figure steadier than raw time
-(:mod:`tribench.harness.peak`).
+own clock of that moment, a machine-normalised figure steadier than raw time;
+then the old, secondary ``bound_8lane_ns_per_test, peak_fraction_8lane``
+(every operation at the 8-lane FMA peak) (:mod:`tribench.harness.peak`).
 
 ``speedups.csv``: the columns of :func:`~tribench.stats.speedup_table`
 renamed by :data:`SPEEDUP_COLUMNS` (``workload_id, kernel, baseline, ratio,
@@ -141,7 +143,8 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
         wid: spec["dtype"] for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True)
     }
     estimates = estimates.join(
-        _peak_columns(table, records.read_processes(run_dir, run), dtypes), on=["kernel", "workload_id"]
+        _peak_columns(table, records.read_processes(run_dir, run), dtypes, run.get("throughput")),
+        on=["kernel", "workload_id"],
     )
     speedups = stats.speedup_table(table, baseline, margin=m.value).rename(columns=SPEEDUP_COLUMNS)
     speedups["workload"] = speedups["workload_id"].map(names)
@@ -155,17 +158,25 @@ def _summary(spec: dict) -> str:
     return spec_from_dict(spec).summary()
 
 
-def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str, str]) -> pd.DataFrame:
+def _peak_columns(
+    table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str, str], throughput: dict | None
+) -> pd.DataFrame:
     """Per kernel and workload: mean peak, operations per test, the bound and the fraction of it.
 
-    Per process, one test's time in lane-operation slots at that process's
-    peak (``ns_per_test * lane_ops_per_ns``); the t-interval of their mean
-    maps to the fraction ``ops / slots`` (a monotone map, so the interval
-    carries over, ends swapped). See :mod:`tribench.harness.peak`."""
+    The bound is the port model's (:func:`tribench.harness.peak.bound_from_mix`) at
+    the rates ``run.json`` recorded (``throughput``, with the FMA peak of that
+    moment). Per process, one test's time is scaled by the ratio of the process's
+    FMA peak to that one (its clock against the probes'); the t-interval of the
+    mean scaled time maps to the fraction ``bound / time`` (a monotone map, so
+    the interval carries over, ends swapped). A run without recorded rates (made
+    before they were) has no such bound: NaN. The old, secondary figure,
+    ``peak_fraction_8lane``, counts every operation at the 8-lane FMA peak
+    (:func:`tribench.harness.peak.lane_ops_per_ns`)."""
     from tribench import ext
 
-    from .peak import lane_ops_per_ns
+    from .peak import bound_from_mix, lane_ops_per_ns
 
+    keys = ["kernel", "workload_id"]
     columns = [
         "peak_gflops",
         "ops_per_test",
@@ -173,18 +184,18 @@ def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str
         "peak_fraction",
         "peak_fraction_ci_low",
         "peak_fraction_ci_high",
+        "bound_8lane_ns_per_test",
+        "peak_fraction_8lane",
     ]
     if processes.empty:
-        return pd.DataFrame(columns=["kernel", "workload_id", *columns]).set_index(["kernel", "workload_id"])
+        return pd.DataFrame(columns=[*keys, *columns]).set_index(keys)
     peak = processes.groupby("process").agg(peak_gflops=("peak_gflops", "mean"), peak_isa=("peak_isa", "first"))
     joined = table.join(peak, on="process").dropna(subset=["peak_gflops"])
-    rate = [
+    rate_8lane = [
         lane_ops_per_ns(g, dtypes[w], isa)
         for g, w, isa in zip(joined["peak_gflops"], joined["workload_id"], joined["peak_isa"], strict=True)
     ]
-    slots = stats.estimate_table(joined.assign(ns_per_test=joined["ns_per_test"] * rate))
-    slots = slots.set_index(["kernel", "workload_id"])
-    keys = ["kernel", "workload_id"]
+    slots = stats.estimate_table(joined.assign(ns_per_test=joined["ns_per_test"] * rate_8lane)).set_index(keys)
     peaks = joined.groupby(keys).agg(peak_gflops=("peak_gflops", "mean"), peak_isa=("peak_isa", "first"))
     peaks = peaks.reindex(slots.index)
     known = set(ext.kernel_names(internal=True))
@@ -195,17 +206,34 @@ def _peak_columns(table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str
             for (_, w), g, isa in zip(peaks.index, peaks["peak_gflops"], peaks["peak_isa"], strict=True)
         ]
     )
+    nan = np.full(len(slots), np.nan)
+    bound, fraction, low, high = nan, nan, nan, nan
+    if throughput:
+        ref = float(throughput["peak_gflops"])
+        bound_ref = np.array(
+            [
+                bound_from_mix(ext.kernel_info(k).mix, throughput[dtypes[w]]) if k in known else np.nan
+                for k, w in slots.index
+            ]
+        )
+        scaled = stats.estimate_table(joined.assign(ns_per_test=joined["ns_per_test"] * joined["peak_gflops"] / ref))
+        scaled = scaled.set_index(keys).reindex(slots.index)
+        bound = bound_ref * ref / peaks["peak_gflops"].to_numpy()
+        fraction = bound_ref / scaled["mean"].to_numpy()
+        low = bound_ref / scaled["ci_high"].to_numpy()
+        # a time interval reaching 0 or below (few, noisy processes) leaves the fraction unbounded above
+        ci_low = scaled["ci_low"].to_numpy()
+        high = np.where(ci_low > 0, bound_ref / np.where(ci_low > 0, ci_low, np.nan), np.inf)
     return pd.DataFrame(
         {
             "peak_gflops": peaks["peak_gflops"],
             "ops_per_test": ops,
-            "bound_ns_per_test": ops / mean_rate,
-            "peak_fraction": ops / slots["mean"],
-            "peak_fraction_ci_low": ops / slots["ci_high"],
-            # a time interval reaching 0 or below (few, noisy processes) leaves the fraction unbounded above
-            "peak_fraction_ci_high": np.where(
-                slots["ci_low"] > 0, ops / slots["ci_low"].where(slots["ci_low"] > 0), np.inf
-            ),
+            "bound_ns_per_test": bound,
+            "peak_fraction": fraction,
+            "peak_fraction_ci_low": low,
+            "peak_fraction_ci_high": high,
+            "bound_8lane_ns_per_test": ops / mean_rate,
+            "peak_fraction_8lane": ops / slots["mean"],
         },
         index=slots.index,
     )

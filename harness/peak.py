@@ -1,30 +1,48 @@
-"""Each kernel's arithmetic bound at the machine's measured FMA peak, and how near it runs.
+"""Each kernel's bound on the machine's measured pipes, and how near it runs.
 
-The bound of a kernel is the time its arithmetic would take if the machine
-issued nothing but that arithmetic at its peak rate: ``ops / rate``, where
-``ops`` is the kernel's documented operations per test
-(:attr:`tribench.ext.KernelInfo.ops`; counting rules in ``ext/kernels.h``)
-and ``rate`` the lane operations per nanosecond of the FMA probe
-(:func:`tribench.ext.fma_peak`): its GFLOP/s over 2, since an FMA counts two
-flops but is one operation. The kernels are built without FMA contraction,
-so each of their adds, multiplies and compares is one instruction issued on
-the same pipes as an FMA; counting an FMA as one operation is what makes the
-bound reachable (counting it as two would cap every kernel at 50% on a core
-whose adds and multiplies share the FMA pipes).
+The rates. :func:`tribench.ext.op_throughput` probes, on the widest vector
+the core has (AVX-512, else AVX2 with FMA, else SSE2), the lane-operations
+per ns of each operation class: ``fma, mul, add, cmp, logic, div, load``,
+and ``fma_add`` (an FMA and an add mixed 1:1). The counts.
+:attr:`tribench.ext.KernelInfo.mix`: a kernel's operations per test and lane
+by class (``tb_<name>_mix`` beside its code; a wide form's counted in its
+compiled loop).
 
-The probe runs 8 float lanes; a double vector holds half as many, so the
-double rate is half (the same instructions per cycle on every x86 core with
-FMA). The bound is the machine's, not the form's: a scalar kernel uses one
-lane of eight, so in float its arithmetic alone keeps it near 1/8 or below.
+The port model: the bound is the largest of these lower bounds on time,
+each a count over a measured rate (lane-ops per ns, so ns per test):
 
-``fraction = bound / measured ns per test``, 1 at the bound. It can exceed 1
-where a core has adders beside its FMA pipes (AMD Zen has two). A scalar
-early-exit kernel's count is the path of a hit, while most tests exit
-earlier, so its fraction overstates how busy it keeps the lane (it can pass
-1/8).
+1. each class alone: ``n_c / r_c`` (no class runs faster than its probe);
+2. the FP arithmetic pool: ``(n_fma + n_mul + n_add) / max(r_fma, r_fma_add)``.
+   Multiplies and FMAs share the FMA pipes on Intel and AMD alike; whether
+   adds share them is measured, not assumed: on Intel's AVX-512 (ports 0 and
+   5) the 1:1 mix runs at the FMA rate, so this is the sum-over-shared-pipes
+   rule; on cores with adders of their own (AMD Zen's FADD pipes; Golden
+   Cove's 256-bit adders on ports 1 and 5) the mix runs faster, and its rate
+   caps the pool instead;
+3. the vector-ALU pool: every class but loads issues on the same vector
+   pipes, so ``sum of those counts / the fastest rate of any ALU probe``
+   (valid where the fastest class uses every vector pipe, as bitwise logic
+   does on Intel and AMD);
+4. loads alone are rule 1's ``n_load / r_load`` (load ports are separate).
+
+It is the tightest bound the probes support for the kernel's operations as
+compiled, at the widest FMA-capable width: a form that runs narrower, or
+without FMA, or a scalar form on one lane, shows that as a small fraction.
+Not modelled: the front end's issue width, latency chains, branches and
+cache misses (the in-cache workload keeps misses out).
+
+The old figure stays as a labelled secondary number: ``ops / (8-lane FMA
+peak GFLOP/s / 2)`` (:func:`lane_ops_per_ns`, :func:`tribench.ext.fma_peak`),
+which counts every operation as an FMA-pipe slot of an 8-lane vector.
+
+``fraction = bound / measured ns per test``, 1 at the bound. A scalar
+early-exit kernel's counts are the path of a hit, while most tests exit
+earlier, so its fraction overstates how busy it keeps the lane.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -46,8 +64,50 @@ def lane_ops_per_ns(peak_gflops: float, dtype, peak_isa: str = "avx2+fma") -> fl
     return peak_gflops / 2 * per_lane
 
 
-def bound_ns_per_test(kernel: str, dtype, peak_gflops: float, peak_isa: str = "avx2+fma") -> float:
-    """The kernel's arithmetic per test at the peak rate, in ns."""
+#: classes that issue on the vector pipes (all but loads), and the FP arithmetic among them
+ALU_CLASSES = ("fma", "mul", "add", "cmp", "logic", "div")
+FP_CLASSES = ("fma", "mul", "add")
+
+
+def bound_from_mix(mix: Mapping[str, float], rates: Mapping[str, float]) -> float:
+    """ns per test at the port model's bound (rules in the module's note).
+
+    ``mix``: operations per test by class; ``rates``: lane-ops per ns by class
+    (:attr:`tribench.ext.OpThroughput.float32` or ``float64``).
+
+    >>> rates = {"fma": 2, "mul": 2, "add": 2, "cmp": 1, "logic": 2, "div": 0.25, "load": 2, "fma_add": 2}
+    >>> bound_from_mix({"mul": 4, "add": 4}, rates)  # adds share the FMA pipes: (4 + 4) / 2
+    4.0
+    >>> bound_from_mix({"mul": 4, "add": 4}, {**rates, "fma_add": 4})  # adders of their own: 8 / 4, but mul 4 / 2
+    2.0
+    >>> bound_from_mix({"cmp": 6, "add": 1}, rates)  # compares on one pipe: 6 / 1
+    6.0
+    >>> bound_from_mix({"add": 3, "cmp": 1, "logic": 4, "load": 20}, rates)  # loads bind: 20 / 2
+    10.0
+    """
+    n = {c: float(mix.get(c, 0)) for c in (*ALU_CLASSES, "load")}
+    alone = max(n[c] / rates[c] for c in n)
+    fp_pool = sum(n[c] for c in FP_CLASSES) / max(rates["fma"], rates["fma_add"])
+    alu_pool = sum(n[c] for c in ALU_CLASSES) / max(rates[c] for c in (*ALU_CLASSES, "fma_add"))
+    return max(alone, fp_pool, alu_pool)
+
+
+def measure_rates(repeats: int = 3) -> ext.OpThroughput:
+    """The probes on the widest ISA, best of ``repeats`` each (about 0.2 s)."""
+    return ext.op_throughput(repeats=repeats)
+
+
+def throughput_record() -> dict:
+    """The probes' rates and the 8-lane FMA peak of the same moment, as ``run.json``
+    keeps them (key ``throughput``): ``isa, peak_gflops, float32, float64``. The
+    analysis scales the rates to each process's own moment by the ratio of its FMA
+    peak to this one (a clock speed factor), so every process is held to its own bound."""
+    peak, rates = measure_peak(3), measure_rates()
+    return {"isa": rates.isa, "peak_gflops": peak.gflops, "float32": rates.float32, "float64": rates.float64}
+
+
+def bound_8lane_ns_per_test(kernel: str, dtype, peak_gflops: float, peak_isa: str = "avx2+fma") -> float:
+    """The old, secondary bound: every operation an FMA-pipe slot at the 8-lane FMA peak, in ns."""
     return ext.kernel_info(kernel).ops / lane_ops_per_ns(peak_gflops, dtype, peak_isa)
 
 
@@ -64,10 +124,12 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     ``size`` x ``size`` pinhole camera, closest hit; ``rounds`` rounds run
     every kernel once in a fresh random order, each batch timed in C and
     about 5 ms long; the probe runs before and after (best of 3 each) and
-    their mean is the peak. Returns ``(gflops, isa, table)``: that peak,
-    the probe's instruction set, and a DataFrame with ``dtype,
-    kernel, form, ops_per_test, bound_ns_per_test, ns_per_test`` (median
-    over rounds) and ``fraction``.
+    their mean is the peak, and so do the throughput probes (their mean
+    the rates). Returns ``(gflops, isa, rate_isa, rates, table)``: the 8-lane
+    peak and its ISA, the probes' ISA and rates per dtype, and a DataFrame
+    with ``dtype, kernel, form, ops_per_test, bound_ns_per_test`` (the port
+    model's), ``ns_per_test`` (median over rounds), ``fraction``, and the
+    secondary ``bound_8lane_ns_per_test, fraction_8lane``.
     """
     import pandas as pd
 
@@ -83,19 +145,23 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
         for kernel in ext.kernel_names():
             job = ext.make_job(kernel, w.origins, w.directions, w.triangles, "closest")
             jobs[dtype, kernel] = (job, calibrate_loops(job, 5e6))
-    before = measure_peak(3)
+    before, rates_before = measure_peak(3), measure_rates()
     times: dict[tuple[str, str], list[float]] = {key: [] for key in jobs}
     keys = list(jobs)
     for _ in range(rounds):
         for i in rng.permutation(len(keys)):
             job, loops = jobs[keys[i]]
             times[keys[i]].append(ext.time_batch(job, loops).ns_per_test)
-    after = measure_peak(3)
+    after, rates_after = measure_peak(3), measure_rates()
     gflops = (before.gflops + after.gflops) / 2
+    rates = {
+        d: {c: (rates_before.rates(d)[c] + rates_after.rates(d)[c]) / 2 for c in rates_before.rates(d)} for d in dtypes
+    }
     rows = []
     for (dtype, kernel), ts in times.items():
         info = ext.kernel_info(kernel)
-        bound = bound_ns_per_test(kernel, dtype, gflops, before.isa)
+        bound = bound_from_mix(info.mix, rates[dtype])
+        bound_8lane = bound_8lane_ns_per_test(kernel, dtype, gflops, before.isa)
         ns = float(np.median(ts))
         rows.append(
             {
@@ -106,6 +172,8 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
                 "bound_ns_per_test": bound,
                 "ns_per_test": ns,
                 "fraction": bound / ns,
+                "bound_8lane_ns_per_test": bound_8lane,
+                "fraction_8lane": bound_8lane / ns,
             }
         )
-    return gflops, before.isa, pd.DataFrame(rows)
+    return gflops, before.isa, rates_before.isa, rates, pd.DataFrame(rows)

@@ -69,7 +69,8 @@ __all__ = [
 
 # ------------------------------------------------------------------ names
 
-#: Written once at the start of a sweep: sweep, plan seeds, machine, build, margin.
+#: Written once at the start of a sweep: sweep, plan seeds, machine, build, margin, and the
+#: throughput probes' rates (key ``throughput``: tribench.harness.peak.throughput_record).
 RUN = "run.json"
 #: Held by the one process writing the folder.
 LOCK = ".lock"
@@ -203,10 +204,18 @@ _ESTIMATES: dict[str, str] = {
     "workload": "the workload's spec in one line",
     "peak_gflops": "mean measured FMA peak of the processes, GFLOP/s",
     "ops_per_test": "the kernel's arithmetic operations per test (documented in its header)",
-    "bound_ns_per_test": "those operations at the measured FMA peak, ns (the arithmetic bound)",
-    "peak_fraction": "bound / measured time (1 = at the bound), each process against its own peak",
+    "bound_ns_per_test": (
+        "the port model's bound, ns: the kernel's operations per test by class over the throughput "
+        "rates run.json recorded at the widest vector width, FMA-capable (tribench.harness.peak); "
+        "NaN for a run made before rates were recorded"
+    ),
+    "peak_fraction": "bound / measured time (1 = at the bound), each process against its own clock of that moment",
     "peak_fraction_ci_low": "lower end of its 95% confidence interval",
     "peak_fraction_ci_high": "upper end of its 95% confidence interval",
+    "bound_8lane_ns_per_test": (
+        "secondary, the old bound: ops_per_test at the 8-lane FMA peak, every operation an FMA-pipe slot, ns"
+    ),
+    "peak_fraction_8lane": "secondary: bound_8lane_ns_per_test / measured time, each process against its own peak",
 }
 
 _SPEEDUPS: dict[str, str] = {

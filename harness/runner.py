@@ -235,6 +235,7 @@ def _start_locked(
     worker: Sequence[str],
     extra: dict[str, Any] | None,
 ) -> RunResult:
+    from .peak import throughput_record
     from .worker import kernel_isa
 
     record = {
@@ -248,6 +249,7 @@ def _start_locked(
         "isa": {k: kernel_isa(k) for k in sweep.kernels},
         "margin": {"value": margin.value, "source": margin.source},
         "machine": machine,
+        "throughput": throughput_record(),
         "python_executable": sys.executable,
         "batch_columns": list(BATCH_COLUMNS),
         "process_columns": list(PROCESS_COLUMNS),

@@ -67,9 +67,9 @@ def speedups_section(data: RunData, spd: pd.DataFrame, est: pd.DataFrame) -> str
         page.p(
             "ns per ray–triangle test: per process the median of its timed batches, then the mean over "
             "processes with a Student-t interval; the BCa bootstrap over processes is a cross-check and the "
-            "minimum a robust secondary figure. Fraction of bound: the kernel's documented operations per "
-            "test at the process's measured FMA peak (an FMA = one operation), over the measured time; "
-            "see the kernels section.",
+            "minimum a robust secondary figure. Fraction of bound: the port model's bound (the kernel's "
+            "operations per test by class over the core's measured throughput per class at its widest vector "
+            "width, FMA-capable) over the measured time; see the kernels section.",
             "note",
         ),
         page.table(est, _EST_COLS),
@@ -115,10 +115,13 @@ def kernels_section(data: RunData, kern: pd.DataFrame) -> str:
     )
     tail = (
         ") counts. Ops per test: the kernel's arithmetic (adds, multiplies, divides, compares; for a "
-        "scalar kernel the path of a hit), documented in its header. Fraction of bound: that arithmetic at "
-        "the machine's measured FMA peak (one FMA = one operation; a double vector holds half the lanes) "
-        "over the measured time; 1 would be the arithmetic limit. A scalar kernel uses one lane of eight, "
-        "and its early exits do less than the count. "
+        "scalar kernel the path of a hit), documented in its header. Fraction of bound: the port model's bound over "
+        "the measured time, 1 at the limit. The bound takes the kernel's operations per test by class "
+        "(FMA, multiply, add, compare, divide, logic, load) over the throughput of each class the core "
+        "measured at its widest vector width (AVX-512, AVX2 or SSE2), FMA-capable, with adds, multiplies "
+        "and FMAs sharing the FMA pipes where the probes show they do (tribench.harness.peak). A scalar "
+        "kernel uses one lane of the widest vector, and its early exits do less than the count. The old "
+        "figure (every operation at the 8-lane FMA peak) is estimates.csv's peak_fraction_8lane. "
         f"ns/test and the speedup over {data.baseline} summarise the family's workloads (median, lowest, "
         "highest); their 95% CIs are in the speedups section, and verdicts counts the workloads by verdict."
     )

@@ -80,3 +80,36 @@ def test_documented_ops_are_the_compiled_arithmetic(disassembly, kernel):
     or arithmetic the compiler fused or dropped, fails here."""
     code = disassembly[f"tb_{kernel}_time_closest_avx2_f32"]
     assert _loop_arithmetic(code) == ext.kernel_info(kernel).ops
+
+
+CLASSES = {
+    "fma": r"^vf\w*(madd|msub)\w*p[sd]$",
+    "mul": r"^vmulp[sd]$",
+    "add": r"^v(add|sub|min|max)p[sd]$",
+    "cmp": r"^vcmp\w*p[sd]$",
+    "div": r"^v(div|sqrt)p[sd]$",
+    "logic": r"^v(p?and|p?andn|p?or|p?xor|blendv)\w*$",
+}
+
+
+def _loop_mix(code: str) -> dict[str, int]:
+    """Instructions per class in the largest loop (by arithmetic) of a function."""
+    lines = [re.match(r"\s*([0-9a-f]+):\s+(\S+)\s*(\S*)", line) for line in code.splitlines()]
+    ins = [(int(m.group(1), 16), m.group(2), m.group(3)) for m in lines if m]
+    arith = re.compile("|".join(CLASSES[c] for c in ("fma", "mul", "add", "cmp", "div")))
+    best: list[str] = []
+    for address, op, target in ins:
+        if op.startswith("j") and re.fullmatch(r"[0-9a-f]+", target) and int(target, 16) < address:
+            body = [o for a, o, _ in ins if int(target, 16) <= a <= address]
+            if sum(map(bool, map(arith.match, body))) > sum(map(bool, map(arith.match, best))):
+                best = body
+    return {c: sum(1 for o in best if re.match(rx, o)) for c, rx in CLASSES.items()}
+
+
+@pytest.mark.parametrize("kernel", WIDE)
+def test_declared_mix_is_the_compiled_loop(disassembly, kernel):
+    """A wide kernel's per-class counts (the port model's input, ext.kernel_info(k).mix)
+    are its compiled block loop's instructions of each class."""
+    mix = ext.kernel_info(kernel).mix
+    compiled = _loop_mix(disassembly[f"tb_{kernel}_time_closest_avx2_f32"])
+    assert compiled == {c: mix[c] for c in CLASSES}

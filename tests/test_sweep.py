@@ -109,6 +109,9 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
         (est["peak_fraction_ci_low"] <= est["peak_fraction"]) & (est["peak_fraction"] <= est["peak_fraction_ci_high"])
     ).all()
     assert ((est["peak_fraction"] > 0) & (est["peak_fraction"] < 1)).all()  # scalar kernels: one lane of 8
+    # the bound is the port model's at the rates run.json recorded; the old 8-lane figure is secondary
+    assert set(run["throughput"]) == {"isa", "peak_gflops", "float32", "float64"}
+    assert (est["bound_ns_per_test"] > 0).all() and (est["peak_fraction_8lane"] >= est["peak_fraction"]).all()
     assert list(spd["baseline"]) == ["moller_trumbore"] and list(spd["kernel"]) == ["curless"]
     # re-analysis reads files only: the same tables again, with another baseline on request
     again = analysis.analyse(out, baseline="curless")
@@ -270,6 +273,8 @@ def test_a_time_interval_reaching_zero_leaves_the_peak_fraction_unbounded_above(
         }
     )
     processes = pd.DataFrame({"process": [0, 1, 2], "peak_gflops": [100.0] * 3, "peak_isa": ["avx2+fma"] * 3})
-    row = analysis._peak_columns(table, processes, {"w": "float32"}).iloc[0]
+    rates = dict.fromkeys(ext.OP_CLASSES, 50.0)
+    throughput = {"isa": "avx2", "peak_gflops": 100.0, "float32": rates, "float64": rates}
+    row = analysis._peak_columns(table, processes, {"w": "float32"}, throughput).iloc[0]
     assert row["peak_fraction_ci_low"] > 0 and row["peak_fraction_ci_low"] <= row["peak_fraction"]
     assert row["peak_fraction_ci_high"] == np.inf

@@ -136,3 +136,6 @@ static inline int TB_FN(tb_baldwin_weber_12_test)(const tb_ray *restrict r,
     h->v = v;
     return 1;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), on the hit path, the split of tb_baldwin_weber_12_ops; see kernels.h */
+#define tb_baldwin_weber_12_mix {0, 15, 15, 6, 1, 0}

@@ -39,3 +39,6 @@ TB_WIDE vmask TB_FN(tb_baldwin_weber_12_x8_test)(const tb_vray *restrict r,
     h->v = v;
     return hit;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled AVX2 block loop (tests/test_ext_build.py); see kernels.h */
+#define tb_baldwin_weber_12_x8_mix {0, 15, 15, 6, 1, 13}

@@ -90,3 +90,6 @@ static inline int TB_FN(tb_baldwin_weber_9_test)(const tb_ray *restrict r,
     h->v = v;
     return 1;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), on the hit path, the split of tb_baldwin_weber_9_ops; see kernels.h */
+#define tb_baldwin_weber_9_mix {0, 10, 12, 8, 1, 0}

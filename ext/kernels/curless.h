@@ -77,3 +77,6 @@ static inline int TB_FN(tb_curless_test)(const tb_ray *restrict r, const real *r
     h->v = side_ab / sum;
     return 1;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), on the hit path, the split of tb_curless_ops; see kernels.h */
+#define tb_curless_mix {0, 36, 41, 6, 1, 0}

@@ -84,3 +84,6 @@ static inline int TB_FN(tb_curless_seed_test)(const tb_ray *restrict r, const re
     h->v = side_ab / sum;
     return t < t_max;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), on the hit path, the split of tb_curless_seed_ops; see kernels.h */
+#define tb_curless_seed_mix {0, 39, 43, 6, 1, 0}

@@ -49,3 +49,6 @@ TB_WIDE vmask TB_FN(tb_curless_x8_test)(const tb_vray *restrict r, const real *r
     h->v = side_ab / sum;
     return hit;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled AVX2 block loop (tests/test_ext_build.py); see kernels.h */
+#define tb_curless_x8_mix {0, 36, 41, 6, 1, 12}

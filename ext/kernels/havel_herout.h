@@ -111,3 +111,6 @@ static inline int TB_FN(tb_havel_herout_test)(const tb_ray *restrict r, const re
     /* one division on a hit */
     return TB_FN(tb_divide_hit)(t_s, u, v, abs_det, t_max, h);
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), on the hit path, the split of tb_havel_herout_ops; see kernels.h */
+#define tb_havel_herout_mix {0, 26, 16, 9, 1, 0}

@@ -46,3 +46,6 @@ TB_WIDE vmask TB_FN(tb_havel_herout_x8_test)(const tb_vray *restrict r, const re
     h->v = v * inv_det;
     return hit;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled AVX2 block loop (tests/test_ext_build.py); see kernels.h */
+#define tb_havel_herout_x8_mix {0, 26, 16, 9, 1, 14}

@@ -73,3 +73,6 @@ static inline int TB_FN(tb_moller_seed_test)(const tb_ray *restrict r, const rea
     }
     return 0;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), on the hit path, the split of tb_moller_seed_ops; see kernels.h */
+#define tb_moller_seed_mix {0, 27, 23, 9, 1, 0}

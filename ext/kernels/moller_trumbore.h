@@ -67,3 +67,6 @@ static inline int TB_FN(tb_moller_trumbore_test)(const tb_ray *restrict r, const
         return 0;
     return TB_FN(tb_divide_hit)(scaled_t, u, v, abs_det, t_max, h);
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), on the hit path, the split of tb_moller_trumbore_ops; see kernels.h */
+#define tb_moller_trumbore_mix {0, 30, 24, 10, 1, 0}

@@ -19,3 +19,5 @@
 #define tb_moller_trumbore_aa_prepare_f64 tb_prepare_vertices_f64
 #define tb_moller_trumbore_aa_ray_f32 tb_ray_plain_f32
 #define tb_moller_trumbore_aa_ray_f64 tb_ray_plain_f64
+
+#define tb_moller_trumbore_aa_mix tb_moller_trumbore_mix /* per class, as moller_trumbore */

@@ -64,3 +64,6 @@ static inline int TB_FN(tb_moller_trumbore_cull_test)(const tb_ray *restrict r,
         return 0;
     return TB_FN(tb_divide_hit)(scaled_t, u, v, det, t_max, h);
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), on the hit path, the split of tb_moller_trumbore_cull_ops; see kernels.h */
+#define tb_moller_trumbore_cull_mix {0, 26, 24, 9, 1, 0}

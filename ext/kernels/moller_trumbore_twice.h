@@ -49,3 +49,6 @@ TB_TWICE_TIME(time_closest)
 TB_TWICE_TIME(time_closest_uv)
 #undef TB_TWICE_RUN
 #undef TB_TWICE_TIME
+
+/* per class: twice moller_trumbore's (fma, mul, add, cmp, div, logic) */
+#define tb_moller_trumbore_twice_mix {0, 60, 48, 20, 2, 0}

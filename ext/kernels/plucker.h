@@ -120,3 +120,6 @@ static inline int TB_FN(tb_plucker_test)(const tb_ray *restrict r, const real *r
     h->v = side_ab * inv_sum;
     return 1;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), on the hit path, the split of tb_plucker_ops; see kernels.h */
+#define tb_plucker_mix {0, 44, 51, 11, 1, 0}

@@ -69,3 +69,6 @@ TB_WIDE vmask TB_FN(tb_plucker_x8_test)(const tb_vray *restrict r, const real *r
     h->v = side_ab * inv_sum;
     return hit;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled AVX2 block loop (tests/test_ext_build.py); see kernels.h */
+#define tb_plucker_x8_mix {0, 44, 51, 14, 1, 20}

@@ -164,3 +164,6 @@ static inline int TB_FN(tb_woop_test)(const tb_ray *restrict r, const real *rest
     /* one division on a hit */
     return TB_FN(tb_divide_hit)(scaled_t, edge_ca, edge_ab, det, t_max, h);
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), on the hit path, the split of tb_woop_ops; see kernels.h */
+#define tb_woop_mix {0, 20, 22, 14, 1, 0}

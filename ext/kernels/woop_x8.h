@@ -76,3 +76,6 @@ TB_WIDE vmask TB_FN(tb_woop_x8_test)(const tb_vray *restrict r, const real *rest
     h->v = edge_ab * inv_det;
     return hit;
 }
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled AVX2 block loop (tests/test_ext_build.py); see kernels.h */
+#define tb_woop_x8_mix {0, 22, 22, 15, 1, 19}
