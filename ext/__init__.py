@@ -419,7 +419,7 @@ def prepare(kernel: str, triangles: np.ndarray, *, allow_nonfinite: bool = False
     info = kernel_info(kernel)
     tris = _check_array("triangles", triangles, (3, 3), allow_nonfinite)
     n = len(tris)
-    shape = (n, info.stride) if info.lanes == 1 else (-(-n // 8), info.stride, 8)
+    shape = (n, info.stride) if info.lanes == 1 else (-(-n // info.lanes), info.stride, info.lanes)
     records = np.empty(shape, dtype=tris.dtype)
     _core.prepare(kernel, tris.itemsize, tris, n, records, flat(tris).view(np.uint8))
     records.flags.writeable = False
