@@ -104,7 +104,11 @@ def test_the_declarations_say_what_the_readme_and_the_papers_say():
     assert {k for k, i in INFO.items() if i.culls_back_faces} == {"moller_trumbore_cull", "moller_trumbore_cull_x8"}
     assert {k for k, i in INFO.items() if i.watertight != "none"} == {"woop", "woop_x8"}
     assert {k for k, i in INFO.items() if i.seed_replay} == {"curless_seed", "moller_seed"}
-    assert {k for k, i in INFO.items() if i.internal} == {"moller_trumbore_aa", "moller_trumbore_twice", "moller_trumbore_yardstick"}
+    assert {k for k, i in INFO.items() if i.internal} == {
+        "moller_trumbore_aa",
+        "moller_trumbore_twice",
+        "moller_trumbore_yardstick",
+    }
 
 
 # ------------------------------------------------------ no inference from names

@@ -82,8 +82,11 @@ TB_NWIDE nmask TB_NFN(tb_mt_fma)(const tb_nray *restrict r, const real *restrict
     nmask first = nv_ge(u, zero);
     if (early_exit) {
         first = nm_and(first, nv_le(u, abs_det));
-        if (!nm_any(first))
+        if (!nm_any(first)) {
+            h->t = h->u = h->v = u; /* unread (no lane set): defined all the same */
+            h->den = abs_det;
             return first;
+        }
     }
     nreal qx = nv_fmsub(sy, e1[2], sz * e1[1]);
     nreal qy = nv_fmsub(sz, e1[0], sx * e1[2]);
