@@ -19,7 +19,12 @@ Kernels (see ``kernel_names()``; each C file's header cites its paper):
 * ``<name>_x8``: the wide form of a kernel (branchless, one ray against
   blocks of 8 triangles stored structure of arrays), compiled for several
   instruction sets and run with the best one this CPU has (see
-  ``kernel_info``; ``TRIBENCH_ISA=baseline`` forces the build's baseline).
+  ``kernel_info``; ``TRIBENCH_ISA=baseline`` forces the build's baseline);
+* ``moller_trumbore_fma`` and ``moller_trumbore_fma_exit``: native wide
+  kernels (no scalar form): Moller-Trumbore at the widest vector the CPU
+  has (16 float lanes with AVX-512, 8 with AVX2 + FMA), fused
+  multiply-adds, stored edges, blocks of 16 triangles; held to the
+  reference with an error bound, not bit for bit to ``moller_trumbore``.
 
 Internal kernels, for the harness's honesty checks (listed only by
 ``kernel_names(internal=True)``, accepted everywhere a kernel name is):
@@ -27,7 +32,9 @@ Internal kernels, for the harness's honesty checks (listed only by
 * ``moller_trumbore_aa``: an identical copy of ``moller_trumbore`` under
   another name (A/A calibration);
 * ``moller_trumbore_twice``: ``moller_trumbore`` doing every test twice (a
-  known 2x effect).
+  known 2x effect);
+* ``moller_trumbore_yardstick``: a plain AVX2 intrinsics Moller-Trumbore
+  (AVX2 only), the yardstick of ``bench/yardstick.py``.
 
 ``fma_peak()`` measures the core's arithmetic peak with a short loop of
 independent 8-lane FMAs.
@@ -114,7 +121,7 @@ def kernel_names(internal: bool = False) -> tuple[str, ...]:
     >>> "moller_trumbore" in kernel_names()
     True
     >>> [k for k in kernel_names(internal=True) if k not in kernel_names()]
-    ['moller_trumbore_aa', 'moller_trumbore_twice']
+    ['moller_trumbore_aa', 'moller_trumbore_twice', 'moller_trumbore_yardstick']
     """
     return _KERNELS if internal else _PUBLIC
 
@@ -132,7 +139,9 @@ class KernelInfo:
     ----------
     name : str
     lanes : int
-        1 for a scalar early-exit kernel, 8 for a wide form.
+        Triangles per record block: 1 for a scalar early-exit kernel, 8 for
+        an ``_x8`` wide form, 16 for a native wide kernel (one vector of 16
+        float lanes with AVX-512, two of 8 with AVX2).
     stride : int
         Reals of prepared data per triangle.
     ops : int
@@ -405,9 +414,10 @@ class Prepared:
     records : ndarray, read-only
         Shape (K, stride) for a scalar kernel: raw vertices for kernels that
         test them directly; vertices plus precomputed planes or normals for
-        the others. A wide kernel's are the same records in blocks of 8
-        triangles, structure of arrays: shape (ceil(K / 8), stride, 8), lanes
-        past the last triangle zero. An exactly flat triangle's record is all
+        the others. A wide kernel's are the same records in blocks of
+        L = ``kernel_info(kernel).lanes`` triangles (8 or 16), structure of
+        arrays: shape (ceil(K / L), stride, L), lanes past the last triangle
+        zero. An exactly flat triangle's record is all
         NaN (every ray misses it), except for the seed replays, which keep
         the seed's behaviour (see each kernel's header and :func:`flat`).
     n_triangles : int
@@ -432,7 +442,7 @@ def prepare(kernel: str, triangles: np.ndarray, *, allow_nonfinite: bool = False
     info = kernel_info(kernel)
     tris = _check_array("triangles", triangles, (3, 3), allow_nonfinite)
     n = len(tris)
-    shape = (n, info.stride) if info.lanes == 1 else (-(-n // 8), info.stride, 8)
+    shape = (n, info.stride) if info.lanes == 1 else (-(-n // info.lanes), info.stride, info.lanes)
     records = np.empty(shape, dtype=tris.dtype)
     _core.prepare(kernel, tris.itemsize, tris, n, records, flat(tris).view(np.uint8))
     records.flags.writeable = False

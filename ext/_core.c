@@ -17,6 +17,9 @@
 #include <stdint.h>
 #include <string.h>
 #include <time.h>
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#endif
 
 #define TB_CAT_(a, b) a##b
 #define TB_CAT(a, b) TB_CAT_(a, b)
@@ -147,7 +150,9 @@ typedef struct {
     const char *promised_by; /* the paper that promises watertightness ("" if none) */
     int origin;              /* TB_CLEAN or TB_SEED_REPLAY */
     int flat;     /* TB_FLAT_MISS or TB_FLAT_AS_IS (kernels.h: tb_<name>_flat) */
-    int lanes;    /* 1: scalar early-exit form; 8: wide form, blocks of 8 triangles */
+    int lanes;    /* triangles per record block: 1 scalar early-exit form; 8 an _x8 form;
+                     16 a native form (native.h; one vector's worth per ISA) */
+    int fma;      /* its AVX2 loops use FMA too (native forms) */
     size_t stride; /* reals per prepared triangle */
     int ops;       /* arithmetic operations per test (and lane), see kernels.h */
     int n_isas;
@@ -161,16 +166,18 @@ typedef struct {
       {TB_CAT(tb_##name##_time_pairs, sfx), TB_CAT(tb_##name##_time_any, sfx),               \
        TB_CAT(tb_##name##_time_closest, sfx), TB_CAT(tb_##name##_time_closest_uv, sfx)}}}
 #define TB_SCALAR_ENTRY_(name, internal, faces, watertight, promised_by, origin)             \
-    {#name, NULL, internal, faces, watertight, promised_by, origin, tb_##name##_flat, 1,    \
+    {#name, NULL, internal, faces, watertight, promised_by, origin, tb_##name##_flat, 1, 0, \
      tb_##name##_stride, tb_##name##_ops, 1, tb_scalar_isa_names,                            \
      {(tb_prepare_fn)tb_##name##_prepare_f32, TB_SCALAR_LOOPS(name, _f32)},                  \
      {(tb_prepare_fn)tb_##name##_prepare_f64, TB_SCALAR_LOOPS(name, _f64)}},
 #define TB_ENTRY(name, faces, watertight, promised_by, origin, wide)                         \
-    TB_SCALAR_ENTRY_(name, 0, faces, watertight, promised_by, origin)
-/* an internal kernel has no wide form: TB_X8 in its line does not compile */
-#define TB_SCALAR_ONLY_TB_SCALAR_ONLY
+    TB_IF_SCALAR(wide, TB_SCALAR_ENTRY_(name, 0, faces, watertight, promised_by, origin))
+/* an internal kernel has no _x8 form: TB_X8 in its line does not compile */
 #define TB_INTERNAL_ENTRY(name, faces, watertight, promised_by, origin, wide)                \
-    TB_SCALAR_ONLY_##wide TB_SCALAR_ENTRY_(name, 1, faces, watertight, promised_by, origin)
+    TB_NO_X8_##wide TB_IF_SCALAR(wide, TB_SCALAR_ENTRY_(name, 1, faces, watertight, promised_by, origin))
+#define TB_NO_X8_TB_SCALAR_ONLY
+#define TB_NO_X8_TB_NATIVE
+#define TB_NO_X8_TB_NATIVE_AVX2
 
 #define TB_WIDE_LOOPS(name, isa, target, sfx)                                                \
     {{NULL, TB_CAT(tb_##name##_x8_run_any_##isa, sfx), TB_CAT(tb_##name##_x8_run_closest_##isa, sfx), \
@@ -183,7 +190,7 @@ typedef struct {
 /* The wide form <name>_x8 of a line with TB_X8: its kernel's declared
  * properties, stride, flat and prepare; its own ops and loops. */
 #define TB_WIDE_FORM_ENTRY_(name, faces, watertight, promised_by, origin)                         \
-    {#name "_x8", #name, 0, faces, watertight, promised_by, origin, tb_##name##_flat, 8,    \
+    {#name "_x8", #name, 0, faces, watertight, promised_by, origin, tb_##name##_flat, 8, 0, \
      tb_##name##_stride, tb_##name##_x8_ops,                                                 \
      (int)(sizeof tb_isa_names / sizeof *tb_isa_names), tb_isa_names,                        \
      {(tb_prepare_fn)tb_##name##_prepare_f32, {TB_ISA_LIST(TB_WIDE_LOOPS_F32, name)}},        \
@@ -191,8 +198,39 @@ typedef struct {
 #define TB_WIDE_FORM_ENTRY(name, faces, watertight, promised_by, origin, wide)                    \
     TB_IF_X8(wide, TB_WIDE_FORM_ENTRY_(name, faces, watertight, promised_by, origin))
 
+
+/* A native kernel (wide column TB_NATIVE or TB_NATIVE_AVX2): its own stride,
+ * ops, flat, prepare and loops, one set per ISA of its list. */
+#define TB_NATIVE_LOOPS(name, isa, sfx)                                                     \
+    {{NULL, TB_CAT(tb_##name##_run_any_##isa, sfx), TB_CAT(tb_##name##_run_closest_##isa, sfx), \
+      TB_CAT(tb_##name##_run_closest_##isa, sfx)},                                          \
+     {NULL, TB_CAT(tb_##name##_time_any_##isa, sfx),                                        \
+      TB_CAT(tb_##name##_time_closest_##isa, sfx),                                          \
+      TB_CAT(tb_##name##_time_closest_uv_##isa, sfx)}},
+#define TB_NATIVE_LOOPS_F32(name, isa) TB_NATIVE_LOOPS(name, isa, _f32)
+#define TB_NATIVE_LOOPS_F64(name, isa) TB_NATIVE_LOOPS(name, isa, _f64)
+#define TB_NATIVE_ISA_NAME(name, isa) #isa,
+static const char *const tb_native_isa_names[] = {TB_NATIVE_ISA_LIST(TB_NATIVE_ISA_NAME, )};
+static const char *const tb_native_avx2_isa_names[] = {TB_NATIVE_AVX2_ISA_LIST(TB_NATIVE_ISA_NAME, )};
+#define TB_NATIVE_FORM_(name, internal, faces, watertight, promised_by, origin, list, names)   \
+    {#name, NULL, internal, faces, watertight, promised_by, origin, tb_##name##_flat, 16, 1,     \
+     tb_##name##_stride, tb_##name##_ops, (int)(sizeof names / sizeof *names), names,          \
+     {(tb_prepare_fn)tb_##name##_prepare_f32, {list(TB_NATIVE_LOOPS_F32, name)}},              \
+     {(tb_prepare_fn)tb_##name##_prepare_f64, {list(TB_NATIVE_LOOPS_F64, name)}}},
+#define TB_NATIVE_FORM(internal, name, faces, watertight, promised_by, origin, wide)          \
+    TB_NATIVE_FORM_##wide(name, internal, faces, watertight, promised_by, origin)
+#define TB_NATIVE_FORM_TB_SCALAR_ONLY(...)
+#define TB_NATIVE_FORM_TB_X8(...)
+#define TB_NATIVE_FORM_TB_NATIVE(...) TB_NATIVE_FORM_(__VA_ARGS__, TB_NATIVE_ISA_LIST, tb_native_isa_names)
+#define TB_NATIVE_FORM_TB_NATIVE_AVX2(...)                                                       \
+    TB_NATIVE_FORM_(__VA_ARGS__, TB_NATIVE_AVX2_ISA_LIST, tb_native_avx2_isa_names)
+#define TB_NATIVE_PUBLIC(...) TB_NATIVE_FORM(0, __VA_ARGS__)
+#define TB_NATIVE_INTERNAL(...) TB_NATIVE_FORM(1, __VA_ARGS__)
+
 static const tb_kernel tb_kernels[] = {TB_KERNEL_LIST(TB_ENTRY) TB_KERNEL_LIST(TB_WIDE_FORM_ENTRY)
-                                           TB_INTERNAL_KERNEL_LIST(TB_INTERNAL_ENTRY)};
+                                           TB_KERNEL_LIST(TB_NATIVE_PUBLIC)
+                                           TB_INTERNAL_KERNEL_LIST(TB_INTERNAL_ENTRY)
+                                           TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INTERNAL)};
 static const size_t tb_n_kernels = sizeof tb_kernels / sizeof tb_kernels[0];
 
 /* Whether this CPU can run ISA `i` of a wide kernel (scalar kernels: always). */
@@ -203,8 +241,18 @@ static int tb_isa_runnable(const tb_kernel *k, int i)
 #if defined(__x86_64__) || defined(__i386__)
     __builtin_cpu_init();
 #endif
+    /* by name: a native kernel's list is not the _x8 forms' */
+    const char *const names[] = TB_ISA_NAMES;
     const int runnable[] = TB_ISA_RUNNABLE;
-    return runnable[i];
+    for (size_t j = 0; j < sizeof names / sizeof *names; ++j)
+        if (strcmp(names[j], k->isa_names[i]) == 0) {
+#if defined(__x86_64__) || defined(__i386__)
+            if (k->fma && strcmp(names[j], "avx2") == 0)
+                return runnable[j] && __builtin_cpu_supports("fma");
+#endif
+            return runnable[j];
+        }
+    return 0;
 }
 
 /* The kernel for a name, or NULL with a Python exception set. */
@@ -263,21 +311,21 @@ static void tb_prepare_scalar(const tb_kernel *k, const tb_variant *v, Py_ssize_
             }
 }
 
-/* Records of a wide kernel: the scalar records of each block of 8
- * triangles, transposed to structure of arrays (field f of lane l at
- * 8 f + l); lanes past the last triangle are zero (the loops mask them). */
+/* Records of a wide kernel: the scalar records of each block of `lanes`
+ * (8 or 16) triangles, transposed to structure of arrays (field f of lane l
+ * at lanes f + l); lanes past the last triangle are zero (the loops mask them). */
 static int tb_prepare_blocked(const tb_kernel *k, const tb_variant *v, Py_ssize_t itemsize,
                               const void *vertices, const uint8_t *flat, size_t n, void *out)
 {
-    size_t stride = k->stride, blocks = (n + 7) / 8;
+    size_t stride = k->stride, lanes = (size_t)k->lanes, blocks = (n + lanes - 1) / lanes;
     char *scalar = malloc(n * stride * (size_t)itemsize);
     if (!scalar)
         return -1;
     tb_prepare_scalar(k, v, itemsize, vertices, flat, n, scalar);
-    memset(out, 0, blocks * 8 * stride * (size_t)itemsize);
+    memset(out, 0, blocks * lanes * stride * (size_t)itemsize);
     for (size_t i = 0; i < n; ++i)
         for (size_t f = 0; f < stride; ++f)
-            memcpy((char *)out + ((i / 8) * 8 * stride + f * 8 + i % 8) * (size_t)itemsize,
+            memcpy((char *)out + ((i / lanes) * lanes * stride + f * lanes + i % lanes) * (size_t)itemsize,
                    scalar + (i * stride + f) * (size_t)itemsize, (size_t)itemsize);
     free(scalar);
     return 0;
@@ -286,7 +334,7 @@ static int tb_prepare_blocked(const tb_kernel *k, const tb_variant *v, Py_ssize_
 /* Reals a kernel's records take for n triangles (wide: whole blocks). */
 static Py_ssize_t tb_record_reals(const tb_kernel *k, Py_ssize_t n)
 {
-    return (Py_ssize_t)k->stride * (k->lanes == 1 ? n : (n + 7) / 8 * 8);
+    return (Py_ssize_t)k->stride * ((n + k->lanes - 1) / k->lanes * k->lanes);
 }
 
 /* ----------------------------------------------------------- buffer checks */

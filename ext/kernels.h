@@ -314,7 +314,8 @@ stop:
     TB_SCALAR_ENTRY(name, time_any, TB_ANY, 1)                       \
     TB_SCALAR_ENTRY(name, time_closest, TB_CLOSEST, 1)               \
     TB_SCALAR_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1)
-#define TB_INSTANTIATE(name, ...) TB_INSTANTIATE_(name) /* a registration line (list.h) */
+#define TB_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
+    TB_IF_SCALAR(wide, TB_INSTANTIATE_(name)) /* a registration line (list.h) */
 TB_KERNEL_LIST(TB_INSTANTIATE)
 TB_INSTANTIATE_(moller_trumbore_aa)
 #undef TB_INSTANTIATE
@@ -340,6 +341,36 @@ TB_INSTANTIATE_(moller_trumbore_aa)
     TB_IF_X8(wide, TB_ISA_LIST(TB_WIDE_ISA, name))
 TB_KERNEL_LIST(TB_INSTANTIATE_WIDE)
 #undef TB_INSTANTIATE_WIDE
+
+/* The native kernels (native.h), one pass per ISA; the first pass of each
+ * precision also defines their per-precision parts (TB_NFIRST). */
+#define TB_NFIRST 1
+#if defined(__x86_64__) || defined(__i386__)
+#define TB_NISA avx512
+#define TB_NISA_ID 2
+#define TB_NTARGET TB_TARGET_AVX512_FMA
+#include "native.h"
+#undef TB_NTARGET
+#undef TB_NISA_ID
+#undef TB_NISA
+#undef TB_NFIRST
+#define TB_NFIRST 0
+#define TB_NISA avx2
+#define TB_NISA_ID 1
+#define TB_NTARGET TB_TARGET_AVX2_FMA
+#include "native.h"
+#undef TB_NTARGET
+#undef TB_NISA_ID
+#undef TB_NISA
+#endif
+#define TB_NISA baseline
+#define TB_NISA_ID 0
+#define TB_NTARGET
+#include "native.h"
+#undef TB_NTARGET
+#undef TB_NISA_ID
+#undef TB_NISA
+#undef TB_NFIRST
 
 #undef TB_VPB
 #undef TB_VLANES

@@ -76,9 +76,11 @@ def _loop_arithmetic(code: str) -> int:
 def test_documented_ops_are_the_compiled_arithmetic(disassembly, kernel):
     """A wide kernel's documented operation count (the bound of `tribench info
     --peak`) is the arithmetic its compiled block loop does: one float vector
-    per block of 8, so the count per lane. A kernel edited without its count,
-    or arithmetic the compiler fused or dropped, fails here."""
-    code = disassembly[f"tb_{kernel}_time_closest_avx2_f32"]
+    per block (of 8 with AVX2 for an _x8 form, of 16 with AVX-512 for a native
+    one), so the count per lane. A kernel edited without its count, or
+    arithmetic the compiler fused or dropped, fails here."""
+    isa = {8: "avx2", 16: "avx512"}[ext.kernel_info(kernel).lanes]
+    code = disassembly[f"tb_{kernel}_time_closest_{isa}_f32"]
     assert _loop_arithmetic(code) == ext.kernel_info(kernel).ops
 
 

@@ -42,7 +42,7 @@ def test_every_property_is_a_field_read_from_the_extension():
         "precisions",
     } <= fields
     for k, info in INFO.items():
-        assert info.name == k and info.lanes in (1, 8) and info.stride > 0 and info.ops > 0
+        assert info.name == k and info.lanes in (1, 8, 16) and info.stride > 0 and info.ops > 0
         assert isinstance(info.culls_back_faces, bool) and isinstance(info.seed_replay, bool)
         assert info.watertight in ("none", "edges_and_vertices")
         assert bool(info.watertight_source) == (info.watertight != "none"), k  # a promise names its paper
@@ -78,7 +78,10 @@ def test_a_wide_form_has_its_scalar_forms_properties():
             assert getattr(wide, prop) == getattr(scalar, prop), (k, prop)
     # and each scalar kernel's wide form points back to it
     assert {i.wide_form for i in INFO.values() if i.wide_form} == set(WIDE)
-    assert all(INFO[k].lanes == 1 for k in KERNELS if k not in WIDE)
+    # the rest are scalar, but for the native wide kernels (native.h), which have no scalar form
+    native = {cols[0] for rows in _registration_lines().values() for cols in rows if cols[5].startswith("TB_NATIVE")}
+    assert native and all(INFO[k].lanes == 16 and INFO[k].wide_form is None for k in native)
+    assert all(INFO[k].lanes == 1 for k in KERNELS if k not in WIDE and k not in native)
 
 
 def test_seed_replays_keep_the_seeds_flat_triangles_and_nothing_else_does():
@@ -101,7 +104,11 @@ def test_the_declarations_say_what_the_readme_and_the_papers_say():
     assert {k for k, i in INFO.items() if i.culls_back_faces} == {"moller_trumbore_cull", "moller_trumbore_cull_x8"}
     assert {k for k, i in INFO.items() if i.watertight != "none"} == {"woop", "woop_x8"}
     assert {k for k, i in INFO.items() if i.seed_replay} == {"curless_seed", "moller_seed"}
-    assert {k for k, i in INFO.items() if i.internal} == {"moller_trumbore_aa", "moller_trumbore_twice"}
+    assert {k for k, i in INFO.items() if i.internal} == {
+        "moller_trumbore_aa",
+        "moller_trumbore_twice",
+        "moller_trumbore_yardstick",
+    }
 
 
 # ------------------------------------------------------ no inference from names
@@ -229,7 +236,10 @@ def test_every_kernel_file_is_included_and_registered_once_and_has_a_readme_row(
     helpers = {"vec", "list"}
     files = {p.stem for p in (ROOT / "ext" / "kernels").glob("*.h")} - helpers
     assert files == set(KERNELS), f"unregistered files {files - set(KERNELS)}, missing {set(KERNELS) - files}"
-    includes = re.findall(r'#include "kernels/(\w+)\.h"', (ROOT / "ext" / "kernels.h").read_text())
+    # kernels.h includes the scalar and _x8 files, native.h (included once per ISA) the native ones
+    includes = re.findall(
+        r'#include "kernels/(\w+)\.h"', "".join((ROOT / "ext" / f).read_text() for f in ("kernels.h", "native.h"))
+    )
     assert sorted(set(includes) - helpers) == sorted(files) and len(includes) == len(set(includes))
 
     # a row of the README's Kernels table for each: in the name or wide-form column, once

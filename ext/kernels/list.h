@@ -23,7 +23,11 @@
  *                measured and recorded, never judged
  *   wide         TB_SCALAR_ONLY, or TB_X8: also registered as <name>_x8,
  *                branchless, one ray against blocks of 8 triangles stored
- *                structure of arrays; the same properties as <name>
+ *                structure of arrays; the same properties as <name>;
+ *                or TB_NATIVE: the kernel itself is wide, at the CPU's native
+ *                width (native.h: blocks of 16 triangles, one vector per 16
+ *                float lanes), with no scalar form; TB_NATIVE_AVX2: the same,
+ *                compiled for AVX2 only (the yardstick)
  * Every kernel is compiled for float32 and float64. Bytes per prepared
  * triangle (tb_<name>_stride), operations per test (tb_<name>_ops, and
  * tb_<name>_x8_ops) and what becomes of an exactly flat triangle
@@ -38,7 +42,9 @@
     X(baldwin_weber_9,      TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
     X(havel_herout,         TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
     X(woop,                 TB_BOTH_FACES,  TB_WATERTIGHT, "Woop, Benthin & Wald 2013", TB_CLEAN,       TB_X8)          \
-    X(plucker,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)
+    X(plucker,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
+    X(moller_trumbore_fma,  TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
+    X(moller_trumbore_fma_exit, TB_BOTH_FACES, TB_OPEN,    "",                          TB_CLEAN,       TB_NATIVE)
 
 /* Internal kernels: honesty checks of the harness, not algorithms to compare,
  * with the same columns (none has a wide form). They are compiled and callable
@@ -46,10 +52,12 @@
  * leaves them out; kernel_names(internal=True) includes them).
  * moller_trumbore_aa is an A/A copy of moller_trumbore, moller_trumbore_twice
  * times every pass twice (a known 2x effect). Both are instantiated by name in
- * kernels.h. */
+ * kernels.h. moller_trumbore_yardstick is the plain AVX2 intrinsics form
+ * bench/yardstick.py times the kernels against. */
 #define TB_INTERNAL_KERNEL_LIST(X)                                                           \
     X(moller_trumbore_aa,    TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
-    X(moller_trumbore_twice, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)
+    X(moller_trumbore_twice, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
+    X(moller_trumbore_yardstick, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_NATIVE_AVX2)
 
 /* The values of the columns. */
 enum { TB_BOTH_FACES, TB_FRONT_FACES };
@@ -60,6 +68,30 @@ enum { TB_CLEAN, TB_SEED_REPLAY };
 #define TB_IF_X8(wide, ...) TB_IF_X8_##wide(__VA_ARGS__)
 #define TB_IF_X8_TB_X8(...) __VA_ARGS__
 #define TB_IF_X8_TB_SCALAR_ONLY(...)
+#define TB_IF_X8_TB_NATIVE(...)
+#define TB_IF_X8_TB_NATIVE_AVX2(...)
+/* TB_IF_SCALAR(wide, ...): for a kernel with a scalar form (not a native one) */
+#define TB_IF_SCALAR(wide, ...) TB_IF_SCALAR_##wide(__VA_ARGS__)
+#define TB_IF_SCALAR_TB_SCALAR_ONLY(...) __VA_ARGS__
+#define TB_IF_SCALAR_TB_X8(...) __VA_ARGS__
+#define TB_IF_SCALAR_TB_NATIVE(...)
+#define TB_IF_SCALAR_TB_NATIVE_AVX2(...)
+/* TB_IF_NATIVE_ON(wide, isa_id, ...): for a native kernel compiled for the
+ * ISA of that id (TB_NATIVE_ISA_LIST) */
+#define TB_IF_NATIVE_ON(wide, id, ...) TB_IF_NATIVE_ON_(wide, id, __VA_ARGS__)
+#define TB_IF_NATIVE_ON_(wide, id, ...) TB_IF_NATIVE_##wide##_##id(__VA_ARGS__)
+#define TB_IF_NATIVE_TB_SCALAR_ONLY_0(...)
+#define TB_IF_NATIVE_TB_SCALAR_ONLY_1(...)
+#define TB_IF_NATIVE_TB_SCALAR_ONLY_2(...)
+#define TB_IF_NATIVE_TB_X8_0(...)
+#define TB_IF_NATIVE_TB_X8_1(...)
+#define TB_IF_NATIVE_TB_X8_2(...)
+#define TB_IF_NATIVE_TB_NATIVE_0(...) __VA_ARGS__
+#define TB_IF_NATIVE_TB_NATIVE_1(...) __VA_ARGS__
+#define TB_IF_NATIVE_TB_NATIVE_2(...) __VA_ARGS__
+#define TB_IF_NATIVE_TB_NATIVE_AVX2_0(...)
+#define TB_IF_NATIVE_TB_NATIVE_AVX2_1(...) __VA_ARGS__
+#define TB_IF_NATIVE_TB_NATIVE_AVX2_2(...)
 
 /* The instruction sets each wide kernel is compiled for, best first: name,
  * function attribute, and the run-time test that the CPU can run it. The
@@ -72,8 +104,16 @@ enum { TB_CLEAN, TB_SEED_REPLAY };
     X(name, baseline, )
 #define TB_ISA_NAMES {"avx512", "avx2", "baseline"}
 #define TB_ISA_RUNNABLE {__builtin_cpu_supports("avx512f"), __builtin_cpu_supports("avx2"), 1}
+/* The native kernels' passes (native.h, instantiated in kernels.h with these
+ * attributes), best first, and the yardstick's. Their AVX2 pass uses FMA too, so it runs where the CPU has both (tb_isa_runnable). */
+#define TB_TARGET_AVX512_FMA __attribute__((target("avx512f,fma")))
+#define TB_TARGET_AVX2_FMA __attribute__((target("avx2,fma")))
+#define TB_NATIVE_ISA_LIST(X, arg) X(arg, avx512) X(arg, avx2) X(arg, baseline)
+#define TB_NATIVE_AVX2_ISA_LIST(X, arg) X(arg, avx2)
 #else
 #define TB_ISA_LIST(X, name) X(name, baseline, )
 #define TB_ISA_NAMES {"baseline"}
 #define TB_ISA_RUNNABLE {1}
+#define TB_NATIVE_ISA_LIST(X, arg) X(arg, baseline)
+#define TB_NATIVE_AVX2_ISA_LIST(X, arg) /* x86-64 only: the yardstick does not build here */
 #endif
