@@ -113,5 +113,6 @@ def test_declared_mix_is_the_compiled_loop(disassembly, kernel):
     """A wide kernel's per-class counts (the port model's input, ext.kernel_info(k).mix)
     are its compiled block loop's instructions of each class."""
     mix = ext.kernel_info(kernel).mix
-    compiled = _loop_mix(disassembly[f"tb_{kernel}_time_closest_avx2_f32"])
+    isa = {8: "avx2", 16: "avx512"}[ext.kernel_info(kernel).lanes]  # as for the total, above
+    compiled = _loop_mix(disassembly[f"tb_{kernel}_time_closest_{isa}_f32"])
     assert compiled == {c: mix[c] for c in CLASSES}

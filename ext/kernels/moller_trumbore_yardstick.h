@@ -71,3 +71,7 @@ TB_NWIDE nmask TB_NFN(tb_moller_trumbore_yardstick_test)(const tb_nray *restrict
 }
 #undef TB_Y
 #endif
+
+/* operations per test by class (fma, mul, add, cmp, div, logic), per lane: the count above by class
+ * (mul 27, add 24, cmp 5, div 1); logic from its compiled AVX2 loop (27 per 16 lanes); see kernels.h */
+#define tb_moller_trumbore_yardstick_mix {0, 27, 24, 5, 1, 14}
