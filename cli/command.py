@@ -117,6 +117,13 @@ def _new_run_folder(text: str) -> str:
     return out
 
 
+def _add_no_progress(parser: argparse.ArgumentParser) -> None:
+    """--no-progress, stored as the library's ``progress`` argument: False, or None (a bar on a terminal)."""
+    parser.add_argument(
+        "--no-progress", dest="progress", action="store_const", const=False, default=None, help="no progress bar"
+    )
+
+
 def _add_run_out(parser: argparse.ArgumentParser, default: str = "runs/<date-time>") -> None:
     """--out RUN_DIR of a command that creates a run folder (refused up front if it cannot be one)."""
     parser.add_argument("--out", metavar="RUN_DIR", type=_new_run_folder, help=f"new run folder (default {default})")
@@ -186,7 +193,7 @@ def _report_run(result, stream=sys.stderr) -> None:
 def _sweep(args: argparse.Namespace) -> int:
     from tribench.harness import runner
 
-    progress = False if args.no_progress else None
+    progress = args.progress
     if args.resume:
         if any(getattr(args, k) is not None for k in _SWEEP_DESIGN_FLAGS):
             raise UserError("--resume takes no other sweep options: the run's own sweep is used")
@@ -266,7 +273,7 @@ def _run(args: argparse.Namespace) -> int:
     from tribench.reports import format_tables, write_report
 
     out = args.out or _default_run_dir("quick" if args.quick else "")
-    run(out, quick=args.quick, progress=False if args.no_progress else None)
+    run(out, quick=args.quick, progress=args.progress)
     report = write_report(out)
     print(format_tables(out))
     print(f"\nreport: {report}")
@@ -299,9 +306,7 @@ def _peers(args: argparse.Namespace) -> int:
             raise UserError(f"--kernel {args.kernel!r} is not a kernel with a closest-hit mode (see tribench info)")
     path = peers.peers_path(args.out or ".")
     try:
-        frame = peers.measure(
-            path, design, kernel=args.kernel, cpu=args.cpu, progress=False if args.no_progress else None
-        )
+        frame = peers.measure(path, design, kernel=args.kernel, cpu=args.cpu, progress=args.progress)
     except RuntimeError as exc:
         print(f"tribench peers: error: {exc}", file=sys.stderr)
         return 1
@@ -360,7 +365,7 @@ def _seed(args: argparse.Namespace) -> int:
         quick=args.quick,
         size=args.size,
         sample=args.sample,
-        progress=False if args.no_progress else None,
+        progress=args.progress,
         command=shlex.join(words),
     )
     report = write_seed_report(out)
@@ -414,7 +419,7 @@ def _calibrate(args: argparse.Namespace) -> int:
         kernel=args.kernel,
         workloads=workloads,
         save=not args.no_save,
-        progress=False if args.no_progress else None,
+        progress=args.progress,
         **kwargs,
     )
     print(
@@ -535,7 +540,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_design_flags(sweep)
     sweep.add_argument("--cpu", type=flags.cpu, help="CPU to pin workers to (default: the last usable one)")
-    sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_no_progress(sweep)
     sweep.set_defaults(func=_sweep)
 
     st = sub.add_parser(
@@ -562,7 +567,7 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--experiments", type=flags.positive_int, help="number of A/A comparisons (default 10)")
     _add_run_out(cal, "runs/calibrate-<date-time>")
     cal.add_argument("--no-save", action="store_true", help="do not update the user-level calibration")
-    cal.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_no_progress(cal)
     _add_design_flags(cal)
     cal.set_defaults(func=_calibrate)
 
@@ -577,7 +582,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--quick", action="store_true", help="the same shape in under a minute (wide intervals)")
     _add_run_out(run, "runs/[quick-]<date-time>")
-    run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_no_progress(run)
     run.set_defaults(func=_run)
 
     pe = sub.add_parser(
@@ -616,7 +621,7 @@ def build_parser() -> argparse.ArgumentParser:
     pe.add_argument("--kernel", help="tribench's kernel (default: the fastest on this workload)")
     pe.add_argument("--cpu", type=flags.cpu, help="CPU to pin the workers to (default: the last usable one)")
     pe.add_argument("--seed", type=flags.seed, help="seed of the ray samples and orders (default 0)")
-    pe.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_no_progress(pe)
     pe.set_defaults(func=_peers)
 
     val = sub.add_parser(
@@ -663,7 +668,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     seed.add_argument("--quick", action="store_true", help="the same shape in under a minute (128x128, wide intervals)")
     _add_run_out(seed, "runs/seed-[quick-]<date-time>")
-    seed.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_no_progress(seed)
     seed.add_argument("--size", type=flags.positive_int, help=argparse.SUPPRESS)  # image side, for tests
     seed.add_argument("--sample", type=flags.positive_int, help=argparse.SUPPRESS)  # rays sampled per kind, for tests
     seed.set_defaults(func=_seed)
