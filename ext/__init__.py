@@ -162,6 +162,11 @@ class KernelInfo:
         algorithm, properties and answers); None for a scalar kernel.
     wide_form : str or None
         For a scalar kernel that has one, the name of its wide form.
+    algorithm : str
+        The clean scalar kernel whose algorithm this kernel is a form of:
+        itself for a scalar kernel (a seed replay is its own), the scalar form
+        for an ``_x8`` form, the one a native kernel declares
+        (``tb_<name>_algorithm`` in its file). Rankings by algorithm group by it.
     culls_back_faces : bool
         Only front faces count: ``det = e1 . (d x e2) > 0``, the vertices
         counter-clockwise seen from the ray's origin.
@@ -191,6 +196,7 @@ class KernelInfo:
     isa: str
     scalar_form: str | None
     wide_form: str | None
+    algorithm: str
     culls_back_faces: bool
     watertight: str
     watertight_source: str

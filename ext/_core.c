@@ -144,6 +144,8 @@ typedef struct {
 typedef struct {
     const char *name;
     const char *scalar_form; /* a wide form: the kernel it is the wide form of; else NULL */
+    const char *algorithm;   /* the clean scalar kernel whose algorithm this is a form of (itself
+                                for a scalar kernel; a native kernel declares tb_<name>_algorithm) */
     int internal;            /* from TB_INTERNAL_KERNEL_LIST: hidden from the user's list */
     int faces;               /* TB_BOTH_FACES or TB_FRONT_FACES (back faces culled) */
     int watertight;          /* TB_OPEN or TB_WATERTIGHT */
@@ -166,7 +168,7 @@ typedef struct {
       {TB_CAT(tb_##name##_time_pairs, sfx), TB_CAT(tb_##name##_time_any, sfx),               \
        TB_CAT(tb_##name##_time_closest, sfx), TB_CAT(tb_##name##_time_closest_uv, sfx)}}}
 #define TB_SCALAR_ENTRY_(name, internal, faces, watertight, promised_by, origin)             \
-    {#name, NULL, internal, faces, watertight, promised_by, origin, tb_##name##_flat, 1, 0, \
+    {#name, NULL, #name, internal, faces, watertight, promised_by, origin, tb_##name##_flat, 1, 0, \
      tb_##name##_stride, tb_##name##_ops, 1, tb_scalar_isa_names,                            \
      {(tb_prepare_fn)tb_##name##_prepare_f32, TB_SCALAR_LOOPS(name, _f32)},                  \
      {(tb_prepare_fn)tb_##name##_prepare_f64, TB_SCALAR_LOOPS(name, _f64)}},
@@ -190,7 +192,7 @@ typedef struct {
 /* The wide form <name>_x8 of a line with TB_X8: its kernel's declared
  * properties, stride, flat and prepare; its own ops and loops. */
 #define TB_WIDE_FORM_ENTRY_(name, faces, watertight, promised_by, origin)                         \
-    {#name "_x8", #name, 0, faces, watertight, promised_by, origin, tb_##name##_flat, 8, 0, \
+    {#name "_x8", #name, #name, 0, faces, watertight, promised_by, origin, tb_##name##_flat, 8, 0, \
      tb_##name##_stride, tb_##name##_x8_ops,                                                 \
      (int)(sizeof tb_isa_names / sizeof *tb_isa_names), tb_isa_names,                        \
      {(tb_prepare_fn)tb_##name##_prepare_f32, {TB_ISA_LIST(TB_WIDE_LOOPS_F32, name)}},        \
@@ -213,7 +215,8 @@ typedef struct {
 static const char *const tb_native_isa_names[] = {TB_NATIVE_ISA_LIST(TB_NATIVE_ISA_NAME, )};
 static const char *const tb_native_avx2_isa_names[] = {TB_NATIVE_AVX2_ISA_LIST(TB_NATIVE_ISA_NAME, )};
 #define TB_NATIVE_FORM_(name, internal, faces, watertight, promised_by, origin, list, names)   \
-    {#name, NULL, internal, faces, watertight, promised_by, origin, tb_##name##_flat, 16, 1,     \
+    {#name, NULL, tb_##name##_algorithm, internal, faces, watertight, promised_by, origin,      \
+     tb_##name##_flat, 16, 1,                                                                  \
      tb_##name##_stride, tb_##name##_ops, (int)(sizeof names / sizeof *names), names,          \
      {(tb_prepare_fn)tb_##name##_prepare_f32, {list(TB_NATIVE_LOOPS_F32, name)}},              \
      {(tb_prepare_fn)tb_##name##_prepare_f64, {list(TB_NATIVE_LOOPS_F64, name)}}},
@@ -442,8 +445,9 @@ static PyObject *py_kernel_info(PyObject *Py_UNUSED(self), PyObject *args)
         return NULL;
     }
     return Py_BuildValue(
-        "{s:i,s:z,s:n,s:i,s:O,s:N,s:O,s:s,s:s,s:O,s:s,s:N}",
-        "lanes", k->lanes, "scalar_form", k->scalar_form, "stride", (Py_ssize_t)k->stride,
+        "{s:i,s:z,s:s,s:n,s:i,s:O,s:N,s:O,s:s,s:s,s:O,s:s,s:N}",
+        "lanes", k->lanes, "scalar_form", k->scalar_form, "algorithm", k->algorithm,
+        "stride", (Py_ssize_t)k->stride,
         "ops", k->ops, "internal", k->internal ? Py_True : Py_False, "isas", isas,
         "culls_back_faces", k->faces == TB_FRONT_FACES ? Py_True : Py_False,
         "watertight", k->watertight == TB_WATERTIGHT ? "edges_and_vertices" : "none",

@@ -21,7 +21,8 @@
  *
  * A native kernel file kernels/<name>.h (wide column TB_NATIVE in list.h)
  * defines, like a scalar kernel, tb_<name>_stride, _ops, _flat, _prepare and
- * _ray (once per precision: in the first pass, #if TB_NFIRST), and per ISA:
+ * _ray (once per precision: in the first pass, #if TB_NFIRST), _algorithm (the
+ * name of the clean scalar kernel it is a form of, as a string), and per ISA:
  *   nmask tb_<name>_test(const tb_nray *r, const real *lanes, nreal t_max, tb_nhit *h)
  *       the candidates among one vector's worth of triangles (lanes[16 f + l]):
  *       a lane is set where the hit passes every test that needs no division,

@@ -34,6 +34,7 @@ def test_every_property_is_a_field_read_from_the_extension():
         "internal",
         "scalar_form",
         "wide_form",
+        "algorithm",
         "culls_back_faces",
         "watertight",
         "watertight_source",
@@ -82,6 +83,19 @@ def test_a_wide_form_has_its_scalar_forms_properties():
     native = {cols[0] for rows in _registration_lines().values() for cols in rows if cols[5].startswith("TB_NATIVE")}
     assert native and all(INFO[k].lanes == 16 and INFO[k].wide_form is None for k in native)
     assert all(INFO[k].lanes == 1 for k in KERNELS if k not in WIDE and k not in native)
+
+
+def test_every_kernel_is_a_form_of_a_scalar_kernel_with_its_promises():
+    """kernel_info(k).algorithm: what rankings by algorithm group by."""
+    for k, info in INFO.items():
+        alg = INFO[info.algorithm]
+        assert alg.lanes == 1 and alg.algorithm == info.algorithm, k  # a scalar kernel, its own algorithm
+        assert (info.algorithm == k) == (info.lanes == 1), k
+        if info.scalar_form:
+            assert info.algorithm == info.scalar_form
+        for prop in ("culls_back_faces", "watertight", "seed_replay"):
+            assert getattr(info, prop) == getattr(alg, prop), (k, prop)
+        assert alg.internal <= info.internal, k  # a public kernel is a form of a public algorithm
 
 
 def test_seed_replays_keep_the_seeds_flat_triangles_and_nothing_else_does():

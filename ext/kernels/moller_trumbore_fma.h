@@ -34,6 +34,7 @@
  */
 
 #if TB_NFIRST
+#define tb_moller_trumbore_fma_algorithm "moller_trumbore" /* the clean scalar kernel it is a form of */
 #define tb_moller_trumbore_fma_stride 9 /* reals per triangle: v0, e1, e2 */
 #define tb_moller_trumbore_fma_flat TB_FLAT_MISS
 #define tb_moller_trumbore_fma_ray_f32 tb_ray_plain_f32

@@ -10,6 +10,7 @@
  */
 
 #if TB_NFIRST
+#define tb_moller_trumbore_fma_exit_algorithm "moller_trumbore" /* the clean scalar kernel it is a form of */
 #define tb_moller_trumbore_fma_exit_stride tb_moller_trumbore_fma_stride
 #define tb_moller_trumbore_fma_exit_flat TB_FLAT_MISS
 #define tb_moller_trumbore_fma_exit_ray_f32 tb_ray_plain_f32

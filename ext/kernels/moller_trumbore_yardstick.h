@@ -13,6 +13,7 @@
  */
 
 #if TB_NFIRST
+#define tb_moller_trumbore_yardstick_algorithm "moller_trumbore" /* the clean scalar kernel it is a form of */
 #define tb_moller_trumbore_yardstick_stride 9
 #define tb_moller_trumbore_yardstick_flat TB_FLAT_MISS
 #define tb_moller_trumbore_yardstick_prepare_f32 tb_prepare_vertices_f32
