@@ -452,7 +452,9 @@ def write_all(
         runfolder.OUTLIERS: t.outlier_table(labels, wl),
         runfolder.WARMUP: t.warmup_table(labels, wl),
         runfolder.KERNELS: t.kernel_table(kernels, batches, run, est, spd, result.baseline),
+        runfolder.RANKING: t.ranking_table(est, spd, pp, result.margin.value),
     }
+    tables[runfolder.ALGORITHMS] = t.algorithm_table(tables[runfolder.RANKING], pp, result.margin.value)
     peer_tables, peer_note = _peer_tables(run_dir)
     tables.update(peer_tables)
     for name, frame in tables.items():

@@ -96,6 +96,8 @@ VARIANCE = "variance.csv"
 OUTLIERS = "outliers.csv"
 WARMUP = "warmup.csv"
 KERNELS = "kernels.csv"
+RANKING = "ranking.csv"
+ALGORITHMS = "algorithms.csv"
 PEER_RATES = "peer_rates.csv"
 PEER_RATIOS = "peer_ratios.csv"
 #: What the derived tables were made from (batches.csv's digest, baseline, margin, tables, pictures).
@@ -391,6 +393,54 @@ _KERNELS: dict[str, str] = {
     "verdicts": "the family's workloads counted by verdict",
 }
 
+_RANKING: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "family": "workload family",
+    "label": "what varies inside the family, in words",
+    "dtype": "precision of the workload",
+    "rank": "1 = the lowest ns_per_test on this workload, then in order",
+    "kernel": "kernel name",
+    "algorithm": "the clean scalar kernel whose algorithm the kernel is a form of (tribench.ext.kernel_info)",
+    "ns_per_test": "ns per test (estimates.csv)",
+    "ns_per_test_ci_low": "lower end of its 95% confidence interval",
+    "ns_per_test_ci_high": "upper end of that interval",
+    "vs_fastest": (
+        "time_kernel / time_fastest, paired by process (1 for the fastest; above 1: slower than it); unitless"
+    ),
+    "vs_fastest_ci_low": (
+        "lower end of its simultaneous confidence interval (Bonferroni over the workload's other kernels)"
+    ),
+    "vs_fastest_ci_high": "upper end of that interval",
+    "tied_with_fastest": (
+        "True when the interval reaches down to 1 + margin: the data cannot tell this kernel from the fastest"
+    ),
+    "speedup": "speedup over the baseline, time_baseline / time_kernel (speedups.csv; 1 for the baseline)",
+    "speedup_ci_low": "lower end of its interval (speedups.csv)",
+    "speedup_ci_high": "upper end of that interval",
+    "baseline": "the baseline kernel",
+    "watertight": "True when the kernel's paper promises no crack on shared edges (tribench validate holds it)",
+    "culls_back_faces": "True when the kernel skips back faces (it answers a different question)",
+    "bytes_per_triangle": "bytes of prepared data per triangle at that precision (empty: unknown to this build)",
+    "form": "scalar, or N lanes for a wide kernel",
+}
+
+_ALGORITHMS: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "family": "workload family",
+    "label": "what varies inside the family, in words",
+    "dtype": "precision of the workload",
+    "algorithm": "the faster algorithm of the pair (by point estimate): a clean scalar kernel's name",
+    "kernel": "its fastest form on this workload (ranking.csv)",
+    "other_algorithm": "the other algorithm of the pair",
+    "other_kernel": "its fastest form on this workload",
+    "ratio": "time_other_kernel / time_kernel, paired by process (above 1: algorithm is faster); unitless",
+    "ratio_ci_low": "lower end of its simultaneous confidence interval (Bonferroni over the workload's pairs)",
+    "ratio_ci_high": "upper end of that interval",
+    "n_processes": "paired processes (count)",
+    "confidence": "per-comparison confidence level actually used (Bonferroni-adjusted)",
+    "verdict": "faster, equivalent or inconclusive (stats.verdict with the run's margin)",
+}
+
 _PEER_RATES: dict[str, str] = {
     "contender": "tribench, tribench_call, trimesh or embree",
     "implementation": "what ran, with its version",
@@ -510,6 +560,8 @@ FILES: dict[str, dict[str, str]] = {
     OUTLIERS: _OUTLIERS,
     WARMUP: _WARMUP,
     KERNELS: _KERNELS,
+    RANKING: _RANKING,
+    ALGORITHMS: _ALGORITHMS,
     PEER_RATES: _PEER_RATES,
     PEER_RATIOS: _PEER_RATIOS,
 }
@@ -540,6 +592,8 @@ DERIVED: tuple[str, ...] = (
     OUTLIERS,
     WARMUP,
     KERNELS,
+    RANKING,
+    ALGORITHMS,
     PEER_RATES,
     PEER_RATIOS,
 )

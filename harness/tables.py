@@ -493,3 +493,125 @@ def kernel_table(
                 }
             )
     return _frame(rows, runfolder.KERNELS)
+
+
+# ------------------------------------------------------------ ranking
+
+
+def _declared(kernel: str, field: str) -> Any:
+    """A declared property of the kernel (watertight as a bool); None for a kernel this build lacks."""
+    from tribench import ext
+
+    try:
+        info = ext.kernel_info(kernel)
+    except ValueError:
+        return None
+    return info.watertight != "none" if field == "watertight" else getattr(info, field)
+
+
+def ranking_table(est: pd.DataFrame, spd: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.DataFrame:
+    """Per workload, every kernel from the fastest down, each against the fastest (``ranking.csv``).
+
+    ``est`` and ``spd`` are the estimates and speedups joined with the
+    workload table (:func:`estimates_with_workloads`). The fastest is the
+    kernel with the lowest mean ns/test; every other kernel's time over the
+    fastest's is a paired ratio (``stats.speedup`` of the per-process
+    values), with simultaneous intervals: Bonferroni over the workload's
+    other kernels, as the speedups over the baseline. A kernel is tied with
+    the fastest when its interval reaches down to ``1 + margin``: choosing
+    the fastest by its point estimate is not evidence that it beats those.
+    """
+    rows = []
+    confidence = stats.DEFAULTS.confidence
+    for wid, g in est.groupby("workload_id", sort=False):
+        g = g.sort_values(["ns_per_test", "kernel"]).reset_index(drop=True)
+        fastest = str(g["kernel"].iloc[0])
+        per = pp.loc[pp["workload_id"] == wid].pivot(index="process", columns="kernel", values="ns_per_test")
+        level = 1 - (1 - confidence) / max(len(g) - 1, 1)
+        s = spd.loc[spd["workload_id"] == wid].set_index("kernel")
+        for rank, r in enumerate(g.itertuples(index=False), start=1):
+            kernel = str(r.kernel)
+            if kernel == fastest:
+                ratio = low = high = 1.0
+            else:
+                pair = per[[kernel, fastest]].dropna()
+                if len(pair) >= 2:
+                    v = stats.speedup(pair[kernel], pair[fastest], confidence=level)
+                    ratio, low, high = v.ratio, v.ci_low, v.ci_high
+                else:
+                    ratio, low, high = math.nan, math.nan, math.nan
+            base = s.loc[kernel] if kernel in s.index else None
+            baseline = str(s["baseline"].iloc[0]) if len(s) else kernel
+            rows.append(
+                {
+                    "workload_id": wid,
+                    "family": r.family,
+                    "label": r.label,
+                    "dtype": r.dtype,
+                    "rank": rank,
+                    "kernel": kernel,
+                    "algorithm": _declared(kernel, "algorithm"),
+                    "ns_per_test": r.ns_per_test,
+                    "ns_per_test_ci_low": r.ns_per_test_ci_low,
+                    "ns_per_test_ci_high": r.ns_per_test_ci_high,
+                    "vs_fastest": ratio,
+                    "vs_fastest_ci_low": low,
+                    "vs_fastest_ci_high": high,
+                    "tied_with_fastest": bool(low <= 1 + margin) if not math.isnan(low) else False,
+                    "speedup": base["ratio"] if base is not None else (1.0 if kernel == baseline else math.nan),
+                    "speedup_ci_low": base["ratio_ci_low"] if base is not None else math.nan,
+                    "speedup_ci_high": base["ratio_ci_high"] if base is not None else math.nan,
+                    "baseline": baseline,
+                    "watertight": _declared(kernel, "watertight"),
+                    "culls_back_faces": _declared(kernel, "culls_back_faces"),
+                    "bytes_per_triangle": _bytes_per_triangle(kernel, str(r.dtype)),
+                    "form": _form(kernel),
+                }
+            )
+    return _frame(rows, runfolder.RANKING)
+
+
+def algorithm_table(rank: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.DataFrame:
+    """Per workload, every pair of algorithms, each in its fastest form there (``algorithms.csv``).
+
+    ``rank`` is :func:`ranking_table`'s frame. An algorithm's fastest form is
+    its kernel of best rank on the workload (chosen by point estimate, as the
+    ranking's fastest). Each pair is a paired ratio (``stats.speedup`` of the
+    per-process values) with simultaneous intervals, Bonferroni over the
+    workload's pairs, and the verdict of ``stats.verdict``; the faster of the
+    pair by point estimate comes first, so the ratio is at least 1.
+    """
+    rows = []
+    confidence = stats.DEFAULTS.confidence
+    for wid, g in rank.groupby("workload_id", sort=False):
+        best = g.sort_values("rank").drop_duplicates("algorithm")
+        best = best.loc[best["algorithm"].notna()]
+        pairs = list(itertools.combinations(best.itertuples(index=False), 2))
+        per = pp.loc[pp["workload_id"] == wid].pivot(index="process", columns="kernel", values="ns_per_test")
+        level = 1 - (1 - confidence) / max(len(pairs), 1)
+        for a, b in pairs:  # a ranks before b
+            both = per[[a.kernel, b.kernel]].dropna()
+            if len(both) >= 2:
+                v = stats.speedup(both[b.kernel], both[a.kernel], confidence=level)
+                ratio, low, high = v.ratio, v.ci_low, v.ci_high
+            else:
+                ratio, low, high = math.nan, math.nan, math.nan
+            rows.append(
+                {
+                    "workload_id": wid,
+                    "family": a.family,
+                    "label": a.label,
+                    "dtype": a.dtype,
+                    "algorithm": a.algorithm,
+                    "kernel": a.kernel,
+                    "other_algorithm": b.algorithm,
+                    "other_kernel": b.kernel,
+                    "ratio": ratio,
+                    "ratio_ci_low": low,
+                    "ratio_ci_high": high,
+                    "n_processes": len(both),
+                    "confidence": level,
+                    "verdict": stats.verdict(low, high, margin),
+                }
+            )
+    return _frame(rows, runfolder.ALGORITHMS)

@@ -1,7 +1,7 @@
 """``report.html``: one self-contained page per run, put together from its sections.
 
 The page kit (shell, CSS, tables, figures, escaping) is :mod:`.page`; the
-sections are made by :mod:`.headline`, :mod:`.results` (kernels, speedups, hit
+sections are made by :mod:`.headline`, :mod:`.ranking`, :mod:`.results` (kernels, speedups, hit
 rate, size and working set, peers, processes), :mod:`.checks` (drift,
 diagnostics, correctness, robustness) and :mod:`.about` (workloads, machine,
 reproduce). Every number comes from the run folder's files.
@@ -9,7 +9,7 @@ reproduce). Every number comes from the run folder's files.
 Sections, by id, in page order:
 
 >>> list(SECTIONS)  # doctest: +NORMALIZE_WHITESPACE
-['headline', 'kernels', 'speedups', 'hit-rate', 'scaling', 'peers', 'processes', 'drift', 'diagnostics',
+['headline', 'ranking', 'kernels', 'speedups', 'hit-rate', 'scaling', 'peers', 'processes', 'drift', 'diagnostics',
  'correctness', 'robustness', 'workloads', 'machine', 'reproduce']
 """
 
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from tribench.harness import analysis, runfolder
 
-from . import about, checks, content, figures, headline, page, results
+from . import about, checks, content, figures, headline, page, ranking, results
 from .about import sweep_toml
 from .headline import headline_sentences
 from .rundata import RunData, load_peers, load_validation
@@ -27,6 +27,7 @@ __all__ = ["SECTIONS", "render", "headline_sentences", "sweep_toml", "MAX_PICTUR
 #: Section ids, in page order, with their titles.
 SECTIONS = {
     "headline": "Headline",
+    "ranking": "Ranking",
     "kernels": "Kernels",
     "speedups": "Speedups",
     "hit-rate": "Hit rate",
@@ -65,6 +66,11 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
 
     bodies = {
         "headline": headline.headline_section(data, spd, wl, headline.run_warnings(data, drift, correct), peers),
+        "ranking": ranking.ranking_section(
+            data,
+            content.sweep_order(content.table(data, runfolder.RANKING), data),
+            content.table(data, runfolder.ALGORITHMS),
+        ),
         "kernels": results.kernels_section(data, kern),
         "speedups": results.speedups_section(data, spd, est),
         "hit-rate": results.hit_rate_section(data, est, spd, cross, colours),

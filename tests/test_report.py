@@ -340,3 +340,20 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, setup, message):
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("tribench report: error:") and message in lines[0]
+
+
+def test_the_ranking_section_names_each_workloads_fastest_kernel_from_ranking_csv(rendered):
+    run_dir, _, text = rendered
+    assert text.index('id="ranking"') < text.index('id="kernels"')
+    rank = pd.read_csv(run_dir / "ranking.csv")
+    fastest = rank.loc[rank["rank"] == 1]
+    rows = _section_rows(text, "ranking")
+    head = rows[0]
+    assert head[:3] == ["workload", "fastest kernel", "its ns/test [95% CI]"]
+    shown = {r[0]: r[1] for r in rows if r and r[0] != "workload" and len(r) == len(head)}
+    assert len(shown) == len(fastest)
+    for r in fastest.itertuples(index=False):
+        assert shown[f"{r.family} · {r.label}"] == r.kernel
+    # three algorithms: their order, and the head-to-head questions this run can answer (it has no curless_seed)
+    assert "The algorithms in order" in text and "curless vs moller_trumbore" in text
+    assert "curless_seed vs moller_seed" not in text

@@ -185,3 +185,56 @@ def test_a_robustness_suite_that_cannot_run_does_not_stop_the_analysis(tmp_path_
     df, note = load_validation(load_run(copy))
     assert df.empty and "could not run" in note and "no extension" in note
     assert not (copy / "validate.csv").exists()
+
+
+def test_the_ranking_orders_every_workload_and_pairs_each_kernel_with_the_fastest(small_run):
+    """ranking.csv, recomputed from per_process.csv and speedups.csv by hand."""
+    import numpy as np
+
+    from tribench import ext
+
+    rank = pd.read_csv(small_run / runfolder.RANKING)
+    pp = pd.read_csv(small_run / runfolder.PER_PROCESS)
+    spd = pd.read_csv(small_run / runfolder.SPEEDUPS)
+    est = pd.read_csv(small_run / runfolder.ESTIMATES)
+    assert set(rank["workload_id"]) == set(est["workload_id"])
+    for wid, g in rank.groupby("workload_id"):
+        assert list(g["rank"]) == list(range(1, len(g) + 1))
+        assert g["ns_per_test"].is_monotonic_increasing
+        assert set(g["kernel"]) == set(est.loc[est["workload_id"] == wid, "kernel"])
+        fastest = g.iloc[0]
+        assert (fastest["vs_fastest"], fastest["tied_with_fastest"]) == (1.0, True)
+        per = pp.loc[pp["workload_id"] == wid].pivot(index="process", columns="kernel", values="ns_per_test")
+        for r in g.iloc[1:].itertuples(index=False):
+            want = np.exp(np.mean(np.log(per[r.kernel] / per[fastest["kernel"]])))
+            assert r.vs_fastest == pytest.approx(want, rel=1e-12)
+            assert r.vs_fastest_ci_low <= r.vs_fastest <= r.vs_fastest_ci_high
+            assert r.tied_with_fastest == (
+                r.vs_fastest_ci_low <= 1 + json.loads((small_run / "run.json").read_text())["margin"]["value"]
+            )
+        for r in g.itertuples(index=False):
+            info = ext.kernel_info(r.kernel)
+            assert (r.algorithm, r.watertight, r.culls_back_faces) == (
+                info.algorithm,
+                info.watertight != "none",
+                info.culls_back_faces,
+            )
+            s = spd.loc[(spd["workload_id"] == wid) & (spd["kernel"] == r.kernel)]
+            assert r.speedup == (s["ratio"].iloc[0] if len(s) else 1.0)
+
+
+def test_the_algorithm_table_pairs_every_two_algorithms_the_faster_first(small_run):
+    from tribench import stats
+
+    rank = pd.read_csv(small_run / runfolder.RANKING)
+    alg = pd.read_csv(small_run / runfolder.ALGORITHMS)
+    margin = json.loads((small_run / "run.json").read_text())["margin"]["value"]
+    for wid, g in alg.groupby("workload_id"):
+        r = rank.loc[rank["workload_id"] == wid]
+        n = r["algorithm"].nunique()
+        assert len(g) == n * (n - 1) // 2
+        best = r.sort_values("rank").drop_duplicates("algorithm").set_index("algorithm")["rank"]
+        for row in g.itertuples(index=False):
+            assert best[row.algorithm] < best[row.other_algorithm]
+            assert row.confidence == pytest.approx(1 - 0.05 / len(g))
+            assert row.verdict == stats.verdict(row.ratio_ci_low, row.ratio_ci_high, margin)
