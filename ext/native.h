@@ -53,9 +53,11 @@ typedef __mmask16 nmask;
 #define nv_set1 _mm512_set1_ps
 #define nv_fmadd _mm512_fmadd_ps
 #define nv_fmsub _mm512_fmsub_ps
+#define nv_fnmadd _mm512_fnmadd_ps
 #define nv_cmp(a, b, op) _mm512_cmp_ps_mask(a, b, op)
 #define nv_select(m, a, b) _mm512_mask_blend_ps(m, b, a)
 #define nm_and(a, b) ((nmask)((a) & (b)))
+#define nm_or(a, b) ((nmask)((a) | (b)))
 #define nm_any(m) ((m) != 0)
 #elif TB_NISA_ID == 2
 typedef __m512d nreal;
@@ -64,9 +66,11 @@ typedef __mmask8 nmask;
 #define nv_set1 _mm512_set1_pd
 #define nv_fmadd _mm512_fmadd_pd
 #define nv_fmsub _mm512_fmsub_pd
+#define nv_fnmadd _mm512_fnmadd_pd
 #define nv_cmp(a, b, op) _mm512_cmp_pd_mask(a, b, op)
 #define nv_select(m, a, b) _mm512_mask_blend_pd(m, b, a)
 #define nm_and(a, b) ((nmask)((a) & (b)))
+#define nm_or(a, b) ((nmask)((a) | (b)))
 #define nm_any(m) ((m) != 0)
 #elif TB_NISA_ID == 1 && !TB_REAL_IS_DOUBLE
 typedef __m256 nreal;
@@ -75,9 +79,11 @@ typedef __m256 nmask;
 #define nv_set1 _mm256_set1_ps
 #define nv_fmadd _mm256_fmadd_ps
 #define nv_fmsub _mm256_fmsub_ps
+#define nv_fnmadd _mm256_fnmadd_ps
 #define nv_cmp(a, b, op) _mm256_cmp_ps(a, b, op)
 #define nv_select(m, a, b) _mm256_blendv_ps(b, a, m)
 #define nm_and _mm256_and_ps
+#define nm_or _mm256_or_ps
 #define nm_any(m) (_mm256_movemask_ps(m) != 0)
 #elif TB_NISA_ID == 1
 typedef __m256d nreal;
@@ -86,9 +92,11 @@ typedef __m256d nmask;
 #define nv_set1 _mm256_set1_pd
 #define nv_fmadd _mm256_fmadd_pd
 #define nv_fmsub _mm256_fmsub_pd
+#define nv_fnmadd _mm256_fnmadd_pd
 #define nv_cmp(a, b, op) _mm256_cmp_pd(a, b, op)
 #define nv_select(m, a, b) _mm256_blendv_pd(b, a, m)
 #define nm_and _mm256_and_pd
+#define nm_or _mm256_or_pd
 #define nm_any(m) (_mm256_movemask_pd(m) != 0)
 #else /* the baseline: plain vector extensions, 16 bytes (SSE2 on x86-64) */
 typedef real nreal __attribute__((vector_size(16)));
@@ -97,13 +105,16 @@ typedef mask_elem nmask __attribute__((vector_size(16)));
 #define nv_set1(x) ((x) - (nreal){0})
 #define nv_fmadd(a, b, c) ((a) * (b) + (c))
 #define nv_fmsub(a, b, c) ((a) * (b) - (c))
+#define nv_fnmadd(a, b, c) ((c) - (a) * (b))
 #define nv_cmp(a, b, op) TB_NCMP_##op(a, b)
 #define TB_NCMP__CMP_GE_OQ(a, b) ((a) >= (b))
 #define TB_NCMP__CMP_GT_OQ(a, b) ((a) > (b))
 #define TB_NCMP__CMP_LE_OQ(a, b) ((a) <= (b))
 #define TB_NCMP__CMP_LT_OQ(a, b) ((a) < (b))
+#define TB_NCMP__CMP_EQ_OQ(a, b) ((a) == (b))
 #define nv_select(m, a, b) ((nreal)(((m) & (nmask)(a)) | (~(m) & (nmask)(b))))
 #define nm_and(a, b) ((a) & (b))
+#define nm_or(a, b) ((a) | (b))
 #define nm_any(m) TB_FN(tb_nany)(m)
 TB_NWIDE int TB_FN(tb_nany)(nmask m)
 {
@@ -118,8 +129,13 @@ TB_NWIDE int TB_FN(tb_nany)(nmask m)
 typedef mask_elem nbits __attribute__((vector_size(sizeof(nreal))));
 #define TB_NVPB (TB_NBLOCK / TB_NL) /* vectors per block */
 
+/* the ray in every lane; kx, ky, kz and the shear sx, sy, sz are the per-ray
+ * data of the kernels that have it (Woop's, see tb_ray); a kernel that does
+ * not read them costs nothing for them (the loop's stores are dead code) */
 typedef struct {
     nreal o[3], d[3];
+    int kx, ky, kz;
+    nreal sx, sy, sz;
 } tb_nray;
 
 typedef struct {
@@ -139,10 +155,12 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #define nv_gt(a, b) nv_cmp(a, b, _CMP_GT_OQ)
 #define nv_le(a, b) nv_cmp(a, b, _CMP_LE_OQ)
 #define nv_lt(a, b) nv_cmp(a, b, _CMP_LT_OQ)
+#define nv_eq(a, b) nv_cmp(a, b, _CMP_EQ_OQ)
 
 #include "kernels/moller_trumbore_fma.h"
 #include "kernels/moller_trumbore_fma_exit.h"
 #include "kernels/moller_trumbore_yardstick.h"
+#include "kernels/woop_fma.h"
 
 typedef nmask (*TB_NFN(tb_native_fn))(const tb_nray *restrict, const real *restrict, nreal,
                                       tb_nhit *restrict);
@@ -184,6 +202,12 @@ TB_NFN(tb_native_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) make_ray, siz
                 r.o[k] = nv_set1(scalar_ray.o[k]);
                 r.d[k] = nv_set1(scalar_ray.d[k]);
             }
+            r.kx = scalar_ray.kx;
+            r.ky = scalar_ray.ky;
+            r.kz = scalar_ray.kz;
+            r.sx = nv_set1(scalar_ray.sx);
+            r.sy = nv_set1(scalar_ray.sy);
+            r.sz = nv_set1(scalar_ray.sz);
             nreal best_t[TB_NVPB], best_u[TB_NVPB], best_v[TB_NVPB], best_b[TB_NVPB];
             for (int v = 0; v < TB_NVPB; ++v) {
                 best_t[v] = nv_set1(t_max[i]);
@@ -276,6 +300,7 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef TB_NATIVE_ENTRIES
 #undef TB_NATIVE_ENTRY
 
+#undef nv_eq
 #undef nv_lt
 #undef nv_le
 #undef nv_gt
@@ -283,9 +308,11 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef nv_load
 #undef TB_NVPB
 #undef nm_any
+#undef nm_or
 #undef nm_and
 #undef nv_select
 #undef nv_cmp
+#undef nv_fnmadd
 #undef nv_fmsub
 #undef nv_fmadd
 #undef nv_set1

@@ -1,7 +1,8 @@
 """woop and plucker: agreement with the reference, and the watertight promise.
 
 Every check runs both kernels in float32 and float64, in the scalar form and in
-the wide form on each instruction set this CPU runs (avx2, baseline). The
+the wide form on each instruction set this CPU runs (avx2, baseline), and
+woop's native form woop_fma on each ISA it runs (FMA_FORMS). The
 watertight checks shoot rays at the shared edges and vertices of exactly
 representable, exactly coplanar meshes: a ray through the interior of such a
 mesh that hits no triangle is a crack. ``pytest -s`` prints the measured
@@ -12,6 +13,7 @@ control that shows the workload can find cracks.
 from __future__ import annotations
 
 import functools
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -25,15 +27,20 @@ KERNELS = ["woop", "plucker"]
 DTYPES = [np.float32, np.float64]
 DTYPE_IDS = ["f32", "f64"]
 FORMS = ["scalar"] + [isa for isa in ("avx2", "baseline") if ext.kernel_info("woop_x8").isas.get(isa)]
+# woop's native form on every ISA it runs: (kernel, ISA) pairs beside (kernel, form) ones
+FMA_FORMS = [("woop_fma", isa) for isa, ok in ext.kernel_info("woop_fma").isas.items() if ok]
+KERNEL_FORMS = [(k, f) for k in KERNELS for f in FORMS] + FMA_FORMS
 T_RTOL = {np.float32: 1e-4, np.float64: 1e-10}
 UV_ATOL = {np.float32: 1e-4, np.float64: 1e-9}
 
 
 def _intersect(kernel, form, o, d, tris, mode="closest_uv", **options):
-    """One call of `kernel` in `form`: "scalar", or the wide form on that ISA."""
+    """One call of `kernel` in `form`: "scalar", or on that ISA its wide form (a
+    native kernel, which is its own wide form, itself)."""
     if form == "scalar":
         return ext.intersect(kernel, o, d, tris, mode, **options)
-    return ext.intersect(ext.kernel_info(kernel).wide_form, o, d, tris, mode, isa=form, **options)
+    wide = ext.kernel_info(kernel).wide_form or kernel
+    return ext.intersect(wide, o, d, tris, mode, isa=form, **options)
 
 
 def test_registered_with_raw_vertices_and_a_wide_form():
@@ -83,9 +90,8 @@ def _icosphere_rays():
     return o, d, tris, index, t, uv.u, uv.v
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
 def test_closest_on_a_mesh_agrees_with_reference(kernel, dtype, form):
     o, d, tris, ref_index, ref_t, ref_u, ref_v = _icosphere_rays()
     assert len(o) > 250 and 0.2 < (ref_index >= 0).mean() < 0.95
@@ -100,9 +106,8 @@ def test_closest_on_a_mesh_agrees_with_reference(kernel, dtype, form):
         assert np.isnan(r.t[~hit]).all()
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
 def test_any_mode_finds_a_hit_exactly_when_the_reference_does(kernel, dtype, form):
     o, d, tris, ref_index, *_ = _icosphere_rays()
     o, d, tris = as_dtype((o, d, tris), dtype)
@@ -113,9 +118,8 @@ def test_any_mode_finds_a_hit_exactly_when_the_reference_does(kernel, dtype, for
     assert reference.intersect_pairs(o[hit], d[hit], tris[r.index[hit]]).hit.all()
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
 def test_t_max_bounds_the_hits(kernel, dtype, form):
     o, d, tris, ref_index, ref_t, *_ = _icosphere_rays()
     o, d, tris = as_dtype((o, d, tris), dtype)
@@ -144,9 +148,8 @@ DEGENERATE = np.array(
 )
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
 def test_degenerate_triangles_miss(kernel, dtype, form):
     n = len(DEGENERATE)
     o = np.array([[0.3, 0.3, 1], [0.5, 0.5, 1], [0.3, 0.3, 1], [0.5, 0.5, 1], [0.5, 0.5, 2.0]])
@@ -177,9 +180,8 @@ def _nonfinite_cases():
     return np.array(o), np.array(d), np.array(tris)
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
 def test_nonfinite_inputs_are_misses(kernel, dtype, form):
     bad_o, bad_d, bad_tris = as_dtype(_nonfinite_cases(), dtype)
     good_o, good_d, good_tri = as_dtype((np.array([[0.25, 0.25, 1.0]]), DOWN, UNIT_TRI), dtype)
@@ -333,11 +335,11 @@ def _cracks(kernel, dtype, form):
     return {kind: tuple(c) for kind, c in counts.items()}
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-def test_woop_has_no_cracks(dtype, form):
-    cracks = _cracks("woop", dtype, form)
-    print(f"\nwoop {np.dtype(dtype)} {form}: cracks {cracks}")
+@pytest.mark.parametrize(("kernel", "form"), [("woop", f) for f in FORMS] + FMA_FORMS)
+def test_woop_has_no_cracks(kernel, dtype, form):
+    cracks = _cracks(kernel, dtype, form)
+    print(f"\n{kernel} {np.dtype(dtype)} {form}: cracks {cracks}")
     assert cracks["vertex"][0] == 0 and cracks["edge"][0] == 0
     assert cracks["vertex"][1] > 10000 and cracks["edge"][1] > 30000
 
@@ -425,10 +427,19 @@ def _fan_rays(seed: int, n_fans: int, rays_per_fan: int, far: bool):
     return out
 
 
-def _fan_cracks(kernel, dtype, fans):
+def _fan_cracks(kernel, dtype, fans, isa=None):
+    """Rays that hit no triangle of their fan: each ray against each triangle
+    (pairs), or, on `isa`, against the whole fan at once (any: a kernel without
+    the pairs mode)."""
     cracks = rays = 0
     for tris, o, d in fans:
         k, n = len(tris), len(o)
+        if isa is not None:
+            o, d, t = as_dtype((o, d, tris), dtype)
+            assert (t == tris).all(), "fan not exact in this precision"
+            cracks += int((~ext.intersect(kernel, o, d, t, "any", isa=isa).hit).sum())
+            rays += n
+            continue
         every = np.tile(tris, (n, 1, 1))
         o, d, t = as_dtype((np.repeat(o, k, 0), np.repeat(d, k, 0), every), dtype)
         assert (t == every).all(), "fan not exact in this precision"
@@ -439,12 +450,47 @@ def _fan_cracks(kernel, dtype, fans):
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-def test_woop_is_watertight_at_vertices_of_random_fans(dtype):
+@pytest.mark.parametrize(("kernel", "isa"), [("woop", None)] + FMA_FORMS)
+def test_woop_is_watertight_at_vertices_of_random_fans(kernel, isa, dtype):
     for far in (False, True):
-        cracks, rays = _fan_cracks("woop", dtype, _fan_rays(9, 40, 1500, far))
+        cracks, rays = _fan_cracks(kernel, dtype, _fan_rays(9, 40, 1500, far), isa)
         where = "far" if far else "near"
-        print(f"\nwoop {np.dtype(dtype)} fans {where}: cracks {cracks}/{rays}", end="")
+        print(f"\n{kernel} {isa or 'scalar'} {np.dtype(dtype)} fans {where}: cracks {cracks}/{rays}", end="")
         assert cracks == 0
+
+
+def _sliver(dtype):
+    """A triangle that the ray (0, 0, -1) + t (0, 0, 1) misses by a hair across
+    its edge bc, whose rounded edge function is 0 (the two products round to the
+    same number), and its neighbour across bc, which the ray hits. The shear is
+    exact here (sx = sy = 0), so the 2-D vertices are the x, y coordinates."""
+    e = float(np.finfo(dtype).eps)
+    b, c = (-(1 + e), -(1 + 2 * e), 0.0), (1.0, 1 + e, 0.0)
+    # edge bc = cx by - cy bx = (1 + e)^2 - (1 + 2 e) = e^2 exactly, 0 once rounded
+    rounded = dtype(dtype(1 + e) * dtype(1 + e)) - dtype(1 + 2 * e)
+    exact = Fraction(1 + e) ** 2 - Fraction(1 + 2 * e)
+    assert rounded == 0 and exact == Fraction(e) ** 2
+    missed = np.array([[(-1.0, 1.0, 0.0), b, c]], dtype)
+    hit = np.array([[(1.0, -1.0, 0.0), c, b]], dtype)
+    return np.array([[0, 0, -1.0]], dtype), np.array([[0, 0, 1.0]], dtype), missed, hit
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
+@pytest.mark.parametrize(("kernel", "form"), [("woop", f) for f in FORMS] + FMA_FORMS)
+def test_a_zero_edge_function_is_recomputed_in_every_lane(kernel, dtype, form):
+    # the paper's fallback: without it the rounded 0 is accepted and the ray
+    # hits a triangle it misses; the sliver in each lane of a 16-block (after
+    # copies of the neighbour moved off the ray, every lane after it empty or
+    # the neighbour, then another copy)
+    o, d, missed, hit = _sliver(dtype)
+    assert ext.intersect("moller_trumbore", o, d, missed, "closest").hit[0]  # not watertight: hits it
+    off = hit + np.array([100, 0, 0], dtype)
+    for lane in range(16):
+        tris = np.ascontiguousarray(np.concatenate([np.repeat(off, lane, 0), missed]))
+        assert not _intersect(kernel, form, o, d, tris, "closest").hit[0], lane
+        both = np.ascontiguousarray(np.concatenate([np.repeat(off, lane, 0), missed, hit, off]))
+        r = _intersect(kernel, form, o, d, both, "closest")
+        assert r.index[0] == lane + 1 and r.t[0] == 1, lane
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)

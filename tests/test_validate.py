@@ -226,7 +226,7 @@ def watertight():
     return validate.run(WATERTIGHT, tests=("shared_edges", "shared_vertices"))  # full size
 
 
-@pytest.mark.parametrize("kernel", ["woop", "woop_x8"])
+@pytest.mark.parametrize("kernel", ["woop", "woop_x8", "woop_fma"])
 def test_woop_never_cracks_at_shared_edges_or_vertices(kernel, quick, watertight):
     if kernel not in KERNELS:
         pytest.skip(f"{kernel} is not registered yet")
