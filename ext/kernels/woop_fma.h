@@ -76,6 +76,7 @@
  */
 
 #if TB_NFIRST
+#define tb_woop_fma_algorithm "woop" /* the clean scalar kernel it is a form of */
 #define tb_woop_fma_stride 9 /* reals per triangle: the raw vertices */
 #define tb_woop_fma_flat TB_FLAT_MISS
 #define tb_woop_fma_ray_f32 tb_woop_ray_f32
