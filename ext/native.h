@@ -101,6 +101,7 @@ typedef mask_elem nmask __attribute__((vector_size(16)));
 #define TB_NCMP__CMP_GT_OQ(a, b) ((a) > (b))
 #define TB_NCMP__CMP_LE_OQ(a, b) ((a) <= (b))
 #define TB_NCMP__CMP_LT_OQ(a, b) ((a) < (b))
+#define TB_NCMP__CMP_EQ_OQ(a, b) ((a) == (b))
 #define nv_select(m, a, b) ((nreal)(((m) & (nmask)(a)) | (~(m) & (nmask)(b))))
 #define nm_and(a, b) ((a) & (b))
 #define nm_any(m) TB_FN(tb_nany)(m)
@@ -138,9 +139,12 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #define nv_gt(a, b) nv_cmp(a, b, _CMP_GT_OQ)
 #define nv_le(a, b) nv_cmp(a, b, _CMP_LE_OQ)
 #define nv_lt(a, b) nv_cmp(a, b, _CMP_LT_OQ)
+#define nv_eq(a, b) nv_cmp(a, b, _CMP_EQ_OQ)
 
 #include "kernels/moller_trumbore_fma.h"
 #include "kernels/moller_trumbore_fma_exit.h"
+#include "kernels/baldwin_weber_12_fma.h"
+#include "kernels/baldwin_weber_9_fma.h"
 #include "kernels/moller_trumbore_yardstick.h"
 
 typedef nmask (*TB_NFN(tb_native_fn))(const tb_nray *restrict, const real *restrict, nreal,
@@ -275,6 +279,7 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef TB_NATIVE_ENTRIES
 #undef TB_NATIVE_ENTRY
 
+#undef nv_eq
 #undef nv_lt
 #undef nv_le
 #undef nv_gt
