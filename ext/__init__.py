@@ -24,11 +24,14 @@ Kernels (see ``kernel_names()``; each C file's header cites its paper):
   kernels (no scalar form): Moller-Trumbore at the widest vector the CPU
   has (16 float lanes with AVX-512, 8 with AVX2 + FMA), fused
   multiply-adds, stored edges, blocks of 16 triangles; held to the
-  reference with an error bound, not bit for bit to ``moller_trumbore``.
+  reference with an error bound, not bit for bit to ``moller_trumbore``;
 * ``woop_fma``: ``woop`` as a native wide kernel, watertight as ``woop``
   (the shear and the scaled t fused, the edge functions not, a 0 edge
   function recomputed exactly), leaving a vector when no lane is inside all
-  three edges; held to the reference with the same error bound.
+  three edges; held to the reference with the same error bound;
+* ``baldwin_weber_12_fma`` and ``baldwin_weber_9_fma``: Baldwin & Weber
+  as native wide kernels, fused, on the scalar forms' records, with the
+  early exit after the u test; held to the reference with their own bound.
 
 Internal kernels, for the harness's honesty checks (listed only by
 ``kernel_names(internal=True)``, accepted everywhere a kernel name is):

@@ -159,6 +159,8 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 
 #include "kernels/moller_trumbore_fma.h"
 #include "kernels/moller_trumbore_fma_exit.h"
+#include "kernels/baldwin_weber_12_fma.h"
+#include "kernels/baldwin_weber_9_fma.h"
 #include "kernels/moller_trumbore_yardstick.h"
 #include "kernels/woop_fma.h"
 

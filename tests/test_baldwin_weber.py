@@ -25,6 +25,11 @@ from tribench import ext
 
 EPS = 2.0**-53
 KERNELS = ["baldwin_weber_12", "baldwin_weber_9"]
+# every form of each: scalar, _x8 and the native FMA form (the same map, prepared by the same code)
+FORMS = {
+    k: [k, ext.kernel_info(k).wide_form, f]
+    for k, f in zip(KERNELS, ["baldwin_weber_12_fma", "baldwin_weber_9_fma"], strict=True)
+}
 
 
 def _triangle(size: float, distance: float, seed: int = 0) -> np.ndarray:
@@ -104,8 +109,11 @@ def test_tiny_triangle_known_answers(distance, paper_misses):
     o, d = _rays_at_centroid(tri)
     tris = np.repeat(tri[None], len(o), axis=0)
     for kernel in KERNELS:
-        for name in (kernel, ext.kernel_info(kernel).wide_form):
-            assert ext.intersect(name, o, d, tris, "closest").hit.all(), name
+        for name in FORMS[kernel]:
+            for isa, runnable in ext.kernel_info(name).isas.items():
+                if runnable:
+                    options = {} if ext.kernel_info(name).lanes == 1 else {"isa": isa}
+                    assert ext.intersect(name, o, d, tris, "closest", **options).hit.all(), (name, isa)
 
 
 @settings(max_examples=40, deadline=None)
@@ -135,3 +143,5 @@ def test_tiny_triangles_are_hit_in_float64(size_exp, distance_exp, seed):
     tris = np.repeat(tri[None], len(o), axis=0)
     for kernel in KERNELS:
         assert ext.intersect(kernel, o, d, tris, "pairs").hit.all(), kernel
+        for name in FORMS[kernel][1:]:  # no pairs mode: one triangle repeated, every ray hits one
+            assert ext.intersect(name, o, d, tris, "closest").hit.all(), name

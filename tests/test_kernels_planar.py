@@ -434,9 +434,11 @@ def test_float32_precomputation_would_break_far_from_the_origin():
     assert _bw12_float32_precompute(o, d, tris).mean() < 0.8
 
 
-@pytest.mark.parametrize("kernel", ["baldwin_weber_12", "baldwin_weber_9"])
+@pytest.mark.parametrize(
+    ("kernel", "native"), [("baldwin_weber_12", "baldwin_weber_12_fma"), ("baldwin_weber_9", "baldwin_weber_9_fma")]
+)
 @pytest.mark.parametrize("offset", [1e3, 1e4])
-def test_baldwin_weber_float32_far_from_the_origin(kernel, offset):
+def test_baldwin_weber_float32_far_from_the_origin(kernel, native, offset):
     o, d, tris = _far_workload(offset)
     ref = reference_answers(o, d, tris)
     assert ref.hit.all()
@@ -454,3 +456,9 @@ def test_baldwin_weber_float32_far_from_the_origin(kernel, offset):
         wide = _run(kernel, ("wide", isa), o, d, tris, "closest_uv")
         np.testing.assert_array_equal(wide.index, index_ref)
         np.testing.assert_allclose(wide.t, t_ref, atol=atol, rtol=0)
+    # the native FMA form (u, v from the transformed ray, not the hit point): the same resolution
+    for isa, runnable in ext.kernel_info(native).isas.items():
+        if runnable:
+            fused = ext.intersect(native, o, d, tris, "closest_uv", isa=isa)
+            np.testing.assert_array_equal(fused.index, index_ref, err_msg=isa)
+            np.testing.assert_allclose(fused.t, t_ref, atol=atol, rtol=0, err_msg=isa)
