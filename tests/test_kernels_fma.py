@@ -105,8 +105,11 @@ def _cases(n: int, seed: int, dtype: type, scale: float, shift: float, grazing: 
     return tuple(np.ascontiguousarray(a, dtype) for a in (o * scale + shift, d, tris * scale + shift))
 
 
-def _check_bound(kernel: str, o: np.ndarray, d: np.ndarray, tris: np.ndarray, isa: str | None = None) -> float:
-    """Asserts the bound on every safe pair; returns the largest error in units of eps K."""
+def _check_bound(
+    kernel: str, o: np.ndarray, d: np.ndarray, tris: np.ndarray, isa: str | None = None, checked: float = 0.0
+) -> float:
+    """Asserts the bound on every safe pair, and that more than a fraction ``checked`` of all pairs
+    were safe hits for both (so the check is not vacuous); returns the largest error in units of eps K."""
     bound, eps = BOUNDS[kernel], np.finfo(o.dtype).eps
     f64 = [a.astype(np.float64) for a in (o, d, tris)]
     ref = reference.intersect_pairs(*f64)
@@ -117,7 +120,7 @@ def _check_bound(kernel: str, o: np.ndarray, d: np.ndarray, tris: np.ndarray, is
         safe &= np.abs(ref.edge_margin) >= 4 * eps * bound.uv_condition(*f64)
     np.testing.assert_array_equal(hit[safe], ref.hit[safe], err_msg=kernel)
     both = safe & hit & ref.hit
-    assert not safe.any() or both.sum() > safe.sum() // 2  # none: every pair within the error of an edge
+    assert checked == 0 or both.sum() > checked * len(o), (kernel, isa, int(both.sum()))
     if not both.any():  # every decision within the algorithm's error of an edge
         return 0.0
     error = np.abs(t[both] - ref.t[both]) / ref.t[both] / (eps * bound.condition(*f64, ref.t)[both])
@@ -155,7 +158,7 @@ def test_random_pairs_meet_the_bound_on_every_isa(kernel, dtype):
     o, d, tris = _cases(300, seed=21, dtype=dtype, scale=1.0, shift=0.0, grazing=0.0)
     for isa, runnable in ext.kernel_info(kernel).isas.items():
         if runnable:
-            _check_bound(kernel, o, d, tris, isa)
+            _check_bound(kernel, o, d, tris, isa, checked=0.5)
 
 
 @settings(max_examples=12, deadline=None)
@@ -167,6 +170,9 @@ def test_random_pairs_meet_the_bound_on_every_isa(kernel, dtype):
     seed=st.integers(0, 1000),
 )
 def test_adversarial_pairs_meet_the_bound(dtype, scale, shift, grazing, seed):
+    """Rounding can leave few safe hits here (float32 triangles of 1e-3 at 1e3, grazing: the reference
+    itself misses about half of the rounded pairs), so only the bound is asserted here; the test above
+    shows on every kernel and ISA that the check is not vacuous."""
     o, d, tris = _cases(60, seed=seed, dtype=dtype, scale=scale, shift=shift, grazing=grazing)
     for kernel in FMA + SCALAR:
         _check_bound(kernel, o, d, tris)
