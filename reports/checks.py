@@ -253,8 +253,9 @@ _TEST_TEXT = {
     "barycentric inside.",
     "grazing_rays": "Misses on unit triangles met at slopes of 1e-3 to 1e-6 to their plane, rays aimed at least "
     "0.2 barycentric inside.",
-    "parallel_rays": "Hits by rays lying exactly in the triangle's plane or exactly parallel just above it: "
-    "every one must miss.",
+    "parallel_rays": "Hits by rays exactly parallel to the triangle's plane, just above it: every one must miss.",
+    "in_plane_rays": "Hits by rays lying exactly in the triangle's plane, through it: measured, never judged (the "
+    "exact answer is a segment of contact; a kernel that rounds its plane or its ray transform decides by rounding).",
     "degenerate_triangles": "Hits on a point, a segment with a repeated vertex and three collinear points, rays "
     "aimed exactly at them: every one must miss.",
     "nonfinite": "Hits on safe pairs with one NaN, +Inf or −Inf in the origin, the direction or a vertex: the "

@@ -117,13 +117,15 @@ def test_vertex_rays_pass_exactly_through_a_vertex_of_six_triangles(dtype):
 
 @pytest.mark.parametrize("dtype", validate.DTYPES)
 def test_parallel_rays_are_exactly_parallel_and_degenerate_triangles_exactly_flat(dtype):
-    sets = validate.build(dtype, quick=True, tests=("parallel_rays", "degenerate_triangles"))
-    p = sets.pairs["parallel_rays"]
-    tris = [exact(t) for t in p.triangles]
-    for o, d, k, label in zip(exact(p.origins), exact(p.directions), p.owner, p.label, strict=True):
-        normal = cross(sub(tris[k][1], tris[k][0]), sub(tris[k][2], tris[k][0]))
-        assert normal != (0, 0, 0) and dot(normal, d) == 0
-        assert (dot(normal, sub(o, tris[k][0])) == 0) == (label == "in plane")
+    sets = validate.build(dtype, quick=True, tests=("parallel_rays", "in_plane_rays", "degenerate_triangles"))
+    for test, label in (("parallel_rays", "above"), ("in_plane_rays", "in plane")):
+        p = sets.pairs[test]
+        assert set(p.label) == {label} and not p.expect_hit.any()
+        tris = [exact(t) for t in p.triangles]
+        for o, d, k in zip(exact(p.origins), exact(p.directions), p.owner, strict=True):
+            normal = cross(sub(tris[k][1], tris[k][0]), sub(tris[k][2], tris[k][0]))
+            assert normal != (0, 0, 0) and dot(normal, d) == 0
+            assert (dot(normal, sub(o, tris[k][0])) == 0) == (label == "in plane")
     q = sets.pairs["degenerate_triangles"]
     for t in (exact(t) for t in q.triangles):
         assert cross(sub(t[1], t[0]), sub(t[2], t[0])) == (0, 0, 0)

@@ -65,9 +65,17 @@ Tests
     see as hits at least 0.05 inside are dropped (``detail`` counts them). A
     failure is a miss.
 ``parallel_rays``
-    Dyadic triangles on dyadic planes; rays exactly in the plane through
-    the triangle, or exactly parallel to it just above (offsets ``2**-4`` to
-    ``2**-12`` times the plane's normal): every one must miss.
+    Dyadic triangles on dyadic planes; rays exactly parallel to the plane
+    just above the triangle (offsets ``2**-4`` to ``2**-12`` times the
+    plane's normal): every one must miss.
+``in_plane_rays``
+    The same triangles and rays, but exactly in the plane, through the
+    triangle. The float64 reference calls them misses (its determinant is
+    0), but the exact answer is a segment of contact: a kernel whose
+    prepared plane or per-ray transform is rounded (Baldwin-Weber's stored
+    rows, Havel-Herout's normalised planes, Woop's shear) sees the ray cross
+    a plane turned by a rounding error, and a hit or a miss is that rounding's
+    call. Measured for every kernel, never judged.
 ``degenerate_triangles``
     Zero-area triangles: a point, a segment with a repeated vertex, three
     collinear points (all dyadic, so exactly degenerate), rays aimed exactly at
@@ -94,7 +102,9 @@ Sizes: :data:`FULL` (``tribench validate``) and :data:`QUICK` (``--quick``, the 
 
 from __future__ import annotations
 
+import functools
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -152,6 +162,7 @@ TESTS = (
     "needle_triangles",
     "grazing_rays",
     "parallel_rays",
+    "in_plane_rays",
     "degenerate_triangles",
     "nonfinite",
 )
@@ -528,8 +539,8 @@ def _grazing(rng, size: Size, dtype: str) -> PairRays:
     return _aimed_pairs(rng, tris, size.rays_per_triangle, dtype, label, slope=slope)
 
 
-def _parallel(rng, size: Size, dtype: str) -> PairRays:
-    """Dyadic triangles; rays in their plane through them, or parallel just above."""
+def _parallel(rng, size: Size, dtype: str, through: bool = False) -> PairRays:
+    """Dyadic triangles; rays parallel to their plane just above them, or (``through``) in the plane through them."""
     g, per = size.triangles, size.rays_per_triangle
     tris, origins, directions, labels = [], [], [], []
     for k in range(g):
@@ -551,7 +562,7 @@ def _parallel(rng, size: Size, dtype: str) -> PairRays:
                 break
         d = in_plane @ basis.T
         o = aims - rng.integers(1, 4, (per, 1)) * d
-        above = np.arange(per) % 2 == 1
+        above = np.full(per, not through)
         height = rng.choice([-1.0, 1.0], per) * 2.0 ** -rng.integers(4, 13, per).astype(float)
         o[above] += height[above, None] * np.cross(basis[:, 0], basis[:, 1])
         tri = (base + params @ basis.T) * scale
@@ -709,12 +720,13 @@ def _scales(rng, size: Size, dtype: str) -> PairRays:
     )
 
 
-_PAIR_TESTS = {
+_PAIR_TESTS: dict[str, Callable[[np.random.Generator, Size, str], PairRays]] = {
     "scales": _scales,
     "tiny_triangles": _tiny,
     "needle_triangles": _needles,
     "grazing_rays": _grazing,
     "parallel_rays": _parallel,
+    "in_plane_rays": functools.partial(_parallel, through=True),
     "degenerate_triangles": _degenerate,
     "nonfinite": _nonfinite,
 }
