@@ -276,6 +276,8 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef TB_NATIVE_ENTRIES
 #undef TB_NATIVE_ENTRY
 
+#include "bvh.h" /* the BVH traversal, with these kernels' block tests at its leaves */
+
 #undef nv_lt
 #undef nv_le
 #undef nv_gt
