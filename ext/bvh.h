@@ -99,6 +99,7 @@ static void TB_FN(tb_bvh_build_node)(TB_FN(tb_bvh_builder) * bld, size_t at, siz
     TB_FN(tb_bvh_item) *items = bld->items;
     tb_bvh_node *node = &bld->nodes[at];
     size_t n = end - begin;
+    memset(node, 0, sizeof *node); /* the padding too: the same tree, bit for bit */
     double c_lo[3] = {INFINITY, INFINITY, INFINITY}, c_hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int k = 0; k < 3; ++k) {
         node->b[0][k] = items[begin].lo[k];
@@ -313,7 +314,7 @@ TB_NWIDE int TB_NFN(tb_bvh_box)(const tb_bvh_node *node, const real o[3], const 
  * at the first hit. Non-finite rays (NaN or Inf in o or d) miss at once.
  *
  * Counts: nodes visited (inner nodes and leaves entered), box tests (the
- * root's and two per inner node), leaves, triangle tests (the leaf's
+ * root's, none for a non-finite ray, and two per inner node), leaves, triangle tests (the leaf's
  * triangles, not its padding lanes). With `null`, the leaf test is replaced
  * by a compiler barrier on the leaf's records (no load, no arithmetic): the
  * same traversal order, but nothing is ever hit, so no interval shrinks; run
@@ -355,7 +356,7 @@ TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) ma
             real best_t = t_max[i], best_u = (real)NAN, best_v = (real)NAN, t_in;
             int64_t best_slot = -1, best_index = -1;
             nreal filter = nv_set1(best_t); /* the kernel's t_max */
-            uint64_t visited = 0, boxes = 1, leaves = 0, tris = 0;
+            uint64_t visited = 0, boxes = finite, leaves = 0, tris = 0;
             size_t node = 0, sp = 0, stack[TB_BVH_STACK];
             real stack_t[TB_BVH_STACK];
             if (!finite || !TB_NFN(tb_bvh_box)(&nodes[0], org, inv, near, best_t, &t_in))
