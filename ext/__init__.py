@@ -925,7 +925,8 @@ class BVH:
     def _rays(self, origins, directions, mode, t_max, isa, allow_nonfinite):
         if self.kernel not in bvh_kernel_names():  # a BVH made by hand
             raise UserError(f"{self.kernel} cannot be a BVH's leaf test; these can: {', '.join(bvh_kernel_names())}")
-        return _check_workload(self.kernel, origins, directions, self.triangles, mode, t_max, isa, allow_nonfinite)
+        # one row stands for the triangles (checked finite at the build): dtype and kernel checks only
+        return _check_workload(self.kernel, origins, directions, self.triangles[:1], mode, t_max, isa, allow_nonfinite)
 
     def intersect(
         self,
@@ -956,9 +957,7 @@ class BVH:
         n, dtype = len(o), self.dtype
         hits = Hits(np.empty(n, np.int64), np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype))
         counts = np.empty((n, len(COUNT_NAMES)), np.int64)
-        _core.bvh_run(
-            self.kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm, *self._tree(), *hits, counts
-        )
+        _core.bvh_run(self.kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm, *self._tree(), *hits, counts)
         return Trace(hits, counts)
 
     def time(
@@ -984,14 +983,26 @@ class BVH:
         if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)):
             raise UserTypeError(f"loops must be an int, got {type(loops).__name__}")
         if not 1 <= loops <= MAX_BVH_BATCH_RAYS // len(o):
-            raise UserError(f"loops must be between 1 and {MAX_BVH_BATCH_RAYS // len(o)} for {len(o)} rays, got {loops}")
+            raise UserError(
+                f"loops must be between 1 and {MAX_BVH_BATCH_RAYS // len(o)} for {len(o)} rays, got {loops}"
+            )
         null_leaf = _check_flag("null_leaf", null_leaf)
         elapsed, hits, tris, t_sum, uv_sum, nodes, boxes, leaves = _core.bvh_time(
-            self.kernel, self.dtype.itemsize, MODES.index(mode), isa, o, d, len(o), tm, *self._tree(), int(loops), null_leaf
+            self.kernel,
+            self.dtype.itemsize,
+            MODES.index(mode),
+            isa,
+            o,
+            d,
+            len(o),
+            tm,
+            *self._tree(),
+            int(loops),
+            null_leaf,
         )
         return TraceBatch(elapsed, int(loops), len(o), hits, t_sum, uv_sum, nodes, boxes, leaves, tris)
 
-    def _tree(self) -> tuple:
+    def _tree(self) -> tuple[np.ndarray, int, np.ndarray, int, np.ndarray]:
         return self.nodes, self.n_nodes, self.perm, self.n_slots, self.prepared.records
 
 

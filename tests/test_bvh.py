@@ -344,8 +344,23 @@ def test_a_malformed_tree_raises_in_c_instead_of_reading_out_of_bounds():
     counts = np.empty((len(o), 4), np.int64)
 
     def run(nodes, perm=bvh.perm, records=bvh.prepared.records):
-        _core.bvh_run(KERNELS[0], 4, 2, ext.kernel_info(KERNELS[0]).isa, o, d, len(o), tm, nodes, len(nodes),
-                      perm, len(perm), records, *outs, counts)
+        _core.bvh_run(
+            KERNELS[0],
+            4,
+            2,
+            ext.kernel_info(KERNELS[0]).isa,
+            o,
+            d,
+            len(o),
+            tm,
+            nodes,
+            len(nodes),
+            perm,
+            len(perm),
+            records,
+            *outs,
+            counts,
+        )
 
     run(bvh.nodes)  # as built: fine
     leaf = int(np.flatnonzero(bvh.nodes.view(np.uint32)[:, 7] > 0)[0])
