@@ -92,6 +92,14 @@ __all__ = [
     "UserError",
     "UserTypeError",
     "build_info",
+    "BVH",
+    "COUNT_NAMES",
+    "MAX_BVH_BATCH_RAYS",
+    "MAX_BVH_TRIANGLES",
+    "Trace",
+    "TraceBatch",
+    "build_bvh",
+    "bvh_kernel_names",
     "bytes_per_triangle",
     "flat",
     "fma_peak",
@@ -811,3 +819,248 @@ def fma_peak(iterations: int = 200_000, *, force_scalar: bool = False) -> Peak:
         )
     flops, elapsed, isa, _sink = _core.fma_peak(int(iterations), bool(force_scalar))
     return Peak(flops, elapsed, isa)
+
+
+# ----------------------------------------------------------------------- BVH
+
+
+def bvh_kernel_names() -> tuple[str, ...]:
+    """Kernels a :class:`BVH` can take as its leaf test: the native kernels
+    (blocks of 16 triangles, one block test per leaf block).
+
+    >>> "moller_trumbore_fma" in bvh_kernel_names()
+    True
+    """
+    return _core.bvh_kernels()
+
+
+#: Columns of :attr:`Trace.counts`: per ray, nodes entered (inner nodes and
+#: leaves), ray-box tests, leaves entered, and triangles tested in them.
+COUNT_NAMES: tuple[str, ...] = ("nodes", "box_tests", "leaves", "triangle_tests")
+#: The most triangles one BVH takes; the most rays x loops one timed BVH batch traces.
+MAX_BVH_TRIANGLES: int = _core.MAX_BVH_TRIANGLES
+MAX_BVH_BATCH_RAYS: int = _core.MAX_BVH_BATCH_RAYS
+
+
+class Trace(NamedTuple):
+    """Answers of :meth:`BVH.intersect`, with the work each ray took.
+
+    hits : Hits
+        As :func:`intersect` answers (indices are the caller's triangle indices).
+    counts : int64 ndarray, shape (N, 4)
+        Per ray, the columns of :data:`COUNT_NAMES`.
+    """
+
+    hits: Hits
+    counts: np.ndarray
+
+
+@dataclass(frozen=True)
+class TraceBatch:
+    """One timed BVH batch: ``loops`` passes over the rays, timed inside C.
+
+    ``hits``, ``t_sum`` and ``uv_sum`` as in :class:`Batch`; the counts are
+    summed over every ray of every pass (:data:`COUNT_NAMES`).
+    """
+
+    elapsed_ns: int
+    loops: int
+    rays: int
+    hits: int
+    t_sum: float
+    uv_sum: float
+    nodes: int
+    box_tests: int
+    leaves: int
+    triangle_tests: int
+
+    @property
+    def rays_per_s(self) -> float:
+        return self.loops * self.rays / self.elapsed_ns * 1e9 if self.elapsed_ns > 0 else float("nan")
+
+
+@dataclass(frozen=True, eq=False)
+class BVH:
+    """A bounding volume hierarchy over a triangle array, with one native
+    kernel's records at its leaves. Build with :func:`build_bvh`.
+
+    The tree is ``ext/bvh.h``'s: binned SAH, deterministic, nodes depth first
+    (left child next), leaves of at most ``max_leaf`` triangles, each leaf on
+    whole blocks of 16 slots. Answers are always in the caller's triangle
+    indices; a traversal never sees the caller's array again.
+
+    Attributes
+    ----------
+    kernel : str
+    triangles : ndarray (K, 3, 3), read-only
+        The triangles as given (kept for validation and for reference checks).
+    nodes : ndarray (n_nodes, 8), read-only, the triangles' precision
+        Box corners (6 reals), then two uint32 per node (``nodes.view(np.uint32)``
+        columns 6-7 in float32; the first two uint32 of column 6 in float64):
+        inner ``(right child, 0)``, leaf ``(first slot, triangles)``.
+    perm : int64 ndarray (n_slots,), read-only
+        Slot -> caller's triangle index; ``-1`` for the padding of a leaf's last block.
+    prepared : Prepared
+        The kernel's records in slot order (``n_triangles`` = n_slots).
+    max_leaf : int
+    """
+
+    kernel: str
+    triangles: np.ndarray
+    nodes: np.ndarray
+    perm: np.ndarray
+    prepared: Prepared
+    max_leaf: int
+
+    @property
+    def dtype(self) -> np.dtype:
+        return self.triangles.dtype
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.nodes)
+
+    @property
+    def n_slots(self) -> int:
+        return len(self.perm)
+
+    @property
+    def leaves(self) -> np.ndarray:
+        """(first slot, triangles) of every leaf, in slot order: int64 (L, 2)."""
+        return _leaves(self.nodes)
+
+    def _rays(self, origins, directions, mode, t_max, isa, allow_nonfinite):
+        if self.kernel not in bvh_kernel_names():  # a BVH made by hand
+            raise UserError(f"{self.kernel} cannot be a BVH's leaf test; these can: {', '.join(bvh_kernel_names())}")
+        # one row stands for the triangles (checked finite at the build): dtype and kernel checks only
+        return _check_workload(self.kernel, origins, directions, self.triangles[:1], mode, t_max, isa, allow_nonfinite)
+
+    def intersect(
+        self,
+        origins: np.ndarray,
+        directions: np.ndarray,
+        mode: Mode = "closest",
+        *,
+        t_max: np.ndarray | float | None = None,
+        isa: str | None = None,
+        allow_nonfinite: bool = False,
+    ) -> Trace:
+        """Trace every ray (untimed); the arguments as :func:`intersect`'s.
+
+        ``closest`` finds the same triangle as brute force with the same
+        kernel (ties in ``t`` to the lowest index), up to rounding where two
+        triangles' hits are within a few ulps; ``any`` stops at the first hit.
+        With ``allow_nonfinite``, a ray with NaN or Inf in its origin or
+        direction is a miss (it is not traversed).
+
+        >>> import numpy as np
+        >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]], [[0., 0, 1], [1, 0, 1], [0, 1, 1]]])
+        >>> bvh = build_bvh("moller_trumbore_fma", tri)
+        >>> tr = bvh.intersect(np.array([[0.25, 0.25, 3.0]]), np.array([[0.0, 0, -1]]))
+        >>> int(tr.hits.index[0]), float(tr.hits.t[0])
+        (1, 2.0)
+        """
+        o, d, _, tm, isa = self._rays(origins, directions, mode, t_max, isa, allow_nonfinite)
+        n, dtype = len(o), self.dtype
+        hits = Hits(np.empty(n, np.int64), np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype))
+        counts = np.empty((n, len(COUNT_NAMES)), np.int64)
+        _core.bvh_run(self.kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm, *self._tree(), *hits, counts)
+        return Trace(hits, counts)
+
+    def time(
+        self,
+        origins: np.ndarray,
+        directions: np.ndarray,
+        mode: Mode,
+        loops: int,
+        *,
+        t_max: np.ndarray | float | None = None,
+        isa: str | None = None,
+        null_leaf: bool = False,
+    ) -> TraceBatch:
+        """Trace the rays ``loops`` times in C with the GIL released; time it.
+
+        ``null_leaf``: the same traversal with the leaf test replaced by a
+        compiler barrier (nothing is hit, so no interval shrinks; give each
+        ray's closest-hit ``t`` as ``t_max`` to traverse as if every ray found
+        its hit at once). Inputs must be finite; ``loops * len(origins)`` at
+        most :data:`MAX_BVH_BATCH_RAYS`.
+        """
+        o, d, _, tm, isa = self._rays(origins, directions, mode, t_max, isa, False)
+        if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)):
+            raise UserTypeError(f"loops must be an int, got {type(loops).__name__}")
+        if not 1 <= loops <= MAX_BVH_BATCH_RAYS // len(o):
+            raise UserError(
+                f"loops must be between 1 and {MAX_BVH_BATCH_RAYS // len(o)} for {len(o)} rays, got {loops}"
+            )
+        null_leaf = _check_flag("null_leaf", null_leaf)
+        elapsed, hits, tris, t_sum, uv_sum, nodes, boxes, leaves = _core.bvh_time(
+            self.kernel,
+            self.dtype.itemsize,
+            MODES.index(mode),
+            isa,
+            o,
+            d,
+            len(o),
+            tm,
+            *self._tree(),
+            int(loops),
+            null_leaf,
+        )
+        return TraceBatch(elapsed, int(loops), len(o), hits, t_sum, uv_sum, nodes, boxes, leaves, tris)
+
+    def _tree(self) -> tuple[np.ndarray, int, np.ndarray, int, np.ndarray]:
+        return self.nodes, self.n_nodes, self.perm, self.n_slots, self.prepared.records
+
+
+def _leaves(nodes: np.ndarray) -> np.ndarray:
+    """(first slot, triangles) of every leaf of a node array, in node order (= slot order)."""
+    pair = nodes.view(np.uint32)[:, [6, 7] if nodes.itemsize == 4 else [12, 13]].astype(np.int64)
+    return pair[pair[:, 1] > 0]
+
+
+def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = 16) -> BVH:
+    """Build a BVH over ``triangles`` (K, 3, 3), float32 or float64, finite,
+    with ``kernel``'s records at its leaves (one of :func:`bvh_kernel_names`).
+
+    ``max_leaf`` (1..1024): the most triangles in one leaf; 16 fills one
+    native block. Exactly flat triangles become records no ray hits, as
+    :func:`prepare` makes them. The same input gives the same tree, bit for bit.
+
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> bvh = build_bvh("moller_trumbore_fma", rng.normal(size=(1000, 3, 3)))
+    >>> sorted(bvh.perm[bvh.perm >= 0].tolist()) == list(range(1000))
+    True
+    """
+    _check_kernel(kernel)
+    if kernel not in bvh_kernel_names():
+        raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(bvh_kernel_names())}")
+    if isinstance(max_leaf, bool) or not isinstance(max_leaf, (int, np.integer)):
+        raise UserTypeError(f"max_leaf must be an int, got {type(max_leaf).__name__}")
+    if not 1 <= max_leaf <= 1024:
+        raise UserError(f"max_leaf must be between 1 and 1024, got {max_leaf}")
+    tris = _check_array("triangles", triangles, (3, 3))
+    n = len(tris)
+    if n > MAX_BVH_TRIANGLES:
+        raise UserError(f"a BVH takes at most {MAX_BVH_TRIANGLES} triangles, got {n}")
+    nodes = np.empty((2 * n - 1, 8), dtype=tris.dtype)
+    order = np.empty(n, dtype=np.int64)
+    n_nodes, n_slots = _core.bvh_build(tris.itemsize, tris, n, int(max_leaf), nodes, order)
+    nodes = nodes[:n_nodes].copy()
+    # slot of each triangle in leaf order: its leaf's first slot + its place in the leaf
+    first, count = _leaves(nodes).T
+    slots = np.repeat(first, count) + np.arange(n) - np.repeat(np.cumsum(count) - count, count)
+    perm = np.full(n_slots, -1, dtype=np.int64)
+    perm[slots] = order
+    in_slots = np.zeros((n_slots, 3, 3), dtype=tris.dtype)
+    in_slots[slots] = tris[order]
+    is_flat = np.ones(n_slots, dtype=np.uint8)  # padding: flat, so a miss for kernels that miss flat triangles
+    is_flat[slots] = flat(tris)[order]
+    info = kernel_info(kernel)
+    records = np.empty((n_slots // info.lanes, info.stride, info.lanes), dtype=tris.dtype)
+    _core.prepare(kernel, tris.itemsize, in_slots, n_slots, records, is_flat)
+    view = tris.view()
+    for a in (view, nodes, perm, records):
+        a.flags.writeable = False
+    return BVH(kernel, view, nodes, perm, Prepared(kernel, records, n_slots), int(max_leaf))

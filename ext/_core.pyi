@@ -12,6 +12,8 @@ _Out = np.ndarray
 MAX_BATCH_TESTS: int
 MAX_PEAK_ITERATIONS: int
 POLL_NS: int
+MAX_BVH_BATCH_RAYS: int
+MAX_BVH_TRIANGLES: int
 
 def kernel_names(internal: bool = ..., /) -> tuple[str, ...]: ...
 def kernel_info(name: str, /) -> dict[str, Any]: ...
@@ -53,3 +55,46 @@ def kernel_mix(name: str, /) -> tuple[int, int, int, int, int, int]: ...
 def op_probe(isa: str, itemsize: int, op: str, steps: int, /) -> tuple[float, int, float]: ...
 def probe_isas() -> tuple[tuple[str, bool], ...]: ...
 def op_classes() -> tuple[str, ...]: ...
+def bvh_kernels() -> tuple[str, ...]: ...
+def bvh_build(
+    itemsize: int, vertices: _In, n: int, max_leaf: int, nodes_out: _Out, order_out: _Out, /
+) -> tuple[int, int]: ...
+def bvh_run(
+    name: str,
+    itemsize: int,
+    mode: int,
+    isa: str,
+    o: _In,
+    d: _In,
+    n_rays: int,
+    t_max: _In,
+    nodes: _In,
+    n_nodes: int,
+    perm: _In,
+    n_slots: int,
+    records: _In,
+    index_out: _Out,
+    t_out: _Out,
+    u_out: _Out,
+    v_out: _Out,
+    counts_out: _Out,
+    /,
+) -> None: ...
+def bvh_time(
+    name: str,
+    itemsize: int,
+    mode: int,
+    isa: str,
+    o: _In,
+    d: _In,
+    n_rays: int,
+    t_max: _In,
+    nodes: _In,
+    n_nodes: int,
+    perm: _In,
+    n_slots: int,
+    records: _In,
+    loops: int,
+    null: bool,
+    /,
+) -> tuple[int, int, int, float, float, int, int, int]: ...

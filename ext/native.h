@@ -138,6 +138,23 @@ typedef struct {
     nreal sx, sy, sz;
 } tb_nray;
 
+/* a kernel's ray (its make_ray's tb_ray) in every lane */
+TB_NWIDE tb_nray TB_NFN(tb_nray_of)(const tb_ray *s)
+{
+    tb_nray r;
+    for (int k = 0; k < 3; ++k) {
+        r.o[k] = nv_set1(s->o[k]);
+        r.d[k] = nv_set1(s->d[k]);
+    }
+    r.kx = s->kx;
+    r.ky = s->ky;
+    r.kz = s->kz;
+    r.sx = nv_set1(s->sx);
+    r.sy = nv_set1(s->sy);
+    r.sz = nv_set1(s->sz);
+    return r;
+}
+
 typedef struct {
     nreal t, u, v, den;
 } tb_nhit;
@@ -198,18 +215,8 @@ TB_NFN(tb_native_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) make_ray, siz
             if (++rays == poll_at && !(poll_at = tb_poll(job, rays)))
                 goto stop;
             tb_ray scalar_ray;
-            tb_nray r;
             make_ray(o + 3 * i, d + 3 * i, &scalar_ray);
-            for (int k = 0; k < 3; ++k) {
-                r.o[k] = nv_set1(scalar_ray.o[k]);
-                r.d[k] = nv_set1(scalar_ray.d[k]);
-            }
-            r.kx = scalar_ray.kx;
-            r.ky = scalar_ray.ky;
-            r.kz = scalar_ray.kz;
-            r.sx = nv_set1(scalar_ray.sx);
-            r.sy = nv_set1(scalar_ray.sy);
-            r.sz = nv_set1(scalar_ray.sz);
+            const tb_nray r = TB_NFN(tb_nray_of)(&scalar_ray);
             nreal best_t[TB_NVPB], best_u[TB_NVPB], best_v[TB_NVPB], best_b[TB_NVPB];
             for (int v = 0; v < TB_NVPB; ++v) {
                 best_t[v] = nv_set1(t_max[i]);
@@ -301,6 +308,8 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef TB_NATIVE_INSTANTIATE
 #undef TB_NATIVE_ENTRIES
 #undef TB_NATIVE_ENTRY
+
+#include "bvh.h" /* the BVH traversal, with these kernels' block tests at its leaves */
 
 #undef nv_eq
 #undef nv_lt
