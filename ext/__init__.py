@@ -24,7 +24,10 @@ Kernels (see ``kernel_names()``; each C file's header cites its paper):
   kernels (no scalar form): Moller-Trumbore at the widest vector the CPU
   has (16 float lanes with AVX-512, 8 with AVX2 + FMA), fused
   multiply-adds, stored edges, blocks of 16 triangles; held to the
-  reference with an error bound, not bit for bit to ``moller_trumbore``.
+  reference with an error bound, not bit for bit to ``moller_trumbore``;
+  ``havel_herout_fma`` and ``plucker_fma``: the same treatment of Havel &
+  Herout (its 12-real planes, early exit after u) and of the Plucker test
+  (vertices, edges and normal stored, early exit after the edge tests).
 
 Internal kernels, for the harness's honesty checks (listed only by
 ``kernel_names(internal=True)``, accepted everywhere a kernel name is):

@@ -55,7 +55,10 @@ typedef __mmask16 nmask;
 #define nv_cmp(a, b, op) _mm512_cmp_ps_mask(a, b, op)
 #define nv_select(m, a, b) _mm512_mask_blend_ps(m, b, a)
 #define nm_and(a, b) ((nmask)((a) & (b)))
+#define nm_or(a, b) ((nmask)((a) | (b)))
 #define nm_any(m) ((m) != 0)
+#define nv_min _mm512_min_ps
+#define nv_max _mm512_max_ps
 #elif TB_NISA_ID == 2
 typedef __m512d nreal;
 typedef __mmask8 nmask;
@@ -66,7 +69,10 @@ typedef __mmask8 nmask;
 #define nv_cmp(a, b, op) _mm512_cmp_pd_mask(a, b, op)
 #define nv_select(m, a, b) _mm512_mask_blend_pd(m, b, a)
 #define nm_and(a, b) ((nmask)((a) & (b)))
+#define nm_or(a, b) ((nmask)((a) | (b)))
 #define nm_any(m) ((m) != 0)
+#define nv_min _mm512_min_pd
+#define nv_max _mm512_max_pd
 #elif TB_NISA_ID == 1 && !TB_REAL_IS_DOUBLE
 typedef __m256 nreal;
 typedef __m256 nmask;
@@ -77,7 +83,10 @@ typedef __m256 nmask;
 #define nv_cmp(a, b, op) _mm256_cmp_ps(a, b, op)
 #define nv_select(m, a, b) _mm256_blendv_ps(b, a, m)
 #define nm_and _mm256_and_ps
+#define nm_or _mm256_or_ps
 #define nm_any(m) (_mm256_movemask_ps(m) != 0)
+#define nv_min _mm256_min_ps
+#define nv_max _mm256_max_ps
 #elif TB_NISA_ID == 1
 typedef __m256d nreal;
 typedef __m256d nmask;
@@ -88,7 +97,10 @@ typedef __m256d nmask;
 #define nv_cmp(a, b, op) _mm256_cmp_pd(a, b, op)
 #define nv_select(m, a, b) _mm256_blendv_pd(b, a, m)
 #define nm_and _mm256_and_pd
+#define nm_or _mm256_or_pd
 #define nm_any(m) (_mm256_movemask_pd(m) != 0)
+#define nv_min _mm256_min_pd
+#define nv_max _mm256_max_pd
 #else /* the baseline: plain vector extensions, 16 bytes (SSE2 on x86-64) */
 typedef real nreal __attribute__((vector_size(16)));
 typedef mask_elem nmask __attribute__((vector_size(16)));
@@ -103,7 +115,10 @@ typedef mask_elem nmask __attribute__((vector_size(16)));
 #define TB_NCMP__CMP_LT_OQ(a, b) ((a) < (b))
 #define nv_select(m, a, b) ((nreal)(((m) & (nmask)(a)) | (~(m) & (nmask)(b))))
 #define nm_and(a, b) ((a) & (b))
+#define nm_or(a, b) ((a) | (b))
 #define nm_any(m) TB_FN(tb_nany)(m)
+#define nv_min(a, b) nv_select(nv_lt(a, b), a, b)
+#define nv_max(a, b) nv_select(nv_gt(a, b), a, b)
 TB_NWIDE int TB_FN(tb_nany)(nmask m)
 {
     uint64_t w[sizeof m / 8], any = 0;
@@ -142,6 +157,8 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #include "kernels/moller_trumbore_fma.h"
 #include "kernels/moller_trumbore_fma_exit.h"
 #include "kernels/moller_trumbore_yardstick.h"
+#include "kernels/havel_herout_fma.h"
+#include "kernels/plucker_fma.h"
 
 typedef nmask (*TB_NFN(tb_native_fn))(const tb_nray *restrict, const real *restrict, nreal,
                                       tb_nhit *restrict);
@@ -281,7 +298,10 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef nv_ge
 #undef nv_load
 #undef TB_NVPB
+#undef nv_max
+#undef nv_min
 #undef nm_any
+#undef nm_or
 #undef nm_and
 #undef nv_select
 #undef nv_cmp

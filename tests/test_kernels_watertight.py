@@ -1,7 +1,8 @@
 """woop and plucker: agreement with the reference, and the watertight promise.
 
 Every check runs both kernels in float32 and float64, in the scalar form and in
-the wide form on each instruction set this CPU runs (avx2, baseline). The
+the wide form on each instruction set this CPU runs (avx2, baseline), and
+plucker's native form plucker_fma on each of its instruction sets. The
 watertight checks shoot rays at the shared edges and vertices of exactly
 representable, exactly coplanar meshes: a ray through the interior of such a
 mesh that hits no triangle is a crack. ``pytest -s`` prints the measured
@@ -25,12 +26,21 @@ KERNELS = ["woop", "plucker"]
 DTYPES = [np.float32, np.float64]
 DTYPE_IDS = ["f32", "f64"]
 FORMS = ["scalar"] + [isa for isa in ("avx2", "baseline") if ext.kernel_info("woop_x8").isas.get(isa)]
+# the native forms held to their algorithm's promises here, and their runnable ISAs
+NATIVE = {"plucker_fma": "plucker"}
+NATIVE_FORMS = [isa for isa, ok in ext.kernel_info("plucker_fma").isas.items() if ok]
+# (kernel, form) of every check below that runs a form
+CASES = [(k, f) for k in KERNELS for f in FORMS] + [(k, isa) for k in NATIVE for isa in NATIVE_FORMS]
+PLUCKER_CASES = [(k, f) for k, f in CASES if k == "plucker" or NATIVE.get(k) == "plucker"]
 T_RTOL = {np.float32: 1e-4, np.float64: 1e-10}
 UV_ATOL = {np.float32: 1e-4, np.float64: 1e-9}
 
 
 def _intersect(kernel, form, o, d, tris, mode="closest_uv", **options):
-    """One call of `kernel` in `form`: "scalar", or the wide form on that ISA."""
+    """One call of `kernel` in `form`: "scalar", or the wide form on that ISA
+    (a native kernel: itself on that ISA)."""
+    if ext.kernel_info(kernel).lanes == 16:
+        return ext.intersect(kernel, o, d, tris, mode, isa=form, **options)
     if form == "scalar":
         return ext.intersect(kernel, o, d, tris, mode, **options)
     return ext.intersect(ext.kernel_info(kernel).wide_form, o, d, tris, mode, isa=form, **options)
@@ -83,9 +93,8 @@ def _icosphere_rays():
     return o, d, tris, index, t, uv.u, uv.v
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize(("kernel", "form"), CASES)
 def test_closest_on_a_mesh_agrees_with_reference(kernel, dtype, form):
     o, d, tris, ref_index, ref_t, ref_u, ref_v = _icosphere_rays()
     assert len(o) > 250 and 0.2 < (ref_index >= 0).mean() < 0.95
@@ -100,9 +109,8 @@ def test_closest_on_a_mesh_agrees_with_reference(kernel, dtype, form):
         assert np.isnan(r.t[~hit]).all()
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize(("kernel", "form"), CASES)
 def test_any_mode_finds_a_hit_exactly_when_the_reference_does(kernel, dtype, form):
     o, d, tris, ref_index, *_ = _icosphere_rays()
     o, d, tris = as_dtype((o, d, tris), dtype)
@@ -113,9 +121,8 @@ def test_any_mode_finds_a_hit_exactly_when_the_reference_does(kernel, dtype, for
     assert reference.intersect_pairs(o[hit], d[hit], tris[r.index[hit]]).hit.all()
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize(("kernel", "form"), CASES)
 def test_t_max_bounds_the_hits(kernel, dtype, form):
     o, d, tris, ref_index, ref_t, *_ = _icosphere_rays()
     o, d, tris = as_dtype((o, d, tris), dtype)
@@ -144,9 +151,8 @@ DEGENERATE = np.array(
 )
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize(("kernel", "form"), CASES)
 def test_degenerate_triangles_miss(kernel, dtype, form):
     n = len(DEGENERATE)
     o = np.array([[0.3, 0.3, 1], [0.5, 0.5, 1], [0.3, 0.3, 1], [0.5, 0.5, 1], [0.5, 0.5, 2.0]])
@@ -177,9 +183,8 @@ def _nonfinite_cases():
     return np.array(o), np.array(d), np.array(tris)
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize(("kernel", "form"), CASES)
 def test_nonfinite_inputs_are_misses(kernel, dtype, form):
     bad_o, bad_d, bad_tris = as_dtype(_nonfinite_cases(), dtype)
     good_o, good_d, good_tri = as_dtype((np.array([[0.25, 0.25, 1.0]]), DOWN, UNIT_TRI), dtype)
@@ -342,15 +347,16 @@ def test_woop_has_no_cracks(dtype, form):
     assert cracks["vertex"][1] > 10000 and cracks["edge"][1] > 30000
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-def test_plucker_has_no_cracks_through_edges(dtype, form):
+@pytest.mark.parametrize(("kernel", "form"), PLUCKER_CASES)
+def test_plucker_has_no_cracks_through_edges(kernel, dtype, form):
     # watertight by construction through an edge's interior (the shared
-    # edge's product is negated exactly); at vertices it is not (see the
-    # kernel's header): measured here, and asserted on random fans below
-    cracks = _cracks("plucker", dtype, form)
+    # edge's product is negated exactly, fused or not: see plucker_fma.h);
+    # at vertices it is not (see the kernel's header): measured here, and
+    # asserted on random fans below
+    cracks = _cracks(kernel, dtype, form)
     vertex_cracks, vertex_rays = cracks["vertex"]
-    print(f"\nplucker {np.dtype(dtype)} {form}: cracks {cracks}, vertex crack rate {vertex_cracks / vertex_rays:.2e}")
+    print(f"\n{kernel} {np.dtype(dtype)} {form}: cracks {cracks}, vertex crack rate {vertex_cracks / vertex_rays:.2e}")
     assert cracks["edge"][0] == 0
 
 
@@ -425,15 +431,22 @@ def _fan_rays(seed: int, n_fans: int, rays_per_fan: int, far: bool):
     return out
 
 
-def _fan_cracks(kernel, dtype, fans):
+def _fan_cracks(kernel, dtype, fans, isa=None):
+    """Rays of the fans that hit none of their fan's triangles (pairs mode; a
+    native kernel, which has none, runs each fan as a mesh on `isa`)."""
     cracks = rays = 0
     for tris, o, d in fans:
         k, n = len(tris), len(o)
-        every = np.tile(tris, (n, 1, 1))
-        o, d, t = as_dtype((np.repeat(o, k, 0), np.repeat(d, k, 0), every), dtype)
-        assert (t == every).all(), "fan not exact in this precision"
-        hits = ext.intersect(kernel, o, d, t, "pairs").hit.reshape(n, k)
-        cracks += int((~hits.any(axis=1)).sum())
+        if ext.kernel_info(kernel).lanes == 16:
+            o, d, t = as_dtype((o, d, tris), dtype)
+            assert (t == tris).all(), "fan not exact in this precision"
+            hit = ext.intersect(kernel, o, d, t, "closest", isa=isa).hit
+        else:
+            every = np.tile(tris, (n, 1, 1))
+            o, d, t = as_dtype((np.repeat(o, k, 0), np.repeat(d, k, 0), every), dtype)
+            assert (t == every).all(), "fan not exact in this precision"
+            hit = ext.intersect(kernel, o, d, t, "pairs").hit.reshape(n, k).any(axis=1)
+        cracks += int((~hit).sum())
         rays += n
     return cracks, rays
 
@@ -448,16 +461,18 @@ def test_woop_is_watertight_at_vertices_of_random_fans(dtype):
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
+@pytest.mark.parametrize(("kernel", "isa"), [("plucker", None)] + [(k, f) for k, f in PLUCKER_CASES if k != "plucker"])
 @pytest.mark.xfail(
     strict=True,
     reason="plucker's tolerance is relative to |U+V+W|, not a bound on each product's "
     "error, which grows with the distance to the origin: at a vertex of triangles "
-    "100-10000 times their size away, every triangle of the fan can see mixed signs",
+    "100-10000 times their size away, every triangle of the fan can see mixed signs "
+    "(plucker_fma keeps the same tolerance rule, so the same holds for it)",
 )
-def test_plucker_is_watertight_at_vertices_of_far_fans(dtype):
-    near = _fan_cracks("plucker", dtype, _fan_rays(9, 40, 1500, far=False))
-    far = _fan_cracks("plucker", dtype, _fan_rays(9, 40, 1500, far=True))
-    print(f"\nplucker {np.dtype(dtype)} fans: near cracks {near[0]}/{near[1]}, far cracks {far[0]}/{far[1]}")
+def test_plucker_is_watertight_at_vertices_of_far_fans(kernel, isa, dtype):
+    near = _fan_cracks(kernel, dtype, _fan_rays(9, 40, 1500, far=False), isa)
+    far = _fan_cracks(kernel, dtype, _fan_rays(9, 40, 1500, far=True), isa)
+    print(f"\n{kernel} {isa} {np.dtype(dtype)} fans: near cracks {near[0]}/{near[1]}, far cracks {far[0]}/{far[1]}")
     assert far[0] == 0
 
 
