@@ -27,7 +27,10 @@
  *       a lane is set where the hit passes every test that needs no division,
  *       with h->t, h->u, h->v scaled by h->den > 0 (t = h->t / h->den). The
  *       loop divides once per vector that has a candidate and checks
- *       0 < t < t_max on the divided t, so a kernel never divides.
+ *       0 < t < t_max on the divided t, so a kernel never divides. A kernel
+ *       whose u and v have a denominator of their own (plucker_fma: the sum
+ *       of its edge products) sets h->uv_den > 0 and h->uv_den_set; the loop
+ *       then divides once more, only where u and v are asked for.
  *   tb_<name>_ops: operations per test and lane, counted as kernels.h says,
  *       the loop's division path included as if every vector took it. */
 
@@ -138,6 +141,8 @@ typedef struct {
 
 typedef struct {
     nreal t, u, v, den;
+    nreal uv_den;   /* u = h->u / uv_den where the kernel sets uv_den_set, else / den */
+    int uv_den_set; /* 0 unless the kernel sets it (the loop clears it) */
 } tb_nhit;
 
 /* one field of one vector's worth of triangles, any alignment */
@@ -211,6 +216,7 @@ TB_NFN(tb_native_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) make_ray, siz
                 int found = 0;
                 for (int v = 0; v < TB_NVPB; ++v) {
                     tb_nhit h;
+                    h.uv_den_set = 0;
                     nmask m = test(&r, rec + stride * TB_NBLOCK * b + v * TB_NL, best_t[v], &h);
                     if (b == n_blocks - 1)
                         m = nm_and(m, tail[v]);
@@ -220,8 +226,11 @@ TB_NFN(tb_native_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) make_ray, siz
                     m = nm_and(m, nm_and(nv_gt(t, zero), nv_lt(t, best_t[v])));
                     best_t[v] = nv_select(m, t, best_t[v]);
                     if (mode == TB_CLOSEST_UV || !timed) {
-                        best_u[v] = nv_select(m, h.u * inv, best_u[v]);
-                        best_v[v] = nv_select(m, h.v * inv, best_v[v]);
+                        nreal inv_uv = inv;
+                        if (h.uv_den_set)
+                            inv_uv = one / h.uv_den;
+                        best_u[v] = nv_select(m, h.u * inv_uv, best_u[v]);
+                        best_v[v] = nv_select(m, h.v * inv_uv, best_v[v]);
                     }
                     best_b[v] = nv_select(m, (nreal)((nbits)zero + (mask_elem)b), best_b[v]);
                     found |= nm_any(m);

@@ -42,7 +42,7 @@
  * How it differs from plucker_x8 (and why):
  *  - stored edges (9 subtractions fewer per test) and normal (6 operations,
  *    and only for vectors that pass the exit); fused cross products: 60
- *    operations before the exit, 76 in all, where plucker_x8 does 110;
+ *    operations before the exit, 74 in all, where plucker_x8 does 110;
  *  - the tolerance rule is plucker's: a product may stray to the other sign by
  *    TB_PLUCKER_TOLERANCE machine epsilons of |sum| (sum of the three
  *    products), zeros either way; written as min(products) >= -tolerance or
@@ -55,12 +55,12 @@
  *    tests reject almost every vector of camera rays: 99.5% of the vectors
  *    of the Suzanne camera workload, 1,280 triangles, 128^2 rays, closest,
  *    have no lane whose products share a sign);
- *  - one denominator for the loop's single division: plucker divides t by
- *    n . d and u, v by the sum; here h->den = |n . d| |sum| > 0, h->t = t'
- *    |sum|, h->u, h->v the products times |n . d| (signs folded in), two
- *    roundings more than plucker's. The product of two denominators
- *    overflows or underflows sooner (in float32, |n . d| about 1e19 or
- *    1e-19): then t is 0, infinite or NaN, a miss, never a wrong hit;
+ *  - two denominators, as plucker: t = t' / |n . d| (h->den) and u, v =
+ *    products / |sum| (h->uv_den, signs folded in); the loop divides by the
+ *    second only where u and v are asked for (native.h), so the closest-t
+ *    loop still divides once per candidate vector. (One common denominator
+ *    |n . d| |sum| would square the range: in float32 it overflowed at
+ *    tribench validate's scale 1e8 and lost every hit there);
  *  - det == 0 and sum == 0 miss as in plucker (|n . d| = 0 fails
  *    0 < t' < t_max |n . d|; |sum| > 0 is tested); every rejection is
  *    !(accept), so a NaN is a miss;
@@ -85,9 +85,8 @@
 /* per lane and test (rules in kernels.h; an FMA counts 1), on the path that
  * does everything: shift 9, three products 42, sum 2, tolerance 1, min and
  * max 4, sign tests 2, n . d 3, n . (v0 - o) 3, t_max |n . d| 1, depth and
- * sum tests 3, the common denominator 2; the loop's division path: 1 / den
- * 1, t 1, 0 < t < t_max 2 */
-#define tb_plucker_fma_ops 76
+ * sum tests 3; the loop's division path: 1 / |n . d| 1, t 1, 0 < t < t_max 2 */
+#define tb_plucker_fma_ops 74
 
 /* the vertices; the edges a -> b, b -> c, c -> a, rounded once in `real`
  * (fl(p - q) = -fl(q - p): a shared edge is stored exactly negated); the
@@ -169,14 +168,16 @@ TB_NWIDE nmask TB_NFN(tb_plucker_fma_test)(const tb_nray *restrict r, const real
     nreal t = (nreal)((nbits)scaled_t ^ sign);
     nmask hit = nm_and(nm_and(same_sign, nv_gt(abs_sum, zero)),
                        nm_and(nv_gt(t, zero), nv_lt(t, t_max * abs_den)));
-    /* one denominator for t = t' / |n . d| and u, v = products / sum */
-    h->den = abs_den * abs_sum;
-    h->t = t * abs_sum;
-    h->u = (nreal)((nbits)side_ca ^ sum_sign) * abs_den;
-    h->v = (nreal)((nbits)side_ab ^ sum_sign) * abs_den;
+    /* t = t' / |n . d|, u and v = products / sum: the loop divides */
+    h->t = t;
+    h->den = abs_den;
+    h->u = (nreal)((nbits)side_ca ^ sum_sign);
+    h->v = (nreal)((nbits)side_ab ^ sum_sign);
+    h->uv_den = abs_sum;
+    h->uv_den_set = 1;
     return hit;
 }
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
  * AVX-512 block loop (tests/test_ext_build.py); see kernels.h */
-#define tb_plucker_fma_mix {13, 25, 30, 7, 1, 3}
+#define tb_plucker_fma_mix {13, 23, 30, 7, 1, 3}
