@@ -86,7 +86,7 @@ class Bound:
 
 
 # measured max on the cases below, scalar / native: Moller 1.0 / 1.0, Plucker
-# 1.05 / 0.91, Havel-Herout 0.81 / 0.89; Havel-Herout's decisions went wrong up to
+# 1.05 / 0.78, Havel-Herout 0.81 / 0.89; Havel-Herout's decisions went wrong up to
 # a margin of 7.2 (scalar) and 23.7 (native) eps times _margin_hh (float32, 1e-3
 # triangles at 1e3: both forms alike)
 MOLLER = Bound(_condition, 4.0)
