@@ -31,7 +31,10 @@ Kernels (see ``kernel_names()``; each C file's header cites its paper):
   three edges; held to the reference with the same error bound;
 * ``baldwin_weber_12_fma`` and ``baldwin_weber_9_fma``: Baldwin & Weber
   as native wide kernels, fused, on the scalar forms' records, with the
-  early exit after the u test; held to the reference with their own bound.
+  early exit after the u test; held to the reference with their own bound;
+* ``havel_herout_fma`` and ``plucker_fma``: the same treatment of Havel &
+  Herout (its 12-real planes, early exit after u) and of the Plucker test
+  (vertices, edges and normal stored, early exit after the edge tests).
 
 Internal kernels, for the harness's honesty checks (listed only by
 ``kernel_names(internal=True)``, accepted everywhere a kernel name is):

@@ -401,6 +401,7 @@ TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) ma
                         for (size_t at = 0; at < count; at += TB_NL) {
                             const size_t slot = first + at;
                             tb_nhit h;
+                            h.uv_den_set = 0;
                             nmask m = test(&r, rec + stride * (slot - slot % 16) + slot % 16, filter, &h);
                             if (!nm_any(m))
                                 continue;
@@ -411,9 +412,11 @@ TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) ma
                             if (!nm_any(m))
                                 continue;
                             real ts[TB_NL], us[TB_NL], vs[TB_NL];
-                            nreal t_sel = nv_select(m, t, nan), u = h.u * inv_den, v = h.v * inv_den;
+                            nreal t_sel = nv_select(m, t, nan);
                             memcpy(ts, &t_sel, sizeof ts);
                             if (mode == TB_CLOSEST_UV || !timed) {
+                                const nreal inv_uv = TB_NFN(tb_nhit_uv_inv)(&h, inv_den);
+                                const nreal u = h.u * inv_uv, v = h.v * inv_uv;
                                 memcpy(us, &u, sizeof us);
                                 memcpy(vs, &v, sizeof vs);
                             }

@@ -28,7 +28,10 @@
  *       a lane is set where the hit passes every test that needs no division,
  *       with h->t, h->u, h->v scaled by h->den > 0 (t = h->t / h->den). The
  *       loop divides once per vector that has a candidate and checks
- *       0 < t < t_max on the divided t, so a kernel never divides.
+ *       0 < t < t_max on the divided t, so a kernel never divides. A kernel
+ *       whose u and v have a denominator of their own (plucker_fma: the sum
+ *       of its edge products) sets h->uv_den > 0 and h->uv_den_set; the loop
+ *       then divides once more, only where u and v are asked for.
  *   tb_<name>_ops: operations per test and lane, counted as kernels.h says,
  *       the loop's division path included as if every vector took it. */
 
@@ -59,6 +62,8 @@ typedef __mmask16 nmask;
 #define nm_and(a, b) ((nmask)((a) & (b)))
 #define nm_or(a, b) ((nmask)((a) | (b)))
 #define nm_any(m) ((m) != 0)
+#define nv_min _mm512_min_ps
+#define nv_max _mm512_max_ps
 #elif TB_NISA_ID == 2
 typedef __m512d nreal;
 typedef __mmask8 nmask;
@@ -72,6 +77,8 @@ typedef __mmask8 nmask;
 #define nm_and(a, b) ((nmask)((a) & (b)))
 #define nm_or(a, b) ((nmask)((a) | (b)))
 #define nm_any(m) ((m) != 0)
+#define nv_min _mm512_min_pd
+#define nv_max _mm512_max_pd
 #elif TB_NISA_ID == 1 && !TB_REAL_IS_DOUBLE
 typedef __m256 nreal;
 typedef __m256 nmask;
@@ -85,6 +92,8 @@ typedef __m256 nmask;
 #define nm_and _mm256_and_ps
 #define nm_or _mm256_or_ps
 #define nm_any(m) (_mm256_movemask_ps(m) != 0)
+#define nv_min _mm256_min_ps
+#define nv_max _mm256_max_ps
 #elif TB_NISA_ID == 1
 typedef __m256d nreal;
 typedef __m256d nmask;
@@ -98,6 +107,8 @@ typedef __m256d nmask;
 #define nm_and _mm256_and_pd
 #define nm_or _mm256_or_pd
 #define nm_any(m) (_mm256_movemask_pd(m) != 0)
+#define nv_min _mm256_min_pd
+#define nv_max _mm256_max_pd
 #else /* the baseline: plain vector extensions, 16 bytes (SSE2 on x86-64) */
 typedef real nreal __attribute__((vector_size(16)));
 typedef mask_elem nmask __attribute__((vector_size(16)));
@@ -116,6 +127,8 @@ typedef mask_elem nmask __attribute__((vector_size(16)));
 #define nm_and(a, b) ((a) & (b))
 #define nm_or(a, b) ((a) | (b))
 #define nm_any(m) TB_FN(tb_nany)(m)
+#define nv_min(a, b) nv_select(nv_lt(a, b), a, b)
+#define nv_max(a, b) nv_select(nv_gt(a, b), a, b)
 TB_NWIDE int TB_FN(tb_nany)(nmask m)
 {
     uint64_t w[sizeof m / 8], any = 0;
@@ -157,7 +170,17 @@ TB_NWIDE tb_nray TB_NFN(tb_nray_of)(const tb_ray *s)
 
 typedef struct {
     nreal t, u, v, den;
+    nreal uv_den;   /* u = h->u / uv_den where the kernel sets uv_den_set, else / den */
+    int uv_den_set; /* 0 unless the kernel sets it (the loop clears it) */
 } tb_nhit;
+
+/* what scales a hit's u and v (inv = 1 / den, what scales its t) */
+TB_NWIDE nreal TB_NFN(tb_nhit_uv_inv)(const tb_nhit *h, nreal inv)
+{
+    if (h->uv_den_set)
+        return nv_set1((real)1) / h->uv_den;
+    return inv;
+}
 
 /* one field of one vector's worth of triangles, any alignment */
 TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
@@ -180,6 +203,8 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #include "kernels/baldwin_weber_9_fma.h"
 #include "kernels/moller_trumbore_yardstick.h"
 #include "kernels/woop_fma.h"
+#include "kernels/havel_herout_fma.h"
+#include "kernels/plucker_fma.h"
 
 typedef nmask (*TB_NFN(tb_native_fn))(const tb_nray *restrict, const real *restrict, nreal,
                                       tb_nhit *restrict);
@@ -228,6 +253,7 @@ TB_NFN(tb_native_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) make_ray, siz
                 int found = 0;
                 for (int v = 0; v < TB_NVPB; ++v) {
                     tb_nhit h;
+                    h.uv_den_set = 0;
                     nmask m = test(&r, rec + stride * TB_NBLOCK * b + v * TB_NL, best_t[v], &h);
                     if (b == n_blocks - 1)
                         m = nm_and(m, tail[v]);
@@ -237,8 +263,9 @@ TB_NFN(tb_native_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) make_ray, siz
                     m = nm_and(m, nm_and(nv_gt(t, zero), nv_lt(t, best_t[v])));
                     best_t[v] = nv_select(m, t, best_t[v]);
                     if (mode == TB_CLOSEST_UV || !timed) {
-                        best_u[v] = nv_select(m, h.u * inv, best_u[v]);
-                        best_v[v] = nv_select(m, h.v * inv, best_v[v]);
+                        const nreal inv_uv = TB_NFN(tb_nhit_uv_inv)(&h, inv);
+                        best_u[v] = nv_select(m, h.u * inv_uv, best_u[v]);
+                        best_v[v] = nv_select(m, h.v * inv_uv, best_v[v]);
                     }
                     best_b[v] = nv_select(m, (nreal)((nbits)zero + (mask_elem)b), best_b[v]);
                     found |= nm_any(m);
@@ -318,6 +345,8 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef nv_ge
 #undef nv_load
 #undef TB_NVPB
+#undef nv_max
+#undef nv_min
 #undef nm_any
 #undef nm_or
 #undef nm_and

@@ -1,6 +1,7 @@
 """Moller-Trumbore with culling, Baldwin-Weber (12 and 9+k reals) and Havel-Herout
-against the float64 reference, in every precision and form (scalar, and _x8
-on each ISA), and the wide forms against their scalar forms bit for bit."""
+against the float64 reference, in every precision and form (scalar, _x8 on each
+ISA, and the native form where there is one, on each ISA), and the _x8 forms
+against their scalar forms bit for bit."""
 
 from __future__ import annotations
 
@@ -23,15 +24,26 @@ UV_ATOL = {np.float32: 1e-4, np.float64: 1e-9}
 # (form, isa): the scalar form, and the wide form (the registry's wide_form) on each ISA
 FORMS = [("scalar", None), ("wide", "avx2"), ("wide", "baseline")]
 FORM_IDS = ["scalar", "x8-avx2", "x8-baseline"]
+# the native form of a kernel (no scalar form of its own: held here to the
+# scalar kernel's promises), on each ISA of its list
+NATIVE = {"havel_herout": "havel_herout_fma"}
+NATIVE_ISAS = list(ext.kernel_info("havel_herout_fma").isas)
+KERNEL_FORMS = [pytest.param(k, f, id=f"{k}-{i}") for k in KERNELS for f, i in zip(FORMS, FORM_IDS, strict=True)]
+KERNEL_FORMS += [pytest.param(k, ("native", isa), id=f"{n}-{isa}") for k, n in NATIVE.items() for isa in NATIVE_ISAS]
 
 kernel_param = pytest.mark.parametrize("kernel", KERNELS)
 dtype_param = pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
-form_param = pytest.mark.parametrize("form", FORMS, ids=FORM_IDS)
+kernel_form_param = pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
 
 
 def _run(kernel, form, o, d, tris, mode, **options):
     which, isa = form
-    name = kernel if which == "scalar" else ext.kernel_info(kernel).wide_form
+    if which == "scalar":
+        name = kernel
+    elif which == "native":
+        name = NATIVE[kernel]
+    else:
+        name = ext.kernel_info(kernel).wide_form
     if isa is not None and not ext.kernel_info(name).isas[isa]:
         pytest.skip(f"{isa} is not available on this CPU")
     return ext.intersect(name, o, d, tris, mode, isa=isa, **options)
@@ -119,9 +131,8 @@ def test_closed_triangle_edges_and_vertices_hit(kernel, dtype):
     np.testing.assert_array_equal(r.v[: len(on)], o[: len(on), 1])
 
 
-@form_param
 @dtype_param
-@kernel_param
+@kernel_form_param
 def test_origin_on_the_plane_is_not_a_hit(kernel, dtype, form):
     # t = 0 exactly (origin inside the triangle, in its plane): 0 < t fails;
     # a hair above the plane it hits
@@ -189,9 +200,8 @@ def test_mesh_workload_has_both_kinds_of_rays():
     assert 0.2 < closest_front.mean() < any_hit.mean()  # inside rays meet back faces only
 
 
-@form_param
 @dtype_param
-@kernel_param
+@kernel_form_param
 def test_closest_uv_on_a_mesh_agrees_with_reference(kernel, dtype, form):
     o64, d64, tris64, _, _, t_ref, u_ref, v_ref = _mesh_workload()
     index_ref, _ = _mesh_expected(kernel)
@@ -209,9 +219,8 @@ def test_closest_uv_on_a_mesh_agrees_with_reference(kernel, dtype, form):
     np.testing.assert_array_equal(closest.t, r.t)
 
 
-@form_param
 @dtype_param
-@kernel_param
+@kernel_form_param
 def test_any_on_a_mesh_agrees_with_reference(kernel, dtype, form):
     o, d, tris = as_dtype(_mesh_workload()[:3], dtype)
     index_ref, hit_ref = _mesh_expected(kernel)
@@ -221,9 +230,8 @@ def test_any_on_a_mesh_agrees_with_reference(kernel, dtype, form):
     assert hit_ref[rows, r.index[rows]].all()  # some triangle the ray really hits
 
 
-@form_param
 @dtype_param
-@kernel_param
+@kernel_form_param
 def test_t_max_on_a_mesh(kernel, dtype, form):
     o, d, tris = as_dtype(_mesh_workload()[:3], dtype)
     first = _run(kernel, form, o, d, tris, "closest")
@@ -299,9 +307,8 @@ def test_degenerate_triangles_miss_in_pairs(kernel, dtype):
     assert not r.hit.any() and np.isnan(r.t).all()
 
 
-@form_param
 @dtype_param
-@kernel_param
+@kernel_form_param
 def test_degenerate_triangles_on_the_ray_path_never_hit(kernel, dtype, form):
     o64, d64, tris64 = _mesh_workload()[:3]
     extra = _degenerate_on_rays(o64, d64, 40)
@@ -350,9 +357,8 @@ def test_nonfinite_pairs_miss(kernel, dtype):
     assert not r.hit.any() and np.isnan(r.t).all() and np.isnan(r.u).all()
 
 
-@form_param
 @dtype_param
-@kernel_param
+@kernel_form_param
 def test_nonfinite_rays_and_triangles_miss(kernel, dtype, form):
     o, d, tris, clean_o, clean_d, clean_tris = _poisoned_pairs(dtype)
     finite_ray = np.isfinite(o).all(axis=1) & np.isfinite(d).all(axis=1)

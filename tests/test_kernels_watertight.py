@@ -2,7 +2,7 @@
 
 Every check runs both kernels in float32 and float64, in the scalar form and in
 the wide form on each instruction set this CPU runs (avx2, baseline), and
-woop's native form woop_fma on each ISA it runs (FMA_FORMS). The
+their native forms woop_fma and plucker_fma on each of their instruction sets. The
 watertight checks shoot rays at the shared edges and vertices of exactly
 representable, exactly coplanar meshes: a ray through the interior of such a
 mesh that hits no triangle is a crack. ``pytest -s`` prints the measured
@@ -27,16 +27,23 @@ KERNELS = ["woop", "plucker"]
 DTYPES = [np.float32, np.float64]
 DTYPE_IDS = ["f32", "f64"]
 FORMS = ["scalar"] + [isa for isa in ("avx2", "baseline") if ext.kernel_info("woop_x8").isas.get(isa)]
-# woop's native form on every ISA it runs: (kernel, ISA) pairs beside (kernel, form) ones
-FMA_FORMS = [("woop_fma", isa) for isa, ok in ext.kernel_info("woop_fma").isas.items() if ok]
-KERNEL_FORMS = [(k, f) for k in KERNELS for f in FORMS] + FMA_FORMS
+# the native forms held to their algorithm's promises here, and their runnable ISAs
+NATIVE = {"woop_fma": "woop", "plucker_fma": "plucker"}
+# (kernel, form) of every check below that runs a form
+CASES = [(k, f) for k in KERNELS for f in FORMS] + [
+    (k, isa) for k in NATIVE for isa, ok in ext.kernel_info(k).isas.items() if ok
+]
+PLUCKER_CASES = [(k, f) for k, f in CASES if k == "plucker" or NATIVE.get(k) == "plucker"]
+WOOP_CASES = [(k, f) for k, f in CASES if k == "woop" or NATIVE.get(k) == "woop"]
 T_RTOL = {np.float32: 1e-4, np.float64: 1e-10}
 UV_ATOL = {np.float32: 1e-4, np.float64: 1e-9}
 
 
 def _intersect(kernel, form, o, d, tris, mode="closest_uv", **options):
-    """One call of `kernel` in `form`: "scalar", or on that ISA its wide form (a
-    native kernel, which is its own wide form, itself)."""
+    """One call of `kernel` in `form`: "scalar", or the wide form on that ISA
+    (a native kernel: itself on that ISA)."""
+    if ext.kernel_info(kernel).lanes == 16:
+        return ext.intersect(kernel, o, d, tris, mode, isa=form, **options)
     if form == "scalar":
         return ext.intersect(kernel, o, d, tris, mode, **options)
     wide = ext.kernel_info(kernel).wide_form or kernel
@@ -91,7 +98,7 @@ def _icosphere_rays():
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
+@pytest.mark.parametrize(("kernel", "form"), CASES)
 def test_closest_on_a_mesh_agrees_with_reference(kernel, dtype, form):
     o, d, tris, ref_index, ref_t, ref_u, ref_v = _icosphere_rays()
     assert len(o) > 250 and 0.2 < (ref_index >= 0).mean() < 0.95
@@ -107,7 +114,7 @@ def test_closest_on_a_mesh_agrees_with_reference(kernel, dtype, form):
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
+@pytest.mark.parametrize(("kernel", "form"), CASES)
 def test_any_mode_finds_a_hit_exactly_when_the_reference_does(kernel, dtype, form):
     o, d, tris, ref_index, *_ = _icosphere_rays()
     o, d, tris = as_dtype((o, d, tris), dtype)
@@ -119,7 +126,7 @@ def test_any_mode_finds_a_hit_exactly_when_the_reference_does(kernel, dtype, for
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
+@pytest.mark.parametrize(("kernel", "form"), CASES)
 def test_t_max_bounds_the_hits(kernel, dtype, form):
     o, d, tris, ref_index, ref_t, *_ = _icosphere_rays()
     o, d, tris = as_dtype((o, d, tris), dtype)
@@ -149,7 +156,7 @@ DEGENERATE = np.array(
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
+@pytest.mark.parametrize(("kernel", "form"), CASES)
 def test_degenerate_triangles_miss(kernel, dtype, form):
     n = len(DEGENERATE)
     o = np.array([[0.3, 0.3, 1], [0.5, 0.5, 1], [0.3, 0.3, 1], [0.5, 0.5, 1], [0.5, 0.5, 2.0]])
@@ -181,7 +188,7 @@ def _nonfinite_cases():
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
+@pytest.mark.parametrize(("kernel", "form"), CASES)
 def test_nonfinite_inputs_are_misses(kernel, dtype, form):
     bad_o, bad_d, bad_tris = as_dtype(_nonfinite_cases(), dtype)
     good_o, good_d, good_tri = as_dtype((np.array([[0.25, 0.25, 1.0]]), DOWN, UNIT_TRI), dtype)
@@ -336,7 +343,7 @@ def _cracks(kernel, dtype, form):
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize(("kernel", "form"), [("woop", f) for f in FORMS] + FMA_FORMS)
+@pytest.mark.parametrize(("kernel", "form"), WOOP_CASES)
 def test_woop_has_no_cracks(kernel, dtype, form):
     cracks = _cracks(kernel, dtype, form)
     print(f"\n{kernel} {np.dtype(dtype)} {form}: cracks {cracks}")
@@ -344,15 +351,16 @@ def test_woop_has_no_cracks(kernel, dtype, form):
     assert cracks["vertex"][1] > 10000 and cracks["edge"][1] > 30000
 
 
-@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-def test_plucker_has_no_cracks_through_edges(dtype, form):
+@pytest.mark.parametrize(("kernel", "form"), PLUCKER_CASES)
+def test_plucker_has_no_cracks_through_edges(kernel, dtype, form):
     # watertight by construction through an edge's interior (the shared
-    # edge's product is negated exactly); at vertices it is not (see the
-    # kernel's header): measured here, and asserted on random fans below
-    cracks = _cracks("plucker", dtype, form)
+    # edge's product is negated exactly, fused or not: see plucker_fma.h);
+    # at vertices it is not (see the kernel's header): measured here, and
+    # asserted on random fans below
+    cracks = _cracks(kernel, dtype, form)
     vertex_cracks, vertex_rays = cracks["vertex"]
-    print(f"\nplucker {np.dtype(dtype)} {form}: cracks {cracks}, vertex crack rate {vertex_cracks / vertex_rays:.2e}")
+    print(f"\n{kernel} {np.dtype(dtype)} {form}: cracks {cracks}, vertex crack rate {vertex_cracks / vertex_rays:.2e}")
     assert cracks["edge"][0] == 0
 
 
@@ -428,29 +436,27 @@ def _fan_rays(seed: int, n_fans: int, rays_per_fan: int, far: bool):
 
 
 def _fan_cracks(kernel, dtype, fans, isa=None):
-    """Rays that hit no triangle of their fan: each ray against each triangle
-    (pairs), or, on `isa`, against the whole fan at once (any: a kernel without
-    the pairs mode)."""
+    """Rays of the fans that hit none of their fan's triangles (pairs mode; a
+    native kernel, which has none, runs each fan as a mesh on `isa`)."""
     cracks = rays = 0
     for tris, o, d in fans:
         k, n = len(tris), len(o)
-        if isa is not None:
+        if ext.kernel_info(kernel).lanes == 16:
             o, d, t = as_dtype((o, d, tris), dtype)
             assert (t == tris).all(), "fan not exact in this precision"
-            cracks += int((~ext.intersect(kernel, o, d, t, "any", isa=isa).hit).sum())
-            rays += n
-            continue
-        every = np.tile(tris, (n, 1, 1))
-        o, d, t = as_dtype((np.repeat(o, k, 0), np.repeat(d, k, 0), every), dtype)
-        assert (t == every).all(), "fan not exact in this precision"
-        hits = ext.intersect(kernel, o, d, t, "pairs").hit.reshape(n, k)
-        cracks += int((~hits.any(axis=1)).sum())
+            hit = ext.intersect(kernel, o, d, t, "closest", isa=isa).hit
+        else:
+            every = np.tile(tris, (n, 1, 1))
+            o, d, t = as_dtype((np.repeat(o, k, 0), np.repeat(d, k, 0), every), dtype)
+            assert (t == every).all(), "fan not exact in this precision"
+            hit = ext.intersect(kernel, o, d, t, "pairs").hit.reshape(n, k).any(axis=1)
+        cracks += int((~hit).sum())
         rays += n
     return cracks, rays
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize(("kernel", "isa"), [("woop", None)] + FMA_FORMS)
+@pytest.mark.parametrize(("kernel", "isa"), [("woop", None)] + [(k, f) for k, f in WOOP_CASES if k != "woop"])
 def test_woop_is_watertight_at_vertices_of_random_fans(kernel, isa, dtype):
     for far in (False, True):
         cracks, rays = _fan_cracks(kernel, dtype, _fan_rays(9, 40, 1500, far), isa)
@@ -476,7 +482,7 @@ def _sliver(dtype):
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize(("kernel", "form"), [("woop", f) for f in FORMS] + FMA_FORMS)
+@pytest.mark.parametrize(("kernel", "form"), WOOP_CASES)
 def test_a_zero_edge_function_is_recomputed_in_every_lane(kernel, dtype, form):
     # the paper's fallback: without it the rounded 0 is accepted and the ray
     # hits a triangle it misses; the sliver in each lane of a 16-block (after
@@ -494,16 +500,18 @@ def test_a_zero_edge_function_is_recomputed_in_every_lane(kernel, dtype, form):
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
+@pytest.mark.parametrize(("kernel", "isa"), [("plucker", None)] + [(k, f) for k, f in PLUCKER_CASES if k != "plucker"])
 @pytest.mark.xfail(
     strict=True,
     reason="plucker's tolerance is relative to |U+V+W|, not a bound on each product's "
     "error, which grows with the distance to the origin: at a vertex of triangles "
-    "100-10000 times their size away, every triangle of the fan can see mixed signs",
+    "100-10000 times their size away, every triangle of the fan can see mixed signs "
+    "(plucker_fma keeps the same tolerance rule, so the same holds for it)",
 )
-def test_plucker_is_watertight_at_vertices_of_far_fans(dtype):
-    near = _fan_cracks("plucker", dtype, _fan_rays(9, 40, 1500, far=False))
-    far = _fan_cracks("plucker", dtype, _fan_rays(9, 40, 1500, far=True))
-    print(f"\nplucker {np.dtype(dtype)} fans: near cracks {near[0]}/{near[1]}, far cracks {far[0]}/{far[1]}")
+def test_plucker_is_watertight_at_vertices_of_far_fans(kernel, isa, dtype):
+    near = _fan_cracks(kernel, dtype, _fan_rays(9, 40, 1500, far=False), isa)
+    far = _fan_cracks(kernel, dtype, _fan_rays(9, 40, 1500, far=True), isa)
+    print(f"\n{kernel} {isa} {np.dtype(dtype)} fans: near cracks {near[0]}/{near[1]}, far cracks {far[0]}/{far[1]}")
     assert far[0] == 0
 
 

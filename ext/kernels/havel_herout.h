@@ -62,18 +62,23 @@ static void TB_FN(tb_havel_herout_prepare)(const real *vertices, size_t n_tris, 
         double n[3] = {e1[1] * e2[2] - e1[2] * e2[1],
                        e1[2] * e2[0] - e1[0] * e2[2],
                        e1[0] * e2[1] - e1[1] * e2[0]};
-        double nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2], len = sqrt(nn);
-        double n1[3] = {(e2[1] * n[2] - e2[2] * n[1]) / nn,
-                        (e2[2] * n[0] - e2[0] * n[2]) / nn,
-                        (e2[0] * n[1] - e2[1] * n[0]) / nn};
-        double n2[3] = {(n[1] * e1[2] - n[2] * e1[1]) / nn,
-                        (n[2] * e1[0] - n[0] * e1[2]) / nn,
-                        (n[0] * e1[1] - n[1] * e1[0]) / nn};
-        double planes[12] = {n[0] / len, n[1] / len, n[2] / len, 0,
+        /* |n| and the unit normal through n / max|n_k|, and N1, N2 as (e2 x unit) / |n|, (unit x e1) / |n|:
+         * |n|^2 itself overflows double for coordinates past about 1e77 */
+        double big = fmax(fabs(n[0]), fmax(fabs(n[1]), fabs(n[2])));
+        double s[3] = {n[0] / big, n[1] / big, n[2] / big};
+        double s_len = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]), len = big * s_len;
+        double u[3] = {s[0] / s_len, s[1] / s_len, s[2] / s_len};
+        double n1[3] = {(e2[1] * u[2] - e2[2] * u[1]) / len,
+                        (e2[2] * u[0] - e2[0] * u[2]) / len,
+                        (e2[0] * u[1] - e2[1] * u[0]) / len};
+        double n2[3] = {(u[1] * e1[2] - u[2] * e1[1]) / len,
+                        (u[2] * e1[0] - u[0] * e1[2]) / len,
+                        (u[0] * e1[1] - u[1] * e1[0]) / len};
+        double planes[12] = {u[0], u[1], u[2], 0,
                              n1[0], n1[1], n1[2], -(n1[0] * v0[0] + n1[1] * v0[1] + n1[2] * v0[2]),
                              n2[0], n2[1], n2[2], -(n2[0] * v0[0] + n2[1] * v0[1] + n2[2] * v0[2])};
         planes[3] = planes[0] * v0[0] + planes[1] * v0[1] + planes[2] * v0[2];
-        int usable = nn > 0;
+        int usable = big > 0;
         for (int k = 0; k < 12; ++k) {
             rec[k] = (real)planes[k];
             usable &= isfinite(rec[k]) != 0;
