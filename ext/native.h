@@ -52,6 +52,7 @@ typedef __mmask16 nmask;
 #define nv_set1 _mm512_set1_ps
 #define nv_fmadd _mm512_fmadd_ps
 #define nv_fmsub _mm512_fmsub_ps
+#define nv_fnmadd _mm512_fnmadd_ps
 #define nv_cmp(a, b, op) _mm512_cmp_ps_mask(a, b, op)
 #define nv_select(m, a, b) _mm512_mask_blend_ps(m, b, a)
 #define nm_and(a, b) ((nmask)((a) & (b)))
@@ -63,6 +64,7 @@ typedef __mmask8 nmask;
 #define nv_set1 _mm512_set1_pd
 #define nv_fmadd _mm512_fmadd_pd
 #define nv_fmsub _mm512_fmsub_pd
+#define nv_fnmadd _mm512_fnmadd_pd
 #define nv_cmp(a, b, op) _mm512_cmp_pd_mask(a, b, op)
 #define nv_select(m, a, b) _mm512_mask_blend_pd(m, b, a)
 #define nm_and(a, b) ((nmask)((a) & (b)))
@@ -74,6 +76,7 @@ typedef __m256 nmask;
 #define nv_set1 _mm256_set1_ps
 #define nv_fmadd _mm256_fmadd_ps
 #define nv_fmsub _mm256_fmsub_ps
+#define nv_fnmadd _mm256_fnmadd_ps
 #define nv_cmp(a, b, op) _mm256_cmp_ps(a, b, op)
 #define nv_select(m, a, b) _mm256_blendv_ps(b, a, m)
 #define nm_and _mm256_and_ps
@@ -85,6 +88,7 @@ typedef __m256d nmask;
 #define nv_set1 _mm256_set1_pd
 #define nv_fmadd _mm256_fmadd_pd
 #define nv_fmsub _mm256_fmsub_pd
+#define nv_fnmadd _mm256_fnmadd_pd
 #define nv_cmp(a, b, op) _mm256_cmp_pd(a, b, op)
 #define nv_select(m, a, b) _mm256_blendv_pd(b, a, m)
 #define nm_and _mm256_and_pd
@@ -96,6 +100,7 @@ typedef mask_elem nmask __attribute__((vector_size(16)));
 #define nv_set1(x) ((x) - (nreal){0})
 #define nv_fmadd(a, b, c) ((a) * (b) + (c))
 #define nv_fmsub(a, b, c) ((a) * (b) - (c))
+#define nv_fnmadd(a, b, c) ((c) - (a) * (b))
 #define nv_cmp(a, b, op) TB_NCMP_##op(a, b)
 #define TB_NCMP__CMP_GE_OQ(a, b) ((a) >= (b))
 #define TB_NCMP__CMP_GT_OQ(a, b) ((a) > (b))
@@ -142,6 +147,8 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #include "kernels/moller_trumbore_fma.h"
 #include "kernels/moller_trumbore_fma_exit.h"
 #include "kernels/moller_trumbore_yardstick.h"
+#include "kernels/curless_fma.h"
+#include "kernels/moller_trumbore_cull_fma.h"
 
 typedef nmask (*TB_NFN(tb_native_fn))(const tb_nray *restrict, const real *restrict, nreal,
                                       tb_nhit *restrict);
@@ -285,6 +292,7 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef nm_and
 #undef nv_select
 #undef nv_cmp
+#undef nv_fnmadd
 #undef nv_fmsub
 #undef nv_fmadd
 #undef nv_set1

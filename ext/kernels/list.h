@@ -44,7 +44,9 @@
     X(woop,                 TB_BOTH_FACES,  TB_WATERTIGHT, "Woop, Benthin & Wald 2013", TB_CLEAN,       TB_X8)          \
     X(plucker,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
     X(moller_trumbore_fma,  TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
-    X(moller_trumbore_fma_exit, TB_BOTH_FACES, TB_OPEN,    "",                          TB_CLEAN,       TB_NATIVE)
+    X(moller_trumbore_fma_exit, TB_BOTH_FACES, TB_OPEN,    "",                          TB_CLEAN,       TB_NATIVE)      \
+    X(curless_fma,          TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
+    X(moller_trumbore_cull_fma, TB_FRONT_FACES, TB_OPEN,   "",                          TB_CLEAN,       TB_NATIVE)
 
 /* Internal kernels: honesty checks of the harness, not algorithms to compare,
  * with the same columns (none has a wide form). They are compiled and callable
