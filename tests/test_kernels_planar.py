@@ -1,6 +1,7 @@
 """Moller-Trumbore with culling, Baldwin-Weber (12 and 9+k reals) and Havel-Herout
-against the float64 reference, in every precision and form (scalar, and _x8
-on each ISA), and the wide forms against their scalar forms bit for bit."""
+against the float64 reference, in every precision and form (scalar, _x8 on
+each ISA, and the native form on each ISA where the algorithm has one), and
+the _x8 forms against their scalar forms bit for bit."""
 
 from __future__ import annotations
 
@@ -17,12 +18,16 @@ from tribench.workloads import reference
 KERNELS = ["moller_trumbore_cull", "baldwin_weber_12", "baldwin_weber_9", "havel_herout"]
 STRIDE = {"moller_trumbore_cull": 9, "baldwin_weber_12": 12, "baldwin_weber_9": 10, "havel_herout": 12}
 CULLS = {"moller_trumbore_cull"}
+# the native form (native.h) of an algorithm that has one: held to the reference, not bit for bit
+NATIVE_FORM = {"moller_trumbore_cull": "moller_trumbore_cull_fma"}
 DTYPES = [np.float32, np.float64]
 T_RTOL = {np.float32: 1e-4, np.float64: 1e-10}
 UV_ATOL = {np.float32: 1e-4, np.float64: 1e-9}
-# (form, isa): the scalar form, and the wide form (the registry's wide_form) on each ISA
-FORMS = [("scalar", None), ("wide", "avx2"), ("wide", "baseline")]
-FORM_IDS = ["scalar", "x8-avx2", "x8-baseline"]
+# (form, isa): the scalar form, the wide form (the registry's wide_form) and the native form on each ISA
+FORMS = [("scalar", None), ("wide", "avx2"), ("wide", "baseline")] + [
+    ("native", isa) for isa in ("avx512", "avx2", "baseline")
+]
+FORM_IDS = ["scalar", "x8-avx2", "x8-baseline", "native-avx512", "native-avx2", "native-baseline"]
 
 kernel_param = pytest.mark.parametrize("kernel", KERNELS)
 dtype_param = pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
@@ -31,7 +36,9 @@ form_param = pytest.mark.parametrize("form", FORMS, ids=FORM_IDS)
 
 def _run(kernel, form, o, d, tris, mode, **options):
     which, isa = form
-    name = kernel if which == "scalar" else ext.kernel_info(kernel).wide_form
+    if which == "native" and kernel not in NATIVE_FORM:
+        pytest.skip(f"{kernel} has no native form")
+    name = {"scalar": kernel, "wide": ext.kernel_info(kernel).wide_form, "native": NATIVE_FORM.get(kernel)}[which]
     if isa is not None and not ext.kernel_info(name).isas[isa]:
         pytest.skip(f"{isa} is not available on this CPU")
     return ext.intersect(name, o, d, tris, mode, isa=isa, **options)
@@ -54,7 +61,8 @@ def _expected_pairs(kernel, o, d, tris):
 
 @kernel_param
 def test_bytes_per_triangle(kernel):
-    for name in (kernel, ext.kernel_info(kernel).wide_form):
+    native = [NATIVE_FORM[kernel]] if kernel in NATIVE_FORM else []
+    for name in [kernel, ext.kernel_info(kernel).wide_form] + native:
         assert ext.kernel_info(name).stride == STRIDE[kernel]
         assert ext.kernel_info(name).culls_back_faces == (kernel in CULLS)
         assert ext.bytes_per_triangle(name, np.float32) == 4 * STRIDE[kernel]
@@ -133,14 +141,15 @@ def test_origin_on_the_plane_is_not_a_hit(kernel, dtype, form):
         assert _run(kernel, form, oi, di, ti, "closest").hit[0] == (i == 2)
 
 
+@form_param
 @kernel_param
-def test_which_faces_are_hit(kernel):
+def test_which_faces_are_hit(kernel, form):
     # v0 v1 v2 counter-clockwise seen from above: det > 0 for a ray going down
-    tri = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]] * 2)
+    tri = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
     o = np.array([[0.25, 0.25, 2.0], [0.25, 0.25, -2.0]])
     d = np.array([[0.0, 0, -1], [0.0, 0, 1]])
-    r = ext.intersect(kernel, o, d, tri, "pairs")
-    np.testing.assert_array_equal(r.hit, [True, kernel not in CULLS])
+    hit = [_run(kernel, form, o[i : i + 1], d[i : i + 1], tri, "closest").hit[0] for i in range(2)]
+    assert hit == [True, kernel not in CULLS]
 
 
 # -------------------------------------------------------------- mesh modes
