@@ -205,6 +205,8 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #include "kernels/woop_fma.h"
 #include "kernels/havel_herout_fma.h"
 #include "kernels/plucker_fma.h"
+#include "kernels/curless_fma.h"
+#include "kernels/moller_trumbore_cull_fma.h"
 
 typedef nmask (*TB_NFN(tb_native_fn))(const tb_nray *restrict, const real *restrict, nreal,
                                       tb_nhit *restrict);

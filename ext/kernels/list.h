@@ -49,7 +49,9 @@
     X(baldwin_weber_12_fma, TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
     X(baldwin_weber_9_fma,  TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
     X(havel_herout_fma,     TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
-    X(plucker_fma,          TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)
+    X(plucker_fma,          TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
+    X(curless_fma,          TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
+    X(moller_trumbore_cull_fma, TB_FRONT_FACES, TB_OPEN,   "",                          TB_CLEAN,       TB_NATIVE)
 
 /* Internal kernels: honesty checks of the harness, not algorithms to compare,
  * with the same columns (none has a wide form). They are compiled and callable

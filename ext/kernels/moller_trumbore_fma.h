@@ -59,9 +59,12 @@ static void TB_FN(tb_moller_trumbore_fma_prepare)(const real *vertices, size_t n
 }
 #endif
 
-/* The test, with or without the early exit after u (moller_trumbore_fma_exit). */
+/* The test, with or without the early exit after u (moller_trumbore_fma_exit),
+ * with or without culling (moller_trumbore_cull_fma: det's sign is not folded
+ * in, so det <= 0 fails 0 <= u <= det or 0 < t < t_max det). */
 TB_NWIDE nmask TB_NFN(tb_mt_fma)(const tb_nray *restrict r, const real *restrict lanes,
-                                 nreal t_max, tb_nhit *restrict h, const int early_exit)
+                                 nreal t_max, tb_nhit *restrict h, const int early_exit,
+                                 const int cull)
 {
     const nreal *o = r->o, *d = r->d;
     nreal v0[3], e1[3], e2[3];
@@ -76,7 +79,7 @@ TB_NWIDE nmask TB_NFN(tb_mt_fma)(const tb_nray *restrict r, const real *restrict
     nreal py = nv_fmsub(d[2], e2[0], d[0] * e2[2]);
     nreal pz = nv_fmsub(d[0], e2[1], d[1] * e2[0]);
     nreal det = nv_fmadd(e1[0], px, nv_fmadd(e1[1], py, e1[2] * pz));
-    nbits sign = (nbits)det & sign_bit;
+    nbits sign = cull ? (nbits)zero : (nbits)det & sign_bit;
     nreal abs_det = (nreal)((nbits)det ^ sign);
     nreal sx = o[0] - v0[0], sy = o[1] - v0[1], sz = o[2] - v0[2];
     nreal u = (nreal)((nbits)nv_fmadd(sx, px, nv_fmadd(sy, py, sz * pz)) ^ sign);
@@ -107,7 +110,7 @@ TB_NWIDE nmask TB_NFN(tb_mt_fma)(const tb_nray *restrict r, const real *restrict
 TB_NWIDE nmask TB_NFN(tb_moller_trumbore_fma_test)(const tb_nray *restrict r, const real *restrict lanes,
                                                    nreal t_max, tb_nhit *restrict h)
 {
-    return TB_NFN(tb_mt_fma)(r, lanes, t_max, h, 0);
+    return TB_NFN(tb_mt_fma)(r, lanes, t_max, h, 0, 0);
 }
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled

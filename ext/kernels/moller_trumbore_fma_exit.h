@@ -26,7 +26,7 @@ TB_NWIDE nmask TB_NFN(tb_moller_trumbore_fma_exit_test)(const tb_nray *restrict 
                                                         const real *restrict lanes, nreal t_max,
                                                         tb_nhit *restrict h)
 {
-    return TB_NFN(tb_mt_fma)(r, lanes, t_max, h, 1);
+    return TB_NFN(tb_mt_fma)(r, lanes, t_max, h, 1, 0);
 }
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
