@@ -36,21 +36,31 @@ from tribench.workloads.spec import MeshSpec
 
 YARDSTICK = "moller_trumbore_yardstick"
 TODAY = "moller_trumbore_x8"
-# (kernel, ISA or None for its default): the Moller forms, the fastest wide
-# forms of the other algorithms, and the native forms held to AVX2 as well
-# (what an AVX2-only machine would run)
+# (kernel, ISA or None for its default): the Moller forms, the fastest _x8 form of
+# each algorithm and its native form, and the native Moller forms held to AVX2
+# as well (what an AVX2-only machine would run)
 FORMS = [
     (YARDSTICK, "avx2"),
     ("moller_trumbore", None),
     (TODAY, None),
     (TODAY, "avx2"),
-    ("moller_trumbore_cull_x8", None),
-    ("baldwin_weber_12_x8", None),
-    ("havel_herout_x8", None),
     ("moller_trumbore_fma", None),
     ("moller_trumbore_fma_exit", None),
     ("moller_trumbore_fma", "avx2"),
     ("moller_trumbore_fma_exit", "avx2"),
+    ("moller_trumbore_cull_x8", None),
+    ("moller_trumbore_cull_fma", None),
+    ("baldwin_weber_12_x8", None),
+    ("baldwin_weber_12_fma", None),
+    ("baldwin_weber_9_fma", None),
+    ("havel_herout_x8", None),
+    ("havel_herout_fma", None),
+    ("woop_x8", None),
+    ("woop_fma", None),
+    ("plucker_x8", None),
+    ("plucker_fma", None),
+    ("curless_x8", None),
+    ("curless_fma", None),
 ]
 
 
@@ -100,7 +110,8 @@ def bench(name: str, o: np.ndarray, d: np.ndarray, tris: np.ndarray, rounds: int
         isa = f[1] or ext.kernel_info(f[0]).isa
         ns = f"{np.median(times[f]):>8.3f}{min(times[f]):>8.3f}"
         print(f"  {f[0]:<26}{isa:<9}{ns}{np.median(ratio):>13.3f}  [{lo:.3f}, {hi:.3f}]")
-    candidates = [f for f in forms if f[0] != YARDSTICK]
+    # the target asks for the fastest kernel that answers the same question: both faces
+    candidates = [f for f in forms if f[0] != YARDSTICK and not ext.kernel_info(f[0]).culls_back_faces]
     avx2 = [f for f in candidates if (f[1] or ext.kernel_info(f[0]).isa) == "avx2"]
     for label, stat in (("best", min), ("median", np.median)):
         ns = {f: float(stat(v)) for f, v in times.items()}
