@@ -32,6 +32,12 @@ def _interval(value: float, low: float, high: float, unit: str = "") -> str:
     return format_interval(value, low, high, unit=unit) if not math.isnan(value) else "–"
 
 
+def _named(kernel: str, rows: pd.DataFrame) -> str:
+    """The kernel's name, marked when it culls back faces (it answers another question: front faces only)."""
+    culls = rows.loc[rows["kernel"] == kernel, "culls_back_faces"] if "culls_back_faces" in rows else []
+    return f"{kernel} (front faces only)" if len(culls) and str(culls.iloc[0]) == "True" else kernel
+
+
 def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
     """One display row per workload of ``ranking.csv`` (its rows in file order).
 
@@ -46,17 +52,19 @@ def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
     >>> r = ranking_rows(rank).iloc[0]
     >>> r["fastest"], r["ns"], r["next"], r["watertight_best"]
     ('a', '1 [0.9, 1.1]', 'b: 2× [1.8, 2.2] slower', 'b: 2× [1.8, 2.2] slower')
+    >>> ranking_rows(rank.assign(culls_back_faces=[True, False])).iloc[0]["fastest"]
+    'a (front faces only)'
     """
     rows = []
     for _, g in rank.groupby("workload_id", sort=False):
         g = g.sort_values("rank")
         best = g.iloc[0]
-        tied = [k for k in g.loc[g["tied_with_fastest"].astype(bool), "kernel"] if k != best["kernel"]]
+        tied = [_named(k, g) for k in g.loc[g["tied_with_fastest"].astype(bool), "kernel"] if k != best["kernel"]]
         rest = g.iloc[1:]
 
-        def slower(r: pd.Series) -> str:
+        def slower(r: pd.Series, g: pd.DataFrame = g) -> str:
             ratio = _interval(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
-            return f"{r['kernel']}: {ratio} slower"
+            return f"{_named(r['kernel'], g)}: {ratio} slower"
 
         tight = g.loc[g["watertight"].astype(str) == "True"]
         if tight.empty:
@@ -69,7 +77,7 @@ def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
             {
                 "dtype": best["dtype"],
                 "workload": f"{best['family']} · {best['label']}",
-                "fastest": best["kernel"],
+                "fastest": _named(best["kernel"], g),
                 "ns": _interval(best["ns_per_test"], best["ns_per_test_ci_low"], best["ns_per_test_ci_high"]),
                 "speedup": (
                     "(the baseline)"
