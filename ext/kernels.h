@@ -48,7 +48,11 @@
  * early does less. A wide kernel does every operation on every lane; its
  * count equals the vector arithmetic instructions of its compiled triangle
  * loop per vector (tests/test_ext_build.py checks this). The kernels are
- * built without FMA contraction, so each operation is one instruction. */
+ * built without FMA contraction, so each operation is one instruction.
+ * By class (tb_<name>_mix: fma, mul, add, cmp, div, logic), the first five
+ * sum to the count; logic, outside it, is the compiled loop's bit operations,
+ * blends and selects: AVX2's and/or/xor/blendv, AVX-512's mask-register
+ * operations, ternary logic, mask blends and masked register moves. */
 
 #define real TB_REAL
 #define TB_FN(name) TB_CAT(name, TB_SUFFIX)

@@ -90,22 +90,33 @@ CLASSES = {
     "add": r"^v(add|sub|min|max)p[sd]$",
     "cmp": r"^vcmp\w*p[sd]$",
     "div": r"^v(div|sqrt)p[sd]$",
-    "logic": r"^v(p?and|p?andn|p?or|p?xor|blendv)\w*$",
+    # bit operations, blends and selects: AVX2's and/or/xor/blendv; AVX-512's mask-register
+    # operations, ternary logic, mask blends and masked register-to-register moves (a select)
+    "logic": r"^(v(p?and|p?andn|p?or|p?xor|blendv|blendm|pblendm|pternlog)\w*|k(and|andn|or|xor|not)[bwdq])$",
 }
+_MASKED_MOVE = re.compile(r"^vmov(a|u)p[sd]$")
+
+
+def _class_of(op: str, operands: str) -> str | None:
+    """The class of one instruction (None: bookkeeping, loads, branches)."""
+    if _MASKED_MOVE.match(op) and "{%k" in operands and "(" not in operands:
+        return "logic"  # a masked move between registers: a select
+    return next((c for c, rx in CLASSES.items() if re.match(rx, op)), None)
 
 
 def _loop_mix(code: str) -> dict[str, int]:
     """Instructions per class in the largest loop (by arithmetic) of a function."""
-    lines = [re.match(r"\s*([0-9a-f]+):\s+(\S+)\s*(\S*)", line) for line in code.splitlines()]
+    lines = [re.match(r"\s*([0-9a-f]+):\s+(\S+)\s*(.*)", line) for line in code.splitlines()]
     ins = [(int(m.group(1), 16), m.group(2), m.group(3)) for m in lines if m]
-    arith = re.compile("|".join(CLASSES[c] for c in ("fma", "mul", "add", "cmp", "div")))
-    best: list[str] = []
-    for address, op, target in ins:
+    arithmetic = {"fma", "mul", "add", "cmp", "div"}
+    best: list[str | None] = []
+    for address, op, operands in ins:
+        target = operands.split()[0] if operands else ""
         if op.startswith("j") and re.fullmatch(r"[0-9a-f]+", target) and int(target, 16) < address:
-            body = [o for a, o, _ in ins if int(target, 16) <= a <= address]
-            if sum(map(bool, map(arith.match, body))) > sum(map(bool, map(arith.match, best))):
+            body = [_class_of(o, r) for a, o, r in ins if int(target, 16) <= a <= address]
+            if sum(c in arithmetic for c in body) > sum(c in arithmetic for c in best):
                 best = body
-    return {c: sum(1 for o in best if re.match(rx, o)) for c, rx in CLASSES.items()}
+    return {c: best.count(c) for c in CLASSES}
 
 
 @pytest.mark.parametrize("kernel", WIDE)

@@ -178,4 +178,4 @@ TB_NWIDE nmask TB_NFN(tb_baldwin_weber_12_fma_test)(const tb_nray *restrict r, c
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
  * AVX-512 block loop (tests/test_ext_build.py); see kernels.h */
-#define tb_baldwin_weber_12_fma_mix {17, 7, 1, 8, 1, 6}
+#define tb_baldwin_weber_12_fma_mix {17, 7, 1, 8, 1, 10}

@@ -57,4 +57,4 @@ TB_NWIDE nmask TB_NFN(tb_baldwin_weber_9_fma_test)(const tb_nray *restrict r, co
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
  * AVX-512 block loop (tests/test_ext_build.py); see kernels.h */
-#define tb_baldwin_weber_9_fma_mix {12, 6, 2, 10, 1, 6}
+#define tb_baldwin_weber_9_fma_mix {12, 6, 2, 10, 1, 22}

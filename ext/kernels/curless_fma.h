@@ -204,4 +204,4 @@ TB_NWIDE nmask TB_NFN(tb_curless_fma_test)(const tb_nray *restrict r, const real
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
  * AVX-512 block loop (tests/test_ext_build.py); see kernels.h */
-#define tb_curless_fma_mix {17, 9, 0, 7, 1, 1}
+#define tb_curless_fma_mix {17, 9, 0, 7, 1, 6}

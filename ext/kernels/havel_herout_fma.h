@@ -126,4 +126,4 @@ TB_NWIDE nmask TB_NFN(tb_havel_herout_fma_test)(const tb_nray *restrict r, const
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
  * AVX-512 block loop (tests/test_ext_build.py); see kernels.h */
-#define tb_havel_herout_fma_mix {8, 14, 7, 8, 1, 5}
+#define tb_havel_herout_fma_mix {8, 14, 7, 8, 1, 8}

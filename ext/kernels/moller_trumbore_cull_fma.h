@@ -55,4 +55,4 @@ TB_NWIDE nmask TB_NFN(tb_moller_trumbore_cull_fma_test)(const tb_nray *restrict 
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
  * AVX-512 block loop (tests/test_ext_build.py); see kernels.h */
-#define tb_moller_trumbore_cull_fma_mix {14, 12, 4, 8, 1, 0}
+#define tb_moller_trumbore_cull_fma_mix {14, 12, 4, 8, 1, 4}

@@ -116,4 +116,4 @@ TB_NWIDE nmask TB_NFN(tb_moller_trumbore_fma_test)(const tb_nray *restrict r, co
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
  * AVX-512 block loop (tests/test_ext_build.py); the AVX2 loop does one more compare and more logic
  * (no mask registers); see kernels.h */
-#define tb_moller_trumbore_fma_mix {14, 12, 4, 7, 1, 5}
+#define tb_moller_trumbore_fma_mix {14, 12, 4, 7, 1, 8}

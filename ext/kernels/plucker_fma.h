@@ -181,4 +181,4 @@ TB_NWIDE nmask TB_NFN(tb_plucker_fma_test)(const tb_nray *restrict r, const real
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
  * AVX-512 block loop (tests/test_ext_build.py); see kernels.h */
-#define tb_plucker_fma_mix {13, 23, 30, 7, 1, 3}
+#define tb_plucker_fma_mix {13, 23, 30, 7, 1, 8}

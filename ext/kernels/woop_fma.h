@@ -170,4 +170,4 @@ TB_NWIDE nmask TB_NFN(tb_woop_fma_test)(const tb_nray *restrict r, const real *r
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
  * AVX-512 block loop (tests/test_ext_build.py); see kernels.h */
-#define tb_woop_fma_mix {8, 10, 14, 10, 1, 5}
+#define tb_woop_fma_mix {8, 10, 14, 10, 1, 8}
