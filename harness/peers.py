@@ -266,11 +266,9 @@ def measure(
     from .runner import Progress, default_cpu
 
     bvh = design.accel == "bvh"
-    if kernel is not None and kernel not in candidate_kernels(design.accel):
+    if bvh and kernel is not None and kernel not in candidate_kernels("bvh"):
         raise UserError(
             f"kernel {kernel!r} cannot be a BVH's leaf test; these can: {', '.join(candidate_kernels('bvh'))}"
-            if bvh
-            else f"kernel {kernel!r} is not a kernel with a closest-hit mode (see tribench info)"
         )
     peers = [p for p, v in available().items() if v is not None and (p == "embree" or not bvh)]
     if not peers and not bvh:
