@@ -144,9 +144,15 @@ def _workloads_from_flags(args: argparse.Namespace) -> list:
         for h in args.hit_rates or [0.5]:
             specs += [PairSpec(n=10_000 if args.pairs is None else args.pairs, hit_rate=h, dtype=d) for d in dtypes]
     width, height = args.camera or _DEFAULT_CAMERA
+    if args.accel and not args.mesh:
+        raise UserError("--accel applies to mesh workloads: give --mesh too")
     for mesh in args.mesh or []:
         for triangles in args.triangles or [None]:
-            specs += [MeshSpec(mesh, triangles=triangles, width=width, height=height, dtype=d) for d in dtypes]
+            for accel in args.accel or ["brute"]:
+                specs += [
+                    MeshSpec(mesh, triangles=triangles, width=width, height=height, dtype=d, accel=accel)
+                    for d in dtypes
+                ]
     return specs
 
 
@@ -227,6 +233,7 @@ _SWEEP_DESIGN_FLAGS = (
     "mesh",
     "triangles",
     "camera",
+    "accel",
     "dtype",
     "processes",
     "rounds",
@@ -293,6 +300,7 @@ def _peers(args: argparse.Namespace) -> int:
             "reps": args.reps,
             "triangles": args.triangles,
             "seed": args.seed,
+            "accel": args.accel,
         }.items()
         if v is not None
     }
@@ -304,6 +312,11 @@ def _peers(args: argparse.Namespace) -> int:
 
         if args.kernel not in ext.kernel_names(internal=True) or "closest" not in ext.kernel_info(args.kernel).modes:
             raise UserError(f"--kernel {args.kernel!r} is not a kernel with a closest-hit mode (see tribench info)")
+        if design.accel == "bvh" and args.kernel not in ext.bvh_kernel_names():
+            raise UserError(
+                f"--kernel {args.kernel!r} cannot be a BVH's leaf test with --accel bvh; "
+                f"these can: {', '.join(ext.bvh_kernel_names())}"
+            )
     path = peers.peers_path(args.out or ".")
     try:
         frame = peers.measure(path, design, kernel=args.kernel, cpu=args.cpu, progress=args.progress)
@@ -471,6 +484,7 @@ def _validate(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from tribench.harness.machine import version
+    from tribench.workloads.spec import ACCELS
 
     parser = flags.Parser(
         prog="tribench",
@@ -534,6 +548,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="WxH",
         type=flags.camera,
         help="camera rays of mesh workloads (default {}x{})".format(*_DEFAULT_CAMERA),
+    )
+    sweep.add_argument(
+        "--accel",
+        metavar="brute,bvh",
+        type=flags.choice_list(ACCELS),
+        help="how kernels run the mesh workloads: every ray against every triangle (brute, the default) or "
+        "through a BVH with the kernel as its leaf test (bvh: only the kernels of ext.bvh_kernel_names())",
     )
     sweep.add_argument(
         "--dtype", metavar="float32,float64", type=flags.choice_list(_DTYPES), help="precisions (default float64)"
@@ -618,6 +639,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--processes", type=flags.positive_int, help=f"worker processes, the replicates (default {full.processes})"
     )
     pe.add_argument("--reps", type=flags.positive_int, help=f"repetitions per process (default {full.reps})")
+    pe.add_argument(
+        "--accel",
+        choices=ACCELS,
+        help="tribench's rays brute force (default) or through its BVH with the fastest kernel that can be "
+        "a leaf test (bvh: the peer is Embree alone; the BVH's build is its set-up, as Embree's is)",
+    )
     pe.add_argument("--kernel", help="tribench's kernel (default: the fastest on this workload)")
     pe.add_argument("--cpu", type=flags.cpu, help="CPU to pin the workers to (default: the last usable one)")
     pe.add_argument("--seed", type=flags.seed, help="seed of the ray samples and orders (default 0)")

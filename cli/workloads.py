@@ -35,7 +35,7 @@ __all__ = ["add_parser", "main", "parse_miss_mix"]
 # The spec fields `make` has a flag for: the only attributes of the parsed
 # arguments that go into a spec (the namespace also holds the command's own).
 _PAIR_OPTIONS = ("n", "order", "miss_mix", "shape", "scale", "offset")
-_MESH_OPTIONS = ("triangles", "rays", "n_rays", "width", "height")
+_MESH_OPTIONS = ("triangles", "rays", "n_rays", "width", "height", "accel")
 _SHARED_OPTIONS = ("hit_rate", "dtype", "seed")
 
 
@@ -63,6 +63,8 @@ def parse_miss_mix(text: str) -> str | dict[str, float]:
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Add the ``workloads`` command (``make``, ``list``, ``show``) to ``subparsers``."""
+    from tribench.workloads.spec import ACCELS
+
     parser = subparsers.add_parser(
         "workloads",
         help="make, list and show workloads (meshes, rays, reference answers)",
@@ -99,6 +101,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     mesh.add_argument("--n-rays", type=int, help="rays at a per-ray hit rate (default 4096)")
     mesh.add_argument("--width", type=int, help="camera width in pixels (default 512)")
     mesh.add_argument("--height", type=int, help="camera height in pixels (default 512)")
+    mesh.add_argument(
+        "--accel",
+        choices=ACCELS,
+        help="how kernels run it: every ray against every triangle (default brute) or through a BVH with the "
+        "kernel as its leaf test (native kernels only); the rays and answers are the same",
+    )
     both = make.add_argument_group("both")
     both.add_argument("--hit-rate", type=float, help="per-test (pairs) or per-ray (meshes) hit rate, default 0.5")
     both.add_argument("--dtype", choices=("float64", "float32"), help="default float64")

@@ -146,7 +146,11 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
         _peak_columns(table, records.read_processes(run_dir, run), dtypes, run.get("throughput")),
         on=["kernel", "workload_id"],
     )
-    speedups = stats.speedup_table(table, baseline, margin=m.value).rename(columns=SPEEDUP_COLUMNS)
+    # against the baseline where it ran: a BVH workload runs only the kernels that can be a
+    # BVH's leaf test (pairs workloads no wide kernel), so it may have no speedups (ranking.csv has it)
+    ran = table.loc[table["kernel"] == baseline, "workload_id"].unique()
+    speedups = stats.speedup_table(table.loc[table["workload_id"].isin(ran)], baseline, margin=m.value)
+    speedups = speedups.rename(columns=SPEEDUP_COLUMNS)
     speedups["workload"] = speedups["workload_id"].map(names)
     speedups["margin_source"] = m.source
     return Analysis(estimates, speedups, baseline, m, len(batches), int(table["process"].nunique()))

@@ -1,7 +1,13 @@
-"""Peers: tribench's fastest brute-force kernel against trimesh and Embree, in rays/s.
+"""Peers: tribench's fastest kernel, brute force or in its BVH, against trimesh and Embree, in rays/s.
 
 The workload is the seed's camera (Suzanne, 968 triangles; 512x512 pinhole
-camera rays in float32, closest hit), the same arrays for every contender:
+camera rays in float32, closest hit), the same arrays for every contender.
+With ``accel="bvh"`` (``tribench peers --accel bvh``) tribench traces the
+rays through its BVH (``ext.build_bvh``, built once per process, its build
+time the row's ``setup_ns``) with the fastest kernel that can be a BVH's
+leaf test, the implementation says ``bvh``, and the peer is Embree alone
+(trimesh's intersector is an rtree and NumPy: not a tracer's BVH; without
+Embree, tribench's own rows are still written):
 
 ``tribench``
     the fastest public closest-mode kernel (:func:`choose_kernel`), timed in C
@@ -31,20 +37,22 @@ peer paired by process. ``pip install 'tribench[peers]'`` installs both peers.
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from tribench.common import UserError
+from tribench.common import Notice, UserError
 
 from . import runfolder
 
@@ -61,6 +69,7 @@ __all__ = [
     "PeerDesign",
     "available",
     "camera_spec",
+    "candidate_kernels",
     "choose_kernel",
     "measure",
     "peers_path",
@@ -74,7 +83,7 @@ PEERS = runfolder.PEERS
 #: Contender -> what is timed (the report's and the printout's words).
 CONTENDERS = {
     "tribench": "tribench, kernel loop timed in C",
-    "tribench_call": "tribench, wall time of ext.intersect",
+    "tribench_call": "tribench, wall time of ext.intersect (BVH.intersect in a BVH)",
     "trimesh": "trimesh ray_triangle (NumPy, rtree)",
     "embree": "Embree via embreex",
 }
@@ -100,6 +109,7 @@ class PeerDesign:
     choice_rays: int = 8192
     choice_rounds: int = 7
     seed: int = 0
+    accel: str = "brute"
 
     #: At most this many timed repetitions (processes x reps): at about a second each
     #: on the default camera, a few hours; more is a typo, not a design.
@@ -119,6 +129,10 @@ class PeerDesign:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise UserError(f"{name} must be a positive integer, got {value!r}")
+        from tribench.workloads.spec import ACCELS
+
+        if self.accel not in ACCELS:
+            raise UserError(f"accel must be one of {', '.join(ACCELS)}, got {self.accel!r:.80}")
         if self.processes * self.reps > self.MAX_REPETITIONS:
             raise UserError(
                 f"processes x reps must be at most {self.MAX_REPETITIONS:,} (about a second "
@@ -178,30 +192,52 @@ def camera_spec(design: PeerDesign):
     from tribench.workloads.spec import MeshSpec
 
     return MeshSpec(
-        "suzanne", triangles=design.triangles, rays="camera", width=design.width, height=design.height, dtype="float32"
+        "suzanne",
+        triangles=design.triangles,
+        rays="camera",
+        width=design.width,
+        height=design.height,
+        dtype="float32",
+        accel=design.accel,
     )
 
 
+def candidate_kernels(accel: str) -> list[str]:
+    """The kernels tribench's row may run: public closest-mode kernels, and
+    in a BVH only those that can be its leaf test."""
+    from tribench import ext
+
+    kernels = [k for k in ext.kernel_names() if "closest" in ext.kernel_info(k).modes]
+    return [k for k in kernels if k in ext.bvh_kernel_names()] if accel == "bvh" else kernels
+
+
 def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str:
-    """The fastest public closest-mode kernel on a random subset of the rays.
+    """The fastest of :func:`candidate_kernels` on a random subset of the rays
+    (through each kernel's BVH on a BVH workload).
 
     Kernels run interleaved in a random order each round and are judged by the
-    median of the thread's CPU time per test: on a shared core, wall time also
+    median of the thread's CPU time per ray: on a shared core, wall time also
     counts other processes' time slices, which can reorder close kernels.
     """
     from tribench import ext
 
     rng = np.random.default_rng([seed, 1])
-    kernels = [k for k in ext.kernel_names() if "closest" in ext.kernel_info(k).modes]
+    bvh = workload.spec.accel == "bvh"
+    kernels = candidate_kernels(workload.spec.accel)
     rows = np.sort(rng.choice(len(workload.origins), size=min(n_rays, len(workload.origins)), replace=False))
     o, d = np.ascontiguousarray(workload.origins[rows]), np.ascontiguousarray(workload.directions[rows])
-    jobs = {k: ext.make_job(k, o, d, workload.triangles, "closest") for k in kernels}
+    calls: dict[str, Callable[[], Any]] = {}
+    for k in kernels:
+        if bvh:
+            calls[k] = functools.partial(ext.build_bvh(k, workload.triangles).time, o, d, "closest", 1)
+        else:
+            calls[k] = functools.partial(ext.time_batch, ext.make_job(k, o, d, workload.triangles, "closest"), 1)
     cpu: dict[str, list[float]] = {k: [] for k in kernels}
     for _ in range(rounds):
         for k in rng.permutation(kernels):
             t0 = time.thread_time_ns()
-            batch = ext.time_batch(jobs[k], 1)
-            cpu[k].append((time.thread_time_ns() - t0) / batch.tests)
+            calls[k]()
+            cpu[k].append((time.thread_time_ns() - t0) / len(o))
     return min(kernels, key=lambda k: float(np.median(cpu[k])))  # the first of equals, in registry order
 
 
@@ -217,7 +253,10 @@ def measure(
 
     The file is rewritten after every finished process, so an interruption
     keeps them. Raises ``RuntimeError`` when no peer is installed or a worker
-    fails (its last lines of stderr say why).
+    fails (its last lines of stderr say why). With ``design.accel == "bvh"``
+    the peer is Embree alone, and without it tribench's own rows are still
+    measured (with a :class:`~tribench.common.Notice`); ``kernel`` must then
+    be one of ``ext.bvh_kernel_names()``.
     """
     import pandas as pd
 
@@ -226,9 +265,16 @@ def measure(
     from .records import write_csv
     from .runner import Progress, default_cpu
 
-    peers = [p for p, v in available().items() if v is not None]
-    if not peers:
+    bvh = design.accel == "bvh"
+    if bvh and kernel is not None and kernel not in candidate_kernels("bvh"):
+        raise UserError(
+            f"kernel {kernel!r} cannot be a BVH's leaf test; these can: {', '.join(candidate_kernels('bvh'))}"
+        )
+    peers = [p for p, v in available().items() if v is not None and (p == "embree" or not bvh)]
+    if not peers and not bvh:
         raise RuntimeError(f"no peer is installed ({INSTALL}: embreex and rtree)")
+    if not peers:
+        warnings.warn(f"Embree is not installed ({INSTALL}): tribench's BVH is timed alone", Notice, stacklevel=2)
     path = peers_path(out)
     workload = cache.make(camera_spec(design))  # built once here; the workers read the cache
     if kernel is None:
@@ -310,7 +356,6 @@ def _worker(job: dict[str, Any]) -> None:
     kernel = job["kernel"]
     info = ext.kernel_info(kernel)
     form = f"x{info.lanes} {info.isa}" if info.lanes > 1 else "scalar"
-    mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tris.astype(np.float64)), process=False)
     versions = available()
 
     def disagreements(index: np.ndarray, rows: np.ndarray | slice) -> tuple[int, int]:
@@ -320,19 +365,25 @@ def _worker(job: dict[str, Any]) -> None:
 
     # contender -> (label, the rays it runs, the timed call, set-up time in ns)
     contenders: dict[str, tuple[str, np.ndarray | slice, Any, int]] = {}
-    label = f"tribench {version()} {kernel} ({form})"
+    timed: Callable[[], Any]  # returns a batch with elapsed_ns, timed in C
+    closest: Callable[[], np.ndarray]  # returns the closest triangle of every ray
     t0 = time.perf_counter_ns()
-    batch_job = ext.make_job(kernel, o, d, tris, "closest")
-    contenders["tribench"] = (label, slice(None), lambda: ext.time_batch(batch_job, 1), time.perf_counter_ns() - t0)
-    contenders["tribench_call"] = (
-        f"{label}, ext.intersect",
-        slice(None),
-        lambda: ext.intersect(kernel, o, d, tris, "closest").index,
-        0,
-    )
+    if design.accel == "bvh":  # the build is the set-up, as Embree's is
+        label = f"tribench {version()} bvh {kernel} ({form})"
+        bvh = ext.build_bvh(kernel, tris)
+        timed = functools.partial(bvh.time, o, d, "closest", 1)
+        closest, closest_name = (lambda: bvh.intersect(o, d).hits.index), "BVH.intersect"
+    else:
+        label = f"tribench {version()} {kernel} ({form})"
+        timed = functools.partial(ext.time_batch, ext.make_job(kernel, o, d, tris, "closest"), 1)
+        closest, closest_name = (lambda: ext.intersect(kernel, o, d, tris, "closest").index), "ext.intersect"
+    contenders["tribench"] = (label, slice(None), timed, time.perf_counter_ns() - t0)
+    contenders["tribench_call"] = (f"{label}, {closest_name}", slice(None), closest, 0)
     # the C-timed loop returns counts only; both tribench contenders run the same kernel on the same rays
-    answers = disagreements(ext.intersect(kernel, o, d, tris, "closest").index, slice(None))
+    answers = disagreements(closest(), slice(None))
     differ = {"tribench": answers, "tribench_call": answers}
+    if job["peers"]:
+        mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tris.astype(np.float64)), process=False)
     if "trimesh" in job["peers"]:
         from trimesh.ray import ray_triangle
 

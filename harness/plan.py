@@ -56,7 +56,7 @@ import numpy as np
 
 from tribench.common import UserError, read_user_text
 from tribench.workloads.kinds import spec_from_dict
-from tribench.workloads.spec import Spec, workload_id
+from tribench.workloads.spec import MeshSpec, Spec, workload_id
 
 __all__ = [
     "BatchKey",
@@ -115,6 +115,11 @@ def _spec_types() -> tuple[type, ...]:
     from tribench.workloads.spec import MeshSpec, PairSpec
 
     return (PairSpec, MeshSpec, SeedSpec)
+
+
+def _is_bvh(spec: Spec) -> bool:
+    """Whether the workload runs through a BVH (a mesh spec's ``accel``)."""
+    return isinstance(spec, MeshSpec) and spec.accel == "bvh"
 
 
 @dataclass(frozen=True, order=True)
@@ -219,6 +224,11 @@ class Sweep:
         put(self, "workload_ids", ids)
         for spec in self.workloads:
             if not self.kernels_for(spec):
+                if _is_bvh(spec):
+                    raise UserError(
+                        f"no kernel of the sweep can be a BVH's leaf test ({spec.summary()}): "
+                        f"add one of {', '.join(ext.bvh_kernel_names())}, or make the workload with accel brute"
+                    )
                 raise UserError(
                     f"no kernel of the sweep runs mode {spec.mode!r} ({spec.summary()}): "
                     f"wide kernels (*_x8) have no pairs mode"
@@ -234,10 +244,12 @@ class Sweep:
 
     def kernels_for(self, spec: Spec) -> tuple[str, ...]:
         """The sweep's kernels that run ``spec``'s mode (wide kernels have no
-        pairs mode), in sweep order."""
+        pairs mode) and, on a BVH workload, can be its leaf test
+        (``ext.bvh_kernel_names()``), in sweep order."""
         from tribench import ext
 
-        return tuple(k for k in self.kernels if spec.mode in ext.kernel_info(k).modes)
+        leaf = ext.bvh_kernel_names() if _is_bvh(spec) else self.kernels
+        return tuple(k for k in self.kernels if spec.mode in ext.kernel_info(k).modes and k in leaf)
 
     @property
     def n_batches(self) -> int:

@@ -25,7 +25,11 @@ What it does, in order:
    against the reference (differences allowed only on the workload's
    ambiguous rays), then calibrates ``loops`` so that one batch takes about
    ``target_ms`` (kept for the whole process; calibration batches are not
-   recorded);
+   recorded). On a BVH workload (``accel = "bvh"``) each kernel's BVH is
+   built first, once, outside any timed batch; its answers are checked and
+   its batches timed through the BVH, and a batch's ``tests`` are the
+   triangle tests the traversal did (``ns/test`` stays a time per
+   ray-triangle test; ``rays x loops / elapsed`` is its rays/s);
 5. runs its batches in the order given; every batch's checksum must equal
    ``loops`` times the kernel's verified one-pass checksum (hits exactly, the
    sum of ``t`` within :data:`T_SUM_RTOL`);
@@ -48,12 +52,14 @@ import numpy as np
 
 from tribench import ext
 from tribench.workloads import reference
+from tribench.workloads.spec import MeshSpec
 
 from .records import BatchRow, CheckRow, ProcessRow
 
 __all__ = [
     "KernelCheckError",
     "T_SUM_RTOL",
+    "BvhJob",
     "WorkerJob",
     "calibrate_loops",
     "kernel_isa",
@@ -147,7 +153,53 @@ def replicates_a_flawed_original(kernel: str) -> bool:
     return ext.kernel_info(kernel).seed_replay
 
 
-def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, int]]:
+@dataclass(frozen=True)
+class BvhJob:
+    """The inputs of a BVH workload's timed batches: one kernel's BVH (built
+    once per process, outside the timed batches) and the rays."""
+
+    bvh: ext.BVH
+    origins: np.ndarray
+    directions: np.ndarray
+    mode: ext.Mode
+    t_max: np.ndarray | None
+
+    @property
+    def max_loops(self) -> int:
+        return ext.MAX_BVH_BATCH_RAYS // len(self.origins)
+
+
+def time_job(job: ext.Job | BvhJob, loops: int) -> ext.Batch:
+    """One timed batch of a brute-force job or a BVH job. A BVH batch's
+    ``tests`` are the triangle tests its traversal did."""
+    if isinstance(job, BvhJob):
+        b = job.bvh.time(job.origins, job.directions, job.mode, loops, t_max=job.t_max)
+        return ext.Batch(b.elapsed_ns, b.loops, b.triangle_tests, b.hits, b.t_sum, b.uv_sum)
+    return ext.time_batch(job, loops)
+
+
+def _front_reference(w: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The front-face-only closest hits of a mesh workload, from its two-sided
+    reference: a ray whose closest hit is a front face keeps it; brute force
+    (float64) only for the rays whose closest hit is a back face (few, on a
+    closed mesh seen from outside), so a BVH workload of a million triangles
+    never meets an every-ray-against-every-triangle reference."""
+    index, t = w.ref_index.copy(), w.ref_t.copy()
+    rows = np.flatnonzero(index >= 0)
+    t_max = None if w.t_max is None else w.t_max[rows]
+    front = reference.intersect_pairs(
+        w.origins[rows], w.directions[rows], w.triangles[index[rows]], t_max=t_max, front_only=True
+    ).hit
+    back = rows[~front]
+    if len(back):
+        t_max = None if w.t_max is None else w.t_max[back]
+        index[back], t[back] = reference.intersect_closest(
+            w.origins[back], w.directions[back], w.triangles, t_max=t_max, front_only=True
+        )
+    return index, t
+
+
+def one_pass_checksum(kernel: str, workload: Any, bvh: ext.BVH | None = None) -> tuple[Checksum, dict[str, int]]:
     """Check ``kernel``'s per-ray answers on ``workload``; return its checksum.
 
     Answers (hit or miss in pairs and any-hit modes, the closest triangle in
@@ -157,8 +209,9 @@ def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, i
     reference's within :data:`T_SUM_RTOL`. An any-hit answer may be any hit
     triangle, so there it is its t that is checked, against the reference for
     that triangle. A kernel that culls back faces is held to the reference
-    with back faces culled. The counts of disagreements are returned for
-    checks.csv.
+    with back faces culled. With ``bvh`` (the kernel's, over the workload's
+    triangles) the answers are the BVH's. The counts of disagreements are
+    returned for checks.csv.
 
     Raises
     ------
@@ -167,7 +220,10 @@ def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, i
         (never for :func:`replicates_a_flawed_original` kernels' differences).
     """
     w = workload
-    r = ext.intersect(kernel, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max)
+    if bvh is None:
+        r = ext.intersect(kernel, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max)
+    else:
+        r = bvh.intersect(w.origins, w.directions, w.mode, t_max=w.t_max).hits
     hit, t = r.hit, r.t
     ref_index, ref_t = (w.ref_index, w.ref_t) if w.mode != "pairs" else (None, w.ref_t)
     ref_hits = w.hits
@@ -175,6 +231,9 @@ def one_pass_checksum(kernel: str, workload: Any) -> tuple[Checksum, dict[str, i
         args = (w.origins, w.directions, w.triangles)
         if w.mode == "pairs":
             ref_hits = reference.intersect_pairs(*args, t_max=w.t_max, front_only=True).hit
+        elif bvh is not None:
+            ref_index, ref_t = _front_reference(w)
+            ref_hits = ref_index >= 0
         else:
             ref_index, ref_t = reference.intersect_closest(*args, t_max=w.t_max, front_only=True)
             ref_hits = ref_index >= 0
@@ -234,17 +293,18 @@ def check_batch(batch: ext.Batch, expected: Checksum, kernel: str, workload: Any
         )
 
 
-def calibrate_loops(job: ext.Job, target_ns: float) -> int:
+def calibrate_loops(job: ext.Job | BvhJob, target_ns: float) -> int:
     """``loops`` for which one batch of ``job`` takes about ``target_ns``.
 
     Doubles ``loops`` until a batch takes a quarter of the target, then
     scales by the median time of three batches at that size.
     """
+    most = job.max_loops if isinstance(job, BvhJob) else 2**30
     loops = 1
-    while ext.time_batch(job, loops).elapsed_ns < target_ns / 4 and loops < 2**30:
-        loops *= 2
-    per_loop = float(np.median([ext.time_batch(job, loops).elapsed_ns for _ in range(3)])) / loops
-    return max(1, round(target_ns / max(per_loop, 1.0)))
+    while time_job(job, loops).elapsed_ns < target_ns / 4 and loops < most:
+        loops = min(2 * loops, most)
+    per_loop = float(np.median([time_job(job, loops).elapsed_ns for _ in range(3)])) / loops
+    return min(most, max(1, round(target_ns / max(per_loop, 1.0))))
 
 
 # ------------------------------------------------------------------ layout
@@ -349,7 +409,7 @@ def run_job(job: WorkerJob, emit) -> None:
     for _, wid, _, _, kernel in job.keys:
         if kernel not in kernels_of.setdefault(wid, []):
             kernels_of[wid].append(kernel)
-    prepared: dict[tuple[str, str], tuple[ext.Job, int, Checksum]] = {}
+    prepared: dict[tuple[str, str], tuple[ext.Job | BvhJob, int, Checksum]] = {}
     target_ns = job.target_ms * 1e6
     steal_clock, steal_before = _StealClock(), None
 
@@ -358,15 +418,21 @@ def run_job(job: WorkerJob, emit) -> None:
         if (kernel, wid) not in prepared:
             # a new workload block: check and calibrate all its kernels before any batch
             for k in kernels_of[wid]:
-                expected, counts = one_pass_checksum(k, w)
+                o, d, tris = arrays[wid]
+                mode = cast(ext.Mode, w.mode)  # the spec checked it
+                kjob: ext.Job | BvhJob
+                if isinstance(w.spec, MeshSpec) and w.spec.accel == "bvh":
+                    kjob = _bvh_job(k, w, o, d, tris)
+                    expected, counts = one_pass_checksum(k, w, kjob.bvh)
+                else:
+                    kjob = ext.make_job(k, o, d, tris, mode, t_max=w.t_max)
+                    expected, counts = one_pass_checksum(k, w)
                 emit(
                     "check",
                     CheckRow(
                         job.run_id, process, job.attempt, wid, k, **counts, hits=expected.hits, t_sum=expected.t_sum
                     ),
                 )
-                o, d, tris = arrays[wid]
-                kjob = ext.make_job(k, o, d, tris, cast(ext.Mode, w.mode), t_max=w.t_max)  # the spec checked it
                 prepared[(k, wid)] = (kjob, calibrate_loops(kjob, target_ns), expected)
             steal_before = None  # checks and calibration are not a batch
         kjob, loops, expected = prepared[(kernel, wid)]
@@ -374,7 +440,7 @@ def run_job(job: WorkerJob, emit) -> None:
         if steal_before is None:
             steal_before = steal_clock.ticks()
         start = time.monotonic_ns()
-        batch = ext.time_batch(kjob, loops)
+        batch = time_job(kjob, loops)
         switches = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
         # one reading per batch: the steal since the previous batch ended, which
         # is this batch's (ticks are 10 ms; the bookkeeping between takes ~0.05 ms)
@@ -409,6 +475,18 @@ def run_job(job: WorkerJob, emit) -> None:
         )
     steal_clock.close()
     emit("process", _peak_row(job, "end", cpu, pad, len(dummies)))
+
+
+def _bvh_job(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, tris: np.ndarray) -> BvhJob:
+    """``kernel``'s BVH over the workload's triangles (this process's copy) and its rays."""
+    bvh = ext.build_bvh(kernel, tris)
+    bjob = BvhJob(bvh, o, d, cast(ext.Mode, w.mode), w.t_max)
+    if time_job(bjob, 1).tests == 0:  # ns per test needs a test; batches.csv holds positive counts
+        raise ValueError(
+            f"workload {w.workload_id} ({w.spec.summary()}): no ray reaches a leaf of the BVH, so its "
+            f"batches would do no triangle test to time: aim the rays at the mesh, or use accel brute"
+        )
+    return bjob
 
 
 def _emit_json(kind: str, record: Any) -> None:

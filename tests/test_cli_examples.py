@@ -56,6 +56,7 @@ CONCRETE = {
     "tribench workloads make KIND …": [
         "workloads make pairs --n 300",
         "workloads make icosphere --triangles 80 --width 8 --height 8",
+        "workloads make icosphere --triangles 80 --width 8 --height 8 --accel bvh",
     ],
     "list": ["workloads list"],
     "show ID [--png FILE]": ["workloads show {mesh} --png {tmp}/mesh.png", "workloads show {mesh}"],
@@ -63,8 +64,10 @@ CONCRETE = {
         "sweep --kernels moller_trumbore,curless --hit-rates 0.2,0.8 --pairs 100 --mesh suzanne "
         "--triangles 100,968 --camera 6x6 --out {tmp}/sweep " + shlex.join(TINY_DESIGN)
     ],
-    "tribench peers [--quick] [--out RUN_DIR]": [
-        "peers --quick --camera 8x8 --processes 2 --reps 1 --no-progress --out {run}"
+    "tribench peers [--quick] [--accel bvh] [--out RUN_DIR]": [
+        "peers --quick --camera 8x8 --processes 2 --reps 1 --no-progress --out {run}",
+        "peers --quick --accel bvh --triangles 200 --camera 8x8 --processes 2 --reps 1 --no-progress "
+        "--out {tmp}/peers.csv",
     ],
     "tribench stats RUN_DIR [--baseline NAME]": ["stats {run}", "stats {run} --baseline curless"],
     "tribench validate [--kernels K …] [--dtype D …] [--quick] [--out FILE.csv]": [

@@ -39,7 +39,7 @@ import json
 import math
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -58,6 +58,7 @@ __all__ = [
     "MESH_NAMES",
     "RAY_SETS",
     "RESULTS",
+    "ACCELS",
     "PairSpec",
     "MeshSpec",
     "SEED_VERSION",
@@ -103,6 +104,8 @@ MESH_NAMES = ("suzanne", "icosphere", "uvsphere", "soup", "heightfield")
 RAY_SETS = ("camera", "hit_rate")
 #: What a mesh workload asks of each ray (the kernels' modes other than pairs).
 RESULTS = ("closest", "closest_uv", "any")
+#: How a mesh workload's kernels run it: every ray against every triangle, or through a BVH.
+ACCELS = ("brute", "bvh")
 
 # Sizes beyond these are a typo, not a benchmark (and would exhaust memory).
 _MAX_PAIRS = 100_000_000
@@ -292,6 +295,13 @@ class MeshSpec:
     result : {"closest", "closest_uv", "any"}
         What is asked of each ray (the kernels' mode); the geometry and the
         reference answers do not depend on it.
+    accel : {"brute", "bvh"}
+        How a kernel runs the workload: every ray against every triangle, or
+        through a BVH built over the triangles with the kernel as its leaf
+        test (native kernels only: ``ext.bvh_kernel_names()``). The rays and
+        reference answers are the brute-force workload's; ``"brute"`` is left
+        out of :meth:`to_dict`, so a brute-force workload keeps the id it had
+        before this field existed.
 
     Examples
     --------
@@ -314,6 +324,7 @@ class MeshSpec:
     dtype: str = "float64"
     seed: int = 0
     result: str = "closest"
+    accel: str = "brute"
 
     kind: ClassVar[str] = "mesh"
     version: ClassVar[int] = MESHES_VERSION
@@ -355,6 +366,7 @@ class MeshSpec:
         _choice("dtype", self.dtype, DTYPES)
         put(self, "seed", _int("seed", self.seed, 0, 2**63 - 1))
         _choice("result", self.result, RESULTS)
+        _choice("accel", self.accel, ACCELS)
 
     @property
     def is_file(self) -> bool:
@@ -371,9 +383,16 @@ class MeshSpec:
         return self.n_rays
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON- and TOML-friendly fields (``None`` fields left out), with ``kind``."""
+        """JSON- and TOML-friendly fields (``None`` fields and ``accel="brute"``
+        left out: the ids of workloads made before ``accel`` existed), with ``kind``."""
         d = {f.name: getattr(self, f.name) for f in fields(self)}
+        if d["accel"] == "brute":
+            del d["accel"]
         return {"kind": self.kind, **{k: v for k, v in d.items() if v is not None}}
+
+    def brute_twin(self) -> MeshSpec:
+        """The same spec with ``accel="brute"``: the workload whose rays and answers a BVH workload shares."""
+        return replace(self, accel="brute")
 
     def targets(self) -> dict[str, Any]:
         """Target figures, keyed like the achieved figures they are compared with."""
@@ -397,7 +416,8 @@ class MeshSpec:
             else f"{self.n_rays} rays hit_rate={self.hit_rate:g}"
         )
         result = "" if self.result == "closest" else f" {self.result}"
-        return f"mesh {name} triangles={count} {rays}{result} {self.dtype} seed={self.seed}"
+        accel = "" if self.accel == "brute" else f" {self.accel}"
+        return f"mesh {name} triangles={count} {rays}{result}{accel} {self.dtype} seed={self.seed}"
 
 
 # ------------------------------------------------------------------ seed
