@@ -118,9 +118,16 @@ def _new_run_folder(text: str) -> str:
 
 
 def _add_no_progress(parser: argparse.ArgumentParser) -> None:
-    """--no-progress, stored as the library's ``progress`` argument: False, or None (a bar on a terminal)."""
+    """--no-progress, stored as the library's ``progress`` argument: False, or None (a bar on a terminal,
+    plain lines elsewhere)."""
     parser.add_argument(
-        "--no-progress", dest="progress", action="store_const", const=False, default=None, help="no progress bar"
+        "--no-progress",
+        dest="progress",
+        action="store_const",
+        const=False,
+        default=None,
+        help="no progress: neither the bar on a terminal nor the plain lines elsewhere "
+        "(every $TRIBENCH_PROGRESS_SECONDS, default 10, and every tenth of the work)",
     )
 
 
@@ -461,7 +468,7 @@ def _validate(args: argparse.Namespace) -> int:
     # each --kernels/--dtype word may itself be a comma list
     kernels = [k for words in args.kernels for k in words] if args.kernels else None
     dtypes = [d for words in args.dtype for d in words] if args.dtype else validate.DTYPES
-    df = validate.run(kernels, dtypes, quick=args.quick, seed=args.seed)
+    df = validate.run(kernels, dtypes, quick=args.quick, seed=args.seed, progress=args.progress)
     out = Path(args.out or _validate_out("validate.csv"))
     write_csv(df, out)
     print(validate.format_table(df))
@@ -648,6 +655,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     val.add_argument("--quick", action="store_true", help="small sets, a few seconds (the tests' size)")
     val.add_argument("--seed", type=flags.seed, default=0, help="seed of every test's rays (default 0)")
+    _add_no_progress(val)
     val.set_defaults(func=_validate)
 
     seed = sub.add_parser(
@@ -736,8 +744,10 @@ def _run_command(argv: list[str] | None) -> int:
     try:
         args = build_parser().parse_args(argv)
         prog = f"tribench {args.command}"
-        from tribench.harness.runner import SweepError, SweepInterrupted
+        from tribench.harness.runner import SweepError, SweepInterrupted, progress_seconds
 
+        if getattr(args, "progress", False) is not False:
+            progress_seconds()  # a bad $TRIBENCH_PROGRESS_SECONDS fails first, like a bad flag
         try:
             return args.func(args)
         except SweepError as exc:
