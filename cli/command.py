@@ -198,7 +198,7 @@ def _report_run(result, stream=sys.stderr) -> None:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from tribench.harness import runner
+    from tribench.harness import duration, records, runner
 
     progress = args.progress
     if args.resume:
@@ -214,6 +214,8 @@ def _sweep(args: argparse.Namespace) -> int:
             f"{sweep.n_batches} batches -> {out}",
             file=sys.stderr,
         )
+        records.check_new_run_dir(out)  # before the estimate, which builds the workloads
+        print(duration.estimate(sweep).line(), file=sys.stderr)
         result = runner.start(sweep, out, cpu=args.cpu, progress=progress)
     _report_run(result)
     if result.batches_done == result.batches_total:  # the analysis step: every table the report reads

@@ -13,7 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tribench.common import UserError
-from tribench.harness import runner
+from tribench.harness import duration, runner
+from tribench.harness.plan import Sweep
+from tribench.workloads.spec import PairSpec
 
 TINY = [
     "--kernels",
@@ -57,12 +59,16 @@ def test_a_sweep_off_a_terminal_prints_plain_progress_lines(tmp_path):
     total = int(PLAIN.match(lines[0])[2])
     assert total == 3 * 3 * 2 and counts == sorted(counts) and len(lines) <= 10  # a line per tenth at most
     assert counts[-1] == total
+    # the duration is stated before the first batch
+    expected = [i for i, line in enumerate(done.stderr.splitlines()) if line.startswith("expected: about ")]
+    assert expected and expected[0] < done.stderr.splitlines().index(lines[0])
 
 
 def test_no_progress_silences_the_plain_lines_too(tmp_path):
     done = cli(tmp_path, "sweep", "--out", str(tmp_path / "run"), *TINY, "--no-progress")
     assert done.returncode == 0, done.stderr
     assert "tribench sweep:" not in done.stderr and "\r" not in done.stderr
+    assert "expected: about " in done.stderr  # the forecast is no progress report
 
 
 def test_validate_off_a_terminal_prints_plain_lines_per_kernel(tmp_path):
@@ -146,3 +152,16 @@ def test_about_is_short_and_never_zero(seconds):
     text = runner.about(seconds)
     number, unit = text.split()
     assert unit in ("s", "min", "h") and float(number) > 0 and "e" not in number
+
+
+def test_the_estimate_counts_every_batch_and_grows_with_the_design(tmp_path, monkeypatch):
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    small = Sweep(("moller_trumbore", "curless"), (PairSpec(n=300),), processes=2, rounds=2, warmup=1, target_ms=0.2)
+    big = Sweep(small.kernels, small.workloads, processes=4, rounds=8, warmup=1, target_ms=0.2)
+    tests, passes = duration.measure_passes(small)
+    assert tests == {small.workload_ids[0]: 300} and set(passes) == {(k, small.workload_ids[0]) for k in small.kernels}
+    assert all(s > 0 for s in passes.values())
+    a, b = duration.model(small, tests, passes), duration.model(big, tests, passes)
+    assert (a.batches, b.batches) == (small.n_batches, big.n_batches)
+    assert 0 < a.seconds < b.seconds
+    assert a.line().startswith("expected: about ") and a.line("for the sweep").startswith("expected for the sweep: ")
