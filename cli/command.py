@@ -118,9 +118,16 @@ def _new_run_folder(text: str) -> str:
 
 
 def _add_no_progress(parser: argparse.ArgumentParser) -> None:
-    """--no-progress, stored as the library's ``progress`` argument: False, or None (a bar on a terminal)."""
+    """--no-progress, stored as the library's ``progress`` argument: False, or None (a bar on a terminal,
+    plain lines elsewhere)."""
     parser.add_argument(
-        "--no-progress", dest="progress", action="store_const", const=False, default=None, help="no progress bar"
+        "--no-progress",
+        dest="progress",
+        action="store_const",
+        const=False,
+        default=None,
+        help="no progress: neither the bar on a terminal nor the plain lines elsewhere "
+        "(every $TRIBENCH_PROGRESS_SECONDS, default 10, and every tenth of the work)",
     )
 
 
@@ -197,7 +204,7 @@ def _report_run(result, stream=sys.stderr) -> None:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    from tribench.harness import runner
+    from tribench.harness import duration, records, runner
 
     progress = args.progress
     if args.resume:
@@ -213,6 +220,8 @@ def _sweep(args: argparse.Namespace) -> int:
             f"{sweep.n_batches} batches -> {out}",
             file=sys.stderr,
         )
+        records.check_new_run_dir(out)  # before the estimate, which builds the workloads
+        print(duration.estimate(sweep).line(), file=sys.stderr)
         result = runner.start(sweep, out, cpu=args.cpu, progress=progress)
     _report_run(result)
     if result.batches_done == result.batches_total:  # the analysis step: every table the report reads
@@ -474,7 +483,7 @@ def _validate(args: argparse.Namespace) -> int:
     # each --kernels/--dtype word may itself be a comma list
     kernels = [k for words in args.kernels for k in words] if args.kernels else None
     dtypes = [d for words in args.dtype for d in words] if args.dtype else validate.DTYPES
-    df = validate.run(kernels, dtypes, quick=args.quick, seed=args.seed)
+    df = validate.run(kernels, dtypes, quick=args.quick, seed=args.seed, progress=args.progress)
     out = Path(args.out or _validate_out("validate.csv"))
     write_csv(df, out)
     print(validate.format_table(df))
@@ -675,6 +684,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     val.add_argument("--quick", action="store_true", help="small sets, a few seconds (the tests' size)")
     val.add_argument("--seed", type=flags.seed, default=0, help="seed of every test's rays (default 0)")
+    _add_no_progress(val)
     val.set_defaults(func=_validate)
 
     seed = sub.add_parser(
@@ -763,8 +773,10 @@ def _run_command(argv: list[str] | None) -> int:
     try:
         args = build_parser().parse_args(argv)
         prog = f"tribench {args.command}"
-        from tribench.harness.runner import SweepError, SweepInterrupted
+        from tribench.harness.runner import SweepError, SweepInterrupted, progress_seconds
 
+        if getattr(args, "progress", False) is not False:
+            progress_seconds()  # a bad $TRIBENCH_PROGRESS_SECONDS fails first, like a bad flag
         try:
             return args.func(args)
         except SweepError as exc:

@@ -362,7 +362,7 @@ def _validation(run_dir: Path, kernels: list[str], dtypes: list[str], quick: boo
     try:
         if not known:
             raise UserError("none of the run's kernels is in this build of the extension")
-        df = validate.run(known, dtypes, quick=quick)
+        df = validate.run(known, dtypes, quick=quick, progress=False)  # a quiet step of the analysis
     except Exception as exc:  # the suite must never stop the analysis: the report shows why
         return f"The robustness suite could not run: {type(exc).__name__}: {exc}"
     records.write_csv(df, path)

@@ -88,14 +88,17 @@ def run(
         result = run("runs/notebook", quick=True)
         result.speedups.query("verdict == 'faster'")[["workload", "kernel", "ratio"]]
     """
+    from . import duration, records
     from .plan import default_sweep
 
     sweep = default_sweep(quick=quick)
+    records.check_new_run_dir(Path(out))  # before the estimate, which builds the workloads
     _say(
         log,
         f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads, "
         f"{sweep.processes} processes x {sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
     )
+    _say(log, f"{duration.estimate(sweep).line('for the sweep')}, then the peers, the robustness suite and the tables")
     done = runner.start(sweep, out, progress=progress)
     _say(
         log,

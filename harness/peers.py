@@ -282,7 +282,11 @@ def measure(
     cpu = default_cpu() if cpu is None else cpu
     # one BLAS thread, set before the worker imports NumPy (see the module's docstring)
     env = {**os.environ, **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
-    bar = Progress(design.processes, 0, force=bool(progress), unit="processes") if progress is not False else None
+    bar = (
+        Progress(design.processes, 0, force=bool(progress), unit="processes", label="peers")
+        if progress is not False
+        else None
+    )
     rows: list[dict[str, Any]] = []
     frame = pd.DataFrame(rows, columns=list(COLUMNS))
     try:

@@ -27,6 +27,7 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import json
+import math
 import os
 import secrets
 import subprocess
@@ -55,13 +56,16 @@ from .records import (
 )
 
 __all__ = [
+    "PROGRESS_VARIABLE",
     "Progress",
     "RunResult",
     "SweepError",
     "SweepInterrupted",
+    "about",
     "default_cpu",
     "done_keys",
     "missing_keys",
+    "progress_seconds",
     "resume",
     "start",
     "stderr_tail",
@@ -89,43 +93,117 @@ class RunResult:
     elapsed_s: float
 
 
-class Progress:
-    """A one-line progress bar with an estimate of the time left.
+#: Seconds between plain progress lines off a terminal (default :data:`PROGRESS_SECONDS`).
+PROGRESS_VARIABLE = "TRIBENCH_PROGRESS_SECONDS"
+PROGRESS_SECONDS = 10.0
 
-    Draws on ``stream`` only if it is a terminal (or ``force``); the estimate
-    uses the rate of this invocation only, so a resume is not misled by the
-    batches it did not run.
+
+def progress_seconds() -> float:
+    """The interval of plain progress lines: ``$TRIBENCH_PROGRESS_SECONDS``, else :data:`PROGRESS_SECONDS`."""
+    text = os.environ.get(PROGRESS_VARIABLE, "").strip()
+    if not text:
+        return PROGRESS_SECONDS
+    try:
+        seconds = float(text)
+    except ValueError:
+        seconds = math.nan
+    if not 0 <= seconds < math.inf:
+        raise UserError(f"{PROGRESS_VARIABLE}={text!r}: expected seconds between progress lines, a number >= 0")
+    return seconds
+
+
+class Progress:
+    """Progress with an estimate of the time left, on ``stream`` (default stderr).
+
+    On a terminal (or with ``force``) a one-line bar redrawn in place.
+    Elsewhere (a CI log, a pipe) a plain line now and then, once both
+    :func:`progress_seconds` and a tenth of the work (or the end) have come
+    since the last one, so a log shows life without filling up. The estimate uses the
+    rate of this invocation only, so a resume is not misled by the batches it
+    did not run.
     """
 
     def __init__(
-        self, total: int, done: int, stream: TextIO | None = None, force: bool = False, unit: str = "batches"
+        self,
+        total: int,
+        done: int,
+        stream: TextIO | None = None,
+        force: bool = False,
+        unit: str = "batches",
+        label: str = "sweep",
     ) -> None:
-        self.total, self.done, self._start_done, self.unit = total, done, done, unit
+        self.total, self.done, self._start_done, self.unit, self.label = total, done, done, unit, label
         self.stream = stream if stream is not None else sys.stderr
-        self.enabled = force or (hasattr(self.stream, "isatty") and self.stream.isatty())
+        self.bar = force or (hasattr(self.stream, "isatty") and self.stream.isatty())
+        self._interval = 0.0 if self.bar else progress_seconds()
         self._t0 = time.monotonic()
-        self._last = 0.0
+        self._last, self._last_done = self._t0, done
 
     def advance(self, n: int = 1) -> None:
         self.done += n
         now = time.monotonic()
-        if self.enabled and (now - self._last > 0.1 or self.done == self.total):
-            self._last = now
-            self.stream.write("\r" + self.line(now - self._t0))
+        if self.bar:
+            if now - self._last > 0.1 or self.done == self.total:
+                self._last = now
+                self.stream.write("\r" + self.line(now - self._t0))
+                self.stream.flush()
+        elif now - self._last >= self._interval and (
+            10 * (self.done - self._last_done) >= self.total or self.done == self.total
+        ):
+            self._last, self._last_done = now, self.done
+            self.stream.write(self.plain_line(now - self._t0) + "\n")
             self.stream.flush()
+
+    def _left(self, elapsed: float) -> float | None:
+        ran = self.done - self._start_done
+        return None if ran == 0 else elapsed / ran * (self.total - self.done)
 
     def line(self, elapsed: float) -> str:
         """The bar's text after ``elapsed`` seconds."""
         frac = self.done / self.total if self.total else 1.0
         bar = "#" * int(30 * frac) + "-" * (30 - int(30 * frac))
-        ran = self.done - self._start_done
-        left = "?" if ran == 0 else _clock(elapsed / ran * (self.total - self.done))
-        return f"[{bar}] {100 * frac:5.1f}% {self.done}/{self.total} {self.unit}, {left} left "
+        left = self._left(elapsed)
+        shown = "?" if left is None else _clock(left)
+        return f"[{bar}] {100 * frac:5.1f}% {self.done}/{self.total} {self.unit}, {shown} left "
+
+    def plain_line(self, elapsed: float) -> str:
+        """The plain line after ``elapsed`` seconds, e.g.
+
+        >>> p = Progress(5000, 0, unit="batches")
+        >>> p.plain_line(1.0)
+        'tribench sweep: 0/5000 batches (0%), 1 s elapsed'
+        >>> p.done = 1250
+        >>> p.plain_line(40.0)
+        'tribench sweep: 1250/5000 batches (25%), 40 s elapsed, about 2 min left'
+        """
+        frac = self.done / self.total if self.total else 1.0
+        left = self._left(elapsed)
+        text = (
+            f"tribench {self.label}: {self.done}/{self.total} {self.unit} ({int(100 * frac)}%)"  # 100% only at the end
+        )
+        text += f", {round(elapsed)} s elapsed"
+        return text if left is None or self.done == self.total else f"{text}, about {about(left)} left"
 
     def close(self) -> None:
-        if self.enabled:
+        if self.bar:
             self.stream.write("\n")
             self.stream.flush()
+
+
+def about(seconds: float) -> str:
+    """A duration as people say it: "about" goes before it.
+
+    >>> about(42.4), about(150), about(6000), about(3 * 3600)
+    ('40 s', '3 min', '1.7 h', '3 h')
+    """
+    if seconds < 10:
+        return f"{max(1, math.floor(seconds + 0.5))} s"
+    if seconds < 90:
+        return f"{10 * math.floor(seconds / 10 + 0.5)} s"
+    if seconds < 90 * 60:
+        return f"{math.floor(seconds / 60 + 0.5)} min"
+    hours = seconds / 3600
+    return f"{hours:.0f} h" if hours >= 10 else f"{hours:.1f}".removesuffix(".0") + " h"
 
 
 def _clock(seconds: float) -> str:
@@ -212,6 +290,8 @@ def start(
 
     run_dir = Path(run_dir)
     records.check_new_run_dir(run_dir)
+    if progress is not False:
+        progress_seconds()  # a bad $TRIBENCH_PROGRESS_SECONDS fails before the run folder exists
     machine = machine_record()
     margin = margin if margin is not None else latest_margin(machine["cpu_model"])
     keys = plan(sweep)

@@ -148,7 +148,7 @@ def run_seed(
     sample: int | None = None,
     progress: bool | None = None,
     command: str | None = None,
-    log: TextIO = sys.stderr,
+    log: TextIO | None = None,
 ) -> SeedResult:
     """Make the workloads, run the sweep into ``out``, write the tables and the pictures.
 
@@ -157,16 +157,18 @@ def run_seed(
     scenes : built-in names or scene files (default scene02 and scene03)
     quick : the same shape in well under a minute (:data:`QUICK`; wide intervals)
     size, sample : override the image side and the rays sampled per kind
+    log : where one-line notes go (default: ``sys.stderr`` when called, so a redirection holds)
     """
     from tribench.workloads import cache
     from tribench.workloads.seed_workload import RAY_KINDS, EmptyStream, SeedSpec
     from tribench.workloads.spec import workload_id
 
-    from . import runner
+    from . import duration, runner
     from .analysis import analyse, write_tables
     from .plan import Sweep
 
     t0 = time.monotonic()
+    log = sys.stderr if log is None else log
     design = QUICK if quick else FULL
     size, sample = size or design.size, sample or design.sample
     out = Path(out)
@@ -210,6 +212,7 @@ def run_seed(
         f"{sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
         file=log,
     )
+    print(duration.estimate(sweep).line(), file=log)
     extra = {
         "command": command,
         "seed_replay": {

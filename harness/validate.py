@@ -261,7 +261,7 @@ def measure(kernel: str, sets: RaySets) -> list[dict]:
     return rows
 
 
-def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=TESTS):
+def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=TESTS, progress: bool | None = None):
     """The whole suite: a tidy ``pandas.DataFrame`` with the columns of :data:`COLUMNS`.
 
     Parameters
@@ -276,18 +276,37 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=T
         Seed of every test's rays.
     tests : sequence of str
         Some of ``TESTS`` (default all).
+    progress : bool, optional
+        Progress per kernel: a bar on a terminal, plain lines elsewhere
+        (:class:`~tribench.harness.runner.Progress`); False for none.
 
     Rows are ordered by kernel, then dtype, then test (``TESTS``); the
     frame's ``attrs`` record the seed, the size and the seconds taken.
     """
     import pandas as pd
 
+    from .runner import Progress
+
     kernels = list(kernels or ext.kernel_names())
     for k in kernels:
         ext.kernel_info(k)  # an unknown name fails here, before any work
     start = time.perf_counter()
     sets = [build(dtype, quick, seed, tests) for dtype in dtypes]
-    df = pd.DataFrame([r for k in kernels for s in sets for r in measure(k, s)], columns=list(COLUMNS))
+    bar = (
+        Progress(len(kernels), 0, force=bool(progress), unit="kernels", label="validate")
+        if progress is not False
+        else None
+    )
+    rows = []
+    try:
+        for k in kernels:
+            rows += [r for s in sets for r in measure(k, s)]
+            if bar:
+                bar.advance()
+    finally:
+        if bar:
+            bar.close()
+    df = pd.DataFrame(rows, columns=list(COLUMNS))
     df.attrs.update(seed=seed, size="quick" if quick else "full", seconds=time.perf_counter() - start)
     return df
 

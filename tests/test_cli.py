@@ -48,6 +48,7 @@ def test_run_quick_is_the_main_job_end_to_end(tmp_path):
         env=env,
     )
     assert done.returncode == 0, done.stderr
+    assert "expected for the sweep: about " in done.stderr  # stated before the sweep starts
     for name in ("batches.csv", "checks.csv", "estimates.csv", "speedups.csv", "run.json", "report.html"):
         assert (out / name).is_file(), name
     assert f"report: {out / 'report.html'}" in done.stdout

@@ -190,7 +190,7 @@ def test_start_into_a_folder_another_start_is_writing_is_refused(run):
             "1",
             "--no-progress",
         )
-        one_line_error(done, "is being written by process", preamble=1)  # the sweep's plan line
+        one_line_error(done, "is being written by process", preamble=2)  # the plan and expected-duration lines
     assert not (other / "run.json").exists()
 
 
@@ -215,7 +215,8 @@ def test_full_disk_mid_sweep_exits_2_with_the_resume_command_and_whole_lines(fin
         "--no-progress",
     ]
     full = cli("sweep", "--out", str(out), *args, limit_bytes=5000)  # run.json fits, the batches do not
-    one_line_error(full, f"tribench sweep --resume {out}", "batches.csv", preamble=1)
+    # after the plan and expected-duration lines
+    one_line_error(full, f"tribench sweep --resume {out}", "batches.csv", preamble=2)
     lines = batch_lines(out)
     assert lines and all(line.endswith("\n") for line in lines)
     kept = runner.done_keys(out)  # validated: every row whole and valid

@@ -177,7 +177,9 @@ def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, cap
         ["seed", "--quick", "--scene", str(scene), "--out", str(out), "--size", "16", "--sample", "24", "--no-progress"]
     )
     assert rc == 0
-    printed = capsys.readouterr().out
+    captured = capsys.readouterr()
+    printed = captured.out
+    assert "expected: about " in captured.err  # the seed states its duration before it starts
     assert f"report: {out / 'seed.html'}" in printed and "Curless / Moller: replay" in printed
     for name in (
         "seed.csv",

@@ -1,0 +1,145 @@
+"""How long a sweep will take, said before it starts (``tribench seed``, ``run`` and ``sweep``).
+
+The runner's time is, per worker process: its start-up, then for every
+kernel-workload pair a check (one pass against the reference) and a
+calibration of the loop count, then the pair's batches. A batch lasts the
+target or one pass, whichever is longer (``loops`` is at least 1). So
+
+    seconds = processes x (start-up + sum over pairs of (check + calibration + batches x batch))
+
+with one pass measured here, in this process, on a strided slice of each
+workload (well under a second for the seed), and the rest assumed: the
+constants below, read off the run folders of the main job, a 27-kernel
+ranking sweep and the seed on 2 cores. It is a forecast, not a promise: a
+busy machine is slower. The progress lines correct it as batches finish.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, cast
+
+import numpy as np
+
+from .plan import Sweep
+from .runner import about
+
+__all__ = ["Estimate", "estimate", "measure_passes", "model"]
+
+#: A worker's start-up: the interpreter, NumPy, the extension, its workloads from the cache.
+START_S = 0.5
+#: A check's bookkeeping besides its pass (the reference comparison, the
+#: ambiguous rays): a pair block of the main job took 16-18 ms per kernel at
+#: 8 ms batches, 10 ms of it calibration.
+CHECK_S = 0.007
+#: A culling kernel is checked against the front-face reference, computed by
+#: NumPy in every process on closest and any-hit workloads: 0.6-0.9 us per test.
+REFERENCE_NS_PER_TEST = 600.0
+#: The runner's time per batch outside the timed loop (plan.py: 80-150 us).
+BATCH_OVERHEAD_S = 150e-6
+#: Tests per measured pass: big enough to be timed, small enough to cost little.
+SLICE_TESTS = 1 << 17
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A sweep's expected duration and its parts."""
+
+    seconds: float
+    processes: int
+    batches: int
+    #: Per process: start-up, checks and calibrations.
+    setup_s: float
+    #: Shortest and longest batch (one pass or the target, whichever is longer).
+    batch_s: tuple[float, float]
+
+    def line(self, what: str = "") -> str:
+        """One line for the log, e.g. ``expected: about 12 min (20 processes x ...)``; ``what``
+        goes after "expected" (``"for the sweep"``)."""
+        lo, hi = (_ms(b) for b in self.batch_s)
+        batch = f"{lo} ms" if lo == hi else f"{lo}-{hi} ms"
+        head = f"expected {what}" if what else "expected"
+        return (
+            f"{head}: about {about(self.seconds)} ({self.processes} processes x about {about(self.setup_s)} "
+            f"of start-up and checks, then {self.batches:,} batches of {batch})"
+        )
+
+
+def _ms(seconds: float) -> str:
+    """Milliseconds to two figures, never in exponent form."""
+    ms = 1e3 * seconds
+    return f"{ms:.0f}" if ms >= 10 else f"{ms:.2g}"
+
+
+def model(sweep: Sweep, tests: Mapping[str, int], pass_s: Mapping[tuple[str, str], float]) -> Estimate:
+    """The expected duration of ``sweep`` from each workload's tests per pass
+    and each (kernel, workload id) pair's seconds per pass.
+
+    >>> from tribench.workloads.spec import PairSpec
+    >>> s = Sweep(("moller_seed",), (PairSpec(n=4096),), processes=10, rounds=10, warmup=1, target_ms=8.0)
+    >>> e = model(s, {s.workload_ids[0]: 4096}, {("moller_seed", s.workload_ids[0]): 2e-5})
+    >>> e.batches == s.n_batches, e.batch_s
+    (True, (0.008, 0.008))
+    >>> e.line()
+    'expected: about 6 s (10 processes x about 1 s of start-up and checks, then 110 batches of 8 ms)'
+    """
+    from tribench import ext
+
+    target = sweep.target_ms / 1e3
+    per_pair = sweep.rounds + sweep.warmup
+    setup, batches_s, lengths = START_S, 0.0, []
+    for spec, wid in zip(sweep.workloads, sweep.workload_ids, strict=True):
+        for kernel in sweep.kernels_for(spec):
+            one = pass_s[(kernel, wid)]
+            batch = max(target, one)
+            lengths.append(batch)
+            # calibration doubles loops up to a quarter of the target, then times 3 batches
+            setup += CHECK_S + one + max(1.25 * target, 4 * one)
+            if spec.mode != "pairs" and ext.kernel_info(kernel).culls_back_faces:
+                setup += REFERENCE_NS_PER_TEST * 1e-9 * tests[wid]
+            batches_s += per_pair * (batch + BATCH_OVERHEAD_S)
+    return Estimate(
+        seconds=sweep.processes * (setup + batches_s),
+        processes=sweep.processes,
+        batches=sweep.n_batches,
+        setup_s=setup,
+        batch_s=(min(lengths, default=target), max(lengths, default=target)),
+    )
+
+
+def measure_passes(sweep: Sweep) -> tuple[dict[str, int], dict[tuple[str, str], float]]:
+    """Tests per pass of every workload, and one pass's seconds for every
+    (kernel, workload id) pair, timed here on a strided slice and scaled.
+
+    Builds the workloads the workers would build (into the cache, so this is
+    no extra work); the timed passes take well under a second in all.
+    """
+    from tribench import ext
+    from tribench.workloads import cache
+
+    tests: dict[str, int] = {}
+    seconds: dict[tuple[str, str], float] = {}
+    for spec, wid in zip(sweep.workloads, sweep.workload_ids, strict=True):
+        w = cache.make(spec)
+        pairs = w.mode == "pairs"
+        rays, tris = len(w.origins), len(w.triangles)
+        tests[wid] = rays if pairs else rays * tris
+        part = slice(None, None, max(1, math.ceil(tests[wid] / SLICE_TESTS)))  # rays (and pairs) across the set
+
+        def cut(a: Any, part: slice = part) -> Any:
+            return None if a is None or np.ndim(a) == 0 else np.ascontiguousarray(a[part])
+
+        o, d, tm = cut(w.origins), cut(w.directions), cut(w.t_max)
+        t = cut(w.triangles) if pairs else w.triangles
+        for kernel in sweep.kernels_for(spec):
+            job = ext.make_job(kernel, o, d, t, cast(ext.Mode, w.mode), t_max=tm)
+            best = min(ext.time_batch(job, 1).elapsed_ns for _ in range(2))
+            seconds[(kernel, wid)] = best * 1e-9 * tests[wid] / job.tests_per_pass
+    return tests, seconds
+
+
+def estimate(sweep: Sweep) -> Estimate:
+    """:func:`model` on :func:`measure_passes`: the line ``tribench seed``, ``run`` and ``sweep`` print first."""
+    return model(sweep, *measure_passes(sweep))
