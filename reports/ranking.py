@@ -34,7 +34,9 @@ def _interval(value: float, low: float, high: float, unit: str = "") -> str:
 
 def _named(kernel: str, rows: pd.DataFrame) -> str:
     """The kernel's name, marked when it culls back faces (it answers another question: front faces only)."""
-    culls = rows.loc[rows["kernel"] == kernel, "culls_back_faces"] if "culls_back_faces" in rows else []
+    if "culls_back_faces" not in rows:
+        return kernel
+    culls = rows.loc[rows["kernel"] == kernel, "culls_back_faces"]
     return f"{kernel} (front faces only)" if len(culls) and str(culls.iloc[0]) == "True" else kernel
 
 
