@@ -509,6 +509,17 @@ def _declared(kernel: str, field: str) -> Any:
     return info.watertight != "none" if field == "watertight" else getattr(info, field)
 
 
+def _paired_ratio(per: pd.DataFrame, slower: str, faster: str, level: float) -> tuple[float, float, float, int]:
+    """time_slower / time_faster from per-process values (``per``: one column per kernel), its
+    interval at ``level`` (``stats.speedup``; NaN when fewer than two processes ran both), and
+    how many processes ran both."""
+    both = per[[slower, faster]].dropna()
+    if len(both) < 2:
+        return math.nan, math.nan, math.nan, len(both)
+    v = stats.speedup(both[slower], both[faster], confidence=level)
+    return v.ratio, v.ci_low, v.ci_high, len(both)
+
+
 def ranking_table(est: pd.DataFrame, spd: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.DataFrame:
     """Per workload, every kernel from the fastest down, each against the fastest (``ranking.csv``).
 
@@ -522,24 +533,15 @@ def ranking_table(est: pd.DataFrame, spd: pd.DataFrame, pp: pd.DataFrame, margin
     the fastest by its point estimate is not evidence that it beats those.
     """
     rows = []
-    confidence = stats.DEFAULTS.confidence
     for wid, g in est.groupby("workload_id", sort=False):
         g = g.sort_values(["ns_per_test", "kernel"]).reset_index(drop=True)
         fastest = str(g["kernel"].iloc[0])
         per = pp.loc[pp["workload_id"] == wid].pivot(index="process", columns="kernel", values="ns_per_test")
-        level = 1 - (1 - confidence) / max(len(g) - 1, 1)
+        level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(g) - 1, 1))
         s = spd.loc[spd["workload_id"] == wid].set_index("kernel")
         for rank, r in enumerate(g.itertuples(index=False), start=1):
             kernel = str(r.kernel)
-            if kernel == fastest:
-                ratio = low = high = 1.0
-            else:
-                pair = per[[kernel, fastest]].dropna()
-                if len(pair) >= 2:
-                    v = stats.speedup(pair[kernel], pair[fastest], confidence=level)
-                    ratio, low, high = v.ratio, v.ci_low, v.ci_high
-                else:
-                    ratio, low, high = math.nan, math.nan, math.nan
+            ratio, low, high = (1.0, 1.0, 1.0) if kernel == fastest else _paired_ratio(per, kernel, fastest, level)[:3]
             base = s.loc[kernel] if kernel in s.index else None
             baseline = str(s["baseline"].iloc[0]) if len(s) else kernel
             rows.append(
@@ -582,20 +584,14 @@ def algorithm_table(rank: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.D
     pair by point estimate comes first, so the ratio is at least 1.
     """
     rows = []
-    confidence = stats.DEFAULTS.confidence
     for wid, g in rank.groupby("workload_id", sort=False):
         best = g.sort_values("rank").drop_duplicates("algorithm")
         best = best.loc[best["algorithm"].notna()]
         pairs = list(itertools.combinations(best.itertuples(index=False), 2))
         per = pp.loc[pp["workload_id"] == wid].pivot(index="process", columns="kernel", values="ns_per_test")
-        level = 1 - (1 - confidence) / max(len(pairs), 1)
+        level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(pairs), 1))
         for a, b in pairs:  # a ranks before b
-            both = per[[a.kernel, b.kernel]].dropna()
-            if len(both) >= 2:
-                v = stats.speedup(both[b.kernel], both[a.kernel], confidence=level)
-                ratio, low, high = v.ratio, v.ci_low, v.ci_high
-            else:
-                ratio, low, high = math.nan, math.nan, math.nan
+            ratio, low, high, n = _paired_ratio(per, b.kernel, a.kernel, level)
             rows.append(
                 {
                     "workload_id": wid,
@@ -609,7 +605,7 @@ def algorithm_table(rank: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.D
                     "ratio": ratio,
                     "ratio_ci_low": low,
                     "ratio_ci_high": high,
-                    "n_processes": len(both),
+                    "n_processes": n,
                     "confidence": level,
                     "verdict": stats.verdict(low, high, margin),
                 }
