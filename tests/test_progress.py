@@ -11,26 +11,14 @@ import sys
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from test_sweep import TINY as SWEEP_TINY
 
 from tribench.common import UserError
 from tribench.harness import duration, runner
 from tribench.harness.plan import Sweep
 from tribench.workloads.spec import PairSpec
 
-TINY = [
-    "--kernels",
-    "moller_trumbore,curless",
-    "--pairs",
-    "300",
-    "--processes",
-    "3",
-    "--rounds",
-    "2",
-    "--warmup",
-    "1",
-    "--target-ms",
-    "0.2",
-]
+TINY = [a for a in SWEEP_TINY if a != "--no-progress"]  # the sweep tests' tiny design, progress shown
 PLAIN = re.compile(
     r"^tribench sweep: (\d+)/(\d+) batches \((\d+)%\), \d+ s elapsed(, about \d+(\.\d+)? (s|min|h) left)?$"
 )

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from test_runfolder import SLOW
 
 from tribench import ext
 from tribench.harness import analysis, records, runner
@@ -120,21 +121,7 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
 
 def test_sigkill_mid_sweep_then_resume_gives_exactly_the_planned_batches(tmp_path, env):
     # long enough batches (20 ms) that the kill lands inside a worker process
-    args = [
-        "--kernels",
-        "moller_trumbore,curless",
-        "--pairs",
-        "300",
-        "--processes",
-        "4",
-        "--rounds",
-        "3",
-        "--warmup",
-        "1",
-        "--target-ms",
-        "20",
-        "--no-progress",
-    ]
+    args = SLOW
     killed = tmp_path / "killed"
     proc = subprocess.Popen(
         [sys.executable, "-m", "tribench.cli", "sweep", "--out", str(killed), *args],
