@@ -34,9 +34,6 @@ START_S = 0.5
 #: ambiguous rays): a pair block of the main job took 16-18 ms per kernel at
 #: 8 ms batches, 10 ms of it calibration.
 CHECK_S = 0.007
-#: A culling kernel is checked against the front-face reference, computed by
-#: NumPy in every process on closest and any-hit workloads: 0.6-0.9 us per test.
-REFERENCE_NS_PER_TEST = 600.0
 #: The runner's time per batch outside the timed loop (plan.py: 80-150 us).
 BATCH_OVERHEAD_S = 150e-6
 #: Tests per measured pass: big enough to be timed, small enough to cost little.
@@ -85,8 +82,6 @@ def model(sweep: Sweep, tests: Mapping[str, int], pass_s: Mapping[tuple[str, str
     >>> e.line()
     'expected: about 6 s (10 processes x about 1 s of start-up and checks, then 110 batches of 8 ms)'
     """
-    from tribench import ext
-
     target = sweep.target_ms / 1e3
     per_pair = sweep.rounds + sweep.warmup
     setup, batches_s, lengths = START_S, 0.0, []
@@ -97,8 +92,6 @@ def model(sweep: Sweep, tests: Mapping[str, int], pass_s: Mapping[tuple[str, str
             lengths.append(batch)
             # calibration doubles loops up to a quarter of the target, then times 3 batches
             setup += CHECK_S + one + max(1.25 * target, 4 * one)
-            if spec.mode != "pairs" and ext.kernel_info(kernel).culls_back_faces:
-                setup += REFERENCE_NS_PER_TEST * 1e-9 * tests[wid]
             batches_s += per_pair * (batch + BATCH_OVERHEAD_S)
     return Estimate(
         seconds=sweep.processes * (setup + batches_s),
@@ -113,17 +106,22 @@ def measure_passes(sweep: Sweep) -> tuple[dict[str, int], dict[tuple[str, str], 
     """Tests per pass of every workload, and one pass's seconds for every
     (kernel, workload id) pair, timed here on a strided slice and scaled.
 
-    Builds the workloads the workers would build (into the cache, so this is
-    no extra work); the timed passes take well under a second in all.
+    Builds the workloads the workers would build, and the front-face
+    references their culling kernels are checked against (into the cache, so
+    this is no extra work, and no worker computes one); the timed passes take
+    well under a second in all.
     """
     from tribench import ext
     from tribench.workloads import cache
+    from tribench.workloads.front import front_reference
 
     tests: dict[str, int] = {}
     seconds: dict[tuple[str, str], float] = {}
     for spec, wid in zip(sweep.workloads, sweep.workload_ids, strict=True):
         w = cache.make(spec)
         pairs = w.mode == "pairs"
+        if not pairs and any(ext.kernel_info(k).culls_back_faces for k in sweep.kernels_for(spec)):
+            front_reference(w)
         rays, tris = len(w.origins), len(w.triangles)
         tests[wid] = rays if pairs else rays * tris
         part = slice(None, None, max(1, math.ceil(tests[wid] / SLICE_TESTS)))  # rays (and pairs) across the set

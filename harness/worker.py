@@ -23,9 +23,10 @@ What it does, in order:
 3. runs the FMA peak probe;
 4. per workload, before its first batch: checks each kernel's per-ray answers
    against the reference (differences allowed only on the workload's
-   ambiguous rays), then calibrates ``loops`` so that one batch takes about
-   ``target_ms`` (kept for the whole process; calibration batches are not
-   recorded). On a BVH workload (``accel = "bvh"``) each kernel's BVH is
+   ambiguous rays; a kernel that culls back faces against the front-face
+   reference, cached with the workload: :mod:`~tribench.workloads.front`),
+   then calibrates ``loops`` so that one batch takes about ``target_ms``
+   (kept for the whole process; calibration batches are not recorded). On a BVH workload (``accel = "bvh"``) each kernel's BVH is
    built first, once, outside any timed batch; its answers are checked and
    its batches timed through the BVH, and a batch's ``tests`` are the
    triangle tests the traversal did (``ns/test`` stays a time per
@@ -52,6 +53,7 @@ import numpy as np
 
 from tribench import ext
 from tribench.workloads import reference
+from tribench.workloads.front import front_reference
 from tribench.workloads.spec import MeshSpec
 
 from .records import BatchRow, CheckRow, ProcessRow
@@ -178,27 +180,6 @@ def time_job(job: ext.Job | BvhJob, loops: int) -> ext.Batch:
     return ext.time_batch(job, loops)
 
 
-def _front_reference(w: Any) -> tuple[np.ndarray, np.ndarray]:
-    """The front-face-only closest hits of a mesh workload, from its two-sided
-    reference: a ray whose closest hit is a front face keeps it; brute force
-    (float64) only for the rays whose closest hit is a back face (few, on a
-    closed mesh seen from outside), so a BVH workload of a million triangles
-    never meets an every-ray-against-every-triangle reference."""
-    index, t = w.ref_index.copy(), w.ref_t.copy()
-    rows = np.flatnonzero(index >= 0)
-    t_max = None if w.t_max is None else w.t_max[rows]
-    front = reference.intersect_pairs(
-        w.origins[rows], w.directions[rows], w.triangles[index[rows]], t_max=t_max, front_only=True
-    ).hit
-    back = rows[~front]
-    if len(back):
-        t_max = None if w.t_max is None else w.t_max[back]
-        index[back], t[back] = reference.intersect_closest(
-            w.origins[back], w.directions[back], w.triangles, t_max=t_max, front_only=True
-        )
-    return index, t
-
-
 def one_pass_checksum(kernel: str, workload: Any, bvh: ext.BVH | None = None) -> tuple[Checksum, dict[str, int]]:
     """Check ``kernel``'s per-ray answers on ``workload``; return its checksum.
 
@@ -228,14 +209,12 @@ def one_pass_checksum(kernel: str, workload: Any, bvh: ext.BVH | None = None) ->
     ref_index, ref_t = (w.ref_index, w.ref_t) if w.mode != "pairs" else (None, w.ref_t)
     ref_hits = w.hits
     if ext.kernel_info(kernel).culls_back_faces:
-        args = (w.origins, w.directions, w.triangles)
         if w.mode == "pairs":
-            ref_hits = reference.intersect_pairs(*args, t_max=w.t_max, front_only=True).hit
-        elif bvh is not None:
-            ref_index, ref_t = _front_reference(w)
-            ref_hits = ref_index >= 0
-        else:
-            ref_index, ref_t = reference.intersect_closest(*args, t_max=w.t_max, front_only=True)
+            ref_hits = reference.intersect_pairs(
+                w.origins, w.directions, w.triangles, t_max=w.t_max, front_only=True
+            ).hit
+        else:  # computed once per workload and kept in the cache: every process checks against it
+            ref_index, ref_t = front_reference(w)
             ref_hits = ref_index >= 0
     differs = hit != ref_hits if w.mode in ("pairs", "any") else r.index != ref_index
     ambiguous = w.ambiguous()

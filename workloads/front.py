@@ -1,0 +1,113 @@
+"""The front-face reference of a workload, cached beside it: what a kernel that culls back faces must answer.
+
+A kernel that culls back faces (``ext.kernel_info(k).culls_back_faces``) is
+checked against the closest *front-face* hit of every ray (closest and any-hit
+modes), not against the workload's two-sided reference. It follows from the
+two-sided one: a ray whose closest hit is a front face keeps it, a ray that
+misses every face misses the front ones, and only the rays whose closest hit is
+a back face meet a brute-force float64 search over the front faces.
+
+Every worker process of a sweep checks its culling kernels, so the answer is
+computed once and kept in the workload cache, one file per workload:
+``<cache>/front/<workload id>.npz`` (a folder of its own: every ``*.npz``
+directly in the cache is a workload). The file is sealed as a workload's is
+(:mod:`~tribench.workloads.cache`: the sha256 of the rest of the file in the
+zip's comment) and names :data:`FRONT_VERSION` and the checksum of the
+workload's arrays it was made from. A file that fails any of these, or whose
+arrays do not fit the workload, is never used: it is recomputed and rewritten
+with a :class:`~tribench.workloads.cache.CacheWarning`.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import warnings
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from tribench.common import write_bytes
+
+from . import reference
+from .cache import _SEAL_LEN, CacheWarning, _Invalid, _seal, _unsealed, cache_dir
+from .workload import Workload
+
+__all__ = ["FRONT_VERSION", "compute_front_reference", "front_path", "front_reference"]
+
+#: Bump when the front-face reference is computed differently: older files are then recomputed.
+FRONT_VERSION = 1
+
+
+def compute_front_reference(w: Workload) -> tuple[np.ndarray, np.ndarray]:
+    """Index and t of every ray's closest front-face hit (-1 and nan for none), float64, uncached.
+
+    A two-sided reference that names a front face is kept; brute force only
+    for the rays whose two-sided closest hit is a back face (few on a closed
+    mesh seen from outside), so a workload of a million triangles never meets
+    an every-ray-against-every-triangle search.
+    """
+    if w.mode == "pairs":
+        raise ValueError("a pairs workload has no closest hit: test its pairs with reference.intersect_pairs")
+    assert w.ref_index is not None and w.ref_t is not None  # closest and any-hit workloads carry both
+    index, t = w.ref_index.copy(), w.ref_t.copy()
+    rows = np.flatnonzero(index >= 0)
+    t_max = None if w.t_max is None else w.t_max[rows]
+    front = reference.intersect_pairs(
+        w.origins[rows], w.directions[rows], w.triangles[index[rows]], t_max=t_max, front_only=True
+    ).hit
+    back = rows[~front]
+    if len(back):
+        t_max = None if w.t_max is None else w.t_max[back]
+        index[back], t[back] = reference.intersect_closest(
+            w.origins[back], w.directions[back], w.triangles, t_max=t_max, front_only=True
+        )
+    return index, t
+
+
+def front_path(workload_id: str) -> Path:
+    """Where the front-face reference of a workload is cached."""
+    return cache_dir() / "front" / f"{workload_id}.npz"
+
+
+def front_reference(w: Workload) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`compute_front_reference`, from the cache when a valid file is there, else computed and cached."""
+    path = front_path(w.workload_id)
+    if path.exists():
+        try:
+            return _read(path, w)
+        except _Invalid as e:
+            warnings.warn(f"cache file {path} is invalid ({e}); rebuilding it", CacheWarning, stacklevel=2)
+    index, t = compute_front_reference(w)
+    _write(path, w, index, t)
+    return index, t
+
+
+def _meta(w: Workload) -> dict[str, object]:
+    return {"front_version": FRONT_VERSION, "workload_id": w.workload_id, "workload_sha256": w.checksum()}
+
+
+def _write(path: Path, w: Workload, index: np.ndarray, t: np.ndarray) -> None:
+    buf = io.BytesIO()
+    np.savez(buf, meta=np.array(json.dumps(_meta(w))), index=index, t=t)
+    with zipfile.ZipFile(buf, "a") as z:  # the seal is the zip's comment, its last bytes, as cache.py's
+        z.comment = bytes(_SEAL_LEN)
+    body = buf.getvalue()[:-_SEAL_LEN]
+    write_bytes(path, body + _seal(body))
+
+
+def _read(path: Path, w: Workload) -> tuple[np.ndarray, np.ndarray]:
+    data = _unsealed(path)
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            meta = json.loads(str(npz["meta"][()]))
+            index, t = npz["index"], npz["t"]
+    except Exception as e:  # garbage under a valid seal
+        raise _Invalid(f"{type(e).__name__}: {e}") from None
+    if meta != _meta(w):
+        raise _Invalid("made from another workload or by another version")
+    n = len(w.origins)
+    if index.shape != (n,) or t.shape != (n,) or index.dtype != np.int64 or t.dtype != np.float64:
+        raise _Invalid("its arrays do not fit the workload")
+    return index, t
