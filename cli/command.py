@@ -377,6 +377,7 @@ def _seed(args: argparse.Namespace) -> int:
         "seed",
         *[w for s in args.scene or [] for w in ("--scene", s)],
         *(["--quick"] if args.quick else []),
+        *(["--all-kernels"] if args.all_kernels else []),
         "--out",
         out,
         *[w for k in ("size", "sample") if getattr(args, k) for w in (f"--{k}", str(getattr(args, k)))],
@@ -387,6 +388,7 @@ def _seed(args: argparse.Namespace) -> int:
         quick=args.quick,
         size=args.size,
         sample=args.sample,
+        all_kernels=args.all_kernels,
         progress=args.progress,
         command=shlex.join(words),
     )
@@ -690,7 +692,7 @@ def build_parser() -> argparse.ArgumentParser:
     seed = sub.add_parser(
         "seed",
         help="replay the seed's renders (scene02, scene03) through the harness, beside the paper's table",
-        description="Traces each scene as the seed's ray tracer does, times every kernel on a sample of each "
+        description="Traces each scene as the seed's ray tracer does, times the kernels on a sample of each "
         "kind of ray (primary, reflected, shadow) in fresh worker processes, scales to one render's "
         "time with 95% CIs, and sets it beside the paper's Unix times. Writes the run folder, "
         "seed.csv (the table), seed_kinds.csv, seed_workloads.csv (per-test hit rate, miss-stage mix), "
@@ -704,6 +706,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="a scene file in the seed's format, instead of scene02 and scene03 (repeatable)",
     )
     seed.add_argument("--quick", action="store_true", help="the same shape in under a minute (128x128, wide intervals)")
+    seed.add_argument(
+        "--all-kernels",
+        action="store_true",
+        help="time every kernel (the whole zoo: about twice as long), not only the seed's two, their clean "
+        "scalar forms and the native form of every algorithm that tests both faces",
+    )
     _add_run_out(seed, "runs/seed-[quick-]<date-time>")
     _add_no_progress(seed)
     seed.add_argument("--size", type=flags.positive_int, help=argparse.SUPPRESS)  # image side, for tests

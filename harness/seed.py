@@ -70,6 +70,7 @@ PAPER = {
 }
 BASELINE = "moller_seed"
 PAIR = ("curless_seed", "moller_seed")
+#: The seed's two kernels and their clean scalar forms: the seed's algorithms at the seed's form, flaws and no flaws.
 FIRST_KERNELS = ("curless_seed", "moller_seed", "curless", "moller_trumbore")
 #: The pictures are rendered as the seed computed them: float triangle tests.
 PICTURE_DTYPE = "float32"
@@ -116,12 +117,30 @@ class SeedResult:
     elapsed_s: float
 
 
-def seed_kernels() -> tuple[str, ...]:
-    """The seed's two kernels, their clean forms, then every other public kernel (the faster wide ones)."""
+def seed_kernels(all_kernels: bool = False) -> tuple[str, ...]:
+    """The kernels ``tribench seed`` times: :data:`FIRST_KERNELS`, then the best form of every algorithm
+    that answers the seed's renders; with ``all_kernels`` every public kernel instead of the best forms.
+
+    The best form of an algorithm is its widest, the native one (``kernel_info(k).lanes``: the most
+    triangles per block; Moller-Trumbore has two, with and without the early exit). Every native form was
+    faster than its 8-lane and scalar forms in the 27-kernel ranking of session 8 (Suzanne, both
+    precisions). Kernels that cull back faces are left out: the seed's renderer tests both faces (its
+    shadow rays meet the back of the monkey), so they would time another render.
+
+    >>> seed_kernels()[:4] == FIRST_KERNELS and len(seed_kernels()) < len(seed_kernels(all_kernels=True))
+    True
+    """
     from tribench import ext
 
     names = ext.kernel_names()
-    return tuple(k for k in FIRST_KERNELS if k in names) + tuple(k for k in names if k not in FIRST_KERNELS)
+    info = {k: ext.kernel_info(k) for k in names}
+    two_sided = [k for k in names if not info[k].culls_back_faces]
+    widest: dict[str, int] = {}  # per algorithm, the most lanes of its forms
+    for k in two_sided:
+        widest[info[k].algorithm] = max(widest.get(info[k].algorithm, 1), info[k].lanes)
+    best = [k for k in two_sided if 1 < info[k].lanes == widest[info[k].algorithm]]
+    rest = names if all_kernels else best
+    return tuple(k for k in FIRST_KERNELS if k in names) + tuple(k for k in rest if k not in FIRST_KERNELS)
 
 
 def _labels(scenes: Sequence[str]) -> dict[str, str]:
@@ -146,6 +165,7 @@ def run_seed(
     quick: bool = False,
     size: int | None = None,
     sample: int | None = None,
+    all_kernels: bool = False,
     progress: bool | None = None,
     command: str | None = None,
     log: TextIO | None = None,
@@ -157,13 +177,14 @@ def run_seed(
     scenes : built-in names or scene files (default scene02 and scene03)
     quick : the same shape in well under a minute (:data:`QUICK`; wide intervals)
     size, sample : override the image side and the rays sampled per kind
+    all_kernels : every public kernel, not only the seed's and the best forms (:func:`seed_kernels`)
     log : where one-line notes go (default: ``sys.stderr`` when called, so a redirection holds)
     """
     from tribench.workloads import cache
     from tribench.workloads.seed_workload import RAY_KINDS, EmptyStream, SeedSpec
     from tribench.workloads.spec import workload_id
 
-    from . import duration, runner
+    from . import runner
     from .analysis import analyse, write_tables
     from .plan import Sweep
 
@@ -200,7 +221,7 @@ def run_seed(
         raise UserError("no scene shoots a ray that tests a triangle: nothing to replay")
 
     sweep = Sweep(
-        seed_kernels(),
+        seed_kernels(all_kernels),
         tuple(specs),
         processes=design.processes,
         rounds=design.rounds,
@@ -212,12 +233,13 @@ def run_seed(
         f"{sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
         file=log,
     )
-    print(duration.estimate(sweep).line(), file=log)
+    print(_expected(sweep, info, size), file=log)
     extra = {
         "command": command,
         "seed_replay": {
             "scenes": [labels[s] for s in resolved],
             "quick": quick,
+            "all_kernels": all_kernels,
             "width": size,
             "height": size,
             "sample": sample,
@@ -239,6 +261,35 @@ def run_seed(
         records.write_csv(tables[name], out / name)
     tables[PICTURES_CSV] = pd.read_csv(out / PICTURES_CSV)
     return SeedResult(out, tables, time.monotonic() - t0)
+
+
+#: The pictures' tracer does about this share of a render's triangle tests as
+#: the replay times them (it skips some), plus its own NumPy work per pixel
+#: (shading, ray trees); the analysis and the page then take a few seconds.
+#: Read off scene02 and scene03 at 512 x 512 on 2 cores (22 and 16 s for scene03).
+PICTURE_TEST_SHARE = 0.6
+PICTURE_S_PER_PIXEL = 1e-5
+TABLES_S = 10.0
+
+
+def _expected(sweep: Any, info: Mapping[str, Mapping[str, Any]], size: int) -> str:
+    """The line said before the sweep starts: the sweep's forecast (:mod:`.duration`), then the pictures'
+    (``info``: each workload's ``stream_tests`` and ``sample_tests``)."""
+    from . import duration
+    from .runner import about
+
+    tests, pass_s = duration.measure_passes(sweep)
+    sweep_estimate = duration.model(sweep, tests, pass_s)
+    after = TABLES_S
+    for wid in sweep.workload_ids:  # one pass over the sample, scaled to the render as render_per_process does
+        render = info[wid]["stream_tests"] / info[wid]["sample_tests"]
+        after += sum(PICTURE_TEST_SHARE * pass_s[(k, wid)] * render for k in PAIR)
+    after += len({info[wid]["scene"] for wid in sweep.workload_ids}) * len(PAIR) * PICTURE_S_PER_PIXEL * size**2
+    return (
+        f"expected: about {about(sweep_estimate.seconds + after)} in all; "
+        f"{sweep_estimate.line('for the sweep').removeprefix('expected ')}, "
+        f"then the pictures and tables about {about(after)}"
+    )
 
 
 def make_pictures(scene: str, label: str, size: int, out: Path) -> dict[str, Any]:

@@ -26,8 +26,9 @@ What it does, in order:
    ambiguous rays; a kernel that culls back faces against the front-face
    reference, cached with the workload: :mod:`~tribench.workloads.front`),
    then calibrates ``loops`` so that one batch takes about ``target_ms``
-   (kept for the whole process; calibration batches are not recorded). On a BVH workload (``accel = "bvh"``) each kernel's BVH is
-   built first, once, outside any timed batch; its answers are checked and
+   (kept for the whole process; calibration batches are not recorded).
+   On a BVH workload (``accel = "bvh"``) each kernel's BVH is built
+   first, once, outside any timed batch; its answers are checked and
    its batches timed through the BVH, and a batch's ``tests`` are the
    triangle tests the traversal did (``ns/test`` stays a time per
    ray-triangle test; ``rays x loops / elapsed`` is its rays/s);

@@ -313,6 +313,18 @@ def _reproduce(run: dict) -> str:
     return _section("reproduce", "".join(body))
 
 
+def _kernels_timed(replay: dict) -> str:
+    """Which kernels the run timed, in words (nothing for a run folder older than the choice)."""
+    if "all_kernels" not in replay:
+        return ""
+    if replay["all_kernels"]:
+        return "Kernels: every kernel (--all-kernels)."
+    return (
+        "Kernels: the seed's two, their clean scalar forms and the native form of every algorithm that "
+        "tests both faces (tribench seed --all-kernels times every kernel)."
+    )
+
+
 def render_seed(run_dir: str | Path) -> str:
     """The whole page of a seed run, as a string."""
     from tribench.harness import records
@@ -332,7 +344,7 @@ def render_seed(run_dir: str | Path) -> str:
     ]
     head = f"<h1>{escape(title)}</h1>" + page.p(
         f"The seed's renders (Vitse 2022: Curless vs Möller, Unix time) replayed through the harness: "
-        f"{run.get('created')}, {run['sweep']['processes']} processes.",
+        f"{run.get('created')}, {run['sweep']['processes']} processes. {_kernels_timed(run['seed_replay'])}",
         "sub",
     )
     footer = page.p(f"Written by tribench seed at {page.now()} from {run_dir}. Statistics: tribench.stats.", "note")

@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import math
 import shutil
+from html import escape
 
 import numpy as np
 import pandas as pd
 import pytest
 from scipy import stats as sps
 
+from tribench import ext
 from tribench.cli.command import main
+from tribench.harness import records
 from tribench.harness import seed as hs
 from tribench.workloads import cache, reference
 from tribench.workloads import seed_workload as sw
@@ -180,6 +183,7 @@ def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, cap
     captured = capsys.readouterr()
     printed = captured.out
     assert "expected: about " in captured.err  # the seed states its duration before it starts
+    assert " in all; for the sweep: about " in captured.err and "then the pictures and tables about" in captured.err
     assert f"report: {out / 'seed.html'}" in printed and "Curless / Moller: replay" in printed
     for name in (
         "seed.csv",
@@ -211,8 +215,37 @@ def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, cap
         "behind origin",
         "Machine and build",
         "tribench seed --scene",
+        "Kernels: the seed's two, their clean scalar forms",
     ):
-        assert words in page, words
+        assert escape(words) in page, words
+
+
+def test_the_default_kernels_are_the_seeds_and_the_widest_form_of_every_two_sided_algorithm():
+    names = ext.kernel_names()
+    info = {k: ext.kernel_info(k) for k in names}
+    chosen = hs.seed_kernels()
+    assert chosen[:4] == hs.FIRST_KERNELS and len(set(chosen)) == len(chosen)
+    assert not any(info[k].culls_back_faces for k in chosen)  # the seed's renders test both faces
+    for k in names:
+        kin = [c for c in names if info[c].algorithm == info[k].algorithm and not info[c].culls_back_faces]
+        widest = max(info[c].lanes for c in kin) if kin else 0
+        if k not in hs.FIRST_KERNELS and not info[k].culls_back_faces:
+            assert (k in chosen) == (info[k].lanes == widest > 1), k
+    assert {info[k].algorithm for k in chosen} == {info[k].algorithm for k in names if not info[k].culls_back_faces}
+    every = hs.seed_kernels(all_kernels=True)
+    assert every[:4] == hs.FIRST_KERNELS and sorted(every) == sorted(names)
+
+
+def test_all_kernels_times_every_kernel(cache_dir, tmp_path):
+    scene = tmp_path / "tiny.txt"
+    scene.write_text(TINY)
+    out = tmp_path / "run"
+    flags = ["--quick", "--all-kernels", "--scene", str(scene), "--size", "8", "--sample", "8", "--no-progress"]
+    assert main(["seed", *flags, "--out", str(out)]) == 0
+    assert list(pd.read_csv(out / "seed.csv")["kernel"].drop_duplicates()) == list(hs.seed_kernels(all_kernels=True))
+    run = records.read_run(out)
+    assert run["seed_replay"]["all_kernels"] is True and "--all-kernels" in run["command"]
+    assert "Kernels: every kernel" in (out / "seed.html").read_text()
 
 
 def test_both_algorithms_images_differ_only_near_shared_edges(tmp_path):
