@@ -104,9 +104,16 @@ class Design:
     size: int
 
 
-# Like default_sweep: 20 processes x 6 rounds. A pass over a 4096-ray sample of
-# scene03 takes 5-55 ms, so a batch is one pass there: about 3 minutes on 2 cores.
-FULL = Design(processes=20, rounds=6, warmup=1, target_ms=2.0, sample=4096, size=512)
+# A pass over a 4096-ray sample of scene03 takes 2-4 ms for a native kernel and
+# 20-50 ms for a scalar one, so a batch is one pass there. With the default
+# kernels a process costs about 5 s of start-up and checks and a round about
+# 0.7 s; between rounds ns/test varies 4.5-6.7%, between processes 1.2-2.7%
+# (bench/protocol_design.py), so the rounds that minimise a CI for a given time
+# are sqrt(5 / 0.7 x (5.5 / 2)^2), about 7-8 (Kalibera & Jones). 20 processes x
+# 8 rounds then take about 3.5 min, and each render time's CI is about +-1.3%
+# (sqrt((2^2 + 5.5^2 / 8) / 20) x t(19); 20 x 6 gave +-1.4%): the sweep and the
+# pictures fit in 6 minutes on 2 cores.
+FULL = Design(processes=20, rounds=8, warmup=1, target_ms=2.0, sample=4096, size=512)
 QUICK = Design(processes=3, rounds=2, warmup=1, target_ms=1.0, sample=256, size=128)
 
 
