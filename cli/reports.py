@@ -1,6 +1,6 @@
-"""``tribench report`` and ``tribench compare``: subcommands for the harness's CLI.
+"""``tribench report``, ``tribench compare`` and ``tribench export``: subcommands for the harness's CLI.
 
-:func:`add_parser` adds both to the ``tribench`` sub-parsers. Handlers import
+:func:`add_parser` adds them to the ``tribench`` sub-parsers. Handlers import
 the heavy modules when they run, return an exit code, and turn a user error
 into one line on stderr and exit code 2.
 """
@@ -14,7 +14,7 @@ from tribench.common import UserError, write_text
 
 from . import flags
 
-__all__ = ["add_parser", "report_main", "compare_main"]
+__all__ = ["add_parser", "report_main", "compare_main", "export_main"]
 
 
 def _error(command: str, exc: BaseException) -> int:
@@ -62,6 +62,26 @@ def compare_main(args: argparse.Namespace) -> int:
     return 0
 
 
+def export_main(args: argparse.Namespace) -> int:
+    """Print (or write to ``--out``) the run's estimates and speedups in Google Benchmark's JSON format."""
+    from tribench.harness import export
+    from tribench.reports.rundata import load_run
+
+    try:
+        data = load_run(args.run_dir)
+        margin = {"value": data.margin, "source": data.margin_source}
+        text = export.dumps(export.google_benchmark(data.run, data.tables, data.baseline, margin))
+        if args.out:
+            write_text(args.out, text)
+    except UserError as exc:
+        return _error("export", exc)
+    if args.out:
+        print(f"wrote {args.out}", file=sys.stderr)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
 def add_parser(subparsers) -> None:
     """Add ``report`` and ``compare`` to the ``tribench`` sub-parsers."""
     rep = subparsers.add_parser(
@@ -96,6 +116,18 @@ def add_parser(subparsers) -> None:
         "--out", metavar="FILE", type=flags.output_file, help="HTML file to write (default RUN_B/compare.html)"
     )
     cmp_.set_defaults(func=compare_main)
+
+    exp = subparsers.add_parser(
+        "export",
+        help="the run's estimates and speedups with CIs and the machine record, as Google Benchmark JSON",
+        description="Reads a run folder's tables (as `tribench report` does: missing or stale ones are refused "
+        "with the `tribench stats` command that makes them) and prints every estimate and speedup with its "
+        "confidence interval, and the machine record, in Google Benchmark's JSON format (context + benchmarks; "
+        "its tools/compare.py reads it). The analysis step writes the same file as RUN_DIR/google_benchmark.json.",
+    )
+    exp.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder)
+    exp.add_argument("--out", metavar="FILE", type=flags.output_file, help="file to write (default: standard output)")
+    exp.set_defaults(func=export_main)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -47,7 +47,7 @@ import pandas as pd
 from tribench import stats
 from tribench.common import UserError, write_text
 
-from . import records, runfolder
+from . import export, records, runfolder
 from .calibration import Margin
 
 __all__ = [
@@ -406,7 +406,9 @@ def write_all(
     is made by the robustness suite only when the folder has none; the peer
     tables only when it has ``peers.csv``. ``analysis.json`` is written last:
     it records the SHA-256 of ``batches.csv`` and ``peers.csv`` the tables were
-    made from, so a reader can tell stale tables from current ones.
+    made from, so a reader can tell stale tables from current ones. Before it,
+    ``google_benchmark.json``: the estimates and speedups in Google Benchmark's
+    JSON format (:mod:`~tribench.harness.export`).
 
     Parameters
     ----------
@@ -467,14 +469,20 @@ def write_all(
         records.write_csv(frame, run_dir / name)
     validate_note = _validation(run_dir, kernels, dtypes, validate_quick)
     pictures = _pictures(run_dir, wids, workloads)
+    margin_record = {"value": result.margin.value, "source": result.margin.source}
+    write_text(
+        run_dir / runfolder.GOOGLE_BENCHMARK,
+        export.dumps(export.google_benchmark(run, tables, result.baseline, margin_record)),
+    )
     record = {
         "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
         "batches_sha256": batches_digest,
         "peers_sha256": file_digest(run_dir / runfolder.PEERS) if peer_tables else None,
         "peers": peer_note,
         "baseline": result.baseline,
-        "margin": {"value": result.margin.value, "source": result.margin.source},
+        "margin": margin_record,
         "tables": list(tables),
+        "exports": [runfolder.GOOGLE_BENCHMARK],
         "validate": validate_note,
         "pictures": pictures,
     }

@@ -19,8 +19,10 @@ Who writes what:
   ``peers.csv`` by ``tribench peers --out RUN_DIR`` (or ``tribench run``);
 * derived, by the analysis step at the end of ``tribench run`` and by
   ``tribench stats RUN_DIR`` on demand (:func:`tribench.harness.analysis.write_all`):
-  every name in :data:`DERIVED`, the pictures in :data:`PICTURES_DIR`, and
-  :data:`ANALYSIS`, the record of what the tables were made from;
+  every name in :data:`DERIVED`, the pictures in :data:`PICTURES_DIR`,
+  :data:`GOOGLE_BENCHMARK` (the estimates and speedups with their intervals and
+  the machine record, in Google Benchmark's JSON format: :mod:`~tribench.harness.export`)
+  and :data:`ANALYSIS`, the record of what the tables were made from;
 * rendered, by ``tribench report`` (:data:`REPORT`, :data:`SWEEP_FILE`),
   which reads everything above and changes none of it.
 """
@@ -39,6 +41,7 @@ __all__ = [
     "DRIFT",
     "ESTIMATES",
     "FILES",
+    "GOOGLE_BENCHMARK",
     "KERNELS",
     "LOCK",
     "OPTIONAL",
@@ -100,6 +103,9 @@ RANKING = "ranking.csv"
 ALGORITHMS = "algorithms.csv"
 PEER_RATES = "peer_rates.csv"
 PEER_RATIOS = "peer_ratios.csv"
+#: The estimates and speedups with their intervals and the machine record, in Google Benchmark's
+#: JSON format (``context`` + ``benchmarks``; :mod:`tribench.harness.export`), for tools that read it.
+GOOGLE_BENCHMARK = "google_benchmark.json"
 #: What the derived tables were made from (batches.csv's digest, baseline, margin, tables, pictures).
 ANALYSIS = "analysis.json"
 #: One PNG per workload (``<workload_id>.png``), drawn by the analysis step.

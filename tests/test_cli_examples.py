@@ -76,6 +76,7 @@ CONCRETE = {
     "tribench calibrate": ["calibrate --processes 2 --experiments 1 --out {tmp}/cal " + shlex.join(TINY_DESIGN)],
     "tribench report RUN_DIR": ["report {run}"],
     "tribench compare RUN_A RUN_B": ["compare {run} {run} --out {tmp}/compare.html"],
+    "tribench export RUN_DIR [--out FILE]": ["export {run}", "export {run} --out {tmp}/gbench.json"],
 }
 
 
