@@ -41,21 +41,22 @@ def report_main(args: argparse.Namespace) -> int:
 
 
 def compare_main(args: argparse.Namespace) -> int:
-    """Print the ratio-of-speedups table of two runs and write it as an HTML page."""
-    from tribench.reports.compare import compare_runs, format_comparison, render_compare
+    """Print the comparison of N runs and write it as an HTML page."""
+    from tribench.reports.compare import compare, format_compare_text, render_compare, run_tags
     from tribench.reports.rundata import load_run
 
     try:
-        a, b = load_run(args.run_a), load_run(args.run_b)
-        result = compare_runs(a, b)
+        run_tags(len(args.runs))  # the count first, before reading any folder
+        runs = [load_run(r) for r in args.runs]
+        many, pair = compare(runs)
     except (UserError, FileNotFoundError) as exc:
         return _error("compare", exc)
     from pathlib import Path
 
-    out = Path(args.out) if args.out else b.run_dir / "compare.html"
-    print(format_comparison(a, b, result))
+    out = Path(args.out) if args.out else runs[-1].run_dir / "compare.html"
+    print(format_compare_text(runs, many, pair))
     try:
-        write_text(out, render_compare(a, b, result))
+        write_text(out, render_compare(runs, many, pair))
     except UserError as exc:
         return _error("compare", exc)
     print(f"wrote {out}", file=sys.stderr)
@@ -105,15 +106,16 @@ def add_parser(subparsers) -> None:
 
     cmp_ = subparsers.add_parser(
         "compare",
-        help="the same kernels on two runs: ratio of speedups (B / A) with CIs",
-        description="For each workload and kernel present in both runs (same baseline), the ratio of the "
-        "two runs' speedups with a Welch confidence interval (the runs are independent), and each "
-        "kernel's time ratio. Prints a table and writes an HTML page (default RUN_B/compare.html).",
+        help="the same kernels on N runs (N machines): speedups with CIs, rankings that hold on every one",
+        description="For N >= 2 runs with the same baseline (runs A, B, C... in the order given): per workload "
+        "in every run, a machine x kernel table of speedups over the baseline with each run's confidence "
+        "intervals, and which orders of two kernels hold on every machine (significant and the same in every "
+        "run). For two runs, also the ratio of their speedups with a Welch interval (the runs are independent) "
+        "and each kernel's time ratio. Prints the tables and writes an HTML page (default LAST_RUN/compare.html).",
     )
-    cmp_.add_argument("run_a", metavar="RUN_A", type=flags.existing_folder)
-    cmp_.add_argument("run_b", metavar="RUN_B", type=flags.existing_folder)
+    cmp_.add_argument("runs", metavar="RUN", nargs="+", type=flags.existing_folder, help="run folders, 2 to 26")
     cmp_.add_argument(
-        "--out", metavar="FILE", type=flags.output_file, help="HTML file to write (default RUN_B/compare.html)"
+        "--out", metavar="FILE", type=flags.output_file, help="HTML file to write (default LAST_RUN/compare.html)"
     )
     cmp_.set_defaults(func=compare_main)
 

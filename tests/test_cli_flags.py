@@ -121,7 +121,7 @@ HOSTILE = [
     (["validate", "--seed", "-1"], "--seed"),
     (["report", "nowhere"], "RUN_DIR"),
     (["report", "afile"], "RUN_DIR"),
-    (["compare", "adir", "nowhere"], "RUN_B"),
+    (["compare", "adir", "nowhere"], "RUN"),
     (["compare", "adir", "adir", "--out", "adir"], "--out"),
     (["compare", "adir", "adir", "--out", "afile/c.html"], "--out"),
     (["export", "nowhere"], "RUN_DIR"),
