@@ -8,7 +8,6 @@ prints one line to stderr and exits 2, without a traceback.
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
 import functools
 import os
 import signal
@@ -102,7 +101,9 @@ def _print_peak(width: int) -> None:
 
 def _default_run_dir(kind: str = "") -> str:
     """The run folder a command writes when --out is not given: runs/[KIND-]<date-time>."""
-    return f"runs/{kind + '-' if kind else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
+    from tribench.harness.records import default_run_dir
+
+    return default_run_dir(kind)
 
 
 def _new_run_folder(text: str) -> str:

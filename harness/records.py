@@ -71,6 +71,8 @@ __all__ = [
     "MissingRunFile",
     "ProcessRow",
     "RowWriter",
+    "check_new_run_dir",
+    "default_run_dir",
     "live_writer",
     "read_batches",
     "read_checks",
@@ -87,6 +89,11 @@ PROCESSES = runfolder.PROCESSES
 CHECKS = runfolder.CHECKS
 RUN = runfolder.RUN
 LOCK = runfolder.LOCK
+
+
+def default_run_dir(kind: str = "") -> str:
+    """The run folder a command writes when none is given: ``runs/[KIND-]<date-time>``."""
+    return f"runs/{kind + '-' if kind else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
 
 
 def check_new_run_dir(run_dir: str | Path) -> None:
