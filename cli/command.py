@@ -356,8 +356,8 @@ def _peers(args: argparse.Namespace) -> int:
         except UserError as exc:
             raise UserError(f"wrote {path}, but the analysis step of {run_dir} failed: {exc}") from None
         print(
-            f"wrote {', '.join(derived.tables)} and {runfolder.ANALYSIS} into {run_dir} (the analysis step, "
-            f"as tribench stats)",
+            f"wrote {', '.join(derived.tables)}, {runfolder.GOOGLE_BENCHMARK} and {runfolder.ANALYSIS} into "
+            f"{run_dir} (the analysis step, as tribench stats)",
             file=sys.stderr,
         )
     return 0
@@ -407,7 +407,8 @@ def _stats(args: argparse.Namespace) -> int:
     derived = write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
     print(format_tables(args.run_dir))
     print(
-        f"wrote {', '.join(derived.tables)}, the workload pictures and analysis.json into {args.run_dir}",
+        f"wrote {', '.join(derived.tables)}, google_benchmark.json, the workload pictures and analysis.json "
+        f"into {args.run_dir}",
         file=sys.stderr,
     )
     return 0
