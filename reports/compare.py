@@ -340,7 +340,7 @@ def format_compare_text(runs: list[RunData], m: MultiComparison, pair: Compariso
 
 # ------------------------------------------------------------------ N runs
 
-#: Run tags in tables: one letter per run, in the order given.
+#: The most runs one comparison takes: each is a letter in the tables, in the order given.
 MAX_RUNS = 26
 
 #: The N-run page's sections, by id, in page order (the two-run sections follow them for two runs).
@@ -377,6 +377,8 @@ class MultiComparison:
     workload_ids: list[str]
     #: workload ids some runs have and others lack (not compared)
     not_shared: list[str]
+    #: workload id -> (its label, its family), for headings
+    labels: dict[str, tuple[str, str]]
 
 
 def run_tags(n: int) -> list[str]:
@@ -485,7 +487,10 @@ def compare_many(runs: list[RunData], confidence: float = 0.95) -> MultiComparis
                 row["order"] = "undecided"
             row["confidence"] = level
             order_rows.append(row)
-    return MultiComparison(tags, pd.DataFrame(spd_rows), pd.DataFrame(order_rows), baseline, kernels, wids, not_shared)
+    labels = {w: (short_label(runs[0].specs[w]), family_of(runs[0].specs[w])) for w in wids}
+    return MultiComparison(
+        tags, pd.DataFrame(spd_rows), pd.DataFrame(order_rows), baseline, kernels, wids, not_shared, labels
+    )
 
 
 def order_summary(m: MultiComparison) -> pd.DataFrame:
@@ -512,7 +517,9 @@ def _run_lines(runs: list[RunData], tags: list[str]) -> list[str]:
 
 def _speedup_grid(m: MultiComparison, wid: str) -> pd.DataFrame:
     """One workload's speedups as kernel rows and one column of text per run."""
-    g = m.speedups.loc[m.speedups["workload_id"] == wid]
+    g = m.speedups.loc[m.speedups["workload_id"] == wid] if not m.speedups.empty else m.speedups
+    if g.empty:  # the baseline ran on no run's copy of this workload (a BVH workload, say)
+        return pd.DataFrame(columns=["kernel", *m.tags])
     cells = g.assign(
         text=[
             stats.format_interval(r.ratio, r.ratio_ci_low, r.ratio_ci_high, ".3g", "×")
@@ -538,16 +545,17 @@ def format_many(runs: list[RunData], m: MultiComparison) -> str:
     ]
     for wid in m.workload_ids:
         grid = _speedup_grid(m, wid)
-        first = m.speedups.loc[m.speedups["workload_id"] == wid].iloc[0]
-        width = max(24, *(len(str(v)) + 2 for v in grid[m.tags].to_numpy().ravel()))
-        lines += [
-            "",
-            f"{first['label']}  ({first['family']})  [{wid}]",
-            (f"  {'kernel':<26}" + "".join(f"{t:<{width}}" for t in m.tags)).rstrip(),
-        ]
-        lines += [
-            (f"  {r['kernel']:<26}" + "".join(f"{r[t]:<{width}}" for t in m.tags)).rstrip() for _, r in grid.iterrows()
-        ]
+        label, family = m.labels[wid]
+        lines += ["", f"{label}  ({family})  [{wid}]"]
+        if grid.empty:
+            lines.append(f"  no speedups: {m.baseline} did not run on this workload in every run")
+        else:
+            width = max(24, *(len(str(v)) + 2 for v in grid[m.tags].to_numpy().ravel()))
+            lines.append((f"  {'kernel':<26}" + "".join(f"{t:<{width}}" for t in m.tags)).rstrip())
+            lines += [
+                (f"  {r['kernel']:<26}" + "".join(f"{r[t]:<{width}}" for t in m.tags)).rstrip()
+                for _, r in grid.iterrows()
+            ]
         o = m.orders.loc[m.orders["workload_id"] == wid]
         held = [_order_text(r, m.tags) for _, r in o.loc[o["order"] == "holds"].iterrows()]
         differ = [_order_text(r, m.tags) for _, r in o.loc[o["order"] == "differs"].iterrows()]
@@ -576,9 +584,9 @@ def _many_parts(runs: list[RunData], m: MultiComparison) -> list[str]:
     """The N-run sections: machine x kernel speedup tables per workload, and the orders that hold."""
     speed = []
     for wid in m.workload_ids:
-        first = m.speedups.loc[m.speedups["workload_id"] == wid].iloc[0]
+        label, family = m.labels[wid]
         speed += [
-            f"<h3>{escape(str(first['label']))} <small>({escape(str(first['family']))}, {escape(wid)})</small></h3>",
+            f"<h3>{escape(label)} <small>({escape(family)}, {escape(wid)})</small></h3>",
             page.table(_speedup_grid(m, wid), [("kernel", "kernel"), *((t, f"speedup on {t} (×)") for t in m.tags)]),
         ]
     o = m.orders

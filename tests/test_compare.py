@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -19,7 +20,7 @@ from tribench import reports
 from tribench.common import UserError
 from tribench.harness import analysis
 from tribench.reports import page
-from tribench.reports.compare import compare_many, compare_runs, order_summary
+from tribench.reports.compare import compare_many, compare_runs, format_many, order_summary, render_compare
 from tribench.reports.rundata import load_run
 from tribench.stats import unpaired_ratio
 
@@ -174,6 +175,18 @@ def test_n_runs_say_which_orders_hold_on_every_machine(three_runs):
     assert summary.loc[("moller_seed", "moller_trumbore")].tolist() == [0, 4, 0, 0]
     assert summary.loc[("moller_seed", "curless")].tolist() == [0, 4, 0, 0]
     assert summary.loc[("moller_trumbore", "curless")].tolist() == [0, 0, 4, 0]
+
+
+def test_a_workload_without_the_baseline_still_shows_its_orders(three_runs):
+    # a BVH workload runs only native kernels, so the seed's baseline has no speedups there
+    runs = [load_run(r) for r in three_runs]
+    m = compare_many(runs)
+    bvh_like = m.workload_ids[0]
+    m = dataclasses.replace(m, speedups=m.speedups.loc[m.speedups["workload_id"] != bvh_like])
+    text = format_many(runs, m)
+    part = text.split(f"[{bvh_like}]")[1].split("\n\n")[0]
+    assert "no speedups: moller_seed did not run" in part and "holds on every machine: moller_trumbore" in part
+    assert f'{bvh_like})</small></h3><p class="note">(none)</p>' in render_compare(runs, m)
 
 
 def test_compare_cli_takes_three_runs(three_runs, tmp_path):
