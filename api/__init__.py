@@ -1,6 +1,6 @@
 """tribench from Python: run a sweep or the main job, or read a run, and get pandas frames.
 
-The top of the ``tribench`` namespace, above every package (it may import
+The ``tribench`` package itself, above its seven sub-packages (it may import
 them all; none imports it). A thin facade over :mod:`tribench.harness` and
 :mod:`tribench.reports`: each function makes or reads a run folder, exactly
 as the ``tribench`` command does, and returns its tables as :class:`Results`.
