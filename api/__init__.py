@@ -32,6 +32,7 @@ has a whole example, which a test runs.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -88,7 +89,8 @@ def sweep(
 
     ``tribench sweep`` then ``tribench stats``: fresh pinned worker processes,
     every batch appended to ``out/batches.csv`` as it is measured, then every
-    derived table (:func:`tribench.harness.analysis.write_all`).
+    derived table (:func:`tribench.harness.analysis.write_all`). Like the
+    command, it first prints the expected duration on stderr.
 
     Parameters
     ----------
@@ -110,7 +112,7 @@ def sweep(
     UserError
         A bad kernel, workload or design value, or ``out`` is not a new folder.
     """
-    from tribench.harness import analysis, plan, records, runner
+    from tribench.harness import analysis, duration, plan, records, runner
 
     spec = plan.Sweep(
         tuple(kernels),
@@ -122,7 +124,8 @@ def sweep(
         seed=seed,
     )
     folder = _default_out(out)
-    records.check_new_run_dir(folder)
+    records.check_new_run_dir(folder)  # before the estimate, which builds the workloads
+    print(f"tribench.sweep: {duration.estimate(spec).line()} -> {folder}", file=sys.stderr)
     runner.start(spec, folder, progress=progress)
     derived = analysis.write_all(folder, baseline=baseline)
     return Results(folder, derived.estimates, derived.speedups, derived.tables)

@@ -36,7 +36,7 @@ def test_the_docstring_example_runs(fixture_run):
     assert runner.summarize(verbose=False).failed == 0
 
 
-def test_the_notebook_page_runs(fixture_run, tmp_path, monkeypatch):
+def test_the_notebook_page_runs(fixture_run, tmp_path, monkeypatch, capsys):
     blocks = re.findall(r"```python\n(.*?)```", PAGE.read_text(encoding="utf-8"), re.S)
     assert len(blocks) == 3
     monkeypatch.chdir(tmp_path)  # the page writes runs/ where it runs
@@ -48,6 +48,8 @@ def test_the_notebook_page_runs(fixture_run, tmp_path, monkeypatch):
     assert set(first.speedups["kernel"]) == {"moller_trumbore", "curless"} and len(first.speedups) == 4
     assert set(both.speedups["run"]) == {"A", "B"} and set(both.orders["order"]) <= {"holds", "differs", "undecided"}
     assert (tmp_path / "runs/notebook-b" / runfolder.GOOGLE_BENCHMARK).is_file()
+    said = capsys.readouterr().err  # each sweep says how long it should take before it starts
+    assert said.count("tribench.sweep: expected: about ") == 2 and "-> runs/notebook-b" in said
 
 
 def test_results_hold_the_run_folders_tables(fixture_run):
