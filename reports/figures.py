@@ -275,7 +275,7 @@ def _mark_crossovers(ax, cross: pd.DataFrame) -> None:
         )
 
 
-_NO_HIT_RATE_CURVE = "no pair workload family with two or more per-test hit rates in this run"
+NO_HIT_RATE_CURVE = "no pair workload family with two or more per-test hit rates in this run"
 
 
 def _hit_rate_families(table: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
@@ -298,7 +298,7 @@ def hit_rate_curves(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, s
     """
     pairs, families = _hit_rate_families(est)
     if not families:
-        return _empty(_NO_HIT_RATE_CURVE)
+        return _empty(NO_HIT_RATE_CURVE)
     fig = _figure(9.5, 3.6 * len(families))
     axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
     for ax, family in zip(axes, families, strict=True):
@@ -326,7 +326,7 @@ def speedup_vs_hit_rate(spd: pd.DataFrame, baseline: str, margin: float, colours
     """Speedup over the baseline against the per-test hit rate, with CI bands (log axis)."""
     pairs, families = _hit_rate_families(spd)
     if not families:
-        return _empty(_NO_HIT_RATE_CURVE)
+        return _empty(NO_HIT_RATE_CURVE)
     fig = _figure(9.5, 3.3 * len(families))
     axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
     for ax, family in zip(axes, families, strict=True):
