@@ -140,7 +140,10 @@ def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart
     kernels = _kernel_legend()
     baseline = str(bands["baseline"].iloc[0]) if len(bands) else "the baseline"
     base = alt.Chart(data).transform_filter(alt.datum.where == place)
-    x = alt.X("ns_per_test:Q", scale=alt.Scale(type="log"), title="ns per ray–triangle test (log)")
+    # a t interval over few processes may reach below 0, which a log axis cannot show
+    log = bool((bands["ns_per_test_ci_low"].dropna() > 0).all())
+    x_scale = alt.Scale(type="log") if log else alt.Scale(type="linear")
+    x = alt.X("ns_per_test:Q", scale=x_scale, title="ns per ray–triangle test" + (" (log)" if log else ""))
     y = alt.Y(
         "broken_promises:O",
         title="broken promises in tribench validate",
@@ -149,7 +152,7 @@ def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart
     )
     shown = alt.condition(kernels, alt.value(0.95), alt.value(0.08))
     rules = base.mark_rule(strokeWidth=2).encode(
-        x=alt.X("ns_per_test_ci_low:Q", scale=alt.Scale(type="log")),
+        x=alt.X("ns_per_test_ci_low:Q", scale=x_scale),
         x2="ns_per_test_ci_high:Q",
         y=y,
         yOffset="kernel:N",

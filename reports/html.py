@@ -82,7 +82,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
             "chart-answer",
             "speed against robustness against memory",
             "Speed against robustness against memory, in the band the menu picks: each kernel's ns/test "
-            "(dot, log axis) with its 95% CI (line), its broken promises in the robustness suite (row; kernels "
+            "(dot) with its 95% CI (line), its broken promises in the robustness suite (row; kernels "
             "of one row spread apart), bytes per prepared triangle (size), watertight by its paper (shape). "
             "Hover for the figures; click a kernel in the legend to show it alone, shift-click to add more, "
             "double-click the plot to show all.",

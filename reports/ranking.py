@@ -317,7 +317,7 @@ def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]
     >>> for s in answer_sentences(bands, None): print(s)
     Fastest: a on float32 meshes.
     Against b: the fastest kernel of each band is 1.5× as fast.
-    Watertight: b, the fastest watertight kernel, takes 1.5× the fastest's time.
+    Watertight: the fastest watertight kernel (b) takes 1.5× the fastest's time.
     """
     out = []
     best = bands.loc[bands["rank"] == 1]
@@ -343,10 +343,10 @@ def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]
         names = ", ".join(dict.fromkeys(first["kernel"]))
         free = int((first["rank"] == 1).sum())
         if free == len(first):
-            out.append(f"Watertight: {names}, watertight, is the fastest in every band: it costs nothing here.")
+            out.append(f"Watertight: {names}, watertight by its paper, is the fastest in every band: it costs nothing.")
         else:
-            text = f"Watertight: {names}, the fastest watertight kernel, takes {_span(costs)} the fastest's time"
-            out.append(text + (f" (it is the fastest in {free} of {len(first)} bands)." if free else "."))
+            text = f"Watertight: the fastest watertight kernel ({names}) takes {_span(costs)} the fastest's time"
+            out.append(text + (f"; it is the fastest in {free} of {len(first)} bands." if free else "."))
     if alg is not None and not alg.empty:
         for a, b in QUESTIONS:
             rows = alg.loc[

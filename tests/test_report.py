@@ -437,3 +437,20 @@ def test_the_charts_show_values_on_hover_and_toggle_kernels(rendered):
     assert got == pytest.approx(want, rel=1e-12)
     menu = next(p for p in answer["params"] if p["name"] == "band")
     assert menu["bind"]["options"] == list(dict.fromkeys(w for w, _ in want))
+
+
+def test_the_answer_chart_draws_an_interval_below_zero_on_a_linear_axis(rendered):
+    """A t interval over 3 processes may reach below 0 ns (tribench run --quick on a busy machine): no log axis then."""
+    from tribench.reports import charts
+
+    run_dir, _, _ = rendered
+    bands = pd.read_csv(run_dir / "bands.csv")
+    colours = dict.fromkeys(bands["kernel"], "#000")
+
+    def x_scales(frame):
+        spec = json.dumps(charts.answer_chart(frame, colours).to_dict())
+        return set(re.findall(r'"x": \{[^{}]*"scale": \{"type": "(\w+)"\}', spec))
+
+    assert x_scales(bands) == {"log"}
+    wide = bands.assign(ns_per_test_ci_low=bands["ns_per_test_ci_low"] - 2 * bands["ns_per_test"])
+    assert x_scales(wide) == {"linear"}
