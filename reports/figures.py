@@ -63,6 +63,17 @@ _PALETTE = [
     "#7f7f7f",
     "#bcbd22",
     "#17becf",
+    # then the light shades of the same ten (matplotlib's tab20): the main job ranks about twenty kernels
+    "#aec7e8",
+    "#ffbb78",
+    "#98df8a",
+    "#ff9896",
+    "#c5b0d5",
+    "#c49c94",
+    "#f7b6d2",
+    "#c7c7c7",
+    "#dbdb8d",
+    "#9edae5",
 ]
 _STYLE: dict[RcKeyType, Any] = {
     "font.size": 9,
