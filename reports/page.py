@@ -55,9 +55,10 @@ figure.chart{overflow-x:auto}
 .answer td{font-size:1.02em}.answer th{font-size:.95em}
 """
 
-#: Opens the collapsed section a link or the address points at (a closed ``<details>`` hides its target).
+#: Opens the collapsed section a link or the address points at, or the ``<details>`` around its target.
 _OPEN_TARGET = (
     "function tbOpen(){var t=location.hash&&document.getElementById(decodeURIComponent(location.hash.slice(1)));"
+    "if(!t)return;var d=t.querySelector(':scope>details');if(d)d.open=true;"
     "for(;t;t=t.parentElement){if(t.tagName==='DETAILS')t.open=true;}}"
     "addEventListener('hashchange',tbOpen);addEventListener('DOMContentLoaded',tbOpen);"
 )

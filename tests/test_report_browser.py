@@ -94,6 +94,7 @@ _PROBE = """<script>addEventListener("load", () => setTimeout(() => {
   m.dataset.rowBottom = row.bottom + scrollY;
   m.dataset.charts = document.querySelectorAll("figure.chart svg.marks").length;
   m.dataset.open = document.querySelectorAll("details[open]").length;
+  m.dataset.opened = [...document.querySelectorAll("section > details[open]")].map(d => d.parentElement.id).join(" ");
   document.body.appendChild(m);
 }, 1000));</script>"""
 
@@ -109,6 +110,17 @@ class _Measure(HTMLParser):
             self.found = {k[5:]: v or "" for k, v in a.items() if k.startswith("data-")}
 
 
+def _measure(browser: str, url: str) -> dict[str, str]:
+    dom, console = _chromium_run(
+        browser, url, "--dump-dom", f"--window-size={SCREEN[0]},{SCREEN[1]}", "--virtual-time-budget=20000"
+    )
+    assert console == [], "\n".join(console)
+    parser = _Measure()
+    parser.feed(dom)
+    assert parser.found, "the probe did not run"
+    return parser.found
+
+
 @pytest.mark.slow
 def test_collapsed_the_report_opens_on_the_ranking_and_is_at_most_10000_px_tall(report_page, tmp_path):
     browser, page = report_page
@@ -116,20 +128,11 @@ def test_collapsed_the_report_opens_on_the_ranking_and_is_at_most_10000_px_tall(
     text = page.read_text(encoding="utf-8")
     end = text.rindex("</body>")  # the last: the charts' library has the words in its strings
     probed.write_text(text[:end] + _PROBE + text[end:], encoding="utf-8")
-    dom, console = _chromium_run(
-        browser,
-        probed.resolve().as_uri(),
-        "--dump-dom",
-        f"--window-size={SCREEN[0]},{SCREEN[1]}",
-        "--virtual-time-budget=20000",
-    )
-    assert console == [], "\n".join(console)
-    parser = _Measure()
-    parser.feed(dom)
-    m = {k: float(v) for k, v in parser.found.items()}
-    assert m, "the probe did not run"
-    assert m["charts"] == 4  # every chart drew, the collapsed ones too
-    assert m["open"] == 0  # every detail collapsed
-    assert m["width"] <= SCREEN[0]  # nothing wider than the window
-    assert m["height"] <= MAX_HEIGHT_PX
-    assert m["row-bottom"] <= SCREEN[1]  # the ranking's first row is on the first screen
+    m = _measure(browser, probed.resolve().as_uri())
+    assert int(m["charts"]) == 4  # every chart drew, the collapsed ones too
+    assert int(m["open"]) == 0  # every detail collapsed
+    assert int(m["width"]) <= SCREEN[0]  # nothing wider than the window
+    assert int(m["height"]) <= MAX_HEIGHT_PX
+    assert float(m["row-bottom"]) <= SCREEN[1]  # the ranking's first row is on the first screen
+    # a link to a collapsed section (the bar at the top, or an address with its #id) opens it
+    assert _measure(browser, probed.resolve().as_uri() + "#drift")["opened"] == "drift"
