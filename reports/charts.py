@@ -417,3 +417,110 @@ def forest_chart(spd: pd.DataFrame, baseline: str, verdict_colours: dict[str, st
         verdicts,
     )
     return chart.add_params(pick)
+
+
+def _axis_scale(*columns: pd.Series) -> tuple[alt.Scale, str]:
+    """A log scale when every value is above 0 (a t interval over few processes may reach below), else linear."""
+    values = pd.concat([c.dropna() for c in columns])
+    return (alt.Scale(type="log"), " (log)") if bool((values > 0).all()) else (alt.Scale(type="linear"), "")
+
+
+def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) -> alt.VConcatChart | None:
+    """ns/test against the mesh's triangle count, and against the working set with the data caches marked.
+
+    ``est``: the estimates joined with the workloads and the working-set size (:func:`.content.estimates_table`).
+    A line joins the workloads of one family (dashes tell families apart). None without an estimate.
+    """
+    from .figures import cache_bytes
+
+    if est.empty:
+        return None
+    frame = est.assign(ns=_intervals(est, "ns_per_test", " ns"))
+    columns = ["family", "label", "kernel", "kind", "triangles", "working_set_bytes", "ns_per_test"]
+    data = _records(frame, columns + ["ns_per_test_ci_low", "ns_per_test_ci_high", "ns"])
+    kernels = _kernel_legend()
+    y_scale, y_log = _axis_scale(est["ns_per_test_ci_low"], est["ns_per_test_ci_high"])
+    tooltip = [
+        alt.Tooltip("kernel:N"),
+        alt.Tooltip("family:N"),
+        alt.Tooltip("label:N", title="workload"),
+        alt.Tooltip("ns:N", title="ns/test [95% CI]"),
+        alt.Tooltip("working_set_bytes:Q", title="working set (bytes)", format=",.0f"),
+    ]
+    shown = alt.condition(kernels, alt.value(1.0), alt.value(0.08))
+
+    def cost(x: alt.X, rows: pd.DataFrame, with_legend: bool) -> alt.LayerChart:
+        y = alt.Y("ns_per_test:Q", scale=y_scale, title=f"ns per ray–triangle test{y_log}")
+        interval = (
+            alt.Chart(rows)
+            .mark_rule()
+            .encode(
+                x=x,
+                y=alt.Y("ns_per_test_ci_low:Q", scale=y_scale),
+                y2="ns_per_test_ci_high:Q",
+                color=_kernel_colour(colours),
+                opacity=shown,
+            )
+        )
+        line = (
+            alt.Chart(rows)
+            .mark_line(point=True)
+            .encode(
+                x=x,
+                y=y,
+                color=_kernel_colour(colours),
+                strokeDash=alt.StrokeDash("family:N", legend=None),
+                detail="family:N",
+                opacity=shown,
+                tooltip=tooltip,
+            )
+        )
+        return alt.layer(interval, line.add_params(kernels) if with_legend else line)
+
+    panels = []
+    mesh = data.loc[(data["kind"] == "mesh") & data["triangles"].notna()]
+    if len(mesh):
+        x = alt.X(
+            "triangles:Q",
+            scale=alt.Scale(type="log"),
+            title="triangles in the mesh (log; brute force: every ray tests every triangle)",
+        )
+        panels.append(
+            cost(x, mesh, True).properties(
+                width=WIDTH,
+                height=240,
+                title=alt.TitleParams("cost against triangle count", anchor="start", fontSize=12),
+            )
+        )
+    sized = data.loc[data["working_set_bytes"].notna()]
+    if len(sized):
+        x = alt.X(
+            "working_set_bytes:Q",
+            scale=alt.Scale(type="log"),
+            title="working set: prepared triangles + rays (bytes, log)",
+        )
+        layers = [cost(x, sized, not panels)]
+        marks = pd.DataFrame(
+            [
+                {"cache": f"{name} {size}", "bytes": cache_bytes(size)}
+                for name, size in (caches or {}).items()
+                if not str(name).endswith("i")
+            ]
+        )
+        marks = marks.loc[marks["bytes"].notna()] if len(marks) else marks
+        if len(marks):
+            rule = alt.Chart(marks).mark_rule(color="#888", strokeDash=[4, 3]).encode(x="bytes:Q", tooltip=["cache:N"])
+            text = rule.mark_text(angle=270, align="right", baseline="bottom", dy=-2, color="#555", fontSize=10).encode(
+                y=alt.value(4), text="cache:N"
+            )
+            layers += [rule, text]
+        panels.append(
+            alt.layer(*layers).properties(
+                width=WIDTH,
+                height=240,
+                title=alt.TitleParams("cost against working-set size, data caches marked", anchor="start", fontSize=12),
+            )
+        )
+    if not panels:
+        return None
+    return alt.vconcat(*panels).resolve_scale(color="shared")

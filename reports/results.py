@@ -213,17 +213,21 @@ def hit_rate_section(
 def scaling_section(data: RunData, est: pd.DataFrame, slopes: pd.DataFrame, colours: dict[str, str]) -> str:
     """Cost against triangle count and working set, and the log–log slopes."""
     caches = data.machine.get("caches", {})
+    chart = charts.scaling_chart(est, caches, colours)
     body = [
-        page.figure(
-            figures.svg_data_uri(figures.scaling(est, caches, colours)),
+        charts.embed(
+            chart,
+            "chart-scaling",
             "cost against size",
-            "Left: ns per test against the mesh's triangle count (camera or per-ray hit-rate rays, "
-            "every ray against every triangle), bands: 95% CIs. Right: ns per test against the working "
-            "set, bytes of the kernel's prepared triangles plus the rays, for every workload; dashed: "
-            "the machine's data caches ("
-            + (", ".join(f"{k} {v}" for k, v in caches.items()) or "unknown")
-            + "). Both axes log.",
-        ),
+            "Top: ns per test against the mesh's triangle count (camera or per-ray hit-rate rays, "
+            "every ray against every triangle); bottom: ns per test against the working set, bytes of the "
+            "kernel's prepared triangles plus the rays, for every workload; dashed grey: the machine's data "
+            "caches (" + (", ".join(f"{k} {v}" for k, v in caches.items()) or "unknown") + "). Lines: 95% CIs; "
+            "dashes tell workload families apart. Hover for the figures; click a kernel in the legend to show it "
+            "alone, shift-click to add more.",
+        )
+        if chart is not None
+        else page.p("No estimate to draw against size.", "note"),
         "<h3>Log–log slopes against triangle count</h3>",
         page.p(
             "Per process the least-squares slope of log ns/test on log triangles, then a t-interval "

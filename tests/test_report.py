@@ -87,8 +87,8 @@ def test_report_figures_are_inline_svg_and_png(rendered):
     imgs = _parse(text).imgs
     svgs = [s for s in imgs if s.startswith("data:image/svg+xml;base64,")]
     pngs = [s for s in imgs if s.startswith("data:image/png;base64,")]
-    # static: scaling, processes, drift, rounds (forest and hit-rate curves are interactive charts)
-    assert len(svgs) == 4
+    # static: processes, drift, rounds (the forest, hit-rate and size charts are interactive)
+    assert len(svgs) == 3
     assert len(pngs) == 4  # one picture per workload
     assert len(imgs) == len(svgs) + len(pngs)
     for uri in svgs:
@@ -140,7 +140,7 @@ def test_tables_carry_units_and_escaped_text(rendered):
 
     page = _parse(text)
     assert page.head_scripts == 2 and page.scripts[0] == charts.library() and "tbOpen" in page.scripts[1]
-    assert all(s.startswith('vegaEmbed("#chart-') for s in page.scripts[2:]) and len(page.scripts) == 2 + 4
+    assert all(s.startswith('vegaEmbed("#chart-') for s in page.scripts[2:]) and len(page.scripts) == 2 + 5
 
 
 def test_reproduce_section_gives_a_sweep_file_that_reads_back(rendered, tmp_path):
@@ -421,7 +421,13 @@ def test_the_page_opens_on_the_answer_and_collapses_every_other_section(rendered
 def test_the_charts_show_values_on_hover_and_toggle_kernels(rendered):
     run_dir, _, text = rendered
     specs = _specs(text)
-    assert sorted(specs) == ["chart-answer", "chart-forest", "chart-hit-rate", "chart-speedup-hit-rate"]
+    assert sorted(specs) == [
+        "chart-answer",
+        "chart-forest",
+        "chart-hit-rate",
+        "chart-scaling",
+        "chart-speedup-hit-rate",
+    ]
     for name, spec in specs.items():
         flat = json.dumps(spec)
         assert '"tooltip"' in flat, name  # values on hover
