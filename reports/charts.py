@@ -449,7 +449,7 @@ def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, 
     ]
     shown = alt.condition(kernels, alt.value(1.0), alt.value(0.08))
 
-    def cost(x: alt.X, rows: pd.DataFrame, with_legend: bool) -> alt.LayerChart:
+    def cost(x: alt.X, rows: pd.DataFrame, with_legend: bool) -> Any:
         y = alt.Y("ns_per_test:Q", scale=y_scale, title=f"ns per ray–triangle test{y_log}")
         interval = (
             alt.Chart(rows)
@@ -477,7 +477,7 @@ def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, 
         )
         return alt.layer(interval, line.add_params(kernels) if with_legend else line)
 
-    panels = []
+    panels: list[Any] = []
     mesh = data.loc[(data["kind"] == "mesh") & data["triangles"].notna()]
     if len(mesh):
         x = alt.X(
