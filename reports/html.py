@@ -76,23 +76,9 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
 
     alg = content.table(data, runfolder.ALGORITHMS)
     bands = data.tables.get(runfolder.BANDS)  # None: tables of an older tribench
-    answer_chart = (
-        charts.embed(
-            charts.answer_chart(bands, colours),
-            "chart-answer",
-            "speed against robustness against memory",
-            "Speed against robustness against memory, in the band the menu picks: each kernel's ns/test "
-            "(dot) with its 95% CI (line), its broken promises in the robustness suite (row; kernels "
-            "of one row spread apart), bytes per prepared triangle (size), watertight by its paper (shape). "
-            "Hover for the figures; click a kernel in the legend to show it alone, shift-click to add more, "
-            "double-click the plot to show all.",
-        )
-        if bands is not None and not bands.empty
-        else ""
-    )
     bodies = {
         "answer": headline.title(data, wl)
-        + ranking.answer_section(data, bands, alg, answer_chart)
+        + ranking.answer_section(data, bands, alg, colours)
         + "".join(page.warn(w) for w in headline.run_warnings(data, drift, correct)),
         "headline": headline.headline_section(data, spd, wl, peers),
         "ranking": ranking.ranking_section(

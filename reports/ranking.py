@@ -15,7 +15,7 @@ import pandas as pd
 
 from tribench.stats import format_interval
 
-from . import page
+from . import charts, page
 from .rundata import RunData
 
 __all__ = [
@@ -372,8 +372,9 @@ def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]
     return out
 
 
-def answer_section(data: RunData, bands: pd.DataFrame | None, alg: pd.DataFrame | None, chart: str) -> str:
-    """The ranking per precision and band (``bands.csv``), one sentence per question, and ``chart``."""
+def answer_section(data: RunData, bands: pd.DataFrame | None, alg: pd.DataFrame | None, colours: dict[str, str]) -> str:
+    """The ranking per precision and band (``bands.csv``), one sentence per question, and the chart of speed
+    against robustness against memory (kernels in ``colours``)."""
     if bands is None:
         return page.p(
             f"No ranking by band: these tables were made by an older tribench. Run `tribench stats {data.run_dir}`."
@@ -397,7 +398,18 @@ def answer_section(data: RunData, bands: pd.DataFrame | None, alg: pd.DataFrame 
         parts.append(f'<h3>{escape(str(dtype))}</h3><div class="answer">{page.table(g, cols)}</div>')
     items = "".join(f"<li>{escape(s)}</li>" for s in answer_sentences(bands, alg))
     parts.append(f'<ul class="verdicts">{items}</ul>')
-    parts.append(chart)
+    parts.append(
+        charts.embed(
+            charts.answer_chart(bands, colours),
+            "chart-answer",
+            "speed against robustness against memory",
+            "Speed against robustness against memory, in the band the menu picks: each kernel's ns/test "
+            "(dot) with its 95% CI (line), its broken promises in the robustness suite (row; kernels "
+            "of one row spread apart), bytes per prepared triangle (size), watertight by its paper (shape). "
+            "Hover for the figures; click a kernel in the legend to show it alone, shift-click to add more, "
+            "double-click the plot to show all.",
+        )
+    )
     parts.append(
         page.p(
             "Per precision and band (pairs by their achieved per-test hit rate, meshes brute force or in a BVH), "
