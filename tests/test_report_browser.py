@@ -136,3 +136,33 @@ def test_collapsed_the_report_opens_on_the_ranking_and_is_at_most_10000_px_tall(
     assert float(m["row-bottom"]) <= SCREEN[1]  # the ranking's first row is on the first screen
     # a link to a collapsed section (the bar at the top, or an address with its #id) opens it
     assert _measure(browser, probed.resolve().as_uri() + "#drift")["opened"] == "drift"
+
+
+#: Clicks the first kernel of the answer chart's legend, then writes how many points faded before and after.
+_CLICK = """<script>addEventListener("load", () => setTimeout(() => {
+  const chart = document.querySelector("#chart-answer");
+  const points = () => [...chart.querySelectorAll("g.mark-symbol.role-mark path")];
+  const faded = () => points().filter(p => parseFloat(p.getAttribute("opacity") ?? "1") < 0.5).length;
+  const before = faded();
+  chart.querySelector("g.role-legend-symbol path").dispatchEvent(new MouseEvent("click", {bubbles: true}));
+  setTimeout(() => {
+    const m = document.createElement("div");
+    m.id = "tb-measure";
+    m.dataset.before = before;
+    m.dataset.after = faded();
+    m.dataset.points = points().length;
+    document.body.appendChild(m);
+  }, 500);
+}, 1000));</script>"""
+
+
+@pytest.mark.slow
+def test_clicking_a_kernel_in_the_legend_shows_it_alone(report_page, tmp_path):
+    browser, page = report_page
+    probed = tmp_path / "report.html"
+    text = page.read_text(encoding="utf-8")
+    end = text.rindex("</body>")
+    probed.write_text(text[:end] + _CLICK + text[end:], encoding="utf-8")
+    m = {k: int(v) for k, v in _measure(browser, probed.resolve().as_uri()).items()}
+    # the first band of the fixture has its 3 kernels: one stays, the other two fade
+    assert (m["points"], m["before"], m["after"]) == (3, 0, 2)
