@@ -138,31 +138,46 @@ def test_collapsed_the_report_opens_on_the_ranking_and_is_at_most_10000_px_tall(
     assert _measure(browser, probed.resolve().as_uri() + "#drift")["opened"] == "drift"
 
 
-#: Clicks the first kernel of the answer chart's legend, then writes how many points faded before and after.
+#: Hovers over a point of the answer chart and keeps its tooltip's text, then clicks the first kernel of the
+#: legend and writes how many points faded before and after.
 _CLICK = """<script>addEventListener("load", () => setTimeout(() => {
   const chart = document.querySelector("#chart-answer");
   const points = () => [...chart.querySelectorAll("g.mark-symbol.role-mark path")];
   const faded = () => points().filter(p => parseFloat(p.getAttribute("opacity") ?? "1") < 0.5).length;
-  const before = faded();
-  chart.querySelector("g.role-legend-symbol path").dispatchEvent(new MouseEvent("click", {bubbles: true}));
+  const r = points()[0].getBoundingClientRect();
+  const at = {bubbles: true, clientX: r.x + r.width / 2, clientY: r.y + r.height / 2};
+  for (const type of ["pointerover", "pointermove", "mouseover", "mousemove"]) {
+    points()[0].dispatchEvent(new MouseEvent(type, at));
+  }
   setTimeout(() => {
-    const m = document.createElement("div");
-    m.id = "tb-measure";
-    m.dataset.before = before;
-    m.dataset.after = faded();
-    m.dataset.points = points().length;
-    document.body.appendChild(m);
+    const tip = document.querySelector("#vg-tooltip-element");
+    const tooltip = tip ? tip.textContent : "";
+    const before = faded();
+    chart.querySelector("g.role-legend-symbol path").dispatchEvent(new MouseEvent("click", {bubbles: true}));
+    setTimeout(() => {
+      const m = document.createElement("div");
+      m.id = "tb-measure";
+      m.dataset.tooltip = tooltip;
+      m.dataset.before = before;
+      m.dataset.after = faded();
+      m.dataset.points = points().length;
+      document.body.appendChild(m);
+    }, 500);
   }, 500);
 }, 1000));</script>"""
 
 
 @pytest.mark.slow
-def test_clicking_a_kernel_in_the_legend_shows_it_alone(report_page, tmp_path):
+def test_the_answer_chart_shows_values_on_hover_and_a_kernel_alone_on_a_click(report_page, tmp_path):
     browser, page = report_page
     probed = tmp_path / "report.html"
     text = page.read_text(encoding="utf-8")
     end = text.rindex("</body>")
     probed.write_text(text[:end] + _CLICK + text[end:], encoding="utf-8")
-    m = {k: int(v) for k, v in _measure(browser, probed.resolve().as_uri()).items()}
+    found = _measure(browser, probed.resolve().as_uri())
+    tip = found.pop("tooltip")
+    assert "ns/test [95% CI]" in tip and "speedup over moller_seed" in tip and "bytes per triangle" in tip
+    assert re.search(r"kernel(moller_seed|moller_trumbore|curless)rank", tip), tip
+    m = {k: int(v) for k, v in found.items()}
     # the first band of the fixture has its 3 kernels: one stays, the other two fade
     assert (m["points"], m["before"], m["after"]) == (3, 0, 2)
