@@ -108,8 +108,16 @@ def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart
     frame = bands.assign(
         where=bands["dtype"] + " · " + bands["band"],
         ns=_intervals(bands, "ns_per_test", " ns"),
-        over_fastest=_intervals(bands, "vs_fastest", "×"),
-        over_baseline=_intervals(bands, "speedup", "×"),
+        over_fastest=[
+            "(the fastest)" if rank == 1 else text
+            for rank, text in zip(bands["rank"], _intervals(bands, "vs_fastest", "×"), strict=True)
+        ],
+        over_baseline=[
+            "(the baseline)" if kernel == baseline else text
+            for kernel, baseline, text in zip(
+                bands["kernel"], bands["baseline"], _intervals(bands, "speedup", "×"), strict=True
+            )
+        ],
         promises=[
             "not validated" if pd.isna(b) else ("none promised" if c == 0 else f"{int(b)} of {int(c)} broken")
             for b, c in zip(bands["broken_promises"], bands["promises_checked"], strict=True)
