@@ -372,6 +372,16 @@ def _validation(run_dir: Path, kernels: list[str], dtypes: list[str], quick: boo
     )
 
 
+def _read_validation(run_dir: Path) -> pd.DataFrame | None:
+    """``validate.csv`` if it is there in today's columns (None otherwise: the bands table then has no robustness)."""
+    path = run_dir / runfolder.VALIDATE
+    try:
+        frame = pd.read_csv(path)
+    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError):
+        return None
+    return frame if list(frame.columns) == list(runfolder.FILES[runfolder.VALIDATE]) else None
+
+
 def _peer_tables(run_dir: Path) -> tuple[dict[str, pd.DataFrame], str]:
     """``peer_rates.csv`` and ``peer_ratios.csv`` from ``peers.csv`` (none without it), and a sentence."""
     from . import peers
@@ -461,13 +471,17 @@ def write_all(
         runfolder.RANKING: t.ranking_table(est, spd, pp, result.margin.value),
     }
     tables[runfolder.ALGORITHMS] = t.algorithm_table(tables[runfolder.RANKING], pp, result.margin.value)
+    # the bands table shows each kernel's robustness beside its speed: validate.csv first
+    validate_note = _validation(run_dir, kernels, dtypes, validate_quick)
+    tables[runfolder.BANDS] = t.band_table(
+        est, pp, specs, result.baseline, result.margin.value, _read_validation(run_dir)
+    )
     peer_tables, peer_note = _peer_tables(run_dir)
     tables.update(peer_tables)
     for name, frame in tables.items():
         if list(frame.columns) != list(runfolder.FILES[name]):  # a bug: the table and the contract disagree
             raise AssertionError(f"{name}: columns {list(frame.columns)} are not runfolder.FILES[{name!r}]")
         records.write_csv(frame, run_dir / name)
-    validate_note = _validation(run_dir, kernels, dtypes, validate_quick)
     pictures = _pictures(run_dir, wids, workloads)
     margin_record = {"value": result.margin.value, "source": result.margin.source}
     write_text(

@@ -101,6 +101,8 @@ WARMUP = "warmup.csv"
 KERNELS = "kernels.csv"
 RANKING = "ranking.csv"
 ALGORITHMS = "algorithms.csv"
+#: The answer the report opens on: per precision and hit-rate band, every kernel from the fastest down.
+BANDS = "bands.csv"
 PEER_RATES = "peer_rates.csv"
 PEER_RATIOS = "peer_ratios.csv"
 #: The estimates and speedups with their intervals and the machine record, in Google Benchmark's
@@ -447,6 +449,37 @@ _ALGORITHMS: dict[str, str] = {
     "verdict": "faster, equivalent or inconclusive (stats.verdict with the run's margin)",
 }
 
+_BANDS: dict[str, str] = {
+    "dtype": "precision of the band's workloads",
+    "band": "the band: pairs by achieved per-test hit rate (low < 35% <= mid < 65% <= high), meshes by accel",
+    "workloads": "workloads in the band (count)",
+    "rank": "1 = the lowest ns_per_test in the band, then in order",
+    "kernel": "kernel name (only kernels timed on every workload of the band)",
+    "algorithm": "the clean scalar kernel whose algorithm the kernel is a form of (tribench.ext.kernel_info)",
+    "form": "scalar, or N lanes for a wide kernel",
+    "ns_per_test": (
+        "per process the geometric mean over the band's workloads of its median ns per test, then the mean "
+        "over processes"
+    ),
+    "ns_per_test_ci_low": "lower end of its 95% Student-t interval over processes",
+    "ns_per_test_ci_high": "upper end of that interval",
+    "vs_fastest": "time_kernel / time_fastest on those per-process values, paired (1 for the fastest); unitless",
+    "vs_fastest_ci_low": "lower end of its simultaneous interval (Bonferroni over the band's other kernels)",
+    "vs_fastest_ci_high": "upper end of that interval",
+    "tied_with_fastest": "True when the interval reaches down to 1 + margin: not told apart from the fastest",
+    "speedup": "time_baseline / time_kernel on the same per-process values, paired (1 for the baseline)",
+    "speedup_ci_low": "lower end of its simultaneous interval (Bonferroni over the band's other kernels)",
+    "speedup_ci_high": "upper end of that interval",
+    "baseline": "the baseline kernel",
+    "n_processes": "processes that ran every workload of the band with the kernel (count)",
+    "watertight": "True when the kernel's paper promises no crack on shared edges (tribench.ext.kernel_info)",
+    "culls_back_faces": "True when the kernel skips back faces (it answers a different question)",
+    "bytes_per_triangle": "bytes of prepared data per triangle at that precision (empty: unknown to this build)",
+    "promises_checked": "validate.csv's judged tests of the kernel at this precision (count; empty: no validate.csv)",
+    "broken_promises": "of those, failed (count; empty: no validate.csv)",
+    "crack_rate": "validate.csv's shared_edges rate: rays at an exact shared edge that hit nothing (fraction)",
+}
+
 _PEER_RATES: dict[str, str] = {
     "contender": "tribench, tribench_call, trimesh or embree",
     "implementation": "what ran, with its version",
@@ -568,6 +601,7 @@ FILES: dict[str, dict[str, str]] = {
     KERNELS: _KERNELS,
     RANKING: _RANKING,
     ALGORITHMS: _ALGORITHMS,
+    BANDS: _BANDS,
     PEER_RATES: _PEER_RATES,
     PEER_RATIOS: _PEER_RATIOS,
 }
@@ -600,6 +634,7 @@ DERIVED: tuple[str, ...] = (
     KERNELS,
     RANKING,
     ALGORITHMS,
+    BANDS,
     PEER_RATES,
     PEER_RATIOS,
 )

@@ -29,6 +29,9 @@ from tribench import stats
 from . import runfolder
 
 __all__ = [
+    "BAND_EDGES",
+    "band_of",
+    "band_table",
     "batch_labels",
     "correctness_table",
     "crossovers",
@@ -611,3 +614,130 @@ def algorithm_table(rank: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.D
                 }
             )
     return _frame(rows, runfolder.ALGORITHMS)
+
+
+# ------------------------------------------------------------ bands
+
+#: Edges of the per-test hit-rate bands of pair workloads: low below the first, high from the second on.
+BAND_EDGES = (0.35, 0.65)
+
+
+def band_of(kind: str, test_hit_rate: float, accel: str | None = None) -> str:
+    """The band of a workload in the report's first table: pairs by per-test hit rate, meshes by accel.
+
+    Examples
+    --------
+    >>> band_of("pairs", 0.3), band_of("pairs", 0.5), band_of("pairs", 1.0)
+    ('pairs, hit rate 0–35%', 'pairs, hit rate 35–65%', 'pairs, hit rate 65–100%')
+    >>> band_of("mesh", float("nan")), band_of("mesh", 0.01, "bvh")
+    ('meshes, brute force', 'meshes, in a BVH')
+    """
+    if kind != "pairs":
+        return "meshes, in a BVH" if accel == "bvh" else "meshes, brute force"
+    low, high = BAND_EDGES
+    if test_hit_rate < low:
+        return f"pairs, hit rate 0–{100 * low:.0f}%"
+    if test_hit_rate < high:
+        return f"pairs, hit rate {100 * low:.0f}–{100 * high:.0f}%"
+    return f"pairs, hit rate {100 * high:.0f}–100%"
+
+
+def _robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
+    """validate.csv's figures of one kernel at one precision (NaN without the table or its rows)."""
+    none = {"promises_checked": math.nan, "broken_promises": math.nan, "crack_rate": math.nan}
+    if val is None or val.empty:
+        return none
+    rows = val.loc[(val["kernel"] == kernel) & (val["dtype"] == dtype)]
+    if rows.empty:
+        return none
+    cracks = rows.loc[rows["test"] == "shared_edges", "rate"]
+    return {
+        "promises_checked": int((rows["verdict"] != "measured").sum()),
+        "broken_promises": int((rows["verdict"] == "fail").sum()),
+        "crack_rate": float(cracks.iloc[0]) if len(cracks) else math.nan,
+    }
+
+
+def band_table(
+    est: pd.DataFrame,
+    pp: pd.DataFrame,
+    specs: Mapping[str, Mapping[str, Any]],
+    baseline: str,
+    margin: float,
+    val: pd.DataFrame | None = None,
+) -> pd.DataFrame:
+    """Per precision and hit-rate band (:func:`band_of`), every kernel from the fastest down (``bands.csv``).
+
+    ``est`` is the estimates joined with the workload table
+    (:func:`estimates_with_workloads`), ``pp`` the per-process values,
+    ``specs`` each workload's spec, ``val`` the robustness table
+    (``validate.csv``) if there is one. A band holds the kernels timed on
+    every one of its workloads; a kernel's value in a process is the geometric
+    mean of its per-process medians over the band's workloads, so each workload
+    weighs the same whatever its ns/test. On those values: the mean over
+    processes with its t interval (``stats.estimate``), and paired ratios
+    (``stats.speedup``) to the fastest and from the baseline, each with
+    simultaneous intervals over the band's other kernels (Bonferroni), as in
+    :func:`ranking_table`.
+    """
+    frame = est.assign(
+        band=[
+            band_of(str(r.kind), float(r.test_hit_rate), specs.get(r.workload_id, {}).get("accel"))
+            for r in est.itertuples(index=False)
+        ]
+    )
+    order = {b: i for i, b in enumerate(band_of(*a) for a in (("pairs", 0), ("pairs", 0.5), ("pairs", 1), ("mesh", 0)))}
+    keys = sorted(frame.groupby(["dtype", "band"]).groups, key=lambda k: (k[0], order.get(k[1], len(order)), k[1]))
+    rows = []
+    for dtype, band in keys:
+        g = frame.loc[(frame["dtype"] == dtype) & (frame["band"] == band)]
+        wids = list(dict.fromkeys(g["workload_id"]))
+        kernels = [k for k, n in g.groupby("kernel", sort=False)["workload_id"].nunique().items() if n == len(wids)]
+        sub = pp.loc[pp["workload_id"].isin(wids) & pp["kernel"].isin(kernels)]
+        logs = sub.assign(log=np.log(sub["ns_per_test"])).groupby(["process", "kernel"])["log"].agg(["mean", "size"])
+        logs = logs.loc[logs["size"] == len(wids), "mean"]  # processes that ran every workload of the band
+        per = np.exp(logs.unstack("kernel")) if len(logs) else pd.DataFrame()
+        kernels = [k for k in kernels if k in per and per[k].notna().sum() >= 1]
+        if not kernels:
+            continue
+        estimates = {k: stats.estimate(per[k].dropna()) for k in kernels}
+        ranked = sorted(kernels, key=lambda k: (estimates[k].mean, k))
+        fastest = ranked[0]
+        level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(ranked) - 1, 1))
+        for rank, kernel in enumerate(ranked, start=1):
+            e = estimates[kernel]
+            ratio, low, high = (1.0, 1.0, 1.0) if kernel == fastest else _paired_ratio(per, kernel, fastest, level)[:3]
+            if kernel == baseline:
+                speedup = (1.0, math.nan, math.nan)
+            elif baseline in per:
+                speedup = _paired_ratio(per, baseline, kernel, level)[:3]
+            else:
+                speedup = (math.nan, math.nan, math.nan)
+            rows.append(
+                {
+                    "dtype": dtype,
+                    "band": band,
+                    "workloads": len(wids),
+                    "rank": rank,
+                    "kernel": kernel,
+                    "algorithm": _declared(kernel, "algorithm"),
+                    "form": _form(kernel),
+                    "ns_per_test": e.mean,
+                    "ns_per_test_ci_low": e.ci_low,
+                    "ns_per_test_ci_high": e.ci_high,
+                    "vs_fastest": ratio,
+                    "vs_fastest_ci_low": low,
+                    "vs_fastest_ci_high": high,
+                    "tied_with_fastest": bool(low <= 1 + margin) if not math.isnan(low) else False,
+                    "speedup": speedup[0],
+                    "speedup_ci_low": speedup[1],
+                    "speedup_ci_high": speedup[2],
+                    "baseline": baseline,
+                    "n_processes": e.n,
+                    "watertight": _declared(kernel, "watertight"),
+                    "culls_back_faces": _declared(kernel, "culls_back_faces"),
+                    "bytes_per_triangle": _bytes_per_triangle(kernel, str(dtype)),
+                    **_robustness(val, kernel, str(dtype)),
+                }
+            )
+    return _frame(rows, runfolder.BANDS)

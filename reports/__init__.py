@@ -21,7 +21,10 @@ The CSV columns are defined and documented in :mod:`tribench.harness.runfolder`.
 renders the column docs. Every page is built with one kit, :mod:`.page` (the
 shell, the stylesheet, tables, figures, escaping); ``report.html`` is put
 together by :mod:`.html` from its section modules (:mod:`.headline`,
-:mod:`.results`, :mod:`.checks`, :mod:`.about`). Intervals are written by
+:mod:`.ranking`, :mod:`.results`, :mod:`.checks`, :mod:`.about`), opens on the
+answer (:mod:`.ranking`) with every other section collapsed, and draws its
+main charts interactively (:mod:`.charts`: Vega-Lite, its library inlined once)
+and the dense diagnostics as static figures (:mod:`.figures`). Intervals are written by
 :func:`tribench.stats.format_interval`. It may import ``common``, ``ext``, ``workloads``,
 ``stats`` and ``harness`` (to read a run folder); never ``cli``.
 """
