@@ -459,6 +459,16 @@ def write_all(
         runfolder.RANKING: t.ranking_table(est, spd, pp, result.margin.value),
     }
     tables[runfolder.ALGORITHMS] = t.algorithm_table(tables[runfolder.RANKING], pp, result.margin.value)
+    tables[runfolder.BVH] = t.bvh_table(
+        batches,
+        records.read_traversals(run_dir, run),
+        wl,
+        specs,
+        pp,
+        kernels,
+        result.baseline,
+        result.margin.value,
+    )
     peer_tables, peer_note = _peer_tables(run_dir)
     tables.update(peer_tables)
     for name, frame in tables.items():
