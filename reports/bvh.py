@@ -154,7 +154,7 @@ def bvh_figure(bvh: pd.DataFrame, colours: dict[str, str]) -> str:
     ax.set_xlabel("triangles of the mesh (log scale)")
     ax.set_ylabel("rays per second (log scale)")
     ax.grid(which="major", color="#e5e7eb", lw=0.8)
-    ax.legend(loc="best", frameon=False)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside the axes: never over a line
     return page.figure(
         figures.svg_data_uri(fig),
         "rays per second of every kernel in a BVH by mesh size",

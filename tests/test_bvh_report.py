@@ -136,6 +136,17 @@ def test_bvh_table_has_rates_counts_a_leaf_share_in_0_1_and_both_speedups(bvh_ru
     assert other["verdict"] in ("faster", "slower", "equivalent", "inconclusive")
 
 
+def test_a_run_made_before_traversals_csv_gets_rates_and_speedups_without_counts_or_share(bvh_run, tmp_path):
+    copy = tmp_path / "copy"
+    shutil.copytree(bvh_run, copy)
+    (copy / runfolder.TRAVERSALS).unlink()
+    analysis.write_all(copy)
+    bvh = pd.read_csv(copy / runfolder.BVH)
+    assert list(bvh["kernel"]) == list(KERNELS) and bvh["rays_per_s"].notna().all()
+    assert bvh[["nodes_per_ray", "leaf_share", "leaf_share_ci_low"]].isna().all().all()
+    assert "–" in report_bvh.bvh_section(bvh, None, {})  # the share shown as none, not as nan
+
+
 def _frames(null_over_real: list[list[float]]):
     """batches and traversals of one BVH kernel: per process, batches whose null/real ratio is given."""
     spec = MeshSpec(**SMALL, accel="bvh")
