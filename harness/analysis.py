@@ -476,6 +476,16 @@ def write_all(
     tables[runfolder.BANDS] = t.band_table(
         est, pp, specs, result.baseline, result.margin.value, _read_validation(run_dir)
     )
+    tables[runfolder.BVH] = t.bvh_table(
+        batches,
+        records.read_traversals(run_dir, run),
+        wl,
+        specs,
+        pp,
+        kernels,
+        result.baseline,
+        result.margin.value,
+    )
     peer_tables, peer_note = _peer_tables(run_dir)
     tables.update(peer_tables)
     for name, frame in tables.items():

@@ -15,7 +15,8 @@ format and must be deliberate.
 Who writes what:
 
 * measured, while the sweep runs (:mod:`~tribench.harness.runner`):
-  :data:`RUN`, :data:`BATCHES`, :data:`PROCESSES`, :data:`CHECKS`;
+  :data:`RUN`, :data:`BATCHES`, :data:`PROCESSES`, :data:`CHECKS`, :data:`TRAVERSALS`
+  (a header only when the run has no BVH workload);
   ``peers.csv`` by ``tribench peers --out RUN_DIR`` (or ``tribench run``);
 * derived, by the analysis step at the end of ``tribench run`` and by
   ``tribench stats RUN_DIR`` on demand (:func:`tribench.harness.analysis.write_all`):
@@ -33,6 +34,7 @@ __all__ = [
     "ANALYSIS",
     "BATCHES",
     "BATCH_LABELS",
+    "BVH",
     "CALIBRATION",
     "CHECKS",
     "CORRECTNESS",
@@ -62,6 +64,7 @@ __all__ = [
     "SLOPES",
     "SPEEDUPS",
     "SWEEP_FILE",
+    "TRAVERSALS",
     "VALIDATE",
     "VARIANCE",
     "WARMUP",
@@ -80,6 +83,8 @@ LOCK = ".lock"
 BATCHES = "batches.csv"
 PROCESSES = "processes.csv"
 CHECKS = "checks.csv"
+#: Per batch on a BVH workload: the traversal's counts and the same traversal timed with a null leaf test.
+TRAVERSALS = "traversals.csv"
 PEERS = "peers.csv"
 #: An A/A calibration's record (``tribench calibrate --out RUN_DIR``).
 CALIBRATION = "calibration.json"
@@ -103,6 +108,7 @@ RANKING = "ranking.csv"
 ALGORITHMS = "algorithms.csv"
 #: The answer the report opens on: per precision and hit-rate band, every kernel from the fastest down.
 BANDS = "bands.csv"
+BVH = "bvh.csv"
 PEER_RATES = "peer_rates.csv"
 PEER_RATIOS = "peer_ratios.csv"
 #: The estimates and speedups with their intervals and the machine record, in Google Benchmark's
@@ -175,6 +181,29 @@ _CHECKS: dict[str, str] = {
     "ambiguous_disagreements": "of those, how many are ambiguous rays (count)",
     "hits": "hits of the kernel in one pass (its checksum)",
     "t_sum": "sum of t over the kernel's hits in one pass (its checksum)",
+}
+
+_TRAVERSALS: dict[str, str] = {
+    "run_id": "identifier of the run",
+    "process": "index of the worker process (with workload_id, round, position and kernel, a batch's key)",
+    "attempt": "worker attempt of this process index",
+    "round": "round inside the process; negative for warm-up rounds",
+    "position": "position of the kernel inside its round",
+    "kernel": "kernel name (the BVH's leaf test)",
+    "workload_id": "workload identifier (a BVH workload)",
+    "warmup": "True for a warm-up batch",
+    "rays": "rays traced in the batch (loops x rays of the workload)",
+    "nodes": "nodes the batch's traversal entered, inner nodes and leaves (count, over all its rays)",
+    "box_tests": "ray-box tests of the batch (count)",
+    "leaves": "leaves the batch's traversal entered (count)",
+    "triangle_tests": "triangle tests in those leaves (count; batches.csv's tests)",
+    "null_elapsed_ns": (
+        "the same batch traced again with a null leaf test (no triangle tested; each ray's t_max at the "
+        "kernel's own closest hit, so it enters the nodes a ray that found its hit at once would), "
+        "timed inside C, ns"
+    ),
+    "null_nodes": "nodes that null traversal entered (count; at most nodes in closest mode)",
+    "null_first": "True when the null traversal ran just before the real batch, False just after (random)",
 }
 
 _PEERS: dict[str, str] = {
@@ -480,6 +509,42 @@ _BANDS: dict[str, str] = {
     "crack_rate": "validate.csv's shared_edges rate: rays at an exact shared edge that hit nothing (fraction)",
 }
 
+_BVH: dict[str, str] = {
+    "workload_id": "workload identifier (a BVH workload)",
+    "family": "workload family",
+    "label": "what varies inside the family, in words",
+    "dtype": "precision of the workload",
+    "rays_kind": "camera or hit_rate rays (the spec's rays)",
+    "triangles": "triangles of the mesh (count)",
+    "kernel": "kernel name (the BVH's leaf test)",
+    "algorithm": "the clean scalar kernel whose algorithm the kernel is a form of (tribench.ext.kernel_info)",
+    "rays_per_s": "rays per second end to end (traversal and leaf tests): geometric mean over processes of "
+    "each process's median of loops x rays / elapsed",
+    "rays_per_s_ci_low": "lower end of its 95% confidence interval (t interval of the logs)",
+    "rays_per_s_ci_high": "upper end of that interval",
+    "n_processes": "processes behind it (count)",
+    "nodes_per_ray": "nodes entered per ray, inner nodes and leaves",
+    "box_tests_per_ray": "ray-box tests per ray",
+    "leaves_per_ray": "leaves entered per ray",
+    "triangle_tests_per_ray": "triangle tests per ray",
+    "null_nodes_per_ray": "nodes per ray of the null-leaf traversal the leaf share is measured against",
+    "leaf_share": (
+        "share of trace time in the leaf tests, 1 - null / real: per process the median over its batches of "
+        "null_elapsed_ns / elapsed_ns, geometric mean over processes (traversals.csv)"
+    ),
+    "leaf_share_ci_low": "lower end of its 95% confidence interval (paired per-process ratios)",
+    "leaf_share_ci_high": "upper end of that interval",
+    "baseline": "the kernel the speedups are against on this workload (the run's baseline's BVH-capable form)",
+    "speedup": "end-to-end speedup in the BVH: rays/s of the kernel / rays/s of the baseline, paired by process",
+    "speedup_ci_low": "lower end of its simultaneous confidence interval (Bonferroni over the workload's kernels)",
+    "speedup_ci_high": "upper end of that interval",
+    "verdict": "faster, slower, equivalent or inconclusive (stats.verdict with the run's margin)",
+    "brute_workload_id": "the brute-force twin (same rays and mesh, every ray against every triangle) if in the run",
+    "brute_speedup": "the same kernel's speedup over the same baseline in brute force on the twin (ns per test)",
+    "brute_speedup_ci_low": "lower end of its simultaneous confidence interval",
+    "brute_speedup_ci_high": "upper end of that interval",
+}
+
 _PEER_RATES: dict[str, str] = {
     "contender": "tribench, tribench_call, trimesh or embree",
     "implementation": "what ran, with its version",
@@ -583,6 +648,7 @@ FILES: dict[str, dict[str, str]] = {
     BATCHES: _BATCHES,
     PROCESSES: _PROCESSES,
     CHECKS: _CHECKS,
+    TRAVERSALS: _TRAVERSALS,
     ESTIMATES: _ESTIMATES,
     SPEEDUPS: _SPEEDUPS,
     VALIDATE: _VALIDATE,
@@ -602,6 +668,7 @@ FILES: dict[str, dict[str, str]] = {
     RANKING: _RANKING,
     ALGORITHMS: _ALGORITHMS,
     BANDS: _BANDS,
+    BVH: _BVH,
     PEER_RATES: _PEER_RATES,
     PEER_RATIOS: _PEER_RATIOS,
 }
@@ -635,6 +702,7 @@ DERIVED: tuple[str, ...] = (
     RANKING,
     ALGORITHMS,
     BANDS,
+    BVH,
     PEER_RATES,
     PEER_RATIOS,
 )

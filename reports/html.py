@@ -8,7 +8,7 @@ collapsed under its title, linked from the bar at the top. The page kit
 :mod:`.charts` (their library inlined once in the head), static figures
 :mod:`.figures`; the sections are made by :mod:`.headline`, :mod:`.ranking`,
 :mod:`.results` (kernels, speedups, hit rate, size and working set, peers,
-processes), :mod:`.checks` (drift, diagnostics, correctness, robustness) and
+processes), :mod:`.bvh` (in a BVH), :mod:`.checks` (drift, diagnostics, correctness, robustness) and
 :mod:`.about` (workloads, machine, reproduce). Every number comes from the run
 folder's files.
 
@@ -17,18 +17,25 @@ Sections, by id, in page order (a new section: its title here and its body in :f
 >>> list(SECTIONS)  # doctest: +NORMALIZE_WHITESPACE
 ['answer', 'ranking', 'headline', 'kernels', 'speedups', 'hit-rate', 'scaling', 'peers', 'processes', 'drift',
  'diagnostics', 'correctness', 'robustness', 'workloads', 'machine', 'reproduce']
+
+and, only in a run that has one, after the section named:
+
+>>> OPTIONAL_SECTIONS
+{'bvh': ('In a BVH', 'scaling')}
 """
 
 from __future__ import annotations
 
+import pandas as pd
+
 from tribench.harness import analysis, runfolder
 
-from . import about, charts, checks, content, figures, headline, page, ranking, results
+from . import about, bvh, charts, checks, content, figures, headline, page, ranking, results
 from .about import sweep_toml
 from .headline import headline_sentences
 from .rundata import RunData, load_peers, load_validation
 
-__all__ = ["SECTIONS", "OPEN", "render", "headline_sentences", "sweep_toml", "MAX_PICTURES"]
+__all__ = ["OPTIONAL_SECTIONS", "SECTIONS", "OPEN", "render", "headline_sentences", "sweep_toml", "MAX_PICTURES"]
 
 #: Section ids, in page order, with their titles.
 SECTIONS = {
@@ -52,6 +59,9 @@ SECTIONS = {
 
 #: Sections shown open; every other one is collapsed under its title.
 OPEN = frozenset({"answer"})
+
+#: Sections a run has only sometimes: id -> (title, id of the section it follows).
+OPTIONAL_SECTIONS = {"bvh": ("In a BVH", "scaling")}
 
 #: At most this many workload pictures are drawn, at this resolution, by the analysis step
 #: (:mod:`tribench.harness.analysis`; 60 dpi: 840 to 1080 px wide, 1.5 to 2 times the ~550 px shown).
@@ -98,10 +108,20 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         "machine": about.machine_section(data),
         "reproduce": about.reproduce_section(data, sweep_file),
     }
+    # an analysis made before bvh.csv existed has none: no section, as for a run without a BVH workload
+    in_bvh = data.tables.get(runfolder.BVH, pd.DataFrame())
+    optional = {"bvh": bvh.bvh_section(in_bvh, peers, colours)}
+    titles: dict[str, str] = {}
+    for sid, title in SECTIONS.items():
+        titles[sid] = title
+        for extra, (extra_title, after) in OPTIONAL_SECTIONS.items():
+            if after == sid and optional[extra]:
+                titles[extra] = extra_title
+    bodies.update(optional)
     # The answer opens the page with the page's title, so its section has no heading of its own.
     body = "".join(
-        page.section(sid, None if sid == "answer" else SECTIONS[sid], bodies[sid], collapsed=sid not in OPEN)
-        for sid in SECTIONS
+        page.section(sid, None if sid == "answer" else titles[sid], bodies[sid], collapsed=sid not in OPEN)
+        for sid in titles
     )
     footer = page.p(
         f"Written by tribench report at {page.now()} from {data.run_dir}; tables made by the analysis "
@@ -111,7 +131,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     return page.document(
         f"tribench report — {data.run.get('run_id', data.run_dir.name)}",
         body,
-        SECTIONS,
+        titles,
         footer,
         script=charts.library() if charts.USED in body else "",
     )
