@@ -751,6 +751,8 @@ def band_table(
                 }
             )
     return _frame(rows, runfolder.BANDS)
+
+
 # ------------------------------------------------------------ in a BVH
 
 #: The algorithm whose BVH-capable form the speedups in a BVH are against when the run's
