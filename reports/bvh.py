@@ -165,10 +165,7 @@ def bvh_figure(bvh: pd.DataFrame, colours: dict[str, str]) -> str:
 
 def _embree(peers: PeerTables | None) -> str:
     """tribench's BVH against Embree, when the run's peers were timed through the BVH."""
-    if peers is None:
-        return ""
-    ours = peers.rates.loc[peers.rates["contender"] == "tribench"]
-    if ours.empty or " bvh " not in f" {ours['implementation'].iloc[0]} ":  # peers.csv: the BVH row says bvh
+    if peers is None or not peers.in_bvh:
         return ""
     ratios = peers.ratios.loc[(peers.ratios["contender"] == "tribench") & (peers.ratios["over"] == "embree")]
     text = (

@@ -110,7 +110,7 @@ def headline_section(data: RunData, spd: pd.DataFrame, wl: pd.DataFrame, peers: 
             f'<li><span class="{escape(v)}">{escape(v)}</span> — {escape(s)}</li>' for v, s in sentences[family]
         )
         parts.append(f'<h3>{escape(family)}</h3><ul class="verdicts">{items}</ul>')
-    if peers is not None and (sentence := peer_sentence(peers.ratios, peers.kernel, peers.workload)):
+    if peers is not None and (sentence := peer_sentence(peers.ratios, peers.kernel, peers.workload, peers.in_bvh)):
         parts.append(page.p(sentence + " (see Against peers)"))
     parts.append(
         page.p(
@@ -155,14 +155,13 @@ def run_warnings(data: RunData, drift: pd.DataFrame, correct: pd.DataFrame) -> l
     return out
 
 
-def peer_sentence(ratios: pd.DataFrame, kernel: str, workload: str) -> str | None:
-    """tribench's rays/s over each peer's in one sentence (None when no peer was measured)."""
+def peer_sentence(ratios: pd.DataFrame, kernel: str, workload: str, in_bvh: bool = False) -> str | None:
+    """tribench's rays/s over each peer's in one sentence (None when no peer was measured);
+    ``in_bvh``: tribench was timed through its BVH with ``kernel`` as the leaf test."""
     rows = ratios.loc[ratios["contender"] == "tribench"]
     rows = rows.loc[rows["over"] != "tribench_call"]
     if rows.empty:
         return None
     parts = [f"{format_interval(r.ratio, r.ci_low, r.ci_high, unit='×')} {r.over}'s rays/s" for r in rows.itertuples()]
-    return (
-        f"Against peers ({workload}, one core): tribench's {kernel}, brute force, runs at {' and '.join(parts)} "
-        f"(95% CIs)."
-    )
+    ours = f"BVH with {kernel}" if in_bvh else f"{kernel}, brute force,"
+    return f"Against peers ({workload}, one core): tribench's {ours} runs at {' and '.join(parts)} (95% CIs)."
