@@ -1,6 +1,7 @@
 """Peers: tribench's fastest kernel, brute force or in its BVH, against trimesh and Embree, in rays/s.
 
-The workload is the seed's camera (Suzanne, 968 triangles; 512x512 pinhole
+The workload is the seed's camera (Suzanne, 968 triangles, or any built-in
+mesh or mesh file trimesh reads, ``PeerDesign.mesh``; 512x512 pinhole
 camera rays in float32, closest hit), the same arrays for every contender.
 With ``accel="bvh"`` (``tribench peers --accel bvh``) tribench traces the
 rays through its BVH (``ext.build_bvh``, read from the BVH cache where it
@@ -103,7 +104,10 @@ class PeerDesign:
 
     width: int = 512
     height: int = 512
-    triangles: int = 968
+    #: Suzanne's 968 is the seed's mesh; None keeps the mesh's own triangles
+    triangles: int | None = 968
+    #: a built-in mesh name or the path of a mesh file trimesh reads (stored absolute)
+    mesh: str = "suzanne"
     processes: int = 5
     reps: int = 3
     trimesh_rays: int = 8192
@@ -120,7 +124,7 @@ class PeerDesign:
         for name in (
             "width",
             "height",
-            "triangles",
+            *(("triangles",) if self.triangles is not None else ()),
             "processes",
             "reps",
             "trimesh_rays",
@@ -130,8 +134,12 @@ class PeerDesign:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise UserError(f"{name} must be a positive integer, got {value!r}")
-        from tribench.workloads.spec import ACCELS
+        from tribench.workloads.spec import ACCELS, MESH_NAMES
 
+        if not isinstance(self.mesh, str) or not self.mesh:
+            raise UserError(f"mesh must be a built-in mesh name or a file path, got {self.mesh!r:.80}")
+        if self.mesh not in MESH_NAMES:  # the workers read it from another process: absolute
+            object.__setattr__(self, "mesh", os.path.abspath(os.path.expanduser(self.mesh)))
         if self.accel not in ACCELS:
             raise UserError(f"accel must be one of {', '.join(ACCELS)}, got {self.accel!r:.80}")
         if self.processes * self.reps > self.MAX_REPETITIONS:
@@ -189,11 +197,11 @@ def available() -> dict[str, str | None]:
 
 
 def camera_spec(design: PeerDesign):
-    """The peers' workload: Suzanne through a pinhole camera, float32, closest hit."""
+    """The peers' workload: the design's mesh (Suzanne by default) through a pinhole camera, float32, closest hit."""
     from tribench.workloads.spec import MeshSpec
 
     return MeshSpec(
-        "suzanne",
+        design.mesh,
         triangles=design.triangles,
         rays="camera",
         width=design.width,

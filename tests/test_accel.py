@@ -191,3 +191,49 @@ def test_peers_cli_refuses_a_kernel_that_cannot_be_a_leaf_test(tmp_path, env):
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
     assert "cannot be a BVH's leaf test with --accel bvh" in done.stderr
     assert not (tmp_path / peers.PEERS).exists()
+
+
+OCTAHEDRON_OBJ = """# a closed octahedron, faces counter-clockwise seen from outside
+v 1 0 0
+v -1 0 0
+v 0 1 0
+v 0 -1 0
+v 0 0 1
+v 0 0 -1
+f 1 3 5
+f 3 2 5
+f 2 4 5
+f 4 1 5
+f 3 1 6
+f 2 3 6
+f 4 2 6
+f 1 4 6
+"""
+
+
+def test_peers_take_a_mesh_file_through_the_bvh(tmp_path, env):
+    obj = tmp_path / "octahedron.obj"
+    obj.write_text(OCTAHEDRON_OBJ)
+    design = dataclasses.replace(TINY_BVH, mesh=str(obj), triangles=None)
+    frame = peers.measure(tmp_path / "peers.csv", design, progress=False)
+    tb = frame.loc[frame["contender"] == "tribench"]
+    assert len(tb) == design.processes * design.reps and tb["implementation"].str.contains(r"\bbvh\b").all()
+    assert tb["workload"].str.startswith("mesh octahedron.obj triangles=base camera 16x16 bvh").all()
+    assert (frame["differ"] == frame["differ_ambiguous"]).all() and (frame["rays_per_s"] > 0).all()
+    w = cache.make(peers.camera_spec(design))
+    assert len(w.triangles) == 8 and w.hits.any()
+    # the command line: a relative path, the file's own triangle count; a missing file is one line
+    done = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "peers", "--mesh", "octahedron.obj", "--accel", "bvh"]
+        + ["--camera", "16x16", "--processes", "1", "--reps", "1", "--no-progress", "--out", "run"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stderr
+    written = pd.read_csv(tmp_path / "run" / peers.PEERS)
+    assert written["workload"].str.contains("octahedron.obj triangles=base").all()
+    done = cli("peers", "--mesh", str(tmp_path / "nope.obj"), "--accel", "bvh", "--out", str(tmp_path), env=env)
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "nope.obj" in done.stderr
