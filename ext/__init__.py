@@ -71,6 +71,8 @@ Examples
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
 from dataclasses import dataclass
 from fractions import Fraction
@@ -95,6 +97,7 @@ __all__ = [
     "UserError",
     "UserTypeError",
     "build_info",
+    "extension_sha256",
     "BVH",
     "COUNT_NAMES",
     "MAX_BVH_BATCH_RAYS",
@@ -280,6 +283,14 @@ def build_info() -> dict:
     """How the extension was built: compiler, exact flags, FMA and fast-math
     macros, and the resolution of the clock that times batches."""
     return dict(_core.build_info())
+
+
+@functools.cache
+def extension_sha256() -> str:
+    """The sha256 of the compiled extension's file: which build of the C code
+    this is (any change to a kernel, its records or the BVH build changes it)."""
+    with open(_core.__file__, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
 
 
 def bytes_per_triangle(kernel: str, dtype: np.dtype | type | str) -> int:

@@ -23,7 +23,6 @@ with one :class:`~tribench.workloads.cache.CacheWarning`.
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import io
 import json
@@ -47,18 +46,13 @@ BVH_FORMAT = 1
 _ARRAYS = ("nodes", "perm", "records")
 
 
-@functools.cache
-def _extension_sha256() -> str:
-    return hashlib.sha256(Path(ext._core.__file__).read_bytes()).hexdigest()
-
-
 def bvh_identity(kernel: str, triangles: np.ndarray, max_leaf: int) -> dict[str, Any]:
     """What names the BVH of ``kernel`` over ``triangles`` with leaves of at most ``max_leaf``."""
     tris = np.ascontiguousarray(triangles)
     return {
         "format": BVH_FORMAT,
         "build_version": ext.BVH_BUILD_VERSION,
-        "extension_sha256": _extension_sha256(),
+        "extension_sha256": ext.extension_sha256(),
         "kernel": kernel,
         "max_leaf": int(max_leaf),
         "dtype": str(tris.dtype),
