@@ -18,7 +18,7 @@ from tribench import ext
 from tribench.common import Notice, UserError
 from tribench.harness import peers, records, worker
 from tribench.harness.plan import Sweep
-from tribench.workloads import cache, reference
+from tribench.workloads import bvh_cache, cache, reference
 from tribench.workloads.kinds import spec_from_dict
 from tribench.workloads.spec import MeshSpec, workload_id
 
@@ -117,6 +117,9 @@ def test_a_sweep_with_a_bvh_workload_runs_its_native_kernels_through_the_bvh(tmp
     b = batches.loc[batches["workload_id"] == bvh_id]
     assert (b["tests"] == b["loops"] * per_pass).all() and per_pass < len(w.origins) * len(w.triangles)
     assert (b["hits"] == b["loops"] * int(w.hits.sum())).all()
+    # the workers read the kernel's tree from the BVH cache, where the first built it
+    identity = bvh_cache.bvh_identity(NATIVE, w.triangles, ext.default_max_leaf(NATIVE))
+    assert bvh_cache.bvh_path(identity).is_file()
     assert (out / "estimates.csv").is_file()  # the analysis step ran: no speedup against a kernel it lacks
     speedups = pd.read_csv(out / "speedups.csv")
     assert bvh_id not in set(speedups["workload_id"])
@@ -222,6 +225,9 @@ def test_peers_take_a_mesh_file_through_the_bvh(tmp_path, env):
     assert (frame["differ"] == frame["differ_ambiguous"]).all() and (frame["rays_per_s"] > 0).all()
     w = cache.make(peers.camera_spec(design))
     assert len(w.triangles) == 8 and w.hits.any()
+    # tribench's set-up is its tree's build, as recorded in the BVH cache by the process that built it
+    (kernel,) = set(tb["kernel"])
+    assert (tb["setup_ns"] == bvh_cache.cached_bvh(kernel, w.triangles)[1]).all()
     # the command line: a relative path, the file's own triangle count; a missing file is one line
     done = subprocess.run(
         [sys.executable, "-m", "tribench.cli", "peers", "--mesh", "octahedron.obj", "--accel", "bvh"]
