@@ -237,6 +237,25 @@ def test_adopt_refuses_each_broken_invariant(dtype):
     _adopt(b)  # untouched: fine
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64], ids=["f32", "f64"])
+def test_adopt_takes_every_kernels_own_tree_flat_triangles_included(dtype):
+    """Flat triangles' records are no-hit records, not the kernel's arithmetic:
+    adopt must accept them (and only for triangles that are flat)."""
+    tris, o, d = _scene(200, np.float64, seed=5)
+    tris[::7, 2] = tris[::7, 0]  # a repeated vertex
+    tris[3::11] = 0.0  # a point
+    tris = np.ascontiguousarray(tris, dtype)
+    assert ext.flat(tris).sum() >= 40
+    for kernel in KERNELS:
+        b = ext.build_bvh(kernel, tris)
+        _same_answers(_adopt(b), b, o.astype(dtype), d.astype(dtype))
+        records = b.prepared.records.copy()
+        slot = int(np.flatnonzero((b.perm >= 0) & ~ext.flat(tris)[np.maximum(b.perm, 0)])[0])
+        records[slot // 16, :, slot % 16] = np.nan
+        with pytest.raises(UserError, match="not flat a miss"):
+            _adopt(b, records=records)  # a solid triangle made invisible
+
+
 def test_adopt_refuses_a_tree_deeper_than_the_traversal_stack():
     """A chain: inner node i has inner node i + 1 as its left child and a
     one-triangle leaf as its right, 99 levels deep (the traversal's stack: 80)."""
