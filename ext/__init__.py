@@ -107,7 +107,7 @@ __all__ = [
     "TraceBatch",
     "adopt_bvh",
     "build_bvh",
-    "default_max_leaf",
+    "DEFAULT_MAX_LEAF",
     "bvh_kernel_names",
     "bytes_per_triangle",
     "flat",
@@ -1038,17 +1038,26 @@ def _leaves(nodes: np.ndarray) -> np.ndarray:
     return pair[pair[:, 1] > 0]
 
 
-def default_max_leaf(kernel: str) -> int:
-    """The ``max_leaf`` a BVH with ``kernel`` at its leaves gets by default: 16, one native block."""
-    _check_kernel(kernel)
-    return 16
+#: Leaves of at most 32 triangles (two native blocks), measured on every lane width:
+#: ``flock /tmp/tribench-timing.lock python bench/bvh_leaf.py`` (Suzanne, 250,000
+#: triangles, float32, 128x128 camera rays and their 2,750 bounces, every native
+#: kernel, one core of the shared 2-core Xeon). Rays/s over max_leaf 16's, geometric
+#: mean over the 9 kernels, at max_leaf 4 / 8 / 32 / 64:
+#:   AVX-512 (16 lanes) camera 0.582 / 0.697 / 1.073 / 1.077, bounces 0.563 / 0.668 / 1.065 / 1.037;
+#:   AVX2 (8 lanes)     camera 0.603 / 0.778 / 1.037 / 1.067, bounces 0.543 / 0.683 / 1.024 / 1.022;
+#:   SSE (4 lanes)      camera 0.629 / 0.799 / 1.049 / 1.016, bounces 0.636 / 0.750 / 1.055 / 1.057.
+#: Small leaves lose everywhere (a 4-triangle leaf still costs a whole block test, and
+#: the tree has more nodes); 32 is ahead of 16 on every width and ray set, 64 not
+#: consistently ahead of 32: one default for every width. Single kernels move by up to
+#: about 10-30% between neighbouring sizes (one process, 5 rounds, no CIs).
+DEFAULT_MAX_LEAF: int = 32
 
 
-def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int | None = None) -> BVH:
+def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = DEFAULT_MAX_LEAF) -> BVH:
     """Build a BVH over ``triangles`` (K, 3, 3), float32 or float64, finite,
     with ``kernel``'s records at its leaves (one of :func:`bvh_kernel_names`).
 
-    ``max_leaf`` (1..1024): the most triangles in one leaf (default: :func:`default_max_leaf`). Exactly
+    ``max_leaf`` (1..1024): the most triangles in one leaf (default :data:`DEFAULT_MAX_LEAF`). Exactly
     flat triangles become records no ray hits, as
     :func:`prepare` makes them. The same input gives the same tree, bit for bit.
 
@@ -1061,8 +1070,6 @@ def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int | None = None
     _check_kernel(kernel)
     if kernel not in bvh_kernel_names():
         raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(bvh_kernel_names())}")
-    if max_leaf is None:
-        max_leaf = default_max_leaf(kernel)
     if isinstance(max_leaf, bool) or not isinstance(max_leaf, (int, np.integer)):
         raise UserTypeError(f"max_leaf must be an int, got {type(max_leaf).__name__}")
     if not 1 <= max_leaf <= 1024:

@@ -118,7 +118,7 @@ def test_a_sweep_with_a_bvh_workload_runs_its_native_kernels_through_the_bvh(tmp
     assert (b["tests"] == b["loops"] * per_pass).all() and per_pass < len(w.origins) * len(w.triangles)
     assert (b["hits"] == b["loops"] * int(w.hits.sum())).all()
     # the workers read the kernel's tree from the BVH cache, where the first built it
-    identity = bvh_cache.bvh_identity(NATIVE, w.triangles, ext.default_max_leaf(NATIVE))
+    identity = bvh_cache.bvh_identity(NATIVE, w.triangles, ext.DEFAULT_MAX_LEAF)
     assert bvh_cache.bvh_path(identity).is_file()
     assert (out / "estimates.csv").is_file()  # the analysis step ran: no speedup against a kernel it lacks
     speedups = pd.read_csv(out / "speedups.csv")

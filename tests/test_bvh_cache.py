@@ -46,7 +46,7 @@ def _same_answers(a: ext.BVH, b: ext.BVH, o: np.ndarray, d: np.ndarray) -> None:
 
 
 def _path(kernel: str, tris: np.ndarray):
-    return bvh_cache.bvh_path(bvh_cache.bvh_identity(kernel, tris, ext.default_max_leaf(kernel)))
+    return bvh_cache.bvh_path(bvh_cache.bvh_identity(kernel, tris, ext.DEFAULT_MAX_LEAF))
 
 
 def _quiet(kernel, tris):

@@ -67,14 +67,12 @@ def bvh_path(identity: dict[str, Any]) -> Path:
     return cache_dir() / "bvh" / f"bvh-{digest[:16]}.npz"
 
 
-def cached_bvh(kernel: str, triangles: np.ndarray, max_leaf: int | None = None) -> tuple[ext.BVH, int]:
+def cached_bvh(kernel: str, triangles: np.ndarray, max_leaf: int = ext.DEFAULT_MAX_LEAF) -> tuple[ext.BVH, int]:
     """``kernel``'s BVH over ``triangles`` (as :func:`tribench.ext.build_bvh`
-    makes it, ``max_leaf`` defaulting to the kernel's), from the cache if a
+    makes it), from the cache if a
     sound file is there, else built and cached; and how long its build took,
     in ns (when it was built, by whichever process built it).
     """
-    if max_leaf is None:
-        max_leaf = ext.default_max_leaf(kernel)
     if kernel not in ext.bvh_kernel_names():  # before hashing anything
         raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(ext.bvh_kernel_names())}")
     identity = bvh_identity(kernel, triangles, max_leaf)
