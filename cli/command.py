@@ -8,7 +8,6 @@ prints one line to stderr and exits 2, without a traceback.
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
 import functools
 import os
 import signal
@@ -102,7 +101,9 @@ def _print_peak(width: int) -> None:
 
 def _default_run_dir(kind: str = "") -> str:
     """The run folder a command writes when --out is not given: runs/[KIND-]<date-time>."""
-    return f"runs/{kind + '-' if kind else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
+    from tribench.harness.records import default_run_dir
+
+    return default_run_dir(kind)
 
 
 def _new_run_folder(text: str) -> str:
@@ -359,8 +360,8 @@ def _peers(args: argparse.Namespace) -> int:
         except UserError as exc:
             raise UserError(f"wrote {path}, but the analysis step of {run_dir} failed: {exc}") from None
         print(
-            f"wrote {', '.join(derived.tables)} and {runfolder.ANALYSIS} into {run_dir} (the analysis step, "
-            f"as tribench stats)",
+            f"wrote {', '.join(derived.tables)}, {runfolder.GOOGLE_BENCHMARK} and {runfolder.ANALYSIS} into "
+            f"{run_dir} (the analysis step, as tribench stats)",
             file=sys.stderr,
         )
     return 0
@@ -410,7 +411,8 @@ def _stats(args: argparse.Namespace) -> int:
     derived = write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
     print(format_tables(args.run_dir))
     print(
-        f"wrote {', '.join(derived.tables)}, the workload pictures and analysis.json into {args.run_dir}",
+        f"wrote {', '.join(derived.tables)}, google_benchmark.json, the workload pictures and analysis.json "
+        f"into {args.run_dir}",
         file=sys.stderr,
     )
     return 0

@@ -77,7 +77,11 @@ CONCRETE = {
     ],
     "tribench calibrate": ["calibrate --processes 2 --experiments 1 --out {tmp}/cal " + shlex.join(TINY_DESIGN)],
     "tribench report RUN_DIR": ["report {run}"],
-    "tribench compare RUN_A RUN_B": ["compare {run} {run} --out {tmp}/compare.html"],
+    "tribench compare RUN RUN [RUN …] [--out FILE]": [
+        "compare {run} {run} --out {tmp}/compare.html",
+        "compare {run} {run} {run} --out {tmp}/compare3.html",
+    ],
+    "tribench export RUN_DIR [--out FILE]": ["export {run}", "export {run} --out {tmp}/gbench.json"],
 }
 
 
