@@ -316,6 +316,10 @@ def _peers(args: argparse.Namespace) -> int:
     }
     if args.camera:
         changes["width"], changes["height"] = args.camera
+    if args.mesh is not None:
+        changes["mesh"] = args.mesh
+        if args.mesh != "suzanne" and args.triangles is None:
+            changes["triangles"] = None  # the mesh's own count (968 is Suzanne's, the seed's)
     design = replace(design, **changes)
     if args.kernel is not None:
         from tribench import ext
@@ -621,8 +625,8 @@ def build_parser() -> argparse.ArgumentParser:
         "peers",
         help="rays/s of tribench's fastest kernel against trimesh and Embree on the seed's camera, as ratios with CIs",
         description="Times tribench's fastest closest-mode kernel (chosen on a sample of the rays), trimesh's "
-        "intersector and Embree through embreex on Suzanne through a pinhole camera (512x512, float32, closest "
-        "hit): fresh worker processes pinned to one CPU with one BLAS thread, every contender once per "
+        "intersector and Embree through embreex on Suzanne (or --mesh) through a pinhole camera (512x512, float32, "
+        "closest hit): fresh worker processes pinned to one CPU with one BLAS thread, every contender once per "
         "repetition in a random order. Prints rays/s with 95% CIs and tribench's ratios over each peer, "
         "paired by process, and writes peers.csv (into a run folder, the report shows it). Needs "
         "pip install 'tribench[peers]' (embreex, and rtree for trimesh's intersector). About 40 s.",
@@ -642,9 +646,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--camera", metavar="WxH", type=flags.camera, help=f"camera rays (default {full.width}x{full.height})"
     )
     pe.add_argument(
+        "--mesh",
+        metavar="NAME|FILE",
+        help="the mesh: suzanne (default), another built-in mesh, or any mesh file trimesh reads (OBJ, PLY, STL, ...)",
+    )
+    pe.add_argument(
         "--triangles",
         type=flags.positive_int,
-        help=f"Suzanne's triangle count (default {full.triangles}, the seed's mesh)",
+        help=f"the mesh's triangle count (default: {full.triangles} for Suzanne, the seed's mesh; "
+        "any other mesh keeps its own)",
     )
     pe.add_argument(
         "--processes", type=flags.positive_int, help=f"worker processes, the replicates (default {full.processes})"

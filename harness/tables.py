@@ -100,6 +100,8 @@ def family_of(spec: Mapping[str, Any]) -> str:
     mesh = Path(str(spec.get("mesh", "?"))).name
     if spec.get("rays") == "hit_rate":
         rays = f"{spec.get('n_rays')} rays per-ray hit rate {spec.get('hit_rate'):g}"
+    elif spec.get("rays") == "bounce":
+        rays = f"bounces of camera {spec.get('width')}x{spec.get('height')}"
     else:
         rays = f"camera {spec.get('width')}x{spec.get('height')}"
     accel = " bvh" if spec.get("accel") == "bvh" else ""

@@ -28,7 +28,7 @@ What it does, in order:
    ambiguous rays), then calibrates ``loops`` so that one batch takes about
    ``target_ms`` (kept for the whole process; calibration batches are not
    recorded). On a BVH workload (``accel = "bvh"``) each kernel's BVH is
-   built first, once, outside any timed batch; its answers are checked and
+   read first from the BVH cache (built there once per machine), outside any timed batch; its answers are checked and
    its batches timed through the BVH, and a batch's ``tests`` are the
    triangle tests the traversal did (``ns/test`` stays a time per
    ray-triangle test; ``rays x loops / elapsed`` is its rays/s);
@@ -58,7 +58,7 @@ from typing import Any, cast
 import numpy as np
 
 from tribench import ext
-from tribench.workloads import reference
+from tribench.workloads import bvh_cache, reference
 from tribench.workloads.spec import MeshSpec
 
 from .records import BatchRow, CheckRow, ProcessRow, TraversalRow
@@ -529,8 +529,9 @@ def run_job(job: WorkerJob, emit) -> None:
 
 
 def _bvh_job(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, tris: np.ndarray) -> BvhJob:
-    """``kernel``'s BVH over the workload's triangles (this process's copy) and its rays."""
-    bvh = ext.build_bvh(kernel, tris)
+    """``kernel``'s BVH over the workload's triangles (this process's copy) and
+    its rays; from the BVH cache, so a big mesh's tree is built once per machine."""
+    bvh, _ = bvh_cache.cached_bvh(kernel, tris)
     mode = cast(ext.Mode, w.mode)
     hits = bvh.intersect(o, d, mode, t_max=w.t_max).hits
     # just above each hit (the traversal's own 1 + 4 eps), so the null traversal still enters the hit's leaf

@@ -64,10 +64,12 @@ CONCRETE = {
         "sweep --kernels moller_trumbore,curless --hit-rates 0.2,0.8 --pairs 100 --mesh suzanne "
         "--triangles 100,968 --camera 6x6 --out {tmp}/sweep " + shlex.join(TINY_DESIGN)
     ],
-    "tribench peers [--quick] [--accel bvh] [--out RUN_DIR]": [
+    "tribench peers [--quick] [--mesh FILE] [--accel bvh] [--out RUN_DIR]": [
         "peers --quick --camera 8x8 --processes 2 --reps 1 --no-progress --out {run}",
         "peers --quick --accel bvh --triangles 200 --camera 8x8 --processes 2 --reps 1 --no-progress "
         "--out {tmp}/peers.csv",
+        "peers --quick --mesh icosphere --accel bvh --camera 8x8 --processes 1 --reps 1 --no-progress "
+        "--out {tmp}/peers-icosphere.csv",
     ],
     "tribench stats RUN_DIR [--baseline NAME]": ["stats {run}", "stats {run} --baseline curless"],
     "tribench validate [--kernels K …] [--dtype D …] [--quick] [--out FILE.csv]": [
