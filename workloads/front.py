@@ -11,9 +11,9 @@ Every worker process of a sweep checks its culling kernels, so the answer is
 computed once and kept in the workload cache, one file per workload:
 ``<cache>/front/<workload id>.npz`` (a folder of its own: every ``*.npz``
 directly in the cache is a workload). The file is sealed as a workload's is
-(:mod:`~tribench.workloads.cache`: the sha256 of the rest of the file in the
-zip's comment) and names :data:`FRONT_VERSION` and the checksum of the
-workload's arrays it was made from. A file that fails any of these, or whose
+(:func:`~tribench.workloads.cache.sealed_npz`: the sha256 of the rest of the
+file in the zip's comment) and names :data:`FRONT_VERSION` and the checksum of
+the workload's arrays it was made from. A file that fails any of these, or whose
 arrays do not fit the workload, is never used: it is recomputed and rewritten
 with a :class:`~tribench.workloads.cache.CacheWarning`.
 """
@@ -23,7 +23,6 @@ from __future__ import annotations
 import io
 import json
 import warnings
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +30,7 @@ import numpy as np
 from tribench.common import write_bytes
 
 from . import reference
-from .cache import _SEAL_LEN, CacheWarning, _Invalid, _seal, _unsealed, cache_dir
+from .cache import CacheWarning, Invalid, cache_dir, sealed_npz, unsealed
 from .workload import Workload
 
 __all__ = ["FRONT_VERSION", "compute_front_reference", "front_path", "front_reference"]
@@ -77,7 +76,7 @@ def front_reference(w: Workload) -> tuple[np.ndarray, np.ndarray]:
     if path.exists():
         try:
             return _read(path, w)
-        except _Invalid as e:
+        except Invalid as e:
             warnings.warn(f"cache file {path} is invalid ({e}); rebuilding it", CacheWarning, stacklevel=2)
     index, t = compute_front_reference(w)
     _write(path, w, index, t)
@@ -89,25 +88,20 @@ def _meta(w: Workload) -> dict[str, object]:
 
 
 def _write(path: Path, w: Workload, index: np.ndarray, t: np.ndarray) -> None:
-    buf = io.BytesIO()
-    np.savez(buf, meta=np.array(json.dumps(_meta(w))), index=index, t=t)
-    with zipfile.ZipFile(buf, "a") as z:  # the seal is the zip's comment, its last bytes, as cache.py's
-        z.comment = bytes(_SEAL_LEN)
-    body = buf.getvalue()[:-_SEAL_LEN]
-    write_bytes(path, body + _seal(body))
+    write_bytes(path, sealed_npz(_meta(w), {"index": index, "t": t}))
 
 
 def _read(path: Path, w: Workload) -> tuple[np.ndarray, np.ndarray]:
-    data = _unsealed(path)
+    data = unsealed(path)
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
             meta = json.loads(str(npz["meta"][()]))
             index, t = npz["index"], npz["t"]
     except Exception as e:  # garbage under a valid seal
-        raise _Invalid(f"{type(e).__name__}: {e}") from None
+        raise Invalid(f"{type(e).__name__}: {e}") from None
     if meta != _meta(w):
-        raise _Invalid("made from another workload or by another version")
+        raise Invalid("made from another workload or by another version")
     n = len(w.origins)
     if index.shape != (n,) or t.shape != (n,) or index.dtype != np.int64 or t.dtype != np.float64:
-        raise _Invalid("its arrays do not fit the workload")
+        raise Invalid("its arrays do not fit the workload")
     return index, t
