@@ -95,16 +95,24 @@ def run(
     records.check_new_run_dir(Path(out))  # before the estimate, which builds the workloads
     _say(
         log,
-        f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads, "
-        f"{sweep.processes} processes x {sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
+        f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads -> {out}",
     )
-    _say(log, f"{duration.estimate(sweep).line('for the sweep')}, then the peers, the robustness suite and the tables")
+    if sweep.sequential is None:
+        _say(
+            log,
+            f"{duration.estimate(sweep).line('for the sweep')}, then the peers, the robustness suite and the tables",
+        )
+    else:
+        design = sweep.sequential
+        _say(
+            log,
+            f"expected for the sweep: at most about {runner.about(design.budget_s)}: "
+            f"stages of {design.stage} processes "
+            f"x {sweep.rounds} rounds, each kernel stopped once its speedup is known within "
+            f"±{100 * design.target:g}%; then the peers, the robustness suite and the tables",
+        )
     done = runner.start(sweep, out, progress=progress)
-    _say(
-        log,
-        f"{done.batches_run} batches run in {done.elapsed_s:.1f} s; "
-        f"{done.batches_done}/{done.batches_total} in {done.run_dir}",
-    )
+    _say(log, f"{done.batches_run} batches run in {done.elapsed_s:.1f} s -> {done.run_dir}")
     peer_rows = _run_peers(out, quick=quick, progress=progress, log=log) if peers else None
     derived = analysis.write_all(out)
     val_path = Path(out) / runfolder.VALIDATE

@@ -15,7 +15,8 @@ format and must be deliberate.
 Who writes what:
 
 * measured, while the sweep runs (:mod:`~tribench.harness.runner`):
-  :data:`RUN`, :data:`BATCHES`, :data:`PROCESSES`, :data:`CHECKS`;
+  :data:`RUN`, :data:`BATCHES`, :data:`PROCESSES`, :data:`CHECKS`, and
+  :data:`STAGES` for a sequential sweep;
   ``peers.csv`` by ``tribench peers --out RUN_DIR`` (or ``tribench run``);
 * derived, by the analysis step at the end of ``tribench run`` and by
   ``tribench stats RUN_DIR`` on demand (:func:`tribench.harness.analysis.write_all`):
@@ -58,6 +59,7 @@ __all__ = [
     "SEED_WORKLOADS",
     "SLOPES",
     "SPEEDUPS",
+    "STAGES",
     "SWEEP_FILE",
     "VALIDATE",
     "VARIANCE",
@@ -78,6 +80,9 @@ BATCHES = "batches.csv"
 PROCESSES = "processes.csv"
 CHECKS = "checks.csv"
 PEERS = "peers.csv"
+#: A sequential sweep's stages (tribench.harness.stages): per stage its processes and the
+#: comparisons still open, recorded before it runs; ``end``: why the sweep stopped.
+STAGES = "stages.json"
 #: An A/A calibration's record (``tribench calibrate --out RUN_DIR``).
 CALIBRATION = "calibration.json"
 
