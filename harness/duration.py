@@ -23,7 +23,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from .plan import Sweep
+from .plan import Sweep, is_bvh
 from .runner import about
 
 __all__ = ["Estimate", "estimate", "measure_passes", "model"]
@@ -35,7 +35,8 @@ START_S = 0.5
 #: 8 ms batches, 10 ms of it calibration.
 CHECK_S = 0.007
 #: A culling kernel is checked against the front-face reference, computed by
-#: NumPy in every process on closest and any-hit workloads: 0.6-0.9 us per test.
+#: NumPy in every process on brute-force any-hit workloads: 0.6-0.9 us per test
+#: (closest-hit ones take it from the two-sided reference, worker._front_reference).
 REFERENCE_NS_PER_TEST = 600.0
 #: The runner's time per batch outside the timed loop (plan.py: 80-150 us).
 BATCH_OVERHEAD_S = 150e-6
@@ -97,7 +98,7 @@ def model(sweep: Sweep, tests: Mapping[str, int], pass_s: Mapping[tuple[str, str
             lengths.append(batch)
             # calibration doubles loops up to a quarter of the target, then times 3 batches
             setup += CHECK_S + one + max(1.25 * target, 4 * one)
-            if spec.mode != "pairs" and ext.kernel_info(kernel).culls_back_faces:
+            if spec.mode == "any" and not is_bvh(spec) and ext.kernel_info(kernel).culls_back_faces:
                 setup += REFERENCE_NS_PER_TEST * 1e-9 * tests[wid]
             batches_s += per_pair * (batch + BATCH_OVERHEAD_S)
     return Estimate(

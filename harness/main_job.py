@@ -114,7 +114,7 @@ def run(
     done = runner.start(sweep, out, progress=progress)
     _say(log, f"{done.batches_run} batches run in {done.elapsed_s:.1f} s -> {done.run_dir}")
     peer_rows = _run_peers(out, quick=quick, progress=progress, log=log) if peers else None
-    derived = analysis.write_all(out)
+    derived = analysis.write_all(out, validate_quick=quick)  # quick: the robustness suite at its quick sizes
     val_path = Path(out) / runfolder.VALIDATE
     val = (
         pd.read_csv(val_path) if val_path.is_file() else pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE]))

@@ -66,6 +66,7 @@ __all__ = [
     "default_sweep",
     "main_job_kernels",
     "expand_workloads",
+    "is_bvh",
     "load_sweep_file",
     "plan",
     "process_seed",
@@ -119,7 +120,7 @@ def _spec_types() -> tuple[type, ...]:
     return (PairSpec, MeshSpec, SeedSpec)
 
 
-def _is_bvh(spec: Spec) -> bool:
+def is_bvh(spec: Spec) -> bool:
     """Whether the workload runs through a BVH (a mesh spec's ``accel``)."""
     return isinstance(spec, MeshSpec) and spec.accel == "bvh"
 
@@ -275,7 +276,7 @@ class Sweep:
             raise UserError(f"sequential must be a Sequential design, got {type(self.sequential).__name__}")
         for spec in self.workloads:
             if not self.kernels_for(spec):
-                if _is_bvh(spec):
+                if is_bvh(spec):
                     raise UserError(
                         f"no kernel of the sweep can be a BVH's leaf test ({spec.summary()}): "
                         f"add one of {', '.join(ext.bvh_kernel_names())}, or make the workload with accel brute"
@@ -319,7 +320,7 @@ class Sweep:
         from tribench import ext
 
         chosen = self.workload_kernels[self.workloads.index(spec)] if self.workload_kernels else self.kernels
-        leaf = ext.bvh_kernel_names() if _is_bvh(spec) else self.kernels
+        leaf = ext.bvh_kernel_names() if is_bvh(spec) else self.kernels
         return tuple(k for k in self.kernels if k in chosen and spec.mode in ext.kernel_info(k).modes and k in leaf)
 
     def reference_of(self, spec: Spec, baseline: str) -> str:

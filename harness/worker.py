@@ -180,10 +180,12 @@ def time_job(job: ext.Job | BvhJob, loops: int) -> ext.Batch:
 
 def _front_reference(w: Any) -> tuple[np.ndarray, np.ndarray]:
     """The front-face-only closest hits of a mesh workload, from its two-sided
-    reference: a ray whose closest hit is a front face keeps it; brute force
-    (float64) only for the rays whose closest hit is a back face (few, on a
-    closed mesh seen from outside), so a BVH workload of a million triangles
-    never meets an every-ray-against-every-triangle reference."""
+    reference: a ray whose closest hit is a front face keeps it (it is also the
+    closest front face, the lowest index among equal t); brute force (float64)
+    only for the rays whose closest hit is a back face (few, on a closed mesh
+    seen from outside), so a BVH workload of a million triangles never meets an
+    every-ray-against-every-triangle reference, and a culling kernel's check on
+    a brute-force mesh costs milliseconds instead of 0.6 us per test."""
     index, t = w.ref_index.copy(), w.ref_t.copy()
     rows = np.flatnonzero(index >= 0)
     t_max = None if w.t_max is None else w.t_max[rows]
@@ -231,7 +233,7 @@ def one_pass_checksum(kernel: str, workload: Any, bvh: ext.BVH | None = None) ->
         args = (w.origins, w.directions, w.triangles)
         if w.mode == "pairs":
             ref_hits = reference.intersect_pairs(*args, t_max=w.t_max, front_only=True).hit
-        elif bvh is not None:
+        elif bvh is not None or w.mode != "any":  # closest modes: from the two-sided reference
             ref_index, ref_t = _front_reference(w)
             ref_hits = ref_index >= 0
         else:
