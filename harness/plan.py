@@ -89,14 +89,15 @@ DEFAULT_TARGET_MS = 8.0
 
 # Bounds of a sweep, so a typo (--rounds 1000000000) is refused before anything
 # is allocated. The plan is a list of BatchKey (about 150 bytes each), and the
-# main job (`tribench run`) has 10,500 batches. A million batches is about
-# 150 MB of plan and 2.3 hours of timed batches alone at the default 8 ms per
-# batch, 100x the main job: past that, a study is several sweeps.
+# main job (`tribench run`) plans at most 31,440 batches (60 processes; its
+# stages run a part of them). A million batches is about 150 MB of plan and
+# 2.3 hours of timed batches alone at the default 8 ms per batch: past that,
+# a study is several sweeps.
 MAX_BATCHES = 1_000_000
 MAX_PROCESSES = 10_000  # each process costs about 5 s of start-up and checks: 14 hours
 MAX_ROUNDS = 100_000
 MAX_WARMUP = 1_000
-MAX_WORKLOADS = 1_000  # each is generated, cached and calibrated in every process (the main job has 25)
+MAX_WORKLOADS = 1_000  # each is generated, cached and calibrated in every process (the main job has 13)
 _WHY = {
     "processes": " (each process costs about 5 s of start-up and checks)",
     "batches": f" (about {MAX_BATCHES * DEFAULT_TARGET_MS / 3.6e6:.1f} hours of timed batches at the "
@@ -109,7 +110,7 @@ def check_workload_count(n: int) -> None:
     if n > MAX_WORKLOADS:
         raise UserError(
             f"the sweep has {n:,} workloads; at most {MAX_WORKLOADS:,} (each is generated, cached "
-            f"and calibrated in every process; the main job has 25): split it into several sweeps"
+            f"and calibrated in every process; the main job has 13): split it into several sweeps"
         )
 
 
@@ -377,10 +378,10 @@ class Sweep:
 #: (about 40 s), the robustness suite and the tables; ``--quick`` keeps 1 minute.
 MAIN_JOB_DESIGN = {
     False: Sequential(stage=4, target=0.02, budget_s=330.0),
-    True: Sequential(stage=3, target=0.05, budget_s=20.0),
+    True: Sequential(stage=3, target=0.05, budget_s=15.0),
 }
 #: Triangles of the main job's BVH workload (issue #19: at least 250,000), and of ``--quick``'s.
-MAIN_JOB_BVH_TRIANGLES = {False: 250_000, True: 20_000}
+MAIN_JOB_BVH_TRIANGLES = {False: 250_000, True: 10_000}
 
 
 def main_job_kernels() -> dict[str, tuple[str, ...]]:
@@ -425,7 +426,7 @@ def default_sweep(quick: bool = False) -> Sweep:
     sequential stages put the rest into processes, which carry the
     between-layout variance. ``quick`` keeps every kernel on fewer workloads
     (pairs at 0, 50 and 100% in float32, the small camera in both precisions, a
-    20,000-triangle BVH) with 1 ms batches, stopping at ±5% or 20 s.
+    10,000-triangle BVH) with 1 ms batches, stopping at ±5% or 15 s.
     """
     from tribench.workloads.spec import MeshSpec, PairSpec
 

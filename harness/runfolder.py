@@ -73,6 +73,8 @@ __all__ = [
 
 #: Written once at the start of a sweep: sweep, plan seeds, machine, build, margin, and the
 #: throughput probes' rates (key ``throughput``: tribench.harness.peak.throughput_record).
+#: A sequential sweep writes it again when its stages end: ``n_batches`` becomes the
+#: batches they ran, and ``n_batches_most`` keeps the most its plan held.
 RUN = "run.json"
 #: Held by the one process writing the folder.
 LOCK = ".lock"

@@ -441,6 +441,11 @@ def _execute_stages(
         ) from None
     say(f"stopped: {data['end']}")
     done = len(done_keys(run_dir, record))
+    if record["n_batches"] != done:
+        # the stages are over: what they ran is the run's whole plan now (a reader that
+        # compares n_batches with batches.csv sees a finished run), the most it could have run beside it
+        record.update(n_batches=done, n_batches_most=record.get("n_batches_most", record["n_batches"]))
+        records.write_run(run_dir, record)
     return RunResult(run_dir, record["n_batches"], done, ran, time.monotonic() - t0)
 
 

@@ -71,6 +71,9 @@ def test_each_stage_runs_exactly_the_comparisons_still_wide(finished):
             assert stage["open"].get(wid, []) == (["moller_seed", *wide] if wide else []), (i, wid)
     # the batches are keys of the plan, and not all of it: something stopped early
     assert set(runner.done_keys(finished)) < set(plan(s))
+    # once the stages end, run.json says how many batches the run is (and the most it could have been)
+    run = records.read_run(finished)
+    assert (run["n_batches"], run["n_batches_most"]) == (len(batches), len(plan(s)))
 
 
 def test_the_stopped_comparisons_end_narrow_and_the_tables_pair_what_ran(finished, cache):
@@ -103,10 +106,13 @@ def test_a_sweep_cut_mid_stage_resumes_to_the_same_batches(finished, tmp_path):
     kept = batches.loc[batches["process"] != last]
     kept.to_csv(run_dir / runfolder.BATCHES, index=False)
     stages.write_stages(run_dir, {"stages": record["stages"], "end": None})
+    run = records.read_run(run_dir)
+    records.write_run(run_dir, {**run, "n_batches": run["n_batches_most"]})  # as it was before the end
     done = runner.resume(run_dir, progress=False)
     assert done.batches_run == len(batches) - len(kept) > 0
     assert set(runner.done_keys(run_dir)) == keys
     assert stages.read_stages(run_dir) == record  # the same end, decided the same way
+    assert records.read_run(run_dir) == records.read_run(finished)
 
 
 def test_an_ordinary_sweep_keeps_its_run_record_and_the_new_fields_round_trip():
