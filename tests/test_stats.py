@@ -441,6 +441,24 @@ def test_narrow_comparisons_is_the_width_rule_per_workload():
     assert stats.narrow_comparisons(table, {"w0": "k9", "w1": "base"}, 1.0) == {("w1", "k1"), ("w1", "k2")}
 
 
+@settings(derandomize=True, max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    low=st.floats(0.001, 0.2),
+    high=st.floats(0.001, 0.2),
+    scale=st.floats(0.01, 100.0),
+)
+def test_narrow_comparisons_grow_with_the_target_and_ignore_units(seed, low, high, scale):
+    sim = simulate(1, (1.1, 0.9, 1.0), seed=seed % 10_000, processes=9, rounds=4, warmup_rounds=1)
+    table = stats.per_process(batches_of(sim, 0))
+    refs = {"w": "base"}
+    small, large = sorted((low, high))
+    assert stats.narrow_comparisons(table, refs, small) <= stats.narrow_comparisons(table, refs, large)
+    # a width is relative: the same run timed in other units stops the same comparisons
+    scaled = table.assign(ns_per_test=table["ns_per_test"] * scale)
+    assert stats.narrow_comparisons(scaled, refs, large) == stats.narrow_comparisons(table, refs, large)
+
+
 def test_aa_summary_on_honest_and_on_naive_intervals():
     sim = simulate(1000, (1.0,), seed=404)
     medians = process_medians(sim)
