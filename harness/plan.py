@@ -488,12 +488,13 @@ def plan(sweep: Sweep) -> list[BatchKey]:
     [-1, -1, 0, 0, 1, 1]
     """
     keys = []
+    kernel_sets = [sweep.kernels_for(spec) for spec in sweep.workloads]  # once: it asks the registry
     for p in range(sweep.processes):
         rng = np.random.default_rng(process_seed(sweep.seed, p))
         for w in rng.permutation(len(sweep.workloads)):
             wid = sweep.workload_ids[w]
             for r in range(-sweep.warmup, sweep.rounds):
-                kernels = sweep.kernels_for(sweep.workloads[w])
+                kernels = kernel_sets[w]
                 order = rng.permutation(len(kernels))
                 keys += [BatchKey(p, wid, r, pos, kernels[k]) for pos, k in enumerate(order)]
     return keys
