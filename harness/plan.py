@@ -377,7 +377,7 @@ class Sweep:
 #: (the 250,000-triangle mesh and its reference, about a minute), the peers
 #: (about 40 s), the robustness suite and the tables; ``--quick`` keeps 1 minute.
 MAIN_JOB_DESIGN = {
-    False: Sequential(stage=4, target=0.02, budget_s=330.0),
+    False: Sequential(stage=2, target=0.02, budget_s=330.0),
     True: Sequential(stage=3, target=0.05, budget_s=15.0),
 }
 #: Triangles of the main job's BVH workload (issue #19: at least 250,000), and of ``--quick``'s.
@@ -417,7 +417,7 @@ def default_sweep(quick: bool = False) -> Sweep:
       native form as the leaf test.
 
     A sequential design (:class:`Sequential`, :data:`MAIN_JOB_DESIGN`): processes
-    run 4 at a time, and after each stage every kernel whose speedup over the
+    run 2 at a time, and after each stage every kernel whose speedup over the
     baseline (``moller_seed``; on the BVH workload, its first native kernel) is
     known within ±2% stops, so the processes go where the intervals are wide,
     until every comparison is narrow, 60 processes, or 330 s of sweep. 3 rounds
