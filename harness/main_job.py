@@ -106,7 +106,7 @@ def run(
         design = sweep.sequential
         _say(
             log,
-            f"expected for the sweep: at most about {runner.about(design.budget_s)}: "
+            f"expected for the sweep: at most about {_seconds(design.budget_s)}: "
             f"stages of {design.stage} processes "
             f"x {sweep.rounds} rounds, each kernel stopped once its speedup is known within "
             f"±{100 * design.target:g}%; then the peers, the robustness suite and the tables",
@@ -128,6 +128,11 @@ def run(
             f"promises broken -> {val_path}",
         )
     return MainResult(Path(out), derived.estimates, derived.speedups, val, peer_rows, done, derived.tables)
+
+
+def _seconds(seconds: float) -> str:
+    """A budget as said: ``15 s`` exactly below a minute and a half, else :func:`runner.about`'s words."""
+    return f"{seconds:.0f} s" if seconds < 90 else runner.about(seconds)
 
 
 def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO | None = None) -> pd.DataFrame | None:
