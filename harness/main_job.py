@@ -106,7 +106,7 @@ def run(
         design = sweep.sequential
         _say(
             log,
-            f"expected for the sweep: at most about {_seconds(design.budget_s)}: "
+            f"expected for the sweep: about {_seconds(design.budget_s)} at most: "
             f"stages of {design.stage} processes "
             f"x {sweep.rounds} rounds, each kernel stopped once its speedup is known within "
             f"±{100 * design.target:g}%; then the peers, the robustness suite and the tables",
