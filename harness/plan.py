@@ -89,7 +89,7 @@ DEFAULT_TARGET_MS = 8.0
 
 # Bounds of a sweep, so a typo (--rounds 1000000000) is refused before anything
 # is allocated. The plan is a list of BatchKey (about 150 bytes each), and the
-# main job (`tribench run`) plans at most 31,440 batches (60 processes; its
+# main job (`tribench run`) plans at most 18,864 batches (36 processes; its
 # stages run a part of them). A million batches is about 150 MB of plan and
 # 2.3 hours of timed batches alone at the default 8 ms per batch: past that,
 # a study is several sweeps.
@@ -421,7 +421,7 @@ def default_sweep(quick: bool = False) -> Sweep:
     run 2 at a time, and after each stage every kernel whose speedup over the
     baseline (``moller_seed``; on the BVH workload, its first native kernel) is
     known within ±2% stops, so the processes go where the intervals are wide,
-    until every comparison is narrow, 60 processes, or 300 s of sweep. 3 rounds
+    until every comparison is narrow, 36 processes, or 300 s of sweep. 3 rounds
     per process: a process costs about 10 rounds of all its workloads, and the
     ratios vary most between rounds on pairs (8%) and 3-4% on meshes; the
     sequential stages put the rest into processes, which carry the
@@ -455,7 +455,7 @@ def default_sweep(quick: bool = False) -> Sweep:
     return Sweep(
         kernels,
         (*pairs, *meshes, bvh),
-        processes=60,
+        processes=36,  # a bound the budget reaches first: about 12 s a process on 2 cores
         rounds=2 if quick else 3,
         warmup=1,
         target_ms=1.0 if quick else DEFAULT_TARGET_MS,
