@@ -8,7 +8,6 @@ prints one line to stderr and exits 2, without a traceback.
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
 import functools
 import os
 import signal
@@ -102,7 +101,9 @@ def _print_peak(width: int) -> None:
 
 def _default_run_dir(kind: str = "") -> str:
     """The run folder a command writes when --out is not given: runs/[KIND-]<date-time>."""
-    return f"runs/{kind + '-' if kind else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
+    from tribench.harness.records import default_run_dir
+
+    return default_run_dir(kind)
 
 
 def _new_run_folder(text: str) -> str:
@@ -315,6 +316,10 @@ def _peers(args: argparse.Namespace) -> int:
     }
     if args.camera:
         changes["width"], changes["height"] = args.camera
+    if args.mesh is not None:
+        changes["mesh"] = args.mesh
+        if args.mesh != "suzanne" and args.triangles is None:
+            changes["triangles"] = None  # the mesh's own count (968 is Suzanne's, the seed's)
     design = replace(design, **changes)
     if args.kernel is not None:
         from tribench import ext
@@ -355,8 +360,8 @@ def _peers(args: argparse.Namespace) -> int:
         except UserError as exc:
             raise UserError(f"wrote {path}, but the analysis step of {run_dir} failed: {exc}") from None
         print(
-            f"wrote {', '.join(derived.tables)} and {runfolder.ANALYSIS} into {run_dir} (the analysis step, "
-            f"as tribench stats)",
+            f"wrote {', '.join(derived.tables)}, {runfolder.GOOGLE_BENCHMARK} and {runfolder.ANALYSIS} into "
+            f"{run_dir} (the analysis step, as tribench stats)",
             file=sys.stderr,
         )
     return 0
@@ -406,7 +411,8 @@ def _stats(args: argparse.Namespace) -> int:
     derived = write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
     print(format_tables(args.run_dir))
     print(
-        f"wrote {', '.join(derived.tables)}, the workload pictures and analysis.json into {args.run_dir}",
+        f"wrote {', '.join(derived.tables)}, google_benchmark.json, the workload pictures and analysis.json "
+        f"into {args.run_dir}",
         file=sys.stderr,
     )
     return 0
@@ -619,8 +625,8 @@ def build_parser() -> argparse.ArgumentParser:
         "peers",
         help="rays/s of tribench's fastest kernel against trimesh and Embree on the seed's camera, as ratios with CIs",
         description="Times tribench's fastest closest-mode kernel (chosen on a sample of the rays), trimesh's "
-        "intersector and Embree through embreex on Suzanne through a pinhole camera (512x512, float32, closest "
-        "hit): fresh worker processes pinned to one CPU with one BLAS thread, every contender once per "
+        "intersector and Embree through embreex on Suzanne (or --mesh) through a pinhole camera (512x512, float32, "
+        "closest hit): fresh worker processes pinned to one CPU with one BLAS thread, every contender once per "
         "repetition in a random order. Prints rays/s with 95% CIs and tribench's ratios over each peer, "
         "paired by process, and writes peers.csv (into a run folder, the report shows it). Needs "
         "pip install 'tribench[peers]' (embreex, and rtree for trimesh's intersector). About 40 s.",
@@ -640,9 +646,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--camera", metavar="WxH", type=flags.camera, help=f"camera rays (default {full.width}x{full.height})"
     )
     pe.add_argument(
+        "--mesh",
+        metavar="NAME|FILE",
+        help="the mesh: suzanne (default), another built-in mesh, or any mesh file trimesh reads (OBJ, PLY, STL, ...)",
+    )
+    pe.add_argument(
         "--triangles",
         type=flags.positive_int,
-        help=f"Suzanne's triangle count (default {full.triangles}, the seed's mesh)",
+        help=f"the mesh's triangle count (default: {full.triangles} for Suzanne, the seed's mesh; "
+        "any other mesh keeps its own)",
     )
     pe.add_argument(
         "--processes", type=flags.positive_int, help=f"worker processes, the replicates (default {full.processes})"

@@ -1,6 +1,6 @@
-"""``tribench report`` and ``tribench compare``: subcommands for the harness's CLI.
+"""``tribench report``, ``tribench compare`` and ``tribench export``: subcommands for the harness's CLI.
 
-:func:`add_parser` adds both to the ``tribench`` sub-parsers. Handlers import
+:func:`add_parser` adds them to the ``tribench`` sub-parsers. Handlers import
 the heavy modules when they run, return an exit code, and turn a user error
 into one line on stderr and exit code 2.
 """
@@ -14,7 +14,7 @@ from tribench.common import UserError, write_text
 
 from . import flags
 
-__all__ = ["add_parser", "report_main", "compare_main"]
+__all__ = ["add_parser", "report_main", "compare_main", "export_main"]
 
 
 def _error(command: str, exc: BaseException) -> int:
@@ -41,24 +41,45 @@ def report_main(args: argparse.Namespace) -> int:
 
 
 def compare_main(args: argparse.Namespace) -> int:
-    """Print the ratio-of-speedups table of two runs and write it as an HTML page."""
-    from tribench.reports.compare import compare_runs, format_comparison, render_compare
+    """Print the comparison of N runs and write it as an HTML page."""
+    from tribench.reports.compare import compare, format_compare_text, render_compare, run_tags
     from tribench.reports.rundata import load_run
 
     try:
-        a, b = load_run(args.run_a), load_run(args.run_b)
-        result = compare_runs(a, b)
+        run_tags(len(args.runs))  # the count first, before reading any folder
+        runs = [load_run(r) for r in args.runs]
+        many, pair = compare(runs)
     except (UserError, FileNotFoundError) as exc:
         return _error("compare", exc)
     from pathlib import Path
 
-    out = Path(args.out) if args.out else b.run_dir / "compare.html"
-    print(format_comparison(a, b, result))
+    out = Path(args.out) if args.out else runs[-1].run_dir / "compare.html"
+    print(format_compare_text(runs, many, pair))
     try:
-        write_text(out, render_compare(a, b, result))
+        write_text(out, render_compare(runs, many, pair))
     except UserError as exc:
         return _error("compare", exc)
     print(f"wrote {out}", file=sys.stderr)
+    return 0
+
+
+def export_main(args: argparse.Namespace) -> int:
+    """Print (or write to ``--out``) the run's estimates and speedups in Google Benchmark's JSON format."""
+    from tribench.harness import export
+    from tribench.reports.rundata import load_run
+
+    try:
+        data = load_run(args.run_dir)
+        margin = {"value": data.margin, "source": data.margin_source}
+        text = export.dumps(export.google_benchmark(data.run, data.tables, data.baseline, margin))
+        if args.out:
+            write_text(args.out, text)
+    except UserError as exc:
+        return _error("export", exc)
+    if args.out:
+        print(f"wrote {args.out}", file=sys.stderr)
+    else:
+        sys.stdout.write(text)
     return 0
 
 
@@ -85,17 +106,30 @@ def add_parser(subparsers) -> None:
 
     cmp_ = subparsers.add_parser(
         "compare",
-        help="the same kernels on two runs: ratio of speedups (B / A) with CIs",
-        description="For each workload and kernel present in both runs (same baseline), the ratio of the "
-        "two runs' speedups with a Welch confidence interval (the runs are independent), and each "
-        "kernel's time ratio. Prints a table and writes an HTML page (default RUN_B/compare.html).",
+        help="the same kernels on N runs (N machines): speedups with CIs, rankings that hold on every one",
+        description="For N >= 2 runs with the same baseline (runs A, B, C... in the order given): per workload "
+        "in every run, a machine x kernel table of speedups over the baseline with each run's confidence "
+        "intervals, and which orders of two kernels hold on every machine (significant and the same in every "
+        "run). For two runs, also the ratio of their speedups with a Welch interval (the runs are independent) "
+        "and each kernel's time ratio. Prints the tables and writes an HTML page (default LAST_RUN/compare.html).",
     )
-    cmp_.add_argument("run_a", metavar="RUN_A", type=flags.existing_folder)
-    cmp_.add_argument("run_b", metavar="RUN_B", type=flags.existing_folder)
+    cmp_.add_argument("runs", metavar="RUN", nargs="+", type=flags.existing_folder, help="run folders, 2 to 26")
     cmp_.add_argument(
-        "--out", metavar="FILE", type=flags.output_file, help="HTML file to write (default RUN_B/compare.html)"
+        "--out", metavar="FILE", type=flags.output_file, help="HTML file to write (default LAST_RUN/compare.html)"
     )
     cmp_.set_defaults(func=compare_main)
+
+    exp = subparsers.add_parser(
+        "export",
+        help="the run's estimates and speedups with CIs and the machine record, as Google Benchmark JSON",
+        description="Reads a run folder's tables (as `tribench report` does: missing or stale ones are refused "
+        "with the `tribench stats` command that makes them) and prints every estimate and speedup with its "
+        "confidence interval, and the machine record, in Google Benchmark's JSON format (context + benchmarks; "
+        "its tools/compare.py reads it). The analysis step writes the same file as RUN_DIR/google_benchmark.json.",
+    )
+    exp.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder)
+    exp.add_argument("--out", metavar="FILE", type=flags.output_file, help="file to write (default: standard output)")
+    exp.set_defaults(func=export_main)
 
 
 def main(argv: list[str] | None = None) -> int:

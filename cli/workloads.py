@@ -14,6 +14,7 @@ Examples
     tribench workloads make pairs --n 10000 --hit-rate 0.3 --miss-mix uniform
     tribench workloads make suzanne --triangles 5000            # camera rays
     tribench workloads make icosphere --hit-rate 0.5 --n-rays 4096
+    tribench workloads make suzanne --rays bounce --triangles 5000  # secondary rays
     tribench workloads make ~/meshes/bunny.ply --triangles 20000
     tribench workloads list
     tribench workloads show mesh-3f2a --png suzanne.png
@@ -63,7 +64,7 @@ def parse_miss_mix(text: str) -> str | dict[str, float]:
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Add the ``workloads`` command (``make``, ``list``, ``show``) to ``subparsers``."""
-    from tribench.workloads.spec import ACCELS
+    from tribench.workloads.spec import ACCELS, RAY_SETS
 
     parser = subparsers.add_parser(
         "workloads",
@@ -80,7 +81,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description="KIND is 'pairs' (N independent ray-triangle pairs at a per-test hit rate), "
         "a built-in mesh (suzanne, icosphere, uvsphere, soup, heightfield) or the path of a mesh "
         "file trimesh reads. Meshes get the seed's camera rays unless --hit-rate or --n-rays asks "
-        "for rays at a per-ray hit rate.",
+        "for rays at a per-ray hit rate, or --rays bounce for one diffuse bounce from each camera hit.",
     )
     make.add_argument("kind", metavar="KIND")
     pairs = make.add_argument_group("pairs")
@@ -97,7 +98,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     pairs.add_argument("--offset", type=float, help="distance moved from the origin (default 0)")
     mesh = make.add_argument_group("meshes")
     mesh.add_argument("--triangles", type=int, help="exact triangle count (default: the base mesh)")
-    mesh.add_argument("--rays", choices=("camera", "hit_rate"), help="default camera")
+    mesh.add_argument(
+        "--rays",
+        choices=RAY_SETS,
+        help="default camera; bounce: one cosine-distributed bounce from each camera hit (incoherent secondary rays)",
+    )
     mesh.add_argument("--n-rays", type=int, help="rays at a per-ray hit rate (default 4096)")
     mesh.add_argument("--width", type=int, help="camera width in pixels (default 512)")
     mesh.add_argument("--height", type=int, help="camera height in pixels (default 512)")

@@ -71,6 +71,8 @@ Examples
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
 from dataclasses import dataclass
 from fractions import Fraction
@@ -95,13 +97,17 @@ __all__ = [
     "UserError",
     "UserTypeError",
     "build_info",
+    "extension_sha256",
     "BVH",
     "COUNT_NAMES",
     "MAX_BVH_BATCH_RAYS",
     "MAX_BVH_TRIANGLES",
+    "BVH_BUILD_VERSION",
     "Trace",
     "TraceBatch",
+    "adopt_bvh",
     "build_bvh",
+    "DEFAULT_MAX_LEAF",
     "bvh_kernel_names",
     "bytes_per_triangle",
     "flat",
@@ -277,6 +283,14 @@ def build_info() -> dict:
     """How the extension was built: compiler, exact flags, FMA and fast-math
     macros, and the resolution of the clock that times batches."""
     return dict(_core.build_info())
+
+
+@functools.cache
+def extension_sha256() -> str:
+    """The sha256 of the compiled extension's file: which build of the C code
+    this is (any change to a kernel, its records or the BVH build changes it)."""
+    with open(_core.__file__, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
 
 
 def bytes_per_triangle(kernel: str, dtype: np.dtype | type | str) -> int:
@@ -843,6 +857,8 @@ COUNT_NAMES: tuple[str, ...] = ("nodes", "box_tests", "leaves", "triangle_tests"
 #: The most triangles one BVH takes; the most rays x loops one timed BVH batch traces.
 MAX_BVH_TRIANGLES: int = _core.MAX_BVH_TRIANGLES
 MAX_BVH_BATCH_RAYS: int = _core.MAX_BVH_BATCH_RAYS
+#: The version of the tree ext/bvh.h builds (bumped when it changes; the BVH cache names files by it).
+BVH_BUILD_VERSION: int = _core.BVH_BUILD_VERSION
 
 
 class Trace(NamedTuple):
@@ -1022,12 +1038,27 @@ def _leaves(nodes: np.ndarray) -> np.ndarray:
     return pair[pair[:, 1] > 0]
 
 
-def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = 16) -> BVH:
+#: Leaves of at most 32 triangles (two native blocks), measured on every lane width:
+#: ``flock /tmp/tribench-timing.lock python bench/bvh_leaf.py`` (Suzanne, 250,000
+#: triangles, float32, 128x128 camera rays and their 2,750 bounces, every native
+#: kernel, one core of the shared 2-core Xeon). Rays/s over max_leaf 16's, geometric
+#: mean over the 9 kernels, at max_leaf 4 / 8 / 32 / 64:
+#:   AVX-512 (16 lanes) camera 0.582 / 0.697 / 1.073 / 1.077, bounces 0.563 / 0.668 / 1.065 / 1.037;
+#:   AVX2 (8 lanes)     camera 0.603 / 0.778 / 1.037 / 1.067, bounces 0.543 / 0.683 / 1.024 / 1.022;
+#:   SSE (4 lanes)      camera 0.629 / 0.799 / 1.049 / 1.016, bounces 0.636 / 0.750 / 1.055 / 1.057.
+#: Small leaves lose everywhere (a 4-triangle leaf still costs a whole block test, and
+#: the tree has more nodes); 32 is ahead of 16 on every width and ray set, 64 not
+#: consistently ahead of 32: one default for every width. Single kernels move by up to
+#: about 10-30% between neighbouring sizes (one process, 5 rounds, no CIs).
+DEFAULT_MAX_LEAF: int = 32
+
+
+def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = DEFAULT_MAX_LEAF) -> BVH:
     """Build a BVH over ``triangles`` (K, 3, 3), float32 or float64, finite,
     with ``kernel``'s records at its leaves (one of :func:`bvh_kernel_names`).
 
-    ``max_leaf`` (1..1024): the most triangles in one leaf; 16 fills one
-    native block. Exactly flat triangles become records no ray hits, as
+    ``max_leaf`` (1..1024): the most triangles in one leaf (default :data:`DEFAULT_MAX_LEAF`). Exactly
+    flat triangles become records no ray hits, as
     :func:`prepare` makes them. The same input gives the same tree, bit for bit.
 
     >>> import numpy as np
@@ -1063,7 +1094,69 @@ def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = 16) -> BVH:
     info = kernel_info(kernel)
     records = np.empty((n_slots // info.lanes, info.stride, info.lanes), dtype=tris.dtype)
     _core.prepare(kernel, tris.itemsize, in_slots, n_slots, records, is_flat)
+    return _frozen_bvh(kernel, tris, nodes, perm, records, int(max_leaf))
+
+
+def _frozen_bvh(kernel: str, tris: np.ndarray, nodes: np.ndarray, perm: np.ndarray, records: np.ndarray, max_leaf: int):
     view = tris.view()
     for a in (view, nodes, perm, records):
         a.flags.writeable = False
-    return BVH(kernel, view, nodes, perm, Prepared(kernel, records, n_slots), int(max_leaf))
+    return BVH(kernel, view, nodes, perm, Prepared(kernel, records, len(perm)), max_leaf)
+
+
+def adopt_bvh(
+    kernel: str, triangles: np.ndarray, nodes: np.ndarray, perm: np.ndarray, records: np.ndarray, max_leaf: int
+) -> BVH:
+    """A :class:`BVH` from arrays made elsewhere (a cache file): the
+    ``nodes``, ``perm`` and ``prepared.records`` of a :func:`build_bvh` over
+    the same ``triangles`` with the same ``kernel`` and ``max_leaf``.
+
+    Nothing is trusted. The C layer checks every structural invariant of the
+    tree before it can be traversed (node order and indices, depth, boxes
+    inside their parents and around their triangles, leaves on whole blocks
+    of 16 slots, ``perm`` a permutation of the triangles plus padding), and
+    the records must be, bit for bit, what the kernel prepares for the
+    triangles ``perm`` names (flat triangles aside, whose records no ray
+    hits). Raises :class:`~tribench.common.UserError` naming the first fault.
+
+    >>> import numpy as np
+    >>> tri = np.random.default_rng(0).normal(size=(100, 3, 3))
+    >>> b = build_bvh("moller_trumbore_fma", tri)
+    >>> adopt_bvh(b.kernel, tri, b.nodes, b.perm, b.prepared.records, b.max_leaf).n_nodes == b.n_nodes
+    True
+    """
+    _check_kernel(kernel)
+    if kernel not in bvh_kernel_names():
+        raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(bvh_kernel_names())}")
+    if isinstance(max_leaf, bool) or not isinstance(max_leaf, (int, np.integer)) or not 1 <= max_leaf <= 1024:
+        raise UserError(f"max_leaf must be an int between 1 and 1024, got {max_leaf!r}")
+    tris = _check_array("triangles", triangles, (3, 3))
+    info = kernel_info(kernel)
+    for name, a, dtype, ndim in (("nodes", nodes, tris.dtype, 2), ("perm", perm, np.dtype(np.int64), 1)):
+        if not isinstance(a, np.ndarray) or a.dtype != dtype or a.ndim != ndim:
+            raise UserError(f"malformed BVH: {name} must be a {ndim}-d {dtype} array")
+    if nodes.shape[1:] != (8,) or not len(nodes) or not len(perm) or len(perm) % 16:
+        raise UserError(
+            f"malformed BVH: nodes must be (N, 8) and perm a multiple of 16 slots, got {nodes.shape}, {perm.shape}"
+        )
+    shape = (len(perm) // info.lanes, info.stride, info.lanes)
+    if not isinstance(records, np.ndarray) or records.dtype != tris.dtype or records.shape != shape:
+        raise UserError(f"malformed BVH: {kernel}'s records for {len(perm)} slots must be {tris.dtype} {shape}")
+    nodes, perm, records = (np.ascontiguousarray(a) for a in (nodes, perm, records))
+    try:
+        _core.bvh_check(tris.itemsize, nodes, len(nodes), perm, len(perm), tris, len(tris), int(max_leaf))
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    # the records: prepared again from the triangles perm names, with the same
+    # slots marked flat as the stored records say, which must be flat indeed
+    slot_flat = np.isnan(records).all(axis=1).ravel()
+    used = perm >= 0
+    if not flat(tris[perm[used & slot_flat]]).all():
+        raise UserError(f"malformed BVH: {kernel}'s records make a triangle that is not flat a miss")
+    in_slots = np.zeros((len(perm), 3, 3), dtype=tris.dtype)
+    in_slots[used] = tris[perm[used]]
+    expected = np.empty_like(records)
+    _core.prepare(kernel, tris.itemsize, in_slots, len(perm), expected, (slot_flat | ~used).view(np.uint8))
+    if not np.array_equal(expected.view(np.uint8), records.view(np.uint8)):
+        raise UserError(f"malformed BVH: the records are not {kernel}'s records of the triangles its perm names")
+    return _frozen_bvh(kernel, tris, nodes.copy(), perm.copy(), records.copy(), int(max_leaf))

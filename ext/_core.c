@@ -826,6 +826,48 @@ done:
     return result;
 }
 
+/* bvh_check(itemsize, nodes, n_nodes, perm, n_slots, vertices, n, max_leaf): raises
+ * ValueError naming the first broken invariant of a tree made outside this
+ * process (bvh.h's tb_bvh_check), so a malformed tree is never traversed. */
+static PyObject *py_bvh_check(PyObject *Py_UNUSED(self), PyObject *args)
+{
+    Py_ssize_t itemsize, n_nodes, n_slots, n;
+    int max_leaf;
+    Py_buffer nodes = {0}, perm = {0}, vertices = {0};
+    PyObject *result = NULL;
+    if (!PyArg_ParseTuple(args, "ny*ny*ny*ni:bvh_check", &itemsize, &nodes, &n_nodes, &perm, &n_slots, &vertices, &n,
+                          &max_leaf))
+        return NULL;
+    if (tb_check_itemsize(itemsize) || tb_check_count("n", n, 64) || tb_check_count("n_nodes", n_nodes, 64) ||
+        tb_check_count("n_slots", n_slots, 64) || tb_check_buffer(&nodes, "nodes", TB_BVH_NODE_REALS * n_nodes, itemsize) ||
+        tb_check_buffer(&perm, "perm", n_slots, 8) || tb_check_buffer(&vertices, "vertices", 9 * n, itemsize))
+        goto done;
+    if (n > TB_MAX_BVH_TRIANGLES || max_leaf < 1 || max_leaf > 1024) {
+        PyErr_Format(PyExc_ValueError, "bvh_check: n must be at most %lld and max_leaf 1..1024, got %zd and %d",
+                     TB_MAX_BVH_TRIANGLES, n, max_leaf);
+        goto done;
+    }
+    size_t where = 0;
+    const char *fault;
+    Py_BEGIN_ALLOW_THREADS
+    fault = itemsize == 4 ? tb_bvh_check_f32(nodes.buf, (size_t)n_nodes, perm.buf, (size_t)n_slots, vertices.buf,
+                                             (size_t)n, max_leaf, &where)
+                          : tb_bvh_check_f64(nodes.buf, (size_t)n_nodes, perm.buf, (size_t)n_slots, vertices.buf,
+                                             (size_t)n, max_leaf, &where);
+    Py_END_ALLOW_THREADS
+    if (fault && !*fault)
+        PyErr_NoMemory();
+    else if (fault)
+        PyErr_Format(PyExc_ValueError, "malformed BVH: %s (at node or slot %zu)", fault, where);
+    else
+        result = Py_NewRef(Py_None);
+done:
+    PyBuffer_Release(&nodes);
+    PyBuffer_Release(&perm);
+    PyBuffer_Release(&vertices);
+    return result;
+}
+
 /* Checks a BVH call (the brute-force job's checks, with the slots as the
  * records, then the tree's buffers) and fills `job`; returns the traversal
  * to call, or NULL with a Python exception set. */
@@ -1031,6 +1073,8 @@ static PyMethodDef tb_methods[] = {
     {"bvh_kernels", py_bvh_kernels, METH_NOARGS, "bvh_kernels() -> kernels a BVH takes as leaf test."},
     {"bvh_build", py_bvh_build, METH_VARARGS,
      "bvh_build(itemsize, vertices, n, max_leaf, nodes_out, order_out) -> (n_nodes, n_slots)."},
+    {"bvh_check", py_bvh_check, METH_VARARGS,
+     "bvh_check(itemsize, nodes, n_nodes, perm, n_slots, vertices, n, max_leaf): raise on a malformed tree."},
     {"bvh_run", py_bvh_run, METH_VARARGS,
      "bvh_run(name, itemsize, mode, isa, o, d, n_rays, t_max, nodes, n_nodes, perm, n_slots, records, "
      "index_out, t_out, u_out, v_out, counts_out)."},
@@ -1052,10 +1096,10 @@ PyMODINIT_FUNC PyInit__core(void)
 {
     PyObject *m = PyModule_Create(&tb_module);
     const char *names[] = {"MAX_BATCH_TESTS", "MAX_PEAK_ITERATIONS", "POLL_NS", "MAX_BVH_BATCH_RAYS",
-                           "MAX_BVH_TRIANGLES"};
+                           "MAX_BVH_TRIANGLES", "BVH_BUILD_VERSION"};
     const long long values[] = {TB_MAX_BATCH_TESTS, TB_MAX_PEAK_ITERATIONS, TB_POLL_NS, TB_MAX_BVH_BATCH_RAYS,
-                                TB_MAX_BVH_TRIANGLES};
-    for (int i = 0; m && i < 5; ++i) {
+                                TB_MAX_BVH_TRIANGLES, TB_BVH_BUILD_VERSION};
+    for (int i = 0; m && i < 6; ++i) {
         PyObject *value = PyLong_FromLongLong(values[i]);
         if (!value || PyModule_AddObjectRef(m, names[i], value) < 0)
             Py_CLEAR(m);

@@ -14,6 +14,7 @@ MAX_PEAK_ITERATIONS: int
 POLL_NS: int
 MAX_BVH_BATCH_RAYS: int
 MAX_BVH_TRIANGLES: int
+BVH_BUILD_VERSION: int
 
 def kernel_names(internal: bool = ..., /) -> tuple[str, ...]: ...
 def kernel_info(name: str, /) -> dict[str, Any]: ...
@@ -59,6 +60,9 @@ def bvh_kernels() -> tuple[str, ...]: ...
 def bvh_build(
     itemsize: int, vertices: _In, n: int, max_leaf: int, nodes_out: _Out, order_out: _Out, /
 ) -> tuple[int, int]: ...
+def bvh_check(
+    itemsize: int, nodes: _In, n_nodes: int, perm: _In, n_slots: int, vertices: _In, n: int, max_leaf: int, /
+) -> None: ...
 def bvh_run(
     name: str,
     itemsize: int,

@@ -34,6 +34,11 @@
  * Traversal: see TB_NFN(tb_bvh_loop) below. */
 
 #if TB_NFIRST
+#ifndef TB_BVH_BUILD_VERSION
+/* Bump when the tree tb_bvh_build makes for the same input changes (the BVH
+ * cache, tribench.workloads.bvh_cache, names its files by it). */
+#define TB_BVH_BUILD_VERSION 1
+#endif
 #define TB_BVH_BINS 16
 #define TB_BVH_SAH_DEPTH 40 /* then median splits: depth < 40 + 32 for 2^32 triangles */
 #define TB_BVH_STACK 80     /* at least the deepest tree the build makes */
@@ -253,6 +258,118 @@ static int TB_FN(tb_bvh_build)(const real *vertices, size_t n, int max_leaf, tb_
     *n_nodes = bld.n_nodes;
     *n_slots = bld.n_slots;
     return 0;
+}
+
+static int TB_FN(tb_bvh_box_in)(const tb_bvh_node *inner, const tb_bvh_node *outer)
+{
+    for (int k = 0; k < 3; ++k)
+        if (!(inner->b[0][k] >= outer->b[0][k] && inner->b[1][k] <= outer->b[1][k]))
+            return 0;
+    return 1;
+}
+
+/* Checks a tree that comes from outside (the cache) before any traversal
+ * may follow it: every invariant tb_bvh_build gives, so that a tree this
+ * accepts is one the build could have made over these n triangles, up to
+ * the SAH's choices. Nodes in depth-first order, the left child next and the
+ * right child after the left subtree, every node reached once; no inner node
+ * as deep as the traversal's stack; boxes finite, lower <= upper, each inside
+ * its parent's; leaves of 1..max_leaf triangles on consecutive whole blocks
+ * of 16 slots covering n_slots; each slot of a leaf names a triangle (every
+ * triangle exactly once) whose vertices lie in the leaf's box; padding slots
+ * -1. Returns NULL when the tree is sound, else the first fault found, with
+ * the node (or slot) it was found at in *where; "" when out of memory. */
+static const char *TB_FN(tb_bvh_check)(const tb_bvh_node *nodes, size_t n_nodes, const int64_t *perm,
+                                       size_t n_slots, const real *vertices, size_t n, int max_leaf, size_t *where)
+{
+    unsigned char *seen = calloc(n, 1);
+    if (!seen)
+        return "";
+    const char *fault = NULL;
+    size_t next = 0, slot_end = 0, placed = 0, sp = 0, node = 0, depth = 0;
+    size_t stack[TB_BVH_STACK], stack_depth[TB_BVH_STACK];
+    for (;;) {
+        const tb_bvh_node *nd = &nodes[node];
+        *where = node;
+        if (node != next) {
+            fault = "nodes are not in depth-first order (a right child must follow its left subtree)";
+            break;
+        }
+        ++next;
+        for (int k = 0; k < 3 && !fault; ++k)
+            if (!(isfinite(nd->b[0][k]) && isfinite(nd->b[1][k]) && nd->b[0][k] <= nd->b[1][k]))
+                fault = "a box is not finite with its lower corner below its upper";
+        if (fault)
+            break;
+        if (nd->n == 0) { /* inner */
+            size_t left = node + 1, right = nd->a;
+            if (left >= n_nodes || right <= left || right >= n_nodes) {
+                fault = "an inner node's children are out of range";
+                break;
+            }
+            if (depth + 1 >= TB_BVH_STACK) {
+                fault = "the tree is deeper than the traversal's stack";
+                break;
+            }
+            if (!TB_FN(tb_bvh_box_in)(&nodes[left], nd) || !TB_FN(tb_bvh_box_in)(&nodes[right], nd)) {
+                fault = "a child's box is not inside its parent's";
+                break;
+            }
+            stack[sp] = right;
+            stack_depth[sp++] = depth + 1;
+            node = left;
+            ++depth;
+            continue;
+        }
+        /* a leaf */
+        size_t first = nd->a, count = nd->n, end = first + (count + 15) / 16 * 16;
+        if (count > (size_t)max_leaf) {
+            fault = "a leaf holds more triangles than max_leaf";
+            break;
+        }
+        if (first != slot_end || first > n_slots || end > n_slots) {
+            fault = "leaves are not on consecutive whole blocks of 16 slots";
+            break;
+        }
+        for (size_t s = first; s < end && !fault; ++s) {
+            int64_t index = perm[s];
+            *where = s;
+            if (s >= first + count) {
+                if (index != -1)
+                    fault = "a padding slot names a triangle (it must be -1)";
+                continue;
+            }
+            if (index < 0 || (uint64_t)index >= n)
+                fault = "a slot names no triangle";
+            else if (seen[index])
+                fault = "a triangle is in two slots";
+            else {
+                seen[index] = 1;
+                ++placed;
+                const real *v = vertices + 9 * (size_t)index;
+                for (int j = 0; j < 9 && !fault; ++j)
+                    if (!(v[j] >= nd->b[0][j % 3] && v[j] <= nd->b[1][j % 3]))
+                        fault = "a triangle lies outside its leaf's box";
+            }
+        }
+        if (fault)
+            break;
+        slot_end = end;
+        if (sp == 0)
+            break;
+        node = stack[--sp];
+        depth = stack_depth[sp];
+    }
+    if (!fault && next != n_nodes) {
+        *where = next;
+        fault = "nodes are left over after the tree";
+    }
+    if (!fault && (slot_end != n_slots || placed != n)) {
+        *where = slot_end;
+        fault = "the leaves do not hold every triangle in exactly n_slots slots";
+    }
+    free(seen);
+    return fault;
 }
 
 #ifndef TB_BVH_JOB_DEFINED

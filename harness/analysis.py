@@ -47,7 +47,7 @@ import pandas as pd
 from tribench import stats
 from tribench.common import UserError, write_text
 
-from . import records, runfolder
+from . import export, records, runfolder
 from .calibration import Margin
 
 __all__ = [
@@ -372,6 +372,16 @@ def _validation(run_dir: Path, kernels: list[str], dtypes: list[str], quick: boo
     )
 
 
+def _read_validation(run_dir: Path) -> pd.DataFrame | None:
+    """``validate.csv`` if it is there in today's columns (None otherwise: the bands table then has no robustness)."""
+    path = run_dir / runfolder.VALIDATE
+    try:
+        frame = pd.read_csv(path)
+    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError):
+        return None
+    return frame if list(frame.columns) == list(runfolder.FILES[runfolder.VALIDATE]) else None
+
+
 def _peer_tables(run_dir: Path) -> tuple[dict[str, pd.DataFrame], str]:
     """``peer_rates.csv`` and ``peer_ratios.csv`` from ``peers.csv`` (none without it), and a sentence."""
     from . import peers
@@ -406,7 +416,9 @@ def write_all(
     is made by the robustness suite only when the folder has none; the peer
     tables only when it has ``peers.csv``. ``analysis.json`` is written last:
     it records the SHA-256 of ``batches.csv`` and ``peers.csv`` the tables were
-    made from, so a reader can tell stale tables from current ones.
+    made from, so a reader can tell stale tables from current ones. Before it,
+    ``google_benchmark.json``: the estimates and speedups in Google Benchmark's
+    JSON format (:mod:`~tribench.harness.export`).
 
     Parameters
     ----------
@@ -459,22 +471,42 @@ def write_all(
         runfolder.RANKING: t.ranking_table(est, spd, pp, result.margin.value),
     }
     tables[runfolder.ALGORITHMS] = t.algorithm_table(tables[runfolder.RANKING], pp, result.margin.value)
+    # the bands table shows each kernel's robustness beside its speed: validate.csv first
+    validate_note = _validation(run_dir, kernels, dtypes, validate_quick)
+    tables[runfolder.BANDS] = t.band_table(
+        est, pp, specs, result.baseline, result.margin.value, _read_validation(run_dir)
+    )
+    tables[runfolder.BVH] = t.bvh_table(
+        batches,
+        records.read_traversals(run_dir, run),
+        wl,
+        specs,
+        pp,
+        kernels,
+        result.baseline,
+        result.margin.value,
+    )
     peer_tables, peer_note = _peer_tables(run_dir)
     tables.update(peer_tables)
     for name, frame in tables.items():
         if list(frame.columns) != list(runfolder.FILES[name]):  # a bug: the table and the contract disagree
             raise AssertionError(f"{name}: columns {list(frame.columns)} are not runfolder.FILES[{name!r}]")
         records.write_csv(frame, run_dir / name)
-    validate_note = _validation(run_dir, kernels, dtypes, validate_quick)
     pictures = _pictures(run_dir, wids, workloads)
+    margin_record = {"value": result.margin.value, "source": result.margin.source}
+    write_text(
+        run_dir / runfolder.GOOGLE_BENCHMARK,
+        export.dumps(export.google_benchmark(run, tables, result.baseline, margin_record)),
+    )
     record = {
         "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
         "batches_sha256": batches_digest,
         "peers_sha256": file_digest(run_dir / runfolder.PEERS) if peer_tables else None,
         "peers": peer_note,
         "baseline": result.baseline,
-        "margin": {"value": result.margin.value, "source": result.margin.source},
+        "margin": margin_record,
         "tables": list(tables),
+        "exports": [runfolder.GOOGLE_BENCHMARK],
         "validate": validate_note,
         "pictures": pictures,
     }

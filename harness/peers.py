@@ -1,10 +1,12 @@
 """Peers: tribench's fastest kernel, brute force or in its BVH, against trimesh and Embree, in rays/s.
 
-The workload is the seed's camera (Suzanne, 968 triangles; 512x512 pinhole
+The workload is the seed's camera (Suzanne, 968 triangles, or any built-in
+mesh or mesh file trimesh reads, ``PeerDesign.mesh``; 512x512 pinhole
 camera rays in float32, closest hit), the same arrays for every contender.
 With ``accel="bvh"`` (``tribench peers --accel bvh``) tribench traces the
-rays through its BVH (``ext.build_bvh``, built once per process, its build
-time the row's ``setup_ns``) with the fastest kernel that can be a BVH's
+rays through its BVH (``ext.build_bvh``, read from the BVH cache where it
+is built once per machine; the row's ``setup_ns`` is the build's time,
+recorded in the cache when it was built) with the fastest kernel that can be a BVH's
 leaf test, the implementation says ``bvh``, and the peer is Embree alone
 (trimesh's intersector is an rtree and NumPy: not a tracer's BVH; without
 Embree, tribench's own rows are still written):
@@ -102,7 +104,10 @@ class PeerDesign:
 
     width: int = 512
     height: int = 512
-    triangles: int = 968
+    #: Suzanne's 968 is the seed's mesh; None keeps the mesh's own triangles
+    triangles: int | None = 968
+    #: a built-in mesh name or the path of a mesh file trimesh reads (stored absolute)
+    mesh: str = "suzanne"
     processes: int = 5
     reps: int = 3
     trimesh_rays: int = 8192
@@ -119,7 +124,7 @@ class PeerDesign:
         for name in (
             "width",
             "height",
-            "triangles",
+            *(("triangles",) if self.triangles is not None else ()),
             "processes",
             "reps",
             "trimesh_rays",
@@ -129,8 +134,12 @@ class PeerDesign:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise UserError(f"{name} must be a positive integer, got {value!r}")
-        from tribench.workloads.spec import ACCELS
+        from tribench.workloads.spec import ACCELS, MESH_NAMES
 
+        if not isinstance(self.mesh, str) or not self.mesh:
+            raise UserError(f"mesh must be a built-in mesh name or a file path, got {self.mesh!r:.80}")
+        if self.mesh not in MESH_NAMES:  # the workers read it from another process: absolute
+            object.__setattr__(self, "mesh", os.path.abspath(os.path.expanduser(self.mesh)))
         if self.accel not in ACCELS:
             raise UserError(f"accel must be one of {', '.join(ACCELS)}, got {self.accel!r:.80}")
         if self.processes * self.reps > self.MAX_REPETITIONS:
@@ -188,11 +197,11 @@ def available() -> dict[str, str | None]:
 
 
 def camera_spec(design: PeerDesign):
-    """The peers' workload: Suzanne through a pinhole camera, float32, closest hit."""
+    """The peers' workload: the design's mesh (Suzanne by default) through a pinhole camera, float32, closest hit."""
     from tribench.workloads.spec import MeshSpec
 
     return MeshSpec(
-        "suzanne",
+        design.mesh,
         triangles=design.triangles,
         rays="camera",
         width=design.width,
@@ -220,6 +229,7 @@ def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str
     counts other processes' time slices, which can reorder close kernels.
     """
     from tribench import ext
+    from tribench.workloads import bvh_cache
 
     rng = np.random.default_rng([seed, 1])
     bvh = workload.spec.accel == "bvh"
@@ -229,7 +239,7 @@ def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str
     calls: dict[str, Callable[[], Any]] = {}
     for k in kernels:
         if bvh:
-            calls[k] = functools.partial(ext.build_bvh(k, workload.triangles).time, o, d, "closest", 1)
+            calls[k] = functools.partial(bvh_cache.cached_bvh(k, workload.triangles)[0].time, o, d, "closest", 1)
         else:
             calls[k] = functools.partial(ext.time_batch, ext.make_job(k, o, d, workload.triangles, "closest"), 1)
     cpu: dict[str, list[float]] = {k: [] for k in kernels}
@@ -342,7 +352,7 @@ def _worker(job: dict[str, Any]) -> None:
     import trimesh
 
     from tribench import ext
-    from tribench.workloads import cache
+    from tribench.workloads import bvh_cache, cache
 
     from .machine import version
 
@@ -372,16 +382,17 @@ def _worker(job: dict[str, Any]) -> None:
     timed: Callable[[], Any]  # returns a batch with elapsed_ns, timed in C
     closest: Callable[[], np.ndarray]  # returns the closest triangle of every ray
     t0 = time.perf_counter_ns()
-    if design.accel == "bvh":  # the build is the set-up, as Embree's is
+    setup_ns = None
+    if design.accel == "bvh":  # the build is the set-up, as Embree's is: its time when it was built
         label = f"tribench {version()} bvh {kernel} ({form})"
-        bvh = ext.build_bvh(kernel, tris)
+        bvh, setup_ns = bvh_cache.cached_bvh(kernel, tris)
         timed = functools.partial(bvh.time, o, d, "closest", 1)
         closest, closest_name = (lambda: bvh.intersect(o, d).hits.index), "BVH.intersect"
     else:
         label = f"tribench {version()} {kernel} ({form})"
         timed = functools.partial(ext.time_batch, ext.make_job(kernel, o, d, tris, "closest"), 1)
         closest, closest_name = (lambda: ext.intersect(kernel, o, d, tris, "closest").index), "ext.intersect"
-    contenders["tribench"] = (label, slice(None), timed, time.perf_counter_ns() - t0)
+    contenders["tribench"] = (label, slice(None), timed, time.perf_counter_ns() - t0 if setup_ns is None else setup_ns)
     contenders["tribench_call"] = (f"{label}, {closest_name}", slice(None), closest, 0)
     # the C-timed loop returns counts only; both tribench contenders run the same kernel on the same rays
     answers = disagreements(closest(), slice(None))

@@ -10,6 +10,8 @@
                             (:data:`PROCESS_COLUMNS`): at its start and its end
     RUN_DIR/checks.csv      one row per kernel, workload and process: its answers
                             against the reference (:data:`CHECK_COLUMNS`)
+    RUN_DIR/traversals.csv  one row per batch on a BVH workload: its traversal's counts
+                            and its null-leaf twin's time (:data:`TRAVERSAL_COLUMNS`)
     RUN_DIR/estimates.csv ... analysis.json   derived by the analysis step
                             (:mod:`tribench.harness.analysis`)
     RUN_DIR/.lock           held by the one process writing the folder (:func:`writer_lock`)
@@ -71,10 +73,15 @@ __all__ = [
     "MissingRunFile",
     "ProcessRow",
     "RowWriter",
+    "check_new_run_dir",
+    "default_run_dir",
+    "TRAVERSAL_COLUMNS",
+    "TraversalRow",
     "live_writer",
     "read_batches",
     "read_checks",
     "read_processes",
+    "read_traversals",
     "read_run",
     "repair_csv",
     "write_csv",
@@ -85,8 +92,14 @@ __all__ = [
 BATCHES = runfolder.BATCHES
 PROCESSES = runfolder.PROCESSES
 CHECKS = runfolder.CHECKS
+TRAVERSALS = runfolder.TRAVERSALS
 RUN = runfolder.RUN
 LOCK = runfolder.LOCK
+
+
+def default_run_dir(kind: str = "") -> str:
+    """The run folder a command writes when none is given: ``runs/[KIND-]<date-time>``."""
+    return f"runs/{kind + '-' if kind else ''}{_dt.datetime.now():%Y%m%d-%H%M%S}"
 
 
 def check_new_run_dir(run_dir: str | Path) -> None:
@@ -190,11 +203,47 @@ class CheckRow:
     t_sum: float
 
 
+@dataclass(frozen=True)
+class TraversalRow:
+    """What one batch on a BVH workload did inside the tree, and its null-leaf twin.
+
+    The key (``process``, ``workload_id``, ``round``, ``position``,
+    ``kernel``) is its row's in ``batches.csv``. The counts are summed over
+    every ray of every loop; ``null_elapsed_ns`` times the same rays, loops
+    and tree with the leaf test replaced by nothing (each ray's ``t_max`` at
+    the kernel's own hit), run just before or just after the batch
+    (``null_first``), so ``1 - null / real`` is the leaf tests' share.
+    """
+
+    run_id: str
+    process: int
+    attempt: int
+    round: int
+    position: int
+    kernel: str
+    workload_id: str
+    warmup: bool
+    rays: int
+    nodes: int
+    box_tests: int
+    leaves: int
+    triangle_tests: int
+    null_elapsed_ns: int
+    null_nodes: int
+    null_first: bool
+
+
 BATCH_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(BatchRow))
 CHECK_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(CheckRow))
 PROCESS_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(ProcessRow))
+TRAVERSAL_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(TraversalRow))
 
-for _name, _columns in ((BATCHES, BATCH_COLUMNS), (CHECKS, CHECK_COLUMNS), (PROCESSES, PROCESS_COLUMNS)):
+for _name, _columns in (
+    (BATCHES, BATCH_COLUMNS),
+    (CHECKS, CHECK_COLUMNS),
+    (PROCESSES, PROCESS_COLUMNS),
+    (TRAVERSALS, TRAVERSAL_COLUMNS),
+):
     if _columns != tuple(runfolder.FILES[_name]):  # a bug: the row type and the contract disagree
         raise AssertionError(f"{_name}: the row dataclass's fields are not runfolder.FILES[{_name!r}]")
 
@@ -657,6 +706,29 @@ def read_processes(run_dir: str | Path, run: Mapping[str, Any] | None = None):
         _unique(("process", "attempt", "phase"), "the peak probe"),
     ]
     return _read_table(path, ProcessRow, rules, _max_bytes(run, 4))
+
+
+def read_traversals(run_dir: str | Path, run: Mapping[str, Any] | None = None):
+    """``traversals.csv`` of a run, validated (empty frame if the run has none: no BVH
+    workload, or a run made before the file existed)."""
+    import pandas as pd
+
+    run_dir = Path(run_dir)
+    path = run_dir / TRAVERSALS
+    if not os.path.lexists(path):
+        return pd.DataFrame(columns=list(TRAVERSAL_COLUMNS))
+    run = _run_or_none(run_dir, run)
+    rules: list[Rule] = [
+        *_run_rules(run),
+        *_positive("rays", "null_elapsed_ns"),
+        *_not_negative("attempt", "position", "nodes", "box_tests", "leaves", "triangle_tests", "null_nodes"),
+        (
+            lambda f: f["warmup"] != (f["round"] < 0),
+            lambda r: f"warmup is {r['warmup']} but round is {r['round']} (warm-up rounds are negative)",
+        ),
+        _unique(("process", "workload_id", "round", "position", "kernel"), "the traversal of the batch"),
+    ]
+    return _read_table(path, TraversalRow, rules, _max_bytes(run, 1))
 
 
 # ------------------------------------------------------------ whole files

@@ -15,13 +15,16 @@ format and must be deliberate.
 Who writes what:
 
 * measured, while the sweep runs (:mod:`~tribench.harness.runner`):
-  :data:`RUN`, :data:`BATCHES`, :data:`PROCESSES`, :data:`CHECKS`, and
-  :data:`STAGES` for a sequential sweep;
+  :data:`RUN`, :data:`BATCHES`, :data:`PROCESSES`, :data:`CHECKS`, :data:`TRAVERSALS`
+  (a header only when the run has no BVH workload), and :data:`STAGES` for a
+  sequential sweep;
   ``peers.csv`` by ``tribench peers --out RUN_DIR`` (or ``tribench run``);
 * derived, by the analysis step at the end of ``tribench run`` and by
   ``tribench stats RUN_DIR`` on demand (:func:`tribench.harness.analysis.write_all`):
-  every name in :data:`DERIVED`, the pictures in :data:`PICTURES_DIR`, and
-  :data:`ANALYSIS`, the record of what the tables were made from;
+  every name in :data:`DERIVED`, the pictures in :data:`PICTURES_DIR`,
+  :data:`GOOGLE_BENCHMARK` (the estimates and speedups with their intervals and
+  the machine record, in Google Benchmark's JSON format: :mod:`~tribench.harness.export`)
+  and :data:`ANALYSIS`, the record of what the tables were made from;
 * rendered, by ``tribench report`` (:data:`REPORT`, :data:`SWEEP_FILE`),
   which reads everything above and changes none of it.
 """
@@ -32,6 +35,7 @@ __all__ = [
     "ANALYSIS",
     "BATCHES",
     "BATCH_LABELS",
+    "BVH",
     "CALIBRATION",
     "CHECKS",
     "CORRECTNESS",
@@ -40,6 +44,7 @@ __all__ = [
     "DRIFT",
     "ESTIMATES",
     "FILES",
+    "GOOGLE_BENCHMARK",
     "KERNELS",
     "LOCK",
     "OPTIONAL",
@@ -61,6 +66,7 @@ __all__ = [
     "SPEEDUPS",
     "STAGES",
     "SWEEP_FILE",
+    "TRAVERSALS",
     "VALIDATE",
     "VARIANCE",
     "WARMUP",
@@ -81,6 +87,8 @@ LOCK = ".lock"
 BATCHES = "batches.csv"
 PROCESSES = "processes.csv"
 CHECKS = "checks.csv"
+#: Per batch on a BVH workload: the traversal's counts and the same traversal timed with a null leaf test.
+TRAVERSALS = "traversals.csv"
 PEERS = "peers.csv"
 #: A sequential sweep's stages (tribench.harness.stages): per stage its processes and the
 #: comparisons still open, recorded before it runs; ``end``: why the sweep stopped.
@@ -105,8 +113,14 @@ WARMUP = "warmup.csv"
 KERNELS = "kernels.csv"
 RANKING = "ranking.csv"
 ALGORITHMS = "algorithms.csv"
+#: The answer the report opens on: per precision and hit-rate band, every kernel from the fastest down.
+BANDS = "bands.csv"
+BVH = "bvh.csv"
 PEER_RATES = "peer_rates.csv"
 PEER_RATIOS = "peer_ratios.csv"
+#: The estimates and speedups with their intervals and the machine record, in Google Benchmark's
+#: JSON format (``context`` + ``benchmarks``; :mod:`tribench.harness.export`), for tools that read it.
+GOOGLE_BENCHMARK = "google_benchmark.json"
 #: What the derived tables were made from (batches.csv's digest, baseline, margin, tables, pictures).
 ANALYSIS = "analysis.json"
 #: One PNG per workload (``<workload_id>.png``), drawn by the analysis step.
@@ -174,6 +188,29 @@ _CHECKS: dict[str, str] = {
     "ambiguous_disagreements": "of those, how many are ambiguous rays (count)",
     "hits": "hits of the kernel in one pass (its checksum)",
     "t_sum": "sum of t over the kernel's hits in one pass (its checksum)",
+}
+
+_TRAVERSALS: dict[str, str] = {
+    "run_id": "identifier of the run",
+    "process": "index of the worker process (with workload_id, round, position and kernel, a batch's key)",
+    "attempt": "worker attempt of this process index",
+    "round": "round inside the process; negative for warm-up rounds",
+    "position": "position of the kernel inside its round",
+    "kernel": "kernel name (the BVH's leaf test)",
+    "workload_id": "workload identifier (a BVH workload)",
+    "warmup": "True for a warm-up batch",
+    "rays": "rays traced in the batch (loops x rays of the workload)",
+    "nodes": "nodes the batch's traversal entered, inner nodes and leaves (count, over all its rays)",
+    "box_tests": "ray-box tests of the batch (count)",
+    "leaves": "leaves the batch's traversal entered (count)",
+    "triangle_tests": "triangle tests in those leaves (count; batches.csv's tests)",
+    "null_elapsed_ns": (
+        "the same batch traced again with a null leaf test (no triangle tested; each ray's t_max at the "
+        "kernel's own closest hit, so it enters the nodes a ray that found its hit at once would), "
+        "timed inside C, ns"
+    ),
+    "null_nodes": "nodes that null traversal entered (count; at most nodes in closest mode)",
+    "null_first": "True when the null traversal ran just before the real batch, False just after (random)",
 }
 
 _PEERS: dict[str, str] = {
@@ -448,6 +485,73 @@ _ALGORITHMS: dict[str, str] = {
     "verdict": "faster, equivalent or inconclusive (stats.verdict with the run's margin)",
 }
 
+_BANDS: dict[str, str] = {
+    "dtype": "precision of the band's workloads",
+    "band": "the band: pairs by achieved per-test hit rate (low < 35% <= mid < 65% <= high), meshes by accel",
+    "workloads": "workloads in the band (count)",
+    "rank": "1 = the lowest ns_per_test in the band, then in order",
+    "kernel": "kernel name (only kernels timed on every workload of the band)",
+    "algorithm": "the clean scalar kernel whose algorithm the kernel is a form of (tribench.ext.kernel_info)",
+    "form": "scalar, or N lanes for a wide kernel",
+    "ns_per_test": (
+        "per process the geometric mean over the band's workloads of its median ns per test, then the mean "
+        "over processes"
+    ),
+    "ns_per_test_ci_low": "lower end of its 95% Student-t interval over processes",
+    "ns_per_test_ci_high": "upper end of that interval",
+    "vs_fastest": "time_kernel / time_fastest on those per-process values, paired (1 for the fastest); unitless",
+    "vs_fastest_ci_low": "lower end of its simultaneous interval (Bonferroni over the band's other kernels)",
+    "vs_fastest_ci_high": "upper end of that interval",
+    "tied_with_fastest": "True when the interval reaches down to 1 + margin: not told apart from the fastest",
+    "speedup": "time_baseline / time_kernel on the same per-process values, paired (1 for the baseline)",
+    "speedup_ci_low": "lower end of its simultaneous interval (Bonferroni over the band's other kernels)",
+    "speedup_ci_high": "upper end of that interval",
+    "baseline": "the baseline kernel",
+    "n_processes": "processes that ran every workload of the band with the kernel (count)",
+    "watertight": "True when the kernel's paper promises no crack on shared edges (tribench.ext.kernel_info)",
+    "culls_back_faces": "True when the kernel skips back faces (it answers a different question)",
+    "bytes_per_triangle": "bytes of prepared data per triangle at that precision (empty: unknown to this build)",
+    "promises_checked": "validate.csv's judged tests of the kernel at this precision (count; empty: no validate.csv)",
+    "broken_promises": "of those, failed (count; empty: no validate.csv)",
+    "crack_rate": "validate.csv's shared_edges rate: rays at an exact shared edge that hit nothing (fraction)",
+}
+
+_BVH: dict[str, str] = {
+    "workload_id": "workload identifier (a BVH workload)",
+    "family": "workload family",
+    "label": "what varies inside the family, in words",
+    "dtype": "precision of the workload",
+    "rays_kind": "camera or hit_rate rays (the spec's rays)",
+    "triangles": "triangles of the mesh (count)",
+    "kernel": "kernel name (the BVH's leaf test)",
+    "algorithm": "the clean scalar kernel whose algorithm the kernel is a form of (tribench.ext.kernel_info)",
+    "rays_per_s": "rays per second end to end (traversal and leaf tests): geometric mean over processes of "
+    "each process's median of loops x rays / elapsed",
+    "rays_per_s_ci_low": "lower end of its 95% confidence interval (t interval of the logs)",
+    "rays_per_s_ci_high": "upper end of that interval",
+    "n_processes": "processes behind it (count)",
+    "nodes_per_ray": "nodes entered per ray, inner nodes and leaves",
+    "box_tests_per_ray": "ray-box tests per ray",
+    "leaves_per_ray": "leaves entered per ray",
+    "triangle_tests_per_ray": "triangle tests per ray",
+    "null_nodes_per_ray": "nodes per ray of the null-leaf traversal the leaf share is measured against",
+    "leaf_share": (
+        "share of trace time in the leaf tests, 1 - null / real: per process the median over its batches of "
+        "null_elapsed_ns / elapsed_ns, geometric mean over processes (traversals.csv)"
+    ),
+    "leaf_share_ci_low": "lower end of its 95% confidence interval (paired per-process ratios)",
+    "leaf_share_ci_high": "upper end of that interval",
+    "baseline": "the kernel the speedups are against on this workload (the run's baseline's BVH-capable form)",
+    "speedup": "end-to-end speedup in the BVH: rays/s of the kernel / rays/s of the baseline, paired by process",
+    "speedup_ci_low": "lower end of its simultaneous confidence interval (Bonferroni over the workload's kernels)",
+    "speedup_ci_high": "upper end of that interval",
+    "verdict": "faster, slower, equivalent or inconclusive (stats.verdict with the run's margin)",
+    "brute_workload_id": "the brute-force twin (same rays and mesh, every ray against every triangle) if in the run",
+    "brute_speedup": "the same kernel's speedup over the same baseline in brute force on the twin (ns per test)",
+    "brute_speedup_ci_low": "lower end of its simultaneous confidence interval",
+    "brute_speedup_ci_high": "upper end of that interval",
+}
+
 _PEER_RATES: dict[str, str] = {
     "contender": "tribench, tribench_call, trimesh or embree",
     "implementation": "what ran, with its version",
@@ -551,6 +655,7 @@ FILES: dict[str, dict[str, str]] = {
     BATCHES: _BATCHES,
     PROCESSES: _PROCESSES,
     CHECKS: _CHECKS,
+    TRAVERSALS: _TRAVERSALS,
     ESTIMATES: _ESTIMATES,
     SPEEDUPS: _SPEEDUPS,
     VALIDATE: _VALIDATE,
@@ -569,6 +674,8 @@ FILES: dict[str, dict[str, str]] = {
     KERNELS: _KERNELS,
     RANKING: _RANKING,
     ALGORITHMS: _ALGORITHMS,
+    BANDS: _BANDS,
+    BVH: _BVH,
     PEER_RATES: _PEER_RATES,
     PEER_RATIOS: _PEER_RATIOS,
 }
@@ -601,6 +708,8 @@ DERIVED: tuple[str, ...] = (
     KERNELS,
     RANKING,
     ALGORITHMS,
+    BANDS,
+    BVH,
     PEER_RATES,
     PEER_RATIOS,
 )

@@ -49,10 +49,12 @@ from .records import (
     BATCH_COLUMNS,
     CHECK_COLUMNS,
     PROCESS_COLUMNS,
+    TRAVERSAL_COLUMNS,
     BatchRow,
     CheckRow,
     ProcessRow,
     RowWriter,
+    TraversalRow,
 )
 
 __all__ = [
@@ -344,8 +346,8 @@ def _start_locked(
 def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequence[str] = WORKER) -> RunResult:
     """Run the batches of ``run_dir``'s plan that ``batches.csv`` lacks.
 
-    A partial last line of ``batches.csv`` or ``processes.csv`` (a write cut
-    by a kill) is removed first. See the module docstring for how a
+    A partial last line of ``batches.csv``, ``processes.csv``, ``checks.csv``
+    or ``traversals.csv`` (a write cut by a kill) is removed first. See the module docstring for how a
     half-finished process is completed.
 
     Raises
@@ -361,7 +363,7 @@ def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequenc
     if _plan_digest(keys) != record["plan_sha256"]:
         raise UserError(f"{run_dir}: the plan of its sweep changed (another tribench version?); cannot resume")
     with records.writer_lock(run_dir):
-        for name in (records.BATCHES, records.PROCESSES, records.CHECKS):
+        for name in (records.BATCHES, records.PROCESSES, records.CHECKS, records.TRAVERSALS):
             try:
                 cut = records.repair_csv(run_dir / name)
             except OSError as exc:
@@ -473,6 +475,7 @@ def _execute(
             RowWriter(run_dir / records.BATCHES, BATCH_COLUMNS) as batches,
             RowWriter(run_dir / records.PROCESSES, PROCESS_COLUMNS) as processes,
             RowWriter(run_dir / records.CHECKS, CHECK_COLUMNS) as checks,
+            RowWriter(run_dir / records.TRAVERSALS, TRAVERSAL_COLUMNS) as traversals,
         ):
 
             def on_batch(row: BatchRow) -> None:
@@ -484,7 +487,16 @@ def _execute(
 
             for p, keys in by_process.items():
                 _run_process(
-                    record, sweep, p, attempts.get(p, 0), keys, worker, on_batch, processes.append, checks.append
+                    record,
+                    sweep,
+                    p,
+                    attempts.get(p, 0),
+                    keys,
+                    worker,
+                    on_batch,
+                    processes.append,
+                    checks.append,
+                    traversals.append,
                 )
     except KeyboardInterrupt:
         raise SweepInterrupted(
@@ -512,6 +524,7 @@ def _run_process(
     on_batch: Callable[[BatchRow], None],
     on_process: Callable[[ProcessRow], None],
     on_check: Callable[[CheckRow], None],
+    on_traversal: Callable[[TraversalRow], None],
 ) -> None:
     """One worker process: send its job, keep its rows, raise on its error."""
     from .worker import PAD_VARIABLE, WorkerJob
@@ -531,7 +544,8 @@ def _run_process(
         tuple(tuple(k.to_list()) for k in keys),
         {w: sweep.spec_of(w).to_dict() for w in wids},
     )
-    expected = set(keys)
+    planned = frozenset(keys)
+    expected = set(planned)
     error = None
     with tempfile.TemporaryFile("w+") as err:
         proc = subprocess.Popen(
@@ -554,6 +568,11 @@ def _run_process(
                     on_process(ProcessRow(**message))
                 elif kind == "check":
                     on_check(CheckRow(**message))
+                elif kind == "traversal":
+                    trav = TraversalRow(**message)
+                    if _key(trav) not in planned:
+                        raise SweepError(f"worker of process {process} sent an unplanned traversal {_key(trav)}")
+                    on_traversal(trav)
                 elif kind == "error":
                     error = message["message"]
             code = proc.wait()

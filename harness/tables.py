@@ -29,7 +29,12 @@ from tribench import stats
 from . import runfolder
 
 __all__ = [
+    "BAND_EDGES",
+    "band_of",
+    "band_table",
     "batch_labels",
+    "bvh_baseline",
+    "bvh_table",
     "correctness_table",
     "crossovers",
     "drift_table",
@@ -70,6 +75,13 @@ def family_of(spec: Mapping[str, Any]) -> str:
     >>> family_of({"kind": "mesh", "mesh": "suzanne", "triangles": 200, "rays": "camera",
     ...            "width": 64, "height": 64, "dtype": "float64", "seed": 0})
     'mesh suzanne camera 64x64 float64'
+
+    A BVH workload is not in its brute-force twin's family (its times per test
+    are of another kind: a scaling slope across both would mean nothing):
+
+    >>> family_of({"kind": "mesh", "mesh": "suzanne", "triangles": 200, "rays": "camera",
+    ...            "width": 64, "height": 64, "dtype": "float64", "seed": 0, "accel": "bvh"})
+    'mesh suzanne camera 64x64 bvh float64'
     """
     if spec.get("kind") == "pairs":
         extra = (
@@ -88,9 +100,12 @@ def family_of(spec: Mapping[str, Any]) -> str:
     mesh = Path(str(spec.get("mesh", "?"))).name
     if spec.get("rays") == "hit_rate":
         rays = f"{spec.get('n_rays')} rays per-ray hit rate {spec.get('hit_rate'):g}"
+    elif spec.get("rays") == "bounce":
+        rays = f"bounces of camera {spec.get('width')}x{spec.get('height')}"
     else:
         rays = f"camera {spec.get('width')}x{spec.get('height')}"
-    return f"mesh {mesh} {rays} {spec.get('dtype', '')}"
+    accel = " bvh" if spec.get("accel") == "bvh" else ""
+    return f"mesh {mesh} {rays}{accel} {spec.get('dtype', '')}"
 
 
 def _even_edges(mix: Mapping[str, float]) -> bool:
@@ -611,3 +626,277 @@ def algorithm_table(rank: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.D
                 }
             )
     return _frame(rows, runfolder.ALGORITHMS)
+
+
+# ------------------------------------------------------------ bands
+
+#: Edges of the per-test hit-rate bands of pair workloads: low below the first, high from the second on.
+BAND_EDGES = (0.35, 0.65)
+
+
+def band_of(kind: str, test_hit_rate: float, accel: str | None = None) -> str:
+    """The band of a workload in the report's first table: pairs by per-test hit rate, meshes by accel.
+
+    Examples
+    --------
+    >>> band_of("pairs", 0.3), band_of("pairs", 0.5), band_of("pairs", 1.0)
+    ('pairs, hit rate 0–35%', 'pairs, hit rate 35–65%', 'pairs, hit rate 65–100%')
+    >>> band_of("mesh", float("nan")), band_of("mesh", 0.01, "bvh")
+    ('meshes, brute force', 'meshes, in a BVH')
+    """
+    if kind != "pairs":
+        return "meshes, in a BVH" if accel == "bvh" else "meshes, brute force"
+    low, high = BAND_EDGES
+    if test_hit_rate < low:
+        return f"pairs, hit rate 0–{100 * low:.0f}%"
+    if test_hit_rate < high:
+        return f"pairs, hit rate {100 * low:.0f}–{100 * high:.0f}%"
+    return f"pairs, hit rate {100 * high:.0f}–100%"
+
+
+def _robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
+    """validate.csv's figures of one kernel at one precision (NaN without the table or its rows)."""
+    none = {"promises_checked": math.nan, "broken_promises": math.nan, "crack_rate": math.nan}
+    if val is None or val.empty:
+        return none
+    rows = val.loc[(val["kernel"] == kernel) & (val["dtype"] == dtype)]
+    if rows.empty:
+        return none
+    cracks = rows.loc[rows["test"] == "shared_edges", "rate"]
+    return {
+        "promises_checked": int((rows["verdict"] != "measured").sum()),
+        "broken_promises": int((rows["verdict"] == "fail").sum()),
+        "crack_rate": float(cracks.iloc[0]) if len(cracks) else math.nan,
+    }
+
+
+def band_table(
+    est: pd.DataFrame,
+    pp: pd.DataFrame,
+    specs: Mapping[str, Mapping[str, Any]],
+    baseline: str,
+    margin: float,
+    val: pd.DataFrame | None = None,
+) -> pd.DataFrame:
+    """Per precision and hit-rate band (:func:`band_of`), every kernel from the fastest down (``bands.csv``).
+
+    ``est`` is the estimates joined with the workload table
+    (:func:`estimates_with_workloads`), ``pp`` the per-process values,
+    ``specs`` each workload's spec, ``val`` the robustness table
+    (``validate.csv``) if there is one. A band holds the kernels timed on
+    every one of its workloads; a kernel's value in a process is the geometric
+    mean of its per-process medians over the band's workloads, so each workload
+    weighs the same whatever its ns/test. On those values: the mean over
+    processes with its t interval (``stats.estimate``), and paired ratios
+    (``stats.speedup``) to the fastest and from the baseline, each with
+    simultaneous intervals over the band's other kernels (Bonferroni), as in
+    :func:`ranking_table`.
+    """
+    frame = est.assign(
+        band=[
+            band_of(str(r.kind), float(r.test_hit_rate), specs.get(r.workload_id, {}).get("accel"))
+            for r in est.itertuples(index=False)
+        ]
+    )
+    order = {b: i for i, b in enumerate(band_of(*a) for a in (("pairs", 0), ("pairs", 0.5), ("pairs", 1), ("mesh", 0)))}
+    keys = sorted(frame.groupby(["dtype", "band"]).groups, key=lambda k: (k[0], order.get(k[1], len(order)), k[1]))
+    rows = []
+    for dtype, band in keys:
+        g = frame.loc[(frame["dtype"] == dtype) & (frame["band"] == band)]
+        wids = list(dict.fromkeys(g["workload_id"]))
+        kernels = [k for k, n in g.groupby("kernel", sort=False)["workload_id"].nunique().items() if n == len(wids)]
+        sub = pp.loc[pp["workload_id"].isin(wids) & pp["kernel"].isin(kernels)]
+        logs = sub.assign(log=np.log(sub["ns_per_test"])).groupby(["process", "kernel"])["log"].agg(["mean", "size"])
+        logs = logs.loc[logs["size"] == len(wids), "mean"]  # processes that ran every workload of the band
+        per = np.exp(logs.unstack("kernel")) if len(logs) else pd.DataFrame()
+        kernels = [k for k in kernels if k in per and per[k].notna().sum() >= 1]
+        if not kernels:
+            continue
+        estimates = {k: stats.estimate(per[k].dropna()) for k in kernels}
+        ranked = sorted(kernels, key=lambda k: (estimates[k].mean, k))
+        fastest = ranked[0]
+        level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(ranked) - 1, 1))
+        for rank, kernel in enumerate(ranked, start=1):
+            e = estimates[kernel]
+            ratio, low, high = (1.0, 1.0, 1.0) if kernel == fastest else _paired_ratio(per, kernel, fastest, level)[:3]
+            if kernel == baseline:
+                speedup = (1.0, math.nan, math.nan)
+            elif baseline in per:
+                speedup = _paired_ratio(per, baseline, kernel, level)[:3]
+            else:
+                speedup = (math.nan, math.nan, math.nan)
+            rows.append(
+                {
+                    "dtype": dtype,
+                    "band": band,
+                    "workloads": len(wids),
+                    "rank": rank,
+                    "kernel": kernel,
+                    "algorithm": _declared(kernel, "algorithm"),
+                    "form": _form(kernel),
+                    "ns_per_test": e.mean,
+                    "ns_per_test_ci_low": e.ci_low,
+                    "ns_per_test_ci_high": e.ci_high,
+                    "vs_fastest": ratio,
+                    "vs_fastest_ci_low": low,
+                    "vs_fastest_ci_high": high,
+                    "tied_with_fastest": bool(low <= 1 + margin) if not math.isnan(low) else False,
+                    "speedup": speedup[0],
+                    "speedup_ci_low": speedup[1],
+                    "speedup_ci_high": speedup[2],
+                    "baseline": baseline,
+                    "n_processes": e.n,
+                    "watertight": _declared(kernel, "watertight"),
+                    "culls_back_faces": _declared(kernel, "culls_back_faces"),
+                    "bytes_per_triangle": _bytes_per_triangle(kernel, str(dtype)),
+                    **_robustness(val, kernel, str(dtype)),
+                }
+            )
+    return _frame(rows, runfolder.BANDS)
+
+
+# ------------------------------------------------------------ in a BVH
+
+#: The algorithm whose BVH-capable form the speedups in a BVH are against when the run's
+#: baseline has none (the seed's kernels are scalar only): the standard test, as in Baldwin & Weber.
+BVH_FALLBACK_ALGORITHM = "moller_trumbore"
+
+_KEY = ["process", "workload_id", "round", "position", "kernel"]
+
+
+def bvh_baseline(kernels: Sequence[str], baseline: str) -> str:
+    """The kernel the speedups on a BVH workload are against, from those that ran it (sweep order).
+
+    The run's baseline if it ran there; else its algorithm's first form that
+    did (``ext.kernel_info(k).algorithm``); else :data:`BVH_FALLBACK_ALGORITHM`'s;
+    else the first kernel.
+
+    >>> bvh_baseline(["woop_fma", "moller_trumbore_fma"], "moller_seed")
+    'moller_trumbore_fma'
+    >>> bvh_baseline(["woop_fma"], "moller_seed")
+    'woop_fma'
+    """
+    if baseline in kernels:
+        return baseline
+    for algorithm in (_declared(baseline, "algorithm"), BVH_FALLBACK_ALGORITHM):
+        for k in kernels:
+            if algorithm is not None and _declared(k, "algorithm") == algorithm:
+                return k
+    return kernels[0]
+
+
+def _per_process_wide(values: pd.DataFrame, column: str) -> pd.DataFrame:
+    """Per process (rows) and kernel (columns): the median of ``column`` over the process's timed batches."""
+    med = values.groupby(["process", "kernel"])[column].median()
+    return med.unstack("kernel")
+
+
+def bvh_table(
+    batches: pd.DataFrame,
+    traversals: pd.DataFrame,
+    wl: pd.DataFrame,
+    specs: Mapping[str, Mapping[str, Any]],
+    pp: pd.DataFrame,
+    kernels: Sequence[str],
+    baseline: str,
+    margin: float,
+) -> pd.DataFrame:
+    """Per BVH workload and kernel: end-to-end rays/s, the work per ray, the leaf tests' share of trace
+    time, and the speedup over a baseline beside the same speedup in brute force (``bvh.csv``).
+
+    ``batches`` and ``traversals`` as :mod:`~tribench.harness.records` reads them,
+    ``wl`` the workload table, ``pp`` the per-process values (``per_process.csv``),
+    ``kernels`` in sweep order, ``baseline`` the run's.
+    Rays/s: per process the median over its timed batches of ``loops x rays /
+    elapsed``, geometric mean over processes (``stats.geometric_mean``). The
+    leaf share is ``1 - null / real`` with ``null / real`` per process the
+    median of each batch's ratio to its null-leaf twin (``traversals.csv``),
+    geometric mean over processes. Speedups are paired per-process ratios
+    (``stats.speedup``) with Bonferroni-simultaneous intervals over the
+    workload's kernels: of ns per ray in the BVH, of ns per test in brute force
+    on the brute-force twin (:func:`bvh_baseline` on both). A run without a
+    BVH workload gives an empty table.
+    """
+    from tribench.workloads.kinds import spec_from_dict
+    from tribench.workloads.spec import MeshSpec, workload_id
+
+    rows: list[dict[str, Any]] = []
+    bvh_wids = [wid for wid in wl["workload_id"] if specs[wid].get("accel") == "bvh"]
+    if not bvh_wids:
+        return _frame(rows, runfolder.BVH)
+    timed = batches.loc[~batches["warmup"]]
+    rays = dict(zip(wl["workload_id"], wl["rays"], strict=True))
+    order = {k: i for i, k in enumerate(kernels)}
+    trav = traversals.loc[~traversals["warmup"].astype(bool)]
+    if len(trav):
+        paired = trav.merge(timed[[*_KEY, "elapsed_ns"]], on=_KEY, how="inner")
+        paired = paired.assign(null_ratio=paired["null_elapsed_ns"] / paired["elapsed_ns"])
+    else:  # a run made before traversals.csv existed: no counts, no leaf share
+        paired = pd.DataFrame(columns=["process", "kernel", "workload_id", "null_ratio"])
+    for wid in bvh_wids:
+        b = timed.loc[timed["workload_id"] == wid]
+        ran = sorted(set(b["kernel"]), key=lambda k: order.get(k, len(order)))
+        if not ran:
+            continue
+        base = bvh_baseline(ran, baseline)
+        level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(ran) - 1, 1))
+        per_ray = _per_process_wide(b.assign(ns=b["elapsed_ns"] / (b["loops"] * rays[wid])), "ns")
+        spec = spec_from_dict(dict(specs[wid]))
+        assert isinstance(spec, MeshSpec)  # only a mesh has accel "bvh"
+        twin = workload_id(spec.brute_twin())
+        twin_pp = pp.loc[pp["workload_id"] == twin]
+        brute = twin_pp.pivot(index="process", columns="kernel", values="ns_per_test") if len(twin_pp) else None
+        t = trav.loc[trav["workload_id"] == wid]
+        shares = _per_process_wide(paired.loc[paired["workload_id"] == wid], "null_ratio")
+        w = wl.loc[wl["workload_id"] == wid].iloc[0]
+        for kernel in ran:
+            rate = stats.geometric_mean(1e9 / per_ray[kernel].dropna())
+            tk = t.loc[t["kernel"] == kernel]
+            n_rays = tk["rays"].sum()
+
+            def per(column: str, tk: pd.DataFrame = tk, n_rays: float = n_rays) -> float:
+                return float(tk[column].sum() / n_rays) if n_rays else math.nan
+
+            share_low = share = share_high = math.nan
+            if kernel in shares and shares[kernel].notna().any():
+                g = stats.geometric_mean(shares[kernel].dropna())
+                share, share_low, share_high = 1 - g.mean, 1 - g.ci_high, 1 - g.ci_low
+            nan3 = (math.nan, math.nan, math.nan)
+            speedup = (1.0, 1.0, 1.0) if kernel == base else _paired_ratio(per_ray, base, kernel, level)[:3]
+            brute_speedup = nan3
+            if brute is not None and {base, kernel} <= set(brute.columns):
+                brute_speedup = (1.0, 1.0, 1.0) if kernel == base else _paired_ratio(brute, base, kernel, level)[:3]
+            rows.append(
+                {
+                    "workload_id": wid,
+                    "family": w["family"],
+                    "label": w["label"],
+                    "dtype": w["dtype"],
+                    "rays_kind": specs[wid].get("rays"),
+                    "triangles": w["triangles"],
+                    "kernel": kernel,
+                    "algorithm": _declared(kernel, "algorithm"),
+                    "rays_per_s": rate.mean,
+                    "rays_per_s_ci_low": rate.ci_low,
+                    "rays_per_s_ci_high": rate.ci_high,
+                    "n_processes": rate.n,
+                    "nodes_per_ray": per("nodes"),
+                    "box_tests_per_ray": per("box_tests"),
+                    "leaves_per_ray": per("leaves"),
+                    "triangle_tests_per_ray": per("triangle_tests"),
+                    "null_nodes_per_ray": per("null_nodes"),
+                    "leaf_share": share,
+                    "leaf_share_ci_low": share_low,
+                    "leaf_share_ci_high": share_high,
+                    "baseline": base,
+                    "speedup": speedup[0],
+                    "speedup_ci_low": speedup[1],
+                    "speedup_ci_high": speedup[2],
+                    "verdict": "baseline" if kernel == base else stats.verdict(speedup[1], speedup[2], margin),
+                    "brute_workload_id": twin if brute is not None else "",
+                    "brute_speedup": brute_speedup[0],
+                    "brute_speedup_ci_low": brute_speedup[1],
+                    "brute_speedup_ci_high": brute_speedup[2],
+                }
+            )
+    return _frame(rows, runfolder.BVH)

@@ -10,6 +10,8 @@ writes JSON lines to stdout, the only thing it ever writes there:
   a kernel's answers on a workload against the reference, before its batches;
 * ``{"type": "batch", ...}``: a :class:`~tribench.harness.records.BatchRow`,
   sent as soon as the batch is timed and checked;
+* ``{"type": "traversal", ...}``: a :class:`~tribench.harness.records.TraversalRow`,
+  after each batch on a BVH workload;
 * ``{"type": "error", "message": ...}``: the worker stops (exit code 3).
 
 What it does, in order:
@@ -26,13 +28,18 @@ What it does, in order:
    ambiguous rays), then calibrates ``loops`` so that one batch takes about
    ``target_ms`` (kept for the whole process; calibration batches are not
    recorded). On a BVH workload (``accel = "bvh"``) each kernel's BVH is
-   built first, once, outside any timed batch; its answers are checked and
+   read first from the BVH cache (built there once per machine), outside any timed batch; its answers are checked and
    its batches timed through the BVH, and a batch's ``tests`` are the
    triangle tests the traversal did (``ns/test`` stays a time per
    ray-triangle test; ``rays x loops / elapsed`` is its rays/s);
 5. runs its batches in the order given; every batch's checksum must equal
    ``loops`` times the kernel's verified one-pass checksum (hits exactly, the
-   sum of ``t`` within :data:`T_SUM_RTOL`);
+   sum of ``t`` within :data:`T_SUM_RTOL`). A BVH batch also sends
+   ``{"type": "traversal", ...}``, a :class:`~tribench.harness.records.TraversalRow`:
+   its traversal's counts, and the same rays and loops traced with a null
+   leaf test (each ray's ``t_max`` at the kernel's own hit), timed just
+   before or just after it, at random, so the leaf tests' share of the
+   trace time is measured batch by batch on the same machine state;
 6. runs the FMA peak probe again.
 """
 
@@ -51,10 +58,10 @@ from typing import Any, cast
 import numpy as np
 
 from tribench import ext
-from tribench.workloads import reference
+from tribench.workloads import bvh_cache, reference
 from tribench.workloads.spec import MeshSpec
 
-from .records import BatchRow, CheckRow, ProcessRow
+from .records import BatchRow, CheckRow, ProcessRow, TraversalRow
 
 __all__ = [
     "KernelCheckError",
@@ -156,25 +163,41 @@ def replicates_a_flawed_original(kernel: str) -> bool:
 @dataclass(frozen=True)
 class BvhJob:
     """The inputs of a BVH workload's timed batches: one kernel's BVH (built
-    once per process, outside the timed batches) and the rays."""
+    once per process, outside the timed batches), the rays, and each ray's
+    ``t_max`` for the null-leaf traversal (``null_t_max``: just above the
+    kernel's own answer's ``t``, the workload's ``t_max`` where it misses, as
+    :func:`_bvh_job` sets it; None: the workload's ``t_max`` for every ray)."""
 
     bvh: ext.BVH
     origins: np.ndarray
     directions: np.ndarray
     mode: ext.Mode
     t_max: np.ndarray | None
+    null_t_max: np.ndarray | None = None
 
     @property
     def max_loops(self) -> int:
         return ext.MAX_BVH_BATCH_RAYS // len(self.origins)
 
+    def trace(self, loops: int) -> ext.TraceBatch:
+        """One timed batch through the tree, with the kernel at the leaves."""
+        return self.bvh.time(self.origins, self.directions, self.mode, loops, t_max=self.t_max)
+
+    def trace_null(self, loops: int) -> ext.TraceBatch:
+        """The same rays and loops with a null leaf test: the traversal alone."""
+        t_max = self.t_max if self.null_t_max is None else self.null_t_max
+        return self.bvh.time(self.origins, self.directions, "closest", loops, t_max=t_max, null_leaf=True)
+
+
+def _as_batch(b: ext.TraceBatch) -> ext.Batch:
+    """A BVH batch as a brute-force batch: its ``tests`` are the triangle tests its traversal did."""
+    return ext.Batch(b.elapsed_ns, b.loops, b.triangle_tests, b.hits, b.t_sum, b.uv_sum)
+
 
 def time_job(job: ext.Job | BvhJob, loops: int) -> ext.Batch:
-    """One timed batch of a brute-force job or a BVH job. A BVH batch's
-    ``tests`` are the triangle tests its traversal did."""
+    """One timed batch of a brute-force job or a BVH job."""
     if isinstance(job, BvhJob):
-        b = job.bvh.time(job.origins, job.directions, job.mode, loops, t_max=job.t_max)
-        return ext.Batch(b.elapsed_ns, b.loops, b.triangle_tests, b.hits, b.t_sum, b.uv_sum)
+        return _as_batch(job.trace(loops))
     return ext.time_batch(job, loops)
 
 
@@ -438,17 +461,23 @@ def run_job(job: WorkerJob, emit) -> None:
                 prepared[(k, wid)] = (kjob, calibrate_loops(kjob, target_ns), expected)
             steal_before = None  # checks and calibration are not a batch
         kjob, loops, expected = prepared[(kernel, wid)]
+        null, null_first = None, isinstance(kjob, BvhJob) and bool(rng.integers(2))
+        if isinstance(kjob, BvhJob) and null_first:
+            null, steal_before = kjob.trace_null(loops), None  # its steal is not the batch's
         before = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
         if steal_before is None:
             steal_before = steal_clock.ticks()
         start = time.monotonic_ns()
-        batch = time_job(kjob, loops)
+        trace = kjob.trace(loops) if isinstance(kjob, BvhJob) else None
+        batch = _as_batch(trace) if trace is not None else time_job(kjob, loops)
         switches = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
         # one reading per batch: the steal since the previous batch ended, which
         # is this batch's (ticks are 10 ms; the bookkeeping between takes ~0.05 ms)
         steal_after = steal_clock.ticks()
         steal = steal_after - steal_before if steal_before >= 0 and steal_after >= 0 else -1
         steal_before = steal_after
+        if isinstance(kjob, BvhJob) and null is None:
+            null, steal_before = kjob.trace_null(loops), None
         check_batch(batch, expected, kernel, w)
         emit(
             "batch",
@@ -475,14 +504,43 @@ def run_job(job: WorkerJob, emit) -> None:
                 steal,
             ),
         )
+        if trace is not None and null is not None:
+            emit(
+                "traversal",
+                TraversalRow(
+                    job.run_id,
+                    process,
+                    job.attempt,
+                    rnd,
+                    position,
+                    kernel,
+                    wid,
+                    rnd < 0,
+                    trace.loops * trace.rays,
+                    trace.nodes,
+                    trace.box_tests,
+                    trace.leaves,
+                    trace.triangle_tests,
+                    null.elapsed_ns,
+                    null.nodes,
+                    null_first,
+                ),
+            )
     steal_clock.close()
     emit("process", _peak_row(job, "end", cpu, pad, len(dummies)))
 
 
 def _bvh_job(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, tris: np.ndarray) -> BvhJob:
-    """``kernel``'s BVH over the workload's triangles (this process's copy) and its rays."""
-    bvh = ext.build_bvh(kernel, tris)
-    bjob = BvhJob(bvh, o, d, cast(ext.Mode, w.mode), w.t_max)
+    """``kernel``'s BVH over the workload's triangles (this process's copy) and
+    its rays; from the BVH cache, so a big mesh's tree is built once per machine."""
+    bvh, _ = bvh_cache.cached_bvh(kernel, tris)
+    mode = cast(ext.Mode, w.mode)
+    hits = bvh.intersect(o, d, mode, t_max=w.t_max).hits
+    # just above each hit (the traversal's own 1 + 4 eps), so the null traversal still enters the hit's leaf
+    grow = 1 + 4 * np.finfo(tris.dtype).eps
+    far = np.inf if w.t_max is None else w.t_max
+    null_t_max = np.where(hits.hit, hits.t * grow, far).astype(tris.dtype)
+    bjob = BvhJob(bvh, o, d, mode, w.t_max, null_t_max)
     if time_job(bjob, 1).tests == 0:  # ns per test needs a test; batches.csv holds positive counts
         raise ValueError(
             f"workload {w.workload_id} ({w.spec.summary()}): no ray reaches a leaf of the BVH, so its "

@@ -10,8 +10,9 @@ Public API (heavy modules are imported on first use):
 
 * :func:`write_report` — ``RUN_DIR/report.html`` (one self-contained page) and
   ``RUN_DIR/sweep.toml`` (the sweep, to run it again).
-* :func:`write_compare` — the same kernels on two runs: ratio of their
-  speedups with CIs, as an HTML page.
+* :func:`write_compare` — the same kernels on N runs: every run's speedups
+  with CIs, the orders of kernels that hold on every run, and for two runs the
+  ratio of their speedups, as an HTML page.
 * :func:`format_tables` — compact terminal tables of estimates and speedups.
 
 The CSV columns are defined and documented in :mod:`tribench.harness.runfolder`.
@@ -20,7 +21,10 @@ The CSV columns are defined and documented in :mod:`tribench.harness.runfolder`.
 renders the column docs. Every page is built with one kit, :mod:`.page` (the
 shell, the stylesheet, tables, figures, escaping); ``report.html`` is put
 together by :mod:`.html` from its section modules (:mod:`.headline`,
-:mod:`.results`, :mod:`.checks`, :mod:`.about`). Intervals are written by
+:mod:`.ranking`, :mod:`.results`, :mod:`.checks`, :mod:`.about`), opens on the
+answer (:mod:`.ranking`) with every other section collapsed, and draws its
+main charts interactively (:mod:`.charts`: Vega-Lite, its library inlined once)
+and the dense diagnostics as static figures (:mod:`.figures`). Intervals are written by
 :func:`tribench.stats.format_interval`. It may import ``common``, ``ext``, ``workloads``,
 ``stats`` and ``harness`` (to read a run folder); never ``cli``.
 """
@@ -69,16 +73,16 @@ def write_report(run_dir: str | Path, baseline: str | None = None) -> Path:
     return out
 
 
-def write_compare(run_a: str | Path, run_b: str | Path, out: str | Path | None = None) -> Path:
-    """Write the comparison page of two runs (default ``RUN_B/compare.html``) and return its path."""
-    from .compare import compare_runs, render_compare
-
-    a, b = _load(run_a), _load(run_b)
-    result = compare_runs(a, b)
+def write_compare(*run_dirs: str | Path, out: str | Path | None = None) -> Path:
+    """Write the comparison page of N >= 2 runs (default ``LAST_RUN/compare.html``) and return its path."""
     from tribench.common import write_text
 
-    path = Path(out) if out is not None else b.run_dir / "compare.html"
-    write_text(path, render_compare(a, b, result))
+    from .compare import compare, render_compare
+
+    runs = [_load(r) for r in run_dirs]
+    many, pair = compare(runs)
+    path = Path(out) if out is not None else runs[-1].run_dir / "compare.html"
+    write_text(path, render_compare(runs, many, pair))
     return path
 
 
@@ -89,12 +93,12 @@ def format_tables(run_dir: str | Path) -> str:
     return format_run(_load(run_dir))
 
 
-def format_compare(run_a: str | Path, run_b: str | Path) -> str:
-    """The ratio-of-speedups table of two runs, for the terminal."""
-    from .compare import compare_runs, format_comparison
+def format_compare(*run_dirs: str | Path) -> str:
+    """The comparison of N >= 2 runs, for the terminal."""
+    from .compare import compare, format_compare_text
 
-    a, b = _load(run_a), _load(run_b)
-    return format_comparison(a, b, compare_runs(a, b))
+    runs = [_load(r) for r in run_dirs]
+    return format_compare_text(runs, *compare(runs))
 
 
 def __getattr__(name: str):

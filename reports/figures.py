@@ -1,4 +1,7 @@
-"""The report's figures: each a function from tidy DataFrames to a matplotlib Figure.
+"""The report's static figures: each a function from tidy DataFrames to a matplotlib Figure.
+
+The main charts are interactive (:mod:`.charts`); these are the dense diagnostics
+(every batch, every process) and the compare page's forest plot.
 
 matplotlib runs with the Agg backend and is imported here only. Figures are
 embedded in the page as ``data:`` URIs (:func:`svg_data_uri`,
@@ -27,7 +30,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.artist import Artist  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.ticker import FuncFormatter, MaxNLocator, NullFormatter, PercentFormatter  # noqa: E402
+from matplotlib.ticker import FuncFormatter, MaxNLocator, NullFormatter  # noqa: E402
 
 if TYPE_CHECKING:  # matplotlib.typing is new in 3.8
     from matplotlib.typing import RcKeyType
@@ -38,9 +41,7 @@ __all__ = [
     "VERDICT_COLOURS",
     "kernel_colours",
     "forest",
-    "hit_rate_curves",
-    "speedup_vs_hit_rate",
-    "scaling",
+    "NO_HIT_RATE_CURVE",
     "process_dots",
     "drift_panel",
     "rounds_panel",
@@ -63,6 +64,17 @@ _PALETTE = [
     "#7f7f7f",
     "#bcbd22",
     "#17becf",
+    # then the light shades of the same ten (matplotlib's tab20): the main job ranks about twenty kernels
+    "#aec7e8",
+    "#ffbb78",
+    "#98df8a",
+    "#ff9896",
+    "#c5b0d5",
+    "#c49c94",
+    "#f7b6d2",
+    "#c7c7c7",
+    "#dbdb8d",
+    "#9edae5",
 ]
 _STYLE: dict[RcKeyType, Any] = {
     "font.size": 9,
@@ -251,193 +263,8 @@ def forest(
 
 # ---------------------------------------------------------------- hit rate
 
-
-def _pct_axis(ax) -> None:
-    ax.xaxis.set_major_formatter(PercentFormatter(1.0, decimals=0))
-
-
-def _mark_crossovers(ax, cross: pd.DataFrame) -> None:
-    for r in cross.itertuples(index=False):
-        if not np.isfinite(r.hit_rate):
-            continue
-        if np.isfinite(r.ci_low) and np.isfinite(r.ci_high):
-            ax.axvspan(r.ci_low, r.ci_high, color="#7c3aed", alpha=0.10, lw=0)
-        ax.axvline(r.hit_rate, color="#7c3aed", lw=1, ls="--")
-        ax.text(
-            r.hit_rate,
-            1.0,
-            f" {r.kernel_a} = {r.kernel_b}\n at {100 * r.hit_rate:.3g}%",
-            transform=ax.get_xaxis_transform(),
-            va="top",
-            ha="left",
-            fontsize=7.5,
-            color="#7c3aed",
-        )
-
-
-_NO_HIT_RATE_CURVE = "no pair workload family with two or more per-test hit rates in this run"
-
-
-def _hit_rate_families(table: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
-    """The pair rows of ``table`` and the families that have a curve (two or more hit rates)."""
-    pairs = table.loc[table["kind"] == "pairs"]
-    families = [f for f, g in pairs.groupby("family", sort=False) if g["test_hit_rate"].nunique() >= 2]
-    return pairs, families
-
-
-def hit_rate_curves(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, str]) -> Figure:
-    """ns/test against the per-test hit rate, one line per kernel with its CI band.
-
-    Parameters
-    ----------
-    est : DataFrame
-        Estimates of pair workloads with ``family``, ``test_hit_rate``.
-    cross : DataFrame
-        :func:`tribench.reports.content.crossovers` rows; crossings are
-        drawn as dashed lines with their interval shaded.
-    """
-    pairs, families = _hit_rate_families(est)
-    if not families:
-        return _empty(_NO_HIT_RATE_CURVE)
-    fig = _figure(9.5, 3.6 * len(families))
-    axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
-    for ax, family in zip(axes, families, strict=True):
-        rows = pairs.loc[pairs["family"] == family]
-        for kernel, g in rows.groupby("kernel", sort=False):
-            g = g.sort_values("test_hit_rate")
-            c = colours.get(kernel, "#333")
-            ax.fill_between(
-                g["test_hit_rate"], g["ns_per_test_ci_low"], g["ns_per_test_ci_high"], color=c, alpha=0.18, lw=0
-            )
-            ax.plot(g["test_hit_rate"], g["ns_per_test"], "o-", color=c, ms=3.5, lw=1.5, label=kernel)
-        _mark_crossovers(ax, cross.loc[cross["family"] == family])
-        ax.set_title(family, loc="left", fontsize=9.5)
-        ax.set_ylabel("ns per ray–triangle test")
-        ax.set_xlabel("per-test hit rate (fraction of ray–triangle tests that hit), achieved")
-        _pct_axis(ax)
-        ax.set_ylim(bottom=0)
-        ax.grid(color="#eee", lw=0.6)
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), frameon=False)
-    fig.subplots_adjust(right=0.8, hspace=0.45)
-    return fig
-
-
-def speedup_vs_hit_rate(spd: pd.DataFrame, baseline: str, margin: float, colours: dict[str, str]) -> Figure:
-    """Speedup over the baseline against the per-test hit rate, with CI bands (log axis)."""
-    pairs, families = _hit_rate_families(spd)
-    if not families:
-        return _empty(_NO_HIT_RATE_CURVE)
-    fig = _figure(9.5, 3.3 * len(families))
-    axes = fig.subplots(len(families), 1, squeeze=False)[:, 0]
-    for ax, family in zip(axes, families, strict=True):
-        rows = pairs.loc[pairs["family"] == family]
-        ax.axhspan(1 / (1 + margin), 1 + margin, color="#d0d7de", alpha=0.6, lw=0)
-        ax.axhline(1.0, color="#333", lw=0.8)
-        for kernel, g in rows.groupby("kernel", sort=False):
-            g = g.sort_values("test_hit_rate")
-            c = colours.get(kernel, "#333")
-            ax.fill_between(g["test_hit_rate"], g["ratio_ci_low"], g["ratio_ci_high"], color=c, alpha=0.18, lw=0)
-            ax.plot(g["test_hit_rate"], g["ratio"], "o-", color=c, ms=3.5, lw=1.5, label=kernel)
-        ax.set_yscale("log")
-        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}×"))
-        ax.yaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:g}×"))
-        ax.set_title(family, loc="left", fontsize=9.5)
-        ax.set_ylabel(f"speedup over {baseline}")
-        ax.set_xlabel("per-test hit rate (fraction of ray–triangle tests that hit), achieved")
-        _pct_axis(ax)
-        ax.grid(color="#eee", lw=0.6)
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), frameon=False)
-    fig.subplots_adjust(right=0.8, hspace=0.45)
-    return fig
-
-
-# ----------------------------------------------------------------- scaling
-
-
-def _bytes_label(v: float, _=None) -> str:
-    for unit, size in (("GiB", 1024**3), ("MiB", 1024**2), ("KiB", 1024)):
-        if v >= size:
-            return f"{v / size:.3g} {unit}"
-    return f"{v:.3g} B"
-
-
-def scaling(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) -> Figure:
-    """ns/test against triangle count (mesh families) and against working-set size (all).
-
-    Both axes logarithmic; the machine's data cache sizes are marked on the
-    working-set panel. Lines join the workloads of one family.
-    """
-    mesh = est.loc[(est["kind"] == "mesh") & est["triangles"].notna()]
-    fig = _figure(11, 4.2)
-    ax1, ax2 = fig.subplots(1, 2)
-    styles = ["-", "--", ":", "-."]
-    fam_style = {f: styles[i % len(styles)] for i, f in enumerate(dict.fromkeys(est["family"]))}
-    if mesh.empty:
-        ax1.text(0.5, 0.5, "no mesh workloads in this run", transform=ax1.transAxes, ha="center", color="#555")
-    for (family, kernel), g in mesh.groupby(["family", "kernel"], sort=False):
-        g = g.sort_values("triangles")
-        c = colours.get(kernel, "#333")
-        ax1.fill_between(g["triangles"], g["ns_per_test_ci_low"], g["ns_per_test_ci_high"], color=c, alpha=0.18, lw=0)
-        ax1.plot(g["triangles"], g["ns_per_test"], "o", ls=fam_style[family], color=c, ms=3.5, lw=1.4, label=kernel)
-    ax1.set_xscale("log")
-    ax1.set_yscale("log")
-    ax1.set_xlabel("triangles in the mesh (achieved count; brute force: every ray tests every triangle)")
-    ax1.set_ylabel("ns per ray–triangle test")
-    ax1.set_title("cost against triangle count", loc="left")
-    _dedupe_legend(ax1)
-
-    ws = est.dropna(subset=["working_set_bytes"])
-    for (family, kernel), g in ws.groupby(["family", "kernel"], sort=False):
-        g = g.sort_values("working_set_bytes")
-        c = colours.get(kernel, "#333")
-        mean = g["ns_per_test"]
-        yerr = [mean - g["ns_per_test_ci_low"], g["ns_per_test_ci_high"] - mean]
-        ax2.errorbar(
-            g["working_set_bytes"],
-            mean,
-            yerr=yerr,
-            fmt="o",
-            ls=fam_style[family],
-            color=c,
-            ms=3.5,
-            lw=1.2,
-            capsize=2,
-            label=kernel,
-        )
-    ax2.set_xscale("log")
-    ax2.set_yscale("log")
-    for name, size in (caches or {}).items():
-        if name.endswith("i"):
-            continue  # instruction caches hold no data
-        b = cache_bytes(size)
-        if np.isfinite(b):
-            ax2.axvline(b, color="#888", lw=0.9, ls="--")
-            ax2.text(
-                b,
-                0.98,
-                f" {name} {size}",
-                transform=ax2.get_xaxis_transform(),
-                rotation=90,
-                va="top",
-                ha="right",
-                fontsize=7.5,
-                color="#555",
-            )
-    ax2.xaxis.set_major_formatter(FuncFormatter(_bytes_label))
-    ax2.set_xlabel("working set: prepared triangles + rays (bytes)")
-    ax2.set_title("cost against working-set size, cache sizes marked", loc="left")
-    _dedupe_legend(ax2)
-    for ax in (ax1, ax2):
-        ax.grid(color="#eee", lw=0.6, which="both")
-    fig.tight_layout()
-    return fig
-
-
-def _dedupe_legend(ax) -> None:
-    handles, labels = ax.get_legend_handles_labels()
-    seen = dict(zip(labels, handles, strict=True))
-    if seen:
-        ax.legend(seen.values(), seen.keys(), frameon=False)
+#: Why a run has no hit-rate curve (the charts module draws them: :func:`tribench.reports.charts.hit_rate_chart`).
+NO_HIT_RATE_CURVE = "no pair workload family with two or more per-test hit rates in this run"
 
 
 # --------------------------------------------------------------- processes

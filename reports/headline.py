@@ -1,4 +1,4 @@
-"""The report's headline: one sentence per kernel and workload family, and the warnings above everything.
+"""The report's title, the run's warnings, and one sentence per kernel and workload family against the baseline.
 
 Part of ``report.html`` (:mod:`.html` puts the sections together); every number
 is read from the run folder's tables.
@@ -15,7 +15,7 @@ from tribench.stats import format_interval
 from . import page
 from .rundata import PeerTables, RunData
 
-__all__ = ["headline_sentences", "headline_section", "run_warnings", "peer_sentence"]
+__all__ = ["title", "headline_sentences", "headline_section", "run_warnings", "peer_sentence"]
 
 
 def headline_sentences(spd: pd.DataFrame) -> dict[str, list[tuple[str, str]]]:
@@ -75,25 +75,31 @@ def _verdict_phrase(verdict: str, base: str) -> str:
     }.get(verdict, f"cannot be told apart from {base} (inconclusive)")
 
 
-def headline_section(
-    data: RunData, spd: pd.DataFrame, wl: pd.DataFrame, warnings: list[str], peers: PeerTables | None = None
-) -> str:
-    """The title, the verdict sentences per family, how to read them, and the run's warnings."""
+def title(data: RunData, wl: pd.DataFrame) -> str:
+    """The page's title and the run in one paragraph: kernels, workloads, processes, machine, baseline."""
     m = data.machine
     sweep = data.run["sweep"]
     families = list(dict.fromkeys(wl["family"]))
-    parts = [
-        f"<h1>{escape(', '.join(k for k in data.kernels if k != data.baseline))} against {escape(data.baseline)}</h1>",
-        page.p(
-            f"Run {data.run.get('run_id', data.run_dir.name)}, {data.run.get('created', '')}: "
-            f"{len(data.kernels)} kernels on {len(wl)} workloads in {len(families)} families, "
-            f"{data.n_processes} worker processes × {sweep.get('rounds')} rounds "
-            f"(+{sweep.get('warmup')} warm-up), on {m.get('cpu_model', 'an unknown CPU')} "
-            f"({m.get('build', {}).get('compiler', 'unknown compiler')}). Baseline: {data.baseline}. "
-            f"Speedup = time_{data.baseline} / time_kernel, so above 1 means faster.",
-            "sub",
-        ),
-    ]
+    return "".join(
+        [
+            f"<h1>Which intersector, on {escape(str(m.get('cpu_model', 'this machine')))}</h1>",
+            page.p(
+                f"Run {data.run.get('run_id', data.run_dir.name)}, {data.run.get('created', '')}: "
+                f"{len(data.kernels)} kernels on {len(wl)} workloads in {len(families)} families, "
+                f"{data.n_processes} worker processes × {sweep.get('rounds')} rounds "
+                f"(+{sweep.get('warmup')} warm-up), on {m.get('cpu_model', 'an unknown CPU')} "
+                f"({m.get('build', {}).get('compiler', 'unknown compiler')}). Baseline: {data.baseline}. "
+                f"Speedup = time_{data.baseline} / time_kernel, so above 1 means faster.",
+                "sub",
+            ),
+        ]
+    )
+
+
+def headline_section(data: RunData, spd: pd.DataFrame, wl: pd.DataFrame, peers: PeerTables | None = None) -> str:
+    """Every kernel against the baseline, one sentence per kernel and family, and how to read them."""
+    families = list(dict.fromkeys(wl["family"]))
+    parts = []
     sentences = headline_sentences(spd)
     if not sentences:
         parts.append(page.p("No speedups: this run has a single kernel. Its estimates are below."))
@@ -104,7 +110,7 @@ def headline_section(
             f'<li><span class="{escape(v)}">{escape(v)}</span> — {escape(s)}</li>' for v, s in sentences[family]
         )
         parts.append(f'<h3>{escape(family)}</h3><ul class="verdicts">{items}</ul>')
-    if peers is not None and (sentence := peer_sentence(peers.ratios, peers.kernel, peers.workload)):
+    if peers is not None and (sentence := peer_sentence(peers.ratios, peers.kernel, peers.workload, peers.in_bvh)):
         parts.append(page.p(sentence + " (see Against peers)"))
     parts.append(
         page.p(
@@ -116,7 +122,6 @@ def headline_section(
             "note",
         )
     )
-    parts += [page.warn(w) for w in warnings]
     return "".join(parts)
 
 
@@ -150,14 +155,13 @@ def run_warnings(data: RunData, drift: pd.DataFrame, correct: pd.DataFrame) -> l
     return out
 
 
-def peer_sentence(ratios: pd.DataFrame, kernel: str, workload: str) -> str | None:
-    """tribench's rays/s over each peer's in one sentence (None when no peer was measured)."""
+def peer_sentence(ratios: pd.DataFrame, kernel: str, workload: str, in_bvh: bool = False) -> str | None:
+    """tribench's rays/s over each peer's in one sentence (None when no peer was measured);
+    ``in_bvh``: tribench was timed through its BVH with ``kernel`` as the leaf test."""
     rows = ratios.loc[ratios["contender"] == "tribench"]
     rows = rows.loc[rows["over"] != "tribench_call"]
     if rows.empty:
         return None
     parts = [f"{format_interval(r.ratio, r.ci_low, r.ci_high, unit='×')} {r.over}'s rays/s" for r in rows.itertuples()]
-    return (
-        f"Against peers ({workload}, one core): tribench's {kernel}, brute force, runs at {' and '.join(parts)} "
-        f"(95% CIs)."
-    )
+    ours = f"BVH with {kernel}" if in_bvh else f"{kernel}, brute force,"
+    return f"Against peers ({workload}, one core): tribench's {ours} runs at {' and '.join(parts)} (95% CIs)."

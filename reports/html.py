@@ -1,33 +1,47 @@
 """``report.html``: one self-contained page per run, put together from its sections.
 
-The page kit (shell, CSS, tables, figures, escaping) is :mod:`.page`; the
-sections are made by :mod:`.headline`, :mod:`.ranking`, :mod:`.results` (kernels, speedups, hit
-rate, size and working set, peers, processes), :mod:`.checks` (drift,
-diagnostics, correctness, robustness) and :mod:`.about` (workloads, machine,
-reproduce). Every number comes from the run folder's files.
+The page opens on the answer (:mod:`.ranking`: the ranking per precision and
+hit-rate band, one sentence per question, the chart of speed against
+robustness against memory, and the run's warnings); every other section is
+collapsed under its title, linked from the bar at the top. The page kit
+(shell, CSS, tables, figures, escaping) is :mod:`.page`; interactive charts are
+:mod:`.charts` (their library inlined once in the head), static figures
+:mod:`.figures`; the sections are made by :mod:`.headline`, :mod:`.ranking`,
+:mod:`.results` (kernels, speedups, hit rate, size and working set, peers,
+processes), :mod:`.bvh` (in a BVH), :mod:`.checks` (drift, diagnostics, correctness, robustness) and
+:mod:`.about` (workloads, machine, reproduce). Every number comes from the run
+folder's files.
 
-Sections, by id, in page order:
+Sections, by id, in page order (a new section: its title here and its body in :func:`render`):
 
 >>> list(SECTIONS)  # doctest: +NORMALIZE_WHITESPACE
-['headline', 'ranking', 'kernels', 'speedups', 'hit-rate', 'scaling', 'peers', 'processes', 'drift', 'diagnostics',
- 'correctness', 'robustness', 'workloads', 'machine', 'reproduce']
+['answer', 'ranking', 'headline', 'kernels', 'speedups', 'hit-rate', 'scaling', 'peers', 'processes', 'drift',
+ 'diagnostics', 'correctness', 'robustness', 'workloads', 'machine', 'reproduce']
+
+and, only in a run that has one, after the section named:
+
+>>> OPTIONAL_SECTIONS
+{'bvh': ('In a BVH', 'scaling')}
 """
 
 from __future__ import annotations
 
+import pandas as pd
+
 from tribench.harness import analysis, runfolder
 
-from . import about, checks, content, figures, headline, page, ranking, results
+from . import about, bvh, charts, checks, content, figures, headline, page, ranking, results
 from .about import sweep_toml
 from .headline import headline_sentences
 from .rundata import RunData, load_peers, load_validation
 
-__all__ = ["SECTIONS", "render", "headline_sentences", "sweep_toml", "MAX_PICTURES"]
+__all__ = ["OPTIONAL_SECTIONS", "SECTIONS", "OPEN", "render", "headline_sentences", "sweep_toml", "MAX_PICTURES"]
 
 #: Section ids, in page order, with their titles.
 SECTIONS = {
-    "headline": "Headline",
-    "ranking": "Ranking",
+    "answer": "The answer",
+    "ranking": "Ranking per workload",
+    "headline": "Every kernel against the baseline",
     "kernels": "Kernels",
     "speedups": "Speedups",
     "hit-rate": "Hit rate",
@@ -42,6 +56,12 @@ SECTIONS = {
     "machine": "Machine and build",
     "reproduce": "Reproduce",
 }
+
+#: Sections shown open; every other one is collapsed under its title.
+OPEN = frozenset({"answer"})
+
+#: Sections a run has only sometimes: id -> (title, id of the section it follows).
+OPTIONAL_SECTIONS = {"bvh": ("In a BVH", "scaling")}
 
 #: At most this many workload pictures are drawn, at this resolution, by the analysis step
 #: (:mod:`tribench.harness.analysis`; 60 dpi: 840 to 1080 px wide, 1.5 to 2 times the ~550 px shown).
@@ -64,12 +84,15 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     peers, peer_note = load_peers(data)
     colours = figures.kernel_colours(data.kernels)
 
+    alg = content.table(data, runfolder.ALGORITHMS)
+    bands = data.tables.get(runfolder.BANDS)  # None: tables of an older tribench
     bodies = {
-        "headline": headline.headline_section(data, spd, wl, headline.run_warnings(data, drift, correct), peers),
+        "answer": headline.title(data, wl)
+        + ranking.answer_section(data, bands, alg, colours)
+        + "".join(page.warn(w) for w in headline.run_warnings(data, drift, correct)),
+        "headline": headline.headline_section(data, spd, wl, peers),
         "ranking": ranking.ranking_section(
-            data,
-            content.sweep_order(content.table(data, runfolder.RANKING), data),
-            content.table(data, runfolder.ALGORITHMS),
+            data, content.sweep_order(content.table(data, runfolder.RANKING), data), alg
         ),
         "kernels": results.kernels_section(data, kern),
         "speedups": results.speedups_section(data, spd, est),
@@ -85,14 +108,33 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         "machine": about.machine_section(data),
         "reproduce": about.reproduce_section(data, sweep_file),
     }
-    # The headline opens the page with its own title, so its section has no heading.
-    body = "".join(page.section(sid, None if sid == "headline" else SECTIONS[sid], bodies[sid]) for sid in SECTIONS)
+    # an analysis made before bvh.csv existed has none: no section, as for a run without a BVH workload
+    in_bvh = data.tables.get(runfolder.BVH, pd.DataFrame())
+    optional = {"bvh": bvh.bvh_section(in_bvh, peers, colours)}
+    titles: dict[str, str] = {}
+    for sid, title in SECTIONS.items():
+        titles[sid] = title
+        for extra, (extra_title, after) in OPTIONAL_SECTIONS.items():
+            if after == sid and optional[extra]:
+                titles[extra] = extra_title
+    bodies.update(optional)
+    # The answer opens the page with the page's title, so its section has no heading of its own.
+    body = "".join(
+        page.section(sid, None if sid == "answer" else titles[sid], bodies[sid], collapsed=sid not in OPEN)
+        for sid in titles
+    )
     footer = page.p(
         f"Written by tribench report at {page.now()} from {data.run_dir}; tables made by the analysis "
         f"step at {data.record.get('created', '?')}. Statistics: tribench.stats.",
         "note",
     )
-    return page.document(f"tribench report — {data.run.get('run_id', data.run_dir.name)}", body, SECTIONS, footer)
+    return page.document(
+        f"tribench report — {data.run.get('run_id', data.run_dir.name)}",
+        body,
+        titles,
+        footer,
+        script=charts.library() if charts.USED in body else "",
+    )
 
 
 # tests/test_peers.py renders the peers section alone under its old name.

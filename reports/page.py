@@ -1,7 +1,10 @@
 """The page kit of every HTML page tribench writes (report, compare, seed): the shell, the CSS once, and the parts.
 
-A page is plain HTML with a small inline stylesheet and no script; figures are
-``data:`` URIs, so a file opens offline and references nothing outside itself.
+A page is plain HTML with a small inline stylesheet; figures are ``data:``
+URIs, and a page with interactive charts carries their library once, inline in
+its head (:func:`document`'s ``script``), so a file opens offline and
+references nothing outside itself. A section may be collapsed (``<details>``):
+the bar at the top links every section, and following a link opens it.
 Every helper here escapes the text it is given (:func:`html.escape`); a
 helper's ``body`` argument is HTML already made by these helpers.
 """
@@ -45,7 +48,20 @@ code{font-family:ui-monospace,SFMono-Regular,Menlo,Consolas,monospace;font-size:
 .pictures.three{grid-template-columns:repeat(3,1fr)}
 img.pixels{width:100%;image-rendering:pixelated}
 details summary{cursor:pointer;color:#0b57d0}
+section>details>summary{list-style-position:outside;margin-top:1.2em}
+section>details>summary h2{display:inline-block;margin:0;border:0;color:#1f2328}
+section>details[open]>summary h2{border-bottom:2px solid #d0d7de}
+figure.chart{overflow-x:auto}
+.answer td{font-size:1.02em}.answer th{font-size:.95em}
 """
+
+#: Opens the collapsed section a link or the address points at, or the ``<details>`` around its target.
+_OPEN_TARGET = (
+    "function tbOpen(){var t=location.hash&&document.getElementById(decodeURIComponent(location.hash.slice(1)));"
+    "if(!t)return;var d=t.querySelector(':scope>details');if(d)d.open=true;"
+    "for(;t;t=t.parentElement){if(t.tagName==='DETAILS')t.open=true;}}"
+    "addEventListener('hashchange',tbOpen);addEventListener('DOMContentLoaded',tbOpen);"
+)
 
 
 def num(x: Any, digits: int = 3) -> str:
@@ -142,9 +158,17 @@ def figure(uri: str, alt: str, caption: str, img_class: str = "") -> str:
     )
 
 
-def section(sid: str, title: str | None, body: str) -> str:
-    """``<section id=sid>`` with ``title`` as its heading (none if None) above ``body``."""
+def section(sid: str, title: str | None, body: str, collapsed: bool = False) -> str:
+    """``<section id=sid>`` with ``title`` as its heading (none if None) above ``body``.
+
+    ``collapsed``: the body is hidden under its title until the reader opens it.
+
+    >>> section("x", "X", "<p>b</p>", collapsed=True)
+    '<section id="x"><details><summary><h2>X</h2></summary><p>b</p></details></section>'
+    """
     h2 = f"<h2>{escape(title)}</h2>" if title is not None else ""
+    if collapsed:
+        return f'<section id="{escape(sid)}"><details><summary>{h2}</summary>{body}</details></section>'
     return f'<section id="{escape(sid)}">{h2}{body}</section>'
 
 
@@ -153,8 +177,10 @@ def now() -> str:
     return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
 
 
-def document(title: str, body: str, nav: Mapping[str, str] | None = None, footer: str = "") -> str:
+def document(title: str, body: str, nav: Mapping[str, str] | None = None, footer: str = "", script: str = "") -> str:
     """A whole page: ``nav`` maps section ids to the titles linked from the bar at the top.
+
+    ``script``: JavaScript the page's charts need (their library), inlined once in the head.
 
     Examples
     --------
@@ -167,9 +193,13 @@ def document(title: str, body: str, nav: Mapping[str, str] | None = None, footer
     links = "".join(f'<a href="#{escape(sid)}">{escape(t)}</a>' for sid, t in (nav or {}).items())
     bar = f"<nav>{links}</nav>" if links else ""
     end = f"<footer>{footer}</footer>" if footer else ""
+    if "</script" in script.lower():
+        raise ValueError("a page's script must not contain '</script'")  # it would end the element early
+    head = f"<script>{script}</script>" if script else ""
+    opener = f"<script>{_OPEN_TARGET}</script>" if "><details><summary><h2>" in body else ""
     return (
         '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
-        f"<title>{escape(title)}</title><style>{CSS}</style></head><body>"
+        f"<title>{escape(title)}</title><style>{CSS}</style>{head}{opener}</head><body>"
         f"{bar}<main>{body}{end}</main></body></html>\n"
     )

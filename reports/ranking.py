@@ -1,22 +1,33 @@
-"""The report's ranking: per workload, the fastest kernel, what ties with it, and what robustness costs.
+"""The report's ranking: the answer it opens on, per band, and the ranking per workload.
 
 Part of ``report.html`` (:mod:`.html` puts the sections together); every number
-is read from ``ranking.csv``, which the analysis step wrote
-(:func:`tribench.harness.tables.ranking_table`).
+is read from ``bands.csv``, ``ranking.csv`` and ``algorithms.csv``, which the
+analysis step wrote (:func:`tribench.harness.tables.band_table`,
+:func:`~tribench.harness.tables.ranking_table`, :func:`~tribench.harness.tables.algorithm_table`).
 """
 
 from __future__ import annotations
 
 import math
+from html import escape
 
 import pandas as pd
 
 from tribench.stats import format_interval
 
-from . import page
+from . import charts, page
 from .rundata import RunData
 
-__all__ = ["QUESTIONS", "algorithm_order", "question_rows", "ranking_rows", "ranking_section"]
+__all__ = [
+    "QUESTIONS",
+    "algorithm_order",
+    "answer_section",
+    "answer_sentences",
+    "band_rows",
+    "question_rows",
+    "ranking_rows",
+    "ranking_section",
+]
 
 #: The head-to-head questions the report answers when a run has both algorithms (algorithm names:
 #: tribench.ext.kernel_info(k).algorithm): Baldwin & Weber's claim, and the seed's question.
@@ -211,6 +222,205 @@ def ranking_section(data: RunData, rank: pd.DataFrame, alg: pd.DataFrame | None 
             f"“Not told apart” lists the kernels whose interval reaches down to 1 + the equivalence margin "
             f"({100 * data.margin:.2g}%): the point estimate alone picked the fastest among them. Every kernel's "
             "rank is in ranking.csv.",
+            "note",
+        )
+    )
+    return "".join(parts)
+
+
+# ------------------------------------------------------------ the answer: bands.csv
+
+
+def _place(dtype: str, band: str) -> str:
+    return f"{dtype} {band}"
+
+
+def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
+    """One display row per precision and band of ``bands.csv``: the fastest, its figures, the runners-up.
+
+    Examples
+    --------
+    >>> bands = pd.DataFrame({"dtype": ["float32"] * 3, "band": ["meshes, brute force"] * 3, "workloads": [2] * 3,
+    ...     "rank": [1, 2, 3], "kernel": ["a", "b", "c"], "ns_per_test": [1.0, 1.1, 2.0],
+    ...     "ns_per_test_ci_low": [0.9, 1.0, 1.9], "ns_per_test_ci_high": [1.1, 1.2, 2.1],
+    ...     "vs_fastest": [1.0, 1.1, 2.0], "vs_fastest_ci_low": [1.0, 0.95, 1.8], "vs_fastest_ci_high": [1.0, 1.2, 2.2],
+    ...     "tied_with_fastest": [True, True, False], "speedup": [3.0, 2.7, 1.0], "speedup_ci_low": [2.8, 2.5, None],
+    ...     "speedup_ci_high": [3.2, 2.9, None], "baseline": ["c"] * 3, "watertight": [False, True, False],
+    ...     "culls_back_faces": [False] * 3, "bytes_per_triangle": [48, 64, 36], "promises_checked": [5, 7, 5],
+    ...     "broken_promises": [0, 0, 1]})
+    >>> r = band_rows(bands).iloc[0]
+    >>> r["band"], r["fastest"], r["speedup"], r["tied"], r["next"]
+    ('meshes, brute force (2 workloads)', 'a', '3× [2.8, 3.2]', 'b', 'c: 2× [1.8, 2.2] slower')
+    >>> r["watertight"], r["validated"], int(r["bytes"])
+    ('no; fastest watertight: b, 1.1× [0.95, 1.2] slower', '0 of 5 broken', 48)
+    """
+    rows = []
+    for _, g in bands.groupby(["dtype", "band"], sort=False):
+        g = g.sort_values("rank")
+        best = g.iloc[0]
+        tied = g.iloc[1:].loc[g["tied_with_fastest"].iloc[1:].astype(bool)]
+        rest = g.iloc[1:].loc[~g["tied_with_fastest"].iloc[1:].astype(bool)]
+
+        def slower(r: pd.Series, g: pd.DataFrame = g) -> str:
+            ratio = _interval(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
+            return f"{_named(r['kernel'], g)}: {ratio} slower"
+
+        tight = g.loc[g["watertight"].astype(str) == "True"]
+        if str(best["watertight"]) == "True":
+            watertight = "yes"
+        elif tight.empty:
+            watertight = "no (no watertight kernel in this run)"
+        else:
+            watertight = "no; fastest watertight: " + slower(tight.iloc[0]).replace(":", ",", 1)
+        checked, broken = best["promises_checked"], best["broken_promises"]
+        rows.append(
+            {
+                "dtype": best["dtype"],
+                "band": f"{best['band']} ({best['workloads']} workload{'s' if best['workloads'] != 1 else ''})",
+                "fastest": _named(best["kernel"], g),
+                "ns": _interval(best["ns_per_test"], best["ns_per_test_ci_low"], best["ns_per_test_ci_high"]),
+                "speedup": (
+                    "(the baseline)"
+                    if best["kernel"] == best["baseline"]
+                    else _interval(best["speedup"], best["speedup_ci_low"], best["speedup_ci_high"], "×")
+                ),
+                "tied": ", ".join(_named(k, g) for k in tied["kernel"]) or "none",
+                "next": slower(rest.iloc[0]) if len(rest) else "–",
+                "watertight": watertight,
+                "validated": (
+                    "not validated"
+                    if pd.isna(broken)
+                    else ("none promised" if checked == 0 else f"{int(broken)} of {int(checked)} broken")
+                ),
+                "bytes": best["bytes_per_triangle"],
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _span(values: list[float], unit: str = "×") -> str:
+    low, high = min(values), max(values)
+    return f"{low:.3g}{unit}" if f"{low:.3g}" == f"{high:.3g}" else f"{low:.3g}–{high:.3g}{unit}"
+
+
+def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]:
+    """One sentence per question a user asks, from ``bands.csv`` and ``algorithms.csv``.
+
+    Which kernel is fastest, by how much it beats the baseline, what watertightness costs, then each of
+    :data:`QUESTIONS` the run can answer (counts of workloads by verdict, and the range of the ratios).
+
+    Examples
+    --------
+    >>> bands = pd.DataFrame({"dtype": ["float32"] * 2, "band": ["meshes"] * 2, "rank": [1, 2],
+    ...     "kernel": ["a", "b"], "vs_fastest": [1.0, 1.5], "speedup": [1.5, 1.0], "baseline": ["b"] * 2,
+    ...     "watertight": [False, True]})
+    >>> for s in answer_sentences(bands, None): print(s)
+    Fastest: a on float32 meshes.
+    Against b: the fastest kernel of each band is 1.5× as fast.
+    Watertight: the fastest watertight kernel (b) takes 1.5× the fastest's time.
+    """
+    out = []
+    best = bands.loc[bands["rank"] == 1]
+    places = {k: [_place(r.dtype, r.band) for r in g.itertuples()] for k, g in best.groupby("kernel", sort=False)}
+    n = len(best)
+    out.append(
+        "Fastest: "
+        + "; ".join(
+            f"{k} on " + (f"every band ({n})" if len(p) == n and n > 2 else ", ".join(p)) for k, p in places.items()
+        )
+        + "."
+    )
+    baseline = str(bands["baseline"].iloc[0])
+    gains = [float(r.speedup) for r in best.itertuples() if r.kernel != baseline and not pd.isna(r.speedup)]
+    if gains:
+        out.append(f"Against {baseline}: the fastest kernel of each band is {_span(gains)} as fast.")
+    tight = bands.loc[bands["watertight"].astype(str) == "True"]
+    if tight.empty:
+        out.append("Watertight: no kernel of this run promises it.")
+    else:
+        first = tight.sort_values("rank").groupby(["dtype", "band"], sort=False).head(1)
+        costs = [float(v) for v in first["vs_fastest"] if not pd.isna(v)]
+        names = ", ".join(dict.fromkeys(first["kernel"]))
+        free = int((first["rank"] == 1).sum())
+        if free == len(first):
+            out.append(f"Watertight: {names}, watertight by its paper, is the fastest in every band: it costs nothing.")
+        else:
+            text = f"Watertight: the fastest watertight kernel ({names}) takes {_span(costs)} the fastest's time"
+            out.append(text + (f"; it is the fastest in {free} of {len(first)} bands." if free else "."))
+    if alg is not None and not alg.empty:
+        for a, b in QUESTIONS:
+            rows = alg.loc[
+                ((alg["algorithm"] == a) & (alg["other_algorithm"] == b))
+                | ((alg["algorithm"] == b) & (alg["other_algorithm"] == a))
+            ]
+            if rows.empty:
+                continue
+            parts = []
+            for winner in (a, b):
+                won = rows.loc[(rows["verdict"] == "faster") & (rows["algorithm"] == winner)]
+                if len(won):
+                    parts.append(f"{winner} faster on {len(won)} ({_span(list(won['ratio']))})")
+            same = int((rows["verdict"] == "equivalent").sum())
+            unclear = int((~rows["verdict"].isin(["faster", "equivalent"])).sum())
+            if same:
+                parts.append(f"equivalent on {same}")
+            if unclear:
+                parts.append(f"not told apart on {unclear}")
+            out.append(
+                f"{a} or {b}? Of {len(rows)} workloads, each algorithm in its fastest form: " + ", ".join(parts) + "."
+            )
+    return out
+
+
+def answer_section(data: RunData, bands: pd.DataFrame | None, alg: pd.DataFrame | None, colours: dict[str, str]) -> str:
+    """The ranking per precision and band (``bands.csv``), one sentence per question, and the chart of speed
+    against robustness against memory (kernels in ``colours``)."""
+    if bands is None:
+        return page.p(
+            f"No ranking by band: these tables were made by an older tribench. Run `tribench stats {data.run_dir}`."
+        )
+    if bands.empty:
+        return page.p("No ranking: this run has no estimate.")
+    shown = band_rows(bands)
+    cols = [
+        ("band", "band"),
+        ("fastest", "fastest kernel"),
+        ("ns", "ns/test [95% CI]"),
+        ("speedup", f"speedup over {data.baseline} [95% CI]"),
+        ("tied", "not told apart from it"),
+        ("next", "next, time / fastest's"),
+        ("watertight", "watertight"),
+        ("validated", "promises (validate)"),
+        ("bytes", "bytes per triangle"),
+    ]
+    parts = []
+    for dtype, g in shown.groupby("dtype", sort=False):
+        parts.append(f'<h3>{escape(str(dtype))}</h3><div class="answer">{page.table(g, cols)}</div>')
+    items = "".join(f"<li>{escape(s)}</li>" for s in answer_sentences(bands, alg))
+    parts.append(f'<ul class="verdicts">{items}</ul>')
+    parts.append(
+        charts.embed(
+            charts.answer_chart(bands, colours),
+            "chart-answer",
+            "speed against robustness against memory",
+            "Speed against robustness against memory, in the band the menu picks: each kernel's ns/test "
+            "(dot) with its 95% CI (line), its broken promises in the robustness suite (row; kernels "
+            "of one row spread apart), bytes per prepared triangle (size), watertight by its paper (shape). "
+            "Hover for the figures; click a kernel in the legend to show it alone, shift-click to add more, "
+            "double-click the plot to show all.",
+        )
+    )
+    parts.append(
+        page.p(
+            "Per precision and band (pairs by their achieved per-test hit rate, meshes brute force or in a BVH), "
+            "each kernel's value in a process is the geometric mean of its median ns/test over the band's "
+            "workloads; the table gives the mean over processes with its 95% t interval, and paired ratios with "
+            "simultaneous 95% intervals (Bonferroni over the band's kernels). “Not told apart” lists the kernels "
+            "whose interval against the fastest reaches down to 1 + the equivalence margin "
+            f"({100 * data.margin:.2g}%). "
+            "Watertight: the kernel's paper promises no crack on shared edges (tribench.ext.kernel_info); promises: "
+            "the robustness suite's judged tests at that precision and how many the kernel broke. Every kernel of "
+            "every band is in bands.csv; per workload, in the ranking below.",
             "note",
         )
     )

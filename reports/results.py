@@ -12,7 +12,7 @@ from html import escape
 import numpy as np
 import pandas as pd
 
-from . import figures, page
+from . import charts, figures, page
 from .headline import peer_sentence
 from .rundata import PeerTables, RunData
 
@@ -52,15 +52,19 @@ _SPD_COLS = [
 
 def speedups_section(data: RunData, spd: pd.DataFrame, est: pd.DataFrame) -> str:
     """The forest plot of every speedup, then the speedups and estimates tables."""
-    fig = figures.forest(spd, data.baseline, data.margin)
+    chart = charts.forest_chart(spd, data.baseline, figures.VERDICT_COLOURS)
     body = [
-        page.figure(
-            figures.svg_data_uri(fig),
+        charts.embed(
+            chart,
+            "chart-forest",
             "forest plot of speedups",
             f"Every kernel against {data.baseline}, per workload family: the dot is the speedup "
-            f"(time_{data.baseline} / time_kernel), the bar its simultaneous 95% confidence interval, "
-            f"the grey band the equivalence margin ±{100 * data.margin:.2g}%. Log axis.",
-        ),
+            f"(time_{data.baseline} / time_kernel), the bar its simultaneous 95% confidence interval, the colour "
+            f"its verdict (equivalence margin ±{100 * data.margin:.2g}%). Log axis. Hover for the figures; the "
+            "menu picks a kernel, the legend a verdict.",
+        )
+        if chart is not None
+        else page.p(f"No speedups: the run has no kernel other than the baseline {data.baseline}.", "note"),
         "<h3>Speedups</h3>",
         page.table(spd, _SPD_COLS),
         "<h3>Estimates</h3>",
@@ -144,23 +148,31 @@ def hit_rate_section(
             "note",
         )
     ]
-    body.append(
-        page.figure(
-            figures.svg_data_uri(figures.hit_rate_curves(est, cross, colours)),
-            "ns per test against per-test hit rate",
-            "ns per test against the per-test hit rate, one line per kernel, bands: 95% CIs of "
-            "the mean. Dashed purple: a crossover where two kernels swap rank, with its 95% "
-            "Fieller interval shaded (stats.crossover).",
+    curves = charts.hit_rate_chart(est, cross, colours)
+    speedups = charts.speedup_hit_rate_chart(spd, data.baseline, data.margin, colours)
+    if curves is None or speedups is None:
+        body.append(page.p(figures.NO_HIT_RATE_CURVE.capitalize() + ".", "note"))
+    else:
+        body.append(
+            charts.embed(
+                curves,
+                "chart-hit-rate",
+                "ns per test against per-test hit rate",
+                "ns per test against the per-test hit rate, one line per kernel, bands: 95% CIs of the mean. "
+                "Dashed purple: a crossover where two kernels swap rank, at its estimate (its 95% Fieller "
+                "interval on hover and in the table below; stats.crossover). Hover for the figures; click a "
+                "kernel in the legend to show it alone, shift-click to add more.",
+            )
         )
-    )
-    body.append(
-        page.figure(
-            figures.svg_data_uri(figures.speedup_vs_hit_rate(spd, data.baseline, data.margin, colours)),
-            "speedup against per-test hit rate",
-            f"Speedup over {data.baseline} against the per-test hit rate (log axis), bands: "
-            f"simultaneous 95% CIs; grey: the equivalence margin.",
+        body.append(
+            charts.embed(
+                speedups,
+                "chart-speedup-hit-rate",
+                "speedup against per-test hit rate",
+                f"Speedup over {data.baseline} against the per-test hit rate (log axis), bands: "
+                f"simultaneous 95% CIs; grey: the equivalence margin. Hover and legend as above.",
+            )
         )
-    )
     body.append("<h3>Crossovers</h3>")
     found = cross.loc[np.isfinite(cross["hit_rate"].astype(float))] if not cross.empty else cross
     if cross.empty:
@@ -201,17 +213,21 @@ def hit_rate_section(
 def scaling_section(data: RunData, est: pd.DataFrame, slopes: pd.DataFrame, colours: dict[str, str]) -> str:
     """Cost against triangle count and working set, and the log–log slopes."""
     caches = data.machine.get("caches", {})
+    chart = charts.scaling_chart(est, caches, colours)
     body = [
-        page.figure(
-            figures.svg_data_uri(figures.scaling(est, caches, colours)),
+        charts.embed(
+            chart,
+            "chart-scaling",
             "cost against size",
-            "Left: ns per test against the mesh's triangle count (camera or per-ray hit-rate rays, "
-            "every ray against every triangle), bands: 95% CIs. Right: ns per test against the working "
-            "set, bytes of the kernel's prepared triangles plus the rays, for every workload; dashed: "
-            "the machine's data caches ("
-            + (", ".join(f"{k} {v}" for k, v in caches.items()) or "unknown")
-            + "). Both axes log.",
-        ),
+            "Top: ns per test against the mesh's triangle count (camera or per-ray hit-rate rays, "
+            "every ray against every triangle); bottom: ns per test against the working set, bytes of the "
+            "kernel's prepared triangles plus the rays, for every workload; dashed grey: the machine's data "
+            "caches (" + (", ".join(f"{k} {v}" for k, v in caches.items()) or "unknown") + "). Lines: 95% CIs; "
+            "dashes tell workload families apart. Hover for the figures; click a kernel in the legend to show it "
+            "alone, shift-click to add more.",
+        )
+        if chart is not None
+        else page.p("No estimate to draw against size.", "note"),
         "<h3>Log–log slopes against triangle count</h3>",
         page.p(
             "Per process the least-squares slope of log ns/test on log triangles, then a t-interval "
@@ -238,20 +254,28 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
     """tribench against trimesh and Embree on the same rays, or ``note`` saying why there is nothing."""
     from tribench.harness.peers import PAUSE_S
 
-    body = [
-        page.p(
+    if peers is not None and peers.in_bvh:
+        about = (
+            "tribench's BVH with its fastest leaf kernel against Embree (through embreex, after building its "
+            "BVH), on the same camera rays, closest hit, one core (tribench.harness.peers, as `tribench peers "
+            "--accel bvh`): two tracers, each with its own acceleration structure; the build is the untimed "
+            "set-up of both."
+        )
+    else:
+        about = (
             "tribench's fastest brute-force kernel against trimesh's own intersector (NumPy after an rtree "
             "broad phase) and Embree (through embreex, after building its BVH), on the same camera rays, "
             "closest hit (tribench.harness.peers, as `tribench peers`). Embree's BVH skips most triangles "
             "of every ray; tribench tests every one: the ratio is what an acceleration structure is worth "
-            "over the fastest brute force, not a comparison of ray–triangle tests.",
-            "note",
+            "over the fastest brute force, not a comparison of ray–triangle tests."
         )
-    ]
+    body = [page.p(about, "note")]
     if peers is None:
         return "".join(body + [page.p(note, "note")])
     body += [
-        page.p(peer_sentence(peers.ratios, peers.kernel, peers.workload) or "Only tribench was measured."),
+        page.p(
+            peer_sentence(peers.ratios, peers.kernel, peers.workload, peers.in_bvh) or "Only tribench was measured."
+        ),
         page.figure(
             figures.svg_data_uri(figures.peers_rates(peers.rates)),
             "rays per second of every contender",

@@ -241,6 +241,13 @@ class PeerTables:
     def workload(self) -> str:
         return str(self.frame["workload"].iloc[0])
 
+    @property
+    def in_bvh(self) -> bool:
+        """Whether tribench was timed through its BVH (``tribench peers --accel bvh``: its row's
+        implementation says ``bvh``)."""
+        ours = self.rates.loc[self.rates["contender"] == "tribench", "implementation"]
+        return not ours.empty and " bvh " in f" {ours.iloc[0]} "
+
 
 def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
     """The run's peers (rows and figures) and a sentence on where they came from.

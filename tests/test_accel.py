@@ -18,7 +18,7 @@ from tribench import ext
 from tribench.common import Notice, UserError
 from tribench.harness import peers, records, worker
 from tribench.harness.plan import Sweep
-from tribench.workloads import cache, reference
+from tribench.workloads import bvh_cache, cache, reference
 from tribench.workloads.kinds import spec_from_dict
 from tribench.workloads.spec import MeshSpec, workload_id
 
@@ -117,6 +117,9 @@ def test_a_sweep_with_a_bvh_workload_runs_its_native_kernels_through_the_bvh(tmp
     b = batches.loc[batches["workload_id"] == bvh_id]
     assert (b["tests"] == b["loops"] * per_pass).all() and per_pass < len(w.origins) * len(w.triangles)
     assert (b["hits"] == b["loops"] * int(w.hits.sum())).all()
+    # the workers read the kernel's tree from the BVH cache, where the first built it
+    identity = bvh_cache.bvh_identity(NATIVE, w.triangles, ext.DEFAULT_MAX_LEAF)
+    assert bvh_cache.bvh_path(identity).is_file()
     assert (out / "estimates.csv").is_file()  # the analysis step ran: no speedup against a kernel it lacks
     speedups = pd.read_csv(out / "speedups.csv")
     assert bvh_id not in set(speedups["workload_id"])
@@ -191,3 +194,52 @@ def test_peers_cli_refuses_a_kernel_that_cannot_be_a_leaf_test(tmp_path, env):
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
     assert "cannot be a BVH's leaf test with --accel bvh" in done.stderr
     assert not (tmp_path / peers.PEERS).exists()
+
+
+OCTAHEDRON_OBJ = """# a closed octahedron, faces counter-clockwise seen from outside
+v 1 0 0
+v -1 0 0
+v 0 1 0
+v 0 -1 0
+v 0 0 1
+v 0 0 -1
+f 1 3 5
+f 3 2 5
+f 2 4 5
+f 4 1 5
+f 3 1 6
+f 2 3 6
+f 4 2 6
+f 1 4 6
+"""
+
+
+def test_peers_take_a_mesh_file_through_the_bvh(tmp_path, env):
+    obj = tmp_path / "octahedron.obj"
+    obj.write_text(OCTAHEDRON_OBJ)
+    design = dataclasses.replace(TINY_BVH, mesh=str(obj), triangles=None)
+    frame = peers.measure(tmp_path / "peers.csv", design, progress=False)
+    tb = frame.loc[frame["contender"] == "tribench"]
+    assert len(tb) == design.processes * design.reps and tb["implementation"].str.contains(r"\bbvh\b").all()
+    assert tb["workload"].str.startswith("mesh octahedron.obj triangles=base camera 16x16 bvh").all()
+    assert (frame["differ"] == frame["differ_ambiguous"]).all() and (frame["rays_per_s"] > 0).all()
+    w = cache.make(peers.camera_spec(design))
+    assert len(w.triangles) == 8 and w.hits.any()
+    # tribench's set-up is its tree's build, as recorded in the BVH cache by the process that built it
+    (kernel,) = set(tb["kernel"])
+    assert (tb["setup_ns"] == bvh_cache.cached_bvh(kernel, w.triangles)[1]).all()
+    # the command line: a relative path, the file's own triangle count; a missing file is one line
+    done = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "peers", "--mesh", "octahedron.obj", "--accel", "bvh"]
+        + ["--camera", "16x16", "--processes", "1", "--reps", "1", "--no-progress", "--out", "run"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stderr
+    written = pd.read_csv(tmp_path / "run" / peers.PEERS)
+    assert written["workload"].str.contains("octahedron.obj triangles=base").all()
+    done = cli("peers", "--mesh", str(tmp_path / "nope.obj"), "--accel", "bvh", "--out", str(tmp_path), env=env)
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and "nope.obj" in done.stderr

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 import re
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -14,9 +17,10 @@ import pytest
 from test_report_run import run_fixture_dir
 
 from tribench import reports
+from tribench.common import UserError
 from tribench.harness import analysis
 from tribench.reports import page
-from tribench.reports.compare import compare_runs
+from tribench.reports.compare import compare_many, compare_runs, format_many, order_summary, render_compare
 from tribench.reports.rundata import load_run
 from tribench.stats import unpaired_ratio
 
@@ -95,6 +99,136 @@ def test_compare_cli_missing_run_exits_2(tmp_path, two_runs):
         timeout=60,
     )
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "no run directory" in proc.stderr
+
+
+# ------------------------------------------------------------------ N runs
+
+#: Each kernel's time as a fraction of moller_seed's, per faked machine: on "machine C"
+#: curless overtakes moller_trumbore, every other order of two kernels is the same.
+FACTORS = {
+    "A": {"moller_trumbore": 0.5, "curless": 0.8},
+    "B": {"moller_trumbore": 0.4, "curless": 0.7},
+    "C": {"moller_trumbore": 0.5, "curless": 0.25},
+}
+
+
+def _fake_run(real: Path, folder: Path, factors: dict[str, float], cpu_model: str) -> Path:
+    """A copy of a real run with each kernel's batch times set to moller_seed's in the same round
+    times a known factor (with a 0.2% wobble between processes), and another CPU in run.json."""
+    folder.mkdir()
+    for name in ("processes.csv", "validate.csv"):
+        shutil.copy(real / name, folder / name)
+    run = json.loads((real / "run.json").read_text())
+    run["machine"]["cpu_model"] = cpu_model
+    (folder / "run.json").write_text(json.dumps(run))
+    b = pd.read_csv(real / "batches.csv")
+    key = ["process", "round", "workload_id"]
+    base = (
+        b.loc[b["kernel"] == "moller_seed"].set_index(key)["elapsed_ns"]
+        / b.loc[b["kernel"] == "moller_seed"].set_index(key)["tests"]
+    )
+    per_test = base.reindex(pd.MultiIndex.from_frame(b[key])).to_numpy()
+    factor = b["kernel"].map(factors).fillna(1.0) * np.where(
+        b["kernel"] == "moller_seed", 1, 1 + 0.002 * (b["process"] % 3)
+    )
+    b["elapsed_ns"] = (per_test * factor * b["tests"]).round().astype("int64")
+    b.to_csv(folder / "batches.csv", index=False)
+    analysis.write_all(folder)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def three_runs(tmp_path_factory):
+    real, cache = run_fixture_dir(tmp_path_factory)
+    base = tmp_path_factory.mktemp("three")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("TRIBENCH_CACHE", str(cache))
+        yield [_fake_run(real, base / tag, f, f"machine {tag}") for tag, f in FACTORS.items()]
+
+
+def test_n_runs_give_a_machine_by_kernel_table_of_known_speedups(three_runs):
+    m = compare_many([load_run(r) for r in three_runs])
+    assert m.tags == ["A", "B", "C"] and m.baseline == "moller_seed" and len(m.workload_ids) == 4
+    s = m.speedups.set_index(["run", "workload_id", "kernel"])
+    for tag, factors in FACTORS.items():
+        for wid in m.workload_ids:
+            assert s.loc[(tag, wid, "moller_seed"), "ratio"] == 1.0
+            for kernel, f in factors.items():
+                r = s.loc[(tag, wid, kernel)]
+                assert r["ratio"] == pytest.approx(1 / f, rel=0.01)
+                assert r["ratio_ci_low"] <= r["ratio"] <= r["ratio_ci_high"] and r["verdict"] == "faster"
+
+
+def test_n_runs_say_which_orders_hold_on_every_machine(three_runs):
+    m = compare_many([load_run(r) for r in three_runs])
+    o = m.orders
+    assert len(o) == 4 * 3  # every pair of the 3 kernels on every workload
+    pair = {frozenset((r.kernel, r.other_kernel)): r.order for r in o.itertuples()}
+    assert pair[frozenset(("moller_trumbore", "moller_seed"))] == "holds"
+    assert pair[frozenset(("curless", "moller_seed"))] == "holds"
+    assert pair[frozenset(("moller_trumbore", "curless"))] == "differs"
+    flips = o.loc[o["order"] == "differs"]
+    assert (flips["kernel"] == "moller_trumbore").all()  # oriented by run A, where it is the faster
+    assert flips["ratio_C"].lt(1).all() and flips["ratio_A"].gt(1).all()
+    assert (o.loc[o["order"] == "holds", ["verdict_A", "verdict_B", "verdict_C"]] == "faster").all().all()
+    summary = order_summary(m).set_index(["kernel", "other_kernel"])  # over the 4 workloads, in sweep order
+    assert summary.loc[("moller_seed", "moller_trumbore")].tolist() == [0, 4, 0, 0]
+    assert summary.loc[("moller_seed", "curless")].tolist() == [0, 4, 0, 0]
+    assert summary.loc[("moller_trumbore", "curless")].tolist() == [0, 0, 4, 0]
+
+
+def test_a_workload_without_the_baseline_still_shows_its_orders(three_runs):
+    # a BVH workload runs only native kernels, so the seed's baseline has no speedups there
+    runs = [load_run(r) for r in three_runs]
+    m = compare_many(runs)
+    bvh_like = m.workload_ids[0]
+    m = dataclasses.replace(m, speedups=m.speedups.loc[m.speedups["workload_id"] != bvh_like])
+    text = format_many(runs, m)
+    part = text.split(f"[{bvh_like}]")[1].split("\n\n")[0]
+    assert "no speedups: moller_seed did not run" in part and "holds on every machine: moller_trumbore" in part
+    assert f'{bvh_like})</small></h3><p class="note">(none)</p>' in render_compare(runs, m)
+
+
+def test_compare_cli_takes_three_runs(three_runs, tmp_path):
+    out = tmp_path / "three.html"
+    proc = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "compare", *map(str, three_runs), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "machine A" in proc.stdout and "machine C" in proc.stdout and "B/A" not in proc.stdout
+    assert re.search(r"moller_trumbore\s+(2|1\.99)\d*× \[[\d.]+, [\d.]+\]\s+2\.[45]\d*× \[", proc.stdout)
+    assert "holds on every machine: moller_trumbore faster than moller_seed" in proc.stdout
+    assert "differs between machines: moller_trumbore faster than curless" in proc.stdout
+    text = out.read_text()
+    assert 'id="speedups"' in text and 'id="orders"' in text and 'id="machines"' in text
+    assert 'id="speedup-ratios"' not in text  # the ratio of speedups is a two-run figure
+    assert "http://" not in text and "https://" not in text and "<script" not in text
+    assert text.count("speedup on C (×)") == 4  # a machine x kernel table per workload
+
+
+def test_compare_of_two_runs_has_both_views(two_runs):
+    text = reports.format_compare(*two_runs)
+    assert "B/A" in text and "holds on every machine" in text
+
+
+@pytest.mark.parametrize("count", [1, 27])
+def test_compare_cli_refuses_fewer_than_two_or_more_than_26_runs(three_runs, count):
+    runs = [str(three_runs[i % 3]) for i in range(count)]
+    proc = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "compare", *runs], capture_output=True, text=True, timeout=60
+    )
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "2 to 26 run folders" in proc.stderr
+
+
+def test_compare_refuses_runs_with_different_baselines(three_runs, tmp_path):
+    other = tmp_path / "other"
+    shutil.copytree(three_runs[2], other)
+    analysis.write_all(other, baseline="curless")
+    with pytest.raises(UserError, match="different baselines .*C: curless"):
+        compare_many([load_run(r) for r in [*three_runs[:2], other]])
 
 
 # ------------------------------------------------------------- the statistic

@@ -283,3 +283,12 @@ def test_peers_into_an_analysed_run_folder_refresh_its_peer_tables(run_copy):
     tables, note = load_peers(load_run(run_copy, baseline="curless"))  # the report reads them, no `tribench stats`
     assert tables is not None, note
     assert set(tables.rates["contender"]) == set(pd.read_csv(run_copy / peers.PEERS)["contender"])
+
+
+def test_peers_timed_through_the_bvh_are_reported_as_the_bvh_not_brute_force(run_copy):
+    rows = _rows({"tribench": [100.0, 110.0, 105.0], "embree": [50.0, 52.0, 51.0]})
+    rows.loc[rows.contender == "tribench", "implementation"] = "tribench 0.1.0 bvh woop_fma (16 lanes)"
+    rows.to_csv(run_copy / peers.PEERS, index=False)
+    analysis.write_all(run_copy)
+    section = _peers_section(run_copy)
+    assert "tribench&#x27;s BVH with k runs at" in section and "brute" not in section

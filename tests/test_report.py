@@ -32,7 +32,9 @@ def rendered(tmp_path_factory):
 class _Page(HTMLParser):
     def __init__(self):
         super().__init__()
-        self.ids, self.imgs, self.scripts, self.links, self.tags = [], [], 0, [], []
+        self.ids, self.imgs, self.scripts, self.links, self.tags = [], [], [], [], []
+        self.head_scripts = 0  # scripts before <body>
+        self._in_script = False
 
     def handle_starttag(self, tag, attrs):
         a = dict(attrs)
@@ -42,9 +44,28 @@ class _Page(HTMLParser):
         if tag == "img":
             self.imgs.append(a.get("src", ""))
         if tag == "script":
-            self.scripts += 1
+            assert "src" not in a  # every script is inline
+            self.scripts.append("")
+            self.head_scripts += "body" not in self.tags
+            self._in_script = True
         if tag in ("link", "iframe", "object", "embed"):
             self.links.append(a)
+
+    def handle_endtag(self, tag):
+        if tag == "script":
+            self._in_script = False
+
+    def handle_data(self, data):
+        if self._in_script:
+            self.scripts[-1] += data
+
+
+def _without_library(text):
+    """The page less the charts' library (Vega's code holds URLs in strings it never fetches here)."""
+    from tribench.reports import charts
+
+    assert text.count(charts.library()) == 1  # inlined once, not per chart
+    return text.replace(charts.library(), "")
 
 
 def _parse(text):
@@ -66,8 +87,8 @@ def test_report_figures_are_inline_svg_and_png(rendered):
     imgs = _parse(text).imgs
     svgs = [s for s in imgs if s.startswith("data:image/svg+xml;base64,")]
     pngs = [s for s in imgs if s.startswith("data:image/png;base64,")]
-    # forest, hit rate, speedup vs hit rate, scaling, processes, drift, rounds
-    assert len(svgs) == 7
+    # static: processes, drift, rounds (the forest, hit-rate and size charts are interactive)
+    assert len(svgs) == 3
     assert len(pngs) == 4  # one picture per workload
     assert len(imgs) == len(svgs) + len(pngs)
     for uri in svgs:
@@ -83,9 +104,10 @@ def test_report_figures_are_inline_svg_and_png(rendered):
 
 
 def test_report_opens_offline_no_external_references(rendered):
-    _, _, text = rendered
-    page = _parse(text)
-    assert page.scripts == 0 and page.links == []
+    _, _, full = rendered
+    page = _parse(full)
+    assert page.links == []
+    text = _without_library(full)
     assert "http://" not in text and "https://" not in text
     assert 'src="//' not in text and 'href="//' not in text
     hrefs = re.findall(r'href="([^"]*)"', text)
@@ -112,7 +134,13 @@ def test_headline_states_verdicts_and_hit_rate_meaning(rendered):
 def test_tables_carry_units_and_escaped_text(rendered):
     _, _, text = rendered
     assert "ns/test (mean)" in text and "speedup (×)" in text
-    assert "<script" not in text
+    # the only scripts: the charts' library and the opener of collapsed sections in the head, and one
+    # vegaEmbed call per chart (no text of the run became a script)
+    from tribench.reports import charts
+
+    page = _parse(text)
+    assert page.head_scripts == 2 and page.scripts[0] == charts.library() and "tbOpen" in page.scripts[1]
+    assert all(s.startswith('vegaEmbed("#chart-') for s in page.scripts[2:]) and len(page.scripts) == 2 + 5
 
 
 def test_reproduce_section_gives_a_sweep_file_that_reads_back(rendered, tmp_path):
@@ -357,3 +385,80 @@ def test_the_ranking_section_names_each_workloads_fastest_kernel_from_ranking_cs
     # three algorithms: their order, and the head-to-head questions this run can answer (it has no curless_seed)
     assert "The algorithms in order" in text and "curless vs moller_trumbore" in text
     assert "curless_seed vs moller_seed" not in text
+
+
+def _specs(text):
+    """Every chart's Vega-Lite spec on the page, by its element id."""
+    return {m[0]: json.loads(m[1]) for m in re.findall(r'vegaEmbed\("#([\w-]+)",(\{.*?\}),\{actions', text)}
+
+
+def test_the_page_opens_on_the_answer_and_collapses_every_other_section(rendered):
+    run_dir, _, text = rendered
+    body = text[text.index("<main>") :]
+    assert body.startswith('<main><section id="answer"><h1>')
+    for sid in report_html.SECTIONS:
+        if sid not in report_html.OPEN:
+            assert f'<section id="{sid}"><details><summary><h2>{report_html.SECTIONS[sid]}</h2></summary>' in text
+    nav = text[text.index("<nav>") : text.index("</nav>")]
+    assert re.findall(r'href="#([\w-]+)"', nav) == list(report_html.SECTIONS)  # the table of contents
+    # the answer's tables: per precision, one row per band, the fastest kernel of bands.csv first
+    answer = text[text.index('id="answer"') : text.index('id="ranking"')]
+    bands = pd.read_csv(run_dir / "bands.csv")
+    rows = _section_rows(text, "answer")
+    assert rows[0][:4] == ["band", "fastest kernel", "ns/test [95% CI]", "speedup over moller_seed [95% CI]"]
+    shown = [r for r in rows if r[0] != "band"]
+    best = bands.loc[bands["rank"] == 1]
+    assert [r[1] for r in shown] == list(best["kernel"])
+    assert [r[0].split(" (")[0] for r in shown] == list(best["band"])
+    assert [int(r[-1]) for r in shown] == list(best["bytes_per_triangle"])
+    assert answer.index("<table>") < answer.index("vegaEmbed(")  # the table before the chart
+    # one sentence per question: the fastest, against the baseline, watertightness, curless or moller_trumbore
+    items = re.findall(r"<li>(.*?)</li>", answer)
+    assert [i.split(" ")[0] for i in items] == ["Fastest:", "Against", "Watertight:", "curless"]
+    assert "curless or moller_trumbore? Of 4 workloads" in items[3]
+
+
+def test_the_charts_show_values_on_hover_and_toggle_kernels(rendered):
+    run_dir, _, text = rendered
+    specs = _specs(text)
+    assert sorted(specs) == [
+        "chart-answer",
+        "chart-forest",
+        "chart-hit-rate",
+        "chart-scaling",
+        "chart-speedup-hit-rate",
+    ]
+    for name, spec in specs.items():
+        flat = json.dumps(spec)
+        assert '"tooltip"' in flat, name  # values on hover
+        legends = [p for p in re.findall(r'\{"name": "(\w+)", "select": \{[^}]*\}, "bind": "legend"', flat)]
+        assert legends == (["verdicts"] if name == "chart-forest" else ["kernels"]), name  # toggles
+        assert "$schema" not in spec and "http" not in flat
+    # the answer chart holds every kernel of every band, at bands.csv's values
+    answer = specs["chart-answer"]
+    data = answer["datasets"][answer["data"]["name"]] if "datasets" in answer else answer["data"]["values"]
+    bands = pd.read_csv(run_dir / "bands.csv")
+    got = {(d["where"], d["kernel"]): d["ns_per_test"] for d in data}
+    want = {(f"{r.dtype} · {r.band}", r.kernel): r.ns_per_test for r in bands.itertuples()}
+    assert got == pytest.approx(want, rel=1e-12)
+    menu = next(p for p in answer["params"] if p["name"] == "band")
+    assert menu["bind"]["options"] == list(dict.fromkeys(w for w, _ in want))
+
+
+def test_the_answer_chart_draws_an_interval_below_zero_on_a_linear_axis(rendered):
+    """A t interval over 3 processes may reach below 0 ns (tribench run --quick on a busy machine): no log axis then."""
+    from tribench.reports import charts
+
+    run_dir, _, _ = rendered
+    bands = pd.read_csv(run_dir / "bands.csv")
+    colours = dict.fromkeys(bands["kernel"], "#000")
+
+    def x_scales(frame):
+        spec = json.dumps(charts.answer_chart(frame, colours).to_dict())
+        return set(re.findall(r'"x": \{[^{}]*"scale": \{"type": "(\w+)"\}', spec))
+
+    # the fixture's own intervals may reach below 0 on a busy machine: set them
+    narrow = bands.assign(ns_per_test_ci_low=0.9 * bands["ns_per_test"], ns_per_test_ci_high=1.1 * bands["ns_per_test"])
+    assert x_scales(narrow) == {"log"}
+    wide = narrow.assign(ns_per_test_ci_low=narrow["ns_per_test_ci_low"] - 2 * narrow["ns_per_test"])
+    assert x_scales(wide) == {"linear"}

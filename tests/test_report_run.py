@@ -238,3 +238,66 @@ def test_the_algorithm_table_pairs_every_two_algorithms_the_faster_first(small_r
             assert best[row.algorithm] < best[row.other_algorithm]
             assert row.confidence == pytest.approx(1 - 0.05 / len(g))
             assert row.verdict == stats.verdict(row.ratio_ci_low, row.ratio_ci_high, margin)
+
+
+def test_the_bands_table_ranks_kernels_per_precision_and_hit_rate_band(small_run):
+    """bands.csv, recomputed by hand from per_process.csv, workloads.csv and validate.csv."""
+    import numpy as np
+
+    from tribench import ext, stats
+    from tribench.harness.tables import band_of
+
+    bands = pd.read_csv(small_run / runfolder.BANDS)
+    pp = pd.read_csv(small_run / runfolder.PER_PROCESS)
+    wl = pd.read_csv(small_run / runfolder.WORKLOADS)
+    val = pd.read_csv(small_run / runfolder.VALIDATE)
+    margin = json.loads((small_run / "analysis.json").read_text())["margin"]["value"]
+    wl["band"] = [band_of(k, h) for k, h in zip(wl["kind"], wl["test_hit_rate"], strict=True)]
+    # the fixture: pairs at 20% and 80%, two meshes
+    assert list(dict.fromkeys(bands["band"])) == [
+        "pairs, hit rate 0–35%",
+        "pairs, hit rate 65–100%",
+        "meshes, brute force",
+    ]
+    for (dtype, band), g in bands.groupby(["dtype", "band"], sort=False):
+        wids = list(wl.loc[(wl["band"] == band) & (wl["dtype"] == dtype), "workload_id"])
+        assert (g["workloads"] == len(wids)).all()
+        assert list(g["rank"]) == list(range(1, len(g) + 1)) and g["ns_per_test"].is_monotonic_increasing
+        assert set(g["kernel"]) == set(KERNELS)
+        sub = pp.loc[pp["workload_id"].isin(wids)]
+        per = sub.assign(log=np.log(sub["ns_per_test"])).pivot_table(
+            index="process", columns="kernel", values="log", aggfunc="mean"
+        )
+        per = np.exp(per)  # each process's geometric mean over the band's workloads
+        level = stats.simultaneous_confidence(0.95, len(g) - 1)
+        fastest = g.iloc[0]["kernel"]
+        for r in g.itertuples(index=False):
+            assert r.ns_per_test == pytest.approx(per[r.kernel].mean(), rel=1e-12)
+            assert r.ns_per_test_ci_low < r.ns_per_test < r.ns_per_test_ci_high
+            if r.kernel != fastest:
+                s = stats.speedup(per[r.kernel], per[fastest], confidence=level)
+                assert (r.vs_fastest, r.vs_fastest_ci_low, r.vs_fastest_ci_high) == pytest.approx(
+                    (s.ratio, s.ci_low, s.ci_high), rel=1e-12
+                )
+                assert r.tied_with_fastest == (r.vs_fastest_ci_low <= 1 + margin)
+            if r.kernel == "moller_seed":
+                assert r.speedup == 1.0
+            else:
+                s = stats.speedup(per["moller_seed"], per[r.kernel], confidence=level)
+                assert (r.speedup, r.speedup_ci_low, r.speedup_ci_high) == pytest.approx(
+                    (s.ratio, s.ci_low, s.ci_high), rel=1e-12
+                )
+            info = ext.kernel_info(r.kernel)
+            assert (r.watertight, r.bytes_per_triangle) == (
+                info.watertight != "none",
+                ext.bytes_per_triangle(r.kernel, dtype),
+            )
+            mine = val.loc[(val["kernel"] == r.kernel) & (val["dtype"] == dtype)]
+            assert r.broken_promises == (mine["verdict"] == "fail").sum()
+            assert r.promises_checked == (mine["verdict"] != "measured").sum()
+            assert r.crack_rate == mine.loc[mine["test"] == "shared_edges", "rate"].iloc[0]
+    # a band of one workload is that workload's estimate
+    est = pd.read_csv(small_run / runfolder.ESTIMATES).merge(wl, on="workload_id")
+    one = est.loc[est["band"] == "pairs, hit rate 0–35%"].set_index("kernel")["ns_per_test"]
+    low = bands.loc[bands["band"] == "pairs, hit rate 0–35%"].set_index("kernel")["ns_per_test"]
+    assert low.to_dict() == pytest.approx(one.to_dict(), rel=1e-12)

@@ -138,9 +138,18 @@ def test_two_resumes_after_a_kill_one_runs_the_other_is_refused(cache, tmp_path)
     assert 0 < len(before) < len(planned(out))
     first = popen("sweep", "--resume", str(out), "--no-progress")
     deadline = time.monotonic() + 60  # the second starts once the first holds the lock, so it meets it
-    while records.live_writer(out) is None and first.poll() is None and time.monotonic() < deadline:
+    # ...and has written its name into it (the lock is taken a moment before the name is written)
+    while f"process {first.pid} " not in (records.live_writer(out) or "") and first.poll() is None:
+        assert time.monotonic() < deadline, "the first resume never took the lock"
         time.sleep(0.005)
-    second = popen("sweep", "--resume", str(out), "--no-progress")
+    # The first is paused while the second runs, so the second meets the lock however loaded the machine
+    # (unpaused, the first could finish its few seconds of batches before the second even starts).
+    first.send_signal(signal.SIGSTOP)
+    try:
+        second = popen("sweep", "--resume", str(out), "--no-progress")
+        second.wait(timeout=180)
+    finally:
+        first.send_signal(signal.SIGCONT)
     results = {p.pid: (p.wait(timeout=180), *p.communicate()) for p in (first, second)}
     codes = sorted(code for code, _, _ in results.values())
     assert codes == [0, 2], results

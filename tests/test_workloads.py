@@ -109,7 +109,7 @@ def test_pair_spec_rejects_impossible_requests(kwargs, message):
         (dict(rays="laser"), "unknown rays"),
         (dict(hit_rate=0.5), "applies to rays='hit_rate' only"),
         (dict(n_rays=100), "applies to rays='hit_rate' only"),
-        (dict(rays="hit_rate", width=64), "applies to rays='camera' only"),
+        (dict(rays="hit_rate", width=64), "applies to rays='camera' or 'bounce' only"),
         (dict(rays="hit_rate", hit_rate=1.01), "hit_rate must be in"),
         (dict(rays="hit_rate", n_rays=0), "between 1 and"),
         (dict(width=0), "between 1 and"),

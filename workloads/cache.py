@@ -65,8 +65,8 @@ class CacheWarning(Notice):
     """A cache file was invalid and has been rebuilt."""
 
 
-class _Invalid(Exception):
-    """Why a cache file cannot be used (internal)."""
+class Invalid(Exception):
+    """Why a cache file cannot be used (internal to the caches: never reaches a caller)."""
 
 
 @dataclass(frozen=True)
@@ -108,19 +108,25 @@ def _write(w: Workload, path: Path) -> None:
         "achieved": w.achieved,
         "arrays": sorted(arrays),
     }
+    write_bytes(path, sealed_npz(meta, arrays))
+
+
+def sealed_npz(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
+    """An ``.npz`` of ``arrays`` and ``meta`` (as JSON), sealed by the sha256 in its zip comment."""
     buf = io.BytesIO()
     np.savez(buf, meta=np.array(json.dumps(meta)), **arrays)  # type: ignore[arg-type]  # numpy's stub takes **arrays for allow_pickle
     with zipfile.ZipFile(buf, "a") as z:
         z.comment = bytes(_SEAL_LEN)  # room for the seal: the comment is the file's last bytes
     body = buf.getvalue()[:-_SEAL_LEN]
-    write_bytes(path, body + _seal(body))
+    return body + _seal(body)
 
 
-def _unsealed(path: Path) -> bytes:
-    """The file's bytes, if its seal matches them."""
+def unsealed(path: Path) -> bytes:
+    """The bytes of a file :func:`sealed_npz` made, if its seal matches them
+    (else :class:`Invalid`, which says so)."""
     data = path.read_bytes()
     if len(data) <= _SEAL_LEN or data[-_SEAL_LEN:] != _seal(data[:-_SEAL_LEN]):
-        raise _Invalid(
+        raise Invalid(
             "its checksum does not match: the file was changed, cut or not written by this version of tribench"
         )
     return data
@@ -130,12 +136,12 @@ def _read_meta(npz) -> dict[str, Any]:
     try:
         meta = json.loads(str(npz["meta"][()]))
     except Exception as e:
-        raise _Invalid(f"unreadable metadata ({type(e).__name__})") from None
+        raise Invalid(f"unreadable metadata ({type(e).__name__})") from None
     if not isinstance(meta, dict) or meta.get("format") != CACHE_FORMAT:
-        raise _Invalid("unknown cache format")
+        raise Invalid("unknown cache format")
     for key, kind in (("spec", dict), ("identity", dict), ("achieved", dict), ("arrays", list)):
         if not isinstance(meta.get(key), kind):
-            raise _Invalid(f"metadata key {key!r} is missing or not a {kind.__name__}")
+            raise Invalid(f"metadata key {key!r} is missing or not a {kind.__name__}")
     return meta
 
 
@@ -143,33 +149,33 @@ def _read(path: Path, spec: Spec | None) -> Workload:
     """The workload in ``path``, checked against ``spec`` (or against its own stored spec)."""
     try:
         return _read_checked(path, spec)
-    except _Invalid:
+    except Invalid:
         raise
     except Exception as e:  # garbage under a valid seal, a spec this version cannot rebuild...
-        raise _Invalid(f"{type(e).__name__}: {e}") from None
+        raise Invalid(f"{type(e).__name__}: {e}") from None
 
 
 def _read_checked(path: Path, spec: Spec | None) -> Workload:
-    data = _unsealed(path)
+    data = unsealed(path)
     with np.load(io.BytesIO(data), allow_pickle=False) as npz:
         meta = _read_meta(npz)
         if spec is None:
             spec = spec_from_dict(meta["spec"])
         if meta.get("version") != spec.version:
-            raise _Invalid(f"stale: generator version {meta.get('version')}, current {spec.version}")
+            raise Invalid(f"stale: generator version {meta.get('version')}, current {spec.version}")
         if canonical_json(meta["identity"]) != canonical_json(identity(spec)):
-            raise _Invalid("spec does not match")
+            raise Invalid("spec does not match")
         if canonical_json(meta["spec"]) != canonical_json(spec.to_dict()):
-            raise _Invalid("stored spec does not match")
+            raise Invalid("stored spec does not match")
         if meta.get("workload_id") != path.stem or path.stem != workload_id(spec):
-            raise _Invalid("workload id does not match")
+            raise Invalid("workload id does not match")
         if sorted(npz.files) != sorted(["meta", *meta["arrays"]]):
-            raise _Invalid("arrays do not match the metadata")
+            raise Invalid("arrays do not match the metadata")
         arrays = {name: npz[name] for name in meta["arrays"]}
     return Workload(workload_id=path.stem, spec=spec, achieved=meta["achieved"], **arrays)
 
 
-def _build(spec: Spec, path: Path, invalid: _Invalid | None = None) -> Workload:
+def _build(spec: Spec, path: Path, invalid: Invalid | None = None) -> Workload:
     if invalid is not None:
         warnings.warn(f"cache file {path} is invalid ({invalid}); rebuilding it", CacheWarning, stacklevel=3)
     w = _generate(spec)
@@ -197,7 +203,7 @@ def make(spec: Spec) -> Workload:
         return _build(spec, path)
     try:
         return _read(path, spec)
-    except _Invalid as e:
+    except Invalid as e:
         return _build(spec, path, e)
 
 
@@ -216,7 +222,7 @@ def load(wid: str) -> Workload:
         raise FileNotFoundError(f"no cached workload {wid!r} in {cache_dir()} (see `tribench workloads list`)")
     try:
         return _read(path, None)
-    except _Invalid as e:
+    except Invalid as e:
         invalid = e
     spec = _stored_spec(path)
     if spec is None or workload_id(spec) != wid:
@@ -270,7 +276,7 @@ def list_cached() -> list[CachedWorkload]:
         try:
             w = _read(path, None)
             spec, achieved = w.spec.to_dict(), dict(w.achieved)
-        except _Invalid as e:
+        except Invalid as e:
             problem = str(e)
             try:
                 with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:

@@ -21,6 +21,9 @@ that hits is a candidate -- so the answers equal brute force:
   distance for rounding; triangles are first grouped by the cell of a
   coarse grid so a ray is tested only against the groups it passes near.
 
+Bounces (:func:`bounce_rays`): one diffuse secondary ray from each camera
+ray's reference hit, culled as the per-ray hit rate's rays are.
+
 Camera
 ------
 The seed's pinhole camera: eye at (0, 0, 2) looking down -z, image plane
@@ -51,6 +54,7 @@ import numpy as np
 from tribench.common import UserError
 
 from .geometry import (
+    dot,
     norm,
     normalise,
     random_in_ball,
@@ -75,11 +79,15 @@ __all__ = [
     "sphere_candidates",
     "closest_hits",
     "hit_rate_rays",
+    "BOUNCE_OFFSET",
+    "bounce_rays",
     "generate_mesh_workload",
 ]
 
 EYE = np.array([0.0, 0.0, 2.0])
 NEAR_MISS_ROUNDS = 8
+#: A bounce leaves its hit point this far along the normal, relative to the mesh's scale.
+BOUNCE_OFFSET = 1e-4
 _MAX_ROUNDS = 40
 _CANDIDATE_CHUNK = 1 << 20  # candidate pairs gathered at once (bounds memory)
 _CULL_CHUNK = 1 << 22  # ray x triangle pairs examined at once, at most
@@ -320,6 +328,42 @@ def hit_rate_rays(triangles: np.ndarray, n: int, hit_rate: float, dtype: str, rn
     )
 
 
+def bounce_rays(triangles: np.ndarray, width: int, height: int, dtype: str, rng: np.random.Generator):
+    """One cosine-distributed bounce from each camera ray's reference hit (see :class:`MeshSpec`).
+
+    The camera rays and their closest hits are those of ``rays="camera"``
+    (float64 reference on the rounded rays). Each hit point moves off its
+    triangle along the normal facing the camera's side by
+    :data:`BOUNCE_OFFSET` times the mesh's scale (bounding radius plus the
+    centre's distance from the origin: float rounding of a vertex grows with
+    both), and leaves in a direction drawn with density cos(angle to that
+    normal): ``sqrt(u)`` along a random tangent plus ``sqrt(1 - u)`` along the
+    normal, ``u`` uniform in [0, 1).
+
+    Returns
+    -------
+    origins, directions : float64 (hits, 3), already rounded to ``dtype``
+    answers : ClosestAnswers
+    figures : dict
+        ``primary_rays``, ``primary_hits`` and ``bounce_offset``.
+    """
+    tri = np.asarray(triangles, dtype=np.float64)
+    o, d = (round_to(a, dtype) for a in camera_rays(width, height))
+    primary = closest_hits(o, d, tri, *camera_candidates(tri, width, height))
+    rows = np.flatnonzero(primary.index >= 0)
+    k = primary.index[rows]
+    point = o[rows] + primary.t[rows, None] * d[rows]
+    normal = normalise(np.cross(tri[k, 1] - tri[k, 0], tri[k, 2] - tri[k, 0]))  # a hit triangle is not flat
+    normal[dot(normal, d[rows]) > 0] *= -1  # the side the camera saw
+    centre, radius = bounding_sphere(tri.reshape(-1, 3))
+    offset = BOUNCE_OFFSET * (radius + float(norm(centre)))
+    u = rng.random(len(rows))[:, None]
+    direction = np.sqrt(u) * random_perpendicular(rng, normal) + np.sqrt(1.0 - u) * normal
+    bo, bd = round_to(point + offset * normal, dtype), round_to(normalise(direction), dtype)
+    figures = {"primary_rays": len(o), "primary_hits": len(rows), "bounce_offset": offset}
+    return bo, bd, _closest_culled(bo, bd, tri), figures
+
+
 def _closest_culled(o: np.ndarray, d: np.ndarray, tri: np.ndarray) -> ClosestAnswers:
     return closest_hits(o, d, tri, *sphere_candidates(o, d, tri))
 
@@ -341,6 +385,9 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
         o, d = camera_rays(spec.width, spec.height)
         o, d = round_to(o, spec.dtype), round_to(d, spec.dtype)
         ans = closest_hits(o, d, tri, *camera_candidates(tri, spec.width, spec.height))
+    elif spec.rays == "bounce":
+        assert spec.width is not None and spec.height is not None  # MeshSpec set them
+        o, d, ans, figures = bounce_rays(tri, spec.width, spec.height, spec.dtype, np.random.default_rng(spec.seed))
     else:
         rng = np.random.default_rng(spec.seed)
         assert spec.n_rays is not None and spec.hit_rate is not None  # MeshSpec set them

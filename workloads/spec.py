@@ -101,7 +101,7 @@ SHAPES = ("sphere", "equilateral", "sliver")
 ORDERS = ("shuffled", "sorted")
 DTYPES = ("float32", "float64")
 MESH_NAMES = ("suzanne", "icosphere", "uvsphere", "soup", "heightfield")
-RAY_SETS = ("camera", "hit_rate")
+RAY_SETS = ("camera", "hit_rate", "bounce")
 #: What a mesh workload asks of each ray (the kernels' modes other than pairs).
 RESULTS = ("closest", "closest_uv", "any")
 #: How a mesh workload's kernels run it: every ray against every triangle, or through a BVH.
@@ -285,11 +285,19 @@ class MeshSpec:
         (so that no hit rate above 0 is possible) is refused here.
     triangles : int or None
         Exact triangle count wanted; ``None`` keeps the base mesh.
-    rays : {"camera", "hit_rate"}
+    rays : {"camera", "hit_rate", "bounce"}
         The seed's pinhole camera (``width`` x ``height`` rays), or ``n_rays``
-        rays of which exactly ``round(hit_rate * n_rays)`` hit the mesh.
+        rays of which exactly ``round(hit_rate * n_rays)`` hit the mesh, or
+        incoherent secondary rays: one diffuse bounce from each hit of that
+        camera (the float64 reference's closest hit of each camera ray),
+        leaving the hit point offset along the triangle's normal by a
+        scale-aware epsilon (1e-4 of the mesh's bounding radius plus its
+        centre's distance from the origin), on the side the camera saw, in a
+        cosine-distributed direction about that normal, drawn from ``seed``.
+        Their count is the camera's hits; their reference answers are float64
+        brute force (culled exactly) on the rounded rays, as every ray set's.
     hit_rate, n_rays : only with ``rays="hit_rate"`` (defaults 0.5 and 4096).
-    width, height : only with ``rays="camera"`` (default 512 x 512).
+    width, height : only with ``rays="camera"`` or ``"bounce"`` (default 512 x 512).
     dtype : {"float64", "float32"}
     seed : int
     result : {"closest", "closest_uv", "any"}
@@ -345,7 +353,7 @@ class MeshSpec:
         if self.triangles is not None:
             put(self, "triangles", _int("triangles", self.triangles, 1, _MAX_TRIANGLES))
         _choice("rays", self.rays, RAY_SETS)
-        if self.rays == "camera":
+        if self.rays in ("camera", "bounce"):
             for name in ("hit_rate", "n_rays"):
                 if getattr(self, name) is not None:
                     raise UserError(
@@ -360,7 +368,7 @@ class MeshSpec:
         else:
             for name in ("width", "height"):
                 if getattr(self, name) is not None:
-                    raise UserError(f"{name} applies to rays='camera' only")
+                    raise UserError(f"{name} applies to rays='camera' or 'bounce' only")
             put(self, "hit_rate", _hit_rate(0.5 if self.hit_rate is None else self.hit_rate))
             put(self, "n_rays", _int("n_rays", 4096 if self.n_rays is None else self.n_rays, 1, _MAX_RAYS))
         _choice("dtype", self.dtype, DTYPES)
@@ -375,8 +383,8 @@ class MeshSpec:
 
     @property
     def n_rays_total(self) -> int:
-        """Number of rays the workload has."""
-        if self.rays == "camera":
+        """Number of rays the workload has (bounces: at most, one per camera ray)."""
+        if self.rays in ("camera", "bounce"):
             assert self.width is not None and self.height is not None  # __post_init__ set them
             return self.width * self.height
         assert self.n_rays is not None  # __post_init__ set it
@@ -396,10 +404,11 @@ class MeshSpec:
 
     def targets(self) -> dict[str, Any]:
         """Target figures, keyed like the achieved figures they are compared with."""
-        t: dict[str, Any] = {
-            "triangles": "base" if self.triangles is None else self.triangles,
-            "rays": self.n_rays_total,
-        }
+        t: dict[str, Any] = {"triangles": "base" if self.triangles is None else self.triangles}
+        if self.rays == "bounce":  # one per camera hit: a result
+            t["primary_rays"] = self.n_rays_total
+        else:
+            t["rays"] = self.n_rays_total
         if self.rays == "hit_rate":
             assert self.hit_rate is not None and self.n_rays is not None  # __post_init__ set them
             t["ray_hits"] = round(self.hit_rate * self.n_rays)
@@ -410,11 +419,10 @@ class MeshSpec:
         """One line for listings."""
         name = Path(self.mesh).name if self.is_file else self.mesh
         count = "base" if self.triangles is None else str(self.triangles)
-        rays = (
-            f"camera {self.width}x{self.height}"
-            if self.rays == "camera"
-            else f"{self.n_rays} rays hit_rate={self.hit_rate:g}"
-        )
+        if self.rays == "hit_rate":
+            rays = f"{self.n_rays} rays hit_rate={self.hit_rate:g}"
+        else:
+            rays = f"{'bounces of camera' if self.rays == 'bounce' else 'camera'} {self.width}x{self.height}"
         result = "" if self.result == "closest" else f" {self.result}"
         accel = "" if self.accel == "brute" else f" {self.accel}"
         return f"mesh {name} triangles={count} {rays}{result}{accel} {self.dtype} seed={self.seed}"

@@ -1,0 +1,172 @@
+"""tribench from Python: run a sweep or the main job, or read a run, and get pandas frames.
+
+The ``tribench`` package itself, above its seven sub-packages (it may import
+them all; none imports it). A thin facade over :mod:`tribench.harness` and
+:mod:`tribench.reports`: each function makes or reads a run folder, exactly
+as the ``tribench`` command does, and returns its tables as :class:`Results`.
+Nothing is imported until a function is called, so ``import tribench.ext``
+stays as light as before.
+
+* :func:`sweep` — a timed sweep of kernels x workloads, then the analysis step;
+* :func:`run` — the main job (``tribench run``), then the analysis step;
+* :func:`load` — the tables of a run folder already analysed (``tribench stats``);
+* :func:`compare` — N runs side by side (``tribench compare``).
+
+Examples
+--------
+The tables of a run folder made by ``tribench sweep`` or ``tribench run``
+(``run_dir``), and the fastest kernel of each workload with its interval:
+
+>>> import tribench
+>>> r = tribench.load(run_dir)
+>>> list(r.speedups.columns[:4])
+['workload_id', 'kernel', 'baseline', 'ratio']
+>>> best = r.ranking.loc[r.ranking["rank"] == 1]
+>>> set(best["kernel"]) <= set(r.estimates["kernel"]), bool(best["ns_per_test_ci_low"].le(best["ns_per_test"]).all())
+(True, True)
+
+A sweep is ``tribench.sweep(["moller_trumbore", "curless"], [tribench.PairSpec(n=500,
+hit_rate=0.2)], out="runs/mine", processes=3, rounds=3)``; docs/notebook.md
+has a whole example, which a test runs.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from tribench.reports.compare import MultiComparison
+    from tribench.workloads.spec import MeshSpec, PairSpec
+
+__all__ = ["Results", "sweep", "run", "load", "compare", "PairSpec", "MeshSpec"]
+
+
+@dataclass(frozen=True)
+class Results:
+    """A run folder and its tables, as the files have them (columns: :mod:`tribench.harness.runfolder`)."""
+
+    #: The run folder: every file of the run, the report is ``tribench report RUN_DIR`` away.
+    run_dir: Path
+    #: ``estimates.csv``: ns per ray-triangle test with its 95% CI, per kernel and workload.
+    estimates: pd.DataFrame
+    #: ``speedups.csv``: every kernel against the baseline, per workload, with CIs and verdicts.
+    speedups: pd.DataFrame
+    #: Every derived table by file name (``ranking.csv``, ``per_process.csv``, ...).
+    tables: dict[str, pd.DataFrame] = field(repr=False)
+
+    @property
+    def ranking(self) -> pd.DataFrame:
+        """``ranking.csv``: per workload, every kernel from the fastest down, with CIs."""
+        return self.tables["ranking.csv"]
+
+
+def _default_out(out: str | Path | None) -> Path:
+    from tribench.harness.records import default_run_dir
+
+    return Path(out if out is not None else default_run_dir())
+
+
+def sweep(
+    kernels: Sequence[str],
+    workloads: Sequence[PairSpec | MeshSpec],
+    out: str | Path | None = None,
+    *,
+    processes: int | None = None,
+    rounds: int | None = None,
+    warmup: int | None = None,
+    target_ms: float | None = None,
+    seed: int = 0,
+    baseline: str | None = None,
+    progress: bool | None = None,
+) -> Results:
+    """Time ``kernels`` on ``workloads`` into the new folder ``out``, analyse it and return its tables.
+
+    ``tribench sweep`` then ``tribench stats``: fresh pinned worker processes,
+    every batch appended to ``out/batches.csv`` as it is measured, then every
+    derived table (:func:`tribench.harness.analysis.write_all`). Like the
+    command, it first prints the expected duration on stderr.
+
+    Parameters
+    ----------
+    kernels : sequence of str
+        Kernel names (``tribench.ext.kernel_names()``).
+    workloads : sequence of PairSpec or MeshSpec
+        The workloads, e.g. ``PairSpec(n=500, hit_rate=0.2)``, ``MeshSpec("suzanne", triangles=968)``.
+    out : path, optional
+        A new or empty folder; default ``runs/<date-time>``.
+    processes, rounds, warmup, target_ms, seed
+        The design (defaults: :mod:`tribench.harness.plan`, as ``tribench sweep``).
+    baseline : str, optional
+        The speedups' baseline (default ``moller_seed`` if swept, else the first kernel).
+    progress : bool, optional
+        Progress lines (default: a bar on a terminal, plain lines elsewhere).
+
+    Raises
+    ------
+    UserError
+        A bad kernel, workload or design value, or ``out`` is not a new folder.
+    """
+    from tribench.harness import analysis, duration, plan, records, runner
+
+    spec = plan.Sweep(
+        tuple(kernels),
+        tuple(workloads),
+        processes=plan.DEFAULT_PROCESSES if processes is None else processes,
+        rounds=plan.DEFAULT_ROUNDS if rounds is None else rounds,
+        warmup=plan.DEFAULT_WARMUP if warmup is None else warmup,
+        target_ms=plan.DEFAULT_TARGET_MS if target_ms is None else target_ms,
+        seed=seed,
+    )
+    folder = _default_out(out)
+    records.check_new_run_dir(folder)  # before the estimate, which builds the workloads
+    print(f"tribench.sweep: {duration.estimate(spec).line()} -> {folder}", file=sys.stderr)
+    runner.start(spec, folder, progress=progress)
+    derived = analysis.write_all(folder, baseline=baseline)
+    return Results(folder, derived.estimates, derived.speedups, derived.tables)
+
+
+def run(
+    out: str | Path | None = None, *, quick: bool = False, peers: bool = True, progress: bool | None = None
+) -> Results:
+    """The main job (``tribench run``) into the new folder ``out``: its tables.
+
+    The default sweep, the peers when installed, then the analysis step
+    (:func:`tribench.harness.main_job.run`); ``quick=True`` takes seconds and
+    gives wide intervals. The HTML report is ``tribench report RUN_DIR`` (or
+    ``tribench.reports.write_report(run_dir)``).
+    """
+    from tribench.harness import main_job
+
+    done = main_job.run(_default_out(out), quick=quick, progress=progress, peers=peers)
+    return Results(done.run_dir, done.estimates, done.speedups, done.tables)
+
+
+def load(run_dir: str | Path) -> Results:
+    """The tables of an analysed run folder, refused (one line naming ``tribench stats``) if missing or stale."""
+    from tribench.reports.rundata import load_run
+
+    data = load_run(run_dir)
+    return Results(data.run_dir, data.estimates, data.speedups, data.tables)
+
+
+def compare(*run_dirs: str | Path) -> MultiComparison:
+    """N >= 2 runs side by side (``tribench compare``): ``.speedups`` of every run, ``.orders`` that hold."""
+    from tribench.reports.compare import compare_many
+    from tribench.reports.rundata import load_run
+
+    return compare_many([load_run(r) for r in run_dirs])
+
+
+def __getattr__(name: str) -> Any:
+    # the workload specs, imported on first use like everything here
+    if name in ("PairSpec", "MeshSpec"):
+        from tribench.workloads import spec
+
+        return getattr(spec, name)
+    raise AttributeError(f"module 'tribench' has no attribute {name!r}")

@@ -1,0 +1,251 @@
+"""A run's estimates and speedups in Google Benchmark's JSON format (``google_benchmark.json``).
+
+Why this format: Google Benchmark's JSON (a ``context`` object, then a
+``benchmarks`` list) has a place for the machine record (``context``) and
+tools that already read it (its ``tools/compare.py``, dashboards fed by
+``--benchmark_format=json``); Bencher's BMF carries an interval per figure
+natively but has no place for the machine, and its one consumer is a hosted
+service. Google Benchmark has no interval field, so each interval travels as
+extra numeric fields, the way Google Benchmark writes user counters.
+
+How a run maps onto it (one "benchmark" per kernel and workload, named
+``KERNEL/WORKLOAD_ID``; ``label`` is the workload in one line):
+
+* one ``iteration`` entry per worker process, as Google Benchmark writes one
+  per repetition: ``real_time`` is the process's median ns per ray-triangle
+  test (``per_process.csv``), ``iterations`` its timed batches. So
+  ``compare.py`` can run its U test on two exports;
+* the ``_mean`` aggregate: ``real_time`` is ``ns_per_test`` of
+  ``estimates.csv`` with ``ci_low``, ``ci_high`` (Student t),
+  ``bootstrap_low``, ``bootstrap_high`` and ``confidence`` beside it;
+* the ``_stddev`` aggregate: the standard deviation of the per-process values;
+* the ``_speedup`` aggregate (unit ``percentage``, Google Benchmark's unit of
+  a unitless statistic, written as a fraction): ``speedups.csv``'s ratio
+  ``time_baseline / time_kernel`` with its simultaneous interval, ``p_holm``
+  and ``confidence``; the verdict in ``label``.
+
+``time_unit`` is ``ns`` and the time is per test, not per loop; tribench
+times wall-clock inside C on a pinned process and measures no CPU time
+apart, so ``cpu_time`` repeats ``real_time``. ``context`` has Google
+Benchmark's fields, filled from ``run.json``'s machine record, then every
+field of that record as a string (``machine.<key>``, JSON text for the
+non-strings), as Google Benchmark writes custom context. No number is NaN or
+infinite (the file is strict JSON): an undefined interval is left out.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from collections.abc import Mapping
+from typing import Any
+
+import pandas as pd
+
+from . import runfolder
+
+__all__ = ["google_benchmark", "dumps", "JSON_SCHEMA_VERSION"]
+
+#: The ``context.json_schema_version`` Google Benchmark's tools accept.
+JSON_SCHEMA_VERSION = 1
+
+_CACHE_TYPES = {"d": "Data", "i": "Instruction", "": "Unified"}
+_SIZE_UNITS = {"": 1, "K": 1024, "M": 1024**2, "G": 1024**3}
+
+
+def _caches(sizes: Mapping[str, str]) -> list[dict[str, Any]]:
+    """``{'L1d': '48K', ...}`` (the machine record) as Google Benchmark's cache list; unreadable ones left out."""
+    out = []
+    for name, size in sizes.items():
+        key = re.fullmatch(r"L(\d)([di]?)", name)
+        value = re.fullmatch(r"(\d+)([KMG]?)", str(size).strip())
+        if key and value:
+            out.append(
+                {
+                    "type": _CACHE_TYPES[key.group(2)],
+                    "level": int(key.group(1)),
+                    "size": int(value.group(1)) * _SIZE_UNITS[value.group(2)],
+                    "num_sharing": 0,  # not recorded
+                }
+            )
+    return out
+
+
+def _context(run: Mapping[str, Any], baseline: str, margin: Mapping[str, Any]) -> dict[str, Any]:
+    machine = run.get("machine") or {}
+    try:
+        mhz = round(float(machine.get("cpu_mhz") or 0))
+    except ValueError:  # not a number: unknown, as Google Benchmark writes an unknown clock
+        mhz = 0
+    context: dict[str, Any] = {
+        "date": str(run.get("created", "")),
+        "host_name": "",  # tribench records no host name
+        "executable": "tribench",
+        "num_cpus": int(machine.get("logical_cpus") or 0),
+        "mhz_per_cpu": mhz,
+    }
+    if machine.get("governor"):
+        context["cpu_scaling_enabled"] = machine["governor"] != "performance"
+    context |= {
+        "caches": _caches(machine.get("caches") or {}),
+        "load_avg": [float(x) for x in machine.get("load_average") or []],
+        "library_version": f"tribench {machine.get('tribench', 'unknown')}",
+        "library_build_type": "release",
+        "json_schema_version": JSON_SCHEMA_VERSION,
+        "run_id": str(run["run_id"]),
+        "time_per": "ray-triangle test",
+        "baseline": baseline,
+        "margin": f"{margin.get('value')} ({margin.get('source')})",
+    }
+    for key, value in machine.items():
+        context[f"machine.{key}"] = value if isinstance(value, str) else json.dumps(value, sort_keys=True)
+    return context
+
+
+def _finite(fields: Mapping[str, Any]) -> dict[str, float]:
+    """The fields that are finite numbers, as floats (an undefined interval is left out)."""
+    return {k: float(v) for k, v in fields.items() if v is not None and math.isfinite(float(v))}
+
+
+def _entry(name: str, run_name: str, family: int, instance: int, label: str, **fields: Any) -> dict[str, Any]:
+    return {
+        "name": name,
+        "family_index": family,
+        "per_family_instance_index": instance,
+        "run_name": run_name,
+        **fields,
+        "time_unit": "ns",
+        "label": label,
+    }
+
+
+def google_benchmark(
+    run: Mapping[str, Any], tables: Mapping[str, pd.DataFrame], baseline: str, margin: Mapping[str, Any]
+) -> dict[str, Any]:
+    """A run's estimates, speedups and machine record as one Google Benchmark JSON object.
+
+    Parameters
+    ----------
+    run : mapping
+        ``run.json``.
+    tables : mapping
+        The derived tables by file name; ``estimates.csv``, ``speedups.csv`` and
+        ``per_process.csv`` are read.
+    baseline : str
+        The speedups' baseline.
+    margin : mapping
+        ``{"value": ..., "source": ...}``, the equivalence margin of the verdicts.
+
+    Returns
+    -------
+    dict
+        ``{"context": {...}, "benchmarks": [...]}``, ready for ``json.dumps(..., allow_nan=False)``.
+    """
+    est = tables[runfolder.ESTIMATES]
+    spd = tables[runfolder.SPEEDUPS].set_index(["kernel", "workload_id"])
+    pp = tables[runfolder.PER_PROCESS]
+    kernels = [k for k in run["sweep"]["kernels"] if k in set(est["kernel"])]
+    wids = [w for w in run["sweep"]["workload_ids"] if w in set(est["workload_id"])]
+    rows = est.set_index(["kernel", "workload_id"])
+    benchmarks: list[dict[str, Any]] = []
+    for family, instance, r in (
+        (f, i, rows.loc[(k, w)]) for f, k in enumerate(kernels) for i, w in enumerate(wids) if (k, w) in rows.index
+    ):
+        kernel, wid = r.name
+        name = f"{kernel}/{wid}"
+        label = str(r["workload"])
+        per = pp.loc[(pp["kernel"] == kernel) & (pp["workload_id"] == wid)].sort_values("process")
+        n = len(per)
+        common = {"repetitions": n, "threads": 1}
+        for i, p in enumerate(per.itertuples(index=False)):
+            benchmarks.append(
+                _entry(
+                    name,
+                    name,
+                    family,
+                    instance,
+                    label,
+                    run_type="iteration",
+                    **common,
+                    repetition_index=i,
+                    iterations=int(p.n_rounds),
+                    real_time=float(p.ns_per_test),
+                    cpu_time=float(p.ns_per_test),
+                    process=int(p.process),
+                )
+            )
+        aggregate = {"run_type": "aggregate", **common}
+        benchmarks.append(
+            _entry(
+                f"{name}_mean",
+                name,
+                family,
+                instance,
+                label,
+                **aggregate,
+                aggregate_name="mean",
+                aggregate_unit="time",
+                iterations=n,
+                real_time=float(r["ns_per_test"]),
+                cpu_time=float(r["ns_per_test"]),
+                **_finite(
+                    {
+                        "ci_low": r["ns_per_test_ci_low"],
+                        "ci_high": r["ns_per_test_ci_high"],
+                        "bootstrap_low": r["ns_per_test_bootstrap_low"],
+                        "bootstrap_high": r["ns_per_test_bootstrap_high"],
+                        "confidence": r["confidence"],
+                    }
+                ),
+            )
+        )
+        if math.isfinite(r["ns_per_test_sd"]):
+            benchmarks.append(
+                _entry(
+                    f"{name}_stddev",
+                    name,
+                    family,
+                    instance,
+                    label,
+                    **aggregate,
+                    aggregate_name="stddev",
+                    aggregate_unit="time",
+                    iterations=n,
+                    real_time=float(r["ns_per_test_sd"]),
+                    cpu_time=float(r["ns_per_test_sd"]),
+                )
+            )
+        if (kernel, wid) in spd.index:
+            s = spd.loc[(kernel, wid)]
+            if math.isfinite(s["ratio"]):
+                benchmarks.append(
+                    _entry(
+                        f"{name}_speedup",
+                        name,
+                        family,
+                        instance,
+                        f"{label}; {s['verdict']} against {baseline}",
+                        **aggregate,
+                        aggregate_name="speedup",
+                        aggregate_unit="percentage",
+                        iterations=int(s["n_processes"]),
+                        real_time=float(s["ratio"]),
+                        cpu_time=float(s["ratio"]),
+                        **_finite(
+                            {
+                                "ci_low": s["ratio_ci_low"],
+                                "ci_high": s["ratio_ci_high"],
+                                "confidence": s["confidence"],
+                                "p_holm": s["p_holm"],
+                                "margin": s["margin"],
+                            }
+                        ),
+                    )
+                )
+    return {"context": _context(run, baseline, margin), "benchmarks": benchmarks}
+
+
+def dumps(document: Mapping[str, Any]) -> str:
+    """The export as strict JSON text (no NaN or Infinity), one field per line."""
+    return json.dumps(document, indent=2, allow_nan=False) + "\n"

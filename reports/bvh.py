@@ -1,0 +1,238 @@
+"""The report's "In a BVH" section: every kernel as the leaf test of a tracer's BVH.
+
+Part of ``report.html`` (:mod:`.html` puts the sections together). Every number
+is read from ``bvh.csv`` (:func:`tribench.harness.tables.bvh_table`) and, for
+Embree, from ``peer_rates.csv`` and ``peer_ratios.csv`` when the run's peers
+were timed through tribench's BVH (``tribench peers --accel bvh``). A run
+without a BVH workload has no such section.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from tribench.stats import format_interval
+
+from . import figures, page
+from .rundata import PeerTables
+
+__all__ = ["CLAIM", "CLAIMANTS", "bvh_figure", "bvh_rows", "bvh_section", "claim_answer", "claim_sentences"]
+
+#: Baldwin & Weber (JCGT 5(3), 2016): their tests make a complete tracer (pbrt) this much faster
+#: end to end than Moller-Trumbore, as a range of speedups.
+CLAIM = (1.01, 1.06)
+#: Their algorithms, and the one they compare with (``tribench.ext.kernel_info(k).algorithm``).
+CLAIMANTS = ("baldwin_weber_12", "baldwin_weber_9")
+CLAIM_BASELINE = "moller_trumbore"
+
+
+def _interval(value: float, low: float, high: float, unit: str = "") -> str:
+    return format_interval(value, low, high, unit=unit) if not math.isnan(value) else "–"
+
+
+def _percent(value: float, low: float, high: float) -> str:
+    return _interval(100 * value, 100 * low, 100 * high, "%")
+
+
+def claim_answer(low: float, high: float) -> str:
+    """What a 95% interval of an end-to-end speedup says about the claim of 1-6% faster (:data:`CLAIM`).
+
+    Written to follow "the claim":
+
+    >>> claim_answer(1.02, 1.04), claim_answer(0.98, 1.005), claim_answer(0.90, 0.95)
+    ('holds here', 'does not hold here (less than 1% faster)', 'does not hold here (slower)')
+    >>> claim_answer(0.99, 1.03), claim_answer(1.07, 1.09)
+    ('is not confirmed here (the interval includes no gain)', 'is exceeded here (more than 6% faster)')
+    >>> claim_answer(math.nan, math.nan)
+    'cannot be judged (one process, no interval)'
+    """
+    least, most = CLAIM
+    if math.isnan(low) or math.isnan(high):
+        return "cannot be judged (one process, no interval)"
+    if high < 1:
+        return "does not hold here (slower)"
+    if high < least:
+        return f"does not hold here (less than {100 * (least - 1):.0f}% faster)"
+    if low > most:
+        return f"is exceeded here (more than {100 * (most - 1):.0f}% faster)"
+    if low > 1:
+        return "holds here"
+    return "is not confirmed here (the interval includes no gain)"
+
+
+def claim_sentences(bvh: pd.DataFrame) -> list[str]:
+    """Baldwin & Weber's end-to-end claim answered on every BVH workload where the run has a form of
+    their algorithm and Moller-Trumbore's as the speedups' baseline (``bvh.csv``)."""
+    out = []
+    for _, g in bvh.groupby("workload_id", sort=False):
+        base = g.loc[g["kernel"] == g["baseline"]]
+        if base.empty or base["algorithm"].iloc[0] != CLAIM_BASELINE:
+            continue
+        for r in g.loc[g["algorithm"].isin(CLAIMANTS)].itertuples(index=False):
+            share = (
+                f"; the leaf tests are {_percent(r.leaf_share, r.leaf_share_ci_low, r.leaf_share_ci_high)} "
+                "of its trace time"
+                if not math.isnan(r.leaf_share)
+                else ""
+            )
+            out.append(
+                f"Baldwin & Weber's end-to-end claim (1–6% more rays/s in a complete tracer) on {r.family} · "
+                f"{r.label}: {r.kernel} against {r.baseline}, "
+                f"{_interval(r.speedup, r.speedup_ci_low, r.speedup_ci_high, '×')} the rays/s "
+                f"(simultaneous 95% CI): the claim {claim_answer(r.speedup_ci_low, r.speedup_ci_high)}{share}."
+            )
+    return out
+
+
+def bvh_rows(bvh: pd.DataFrame) -> pd.DataFrame:
+    """One display row per workload and kernel of ``bvh.csv``.
+
+    >>> row = {"family": "f", "label": "l", "dtype": "float32", "rays_kind": "camera", "kernel": "k",
+    ...     "baseline": "k", "rays_per_s": 2e6, "rays_per_s_ci_low": 1.9e6, "rays_per_s_ci_high": 2.1e6,
+    ...     "speedup": 1.0, "speedup_ci_low": 1.0, "speedup_ci_high": 1.0, "verdict": "baseline",
+    ...     "brute_speedup": float("nan"), "brute_speedup_ci_low": float("nan"),
+    ...     "brute_speedup_ci_high": float("nan"), "leaf_share": 0.4, "leaf_share_ci_low": 0.35,
+    ...     "leaf_share_ci_high": 0.45, "nodes_per_ray": 30.5, "triangle_tests_per_ray": 40.0}
+    >>> r = bvh_rows(pd.DataFrame([row])).iloc[0]
+    >>> r["rate"], r["speedup"], r["brute"], r["share"]
+    ('2e+06 [1.9e+06, 2.1e+06]', '(the baseline)', '–', '40% [35, 45]')
+    """
+    rows = []
+    for r in bvh.itertuples(index=False):
+        is_base = r.kernel == r.baseline
+        rows.append(
+            {
+                "dtype": r.dtype,
+                "workload": f"{r.family} · {r.label}",
+                "kernel": r.kernel,
+                "rate": _interval(r.rays_per_s, r.rays_per_s_ci_low, r.rays_per_s_ci_high),
+                "speedup": "(the baseline)"
+                if is_base
+                else _interval(r.speedup, r.speedup_ci_low, r.speedup_ci_high, "×"),
+                "verdict": "" if is_base else r.verdict,
+                "brute": _interval(r.brute_speedup, r.brute_speedup_ci_low, r.brute_speedup_ci_high, "×")
+                if not is_base
+                else ("(the baseline)" if not math.isnan(r.brute_speedup) else "–"),
+                "share": _percent(r.leaf_share, r.leaf_share_ci_low, r.leaf_share_ci_high),
+                "nodes": r.nodes_per_ray,
+                "tests": r.triangle_tests_per_ray,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def bvh_figure(bvh: pd.DataFrame, colours: dict[str, str]) -> str:
+    """Rays/s of every kernel in a BVH against the mesh's triangle count, with 95% CIs, as a page figure.
+
+    The one figure of the section, kept in one function so it can be drawn another way.
+    """
+    import numpy as np
+
+    fig = figures._figure(7.0, 3.2)
+    ax = fig.add_subplot(1, 1, 1)
+    styles = {kind: style for kind, style in zip(sorted(set(bvh["rays_kind"])), ["-", "--", ":", "-."], strict=False)}
+    for (kernel, kind, dtype), g in bvh.groupby(["kernel", "rays_kind", "dtype"], sort=False):
+        g = g.sort_values("triangles")
+        x, y = g["triangles"].to_numpy(float), g["rays_per_s"].to_numpy(float)
+        low, high = g["rays_per_s_ci_low"].to_numpy(float), g["rays_per_s_ci_high"].to_numpy(float)
+        err = np.vstack([np.nan_to_num(y - low), np.nan_to_num(high - y)])
+        ax.errorbar(
+            x,
+            y,
+            yerr=err,
+            color=colours.get(kernel, "#333"),
+            ls=styles.get(kind, "-"),
+            marker="o" if dtype == "float32" else "s",
+            ms=4,
+            capsize=2,
+            label=f"{kernel}, {kind} rays, {dtype}",
+        )
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("triangles of the mesh (log scale)")
+    ax.set_ylabel("rays per second (log scale)")
+    ax.grid(which="major", color="#e5e7eb", lw=0.8)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside the axes: never over a line
+    return page.figure(
+        figures.svg_data_uri(fig),
+        "rays per second of every kernel in a BVH by mesh size",
+        "Rays/s end to end in the BVH (traversal and leaf tests, one core): geometric mean over processes, "
+        "bars 95% CI (bvh.csv).",
+    )
+
+
+def _embree(peers: PeerTables | None) -> str:
+    """tribench's BVH against Embree, when the run's peers were timed through the BVH."""
+    if peers is None or not peers.in_bvh:
+        return ""
+    ratios = peers.ratios.loc[(peers.ratios["contender"] == "tribench") & (peers.ratios["over"] == "embree")]
+    text = (
+        f"Against Embree on {peers.workload} (tribench peers --accel bvh, one core): tribench's BVH with "
+        f"{peers.kernel} runs at "
+        + (
+            f"{_interval(ratios['ratio'].iloc[0], ratios['ci_low'].iloc[0], ratios['ci_high'].iloc[0], '×')} "
+            "Embree's rays/s (95% CI)."
+            if len(ratios)
+            else "(Embree was not measured)."
+        )
+    )
+    shown = peers.rates.loc[peers.rates["contender"].isin(["tribench", "embree"])]
+    return (
+        "<h3>Against Embree</h3>"
+        + page.p(text)
+        + page.table(
+            shown,
+            [
+                ("contender", "contender"),
+                ("implementation", "implementation"),
+                ("rays_per_s", "rays/s"),
+                ("ci_low", "95% CI low"),
+                ("ci_high", "95% CI high"),
+                ("n_processes", "processes"),
+                ("setup_ms", "set-up ms (the build)"),
+            ],
+        )
+    )
+
+
+def bvh_section(bvh: pd.DataFrame, peers: PeerTables | None, colours: dict[str, str]) -> str:
+    """The section's body: the claim, one table per precision, the figure, Embree; "" without a BVH workload."""
+    if bvh.empty:
+        return ""
+    parts = [page.p(s) for s in claim_sentences(bvh)]
+    shown = bvh_rows(bvh)
+    cols = [
+        ("workload", "workload"),
+        ("kernel", "leaf test"),
+        ("rate", "rays/s [95% CI]"),
+        ("speedup", "speedup in the BVH [CI]"),
+        ("verdict", "verdict"),
+        ("brute", "same in brute force [CI]"),
+        ("share", "leaf tests' share of trace time [95% CI]"),
+        ("nodes", "nodes / ray"),
+        ("tests", "triangle tests / ray"),
+    ]
+    for dtype, g in shown.groupby("dtype", sort=False):
+        parts.append(f"<h3>{dtype}</h3>" + page.table(g, cols))
+    parts.append(bvh_figure(bvh, colours))
+    parts.append(_embree(peers))
+    baselines = ", ".join(dict.fromkeys(bvh["baseline"]))
+    parts.append(
+        page.p(
+            "Each kernel as the leaf test of tribench's BVH (ext/bvh.h), every batch a single-ray closest-hit "
+            "traversal timed inside C. Speedups are of rays/s end to end against "
+            f"{baselines} (the run's baseline's form that can be a leaf test, else Möller–Trumbore's), paired by "
+            "process, with simultaneous 95% intervals (Bonferroni over the workload's kernels); beside them the "
+            "same ratio in brute force on the same rays and mesh (ns per test), where the run has that workload: "
+            "does the ranking carry into a tracer? The leaf tests' share is 1 − null / real: each batch is traced "
+            "again with the leaf test replaced by nothing (each ray's t_max at the kernel's own hit, so it enters "
+            "the nodes a ray that found its hit at once would enter), just before or after it at random; per "
+            "process the median ratio, geometric mean over processes (traversals.csv). The null traversal enters "
+            "no more nodes than the real one, so the share also counts the extra nodes a ray visits before it "
+            "finds its hit. Every figure is in bvh.csv.",
+            "note",
+        )
+    )
+    return "".join(parts)

@@ -1,0 +1,114 @@
+"""The BVH cache: a kernel's BVH over a mesh's triangles, built once per machine.
+
+A BVH over a million triangles takes seconds to build (and its leaf records
+to prepare); every worker process of a sweep and of ``tribench peers`` would
+otherwise build it again. :func:`cached_bvh` builds it once, keeps it beside
+the workloads (``cache_dir() / "bvh"``) and hands later calls the stored tree.
+
+A file ``bvh-<16 hex>.npz`` is named by the sha256 of its identity: the
+triangles (their sha256, dtype and count: the same mesh under any ray set,
+result mode or accel shares one file), the kernel (its prepared layout is its
+own), ``max_leaf``, :data:`BVH_FORMAT` (this file's layout),
+``ext.BVH_BUILD_VERSION`` (the tree ext/bvh.h builds) and the sha256 of the
+compiled extension (the code that built the tree and prepared its records:
+any rebuild of the C code makes new files). It holds the tree's arrays
+(``nodes``, ``perm``, ``records``) and a ``meta`` member (the identity, and
+how long the build took), sealed as workload files are
+(:func:`tribench.workloads.cache.sealed_npz`). A file that fails the seal,
+whose identity is not the one asked for (a stale version), or whose arrays
+:func:`tribench.ext.adopt_bvh` refuses (it checks every structural invariant
+in C, and the records against the triangles) is never used: it is rebuilt,
+with one :class:`~tribench.workloads.cache.CacheWarning`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tribench import ext
+from tribench.common import UserError, write_bytes
+
+from .cache import CacheWarning, Invalid, cache_dir, sealed_npz, unsealed
+from .spec import canonical_json
+
+__all__ = ["BVH_FORMAT", "bvh_identity", "bvh_path", "cached_bvh"]
+
+#: Layout of a BVH cache file: bump when its members or their meaning change.
+BVH_FORMAT = 1
+_ARRAYS = ("nodes", "perm", "records")
+
+
+def bvh_identity(kernel: str, triangles: np.ndarray, max_leaf: int) -> dict[str, Any]:
+    """What names the BVH of ``kernel`` over ``triangles`` with leaves of at most ``max_leaf``."""
+    tris = np.ascontiguousarray(triangles)
+    return {
+        "format": BVH_FORMAT,
+        "build_version": ext.BVH_BUILD_VERSION,
+        "extension_sha256": ext.extension_sha256(),
+        "kernel": kernel,
+        "max_leaf": int(max_leaf),
+        "dtype": str(tris.dtype),
+        "triangles": len(tris),
+        "triangles_sha256": hashlib.sha256(tris.data).hexdigest(),
+    }
+
+
+def bvh_path(identity: dict[str, Any]) -> Path:
+    """The cache file of a BVH identity."""
+    digest = hashlib.sha256(canonical_json(identity).encode()).hexdigest()
+    return cache_dir() / "bvh" / f"bvh-{digest[:16]}.npz"
+
+
+def cached_bvh(kernel: str, triangles: np.ndarray, max_leaf: int = ext.DEFAULT_MAX_LEAF) -> tuple[ext.BVH, int]:
+    """``kernel``'s BVH over ``triangles`` (as :func:`tribench.ext.build_bvh`
+    makes it), from the cache if a
+    sound file is there, else built and cached; and how long its build took,
+    in ns (when it was built, by whichever process built it).
+    """
+    if kernel not in ext.bvh_kernel_names():  # before hashing anything
+        raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(ext.bvh_kernel_names())}")
+    identity = bvh_identity(kernel, triangles, max_leaf)
+    path = bvh_path(identity)
+    if path.exists():
+        try:
+            return _read(path, identity, triangles)
+        except Invalid as e:
+            warnings.warn(f"cache file {path} is invalid ({e}); rebuilding it", CacheWarning, stacklevel=2)
+    t0 = time.perf_counter_ns()
+    bvh = ext.build_bvh(kernel, triangles, max_leaf=max_leaf)
+    build_ns = time.perf_counter_ns() - t0
+    arrays = {"nodes": bvh.nodes, "perm": bvh.perm, "records": bvh.prepared.records}
+    write_bytes(path, sealed_npz({"identity": identity, "build_ns": build_ns}, arrays))
+    return bvh, build_ns
+
+
+def _read(path: Path, identity: dict[str, Any], triangles: np.ndarray) -> tuple[ext.BVH, int]:
+    data = unsealed(path)
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            if sorted(npz.files) != sorted(["meta", *_ARRAYS]):
+                raise Invalid("its arrays are not nodes, perm and records")
+            meta = json.loads(str(npz["meta"][()]))
+            arrays = {name: npz[name] for name in _ARRAYS}
+    except Invalid:
+        raise
+    except Exception as e:  # garbage under a valid seal
+        raise Invalid(f"{type(e).__name__}: {e}") from None
+    if not isinstance(meta, dict) or canonical_json(meta.get("identity")) != canonical_json(identity):
+        raise Invalid("stale: made by another version of the build, format or extension, or for other triangles")
+    build_ns = meta.get("build_ns")
+    if isinstance(build_ns, bool) or not isinstance(build_ns, int) or build_ns < 0:
+        raise Invalid("metadata key 'build_ns' is not a count of nanoseconds")
+    try:
+        bvh = ext.adopt_bvh(identity["kernel"], triangles, max_leaf=identity["max_leaf"], **arrays)
+    except UserError as e:
+        raise Invalid(str(e)) from None
+    return bvh, build_ns
