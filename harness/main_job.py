@@ -95,18 +95,26 @@ def run(
     records.check_new_run_dir(Path(out))  # before the estimate, which builds the workloads
     _say(
         log,
-        f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads, "
-        f"{sweep.processes} processes x {sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
+        f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads -> {out}",
     )
-    _say(log, f"{duration.estimate(sweep).line('for the sweep')}, then the peers, the robustness suite and the tables")
+    if sweep.sequential is None:
+        _say(
+            log,
+            f"{duration.estimate(sweep).line('for the sweep')}, then the peers, the robustness suite and the tables",
+        )
+    else:
+        design = sweep.sequential
+        _say(
+            log,
+            f"expected for the sweep: about {_seconds(design.budget_s)} at most: "
+            f"stages of {design.stage} processes "
+            f"x {sweep.rounds} rounds, each kernel stopped once its speedup is known within "
+            f"±{100 * design.target:g}%; then the peers, the robustness suite and the tables",
+        )
     done = runner.start(sweep, out, progress=progress)
-    _say(
-        log,
-        f"{done.batches_run} batches run in {done.elapsed_s:.1f} s; "
-        f"{done.batches_done}/{done.batches_total} in {done.run_dir}",
-    )
+    _say(log, f"{done.batches_run} batches run in {done.elapsed_s:.1f} s -> {done.run_dir}")
     peer_rows = _run_peers(out, quick=quick, progress=progress, log=log) if peers else None
-    derived = analysis.write_all(out)
+    derived = analysis.write_all(out, validate_quick=quick)  # quick: the robustness suite at its quick sizes
     val_path = Path(out) / runfolder.VALIDATE
     val = (
         pd.read_csv(val_path) if val_path.is_file() else pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE]))
@@ -120,6 +128,11 @@ def run(
             f"promises broken -> {val_path}",
         )
     return MainResult(Path(out), derived.estimates, derived.speedups, val, peer_rows, done, derived.tables)
+
+
+def _seconds(seconds: float) -> str:
+    """A budget as said: ``15 s`` exactly below a minute and a half, else :func:`runner.about`'s words."""
+    return f"{seconds:.0f} s" if seconds < 90 else runner.about(seconds)
 
 
 def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO | None = None) -> pd.DataFrame | None:

@@ -61,9 +61,12 @@ from tribench.workloads.spec import MeshSpec, Spec, workload_id
 __all__ = [
     "BatchKey",
     "MAX_BATCHES",
+    "Sequential",
     "Sweep",
     "default_sweep",
+    "main_job_kernels",
     "expand_workloads",
+    "is_bvh",
     "load_sweep_file",
     "plan",
     "process_seed",
@@ -86,14 +89,15 @@ DEFAULT_TARGET_MS = 8.0
 
 # Bounds of a sweep, so a typo (--rounds 1000000000) is refused before anything
 # is allocated. The plan is a list of BatchKey (about 150 bytes each), and the
-# main job (`tribench run`) has 10,500 batches. A million batches is about
-# 150 MB of plan and 2.3 hours of timed batches alone at the default 8 ms per
-# batch, 100x the main job: past that, a study is several sweeps.
+# main job (`tribench run`) plans at most 18,864 batches (36 processes; its
+# stages run a part of them). A million batches is about 150 MB of plan and
+# 2.3 hours of timed batches alone at the default 8 ms per batch: past that,
+# a study is several sweeps.
 MAX_BATCHES = 1_000_000
 MAX_PROCESSES = 10_000  # each process costs about 5 s of start-up and checks: 14 hours
 MAX_ROUNDS = 100_000
 MAX_WARMUP = 1_000
-MAX_WORKLOADS = 1_000  # each is generated, cached and calibrated in every process (the main job has 25)
+MAX_WORKLOADS = 1_000  # each is generated, cached and calibrated in every process (the main job has 13)
 _WHY = {
     "processes": " (each process costs about 5 s of start-up and checks)",
     "batches": f" (about {MAX_BATCHES * DEFAULT_TARGET_MS / 3.6e6:.1f} hours of timed batches at the "
@@ -106,7 +110,7 @@ def check_workload_count(n: int) -> None:
     if n > MAX_WORKLOADS:
         raise UserError(
             f"the sweep has {n:,} workloads; at most {MAX_WORKLOADS:,} (each is generated, cached "
-            f"and calibrated in every process; the main job has 25): split it into several sweeps"
+            f"and calibrated in every process; the main job has 13): split it into several sweeps"
         )
 
 
@@ -117,7 +121,7 @@ def _spec_types() -> tuple[type, ...]:
     return (PairSpec, MeshSpec, SeedSpec)
 
 
-def _is_bvh(spec: Spec) -> bool:
+def is_bvh(spec: Spec) -> bool:
     """Whether the workload runs through a BVH (a mesh spec's ``accel``)."""
     return isinstance(spec, MeshSpec) and spec.accel == "bvh"
 
@@ -145,6 +149,43 @@ class BatchKey:
 
 
 @dataclass(frozen=True)
+class Sequential:
+    """A sequential design: processes in stages, each comparison stopped once it is narrow.
+
+    The sweep's ``processes`` is then the most it may run. They run
+    ``stage`` at a time; after each stage every comparison (a kernel against
+    its workload's reference kernel, :meth:`Sweep.reference_of`) whose 95%
+    interval is at most ``target`` wide (relative half-width,
+    :func:`tribench.stats.narrow_comparisons`) stops, and the next stage runs
+    only the open ones (and their references). The sweep ends when none is
+    open, at ``processes``, or when the next stage would end past
+    ``budget_s`` seconds of sweep. Only the interval's width decides, so the
+    intervals keep their coverage (tests/test_stats.py simulates it).
+    """
+
+    #: Processes per stage (the first stage included).
+    stage: int
+    #: Relative half-width of a narrow comparison (0.02: within about 2%).
+    target: float
+    #: Seconds of sweep the stages may take (the runner's wall time).
+    budget_s: float
+
+    def __post_init__(self) -> None:
+        if isinstance(self.stage, bool) or not isinstance(self.stage, (int, np.integer)) or not 1 <= self.stage:
+            raise UserError(f"sequential.stage must be a positive number of processes, got {self.stage!r:.80}")
+        for name, hi in (("target", 1.0), ("budget_s", 7 * 24 * 3600.0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+                raise UserError(f"sequential.{name} must be a number, got {value!r:.80}")
+            if not 0 < value <= hi:
+                raise UserError(f"sequential.{name} must be in (0, {hi:g}], got {value!r:.80}")
+        object.__setattr__(self, "stage", int(self.stage))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"stage": self.stage, "target": float(self.target), "budget_s": float(self.budget_s)}
+
+
+@dataclass(frozen=True)
 class Sweep:
     """A grid of kernels x workloads and the design that measures it.
 
@@ -164,6 +205,13 @@ class Sweep:
         kernel, workload and process.
     seed : int
         Seed of every random choice of the plan and of the layout randomisation.
+    workload_kernels : tuple of tuple of str, optional
+        Per workload (in ``workloads`` order), the kernels that run it, a
+        subset of ``kernels``; empty (the default): every kernel runs every
+        workload it can (:meth:`kernels_for`).
+    sequential : Sequential, optional
+        Run the processes in stages and stop the comparisons that are narrow
+        (:class:`Sequential`); ``processes`` is then the most it may run.
     """
 
     kernels: tuple[str, ...]
@@ -173,6 +221,8 @@ class Sweep:
     warmup: int = DEFAULT_WARMUP
     target_ms: float = DEFAULT_TARGET_MS
     seed: int = 0
+    workload_kernels: tuple[tuple[str, ...], ...] = ()
+    sequential: Sequential | None = None
     workload_ids: tuple[str, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -222,9 +272,12 @@ class Sweep:
         if len(set(ids)) != len(ids):
             raise UserError("the same workload is listed twice")
         put(self, "workload_ids", ids)
+        self._check_workload_kernels()
+        if self.sequential is not None and not isinstance(self.sequential, Sequential):
+            raise UserError(f"sequential must be a Sequential design, got {type(self.sequential).__name__}")
         for spec in self.workloads:
             if not self.kernels_for(spec):
-                if _is_bvh(spec):
+                if is_bvh(spec):
                     raise UserError(
                         f"no kernel of the sweep can be a BVH's leaf test ({spec.summary()}): "
                         f"add one of {', '.join(ext.bvh_kernel_names())}, or make the workload with accel brute"
@@ -242,14 +295,41 @@ class Sweep:
                 f"workloads, or split the study into several sweeps"
             )
 
+    def _check_workload_kernels(self) -> None:
+        value = self.workload_kernels
+        if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Sequence):
+            raise UserError(f"workload_kernels must be a list of kernel lists, got {value!r:.80}")
+        if value and len(value) != len(self.workloads):
+            raise UserError(
+                f"workload_kernels has {len(value)} lists for {len(self.workloads)} workloads: give one per workload"
+            )
+        lists = []
+        for i, names in enumerate(value):
+            if isinstance(names, (str, bytes)) or not isinstance(names, Sequence):
+                raise UserError(f"workload_kernels[{i}] must be a list of kernel names, got {names!r:.80}")
+            unknown = [k for k in names if k not in self.kernels]
+            if unknown:
+                raise UserError(f"workload_kernels[{i}]: {unknown[0]!r:.80} is not one of the sweep's kernels")
+            lists.append(tuple(names))
+        object.__setattr__(self, "workload_kernels", tuple(lists))
+
     def kernels_for(self, spec: Spec) -> tuple[str, ...]:
-        """The sweep's kernels that run ``spec``'s mode (wide kernels have no
+        """The sweep's kernels that run ``spec``: those of its ``workload_kernels``
+        list (every kernel without one) that run its mode (wide kernels have no
         pairs mode) and, on a BVH workload, can be its leaf test
         (``ext.bvh_kernel_names()``), in sweep order."""
         from tribench import ext
 
-        leaf = ext.bvh_kernel_names() if _is_bvh(spec) else self.kernels
-        return tuple(k for k in self.kernels if spec.mode in ext.kernel_info(k).modes and k in leaf)
+        chosen = self.workload_kernels[self.workloads.index(spec)] if self.workload_kernels else self.kernels
+        leaf = ext.bvh_kernel_names() if is_bvh(spec) else self.kernels
+        return tuple(k for k in self.kernels if k in chosen and spec.mode in ext.kernel_info(k).modes and k in leaf)
+
+    def reference_of(self, spec: Spec, baseline: str) -> str:
+        """The kernel the other kernels of ``spec`` are compared with while a
+        sequential sweep runs: ``baseline`` where it runs the workload, else the
+        workload's first kernel (a BVH workload has no scalar baseline)."""
+        kernels = self.kernels_for(spec)
+        return baseline if baseline in kernels else kernels[0]
 
     @property
     def n_batches(self) -> int:
@@ -270,6 +350,9 @@ class Sweep:
             "warmup": self.warmup,
             "target_ms": self.target_ms,
             "seed": self.seed,
+            # only when used, so the run.json of an ordinary sweep is what it always was
+            **({"workload_kernels": [list(k) for k in self.workload_kernels]} if self.workload_kernels else {}),
+            **({"sequential": self.sequential.to_dict()} if self.sequential is not None else {}),
         }
 
     @classmethod
@@ -282,40 +365,103 @@ class Sweep:
             warmup=d["warmup"],
             target_ms=d["target_ms"],
             seed=d["seed"],
+            workload_kernels=tuple(tuple(k) for k in d.get("workload_kernels", ())),
+            sequential=Sequential(**d["sequential"]) if d.get("sequential") is not None else None,
         )
 
 
-def default_sweep(quick: bool = False) -> Sweep:
-    """The main job's sweep (``tribench run``): the seed's question, answered.
+#: The main job's sequential design (``tribench run``): stages of this many
+#: processes, each comparison stopped once its 95% interval is within this
+#: relative half-width, and the seconds the sweep's stages may take. The
+#: budget leaves the rest of 10 minutes on 2 cores to the peers (about 40 s), the
+#: robustness suite, the tables, the pictures and the report: 225 s on a first run
+#: on 2 cores loaded by other work (the 250,000-triangle mesh and its reference are
+#: made by the first worker, inside the sweep); ``--quick`` keeps about 1 minute.
+MAIN_JOB_DESIGN = {
+    False: Sequential(stage=2, target=0.02, budget_s=300.0),
+    True: Sequential(stage=3, target=0.05, budget_s=15.0),
+}
+#: Triangles of the main job's BVH workload (issue #19: at least 250,000), and of ``--quick``'s.
+MAIN_JOB_BVH_TRIANGLES = {False: 250_000, True: 10_000}
 
-    The seed's two kernels and the clean Moller-Trumbore, on
-    * pairs across the per-test hit rate 0..1 (4096 pairs: in L2 at either
-      precision, so the curve shows the algorithms, not the memory), float32
-      (the seed's own precision) and float64;
-    * Suzanne at 100, 968 (the seed's mesh) and 5000 triangles, seen by the
-      seed's camera at 48x48 pixels (per-ray hit rate about 17%), float32.
-    20 processes x 6 rounds: about 4 minutes of sweep on 2 cores (5 with
-    the statistics, the robustness checks and the report). Kalibera &
-    Jones's rounds per process, from the variance components of the ratio
-    and the costs of this sweep (a process: about 5 s of start-up, checks
-    and calibration over its 25 workloads; a round of all of them: about
-    0.65 s), is about 11 for the pair workloads (the ratio varies ~8%
-    between rounds, 0-4% between processes) and 3 for the meshes (3-4%
-    each); 6 sits between, and the time left goes to processes, which carry
-    the between-layout variance. ``quick`` keeps the shape in a few seconds
-    (3 processes: intervals are wide) for tests and CI.
+
+def main_job_kernels() -> dict[str, tuple[str, ...]]:
+    """The main job's kernels by role, from the registry (never from their names):
+    ``seed`` the seed's replays (the historical baseline), ``scalar`` every clean
+    scalar form (the only ones with a pairs mode), ``native`` every native form
+    (wide at the CPU's width, no scalar form: each algorithm's fastest, and the
+    ones a BVH takes as its leaf test)."""
+    from tribench import ext
+
+    info = {k: ext.kernel_info(k) for k in ext.kernel_names()}
+    return {
+        "seed": tuple(k for k, i in info.items() if i.seed_replay),
+        "scalar": tuple(k for k, i in info.items() if i.lanes == 1 and not i.seed_replay),
+        "native": tuple(k for k, i in info.items() if i.lanes > 1 and i.scalar_form is None),
+    }
+
+
+def default_sweep(quick: bool = False) -> Sweep:
+    """The main job's sweep (``tribench run``): which intersector, on this machine.
+
+    Every algorithm in its best form, with the seed's two replays
+    (``curless_seed``, ``moller_seed``) as the historical baseline, in
+    float32 and float64 (:func:`main_job_kernels` picks them from the registry):
+
+    * pairs at per-test hit rates 0, 25, 50, 75 and 100% (4096 pairs: in L2 at
+      either precision, so they show the algorithms, not the memory): the seed's
+      two and every clean scalar form (a pair is one test; wide forms have no
+      pairs mode);
+    * Suzanne at 968 triangles (the seed's mesh), brute force, seen by the seed's
+      camera at 48 x 48 pixels: the seed's two and every native form;
+    * Suzanne at 250,000 triangles in a BVH, camera rays (64 x 64), float32: every
+      native form as the leaf test.
+
+    A sequential design (:class:`Sequential`, :data:`MAIN_JOB_DESIGN`): processes
+    run 2 at a time, and after each stage every kernel whose speedup over the
+    baseline (``moller_seed``; on the BVH workload, its first native kernel) is
+    known within ±2% stops, so the processes go where the intervals are wide,
+    until every comparison is narrow, 36 processes, or 300 s of sweep. 3 rounds
+    per process: a process costs about 10 rounds of all its workloads, and the
+    ratios vary most between rounds on pairs (8%) and 3-4% on meshes; the
+    sequential stages put the rest into processes, which carry the
+    between-layout variance. ``quick`` keeps every kernel on fewer workloads
+    (pairs at 0, 50 and 100% in float32, the small camera in both precisions, a
+    10,000-triangle BVH) with 1 ms batches, stopping at ±5% or 15 s.
     """
     from tribench.workloads.spec import MeshSpec, PairSpec
 
-    kernels = ("curless_seed", "moller_seed", "moller_trumbore")
+    roles = main_job_kernels()
+    seed, scalar, native = roles["seed"], roles["scalar"], roles["native"]
+    kernels = (*seed, *scalar, *native)
     if quick:
         pairs = [PairSpec(n=1024, hit_rate=h, dtype="float32") for h in (0.0, 0.5, 1.0)]
-        meshes = [MeshSpec("suzanne", triangles=n, width=16, height=16, dtype="float32") for n in (100, 968)]
-        return Sweep(kernels, (*pairs, *meshes), processes=3, rounds=3, warmup=1, target_ms=1.0)
-    hit_rates = [round(0.1 * i, 1) for i in range(11)]
-    pairs = [PairSpec(n=4096, hit_rate=h, dtype=d) for d in ("float32", "float64") for h in hit_rates]
-    meshes = [MeshSpec("suzanne", triangles=n, width=48, height=48, dtype="float32") for n in (100, 968, 5000)]
-    return Sweep(kernels, (*pairs, *meshes), processes=20, rounds=6, warmup=1)
+        size, bvh_size, dtypes = 16, 32, ("float32", "float64")
+    else:
+        pairs = [
+            PairSpec(n=4096, hit_rate=h, dtype=d) for d in ("float32", "float64") for h in (0.0, 0.25, 0.5, 0.75, 1.0)
+        ]
+        size, bvh_size, dtypes = 48, 64, ("float32", "float64")
+    meshes = [MeshSpec("suzanne", triangles=968, width=size, height=size, dtype=d) for d in dtypes]
+    bvh = MeshSpec(
+        "suzanne",
+        triangles=MAIN_JOB_BVH_TRIANGLES[quick],
+        width=bvh_size,
+        height=bvh_size,
+        dtype="float32",
+        accel="bvh",
+    )
+    sets = [(*seed, *scalar)] * len(pairs) + [(*seed, *native)] * len(meshes) + [native]
+    return Sweep(
+        kernels,
+        (*pairs, *meshes, bvh),
+        processes=36,  # a bound the budget reaches first: about 12 s a process on 2 cores
+        rounds=2 if quick else 3,
+        warmup=1,
+        target_ms=1.0 if quick else DEFAULT_TARGET_MS,
+        workload_kernels=tuple(sets),
+        sequential=MAIN_JOB_DESIGN[quick],
+    )
 
 
 def process_seed(seed: int, process: int) -> int:
@@ -343,12 +489,13 @@ def plan(sweep: Sweep) -> list[BatchKey]:
     [-1, -1, 0, 0, 1, 1]
     """
     keys = []
+    kernel_sets = [sweep.kernels_for(spec) for spec in sweep.workloads]  # once: it asks the registry
     for p in range(sweep.processes):
         rng = np.random.default_rng(process_seed(sweep.seed, p))
         for w in rng.permutation(len(sweep.workloads)):
             wid = sweep.workload_ids[w]
             for r in range(-sweep.warmup, sweep.rounds):
-                kernels = sweep.kernels_for(sweep.workloads[w])
+                kernels = kernel_sets[w]
                 order = rng.permutation(len(kernels))
                 keys += [BatchKey(p, wid, r, pos, kernels[k]) for pos, k in enumerate(order)]
     return keys

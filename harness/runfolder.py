@@ -16,7 +16,8 @@ Who writes what:
 
 * measured, while the sweep runs (:mod:`~tribench.harness.runner`):
   :data:`RUN`, :data:`BATCHES`, :data:`PROCESSES`, :data:`CHECKS`, :data:`TRAVERSALS`
-  (a header only when the run has no BVH workload);
+  (a header only when the run has no BVH workload), and :data:`STAGES` for a
+  sequential sweep;
   ``peers.csv`` by ``tribench peers --out RUN_DIR`` (or ``tribench run``);
 * derived, by the analysis step at the end of ``tribench run`` and by
   ``tribench stats RUN_DIR`` on demand (:func:`tribench.harness.analysis.write_all`):
@@ -63,6 +64,7 @@ __all__ = [
     "SEED_WORKLOADS",
     "SLOPES",
     "SPEEDUPS",
+    "STAGES",
     "SWEEP_FILE",
     "TRAVERSALS",
     "VALIDATE",
@@ -77,6 +79,8 @@ __all__ = [
 
 #: Written once at the start of a sweep: sweep, plan seeds, machine, build, margin, and the
 #: throughput probes' rates (key ``throughput``: tribench.harness.peak.throughput_record).
+#: A sequential sweep writes it again when its stages end: ``n_batches`` becomes the
+#: batches they ran, and ``n_batches_most`` keeps the most its plan held.
 RUN = "run.json"
 #: Held by the one process writing the folder.
 LOCK = ".lock"
@@ -86,6 +90,9 @@ CHECKS = "checks.csv"
 #: Per batch on a BVH workload: the traversal's counts and the same traversal timed with a null leaf test.
 TRAVERSALS = "traversals.csv"
 PEERS = "peers.csv"
+#: A sequential sweep's stages (tribench.harness.stages): per stage its processes and the
+#: comparisons still open, recorded before it runs; ``end``: why the sweep stopped.
+STAGES = "stages.json"
 #: An A/A calibration's record (``tribench calibrate --out RUN_DIR``).
 CALIBRATION = "calibration.json"
 

@@ -338,6 +338,8 @@ def _start_locked(
         **(extra or {}),
     }
     records.write_run(run_dir, record)
+    if sweep.sequential is not None:
+        return _execute_stages(run_dir, record, sweep, keys, progress, worker)
     return _execute(run_dir, record, sweep, keys, 0, progress, worker)
 
 
@@ -368,6 +370,8 @@ def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequenc
                 raise UserError(f"cannot repair {run_dir / name}: {exc.strerror or exc}") from None
             if cut:
                 print(f"tribench: dropped a partial last line of {run_dir / name}", file=sys.stderr)
+        if sweep.sequential is not None:
+            return _execute_stages(run_dir, record, sweep, keys, progress, worker)
         done = done_keys(run_dir, record) if os.path.lexists(run_dir / records.BATCHES) else []
         todo = missing_keys(sweep, done)
         return _execute(run_dir, record, sweep, todo, len(keys) - len(todo), progress, worker)
@@ -387,6 +391,66 @@ def _attempts(run_dir: Path, record: dict[str, Any]) -> dict[int, int]:
     return out
 
 
+def _execute_stages(
+    run_dir: Path,
+    record: dict[str, Any],
+    sweep: Sweep,
+    keys: Sequence[BatchKey],
+    progress: bool | None,
+    worker: Sequence[str],
+) -> RunResult:
+    """A sequential sweep (:mod:`tribench.harness.stages`): finish the stages
+    ``stages.json`` records (a resume), then decide and run one stage after
+    another until :func:`~tribench.harness.stages.decide` ends the sweep."""
+    from . import stages
+
+    def say(text: str) -> None:
+        if progress is not False:
+            print(f"tribench sweep: {text}", file=sys.stderr)
+
+    t0 = time.monotonic()
+    data = stages.read_stages(run_dir)
+    have = set(done_keys(run_dir, record)) if os.path.lexists(run_dir / records.BATCHES) else set()
+    ran, seconds, last_s = 0, 0.0, None
+    try:
+        for stage in data["stages"]:  # recorded: decided before, finished (or cut short) since
+            todo = [k for k in stages.keys_of(sweep, stage, keys) if k not in have]
+            if todo:
+                ran += _execute(run_dir, record, sweep, todo, 0, progress, worker, len(todo)).batches_run
+            seconds = stage["seconds_before"] + time.monotonic() - t0
+        while data.get("end") is None:
+            t_stage = time.monotonic()
+            stage, why = stages.decide(sweep, run_dir, data["stages"], seconds, last_s)
+            if stage is None:
+                data["end"] = why
+                stages.write_stages(run_dir, data)
+                break
+            data["stages"].append(stage)
+            stages.write_stages(run_dir, data)  # decided before it runs: a resume runs the same
+            todo = stages.keys_of(sweep, stage, keys)
+            say(
+                f"stage {stage['stage'] + 1}: processes {stage['first_process'] + 1}-{stage['last_process'] + 1} "
+                f"of at most {sweep.processes}, {sum(len(k) for k in stage['open'].values())} kernel-workload "
+                f"pairs, {len(todo):,} batches"
+            )
+            ran += _execute(run_dir, record, sweep, todo, 0, progress, worker, len(todo)).batches_run
+            last_s = time.monotonic() - t_stage
+            seconds += last_s
+    except SweepInterrupted:
+        raise SweepInterrupted(
+            f"interrupted in stage {len(data['stages'])}: every finished batch is saved in {run_dir}; "
+            f"finish with: tribench sweep --resume {run_dir}"
+        ) from None
+    say(f"stopped: {data['end']}")
+    done = len(done_keys(run_dir, record))
+    if record["n_batches"] != done:
+        # the stages are over: what they ran is the run's whole plan now (a reader that
+        # compares n_batches with batches.csv sees a finished run), the most it could have run beside it
+        record.update(n_batches=done, n_batches_most=record.get("n_batches_most", record["n_batches"]))
+        records.write_run(run_dir, record)
+    return RunResult(run_dir, record["n_batches"], done, ran, time.monotonic() - t0)
+
+
 def _execute(
     run_dir: Path,
     record: dict[str, Any],
@@ -395,9 +459,11 @@ def _execute(
     done_before: int,
     progress: bool | None,
     worker: Sequence[str],
+    total: int | None = None,
 ) -> RunResult:
+    """Run ``todo``; the progress shows ``done_before`` + its batches of ``total`` (default the plan's)."""
     t0 = time.monotonic()
-    total = record["n_batches"]
+    total = record["n_batches"] if total is None else total
     by_process: dict[int, list[BatchKey]] = {}
     for k in todo:
         by_process.setdefault(k.process, []).append(k)

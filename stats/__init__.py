@@ -30,7 +30,8 @@ it. One module per section: :mod:`.defaults` (:data:`DEFAULTS`, the margin),
 :mod:`.estimates` (per process, per kernel), :mod:`.compare` (two runs),
 :mod:`.multiplicity` (several kernels against a baseline, verdicts, tables),
 :mod:`.calibration` (A/A), :mod:`.design` (variance components, design),
-:mod:`.curves` (crossover, scaling), :mod:`.outliers` (drift, outliers) and
+:mod:`.curves` (crossover, scaling), :mod:`.outliers` (drift, outliers),
+:mod:`.sequential` (the stopping rule of a sequential design) and
 :mod:`.formatting` (an estimate with its interval as text, the one style of
 every table and page).
 """
@@ -52,10 +53,12 @@ from .estimates import (
 from .formatting import format_interval
 from .multiplicity import estimate_table, holm, simultaneous_confidence, speedup_table, verdict
 from .outliers import Drift, drift, label_outliers, tukey_outliers
+from .sequential import MIN_PROCESSES, narrow_comparisons, relative_halfwidth
 
 __all__ = [
     "DEFAULTS",
     "MAX_MARGIN",
+    "MIN_PROCESSES",
     "Defaults",
     "AASummary",
     "Crossover",
@@ -79,7 +82,9 @@ __all__ = [
     "geometric_mean",
     "holm",
     "label_outliers",
+    "narrow_comparisons",
     "per_process",
+    "relative_halfwidth",
     "rounds_matrix",
     "scaling_slope",
     "simultaneous_confidence",

@@ -12,7 +12,7 @@ from conftest import safe_pairs
 from tribench import ext
 from tribench.harness import calibration, records, worker
 from tribench.harness.plan import BatchKey, Sweep, expand_workloads, load_sweep_file, plan
-from tribench.workloads import cache, reference
+from tribench.workloads import cache, front, reference
 from tribench.workloads.spec import MeshSpec, PairSpec, workload_id
 
 INTERNAL = ("moller_trumbore_aa", "moller_trumbore_twice")
@@ -196,6 +196,24 @@ def test_every_kernel_passes_its_checks_in_every_mode(kernel, mode):
         assert counts["disagreements"] == counts["ambiguous_disagreements"]
     job = ext.make_job(kernel, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max)
     worker.check_batch(ext.time_batch(job, 2), checksum, kernel, w)
+
+
+@pytest.mark.parametrize("mesh", ["suzanne", "icosphere"])
+@pytest.mark.parametrize("flip", [False, True])
+def test_a_culling_kernel_on_a_brute_force_mesh_is_held_to_the_brute_force_front_faces(mesh, flip):
+    # the check takes the front-face answers from the two-sided reference (brute force only for
+    # rays whose closest hit is a back face): they must be brute force's, ties and all
+    w = cache.make(MeshSpec(mesh, triangles=300, width=12, height=12, dtype="float32"))
+    if flip:  # every face turned away from the camera: the culled answers are the far side's
+        w = dataclasses.replace(w, triangles=np.ascontiguousarray(w.triangles[:, [0, 2, 1]]))
+    brute = reference.intersect_closest(w.origins, w.directions, w.triangles, t_max=w.t_max, front_only=True)
+    derived = front.compute_front_reference(w)
+    np.testing.assert_array_equal(derived[0], brute[0])
+    np.testing.assert_array_equal(derived[1], brute[1])
+    assert flip == bool((brute[0] != w.ref_index).any())
+    cull = "moller_trumbore_cull_fma"
+    checksum, counts = worker.one_pass_checksum(cull, w)
+    assert checksum.hits == int((brute[0] >= 0).sum()) and counts["disagreements"] == counts["ambiguous_disagreements"]
 
 
 def test_calibrated_loops_hit_the_target_roughly():

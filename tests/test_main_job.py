@@ -85,3 +85,34 @@ def test_the_run_folder_holds_every_table_of_a_run_without_peers(result):
     assert json.loads((run_dir / runfolder.RUN).read_text(encoding="utf-8"))["n_batches"] == TINY.n_batches
     assert done.peers is None and done.sweep.batches_run == TINY.n_batches
     assert "tribench run: moller_seed, moller_trumbore on 3 workloads" in log and "validate:" in log
+
+
+@pytest.mark.parametrize("quick", [False, True])
+def test_the_default_sweep_ranks_every_algorithm_in_its_best_form_against_the_seed(quick):
+    from tribench import ext
+
+    s = plan.default_sweep(quick=quick)
+    info = {k: ext.kernel_info(k) for k in ext.kernel_names()}
+    seed = {k for k, i in info.items() if i.seed_replay}
+    native = {k for k, i in info.items() if i.lanes > 1 and i.scalar_form is None}
+    assert seed == {"curless_seed", "moller_seed"}
+    by_kind = {}
+    for spec in s.workloads:
+        kind = "bvh" if getattr(spec, "accel", "brute") == "bvh" else spec.kind
+        by_kind.setdefault(kind, []).append((spec, set(s.kernels_for(spec))))
+    # pairs: the seed's two and every scalar form, so every algorithm, at several hit rates
+    for _, kernels in by_kind["pairs"]:
+        assert seed < kernels and {info[k].algorithm for k in kernels} == {i.algorithm for i in info.values()}
+    assert len({spec.hit_rate for spec, _ in by_kind["pairs"]}) >= 3
+    # brute-force meshes: the seed's two and every native form, in both precisions
+    assert {spec.dtype for spec, _ in by_kind["mesh"]} == {"float32", "float64"}
+    for _, kernels in by_kind["mesh"]:
+        assert kernels == seed | native
+    assert {info[k].algorithm for k in native} == {i.algorithm for k, i in info.items() if not i.seed_replay}
+    # one BVH workload, camera rays, float32, every native form as its leaf test
+    ((bvh, kernels),) = by_kind["bvh"]
+    assert kernels == native and (bvh.rays, bvh.dtype) == ("camera", "float32")
+    assert bvh.triangles >= (10_000 if quick else 250_000)
+    assert s.sequential is not None and s.sequential.budget_s <= (15 if quick else 300)
+    # every public kernel but the 8-lane forms (between an algorithm's scalar and native forms, never its best)
+    assert set(s.kernels) == {k for k, i in info.items() if i.scalar_form is None}

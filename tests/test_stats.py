@@ -375,6 +375,92 @@ def test_sequential_design_under_drift_collapses_and_is_flagged():
     assert all(abs(d.confound_bias) < 0.005 for d in flagged_interleaved)
 
 
+def sequential_stop(medians: np.ndarray, stage: int, target: float, kernel: int = 1) -> int:
+    """How many processes of one simulated experiment (``medians``: processes x kernels) a
+    sequential sweep runs: stages of ``stage`` processes, stopped once the comparison of
+    ``kernel`` with the baseline is narrow by the harness's rule, or at the last process."""
+    n = stage
+    while n < len(medians):
+        base, kern = medians[:n, 0], medians[:n, kernel]
+        if n >= stats.MIN_PROCESSES and stats.relative_halfwidth(base, kern) <= target:
+            break
+        n = min(n + stage, len(medians))
+    return n
+
+
+@pytest.mark.parametrize("stage", [2, 4])
+@pytest.mark.parametrize("true_ratio, seed", [(1.0, 505), (1.25, 606)])
+def test_stopping_on_the_intervals_width_keeps_their_coverage(true_ratio, seed, stage):
+    # The main job's rule (plan.Sequential): stages of 2 processes, a comparison stops once
+    # its 95% interval is within +-2% on at least stats.MIN_PROCESSES (8). With this
+    # simulation's noise that happens anywhere from 8 to 24 processes, so the rule really
+    # acts; the intervals it stops on must still cover the true ratio 93-97% of the time
+    # (stages of 2: 93.6% and 94.1%, after 13.5 and 13.9 processes on average; of 4: 93.3%
+    # and 94.1%; the fixed design of 24 processes: 95.4% and 95.6%).
+    sim = simulate(1000, (true_ratio,), seed=seed, processes=24, rounds=10)
+    stops, covered = [], []
+    for m in process_medians(sim):
+        n = sequential_stop(m, stage=stage, target=0.02)
+        s = stats.speedup(m[:n, 0], m[:n, 1])
+        stops.append(n)
+        covered.append(s.ci_low <= true_ratio <= s.ci_high)
+    stops = np.array(stops)
+    assert 0.5 < np.mean(stops < 20) and 0.5 < np.mean(stops > 8)  # stopped early often, and late often
+    assert len(np.unique(stops)) >= 3
+    assert 0.93 <= np.mean(covered) <= 0.97
+
+
+def test_stopping_on_the_intervals_position_would_not_cover():
+    # The control: stopping as soon as the interval excludes 1 (on significance) over an
+    # A/A comparison makes false findings, so its intervals miss the truth far too often.
+    sim = simulate(1000, (1.0,), seed=707, processes=24, rounds=10)
+    covered = []
+    for m in process_medians(sim):
+        n = 4
+        while n < 24 and (s := stats.speedup(m[:n, 0], m[:n, 1])).ci_low <= 1 <= s.ci_high:
+            n += 4
+        s = stats.speedup(m[:n, 0], m[:n, 1])
+        covered.append(s.ci_low <= 1 <= s.ci_high)
+    assert np.mean(covered) < 0.9
+
+
+def test_narrow_comparisons_is_the_width_rule_per_workload():
+    sim = simulate(2, (1.25, 1.0), seed=808, processes=8, rounds=10)
+    table = pd.concat([stats.per_process(batches_of(sim, e, f"w{e}")) for e in range(2)])
+    medians = process_medians(sim)
+    widths = {
+        (f"w{e}", k): stats.relative_halfwidth(medians[e, :, 0], medians[e, :, i])
+        for e in range(2)
+        for i, k in ((1, "k1"), (2, "k2"))
+    }
+    target = float(np.median(list(widths.values())))
+    expected = {key for key, w in widths.items() if w <= target}
+    narrow = stats.narrow_comparisons(table, {"w0": "base", "w1": "base"}, target)
+    assert narrow == expected and 0 < len(narrow) < 4
+    # too few processes: nothing is narrow, whatever the width
+    assert stats.narrow_comparisons(table, {"w0": "base", "w1": "base"}, 1.0, min_processes=9) == set()
+    # a workload without its reference yet stays open
+    assert stats.narrow_comparisons(table, {"w0": "k9", "w1": "base"}, 1.0) == {("w1", "k1"), ("w1", "k2")}
+
+
+@settings(derandomize=True, max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    low=st.floats(0.001, 0.2),
+    high=st.floats(0.001, 0.2),
+    scale=st.floats(0.01, 100.0),
+)
+def test_narrow_comparisons_grow_with_the_target_and_ignore_units(seed, low, high, scale):
+    sim = simulate(1, (1.1, 0.9, 1.0), seed=seed % 10_000, processes=9, rounds=4, warmup_rounds=1)
+    table = stats.per_process(batches_of(sim, 0))
+    refs = {"w": "base"}
+    small, large = sorted((low, high))
+    assert stats.narrow_comparisons(table, refs, small) <= stats.narrow_comparisons(table, refs, large)
+    # a width is relative: the same run timed in other units stops the same comparisons
+    scaled = table.assign(ns_per_test=table["ns_per_test"] * scale)
+    assert stats.narrow_comparisons(scaled, refs, large) == stats.narrow_comparisons(table, refs, large)
+
+
 def test_aa_summary_on_honest_and_on_naive_intervals():
     sim = simulate(1000, (1.0,), seed=404)
     medians = process_medians(sim)

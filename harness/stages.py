@@ -1,0 +1,145 @@
+"""The stages of a sequential sweep (:class:`tribench.harness.plan.Sequential`): what each runs, and why it stopped.
+
+A sequential sweep's plan is the plan of its largest design
+(:func:`tribench.harness.plan.plan`, every process and kernel); a stage runs
+the plan's keys of its processes whose (workload, kernel) is still open, so
+every batch it writes is a key of that plan and ``batches.csv`` is checked
+as any sweep's. Which comparisons a stage runs is decided before it starts,
+from the batches of the stages before (:func:`tribench.stats.narrow_comparisons`),
+and recorded in ``stages.json`` (:data:`tribench.harness.runfolder.STAGES`)
+before its first process: a resumed sweep finishes the recorded stages as
+they were decided, then decides the next ones the same way.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from tribench import stats
+from tribench.common import UserError, write_text
+
+from . import records, runfolder
+from .plan import BatchKey, Sweep, plan
+
+__all__ = ["Stage", "decide", "keys_of", "read_stages", "write_stages"]
+
+#: The kernel the comparisons are made against where it runs (as the analysis's default baseline).
+BASELINE = "moller_seed"
+
+#: One stage as stages.json holds it: ``{"stage", "first_process", "last_process",
+#: "open": {workload id: [kernels]}, "seconds_before"}``.
+Stage = dict[str, Any]
+
+
+def read_stages(run_dir: str | Path) -> dict[str, Any]:
+    """``stages.json`` of a run (``{"stages": [], "end": None}`` before the first stage)."""
+    path = Path(run_dir) / runfolder.STAGES
+    if not os.path.lexists(path):
+        return {"stages": [], "end": None}
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise UserError(f"{path}: not a stages record ({exc}); a truncated or edited file?") from None
+    if not isinstance(data, dict) or not isinstance(data.get("stages"), list):
+        raise UserError(f"{path}: not a stages record (expected an object with a 'stages' list)")
+    return data
+
+
+def write_stages(run_dir: str | Path, data: Mapping[str, Any]) -> None:
+    """Write ``stages.json`` atomically."""
+    write_text(Path(run_dir) / runfolder.STAGES, json.dumps(data, indent=1, sort_keys=True) + "\n")
+
+
+def keys_of(sweep: Sweep, stage: Stage, keys: Sequence[BatchKey] | None = None) -> list[BatchKey]:
+    """The plan's keys (``keys``, default the whole plan) that ``stage`` runs, in plan order."""
+    first, last = stage["first_process"], stage["last_process"]
+    open_ = {(w, k) for w, ks in stage["open"].items() for k in ks}
+    return [
+        key
+        for key in (plan(sweep) if keys is None else keys)
+        if first <= key.process <= last and (key.workload_id, key.kernel) in open_
+    ]
+
+
+def _comparisons(sweep: Sweep) -> dict[str, list[str]]:
+    return {wid: list(sweep.kernels_for(spec)) for wid, spec in zip(sweep.workload_ids, sweep.workloads, strict=True)}
+
+
+def _block_seconds(batches: pd.DataFrame, processes: range) -> dict[str, float]:
+    """Per workload, the wall seconds one kernel of it cost a process of the last stage:
+    its block (from the end of the process's previous block to the end of its last
+    batch: checks, calibrations, BVH builds and batches) over its kernels, the mean
+    over the processes. The first block of a process is counted from its first batch."""
+    b = batches.loc[batches["process"].isin(processes)].copy()
+    if b.empty:
+        return {}
+    b["end_ns"] = b["start_ns"] + b["elapsed_ns"]
+    cost: dict[str, list[float]] = {}
+    for _, g in b.groupby(["process", "attempt"]):
+        blocks = g.groupby("workload_id").agg(
+            begin=("start_ns", "min"), end=("end_ns", "max"), kernels=("kernel", "nunique")
+        )
+        blocks = blocks.sort_values("end")
+        previous = blocks["end"].shift(1).fillna(blocks["begin"])
+        for wid, seconds, n in zip(blocks.index, (blocks["end"] - previous) / 1e9, blocks["kernels"], strict=True):
+            cost.setdefault(str(wid), []).append(float(seconds) / int(n))
+    return {wid: sum(v) / len(v) for wid, v in cost.items()}
+
+
+def decide(
+    sweep: Sweep, run_dir: str | Path, done: Sequence[Stage], seconds: float, last_stage_s: float | None
+) -> tuple[Stage | None, str]:
+    """The next stage of ``sweep``, or None and why the sweep ends.
+
+    ``done`` are the stages run so far (every batch of them in ``batches.csv``),
+    ``seconds`` the sweep's wall time so far, ``last_stage_s`` the last stage's.
+    The next stage runs every comparison not yet narrow (:func:`tribench.stats.narrow_comparisons`
+    against :meth:`Sweep.reference_of` the baseline), with its workload's reference;
+    it is not started when it would end past the budget (its time foreseen from the
+    cost of each workload's kernels in the last stage), nor past ``sweep.processes``.
+    """
+    design = sweep.sequential
+    assert design is not None  # only sequential sweeps have stages
+    first = 0 if not done else done[-1]["last_process"] + 1
+    if first >= sweep.processes:
+        return None, f"all {sweep.processes} processes ran"
+    candidates = _comparisons(sweep)
+    references = {wid: sweep.reference_of(sweep.spec_of(wid), BASELINE) for wid in sweep.workload_ids}
+    if done:
+        batches = records.read_batches(run_dir)
+        narrow = stats.narrow_comparisons(stats.per_process(batches), references, design.target)
+        open_: dict[str, list[str]] = {}
+        for wid, kernels in candidates.items():
+            wanted = [k for k in kernels if k != references[wid] and (wid, k) not in narrow]
+            if wanted:  # the reference runs with them: they are compared with it
+                open_[wid] = [k for k in kernels if k == references[wid] or k in wanted]
+        if not open_:
+            return None, f"every comparison is within ±{100 * design.target:g}%"
+    else:
+        batches, open_ = None, candidates
+    last = min(first + design.stage, sweep.processes) - 1
+    if batches is not None and last_stage_s is not None:
+        previous = done[-1]
+        cost = _block_seconds(batches, range(previous["first_process"], previous["last_process"] + 1))
+        per_process = sum(cost.get(wid, math.inf) * len(ks) for wid, ks in open_.items())
+        foreseen = (last - first + 1) * per_process if cost else last_stage_s
+        if seconds + foreseen > design.budget_s:
+            n = sum(len(ks) - 1 for ks in open_.values())
+            return None, (
+                f"the time budget ({design.budget_s:.0f} s): {n} comparisons still wider than "
+                f"±{100 * design.target:g}% after {first} processes"
+            )
+    return {
+        "stage": len(done),
+        "first_process": first,
+        "last_process": last,
+        "open": open_,
+        "seconds_before": seconds,
+    }, ""
