@@ -50,8 +50,8 @@ SLOW = {"run --quick", "run", "info --peak"}
 CONCRETE = {
     "tribench info [--peak]": ["info", "info --peak"],
     "tribench run [--quick]": ["run", "run --quick"],
-    "tribench seed [--scene FILE] [--quick]": [
-        "seed --scene {scene} --quick --size 12 --sample 24 --no-progress --out {tmp}/seed"
+    "tribench seed [--scene FILE] [--quick] [--all-kernels]": [
+        "seed --scene {scene} --quick --all-kernels --size 12 --sample 24 --no-progress --out {tmp}/seed"
     ],
     "tribench workloads make KIND …": [
         "workloads make pairs --n 300",
