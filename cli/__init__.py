@@ -1,13 +1,13 @@
 """The ``tribench`` command line, at the top of the import order.
 
 ``tribench.cli`` owns the console script (:func:`main`, ``python -m
-tribench.cli``), its subcommands and the checks of their flags
-(:mod:`.flags`): :mod:`.command` holds the harness's commands (``info``,
-``sweep``, ``run``, ``seed``, ``peers``, ``stats``, ``calibrate``,
-``validate``), :mod:`.workloads` the ``workloads`` command and
-:mod:`.reports` ``report`` and ``compare``. It only parses arguments and
-calls the library, so it may import every other tribench package; none of
-them imports it.
+tribench.cli``): :mod:`.command` is the entry point and maps failures to exit
+codes; each subcommand is one module here (``info``, ``sweep``, ``stats``,
+``calibrate``, ``run``, ``peers``, ``validate``, ``seed``, ``workloads``,
+``report``, ``compare``, ``export``) with its flags beside its handler;
+:mod:`.flags` checks one flag's text and :mod:`.options` adds the flags
+several commands share. It only parses arguments and calls the library, so
+it may import every other tribench package; none of them imports it.
 """
 
 from .command import main

@@ -512,3 +512,24 @@ def write_all(
     }
     write_text(run_dir / runfolder.ANALYSIS, json.dumps(record, indent=2, sort_keys=True) + "\n")
     return Derived(result, tables, record)
+
+
+def reanalyse(run_dir: str | Path) -> Derived:
+    """Redo the analysis step of an analysed run folder with the choices its last one recorded.
+
+    After ``tribench peers --out RUN_DIR``: the peer tables (and the peers.csv
+    digest in ``analysis.json``) then match the new ``peers.csv``. The
+    baseline of the last ``tribench stats`` is kept, and its margin where it
+    was given with ``--margin``; an unreadable ``analysis.json`` means the
+    analysis step's defaults, as ``tribench stats`` would use.
+    """
+    run_dir = Path(run_dir)
+    try:
+        record = json.loads((run_dir / runfolder.ANALYSIS).read_text(encoding="utf-8"))
+        kept = {
+            "baseline": record["baseline"],
+            "margin": record["margin"]["value"] if record["margin"]["source"] == "--margin" else None,
+        }
+    except (OSError, UnicodeDecodeError, ValueError, TypeError, KeyError):
+        kept = {}
+    return write_all(run_dir, **kept)

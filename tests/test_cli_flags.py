@@ -24,6 +24,7 @@ from test_cli import run
 
 from tribench.cli import command as cli
 from tribench.cli import flags
+from tribench.cli import info as info_command
 from tribench.common import UserError
 
 SMALL = ["--kernels", "moller_trumbore", "--pairs", "50", "--processes", "1", "--rounds", "1", "--warmup", "0"]
@@ -251,7 +252,7 @@ def test_a_user_error_and_an_environment_error_are_one_line_exit_2(monkeypatch, 
         (missing, "/nonexistent/run.json: No such file or directory"),
         (mistaken, "the thing is wrong; do this instead"),
     ):
-        monkeypatch.setattr(cli, "_info", handler)
+        monkeypatch.setattr(info_command, "run", handler)
         assert cli.main(["info"]) == 2
         assert capsys.readouterr().err == f"tribench info: error: {message}\n"
 
@@ -261,7 +262,7 @@ def test_a_bug_keeps_its_traceback(bug, monkeypatch):
     def broken(args):
         raise bug
 
-    monkeypatch.setattr(cli, "_info", broken)
+    monkeypatch.setattr(info_command, "run", broken)
     with pytest.raises(type(bug)):
         cli.main(["info"])
 
@@ -269,7 +270,7 @@ def test_a_bug_keeps_its_traceback(bug, monkeypatch):
 def test_a_bug_shows_its_traceback_from_the_command(tmp_path):
     # the installed console script, with a handler broken at start-up (sitecustomize)
     (tmp_path / "sitecustomize.py").write_text(
-        "import tribench.cli.command as c\ndef _broken(args):\n    raise KeyError('a bug')\nc._info = _broken\n"
+        "import tribench.cli.info as c\ndef _broken(args):\n    raise KeyError('a bug')\nc.run = _broken\n"
     )
     script = Path(sys.executable).parent / "tribench"
     done = subprocess.run(

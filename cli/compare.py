@@ -1,0 +1,48 @@
+"""``tribench compare``: the same kernels on N runs (N machines), speedups with CIs, orders that hold on all."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from tribench.common import UserError, write_text
+
+from . import flags
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "compare",
+        help="the same kernels on N runs (N machines): speedups with CIs, rankings that hold on every one",
+        description="For N >= 2 runs with the same baseline (runs A, B, C... in the order given): per workload "
+        "in every run, a machine x kernel table of speedups over the baseline with each run's confidence "
+        "intervals, and which orders of two kernels hold on every machine (significant and the same in every "
+        "run). For two runs, also the ratio of their speedups with a Welch interval (the runs are independent) "
+        "and each kernel's time ratio. Prints the tables and writes an HTML page (default LAST_RUN/compare.html).",
+    )
+    p.add_argument("runs", metavar="RUN", nargs="+", type=flags.existing_folder, help="run folders, 2 to 26")
+    p.add_argument(
+        "--out", metavar="FILE", type=flags.output_file, help="HTML file to write (default LAST_RUN/compare.html)"
+    )
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the comparison of N runs and write it as an HTML page."""
+    from tribench.reports.compare import compare, format_compare_text, render_compare, run_tags
+    from tribench.reports.rundata import load_run
+
+    try:
+        run_tags(len(args.runs))  # the count first, before reading any folder
+        runs = [load_run(r) for r in args.runs]
+    except FileNotFoundError as exc:
+        raise UserError(str(exc)) from None
+    many, pair = compare(runs)
+    out = Path(args.out) if args.out else runs[-1].run_dir / "compare.html"
+    print(format_compare_text(runs, many, pair))
+    write_text(out, render_compare(runs, many, pair))
+    print(f"wrote {out}", file=sys.stderr)
+    return 0

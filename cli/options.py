@@ -1,0 +1,88 @@
+"""Flags that several commands share, added the same way everywhere.
+
+:mod:`.flags` checks one flag's text; this module adds whole flags (with
+their help) to a command's parser: ``--out`` of a new run folder, the
+sweep design (``--processes``, ``--rounds``...), ``--no-progress``.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from tribench.common import UserError
+
+from . import flags
+
+__all__ = ["DTYPES", "add_design_flags", "add_no_progress", "add_run_out", "default_run_dir", "DESIGN_FLAGS"]
+
+#: Precisions of the workloads (workloads.spec.DTYPES, kept here so --help imports nothing heavy).
+DTYPES = ("float32", "float64")
+
+#: The attributes add_design_flags sets on the parsed arguments.
+DESIGN_FLAGS = ("processes", "rounds", "warmup", "target_ms", "seed")
+
+
+def default_run_dir(kind: str = "") -> str:
+    """The run folder a command writes when --out is not given: runs/[KIND-]<date-time>."""
+    from tribench.harness.records import default_run_dir as default
+
+    return default(kind)
+
+
+def _new_run_folder(text: str) -> str:
+    """A run folder to create: writable, and new or empty (the runner's own check, run up front)."""
+    from tribench.harness.records import check_new_run_dir
+
+    out = flags.output_folder(text)
+    try:
+        check_new_run_dir(out)
+    except UserError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return out
+
+
+def add_no_progress(parser: argparse.ArgumentParser) -> None:
+    """--no-progress, stored as the library's ``progress`` argument: False, or None (a bar on a terminal,
+    plain lines elsewhere)."""
+    parser.add_argument(
+        "--no-progress",
+        dest="progress",
+        action="store_const",
+        const=False,
+        default=None,
+        help="no progress: neither the bar on a terminal nor the plain lines elsewhere "
+        "(every $TRIBENCH_PROGRESS_SECONDS, default 10, and every tenth of the work)",
+    )
+
+
+def add_run_out(parser: argparse.ArgumentParser, default: str = "runs/<date-time>") -> None:
+    """--out RUN_DIR of a command that creates a run folder (refused up front if it cannot be one)."""
+    parser.add_argument("--out", metavar="RUN_DIR", type=_new_run_folder, help=f"new run folder (default {default})")
+
+
+def add_design_flags(p: argparse.ArgumentParser) -> None:
+    """The sweep design's flags (:data:`DESIGN_FLAGS`); None where not given."""
+    from tribench.harness.plan import (
+        DEFAULT_PROCESSES,
+        DEFAULT_ROUNDS,
+        DEFAULT_TARGET_MS,
+        DEFAULT_WARMUP,
+    )
+
+    p.add_argument(
+        "--processes", type=flags.positive_int, help=f"worker processes, the replicates (default {DEFAULT_PROCESSES})"
+    )
+    p.add_argument(
+        "--rounds", type=flags.positive_int, help=f"timed rounds per workload per process (default {DEFAULT_ROUNDS})"
+    )
+    p.add_argument(
+        "--warmup",
+        type=flags.int_in(0, flags.MAX_COUNT),
+        help=f"warm-up rounds per workload per process (default {DEFAULT_WARMUP})",
+    )
+    p.add_argument(
+        "--target-ms",
+        type=flags.float_in(0.01, 1000),
+        help=f"wanted length of one batch in ms, 0.01 to 1000 (default {DEFAULT_TARGET_MS:g})",
+    )
+    p.add_argument("--seed", type=flags.seed, help="seed of the plan and the layout randomisation (default 0)")

@@ -1,0 +1,36 @@
+"""``tribench stats``: the analysis step, every table the report reads (never times anything)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from . import flags
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "stats", help="every table the report reads: estimates.csv, speedups.csv and the rest (never times anything)"
+    )
+    p.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder)
+    p.add_argument("--baseline", metavar="NAME", help="baseline kernel (default moller_seed, else the first)")
+    p.add_argument(
+        "--margin", type=flags.float_in(0, 1), help="equivalence margin, in [0, 1] (default: the one run.json records)"
+    )
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from tribench.harness.analysis import write_all
+    from tribench.reports import format_tables
+
+    derived = write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
+    print(format_tables(args.run_dir))
+    print(
+        f"wrote {', '.join(derived.tables)}, google_benchmark.json, the workload pictures and analysis.json "
+        f"into {args.run_dir}",
+        file=sys.stderr,
+    )
+    return 0

@@ -1,0 +1,178 @@
+"""``tribench sweep``: time kernels x workloads in fresh worker processes; write and analyse a run folder."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from tribench.common import UserError
+
+from . import flags
+from .options import DESIGN_FLAGS, DTYPES, add_design_flags, add_no_progress, add_run_out, default_run_dir
+
+__all__ = ["add_parser", "run"]
+
+DEFAULT_CAMERA = (64, 64)
+
+#: The flags that describe a new sweep: --resume takes none of them (the run's own sweep is used).
+_NEW_SWEEP_FLAGS = (
+    "file",
+    "kernels",
+    "hit_rates",
+    "pairs",
+    "mesh",
+    "triangles",
+    "camera",
+    "accel",
+    "dtype",
+    *DESIGN_FLAGS,
+    "cpu",
+    "out",
+)
+
+
+def add_parser(sub) -> None:
+    from tribench.workloads.spec import ACCELS
+
+    p = sub.add_parser(
+        "sweep",
+        help="time kernels x workloads in fresh worker processes; write a run folder",
+        description="Time every kernel on every workload: replicates are fresh worker processes "
+        "pinned to one CPU, rounds run every kernel once in a random order, every batch's checksum "
+        "is checked. Workloads come from a TOML file (--file) or from the flags: pairs at each "
+        "hit rate and precision, and with --mesh, camera rays on each mesh, triangle count and "
+        "precision. Results: RUN_DIR/batches.csv (one row per batch, appended as it finishes), "
+        "processes.csv, run.json.",
+    )
+    add_run_out(p)
+    p.add_argument(
+        "--resume",
+        metavar="RUN_DIR",
+        type=flags.existing_folder,
+        help="finish the missing batches of an interrupted run",
+    )
+    p.add_argument(
+        "--file",
+        metavar="SWEEP.toml",
+        type=flags.existing_file,
+        help="sweep file (flags given too override its values)",
+    )
+    p.add_argument("--kernels", metavar="A,B", type=flags.name_list, help="kernels (default: all of `tribench info`)")
+    p.add_argument(
+        "--hit-rates",
+        metavar="H,..",
+        type=flags.float_list(0, 1),
+        help="per-test hit rates of pair workloads, each in [0, 1] (default 0.5)",
+    )
+    p.add_argument("--pairs", type=flags.positive_int, metavar="N", help="pairs per pair workload (default 10000)")
+    p.add_argument(
+        "--mesh", metavar="NAME,..", type=flags.name_list, help="mesh workloads (suzanne, icosphere, ... or a file)"
+    )
+    p.add_argument(
+        "--triangles",
+        metavar="K,..",
+        type=flags.int_list(1, flags.MAX_COUNT),
+        help="triangle counts of the meshes (default: base mesh)",
+    )
+    p.add_argument(
+        "--camera",
+        metavar="WxH",
+        type=flags.camera,
+        help="camera rays of mesh workloads (default {}x{})".format(*DEFAULT_CAMERA),
+    )
+    p.add_argument(
+        "--accel",
+        metavar="brute,bvh",
+        type=flags.choice_list(ACCELS),
+        help="how kernels run the mesh workloads: every ray against every triangle (brute, the default) or "
+        "through a BVH with the kernel as its leaf test (bvh: only the kernels of ext.bvh_kernel_names())",
+    )
+    p.add_argument(
+        "--dtype", metavar="float32,float64", type=flags.choice_list(DTYPES), help="precisions (default float64)"
+    )
+    add_design_flags(p)
+    p.add_argument("--cpu", type=flags.cpu, help="CPU to pin workers to (default: the last usable one)")
+    add_no_progress(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from tribench.harness import duration, records, runner
+
+    if args.resume:
+        if any(getattr(args, k) is not None for k in _NEW_SWEEP_FLAGS):
+            raise UserError("--resume takes no other sweep options: the run's own sweep is used")
+        result = runner.resume(args.resume, progress=args.progress)
+    else:
+        sweep = _sweep_from_args(args)
+        out = args.out or default_run_dir()
+        print(
+            f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
+            f"{sweep.processes} processes x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
+            f"{sweep.n_batches} batches -> {out}",
+            file=sys.stderr,
+        )
+        records.check_new_run_dir(out)  # before the estimate, which builds the workloads
+        print(duration.estimate(sweep).line(), file=sys.stderr)
+        result = runner.start(sweep, out, cpu=args.cpu, progress=args.progress)
+    print(
+        f"{result.batches_run} batches run in {result.elapsed_s:.1f} s; "
+        f"{result.batches_done}/{result.batches_total} in {result.run_dir}",
+        file=sys.stderr,
+    )
+    if result.batches_done == result.batches_total:  # the analysis step: every table the report reads
+        from tribench.harness.analysis import write_all
+
+        write_all(result.run_dir)
+        print(f"next: tribench report {result.run_dir}", file=sys.stderr)
+    else:
+        print(f"next: tribench stats {result.run_dir}", file=sys.stderr)
+    return 0
+
+
+def _workloads_from_flags(args: argparse.Namespace) -> list:
+    """The workload grid of the sweep flags (see `tribench sweep --help`)."""
+    from tribench.workloads.spec import MeshSpec, PairSpec
+
+    dtypes = args.dtype or ["float64"]
+    specs: list = []
+    if not args.mesh or args.pairs is not None or args.hit_rates is not None:
+        for h in args.hit_rates or [0.5]:
+            specs += [PairSpec(n=10_000 if args.pairs is None else args.pairs, hit_rate=h, dtype=d) for d in dtypes]
+    width, height = args.camera or DEFAULT_CAMERA
+    if args.accel and not args.mesh:
+        raise UserError("--accel applies to mesh workloads: give --mesh too")
+    for mesh in args.mesh or []:
+        for triangles in args.triangles or [None]:
+            for accel in args.accel or ["brute"]:
+                specs += [
+                    MeshSpec(mesh, triangles=triangles, width=width, height=height, dtype=d, accel=accel)
+                    for d in dtypes
+                ]
+    return specs
+
+
+def _sweep_from_args(args: argparse.Namespace):
+    from tribench import ext
+    from tribench.harness.plan import (
+        DEFAULT_PROCESSES,
+        DEFAULT_ROUNDS,
+        DEFAULT_TARGET_MS,
+        DEFAULT_WARMUP,
+        Sweep,
+        load_sweep_file,
+    )
+
+    design = {k: getattr(args, k) for k in DESIGN_FLAGS}
+    if args.file:
+        return load_sweep_file(args.file, {**design, "kernels": args.kernels})
+    defaults = {
+        "processes": DEFAULT_PROCESSES,
+        "rounds": DEFAULT_ROUNDS,
+        "warmup": DEFAULT_WARMUP,
+        "target_ms": DEFAULT_TARGET_MS,
+        "seed": 0,
+    }
+    design = {k: defaults[k] if v is None else v for k, v in design.items()}
+    kernels = tuple(args.kernels or ext.kernel_names())
+    return Sweep(kernels, tuple(_workloads_from_flags(args)), **design)
