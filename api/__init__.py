@@ -67,7 +67,7 @@ class Results:
 
 
 def _default_out(out: str | Path | None) -> Path:
-    from tribench.harness.records import default_run_dir
+    from tribench.harness.runfolder import default_run_dir
 
     return Path(out if out is not None else default_run_dir())
 
@@ -89,7 +89,7 @@ def sweep(
 
     ``tribench sweep`` then ``tribench stats``: fresh pinned worker processes,
     every batch appended to ``out/batches.csv`` as it is measured, then every
-    derived table (:func:`tribench.harness.analysis.write_all`). Like the
+    derived table (:func:`tribench.studies.finish.finish`). Like the
     command, it first prints the expected duration on stderr.
 
     Parameters
@@ -112,7 +112,8 @@ def sweep(
     UserError
         A bad kernel, workload or design value, or ``out`` is not a new folder.
     """
-    from tribench.harness import analysis, duration, plan, records, runner
+    from tribench.harness import duration, plan, runfolder, runner
+    from tribench.studies.finish import finish
 
     spec = plan.Sweep(
         tuple(kernels),
@@ -124,10 +125,10 @@ def sweep(
         seed=seed,
     )
     folder = _default_out(out)
-    records.check_new_run_dir(folder)  # before the estimate, which builds the workloads
+    runfolder.check_new_run_dir(folder)  # before the estimate, which builds the workloads
     print(f"tribench.sweep: {duration.estimate(spec).line()} -> {folder}", file=sys.stderr)
     runner.start(spec, folder, progress=progress)
-    derived = analysis.write_all(folder, baseline=baseline)
+    derived = finish(folder, baseline=baseline)
     return Results(folder, derived.estimates, derived.speedups, derived.tables)
 
 
@@ -137,11 +138,11 @@ def run(
     """The main job (``tribench run``) into the new folder ``out``: its tables.
 
     The default sweep, the peers when installed, then the analysis step
-    (:func:`tribench.harness.main_job.run`); ``quick=True`` takes seconds and
+    (:func:`tribench.studies.main.run`); ``quick=True`` takes seconds and
     gives wide intervals. The HTML report is ``tribench report RUN_DIR`` (or
     ``tribench.reports.write_report(run_dir)``).
     """
-    from tribench.harness import main_job
+    from tribench.studies import main as main_job
 
     done = main_job.run(_default_out(out), quick=quick, progress=progress, peers=peers)
     return Results(done.run_dir, done.estimates, done.speedups, done.tables)

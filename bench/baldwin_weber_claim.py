@@ -18,7 +18,8 @@ import argparse
 import sys
 import tempfile
 
-from tribench.harness import analysis, runner
+from tribench import analysis
+from tribench.harness import runner
 from tribench.harness.plan import Sweep
 from tribench.workloads.spec import PairSpec
 

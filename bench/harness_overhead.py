@@ -38,7 +38,7 @@ from dataclasses import asdict
 import numpy as np
 
 from tribench import ext
-from tribench.harness import records, runner
+from tribench.harness import runfolder, runner
 from tribench.harness.plan import Sweep, plan, process_seed
 from tribench.harness.worker import WorkerJob, calibrate_loops, run_job
 from tribench.workloads import cache
@@ -76,7 +76,7 @@ def harness_gaps(target_ms: float, processes: int, rounds: int, root: str, cpu):
     """Gaps from one real sweep: worker processes, JSON lines to the runner, batches.csv."""
     sweep = Sweep(KERNELS, workloads(), processes=processes, rounds=rounds, warmup=1, target_ms=target_ms)
     result = runner.start(sweep, f"{root}/run-{target_ms:g}ms", cpu=cpu, progress=False)
-    frame = records.read_batches(result.run_dir)
+    frame = runfolder.read_batches(result.run_dir)
     return (*consecutive_gaps(frame), (result, frame["invol_ctx_switches"].mean()))
 
 

@@ -35,7 +35,7 @@ import tempfile
 import numpy as np
 
 from tribench import stats
-from tribench.harness import records, runner
+from tribench.harness import runfolder, runner
 from tribench.harness.plan import DEFAULT_ROUNDS, Sweep
 from tribench.workloads.spec import MeshSpec
 
@@ -47,7 +47,7 @@ TARGET = 0.01  # relative half-width of the 95% CI
 def pilot(target_ms: float, processes: int, rounds: int, root: str, cpu):
     sweep = Sweep(KERNELS, (WORKLOAD,), processes=processes, rounds=rounds, warmup=1, target_ms=target_ms)
     result = runner.start(sweep, f"{root}/pilot-{target_ms:g}ms", cpu=cpu, progress=False)
-    batches = records.read_batches(result.run_dir)
+    batches = runfolder.read_batches(result.run_dir)
     timed = batches.loc[~batches["warmup"]].assign(ns=lambda f: f["elapsed_ns"] / f["tests"])
     per_round = timed.pivot_table(index=["process", "round"], columns="kernel", values="ns")
     ratio = (per_round[KERNELS[0]] / per_round[KERNELS[1]]).unstack("round").to_numpy()

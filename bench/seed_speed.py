@@ -29,7 +29,7 @@ import shutil
 import tempfile
 
 from tribench import stats
-from tribench.harness import records, runner
+from tribench.harness import runfolder, runner
 from tribench.harness.plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, Sweep
 from tribench.workloads.spec import MeshSpec, workload_id
 
@@ -53,7 +53,7 @@ def main() -> None:
     root = tempfile.mkdtemp(prefix="tribench-seed-speed-")
     try:
         result = runner.start(sweep, f"{root}/run", cpu=args.cpu, progress=None)
-        table = stats.estimate_table(stats.per_process(records.read_batches(result.run_dir)))
+        table = stats.estimate_table(stats.per_process(runfolder.read_batches(result.run_dir)))
     finally:
         shutil.rmtree(root)
     dtype_of = {workload_id(s): s.dtype for s in workloads}

@@ -30,7 +30,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.harness.calibration import calibrate, user_calibration_path
+    from tribench.studies.calibrate import calibrate, user_calibration_path
 
     workloads: tuple = ()
     if args.workload:

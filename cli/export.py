@@ -28,7 +28,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print (or write to ``--out``) the run's estimates and speedups in Google Benchmark's JSON format."""
-    from tribench.harness import export
+    from tribench.analysis import export
     from tribench.reports.rundata import load_run
 
     data = load_run(args.run_dir)

@@ -24,14 +24,14 @@ DESIGN_FLAGS = ("processes", "rounds", "warmup", "target_ms", "seed")
 
 def default_run_dir(kind: str = "") -> str:
     """The run folder a command writes when --out is not given: runs/[KIND-]<date-time>."""
-    from tribench.harness.records import default_run_dir as default
+    from tribench.harness.runfolder import default_run_dir as default
 
     return default(kind)
 
 
 def _new_run_folder(text: str) -> str:
     """A run folder to create: writable, and new or empty (the runner's own check, run up front)."""
-    from tribench.harness.records import check_new_run_dir
+    from tribench.harness.runfolder import check_new_run_dir
 
     out = flags.output_folder(text)
     try:

@@ -21,7 +21,7 @@ def _out(text: str) -> str:
 
 
 def add_parser(sub) -> None:
-    from tribench.harness.peers import PeerDesign
+    from tribench.studies.peers import PeerDesign
     from tribench.workloads.spec import ACCELS
 
     p = sub.add_parser(
@@ -73,7 +73,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.harness import peers, runfolder
+    from tribench.harness import runfolder
+    from tribench.studies import peers
 
     design = _design(args, peers.PeerDesign.quick() if args.quick else peers.PeerDesign())
     if args.kernel is not None:
@@ -88,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {path}", file=sys.stderr)
     run_dir = path.parent
     if path.name == runfolder.PEERS and (run_dir / runfolder.ANALYSIS).is_file():
-        from tribench.harness.analysis import reanalyse
+        from tribench.analysis.pipeline import reanalyse
 
         try:
             derived = reanalyse(run_dir)

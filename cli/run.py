@@ -26,8 +26,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.harness.main_job import run as main_job
     from tribench.reports import format_tables, write_report
+    from tribench.studies.main import run as main_job
 
     out = args.out or default_run_dir("quick" if args.quick else "")
     main_job(out, quick=args.quick, progress=args.progress)

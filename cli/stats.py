@@ -23,10 +23,10 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.harness.analysis import write_all
     from tribench.reports import format_tables
+    from tribench.studies.finish import finish
 
-    derived = write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
+    derived = finish(args.run_dir, baseline=args.baseline, margin=args.margin)
     print(format_tables(args.run_dir))
     print(
         f"wrote {', '.join(derived.tables)}, google_benchmark.json, the workload pictures and analysis.json "

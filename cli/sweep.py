@@ -97,7 +97,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.harness import duration, records, runner
+    from tribench.harness import duration, runfolder, runner
 
     if args.resume:
         if any(getattr(args, k) is not None for k in _NEW_SWEEP_FLAGS):
@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
             f"{sweep.n_batches} batches -> {out}",
             file=sys.stderr,
         )
-        records.check_new_run_dir(out)  # before the estimate, which builds the workloads
+        runfolder.check_new_run_dir(out)  # before the estimate, which builds the workloads
         print(duration.estimate(sweep).line(), file=sys.stderr)
         result = runner.start(sweep, out, cpu=args.cpu, progress=args.progress)
     print(
@@ -121,9 +121,9 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     if result.batches_done == result.batches_total:  # the analysis step: every table the report reads
-        from tribench.harness.analysis import write_all
+        from tribench.studies.finish import finish
 
-        write_all(result.run_dir)
+        finish(result.run_dir)
         print(f"next: tribench report {result.run_dir}", file=sys.stderr)
     else:
         print(f"next: tribench stats {result.run_dir}", file=sys.stderr)

@@ -24,7 +24,7 @@ def add_parser(sub) -> None:
         description="Asks every kernel, at each precision, rays aimed exactly at shared edges and vertices of "
         "exactly coplanar meshes, rays from inside a finely tessellated sphere far from the origin (Embree's "
         "test), and pairs at scales 1e-8 to 1e8, tiny and needle triangles, grazing and parallel rays, "
-        "degenerate triangles, NaN and Inf (see tribench.harness.validate). Prints one row per kernel and "
+        "degenerate triangles, NaN and Inf (see tribench.studies.validate). Prints one row per kernel and "
         "precision, one column per test, and writes the tidy CSV: kernel, dtype, isa, test, rays, failures, "
         "rate, expected, verdict, detail. Exits 0 even where a promise is broken.",
     )
@@ -44,8 +44,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.harness import validate
-    from tribench.harness.records import write_csv
+    from tribench.harness.runfolder import write_csv
+    from tribench.studies import validate
 
     # each --kernels/--dtype word may itself be a comma list
     kernels = [k for words in args.kernels for k in words] if args.kernels else None

@@ -1,10 +1,10 @@
-"""Harness: timed sweeps and the run folder they write.
+"""Harness: measuring, and the run folder it writes.
 
-``tribench.harness`` owns measuring: the sweep plan, worker processes, the
-run folder's records, the analysis step that turns batches into tables with
-:mod:`tribench.stats` (and into Google Benchmark's JSON format,
-:mod:`.export`), the A/A margin and calibration, validation, the seed
-replay and the peers. It may import ``common``, ``ext``, ``workloads`` and
-``stats``; never ``reports`` or ``cli``. (``tribench.harness.stats`` is
-:mod:`tribench.stats` under its old name.)
+``tribench.harness`` owns the timing: the sweep plan (:mod:`.plan`) and its
+sequential stages (:mod:`.stages`), the runner and its worker processes
+(:mod:`.runner`, :mod:`.worker`), the duration estimate, the machine record,
+the FMA peak and port model (:mod:`.peak`), the A/A margin (:mod:`.margin`),
+and the run folder's schema, rows, I/O and lock (:mod:`.runfolder`).
+It may import ``common``, ``ext``, ``workloads`` and ``stats``; never
+``analysis``, ``studies``, ``reports`` or ``cli``.
 """

@@ -23,8 +23,8 @@ from typing import Any, cast
 
 import numpy as np
 
-from .plan import Sweep
-from .runner import about
+from tribench.harness.plan import Sweep
+from tribench.harness.runner import about
 
 __all__ = ["Estimate", "estimate", "measure_passes", "model"]
 

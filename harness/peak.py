@@ -133,10 +133,9 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     """
     import pandas as pd
 
+    from tribench.harness.worker import calibrate_loops
     from tribench.workloads import cache
     from tribench.workloads.spec import MeshSpec
-
-    from .worker import calibrate_loops
 
     rng = np.random.default_rng(seed)
     jobs = {}

@@ -1,14 +1,14 @@
 """The runner: starts worker processes one at a time and keeps every batch they time.
 
 :func:`start` creates a run folder (``run.json`` first, see
-:mod:`tribench.harness.records`) and runs the whole plan; :func:`resume`
+:mod:`tribench.harness.runfolder`) and runs the whole plan; :func:`resume`
 finishes an interrupted one. Batches stream from the worker as JSON lines and
 are appended to ``batches.csv`` one row at a time, so a Ctrl-C, a SIGKILL of
 the runner or of a worker, or a crash of the machine loses at most the batch
 in flight. A full disk stops the sweep with one line that says how to resume
-it, and leaves whole lines only (:class:`~tribench.harness.records.RowWriter`).
+it, and leaves whole lines only (:class:`~tribench.harness.runfolder.RowWriter`).
 One writer per run folder: :func:`start` and :func:`resume` hold the
-folder's lock (:func:`~tribench.harness.records.writer_lock`) while they run.
+folder's lock (:func:`~tribench.harness.runfolder.writer_lock`) while they run.
 
 Resume: the plan (:func:`tribench.harness.plan.plan`) is a pure function of
 the sweep stored in ``run.json``, so the missing batches are exactly the
@@ -42,10 +42,10 @@ from typing import Any, TextIO
 import numpy as np
 
 from tribench.common import UserError
+from tribench.harness import runfolder
+from tribench.harness.plan import BatchKey, Sweep, plan, process_seed
 
-from . import records
-from .plan import BatchKey, Sweep, plan, process_seed
-from .records import (
+from .runfolder import (
     BATCH_COLUMNS,
     CHECK_COLUMNS,
     PROCESS_COLUMNS,
@@ -237,7 +237,7 @@ def _key(row: Any) -> BatchKey:
 
 def done_keys(run_dir: str | Path, run: dict[str, Any] | None = None) -> list[BatchKey]:
     """Keys of the batches in ``batches.csv``, validated (a partial last line is ignored)."""
-    frame = records.read_batches(run_dir, run)
+    frame = runfolder.read_batches(run_dir, run)
     return [_key(r) for r in frame.itertuples(index=False)]
 
 
@@ -287,11 +287,11 @@ def start(
         ``run_dir`` is not empty, another process writes it, or a file
         cannot be written (a full disk: the message says how to resume).
     """
-    from .machine import machine_record
-    from .margin import latest_margin
+    from tribench.harness.machine import machine_record
+    from tribench.harness.margin import latest_margin
 
     run_dir = Path(run_dir)
-    records.check_new_run_dir(run_dir)
+    runfolder.check_new_run_dir(run_dir)
     if progress is not False:
         progress_seconds()  # a bad $TRIBENCH_PROGRESS_SECONDS fails before the run folder exists
     machine = machine_record()
@@ -301,8 +301,8 @@ def start(
         run_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"cannot create the run folder {run_dir}: {exc.strerror or exc}") from None
-    with records.writer_lock(run_dir):
-        records.check_new_run_dir(run_dir)  # again, under the lock: another start may have been faster
+    with runfolder.writer_lock(run_dir):
+        runfolder.check_new_run_dir(run_dir)  # again, under the lock: another start may have been faster
         return _start_locked(sweep, run_dir, margin, machine, keys, cpu, progress, worker, extra)
 
 
@@ -317,8 +317,8 @@ def _start_locked(
     worker: Sequence[str],
     extra: dict[str, Any] | None,
 ) -> RunResult:
-    from .peak import throughput_record
-    from .worker import kernel_isa
+    from tribench.harness.peak import throughput_record
+    from tribench.harness.worker import kernel_isa
 
     record = {
         "run_id": _dt.datetime.now().strftime("%Y%m%dT%H%M%S-") + secrets.token_hex(3),
@@ -337,7 +337,7 @@ def _start_locked(
         "process_columns": list(PROCESS_COLUMNS),
         **(extra or {}),
     }
-    records.write_run(run_dir, record)
+    runfolder.write_run(run_dir, record)
     if sweep.sequential is not None:
         return _execute_stages(run_dir, record, sweep, keys, progress, worker)
     return _execute(run_dir, record, sweep, keys, 0, progress, worker)
@@ -357,22 +357,22 @@ def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequenc
         files are not valid, or a file cannot be written.
     """
     run_dir = Path(run_dir)
-    record = records.read_run(run_dir)
+    record = runfolder.read_run(run_dir)
     sweep = Sweep.from_dict(record["sweep"])
     keys = plan(sweep)
     if _plan_digest(keys) != record["plan_sha256"]:
         raise UserError(f"{run_dir}: the plan of its sweep changed (another tribench version?); cannot resume")
-    with records.writer_lock(run_dir):
-        for name in (records.BATCHES, records.PROCESSES, records.CHECKS, records.TRAVERSALS):
+    with runfolder.writer_lock(run_dir):
+        for name in (runfolder.BATCHES, runfolder.PROCESSES, runfolder.CHECKS, runfolder.TRAVERSALS):
             try:
-                cut = records.repair_csv(run_dir / name)
+                cut = runfolder.repair_csv(run_dir / name)
             except OSError as exc:
                 raise UserError(f"cannot repair {run_dir / name}: {exc.strerror or exc}") from None
             if cut:
                 print(f"tribench: dropped a partial last line of {run_dir / name}", file=sys.stderr)
         if sweep.sequential is not None:
             return _execute_stages(run_dir, record, sweep, keys, progress, worker)
-        done = done_keys(run_dir, record) if os.path.lexists(run_dir / records.BATCHES) else []
+        done = done_keys(run_dir, record) if os.path.lexists(run_dir / runfolder.BATCHES) else []
         todo = missing_keys(sweep, done)
         return _execute(run_dir, record, sweep, todo, len(keys) - len(todo), progress, worker)
 
@@ -381,8 +381,8 @@ def _attempts(run_dir: Path, record: dict[str, Any]) -> dict[int, int]:
     """The next attempt number of every process that has started before."""
     out: dict[int, int] = {}
     for frame in (
-        records.read_processes(run_dir, record),
-        records.read_batches(run_dir, record) if os.path.lexists(run_dir / records.BATCHES) else None,
+        runfolder.read_processes(run_dir, record),
+        runfolder.read_batches(run_dir, record) if os.path.lexists(run_dir / runfolder.BATCHES) else None,
     ):
         if frame is None or frame.empty:
             continue
@@ -402,7 +402,7 @@ def _execute_stages(
     """A sequential sweep (:mod:`tribench.harness.stages`): finish the stages
     ``stages.json`` records (a resume), then decide and run one stage after
     another until :func:`~tribench.harness.stages.decide` ends the sweep."""
-    from . import stages
+    from tribench.harness import stages
 
     def say(text: str) -> None:
         if progress is not False:
@@ -410,7 +410,7 @@ def _execute_stages(
 
     t0 = time.monotonic()
     data = stages.read_stages(run_dir)
-    have = set(done_keys(run_dir, record)) if os.path.lexists(run_dir / records.BATCHES) else set()
+    have = set(done_keys(run_dir, record)) if os.path.lexists(run_dir / runfolder.BATCHES) else set()
     ran, seconds, last_s = 0, 0.0, None
     try:
         for stage in data["stages"]:  # recorded: decided before, finished (or cut short) since
@@ -447,7 +447,7 @@ def _execute_stages(
         # the stages are over: what they ran is the run's whole plan now (a reader that
         # compares n_batches with batches.csv sees a finished run), the most it could have run beside it
         record.update(n_batches=done, n_batches_most=record.get("n_batches_most", record["n_batches"]))
-        records.write_run(run_dir, record)
+        runfolder.write_run(run_dir, record)
     return RunResult(run_dir, record["n_batches"], done, ran, time.monotonic() - t0)
 
 
@@ -472,10 +472,10 @@ def _execute(
     ran = 0
     try:
         with (
-            RowWriter(run_dir / records.BATCHES, BATCH_COLUMNS) as batches,
-            RowWriter(run_dir / records.PROCESSES, PROCESS_COLUMNS) as processes,
-            RowWriter(run_dir / records.CHECKS, CHECK_COLUMNS) as checks,
-            RowWriter(run_dir / records.TRAVERSALS, TRAVERSAL_COLUMNS) as traversals,
+            RowWriter(run_dir / runfolder.BATCHES, BATCH_COLUMNS) as batches,
+            RowWriter(run_dir / runfolder.PROCESSES, PROCESS_COLUMNS) as processes,
+            RowWriter(run_dir / runfolder.CHECKS, CHECK_COLUMNS) as checks,
+            RowWriter(run_dir / runfolder.TRAVERSALS, TRAVERSAL_COLUMNS) as traversals,
         ):
 
             def on_batch(row: BatchRow) -> None:
@@ -527,7 +527,7 @@ def _run_process(
     on_traversal: Callable[[TraversalRow], None],
 ) -> None:
     """One worker process: send its job, keep its rows, raise on its error."""
-    from .worker import PAD_VARIABLE, WorkerJob
+    from tribench.harness.worker import PAD_VARIABLE, WorkerJob
 
     seed = record["process_seeds"][process]
     # environment padding moves the worker's initial stack: part of the layout randomisation

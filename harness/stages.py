@@ -24,9 +24,8 @@ import pandas as pd
 
 from tribench import stats
 from tribench.common import UserError, write_text
-
-from . import records, runfolder
-from .plan import BatchKey, Sweep, plan
+from tribench.harness import runfolder
+from tribench.harness.plan import BatchKey, Sweep, plan
 
 __all__ = ["Stage", "decide", "keys_of", "read_stages", "write_stages"]
 
@@ -113,7 +112,7 @@ def decide(
     candidates = _comparisons(sweep)
     references = {wid: sweep.reference_of(sweep.spec_of(wid), BASELINE) for wid in sweep.workload_ids}
     if done:
-        batches = records.read_batches(run_dir)
+        batches = runfolder.read_batches(run_dir)
         narrow = stats.narrow_comparisons(stats.per_process(batches), references, design.target)
         open_: dict[str, list[str]] = {}
         for wid, kernels in candidates.items():

@@ -4,13 +4,13 @@ Run as ``python -m tribench.harness.worker`` by :mod:`tribench.harness.runner`,
 never by hand. It reads one JSON job from stdin (:class:`WorkerJob`) and
 writes JSON lines to stdout, the only thing it ever writes there:
 
-* ``{"type": "process", ...}``: a :class:`~tribench.harness.records.ProcessRow`
+* ``{"type": "process", ...}``: a :class:`~tribench.harness.runfolder.ProcessRow`
   (an FMA peak probe, at the start and at the end);
-* ``{"type": "check", ...}``: a :class:`~tribench.harness.records.CheckRow`,
+* ``{"type": "check", ...}``: a :class:`~tribench.harness.runfolder.CheckRow`,
   a kernel's answers on a workload against the reference, before its batches;
-* ``{"type": "batch", ...}``: a :class:`~tribench.harness.records.BatchRow`,
+* ``{"type": "batch", ...}``: a :class:`~tribench.harness.runfolder.BatchRow`,
   sent as soon as the batch is timed and checked;
-* ``{"type": "traversal", ...}``: a :class:`~tribench.harness.records.TraversalRow`,
+* ``{"type": "traversal", ...}``: a :class:`~tribench.harness.runfolder.TraversalRow`,
   after each batch on a BVH workload;
 * ``{"type": "error", "message": ...}``: the worker stops (exit code 3).
 
@@ -38,7 +38,7 @@ What it does, in order:
 5. runs its batches in the order given; every batch's checksum must equal
    ``loops`` times the kernel's verified one-pass checksum (hits exactly, the
    sum of ``t`` within :data:`T_SUM_RTOL`). A BVH batch also sends
-   ``{"type": "traversal", ...}``, a :class:`~tribench.harness.records.TraversalRow`:
+   ``{"type": "traversal", ...}``, a :class:`~tribench.harness.runfolder.TraversalRow`:
    its traversal's counts, and the same rays and loops traced with a null
    leaf test (each ray's ``t_max`` at the kernel's own hit), timed just
    before or just after it, at random, so the leaf tests' share of the
@@ -61,11 +61,10 @@ from typing import Any, cast
 import numpy as np
 
 from tribench import ext
+from tribench.harness.runfolder import BatchRow, CheckRow, ProcessRow, TraversalRow
 from tribench.workloads import bvh_cache, reference
 from tribench.workloads.front import front_reference
 from tribench.workloads.spec import MeshSpec
-
-from .records import BatchRow, CheckRow, ProcessRow, TraversalRow
 
 __all__ = [
     "KernelCheckError",

@@ -25,8 +25,8 @@ together by :mod:`.html` from its section modules (:mod:`.headline`,
 answer (:mod:`.ranking`) with every other section collapsed, and draws its
 main charts interactively (:mod:`.charts`: Vega-Lite, its library inlined once)
 and the dense diagnostics as static figures (:mod:`.figures`). Intervals are written by
-:func:`tribench.stats.format_interval`. It may import ``common``, ``ext``, ``workloads``,
-``stats`` and ``harness`` (to read a run folder); never ``cli``.
+:func:`tribench.stats.format_interval`. It may import ``common``, ``ext``, ``workloads``, ``stats``,
+``harness``, ``analysis`` and ``studies`` (to read a run folder); never ``cli``.
 """
 
 from __future__ import annotations

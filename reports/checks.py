@@ -13,7 +13,8 @@ from typing import Any
 import pandas as pd
 
 from tribench import stats
-from tribench.harness import runfolder, validate
+from tribench.harness import runfolder
+from tribench.studies import validate
 
 from . import content, figures, page
 from .rundata import VALIDATE, RunData
@@ -233,7 +234,7 @@ def correctness_section(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) 
     return "".join(body)
 
 
-#: What each robustness test measures, in one sentence (after tribench.harness.validate's documentation).
+#: What each robustness test measures, in one sentence (after tribench.studies.validate's documentation).
 _TEST_TEXT = {
     "shared_edges": "Cracks: rays aimed exactly at a point inside an edge shared by two triangles of an exactly "
     "coplanar mesh (dyadic coordinates, exact at both precisions) that hit no triangle of it.",
@@ -272,7 +273,7 @@ def robustness_section(val: pd.DataFrame, note: str) -> str:
     """validate.csv: failure rates per kernel, precision and test, broken promises marked; ``note``: its source."""
     body = [
         page.p(
-            "Rays no timing workload asks (tribench.harness.validate, as `tribench validate`): aimed exactly at "
+            "Rays no timing workload asks (tribench.studies.validate, as `tribench validate`): aimed exactly at "
             "shared edges and vertices of exactly coplanar meshes, from inside a far-off sphere, and at extreme "
             "scales, sizes, shapes, angles and non-finite input. A cell is a kernel's failure rate on a test at "
             "one precision (failures / rays, 0 = none). What the papers promise (validate's expected column): "

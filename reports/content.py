@@ -2,7 +2,7 @@
 
 Nothing here computes a statistic: every interval, slope, crossover, drift
 test, outlier label and variance component was computed by
-:func:`tribench.harness.analysis.write_all` (through :mod:`tribench.stats`)
+:func:`tribench.analysis.pipeline.write_all` (through :mod:`tribench.stats`)
 and read by :func:`~tribench.reports.rundata.load_run`. This module only
 joins those tables for display and reads the workload pictures.
 """

@@ -28,7 +28,8 @@ from __future__ import annotations
 
 import pandas as pd
 
-from tribench.harness import analysis, runfolder
+from tribench import analysis
+from tribench.harness import runfolder
 
 from . import about, bvh, charts, checks, content, figures, headline, page, ranking, results
 from .about import sweep_toml
@@ -64,7 +65,7 @@ OPEN = frozenset({"answer"})
 OPTIONAL_SECTIONS = {"bvh": ("In a BVH", "scaling")}
 
 #: At most this many workload pictures are drawn, at this resolution, by the analysis step
-#: (:mod:`tribench.harness.analysis`; 60 dpi: 840 to 1080 px wide, 1.5 to 2 times the ~550 px shown).
+#: (:mod:`tribench.analysis.pipeline`; 60 dpi: 840 to 1080 px wide, 1.5 to 2 times the ~550 px shown).
 MAX_PICTURES, PICTURE_DPI = analysis.MAX_PICTURES, analysis.PICTURE_DPI
 
 

@@ -252,12 +252,12 @@ def scaling_section(data: RunData, est: pd.DataFrame, slopes: pd.DataFrame, colo
 
 def peers_section(peers: PeerTables | None, note: str) -> str:
     """tribench against trimesh and Embree on the same rays, or ``note`` saying why there is nothing."""
-    from tribench.harness.peers import PAUSE_S
+    from tribench.studies.peers import PAUSE_S
 
     if peers is not None and peers.in_bvh:
         about = (
             "tribench's BVH with its fastest leaf kernel against Embree (through embreex, after building its "
-            "BVH), on the same camera rays, closest hit, one core (tribench.harness.peers, as `tribench peers "
+            "BVH), on the same camera rays, closest hit, one core (tribench.studies.peers, as `tribench peers "
             "--accel bvh`): two tracers, each with its own acceleration structure; the build is the untimed "
             "set-up of both."
         )
@@ -265,7 +265,7 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
         about = (
             "tribench's fastest brute-force kernel against trimesh's own intersector (NumPy after an rtree "
             "broad phase) and Embree (through embreex, after building its BVH), on the same camera rays, "
-            "closest hit (tribench.harness.peers, as `tribench peers`). Embree's BVH skips most triangles "
+            "closest hit (tribench.studies.peers, as `tribench peers`). Embree's BVH skips most triangles "
             "of every ray; tribench tests every one: the ratio is what an acceleration structure is worth "
             "over the fastest brute force, not a comparison of ray–triangle tests."
         )

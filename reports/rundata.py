@@ -1,7 +1,7 @@
 """Everything the report needs from one run folder, read once; nothing is computed or written here.
 
 The report reads files only: ``run.json``, ``batches.csv``, ``processes.csv``
-(validated by :mod:`tribench.harness.records`), and the tables the analysis
+(validated by :mod:`tribench.harness.runfolder`), and the tables the analysis
 step derived from them (:data:`tribench.harness.runfolder.DERIVED`, listed in
 ``analysis.json``). It never measures, never generates a workload, never runs
 the robustness suite and never writes a table. When the tables are missing,
@@ -23,9 +23,9 @@ from typing import Any
 
 import pandas as pd
 
+from tribench.analysis.tables import family_of, short_label, spec_text
 from tribench.common import UserError
 from tribench.harness import runfolder
-from tribench.harness.tables import family_of, short_label, spec_text
 
 __all__ = [
     "RunData",
@@ -144,16 +144,17 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
         ``batches.csv``, or against another ``baseline`` than asked (each
         message says to run ``tribench stats``).
     """
-    from tribench.harness import analysis, records
+    from tribench import analysis
+    from tribench.harness import runfolder
 
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         raise RunError(f"no run directory {run_dir}")
     try:
-        run = records.read_run(run_dir)
-        batches = records.read_batches(run_dir, run)
-        processes = records.read_processes(run_dir, run)
-    except records.MissingRunFile as exc:
+        run = runfolder.read_run(run_dir)
+        batches = runfolder.read_batches(run_dir, run)
+        processes = runfolder.read_processes(run_dir, run)
+    except runfolder.MissingRunFile as exc:
         raise RunError(f"{exc} (was the sweep started?)") from None
     except UserError as exc:  # the records' validation: file:line and what is wrong
         raise RunError(str(exc)) from None
@@ -256,8 +257,8 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
     columns, or not yet summarised by the analysis step: the report then says
     what to run.
     """
-    from tribench.harness import analysis
-    from tribench.harness.peers import INSTALL
+    from tribench import analysis
+    from tribench.studies.peers import INSTALL
 
     path = data.run_dir / runfolder.PEERS
     how = (

@@ -1,6 +1,6 @@
 """``seed.html``: the page of a ``tribench seed`` run, one self-contained file.
 
-Reads only the run folder: ``run.json``, the tables :mod:`tribench.harness.seed`
+Reads only the run folder: ``run.json``, the tables :mod:`tribench.studies.seed`
 wrote (``seed.csv``, ``seed_kinds.csv``, ``seed_workloads.csv``,
 ``seed_pictures.csv``) and the pictures, which are inlined as base64 PNG.
 No script, no network; all text goes through :func:`html.escape`.
@@ -290,7 +290,7 @@ def _machine(run: dict) -> str:
 
 
 def _reproduce(run: dict) -> str:
-    from tribench.harness.seed import COLUMNS
+    from tribench.studies.seed import COLUMNS
 
     rev = run.get("machine", {}).get("git_revision")
     steps = ([f"git checkout {rev}"] if rev else []) + ["pip install -e .", run.get("command") or "tribench seed"]
@@ -327,11 +327,11 @@ def _kernels_timed(replay: dict) -> str:
 
 def render_seed(run_dir: str | Path) -> str:
     """The whole page of a seed run, as a string."""
-    from tribench.harness import records
-    from tribench.harness.seed import KINDS_CSV, PICTURES_CSV, SEED_CSV, WORKLOADS_CSV
+    from tribench.harness import runfolder
+    from tribench.studies.seed import KINDS_CSV, PICTURES_CSV, SEED_CSV, WORKLOADS_CSV
 
     run_dir = Path(run_dir)
-    run = records.read_run(run_dir)
+    run = runfolder.read_run(run_dir)
     seed, kinds, wl, pics = (pd.read_csv(run_dir / n) for n in (SEED_CSV, KINDS_CSV, WORKLOADS_CSV, PICTURES_CSV))
     title = f"tribench seed — {run.get('run_id', run_dir.name)}"
     sections = [

@@ -122,7 +122,7 @@ def estimate_table(table: pd.DataFrame, confidence: float = DEFAULTS.confidence)
     DataFrame
         ``kernel, workload_id`` and the fields of :class:`Estimate`, named
         for any quantity; estimates.csv gives them units
-        (``tribench.harness.analysis.ESTIMATE_COLUMNS``).
+        (``tribench.analysis.pipeline.ESTIMATE_COLUMNS``).
 
     Examples
     --------
@@ -172,7 +172,7 @@ def speedup_table(
         ``workload_id, kernel, baseline, ratio, ci_low, ci_high, p_value,
         p_holm, n, confidence, margin, verdict``; ``confidence`` is the
         per-comparison level actually used. speedups.csv renames some of
-        them (``tribench.harness.analysis.SPEEDUP_COLUMNS``).
+        them (``tribench.analysis.pipeline.SPEEDUP_COLUMNS``).
 
     Examples
     --------

@@ -78,3 +78,21 @@ def run_pairs(kernel, o, d, tris, **options):
         ext.intersect(kernel, o[i : i + 1], d[i : i + 1], tris[i : i + 1], "closest", **options) for i in range(len(o))
     ]
     return np.array([a.index[0] >= 0 for a in answers]), np.array([a.t[0] for a in answers])
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark ``matrix`` every case that runs a kernel on an ISA other than the one it chooses on this CPU.
+
+    The default run (the README's command) then tests each kernel on the ISA it runs on; the whole
+    kernel x ISA x precision matrix runs under ``-m matrix`` (``.ci/run`` runs it too).
+    """
+    from tribench import ext
+
+    known = set(ext.kernel_names(internal=True))
+    for item in items:
+        params = getattr(getattr(item, "callspec", None), "params", {})
+        kernel, isa = params.get("kernel"), params.get("isa")
+        if isinstance(kernel, str) and kernel in known and isinstance(isa, str):
+            info = ext.kernel_info(kernel)
+            if isa in info.isas and isa != info.isa:
+                item.add_marker(pytest.mark.matrix)

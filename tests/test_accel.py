@@ -16,8 +16,9 @@ from hypothesis import strategies as st
 
 from tribench import ext
 from tribench.common import Notice, UserError
-from tribench.harness import peers, records, worker
+from tribench.harness import runfolder, worker
 from tribench.harness.plan import Sweep
+from tribench.studies import peers
 from tribench.workloads import bvh_cache, cache, reference
 from tribench.workloads.kinds import spec_from_dict
 from tribench.workloads.spec import MeshSpec, workload_id
@@ -104,11 +105,11 @@ def test_a_sweep_with_a_bvh_workload_runs_its_native_kernels_through_the_bvh(tmp
     )
     assert done.returncode == 0, done.stderr
     brute_id, bvh_id = workload_id(MeshSpec(**SMALL)), workload_id(MeshSpec(**SMALL, accel="bvh"))
-    batches = records.read_batches(out)
+    batches = runfolder.read_batches(out)
     kernels = batches.groupby("workload_id")["kernel"].unique()
     assert sorted(kernels[brute_id]) == sorted(["moller_trumbore", NATIVE]) and list(kernels[bvh_id]) == [NATIVE]
     # checked before any batch: the BVH's closest triangles against the reference
-    checks = records.read_checks(out)
+    checks = runfolder.read_checks(out)
     on_bvh = checks.loc[checks["workload_id"] == bvh_id]
     assert len(on_bvh) == 2 and (on_bvh["disagreements"] == on_bvh["ambiguous_disagreements"]).all()
     # a BVH batch's tests are the triangle tests its traversal did, its hits the reference's

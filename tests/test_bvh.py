@@ -211,6 +211,7 @@ def suzanne():
     return build_mesh("suzanne", 100_000, seed=0).triangles
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
 def test_suzanne_subdivided_to_1e5_triangles(suzanne, dtype):
     o, d = camera_rays(24, 24)

@@ -14,12 +14,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tribench import ext
+from tribench.analysis import tables
 from tribench.common import UserError
-from tribench.harness import analysis, records, runfolder, runner, tables
+from tribench.harness import runfolder, runner
 from tribench.harness.plan import Sweep
 from tribench.reports import bvh as report_bvh
 from tribench.reports import html as report_html
 from tribench.reports.rundata import load_run
+from tribench.studies.finish import finish
 from tribench.workloads import cache
 from tribench.workloads.spec import MeshSpec, PairSpec, workload_id
 
@@ -37,7 +39,7 @@ def _run(tmp_path_factory, name: str, sweep: Sweep):
         runner.start(sweep, run_dir, progress=False)
         # an empty robustness table: the analysis does not run the suite (its own tests do)
         pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE])).to_csv(run_dir / "validate.csv", index=False)
-        analysis.write_all(run_dir)
+        finish(run_dir)
     return run_dir, base / "cache"
 
 
@@ -68,8 +70,8 @@ def _per_pass_counts(kernel: str) -> np.ndarray:
 
 
 def test_every_bvh_batch_has_its_traversal_with_its_counts_and_a_null_twin(bvh_run):
-    batches = records.read_batches(bvh_run)
-    trav = records.read_traversals(bvh_run)
+    batches = runfolder.read_batches(bvh_run)
+    trav = runfolder.read_traversals(bvh_run)
     assert list(trav.columns) == list(runfolder.FILES[runfolder.TRAVERSALS])
     key = ["process", "workload_id", "round", "position", "kernel"]
     on_bvh = batches.loc[batches["workload_id"] == workload_id(BVH_SPEC)]
@@ -89,7 +91,7 @@ def test_every_bvh_batch_has_its_traversal_with_its_counts_and_a_null_twin(bvh_r
 
 def test_a_run_without_a_bvh_workload_has_an_empty_traversals_file_and_bvh_table(brute_run):
     assert (brute_run / runfolder.TRAVERSALS).read_text() == ",".join(runfolder.FILES[runfolder.TRAVERSALS]) + "\n"
-    assert records.read_traversals(brute_run).empty
+    assert runfolder.read_traversals(brute_run).empty
     bvh = pd.read_csv(brute_run / runfolder.BVH)
     assert bvh.empty and list(bvh.columns) == list(runfolder.FILES[runfolder.BVH])
 
@@ -103,7 +105,7 @@ def test_a_bad_traversal_row_is_refused_naming_its_line(bvh_run, tmp_path):
     lines[2] = ",".join(fields)
     (copy / runfolder.TRAVERSALS).write_text("\n".join(lines) + "\n")
     with pytest.raises(UserError, match=r"traversals\.csv:3: null_elapsed_ns is -5; must be positive"):
-        records.read_traversals(copy)
+        runfolder.read_traversals(copy)
 
 
 # ------------------------------------------------------------------ bvh.csv
@@ -140,7 +142,7 @@ def test_a_run_made_before_traversals_csv_gets_rates_and_speedups_without_counts
     copy = tmp_path / "copy"
     shutil.copytree(bvh_run, copy)
     (copy / runfolder.TRAVERSALS).unlink()
-    analysis.write_all(copy)
+    finish(copy)
     bvh = pd.read_csv(copy / runfolder.BVH)
     assert list(bvh["kernel"]) == list(KERNELS) and bvh["rays_per_s"].notna().all()
     assert bvh[["nodes_per_ray", "leaf_share", "leaf_share_ci_low"]].isna().all().all()

@@ -5,6 +5,7 @@ import subprocess
 import sys
 
 import pandas as pd
+import pytest
 
 from tribench import ext
 
@@ -36,6 +37,7 @@ def test_unknown_command_is_a_usage_error():
     assert "invalid choice" in out.stderr
 
 
+@pytest.mark.slow
 def test_run_quick_is_the_main_job_end_to_end(tmp_path):
     # the README's main job, in its quick form: sweep, statistics, report
     env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
@@ -54,7 +56,7 @@ def test_run_quick_is_the_main_job_end_to_end(tmp_path):
     assert f"report: {out / 'report.html'}" in done.stdout
     for kernel in ("curless_seed", "moller_seed", "moller_trumbore"):
         assert kernel in done.stdout
-    from tribench.harness import peers
+    from tribench.studies import peers
 
     if any(peers.available().values()):  # the report's peers, measured by the run
         frame = pd.read_csv(out / "peers.csv")

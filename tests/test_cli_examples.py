@@ -145,7 +145,15 @@ def test_concrete_forms_use_every_flag_of_the_example(example):
         build_parser().parse_args([w.format(tmp="/nonexistent", run="/", mesh="m", scene=README) for w in line])
 
 
-@pytest.mark.parametrize("command", [c for cs in CONCRETE.values() for c in cs if c not in SLOW])
+@pytest.mark.parametrize(
+    "command",
+    [
+        pytest.param(c, marks=pytest.mark.slow) if "--all-kernels" in c else c  # the whole zoo: seconds more
+        for cs in CONCRETE.values()
+        for c in cs
+        if c not in SLOW
+    ],
+)
 def test_readme_example_runs(command, env, run_dir, mesh_prefix, tmp_path):
     argv = shlex.split(command.format(tmp=tmp_path, run=run_dir, mesh=mesh_prefix, scene=builtin_scene_path("scene02")))
     done = run(*argv, env=env, timeout=120)

@@ -18,11 +18,11 @@ from test_report_run import run_fixture_dir
 
 from tribench import reports
 from tribench.common import UserError
-from tribench.harness import analysis
 from tribench.reports import page
 from tribench.reports.compare import compare_many, compare_runs, format_many, order_summary, render_compare
 from tribench.reports.rundata import load_run
 from tribench.stats import unpaired_ratio
+from tribench.studies.finish import finish
 
 FACTOR = 1.25  # run B: moller_trumbore made exactly this much faster
 
@@ -40,7 +40,7 @@ def two_runs(tmp_path_factory):
     b.to_csv(run_b / "batches.csv", index=False)
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("TRIBENCH_CACHE", str(cache))
-        analysis.write_all(run_b)  # `tribench stats`: compare reads the tables, as the report does
+        finish(run_b)  # `tribench stats`: compare reads the tables, as the report does
         yield run_a, run_b
 
 
@@ -133,7 +133,7 @@ def _fake_run(real: Path, folder: Path, factors: dict[str, float], cpu_model: st
     )
     b["elapsed_ns"] = (per_test * factor * b["tests"]).round().astype("int64")
     b.to_csv(folder / "batches.csv", index=False)
-    analysis.write_all(folder)
+    finish(folder)
     return folder
 
 
@@ -226,7 +226,7 @@ def test_compare_cli_refuses_fewer_than_two_or_more_than_26_runs(three_runs, cou
 def test_compare_refuses_runs_with_different_baselines(three_runs, tmp_path):
     other = tmp_path / "other"
     shutil.copytree(three_runs[2], other)
-    analysis.write_all(other, baseline="curless")
+    finish(other, baseline="curless")
     with pytest.raises(UserError, match="different baselines .*C: curless"):
         compare_many([load_run(r) for r in [*three_runs[:2], other]])
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 import trimesh
@@ -79,28 +81,36 @@ def test_closest_on_a_mesh_agrees_with_reference(kernel, dtype):
     ).hit.all()
 
 
-@pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
-@pytest.mark.parametrize("kernel", KERNELS)
-def test_t_max_turns_farther_hits_into_misses(kernel, dtype):
+@functools.cache
+def _t_max_case(dtype):
+    """Rays, mesh and t_max of the t_max test (half the hitting rays stop just short of their hit, half just
+    past), the reference's answers, and which rays hit some triangle nearer than t_max: the same for every
+    kernel, so made once per precision (the all-pairs reference is most of the test's time)."""
     o, d, tris = _mesh_and_safe_rays(seed=6)
     ref_index, ref_t = reference.intersect_closest(o, d, tris)
     hit = ref_index >= 0
-    # half the hitting rays get a t_max just short of their hit, half just past
     t_max = np.full(len(o), np.inf)
     short = hit & (np.arange(len(o)) % 2 == 0)
     t_max[short] = ref_t[short] * 0.99
     t_max[hit & ~short] = ref_t[hit & ~short] * 1.01
     o, d, tris, t_max = as_dtype((o, d, tris, t_max), dtype)
-    # closest: a ray whose nearest hit is beyond t_max can still hit a nearer-than-t_max triangle
-    # (none here: the rays are checked against every triangle by the reference)
-    r = ext.intersect(kernel, o, d, tris, "closest", t_max=t_max)
     everything = reference.intersect_pairs(
         np.repeat(o.astype(np.float64), len(tris), 0),
         np.repeat(d.astype(np.float64), len(tris), 0),
         np.tile(tris.astype(np.float64), (len(o), 1, 1)),
     )
     within = (everything.hit & (everything.t < np.repeat(t_max.astype(np.float64), len(tris)))).reshape(len(o), -1)
-    np.testing.assert_array_equal(r.hit, within.any(axis=1))
+    return o, d, tris, t_max, ref_index, hit, short, within.any(axis=1)
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_t_max_turns_farther_hits_into_misses(kernel, dtype):
+    o, d, tris, t_max, ref_index, hit, short, within = _t_max_case(dtype)
+    # closest: a ray whose nearest hit is beyond t_max can still hit a nearer-than-t_max triangle
+    # (none here: the rays are checked against every triangle by the reference)
+    r = ext.intersect(kernel, o, d, tris, "closest", t_max=t_max)
+    np.testing.assert_array_equal(r.hit, within)
     assert (r.t[r.hit] < t_max[r.hit]).all()
     if "pairs" in ext.kernel_info(kernel).modes:
         rays = np.flatnonzero(hit)

@@ -10,8 +10,9 @@ import pytest
 from conftest import safe_pairs
 
 from tribench import ext
-from tribench.harness import calibration, records, worker
+from tribench.harness import runfolder, worker
 from tribench.harness.plan import BatchKey, Sweep, expand_workloads, load_sweep_file, plan
+from tribench.studies import calibrate as calibration
 from tribench.workloads import cache, front, reference
 from tribench.workloads.spec import MeshSpec, PairSpec, workload_id
 
@@ -90,7 +91,7 @@ def test_sweep_file_expands_lists_into_a_grid(tmp_path):
 # ------------------------------------------------------------ run files
 
 
-def _row(i: int, **kw) -> records.BatchRow:
+def _row(i: int, **kw) -> runfolder.BatchRow:
     base = dict(
         run_id="r",
         process=i % 2,
@@ -113,34 +114,34 @@ def _row(i: int, **kw) -> records.BatchRow:
         attempt=0,
         steal_ticks=-1,
     )
-    return records.BatchRow(**{**base, **kw})
+    return runfolder.BatchRow(**{**base, **kw})
 
 
 def test_batch_rows_round_trip_and_a_partial_last_line_is_dropped(tmp_path):
     rows = [_row(i) for i in range(4)]
-    with records.RowWriter(tmp_path / "batches.csv", records.BATCH_COLUMNS) as w:
+    with runfolder.RowWriter(tmp_path / "batches.csv", runfolder.BATCH_COLUMNS) as w:
         for r in rows:
             w.append(r)
-    frame = records.read_batches(tmp_path)
-    assert tuple(frame.columns) == records.BATCH_COLUMNS
-    back = [records.BatchRow(**r) for r in frame.to_dict("records")]
+    frame = runfolder.read_batches(tmp_path)
+    assert tuple(frame.columns) == runfolder.BATCH_COLUMNS
+    back = [runfolder.BatchRow(**r) for r in frame.to_dict("records")]
     assert back == rows  # incl. a comma in a name, bools and full float precision
     assert frame["warmup"].dtype == bool
     # a write cut by a kill: the partial row is ignored on read, cut off by repair
     with open(tmp_path / "batches.csv", "a") as f:
         f.write("r,1,5,0,moller")
-    assert len(records.read_batches(tmp_path)) == 4
-    assert records.repair_csv(tmp_path / "batches.csv")
-    assert not records.repair_csv(tmp_path / "batches.csv")
+    assert len(runfolder.read_batches(tmp_path)) == 4
+    assert runfolder.repair_csv(tmp_path / "batches.csv")
+    assert not runfolder.repair_csv(tmp_path / "batches.csv")
     assert (tmp_path / "batches.csv").read_text().endswith("\n")
-    assert len(records.read_batches(tmp_path)) == 4
+    assert len(runfolder.read_batches(tmp_path)) == 4
 
 
 def test_missing_run_files_are_file_not_found(tmp_path):
     with pytest.raises(FileNotFoundError):
-        records.read_run(tmp_path / "nope")
+        runfolder.read_run(tmp_path / "nope")
     with pytest.raises(FileNotFoundError):
-        records.read_batches(tmp_path)
+        runfolder.read_batches(tmp_path)
 
 
 # ------------------------------------------------------------------ checks

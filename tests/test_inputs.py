@@ -16,9 +16,9 @@ import tracemalloc
 import pytest
 
 from tribench.common import UserError
-from tribench.harness import calibration
-from tribench.harness.calibration import MAX_MARGIN, Margin, latest_margin, user_calibration_path
 from tribench.harness.plan import MAX_BATCHES, MAX_PROCESSES, Sweep, default_sweep, load_sweep_file
+from tribench.studies import calibrate as calibration
+from tribench.studies.calibrate import MAX_MARGIN, Margin, latest_margin, user_calibration_path
 from tribench.workloads.spec import PairSpec
 
 PAIR = (PairSpec(n=10),)

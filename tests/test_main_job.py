@@ -1,4 +1,4 @@
-"""``tribench run`` as a library function (tribench.harness.main_job.run): what it returns is what it wrote."""
+"""``tribench run`` as a library function (tribench.studies.main.run): what it returns is what it wrote."""
 
 from __future__ import annotations
 
@@ -8,8 +8,9 @@ import json
 import pandas as pd
 import pytest
 
-from tribench.harness import main_job, plan, runfolder
+from tribench.harness import plan, runfolder
 from tribench.harness.plan import Sweep
+from tribench.studies import main as main_job
 from tribench.workloads.spec import MeshSpec, PairSpec
 
 #: The default sweep's shape (pairs at two hit rates, a mesh; the baseline and a clean kernel), as small as it goes.

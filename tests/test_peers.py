@@ -1,4 +1,4 @@
-"""Peers (tribench.harness.peers): the statistics, a real tiny measurement, the report's section, the CLI."""
+"""Peers (tribench.studies.peers): the statistics, a real tiny measurement, the report's section, the CLI."""
 
 from __future__ import annotations
 
@@ -11,11 +11,12 @@ import pandas as pd
 import pytest
 from test_report_run import run_fixture_dir
 
-from tribench import reports, stats
-from tribench.harness import analysis, peers
+from tribench import analysis, reports, stats
 from tribench.reports import columns
 from tribench.reports import html as report_html
 from tribench.reports.rundata import load_peers, load_run
+from tribench.studies import peers
+from tribench.studies.finish import finish
 
 TINY = peers.PeerDesign(
     width=24, height=24, triangles=100, processes=2, reps=2, trimesh_rays=128, choice_rays=128, choice_rounds=1
@@ -166,7 +167,7 @@ def _section(page: str, sid: str) -> str:
 def test_report_shows_the_peers_with_their_ratios_and_a_headline_sentence(run_copy, measured):
     path, frame = measured
     shutil.copy(path, run_copy / peers.PEERS)
-    analysis.write_all(run_copy)  # `tribench stats`: the report reads the peer tables it writes
+    finish(run_copy)  # `tribench stats`: the report reads the peer tables it writes
     page = reports.write_report(run_copy).read_text(encoding="utf-8")
     section = _section(page, "peers")
     kernel = frame["kernel"].iloc[0]
@@ -198,7 +199,7 @@ def test_a_corrupt_peers_file_does_not_stop_the_report(run_copy, content):
 
 def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
     _rows({"tribench": [100.0], "trimesh": [10.0]}).assign(rays_per_s=-1.0).to_csv(run_copy / peers.PEERS, index=False)
-    analysis.write_all(run_copy)  # the analysis cannot summarise them, and says why
+    finish(run_copy)  # the analysis cannot summarise them, and says why
     section = _peers_section(run_copy)
     assert "cannot be used" in section and "positive" in section
 
@@ -230,7 +231,7 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message):
 
 
 def test_tribench_run_goes_on_without_peers_or_when_they_fail(monkeypatch, capsys, tmp_path):
-    from tribench.harness import main_job
+    from tribench.studies import main as main_job
 
     monkeypatch.setattr(peers, "available", lambda: {"trimesh": None, "embree": None})
     main_job._run_peers(str(tmp_path), quick=True, progress=False)
@@ -252,7 +253,7 @@ def test_peers_into_an_analysed_run_folder_refresh_its_peer_tables(run_copy):
 
     from tribench.harness import runfolder
 
-    analysis.write_all(run_copy, baseline="curless")  # a choice of `tribench stats` the refresh must keep
+    finish(run_copy, baseline="curless")  # a choice of `tribench stats` the refresh must keep
     assert load_peers(load_run(run_copy))[0] is None  # no peers yet
     done = subprocess.run(
         [
@@ -289,6 +290,6 @@ def test_peers_timed_through_the_bvh_are_reported_as_the_bvh_not_brute_force(run
     rows = _rows({"tribench": [100.0, 110.0, 105.0], "embree": [50.0, 52.0, 51.0]})
     rows.loc[rows.contender == "tribench", "implementation"] = "tribench 0.1.0 bvh woop_fma (16 lanes)"
     rows.to_csv(run_copy / peers.PEERS, index=False)
-    analysis.write_all(run_copy)
+    finish(run_copy)
     section = _peers_section(run_copy)
     assert "tribench&#x27;s BVH with k runs at" in section and "brute" not in section

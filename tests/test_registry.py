@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from tribench import ext
-from tribench.harness import validate, worker
+from tribench.harness import worker
+from tribench.studies import validate
 
 ROOT = Path(__file__).resolve().parents[1]
 KERNELS = ext.kernel_names(internal=True)

@@ -18,6 +18,7 @@ from tribench import reports
 from tribench.reports import checks, headline
 from tribench.reports import html as report_html
 from tribench.reports.rundata import RunError
+from tribench.studies.finish import finish
 
 
 @pytest.fixture(scope="module")
@@ -209,7 +210,7 @@ def test_kernels_section_gives_bytes_per_triangle_beside_speed(rendered):
 def test_robustness_section_shows_the_validate_table_per_kernel_and_dtype(rendered):
     from test_report_run import KERNELS
 
-    from tribench.harness import validate
+    from tribench.studies import validate
 
     run_dir, _, text = rendered
     part = text[text.index('id="robustness"') : text.index('id="workloads"')]
@@ -284,13 +285,12 @@ def test_a_calibration_run_shows_its_own_record(rendered, tmp_path):
 
 
 def test_the_analysis_rebuilds_a_workload_missing_from_the_cache(tmp_path_factory, monkeypatch):
-    from tribench.harness import analysis
 
     run_dir, cache = run_fixture_dir(tmp_path_factory)
     copy = tmp_path_factory.mktemp("rebuild") / "run"
     shutil.copytree(run_dir, copy)
     monkeypatch.setenv("TRIBENCH_CACHE", str(copy.parent / "empty-cache"))
-    analysis.write_all(copy)  # `tribench stats` on another machine: the workloads are made from their specs
+    finish(copy)  # `tribench stats` on another machine: the workloads are made from their specs
     text = reports.write_report(copy).read_text()
     assert "rebuilt from the spec recorded in run.json" in text
     rebuilt, cached = pd.read_csv(copy / "workloads.csv"), pd.read_csv(run_dir / "workloads.csv")

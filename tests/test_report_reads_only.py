@@ -12,8 +12,10 @@ from pathlib import Path
 import pytest
 from test_report_run import run_fixture_dir
 
-from tribench import ext, reports, stats
-from tribench.harness import analysis, records, validate
+from tribench import analysis, ext, reports, stats
+from tribench.analysis import pipeline
+from tribench.harness import runfolder
+from tribench.studies import finish, validate
 from tribench.workloads import cache
 
 #: Every entry point that measures, makes a workload, runs the suite, computes a statistic or writes a table.
@@ -24,10 +26,15 @@ POISONED = [
     (cache, "generate"),
     (cache, "load"),
     (validate, "run"),
+    (finish, "finish"),
+    (finish, "measure_robustness"),
     (analysis, "analyse"),
     (analysis, "write_all"),
     (analysis, "write_tables"),
-    (records, "write_csv"),
+    (pipeline, "analyse"),
+    (pipeline, "write_all"),
+    (pipeline, "write_tables"),
+    (runfolder, "write_csv"),
     (stats, "per_process"),
     (stats, "estimate_table"),
     (stats, "speedup_table"),

@@ -12,9 +12,12 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from tribench.harness import analysis, peers, records, runfolder, runner, validate
+from tribench import analysis
+from tribench.harness import runfolder, runner
 from tribench.harness.plan import Sweep
 from tribench.reports import columns
+from tribench.studies import peers, validate
+from tribench.studies.finish import finish
 from tribench.workloads.spec import MeshSpec, PairSpec
 
 KERNELS = ("moller_seed", "moller_trumbore", "curless")
@@ -43,7 +46,7 @@ def run_fixture_dir(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Pat
             sweep = Sweep(KERNELS, WORKLOADS, processes=3, rounds=3, warmup=1, target_ms=0.2, seed=5)
             runner.start(sweep, run_dir, progress=False)
             validate.run(KERNELS, ["float64"], quick=True).to_csv(run_dir / "validate.csv", index=False)
-            analysis.write_all(run_dir)
+            finish(run_dir)
     return run_dir, cache
 
 
@@ -78,16 +81,16 @@ def test_the_analysis_writes_every_derived_table_and_lists_it(small_run):
 
 
 def test_one_module_owns_the_names_and_columns():
-    from tribench.harness import seed
+    from tribench.studies import seed
 
-    assert tuple(columns.BATCHES) == records.BATCH_COLUMNS
-    assert tuple(columns.PROCESSES) == records.PROCESS_COLUMNS
-    assert tuple(columns.CHECKS) == records.CHECK_COLUMNS
+    assert tuple(columns.BATCHES) == runfolder.BATCH_COLUMNS
+    assert tuple(columns.PROCESSES) == runfolder.PROCESS_COLUMNS
+    assert tuple(columns.CHECKS) == runfolder.CHECK_COLUMNS
     assert validate.COLUMNS is runfolder.FILES[runfolder.VALIDATE]
     assert tuple(columns.PEERS) == peers.COLUMNS and peers.PEERS == runfolder.PEERS
     assert seed.COLUMNS is runfolder.SEED_FILES
     assert columns.FILES is runfolder.FILES
-    assert records.BATCHES == runfolder.BATCHES and analysis.ESTIMATES == runfolder.ESTIMATES
+    assert runfolder.BATCHES == runfolder.BATCHES and analysis.ESTIMATES == runfolder.ESTIMATES
 
 
 def test_estimate_and_speedup_columns_say_their_unit():
@@ -160,10 +163,10 @@ def test_stats_makes_a_missing_robustness_table_and_the_report_reads_it(tmp_path
     (copy / "validate.csv").unlink()
     df, note = load_validation(load_run(copy))  # the report alone does not run the suite
     assert df.empty and f"tribench stats {copy}" in note and not (copy / "validate.csv").exists()
-    analysis.write_all(copy, validate_quick=True)
+    finish(copy, quick=True)
     data = load_run(copy)
     df, note = load_validation(data)
-    assert note.startswith("Read from validate.csv") and "made by the analysis step" in note
+    assert note.startswith("Read from validate.csv") and "made by the robustness suite" in note
     assert list(pd.read_csv(copy / "validate.csv", nrows=0).columns) == list(columns.VALIDATE)
     assert len(df) == len(KERNELS) * len(validate.TESTS) and set(df["dtype"]) == {"float64"}
     assert list(dict.fromkeys(df["kernel"])) == list(data.kernels)  # in the run's order
@@ -181,7 +184,7 @@ def test_a_robustness_suite_that_cannot_run_does_not_stop_the_analysis(tmp_path_
         raise RuntimeError("no extension")
 
     monkeypatch.setattr(validate, "run", fail)
-    analysis.write_all(copy)
+    finish(copy)
     df, note = load_validation(load_run(copy))
     assert df.empty and "could not run" in note and "no extension" in note
     assert not (copy / "validate.csv").exists()
@@ -245,7 +248,7 @@ def test_the_bands_table_ranks_kernels_per_precision_and_hit_rate_band(small_run
     import numpy as np
 
     from tribench import ext, stats
-    from tribench.harness.tables import band_of
+    from tribench.analysis.tables import band_of
 
     bands = pd.read_csv(small_run / runfolder.BANDS)
     pp = pd.read_csv(small_run / runfolder.PER_PROCESS)

@@ -22,9 +22,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from tribench import analysis
 from tribench.common import UserError
-from tribench.harness import analysis, records, runner
+from tribench.harness import runfolder, runner
 from tribench.harness.plan import Sweep, plan
+from tribench.studies.finish import finish
 from tribench.workloads.spec import PairSpec
 
 SLOW = [
@@ -62,7 +64,7 @@ def finished(cache, tmp_path_factory):
     out = tmp_path_factory.mktemp("finished") / "run"
     sweep = Sweep(("moller_trumbore", "curless"), (PairSpec(n=200),), processes=3, rounds=2, warmup=1, target_ms=0.2)
     runner.start(sweep, out, progress=False)
-    analysis.write_all(out)  # the analysis step: every table the report reads
+    finish(out)  # the analysis step: every table the report reads
     return out
 
 
@@ -108,7 +110,7 @@ def one_line_error(done, *words, preamble=0):
 
 
 def planned(run_dir):
-    return sorted(plan(Sweep.from_dict(records.read_run(run_dir)["sweep"])))
+    return sorted(plan(Sweep.from_dict(runfolder.read_run(run_dir)["sweep"])))
 
 
 def batch_lines(run_dir):
@@ -131,6 +133,7 @@ def kill_mid_sweep(out: Path) -> int:
 # ------------------------------------------------------------ one writer
 
 
+@pytest.mark.slow
 def test_two_resumes_after_a_kill_one_runs_the_other_is_refused(cache, tmp_path):
     out = tmp_path / "run"
     dead = kill_mid_sweep(out)
@@ -139,7 +142,7 @@ def test_two_resumes_after_a_kill_one_runs_the_other_is_refused(cache, tmp_path)
     first = popen("sweep", "--resume", str(out), "--no-progress")
     deadline = time.monotonic() + 60  # the second starts once the first holds the lock, so it meets it
     # ...and has written its name into it (the lock is taken a moment before the name is written)
-    while f"process {first.pid} " not in (records.live_writer(out) or "") and first.poll() is None:
+    while f"process {first.pid} " not in (runfolder.live_writer(out) or "") and first.poll() is None:
         assert time.monotonic() < deadline, "the first resume never took the lock"
         time.sleep(0.005)
     # The first is paused while the second runs, so the second meets the lock however loaded the machine
@@ -161,13 +164,13 @@ def test_two_resumes_after_a_kill_one_runs_the_other_is_refused(cache, tmp_path)
     after = runner.done_keys(out)
     assert sorted(after) == planned(out)  # none lost, none twice
     assert set(before) <= set(after)
-    assert records.live_writer(out) is None  # released
+    assert runfolder.live_writer(out) is None  # released
 
 
 def test_a_second_writer_is_refused_while_the_first_lives_and_readers_are_not(run):
-    with records.writer_lock(run):
+    with runfolder.writer_lock(run):
         assert (
-            records.live_writer(run)
+            runfolder.live_writer(run)
             == f"process {os.getpid()} on {os.uname().nodename} "
             + f"(since {json.loads((run / '.lock').read_text())['since']})"
         )
@@ -184,7 +187,7 @@ def test_a_second_writer_is_refused_while_the_first_lives_and_readers_are_not(ru
 def test_start_into_a_folder_another_start_is_writing_is_refused(run):
     other = run.parent / "fresh"
     other.mkdir()
-    with records.writer_lock(other):
+    with runfolder.writer_lock(other):
         done = cli(
             "sweep",
             "--out",
@@ -335,10 +338,10 @@ def test_a_partial_last_line_is_still_tolerated(run):
 
 
 def test_crlf_and_a_bom_change_no_value_and_are_read(run):
-    before = records.read_batches(run)
+    before = runfolder.read_batches(run)
     data = (run / "batches.csv").read_bytes()
     (run / "batches.csv").write_bytes(b"\xef\xbb\xbf" + data.replace(b"\n", b"\r\n"))
-    assert records.read_batches(run).equals(before)
+    assert runfolder.read_batches(run).equals(before)
 
 
 @pytest.mark.parametrize(
@@ -377,7 +380,7 @@ def test_crlf_and_a_bom_change_no_value_and_are_read(run):
         (
             "batches huge",
             lambda r: (r / "batches.csv").write_bytes(
-                (r / "batches.csv").read_bytes() + b"x" * (records.MAX_ROW_BYTES * 2000)
+                (r / "batches.csv").read_bytes() + b"x" * (runfolder.MAX_ROW_BYTES * 2000)
             ),
             ["batches.csv", " bytes"],
         ),
@@ -390,7 +393,7 @@ def test_crlf_and_a_bom_change_no_value_and_are_read(run):
         (
             "processes other run",
             lambda r: (r / "processes.csv").write_text(
-                (r / "processes.csv").read_text().replace(records.read_run(r)["run_id"], "other", 1)
+                (r / "processes.csv").read_text().replace(runfolder.read_run(r)["run_id"], "other", 1)
             ),
             ["processes.csv:2: run id 'other'"],
         ),
@@ -411,7 +414,7 @@ def test_a_symlinked_batches_file_is_never_appended_to(run, tmp_path):
     (run / "batches.csv").symlink_to(target)
     before = target.read_bytes()
     with pytest.raises(UserError, match="symbolic link"):
-        records.RowWriter(run / "batches.csv", records.BATCH_COLUMNS)
+        runfolder.RowWriter(run / "batches.csv", runfolder.BATCH_COLUMNS)
     assert target.read_bytes() == before
 
 
@@ -426,12 +429,12 @@ def test_any_corruption_of_batches_is_a_user_error_or_a_valid_table(finished, tm
     junk = data.draw(st.binary(min_size=1, max_size=40))
     (run / "batches.csv").write_bytes(raw[:at] + junk + raw[at + data.draw(st.integers(0, 40)) :])
     try:
-        frame = records.read_batches(run)
+        frame = runfolder.read_batches(run)
     except UserError as exc:
         message = str(exc)
         assert "\n" not in message and "batches.csv" in message
         return
-    good = records.read_batches(finished)
+    good = runfolder.read_batches(finished)
     keys = set(zip(frame["process"], frame["round"], frame["position"], frame["kernel"], strict=True))
     assert keys <= set(zip(good["process"], good["round"], good["position"], good["kernel"], strict=True))
     assert (frame["elapsed_ns"] > 0).all() and (frame["tests"] > 0).all()

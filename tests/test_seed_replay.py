@@ -13,8 +13,8 @@ from scipy import stats as sps
 
 from tribench import ext
 from tribench.cli.command import main
-from tribench.harness import records
-from tribench.harness import seed as hs
+from tribench.harness import runfolder
+from tribench.studies import seed as hs
 from tribench.workloads import cache, reference
 from tribench.workloads import seed_workload as sw
 from tribench.workloads.kinds import spec_from_dict
@@ -236,6 +236,7 @@ def test_the_default_kernels_are_the_seeds_and_the_widest_form_of_every_two_side
     assert every[:4] == hs.FIRST_KERNELS and sorted(every) == sorted(names)
 
 
+@pytest.mark.slow
 def test_all_kernels_times_every_kernel(cache_dir, tmp_path):
     scene = tmp_path / "tiny.txt"
     scene.write_text(TINY)
@@ -243,7 +244,7 @@ def test_all_kernels_times_every_kernel(cache_dir, tmp_path):
     flags = ["--quick", "--all-kernels", "--scene", str(scene), "--size", "8", "--sample", "8", "--no-progress"]
     assert main(["seed", *flags, "--out", str(out)]) == 0
     assert list(pd.read_csv(out / "seed.csv")["kernel"].drop_duplicates()) == list(hs.seed_kernels(all_kernels=True))
-    run = records.read_run(out)
+    run = runfolder.read_run(out)
     assert run["seed_replay"]["all_kernels"] is True and "--all-kernels" in run["command"]
     assert "Kernels: every kernel" in (out / "seed.html").read_text()
 

@@ -11,8 +11,9 @@ import pytest
 
 from tribench import stats
 from tribench.common import UserError
-from tribench.harness import analysis, records, runfolder, runner, stages
+from tribench.harness import runfolder, runner, stages
 from tribench.harness.plan import Sequential, Sweep, plan
+from tribench.studies.finish import finish
 from tribench.workloads.spec import MeshSpec, PairSpec
 
 KERNELS = ("moller_seed", "moller_trumbore", "curless", "woop_fma")
@@ -54,7 +55,7 @@ def finished(cache, tmp_path_factory):
 def test_each_stage_runs_exactly_the_comparisons_still_wide(finished):
     record = stages.read_stages(finished)
     s = sweep()
-    batches = records.read_batches(finished)
+    batches = runfolder.read_batches(finished)
     assert record["end"] == "every comparison is within ±100%" and len(record["stages"]) == 2
     for i, stage in enumerate(record["stages"]):
         assert (stage["first_process"], stage["stage"]) == (4 * i, i)
@@ -72,12 +73,12 @@ def test_each_stage_runs_exactly_the_comparisons_still_wide(finished):
     # the batches are keys of the plan, and not all of it: something stopped early
     assert set(runner.done_keys(finished)) < set(plan(s))
     # once the stages end, run.json says how many batches the run is (and the most it could have been)
-    run = records.read_run(finished)
+    run = runfolder.read_run(finished)
     assert (run["n_batches"], run["n_batches_most"]) == (len(batches), len(plan(s)))
 
 
 def test_the_stopped_comparisons_end_narrow_and_the_tables_pair_what_ran(finished, cache):
-    result = analysis.write_all(finished, validate_quick=True)
+    result = finish(finished, quick=True)
     spd = result.speedups
     record = stages.read_stages(finished)
     last = {(w, k) for w, ks in record["stages"][-1]["open"].items() for k in ks}
@@ -91,7 +92,7 @@ def test_a_spent_budget_ends_the_sweep_after_its_first_stage(cache, tmp_path):
     runner.start(sweep(target=0.001, budget_s=0.01), tmp_path / "run", progress=False)
     record = stages.read_stages(tmp_path / "run")
     assert len(record["stages"]) == 1 and record["end"].startswith("the time budget")
-    assert set(records.read_batches(tmp_path / "run")["process"]) == {0, 1, 2, 3}
+    assert set(runfolder.read_batches(tmp_path / "run")["process"]) == {0, 1, 2, 3}
 
 
 def test_a_sweep_cut_mid_stage_resumes_to_the_same_batches(finished, tmp_path):
@@ -106,13 +107,13 @@ def test_a_sweep_cut_mid_stage_resumes_to_the_same_batches(finished, tmp_path):
     kept = batches.loc[batches["process"] != last]
     kept.to_csv(run_dir / runfolder.BATCHES, index=False)
     stages.write_stages(run_dir, {"stages": record["stages"], "end": None})
-    run = records.read_run(run_dir)
-    records.write_run(run_dir, {**run, "n_batches": run["n_batches_most"]})  # as it was before the end
+    run = runfolder.read_run(run_dir)
+    runfolder.write_run(run_dir, {**run, "n_batches": run["n_batches_most"]})  # as it was before the end
     done = runner.resume(run_dir, progress=False)
     assert done.batches_run == len(batches) - len(kept) > 0
     assert set(runner.done_keys(run_dir)) == keys
     assert stages.read_stages(run_dir) == record  # the same end, decided the same way
-    assert records.read_run(run_dir) == records.read_run(finished)
+    assert runfolder.read_run(run_dir) == runfolder.read_run(finished)
 
 
 def test_an_ordinary_sweep_keeps_its_run_record_and_the_new_fields_round_trip():

@@ -15,8 +15,8 @@ import pandas as pd
 import pytest
 from test_runfolder import SLOW
 
-from tribench import ext
-from tribench.harness import analysis, records, runner
+from tribench import analysis, ext
+from tribench.harness import runfolder, runner
 from tribench.harness.plan import Sweep, plan
 from tribench.workloads.spec import PairSpec
 
@@ -58,20 +58,20 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
     out = tmp_path / "run"
     done = cli("sweep", "--out", str(out), *TINY, env=env)
     assert done.returncode == 0, done.stderr
-    run = records.read_run(out)
+    run = runfolder.read_run(out)
     sweep = Sweep.from_dict(run["sweep"])
     keys = keys_of(out)
     assert sorted(keys) == sorted(plan(sweep)) and len(keys) == 3 * 3 * 2
     assert run["margin"]["source"].startswith("default")
     assert set(run["isa"]) == {"moller_trumbore", "curless"}
     assert run["machine"]["build"]["flags"] and len(run["process_seeds"]) == 3
-    batches = records.read_batches(out)
+    batches = runfolder.read_batches(out)
     assert (batches["hits"] % batches["loops"] == 0).all()
     assert batches["warmup"].sum() == 3 * 2
-    peaks = records.read_processes(out)
+    peaks = runfolder.read_processes(out)
     assert sorted(peaks["phase"]) == ["end"] * 3 + ["start"] * 3
     assert (peaks["peak_gflops"] > 0).all()
-    checks = records.read_checks(out)  # every kernel x workload x process, checked once
+    checks = runfolder.read_checks(out)  # every kernel x workload x process, checked once
     assert len(checks) == 2 * 1 * 3 and (checks["disagreements"] == 0).all()
     assert (checks["rays"] > 0).all()
 
@@ -119,6 +119,7 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
     assert list(again.speedups["kernel"]) == ["moller_trumbore"]
 
 
+@pytest.mark.slow
 def test_sigkill_mid_sweep_then_resume_gives_exactly_the_planned_batches(tmp_path, env):
     # long enough batches (20 ms) that the kill lands inside a worker process
     args = SLOW
@@ -139,7 +140,7 @@ def test_sigkill_mid_sweep_then_resume_gives_exactly_the_planned_batches(tmp_pat
     os.killpg(proc.pid, signal.SIGKILL)  # the runner and its worker, mid-write or not
     proc.wait()
     partial = keys_of(killed)
-    sweep = Sweep.from_dict(records.read_run(killed)["sweep"])
+    sweep = Sweep.from_dict(runfolder.read_run(killed)["sweep"])
     assert 0 < len(partial) < sweep.n_batches
 
     resumed = cli("sweep", "--resume", str(killed), "--no-progress", env=env)
@@ -152,7 +153,7 @@ def test_sigkill_mid_sweep_then_resume_gives_exactly_the_planned_batches(tmp_pat
     assert cli("sweep", "--out", str(whole), *args, env=env).returncode == 0
     assert sorted(after) == sorted(keys_of(whole)) == sorted(plan(sweep))
     # a process cut in half finished in a second attempt, recorded as such
-    batches = records.read_batches(killed)
+    batches = runfolder.read_batches(killed)
     per_process = batches.groupby("process")["attempt"].nunique()
     assert per_process.max() <= 2
     # resuming a finished run runs nothing
@@ -191,7 +192,7 @@ def test_a_wrong_kernel_stops_the_sweep_naming_it(tmp_path, env):
     with pytest.raises(runner.SweepError, match="kernel 'curless' on workload pairs-.*checksum failed"):
         runner.start(sweep, tmp_path / "run", progress=False, worker=[sys.executable, str(faulty)])
     # the sweep stopped in the first process: no later process ran
-    assert set(records.read_batches(tmp_path / "run")["process"]) <= {0}
+    assert set(runfolder.read_batches(tmp_path / "run")["process"]) <= {0}
 
 
 @pytest.mark.parametrize(
@@ -221,6 +222,7 @@ def test_sweep_refuses_a_non_empty_out_dir(tmp_path, env):
     assert out.returncode == 2 and "not empty" in out.stderr
 
 
+@pytest.mark.slow
 def test_calibrate_writes_its_summary_and_the_user_margin(tmp_path, env):
     out = tmp_path / "cal"
     done = cli(
@@ -248,7 +250,7 @@ def test_calibrate_writes_its_summary_and_the_user_margin(tmp_path, env):
     # the next sweep uses it, and says so
     run = tmp_path / "run"
     assert cli("sweep", "--out", str(run), *TINY, env=env).returncode == 0
-    assert str(user) in records.read_run(run)["margin"]["source"]
+    assert str(user) in runfolder.read_run(run)["margin"]["source"]
 
 
 def test_a_time_interval_reaching_zero_leaves_the_peak_fraction_unbounded_above():
@@ -264,6 +266,6 @@ def test_a_time_interval_reaching_zero_leaves_the_peak_fraction_unbounded_above(
     processes = pd.DataFrame({"process": [0, 1, 2], "peak_gflops": [100.0] * 3, "peak_isa": ["avx2+fma"] * 3})
     rates = dict.fromkeys(ext.OP_CLASSES, 50.0)
     throughput = {"isa": "avx2", "peak_gflops": 100.0, "float32": rates, "float64": rates}
-    row = analysis._peak_columns(table, processes, {"w": "float32"}, throughput).iloc[0]
+    row = analysis.pipeline._peak_columns(table, processes, {"w": "float32"}, throughput).iloc[0]
     assert row["peak_fraction_ci_low"] > 0 and row["peak_fraction_ci_low"] <= row["peak_fraction"]
     assert row["peak_fraction_ci_high"] == np.inf

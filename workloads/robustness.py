@@ -1,6 +1,6 @@
 """The robustness suite's cases: rays aimed at the hard spots of ray-triangle tests, with their answers.
 
-``tribench validate`` (:mod:`tribench.harness.validate`) asks every kernel
+``tribench validate`` (:mod:`tribench.studies.validate`) asks every kernel
 these questions and judges the answers; this module only builds them. Each
 test's rays are a pure function of (seed, test name, size, precision): one
 ``numpy`` ``default_rng`` stream per test, so a test's rays do not depend on

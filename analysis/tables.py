@@ -2,12 +2,12 @@
 
 Every interval, slope, crossover, drift test, outlier label and variance
 component is a call into :mod:`tribench.stats`; this module selects,
-pairs and reshapes. :func:`tribench.harness.analysis.write_all` calls these
+pairs and reshapes. :func:`tribench.analysis.pipeline.write_all` calls these
 at the end of a sweep (and ``tribench stats``) and writes each result into
 the run folder (columns: :data:`tribench.harness.runfolder.FILES`), so the
 report reads them and computes nothing.
 
-Arguments are plain: the batches as :func:`~tribench.harness.records.read_batches`
+Arguments are plain: the batches as :func:`~tribench.harness.runfolder.read_batches`
 gives them, ``kernels`` and ``workload_ids`` in sweep order (those with
 batches), ``specs`` mapping a workload id to its spec dict (``run.json``).
 """
@@ -25,8 +25,7 @@ import numpy as np
 import pandas as pd
 
 from tribench import stats
-
-from . import runfolder
+from tribench.harness import runfolder
 
 __all__ = [
     "BAND_EDGES",
@@ -804,7 +803,7 @@ def bvh_table(
     """Per BVH workload and kernel: end-to-end rays/s, the work per ray, the leaf tests' share of trace
     time, and the speedup over a baseline beside the same speedup in brute force (``bvh.csv``).
 
-    ``batches`` and ``traversals`` as :mod:`~tribench.harness.records` reads them,
+    ``batches`` and ``traversals`` as :mod:`~tribench.harness.runfolder` reads them,
     ``wl`` the workload table, ``pp`` the per-process values (``per_process.csv``),
     ``kernels`` in sweep order, ``baseline`` the run's.
     Rays/s: per process the median over its timed batches of ``loops x rays /

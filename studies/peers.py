@@ -54,9 +54,9 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from tribench.analysis.peers import CONTENDERS, PEER_NAMES, summarise
 from tribench.common import Notice, UserError
-
-from . import runfolder
+from tribench.harness import runfolder
 
 if TYPE_CHECKING:
     import pandas as pd  # imported where used: `tribench --help` reads PeerDesign's defaults
@@ -82,17 +82,8 @@ __all__ = [
 #: The file in a run folder.
 PEERS = runfolder.PEERS
 
-#: Contender -> what is timed (the report's and the printout's words).
-CONTENDERS = {
-    "tribench": "tribench, kernel loop timed in C",
-    "tribench_call": "tribench, wall time of ext.intersect (BVH.intersect in a BVH)",
-    "trimesh": "trimesh ray_triangle (NumPy, rtree)",
-    "embree": "Embree via embreex",
-}
 #: How to install the peers (embreex, and rtree for trimesh's intersector).
 INSTALL = "pip install 'tribench[peers]'"
-#: The peers, in the order of the ratios.
-PEER_NAMES = ("trimesh", "embree")
 
 #: Pause before each timed call, seconds.
 PAUSE_S = 0.1
@@ -270,10 +261,9 @@ def measure(
     """
     import pandas as pd
 
+    from tribench.harness.runfolder import write_csv
+    from tribench.harness.runner import Progress, default_cpu
     from tribench.workloads import cache
-
-    from .records import write_csv
-    from .runner import Progress, default_cpu
 
     bvh = design.accel == "bvh"
     if bvh and kernel is not None and kernel not in candidate_kernels("bvh"):
@@ -330,11 +320,11 @@ def peers_path(out: str | Path) -> Path:
 
 
 def _run_worker(job: dict[str, Any], env: dict[str, str]) -> list[dict[str, Any]]:
-    from .runner import stderr_tail
+    from tribench.harness.runner import stderr_tail
 
     with tempfile.TemporaryFile("w+") as err:
         done = subprocess.run(
-            [sys.executable, "-m", "tribench.harness.peers", json.dumps(job)],
+            [sys.executable, "-m", "tribench.studies.peers", json.dumps(job)],
             stdout=subprocess.PIPE,
             stderr=err,
             text=True,
@@ -352,9 +342,8 @@ def _worker(job: dict[str, Any]) -> None:
     import trimesh
 
     from tribench import ext
+    from tribench.harness.machine import version
     from tribench.workloads import bvh_cache, cache
-
-    from .machine import version
 
     design = PeerDesign(**job["design"])
     cpu = job["cpu"]
@@ -460,83 +449,6 @@ def _worker(job: dict[str, Any]) -> None:
     sys.stdout.flush()
 
 
-def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """``(rates, ratios)`` of a ``peers.csv``.
-
-    ``rates``: per contender the geometric mean of rays/s over processes (each
-    process's own geometric mean over its repetitions), its t interval, the
-    processes behind it, the median CPU share (process CPU time / wall time:
-    1 on one core; below 1, other processes took the core), the median setup
-    time and the disagreements with the float64 reference. ``ratios``:
-    tribench's rays/s over each peer's (and tribench's C loop over its own
-    call), paired by process (:func:`tribench.stats.speedup`).
-    """
-    import pandas as pd
-
-    from tribench import stats
-
-    rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
-    if peers.empty or not rates_ok.all():
-        raise UserError(f"{PEERS} needs rows with positive, finite rays_per_s ({int((~rates_ok).sum())} are not)")
-    per_process = (
-        peers.assign(log_rate=np.log(peers["rays_per_s"]), share=peers["cpu_ns"] / peers["wall_ns"])
-        .groupby(["contender", "process"], sort=False)
-        .agg(
-            log_rate=("log_rate", "mean"),
-            share=("share", "median"),
-            setup_ns=("setup_ns", "median"),
-            rays=("rays", "first"),
-            differ=("differ", "max"),
-            differ_ambiguous=("differ_ambiguous", "max"),
-            implementation=("implementation", "first"),
-        )
-        .reset_index()
-    )
-    per_process["rays_per_s"] = np.exp(per_process["log_rate"])
-    order = [c for c in CONTENDERS if c in set(per_process["contender"])]
-    rates = []
-    for name in order:
-        g = per_process.loc[per_process["contender"] == name]
-        gm = stats.geometric_mean(g["rays_per_s"], confidence)
-        rates.append(
-            {
-                "contender": name,
-                "implementation": g["implementation"].iloc[0],
-                "rays": int(g["rays"].iloc[0]),
-                "rays_per_s": gm.mean,
-                "ci_low": gm.ci_low,
-                "ci_high": gm.ci_high,
-                "n_processes": gm.n,
-                "cpu_share": float(g["share"].median()),
-                "setup_ms": float(g["setup_ns"].median()) / 1e6,
-                "differ": int(g["differ"].max()),
-                "differ_ambiguous": int(g["differ_ambiguous"].max()),
-            }
-        )
-    wide = per_process.pivot(index="process", columns="contender", values="rays_per_s")
-    ratios = []
-    for a, b in (
-        [("tribench", p) for p in PEER_NAMES]
-        + [("tribench_call", p) for p in PEER_NAMES]
-        + [("tribench", "tribench_call")]
-    ):
-        if a in wide and b in wide:
-            pair = wide[[a, b]].dropna()
-            # rays/s a over b = time per ray of b over a's: a speedup with b as the baseline
-            s = stats.speedup(1 / pair[b], 1 / pair[a], confidence)
-            ratios.append(
-                {
-                    "contender": a,
-                    "over": b,
-                    "ratio": s.ratio,
-                    "ci_low": s.ci_low,
-                    "ci_high": s.ci_high,
-                    "n_processes": s.n,
-                }
-            )
-    return pd.DataFrame(rates), pd.DataFrame(ratios)
-
-
 def format_summary(rates: pd.DataFrame, ratios: pd.DataFrame) -> str:
     """The two tables of :func:`summarise` as text."""
     lines = [f"{'contender':<15}{'rays':>8}{'rays/s':>12}   {'95% CI':<24}{'CPU':>5}{'setup ms':>10}   implementation"]
@@ -553,11 +465,11 @@ def format_summary(rates: pd.DataFrame, ratios: pd.DataFrame) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """The worker's entry point: ``python -m tribench.harness.peers JOB_JSON``."""
+    """The worker's entry point: ``python -m tribench.studies.peers JOB_JSON``."""
     args = list(sys.argv[1:] if argv is None else argv)
     if len(args) != 1:
         print(
-            "usage: python -m tribench.harness.peers JOB_JSON (started by tribench.harness.peers.measure)",
+            "usage: python -m tribench.studies.peers JOB_JSON (started by tribench.studies.peers.measure)",
             file=sys.stderr,
         )
         return 2

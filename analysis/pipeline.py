@@ -45,10 +45,10 @@ import numpy as np
 import pandas as pd
 
 from tribench import stats
+from tribench.analysis import export
 from tribench.common import UserError, write_text
-
-from . import export, records, runfolder
-from .calibration import Margin
+from tribench.harness import runfolder
+from tribench.harness.margin import Margin
 
 __all__ = [
     "Analysis",
@@ -57,6 +57,7 @@ __all__ = [
     "write_tables",
     "write_all",
     "file_digest",
+    "reanalyse",
     "ESTIMATES",
     "SPEEDUPS",
     "ESTIMATE_COLUMNS",
@@ -114,9 +115,9 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
     margin : float, optional
         Equivalence margin; default the one recorded in ``run.json``.
     """
-    run = records.read_run(run_dir)
-    batches = records.read_batches(run_dir, run)
-    writer = records.live_writer(run_dir)
+    run = runfolder.read_run(run_dir)
+    batches = runfolder.read_batches(run_dir, run)
+    writer = runfolder.live_writer(run_dir)
     if writer is not None:
         print(
             f"tribench: note: {run_dir} is still being written by {writer}; these tables cover "
@@ -143,7 +144,7 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
         wid: spec["dtype"] for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True)
     }
     estimates = estimates.join(
-        _peak_columns(table, records.read_processes(run_dir, run), dtypes, run.get("throughput")),
+        _peak_columns(table, runfolder.read_processes(run_dir, run), dtypes, run.get("throughput")),
         on=["kernel", "workload_id"],
     )
     # against the baseline where it ran: a BVH workload runs only the kernels that can be a
@@ -177,8 +178,7 @@ def _peak_columns(
     ``peak_fraction_8lane``, counts every operation at the 8-lane FMA peak
     (:func:`tribench.harness.peak.lane_ops_per_ns`)."""
     from tribench import ext
-
-    from .peak import bound_from_mix, lane_ops_per_ns
+    from tribench.harness.peak import bound_from_mix, lane_ops_per_ns
 
     keys = ["kernel", "workload_id"]
     columns = [
@@ -251,8 +251,8 @@ def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
     """
     run_dir = Path(run_dir)
     paths = run_dir / ESTIMATES, run_dir / SPEEDUPS
-    records.write_csv(analysis.estimates, paths[0])
-    records.write_csv(analysis.speedups, paths[1])
+    runfolder.write_csv(analysis.estimates, paths[0])
+    runfolder.write_csv(analysis.speedups, paths[1])
     return paths
 
 
@@ -349,29 +349,6 @@ def _pictures(run_dir: Path, wids: list[str], workloads: dict[str, Any]) -> dict
     return out
 
 
-def _validation(run_dir: Path, kernels: list[str], dtypes: list[str], quick: bool) -> str:
-    """``validate.csv`` for the run's kernels and precisions, made if missing; a sentence on where it came from."""
-    from tribench import ext
-
-    from . import validate
-
-    path = run_dir / runfolder.VALIDATE
-    if path.is_file():
-        return f"Read from {runfolder.VALIDATE} in the run folder."
-    known = [k for k in kernels if k in ext.kernel_names(internal=True)]
-    try:
-        if not known:
-            raise UserError("none of the run's kernels is in this build of the extension")
-        df = validate.run(known, dtypes, quick=quick, progress=False)  # a quiet step of the analysis
-    except Exception as exc:  # the suite must never stop the analysis: the report shows why
-        return f"The robustness suite could not run: {type(exc).__name__}: {exc}"
-    records.write_csv(df, path)
-    return (
-        f"Read from {runfolder.VALIDATE} in the run folder, made by the analysis step ({df.attrs['size']} "
-        f"sizes, seed {df.attrs['seed']}, {df.attrs['seconds']:.1f} s)."
-    )
-
-
 def _read_validation(run_dir: Path) -> pd.DataFrame | None:
     """``validate.csv`` if it is there in today's columns (None otherwise: the bands table then has no robustness)."""
     path = run_dir / runfolder.VALIDATE
@@ -384,7 +361,7 @@ def _read_validation(run_dir: Path) -> pd.DataFrame | None:
 
 def _peer_tables(run_dir: Path) -> tuple[dict[str, pd.DataFrame], str]:
     """``peer_rates.csv`` and ``peer_ratios.csv`` from ``peers.csv`` (none without it), and a sentence."""
-    from . import peers
+    from .peers import summarise as summarise_peers
 
     path = run_dir / runfolder.PEERS
     if not path.is_file():
@@ -394,7 +371,7 @@ def _peer_tables(run_dir: Path) -> tuple[dict[str, pd.DataFrame], str]:
             header = f.readline(65536).rstrip("\r\n").split(",")
         if header != list(runfolder.FILES[runfolder.PEERS]):
             return {}, f"{runfolder.PEERS} is not in today's columns (an older tribench wrote it)"
-        rates, ratios = peers.summarise(pd.read_csv(path))
+        rates, ratios = summarise_peers(pd.read_csv(path))
     except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError, KeyError, IndexError) as exc:
         return {}, f"{runfolder.PEERS} cannot be used ({type(exc).__name__}: {exc})"
     return {
@@ -404,7 +381,7 @@ def _peer_tables(run_dir: Path) -> tuple[dict[str, pd.DataFrame], str]:
 
 
 def write_all(
-    run_dir: str | Path, baseline: str | None = None, margin: float | None = None, validate_quick: bool = False
+    run_dir: str | Path, baseline: str | None = None, margin: float | None = None, validate_note: str | None = None
 ) -> Derived:
     """Write every derived table of ``run_dir``, its workload pictures and ``analysis.json``.
 
@@ -413,12 +390,12 @@ def write_all(
     workloads every table of :data:`~tribench.harness.runfolder.DERIVED`
     (columns: :data:`~tribench.harness.runfolder.FILES`). Workloads come from
     the cache, or are made from their spec if it lacks them; ``validate.csv``
-    is made by the robustness suite only when the folder has none; the peer
+    (a measurement: :mod:`tribench.studies.validate`) is read when present; the peer
     tables only when it has ``peers.csv``. ``analysis.json`` is written last:
     it records the SHA-256 of ``batches.csv`` and ``peers.csv`` the tables were
     made from, so a reader can tell stale tables from current ones. Before it,
     ``google_benchmark.json``: the estimates and speedups in Google Benchmark's
-    JSON format (:mod:`~tribench.harness.export`).
+    JSON format (:mod:`~tribench.analysis.export`).
 
     Parameters
     ----------
@@ -426,26 +403,26 @@ def write_all(
         A run folder (``run.json``, ``batches.csv``).
     baseline, margin
         As for :func:`analyse`.
-    validate_quick : bool
-        Run the robustness suite at its quick sizes when ``validate.csv`` is missing.
+    validate_note : str, optional
+        Where ``validate.csv`` came from, as the robustness suite's study said
+        (:func:`tribench.studies.finish.finish`); by default, whether the folder has it.
 
     Raises
     ------
     UserError
         The folder cannot be read (``file:line``), has no timed batch, or cannot be written.
     """
-    from . import tables as t
+    from tribench.analysis import tables as t
 
     run_dir = Path(run_dir)
-    batches_digest = file_digest(run_dir / records.BATCHES)
+    batches_digest = file_digest(run_dir / runfolder.BATCHES)
     result = analyse(run_dir, baseline=baseline, margin=margin)
-    run = records.read_run(run_dir)
-    batches = records.read_batches(run_dir, run)
+    run = runfolder.read_run(run_dir)
+    batches = runfolder.read_batches(run_dir, run)
     present_k, present_w = set(batches["kernel"]), set(batches["workload_id"])
     kernels = [k for k in run["sweep"]["kernels"] if k in present_k]
     wids = [w for w in run["sweep"]["workload_ids"] if w in present_w]
     specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
-    dtypes = sorted(set(batches["dtype"]))
 
     workloads, sources = _workloads(run, wids)
     wl = t.workload_table(specs, wids, workloads, sources)
@@ -472,13 +449,15 @@ def write_all(
     }
     tables[runfolder.ALGORITHMS] = t.algorithm_table(tables[runfolder.RANKING], pp, result.margin.value)
     # the bands table shows each kernel's robustness beside its speed: validate.csv first
-    validate_note = _validation(run_dir, kernels, dtypes, validate_quick)
+    if validate_note is None:
+        present = (run_dir / runfolder.VALIDATE).is_file()
+        validate_note = f"Read from {runfolder.VALIDATE} in the run folder." if present else None
     tables[runfolder.BANDS] = t.band_table(
         est, pp, specs, result.baseline, result.margin.value, _read_validation(run_dir)
     )
     tables[runfolder.BVH] = t.bvh_table(
         batches,
-        records.read_traversals(run_dir, run),
+        runfolder.read_traversals(run_dir, run),
         wl,
         specs,
         pp,
@@ -491,7 +470,7 @@ def write_all(
     for name, frame in tables.items():
         if list(frame.columns) != list(runfolder.FILES[name]):  # a bug: the table and the contract disagree
             raise AssertionError(f"{name}: columns {list(frame.columns)} are not runfolder.FILES[{name!r}]")
-        records.write_csv(frame, run_dir / name)
+        runfolder.write_csv(frame, run_dir / name)
     pictures = _pictures(run_dir, wids, workloads)
     margin_record = {"value": result.margin.value, "source": result.margin.source}
     write_text(

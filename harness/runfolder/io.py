@@ -13,7 +13,7 @@
     RUN_DIR/traversals.csv  one row per batch on a BVH workload: its traversal's counts
                             and its null-leaf twin's time (:data:`TRAVERSAL_COLUMNS`)
     RUN_DIR/estimates.csv ... analysis.json   derived by the analysis step
-                            (:mod:`tribench.harness.analysis`)
+                            (:mod:`tribench.analysis.pipeline`)
     RUN_DIR/.lock           held by the one process writing the folder (:func:`writer_lock`)
 
 One writer per run folder: a sweep or a resume holds an exclusive ``flock``
@@ -62,7 +62,8 @@ from typing import Any
 
 from tribench.common import UserError, atomic_write, write_text
 
-from . import runfolder
+from . import schema
+from .schema import BATCHES, CHECKS, LOCK, PROCESSES, RUN, TRAVERSALS
 
 __all__ = [
     "BATCH_COLUMNS",
@@ -70,6 +71,7 @@ __all__ = [
     "PROCESS_COLUMNS",
     "BatchRow",
     "CheckRow",
+    "MAX_ROW_BYTES",
     "MissingRunFile",
     "ProcessRow",
     "RowWriter",
@@ -88,13 +90,6 @@ __all__ = [
     "write_run",
     "writer_lock",
 ]
-
-BATCHES = runfolder.BATCHES
-PROCESSES = runfolder.PROCESSES
-CHECKS = runfolder.CHECKS
-TRAVERSALS = runfolder.TRAVERSALS
-RUN = runfolder.RUN
-LOCK = runfolder.LOCK
 
 
 def default_run_dir(kind: str = "") -> str:
@@ -244,8 +239,8 @@ for _name, _columns in (
     (PROCESSES, PROCESS_COLUMNS),
     (TRAVERSALS, TRAVERSAL_COLUMNS),
 ):
-    if _columns != tuple(runfolder.FILES[_name]):  # a bug: the row type and the contract disagree
-        raise AssertionError(f"{_name}: the row dataclass's fields are not runfolder.FILES[{_name!r}]")
+    if _columns != tuple(schema.FILES[_name]):  # a bug: the row type and the contract disagree
+        raise AssertionError(f"{_name}: the row dataclass's fields are not schema.FILES[{_name!r}]")
 
 
 def _csv_line(values: Sequence[Any]) -> str:
@@ -643,7 +638,7 @@ def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
         _unique(("process", "workload_id", "round", "position", "kernel"), "the batch"),
     ]
     if run is not None:
-        from .plan import Sweep, plan
+        from tribench.harness.plan import Sweep, plan
 
         planned = {
             (k.process, k.workload_id, k.round, k.position, k.kernel) for k in plan(Sweep.from_dict(run["sweep"]))
@@ -758,9 +753,8 @@ _RUN_FIELDS: dict[str, type | tuple[type, ...]] = {
 
 def read_run(run_dir: str | Path) -> dict[str, Any]:
     """``run.json`` of a run, checked: a JSON object with a valid sweep, run id, seeds and margin."""
+    from tribench.harness.plan import Sweep
     from tribench.stats import check_margin
-
-    from .plan import Sweep
 
     run_dir = Path(run_dir)
     path = run_dir / RUN

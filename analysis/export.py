@@ -43,7 +43,7 @@ from typing import Any
 
 import pandas as pd
 
-from . import runfolder
+from tribench.harness import runfolder
 
 __all__ = ["google_benchmark", "dumps", "JSON_SCHEMA_VERSION"]
 

@@ -14,7 +14,9 @@ from typing import TextIO
 
 import pandas as pd
 
-from . import analysis, runfolder, runner
+from tribench.harness import runfolder, runner
+
+from .finish import finish
 
 __all__ = ["MainResult", "run"]
 
@@ -51,7 +53,7 @@ def run(
     The default sweep (:func:`tribench.harness.plan.default_sweep`) in fresh
     pinned worker processes, then tribench's fastest kernel against its peers
     when one is installed (their failure never stops the job), then the
-    analysis step (:func:`tribench.harness.analysis.write_all`): estimates,
+    analysis step (:func:`tribench.studies.finish.finish`): estimates,
     speedups, the robustness suite and every table the report reads. The HTML
     report is the reports package's job: ``tribench.reports.write_report(out)``.
 
@@ -84,15 +86,15 @@ def run(
     --------
     In a notebook (a minute or so with ``quick=True``)::
 
-        from tribench.harness.main_job import run
+        from tribench.studies.main import run
         result = run("runs/notebook", quick=True)
         result.speedups.query("verdict == 'faster'")[["workload", "kernel", "ratio"]]
     """
-    from . import duration, records
-    from .plan import default_sweep
+    from tribench.harness import duration
+    from tribench.harness.plan import default_sweep
 
     sweep = default_sweep(quick=quick)
-    records.check_new_run_dir(Path(out))  # before the estimate, which builds the workloads
+    runfolder.check_new_run_dir(Path(out))  # before the estimate, which builds the workloads
     _say(
         log,
         f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads -> {out}",
@@ -114,7 +116,7 @@ def run(
     done = runner.start(sweep, out, progress=progress)
     _say(log, f"{done.batches_run} batches run in {done.elapsed_s:.1f} s -> {done.run_dir}")
     peer_rows = _run_peers(out, quick=quick, progress=progress, log=log) if peers else None
-    derived = analysis.write_all(out, validate_quick=quick)  # quick: the robustness suite at its quick sizes
+    derived = finish(out, quick=quick)  # quick: the robustness suite at its quick sizes
     val_path = Path(out) / runfolder.VALIDATE
     val = (
         pd.read_csv(val_path) if val_path.is_file() else pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE]))
@@ -137,8 +139,8 @@ def _seconds(seconds: float) -> str:
 
 def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO | None = None) -> pd.DataFrame | None:
     """The report's peers, when one is installed; their failure never stops the run."""
-    from . import peers
-    from .runner import SweepInterrupted
+    from tribench.harness.runner import SweepInterrupted
+    from tribench.studies import peers
 
     if not any(peers.available().values()):
         _say(log, f"peers: none installed ({peers.INSTALL}); the report has no peers")

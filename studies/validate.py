@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from tribench import ext
+from tribench.harness import runfolder
 from tribench.workloads.geometry import dot, triangle_normals
 from tribench.workloads.robustness import (
     AIM_MARGIN,
@@ -59,8 +60,6 @@ from tribench.workloads.robustness import (
     grid_topology,
     sphere_triangles,
 )
-
-from . import runfolder
 
 __all__ = [
     "AIM_MARGIN",
@@ -285,7 +284,7 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=T
     """
     import pandas as pd
 
-    from .runner import Progress
+    from tribench.harness.runner import Progress
 
     kernels = list(kernels or ext.kernel_names())
     for k in kernels:

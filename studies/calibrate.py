@@ -24,11 +24,11 @@ from pathlib import Path
 from typing import Any
 
 from tribench.common import UserError, write_text
-from tribench.stats import DEFAULTS, MAX_MARGIN, check_margin
 
 # reading the margin is below the runner, which uses it; calibrating is above it
-from .margin import CALIBRATION, Margin, latest_margin, user_calibration_path
-from .plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
+from tribench.harness.margin import CALIBRATION, Margin, latest_margin, user_calibration_path
+from tribench.harness.plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
+from tribench.stats import DEFAULTS, MAX_MARGIN, check_margin
 
 __all__ = [
     "AA_COPIES",
@@ -102,12 +102,11 @@ def calibrate(
     save : bool
         Also write the user-level calibration file.
     """
+    from tribench.harness import runfolder, runner
+    from tribench.harness.machine import cpu_model
+    from tribench.harness.plan import Sweep
     from tribench.stats import aa_summary
     from tribench.workloads.spec import PairSpec
-
-    from . import records, runner
-    from .machine import cpu_model
-    from .plan import Sweep
 
     if kernel not in AA_COPIES:
         raise UserError(f"no A/A copy of {kernel!r}; kernels with one: {', '.join(AA_COPIES)}")
@@ -132,7 +131,7 @@ def calibrate(
         progress=progress,
         extra={"calibration": {"kernel": kernel, "copy": copy, "processes_per_experiment": processes}},
     )
-    results = aa_speedups(records.read_batches(run_dir), kernel, copy, processes)
+    results = aa_speedups(runfolder.read_batches(run_dir), kernel, copy, processes)
     summary = aa_summary(results)
     record = {
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),

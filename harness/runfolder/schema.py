@@ -2,8 +2,8 @@
 
 The run folder is the only thing measuring hands to reporting. This module
 is where its names and columns are written, once; it imports nothing, so
-every stage reads it (:mod:`tribench.harness.records` writes and checks the
-measured files, :mod:`tribench.harness.analysis` writes the derived ones,
+every stage reads it (:mod:`tribench.harness.runfolder` writes and checks the
+measured files, :mod:`tribench.analysis.pipeline` writes the derived ones,
 :mod:`tribench.reports` reads both and renders :data:`FILES` as column docs).
 
 Every CSV is tidy: one row per observation, snake_case names, raw units
@@ -20,10 +20,10 @@ Who writes what:
   sequential sweep;
   ``peers.csv`` by ``tribench peers --out RUN_DIR`` (or ``tribench run``);
 * derived, by the analysis step at the end of ``tribench run`` and by
-  ``tribench stats RUN_DIR`` on demand (:func:`tribench.harness.analysis.write_all`):
+  ``tribench stats RUN_DIR`` on demand (:func:`tribench.analysis.pipeline.write_all`):
   every name in :data:`DERIVED`, the pictures in :data:`PICTURES_DIR`,
   :data:`GOOGLE_BENCHMARK` (the estimates and speedups with their intervals and
-  the machine record, in Google Benchmark's JSON format: :mod:`~tribench.harness.export`)
+  the machine record, in Google Benchmark's JSON format: :mod:`~tribench.analysis.export`)
   and :data:`ANALYSIS`, the record of what the tables were made from;
 * rendered, by ``tribench report`` (:data:`REPORT`, :data:`SWEEP_FILE`),
   which reads everything above and changes none of it.
@@ -32,7 +32,9 @@ Who writes what:
 from __future__ import annotations
 
 __all__ = [
+    "ALGORITHMS",
     "ANALYSIS",
+    "BANDS",
     "BATCHES",
     "BATCH_LABELS",
     "BVH",
@@ -55,6 +57,7 @@ __all__ = [
     "PER_PROCESS",
     "PICTURES_DIR",
     "PROCESSES",
+    "RANKING",
     "REPORT",
     "RUN",
     "SEED",
@@ -119,7 +122,7 @@ BVH = "bvh.csv"
 PEER_RATES = "peer_rates.csv"
 PEER_RATIOS = "peer_ratios.csv"
 #: The estimates and speedups with their intervals and the machine record, in Google Benchmark's
-#: JSON format (``context`` + ``benchmarks``; :mod:`tribench.harness.export`), for tools that read it.
+#: JSON format (``context`` + ``benchmarks``; :mod:`tribench.analysis.export`), for tools that read it.
 GOOGLE_BENCHMARK = "google_benchmark.json"
 #: What the derived tables were made from (batches.csv's digest, baseline, margin, tables, pictures).
 ANALYSIS = "analysis.json"
@@ -285,7 +288,7 @@ _VALIDATE: dict[str, str] = {
     "kernel": "kernel name, as registered in the C extension",
     "dtype": "precision of every array: float32 or float64",
     "isa": "instruction set the kernel ran with (scalar kernels: scalar)",
-    "test": "robustness test (see tribench.harness.validate)",
+    "test": "robustness test (see tribench.studies.validate)",
     "rays": "rays asked (count, after dropping rays rounding made ambiguous)",
     "failures": "cracks, double hits, misses, wrong answers or hits, as the test defines (count)",
     "rate": "failures / rays (fraction)",

@@ -42,8 +42,7 @@ import pandas as pd
 
 from tribench import stats
 from tribench.common import UserError
-
-from . import records, runfolder
+from tribench.harness import runfolder
 
 __all__ = [
     "BASELINE",
@@ -189,20 +188,19 @@ def run_seed(
     all_kernels : every public kernel, not only the seed's and the best forms (:func:`seed_kernels`)
     log : where one-line notes go (default: ``sys.stderr`` when called, so a redirection holds)
     """
+    from tribench.analysis.pipeline import analyse, write_tables
+    from tribench.harness import runner
+    from tribench.harness.plan import Sweep
     from tribench.workloads import cache
     from tribench.workloads.seed_workload import RAY_KINDS, EmptyStream, SeedSpec
     from tribench.workloads.spec import workload_id
-
-    from . import runner
-    from .analysis import analyse, write_tables
-    from .plan import Sweep
 
     t0 = time.monotonic()
     log = sys.stderr if log is None else log
     design = QUICK if quick else FULL
     size, sample = size or design.size, sample or design.sample
     out = Path(out)
-    records.check_new_run_dir(out)
+    runfolder.check_new_run_dir(out)
     specs: list = []
     info: dict[str, dict[str, Any]] = {}
     scenes = [str(s) for s in (scenes or tuple(PAPER))]
@@ -264,10 +262,10 @@ def run_seed(
         if any(v["scene"] == labels[scene] for v in info.values()):
             print(f"pictures: {labels[scene]}, curless_seed and moller_seed at {size}x{size}", file=log)
             pictures.append(make_pictures(scene, labels[scene], size, out))
-    records.write_csv(pd.DataFrame(pictures, columns=list(COLUMNS[PICTURES_CSV])), out / PICTURES_CSV)
+    runfolder.write_csv(pd.DataFrame(pictures, columns=list(COLUMNS[PICTURES_CSV])), out / PICTURES_CSV)
     tables = seed_tables(out)
     for name in (SEED_CSV, KINDS_CSV, WORKLOADS_CSV):
-        records.write_csv(tables[name], out / name)
+        runfolder.write_csv(tables[name], out / name)
     tables[PICTURES_CSV] = pd.read_csv(out / PICTURES_CSV)
     return SeedResult(out, tables, time.monotonic() - t0)
 
@@ -284,8 +282,8 @@ TABLES_S = 10.0
 def _expected(sweep: Any, info: Mapping[str, Mapping[str, Any]], size: int) -> str:
     """The line said before the sweep starts: the sweep's forecast (:mod:`.duration`), then the pictures'
     (``info``: each workload's ``stream_tests`` and ``sample_tests``)."""
-    from . import duration
-    from .runner import about
+    from tribench.harness import duration
+    from tribench.harness.runner import about
 
     tests, pass_s = duration.measure_passes(sweep)
     sweep_estimate = duration.model(sweep, tests, pass_s)
@@ -488,7 +486,7 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
     """``seed.csv``, ``seed_kinds.csv`` and ``seed_workloads.csv`` of a seed run, from its files alone."""
     from tribench.workloads.seed_workload import RAY_KINDS
 
-    run = records.read_run(run_dir)
+    run = runfolder.read_run(run_dir)
     scene_order = {s: i for i, s in enumerate(run["seed_replay"]["scenes"])}
     info = dict(
         sorted(
@@ -497,7 +495,7 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
         )
     )
     kernels = run["sweep"]["kernels"]
-    batches = records.read_batches(run_dir)
+    batches = runfolder.read_batches(run_dir)
     pp = stats.per_process(batches)
     timed = batches.loc[~batches["warmup"]]
     passes = (timed["tests"] / timed["loops"]).groupby([timed["kernel"], timed["workload_id"]]).median()

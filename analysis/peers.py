@@ -1,0 +1,102 @@
+"""The peers' figures: rays/s per contender and tribench's ratios over each peer, from ``peers.csv``.
+
+The peers are timed by :mod:`tribench.studies.peers`; this module only
+summarises what they wrote (the analysis step's peer tables, and the study's
+printout).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from tribench import stats
+from tribench.common import UserError
+from tribench.harness import runfolder
+
+__all__ = ["CONTENDERS", "PEER_NAMES", "summarise"]
+
+#: Contender -> what is timed (the report's and the printout's words).
+CONTENDERS = {
+    "tribench": "tribench, kernel loop timed in C",
+    "tribench_call": "tribench, wall time of ext.intersect (BVH.intersect in a BVH)",
+    "trimesh": "trimesh ray_triangle (NumPy, rtree)",
+    "embree": "Embree via embreex",
+}
+#: The peers, in the order of the ratios.
+PEER_NAMES = ("trimesh", "embree")
+
+
+def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """``(rates, ratios)`` of a ``peers.csv``.
+
+    ``rates``: per contender the geometric mean of rays/s over processes (each
+    process's own geometric mean over its repetitions), its t interval, the
+    processes behind it, the median CPU share (process CPU time / wall time:
+    1 on one core; below 1, other processes took the core), the median setup
+    time and the disagreements with the float64 reference. ``ratios``:
+    tribench's rays/s over each peer's (and tribench's C loop over its own
+    call), paired by process (:func:`tribench.stats.speedup`).
+    """
+    rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
+    if peers.empty or not rates_ok.all():
+        raise UserError(
+            f"{runfolder.PEERS} needs rows with positive, finite rays_per_s ({int((~rates_ok).sum())} are not)"
+        )
+    per_process = (
+        peers.assign(log_rate=np.log(peers["rays_per_s"]), share=peers["cpu_ns"] / peers["wall_ns"])
+        .groupby(["contender", "process"], sort=False)
+        .agg(
+            log_rate=("log_rate", "mean"),
+            share=("share", "median"),
+            setup_ns=("setup_ns", "median"),
+            rays=("rays", "first"),
+            differ=("differ", "max"),
+            differ_ambiguous=("differ_ambiguous", "max"),
+            implementation=("implementation", "first"),
+        )
+        .reset_index()
+    )
+    per_process["rays_per_s"] = np.exp(per_process["log_rate"])
+    order = [c for c in CONTENDERS if c in set(per_process["contender"])]
+    rates = []
+    for name in order:
+        g = per_process.loc[per_process["contender"] == name]
+        gm = stats.geometric_mean(g["rays_per_s"], confidence)
+        rates.append(
+            {
+                "contender": name,
+                "implementation": g["implementation"].iloc[0],
+                "rays": int(g["rays"].iloc[0]),
+                "rays_per_s": gm.mean,
+                "ci_low": gm.ci_low,
+                "ci_high": gm.ci_high,
+                "n_processes": gm.n,
+                "cpu_share": float(g["share"].median()),
+                "setup_ms": float(g["setup_ns"].median()) / 1e6,
+                "differ": int(g["differ"].max()),
+                "differ_ambiguous": int(g["differ_ambiguous"].max()),
+            }
+        )
+    wide = per_process.pivot(index="process", columns="contender", values="rays_per_s")
+    ratios = []
+    for a, b in (
+        [("tribench", p) for p in PEER_NAMES]
+        + [("tribench_call", p) for p in PEER_NAMES]
+        + [("tribench", "tribench_call")]
+    ):
+        if a in wide and b in wide:
+            pair = wide[[a, b]].dropna()
+            # rays/s a over b = time per ray of b over a's: a speedup with b as the baseline
+            s = stats.speedup(1 / pair[b], 1 / pair[a], confidence)
+            ratios.append(
+                {
+                    "contender": a,
+                    "over": b,
+                    "ratio": s.ratio,
+                    "ci_low": s.ci_low,
+                    "ci_high": s.ci_high,
+                    "n_processes": s.n,
+                }
+            )
+    return pd.DataFrame(rates), pd.DataFrame(ratios)
