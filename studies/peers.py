@@ -57,6 +57,7 @@ import numpy as np
 from tribench.analysis.peers import CONTENDERS, PEER_NAMES, summarise
 from tribench.common import Notice, UserError
 from tribench.harness import runfolder
+from tribench.harness.runfolder.rows import PeerRow
 
 if TYPE_CHECKING:
     import pandas as pd  # imported where used: `tribench --help` reads PeerDesign's defaults
@@ -145,31 +146,8 @@ class PeerDesign:
         return cls(width=256, height=256, processes=3, reps=2, trimesh_rays=2048, choice_rays=2048, choice_rounds=3)
 
 
-@dataclass
-class PeerRow:
-    """One timed call: a row of ``peers.csv``."""
-
-    process: int
-    rep: int
-    position: int
-    contender: str
-    implementation: str
-    kernel: str
-    workload_id: str
-    workload: str
-    rays: int
-    elapsed_ns: int
-    wall_ns: int
-    cpu_ns: int
-    rays_per_s: float
-    setup_ns: int
-    differ: int
-    differ_ambiguous: int
-    cpu: int
-
-
-#: Columns of ``peers.csv``, in file order (documented in tribench.reports.columns).
-COLUMNS = tuple(PeerRow.__dataclass_fields__)
+#: Columns of ``peers.csv``, in file order (its row type: runfolder.rows.PeerRow).
+COLUMNS = tuple(runfolder.FILES[runfolder.PEERS])
 
 
 def available() -> dict[str, str | None]:

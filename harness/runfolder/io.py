@@ -37,8 +37,8 @@ A UTF-8 byte-order mark and CRLF line ends (an editor's) change no value
 and are accepted.
 
 Every file name and column list is defined in :mod:`tribench.harness.runfolder`;
-the row dataclasses here give the measured files' types, and the module checks
-on import that their fields are those columns.
+the measured files' rows and their types are the dataclasses of
+:mod:`tribench.harness.runfolder.rows`, which the schema's columns are made from.
 """
 
 from __future__ import annotations
@@ -46,23 +46,19 @@ from __future__ import annotations
 import csv
 import datetime as _dt
 import errno
-import fcntl
 import io
 import json
 import os
-import socket
 import stat
-import sys
-import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
-from dataclasses import astuple, dataclass, fields
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import astuple, fields
 from pathlib import Path
 from typing import Any
 
 from tribench.common import UserError, atomic_write, write_text
 
-from . import schema
+from .lock import live_writer, writer_lock
+from .rows import BatchRow, CheckRow, ProcessRow, TraversalRow
 from .schema import BATCHES, CHECKS, LOCK, PROCESSES, RUN, TRAVERSALS
 
 __all__ = [
@@ -116,131 +112,10 @@ class MissingRunFile(UserError, FileNotFoundError):
     """A run folder, or a file in it, is missing (a UserError, and a FileNotFoundError as before)."""
 
 
-@dataclass(frozen=True)
-class BatchRow:
-    """One timed batch, as stored (columns in this order).
-
-    ``round < 0`` and ``warmup`` mark warm-up batches; ``attempt`` counts the
-    worker processes that ran batches of this ``process`` index (0 unless the
-    run was resumed in the middle of that process). ``steal_ticks`` is the
-    machine's steal time during the batch, from ``/proc/stat`` (-1 when not
-    readable).
-    """
-
-    run_id: str
-    process: int
-    round: int
-    position: int
-    kernel: str
-    workload_id: str
-    dtype: str
-    mode: str
-    warmup: bool
-    loops: int
-    tests: int
-    elapsed_ns: int
-    start_ns: int
-    invol_ctx_switches: int
-    hits: int
-    t_sum: float
-    cpu: int
-    isa: str
-    attempt: int
-    steal_ticks: int
-
-
-@dataclass(frozen=True)
-class ProcessRow:
-    """One FMA peak probe of one worker process (``phase`` is start or end).
-
-    The layout fields record how this process's memory layout was varied:
-    ``env_pad_bytes`` of environment padding and ``dummy_allocs`` small
-    allocations made before the workload's arrays were copied.
-    """
-
-    run_id: str
-    process: int
-    attempt: int
-    phase: str
-    pid: int
-    cpu: int
-    seed: int
-    env_pad_bytes: int
-    dummy_allocs: int
-    peak_gflops: float
-    peak_flops: float
-    peak_elapsed_ns: int
-    peak_isa: str
-    start_ns: int
-
-
-@dataclass(frozen=True)
-class CheckRow:
-    """How one kernel's answers on one workload compare with the reference.
-
-    Written once per kernel, workload and worker process, before any batch:
-    ``disagreements`` counts rays answered differently from the float64
-    reference, of which ``ambiguous_disagreements`` fall on the
-    ``ambiguous_rays`` a finite-precision kernel may answer either way.
-    ``hits`` and ``t_sum`` are the kernel's own one-pass checksum.
-    """
-
-    run_id: str
-    process: int
-    attempt: int
-    workload_id: str
-    kernel: str
-    rays: int
-    ambiguous_rays: int
-    disagreements: int
-    ambiguous_disagreements: int
-    hits: int
-    t_sum: float
-
-
-@dataclass(frozen=True)
-class TraversalRow:
-    """What one batch on a BVH workload did inside the tree, and its null-leaf twin.
-
-    The key (``process``, ``workload_id``, ``round``, ``position``,
-    ``kernel``) is its row's in ``batches.csv``. The counts are summed over
-    every ray of every loop; ``null_elapsed_ns`` times the same rays, loops
-    and tree with the leaf test replaced by nothing (each ray's ``t_max`` at
-    the kernel's own hit), run just before or just after the batch
-    (``null_first``), so ``1 - null / real`` is the leaf tests' share.
-    """
-
-    run_id: str
-    process: int
-    attempt: int
-    round: int
-    position: int
-    kernel: str
-    workload_id: str
-    warmup: bool
-    rays: int
-    nodes: int
-    box_tests: int
-    leaves: int
-    triangle_tests: int
-    null_elapsed_ns: int
-    null_nodes: int
-    null_first: bool
-
-
 BATCH_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(BatchRow))
 CHECK_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(CheckRow))
 PROCESS_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(ProcessRow))
 TRAVERSAL_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(TraversalRow))
-
-for _name, _columns in (
-    (BATCHES, BATCH_COLUMNS),
-    (CHECKS, CHECK_COLUMNS),
-    (PROCESSES, PROCESS_COLUMNS),
-    (TRAVERSALS, TRAVERSAL_COLUMNS),
-):
-    if _columns != tuple(schema.FILES[_name]):  # a bug: the row type and the contract disagree
-        raise AssertionError(f"{_name}: the row dataclass's fields are not schema.FILES[{_name!r}]")
 
 
 def _csv_line(values: Sequence[Any]) -> str:
@@ -329,105 +204,6 @@ def repair_csv(path: str | Path) -> bool:
 
 
 # ------------------------------------------------------------ one writer
-
-
-def _holder(fd: int) -> dict[str, Any] | None:
-    """What the lock file says about the process that holds (or held) it; None if empty or unreadable."""
-    unknown = {"pid": "?", "host": "?", "since": "?"}
-    try:
-        data = os.pread(fd, 4096, 0)
-        if not data.strip():
-            return None
-        holder = json.loads(data.decode())
-    except (OSError, ValueError):
-        return unknown
-    return holder if isinstance(holder, dict) else unknown
-
-
-def _describe(holder: Mapping[str, Any]) -> str:
-    return f"process {holder.get('pid', '?')} on {holder.get('host', '?')} (since {holder.get('since', '?')})"
-
-
-@contextmanager
-def writer_lock(run_dir: str | Path) -> Iterator[None]:
-    """Hold the run folder's one-writer lock for the body; raise a UserError if a live process holds it.
-
-    An exclusive ``flock`` on ``RUN_DIR/.lock``, which the kernel releases
-    when the holder dies, however it dies. The holder writes its pid, host
-    and start time into the file for the refusal message and empties it
-    on a clean release; a non-empty file found unlocked was left by a
-    killed writer, whose lock is taken over, saying so on stderr. The lock
-    file is never removed (removing it would let two writers lock two
-    different files).
-    """
-    run_dir = Path(run_dir)
-    path = run_dir / LOCK
-    try:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC, 0o666)
-    except OSError as exc:
-        raise UserError(f"cannot write to the run folder {run_dir} ({path}: {exc.strerror})") from None
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = _holder(fd)
-            for _ in range(50):  # a holder writes its record just after it locks: give it a moment
-                if holder:
-                    break
-                time.sleep(0.002)
-                holder = _holder(fd)
-            holder = holder or {}
-            raise UserError(
-                f"{run_dir} is being written by {_describe(holder)}: one writer per run folder; "
-                f"wait for it to finish, or stop process {holder.get('pid', '?')}"
-            ) from None
-        except OSError as exc:
-            raise UserError(f"cannot lock {path}: {exc.strerror} (a file system without locks?)") from None
-        previous = _holder(fd)
-        if previous:
-            print(
-                f"tribench: taking over the lock of dead process {previous.get('pid', '?')} on "
-                f"{previous.get('host', '?')} (since {previous.get('since', '?')}) in {run_dir}",
-                file=sys.stderr,
-            )
-        me = {
-            "pid": os.getpid(),
-            "host": socket.gethostname(),
-            "since": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
-            "argv": sys.argv,
-        }
-        try:
-            os.ftruncate(fd, 0)
-            os.pwrite(fd, json.dumps(me).encode() + b"\n", 0)
-        except OSError:
-            pass  # a full disk: the lock holds all the same, the message will lack the pid
-        try:
-            yield
-        finally:  # released by this process, error or not: an empty lock file (a SIGKILL skips this)
-            try:
-                os.ftruncate(fd, 0)
-            except OSError:
-                pass
-    finally:
-        os.close(fd)
-
-
-def live_writer(run_dir: str | Path) -> str | None:
-    """Who writes ``run_dir`` now ("process N on HOST (since T)"), or None if nobody does."""
-    path = Path(run_dir) / LOCK
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
-    except OSError:
-        return None
-    try:
-        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-    except OSError:
-        return _describe(_holder(fd) or {})
-    else:
-        fcntl.flock(fd, fcntl.LOCK_UN)
-        return None
-    finally:
-        os.close(fd)
 
 
 # ------------------------------------------------------------ reading

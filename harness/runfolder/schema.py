@@ -31,6 +31,9 @@ Who writes what:
 
 from __future__ import annotations
 
+from .rows import BatchRow, CheckRow, PeerRow, ProcessRow, TraversalRow, column_docs
+from .seed_files import SEED, SEED_FILES, SEED_KINDS, SEED_PICTURES, SEED_WORKLOADS
+
 __all__ = [
     "ALGORITHMS",
     "ANALYSIS",
@@ -132,109 +135,15 @@ PICTURES_DIR = "pictures"
 REPORT = "report.html"
 SWEEP_FILE = "sweep.toml"
 
-SEED = "seed.csv"
-SEED_KINDS = "seed_kinds.csv"
-SEED_WORKLOADS = "seed_workloads.csv"
-SEED_PICTURES = "seed_pictures.csv"
 
 # ---------------------------------------------------------------- measured
 
-_BATCHES: dict[str, str] = {
-    "run_id": "identifier of the run (as in run.json)",
-    "process": "index of the worker process, the replicate (0-based)",
-    "round": "round inside the process; negative for warm-up rounds",
-    "position": "position of the kernel inside its round (random order, 0-based)",
-    "kernel": "kernel name, as registered in the C extension",
-    "workload_id": "workload identifier (hash of its spec; see run.json sweep.workloads)",
-    "dtype": "precision of the workload's arrays: float32 or float64",
-    "mode": "pairs (ray i against triangle i) or closest (every ray against every triangle)",
-    "warmup": "True for a warm-up batch (kept, left out of every estimate)",
-    "loops": "passes over the whole workload in this batch",
-    "tests": "ray-triangle tests in this batch (loops x tests per pass)",
-    "elapsed_ns": "wall time of the batch in nanoseconds (CLOCK_MONOTONIC, inside C)",
-    "start_ns": "CLOCK_MONOTONIC time at the start of the batch, in nanoseconds",
-    "invol_ctx_switches": "involuntary context switches during the batch (getrusage)",
-    "hits": "hits counted in the batch (checksum; loops x hits per pass)",
-    "t_sum": "sum of t over the hits of the batch (checksum)",
-    "cpu": "CPU the worker was pinned to",
-    "isa": "instruction set the kernel variant ran with",
-    "attempt": "worker attempt of this process index (above 0 only after a resume)",
-    "steal_ticks": "steal time during the batch in clock ticks from /proc/stat (-1: unreadable)",
-}
-
-_PROCESSES: dict[str, str] = {
-    "run_id": "identifier of the run",
-    "process": "index of the worker process",
-    "attempt": "worker attempt of this process index",
-    "phase": "start or end of the process",
-    "pid": "operating-system process id",
-    "cpu": "CPU the worker was pinned to",
-    "seed": "seed of the process's random choices (kernel orders, layout)",
-    "env_pad_bytes": "bytes of environment padding (layout randomisation)",
-    "dummy_allocs": "small allocations made before the arrays (layout randomisation)",
-    "peak_gflops": "measured FMA peak, GFLOP/s",
-    "peak_flops": "flops of the probe",
-    "peak_elapsed_ns": "duration of the probe in nanoseconds",
-    "peak_isa": "instruction set of the probe",
-    "start_ns": "CLOCK_MONOTONIC time of the probe, in nanoseconds",
-}
-
-_CHECKS: dict[str, str] = {
-    "run_id": "identifier of the run",
-    "process": "index of the worker process",
-    "attempt": "worker attempt of this process index",
-    "workload_id": "workload identifier",
-    "kernel": "kernel name",
-    "rays": "rays of the workload (count)",
-    "ambiguous_rays": "rays within 1e-5 barycentric of an edge, which rounding may answer either way (count)",
-    "disagreements": "rays the kernel answered differently from the float64 reference (count)",
-    "ambiguous_disagreements": "of those, how many are ambiguous rays (count)",
-    "hits": "hits of the kernel in one pass (its checksum)",
-    "t_sum": "sum of t over the kernel's hits in one pass (its checksum)",
-}
-
-_TRAVERSALS: dict[str, str] = {
-    "run_id": "identifier of the run",
-    "process": "index of the worker process (with workload_id, round, position and kernel, a batch's key)",
-    "attempt": "worker attempt of this process index",
-    "round": "round inside the process; negative for warm-up rounds",
-    "position": "position of the kernel inside its round",
-    "kernel": "kernel name (the BVH's leaf test)",
-    "workload_id": "workload identifier (a BVH workload)",
-    "warmup": "True for a warm-up batch",
-    "rays": "rays traced in the batch (loops x rays of the workload)",
-    "nodes": "nodes the batch's traversal entered, inner nodes and leaves (count, over all its rays)",
-    "box_tests": "ray-box tests of the batch (count)",
-    "leaves": "leaves the batch's traversal entered (count)",
-    "triangle_tests": "triangle tests in those leaves (count; batches.csv's tests)",
-    "null_elapsed_ns": (
-        "the same batch traced again with a null leaf test (no triangle tested; each ray's t_max at the "
-        "kernel's own closest hit, so it enters the nodes a ray that found its hit at once would), "
-        "timed inside C, ns"
-    ),
-    "null_nodes": "nodes that null traversal entered (count; at most nodes in closest mode)",
-    "null_first": "True when the null traversal ran just before the real batch, False just after (random)",
-}
-
-_PEERS: dict[str, str] = {
-    "process": "index of the worker process, the replicate (0-based)",
-    "rep": "repetition inside the process (0-based)",
-    "position": "position of the contender inside its repetition (random order, 0-based)",
-    "contender": "tribench (kernel loop timed in C), tribench_call (ext.intersect), trimesh or embree",
-    "implementation": "what ran, with its version (and the kernel's form and ISA for tribench)",
-    "kernel": "the tribench kernel of the run (the fastest closest-mode kernel on this workload)",
-    "workload_id": "workload identifier (the camera workload; see tribench workloads show)",
-    "workload": "the workload's spec in one line",
-    "rays": "rays in the call (count; trimesh runs a fixed random subset)",
-    "elapsed_ns": "time the rate is computed from, ns: the C-timed loop for tribench, else wall_ns",
-    "wall_ns": "wall time of the call from Python, in nanoseconds",
-    "cpu_ns": "CPU time of the process during the call, in nanoseconds",
-    "rays_per_s": "rays / elapsed_ns, per second",
-    "setup_ns": "one-off set-up before the timing, ns (Embree's BVH, trimesh's rtree, tribench's job)",
-    "differ": "rays whose closest triangle differs from the float64 reference's (count)",
-    "differ_ambiguous": "of those, rays within 1e-5 barycentric of an edge (count)",
-    "cpu": "CPU the process was pinned to",
-}
+# The measured files' columns are the fields of their row dataclasses (:mod:`.rows`).
+_BATCHES = column_docs(BatchRow)
+_PROCESSES = column_docs(ProcessRow)
+_CHECKS = column_docs(CheckRow)
+_TRAVERSALS = column_docs(TraversalRow)
+_PEERS = column_docs(PeerRow)
 
 # ----------------------------------------------------------------- derived
 
@@ -578,81 +487,6 @@ _PEER_RATIOS: dict[str, str] = {
     "n_processes": "paired processes (count)",
 }
 
-# -------------------------------------------------------------------- seed
-
-_MISS_STAGES = ("parallel", "behind_origin", "outside_edge_1", "outside_edge_2", "outside_edge_3")
-
-_SEED: dict[str, str] = {
-    "scene": "scene name (file stem for a scene file)",
-    "kernel": "kernel name",
-    "triangles": "triangles of the scene",
-    "render_tests": "ray-triangle tests of one render (all ray kinds; shadow rays stop at the first occluder)",
-    "render_s": "replayed time of one render's triangle tests, seconds: mean over processes",
-    "render_s_ci_low": "lower end of its 95% Student-t interval over processes, seconds",
-    "render_s_ci_high": "upper end of that interval, seconds",
-    "render_s_min": "smallest per-process value, seconds",
-    "replay_ns_per_test": "render_s / render_tests, nanoseconds",
-    "ratio_to_moller_seed": "render time of this kernel / that of moller_seed (geometric mean of per-process ratios)",
-    "ratio_to_moller_seed_ci_low": "lower end of its 95% paired interval",
-    "ratio_to_moller_seed_ci_high": "upper end of that interval",
-    "n_processes": "processes (replicates) behind the estimate",
-    "paper_real_s": "the seed's Unix time 'real' for this kernel and scene, seconds (empty: not in the paper)",
-    "paper_user_s": "the seed's Unix time 'user', seconds",
-    "paper_ratio_real": "paper_real_s / moller_seed's paper_real_s",
-    "paper_ratio_user": "paper_user_s / moller_seed's paper_user_s",
-    "paper_user_ns_per_test": "paper_user_s / render_tests, nanoseconds: an upper bound on the seed's cost per "
-    "test (its user time also covers spheres, the floor and shading)",
-}
-
-_SEED_KINDS: dict[str, str] = {
-    "scene": "scene name (file stem for a scene file)",
-    "rays": "ray kind: primary, reflected or shadow",
-    "kernel": "kernel name",
-    "workload_id": "the sample's workload id (tribench workloads show ID)",
-    "mode": "closest (primary, reflected) or any (shadow)",
-    "ns_per_test": "nanoseconds per ray-triangle test the kernel ran: mean over processes of the per-process median",
-    "ns_per_test_ci_low": "lower end of its 95% Student-t interval",
-    "ns_per_test_ci_high": "upper end of that interval",
-    "tests_per_pass": "tests the kernel runs in one pass over the sample (any mode: up to each ray's first "
-    "hit, in blocks of 8 for wide kernels)",
-    "sample_tests": "tests a scalar kernel runs in one pass over the sample",
-    "stream_tests": "tests a scalar kernel runs on all of the render's rays of this kind",
-    "render_s": "this kind's share of render_s, seconds (mean over processes)",
-    "render_share": "render_s / the render's render_s",
-    "n_processes": "processes behind the estimate",
-}
-
-_SEED_WORKLOADS: dict[str, str] = {
-    "scene": "scene name (file stem for a scene file)",
-    "rays": "ray kind, or 'render' for the three together (weighted by the render's tests)",
-    "workload_id": "workload id (empty for 'render')",
-    "mode": "closest or any",
-    "triangles": "triangles of the scene",
-    "stream_rays": "rays of this kind in the render that test the triangles",
-    "stream_tests": "their ray-triangle tests",
-    "sample_rays": "rays in the sample",
-    "sample_tests": "tests of one pass over the sample",
-    "test_hit_rate": "per-test hit rate: hits / tests run, by the float64 reference (fraction)",
-    "ray_hit_rate": "per-ray hit rate: rays that hit a triangle / rays (fraction)",
-    "ambiguous_rays": "sampled rays a finite-precision kernel may answer either way",
-    **{f"miss_{s}": f"fraction of the misses rejected at stage {s} of Curless's test" for s in _MISS_STAGES},
-}
-
-_SEED_PICTURES: dict[str, str] = {
-    "scene": "scene name (file stem for a scene file)",
-    "width": "image width, pixels",
-    "height": "image height, pixels",
-    "dtype": "precision of the triangle tests",
-    "differing_pixels": "pixels whose 8-bit colours differ between curless_seed and moller_seed",
-    "near_edge_pixels": "of those, pixels with a ray passing within edge_tolerance of a triangle's boundary",
-    "last_bit_pixels": "of the others, pixels whose colours differ by less than 1e-5 (a truncation flipped)",
-    "other_pixels": "differing pixels explained by neither",
-    "edge_tolerance": "barycentric tolerance of near_edge_pixels",
-    "curless_seed_png": "the curless_seed render",
-    "moller_seed_png": "the moller_seed render",
-    "difference_png": "the differing pixels in red over the moller_seed render",
-}
-
 #: Every CSV of a run folder: file name -> {column: meaning}, columns in file order.
 FILES: dict[str, dict[str, str]] = {
     BATCHES: _BATCHES,
@@ -681,14 +515,6 @@ FILES: dict[str, dict[str, str]] = {
     BVH: _BVH,
     PEER_RATES: _PEER_RATES,
     PEER_RATIOS: _PEER_RATIOS,
-}
-
-#: The CSVs of a seed run (``tribench seed``), beside the runner's and the analysis's.
-SEED_FILES: dict[str, dict[str, str]] = {
-    SEED: _SEED,
-    SEED_KINDS: _SEED_KINDS,
-    SEED_WORKLOADS: _SEED_WORKLOADS,
-    SEED_PICTURES: _SEED_PICTURES,
 }
 
 #: The tables the analysis step derives from the measured files, in the order it writes them
