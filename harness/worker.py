@@ -358,24 +358,121 @@ class _StealClock:
 def _peak_row(job: WorkerJob, phase: str, cpu: int, pad: int, dummies: int) -> ProcessRow:
     p = ext.fma_peak(PEAK_ITERATIONS)
     return ProcessRow(
-        job.run_id,
-        job.process,
-        job.attempt,
-        phase,
-        os.getpid(),
-        cpu,
-        job.seed,
-        pad,
-        dummies,
-        p.gflops,
-        p.flops,
-        p.elapsed_ns,
-        p.isa,
-        time.monotonic_ns(),
+        run_id=job.run_id,
+        process=job.process,
+        attempt=job.attempt,
+        phase=phase,
+        pid=os.getpid(),
+        cpu=cpu,
+        seed=job.seed,
+        env_pad_bytes=pad,
+        dummy_allocs=dummies,
+        peak_gflops=p.gflops,
+        peak_flops=p.flops,
+        peak_elapsed_ns=p.elapsed_ns,
+        peak_isa=p.isa,
+        start_ns=time.monotonic_ns(),
     )
 
 
 # -------------------------------------------------------------------- run
+
+
+class _Meter:
+    """What happened around one timed batch: its start, the involuntary context switches during it, and the
+    machine's steal time since the previous batch ended (one reading per batch; -1 where unreadable)."""
+
+    def __init__(self) -> None:
+        self._clock = _StealClock()
+        self._steal_before: int | None = None
+        self._switches_before = 0
+        self.start_ns = 0
+
+    def forget(self) -> None:
+        """What ran since the last batch (a check, a calibration, a null trace) is not the next batch's steal."""
+        self._steal_before = None
+
+    def start(self) -> None:
+        self._switches_before = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
+        if self._steal_before is None:
+            self._steal_before = self._clock.ticks()
+        self.start_ns = time.monotonic_ns()
+
+    def stop(self) -> tuple[int, int]:
+        """(switches, steal ticks) of the batch since :meth:`start` (ticks are 10 ms; the bookkeeping
+        between batches takes ~0.05 ms, so the steal since the previous batch ended is this one's)."""
+        switches = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - self._switches_before
+        after, before = self._clock.ticks(), self._steal_before
+        self._steal_before = after
+        return switches, (after - before if before is not None and before >= 0 and after >= 0 else -1)
+
+    def close(self) -> None:
+        self._clock.close()
+
+
+def _timed(kjob: ext.Job | BvhJob, loops: int, rng: np.random.Generator, meter: _Meter):
+    """One batch of a contender: ``(batch, switches, steal ticks, (trace, null, null_first) or None)``.
+
+    A BVH batch has a null-leaf twin, traced just before or just after it at
+    random (its time is not the batch's steal time); a brute-force batch has none.
+    """
+    if not isinstance(kjob, BvhJob):
+        meter.start()
+        batch = ext.time_batch(kjob, loops)
+        return (batch, *meter.stop(), None)
+    null_first = bool(rng.integers(2))
+    if null_first:
+        null = kjob.trace_null(loops)
+        meter.forget()
+    meter.start()
+    trace = kjob.trace(loops)
+    switches, steal = meter.stop()
+    if not null_first:
+        null = kjob.trace_null(loops)
+        meter.forget()
+    return _as_batch(trace), switches, steal, (trace, null, null_first)
+
+
+def _load_workloads(job: WorkerJob, rng: np.random.Generator) -> tuple[dict[str, Any], dict[str, tuple]]:
+    """The job's workloads from the cache (each checked against its id), and this process's fresh copies
+    of their arrays, at random offsets (the layout randomisation)."""
+    from tribench.workloads import cache
+    from tribench.workloads.kinds import spec_from_dict
+    from tribench.workloads.spec import workload_id
+
+    workloads, arrays = {}, {}
+    for wid, spec_dict in job.workloads.items():
+        spec = spec_from_dict(spec_dict)
+        if workload_id(spec) != wid:
+            raise ValueError(f"workload {wid}: its spec has id {workload_id(spec)} (generator changed?)")
+        workloads[wid] = w = cache.make(spec)
+        arrays[wid] = tuple(_fresh_copy(a, rng) for a in (w.origins, w.directions, w.triangles))
+    return workloads, arrays
+
+
+def _prepare(job: WorkerJob, process: int, kernel: str, w: Any, arrays: tuple, emit):
+    """One kernel on one workload before its first batch: its job (brute force or through its BVH),
+    its answers checked against the reference (a ``check`` row), and its batch length calibrated."""
+    o, d, tris = arrays
+    kjob: ext.Job | BvhJob
+    if isinstance(w.spec, MeshSpec) and w.spec.accel == "bvh":
+        kjob = _bvh_job(kernel, w, o, d, tris)
+        expected, counts = one_pass_checksum(kernel, w, kjob.bvh)
+    else:
+        kjob = ext.make_job(kernel, o, d, tris, cast(ext.Mode, w.mode), t_max=w.t_max)  # the spec checked it
+        expected, counts = one_pass_checksum(kernel, w)
+    check = CheckRow(
+        run_id=job.run_id,
+        process=process,
+        attempt=job.attempt,
+        workload_id=w.workload_id,
+        kernel=kernel,
+        **counts,
+        hits=expected.hits,
+        t_sum=expected.t_sum,
+    )
+    emit("check", check)
+    return kjob, calibrate_loops(kjob, job.target_ms * 1e6), expected
 
 
 def run_job(job: WorkerJob, emit) -> None:
@@ -386,25 +483,13 @@ def run_job(job: WorkerJob, emit) -> None:
     KernelCheckError
         A kernel's answers or a batch's checksum disagree with the reference.
     """
-    from tribench.workloads import cache
-    from tribench.workloads.kinds import spec_from_dict
-    from tribench.workloads.spec import workload_id
-
     if job.cpu is not None and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {job.cpu})
     cpu = job.cpu if job.cpu is not None else -1
     rng = np.random.default_rng([job.seed, job.attempt])
     pad = len(os.environ.get(PAD_VARIABLE, ""))
     dummies = _dummy_allocations(rng)
-
-    workloads, arrays = {}, {}
-    for wid, spec_dict in job.workloads.items():
-        spec = spec_from_dict(spec_dict)
-        if workload_id(spec) != wid:
-            raise ValueError(f"workload {wid}: its spec has id {workload_id(spec)} (generator changed?)")
-        w = cache.make(spec)
-        workloads[wid] = w
-        arrays[wid] = tuple(_fresh_copy(a, rng) for a in (w.origins, w.directions, w.triangles))
+    workloads, arrays = _load_workloads(job, rng)
     emit("process", _peak_row(job, "start", cpu, pad, len(dummies)))
 
     isa = {k: kernel_isa(k) for k in {key[4] for key in job.keys}}
@@ -413,99 +498,60 @@ def run_job(job: WorkerJob, emit) -> None:
         if kernel not in kernels_of.setdefault(wid, []):
             kernels_of[wid].append(kernel)
     prepared: dict[tuple[str, str], tuple[ext.Job | BvhJob, int, Checksum]] = {}
-    target_ns = job.target_ms * 1e6
-    steal_clock, steal_before = _StealClock(), None
-
+    meter = _Meter()
     for process, wid, rnd, position, kernel in job.keys:
         w = workloads[wid]
-        if (kernel, wid) not in prepared:
-            # a new workload block: check and calibrate all its kernels before any batch
+        if (kernel, wid) not in prepared:  # a new workload block: check and calibrate all its kernels first
             for k in kernels_of[wid]:
-                o, d, tris = arrays[wid]
-                mode = cast(ext.Mode, w.mode)  # the spec checked it
-                kjob: ext.Job | BvhJob
-                if isinstance(w.spec, MeshSpec) and w.spec.accel == "bvh":
-                    kjob = _bvh_job(k, w, o, d, tris)
-                    expected, counts = one_pass_checksum(k, w, kjob.bvh)
-                else:
-                    kjob = ext.make_job(k, o, d, tris, mode, t_max=w.t_max)
-                    expected, counts = one_pass_checksum(k, w)
-                emit(
-                    "check",
-                    CheckRow(
-                        job.run_id, process, job.attempt, wid, k, **counts, hits=expected.hits, t_sum=expected.t_sum
-                    ),
-                )
-                prepared[(k, wid)] = (kjob, calibrate_loops(kjob, target_ns), expected)
-            steal_before = None  # checks and calibration are not a batch
+                prepared[(k, wid)] = _prepare(job, process, k, w, arrays[wid], emit)
+            meter.forget()
         kjob, loops, expected = prepared[(kernel, wid)]
-        null, null_first = None, isinstance(kjob, BvhJob) and bool(rng.integers(2))
-        if isinstance(kjob, BvhJob) and null_first:
-            null, steal_before = kjob.trace_null(loops), None  # its steal is not the batch's
-        before = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
-        if steal_before is None:
-            steal_before = steal_clock.ticks()
-        start = time.monotonic_ns()
-        trace = kjob.trace(loops) if isinstance(kjob, BvhJob) else None
-        batch = _as_batch(trace) if trace is not None else time_job(kjob, loops)
-        switches = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
-        # one reading per batch: the steal since the previous batch ended, which
-        # is this batch's (ticks are 10 ms; the bookkeeping between takes ~0.05 ms)
-        steal_after = steal_clock.ticks()
-        steal = steal_after - steal_before if steal_before >= 0 and steal_after >= 0 else -1
-        steal_before = steal_after
-        if isinstance(kjob, BvhJob) and null is None:
-            null, steal_before = kjob.trace_null(loops), None
+        batch, switches, steal, bvh_trace = _timed(kjob, loops, rng, meter)
         check_batch(batch, expected, kernel, w)
+        key = {"run_id": job.run_id, "process": process, "round": rnd, "position": position, "kernel": kernel}
         emit(
             "batch",
             BatchRow(
-                job.run_id,
-                process,
-                rnd,
-                position,
-                kernel,
-                wid,
-                w.spec.dtype,
-                w.mode,
-                rnd < 0,
-                batch.loops,
-                batch.tests,
-                batch.elapsed_ns,
-                start,
-                switches,
-                batch.hits,
-                batch.t_sum,
-                cpu,
-                isa[kernel],
-                job.attempt,
-                steal,
+                **key,
+                workload_id=wid,
+                dtype=w.spec.dtype,
+                mode=w.mode,
+                warmup=rnd < 0,
+                loops=batch.loops,
+                tests=batch.tests,
+                elapsed_ns=batch.elapsed_ns,
+                start_ns=meter.start_ns,
+                invol_ctx_switches=switches,
+                hits=batch.hits,
+                t_sum=batch.t_sum,
+                cpu=cpu,
+                isa=isa[kernel],
+                attempt=job.attempt,
+                steal_ticks=steal,
             ),
         )
-        if trace is not None and null is not None:
-            emit(
-                "traversal",
-                TraversalRow(
-                    job.run_id,
-                    process,
-                    job.attempt,
-                    rnd,
-                    position,
-                    kernel,
-                    wid,
-                    rnd < 0,
-                    trace.loops * trace.rays,
-                    trace.nodes,
-                    trace.box_tests,
-                    trace.leaves,
-                    trace.triangle_tests,
-                    null.elapsed_ns,
-                    null.nodes,
-                    null_first,
-                ),
-            )
-    steal_clock.close()
+        if bvh_trace is not None:
+            emit("traversal", _traversal_row(key, job.attempt, wid, *bvh_trace))
+    meter.close()
     emit("process", _peak_row(job, "end", cpu, pad, len(dummies)))
+
+
+def _traversal_row(key: dict, attempt: int, wid: str, trace, null, null_first: bool) -> TraversalRow:
+    """A BVH batch's traversal counts and its null-leaf twin (the batch's ``key`` columns)."""
+    return TraversalRow(
+        **key,
+        attempt=attempt,
+        workload_id=wid,
+        warmup=key["round"] < 0,
+        rays=trace.loops * trace.rays,
+        nodes=trace.nodes,
+        box_tests=trace.box_tests,
+        leaves=trace.leaves,
+        triangle_tests=trace.triangle_tests,
+        null_elapsed_ns=null.elapsed_ns,
+        null_nodes=null.nodes,
+        null_first=null_first,
+    )
 
 
 def _bvh_job(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, tris: np.ndarray) -> BvhJob:
