@@ -412,7 +412,7 @@ def write_all(
     UserError
         The folder cannot be read (``file:line``), has no timed batch, or cannot be written.
     """
-    from tribench.analysis import tables as t
+    from . import bvh, diagnostics, ranking, scaling, workload_tables
 
     run_dir = Path(run_dir)
     batches_digest = file_digest(run_dir / runfolder.BATCHES)
@@ -425,37 +425,37 @@ def write_all(
     specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
 
     workloads, sources = _workloads(run, wids)
-    wl = t.workload_table(specs, wids, workloads, sources)
-    est = t.estimates_with_workloads(result.estimates, wl)
+    wl = workload_tables.workload_table(specs, wids, workloads, sources)
+    est = workload_tables.estimates_with_workloads(result.estimates, wl)
     spd = result.speedups.merge(wl.drop(columns=["dtype"]), on="workload_id", how="left", suffixes=("", "_wl"))
     pp = stats.per_process(batches)
-    labels = t.batch_labels(batches)
+    labels = diagnostics.batch_labels(batches)
     tables: dict[str, pd.DataFrame] = {
         runfolder.ESTIMATES: result.estimates,
         runfolder.SPEEDUPS: result.speedups,
         runfolder.WORKLOADS: wl,
-        runfolder.WORKLOAD_FIGURES: t.workload_figures(wids, workloads),
-        runfolder.CORRECTNESS: t.correctness_table(batches, kernels, workloads),
+        runfolder.WORKLOAD_FIGURES: workload_tables.workload_figures(wids, workloads),
+        runfolder.CORRECTNESS: workload_tables.correctness_table(batches, kernels, workloads),
         runfolder.PER_PROCESS: pp,
         runfolder.BATCH_LABELS: labels,
-        runfolder.CROSSOVERS: t.crossovers(kernels, wl, pp),
-        runfolder.SLOPES: t.scaling_slopes(est, pp),
-        runfolder.DRIFT: t.drift_table(batches, kernels, result.baseline, wids, wl),
-        runfolder.VARIANCE: t.variance_table(batches, kernels, wids, wl),
-        runfolder.OUTLIERS: t.outlier_table(labels, wl),
-        runfolder.WARMUP: t.warmup_table(labels, wl),
-        runfolder.KERNELS: t.kernel_table(kernels, batches, run, est, spd, result.baseline),
-        runfolder.RANKING: t.ranking_table(est, spd, pp, result.margin.value),
+        runfolder.CROSSOVERS: scaling.crossovers(kernels, wl, pp),
+        runfolder.SLOPES: scaling.scaling_slopes(est, pp),
+        runfolder.DRIFT: diagnostics.drift_table(batches, kernels, result.baseline, wids, wl),
+        runfolder.VARIANCE: diagnostics.variance_table(batches, kernels, wids, wl),
+        runfolder.OUTLIERS: diagnostics.outlier_table(labels, wl),
+        runfolder.WARMUP: diagnostics.warmup_table(labels, wl),
+        runfolder.KERNELS: ranking.kernel_table(kernels, batches, run, est, spd, result.baseline),
+        runfolder.RANKING: ranking.ranking_table(est, spd, pp, result.margin.value),
     }
-    tables[runfolder.ALGORITHMS] = t.algorithm_table(tables[runfolder.RANKING], pp, result.margin.value)
+    tables[runfolder.ALGORITHMS] = ranking.algorithm_table(tables[runfolder.RANKING], pp, result.margin.value)
     # the bands table shows each kernel's robustness beside its speed: validate.csv first
     if validate_note is None:
         present = (run_dir / runfolder.VALIDATE).is_file()
         validate_note = f"Read from {runfolder.VALIDATE} in the run folder." if present else None
-    tables[runfolder.BANDS] = t.band_table(
+    tables[runfolder.BANDS] = ranking.band_table(
         est, pp, specs, result.baseline, result.margin.value, _read_validation(run_dir)
     )
-    tables[runfolder.BVH] = t.bvh_table(
+    tables[runfolder.BVH] = bvh.bvh_table(
         batches,
         runfolder.read_traversals(run_dir, run),
         wl,

@@ -37,7 +37,7 @@ What it does, in order:
    ray-triangle test; ``rays x loops / elapsed`` is its rays/s);
 5. runs its batches in the order given; every batch's checksum must equal
    ``loops`` times the kernel's verified one-pass checksum (hits exactly, the
-   sum of ``t`` within :data:`T_SUM_RTOL`). A BVH batch also sends
+   sum of ``t`` within :data:`~tribench.harness.checks.T_SUM_RTOL`). A BVH batch also sends
    ``{"type": "traversal", ...}``, a :class:`~tribench.harness.runfolder.TraversalRow`:
    its traversal's counts, and the same rays and loops traced with a null
    leaf test (each ray's ``t_max`` at the kernel's own hit), timed just
@@ -49,7 +49,6 @@ What it does, in order:
 from __future__ import annotations
 
 import json
-import math
 import os
 import resource
 import sys
@@ -62,36 +61,25 @@ import numpy as np
 
 from tribench import ext
 from tribench.harness.runfolder import BatchRow, CheckRow, ProcessRow, TraversalRow
-from tribench.workloads import bvh_cache, reference
-from tribench.workloads.front import front_reference
+from tribench.workloads import bvh_cache
 from tribench.workloads.spec import MeshSpec
 
+from .checks import Checksum, KernelCheckError, check_batch, one_pass_checksum
+
 __all__ = [
-    "KernelCheckError",
-    "T_SUM_RTOL",
     "BvhJob",
     "WorkerJob",
     "calibrate_loops",
     "kernel_isa",
     "main",
-    "one_pass_checksum",
     "run_job",
 ]
-
-#: Relative tolerance on sums of t, by precision: a kernel's own sum against
-#: the reference's (on the rays both hit), and a batch's sum against
-#: ``loops`` times the one-pass sum (only summation order differs there).
-T_SUM_RTOL = {"float32": 1e-4, "float64": 1e-9}
 
 #: Iterations of the FMA probe: 192 flops each, about 0.4 ms at 100 GFLOP/s.
 PEAK_ITERATIONS = 200_000
 
 #: Environment variable the parent pads to vary the worker's stack position.
 PAD_VARIABLE = "TRIBENCH_LAYOUT_PAD"
-
-
-class KernelCheckError(Exception):
-    """A kernel gave answers that disagree with the reference."""
 
 
 @dataclass(frozen=True)
@@ -142,28 +130,6 @@ def kernel_isa(kernel: str) -> str:
 
 
 @dataclass(frozen=True)
-class Checksum:
-    """A kernel's one-pass checksum on a workload: hits, the sum of t, and
-    the sum of u + v (mode ``closest_uv`` only, else 0)."""
-
-    hits: int
-    t_sum: float
-    uv_sum: float = 0.0
-
-
-def replicates_a_flawed_original(kernel: str) -> bool:
-    """True for the seed's kernels, faithful copies of code with known flaws.
-
-    Their absolute epsilons and strict edges make them answer some rays
-    differently from the reference by design (a small triangle vanishes for
-    ``moller_seed``); that difference is what the seed experiment is about,
-    so it is recorded in checks.csv rather than stopping the sweep. Every
-    other kernel must agree with the reference outside the ambiguous rays.
-    """
-    return ext.kernel_info(kernel).seed_replay
-
-
-@dataclass(frozen=True)
 class BvhJob:
     """The inputs of a BVH workload's timed batches: one kernel's BVH (built
     once per process, outside the timed batches), the rays, and each ray's
@@ -202,98 +168,6 @@ def time_job(job: ext.Job | BvhJob, loops: int) -> ext.Batch:
     if isinstance(job, BvhJob):
         return _as_batch(job.trace(loops))
     return ext.time_batch(job, loops)
-
-
-def one_pass_checksum(kernel: str, workload: Any, bvh: ext.BVH | None = None) -> tuple[Checksum, dict[str, int]]:
-    """Check ``kernel``'s per-ray answers on ``workload``; return its checksum.
-
-    Answers (hit or miss in pairs and any-hit modes, the closest triangle in
-    the closest modes) must equal the reference's on every ray outside
-    ``workload.ambiguous()``; the sum of t (closest modes also u + v) over the
-    rays where kernel and reference agree on a hit must match the
-    reference's within :data:`T_SUM_RTOL`. An any-hit answer may be any hit
-    triangle, so there it is its t that is checked, against the reference for
-    that triangle. A kernel that culls back faces is held to the reference
-    with back faces culled. With ``bvh`` (the kernel's, over the workload's
-    triangles) the answers are the BVH's. The counts of disagreements are
-    returned for checks.csv.
-
-    Raises
-    ------
-    KernelCheckError
-        Naming the kernel, the workload and the first ray that differs
-        (never for :func:`replicates_a_flawed_original` kernels' differences).
-    """
-    w = workload
-    if bvh is None:
-        r = ext.intersect(kernel, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max)
-    else:
-        r = bvh.intersect(w.origins, w.directions, w.mode, t_max=w.t_max).hits
-    hit, t = r.hit, r.t
-    ref_index, ref_t = (w.ref_index, w.ref_t) if w.mode != "pairs" else (None, w.ref_t)
-    ref_hits = w.hits
-    if ext.kernel_info(kernel).culls_back_faces:
-        if w.mode == "pairs":
-            ref_hits = reference.intersect_pairs(
-                w.origins, w.directions, w.triangles, t_max=w.t_max, front_only=True
-            ).hit
-        else:  # computed once per workload and kept in the cache: every process checks against it
-            ref_index, ref_t = front_reference(w)
-            ref_hits = ref_index >= 0
-    differs = hit != ref_hits if w.mode in ("pairs", "any") else r.index != ref_index
-    ambiguous = w.ambiguous()
-    wrong = differs & ~ambiguous
-    counts = {
-        "rays": len(differs),
-        "ambiguous_rays": int(ambiguous.sum()),
-        "disagreements": int(differs.sum()),
-        "ambiguous_disagreements": int((differs & ambiguous).sum()),
-    }
-    where = f"kernel {kernel!r} on workload {w.workload_id} ({w.spec.summary()})"
-    if wrong.any() and not replicates_a_flawed_original(kernel):
-        first = int(np.argmax(wrong))
-        raise KernelCheckError(
-            f"{where}: {int(wrong.sum())} of {len(wrong)} rays differ from the reference "
-            f"outside the ambiguous ones (first: ray {first})"
-        )
-    agree = hit & ref_hits & ~differs
-    own = {"t": t[agree], "u + v": r.u[agree] + r.v[agree]}
-    if w.mode in ("any", "closest_uv"):
-        # the reference on the triangle each ray's answer names
-        tri = w.triangles[r.index[agree]]
-        ref_pairs = reference.intersect_pairs(w.origins[agree], w.directions[agree], tri)
-        ref = {"t": ref_pairs.t, "u + v": ref_pairs.u + ref_pairs.v}
-    else:
-        ref = {"t": ref_t[agree]}
-    for name in ref if w.mode != "any" else ("t",):
-        a, b = math.fsum(own[name].astype(float).tolist()), math.fsum(ref[name].tolist())
-        if not math.isclose(a, b, rel_tol=T_SUM_RTOL[w.spec.dtype], abs_tol=1e-300):
-            raise KernelCheckError(f"{where}: sum of {name} {a!r} differs from the reference's {b!r}")
-    uv_sum = math.fsum((r.u[hit].astype(float) + r.v[hit]).tolist()) if w.mode == "closest_uv" else 0.0
-    return Checksum(int(hit.sum()), math.fsum(t[hit].astype(float).tolist()), uv_sum), counts
-
-
-def check_batch(batch: ext.Batch, expected: Checksum, kernel: str, workload: Any) -> None:
-    """Raise :class:`KernelCheckError` unless ``batch`` is ``loops`` one-pass checksums."""
-    hits, t_sum, uv_sum = (batch.loops * x for x in (expected.hits, expected.t_sum, expected.uv_sum))
-
-    def close(a: float, b: float) -> bool:
-        return math.isclose(a, b, rel_tol=T_SUM_RTOL["float64"], abs_tol=1e-300)
-
-    problem = (
-        f"{batch.hits} hits in {batch.loops} loops, expected {hits}"
-        if batch.hits != hits
-        else f"sum of t {batch.t_sum!r}, expected {t_sum!r}"
-        if not close(batch.t_sum, t_sum)
-        else f"sum of u + v {batch.uv_sum!r}, expected {uv_sum!r}"
-        if not close(batch.uv_sum, uv_sum)
-        else None
-    )
-    if problem:  # the message (and the spec's summary) only when it fails: this runs every batch
-        raise KernelCheckError(
-            f"kernel {kernel!r} on workload {workload.workload_id} "
-            f"({workload.spec.summary()}): checksum failed, {problem}"
-        )
 
 
 def calibrate_loops(job: ext.Job | BvhJob, target_ns: float) -> int:
@@ -508,11 +382,14 @@ def run_job(job: WorkerJob, emit) -> None:
         kjob, loops, expected = prepared[(kernel, wid)]
         batch, switches, steal, bvh_trace = _timed(kjob, loops, rng, meter)
         check_batch(batch, expected, kernel, w)
-        key = {"run_id": job.run_id, "process": process, "round": rnd, "position": position, "kernel": kernel}
         emit(
             "batch",
             BatchRow(
-                **key,
+                run_id=job.run_id,
+                process=process,
+                round=rnd,
+                position=position,
+                kernel=kernel,
                 workload_id=wid,
                 dtype=w.spec.dtype,
                 mode=w.mode,
@@ -531,18 +408,23 @@ def run_job(job: WorkerJob, emit) -> None:
             ),
         )
         if bvh_trace is not None:
-            emit("traversal", _traversal_row(key, job.attempt, wid, *bvh_trace))
+            emit("traversal", _traversal_row(job, (process, wid, rnd, position, kernel), *bvh_trace))
     meter.close()
     emit("process", _peak_row(job, "end", cpu, pad, len(dummies)))
 
 
-def _traversal_row(key: dict, attempt: int, wid: str, trace, null, null_first: bool) -> TraversalRow:
-    """A BVH batch's traversal counts and its null-leaf twin (the batch's ``key`` columns)."""
+def _traversal_row(job: WorkerJob, key: tuple[int, str, int, int, str], trace, null, null_first: bool) -> TraversalRow:
+    """A BVH batch's traversal counts and its null-leaf twin; ``key`` is the batch's, as in ``job.keys``."""
+    process, wid, rnd, position, kernel = key
     return TraversalRow(
-        **key,
-        attempt=attempt,
+        run_id=job.run_id,
+        process=process,
+        attempt=job.attempt,
+        round=rnd,
+        position=position,
+        kernel=kernel,
         workload_id=wid,
-        warmup=key["round"] < 0,
+        warmup=rnd < 0,
         rays=trace.loops * trace.rays,
         nodes=trace.nodes,
         box_tests=trace.box_tests,

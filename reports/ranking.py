@@ -2,8 +2,8 @@
 
 Part of ``report.html`` (:mod:`.html` puts the sections together); every number
 is read from ``bands.csv``, ``ranking.csv`` and ``algorithms.csv``, which the
-analysis step wrote (:func:`tribench.analysis.tables.band_table`,
-:func:`~tribench.analysis.tables.ranking_table`, :func:`~tribench.analysis.tables.algorithm_table`).
+analysis step wrote (:func:`tribench.analysis.ranking.band_table`,
+:func:`~tribench.analysis.ranking.ranking_table`, :func:`~tribench.analysis.ranking.algorithm_table`).
 """
 
 from __future__ import annotations

@@ -23,9 +23,9 @@ from typing import Any
 
 import pandas as pd
 
-from tribench.analysis.tables import family_of, short_label, spec_text
 from tribench.common import UserError
 from tribench.harness import runfolder
+from tribench.workloads.labels import family_of, short_label, spec_text
 
 __all__ = [
     "RunData",

@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from tribench import stats
+from tribench.analysis.frames import paired_time_ratio
 from tribench.common import UserError
 from tribench.harness import runfolder
 
@@ -381,10 +382,7 @@ def _paired_ratio(per: pd.DataFrame, scene: str, kernel: str) -> tuple[float, fl
     sel = per.loc[per["scene"] == scene].pivot(index="process", columns="kernel", values="render_s")
     if BASELINE not in sel or kernel not in sel:
         return math.nan, math.nan, math.nan
-    both = sel[[kernel, BASELINE]].dropna()
-    # stats.speedup(b, k) is time_b / time_k: the kernel goes first to get time_kernel / time_baseline
-    s = stats.speedup(both[kernel].to_numpy(), both[BASELINE].to_numpy())
-    return s.ratio, s.ci_low, s.ci_high
+    return paired_time_ratio(sel, kernel, BASELINE, stats.DEFAULTS.confidence)[:3]
 
 
 def render_table(per: pd.DataFrame, scenes: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from tribench import ext
 from tribench.common import Notice, UserError
-from tribench.harness import runfolder, worker
+from tribench.harness import checks, runfolder, worker
 from tribench.harness.plan import Sweep
 from tribench.studies import peers
 from tribench.workloads import bvh_cache, cache, reference
@@ -141,19 +141,19 @@ def test_a_bvh_workload_without_a_native_kernel_is_refused_in_one_line(tmp_path,
 def test_bvh_answers_are_checked_and_a_culling_kernel_is_held_to_the_front_faces(env):
     w = cache.make(MeshSpec(**SMALL, accel="bvh"))
     bvh = ext.build_bvh(NATIVE, w.triangles)
-    checksum, counts = worker.one_pass_checksum(NATIVE, w, bvh)
+    checksum, counts = checks.one_pass_checksum(NATIVE, w, bvh)
     assert checksum.hits == int(w.hits.sum()) and counts["disagreements"] == counts["ambiguous_disagreements"]
     job = worker.BvhJob(bvh, w.origins, w.directions, "closest", None)
-    worker.check_batch(worker.time_job(job, 3), checksum, NATIVE, w)
+    checks.check_batch(worker.time_job(job, 3), checksum, NATIVE, w)
     wrong = w.ref_index.copy()
     ray = int(np.flatnonzero(w.hits & ~w.ambiguous())[0])
     wrong[ray] = (wrong[ray] + 1) % len(w.triangles)
-    with pytest.raises(worker.KernelCheckError, match=rf"'{NATIVE}' on workload {w.workload_id}.*ray {ray}\)"):
-        worker.one_pass_checksum(NATIVE, dataclasses.replace(w, ref_index=wrong), bvh)
+    with pytest.raises(checks.KernelCheckError, match=rf"'{NATIVE}' on workload {w.workload_id}.*ray {ray}\)"):
+        checks.one_pass_checksum(NATIVE, dataclasses.replace(w, ref_index=wrong), bvh)
     # every face turned away from the camera: a culling kernel sees the mesh's far side
     flipped = dataclasses.replace(w, triangles=np.ascontiguousarray(w.triangles[:, [0, 2, 1]]))
     cull = "moller_trumbore_cull_fma"
-    checksum, counts = worker.one_pass_checksum(cull, flipped, ext.build_bvh(cull, flipped.triangles))
+    checksum, counts = checks.one_pass_checksum(cull, flipped, ext.build_bvh(cull, flipped.triangles))
     index, _ = reference.intersect_closest(flipped.origins, flipped.directions, flipped.triangles, front_only=True)
     assert checksum.hits == int((index >= 0).sum()) and counts["disagreements"] == counts["ambiguous_disagreements"]
     assert (index != w.ref_index).sum() > len(index) // 10  # the culled answers are not the two-sided ones

@@ -14,7 +14,7 @@ import pytest
 
 from tribench import ext
 from tribench.common import UserError
-from tribench.harness import worker
+from tribench.harness import checks
 from tribench.workloads import bvh_cache, generate, make
 from tribench.workloads.meshes import bounding_sphere
 from tribench.workloads.rays import BOUNCE_OFFSET
@@ -76,9 +76,9 @@ def test_every_native_kernel_brute_and_in_its_bvh_agrees_with_the_reference(dtyp
     w = make(MeshSpec(**SUZANNE, rays="bounce", dtype=dtype))
     assert w.achieved["ambiguous_rays"] < 0.02 * len(w.origins)
     for kernel in ext.bvh_kernel_names():
-        brute, _ = worker.one_pass_checksum(kernel, w)  # raises on a disagreement outside the ambiguous rays
+        brute, _ = checks.one_pass_checksum(kernel, w)  # raises on a disagreement outside the ambiguous rays
         bvh, _ = bvh_cache.cached_bvh(kernel, w.triangles)
-        in_bvh, counts = worker.one_pass_checksum(kernel, w, bvh)
+        in_bvh, counts = checks.one_pass_checksum(kernel, w, bvh)
         assert counts["disagreements"] == counts["ambiguous_disagreements"]
         if not ext.kernel_info(kernel).culls_back_faces:
             assert brute.hits == in_bvh.hits == int(w.hits.sum())

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tribench import ext
-from tribench.analysis import tables
+from tribench.analysis import bvh as bvh_tables
 from tribench.common import UserError
 from tribench.harness import runfolder, runner
 from tribench.harness.plan import Sweep
@@ -176,7 +176,7 @@ def _frames(null_over_real: list[list[float]]):
 
 def test_the_leaf_share_is_one_minus_the_per_process_median_null_over_real_ratio():
     batches, trav, wl, specs, pp = _frames([[0.6, 0.6, 0.9], [0.6, 0.5, 0.6], [0.1, 0.6, 0.6]])  # medians 0.6
-    row = tables.bvh_table(batches, trav, wl, specs, pp, KERNELS, "moller_seed", 0.01).iloc[0]
+    row = bvh_tables.bvh_table(batches, trav, wl, specs, pp, KERNELS, "moller_seed", 0.01).iloc[0]
     assert row["leaf_share"] == pytest.approx(0.4)
     assert row["leaf_share_ci_low"] == pytest.approx(0.4) and row["leaf_share_ci_high"] == pytest.approx(0.4)
     assert row["rays_per_s"] == pytest.approx(512 / 10_000 * 1e9)  # loops x rays / elapsed
@@ -188,7 +188,7 @@ def test_the_leaf_share_is_one_minus_the_per_process_median_null_over_real_ratio
 @given(st.lists(st.lists(st.floats(0.05, 0.95), min_size=1, max_size=4), min_size=2, max_size=5))
 def test_the_leaf_share_and_its_interval_lie_in_0_1_and_in_order(ratios):
     batches, trav, wl, specs, pp = _frames(ratios)
-    row = tables.bvh_table(batches, trav, wl, specs, pp, KERNELS, "moller_seed", 0.01).iloc[0]
+    row = bvh_tables.bvh_table(batches, trav, wl, specs, pp, KERNELS, "moller_seed", 0.01).iloc[0]
     medians = [float(np.median([round(10_000 * r) / 10_000 for r in p])) for p in ratios]
     assert row["leaf_share"] == pytest.approx(1 - math.exp(np.mean(np.log(medians))))
     assert 0 < row["leaf_share"] < 1
@@ -196,10 +196,10 @@ def test_the_leaf_share_and_its_interval_lie_in_0_1_and_in_order(ratios):
 
 
 def test_the_bvh_baseline_is_the_runs_baseline_or_a_form_of_its_algorithm_or_moller_trumbores():
-    assert tables.bvh_baseline(["woop_fma", "moller_trumbore_fma"], "woop_fma") == "woop_fma"
-    assert tables.bvh_baseline(["woop_fma", "moller_trumbore_fma"], "woop") == "woop_fma"
-    assert tables.bvh_baseline(["woop_fma", "moller_trumbore_fma"], "moller_seed") == "moller_trumbore_fma"
-    assert tables.bvh_baseline(["woop_fma", "baldwin_weber_9_fma"], "moller_seed") == "woop_fma"
+    assert bvh_tables.bvh_baseline(["woop_fma", "moller_trumbore_fma"], "woop_fma") == "woop_fma"
+    assert bvh_tables.bvh_baseline(["woop_fma", "moller_trumbore_fma"], "woop") == "woop_fma"
+    assert bvh_tables.bvh_baseline(["woop_fma", "moller_trumbore_fma"], "moller_seed") == "moller_trumbore_fma"
+    assert bvh_tables.bvh_baseline(["woop_fma", "baldwin_weber_9_fma"], "moller_seed") == "woop_fma"
 
 
 # ------------------------------------------------------------------ the report

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tribench.harness import worker
+from tribench.harness import checks
 from tribench.workloads import CacheWarning, cache, front, list_cached, reference
 from tribench.workloads.seed_workload import SeedSpec
 from tribench.workloads.spec import MeshSpec
@@ -108,7 +108,7 @@ def test_a_corrupt_stale_or_foreign_file_is_recomputed_with_a_notice(env, monkey
 
 def test_the_worker_holds_a_culling_kernel_to_the_cached_reference(env):
     w = cache.make(SHADOW)
-    checksum, counts = worker.one_pass_checksum("moller_trumbore_cull_fma", w)
+    checksum, counts = checks.one_pass_checksum("moller_trumbore_cull_fma", w)
     assert front.front_path(w.workload_id).is_file()
     assert counts["disagreements"] == counts["ambiguous_disagreements"]
     assert checksum.hits == int((_brute(w)[0] >= 0).sum()) < int(w.hits.sum())  # fewer hits than two-sided

@@ -10,7 +10,7 @@ import pytest
 from conftest import safe_pairs
 
 from tribench import ext
-from tribench.harness import runfolder, worker
+from tribench.harness import checks, runfolder, worker
 from tribench.harness.plan import BatchKey, Sweep, expand_workloads, load_sweep_file, plan
 from tribench.studies import calibrate as calibration
 from tribench.workloads import cache, front, reference
@@ -149,16 +149,16 @@ def test_missing_run_files_are_file_not_found(tmp_path):
 
 def test_one_pass_checksum_matches_the_reference_and_batches_check():
     w = cache.make(PairSpec(n=200, hit_rate=0.4))
-    c, counts = worker.one_pass_checksum("moller_trumbore", w)
+    c, counts = checks.one_pass_checksum("moller_trumbore", w)
     assert counts == {"rays": 200, "ambiguous_rays": 0, "disagreements": 0, "ambiguous_disagreements": 0}
     hits, t_sum = w.expected_checksum()
     assert c.hits == hits and math.isclose(c.t_sum, t_sum, rel_tol=1e-12)
     job = ext.make_job("moller_trumbore", w.origins, w.directions, w.triangles, w.mode)
     batch = ext.time_batch(job, 3)
-    worker.check_batch(batch, c, "moller_trumbore", w)
+    checks.check_batch(batch, c, "moller_trumbore", w)
     bad = dataclasses.replace(batch, hits=batch.hits - 1)
-    with pytest.raises(worker.KernelCheckError, match="'moller_trumbore'.*checksum failed"):
-        worker.check_batch(bad, c, "moller_trumbore", w)
+    with pytest.raises(checks.KernelCheckError, match="'moller_trumbore'.*checksum failed"):
+        checks.check_batch(bad, c, "moller_trumbore", w)
 
 
 def test_a_tampered_reference_is_caught_naming_the_kernel():
@@ -166,19 +166,19 @@ def test_a_tampered_reference_is_caught_naming_the_kernel():
     flipped = w.ref_hit.copy()
     flipped[7] = ~flipped[7]
     tampered = dataclasses.replace(w, ref_hit=flipped)
-    with pytest.raises(worker.KernelCheckError, match=r"kernel 'curless' on workload pairs-.*1 of 200 rays.*ray 7"):
-        worker.one_pass_checksum("curless", tampered)
+    with pytest.raises(checks.KernelCheckError, match=r"kernel 'curless' on workload pairs-.*1 of 200 rays.*ray 7"):
+        checks.one_pass_checksum("curless", tampered)
 
 
 def test_the_seed_kernels_differences_are_counted_not_fatal():
     # a triangle too small for moller_seed's |det| < 1e-4: it misses every hit,
     # by design; the check records that instead of stopping the sweep
     w = cache.make(PairSpec(n=200, hit_rate=0.5, scale=1e-3))
-    checksum, counts = worker.one_pass_checksum("moller_seed", w)
+    checksum, counts = checks.one_pass_checksum("moller_seed", w)
     assert checksum.hits == 0
     assert counts["disagreements"] == int(w.ref_hit.sum()) == 100
-    with pytest.raises(worker.KernelCheckError):
-        worker.one_pass_checksum("moller_trumbore", dataclasses.replace(w, ref_hit=~w.ref_hit))
+    with pytest.raises(checks.KernelCheckError):
+        checks.one_pass_checksum("moller_trumbore", dataclasses.replace(w, ref_hit=~w.ref_hit))
 
 
 @pytest.mark.parametrize("kernel", ext.kernel_names())
@@ -192,11 +192,11 @@ def test_every_kernel_passes_its_checks_in_every_mode(kernel, mode):
     if mode not in ext.kernel_info(kernel).modes:
         return
     w = cache.make(spec)
-    checksum, counts = worker.one_pass_checksum(kernel, w)
+    checksum, counts = checks.one_pass_checksum(kernel, w)
     if not ext.kernel_info(kernel).seed_replay:
         assert counts["disagreements"] == counts["ambiguous_disagreements"]
     job = ext.make_job(kernel, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max)
-    worker.check_batch(ext.time_batch(job, 2), checksum, kernel, w)
+    checks.check_batch(ext.time_batch(job, 2), checksum, kernel, w)
 
 
 @pytest.mark.parametrize("mesh", ["suzanne", "icosphere"])
@@ -213,7 +213,7 @@ def test_a_culling_kernel_on_a_brute_force_mesh_is_held_to_the_brute_force_front
     np.testing.assert_array_equal(derived[1], brute[1])
     assert flip == bool((brute[0] != w.ref_index).any())
     cull = "moller_trumbore_cull_fma"
-    checksum, counts = worker.one_pass_checksum(cull, w)
+    checksum, counts = checks.one_pass_checksum(cull, w)
     assert checksum.hits == int((brute[0] >= 0).sum()) and counts["disagreements"] == counts["ambiguous_disagreements"]
 
 
@@ -254,7 +254,7 @@ def test_internal_kernels_agree_with_the_reference_on_pairs(kernel, dtype):
 @pytest.mark.parametrize("kernel", INTERNAL)
 def test_internal_kernels_agree_with_the_reference_on_closest_hits(kernel):
     w = cache.make(MeshSpec("icosphere", triangles=80, width=12, height=12, dtype="float32"))
-    assert worker.one_pass_checksum(kernel, w) == worker.one_pass_checksum("moller_trumbore", w)
+    assert checks.one_pass_checksum(kernel, w) == checks.one_pass_checksum("moller_trumbore", w)
 
 
 # -------------------------------------------------------------- FMA probe

@@ -248,7 +248,7 @@ def test_the_bands_table_ranks_kernels_per_precision_and_hit_rate_band(small_run
     import numpy as np
 
     from tribench import ext, stats
-    from tribench.analysis.tables import band_of
+    from tribench.analysis.ranking import band_of
 
     bands = pd.read_csv(small_run / runfolder.BANDS)
     pp = pd.read_csv(small_run / runfolder.PER_PROCESS)
