@@ -84,16 +84,17 @@ _RENDERED = [rf.REPORT, rf.SWEEP_FILE]
 _INTRO = f"""\
 # The run folder
 
-<!-- Generated from tribench/harness/runfolder.py by `{COMMAND}`: edit the code, then regenerate. -->
+<!-- Generated from harness/runfolder.py by `{COMMAND}`: edit the code, then regenerate. -->
 
-A run folder (`runs/<date-time>` unless `--out` says otherwise) is the only thing measuring hands to
-reporting. Measuring writes the measured files; the analysis step (at the end of `tribench run`, and
-`tribench stats RUN_DIR` on demand) derives every table from them and from the workloads they name (from
-the cache, or rebuilt from the specs in `run.json`), never timing anything; `tribench report` only reads,
-so a folder copied to another machine renders the same report. The report refuses a folder whose tables
-are missing, in other columns, or stale (made from another `batches.csv`, or against another baseline than
-asked), with one line naming `tribench stats RUN_DIR`. `tribench peers --out RUN_DIR` on an analysed folder
-runs the analysis again itself.
+A run folder (`runs/[KIND-]<date-time>` unless `--out` names one) is the only thing measuring hands to
+reporting; `harness/runfolder.py` names every file in it and every CSV's columns, and this page is made
+from it. The sweep writes the measured files. The analysis step (`harness/analysis.py`, at the end of
+`tribench run`, and `tribench stats RUN_DIR` on demand) derives every table from them and from the workloads
+they name (from the cache, or rebuilt from the specs in `run.json`), never timing anything. `tribench report`
+only reads: it never times a kernel, generates a workload or runs the robustness suite, so a folder copied to
+another machine renders the same report. It refuses a folder whose tables are missing, in other columns, or
+stale (made from another `batches.csv`, or against another baseline than asked), with one line naming
+`tribench stats RUN_DIR`. `tribench peers --out RUN_DIR` on an analysed folder runs the analysis again.
 
 Every CSV is tidy: one row per observation, snake_case names, raw units (nanoseconds, counts, fractions).
 The columns below are in file order; tests hold every file a run writes to them exactly.
