@@ -31,10 +31,10 @@ __all__ = ["Estimate", "estimate", "measure_passes", "model"]
 #: A worker's start-up: the interpreter, NumPy, the extension, its workloads from the cache.
 START_S = 0.5
 #: A check's bookkeeping besides its pass (the reference comparison, the
-#: ambiguous rays): a pair block of the main job took 16-18 ms per kernel at
-#: 8 ms batches, 10 ms of it calibration.
+#: ambiguous rays), read off the main job's batches (docs/decisions.md, "The duration forecast").
 CHECK_S = 0.007
-#: The runner's time per batch outside the timed loop (plan.py: 80-150 us).
+#: The runner's time per batch outside the timed loop, the top of what
+#: bench/harness_overhead.py measured (docs/decisions.md, "Batches of 8 ms").
 BATCH_OVERHEAD_S = 150e-6
 #: Tests per measured pass: big enough to be timed, small enough to cost little.
 SLICE_TESTS = 1 << 17

@@ -72,16 +72,11 @@ __all__ = [
     "process_seed",
 ]
 
-# Defaults of a sweep, in one place, set from measurements (bench/protocol_design.py,
-# bench/harness_overhead.py; the reasoning is in the README, "Choosing the design"):
-# - 10 processes: a t-interval on 9 degrees of freedom, the fewest that give
-#   usable intervals; processes carry the between-layout variance;
-# - 10 rounds: Kalibera & Jones's ceil(sqrt(c2/c1 * T1^2/T2^2)) was 10 and 14 in
-#   two pilots of a one-workload sweep (a process costs about 14 of its rounds,
-#   and the ratio varies 2-4x more between rounds than between processes);
-# - 8 ms batches: the harness spends 80-150 us per batch outside the timed C
-#   loop (more after longer batches): 1.9% of an 8 ms batch, 2.9% of a 5 ms
-#   one, 4% of a 2 ms one; 8 ms stays under the 10 ms the design allows.
+# Defaults of a sweep, in one place: 10 processes, the fewest whose t-interval is usable;
+# 10 rounds, what Kalibera & Jones's rule gives from a process's cost and the variance
+# between rounds and between processes; 8 ms batches, long enough that the harness's time
+# between batches is about 2% of one. The measurements and their commands are in
+# docs/decisions.md, "Defaults of a sweep".
 DEFAULT_PROCESSES = 10
 DEFAULT_ROUNDS = 10
 DEFAULT_WARMUP = 1
@@ -91,7 +86,7 @@ DEFAULT_TARGET_MS = 8.0
 # is allocated. The plan is a list of BatchKey (about 150 bytes each), and the
 # main job (`tribench run`) plans at most 18,864 batches (36 processes; its
 # stages run a part of them). A million batches is about 150 MB of plan and
-# 2.3 hours of timed batches alone at the default 8 ms per batch: past that,
+# 2.2 hours of timed batches alone at the default 8 ms per batch: past that,
 # a study is several sweeps.
 MAX_BATCHES = 1_000_000
 MAX_PROCESSES = 10_000  # each process costs about 5 s of start-up and checks: 14 hours
@@ -372,11 +367,10 @@ class Sweep:
 
 #: The main job's sequential design (``tribench run``): stages of this many
 #: processes, each comparison stopped once its 95% interval is within this
-#: relative half-width, and the seconds the sweep's stages may take. The
-#: budget leaves the rest of 10 minutes on 2 cores to the peers (about 40 s), the
-#: robustness suite, the tables, the pictures and the report: 225 s on a first run
-#: on 2 cores loaded by other work (the 250,000-triangle mesh and its reference are
-#: made by the first worker, inside the sweep); ``--quick`` keeps about 1 minute.
+#: relative half-width, and the seconds the sweep's stages may take. The budget
+#: leaves the rest of about 10 minutes on 2 cores to the peers, the robustness
+#: suite, the tables, the pictures and the report, and ``--quick`` aims at about a
+#: minute; what those took: docs/decisions.md, "The main job's design".
 MAIN_JOB_DESIGN = {
     False: Sequential(stage=2, target=0.02, budget_s=300.0),
     True: Sequential(stage=3, target=0.05, budget_s=15.0),
@@ -418,13 +412,13 @@ def default_sweep(quick: bool = False) -> Sweep:
       native form as the leaf test.
 
     A sequential design (:class:`Sequential`, :data:`MAIN_JOB_DESIGN`): processes
-    run 2 at a time, and after each stage every kernel whose speedup over the
-    baseline (``moller_seed``; on the BVH workload, its first native kernel) is
-    known within ±2% stops, so the processes go where the intervals are wide,
-    until every comparison is narrow, 36 processes, or 300 s of sweep. 3 rounds
-    per process: a process costs about 10 rounds of all its workloads, and the
-    ratios vary most between rounds on pairs (8%) and 3-4% on meshes; the
-    sequential stages put the rest into processes, which carry the
+    run in stages of 2 (one process at a time), and after each stage every kernel
+    whose speedup over the baseline (``moller_seed``; on the BVH workload, its first
+    native kernel) is known within ±2% stops, so the processes go where the
+    intervals are wide, until every comparison is narrow, 36 processes, or 300 s of
+    sweep. 3 rounds per process, set from what a process costs in rounds and how
+    much the ratios vary between rounds (docs/decisions.md, "3 rounds per
+    process"); the sequential stages put the rest into processes, which carry the
     between-layout variance. ``quick`` keeps every kernel on fewer workloads
     (pairs at 0, 50 and 100% in float32, the small camera in both precisions, a
     10,000-triangle BVH) with 1 ms batches, stopping at ±5% or 15 s.
@@ -455,7 +449,7 @@ def default_sweep(quick: bool = False) -> Sweep:
     return Sweep(
         kernels,
         (*pairs, *meshes, bvh),
-        processes=36,  # a bound the budget reaches first: about 12 s a process on 2 cores
+        processes=36,  # a bound the budget reaches first (docs/decisions.md, "A 300 s budget")
         rounds=2 if quick else 3,
         warmup=1,
         target_ms=1.0 if quick else DEFAULT_TARGET_MS,

@@ -10,7 +10,7 @@ from tribench.common import UserError
 #: The largest equivalence margin tribench accepts. A margin is relative: at
 #: 0.5 two kernels within 1.5x of each other would be "equivalent", which is
 #: not a noise floor but a machine too noisy to compare on (an A/A noise floor
-#: is 1-3 % on this project's machine, and stats.DEFAULTS.margin is 1 %).
+#: is a few percent: docs/decisions.md, "The equivalence margin").
 MAX_MARGIN = 0.5
 
 

@@ -26,10 +26,9 @@ __all__ = ["MIN_PROCESSES", "narrow_comparisons", "relative_halfwidth"]
 
 #: Fewest processes before a comparison may stop. A t-interval's own width is
 #: a noisy guide on few processes: a lucky small spread stops a comparison whose
-#: true spread is larger, and those intervals cover less (in tests/test_stats.py's
-#: simulation, stopping at 4 processes covered 54-73% of the time, and the
-#: whole rule 91-92.5% with a minimum of 4, 93-94% with 8, 94-95% with 12,
-#: against 95% for the fixed design).
+#: true spread is larger, and those intervals cover less. 8 keeps the rule's
+#: coverage near the fixed design's in tests/test_stats.py's simulation (the
+#: figures for 4, 8 and 12: docs/decisions.md, "3 rounds per process, stages of 2").
 MIN_PROCESSES = 8
 
 

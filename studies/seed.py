@@ -104,15 +104,11 @@ class Design:
     size: int
 
 
-# A pass over a 4096-ray sample of scene03 takes 2-4 ms for a native kernel and
-# 20-50 ms for a scalar one, so a batch is one pass there. With the default
-# kernels a process costs about 5 s of start-up and checks and a round about
-# 0.7 s; between rounds ns/test varies 4.5-6.7%, between processes 1.2-2.7%
-# (bench/protocol_design.py), so the rounds that minimise a CI for a given time
-# are sqrt(5 / 0.7 x (5.5 / 2)^2), about 7-8 (Kalibera & Jones). 20 processes x
-# 8 rounds then take about 3.5 min, and each render time's CI is about +-1.3%
-# (sqrt((2^2 + 5.5^2 / 8) / 20) x t(19); 20 x 6 gave +-1.4%): the sweep and the
-# pictures fit in 6 minutes on 2 cores.
+# 2 ms batches, about one native kernel's pass over a sample (a longer pass is a
+# batch of its own); 8 rounds, the rounds per process that narrow a CI most for
+# the time, given what a process and a round cost (Kalibera & Jones); 20 processes,
+# so the sweep and the pictures fit in about 6 minutes on 2 cores. The measurements
+# and the arithmetic: docs/decisions.md, "The seed replay's design".
 FULL = Design(processes=20, rounds=8, warmup=1, target_ms=2.0, sample=4096, size=512)
 # 5 processes, not 3: a t-interval over 3 is t(2) / sqrt(3) = 2.5 standard deviations
 # wide each side, over 5 t(4) / sqrt(5) = 1.2, for a few seconds more (about 20 s in all).
@@ -274,7 +270,7 @@ def run_seed(
 #: The pictures' tracer does about this share of a render's triangle tests as
 #: the replay times them (it skips some), plus its own NumPy work per pixel
 #: (shading, ray trees); the analysis and the page then take a few seconds.
-#: Read off scene02 and scene03 at 512 x 512 on 2 cores (22 and 16 s for scene03).
+#: Read off finished renders: docs/decisions.md, "The seed replay's design".
 PICTURE_TEST_SHARE = 0.6
 PICTURE_S_PER_PIXEL = 1e-5
 TABLES_S = 10.0

@@ -1,6 +1,6 @@
 """The packages import in one direction only, and no module imports itself back.
 
-The written order (docs/architecture.md), bottom first:
+The written order (docs/architecture.md, "Layout and data flow"), bottom first:
 
     common <- ext <- workloads <- stats <- harness <- analysis <- studies <- reports <- cli
 

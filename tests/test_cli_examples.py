@@ -1,4 +1,4 @@
-"""Every example the README's command table and ``tribench workloads``'s docstring give, run as a user runs it.
+"""Every command example the README and docs/ give, and ``tribench workloads``'s docstring, run as a user runs it.
 
 The examples are read from the documents themselves, so a new example fails
 here until it has a concrete form below, and a broken one fails like it would
@@ -21,19 +21,40 @@ from tribench.cli import workloads as workloads_cli
 from tribench.cli.command import build_parser
 from tribench.workloads.seed_scene import builtin_scene_path
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+COMMANDS_DOC = ROOT / "docs" / "commands.md"
 
 # A sweep as small as a sweep gets: 2 processes x 1 round of 0.05 ms batches.
 TINY_DESIGN = ["--processes", "2", "--rounds", "1", "--warmup", "0", "--target-ms", "0.05", "--no-progress"]
 
 
-def readme_examples() -> list[str]:
-    """The backticked commands in the first column of the README's command table."""
+def table_examples(path: Path) -> list[str]:
+    """The backticked commands in the first column of a document's command tables."""
     examples = []
-    for line in README.read_text(encoding="utf-8").splitlines():
+    for line in path.read_text(encoding="utf-8").splitlines():
         cells = line.split(" | ")
         if line.startswith("| `tribench ") and len(cells) >= 2:
             examples += re.findall(r"`([^`]+)`", cells[0])
+    return examples
+
+
+def heading_examples(path: Path) -> list[str]:
+    """The backticked commands of a document's headings that are nothing but commands (docs/commands.md's
+    sections: ``### `tribench workloads make KIND …` / `list` / `show ID [--png FILE]` ``)."""
+    examples = []
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if re.fullmatch(r"#+ `tribench [^`]+`( / `[^`]+`)*", line):
+            examples += re.findall(r"`([^`]+)`", line)
+    return examples
+
+
+def readme_examples() -> list[str]:
+    """Every command example the documentation gives: the README's command table, and the command
+    tables and command headings of every page in docs/."""
+    examples = table_examples(README)
+    for page in sorted((ROOT / "docs").glob("*.md")):
+        examples += table_examples(page) + heading_examples(page)
     return examples
 
 
@@ -130,7 +151,13 @@ def mesh_prefix(env):
 
 def test_the_readme_and_the_docstring_have_examples():
     assert len(readme_examples()) >= 12 and len(docstring_examples()) >= 6
-    assert set(readme_examples()) == set(CONCRETE), "give each README example a concrete form here"
+    assert set(readme_examples()) == set(CONCRETE), "give each README and docs/ example a concrete form here"
+
+
+def test_the_readme_table_and_the_commands_page_name_the_same_commands():
+    readme, page = table_examples(README), heading_examples(COMMANDS_DOC)
+    assert len(readme) == len(set(readme)) and len(page) == len(set(page)), "a command listed twice"
+    assert readme == page, "README's command table and docs/commands.md's sections: the same commands, in order"
 
 
 @pytest.mark.parametrize("example", sorted(CONCRETE))

@@ -12,6 +12,9 @@ SUBPACKAGES = [
     "tribench.workloads",
     "tribench.stats",
     "tribench.harness",
+    "tribench.harness.runfolder",
+    "tribench.analysis",
+    "tribench.studies",
     "tribench.reports",
     "tribench.cli",
 ]
@@ -40,6 +43,7 @@ def test_the_modules_with_examples_are_found():
         "tribench.workloads.reference",
         "tribench.stats.estimates",
         "tribench.reports.html",
+        "tribench.harness.runfolder.doc",  # docs/run-folder.md's generator
     } <= set(MODULES)
 
 

@@ -135,7 +135,7 @@ def test_clean_kernels_miss_every_flat_triangle(kernel, isa, seed, dtype):
 
 def test_moller_seed_keeps_the_seeds_det_test_on_flat_triangles():
     # collinear float32 vertices some 100 units out: det is rounding noise above the seed's
-    # 1e-4, so the seed's code hits the segment (documented in moller_seed.h and the README)
+    # 1e-4, so the seed's code hits the segment (documented in moller_seed.h and docs/kernels.md)
     o = np.array([[0.9213621616363525, -168.2555389404297, -372.24993896484375]], np.float32)
     d = np.array([[-55.93600082397461, 12.543999671936035, 83.96800231933594]], np.float32)
     tri = np.array(

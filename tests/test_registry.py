@@ -1,6 +1,6 @@
 """The kernel registry: every property declared once in C (ext/kernels/list.h), read
 from the extension, consistent; no code infers a property from a name; and adding a
-kernel touches exactly the three places the README names."""
+kernel touches exactly the three places docs/kernels.md names."""
 
 from __future__ import annotations
 
@@ -116,7 +116,7 @@ def test_python_judges_by_the_declarations():
 
 
 def test_the_declarations_say_what_the_readme_and_the_papers_say():
-    # the kernels whose documentation makes these claims (README Kernels table, each header)
+    # the kernels whose documentation makes these claims (docs/kernels.md's table, each header)
     assert {k for k, i in INFO.items() if i.culls_back_faces} == {
         "moller_trumbore_cull",
         "moller_trumbore_cull_x8",
@@ -241,7 +241,7 @@ def _registration_lines() -> dict[str, list[list[str]]]:
     return lists
 
 
-def test_every_kernel_file_is_included_and_registered_once_and_has_a_readme_row():
+def test_every_kernel_file_is_included_and_registered_once_and_has_a_row_in_the_kernels_table():
     lines = _registration_lines()
     assert set(lines) == {"TB_KERNEL_LIST", "TB_INTERNAL_KERNEL_LIST"}
     registered = [cols[0] for rows in lines.values() for cols in rows]
@@ -262,11 +262,12 @@ def test_every_kernel_file_is_included_and_registered_once_and_has_a_readme_row(
     )
     assert sorted(set(includes) - helpers) == sorted(files) and len(includes) == len(set(includes))
 
-    # a row of the README's Kernels table for each: in the name or wide-form column, once
-    readme = (ROOT / "README.md").read_text()
-    table = readme.split("## Kernels", 1)[1].split("\n\n", 2)[1]
+    # a row of docs/kernels.md's table for each: in the name or wide-form column, once
+    doc = (ROOT / "docs" / "kernels.md").read_text(encoding="utf-8")
+    table = doc.split("\n## The kernels\n\n", 1)[1].split("\n\n", 1)[0]
+    assert table.startswith("| name | wide form |"), "docs/kernels.md: the table follows '## The kernels'"
     named = [n for row in table.splitlines()[2:] for cell in row.split("|")[1:3] for n in re.findall(r"`(\w+)`", cell)]
-    assert sorted(named) == sorted(KERNELS), "README Kernels table: one mention per registered kernel"
+    assert sorted(named) == sorted(KERNELS), "docs/kernels.md's table: one mention per registered kernel"
 
 
 def test_the_registration_lines_are_what_python_reads():
