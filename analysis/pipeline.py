@@ -34,9 +34,7 @@ and :class:`Analysis` holds the tables exactly as the files have them.
 from __future__ import annotations
 
 import datetime as _dt
-import hashlib
 import json
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -50,10 +48,15 @@ from tribench.common import UserError, write_text
 from tribench.harness import runfolder
 from tribench.harness.margin import Margin
 
+from . import measured
+from .measured import Measured, file_digest
+
 __all__ = [
     "Analysis",
     "Derived",
     "analyse",
+    "derive",
+    "estimate",
     "write_tables",
     "write_all",
     "file_digest",
@@ -106,7 +109,7 @@ class Analysis:
 
 
 def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | None = None) -> Analysis:
-    """Estimates and speedups of ``run_dir``.
+    """Estimates and speedups of ``run_dir`` (:func:`estimate` of its measured files).
 
     Parameters
     ----------
@@ -115,46 +118,38 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
     margin : float, optional
         Equivalence margin; default the one recorded in ``run.json``.
     """
-    run = runfolder.read_run(run_dir)
-    batches = runfolder.read_batches(run_dir, run)
-    writer = runfolder.live_writer(run_dir)
-    if writer is not None:
-        print(
-            f"tribench: note: {run_dir} is still being written by {writer}; these tables cover "
-            f"{len(batches)} of its {run['n_batches']} batches",
-            file=sys.stderr,
-        )
+    return estimate(measured.load(run_dir), baseline, margin)
+
+
+def estimate(m: Measured, baseline: str | None = None, margin: float | None = None) -> Analysis:
+    """Estimates and speedups of a run's measured files (``baseline`` and ``margin`` as for :func:`analyse`)."""
+    run, batches = m.run, m.batches
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
-        raise UserError(f"{run_dir} has no timed batches yet")
+        raise UserError(f"{m.run_dir} has no timed batches yet")
     kernels = [k for k in run["sweep"]["kernels"] if k in set(timed["kernel"])]
     if baseline is None:
         baseline = DEFAULT_BASELINE if DEFAULT_BASELINE in kernels else kernels[0]
     elif baseline not in kernels:
         raise UserError(f"baseline {baseline!r} is not in this run; its kernels: {', '.join(kernels)}")
-    m = Margin(margin, "--margin") if margin is not None else Margin(run["margin"]["value"], run["margin"]["source"])
-    names = {
-        wid: _summary(spec) for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True)
-    }
+    mg = Margin(margin, "--margin") if margin is not None else Margin(run["margin"]["value"], run["margin"]["source"])
+    names = {wid: _summary(spec) for wid, spec in m.specs.items()}
 
     table = stats.per_process(batches)
     estimates = stats.estimate_table(table).rename(columns=ESTIMATE_COLUMNS)
     estimates["workload"] = estimates["workload_id"].map(names)
-    dtypes = {
-        wid: spec["dtype"] for wid, spec in zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True)
-    }
+    dtypes = {wid: spec["dtype"] for wid, spec in m.specs.items()}
     estimates = estimates.join(
-        _peak_columns(table, runfolder.read_processes(run_dir, run), dtypes, run.get("throughput")),
-        on=["kernel", "workload_id"],
+        _peak_columns(table, m.processes, dtypes, run.get("throughput")), on=["kernel", "workload_id"]
     )
     # against the baseline where it ran: a BVH workload runs only the kernels that can be a
     # BVH's leaf test (pairs workloads no wide kernel), so it may have no speedups (ranking.csv has it)
     ran = table.loc[table["kernel"] == baseline, "workload_id"].unique()
-    speedups = stats.speedup_table(table.loc[table["workload_id"].isin(ran)], baseline, margin=m.value)
+    speedups = stats.speedup_table(table.loc[table["workload_id"].isin(ran)], baseline, margin=mg.value)
     speedups = speedups.rename(columns=SPEEDUP_COLUMNS)
     speedups["workload"] = speedups["workload_id"].map(names)
-    speedups["margin_source"] = m.source
-    return Analysis(estimates, speedups, baseline, m, len(batches), int(table["process"].nunique()))
+    speedups["margin_source"] = mg.source
+    return Analysis(estimates, speedups, baseline, mg, len(batches), int(table["process"].nunique()))
 
 
 def _summary(spec: dict) -> str:
@@ -276,14 +271,6 @@ class Derived:
         return self.analysis.speedups
 
 
-def file_digest(path: str | Path) -> str | None:
-    """SHA-256 of a file's bytes (None if there is no such file): how the report knows a table is stale."""
-    try:
-        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    except FileNotFoundError:
-        return None
-
-
 def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], dict[str, str]]:
     """The run's workloads from the cache, made from their spec where the cache lacks them.
 
@@ -349,35 +336,62 @@ def _pictures(run_dir: Path, wids: list[str], workloads: dict[str, Any]) -> dict
     return out
 
 
-def _read_validation(run_dir: Path) -> pd.DataFrame | None:
-    """``validate.csv`` if it is there in today's columns (None otherwise: the bands table then has no robustness)."""
-    path = run_dir / runfolder.VALIDATE
-    try:
-        frame = pd.read_csv(path)
-    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError):
-        return None
-    return frame if list(frame.columns) == list(runfolder.FILES[runfolder.VALIDATE]) else None
-
-
-def _peer_tables(run_dir: Path) -> tuple[dict[str, pd.DataFrame], str]:
+def _peer_tables(m: Measured) -> tuple[dict[str, pd.DataFrame], str]:
     """``peer_rates.csv`` and ``peer_ratios.csv`` from ``peers.csv`` (none without it), and a sentence."""
     from .peers import summarise as summarise_peers
 
-    path = run_dir / runfolder.PEERS
-    if not path.is_file():
-        return {}, f"no {runfolder.PEERS}"
+    if m.peers is None:
+        return {}, m.peers_note
     try:
-        with open(path, encoding="utf-8") as f:
-            header = f.readline(65536).rstrip("\r\n").split(",")
-        if header != list(runfolder.FILES[runfolder.PEERS]):
-            return {}, f"{runfolder.PEERS} is not in today's columns (an older tribench wrote it)"
-        rates, ratios = summarise_peers(pd.read_csv(path))
-    except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError, KeyError, IndexError) as exc:
+        rates, ratios = summarise_peers(m.peers)
+    except (ValueError, KeyError, IndexError) as exc:
         return {}, f"{runfolder.PEERS} cannot be used ({type(exc).__name__}: {exc})"
     return {
         runfolder.PEER_RATES: rates.reindex(columns=list(runfolder.FILES[runfolder.PEER_RATES])),
         runfolder.PEER_RATIOS: ratios.reindex(columns=list(runfolder.FILES[runfolder.PEER_RATIOS])),
     }, "summarised"
+
+
+def derive(
+    m: Measured, result: Analysis, workloads: dict[str, Any], sources: dict[str, str]
+) -> dict[str, pd.DataFrame]:
+    """Every derived table of the run, by file name, in the order of :data:`runfolder.DERIVED`:
+    a pure function of the measured files, their estimates and speedups, and the workloads."""
+    from . import bvh, diagnostics, ranking, scaling, workload_tables
+
+    batches, kernels, wids, specs = m.batches, m.kernels, m.workload_ids, m.specs
+    base, margin = result.baseline, result.margin.value
+    wl = workload_tables.workload_table(specs, wids, workloads, sources)
+    est = workload_tables.estimates_with_workloads(result.estimates, wl)
+    spd = result.speedups.merge(wl.drop(columns=["dtype"]), on="workload_id", how="left", suffixes=("", "_wl"))
+    pp = stats.per_process(batches)
+    labels = diagnostics.batch_labels(batches)
+    rank = ranking.ranking_table(est, spd, pp, margin)
+    tables = {
+        runfolder.ESTIMATES: result.estimates,
+        runfolder.SPEEDUPS: result.speedups,
+        runfolder.WORKLOADS: wl,
+        runfolder.WORKLOAD_FIGURES: workload_tables.workload_figures(wids, workloads),
+        runfolder.CORRECTNESS: workload_tables.correctness_table(batches, kernels, workloads),
+        runfolder.PER_PROCESS: pp,
+        runfolder.BATCH_LABELS: labels,
+        runfolder.CROSSOVERS: scaling.crossovers(kernels, wl, pp),
+        runfolder.SLOPES: scaling.scaling_slopes(est, pp),
+        runfolder.DRIFT: diagnostics.drift_table(batches, kernels, base, wids, wl),
+        runfolder.VARIANCE: diagnostics.variance_table(batches, kernels, wids, wl),
+        runfolder.OUTLIERS: diagnostics.outlier_table(labels, wl),
+        runfolder.WARMUP: diagnostics.warmup_table(labels, wl),
+        runfolder.KERNELS: ranking.kernel_table(kernels, batches, m.run, est, spd, base),
+        runfolder.RANKING: rank,
+        runfolder.ALGORITHMS: ranking.algorithm_table(rank, pp, margin),
+        # each kernel's robustness beside its speed
+        runfolder.BANDS: ranking.band_table(est, pp, specs, base, margin, m.validate),
+        runfolder.BVH: bvh.bvh_table(batches, m.traversals, wl, specs, pp, kernels, base, margin),
+    }
+    for name, frame in tables.items():
+        if list(frame.columns) != list(runfolder.FILES[name]):  # a bug: the table and the contract disagree
+            raise AssertionError(f"{name}: columns {list(frame.columns)} are not runfolder.FILES[{name!r}]")
+    return tables
 
 
 def write_all(
@@ -412,75 +426,26 @@ def write_all(
     UserError
         The folder cannot be read (``file:line``), has no timed batch, or cannot be written.
     """
-    from . import bvh, diagnostics, ranking, scaling, workload_tables
-
-    run_dir = Path(run_dir)
-    batches_digest = file_digest(run_dir / runfolder.BATCHES)
-    result = analyse(run_dir, baseline=baseline, margin=margin)
-    run = runfolder.read_run(run_dir)
-    batches = runfolder.read_batches(run_dir, run)
-    present_k, present_w = set(batches["kernel"]), set(batches["workload_id"])
-    kernels = [k for k in run["sweep"]["kernels"] if k in present_k]
-    wids = [w for w in run["sweep"]["workload_ids"] if w in present_w]
-    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
-
-    workloads, sources = _workloads(run, wids)
-    wl = workload_tables.workload_table(specs, wids, workloads, sources)
-    est = workload_tables.estimates_with_workloads(result.estimates, wl)
-    spd = result.speedups.merge(wl.drop(columns=["dtype"]), on="workload_id", how="left", suffixes=("", "_wl"))
-    pp = stats.per_process(batches)
-    labels = diagnostics.batch_labels(batches)
-    tables: dict[str, pd.DataFrame] = {
-        runfolder.ESTIMATES: result.estimates,
-        runfolder.SPEEDUPS: result.speedups,
-        runfolder.WORKLOADS: wl,
-        runfolder.WORKLOAD_FIGURES: workload_tables.workload_figures(wids, workloads),
-        runfolder.CORRECTNESS: workload_tables.correctness_table(batches, kernels, workloads),
-        runfolder.PER_PROCESS: pp,
-        runfolder.BATCH_LABELS: labels,
-        runfolder.CROSSOVERS: scaling.crossovers(kernels, wl, pp),
-        runfolder.SLOPES: scaling.scaling_slopes(est, pp),
-        runfolder.DRIFT: diagnostics.drift_table(batches, kernels, result.baseline, wids, wl),
-        runfolder.VARIANCE: diagnostics.variance_table(batches, kernels, wids, wl),
-        runfolder.OUTLIERS: diagnostics.outlier_table(labels, wl),
-        runfolder.WARMUP: diagnostics.warmup_table(labels, wl),
-        runfolder.KERNELS: ranking.kernel_table(kernels, batches, run, est, spd, result.baseline),
-        runfolder.RANKING: ranking.ranking_table(est, spd, pp, result.margin.value),
-    }
-    tables[runfolder.ALGORITHMS] = ranking.algorithm_table(tables[runfolder.RANKING], pp, result.margin.value)
-    # the bands table shows each kernel's robustness beside its speed: validate.csv first
-    if validate_note is None:
-        present = (run_dir / runfolder.VALIDATE).is_file()
-        validate_note = f"Read from {runfolder.VALIDATE} in the run folder." if present else None
-    tables[runfolder.BANDS] = ranking.band_table(
-        est, pp, specs, result.baseline, result.margin.value, _read_validation(run_dir)
-    )
-    tables[runfolder.BVH] = bvh.bvh_table(
-        batches,
-        runfolder.read_traversals(run_dir, run),
-        wl,
-        specs,
-        pp,
-        kernels,
-        result.baseline,
-        result.margin.value,
-    )
-    peer_tables, peer_note = _peer_tables(run_dir)
+    m = measured.load(run_dir)
+    result = estimate(m, baseline, margin)
+    workloads, sources = _workloads(m.run, m.workload_ids)
+    tables = derive(m, result, workloads, sources)
+    peer_tables, peer_note = _peer_tables(m)
     tables.update(peer_tables)
     for name, frame in tables.items():
-        if list(frame.columns) != list(runfolder.FILES[name]):  # a bug: the table and the contract disagree
-            raise AssertionError(f"{name}: columns {list(frame.columns)} are not runfolder.FILES[{name!r}]")
-        runfolder.write_csv(frame, run_dir / name)
-    pictures = _pictures(run_dir, wids, workloads)
+        runfolder.write_csv(frame, m.run_dir / name)
+    pictures = _pictures(m.run_dir, m.workload_ids, workloads)
     margin_record = {"value": result.margin.value, "source": result.margin.source}
     write_text(
-        run_dir / runfolder.GOOGLE_BENCHMARK,
-        export.dumps(export.google_benchmark(run, tables, result.baseline, margin_record)),
+        m.run_dir / runfolder.GOOGLE_BENCHMARK,
+        export.dumps(export.google_benchmark(m.run, tables, result.baseline, margin_record)),
     )
+    if validate_note is None:
+        validate_note = f"Read from {runfolder.VALIDATE} in the run folder." if m.validate is not None else None
     record = {
         "created": _dt.datetime.now().astimezone().isoformat(timespec="seconds"),
-        "batches_sha256": batches_digest,
-        "peers_sha256": file_digest(run_dir / runfolder.PEERS) if peer_tables else None,
+        "batches_sha256": m.batches_sha256,
+        "peers_sha256": m.peers_sha256 if peer_tables else None,
         "peers": peer_note,
         "baseline": result.baseline,
         "margin": margin_record,
@@ -489,7 +454,7 @@ def write_all(
         "validate": validate_note,
         "pictures": pictures,
     }
-    write_text(run_dir / runfolder.ANALYSIS, json.dumps(record, indent=2, sort_keys=True) + "\n")
+    write_text(m.run_dir / runfolder.ANALYSIS, json.dumps(record, indent=2, sort_keys=True) + "\n")
     return Derived(result, tables, record)
 
 

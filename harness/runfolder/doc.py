@@ -45,7 +45,7 @@ _ABOUT = {
     rf.CALIBRATION: "an A/A calibration's record (`tribench calibrate --out RUN_DIR`)",
     rf.ESTIMATES: "ns per test per kernel and workload, with intervals and the fraction of the port model's bound",
     rf.SPEEDUPS: "every kernel against the baseline: ratio, simultaneous interval, p-values, verdict",
-    rf.VALIDATE: "the robustness suite, every kernel at both precisions (measured at the end of a sweep when the folder has none)",
+    rf.VALIDATE: "the robustness suite, every kernel at both precisions (measured after a sweep when it is missing)",
     rf.WORKLOADS: "each workload: kind, family, size, precision and achieved hit rates, and where the analysis got it",
     rf.WORKLOAD_FIGURES: "each workload's achieved figures beside its spec's targets",
     rf.CORRECTNESS: "each kernel's hits and sums of t per pass in its batches against the float64 reference",
@@ -87,8 +87,9 @@ _INTRO = f"""\
 <!-- Generated from harness/runfolder/ (rows.py, schema.py) by `{COMMAND}`: edit the code, then regenerate. -->
 
 A run folder (`runs/[KIND-]<date-time>` unless `--out` names one) is the only thing measuring hands to
-reporting; `harness/runfolder/` names every file in it and every CSV's columns (`schema.py`; the measured files' rows in `rows.py`), and this page is made
-from it. The sweep writes the measured files. The analysis step (`harness/analysis.py`, at the end of
+reporting; `harness/runfolder/` names every file in it and every CSV's columns (`schema.py`; the measured
+files' rows in `rows.py`), and this page is made from it. The sweep writes the measured files, and a study
+may add `validate.csv` and `peers.csv`. The analysis step (`analysis/pipeline.py`, at the end of
 `tribench run`, and `tribench stats RUN_DIR` on demand) derives every table from them and from the workloads
 they name (from the cache, or rebuilt from the specs in `run.json`), never timing anything. `tribench report`
 only reads: it never times a kernel, generates a workload or runs the robustness suite, so a folder copied to
