@@ -75,9 +75,6 @@ def bvh_table(
     on the brute-force twin (:func:`bvh_baseline` on both). A run without a
     BVH workload gives an empty table.
     """
-    from tribench.workloads.kinds import spec_from_dict
-    from tribench.workloads.spec import MeshSpec, workload_id
-
     rows: list[dict[str, Any]] = []
     bvh_wids = [wid for wid in wl["workload_id"] if specs[wid].get("accel") == "bvh"]
     if not bvh_wids:
@@ -96,65 +93,92 @@ def bvh_table(
         ran = sorted(set(b["kernel"]), key=lambda k: order.get(k, len(order)))
         if not ran:
             continue
-        base = bvh_baseline(ran, baseline)
-        level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(ran) - 1, 1))
-        per_ray = _per_process_wide(b.assign(ns=b["elapsed_ns"] / (b["loops"] * rays[wid])), "ns")
-        spec = spec_from_dict(dict(specs[wid]))
-        assert isinstance(spec, MeshSpec)  # only a mesh has accel "bvh"
-        twin = workload_id(spec.brute_twin())
-        twin_pp = pp.loc[pp["workload_id"] == twin]
-        brute = twin_pp.pivot(index="process", columns="kernel", values="ns_per_test") if len(twin_pp) else None
-        t = trav.loc[trav["workload_id"] == wid]
-        shares = _per_process_wide(paired.loc[paired["workload_id"] == wid], "null_ratio")
         w = wl.loc[wl["workload_id"] == wid].iloc[0]
+        about = {
+            "workload_id": wid,
+            "family": w["family"],
+            "label": w["label"],
+            "dtype": w["dtype"],
+            "rays_kind": specs[wid].get("rays"),
+            "triangles": w["triangles"],
+        }
+        speeds = _Speeds(ran, baseline, b.assign(ns=b["elapsed_ns"] / (b["loops"] * rays[wid])), pp, specs[wid])
+        shares = _per_process_wide(paired.loc[paired["workload_id"] == wid], "null_ratio")
+        t = trav.loc[trav["workload_id"] == wid]
         for kernel in ran:
-            rate = stats.geometric_mean(1e9 / per_ray[kernel].dropna())
-            tk = t.loc[t["kernel"] == kernel]
-            n_rays = tk["rays"].sum()
-
-            def per(column: str, tk: pd.DataFrame = tk, n_rays: float = n_rays) -> float:
-                return float(tk[column].sum() / n_rays) if n_rays else math.nan
-
-            share_low = share = share_high = math.nan
-            if kernel in shares and shares[kernel].notna().any():
-                g = stats.geometric_mean(shares[kernel].dropna())
-                share, share_low, share_high = 1 - g.mean, 1 - g.ci_high, 1 - g.ci_low
-            nan3 = (math.nan, math.nan, math.nan)
-            speedup = (1.0, 1.0, 1.0) if kernel == base else paired_time_ratio(per_ray, base, kernel, level)[:3]
-            brute_speedup = nan3
-            if brute is not None and {base, kernel} <= set(brute.columns):
-                brute_speedup = (1.0, 1.0, 1.0) if kernel == base else paired_time_ratio(brute, base, kernel, level)[:3]
             rows.append(
                 {
-                    "workload_id": wid,
-                    "family": w["family"],
-                    "label": w["label"],
-                    "dtype": w["dtype"],
-                    "rays_kind": specs[wid].get("rays"),
-                    "triangles": w["triangles"],
+                    **about,
                     "kernel": kernel,
                     "algorithm": declared(kernel, "algorithm"),
-                    "rays_per_s": rate.mean,
-                    "rays_per_s_ci_low": rate.ci_low,
-                    "rays_per_s_ci_high": rate.ci_high,
-                    "n_processes": rate.n,
-                    "nodes_per_ray": per("nodes"),
-                    "box_tests_per_ray": per("box_tests"),
-                    "leaves_per_ray": per("leaves"),
-                    "triangle_tests_per_ray": per("triangle_tests"),
-                    "null_nodes_per_ray": per("null_nodes"),
-                    "leaf_share": share,
-                    "leaf_share_ci_low": share_low,
-                    "leaf_share_ci_high": share_high,
-                    "baseline": base,
-                    "speedup": speedup[0],
-                    "speedup_ci_low": speedup[1],
-                    "speedup_ci_high": speedup[2],
-                    "verdict": "baseline" if kernel == base else stats.verdict(speedup[1], speedup[2], margin),
-                    "brute_workload_id": twin if brute is not None else "",
-                    "brute_speedup": brute_speedup[0],
-                    "brute_speedup_ci_low": brute_speedup[1],
-                    "brute_speedup_ci_high": brute_speedup[2],
+                    **_rate(speeds.per_ray[kernel]),
+                    **_work_per_ray(t.loc[t["kernel"] == kernel]),
+                    **_leaf_share(shares, kernel),
+                    **speeds.of(kernel, margin),
                 }
             )
     return table_frame(rows, runfolder.BVH)
+
+
+def _rate(per_ray_ns: pd.Series) -> dict[str, float]:
+    """Rays/s: the geometric mean over processes of each process's median rate."""
+    rate = stats.geometric_mean(1e9 / per_ray_ns.dropna())
+    return {
+        "rays_per_s": rate.mean,
+        "rays_per_s_ci_low": rate.ci_low,
+        "rays_per_s_ci_high": rate.ci_high,
+        "n_processes": rate.n,
+    }
+
+
+def _work_per_ray(tk: pd.DataFrame) -> dict[str, float]:
+    """Nodes, box tests, leaves and triangle tests per ray over a kernel's traversal rows (NaN without them)."""
+    n_rays = tk["rays"].sum()
+    columns = ("nodes", "box_tests", "leaves", "triangle_tests", "null_nodes")
+    return {f"{c}_per_ray": float(tk[c].sum() / n_rays) if n_rays else math.nan for c in columns}
+
+
+def _leaf_share(shares: pd.DataFrame, kernel: str) -> dict[str, float]:
+    """The leaf tests' share of trace time, 1 - null / real, with its interval (NaN without null twins)."""
+    share_low = share = share_high = math.nan
+    if kernel in shares and shares[kernel].notna().any():
+        g = stats.geometric_mean(shares[kernel].dropna())
+        share, share_low, share_high = 1 - g.mean, 1 - g.ci_high, 1 - g.ci_low
+    return {"leaf_share": share, "leaf_share_ci_low": share_low, "leaf_share_ci_high": share_high}
+
+
+class _Speeds:
+    """One BVH workload's speedups over its baseline: of ns per ray in the BVH, and of ns per test in brute
+    force on its brute-force twin, paired by process, with Bonferroni-simultaneous intervals over its kernels."""
+
+    def __init__(self, ran: list[str], baseline: str, batches: pd.DataFrame, pp: pd.DataFrame, spec: Mapping) -> None:
+        from tribench.workloads.kinds import spec_from_dict
+        from tribench.workloads.spec import MeshSpec, workload_id
+
+        self.base = bvh_baseline(ran, baseline)
+        self.level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(ran) - 1, 1))
+        self.per_ray = _per_process_wide(batches, "ns")
+        mesh = spec_from_dict(dict(spec))
+        assert isinstance(mesh, MeshSpec)  # only a mesh has accel "bvh"
+        self.twin = workload_id(mesh.brute_twin())
+        twin_pp = pp.loc[pp["workload_id"] == self.twin]
+        self.brute = twin_pp.pivot(index="process", columns="kernel", values="ns_per_test") if len(twin_pp) else None
+
+    def of(self, kernel: str, margin: float) -> dict[str, Any]:
+        base, nan3 = self.base, (math.nan, math.nan, math.nan)
+        one = (1.0, 1.0, 1.0)
+        speedup = one if kernel == base else paired_time_ratio(self.per_ray, base, kernel, self.level)[:3]
+        brute_speedup = nan3
+        if self.brute is not None and {base, kernel} <= set(self.brute.columns):
+            brute_speedup = one if kernel == base else paired_time_ratio(self.brute, base, kernel, self.level)[:3]
+        return {
+            "baseline": base,
+            "speedup": speedup[0],
+            "speedup_ci_low": speedup[1],
+            "speedup_ci_high": speedup[2],
+            "verdict": "baseline" if kernel == base else stats.verdict(speedup[1], speedup[2], margin),
+            "brute_workload_id": self.twin if self.brute is not None else "",
+            "brute_speedup": brute_speedup[0],
+            "brute_speedup_ci_low": brute_speedup[1],
+            "brute_speedup_ci_high": brute_speedup[2],
+        }

@@ -153,97 +153,114 @@ def google_benchmark(
         (f, i, rows.loc[(k, w)]) for f, k in enumerate(kernels) for i, w in enumerate(wids) if (k, w) in rows.index
     ):
         kernel, wid = r.name
-        name = f"{kernel}/{wid}"
-        label = str(r["workload"])
+        name, label = f"{kernel}/{wid}", str(r["workload"])
         per = pp.loc[(pp["kernel"] == kernel) & (pp["workload_id"] == wid)].sort_values("process")
-        n = len(per)
-        common = {"repetitions": n, "threads": 1}
-        for i, p in enumerate(per.itertuples(index=False)):
-            benchmarks.append(
-                _entry(
-                    name,
-                    name,
-                    family,
-                    instance,
-                    label,
-                    run_type="iteration",
-                    **common,
-                    repetition_index=i,
-                    iterations=int(p.n_rounds),
-                    real_time=float(p.ns_per_test),
-                    cpu_time=float(p.ns_per_test),
-                    process=int(p.process),
-                )
-            )
-        aggregate = {"run_type": "aggregate", **common}
-        benchmarks.append(
+        ids = (name, family, instance)
+        benchmarks += _repetitions(ids, label, per)
+        benchmarks += _time_aggregates(ids, label, r, len(per))
+        if (kernel, wid) in spd.index and math.isfinite(spd.loc[(kernel, wid)]["ratio"]):
+            benchmarks.append(_speedup(ids, label, spd.loc[(kernel, wid)], baseline, len(per)))
+    return {"context": _context(run, baseline, margin), "benchmarks": benchmarks}
+
+
+def _repetitions(ids: tuple[str, int, int], label: str, per: pd.DataFrame) -> list[dict[str, Any]]:
+    """One ``iteration`` entry per worker process: its median ns per test (the replicate)."""
+    name, family, instance = ids
+    return [
+        _entry(
+            name,
+            name,
+            family,
+            instance,
+            label,
+            run_type="iteration",
+            repetitions=len(per),
+            threads=1,
+            repetition_index=i,
+            iterations=int(p.n_rounds),
+            real_time=float(p.ns_per_test),
+            cpu_time=float(p.ns_per_test),
+            process=int(p.process),
+        )
+        for i, p in enumerate(per.itertuples(index=False))
+    ]
+
+
+def _time_aggregates(ids: tuple[str, int, int], label: str, r: pd.Series, n: int) -> list[dict[str, Any]]:
+    """The ``_mean`` entry (ns per test with its intervals) and, where finite, the ``_stddev`` entry."""
+    name, family, instance = ids
+    aggregate = {"run_type": "aggregate", "repetitions": n, "threads": 1}
+    out = [
+        _entry(
+            f"{name}_mean",
+            name,
+            family,
+            instance,
+            label,
+            **aggregate,
+            aggregate_name="mean",
+            aggregate_unit="time",
+            iterations=n,
+            real_time=float(r["ns_per_test"]),
+            cpu_time=float(r["ns_per_test"]),
+            **_finite(
+                {
+                    "ci_low": r["ns_per_test_ci_low"],
+                    "ci_high": r["ns_per_test_ci_high"],
+                    "bootstrap_low": r["ns_per_test_bootstrap_low"],
+                    "bootstrap_high": r["ns_per_test_bootstrap_high"],
+                    "confidence": r["confidence"],
+                }
+            ),
+        )
+    ]
+    if math.isfinite(r["ns_per_test_sd"]):
+        sd = float(r["ns_per_test_sd"])
+        out.append(
             _entry(
-                f"{name}_mean",
+                f"{name}_stddev",
                 name,
                 family,
                 instance,
                 label,
                 **aggregate,
-                aggregate_name="mean",
+                aggregate_name="stddev",
                 aggregate_unit="time",
                 iterations=n,
-                real_time=float(r["ns_per_test"]),
-                cpu_time=float(r["ns_per_test"]),
-                **_finite(
-                    {
-                        "ci_low": r["ns_per_test_ci_low"],
-                        "ci_high": r["ns_per_test_ci_high"],
-                        "bootstrap_low": r["ns_per_test_bootstrap_low"],
-                        "bootstrap_high": r["ns_per_test_bootstrap_high"],
-                        "confidence": r["confidence"],
-                    }
-                ),
+                real_time=sd,
+                cpu_time=sd,
             )
         )
-        if math.isfinite(r["ns_per_test_sd"]):
-            benchmarks.append(
-                _entry(
-                    f"{name}_stddev",
-                    name,
-                    family,
-                    instance,
-                    label,
-                    **aggregate,
-                    aggregate_name="stddev",
-                    aggregate_unit="time",
-                    iterations=n,
-                    real_time=float(r["ns_per_test_sd"]),
-                    cpu_time=float(r["ns_per_test_sd"]),
-                )
-            )
-        if (kernel, wid) in spd.index:
-            s = spd.loc[(kernel, wid)]
-            if math.isfinite(s["ratio"]):
-                benchmarks.append(
-                    _entry(
-                        f"{name}_speedup",
-                        name,
-                        family,
-                        instance,
-                        f"{label}; {s['verdict']} against {baseline}",
-                        **aggregate,
-                        aggregate_name="speedup",
-                        aggregate_unit="percentage",
-                        iterations=int(s["n_processes"]),
-                        real_time=float(s["ratio"]),
-                        cpu_time=float(s["ratio"]),
-                        **_finite(
-                            {
-                                "ci_low": s["ratio_ci_low"],
-                                "ci_high": s["ratio_ci_high"],
-                                "confidence": s["confidence"],
-                                "p_holm": s["p_holm"],
-                                "margin": s["margin"],
-                            }
-                        ),
-                    )
-                )
-    return {"context": _context(run, baseline, margin), "benchmarks": benchmarks}
+    return out
+
+
+def _speedup(ids: tuple[str, int, int], label: str, s: pd.Series, baseline: str, n: int) -> dict[str, Any]:
+    """The ``_speedup`` entry: the ratio over the baseline with its simultaneous interval and verdict."""
+    name, family, instance = ids
+    return _entry(
+        f"{name}_speedup",
+        name,
+        family,
+        instance,
+        f"{label}; {s['verdict']} against {baseline}",
+        run_type="aggregate",
+        repetitions=n,
+        threads=1,
+        aggregate_name="speedup",
+        aggregate_unit="percentage",
+        iterations=int(s["n_processes"]),
+        real_time=float(s["ratio"]),
+        cpu_time=float(s["ratio"]),
+        **_finite(
+            {
+                "ci_low": s["ratio_ci_low"],
+                "ci_high": s["ratio_ci_high"],
+                "confidence": s["confidence"],
+                "p_holm": s["p_holm"],
+                "margin": s["margin"],
+            }
+        ),
+    )
 
 
 def dumps(document: Mapping[str, Any]) -> str:

@@ -265,58 +265,78 @@ def band_table(
     )
     order = {b: i for i, b in enumerate(band_of(*a) for a in (("pairs", 0), ("pairs", 0.5), ("pairs", 1), ("mesh", 0)))}
     keys = sorted(frame.groupby(["dtype", "band"]).groups, key=lambda k: (k[0], order.get(k[1], len(order)), k[1]))
-    rows = []
+    rows: list[dict[str, Any]] = []
     for dtype, band in keys:
         g = frame.loc[(frame["dtype"] == dtype) & (frame["band"] == band)]
-        wids = list(dict.fromkeys(g["workload_id"]))
-        kernels = [k for k, n in g.groupby("kernel", sort=False)["workload_id"].nunique().items() if n == len(wids)]
-        sub = pp.loc[pp["workload_id"].isin(wids) & pp["kernel"].isin(kernels)]
-        logs = sub.assign(log=np.log(sub["ns_per_test"])).groupby(["process", "kernel"])["log"].agg(["mean", "size"])
-        logs = logs.loc[logs["size"] == len(wids), "mean"]  # processes that ran every workload of the band
-        per = np.exp(logs.unstack("kernel")) if len(logs) else pd.DataFrame()
-        kernels = [k for k in kernels if k in per and per[k].notna().sum() >= 1]
-        if not kernels:
-            continue
-        estimates = {k: stats.estimate(per[k].dropna()) for k in kernels}
-        ranked = sorted(kernels, key=lambda k: (estimates[k].mean, k))
-        fastest = ranked[0]
-        level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(ranked) - 1, 1))
-        for rank, kernel in enumerate(ranked, start=1):
-            e = estimates[kernel]
-            ratio, low, high = (
-                (1.0, 1.0, 1.0) if kernel == fastest else paired_time_ratio(per, kernel, fastest, level)[:3]
-            )
-            if kernel == baseline:
-                speedup = (1.0, math.nan, math.nan)
-            elif baseline in per:
-                speedup = paired_time_ratio(per, baseline, kernel, level)[:3]
-            else:
-                speedup = (math.nan, math.nan, math.nan)
-            rows.append(
-                {
-                    "dtype": dtype,
-                    "band": band,
-                    "workloads": len(wids),
-                    "rank": rank,
-                    "kernel": kernel,
-                    "algorithm": declared(kernel, "algorithm"),
-                    "form": _form(kernel),
-                    "ns_per_test": e.mean,
-                    "ns_per_test_ci_low": e.ci_low,
-                    "ns_per_test_ci_high": e.ci_high,
-                    "vs_fastest": ratio,
-                    "vs_fastest_ci_low": low,
-                    "vs_fastest_ci_high": high,
-                    "tied_with_fastest": bool(low <= 1 + margin) if not math.isnan(low) else False,
-                    "speedup": speedup[0],
-                    "speedup_ci_low": speedup[1],
-                    "speedup_ci_high": speedup[2],
-                    "baseline": baseline,
-                    "n_processes": e.n,
-                    "watertight": declared(kernel, "watertight"),
-                    "culls_back_faces": declared(kernel, "culls_back_faces"),
-                    "bytes_per_triangle": _bytes_per_triangle(kernel, str(dtype)),
-                    **_robustness(val, kernel, str(dtype)),
-                }
-            )
+        n_workloads, per = _band_values(g, pp)
+        if len(per.columns):
+            rows += _band_rows(str(dtype), band, n_workloads, per, baseline, margin, val)
     return table_frame(rows, runfolder.BANDS)
+
+
+def _band_values(g: pd.DataFrame, pp: pd.DataFrame) -> tuple[int, pd.DataFrame]:
+    """A band's workload count, and per process (rows) and kernel (columns) the geometric mean of the
+    kernel's per-process medians over the band's workloads: only kernels timed on every workload of the
+    band, only processes that ran them all."""
+    wids = list(dict.fromkeys(g["workload_id"]))
+    kernels = [k for k, n in g.groupby("kernel", sort=False)["workload_id"].nunique().items() if n == len(wids)]
+    sub = pp.loc[pp["workload_id"].isin(wids) & pp["kernel"].isin(kernels)]
+    logs = sub.assign(log=np.log(sub["ns_per_test"])).groupby(["process", "kernel"])["log"].agg(["mean", "size"])
+    logs = logs.loc[logs["size"] == len(wids), "mean"]  # processes that ran every workload of the band
+    per = np.exp(logs.unstack("kernel")) if len(logs) else pd.DataFrame()
+    return len(wids), per[[k for k in kernels if k in per and per[k].notna().sum() >= 1]]
+
+
+def _band_rows(
+    dtype: str,
+    band: str,
+    n_workloads: int,
+    per: pd.DataFrame,
+    baseline: str,
+    margin: float,
+    val: pd.DataFrame | None,
+) -> list[dict[str, Any]]:
+    """One band's kernels from the fastest down, each against the fastest and from the baseline."""
+    kernels = list(per.columns)
+    estimates = {k: stats.estimate(per[k].dropna()) for k in kernels}
+    ranked = sorted(kernels, key=lambda k: (estimates[k].mean, k))
+    fastest = ranked[0]
+    level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(ranked) - 1, 1))
+    rows = []
+    for rank, kernel in enumerate(ranked, start=1):
+        e = estimates[kernel]
+        ratio, low, high = (1.0, 1.0, 1.0) if kernel == fastest else paired_time_ratio(per, kernel, fastest, level)[:3]
+        if kernel == baseline:
+            speedup = (1.0, math.nan, math.nan)
+        elif baseline in per:
+            speedup = paired_time_ratio(per, baseline, kernel, level)[:3]
+        else:
+            speedup = (math.nan, math.nan, math.nan)
+        rows.append(
+            {
+                "dtype": dtype,
+                "band": band,
+                "workloads": n_workloads,
+                "rank": rank,
+                "kernel": kernel,
+                "algorithm": declared(kernel, "algorithm"),
+                "form": _form(kernel),
+                "ns_per_test": e.mean,
+                "ns_per_test_ci_low": e.ci_low,
+                "ns_per_test_ci_high": e.ci_high,
+                "vs_fastest": ratio,
+                "vs_fastest_ci_low": low,
+                "vs_fastest_ci_high": high,
+                "tied_with_fastest": bool(low <= 1 + margin) if not math.isnan(low) else False,
+                "speedup": speedup[0],
+                "speedup_ci_low": speedup[1],
+                "speedup_ci_high": speedup[2],
+                "baseline": baseline,
+                "n_processes": e.n,
+                "watertight": declared(kernel, "watertight"),
+                "culls_back_faces": declared(kernel, "culls_back_faces"),
+                "bytes_per_triangle": _bytes_per_triangle(kernel, dtype),
+                **_robustness(val, kernel, dtype),
+            }
+        )
+    return rows

@@ -103,9 +103,7 @@ def calibrate(
         Also write the user-level calibration file.
     """
     from tribench.harness import runfolder, runner
-    from tribench.harness.machine import cpu_model
     from tribench.harness.plan import Sweep
-    from tribench.stats import aa_summary
     from tribench.workloads.spec import PairSpec
 
     if kernel not in AA_COPIES:
@@ -131,20 +129,9 @@ def calibrate(
         progress=progress,
         extra={"calibration": {"kernel": kernel, "copy": copy, "processes_per_experiment": processes}},
     )
-    results = aa_speedups(runfolder.read_batches(run_dir), kernel, copy, processes)
-    summary = aa_summary(results)
-    record = {
-        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-        "cpu_model": cpu_model(),
-        "kernel": kernel,
-        "copy": copy,
-        "processes_per_experiment": processes,
-        "experiments": len(results),
-        "run_dir": str(run_dir.resolve()),
-        **asdict(summary),
-        "ratios": [r.ratio for r in results],
-        "p_values": [r.p_value for r in results],
-    }
+    record = _record(
+        run_dir, kernel, copy, processes, aa_speedups(runfolder.read_batches(run_dir), kernel, copy, processes)
+    )
     # the run keeps its record whatever it measured (NaN as null: JSON has no NaN)
     text = json.dumps(_nan_to_none(record), indent=2, allow_nan=False) + "\n"
     write_text(run_dir / CALIBRATION, text)
@@ -157,3 +144,22 @@ def calibrate(
         )
         write_text(user_calibration_path(), text)
     return record
+
+
+def _record(run_dir: Path, kernel: str, copy: str, processes: int, results: list) -> dict[str, Any]:
+    """calibration.json: the A/A comparisons' summary (coverage, p-values, noise floor, margin) and ratios."""
+    from tribench.harness.machine import cpu_model
+    from tribench.stats import aa_summary
+
+    return {
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "cpu_model": cpu_model(),
+        "kernel": kernel,
+        "copy": copy,
+        "processes_per_experiment": processes,
+        "experiments": len(results),
+        "run_dir": str(run_dir.resolve()),
+        **asdict(aa_summary(results)),
+        "ratios": [r.ratio for r in results],
+        "p_values": [r.p_value for r in results],
+    }

@@ -90,46 +90,48 @@ def run(
         result = run("runs/notebook", quick=True)
         result.speedups.query("verdict == 'faster'")[["workload", "kernel", "ratio"]]
     """
-    from tribench.harness import duration
     from tribench.harness.plan import default_sweep
 
     sweep = default_sweep(quick=quick)
     runfolder.check_new_run_dir(Path(out))  # before the estimate, which builds the workloads
-    _say(
-        log,
-        f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads -> {out}",
-    )
-    if sweep.sequential is None:
-        _say(
-            log,
-            f"{duration.estimate(sweep).line('for the sweep')}, then the peers, the robustness suite and the tables",
-        )
-    else:
-        design = sweep.sequential
-        _say(
-            log,
-            f"expected for the sweep: about {_seconds(design.budget_s)} at most: "
-            f"stages of {design.stage} processes "
-            f"x {sweep.rounds} rounds, each kernel stopped once its speedup is known within "
-            f"±{100 * design.target:g}%; then the peers, the robustness suite and the tables",
-        )
+    _announce(sweep, out, log)
     done = runner.start(sweep, out, progress=progress)
     _say(log, f"{done.batches_run} batches run in {done.elapsed_s:.1f} s -> {done.run_dir}")
     peer_rows = _run_peers(out, quick=quick, progress=progress, log=log) if peers else None
     derived = finish(out, quick=quick)  # quick: the robustness suite at its quick sizes
-    val_path = Path(out) / runfolder.VALIDATE
-    val = (
-        pd.read_csv(val_path) if val_path.is_file() else pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE]))
-    )
-    if val.empty:
-        _say(log, f"validate: {derived.record['validate']}")
-    else:
-        _say(
-            log,
-            f"validate: {int((val.verdict == 'fail').sum())} of {int((val.verdict != 'measured').sum())} "
-            f"promises broken -> {val_path}",
-        )
+    val = _robustness(Path(out), derived.record["validate"], log)
     return MainResult(Path(out), derived.estimates, derived.speedups, val, peer_rows, done, derived.tables)
+
+
+def _announce(sweep, out: str | Path, log: TextIO | None) -> None:
+    """What the job runs, and how long its sweep is expected to take, before it starts."""
+    from tribench.harness import duration
+
+    _say(log, f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads -> {out}")
+    then = "then the peers, the robustness suite and the tables"
+    if sweep.sequential is None:
+        _say(log, f"{duration.estimate(sweep).line('for the sweep')}, {then}")
+        return
+    design = sweep.sequential
+    _say(
+        log,
+        f"expected for the sweep: about {_seconds(design.budget_s)} at most: "
+        f"stages of {design.stage} processes "
+        f"x {sweep.rounds} rounds, each kernel stopped once its speedup is known within "
+        f"±{100 * design.target:g}%; {then}",
+    )
+
+
+def _robustness(out: Path, note: str | None, log: TextIO | None) -> pd.DataFrame:
+    """The run's ``validate.csv`` (empty if the suite could not run), and a line on what it found."""
+    path = out / runfolder.VALIDATE
+    val = pd.read_csv(path) if path.is_file() else pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE]))
+    if val.empty:
+        _say(log, f"validate: {note}")
+    else:
+        broken, checked = int((val.verdict == "fail").sum()), int((val.verdict != "measured").sum())
+        _say(log, f"validate: {broken} of {checked} promises broken -> {path}")
+    return val
 
 
 def _seconds(seconds: float) -> str:

@@ -315,13 +315,14 @@ def _run_worker(job: dict[str, Any], env: dict[str, str]) -> list[dict[str, Any]
     return [json.loads(line) for line in done.stdout.splitlines() if line.strip()]
 
 
+#: A contender of one worker: its label, the rays it runs (all, or trimesh's subset), the timed call, and
+#: its one-off set-up time in ns.
+_Contender = tuple[str, "np.ndarray | slice", Callable[[], Any], int]
+
+
 def _worker(job: dict[str, Any]) -> None:
     """One replicate: build every contender once, then time them ``reps`` times; rows go to stdout."""
-    import trimesh
-
-    from tribench import ext
-    from tribench.harness.machine import version
-    from tribench.workloads import bvh_cache, cache
+    from tribench.workloads import cache
 
     design = PeerDesign(**job["design"])
     cpu = job["cpu"]
@@ -329,28 +330,67 @@ def _worker(job: dict[str, Any]) -> None:
         os.sched_setaffinity(0, {cpu})
     # else not pinned: the rows say cpu -1, as the sweep worker's do (os has no sched_getcpu)
     w = cache.make(camera_spec(design))
-    o, d, tris = w.origins, w.directions, w.triangles
-    n, summary = len(o), w.spec.summary()
     ambiguous = w.ambiguous()
-    rng = np.random.default_rng([design.seed, 2, job["process"]])
-    subset = np.sort(np.random.default_rng([design.seed, 3]).choice(n, size=min(design.trimesh_rays, n), replace=False))
-    kernel = job["kernel"]
-    info = ext.kernel_info(kernel)
-    form = f"x{info.lanes} {info.isa}" if info.lanes > 1 else "scalar"
-    versions = available()
 
     def disagreements(index: np.ndarray, rows: np.ndarray | slice) -> tuple[int, int]:
         assert w.ref_index is not None  # a camera workload has closest hits
         wrong = np.asarray(index) != w.ref_index[rows]
         return int(wrong.sum()), int((wrong & ambiguous[rows]).sum())
 
-    # contender -> (label, the rays it runs, the timed call, set-up time in ns)
-    contenders: dict[str, tuple[str, np.ndarray | slice, Any, int]] = {}
+    contenders, closest = _tribench_contenders(job["kernel"], design.accel, w)
+    # the C-timed loop returns counts only; both tribench contenders run the same kernel on the same rays
+    answers = disagreements(closest(), slice(None))
+    differ = {"tribench": answers, "tribench_call": answers}
+    contenders.update(_peer_contenders(job["peers"], design, w))
+    rng = np.random.default_rng([design.seed, 2, job["process"]])
+    for rep in range(design.reps):
+        for position, name in enumerate(rng.permutation(list(contenders))):
+            label, rows, call, setup_ns = contenders[name]
+            rays = len(w.origins[rows])
+            time.sleep(PAUSE_S)
+            t0, c0 = time.perf_counter_ns(), time.process_time_ns()
+            answer = call()
+            wall, used = time.perf_counter_ns() - t0, time.process_time_ns() - c0
+            elapsed = answer.elapsed_ns if name == "tribench" else wall  # tribench: the loop alone, timed in C
+            if name not in differ:
+                differ[name] = disagreements(answer, rows)
+            row = PeerRow(
+                process=job["process"],
+                rep=rep,
+                position=position,
+                contender=name,
+                implementation=label,
+                kernel=job["kernel"],
+                workload_id=w.workload_id,
+                workload=w.spec.summary(),
+                rays=rays,
+                elapsed_ns=int(elapsed),
+                wall_ns=int(wall),
+                cpu_ns=int(used),
+                rays_per_s=rays / elapsed * 1e9,
+                setup_ns=setup_ns,
+                differ=differ[name][0],
+                differ_ambiguous=differ[name][1],
+                cpu=cpu,
+            )
+            sys.stdout.write(json.dumps(asdict(row)) + "\n")
+    sys.stdout.flush()
+
+
+def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Contender], Callable[[], np.ndarray]]:
+    """tribench's two contenders (its C-timed loop, and its Python call) and the call that gives every ray's
+    closest triangle. Through the BVH, the build is the set-up, as Embree's is: its time when it was built."""
+    from tribench import ext
+    from tribench.harness.machine import version
+    from tribench.workloads import bvh_cache
+
+    o, d, tris = w.origins, w.directions, w.triangles
+    info = ext.kernel_info(kernel)
+    form = f"x{info.lanes} {info.isa}" if info.lanes > 1 else "scalar"
     timed: Callable[[], Any]  # returns a batch with elapsed_ns, timed in C
-    closest: Callable[[], np.ndarray]  # returns the closest triangle of every ray
+    closest: Callable[[], np.ndarray]
     t0 = time.perf_counter_ns()
-    setup_ns = None
-    if design.accel == "bvh":  # the build is the set-up, as Embree's is: its time when it was built
+    if accel == "bvh":
         label = f"tribench {version()} bvh {kernel} ({form})"
         bvh, setup_ns = bvh_cache.cached_bvh(kernel, tris)
         timed = functools.partial(bvh.time, o, d, "closest", 1)
@@ -359,72 +399,56 @@ def _worker(job: dict[str, Any]) -> None:
         label = f"tribench {version()} {kernel} ({form})"
         timed = functools.partial(ext.time_batch, ext.make_job(kernel, o, d, tris, "closest"), 1)
         closest, closest_name = (lambda: ext.intersect(kernel, o, d, tris, "closest").index), "ext.intersect"
-    contenders["tribench"] = (label, slice(None), timed, time.perf_counter_ns() - t0 if setup_ns is None else setup_ns)
-    contenders["tribench_call"] = (f"{label}, {closest_name}", slice(None), closest, 0)
-    # the C-timed loop returns counts only; both tribench contenders run the same kernel on the same rays
-    answers = disagreements(closest(), slice(None))
-    differ = {"tribench": answers, "tribench_call": answers}
-    if job["peers"]:
-        mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tris.astype(np.float64)), process=False)
-    if "trimesh" in job["peers"]:
+        setup_ns = time.perf_counter_ns() - t0
+    contenders: dict[str, _Contender] = {
+        "tribench": (label, slice(None), timed, setup_ns),
+        "tribench_call": (f"{label}, {closest_name}", slice(None), closest, 0),
+    }
+    return contenders, closest
+
+
+def _peer_contenders(peers: Sequence[str], design: PeerDesign, w: Any) -> dict[str, _Contender]:
+    """The installed peers asked for: trimesh's intersector on a fixed random subset of the rays (it is
+    slow), Embree through embreex on every ray; each built (rtree, BVH) by one first call, its set-up."""
+    import trimesh
+
+    if not peers:
+        return {}
+    o, d, n = w.origins, w.directions, len(w.origins)
+    versions = available()
+    mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(w.triangles.astype(np.float64)), process=False)
+    out: dict[str, _Contender] = {}
+    if "trimesh" in peers:
         from trimesh.ray import ray_triangle
 
+        subset = np.sort(
+            np.random.default_rng([design.seed, 3]).choice(n, size=min(design.trimesh_rays, n), replace=False)
+        )
         o_sub, d_sub = o[subset].astype(np.float64), d[subset].astype(np.float64)
         t0 = time.perf_counter_ns()
         slow = ray_triangle.RayMeshIntersector(mesh)
         slow.intersects_first(o_sub[:1], d_sub[:1])  # builds the rtree
-        contenders["trimesh"] = (
+        setup = time.perf_counter_ns() - t0
+        out["trimesh"] = (
             f"trimesh ray_triangle ({versions['trimesh']})",
             subset,
             lambda: slow.intersects_first(o_sub, d_sub),
-            time.perf_counter_ns() - t0,
+            setup,
         )
-    if "embree" in job["peers"]:
+    if "embree" in peers:
         from trimesh.ray import ray_pyembree
 
         t0 = time.perf_counter_ns()
         fast = ray_pyembree.RayMeshIntersector(mesh)
         fast.intersects_first(o[:1], d[:1])  # builds the BVH
-        contenders["embree"] = (
+        setup = time.perf_counter_ns() - t0
+        out["embree"] = (
             f"Embree via trimesh ray_pyembree ({versions['embree']})",
             slice(None),
             lambda: fast.intersects_first(o, d),
-            time.perf_counter_ns() - t0,
+            setup,
         )
-
-    for rep in range(design.reps):
-        for position, name in enumerate(rng.permutation(list(contenders))):
-            label, rows, call, setup_ns = contenders[name]
-            rays = len(o[rows])
-            time.sleep(PAUSE_S)
-            t0, c0 = time.perf_counter_ns(), time.process_time_ns()
-            answer = call()
-            wall, used = time.perf_counter_ns() - t0, time.process_time_ns() - c0
-            elapsed = wall
-            if name == "tribench":
-                elapsed = answer.elapsed_ns  # the loop alone, timed in C
-            elif name not in differ:
-                differ[name] = disagreements(answer, rows)
-            row = PeerRow(
-                job["process"],
-                rep,
-                position,
-                name,
-                label,
-                kernel,
-                w.workload_id,
-                summary,
-                rays,
-                int(elapsed),
-                int(wall),
-                int(used),
-                rays / elapsed * 1e9,
-                setup_ns,
-                *differ[name],
-                cpu,
-            )
-            sys.stdout.write(json.dumps(asdict(row)) + "\n")
-    sys.stdout.flush()
+    return out
 
 
 def format_summary(rates: pd.DataFrame, ratios: pd.DataFrame) -> str:

@@ -188,9 +188,7 @@ def run_seed(
     from tribench.analysis.pipeline import analyse, write_tables
     from tribench.harness import runner
     from tribench.harness.plan import Sweep
-    from tribench.workloads import cache
-    from tribench.workloads.seed_workload import RAY_KINDS, EmptyStream, SeedSpec
-    from tribench.workloads.spec import workload_id
+    from tribench.workloads.seed_workload import SeedSpec
 
     t0 = time.monotonic()
     log = sys.stderr if log is None else log
@@ -198,11 +196,61 @@ def run_seed(
     size, sample = size or design.size, sample or design.sample
     out = Path(out)
     runfolder.check_new_run_dir(out)
-    specs: list = []
-    info: dict[str, dict[str, Any]] = {}
     scenes = [str(s) for s in (scenes or tuple(PAPER))]
     resolved = [SeedSpec(s, sample=sample, width=size, height=size).scene for s in scenes]
     labels = _labels(resolved)
+    specs, info = _workloads(resolved, labels, size, sample, log)
+    sweep = Sweep(
+        seed_kernels(all_kernels),
+        tuple(specs),
+        processes=design.processes,
+        rounds=design.rounds,
+        warmup=design.warmup,
+        target_ms=design.target_ms,
+    )
+    print(
+        f"sweep: {len(sweep.kernels)} kernels x {len(specs)} workloads, {sweep.processes} processes x "
+        f"{sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
+        file=log,
+    )
+    print(_expected(sweep, info, size), file=log)
+    replay = {
+        "scenes": [labels[s] for s in resolved],
+        "quick": quick,
+        "all_kernels": all_kernels,
+        "width": size,
+        "height": size,
+        "sample": sample,
+        "paper": PAPER,
+        "workloads": info,
+    }
+    runner.start(sweep, out, progress=progress, extra={"command": command, "seed_replay": replay})
+    write_tables(out, analyse(out, baseline=BASELINE))
+
+    pictures = []
+    for scene in resolved:
+        if any(v["scene"] == labels[scene] for v in info.values()):
+            print(f"pictures: {labels[scene]}, curless_seed and moller_seed at {size}x{size}", file=log)
+            pictures.append(make_pictures(scene, labels[scene], size, out))
+    runfolder.write_csv(pd.DataFrame(pictures, columns=list(COLUMNS[PICTURES_CSV])), out / PICTURES_CSV)
+    tables = seed_tables(out)
+    for name in (SEED_CSV, KINDS_CSV, WORKLOADS_CSV):
+        runfolder.write_csv(tables[name], out / name)
+    tables[PICTURES_CSV] = pd.read_csv(out / PICTURES_CSV)
+    return SeedResult(out, tables, time.monotonic() - t0)
+
+
+def _workloads(
+    resolved: list[str], labels: dict[str, str], size: int, sample: int, log: TextIO
+) -> tuple[list, dict[str, dict[str, Any]]]:
+    """Every scene's ray streams as workloads (traced the first time, then cached), and what each is:
+    its scene's label, the paper's scene it replays, its ray kind and its stream's figures."""
+    from tribench.workloads import cache
+    from tribench.workloads.seed_workload import RAY_KINDS, EmptyStream, SeedSpec
+    from tribench.workloads.spec import workload_id
+
+    specs: list = []
+    info: dict[str, dict[str, Any]] = {}
     for scene in resolved:
         for rays in RAY_KINDS:
             spec = SeedSpec(scene, rays, sample=sample, width=size, height=size)
@@ -223,54 +271,11 @@ def run_seed(
             }
     if not specs:
         raise UserError("no scene shoots a ray that tests a triangle: nothing to replay")
-
-    sweep = Sweep(
-        seed_kernels(all_kernels),
-        tuple(specs),
-        processes=design.processes,
-        rounds=design.rounds,
-        warmup=design.warmup,
-        target_ms=design.target_ms,
-    )
-    print(
-        f"sweep: {len(sweep.kernels)} kernels x {len(specs)} workloads, {sweep.processes} processes x "
-        f"{sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
-        file=log,
-    )
-    print(_expected(sweep, info, size), file=log)
-    extra = {
-        "command": command,
-        "seed_replay": {
-            "scenes": [labels[s] for s in resolved],
-            "quick": quick,
-            "all_kernels": all_kernels,
-            "width": size,
-            "height": size,
-            "sample": sample,
-            "paper": PAPER,
-            "workloads": info,
-        },
-    }
-    runner.start(sweep, out, progress=progress, extra=extra)
-    write_tables(out, analyse(out, baseline=BASELINE))
-
-    pictures = []
-    for scene in resolved:
-        if any(v["scene"] == labels[scene] for v in info.values()):
-            print(f"pictures: {labels[scene]}, curless_seed and moller_seed at {size}x{size}", file=log)
-            pictures.append(make_pictures(scene, labels[scene], size, out))
-    runfolder.write_csv(pd.DataFrame(pictures, columns=list(COLUMNS[PICTURES_CSV])), out / PICTURES_CSV)
-    tables = seed_tables(out)
-    for name in (SEED_CSV, KINDS_CSV, WORKLOADS_CSV):
-        runfolder.write_csv(tables[name], out / name)
-    tables[PICTURES_CSV] = pd.read_csv(out / PICTURES_CSV)
-    return SeedResult(out, tables, time.monotonic() - t0)
+    return specs, info
 
 
-#: The pictures' tracer does about this share of a render's triangle tests as
-#: the replay times them (it skips some), plus its own NumPy work per pixel
-#: (shading, ray trees); the analysis and the page then take a few seconds.
-#: Read off finished renders: docs/decisions.md, "The seed replay's design".
+#: The pictures' tracer does about this share of a render's triangle tests (it skips some), plus its own
+#: NumPy work per pixel; read off finished renders: docs/decisions.md, "The seed replay's design".
 PICTURE_TEST_SHARE = 0.6
 PICTURE_S_PER_PIXEL = 1e-5
 TABLES_S = 10.0

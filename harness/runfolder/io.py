@@ -243,29 +243,43 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
     header, a field count, a field that is not of its column's type, or a
     row that breaks one of ``rules``.
     """
-    import numpy as np
     import pandas as pd
 
-    _check_plain_file(path, max_bytes)
     columns = [f.name for f in fields(cls)]
     kinds = {f.name: f.type if isinstance(f.type, str) else f.type.__name__ for f in fields(cls)}
+    text = _text(path, max_bytes)
+    if not text:
+        dtypes = {"int": "int64", "float": "float64", "bool": bool}
+        return pd.DataFrame({c: pd.Series(dtype=dtypes.get(kinds[c], object)) for c in columns})
+    raw, lines = _fields(path, text, columns)
+    frame = pd.DataFrame(index=raw.index)
+    for c in columns:
+        frame[c] = _column(path, lines, raw[c], c, kinds[c])
+    for bad, message in rules:
+        _refuse(path, lines, bad(frame), lambda i, message=message: message(frame.iloc[i]))
+    return frame
+
+
+def _text(path: Path, max_bytes: int | None) -> str:
+    """A measured file's text: a plain file of a plausible size, UTF-8 (a byte-order mark dropped), its
+    partial last line cut off (a batch that did not finish)."""
+    _check_plain_file(path, max_bytes)
     data = path.read_bytes()
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
-    data = _cut_partial_line(path, data)  # a partial last line: a batch that did not finish
+    data = _cut_partial_line(path, data)
     try:
-        text = data.decode("utf-8")
+        return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
         raise UserError(f"{path}:{line}: not UTF-8 text") from None
-    if not text:
-        frame = pd.DataFrame(
-            {
-                c: pd.Series(dtype={"int": "int64", "float": "float64", "bool": bool}.get(kinds[c], object))
-                for c in columns
-            }
-        )
-        return frame
+
+
+def _fields(path: Path, text: str, columns: list[str]):
+    """The rows as text fields (a frame of strings) and each row's line number; the header and every field
+    count checked."""
+    import pandas as pd
+
     reader = csv.reader(io.StringIO(text))
     rows: list[list[str]] = []
     lines: list[int] = []
@@ -285,43 +299,48 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
             lines.append(reader.line_num)
     except csv.Error as exc:
         raise UserError(f"{path}:{reader.line_num}: not CSV ({exc})") from None
-    raw = pd.DataFrame(rows, columns=columns, dtype=object)
-    frame = pd.DataFrame(index=raw.index)
+    return pd.DataFrame(rows, columns=columns, dtype=object), lines
 
-    def refuse(bad: Any, message: Callable[..., str]) -> None:  # ...: the lambdas bind names as defaults
-        bad = np.asarray(bad, dtype=bool)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise UserError(f"{path}:{lines[i]}: {message(i)}")
 
-    for c in columns:
-        s = raw[c]
-        kind = kinds[c]
-        if kind == "int":
-            bad = ~s.str.fullmatch(r"-?[0-9]{1,20}")
-            refuse(bad, lambda i, c=c: f"{c} is {_short(raw[c].iloc[i])}, not {_KIND['int']}")
+def _refuse(path: Path, lines: list[int], bad: Any, message: Callable[..., str]) -> None:
+    """A UserError naming the first bad row's line (``message(i)`` says what is wrong with row ``i``)."""
+    import numpy as np
+
+    bad = np.asarray(bad, dtype=bool)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise UserError(f"{path}:{lines[i]}: {message(i)}")
+
+
+def _column(path: Path, lines: list[int], s: Any, c: str, kind: str) -> Any:
+    """Column ``c``'s text fields as values of its type, each checked (``kind``: int, float, bool or str)."""
+    import numpy as np
+    import pandas as pd
+
+    def refuse(bad: Any, message: Callable[..., str]) -> None:
+        _refuse(path, lines, bad, message)
+
+    if kind == "int":
+        refuse(~s.str.fullmatch(r"-?[0-9]{1,20}"), lambda i: f"{c} is {_short(s.iloc[i])}, not {_KIND['int']}")
+        try:
+            return s.astype(np.int64)
+        except OverflowError:  # the layout seeds are unsigned 64-bit
             try:
-                frame[c] = s.astype(np.int64)
-            except OverflowError:  # the layout seeds are unsigned 64-bit
-                try:
-                    frame[c] = s.astype(np.uint64)
-                except (OverflowError, ValueError):
-                    big = s.map(lambda v: not -(2**63) <= int(v) < 2**64)
-                    refuse(big, lambda i, c=c: f"{c} is {_short(raw[c].iloc[i])}, out of range")
-                    refuse(s.str.startswith("-"), lambda i, c=c: f"{c} mixes negative and unsigned 64-bit values")
-        elif kind == "float":
-            values = pd.to_numeric(s, errors="coerce").astype(float)
-            refuse(~np.isfinite(values), lambda i, c=c: f"{c} is {_short(raw[c].iloc[i])}, not {_KIND['float']}")
-            frame[c] = values
-        elif kind == "bool":
-            refuse(~s.isin(["True", "False"]), lambda i, c=c: f"{c} is {_short(raw[c].iloc[i])}, not True or False")
-            frame[c] = s == "True"
-        else:
-            refuse(s == "", lambda i, c=c: f"{c} is empty")
-            frame[c] = s.astype(str)
-    for bad, message in rules:
-        refuse(bad(frame), lambda i, message=message: message(frame.iloc[i]))
-    return frame
+                return s.astype(np.uint64)
+            except (OverflowError, ValueError):
+                big = s.map(lambda v: not -(2**63) <= int(v) < 2**64)
+                refuse(big, lambda i: f"{c} is {_short(s.iloc[i])}, out of range")
+                refuse(s.str.startswith("-"), lambda i: f"{c} mixes negative and unsigned 64-bit values")
+                raise  # not reached: one of the two refusals holds
+    if kind == "float":
+        values = pd.to_numeric(s, errors="coerce").astype(float)
+        refuse(~np.isfinite(values), lambda i: f"{c} is {_short(s.iloc[i])}, not {_KIND['float']}")
+        return values
+    if kind == "bool":
+        refuse(~s.isin(["True", "False"]), lambda i: f"{c} is {_short(s.iloc[i])}, not True or False")
+        return s == "True"
+    refuse(s == "", lambda i: f"{c} is empty")
+    return s.astype(str)
 
 
 def _positive(*names: str) -> list[Rule]:
