@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     import pandas as pd
 
-    from tribench.reports.compare import MultiComparison
+    from tribench.analysis.compare import MultiComparison
     from tribench.workloads.spec import MeshSpec, PairSpec
 
 __all__ = ["Results", "sweep", "run", "load", "compare", "PairSpec", "MeshSpec"]
@@ -158,7 +158,7 @@ def load(run_dir: str | Path) -> Results:
 
 def compare(*run_dirs: str | Path) -> MultiComparison:
     """N >= 2 runs side by side (``tribench compare``): ``.speedups`` of every run, ``.orders`` that hold."""
-    from tribench.reports.compare import compare_many
+    from tribench.analysis.compare import compare_many
     from tribench.reports.rundata import load_run
 
     return compare_many([load_run(r) for r in run_dirs])

@@ -32,7 +32,8 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the comparison of N runs and write it as an HTML page."""
-    from tribench.reports.compare import compare, format_compare_text, render_compare, run_tags
+    from tribench.analysis.compare import compare, run_tags
+    from tribench.reports.compare import format_compare_text, render_compare
     from tribench.reports.rundata import load_run
 
     try:
