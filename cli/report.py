@@ -35,12 +35,13 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write RUN_DIR/report.html, print the compact tables, optionally open the page."""
-    from tribench.reports import format_tables, write_report
+    from tribench.reports import format_tables, load, write_report
 
     try:
-        path = write_report(args.run_dir, baseline=args.baseline)
+        data = load(args.run_dir, baseline=args.baseline)  # read once for the page and the terminal
+        path = write_report(data)
         if not args.quiet:
-            print(format_tables(args.run_dir))
+            print(format_tables(data))
     except FileNotFoundError as exc:
         raise UserError(str(exc)) from None
     print(f"wrote {path}", file=sys.stderr)

@@ -30,12 +30,13 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.reports import format_tables, write_report
+    from tribench.reports import format_tables, load, write_report
     from tribench.studies.main import run as main_job
 
     out = args.out or default_run_dir("quick" if args.quick else "")
     main_job(out, quick=args.quick, progress=args.progress)
-    report = write_report(out)
-    print(format_tables(out))
+    data = load(out)  # the run folder's tables, read once for the page and the terminal
+    report = write_report(data)
+    print(format_tables(data))
     print(f"\nreport: {report}")
     return 0

@@ -32,25 +32,40 @@ and the dense diagnostics as static figures (:mod:`.figures`). Intervals are wri
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-__all__ = ["write_report", "write_compare", "format_tables", "format_compare", "RunError", "REPORT"]
+__all__ = ["load", "write_report", "write_compare", "format_tables", "format_compare", "RunError", "REPORT"]
 
 from tribench.harness.runfolder import REPORT, SWEEP_FILE
 
-
-def _load(run_dir: str | Path, baseline: str | None = None):
-    from .rundata import load_run
-
-    return load_run(run_dir, baseline=baseline)
+if TYPE_CHECKING:
+    from .rundata import RunData
 
 
-def write_report(run_dir: str | Path, baseline: str | None = None) -> Path:
+def _load(run: str | Path | RunData, baseline: str | None = None) -> RunData:
+    """A run folder's tables for the pages: read from ``run`` (a folder), or ``run`` itself if already read."""
+    from .rundata import RunData, load_run
+
+    if isinstance(run, RunData):
+        if baseline is not None and baseline != run.baseline:
+            return load_run(run.run_dir, baseline=baseline)  # refused there, naming `tribench stats --baseline`
+        return run
+    return load_run(run, baseline=baseline)
+
+
+def load(run_dir: str | Path, baseline: str | None = None) -> RunData:
+    """Read a run folder's tables once, for :func:`write_report` and :func:`format_tables` both."""
+    return _load(run_dir, baseline)
+
+
+def write_report(run_dir: str | Path | RunData, baseline: str | None = None) -> Path:
     """Write ``RUN_DIR/report.html`` and return its path.
 
     Parameters
     ----------
-    run_dir : path
-        A run folder written by ``tribench sweep`` (``run.json``, ``batches.csv``).
+    run_dir : path or RunData
+        A run folder written by ``tribench sweep`` (``run.json``, ``batches.csv``),
+        or its tables as :func:`load` read them.
     baseline : str, optional
         The baseline the tables must compare against (``tribench stats --baseline``
         makes them); default: the tables' own.
@@ -86,7 +101,7 @@ def write_compare(*run_dirs: str | Path, out: str | Path | None = None) -> Path:
     return path
 
 
-def format_tables(run_dir: str | Path) -> str:
+def format_tables(run_dir: str | Path | RunData) -> str:
     """Compact terminal tables of a run's estimates and speedups with CIs and verdicts."""
     from .terminal import format_run
 
