@@ -47,6 +47,7 @@ from tribench.analysis import export
 from tribench.common import UserError, write_text
 from tribench.harness import runfolder
 from tribench.harness.margin import Margin
+from tribench.harness.plan import DEFAULT_BASELINE
 
 from . import measured
 from .measured import Measured, file_digest
@@ -75,7 +76,6 @@ SPEEDUPS = runfolder.SPEEDUPS
 #: 110 dpi of ``workloads show --png`` the pictures were most of the report's bytes.
 MAX_PICTURES = 16
 PICTURE_DPI = 60
-DEFAULT_BASELINE = "moller_seed"
 
 #: ``stats.estimate_table`` column -> its name in estimates.csv (times in ns per ray-triangle test).
 ESTIMATE_COLUMNS = {

@@ -81,6 +81,9 @@ DEFAULT_PROCESSES = 10
 DEFAULT_ROUNDS = 10
 DEFAULT_WARMUP = 1
 DEFAULT_TARGET_MS = 8.0
+#: The kernel every speedup is measured against where it ran: the seed's own Möller-Trumbore, the
+#: historical baseline (the analysis's default, the main job's comparisons, the seed replay's ratio).
+DEFAULT_BASELINE = "moller_seed"
 
 # Bounds of a sweep, so a typo (--rounds 1000000000) is refused before anything
 # is allocated. The plan is a list of BatchKey (about 150 bytes each), and the

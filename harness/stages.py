@@ -25,12 +25,11 @@ import pandas as pd
 from tribench import stats
 from tribench.common import UserError, write_text
 from tribench.harness import runfolder
+from tribench.harness.plan import DEFAULT_BASELINE as BASELINE
 from tribench.harness.plan import BatchKey, Sweep, plan
 
 __all__ = ["Stage", "decide", "keys_of", "read_stages", "write_stages"]
 
-#: The kernel the comparisons are made against where it runs (as the analysis's default baseline).
-BASELINE = "moller_seed"
 
 #: One stage as stages.json holds it: ``{"stage", "first_process", "last_process",
 #: "open": {workload id: [kernels]}, "seconds_before"}``.
