@@ -39,8 +39,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-import numpy as np
-
 from tribench.common import UserError
 from tribench.harness import runfolder
 from tribench.harness.plan import BatchKey, Sweep, plan, process_seed
@@ -527,12 +525,11 @@ def _run_process(
     on_traversal: Callable[[TraversalRow], None],
 ) -> None:
     """One worker process: send its job, keep its rows, raise on its error."""
-    from tribench.harness.worker import PAD_VARIABLE, WorkerJob
+    from tribench.harness.layout import padded_env
+    from tribench.harness.worker import WorkerJob
 
     seed = record["process_seeds"][process]
-    # environment padding moves the worker's initial stack: part of the layout randomisation
-    pad = int(np.random.default_rng([seed, attempt, 1]).integers(0, 4096))
-    env = {**os.environ, PAD_VARIABLE: "x" * pad}
+    env = padded_env(seed, attempt)  # moves the worker's initial stack: part of the layout randomisation
     wids = sorted({k.workload_id for k in keys})
     job = WorkerJob(
         record["run_id"],

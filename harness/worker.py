@@ -64,6 +64,7 @@ from tribench.harness.runfolder import BatchRow, CheckRow, ProcessRow, Traversal
 from tribench.workloads import bvh_cache
 from tribench.workloads.spec import MeshSpec
 
+from . import layout
 from .checks import Checksum, KernelCheckError, check_batch, one_pass_checksum
 
 __all__ = [
@@ -77,9 +78,6 @@ __all__ = [
 
 #: Iterations of the FMA probe: 192 flops each, about 0.4 ms at 100 GFLOP/s.
 PEAK_ITERATIONS = 200_000
-
-#: Environment variable the parent pads to vary the worker's stack position.
-PAD_VARIABLE = "TRIBENCH_LAYOUT_PAD"
 
 
 @dataclass(frozen=True)
@@ -185,20 +183,6 @@ def calibrate_loops(job: ext.Job | BvhJob, target_ns: float) -> int:
 
 
 # ------------------------------------------------------------------ layout
-
-
-def _dummy_allocations(rng: np.random.Generator) -> list[bytearray]:
-    """A random number of small allocations, kept alive: shifts later heap addresses."""
-    return [bytearray(int(size)) for size in rng.integers(16, 4096, size=int(rng.integers(0, 64)))]
-
-
-def _fresh_copy(a: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """``a`` copied into a new buffer at a random offset of 0-15 elements."""
-    offset = int(rng.integers(0, 16))
-    flat = np.empty(a.size + offset, dtype=a.dtype)
-    out = flat[offset:].reshape(a.shape)
-    out[...] = a
-    return out
 
 
 class _StealClock:
@@ -320,7 +304,7 @@ def _load_workloads(job: WorkerJob, rng: np.random.Generator) -> tuple[dict[str,
         if workload_id(spec) != wid:
             raise ValueError(f"workload {wid}: its spec has id {workload_id(spec)} (generator changed?)")
         workloads[wid] = w = cache.make(spec)
-        arrays[wid] = tuple(_fresh_copy(a, rng) for a in (w.origins, w.directions, w.triangles))
+        arrays[wid] = tuple(layout.fresh_copy(a, rng) for a in (w.origins, w.directions, w.triangles))
     return workloads, arrays
 
 
@@ -357,12 +341,11 @@ def run_job(job: WorkerJob, emit) -> None:
     KernelCheckError
         A kernel's answers or a batch's checksum disagree with the reference.
     """
-    if job.cpu is not None and hasattr(os, "sched_setaffinity"):
-        os.sched_setaffinity(0, {job.cpu})
+    layout.pin(job.cpu)
     cpu = job.cpu if job.cpu is not None else -1
     rng = np.random.default_rng([job.seed, job.attempt])
-    pad = len(os.environ.get(PAD_VARIABLE, ""))
-    dummies = _dummy_allocations(rng)
+    pad = layout.padding()
+    dummies = layout.dummy_allocations(rng)
     workloads, arrays = _load_workloads(job, rng)
     emit("process", _peak_row(job, "start", cpu, pad, len(dummies)))
 

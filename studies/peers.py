@@ -25,8 +25,10 @@ Embree, tribench's own rows are still written):
     Embree through ``embreex`` (``trimesh.ray.ray_pyembree``), after its BVH is
     built (the build is ``setup_ns``, not timed).
 
-Replicates are fresh worker processes, as in the sweeps. Each pins itself to
-one CPU and runs with one BLAS thread: OpenBLAS starts its threads when NumPy
+Replicates are fresh worker processes, as in the sweeps, with the sweeps'
+pinning and layout randomisation (:mod:`tribench.harness.layout`: a padded
+environment, small allocations, the arrays at random offsets). Each runs
+with one BLAS thread: OpenBLAS starts its threads when NumPy
 is imported, before any pinning, and they spun on the other CPU during
 trimesh's NumPy work (an earlier bench saw 180% CPU). Each repetition runs
 every contender once in a random order, each call after a 0.1 s pause that
@@ -48,7 +50,7 @@ import tempfile
 import time
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -56,7 +58,7 @@ import numpy as np
 
 from tribench.analysis.peers import CONTENDERS, PEER_NAMES, summarise
 from tribench.common import Notice, UserError
-from tribench.harness import runfolder
+from tribench.harness import layout, runfolder
 from tribench.harness.runfolder.rows import PeerRow
 
 if TYPE_CHECKING:
@@ -259,7 +261,7 @@ def measure(
         kernel = choose_kernel(workload, design.choice_rays, design.choice_rounds, design.seed)
     cpu = default_cpu() if cpu is None else cpu
     # one BLAS thread, set before the worker imports NumPy (see the module's docstring)
-    env = {**os.environ, **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
+    blas = {**os.environ, **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
     bar = (
         Progress(design.processes, 0, force=bool(progress), unit="processes", label="peers")
         if progress is not False
@@ -276,7 +278,7 @@ def measure(
                 "peers": peers,
                 "cpu": -1 if cpu is None else cpu,
             }
-            rows += _run_worker(job, env)
+            rows += _run_worker(job, layout.padded_env(design.seed, process, blas))
             frame = pd.DataFrame(rows, columns=list(COLUMNS))
             write_csv(frame, path)
             if bar:
@@ -326,10 +328,14 @@ def _worker(job: dict[str, Any]) -> None:
 
     design = PeerDesign(**job["design"])
     cpu = job["cpu"]
-    if cpu >= 0:
-        os.sched_setaffinity(0, {cpu})
-    # else not pinned: the rows say cpu -1, as the sweep worker's do (os has no sched_getcpu)
+    layout.pin(cpu)  # cpu -1: not pinned, and the rows say so, as the sweep worker's do
+    # the sweep worker's layout randomisation: its environment was padded, then small allocations and
+    # the arrays every contender reads in fresh buffers at random offsets
+    rng = np.random.default_rng([design.seed, 4, job["process"]])
+    dummies = layout.dummy_allocations(rng)
     w = cache.make(camera_spec(design))
+    o, d, tris = (layout.fresh_copy(a, rng) for a in (w.origins, w.directions, w.triangles))
+    w = replace(w, origins=o, directions=d, triangles=tris)
     ambiguous = w.ambiguous()
 
     def disagreements(index: np.ndarray, rows: np.ndarray | slice) -> tuple[int, int]:
@@ -375,6 +381,7 @@ def _worker(job: dict[str, Any]) -> None:
             )
             sys.stdout.write(json.dumps(asdict(row)) + "\n")
     sys.stdout.flush()
+    del dummies  # kept alive until the last call: they shift every later heap address
 
 
 def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Contender], Callable[[], np.ndarray]]:
