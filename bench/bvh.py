@@ -29,13 +29,14 @@ One process, no CIs: a quick look, not the harness's protocol. Run it alone:
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import numpy as np
 
 from tribench import ext
 from tribench.ext import _core
+from tribench.harness import layout
+from tribench.harness.runner import default_cpu
 from tribench.workloads import meshes
 from tribench.workloads.rays import camera_rays
 
@@ -145,8 +146,7 @@ def main() -> None:
     parser.add_argument("--trace-level", type=int, default=4, help="subdivisions of the traced mesh (4: 247,808)")
     parser.add_argument("--kernels", nargs="+", default=["moller_trumbore_fma", "moller_trumbore_fma_exit"])
     args = parser.parse_args()
-    if hasattr(os, "sched_setaffinity"):  # one core, for tribench and Embree alike
-        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    layout.pin(default_cpu())  # one core, for tribench and Embree alike
     levels = [2, 3] if args.quick else [2, 3, 4, 5]
     width, height = (128, 128) if args.quick else map(int, args.camera.split("x"))
     reps = 3 if args.quick else args.reps

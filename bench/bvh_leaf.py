@@ -23,12 +23,13 @@ process, no CIs: a quick look at a design choice, not the harness's protocol.
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import numpy as np
 
 from tribench import ext
+from tribench.harness import layout
+from tribench.harness.runner import default_cpu
 from tribench.workloads import bvh_cache, make
 from tribench.workloads.spec import MeshSpec
 
@@ -52,8 +53,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.quick:
         args.triangles, args.camera, args.rounds = 20_000, "64x64", 3
-    if hasattr(os, "sched_setaffinity"):
-        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    layout.pin(default_cpu())
     width, height = map(int, args.camera.split("x"))
     workloads = {
         r: make(MeshSpec("suzanne", args.triangles, rays=r, width=width, height=height, dtype="float32")) for r in RAYS

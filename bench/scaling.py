@@ -40,6 +40,7 @@ import numpy as np
 from scipy import stats
 
 from tribench import ext
+from tribench.harness import layout
 from tribench.harness.machine import machine_record
 
 DEFAULT_KERNELS = ("moller_trumbore", "moller_trumbore_x8")
@@ -108,8 +109,7 @@ def main() -> None:
         if "closest" not in ext.kernel_info(k).modes:
             ap.error(f"{k} has no closest mode")
     dtypes = args.dtypes.split(",")
-    if args.pin is not None:
-        os.sched_setaffinity(0, {args.pin})
+    layout.pin(args.pin)
     caches = {name: size_bytes(s) for name, s in machine_record()["caches"].items()}
     print(
         f"caches: {', '.join(f'{n} {s // 1024} KiB' for n, s in caches.items())}; "
