@@ -9,6 +9,8 @@ robustness suite) and ``peers.csv``; nothing after it reads the folder again.
 from __future__ import annotations
 
 import hashlib
+import os
+import stat
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,8 +24,11 @@ __all__ = ["Measured", "file_digest", "load"]
 
 
 def file_digest(path: str | Path) -> str | None:
-    """SHA-256 of a file's bytes (None if there is no such file): how the report knows a table is stale."""
+    """SHA-256 of a file's bytes: how the report knows a table is stale. None where there is no such regular
+    file (a FIFO or a device in its place would block or never end; the readers refuse it, naming it)."""
     try:
+        if not stat.S_ISREG(os.lstat(path).st_mode):
+            return None
         return hashlib.sha256(Path(path).read_bytes()).hexdigest()
     except FileNotFoundError:
         return None
