@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
@@ -50,6 +51,8 @@ __all__ = [
 class RunTables(Protocol):
     """What a comparison reads of one analysed run (read-only)."""
 
+    @property
+    def run_dir(self) -> Path: ...
     @property
     def baseline(self) -> str: ...
     @property
@@ -158,9 +161,11 @@ def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Compar
                     **_ratio_fields(r, level_t, margin),
                 }
             )
+    ratio = ["ratio", "ratio_ci_low", "ratio_ci_high", "p_value", "df", "n_a", "n_b", "confidence", "verdict"]
+    keys = ["workload_id", "family", "label", "kernel"]  # explicit: two runs may share only the baseline
     return Comparison(
-        pd.DataFrame(spd_rows),
-        pd.DataFrame(time_rows),
+        pd.DataFrame(spd_rows, columns=[*keys, "baseline", "speedup_a", "speedup_b", *ratio]),
+        pd.DataFrame(time_rows, columns=[*keys, "ns_per_test_a", "ns_per_test_b", *ratio]),
         a.baseline,
         margin,
         [w for w in a.workload_ids if w not in set(b.workload_ids)],
@@ -242,6 +247,10 @@ def compare_many(runs: Sequence[RunTables], confidence: float = 0.95) -> MultiCo
         Fewer than two or more than 26 runs, different baselines, or no workload in every run.
     """
     tags = run_tags(len(runs))
+    folders = [Path(d.run_dir).resolve() for d in runs]
+    twice = sorted({str(f) for f in folders if folders.count(f) > 1})
+    if twice:
+        raise UserError(f"{twice[0]} is given twice: a run compared with itself is not two machines")
     baselines = {d.baseline for d in runs}
     if len(baselines) > 1:
         named = ", ".join(f"{t}: {d.baseline}" for t, d in zip(tags, runs, strict=True))
@@ -260,9 +269,38 @@ def compare_many(runs: Sequence[RunTables], confidence: float = 0.95) -> MultiCo
     spd_rows = [row for tag, d in zip(tags, runs, strict=True) for row in _run_speedups(tag, d, wids, kernels)]
     order_rows = [row for wid in wids for row in _orders(tags, runs, wid, kernels, confidence)]
     labels = {w: (short_label(runs[0].specs[w]), family_of(runs[0].specs[w])) for w in wids}
+    # explicit columns: runs that share only the baseline have no pair of kernels, and still a table
+    order_columns = [
+        *_ORDER_KEYS,
+        *(c for t in tags for c in (f"ratio_{t}", f"ratio_{t}_ci_low", f"ratio_{t}_ci_high", f"verdict_{t}")),
+        "order",
+        "confidence",
+    ]
     return MultiComparison(
-        tags, pd.DataFrame(spd_rows), pd.DataFrame(order_rows), baseline, kernels, wids, not_shared, labels
+        tags,
+        pd.DataFrame(spd_rows, columns=_SPEEDUP_COLUMNS),
+        pd.DataFrame(order_rows, columns=order_columns),
+        baseline,
+        kernels,
+        wids,
+        not_shared,
+        labels,
     )
+
+
+#: The columns of a comparison's speedups, and the first columns of its orders.
+_SPEEDUP_COLUMNS = [
+    "run",
+    "workload_id",
+    "family",
+    "label",
+    "kernel",
+    "ratio",
+    "ratio_ci_low",
+    "ratio_ci_high",
+    "verdict",
+]
+_ORDER_KEYS = ["workload_id", "family", "label", "kernel", "other_kernel"]
 
 
 def _run_speedups(tag: str, d: RunTables, wids: list[str], kernels: list[str]) -> list[dict[str, Any]]:

@@ -268,3 +268,56 @@ def testunpaired_ratio_edge_cases():
         unpaired_ratio([], [0.1])
     with pytest.raises(ValueError):
         unpaired_ratio([0.1, np.nan], [0.1, 0.2])
+
+
+@pytest.fixture(scope="module")
+def runs_sharing_only_the_baseline(two_runs, tmp_path_factory):
+    """Run A with only moller_seed and curless, run B with only moller_seed and moller_trumbore."""
+    run_a, _ = two_runs
+    _, cache = run_fixture_dir(tmp_path_factory)
+    folders = []
+    for name, kept in (("only_curless", "curless"), ("only_mt", "moller_trumbore")):
+        folder = tmp_path_factory.mktemp("shared-baseline") / name
+        folder.mkdir()
+        for f in ("run.json", "processes.csv", "validate.csv"):
+            shutil.copy(run_a / f, folder / f)
+        b = pd.read_csv(run_a / "batches.csv")
+        b.loc[b["kernel"].isin(["moller_seed", kept])].to_csv(folder / "batches.csv", index=False)
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setenv("TRIBENCH_CACHE", str(cache))
+            finish(folder)
+        folders.append(folder)
+    return folders
+
+
+def test_runs_sharing_only_the_baseline_give_tables_of_what_they_share(runs_sharing_only_the_baseline, tmp_path):
+    runs = [load_run(r) for r in runs_sharing_only_the_baseline]
+    many = compare_many(runs)
+    assert many.kernels == ["moller_seed"] and many.orders.empty and "workload_id" in many.orders.columns
+    assert set(many.speedups["kernel"]) == {"moller_seed"}
+    text = format_many(runs, many)
+    assert "no order of two kernels" in text
+    pair = compare_runs(*runs)
+    assert pair.speedups.empty and set(pair.times["kernel"]) == {"moller_seed"}
+    out = tmp_path / "compare.html"
+    done = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "compare", *map(str, runs_sharing_only_the_baseline), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr and out.stat().st_size > 0
+
+
+def test_a_run_given_twice_is_refused(two_runs):
+    a = load_run(two_runs[0])
+    with pytest.raises(UserError, match="given twice"):
+        compare_many([a, load_run(two_runs[0])])
+    done = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "compare", str(two_runs[0]), str(two_runs[0])],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2 and "given twice" in done.stderr and "Traceback" not in done.stderr
