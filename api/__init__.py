@@ -32,11 +32,14 @@ has a whole example, which a test runs.
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+from tribench.common import UserTypeError
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -69,7 +72,58 @@ class Results:
 def _default_out(out: str | Path | None) -> Path:
     from tribench.harness.runfolder import default_run_dir
 
-    return Path(out if out is not None else default_run_dir())
+    return Path(default_run_dir()) if out is None else _path(out, "out")
+
+
+def _names(value: Any, what: str) -> tuple[str, ...]:
+    """A non-empty list of names (kernels): one string is refused, not read as a list of letters."""
+    if isinstance(value, str):
+        raise UserTypeError(f"{what} must be a list of names, not one string: give [{value!r}]")
+    if not isinstance(value, Sequence) or not value or not all(isinstance(v, str) for v in value):
+        raise UserTypeError(f"{what} must be a non-empty list of names, got {_shown(value)}")
+    return tuple(value)
+
+
+def _specs(value: Any) -> tuple:
+    """A non-empty list of workload specs (PairSpec, MeshSpec): one spec alone is refused, naming the fix."""
+    from tribench.workloads.spec import MeshSpec, PairSpec
+
+    if isinstance(value, (PairSpec, MeshSpec)):
+        raise UserTypeError(f"workloads must be a list of specs, not one spec: give [{type(value).__name__}(...)]")
+    if (
+        isinstance(value, str)
+        or not isinstance(value, Sequence)
+        or not value
+        or not all(isinstance(v, (PairSpec, MeshSpec)) for v in value)
+    ):
+        raise UserTypeError(f"workloads must be a non-empty list of PairSpec or MeshSpec, got {_shown(value)}")
+    return tuple(value)
+
+
+def _path(value: Any, what: str) -> Path:
+    """A folder's path (str or os.PathLike)."""
+    if not isinstance(value, (str, os.PathLike)):
+        raise UserTypeError(f"{what} must be a folder's path (str or pathlib.Path), got {_shown(value)}")
+    return Path(value)
+
+
+def _flag(value: Any, what: str) -> bool:
+    """True or False: a string such as "no" is refused, never read as true."""
+    if not isinstance(value, bool):
+        raise UserTypeError(f"{what} must be True or False, got {_shown(value)}")
+    return value
+
+
+def _optional_flag(value: Any, what: str) -> bool | None:
+    """True, False or None (the default: a bar on a terminal, plain lines elsewhere)."""
+    if value is not None and not isinstance(value, bool):
+        raise UserTypeError(f"{what} must be True, False or None, got {_shown(value)}")
+    return value
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
 
 
 def sweep(
@@ -115,9 +169,10 @@ def sweep(
     from tribench.harness import duration, plan, runfolder, runner
     from tribench.studies.finish import finish
 
+    progress = _optional_flag(progress, "progress")
     spec = plan.Sweep(
-        tuple(kernels),
-        tuple(workloads),
+        _names(kernels, "kernels"),
+        _specs(workloads),
         processes=plan.DEFAULT_PROCESSES if processes is None else processes,
         rounds=plan.DEFAULT_ROUNDS if rounds is None else rounds,
         warmup=plan.DEFAULT_WARMUP if warmup is None else warmup,
@@ -144,7 +199,8 @@ def run(
     """
     from tribench.studies import main as main_job
 
-    done = main_job.run(_default_out(out), quick=quick, progress=progress, peers=peers)
+    quick, peers = _flag(quick, "quick"), _flag(peers, "peers")
+    done = main_job.run(_default_out(out), quick=quick, progress=_optional_flag(progress, "progress"), peers=peers)
     return Results(done.run_dir, done.estimates, done.speedups, done.tables)
 
 
@@ -152,7 +208,7 @@ def load(run_dir: str | Path) -> Results:
     """The tables of an analysed run folder, refused (one line naming ``tribench stats``) if missing or stale."""
     from tribench.reports.rundata import load_run
 
-    data = load_run(run_dir)
+    data = load_run(_path(run_dir, "run_dir"))
     return Results(data.run_dir, data.estimates, data.speedups, data.tables)
 
 
@@ -161,7 +217,9 @@ def compare(*run_dirs: str | Path) -> MultiComparison:
     from tribench.analysis.compare import compare_many
     from tribench.reports.rundata import load_run
 
-    return compare_many([load_run(r) for r in run_dirs])
+    if len(run_dirs) == 1 and isinstance(run_dirs[0], (list, tuple)):
+        raise UserTypeError("give the run folders as separate arguments: tribench.compare('run_a', 'run_b')")
+    return compare_many([load_run(_path(r, "each run folder")) for r in run_dirs])
 
 
 def __getattr__(name: str) -> Any:

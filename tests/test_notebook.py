@@ -71,6 +71,30 @@ def test_mistakes_are_one_user_error(fixture_run, tmp_path):
         tribench.no_such_function  # noqa: B018
 
 
+@pytest.mark.parametrize(
+    ("call", "named"),
+    [
+        (lambda out: tribench.sweep(None, [tribench.PairSpec(n=10)], out=out), "kernels"),
+        (lambda out: tribench.sweep("moller_trumbore", [tribench.PairSpec(n=10)], out=out), "kernels"),
+        (lambda out: tribench.sweep(["moller_trumbore"], tribench.PairSpec(n=10), out=out), "workloads"),
+        (lambda out: tribench.sweep(["moller_trumbore"], [tribench.PairSpec(n=10)], out=5), "out"),
+        (
+            lambda out: tribench.sweep(["moller_trumbore"], [tribench.PairSpec(n=10)], out=out, progress="no"),
+            "progress",
+        ),
+        (lambda out: tribench.sweep(["moller_trumbore"], [tribench.PairSpec(n=10)], out="/etc/passwd"), "is a file"),
+        (lambda out: tribench.run(out, quick="yes"), "quick"),
+        (lambda out: tribench.load(3), "run_dir"),
+        (lambda out: tribench.load(None), "run_dir"),
+        (lambda out: tribench.compare(["a", "b"]), "separate arguments"),
+    ],
+)
+def test_a_wrong_argument_is_one_user_error_naming_it(call, named, tmp_path):
+    with pytest.raises(UserError, match=named) as info:
+        call(tmp_path / "run")
+    assert "\n" not in str(info.value) and not (tmp_path / "run").exists()  # refused before anything ran
+
+
 def test_the_facade_imports_nothing_until_called():
     code = (
         "import sys, tribench.ext, tribench; assert callable(tribench.sweep); "

@@ -97,7 +97,9 @@ def check_new_run_dir(run_dir: str | Path) -> None:
     """A new run may go into ``run_dir``: it does not exist, or is a folder
     holding nothing but a lock file; else a UserError."""
     run_dir = Path(run_dir)
-    if run_dir.exists() and (not run_dir.is_dir() or any(p.name != LOCK for p in run_dir.iterdir())):
+    if run_dir.exists() and not run_dir.is_dir():
+        raise UserError(f"{run_dir} is a file, not a folder: a new run needs a new or empty folder")
+    if run_dir.exists() and any(p.name != LOCK for p in run_dir.iterdir()):
         raise UserError(
             f"{run_dir} exists and is not empty: a new run needs a new or empty folder "
             f"(tribench sweep --resume {run_dir} finishes an interrupted run)"
