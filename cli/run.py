@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 
+from tribench.common import UserError
+
+from . import flags
 from .options import add_no_progress, add_run_out, default_run_dir
 
 __all__ = ["add_parser", "run"]
@@ -25,16 +28,28 @@ def add_parser(sub) -> None:
         help="every kernel on fewer workloads with a 15 s sweep: about a minute (wide intervals)",
     )
     add_run_out(p, "runs/[quick-]<date-time>")
+    p.add_argument(
+        "--resume",
+        metavar="RUN_DIR",
+        type=flags.existing_folder,
+        help="finish an interrupted main job: the rest of its sweep, its peers, the robustness suite, the report",
+    )
     add_no_progress(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from tribench.reports import format_tables, load, write_report
-    from tribench.studies.main import run as main_job
+    from tribench.studies import main as main_job
 
-    out = args.out or default_run_dir("quick" if args.quick else "")
-    main_job(out, quick=args.quick, progress=args.progress)
+    if args.resume:
+        if args.quick or args.out:
+            raise UserError("--resume takes neither --quick nor --out: the run's own job is finished in its folder")
+        out = args.resume
+        main_job.resume(out, progress=args.progress)
+    else:
+        out = args.out or default_run_dir("quick" if args.quick else "")
+        main_job.run(out, quick=args.quick, progress=args.progress)
     data = load(out)  # the run folder's tables, read once for the page and the terminal
     report = write_report(data)
     print(format_tables(data))

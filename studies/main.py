@@ -8,6 +8,8 @@ report from the run folder and prints the tables; a notebook calls
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -18,7 +20,7 @@ from tribench.harness import runfolder, runner
 
 from .finish import finish
 
-__all__ = ["MainResult", "run"]
+__all__ = ["MainResult", "resume", "run"]
 
 
 @dataclass(frozen=True)
@@ -95,12 +97,66 @@ def run(
     sweep = default_sweep(quick=quick)
     runfolder.check_new_run_dir(Path(out))  # before the estimate, which builds the workloads
     _announce(sweep, out, log)
-    done = runner.start(sweep, out, progress=progress)
+    with _resumable(out):
+        done = runner.start(sweep, out, progress=progress, extra={"main_job": {"quick": quick}})
+    return _complete(Path(out), done, quick, progress, peers, log)
+
+
+def resume(out: str | Path, progress: bool | None = None, peers: bool = True, log: TextIO | None = None) -> MainResult:
+    """Finish an interrupted main job in ``out``: the rest of its sweep, then its peers (unless
+    ``peers.csv`` is there), the robustness suite and the analysis step, as :func:`run` would have.
+
+    Raises
+    ------
+    UserError
+        ``out`` is not a main job's run folder, or another process writes it.
+    """
+    from tribench.common import UserError
+
+    out = Path(out)
+    record = runfolder.read_run(out)
+    if "main_job" not in record:
+        raise UserError(
+            f"{out} is not a main job's run folder (tribench run); finish a sweep with tribench sweep --resume"
+        )
+    quick = bool(record["main_job"].get("quick"))
+    _say(log, f"tribench run --resume: finishing the main job in {out}")
+    with _resumable(out):
+        done = runner.resume(out, progress=progress)
+    return _complete(out, done, quick, progress, peers and not _peers_done(out, quick), log)
+
+
+def _peers_done(out: Path, quick: bool) -> bool:
+    """Whether ``peers.csv`` holds every process of the job's peer design (an interrupted one does not)."""
+    from tribench.studies import peers
+
+    design = peers.PeerDesign.quick() if quick else peers.PeerDesign()
+    try:
+        done = pd.read_csv(out / runfolder.PEERS, usecols=["process"])["process"].nunique()
+    except (OSError, ValueError, pd.errors.ParserError):
+        return False
+    return bool(done >= design.processes)
+
+
+@contextmanager
+def _resumable(out: str | Path) -> Iterator[None]:
+    """Ctrl-C in the sweep: its message names ``tribench run --resume``, which finishes the whole job."""
+    try:
+        yield
+    except runner.SweepInterrupted as exc:
+        text = str(exc).replace(f"tribench sweep --resume {out}", f"tribench run --resume {out}")
+        raise runner.SweepInterrupted(text) from None
+
+
+def _complete(
+    out: Path, done: runner.RunResult, quick: bool, progress: bool | None, peers: bool, log: TextIO | None
+) -> MainResult:
+    """After the sweep: the peers, the robustness suite and the analysis step; the job's tables."""
     _say(log, f"{done.batches_run} batches run in {done.elapsed_s:.1f} s -> {done.run_dir}")
     peer_rows = _run_peers(out, quick=quick, progress=progress, log=log) if peers else None
     derived = finish(out, quick=quick)  # quick: the robustness suite at its quick sizes
-    val = _robustness(Path(out), derived.record["validate"], log)
-    return MainResult(Path(out), derived.estimates, derived.speedups, val, peer_rows, done, derived.tables)
+    val = _robustness(out, derived.record["validate"], log)
+    return MainResult(out, derived.estimates, derived.speedups, val, peer_rows, done, derived.tables)
 
 
 def _announce(sweep, out: str | Path, log: TextIO | None) -> None:
@@ -157,8 +213,8 @@ def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO 
         frame = peers.measure(out, design, progress=progress)
     except KeyboardInterrupt:
         raise SweepInterrupted(
-            f"interrupted during the peers: the sweep is kept in {out}; `tribench stats {out}` "
-            f"then `tribench report {out}` write the report without peers"
+            f"interrupted during the peers: the sweep is kept in {out}; `tribench run --resume {out}` "
+            f"times the peers again and finishes the job"
         ) from None
     except RuntimeError as exc:
         _say(log, f"peers: not measured: {exc}")

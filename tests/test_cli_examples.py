@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import re
 import shlex
+import shutil
 from pathlib import Path
 
 import pytest
@@ -65,12 +66,13 @@ def docstring_examples() -> list[str]:
 
 
 # Each README example -> the concrete command lines that exercise it ({tmp}, {run}, {mesh}, {scene} filled in).
-# `run` and `info --peak` take minutes and seconds: test_cli runs `run --quick` end to end, and
+# `run` and `info --peak` take minutes and seconds: test_cli runs `run --quick` end to end, test_main_job
+# resumes an interrupted main job, and
 # test_cli_flags interrupts `info --peak` once it has started; here they are only parsed.
-SLOW = {"run --quick", "run", "info --peak"}
+SLOW = {"run --quick", "run", "run --resume {run}", "info --peak"}
 CONCRETE = {
     "tribench info [--peak]": ["info", "info --peak"],
-    "tribench run [--quick]": ["run", "run --quick"],
+    "tribench run [--quick] [--resume RUN_DIR]": ["run", "run --quick", "run --resume {run}"],
     "tribench seed [--scene FILE] [--quick] [--all-kernels]": [
         "seed --scene {scene} --quick --all-kernels --size 12 --sample 24 --no-progress --out {tmp}/seed"
     ],
@@ -103,8 +105,8 @@ CONCRETE = {
     ],
     "tribench report RUN_DIR": ["report {run}"],
     "tribench compare RUN RUN [RUN …] [--out FILE]": [
-        "compare {run} {run} --out {tmp}/compare.html",
-        "compare {run} {run} {run} --out {tmp}/compare3.html",
+        "compare {run} {run_b} --out {tmp}/compare.html",
+        "compare {run} {run_b} {run_c} --out {tmp}/compare3.html",
     ],
     "tribench export RUN_DIR [--out FILE]": ["export {run}", "export {run} --out {tmp}/gbench.json"],
 }
@@ -169,7 +171,9 @@ def test_concrete_forms_use_every_flag_of_the_example(example):
     for flag in (w.strip("[]") for w in words if w.strip("[]").startswith("--")):
         assert any(flag in line for line in lines), f"{flag} of {example!r} is never run"
     for line in lines:  # the real parser takes it
-        build_parser().parse_args([w.format(tmp="/nonexistent", run="/", mesh="m", scene=README) for w in line])
+        build_parser().parse_args(
+            [w.format(tmp="/nonexistent", run="/", run_b="/", run_c="/", mesh="m", scene=README) for w in line]
+        )
 
 
 @pytest.mark.parametrize(
@@ -182,7 +186,13 @@ def test_concrete_forms_use_every_flag_of_the_example(example):
     ],
 )
 def test_readme_example_runs(command, env, run_dir, mesh_prefix, tmp_path):
-    argv = shlex.split(command.format(tmp=tmp_path, run=run_dir, mesh=mesh_prefix, scene=builtin_scene_path("scene02")))
+    others = {"run_b": tmp_path / "run_b", "run_c": tmp_path / "run_c"}
+    for name, copy in others.items():  # other runs for compare, as the run is now (a run given twice is refused)
+        if "{" + name + "}" in command:
+            shutil.copytree(run_dir, copy)
+    argv = shlex.split(
+        command.format(tmp=tmp_path, run=run_dir, **others, mesh=mesh_prefix, scene=builtin_scene_path("scene02"))
+    )
     done = run(*argv, env=env, timeout=120)
     assert done.returncode == 0, done.stderr
     assert "Traceback" not in done.stderr

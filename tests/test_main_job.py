@@ -117,3 +117,54 @@ def test_the_default_sweep_ranks_every_algorithm_in_its_best_form_against_the_se
     assert s.sequential is not None and s.sequential.budget_s <= (15 if quick else 300)
     # every public kernel but the 8-lane forms (between an algorithm's scalar and native forms, never its best)
     assert set(s.kernels) == {k for k, i in info.items() if i.scalar_form is None}
+
+
+def test_an_interrupted_main_job_resumes_to_the_end(tmp_path, monkeypatch):
+    from tribench.harness import runner
+
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    out = tmp_path / "run"
+    runner.start(TINY, out, progress=False, extra={"main_job": {"quick": True}})
+    lines = (out / "batches.csv").read_text().splitlines(keepends=True)
+    (out / "batches.csv").write_text("".join(lines[: len(lines) // 2]))  # the sweep stopped half-way
+    log = io.StringIO()
+    done = main_job.resume(out, progress=False, peers=False, log=log)
+    assert done.sweep.batches_done == done.sweep.batches_total == len(lines) - 1 and done.sweep.batches_run > 0
+    assert (out / runfolder.ANALYSIS).is_file() and (out / runfolder.VALIDATE).is_file()
+    assert "finishing the main job" in log.getvalue()
+
+
+def test_resume_refuses_a_folder_that_is_not_a_main_job(tmp_path, monkeypatch):
+    from tribench.common import UserError
+    from tribench.harness import runner
+
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    runner.start(TINY, tmp_path / "sweep", progress=False)
+    with pytest.raises(UserError, match="not a main job's run folder.*tribench sweep --resume"):
+        main_job.resume(tmp_path / "sweep", progress=False, peers=False)
+
+
+def test_an_interrupt_inside_the_main_job_names_run_resume(tmp_path):
+    from tribench.harness.runner import SweepInterrupted
+
+    with pytest.raises(SweepInterrupted, match=f"finish with: tribench run --resume {tmp_path}$"):
+        with main_job._resumable(tmp_path):
+            raise SweepInterrupted(
+                f"interrupted: 3 of 9 batches saved in {tmp_path}; finish with: tribench sweep --resume {tmp_path}"
+            )
+
+
+def test_run_resume_is_refused_in_one_line_where_it_cannot_apply(tmp_path):
+    import subprocess
+    import sys
+
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    for extra, said in ((["--quick"], "--resume takes neither --quick nor --out"), ([], "not a run directory")):
+        done = subprocess.run(
+            [sys.executable, "-m", "tribench.cli", "run", "--resume", str(folder), *extra],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert done.returncode == 2 and said in done.stderr and "Traceback" not in done.stderr, done.stderr
