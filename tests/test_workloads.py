@@ -470,6 +470,7 @@ def test_mesh_file_input(tmp_path):
         (b"v 0 0 0\nv 1 0 0\n", "points.obj", "holds no triangles"),
         (b"ply\nformat nonsense\n", "bad.ply", "cannot read mesh file"),
         (b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n", "flat.obj", "no triangle of non-zero area"),
+        (b"v 1e300 0 0\nv 0 1e300 0\nv 0 0 1e300\nf 1 2 3\n", "huge.obj", "coordinates up to 1e\\+300.*overflow"),
     ],
 )
 def test_corrupt_mesh_file_is_a_clear_error(tmp_path, content, name, message):
@@ -668,3 +669,13 @@ def test_cli_corrupt_mesh_file(tmp_path, capsys):
     bad.write_bytes(b"ply\nformat nonsense\n")
     assert run_cli("make", str(bad)) == 2
     assert "cannot read mesh file" in capsys.readouterr().err
+
+
+def test_a_mesh_past_float_range_is_refused_in_one_line_without_warnings(tmp_path, capsys):
+    huge = tmp_path / "huge.obj"
+    huge.write_text("v 1e300 0 0\nv 0 1e300 0\nv 0 0 1e300\nv 1e300 1e300 0\nf 1 2 3\nf 1 4 2\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow warnings would fail here
+        assert run_cli("make", str(huge), "--accel", "bvh") == 2
+    err = capsys.readouterr().err
+    assert "overflow" in err and err.count("\n") == 1 and "Traceback" not in err

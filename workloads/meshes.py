@@ -83,6 +83,11 @@ def _compact(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nd
     return np.ascontiguousarray(vertices[used], dtype=np.float64), remap[faces]
 
 
+#: The largest coordinate of a mesh file: squares and cross products of coordinates above it overflow float64
+#: (a mesh at 1e300 became a point of radius 0, with warnings, and every ray missed).
+MAX_COORDINATE = 1e150
+
+
 def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Vertices and faces of a mesh file, as trimesh reads it with ``process=False``.
 
@@ -104,6 +109,12 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         raise UserError(f"mesh file {str(path)!r} holds no triangles")
     if not np.isfinite(vertices).all():
         raise UserError(f"mesh file {str(path)!r} has non-finite vertex coordinates")
+    largest = float(np.abs(vertices).max())
+    if largest > MAX_COORDINATE:
+        raise UserError(
+            f"mesh file {str(path)!r} has coordinates up to {largest:.3g}: their squares overflow float64 "
+            f"(edge products and distances to place it), so scale it to at most {MAX_COORDINATE:.0e}"
+        )
     if not (triangle_areas(vertices[faces]) > 0).any():
         raise UserError(f"mesh file {str(path)!r} has no triangle of non-zero area")
     return _compact(vertices, faces)
