@@ -287,6 +287,7 @@ class _SceneReader:
             self._add_object(("plan", "sphere", "tri").index(keyword), v)
 
     def _add_object(self, kind: int, v: list[float]) -> None:
+        """Store an object with the current material, which joins the materials on its first use."""
         if self.current not in self.material_index:
             self.material_index[self.current] = len(self.materials)
             self.materials.append(self.current)
@@ -296,6 +297,7 @@ class _SceneReader:
         self.mats[kind].append(self.material_index[self.current])
 
     def scene(self, name: str) -> Scene:
+        """The Scene read, its arrays read-only (an empty kind is an array of 0 rows)."""
         planes, spheres, tris = self.rows
         return Scene(
             name=name,
