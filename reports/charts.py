@@ -460,7 +460,8 @@ class _CostLayers:
     kernels: alt.Parameter  # the legend's selection, carried by one panel only
     tooltip: list[alt.Tooltip]
 
-    def layer(self, x: alt.X, rows: pd.DataFrame, with_legend: bool) -> alt.LayerChart:
+    def layer(self, x: alt.X, rows: pd.DataFrame, with_legend: bool) -> Any:
+        """The intervals and the lines of ``rows`` against ``x``; ``with_legend``: this layer defines the selection."""
         shown = alt.condition(self.kernels, alt.value(1.0), alt.value(0.08))
         y = alt.Y("ns_per_test:Q", scale=self.y_scale, title=self.y_title)
         interval = (
@@ -494,7 +495,7 @@ def _panel_title(text: str) -> alt.TitleParams:
     return alt.TitleParams(text, anchor="start", fontSize=12)
 
 
-def _triangle_count_panel(cost: _CostLayers, mesh: pd.DataFrame) -> alt.LayerChart:
+def _triangle_count_panel(cost: _CostLayers, mesh: pd.DataFrame) -> Any:
     """Cost against the mesh's triangle count (log), the mesh workloads only; it carries the legend."""
     x = alt.X(
         "triangles:Q",
@@ -529,16 +530,14 @@ def _cache_marks(caches: dict[str, Any] | None) -> list[alt.Chart]:
     return [rule, text]
 
 
-def _working_set_panel(
-    cost: _CostLayers, sized: pd.DataFrame, caches: dict[str, Any] | None, with_legend: bool
-) -> alt.LayerChart:
+def _working_set_panel(cost: _CostLayers, sized: pd.DataFrame, caches: dict[str, Any] | None, with_legend: bool) -> Any:
     """Cost against the working set (log), with the data caches marked."""
     x = alt.X(
         "working_set_bytes:Q",
         scale=alt.Scale(type="log"),
         title="working set: prepared triangles + rays (bytes, log)",
     )
-    layers = [cost.layer(x, sized, with_legend), *_cache_marks(caches)]
+    layers: list[Any] = [cost.layer(x, sized, with_legend), *_cache_marks(caches)]
     return alt.layer(*layers).properties(
         width=WIDTH,
         height=240,

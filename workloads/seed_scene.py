@@ -251,7 +251,7 @@ def _read_line(raw: str, where: str) -> tuple[str, list[float]] | None:
 
 def _frozen(rows: list, dtype: type, shape: tuple[int, ...] | None = None) -> np.ndarray:
     """``rows`` as a read-only array (of ``shape`` if given): a Scene's arrays never change after reading."""
-    a = np.array(rows, dtype=dtype)
+    a: np.ndarray = np.array(rows, dtype=dtype)
     if shape is not None:
         a = a.reshape(shape)
     a.flags.writeable = False
