@@ -23,6 +23,7 @@ from __future__ import annotations
 import functools
 import json
 import math
+from dataclasses import dataclass
 from html import escape
 from typing import Any
 
@@ -97,14 +98,8 @@ def _kernel_legend() -> alt.Parameter:
     return alt.selection_point(name="kernels", fields=["kernel"], bind="legend")
 
 
-def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart:
-    """Speed against robustness against memory: one point per kernel in the band chosen in the menu.
-
-    ``bands`` is ``bands.csv``. x: ns/test with its 95% CI (log axis); y: the
-    kernel's broken promises in ``tribench validate`` at the band's precision
-    (kernels on one row are spread apart); size: bytes per prepared triangle;
-    filled: watertight by its paper.
-    """
+def _answer_data(bands: pd.DataFrame) -> pd.DataFrame:
+    """The answer chart's records: ``bands`` with the menu's place of each row and its tooltips as text."""
     frame = bands.assign(
         where=bands["dtype"] + " · " + bands["band"],
         ns=_intervals(bands, "ns_per_test", " ns"),
@@ -124,7 +119,7 @@ def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart
         ],
         watertight_text=bands["watertight"].map({True: "yes", False: "no"}).fillna("unknown"),
     )
-    data = _records(
+    return _records(
         frame,
         [
             "where",
@@ -143,11 +138,10 @@ def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart
             "crack_rate",
         ],
     )
-    places = list(dict.fromkeys(data["where"]))
-    place = alt.param(name="band", value=places[0], bind=alt.binding_select(options=places, name="precision · band: "))
-    kernels = _kernel_legend()
-    baseline = str(bands["baseline"].iloc[0]) if len(bands) else "the baseline"
-    base = alt.Chart(data).transform_filter(alt.datum.where == place)
+
+
+def _answer_axes(bands: pd.DataFrame) -> tuple[alt.Scale, alt.X, alt.Y]:
+    """x: ns/test, on a log scale when the intervals allow it; y: the broken promises, one row per count."""
     # a t interval over few processes may reach below 0, which a log axis cannot show
     log = bool((bands["ns_per_test_ci_low"].dropna() > 0).all())
     x_scale = alt.Scale(type="log") if log else alt.Scale(type="linear")
@@ -158,16 +152,12 @@ def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart
         sort="ascending",
         scale=alt.Scale(paddingInner=0.2),
     )
-    shown = alt.condition(kernels, alt.value(0.95), alt.value(0.08))
-    rules = base.mark_rule(strokeWidth=2).encode(
-        x=alt.X("ns_per_test_ci_low:Q", scale=x_scale),
-        x2="ns_per_test_ci_high:Q",
-        y=y,
-        yOffset="kernel:N",
-        color=_kernel_colour(colours),
-        opacity=shown,
-    )
-    points = base.mark_point(filled=True, stroke="#333", strokeWidth=0.6).encode(
+    return x_scale, x, y
+
+
+def _answer_points(base: alt.Chart, x: alt.X, y: alt.Y, shown: Any, colours: dict[str, str], baseline: str):
+    """A point per kernel: sized by its bytes per triangle, shaped by its watertightness, every figure on hover."""
+    return base.mark_point(filled=True, stroke="#333", strokeWidth=0.6).encode(
         x=x,
         y=y,
         yOffset="kernel:N",
@@ -187,6 +177,33 @@ def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart
             alt.Tooltip("crack_rate:Q", title="cracks at shared edges (fraction)", format=".2~g"),
         ],
     )
+
+
+def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart:
+    """Speed against robustness against memory: one point per kernel in the band chosen in the menu.
+
+    ``bands`` is ``bands.csv``. x: ns/test with its 95% CI (log axis); y: the
+    kernel's broken promises in ``tribench validate`` at the band's precision
+    (kernels on one row are spread apart); size: bytes per prepared triangle;
+    filled: watertight by its paper.
+    """
+    data = _answer_data(bands)
+    places = list(dict.fromkeys(data["where"]))
+    place = alt.param(name="band", value=places[0], bind=alt.binding_select(options=places, name="precision · band: "))
+    kernels = _kernel_legend()
+    baseline = str(bands["baseline"].iloc[0]) if len(bands) else "the baseline"
+    base = alt.Chart(data).transform_filter(alt.datum.where == place)
+    x_scale, x, y = _answer_axes(bands)
+    shown = alt.condition(kernels, alt.value(0.95), alt.value(0.08))
+    rules = base.mark_rule(strokeWidth=2).encode(
+        x=alt.X("ns_per_test_ci_low:Q", scale=x_scale),
+        x2="ns_per_test_ci_high:Q",
+        y=y,
+        yOffset="kernel:N",
+        color=_kernel_colour(colours),
+        opacity=shown,
+    )
+    points = _answer_points(base, x, y, shown, colours, baseline)
     rows = max(int(data["broken_promises"].nunique()), 1)
     return (
         alt.layer(rules, points.add_params(kernels))
@@ -433,40 +450,28 @@ def _axis_scale(*columns: pd.Series) -> tuple[alt.Scale, str]:
     return (alt.Scale(type="log"), " (log)") if bool((values > 0).all()) else (alt.Scale(type="linear"), "")
 
 
-def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) -> alt.VConcatChart | None:
-    """ns/test against the mesh's triangle count, and against the working set with the data caches marked.
+@dataclass(frozen=True)
+class _CostLayers:
+    """What both scaling panels draw against their x: each workload's 95% CI and a line per kernel and family."""
 
-    ``est``: the estimates joined with the workloads and the working-set size (:func:`.content.estimates_table`).
-    A line joins the workloads of one family (dashes tell families apart). None without an estimate.
-    """
-    from .figures import cache_bytes
+    y_scale: alt.Scale
+    y_title: str
+    colours: dict[str, str]
+    kernels: alt.Parameter  # the legend's selection, carried by one panel only
+    tooltip: list[alt.Tooltip]
 
-    if est.empty:
-        return None
-    frame = est.assign(ns=_intervals(est, "ns_per_test", " ns"))
-    columns = ["family", "label", "kernel", "kind", "triangles", "working_set_bytes", "ns_per_test"]
-    data = _records(frame, columns + ["ns_per_test_ci_low", "ns_per_test_ci_high", "ns"])
-    kernels = _kernel_legend()
-    y_scale, y_log = _axis_scale(est["ns_per_test_ci_low"], est["ns_per_test_ci_high"])
-    tooltip = [
-        alt.Tooltip("kernel:N"),
-        alt.Tooltip("family:N"),
-        alt.Tooltip("label:N", title="workload"),
-        alt.Tooltip("ns:N", title="ns/test [95% CI]"),
-        alt.Tooltip("working_set_bytes:Q", title="working set (bytes)", format=",.0f"),
-    ]
-    shown = alt.condition(kernels, alt.value(1.0), alt.value(0.08))
-
-    def cost(x: alt.X, rows: pd.DataFrame, with_legend: bool) -> Any:
-        y = alt.Y("ns_per_test:Q", scale=y_scale, title=f"ns per ray–triangle test{y_log}")
+    def layer(self, x: alt.X, rows: pd.DataFrame, with_legend: bool) -> Any:
+        """The intervals and the lines of ``rows`` against ``x``; ``with_legend``: this layer defines the selection."""
+        shown = alt.condition(self.kernels, alt.value(1.0), alt.value(0.08))
+        y = alt.Y("ns_per_test:Q", scale=self.y_scale, title=self.y_title)
         interval = (
             alt.Chart(rows)
             .mark_rule()
             .encode(
                 x=x,
-                y=alt.Y("ns_per_test_ci_low:Q", scale=y_scale),
+                y=alt.Y("ns_per_test_ci_low:Q", scale=self.y_scale),
                 y2="ns_per_test_ci_high:Q",
-                color=_kernel_colour(colours),
+                color=_kernel_colour(self.colours),
                 opacity=shown,
             )
         )
@@ -476,59 +481,97 @@ def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, 
             .encode(
                 x=x,
                 y=y,
-                color=_kernel_colour(colours),
+                color=_kernel_colour(self.colours),
                 strokeDash=alt.StrokeDash("family:N", legend=None),
                 detail="family:N",
                 opacity=shown,
-                tooltip=tooltip,
+                tooltip=self.tooltip,
             )
         )
-        return alt.layer(interval, line.add_params(kernels) if with_legend else line)
+        return alt.layer(interval, line.add_params(self.kernels) if with_legend else line)
 
+
+def _panel_title(text: str) -> alt.TitleParams:
+    return alt.TitleParams(text, anchor="start", fontSize=12)
+
+
+def _triangle_count_panel(cost: _CostLayers, mesh: pd.DataFrame) -> Any:
+    """Cost against the mesh's triangle count (log), the mesh workloads only; it carries the legend."""
+    x = alt.X(
+        "triangles:Q",
+        scale=alt.Scale(type="log"),
+        title="triangles in the mesh (log; brute force: every ray tests every triangle)",
+    )
+    return cost.layer(x, mesh, True).properties(
+        width=WIDTH,
+        height=240,
+        title=_panel_title("cost against triangle count"),
+    )
+
+
+def _cache_marks(caches: dict[str, Any] | None) -> list[alt.Chart]:
+    """The data caches as dashed rules named at their sizes (none when no size is known)."""
+    from .figures import cache_bytes
+
+    marks = pd.DataFrame(
+        [
+            {"cache": f"{name} {size}", "bytes": cache_bytes(size)}
+            for name, size in (caches or {}).items()
+            if not str(name).endswith("i")  # an instruction cache holds no data
+        ]
+    )
+    marks = marks.loc[marks["bytes"].notna()] if len(marks) else marks
+    if not len(marks):
+        return []
+    rule = alt.Chart(marks).mark_rule(color="#888", strokeDash=[4, 3]).encode(x="bytes:Q", tooltip=["cache:N"])
+    text = rule.mark_text(angle=270, align="right", baseline="bottom", dy=-2, color="#555", fontSize=10).encode(
+        y=alt.value(4), text="cache:N"
+    )
+    return [rule, text]
+
+
+def _working_set_panel(cost: _CostLayers, sized: pd.DataFrame, caches: dict[str, Any] | None, with_legend: bool) -> Any:
+    """Cost against the working set (log), with the data caches marked."""
+    x = alt.X(
+        "working_set_bytes:Q",
+        scale=alt.Scale(type="log"),
+        title="working set: prepared triangles + rays (bytes, log)",
+    )
+    layers: list[Any] = [cost.layer(x, sized, with_legend), *_cache_marks(caches)]
+    return alt.layer(*layers).properties(
+        width=WIDTH,
+        height=240,
+        title=_panel_title("cost against working-set size, data caches marked"),
+    )
+
+
+def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) -> alt.VConcatChart | None:
+    """ns/test against the mesh's triangle count, and against the working set with the data caches marked.
+
+    ``est``: the estimates joined with the workloads and the working-set size (:func:`.content.estimates_table`).
+    A line joins the workloads of one family (dashes tell families apart). None without an estimate.
+    """
+    if est.empty:
+        return None
+    frame = est.assign(ns=_intervals(est, "ns_per_test", " ns"))
+    columns = ["family", "label", "kernel", "kind", "triangles", "working_set_bytes", "ns_per_test"]
+    data = _records(frame, columns + ["ns_per_test_ci_low", "ns_per_test_ci_high", "ns"])
+    y_scale, y_log = _axis_scale(est["ns_per_test_ci_low"], est["ns_per_test_ci_high"])
+    tooltip = [
+        alt.Tooltip("kernel:N"),
+        alt.Tooltip("family:N"),
+        alt.Tooltip("label:N", title="workload"),
+        alt.Tooltip("ns:N", title="ns/test [95% CI]"),
+        alt.Tooltip("working_set_bytes:Q", title="working set (bytes)", format=",.0f"),
+    ]
+    cost = _CostLayers(y_scale, f"ns per ray–triangle test{y_log}", colours, _kernel_legend(), tooltip)
     panels: list[Any] = []
     mesh = data.loc[(data["kind"] == "mesh") & data["triangles"].notna()]
     if len(mesh):
-        x = alt.X(
-            "triangles:Q",
-            scale=alt.Scale(type="log"),
-            title="triangles in the mesh (log; brute force: every ray tests every triangle)",
-        )
-        panels.append(
-            cost(x, mesh, True).properties(
-                width=WIDTH,
-                height=240,
-                title=alt.TitleParams("cost against triangle count", anchor="start", fontSize=12),
-            )
-        )
+        panels.append(_triangle_count_panel(cost, mesh))
     sized = data.loc[data["working_set_bytes"].notna()]
     if len(sized):
-        x = alt.X(
-            "working_set_bytes:Q",
-            scale=alt.Scale(type="log"),
-            title="working set: prepared triangles + rays (bytes, log)",
-        )
-        layers = [cost(x, sized, not panels)]
-        marks = pd.DataFrame(
-            [
-                {"cache": f"{name} {size}", "bytes": cache_bytes(size)}
-                for name, size in (caches or {}).items()
-                if not str(name).endswith("i")
-            ]
-        )
-        marks = marks.loc[marks["bytes"].notna()] if len(marks) else marks
-        if len(marks):
-            rule = alt.Chart(marks).mark_rule(color="#888", strokeDash=[4, 3]).encode(x="bytes:Q", tooltip=["cache:N"])
-            text = rule.mark_text(angle=270, align="right", baseline="bottom", dy=-2, color="#555", fontSize=10).encode(
-                y=alt.value(4), text="cache:N"
-            )
-            layers += [rule, text]
-        panels.append(
-            alt.layer(*layers).properties(
-                width=WIDTH,
-                height=240,
-                title=alt.TitleParams("cost against working-set size, data caches marked", anchor="start", fontSize=12),
-            )
-        )
+        panels.append(_working_set_panel(cost, sized, caches, with_legend=not panels))
     if not panels:
         return None
     return alt.vconcat(*panels).resolve_scale(color="shared")

@@ -269,23 +269,80 @@ def _rate_class(cell: Any) -> str:
     return "num broken" if isinstance(cell, str) and cell.endswith("!") else "num"
 
 
-def robustness_section(val: pd.DataFrame, note: str) -> str:
-    """validate.csv: failure rates per kernel, precision and test, broken promises marked; ``note``: its source."""
-    body = [
+#: What the robustness section says first: where its rays come from and how to read a cell.
+_ROBUSTNESS_INTRO = (
+    "Rays no timing workload asks (tribench.studies.validate, as `tribench validate`): aimed exactly at "
+    "shared edges and vertices of exactly coplanar meshes, from inside a far-off sphere, and at extreme "
+    "scales, sizes, shapes, angles and non-finite input. A cell is a kernel's failure rate on a test at "
+    "one precision (failures / rays, 0 = none). What the papers promise (validate's expected column): "
+    "no crack at shared edges and vertices, and Embree's 0.002% on the sphere, for Woop, Benthin & "
+    "Wald's watertight test; no hit on parallel rays and degenerate triangles for every kernel, nor on "
+    "non-finite input except for the seed kernels, faithful copies of flawed code. A cell marked ! in "
+    "red breaks its promise; every other rate is measured, not judged. A culling kernel is asked about "
+    "triangles facing the ray, so its rates measure robustness, not culling."
+)
+
+
+def _broken_promises(broken: pd.DataFrame) -> list[str]:
+    """The rows of validate.csv whose verdict is fail, with their rate as the main table writes it."""
+    shown = broken.assign(
+        cell=[
+            validate.format_rate(f, r, v)
+            for f, r, v in zip(broken["failures"], broken["rate"], broken["verdict"], strict=True)
+        ]
+    )
+    return [
+        "<h3>Broken promises</h3>",
+        page.table(
+            shown,
+            [
+                ("kernel", "kernel"),
+                ("dtype", "precision"),
+                ("test", "test"),
+                ("cell", "rate"),
+                ("failures", "failures"),
+                ("rays", "rays"),
+                ("expected", "promised"),
+                ("detail", "breakdown"),
+            ],
+            classes={"cell": _rate_class},
+        ),
+    ]
+
+
+def _test_legend(val: pd.DataFrame, tests: list[str]) -> list[str]:
+    """A row per test: its column in the table, what it measures and how many rays it asks at each precision."""
+    rays = val.groupby(["test", "dtype"])["rays"].max()
+    dtypes = list(dict.fromkeys(val["dtype"]))
+    legend = pd.DataFrame(
+        [
+            {
+                "column": validate.SHORT_NAMES[t],
+                "test": t,
+                "what": _TEST_TEXT.get(t, ""),
+                **{f"rays {d}": rays.get((t, d)) for d in dtypes},
+            }
+            for t in tests
+        ]
+    )
+    return [
+        "<h3>The tests</h3>",
         page.p(
-            "Rays no timing workload asks (tribench.studies.validate, as `tribench validate`): aimed exactly at "
-            "shared edges and vertices of exactly coplanar meshes, from inside a far-off sphere, and at extreme "
-            "scales, sizes, shapes, angles and non-finite input. A cell is a kernel's failure rate on a test at "
-            "one precision (failures / rays, 0 = none). What the papers promise (validate's expected column): "
-            "no crack at shared edges and vertices, and Embree's 0.002% on the sphere, for Woop, Benthin & "
-            "Wald's watertight test; no hit on parallel rays and degenerate triangles for every kernel, nor on "
-            "non-finite input except for the seed kernels, faithful copies of flawed code. A cell marked ! in "
-            "red breaks its promise; every other rate is measured, not judged. A culling kernel is asked about "
-            "triangles facing the ray, so its rates measure robustness, not culling.",
+            f"Every kernel is asked the same rays at a precision. The breakdown of every rate is in "
+            f"{VALIDATE}'s detail column.",
             "note",
         ),
-        page.p(note, "note"),
+        page.table(
+            legend,
+            [("column", "column"), ("test", "test"), ("what", "what is measured")]
+            + [(f"rays {d}", f"rays ({d})") for d in dtypes],
+        ),
     ]
+
+
+def robustness_section(val: pd.DataFrame, note: str) -> str:
+    """validate.csv: failure rates per kernel, precision and test, broken promises marked; ``note``: its source."""
+    body = [page.p(_ROBUSTNESS_INTRO, "note"), page.p(note, "note")]
     if val.empty:
         return "".join(body)
     tests = [t for t in validate.TESTS if t in set(val["test"])]
@@ -300,53 +357,6 @@ def robustness_section(val: pd.DataFrame, note: str) -> str:
         )
     )
     if not broken.empty:
-        shown = broken.assign(
-            cell=[
-                validate.format_rate(f, r, v)
-                for f, r, v in zip(broken["failures"], broken["rate"], broken["verdict"], strict=True)
-            ]
-        )
-        body += [
-            "<h3>Broken promises</h3>",
-            page.table(
-                shown,
-                [
-                    ("kernel", "kernel"),
-                    ("dtype", "precision"),
-                    ("test", "test"),
-                    ("cell", "rate"),
-                    ("failures", "failures"),
-                    ("rays", "rays"),
-                    ("expected", "promised"),
-                    ("detail", "breakdown"),
-                ],
-                classes={"cell": _rate_class},
-            ),
-        ]
-    rays = val.groupby(["test", "dtype"])["rays"].max()
-    dtypes = list(dict.fromkeys(val["dtype"]))
-    legend = pd.DataFrame(
-        [
-            {
-                "column": validate.SHORT_NAMES[t],
-                "test": t,
-                "what": _TEST_TEXT.get(t, ""),
-                **{f"rays {d}": rays.get((t, d)) for d in dtypes},
-            }
-            for t in tests
-        ]
-    )
-    body += [
-        "<h3>The tests</h3>",
-        page.p(
-            f"Every kernel is asked the same rays at a precision. The breakdown of every rate is in "
-            f"{VALIDATE}'s detail column.",
-            "note",
-        ),
-        page.table(
-            legend,
-            [("column", "column"), ("test", "test"), ("what", "what is measured")]
-            + [(f"rays {d}", f"rays ({d})") for d in dtypes],
-        ),
-    ]
+        body += _broken_promises(broken)
+    body += _test_legend(val, tests)
     return "".join(body)

@@ -171,6 +171,62 @@ def _log_ratio_axis(ax, low: float, high: float) -> None:
 # ------------------------------------------------------------------- forest
 
 
+def _forest_family(ax, family: str, rows: pd.DataFrame, margin: float, words: dict[str, str]) -> None:
+    """One family's panel: the equivalence band, 1, and a row per kernel and workload with its interval."""
+    y = np.arange(len(rows))[::-1]
+    ax.axvspan(
+        1 / (1 + margin),
+        1 + margin,
+        color="#d0d7de",
+        alpha=0.6,
+        lw=0,
+        label=f"equivalence margin ±{100 * margin:.2g}%",
+    )
+    ax.axvline(1.0, color="#333", lw=0.8)
+    for yi, r in zip(y, rows.itertuples(index=False), strict=True):
+        colour = VERDICT_COLOURS.get(r.verdict, "#333")
+        if np.isfinite(r.ratio_ci_low) and np.isfinite(r.ratio_ci_high):
+            ax.plot([r.ratio_ci_low, r.ratio_ci_high], [yi, yi], color=colour, lw=2.2, solid_capstyle="butt")
+        ax.plot([r.ratio], [yi], "o", color=colour, ms=6, mec="white", mew=0.8)
+        label = format_interval(r.ratio, r.ratio_ci_low, r.ratio_ci_high, unit="×")
+        ax.text(
+            1.01,
+            yi,
+            f"{label}  {words.get(r.verdict, r.verdict)}",
+            transform=ax.get_yaxis_transform(),
+            va="center",
+            ha="left",
+            color=colour,
+            fontsize=8.5,
+            clip_on=False,
+        )
+    ax.set_yticks(y)
+    ax.set_yticklabels([f"{r.kernel}  ·  {r.label}" for r in rows.itertuples(index=False)])
+    ax.set_ylim(-0.7, len(rows) - 0.3)
+    ax.set_title(family, loc="left", fontsize=9.5, color="#333")
+    ax.grid(axis="x", color="#eee", lw=0.6)
+    ax.tick_params(axis="y", length=0)
+
+
+def _forest_xlabel(speedups: pd.DataFrame, baseline: str) -> str:
+    """What the ratio is, and the level of each simultaneous interval when the table says."""
+    level = speedups["confidence"].iloc[0] if "confidence" in speedups else math.nan
+    return (
+        f"speedup over {baseline} = time_{baseline} / time_kernel   "
+        f"(log axis; > 1: faster; bars: simultaneous 95% CIs"
+        + (f", {100 * level:.3g}% each)" if np.isfinite(level) else ")")
+    )
+
+
+def _forest_legend(ax, margin: float, words: dict[str, str]) -> None:
+    """Every verdict's colour and the equivalence band, in a row above the first panel."""
+    handles: list[Artist] = [
+        plt.Line2D([], [], color=c, marker="o", lw=2, label=words.get(v, v)) for v, c in VERDICT_COLOURS.items()
+    ]
+    handles.append(plt.Rectangle((0, 0), 1, 1, color="#d0d7de", label=f"equivalence margin ±{100 * margin:.2g}%"))
+    ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(0, 1.12), ncol=5, frameon=False)
+
+
 def forest(
     speedups: pd.DataFrame,
     baseline: str,
@@ -205,58 +261,14 @@ def forest(
     )[:, 0]
     low = float(np.nanmin(speedups[["ratio_ci_low", "ratio"]].to_numpy()))
     high = float(np.nanmax(speedups[["ratio_ci_high", "ratio"]].to_numpy()))
+    korder = {k: i for i, k in enumerate(dict.fromkeys(speedups["kernel"]))}  # kernels in the table's order
     for ax, family in zip(axes, families, strict=True):
         rows = speedups.loc[speedups["family"] == family]
-        korder = {k: i for i, k in enumerate(dict.fromkeys(speedups["kernel"]))}
         rows = rows.sort_values("kernel", key=lambda s: s.map(korder), kind="stable").reset_index(drop=True)
-        y = np.arange(len(rows))[::-1]
-        ax.axvspan(
-            1 / (1 + margin),
-            1 + margin,
-            color="#d0d7de",
-            alpha=0.6,
-            lw=0,
-            label=f"equivalence margin ±{100 * margin:.2g}%",
-        )
-        ax.axvline(1.0, color="#333", lw=0.8)
-        for yi, r in zip(y, rows.itertuples(index=False), strict=True):
-            colour = VERDICT_COLOURS.get(r.verdict, "#333")
-            if np.isfinite(r.ratio_ci_low) and np.isfinite(r.ratio_ci_high):
-                ax.plot([r.ratio_ci_low, r.ratio_ci_high], [yi, yi], color=colour, lw=2.2, solid_capstyle="butt")
-            ax.plot([r.ratio], [yi], "o", color=colour, ms=6, mec="white", mew=0.8)
-            label = format_interval(r.ratio, r.ratio_ci_low, r.ratio_ci_high, unit="×")
-            ax.text(
-                1.01,
-                yi,
-                f"{label}  {words.get(r.verdict, r.verdict)}",
-                transform=ax.get_yaxis_transform(),
-                va="center",
-                ha="left",
-                color=colour,
-                fontsize=8.5,
-                clip_on=False,
-            )
-        ax.set_yticks(y)
-        ax.set_yticklabels([f"{r.kernel}  ·  {r.label}" for r in rows.itertuples(index=False)])
-        ax.set_ylim(-0.7, len(rows) - 0.3)
-        ax.set_title(family, loc="left", fontsize=9.5, color="#333")
-        ax.grid(axis="x", color="#eee", lw=0.6)
-        ax.tick_params(axis="y", length=0)
+        _forest_family(ax, family, rows, margin, words)
     _log_ratio_axis(axes[-1], low, high)
-    level = speedups["confidence"].iloc[0] if "confidence" in speedups else math.nan
-    axes[-1].set_xlabel(
-        xlabel
-        or (
-            f"speedup over {baseline} = time_{baseline} / time_kernel   "
-            f"(log axis; > 1: faster; bars: simultaneous 95% CIs"
-            + (f", {100 * level:.3g}% each)" if np.isfinite(level) else ")")
-        )
-    )
-    handles: list[Artist] = [
-        plt.Line2D([], [], color=c, marker="o", lw=2, label=words.get(v, v)) for v, c in VERDICT_COLOURS.items()
-    ]
-    handles.append(plt.Rectangle((0, 0), 1, 1, color="#d0d7de", label=f"equivalence margin ±{100 * margin:.2g}%"))
-    axes[0].legend(handles=handles, loc="lower left", bbox_to_anchor=(0, 1.12), ncol=5, frameon=False)
+    axes[-1].set_xlabel(xlabel or _forest_xlabel(speedups, baseline))
+    _forest_legend(axes[0], margin, words)
     fig.subplots_adjust(right=0.72, hspace=0.55)
     return fig
 

@@ -90,20 +90,88 @@ def _ratio_figure(seed: pd.DataFrame) -> str:
     return figures.svg_data_uri(fig)
 
 
+#: How the replay's table reads beside the paper's, first on the page.
+_PAPER_INTRO = (
+    "Paper: the seed's Unix time of the whole 512×512 render (2.3 GHz Core i9, one run per cell). "
+    "Replay: the same render's ray–triangle tests, and only them, timed here on every kernel: "
+    "each kind of ray (primary, reflected, shadow) is a sampled workload, a pass over the sample "
+    "is scaled by the render's tests of that kind over the sample's, and the kinds are added; one "
+    "render time per worker process, mean with a 95% Student-t interval over processes. The ratio "
+    "to moller_seed is paired per process (log scale). The paper's times also cover spheres, the "
+    "floor, shading, output and start-up, so its seconds are larger and its ratio is diluted where "
+    "triangles are a small part of the work (scene02 has 12)."
+)
+
+
+def _scene_table(scene: str, g: pd.DataFrame, size: str) -> list[str]:
+    """One scene's heading and its table: every kernel's replay beside the paper's times and ratios."""
+    first = g.iloc[0]
+    heading = (
+        f"<h3>{escape(str(scene))}: {int(first['triangles'])} triangles, "
+        f"{first['render_tests']:.4g} ray–triangle tests per {size} render</h3>"
+    )
+    rows = pd.DataFrame(
+        {
+            "kernel": g["kernel"],
+            "paper real (s)": [_v(x, ".3f") for x in g["paper_real_s"]],
+            "paper user (s)": [_v(x, ".3f") for x in g["paper_user_s"]],
+            "replay (s)": [_v(x) for x in g["render_s"]],
+            "95% CI (s)": [
+                format_interval(None, a, b, ".4g")
+                for a, b in zip(g["render_s_ci_low"], g["render_s_ci_high"], strict=True)
+            ],
+            "replay ns/test": [_v(x, ".3g") for x in g["replay_ns_per_test"]],
+            "paper user ns/test (bound)": [_v(x, ".3g") for x in g["paper_user_ns_per_test"]],
+            "paper ratio real / user": [
+                f"{_v(a, '.3f')} / {_v(b, '.3f')}" if math.isfinite(a) else "–"
+                for a, b in zip(g["paper_ratio_real"], g["paper_ratio_user"], strict=True)
+            ],
+            "replay ratio to moller_seed": [_v(x, ".3f") for x in g["ratio_to_moller_seed"]],
+            "95% CI": [
+                format_interval(None, a, b, ".3f")
+                for a, b in zip(g["ratio_to_moller_seed_ci_low"], g["ratio_to_moller_seed_ci_high"], strict=True)
+            ],
+            "processes": g["n_processes"],
+        }
+    )
+    return [heading, page.table(rows, [(c, c) for c in rows.columns])]
+
+
+def _why_curless(r: pd.Series) -> str:
+    """What in the scene's workload makes Curless faster or slower than Möller–Trumbore."""
+    return (
+        f" Its workload: per-test hit rate {100 * r['test_hit_rate']:.3g}%, and of the misses "
+        f"{100 * r['miss_behind_origin']:.3g}% are behind the origin, which Curless rejects right "
+        f"after its plane test and Möller–Trumbore only after u, v and t; "
+        f"{100 * (1 - r['miss_behind_origin'] - r['miss_parallel']):.3g}% pass beside the triangle, "
+        f"where Curless computes t, the point and one to three edge tests, and Möller–Trumbore "
+        f"stops at u or v."
+    )
+
+
+def _curless_over_moller(scene: str, g: pd.DataFrame, wl: pd.DataFrame) -> list[str]:
+    """The paper's Curless/Möller ratio beside the replay's, and why (none without curless_seed)."""
+    cur = g.loc[g["kernel"] == "curless_seed"]
+    if not len(cur):
+        return []
+    c = cur.iloc[0]
+    paper = (
+        f"the paper's {c['paper_ratio_real']:.3f} (real) and {c['paper_ratio_user']:.3f} (user), "
+        if math.isfinite(c["paper_ratio_real"])
+        else ""
+    )
+    r = wl.loc[(wl["scene"] == scene) & (wl["rays"] == "render")]
+    why = _why_curless(r.iloc[0]) if len(r) else ""
+    ratio = format_interval(
+        c["ratio_to_moller_seed"], c["ratio_to_moller_seed_ci_low"], c["ratio_to_moller_seed_ci_high"], ".3f"
+    )
+    return [page.p(f"Curless over Möller: {paper}the replay's {ratio} (95% CI)." + why)]
+
+
 def _paper(seed: pd.DataFrame, wl: pd.DataFrame, replay: dict) -> str:
+    """The table beside the paper: per scene, every kernel's replay and the paper's times, then Curless over Möller."""
     size = f"{replay['width']}×{replay['height']}"
-    body = [
-        page.p(
-            "Paper: the seed's Unix time of the whole 512×512 render (2.3 GHz Core i9, one run per cell). "
-            "Replay: the same render's ray–triangle tests, and only them, timed here on every kernel: "
-            "each kind of ray (primary, reflected, shadow) is a sampled workload, a pass over the sample "
-            "is scaled by the render's tests of that kind over the sample's, and the kinds are added; one "
-            "render time per worker process, mean with a 95% Student-t interval over processes. The ratio "
-            "to moller_seed is paired per process (log scale). The paper's times also cover spheres, the "
-            "floor, shading, output and start-up, so its seconds are larger and its ratio is diluted where "
-            "triangles are a small part of the work (scene02 has 12)."
-        )
-    ]
+    body = [page.p(_PAPER_INTRO)]
     if size != "512×512":
         body.append(
             page.warn(
@@ -112,60 +180,8 @@ def _paper(seed: pd.DataFrame, wl: pd.DataFrame, replay: dict) -> str:
             )
         )
     for scene, g in seed.groupby("scene", sort=False):
-        first = g.iloc[0]
-        body.append(
-            f"<h3>{escape(str(scene))}: {int(first['triangles'])} triangles, "
-            f"{first['render_tests']:.4g} ray–triangle tests per {size} render</h3>"
-        )
-        rows = pd.DataFrame(
-            {
-                "kernel": g["kernel"],
-                "paper real (s)": [_v(x, ".3f") for x in g["paper_real_s"]],
-                "paper user (s)": [_v(x, ".3f") for x in g["paper_user_s"]],
-                "replay (s)": [_v(x) for x in g["render_s"]],
-                "95% CI (s)": [
-                    format_interval(None, a, b, ".4g")
-                    for a, b in zip(g["render_s_ci_low"], g["render_s_ci_high"], strict=True)
-                ],
-                "replay ns/test": [_v(x, ".3g") for x in g["replay_ns_per_test"]],
-                "paper user ns/test (bound)": [_v(x, ".3g") for x in g["paper_user_ns_per_test"]],
-                "paper ratio real / user": [
-                    f"{_v(a, '.3f')} / {_v(b, '.3f')}" if math.isfinite(a) else "–"
-                    for a, b in zip(g["paper_ratio_real"], g["paper_ratio_user"], strict=True)
-                ],
-                "replay ratio to moller_seed": [_v(x, ".3f") for x in g["ratio_to_moller_seed"]],
-                "95% CI": [
-                    format_interval(None, a, b, ".3f")
-                    for a, b in zip(g["ratio_to_moller_seed_ci_low"], g["ratio_to_moller_seed_ci_high"], strict=True)
-                ],
-                "processes": g["n_processes"],
-            }
-        )
-        body.append(page.table(rows, [(c, c) for c in rows.columns]))
-        cur = g.loc[g["kernel"] == "curless_seed"]
-        if len(cur):
-            c = cur.iloc[0]
-            paper = (
-                f"the paper's {c['paper_ratio_real']:.3f} (real) and {c['paper_ratio_user']:.3f} (user), "
-                if math.isfinite(c["paper_ratio_real"])
-                else ""
-            )
-            r = wl.loc[(wl["scene"] == scene) & (wl["rays"] == "render")]
-            why = ""
-            if len(r):
-                r = r.iloc[0]
-                why = (
-                    f" Its workload: per-test hit rate {100 * r['test_hit_rate']:.3g}%, and of the misses "
-                    f"{100 * r['miss_behind_origin']:.3g}% are behind the origin, which Curless rejects right "
-                    f"after its plane test and Möller–Trumbore only after u, v and t; "
-                    f"{100 * (1 - r['miss_behind_origin'] - r['miss_parallel']):.3g}% pass beside the triangle, "
-                    f"where Curless computes t, the point and one to three edge tests, and Möller–Trumbore "
-                    f"stops at u or v."
-                )
-            ratio = format_interval(
-                c["ratio_to_moller_seed"], c["ratio_to_moller_seed_ci_low"], c["ratio_to_moller_seed_ci_high"], ".3f"
-            )
-            body.append(page.p(f"Curless over Möller: {paper}the replay's {ratio} (95% CI)." + why))
+        body += _scene_table(scene, g, size)
+        body += _curless_over_moller(scene, g, wl)
     body.append(
         page.figure(
             _ratio_figure(seed),

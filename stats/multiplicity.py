@@ -140,6 +140,51 @@ def estimate_table(table: pd.DataFrame, confidence: float = DEFAULTS.confidence)
     return pd.DataFrame(rows)
 
 
+#: The columns of :func:`speedup_table`, in order.
+_SPEEDUP_COLUMNS = [
+    "workload_id",
+    "kernel",
+    "baseline",
+    "ratio",
+    "ci_low",
+    "ci_high",
+    "p_value",
+    "p_holm",
+    "n",
+    "confidence",
+    "margin",
+    "verdict",
+]
+
+
+def _family_rows(workload: str, group: pd.DataFrame, baseline: str, confidence: float, margin: float) -> list[dict]:
+    """One workload's family: every other kernel against the baseline, paired by process, Holm-adjusted."""
+    wide = group.pivot(index="process", columns="kernel", values="ns_per_test")
+    if baseline not in wide.columns:
+        raise ValueError(f"baseline {baseline!r} has no data for workload {workload!r}")
+    others = [k for k in wide.columns if k != baseline]
+    if not others:
+        return []
+    level = simultaneous_confidence(confidence, len(others))
+    results = []
+    for kernel in others:
+        pair = wide[[baseline, kernel]].dropna()
+        results.append((kernel, speedup(pair[baseline], pair[kernel], level)))
+    adjusted = holm([s.p_value for _, s in results])
+    return [
+        {
+            "workload_id": workload,
+            "kernel": kernel,
+            "baseline": baseline,
+            **asdict(s),
+            "p_holm": p_holm,
+            "margin": margin,
+            "verdict": verdict(s.ci_low, s.ci_high, margin),
+        }
+        for (kernel, s), p_holm in zip(results, adjusted, strict=True)
+    ]
+
+
 def speedup_table(
     table: pd.DataFrame,
     baseline: str,
@@ -185,44 +230,7 @@ def speedup_table(
     ('fast', 2.0, 'faster')
     """
     _check_confidence(confidence)
-    columns = [
-        "workload_id",
-        "kernel",
-        "baseline",
-        "ratio",
-        "ci_low",
-        "ci_high",
-        "p_value",
-        "p_holm",
-        "n",
-        "confidence",
-        "margin",
-        "verdict",
-    ]
-    rows = []
+    rows: list[dict] = []
     for workload, group in table.groupby("workload_id", sort=True):
-        wide = group.pivot(index="process", columns="kernel", values="ns_per_test")
-        if baseline not in wide.columns:
-            raise ValueError(f"baseline {baseline!r} has no data for workload {workload!r}")
-        others = [k for k in wide.columns if k != baseline]
-        if not others:
-            continue
-        level = simultaneous_confidence(confidence, len(others))
-        results = []
-        for kernel in others:
-            pair = wide[[baseline, kernel]].dropna()
-            results.append((kernel, speedup(pair[baseline], pair[kernel], level)))
-        adjusted = holm([s.p_value for _, s in results])
-        for (kernel, s), p_holm in zip(results, adjusted, strict=True):
-            rows.append(
-                {
-                    "workload_id": workload,
-                    "kernel": kernel,
-                    "baseline": baseline,
-                    **asdict(s),
-                    "p_holm": p_holm,
-                    "margin": margin,
-                    "verdict": verdict(s.ci_low, s.ci_high, margin),
-                }
-            )
-    return pd.DataFrame(rows, columns=columns)
+        rows += _family_rows(workload, group, baseline, confidence, margin)
+    return pd.DataFrame(rows, columns=_SPEEDUP_COLUMNS)

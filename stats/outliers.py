@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -73,6 +74,83 @@ def _theil_sen_slopes(frame: pd.DataFrame, by: str | list[str], x: str, y: str) 
     )
 
 
+def _timed_pair(batches: pd.DataFrame, kernel: str, baseline: str, workload_id: str | None) -> pd.DataFrame:
+    """The timed batches of the two kernels on one workload, with log ns/test and start time in seconds."""
+    _require_columns(batches, ("round", "start_ns"))
+    timed = _timed(batches)
+    timed = timed.loc[timed["kernel"].isin([kernel, baseline])]
+    if workload_id is not None:
+        timed = timed.loc[timed["workload_id"] == workload_id]
+    if timed["workload_id"].nunique() != 1:
+        raise ValueError("select exactly one workload (pass workload_id)")
+    if set(timed["kernel"]) != {kernel, baseline}:
+        raise ValueError(f"need timed batches of both {kernel!r} and {baseline!r}")
+    return timed.assign(log_ns=np.log(timed["ns_per_test"]), t_s=timed["start_ns"] * 1e-9)
+
+
+def _paired_rounds(timed: pd.DataFrame, kernel: str, baseline: str) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The rounds that pair the two kernels (same process and round) in processes with 3 or more, and the
+    batches of those processes."""
+    wide = timed.pivot(index=["process", "round"], columns="kernel", values=["log_ns", "t_s"]).dropna()
+    rounds = pd.DataFrame(
+        {
+            "process": wide.index.get_level_values("process"),
+            "log_ratio": (wide["log_ns", baseline] - wide["log_ns", kernel]).to_numpy(),
+            "log_base": wide["log_ns", baseline].to_numpy(),
+            "t_base": wide["t_s", baseline].to_numpy(),
+            "t_pair": ((wide["t_s", baseline] + wide["t_s", kernel]) / 2).to_numpy(),
+        }
+    )
+    # Theil–Sen needs a few rounds; a process with fewer cannot show a trend.
+    counts = rounds.groupby("process")["log_ratio"].transform("size")
+    rounds = rounds.loc[counts >= 3]
+    used = np.unique(rounds["process"])
+    if used.size < 2:
+        raise ValueError("drift needs at least 2 processes with 3 or more paired rounds")
+    return rounds, timed.loc[timed["process"].isin(used)]
+
+
+class _Trends(NamedTuple):
+    """The trends :class:`Drift` starts with (its first five fields, in order)."""
+
+    baseline_slope: float
+    baseline_p: float
+    ratio_slope: float
+    ratio_p: float
+    ratio_change: float
+
+
+def _trends(rounds: pd.DataFrame, timed: pd.DataFrame, confidence: float) -> _Trends:
+    """Per-process Theil–Sen slopes of the log baseline time and of the log speedup, t-tested across processes."""
+    base_slopes = _theil_sen_slopes(rounds, "process", "t_base", "log_base").to_numpy()
+    ratio_slopes = _theil_sen_slopes(rounds, "process", "t_pair", "log_ratio").to_numpy()
+    base_slope, _, _, base_p = _t_interval(base_slopes, confidence)
+    ratio_slope, _, _, ratio_p = _t_interval(ratio_slopes, confidence)
+    duration = float(timed.groupby("process")["t_s"].agg(lambda t: t.max() - t.min()).median())
+    return _Trends(base_slope, base_p, ratio_slope, ratio_p, ratio_slope * duration)
+
+
+def _confound(timed: pd.DataFrame, kernel: str, baseline: str, confidence: float) -> tuple[float, float]:
+    """The bias of the log speedup from time drift and unequal timing, and its t-test p across processes."""
+    # Common drift rate per process, and how far apart in time the kernels ran.
+    rate = _theil_sen_slopes(timed, ["process", "kernel"], "t_s", "log_ns").groupby(level=0).mean()
+    mean_time = timed.groupby(["process", "kernel"])["t_s"].mean().unstack("kernel")
+    gap = mean_time[baseline] - mean_time[kernel]
+    bias, _, _, bias_p = _t_interval((rate * gap).to_numpy(), confidence)
+    return bias, bias_p
+
+
+def _judged(trends: _Trends, bias: float, bias_p: float, n: int, confidence: float, threshold: float) -> Drift:
+    """The :class:`Drift`, flagged where the ratio trend or the confound is significant and above ``threshold``."""
+    alpha = 1 - confidence
+    reasons = []
+    if trends.ratio_p < alpha and abs(trends.ratio_change) > threshold:
+        reasons.append("ratio drift")
+    if bias_p < alpha and abs(bias) > threshold:
+        reasons.append("time confound")
+    return Drift(*trends, bias, bias_p, bool(reasons), ", ".join(reasons), n, confidence)
+
+
 def drift(
     batches: pd.DataFrame,
     kernel: str,
@@ -130,67 +208,11 @@ def drift(
     (True, 'ratio drift', True)
     """
     _check_confidence(confidence)
-    _require_columns(batches, ("round", "start_ns"))
-    timed = _timed(batches)
-    timed = timed.loc[timed["kernel"].isin([kernel, baseline])]
-    if workload_id is not None:
-        timed = timed.loc[timed["workload_id"] == workload_id]
-    if timed["workload_id"].nunique() != 1:
-        raise ValueError("select exactly one workload (pass workload_id)")
-    if set(timed["kernel"]) != {kernel, baseline}:
-        raise ValueError(f"need timed batches of both {kernel!r} and {baseline!r}")
-    timed = timed.assign(log_ns=np.log(timed["ns_per_test"]), t_s=timed["start_ns"] * 1e-9)
-
-    wide = timed.pivot(index=["process", "round"], columns="kernel", values=["log_ns", "t_s"]).dropna()
-    rounds = pd.DataFrame(
-        {
-            "process": wide.index.get_level_values("process"),
-            "log_ratio": (wide["log_ns", baseline] - wide["log_ns", kernel]).to_numpy(),
-            "log_base": wide["log_ns", baseline].to_numpy(),
-            "t_base": wide["t_s", baseline].to_numpy(),
-            "t_pair": ((wide["t_s", baseline] + wide["t_s", kernel]) / 2).to_numpy(),
-        }
-    )
-    # Theil–Sen needs a few rounds; a process with fewer cannot show a trend.
-    counts = rounds.groupby("process")["log_ratio"].transform("size")
-    rounds = rounds.loc[counts >= 3]
-    used = np.unique(rounds["process"])
-    if used.size < 2:
-        raise ValueError("drift needs at least 2 processes with 3 or more paired rounds")
-    timed = timed.loc[timed["process"].isin(used)]
-
-    base_slopes = _theil_sen_slopes(rounds, "process", "t_base", "log_base").to_numpy()
-    ratio_slopes = _theil_sen_slopes(rounds, "process", "t_pair", "log_ratio").to_numpy()
-    base_slope, _, _, base_p = _t_interval(base_slopes, confidence)
-    ratio_slope, _, _, ratio_p = _t_interval(ratio_slopes, confidence)
-    duration = float(timed.groupby("process")["t_s"].agg(lambda t: t.max() - t.min()).median())
-    ratio_change = ratio_slope * duration
-
-    # Common drift rate per process, and how far apart in time the kernels ran.
-    rate = _theil_sen_slopes(timed, ["process", "kernel"], "t_s", "log_ns").groupby(level=0).mean()
-    mean_time = timed.groupby(["process", "kernel"])["t_s"].mean().unstack("kernel")
-    gap = mean_time[baseline] - mean_time[kernel]
-    bias, _, _, bias_p = _t_interval((rate * gap).to_numpy(), confidence)
-
-    alpha = 1 - confidence
-    reasons = []
-    if ratio_p < alpha and abs(ratio_change) > threshold:
-        reasons.append("ratio drift")
-    if bias_p < alpha and abs(bias) > threshold:
-        reasons.append("time confound")
-    return Drift(
-        base_slope,
-        base_p,
-        ratio_slope,
-        ratio_p,
-        ratio_change,
-        bias,
-        bias_p,
-        bool(reasons),
-        ", ".join(reasons),
-        int(used.size),
-        confidence,
-    )
+    timed = _timed_pair(batches, kernel, baseline, workload_id)
+    rounds, timed = _paired_rounds(timed, kernel, baseline)
+    trends = _trends(rounds, timed, confidence)
+    bias, bias_p = _confound(timed, kernel, baseline, confidence)
+    return _judged(trends, bias, bias_p, int(np.unique(rounds["process"]).size), confidence, threshold)
 
 
 def tukey_outliers(values: npt.ArrayLike, k: float = DEFAULTS.tukey_k) -> np.ndarray:

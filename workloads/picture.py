@@ -16,7 +16,9 @@ matplotlib is imported here only, with the Agg backend.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +27,9 @@ from tribench.common import atomic_write
 from .geometry import dot, normalise, triangle_normals
 from .spec import MISS_STAGES, MeshSpec, PairSpec
 from .workload import Workload
+
+if TYPE_CHECKING:
+    from .reference import PairAnswers
 
 __all__ = ["draw"]
 
@@ -41,6 +46,7 @@ _STAGE_COLOURS = {
     "beyond_t_max": "#bcbd22",
     "other": "#7f7f7f",
 }
+_OUTCOME_COLOURS = {"hit": _HIT, **_STAGE_COLOURS}
 _MAX_DRAWN_TRIANGLES = 25000
 
 
@@ -254,13 +260,23 @@ def _draw_hit_rate(plt, w: Workload):
     return fig
 
 
-def _draw_pairs(plt, w: Workload):
-    from matplotlib.lines import Line2D
+@dataclass(frozen=True)
+class _PairSample:
+    """The pairs a pair workload's picture draws: a sample, its reference answers and each one's outcome."""
 
-    from .pairs import HIT, OTHER, apportion, classify_misses
+    o: np.ndarray  # every pair's origin, direction and triangle, float64
+    d: np.ndarray
+    tri: np.ndarray
+    sample: np.ndarray  # indices of the sampled pairs, ascending
+    ans: PairAnswers  # the float64 reference's answers for the sample
+    names: np.ndarray  # "hit", a miss stage or "other", per sampled pair
+
+
+def _sample_pairs(w: Workload) -> _PairSample:
+    """Up to 4000 pairs (the same for every draw), answered and classified by the float64 reference."""
+    from .pairs import HIT, OTHER, classify_misses
     from .reference import intersect_pairs
 
-    assert isinstance(w.spec, PairSpec)
     o = w.origins.astype(np.float64)
     d = w.directions.astype(np.float64)
     tri = w.triangles.astype(np.float64)
@@ -270,14 +286,14 @@ def _draw_pairs(plt, w: Workload):
     ans = intersect_pairs(o[sample], d[sample], tri[sample], t_max=t_max)
     codes = classify_misses(o[sample], d[sample], tri[sample], t_max=t_max)
     names = np.array(["hit" if c == HIT else (MISS_STAGES[c] if c < OTHER else "other") for c in codes])
-    colours = {"hit": _HIT, **_STAGE_COLOURS}
+    return _PairSample(o, d, tri, sample, ans, names)
 
-    fig = plt.figure(figsize=(17, 6.6), layout="constrained")
-    grid = fig.add_gridspec(1, 3, width_ratios=[1.25, 1, 1])
 
-    # 1. Crossings in one reference triangle: a point of barycentrics (w, u, v) goes to w A + u B + v C.
-    ax = fig.add_subplot(grid[0])
+def _draw_crossings(ax, s: _PairSample) -> None:
+    """Where each sampled ray crosses its triangle's plane, every triangle mapped onto one reference triangle."""
+    # a point of barycentrics (w, u, v) goes to w A + u B + v C
     corners = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, np.sqrt(3) / 2]])
+    ans, names = s.ans, s.names
     with np.errstate(invalid="ignore"):
         p = ans.w[:, None] * corners[0] + ans.u[:, None] * corners[1] + ans.v[:, None] * corners[2]
     for name in ["hit", *MISS_STAGES, "other"]:
@@ -288,7 +304,7 @@ def _draw_pairs(plt, w: Workload):
                 p[sel, 0],
                 p[sel, 1],
                 s=7 if behind else 4,
-                c=colours[name],
+                c=_OUTCOME_COLOURS[name],
                 marker="x" if behind else "o",
                 lw=0.5 if behind else 0,
                 alpha=0.6 if behind else 0.5,
@@ -311,15 +327,19 @@ def _draw_pairs(plt, w: Workload):
     ax.set_xlim(-1.2, 2.2)
     ax.set_ylim(-1.1, 2.1)
     ax.set_aspect("equal")
+    n = len(s.sample)
     ax.set_title(
-        f"where {len(sample)} sampled rays cross their triangle's plane\n"
+        f"where {n} sampled rays cross their triangle's plane\n"
         "(every triangle mapped onto one; parallel rays never cross)",
         fontsize=9,
     )
-    ax.legend(loc="upper left", fontsize=7, markerscale=2, title=f"sample of {len(sample)}", title_fontsize=7)
+    ax.legend(loc="upper left", fontsize=7, markerscale=2, title=f"sample of {n}", title_fontsize=7)
 
-    # 2. Target vs achieved counts per outcome.
-    ax = fig.add_subplot(grid[1])
+
+def _draw_outcomes(ax, w: Workload) -> None:
+    """Target against achieved counts per outcome (hit, then each miss stage), by the float64 reference."""
+    from .pairs import apportion
+
     t, a = w.targets(), w.achieved
     misses = t["pairs"] - t["hits"]
     target_counts = [t["hits"], *apportion(list(t["miss_mix"].values()), misses)]
@@ -327,7 +347,7 @@ def _draw_pairs(plt, w: Workload):
     labels = ["hit", *MISS_STAGES]
     y = np.arange(len(labels))
     ax.barh(y - 0.2, target_counts, height=0.4, color="#cccccc", label="target")
-    ax.barh(y + 0.2, achieved_counts, height=0.4, color=[colours[n] for n in labels], label="achieved")
+    ax.barh(y + 0.2, achieved_counts, height=0.4, color=[_OUTCOME_COLOURS[n] for n in labels], label="achieved")
     for yi, c in zip(y, achieved_counts, strict=True):
         ax.annotate(str(c), (c, yi + 0.2), xytext=(3, -3), textcoords="offset points", fontsize=8)
     ax.set_yticks(y, labels, fontsize=8)
@@ -336,13 +356,18 @@ def _draw_pairs(plt, w: Workload):
     ax.set_title("outcomes: target (grey) vs achieved, by the float64 reference", fontsize=9)
     ax.legend(fontsize=8, loc="lower right")
 
-    # 3. A few pairs in 3-D: the triangle and the ray up to its crossing (or a bit past).
-    ax = fig.add_subplot(grid[2], projection="3d")
+
+def _draw_sample_pairs(ax, w: Workload, s: _PairSample) -> None:
+    """A few pairs in 3-D: the triangle and the ray up to its crossing (or a bit past)."""
+    from matplotlib.lines import Line2D
+
+    assert isinstance(w.spec, PairSpec)
+    o, d, tri, sample, names = s.o, s.d, s.tri, s.sample, s.names
     few = sample[:: max(1, len(sample) // 8)][:8]
     for i, j in zip(few, np.searchsorted(sample, few), strict=True):
-        colour = colours[names[j]]
+        colour = _OUTCOME_COLOURS[names[j]]
         ax.add_collection3d(_poly3d(tri[i], colour))
-        t_end = ans.t[j] if np.isfinite(ans.t[j]) and ans.t[j] > 0 else 3.0 * w.spec.scale
+        t_end = s.ans.t[j] if np.isfinite(s.ans.t[j]) and s.ans.t[j] > 0 else 3.0 * w.spec.scale
         end = o[i] + t_end * d[i]
         ax.plot(*np.stack([o[i], end]).T, color=colour, lw=1.2)
         ax.scatter(*o[i], color=colour, s=10)
@@ -354,18 +379,33 @@ def _draw_pairs(plt, w: Workload):
     ax.set_zlim(mid[2] - half, mid[2] + half)
     ax.set_title(f"{len(few)} sample pairs: triangle, ray origin (dot) and ray", fontsize=9)
     shown = sorted(set(names[np.searchsorted(sample, few)]))
-    ax.legend(handles=[Line2D([], [], color=colours[n], label=n) for n in shown], fontsize=7, loc="upper left")
+    ax.legend(handles=[Line2D([], [], color=_OUTCOME_COLOURS[n], label=n) for n in shown], fontsize=7, loc="upper left")
 
+
+def _pairs_line(w: Workload) -> str:
+    """The title's second line: per-test hit rate and miss mix, target against achieved."""
+    t, a = w.targets(), w.achieved
     mix = ", ".join(
         f"{s} {_pct(t['miss_mix'][s])}/{_pct(a['miss_mix'].get(s, 0))}"
         for s in MISS_STAGES
         if t["miss_mix"][s] or a["miss_counts"].get(s)
     )
-    line = (
+    return (
         f"per-test hit rate: target {_pct(t['hit_rate'])}, achieved {_pct(a['hit_rate'])} "
         f"({a['hits']} of {a['pairs']}); miss mix target/achieved: {mix or 'no misses'}"
     )
-    _title(fig, w, line)
+
+
+def _draw_pairs(plt, w: Workload):
+    """Three panels: where the sampled rays cross their planes, the outcome counts, a few pairs in 3-D."""
+    assert isinstance(w.spec, PairSpec)
+    s = _sample_pairs(w)
+    fig = plt.figure(figsize=(17, 6.6), layout="constrained")
+    grid = fig.add_gridspec(1, 3, width_ratios=[1.25, 1, 1])
+    _draw_crossings(fig.add_subplot(grid[0]), s)
+    _draw_outcomes(fig.add_subplot(grid[1]), w)
+    _draw_sample_pairs(fig.add_subplot(grid[2], projection="3d"), w, s)
+    _title(fig, w, _pairs_line(w))
     return fig
 
 

@@ -47,7 +47,7 @@ from __future__ import annotations
 import difflib
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -229,6 +229,92 @@ def _check_values(keyword: str, v: list[float], where: str) -> None:
             raise SceneError(f"{where}: 'tri' is degenerate (its three vertices are collinear)")
 
 
+def _read_line(raw: str, where: str) -> tuple[str, list[float]] | None:
+    """One line's keyword and its numbers, every one checked; None for a blank or comment line."""
+    line = raw.split("#", 1)[0].strip()
+    if not line:
+        return None
+    words = line.split()
+    keyword = words[0].lower()
+    if keyword not in KEYWORDS:
+        guess = difflib.get_close_matches(keyword, KEYWORDS, n=1)
+        hint = f" (did you mean '{guess[0]}'?)" if guess else ""
+        raise SceneError(f"{where}: unknown keyword {words[0]!r}{hint}; expected one of " + ", ".join(KEYWORDS))
+    names = KEYWORDS[keyword]
+    args = words[1:]
+    if len(args) != len(names):
+        raise SceneError(f"{where}: '{keyword}' expects {len(names)} numbers ({' '.join(names)}), got {len(args)}")
+    v = [_number(w, where, keyword, n) for w, n in zip(args, names, strict=True)]
+    _check_values(keyword, v, where)
+    return keyword, v
+
+
+def _frozen(rows: list, dtype: type, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """``rows`` as a read-only array (of ``shape`` if given): a Scene's arrays never change after reading."""
+    a: np.ndarray = np.array(rows, dtype=dtype)
+    if shape is not None:
+        a = a.reshape(shape)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass
+class _SceneReader:
+    """What the lines read so far say: the settings, the lights, the current material and the objects in order."""
+
+    background: tuple[float, float, float] = DEFAULT_BACKGROUND
+    ambient: tuple[float, float, float] = DEFAULT_AMBIENT
+    current: Material = DEFAULT_MATERIAL  # the seed applies it to every object that follows
+    lights: list[Light] = field(default_factory=list)
+    materials: list[Material] = field(default_factory=list)  # in order of first use
+    material_index: dict[Material, int] = field(default_factory=dict)
+    # per kind (plane, sphere, triangle): the objects' numbers and their materials
+    rows: tuple[list[list[float]], ...] = field(default_factory=lambda: ([], [], []))
+    mats: tuple[list[int], ...] = field(default_factory=lambda: ([], [], []))
+    objects: list[tuple[int, int]] = field(default_factory=list)  # (kind, index) in file order
+
+    def add(self, keyword: str, v: list[float]) -> None:
+        """Apply one line: a setting, a light or a material replaces or adds; an object is stored."""
+        if keyword == "fond":
+            self.background = (v[0], v[1], v[2])
+        elif keyword == "ambiant":
+            self.ambient = (v[0], v[1], v[2])
+        elif keyword == "source":
+            self.lights.append(Light((v[0], v[1], v[2]), (v[3], v[4], v[5])))
+        elif keyword == "materiau":
+            self.current = Material((v[0], v[1], v[2]), v[3], v[4], v[5], v[6])
+        else:
+            self._add_object(("plan", "sphere", "tri").index(keyword), v)
+
+    def _add_object(self, kind: int, v: list[float]) -> None:
+        """Store an object with the current material, which joins the materials on its first use."""
+        if self.current not in self.material_index:
+            self.material_index[self.current] = len(self.materials)
+            self.materials.append(self.current)
+        store = self.rows[kind]
+        self.objects.append((kind, len(store)))
+        store.append(v)
+        self.mats[kind].append(self.material_index[self.current])
+
+    def scene(self, name: str) -> Scene:
+        """The Scene read, its arrays read-only (an empty kind is an array of 0 rows)."""
+        planes, spheres, tris = self.rows
+        return Scene(
+            name=name,
+            background=self.background,
+            ambient=self.ambient,
+            lights=tuple(self.lights),
+            materials=tuple(self.materials),
+            planes=_frozen(planes, np.float64, (-1, 4)),
+            plane_material=_frozen(self.mats[0], np.int64),
+            spheres=_frozen(spheres, np.float64, (-1, 4)),
+            sphere_material=_frozen(self.mats[1], np.int64),
+            triangles=_frozen(tris, np.float64, (-1, 3, 3)),
+            triangle_material=_frozen(self.mats[2], np.int64),
+            objects=_frozen(self.objects, np.int64).reshape(-1, 2),
+        )
+
+
 def parse_scene(text: str, name: str = "<string>") -> Scene:
     """Read a scene from the text of a scene file.
 
@@ -254,77 +340,12 @@ def parse_scene(text: str, name: str = "<string>") -> Scene:
     """
     if text.startswith("\ufeff"):
         text = text[1:]
-    background, ambient = DEFAULT_BACKGROUND, DEFAULT_AMBIENT
-    lights: list[Light] = []
-    materials: list[Material] = []
-    material_index: dict[Material, int] = {}
-    current = DEFAULT_MATERIAL
-    planes: list[list[float]] = []
-    spheres: list[list[float]] = []
-    tris: list[list[float]] = []
-    mats: tuple[list[int], list[int], list[int]] = ([], [], [])
-    objects: list[tuple[int, int]] = []
-
+    reader = _SceneReader()
     for lineno, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        words = line.split()
-        where = f"{name}:{lineno}"
-        keyword = words[0].lower()
-        if keyword not in KEYWORDS:
-            guess = difflib.get_close_matches(keyword, KEYWORDS, n=1)
-            hint = f" (did you mean '{guess[0]}'?)" if guess else ""
-            raise SceneError(f"{where}: unknown keyword {words[0]!r}{hint}; expected one of " + ", ".join(KEYWORDS))
-        names = KEYWORDS[keyword]
-        args = words[1:]
-        if len(args) != len(names):
-            raise SceneError(f"{where}: '{keyword}' expects {len(names)} numbers ({' '.join(names)}), got {len(args)}")
-        v = [_number(w, where, keyword, n) for w, n in zip(args, names, strict=True)]
-        _check_values(keyword, v, where)
-
-        if keyword == "fond":
-            background = (v[0], v[1], v[2])
-        elif keyword == "ambiant":
-            ambient = (v[0], v[1], v[2])
-        elif keyword == "source":
-            lights.append(Light((v[0], v[1], v[2]), (v[3], v[4], v[5])))
-        elif keyword == "materiau":
-            current = Material((v[0], v[1], v[2]), v[3], v[4], v[5], v[6])
-        else:
-            if current not in material_index:
-                material_index[current] = len(materials)
-                materials.append(current)
-            kind = ("plan", "sphere", "tri").index(keyword)
-            store = (planes, spheres, tris)[kind]
-            objects.append((kind, len(store)))
-            store.append(v)
-            mats[kind].append(material_index[current])
-
-    def arr(rows, shape):
-        a = np.array(rows, dtype=np.float64).reshape(shape)
-        a.flags.writeable = False
-        return a
-
-    def idx(rows):
-        a = np.array(rows, dtype=np.int64)
-        a.flags.writeable = False
-        return a
-
-    return Scene(
-        name=name,
-        background=background,
-        ambient=ambient,
-        lights=tuple(lights),
-        materials=tuple(materials),
-        planes=arr(planes, (-1, 4)),
-        plane_material=idx(mats[0]),
-        spheres=arr(spheres, (-1, 4)),
-        sphere_material=idx(mats[1]),
-        triangles=arr(tris, (-1, 3, 3)),
-        triangle_material=idx(mats[2]),
-        objects=idx(objects).reshape(-1, 2),
-    )
+        line = _read_line(raw, f"{name}:{lineno}")
+        if line is not None:
+            reader.add(*line)
+    return reader.scene(name)
 
 
 def read_scene(path_or_text: str | os.PathLike, name: str | None = None) -> Scene:
