@@ -13,7 +13,7 @@ import math
 
 import pandas as pd
 
-from tribench.stats import format_interval
+from tribench.stats import format_estimate
 
 from . import figures, page
 from .rundata import PeerTables
@@ -28,12 +28,8 @@ CLAIMANTS = ("baldwin_weber_12", "baldwin_weber_9")
 CLAIM_BASELINE = "moller_trumbore"
 
 
-def _interval(value: float, low: float, high: float, unit: str = "") -> str:
-    return format_interval(value, low, high, unit=unit) if not math.isnan(value) else "–"
-
-
 def _percent(value: float, low: float, high: float) -> str:
-    return _interval(100 * value, 100 * low, 100 * high, "%")
+    return format_estimate(100 * value, 100 * low, 100 * high, "%")
 
 
 def claim_answer(low: float, high: float) -> str:
@@ -80,7 +76,7 @@ def claim_sentences(bvh: pd.DataFrame) -> list[str]:
             out.append(
                 f"Baldwin & Weber's end-to-end claim (1–6% more rays/s in a complete tracer) on {r.family} · "
                 f"{r.label}: {r.kernel} against {r.baseline}, "
-                f"{_interval(r.speedup, r.speedup_ci_low, r.speedup_ci_high, '×')} the rays/s "
+                f"{format_estimate(r.speedup, r.speedup_ci_low, r.speedup_ci_high, '×')} the rays/s "
                 f"(simultaneous 95% CI): the claim {claim_answer(r.speedup_ci_low, r.speedup_ci_high)}{share}."
             )
     return out
@@ -107,12 +103,12 @@ def bvh_rows(bvh: pd.DataFrame) -> pd.DataFrame:
                 "dtype": r.dtype,
                 "workload": f"{r.family} · {r.label}",
                 "kernel": r.kernel,
-                "rate": _interval(r.rays_per_s, r.rays_per_s_ci_low, r.rays_per_s_ci_high),
+                "rate": format_estimate(r.rays_per_s, r.rays_per_s_ci_low, r.rays_per_s_ci_high),
                 "speedup": "(the baseline)"
                 if is_base
-                else _interval(r.speedup, r.speedup_ci_low, r.speedup_ci_high, "×"),
+                else format_estimate(r.speedup, r.speedup_ci_low, r.speedup_ci_high, "×"),
                 "verdict": "" if is_base else r.verdict,
-                "brute": _interval(r.brute_speedup, r.brute_speedup_ci_low, r.brute_speedup_ci_high, "×")
+                "brute": format_estimate(r.brute_speedup, r.brute_speedup_ci_low, r.brute_speedup_ci_high, "×")
                 if not is_base
                 else ("(the baseline)" if not math.isnan(r.brute_speedup) else "–"),
                 "share": _percent(r.leaf_share, r.leaf_share_ci_low, r.leaf_share_ci_high),
@@ -172,7 +168,7 @@ def _embree(peers: PeerTables | None) -> str:
         f"Against Embree on {peers.workload} (tribench peers --accel bvh, one core): tribench's BVH with "
         f"{peers.kernel} runs at "
         + (
-            f"{_interval(ratios['ratio'].iloc[0], ratios['ci_low'].iloc[0], ratios['ci_high'].iloc[0], '×')} "
+            f"{format_estimate(ratios['ratio'].iloc[0], ratios['ci_low'].iloc[0], ratios['ci_high'].iloc[0], '×')} "
             "Embree's rays/s (95% CI)."
             if len(ratios)
             else "(Embree was not measured)."

@@ -69,11 +69,14 @@ def _records(frame: pd.DataFrame, columns: list[str]) -> pd.DataFrame:
 
 
 def _interval(value: Any, low: Any, high: Any, unit: str = "") -> str:
-    from tribench.stats import format_interval
+    """A record's value with its interval (records hold None for NaN); the value alone where it has none."""
+    from tribench.stats import format_estimate
 
-    if value is None or (isinstance(value, float) and math.isnan(value)):
+    if value is None:
         return "–"
-    return format_interval(float(value), float(low), float(high), unit=unit) if low is not None else f"{value:.3g}"
+    if low is None:
+        return f"{value:.3g}"
+    return format_estimate(float(value), float(low), math.nan if high is None else float(high), unit)
 
 
 def _kernel_colour(colours: dict[str, str]) -> alt.Color:

@@ -8,12 +8,11 @@ analysis step wrote (:func:`tribench.analysis.ranking.band_table`,
 
 from __future__ import annotations
 
-import math
 from html import escape
 
 import pandas as pd
 
-from tribench.stats import format_interval
+from tribench.stats import format_estimate
 
 from . import charts, page
 from .rundata import RunData
@@ -37,10 +36,6 @@ QUESTIONS: tuple[tuple[str, str], ...] = (
     ("curless", "moller_trumbore"),
     ("curless_seed", "moller_seed"),
 )
-
-
-def _interval(value: float, low: float, high: float, unit: str = "") -> str:
-    return format_interval(value, low, high, unit=unit) if not math.isnan(value) else "–"
 
 
 def _named(kernel: str, rows: pd.DataFrame) -> str:
@@ -76,7 +71,7 @@ def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
         rest = g.iloc[1:]
 
         def slower(r: pd.Series, g: pd.DataFrame = g) -> str:
-            ratio = _interval(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
+            ratio = format_estimate(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
             return f"{_named(r['kernel'], g)}: {ratio} slower"
 
         tight = g.loc[g["watertight"].astype(str) == "True"]
@@ -91,11 +86,11 @@ def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
                 "dtype": best["dtype"],
                 "workload": f"{best['family']} · {best['label']}",
                 "fastest": _named(best["kernel"], g),
-                "ns": _interval(best["ns_per_test"], best["ns_per_test_ci_low"], best["ns_per_test_ci_high"]),
+                "ns": format_estimate(best["ns_per_test"], best["ns_per_test_ci_low"], best["ns_per_test_ci_high"]),
                 "speedup": (
                     "(the baseline)"
                     if best["kernel"] == best["baseline"]
-                    else _interval(best["speedup"], best["speedup_ci_low"], best["speedup_ci_high"], "×")
+                    else format_estimate(best["speedup"], best["speedup_ci_low"], best["speedup_ci_high"], "×")
                 ),
                 "tied": ", ".join(tied) or "none",
                 "next": slower(rest.iloc[0]) if len(rest) else "–",
@@ -128,7 +123,7 @@ def algorithm_order(rank: pd.DataFrame) -> pd.DataFrame:
                 parts.append(f"{r.algorithm}{form}")
             else:
                 form = f" ({r.kernel})" if r.kernel != r.algorithm else ""
-                ratio = _interval(r.vs_fastest, r.vs_fastest_ci_low, r.vs_fastest_ci_high, "×")
+                ratio = format_estimate(r.vs_fastest, r.vs_fastest_ci_low, r.vs_fastest_ci_high, "×")
                 parts.append(f"{r.algorithm}{form} {ratio}")
         first = g.iloc[0]
         rows.append(
@@ -161,7 +156,7 @@ def question_rows(alg: pd.DataFrame) -> pd.DataFrame:
             if hit.empty:
                 continue
             r = hit.iloc[0]
-            ratio = _interval(r["ratio"], r["ratio_ci_low"], r["ratio_ci_high"], "×")
+            ratio = format_estimate(r["ratio"], r["ratio_ci_low"], r["ratio_ci_high"], "×")
             said = {"faster": f"{r['algorithm']} faster", "equivalent": "equivalent"}.get(
                 r["verdict"], "not told apart"
             )
@@ -262,7 +257,7 @@ def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
         rest = g.iloc[1:].loc[~g["tied_with_fastest"].iloc[1:].astype(bool)]
 
         def slower(r: pd.Series, g: pd.DataFrame = g) -> str:
-            ratio = _interval(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
+            ratio = format_estimate(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
             return f"{_named(r['kernel'], g)}: {ratio} slower"
 
         tight = g.loc[g["watertight"].astype(str) == "True"]
@@ -278,11 +273,11 @@ def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
                 "dtype": best["dtype"],
                 "band": f"{best['band']} ({best['workloads']} workload{'s' if best['workloads'] != 1 else ''})",
                 "fastest": _named(best["kernel"], g),
-                "ns": _interval(best["ns_per_test"], best["ns_per_test_ci_low"], best["ns_per_test_ci_high"]),
+                "ns": format_estimate(best["ns_per_test"], best["ns_per_test_ci_low"], best["ns_per_test_ci_high"]),
                 "speedup": (
                     "(the baseline)"
                     if best["kernel"] == best["baseline"]
-                    else _interval(best["speedup"], best["speedup_ci_low"], best["speedup_ci_high"], "×")
+                    else format_estimate(best["speedup"], best["speedup_ci_low"], best["speedup_ci_high"], "×")
                 ),
                 "tied": ", ".join(_named(k, g) for k in tied["kernel"]) or "none",
                 "next": slower(rest.iloc[0]) if len(rest) else "–",

@@ -50,7 +50,7 @@ from .estimates import (
     per_process,
     speedup,
 )
-from .formatting import format_interval
+from .formatting import format_estimate, format_interval
 from .multiplicity import estimate_table, holm, simultaneous_confidence, speedup_table, verdict
 from .outliers import Drift, drift, label_outliers, tukey_outliers
 from .sequential import MIN_PROCESSES, narrow_comparisons, relative_halfwidth
@@ -78,6 +78,7 @@ __all__ = [
     "drift",
     "estimate",
     "estimate_table",
+    "format_estimate",
     "format_interval",
     "geometric_mean",
     "holm",

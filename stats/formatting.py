@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["format_interval", "NO_INTERVAL"]
+__all__ = ["format_estimate", "format_interval", "NO_INTERVAL"]
 
 #: What stands for an interval that could not be computed (a non-finite bound).
 NO_INTERVAL = "[no interval]"
@@ -46,3 +46,14 @@ def format_interval(value: float | None, low: float, high: float, spec: str = ".
         return interval
     shown = f"{value:{spec}}" if math.isfinite(value) else "–"
     return f"{shown}{unit} {interval}"
+
+
+def format_estimate(value: float | None, low: float, high: float, unit: str = "") -> str:
+    """:func:`format_interval` of an estimate that may be missing: ``–`` alone where it is (None or NaN).
+
+    >>> format_estimate(math.nan, 1.0, 2.0), format_estimate(1.5, 1.2, 1.8, "×")
+    ('–', '1.5× [1.2, 1.8]')
+    """
+    if value is None or math.isnan(value):
+        return "–"
+    return format_interval(value, low, high, unit=unit)
