@@ -218,18 +218,8 @@ def _leaves(nodes: np.ndarray) -> np.ndarray:
     return pair[pair[:, 1] > 0]
 
 
-#: Leaves of at most 32 triangles (two native blocks), measured on every lane width:
-#: ``flock /tmp/tribench-timing.lock python bench/bvh_leaf.py`` (Suzanne, 250,000
-#: triangles, float32, 128x128 camera rays and their 2,750 bounces, every native
-#: kernel, one core of the shared 2-core Xeon). Rays/s over max_leaf 16's, geometric
-#: mean over the 9 kernels, at max_leaf 4 / 8 / 32 / 64:
-#:   AVX-512 (16 lanes) camera 0.582 / 0.697 / 1.073 / 1.077, bounces 0.563 / 0.668 / 1.065 / 1.037;
-#:   AVX2 (8 lanes)     camera 0.603 / 0.778 / 1.037 / 1.067, bounces 0.543 / 0.683 / 1.024 / 1.022;
-#:   SSE (4 lanes)      camera 0.629 / 0.799 / 1.049 / 1.016, bounces 0.636 / 0.750 / 1.055 / 1.057.
-#: Small leaves lose everywhere (a 4-triangle leaf still costs a whole block test, and
-#: the tree has more nodes); 32 is ahead of 16 on every width and ray set, 64 not
-#: consistently ahead of 32: one default for every width. Single kernels move by up to
-#: about 10-30% between neighbouring sizes (one process, 5 rounds, no CIs).
+#: Leaves of at most 32 triangles (two native blocks) by default: ahead of 16 and of smaller
+#: leaves on every lane width, 64 not consistently ahead of 32 (docs/decisions.md, "BVH leaf size").
 DEFAULT_MAX_LEAF: int = 32
 
 
