@@ -31,6 +31,11 @@ def bvh_kernel_names() -> tuple[str, ...]:
     return _core.bvh_kernels()
 
 
+def _check_leaf_kernel(kernel: str) -> None:
+    if kernel not in bvh_kernel_names():
+        raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(bvh_kernel_names())}")
+
+
 #: Columns of :attr:`Trace.counts`: per ray, nodes entered (inner nodes and
 #: leaves), ray-box tests, leaves entered, and triangles tested in them.
 COUNT_NAMES: tuple[str, ...] = ("nodes", "box_tests", "leaves", "triangle_tests")
@@ -129,8 +134,7 @@ class BVH:
         return _leaves(self.nodes)
 
     def _rays(self, origins, directions, mode, t_max, isa, allow_nonfinite):
-        if self.kernel not in bvh_kernel_names():  # a BVH made by hand
-            raise UserError(f"{self.kernel} cannot be a BVH's leaf test; these can: {', '.join(bvh_kernel_names())}")
+        _check_leaf_kernel(self.kernel)  # a BVH made by hand may have any kernel
         # one row stands for the triangles (checked finite at the build): dtype and kernel checks only
         return check_workload(self.kernel, origins, directions, self.triangles[:1], mode, t_max, isa, allow_nonfinite)
 
@@ -238,8 +242,7 @@ def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = DEFAULT_MAX
     True
     """
     check_kernel(kernel)
-    if kernel not in bvh_kernel_names():
-        raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(bvh_kernel_names())}")
+    _check_leaf_kernel(kernel)
     if isinstance(max_leaf, bool) or not isinstance(max_leaf, (int, np.integer)):
         raise UserTypeError(f"max_leaf must be an int, got {type(max_leaf).__name__}")
     if not 1 <= max_leaf <= 1024:
@@ -296,8 +299,7 @@ def adopt_bvh(
     True
     """
     check_kernel(kernel)
-    if kernel not in bvh_kernel_names():
-        raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(bvh_kernel_names())}")
+    _check_leaf_kernel(kernel)
     if isinstance(max_leaf, bool) or not isinstance(max_leaf, (int, np.integer)) or not 1 <= max_leaf <= 1024:
         raise UserError(f"max_leaf must be an int between 1 and 1024, got {max_leaf!r}")
     tris = check_array("triangles", triangles, (3, 3))
