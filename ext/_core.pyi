@@ -1,5 +1,5 @@
-# Types of the C module ext/_core.c for mypy; only tribench.ext calls it.
-# Keep in step with tb_methods and the PyArg_ParseTuple formats there.
+# Types of the C module tribench.ext._core (ext/*.c) for mypy; only tribench.ext calls it.
+# Keep in step with tb_methods in ext/_core.c and the PyArg_ParseTuple formats of its functions.
 from typing import Any
 
 import numpy as np

@@ -3,7 +3,9 @@
  *
  * No include guard: native.h includes this file at its end, once per ISA of
  * each precision. The build and the node layout belong to the precision
- * (first pass, TB_NFIRST); the traversal is compiled per ISA and kernel.
+ * (first pass, TB_NFIRST; the build is compiled in bvh.c, where it is
+ * called); the traversal is compiled per ISA and kernel (isa_<isa>_<p>.c). The
+ * job a traversal runs, tb_bvh_job, is in core.h.
  *
  * Build (Wald 2007, "On fast construction of SAH-based bounding volume
  * hierarchies"): top down, each node's triangles binned by centroid into
@@ -372,20 +374,6 @@ static const char *TB_FN(tb_bvh_check)(const tb_bvh_node *nodes, size_t n_nodes,
     return fault;
 }
 
-#ifndef TB_BVH_JOB_DEFINED
-#define TB_BVH_JOB_DEFINED
-/* One batch of BVH traversal: the brute-force job (rays, t_max, the leaf
- * records as `records`, outputs and checksums) and the tree. */
-typedef struct {
-    tb_job base;
-    const void *nodes;
-    const int64_t *perm;   /* slot -> input triangle index (-1: padding) */
-    size_t n_nodes, n_slots;
-    int64_t *counts_out;   /* run: per ray, nodes visited, box tests, leaves, triangle tests */
-    uint64_t counts[4];    /* time: the same, summed over all passes */
-    int bad_tree;          /* a node pointed out of range: the loop stopped */
-} tb_bvh_job;
-#endif
 #endif /* TB_NFIRST */
 
 /* Slab test of the ray against one node's box, within [0, t_max] (Ize 2013,
@@ -604,7 +592,7 @@ stop:
 /* Entry points of one native kernel's BVH traversal for this ISA; only the
  * TB_NATIVE kernels of the public list (one line each, from list.h). */
 #define TB_BVH_ENTRY(name, fn_mode, mode, timed, null)                                              \
-    TB_NTARGET static void TB_NFN(tb_##name##_bvh_##fn_mode)(tb_bvh_job *job)                       \
+    TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_bvh_##fn_mode)(tb_bvh_job *job)                    \
     {                                                                                               \
         TB_NFN(tb_bvh_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, job, \
                             mode, timed, null);                                                     \
@@ -622,7 +610,9 @@ stop:
 #define TB_BVH_IF_TB_X8(...)
 #define TB_BVH_IF_TB_NATIVE(...) __VA_ARGS__
 #define TB_BVH_IF_TB_NATIVE_AVX2(...)
+#if TB_CAT(TB_EMIT_, TB_NISA) /* as native.h's entry points */
 TB_KERNEL_LIST(TB_BVH_INSTANTIATE)
+#endif
 #undef TB_BVH_IF_TB_NATIVE_AVX2
 #undef TB_BVH_IF_TB_NATIVE
 #undef TB_BVH_IF_TB_X8

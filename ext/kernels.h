@@ -1,9 +1,22 @@
 /* Kernels and their batch loops for one precision.
  *
- * No include guard: _core.c includes this file twice, with TB_REAL = float,
- * TB_SUFFIX = _f32 and with TB_REAL = double, TB_SUFFIX = _f64, so every
- * kernel is written once over `real` (one typedef for the precision, as pbrt
- * does) and every symbol gets the precision as a suffix.
+ * No include guard: a file of the module (core.h lists them) includes this
+ * file once per precision it compiles, with TB_REAL = float, TB_SUFFIX = _f32
+ * or with TB_REAL = double, TB_SUFFIX = _f64, so every kernel is written once
+ * over `real` (one typedef for the precision, as pbrt does) and every symbol
+ * gets the precision as a suffix.
+ *
+ * Which loops the including file compiles, each 0 or 1, all four defined:
+ *   TB_EMIT_SCALAR    the scalar kernels' entry points (isa_baseline_<p>.c)
+ *   TB_EMIT_avx512, TB_EMIT_avx2, TB_EMIT_baseline
+ *                     the _x8 forms', the native kernels' and the BVH
+ *                     traversal's entry points for that ISA (isa_<isa>.c)
+ * The declarations (types, every kernel's stride, ops, flat, mix and
+ * prepare) come with every inclusion; a file that compiles no loops (the
+ * registry's) includes this for them alone. Entry points are hidden, not
+ * static (core.h declares them), so the registry in another file can list
+ * them; a kernel's prepare is static and is compiled where it is used (the
+ * registry's file), as is every other static function here.
  *
  * A scalar kernel file kernels/<name>.h defines, for the current precision:
  *   tb_<name>_stride     macro: reals per prepared triangle record
@@ -53,6 +66,20 @@
  * sum to the count; logic, outside it, is the compiled loop's bit operations,
  * blends and selects: AVX2's and/or/xor/blendv, AVX-512's mask-register
  * operations, ternary logic, mask blends and masked register moves. */
+
+#if !defined(TB_EMIT_SCALAR) || !defined(TB_EMIT_avx512) || !defined(TB_EMIT_avx2) || !defined(TB_EMIT_baseline)
+#error "define TB_EMIT_SCALAR, TB_EMIT_avx512, TB_EMIT_avx2 and TB_EMIT_baseline (0 or 1) before kernels.h"
+#endif
+/* TB_IF_EMIT(isa, ...): the rest of the arguments if this file compiles that ISA's loops */
+#define TB_IF_EMIT(isa, ...) TB_CAT(TB_IF_EMIT_, TB_EMIT_##isa)(__VA_ARGS__)
+#define TB_IF_EMIT_0(...)
+#define TB_IF_EMIT_1(...) __VA_ARGS__
+
+/* Each file compiles only some of the static functions below (a kernel's
+ * prepare in the registry's file, its test where its loops are): the rest
+ * are unused there, and the compiler drops them without generating code. */
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-function"
 
 #define real TB_REAL
 #define TB_FN(name) TB_CAT(name, TB_SUFFIX)
@@ -305,7 +332,7 @@ stop:
  * run_<kernel> handles every mode (untimed: speed does not matter);
  * time_<kernel>_<mode> is one function per mode. */
 #define TB_SCALAR_ENTRY(name, fn_mode, mode, timed)                                         \
-    static void TB_FN(tb_##name##_##fn_mode)(tb_job *job)                                   \
+    TB_HIDDEN void TB_FN(tb_##name##_##fn_mode)(tb_job *job)                                \
     {                                                                                       \
         TB_FN(tb_scalar_loop)(TB_FN(tb_##name##_test), TB_FN(tb_##name##_ray),              \
                               tb_##name##_stride, job, mode, timed);                        \
@@ -320,8 +347,10 @@ stop:
     TB_SCALAR_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1)
 #define TB_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
     TB_IF_SCALAR(wide, TB_INSTANTIATE_(name)) /* a registration line (list.h) */
+#if TB_EMIT_SCALAR
 TB_KERNEL_LIST(TB_INSTANTIATE)
 TB_INSTANTIATE_(moller_trumbore_aa)
+#endif
 #undef TB_INSTANTIATE
 #undef TB_INSTANTIATE_
 #include "kernels/moller_trumbore_twice.h" /* its own entry points, from moller_trumbore's */
@@ -330,26 +359,28 @@ TB_INSTANTIATE_(moller_trumbore_aa)
  * for each instruction set by a target attribute (the kernels and helpers
  * are always_inline, so they are compiled with their caller's ISA). */
 #define TB_WIDE_ENTRY(name, isa, target, fn_mode, mode, timed)                              \
-    target static void TB_FN(tb_##name##_x8_##fn_mode##_##isa)(tb_job *job)                 \
+    target TB_HIDDEN void TB_FN(tb_##name##_x8_##fn_mode##_##isa)(tb_job *job)              \
     {                                                                                       \
         TB_FN(tb_wide_loop)(TB_FN(tb_##name##_x8_test), TB_FN(tb_##name##_ray),             \
                             tb_##name##_stride, job, mode, timed);                          \
     }
-#define TB_WIDE_ISA(name, isa, target)                                   \
-    TB_WIDE_ENTRY(name, isa, target, run_any, TB_ANY, 0)                 \
-    TB_WIDE_ENTRY(name, isa, target, run_closest, TB_CLOSEST_UV, 0)      \
-    TB_WIDE_ENTRY(name, isa, target, time_any, TB_ANY, 1)                \
-    TB_WIDE_ENTRY(name, isa, target, time_closest, TB_CLOSEST, 1)        \
-    TB_WIDE_ENTRY(name, isa, target, time_closest_uv, TB_CLOSEST_UV, 1)
+#define TB_WIDE_ISA(name, isa, target)                                               \
+    TB_IF_EMIT(isa, TB_WIDE_ENTRY(name, isa, target, run_any, TB_ANY, 0)             \
+               TB_WIDE_ENTRY(name, isa, target, run_closest, TB_CLOSEST_UV, 0)       \
+               TB_WIDE_ENTRY(name, isa, target, time_any, TB_ANY, 1)                 \
+               TB_WIDE_ENTRY(name, isa, target, time_closest, TB_CLOSEST, 1)         \
+               TB_WIDE_ENTRY(name, isa, target, time_closest_uv, TB_CLOSEST_UV, 1))
 #define TB_INSTANTIATE_WIDE(name, faces, watertight, promised_by, origin, wide) \
     TB_IF_X8(wide, TB_ISA_LIST(TB_WIDE_ISA, name))
 TB_KERNEL_LIST(TB_INSTANTIATE_WIDE)
 #undef TB_INSTANTIATE_WIDE
 
-/* The native kernels (native.h), one pass per ISA; the first pass of each
- * precision also defines their per-precision parts (TB_NFIRST). */
+/* The native kernels (native.h), one pass per ISA whose loops this file
+ * compiles; the first pass of each precision also defines their
+ * per-precision parts (TB_NFIRST). A file that compiles none of their ISAs
+ * still makes one pass (baseline, no entry points) for those parts. */
 #define TB_NFIRST 1
-#if defined(__x86_64__) || defined(__i386__)
+#if (defined(__x86_64__) || defined(__i386__)) && TB_EMIT_avx512
 #define TB_NISA avx512
 #define TB_NISA_ID 2
 #define TB_NTARGET TB_TARGET_AVX512_FMA
@@ -359,6 +390,8 @@ TB_KERNEL_LIST(TB_INSTANTIATE_WIDE)
 #undef TB_NISA
 #undef TB_NFIRST
 #define TB_NFIRST 0
+#endif
+#if (defined(__x86_64__) || defined(__i386__)) && TB_EMIT_avx2
 #define TB_NISA avx2
 #define TB_NISA_ID 1
 #define TB_NTARGET TB_TARGET_AVX2_FMA
@@ -366,7 +399,10 @@ TB_KERNEL_LIST(TB_INSTANTIATE_WIDE)
 #undef TB_NTARGET
 #undef TB_NISA_ID
 #undef TB_NISA
+#undef TB_NFIRST
+#define TB_NFIRST 0
 #endif
+#if TB_EMIT_baseline || TB_NFIRST
 #define TB_NISA baseline
 #define TB_NISA_ID 0
 #define TB_NTARGET
@@ -374,6 +410,7 @@ TB_KERNEL_LIST(TB_INSTANTIATE_WIDE)
 #undef TB_NTARGET
 #undef TB_NISA_ID
 #undef TB_NISA
+#endif
 #undef TB_NFIRST
 
 #undef TB_VPB
@@ -387,3 +424,8 @@ TB_KERNEL_LIST(TB_INSTANTIATE_WIDE)
 #undef tb_ray
 #undef TB_FN
 #undef real
+
+#pragma GCC diagnostic pop
+#undef TB_IF_EMIT_1
+#undef TB_IF_EMIT_0
+#undef TB_IF_EMIT

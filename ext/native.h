@@ -1,9 +1,11 @@
 /* Native-width wide kernels and their loop, for one precision and one ISA.
  *
  * No include guard: kernels.h includes this file once per ISA of
- * TB_NATIVE_ISA_LIST (for each precision), with TB_NISA set to the ISA's
- * name and TB_NISA_ID to 2 (AVX-512), 1 (AVX2 + FMA) or 0 (the baseline:
- * SSE2 on x86-64). Every symbol gets the ISA and the precision as suffixes.
+ * TB_NATIVE_ISA_LIST whose loops its includer compiles, for each precision
+ * (and once, for the declarations alone, in a file that compiles none), with
+ * TB_NISA set to the ISA's name and TB_NISA_ID to 2 (AVX-512), 1 (AVX2 + FMA)
+ * or 0 (the baseline: SSE2 on x86-64). Every symbol gets the ISA and the
+ * precision as suffixes.
  *
  * Why a second wide loop: the _x8 forms (kernels.h) use one 32-byte vector
  * type for every ISA, so they run half the width of an AVX-512 core, and
@@ -319,7 +321,7 @@ stop:
 
 /* Entry points of one native kernel for this ISA (modes as the _x8 forms). */
 #define TB_NATIVE_ENTRY(name, fn_mode, mode, timed)                                           \
-    TB_NTARGET static void TB_NFN(tb_##name##_##fn_mode)(tb_job *job)                         \
+    TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_##fn_mode)(tb_job *job)                      \
     {                                                                                         \
         TB_NFN(tb_native_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray),              \
                                tb_##name##_stride, job, mode, timed);                         \
@@ -332,8 +334,10 @@ stop:
     TB_NATIVE_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1)
 #define TB_NATIVE_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
     TB_IF_NATIVE_ON(wide, TB_NISA_ID, TB_NATIVE_ENTRIES(name))
+#if TB_CAT(TB_EMIT_, TB_NISA) /* not in the declarations-only pass (kernels.h) */
 TB_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
+#endif
 #undef TB_NATIVE_INSTANTIATE
 #undef TB_NATIVE_ENTRIES
 #undef TB_NATIVE_ENTRY

@@ -57,6 +57,28 @@ def test_each_isa_uses_its_registers(disassembly, kernel, suffix):
     assert len(re.findall(r"\bv?u?comis[sd]\b", code["avx2"])) < 30
 
 
+LOOPS = re.compile(r"^tb_\w+_(run|time)_(pairs|any|closest|closest_uv|null)(_(avx512|avx2|baseline))?_f(32|64)$")
+# the calls a loop makes by design: moller_trumbore_twice's loops are moller_trumbore's,
+# called twice over; woop_fma's exact fallback for a 0 edge function is out of line (cold)
+CALLED_BY_DESIGN = re.compile(r"^tb_(moller_trumbore_(run|time)_\w+|woop_fma_exact_f(32|64))$")
+
+
+def test_loops_inline_their_kernel(disassembly):
+    """Every loop is one function: its kernel's test, ray set-up and signal poll are
+    inlined, so a timed test costs no call. (GCC stops inlining a file's functions
+    once the file has grown past --param inline-unit-growth, which is why the scalar
+    loops share a file with the baseline ones, ext/isa_baseline_<p>.c.)"""
+    loops = [name for name in disassembly if LOOPS.match(name)]
+    assert len(loops) > 500, f"found only {len(loops)} loops in the disassembly"
+    called = {
+        name: sorted(set(calls) - {c for c in calls if c.endswith("@plt") or CALLED_BY_DESIGN.match(c)})
+        for name in loops
+        if (calls := re.findall(r"\bcall\s+[0-9a-f]+ <([^>+]+)", disassembly[name]))
+    }
+    offenders = {name: c for name, c in called.items() if c}
+    assert not offenders, f"{len(offenders)} loops call functions of the module: {dict(list(offenders.items())[:5])}"
+
+
 def _loop_arithmetic(code: str) -> int:
     """Packed arithmetic instructions (add, sub, mul, div, sqrt, compare, min, max,
     FMA) in the largest loop of a function: the block loop of a wide kernel."""

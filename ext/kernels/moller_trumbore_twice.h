@@ -14,7 +14,8 @@
  * compiler barriers: the barriers changed the code, which then cost 2.03x
  * the instructions and 2.07x the time, so its true ratio was unknown.)
  * Untimed runs give moller_trumbore's answers. Included by kernels.h after
- * moller_trumbore's entry points exist. */
+ * moller_trumbore's entry points exist (its entry points too are defined
+ * only where those are, TB_EMIT_SCALAR). */
 
 #define tb_moller_trumbore_twice_stride tb_moller_trumbore_stride
 #define tb_moller_trumbore_twice_ops (2 * tb_moller_trumbore_ops)
@@ -22,24 +23,25 @@
 #define tb_moller_trumbore_twice_prepare_f32 tb_prepare_vertices_f32
 #define tb_moller_trumbore_twice_prepare_f64 tb_prepare_vertices_f64
 
-#define TB_TWICE_RUN(fn_mode)                                           \
-    static void TB_FN(tb_moller_trumbore_twice_##fn_mode)(tb_job *job)  \
-    {                                                                   \
-        TB_FN(tb_moller_trumbore_##fn_mode)(job);                       \
+#define TB_TWICE_RUN(fn_mode)                                               \
+    TB_HIDDEN void TB_FN(tb_moller_trumbore_twice_##fn_mode)(tb_job *job)   \
+    {                                                                       \
+        TB_FN(tb_moller_trumbore_##fn_mode)(job);                           \
     }
 /* halving is exact for the counts; the sums of 2 x loops passes halved
  * equal the sums of loops passes to rounding */
-#define TB_TWICE_TIME(fn_mode)                                          \
-    static void TB_FN(tb_moller_trumbore_twice_##fn_mode)(tb_job *job)  \
-    {                                                                   \
-        job->loops *= 2;                                                \
-        TB_FN(tb_moller_trumbore_##fn_mode)(job);                       \
-        job->loops /= 2;                                                \
-        job->tests /= 2;                                                \
-        job->hits /= 2;                                                 \
-        job->t_sum /= 2;                                                \
-        job->uv_sum /= 2;                                               \
+#define TB_TWICE_TIME(fn_mode)                                              \
+    TB_HIDDEN void TB_FN(tb_moller_trumbore_twice_##fn_mode)(tb_job *job)   \
+    {                                                                       \
+        job->loops *= 2;                                                    \
+        TB_FN(tb_moller_trumbore_##fn_mode)(job);                           \
+        job->loops /= 2;                                                    \
+        job->tests /= 2;                                                    \
+        job->hits /= 2;                                                     \
+        job->t_sum /= 2;                                                    \
+        job->uv_sum /= 2;                                                   \
     }
+#if TB_EMIT_SCALAR /* in the file that compiles moller_trumbore's (kernels.h) */
 TB_TWICE_RUN(run_pairs)
 TB_TWICE_RUN(run_any)
 TB_TWICE_RUN(run_closest)
@@ -47,6 +49,7 @@ TB_TWICE_TIME(time_pairs)
 TB_TWICE_TIME(time_any)
 TB_TWICE_TIME(time_closest)
 TB_TWICE_TIME(time_closest_uv)
+#endif
 #undef TB_TWICE_RUN
 #undef TB_TWICE_TIME
 

@@ -91,9 +91,13 @@
 
 /* The paper's fallback for n lanes: the three edge functions of each lane by
  * woop's exact rule, from the lanes' sheared vertices xy = {ax, ay, bx, by,
- * cx, cy} (n each); out of line, as it is rarely called. */
-static __attribute__((noinline, cold)) void TB_FN(tb_woop_fma_exact)(const real *xy, real *edge,
-                                                                      int n)
+ * cx, cy} (n each); out of line, as it is rarely called. used: each file of
+ * loops (isa_<isa>_<p>.c) has a copy of its own, which it calls with one n;
+ * as if it had callers unseen, GCC keeps n an argument rather than
+ * specializing the copy to that n, and the loops calling it compile as they
+ * did when one copy served every ISA. */
+static __attribute__((noinline, cold, used)) void TB_FN(tb_woop_fma_exact)(const real *xy, real *edge,
+                                                                            int n)
 {
     const real *ax = xy, *ay = xy + n, *bx = xy + 2 * n, *by = xy + 3 * n, *cx = xy + 4 * n,
                *cy = xy + 5 * n;

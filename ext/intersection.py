@@ -1,0 +1,218 @@
+"""Brute force: a kernel's prepared records, and every ray against every triangle.
+
+:func:`prepare` computes a kernel's records once (finding exactly flat
+triangles, :func:`flat`, on the way); :func:`intersect` runs the kernel
+untimed and returns each ray's answer (:class:`Hits`). :func:`check_workload`
+is every check of a kernel call on a workload, shared with the timed batches
+(:mod:`tribench.ext.timing`) and the BVH (:mod:`tribench.ext.bvh`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import NamedTuple
+
+import numpy as np
+
+import tribench.ext._core as _core  # `from . import _core` would read as importing the package (a cycle)
+from tribench.common import UserError
+
+from .checks import check_array, check_name, check_same_dtype, check_t_max
+from .registry import MODES, Mode, kernel_info
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A kernel's per-triangle records, computed once outside any timed loop.
+
+    Attributes
+    ----------
+    kernel : str
+    records : ndarray, read-only
+        Shape (K, stride) for a scalar kernel: raw vertices for kernels that
+        test them directly; vertices plus precomputed planes or normals for
+        the others. A wide kernel's are the same records in blocks of
+        L = ``kernel_info(kernel).lanes`` triangles (8 or 16), structure of
+        arrays: shape (ceil(K / L), stride, L), lanes past the last triangle
+        zero. An exactly flat triangle's record is all
+        NaN (every ray misses it), except for the seed replays, which keep
+        the seed's behaviour (see each kernel's header and :func:`flat`).
+    n_triangles : int
+    """
+
+    kernel: str
+    records: np.ndarray
+    n_triangles: int
+
+    @property
+    def dtype(self) -> np.dtype:
+        return self.records.dtype
+
+
+def prepare(kernel: str, triangles: np.ndarray, *, allow_nonfinite: bool = False) -> Prepared:
+    """Compute ``kernel``'s records for ``triangles`` of shape (K, 3, 3).
+
+    Exactly flat triangles (:func:`flat`) are found here, once, and every
+    kernel but the seed replays gets a record no ray can hit: the promise
+    that zero-area triangles are misses costs no time per test.
+    """
+    info = kernel_info(kernel)
+    tris = check_array("triangles", triangles, (3, 3), allow_nonfinite)
+    n = len(tris)
+    shape = (n, info.stride) if info.lanes == 1 else (-(-n // info.lanes), info.stride, info.lanes)
+    records = np.empty(shape, dtype=tris.dtype)
+    _core.prepare(kernel, tris.itemsize, tris, n, records, flat(tris).view(np.uint8))
+    records.flags.writeable = False
+    return Prepared(kernel, records, n)
+
+
+# The float filter of flat(): |computed cross component| above this fraction of
+# |left| + |right| (its two products) cannot come from an exact zero. Rounding
+# the two differences, the two products and their difference moves the result by
+# at most about 5 units of 2**-53 of |left| + |right|; 2**-48 is 32 of them.
+# The absolute term covers products that underflow (errors of 2**-1075 each).
+_FILTER_RELATIVE = 2.0**-48
+_FILTER_ABSOLUTE = 2.0**-1000
+
+
+def flat(triangles: np.ndarray) -> np.ndarray:
+    """Which triangles have exactly zero area: a point, a repeated vertex, or
+    three vertices on one line, in exact arithmetic on the stored values.
+
+    ``cross(v1 - v0, v2 - v0) == 0`` decided exactly: the cross product in
+    float64 with an error bound settles every triangle it is clearly not zero
+    for; the few others (flat or within rounding of it) are decided in rational
+    arithmetic (``fractions.Fraction`` holds a float exactly). A triangle with
+    a non-finite vertex is not flat. Returns a bool array, one per triangle.
+
+    >>> import numpy as np
+    >>> a = np.array([0.1, 0.2, 0.3])  # not dyadic
+    >>> line = np.array([a, 2 * a, 4 * a])  # exactly on the line through 0 and a
+    >>> flat(np.stack([line, line + [[0, 0, 0], [0, 0, 0], [0, 0, 1e-15]], [a, a, a]])).tolist()
+    [True, False, True]
+    """
+    v = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    with np.errstate(all="ignore"):  # overflow and NaN only leave a triangle undecided
+        e, f = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
+        left = e[:, [1, 2, 0]] * f[:, [2, 0, 1]]
+        right = e[:, [2, 0, 1]] * f[:, [1, 2, 0]]
+        clearly_not = (np.abs(left - right) > _FILTER_RELATIVE * (np.abs(left) + np.abs(right)) + _FILTER_ABSOLUTE).any(
+            axis=1
+        )
+    out = np.zeros(len(v), dtype=bool)
+    for i in np.flatnonzero(~clearly_not & np.isfinite(v).all(axis=(1, 2))):
+        a, b, c = ([Fraction(float(x)) for x in vertex] for vertex in v[i])
+        e_i, f_i = [q - p for p, q in zip(a, b, strict=True)], [q - p for p, q in zip(a, c, strict=True)]
+        out[i] = all(e_i[j] * f_i[k] == e_i[k] * f_i[j] for j, k in ((1, 2), (2, 0), (0, 1)))
+    return out
+
+
+def check_workload(kernel, origins, directions, triangles, mode, t_max, isa, allow_nonfinite):
+    """Every check of a kernel call on a workload.
+
+    Returns (o, d, triangles, t_max, isa): t_max as an array of the
+    workload's precision (a new array when given None or a scalar), isa the
+    checked ISA name."""
+    info = kernel_info(kernel)
+    check_name("mode", mode, MODES)
+    if mode not in info.modes:
+        raise UserError(f"{kernel} has no {mode!r} mode (its modes: {', '.join(info.modes)})")
+    if isa is None:
+        isa = info.isa
+    else:
+        check_name("isa", isa, tuple(info.isas))
+        if not info.isas[isa]:
+            raise UserError(f"{kernel}: isa {isa!r} is not available on this CPU")
+    o = check_array("origins", origins, (3,), allow_nonfinite)
+    d = check_array("directions", directions, (3,), allow_nonfinite)
+    if len(o) != len(d):
+        raise UserError(f"origins and directions differ in length: {len(o)} and {len(d)}")
+    tris = check_array("triangles", triangles, (3, 3), allow_nonfinite)
+    dtype = check_same_dtype(origins=o, directions=d, triangles=tris)
+    if mode == "pairs" and len(tris) != len(o):
+        raise UserError(f"triangles: pairs need one triangle per ray, got {len(tris)} for {len(o)} rays")
+    return o, d, tris, check_t_max(t_max, len(o), dtype), isa
+
+
+class Hits(NamedTuple):
+    """Per-ray answers of ``intersect``.
+
+    index : int64 ndarray, shape (N,)
+        Triangle hit (``-1`` for a miss). Closest modes: ties go to the
+        lowest index. ``any``: some hit triangle, not necessarily the
+        closest. ``pairs``: ``i`` or ``-1``.
+    t, u, v : ndarray, shape (N,), the input precision
+        Distance and barycentrics of that hit (the point is
+        ``(1-u-v) v0 + u v1 + v v2``); nan for a miss.
+    """
+
+    index: np.ndarray  # type: ignore[assignment]  # the field hides tuple.index, as meant
+    t: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+
+    @property
+    def hit(self) -> np.ndarray:
+        return self.index >= 0
+
+
+def intersect(
+    kernel: str,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    triangles: np.ndarray,
+    mode: Mode = "closest",
+    *,
+    t_max: np.ndarray | float | None = None,
+    isa: str | None = None,
+    allow_nonfinite: bool = False,
+) -> Hits:
+    """Run ``kernel`` on a workload (untimed) and return every ray's answer.
+
+    Parameters
+    ----------
+    kernel : str
+        One of ``kernel_names()``.
+    origins, directions : ndarray, shape (N, 3)
+    triangles : ndarray, shape (K, 3, 3)
+        All three float32, or all float64: the kernel runs at that precision.
+        ``pairs`` needs K == N.
+    mode : str
+        ``pairs``, ``any``, ``closest`` or ``closest_uv`` (``closest`` and
+        ``closest_uv`` both return u and v here; they differ when timed).
+    t_max : None, number or ndarray (N,)
+        Only hits with ``t < t_max`` count (default: +inf).
+    isa : str, optional
+        Instruction set of a wide kernel (default: ``kernel_info(kernel).isa``).
+    allow_nonfinite : bool
+        By default NaN or Inf in any input is a ``ValueError``. With True they
+        reach the kernel, whose documented behaviour applies (the clean
+        kernels report a miss; see each kernel's header).
+
+    >>> import numpy as np
+    >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
+    >>> r = intersect("moller_trumbore_x8", np.array([[0.25, 0.5, 1.0]]),
+    ...               np.array([[0.0, 0, -1]]), tri)
+    >>> int(r.index[0]), float(r.t[0]), float(r.u[0]), float(r.v[0])
+    (0, 1.0, 0.25, 0.5)
+    """
+    o, d, tris, tm, isa = check_workload(kernel, origins, directions, triangles, mode, t_max, isa, allow_nonfinite)
+    prepared = prepare(kernel, tris, allow_nonfinite=allow_nonfinite)
+    n, dtype = len(o), tris.dtype
+    out = Hits(np.empty(n, np.int64), np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype))
+    _core.run(kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm, prepared.records, len(tris), *out)
+    return out
+
+
+def intersect_pairs(kernel, origins, directions, triangles, **options) -> tuple[np.ndarray, np.ndarray]:
+    """Ray ``i`` against triangle ``i``: ``(hit, t)`` (see ``intersect``)."""
+    r = intersect(kernel, origins, directions, triangles, "pairs", **options)
+    return r.hit, r.t
+
+
+def intersect_closest(kernel, origins, directions, triangles, **options) -> tuple[np.ndarray, np.ndarray]:
+    """Closest hit of every ray against every triangle: ``(index, t)``
+    (see ``intersect``)."""
+    r = intersect(kernel, origins, directions, triangles, "closest", **options)
+    return r.index, r.t

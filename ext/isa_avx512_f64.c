@@ -1,0 +1,17 @@
+/* The wide loops compiled for AVX-512F (with FMA for the native kernels), in
+ * float64: the _x8 forms (kernels.h), the native kernels (native.h) and their
+ * BVH traversal (bvh.h). One file per ISA and precision: the largest files of
+ * the build, of about one size, so a parallel build keeps every core busy. */
+
+#include "core.h"
+
+#if defined(__x86_64__) || defined(__i386__) /* elsewhere only the baseline exists (kernels/list.h) */
+#define TB_EMIT_SCALAR 0
+#define TB_EMIT_avx512 1
+#define TB_EMIT_avx2 0
+#define TB_EMIT_baseline 0
+#define TB_REAL double
+#define TB_REAL_IS_DOUBLE 1
+#define TB_SUFFIX _f64
+#include "kernels.h"
+#endif

@@ -1,0 +1,209 @@
+"""The kernel registry as Python reads it: names, declared properties, modes and build.
+
+Every property comes from the compiled module (its registration lines in
+``ext/kernels/list.h`` and the kernels' files): nothing here is inferred from
+a kernel's name.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+import tribench.ext._core as _core  # `from . import _core` would read as importing the package (a cycle)
+from tribench.common import UserError, UserTypeError
+
+from .checks import check_dtype_name
+
+Mode = Literal["pairs", "any", "closest", "closest_uv"]
+MODES: tuple[str, ...] = ("pairs", "any", "closest", "closest_uv")  # the C enum's order
+_PUBLIC: tuple[str, ...] = _core.kernel_names(False)
+_KERNELS: tuple[str, ...] = _core.kernel_names(True)  # every name a call accepts
+
+
+def kernel_names(internal: bool = False) -> tuple[str, ...]:
+    """Names of the registered kernels, in registry order.
+
+    Parameters
+    ----------
+    internal : bool
+        Also list the internal kernels (the harness's A/A copy and
+        double-work kernel), after the others.
+
+    >>> "moller_trumbore" in kernel_names()
+    True
+    >>> [k for k in kernel_names(internal=True) if k not in kernel_names()]
+    ['moller_trumbore_aa', 'moller_trumbore_twice', 'moller_trumbore_yardstick']
+    """
+    return _KERNELS if internal else _PUBLIC
+
+
+@dataclass(frozen=True)
+class KernelInfo:
+    """What the registry says of one kernel.
+
+    Every property is declared once, on the kernel's registration line in
+    ``ext/kernels/list.h`` (or, for stride, ops and flat, beside the code in
+    its file), and read here from the extension: no property is inferred
+    from a kernel's name.
+
+    Attributes
+    ----------
+    name : str
+    lanes : int
+        Triangles per record block: 1 for a scalar early-exit kernel, 8 for
+        an ``_x8`` wide form, 16 for a native wide kernel (one vector of 16
+        float lanes with AVX-512, two of 8 with AVX2).
+    stride : int
+        Reals of prepared data per triangle.
+    ops : int
+        Arithmetic operations per test (per lane for a wide form; a scalar
+        kernel's count is the path of a hit). Documented per kernel in its
+        header, with the counting rules in ``ext/kernels.h``.
+    internal : bool
+        One of the harness's honesty-check kernels (the A/A copy and the
+        double-work kernel), left out of ``kernel_names()``.
+    isas : dict[str, bool]
+        Instruction sets the kernel is compiled for (best first), and whether
+        this CPU can run each. Scalar kernels have one, ``"scalar"``.
+    isa : str
+        The ISA calls use by default: ``TRIBENCH_ISA`` if set and runnable,
+        else the best runnable one.
+    scalar_form : str or None
+        For a wide form, the scalar kernel it is the wide form of (same
+        algorithm, properties and answers); None for a scalar kernel.
+    wide_form : str or None
+        For a scalar kernel that has one, the name of its wide form.
+    algorithm : str
+        The clean scalar kernel whose algorithm this kernel is a form of:
+        itself for a scalar kernel (a seed replay is its own), the scalar form
+        for an ``_x8`` form, the one a native kernel declares
+        (``tb_<name>_algorithm`` in its file). Rankings by algorithm group by it.
+    culls_back_faces : bool
+        Only front faces count: ``det = e1 . (d x e2) > 0``, the vertices
+        counter-clockwise seen from the ray's origin.
+    watertight : str
+        ``"none"``, or ``"edges_and_vertices"``: the kernel's paper promises
+        no crack on shared edges and vertices (``tribench validate`` holds it
+        to that, and to Embree's threshold inside a sphere).
+    watertight_source : str
+        The paper that makes the watertight promise (``""`` if none).
+    seed_replay : bool
+        A faithful copy of the seed's code, flaws included: its differences
+        from the reference are measured and recorded, never judged.
+    flat : str
+        What becomes of an exactly flat triangle: ``"miss"`` (every ray
+        misses it) or ``"as_is"`` (the kernel's own test decides, as the
+        seed's code did).
+    precisions : tuple[str, ...]
+        The dtypes the kernel is compiled for.
+    """
+
+    name: str
+    lanes: int
+    stride: int
+    ops: int
+    internal: bool
+    isas: dict
+    isa: str
+    scalar_form: str | None
+    wide_form: str | None
+    algorithm: str
+    culls_back_faces: bool
+    watertight: str
+    watertight_source: str
+    seed_replay: bool
+    flat: str
+    precisions: tuple[str, ...]
+
+    @property
+    def mix(self) -> dict[str, int]:
+        """Operations per test (and lane) by class: ``fma, mul, add, cmp, div`` (summing
+        to :attr:`ops`), ``logic`` (mask and select work, outside ``ops``) and ``load``
+        (reals read per test: the stride). Declared as ``tb_<name>_mix`` in the kernel's
+        file; a wide form's is its compiled loop's (tests/test_ext_build.py)."""
+        counts = dict(zip(("fma", "mul", "add", "cmp", "div", "logic"), _core.kernel_mix(self.name), strict=True))
+        return {**counts, "load": self.stride}
+
+    @property
+    def modes(self) -> tuple[str, ...]:
+        """Modes the kernel runs (wide forms have no pairs mode)."""
+        return MODES if self.lanes == 1 else MODES[1:]
+
+    @property
+    def bytes_per_triangle(self) -> dict[str, int]:
+        """Bytes of prepared data per triangle, per precision (stride x itemsize)."""
+        return {p: self.stride * np.dtype(p).itemsize for p in self.precisions}
+
+
+# Scalar kernel -> its wide form, from each wide form's declared scalar form.
+_WIDE_FORMS: dict[str, str] = {
+    scalar: k for k in _KERNELS for scalar in [_core.kernel_info(k)["scalar_form"]] if scalar is not None
+}
+
+
+def kernel_info(kernel: str) -> KernelInfo:
+    """Lanes, storage, instruction sets and declared properties of ``kernel``.
+
+    >>> kernel_info("moller_trumbore").isa
+    'scalar'
+    >>> info = kernel_info("moller_trumbore_x8")
+    >>> info.lanes, info.isas["baseline"], info.scalar_form
+    (8, True, 'moller_trumbore')
+    >>> kernel_info("woop").watertight, kernel_info("moller_trumbore_cull").culls_back_faces
+    ('edges_and_vertices', True)
+    """
+    check_kernel(kernel)
+    declared = dict(_core.kernel_info(kernel))  # afresh: which ISAs run can be asked again
+    isas = declared.pop("isas")
+    runnable = dict(isas)
+    wanted = os.environ.get("TRIBENCH_ISA")
+    if declared["lanes"] > 1 and wanted:
+        if not runnable.get(wanted):
+            raise UserError(
+                f"TRIBENCH_ISA={wanted!r} cannot run {kernel}: runnable here: {', '.join(i for i, ok in isas if ok)}"
+            )
+        isa = wanted
+    else:
+        isa = next(i for i, ok in isas if ok)
+    return KernelInfo(name=kernel, isas=runnable, isa=isa, wide_form=_WIDE_FORMS.get(kernel), **declared)
+
+
+def build_info() -> dict:
+    """How the extension was built: compiler, exact flags, FMA and fast-math
+    macros, and the resolution of the clock that times batches."""
+    return dict(_core.build_info())
+
+
+@functools.cache
+def extension_sha256() -> str:
+    """The sha256 of the compiled extension's file: which build of the C code
+    this is (any change to a kernel, its records or the BVH build changes it)."""
+    with open(_core.__file__, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def bytes_per_triangle(kernel: str, dtype: np.dtype | type | str) -> int:
+    """Bytes of prepared data one triangle occupies for ``kernel`` at ``dtype``.
+
+    >>> bytes_per_triangle("moller_trumbore", "float32")
+    36
+    """
+    info, dt = kernel_info(kernel), check_dtype_name(dtype)
+    if dt.name not in info.precisions:
+        raise UserError(f"{kernel} is compiled for {', '.join(info.precisions)}, not {dt.name}")
+    return info.bytes_per_triangle[dt.name]
+
+
+def check_kernel(kernel: object) -> str:
+    """A registered kernel's name (internal kernels too); an unknown one lists the public kernels."""
+    if not isinstance(kernel, str):
+        raise UserTypeError(f"kernel must be a str, got {type(kernel).__name__}")
+    if kernel not in _KERNELS:
+        raise UserError(f"unknown kernel {kernel!r}; known kernels: {', '.join(_PUBLIC)}")
+    return kernel

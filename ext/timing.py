@@ -1,0 +1,131 @@
+"""Timed batches: a validated job (:func:`make_job`) run ``loops`` times in C (:func:`time_batch`).
+
+Checking and preparing happen once, in :func:`make_job`, so a batch adds
+nothing to the timed region but the call; the loop runs with the GIL
+released between two reads of ``CLOCK_MONOTONIC``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+import tribench.ext._core as _core  # `from . import _core` would read as importing the package (a cycle)
+from tribench.common import UserError, UserTypeError
+
+from .intersection import Prepared, check_workload, prepare
+from .registry import MODES, Mode
+
+
+@dataclass(frozen=True)
+class Job:
+    """Validated inputs of timed batches: one kernel on one workload.
+
+    Build with ``make_job``; checking happens there once, so ``time_batch``
+    adds nothing but the call to the timed region's surroundings.
+    """
+
+    kernel: str
+    mode: Mode
+    origins: np.ndarray
+    directions: np.ndarray
+    t_max: np.ndarray
+    prepared: Prepared
+    isa: str
+
+    @property
+    def tests_per_pass(self) -> int:
+        """Ray-triangle tests in one pass over the workload; for ``any`` the
+        most there can be (a batch counts the tests it did, up to each ray's
+        first hit)."""
+        if self.mode == "pairs":
+            return len(self.origins)
+        return len(self.origins) * self.prepared.n_triangles
+
+
+def make_job(
+    kernel: str,
+    origins: np.ndarray,
+    directions: np.ndarray,
+    triangles: np.ndarray,
+    mode: Mode,
+    *,
+    t_max: np.ndarray | float | None = None,
+    isa: str | None = None,
+) -> Job:
+    """Validate a workload for timing and prepare ``kernel``'s records.
+
+    ``mode``, ``t_max`` and ``isa`` are as in ``intersect``. Inputs must be
+    finite. The arrays are kept as read-only views, not copied.
+    """
+    o, d, tris, tm, isa = check_workload(kernel, origins, directions, triangles, mode, t_max, isa, False)
+    views = []
+    for a in (o, d, tm):
+        v = a.view()
+        v.flags.writeable = False
+        views.append(v)
+    return Job(kernel, mode, views[0], views[1], views[2], prepare(kernel, tris), isa)
+
+
+@dataclass(frozen=True)
+class Batch:
+    """One timed batch: ``loops`` passes of a job, timed inside C.
+
+    ``hits`` and ``t_sum`` are summed over all passes; compare them with
+    ``loops`` times the reference's hit count and sum of ``t``. ``uv_sum``
+    is the sum of ``u + v`` in mode ``closest_uv``, else 0.
+    """
+
+    elapsed_ns: int
+    loops: int
+    tests: int
+    hits: int
+    t_sum: float
+    uv_sum: float = 0.0
+
+    @property
+    def ns_per_test(self) -> float:
+        return self.elapsed_ns / self.tests
+
+
+#: The most tests one timed batch may do: a minute even at 0.1 ns per test
+#: (the fastest kernels here take about 1 ns); a harness batch is about 8 ms.
+MAX_BATCH_TESTS: int = _core.MAX_BATCH_TESTS
+
+
+def time_batch(job: Job, loops: int) -> Batch:
+    """Run ``job`` ``loops`` times in C with the GIL released; time it.
+
+    The clock is ``CLOCK_MONOTONIC`` read just before and after the loop.
+    ``loops * job.tests_per_pass`` may be at most :data:`MAX_BATCH_TESTS`.
+    The loop looks for signals about every 0.1 s, so Ctrl-C stops a long
+    batch with ``KeyboardInterrupt`` (a short one never takes the GIL).
+    """
+    if not isinstance(job, Job):
+        raise UserTypeError(f"job must be a tribench.ext.Job (see make_job), got {type(job).__name__}")
+    if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)):
+        raise UserTypeError(f"loops must be an int, got {type(loops).__name__}")
+    if loops < 1:
+        raise UserError(f"loops must be at least 1, got {loops}")
+    if loops > MAX_BATCH_TESTS // job.tests_per_pass:
+        raise UserError(
+            f"loops={loops} x {job.tests_per_pass} tests per pass is more than {MAX_BATCH_TESTS:.0e} "
+            f"tests, a minute even at 0.1 ns per test; use at most "
+            f"{MAX_BATCH_TESTS // job.tests_per_pass} loops (the harness's batches take about 8 ms)"
+        )
+    p = job.prepared
+    elapsed, hits, tests, t_sum, uv_sum = _core.time(
+        job.kernel,
+        p.dtype.itemsize,
+        MODES.index(job.mode),
+        job.isa,
+        job.origins,
+        job.directions,
+        len(job.origins),
+        job.t_max,
+        p.records,
+        p.n_triangles,
+        int(loops),
+    )
+    return Batch(elapsed, int(loops), tests, hits, t_sum, uv_sum)
