@@ -94,6 +94,7 @@ def test_workloads_make_takes_accel_for_meshes_only(env):
 # ------------------------------------------------------------------ sweeps
 
 
+@pytest.mark.slow
 def test_a_sweep_with_a_bvh_workload_runs_its_native_kernels_through_the_bvh(tmp_path, env):
     out = tmp_path / "run"
     done = cli(
@@ -215,6 +216,7 @@ f 1 4 6
 """
 
 
+@pytest.mark.slow
 def test_peers_take_a_mesh_file_through_the_bvh(tmp_path, env):
     obj = tmp_path / "octahedron.obj"
     obj.write_text(OCTAHEDRON_OBJ)

@@ -161,6 +161,7 @@ def test_a_hostile_value_is_refused_up_front_naming_it(argv, names, hostile_cwd,
     assert after == before  # nothing written: no run folder that can never resume, no half file
 
 
+@pytest.mark.slow
 def test_the_issues_values_are_refused_by_the_installed_command(tmp_path):
     # as the issue found them: replaced silently, or a late failure, or a traceback
     (tmp_path / "afile").write_text("x\n")

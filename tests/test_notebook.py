@@ -36,6 +36,7 @@ def test_the_docstring_example_runs(fixture_run):
     assert runner.summarize(verbose=False).failed == 0
 
 
+@pytest.mark.slow
 def test_the_notebook_page_runs(fixture_run, tmp_path, monkeypatch, capsys):
     blocks = re.findall(r"```python\n(.*?)```", PAGE.read_text(encoding="utf-8"), re.S)
     assert len(blocks) == 3

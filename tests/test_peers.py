@@ -247,6 +247,7 @@ def test_tribench_run_goes_on_without_peers_or_when_they_fail(monkeypatch, capsy
     assert not (tmp_path / peers.PEERS).exists()
 
 
+@pytest.mark.slow
 @needs_a_peer
 def test_peers_into_an_analysed_run_folder_refresh_its_peer_tables(run_copy):
     import json

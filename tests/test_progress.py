@@ -35,6 +35,7 @@ def cli(tmp_path, *args, seconds: str | None = "0"):
     )
 
 
+@pytest.mark.slow
 def test_a_sweep_off_a_terminal_prints_plain_progress_lines(tmp_path):
     done = cli(tmp_path, "sweep", "--out", str(tmp_path / "run"), *TINY)
     assert done.returncode == 0, done.stderr
@@ -52,6 +53,7 @@ def test_a_sweep_off_a_terminal_prints_plain_progress_lines(tmp_path):
     assert expected and expected[0] < done.stderr.splitlines().index(lines[0])
 
 
+@pytest.mark.slow
 def test_no_progress_silences_the_plain_lines_too(tmp_path):
     done = cli(tmp_path, "sweep", "--out", str(tmp_path / "run"), *TINY, "--no-progress")
     assert done.returncode == 0, done.stderr
@@ -59,6 +61,7 @@ def test_no_progress_silences_the_plain_lines_too(tmp_path):
     assert "expected: about " in done.stderr  # the forecast is no progress report
 
 
+@pytest.mark.slow
 def test_validate_off_a_terminal_prints_plain_lines_per_kernel(tmp_path):
     out = tmp_path / "v.csv"
     args = ["validate", "--quick", "--kernels", "moller_trumbore,curless", "--dtype", "float64", "--out", str(out)]

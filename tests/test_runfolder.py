@@ -167,6 +167,7 @@ def test_two_resumes_after_a_kill_one_runs_the_other_is_refused(cache, tmp_path)
     assert runfolder.live_writer(out) is None  # released
 
 
+@pytest.mark.slow
 def test_a_second_writer_is_refused_while_the_first_lives_and_readers_are_not(run):
     with runfolder.writer_lock(run):
         assert (
@@ -209,6 +210,7 @@ def test_start_into_a_folder_another_start_is_writing_is_refused(run):
 # ------------------------------------------------------------ full disk
 
 
+@pytest.mark.slow
 def test_full_disk_mid_sweep_exits_2_with_the_resume_command_and_whole_lines(finished, cache, tmp_path):
     out = tmp_path / "run"
     args = [
@@ -248,6 +250,7 @@ def test_stats_on_a_full_disk_keeps_the_previous_tables(run):
     assert not [p for p in run.iterdir() if p.name.endswith(".tmp")]
 
 
+@pytest.mark.slow
 def test_report_on_a_full_disk_is_one_line_and_leaves_no_half_page(run):
     full = cli("report", str(run), "--quiet", limit_bytes=100)
     one_line_error(full, "cannot write")

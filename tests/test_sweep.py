@@ -54,6 +54,7 @@ def keys_of(run_dir):
     return runner.done_keys(run_dir)
 
 
+@pytest.mark.slow
 def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
     out = tmp_path / "run"
     done = cli("sweep", "--out", str(out), *TINY, env=env)
