@@ -30,9 +30,9 @@ link_flags = SANITIZE_FLAGS[:1] if os.environ.get("TRIBENCH_SANITIZE") == "1" el
 recorded = " ".join([sysconfig.get_config_var("CFLAGS") or ""] + compile_flags).strip()
 
 # The module's translation units (ext/core.h says what each holds), largest
-# first: the pool below starts them in this order, so the six files of loops
-# (about 95% of the work, of about one size) spread over the cores and the
-# small ones fill in at the end.
+# first: the pool below starts them in this order (setuptools hands them over
+# sorted by name), so the six files of loops (about 95% of the work, of about
+# one size) spread over the cores and the small ones fill in at the end.
 SOURCES = [
     *(f"ext/isa_{isa}_{p}.c" for isa in ("avx512", "avx2", "baseline") for p in ("f32", "f64")),
     "ext/registry.c",
@@ -46,8 +46,8 @@ if sorted(SOURCES) != sorted(f"ext/{f}" for f in os.listdir("ext") if f.endswith
 
 class ParallelBuildExt(build_ext):
     """build_ext that compiles an extension's sources concurrently, one compiler
-    process per core (setuptools compiles them one after another); the objects
-    are linked in the order of the sources, as before."""
+    process per core (setuptools compiles them one after another), started in
+    SOURCES order; the objects are linked in the order setuptools chose."""
 
     def build_extension(self, ext):
         compiler = self.compiler
@@ -56,9 +56,11 @@ class ParallelBuildExt(build_ext):
         def compile_all(sources, output_dir=None, **kwargs):
             for obj in compiler.object_filenames(sources, output_dir=output_dir):
                 compiler.mkpath(os.path.dirname(obj))  # before the threads: mkpath is not thread-safe
+            largest_first = sorted(sources, key=lambda s: SOURCES.index(s) if s in SOURCES else -1)
             with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
-                done = pool.map(lambda source: compile_one([source], output_dir=output_dir, **kwargs), sources)
-                return [obj for objects in done for obj in objects]
+                compiled = pool.map(lambda s: compile_one([s], output_dir=output_dir, **kwargs), largest_first)
+                objects = dict(zip(largest_first, compiled, strict=True))
+            return [obj for source in sources for obj in objects[source]]
 
         compiler.compile = compile_all
         try:
