@@ -39,8 +39,9 @@ Kernels (see ``kernel_names()``; each C file's header cites its paper):
 Internal kernels, for the harness's honesty checks (listed only by
 ``kernel_names(internal=True)``, accepted everywhere a kernel name is):
 
-* ``moller_trumbore_aa``: an identical copy of ``moller_trumbore`` under
-  another name (A/A calibration);
+* ``moller_trumbore_aa``, ``moller_seed_aa``: identical copies of
+  ``moller_trumbore`` and ``moller_seed`` under other names, each with code
+  of its own (A/A calibration; the main job's margin);
 * ``moller_trumbore_twice``: ``moller_trumbore`` doing every test twice (a
   known 2x effect);
 * ``moller_trumbore_yardstick``: a plain AVX2 intrinsics Moller-Trumbore

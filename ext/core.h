@@ -37,6 +37,14 @@
 
 /* shared between this module's files, invisible outside it */
 #define TB_HIDDEN __attribute__((visibility("hidden")))
+/* An A/A twin's entry points: GCC's identical-code folding (-fipa-icf, on at
+ * -O2) would make them jumps into the original's code, so the "twin" would be
+ * the same code at the same address. Clang folds nothing at -O3. */
+#if defined(__GNUC__) && !defined(__clang__)
+#define TB_NO_ICF __attribute__((no_icf))
+#else
+#define TB_NO_ICF
+#endif
 
 /* What a loop answers per ray: pairs (ray i against triangle i), any hit,
  * the closest hit's t, or the closest hit's t, u and v. */

@@ -140,6 +140,7 @@ typedef struct {
 #include "kernels/curless.h"
 #include "kernels/moller_trumbore.h"
 #include "kernels/moller_trumbore_aa.h"
+#include "kernels/moller_seed_aa.h"
 #include "kernels/moller_trumbore_cull.h"
 #include "kernels/baldwin_weber_12.h"
 #include "kernels/baldwin_weber_9.h"
@@ -332,7 +333,7 @@ stop:
  * run_<kernel> handles every mode (untimed: speed does not matter);
  * time_<kernel>_<mode> is one function per mode. */
 #define TB_SCALAR_ENTRY(name, fn_mode, mode, timed)                                         \
-    TB_HIDDEN void TB_FN(tb_##name##_##fn_mode)(tb_job *job)                                \
+    TB_HIDDEN TB_ENTRY_ATTR void TB_FN(tb_##name##_##fn_mode)(tb_job *job)                  \
     {                                                                                       \
         TB_FN(tb_scalar_loop)(TB_FN(tb_##name##_test), TB_FN(tb_##name##_ray),              \
                               tb_##name##_stride, job, mode, timed);                        \
@@ -348,8 +349,13 @@ stop:
 #define TB_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
     TB_IF_SCALAR(wide, TB_INSTANTIATE_(name)) /* a registration line (list.h) */
 #if TB_EMIT_SCALAR
+#define TB_ENTRY_ATTR
 TB_KERNEL_LIST(TB_INSTANTIATE)
+#undef TB_ENTRY_ATTR
+#define TB_ENTRY_ATTR TB_NO_ICF /* the A/A twins (list.h): code of their own */
 TB_INSTANTIATE_(moller_trumbore_aa)
+TB_INSTANTIATE_(moller_seed_aa)
+#undef TB_ENTRY_ATTR
 #endif
 #undef TB_INSTANTIATE
 #undef TB_INSTANTIATE_

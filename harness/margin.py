@@ -15,9 +15,14 @@ from pathlib import Path
 from tribench.common import UserError
 from tribench.stats import DEFAULTS, check_margin
 
-__all__ = ["CALIBRATION", "Margin", "latest_margin", "user_calibration_path"]
+__all__ = ["AA_TWINS", "CALIBRATION", "Margin", "latest_margin", "user_calibration_path"]
 
 CALIBRATION = "calibration.json"
+
+#: The kernels with an A/A twin (the same source compiled again under another
+#: name, ext/kernels/*_aa.h): ``tribench calibrate`` times the first pair, and the
+#: main job times its baseline's twin beside it (:mod:`tribench.analysis.margin`).
+AA_TWINS = {"moller_trumbore": "moller_trumbore_aa", "moller_seed": "moller_seed_aa"}
 
 
 _FIX = "run `tribench calibrate` again, or delete the file to use the default margin"

@@ -26,7 +26,7 @@ from typing import Any
 from tribench.common import UserError, write_text
 
 # reading the margin is below the runner, which uses it; calibrating is above it
-from tribench.harness.margin import CALIBRATION, Margin, latest_margin, user_calibration_path
+from tribench.harness.margin import AA_TWINS, CALIBRATION, Margin, latest_margin, user_calibration_path
 from tribench.harness.plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
 from tribench.stats import DEFAULTS, MAX_MARGIN, check_margin
 
@@ -42,7 +42,7 @@ __all__ = [
 ]
 
 #: Kernels that have an A/A copy, and its name.
-AA_COPIES = {"moller_trumbore": "moller_trumbore_aa"}
+AA_COPIES = AA_TWINS
 
 
 def _nan_to_none(value: Any) -> Any:

@@ -123,9 +123,10 @@ def test_the_declarations_say_what_the_readme_and_the_papers_say():
         "moller_trumbore_cull_fma",
     }
     assert {k for k, i in INFO.items() if i.watertight != "none"} == {"woop", "woop_x8", "woop_fma"}
-    assert {k for k, i in INFO.items() if i.seed_replay} == {"curless_seed", "moller_seed"}
+    assert {k for k, i in INFO.items() if i.seed_replay} == {"curless_seed", "moller_seed", "moller_seed_aa"}
     assert {k for k, i in INFO.items() if i.internal} == {
         "moller_trumbore_aa",
+        "moller_seed_aa",
         "moller_trumbore_twice",
         "moller_trumbore_yardstick",
     }

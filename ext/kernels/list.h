@@ -57,12 +57,14 @@
  * with the same columns (none has a wide form). They are compiled and callable
  * like any kernel but kept out of the user's list (tribench.ext.kernel_names()
  * leaves them out; kernel_names(internal=True) includes them).
- * moller_trumbore_aa is an A/A copy of moller_trumbore, moller_trumbore_twice
- * times every pass twice (a known 2x effect). Both are instantiated by name in
- * kernels.h. moller_trumbore_yardstick is the plain AVX2 intrinsics form
- * bench/yardstick.py times the kernels against. */
+ * moller_trumbore_aa is an A/A copy of moller_trumbore (tribench calibrate),
+ * moller_seed_aa one of moller_seed (the main job's own A/A margin),
+ * moller_trumbore_twice times every pass twice (a known 2x effect). The three
+ * are instantiated by name in kernels.h. moller_trumbore_yardstick is the plain
+ * AVX2 intrinsics form bench/yardstick.py times the kernels against. */
 #define TB_INTERNAL_KERNEL_LIST(X)                                                           \
     X(moller_trumbore_aa,    TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
+    X(moller_seed_aa,        TB_BOTH_FACES, TB_OPEN, "", TB_SEED_REPLAY, TB_SCALAR_ONLY)     \
     X(moller_trumbore_twice, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
     X(moller_trumbore_yardstick, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_NATIVE_AVX2)
 

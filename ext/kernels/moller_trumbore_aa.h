@@ -5,8 +5,10 @@
  * as a separate function with its own code layout, so any difference the
  * harness measures between the two is noise (layout, alignment, drift) and
  * sets the equivalence margin. The source is included again with its test
- * renamed, which defines a new function (not an alias: the built module has
- * the two at different addresses). See moller_trumbore.h for the algorithm. */
+ * renamed, which defines a new function; TB_NO_ICF (core.h) keeps GCC from
+ * folding it back into moller_trumbore's (before it did, the twin's entry
+ * points were jumps into the original's code). See moller_trumbore.h for the
+ * algorithm. */
 
 #define tb_moller_trumbore_test tb_moller_trumbore_aa_test
 #include "moller_trumbore.h"
