@@ -50,6 +50,7 @@ from tribench.harness.margin import Margin
 from tribench.harness.plan import DEFAULT_BASELINE
 
 from . import measured
+from .margin import TWINS, contenders, twin_margin
 from .measured import Measured, file_digest
 
 __all__ = [
@@ -132,10 +133,12 @@ def estimate(m: Measured, baseline: str | None = None, margin: float | None = No
         baseline = DEFAULT_BASELINE if DEFAULT_BASELINE in kernels else kernels[0]
     elif baseline not in kernels:
         raise UserError(f"baseline {baseline!r} is not in this run; its kernels: {', '.join(kernels)}")
-    mg = Margin(margin, "--margin") if margin is not None else Margin(run["margin"]["value"], run["margin"]["source"])
     names = {wid: _summary(spec) for wid, spec in m.specs.items()}
-
     table = stats.per_process(batches)
+    # --margin, else the run's own A/A twin, else what run.json recorded (a calibration's or the default)
+    mg = Margin(margin, "--margin") if margin is not None else twin_margin(table, baseline)
+    if mg is None:
+        mg = Margin(run["margin"]["value"], run["margin"]["source"])
     estimates = stats.estimate_table(table).rename(columns=ESTIMATE_COLUMNS)
     estimates["workload"] = estimates["workload_id"].map(names)
     dtypes = {wid: spec["dtype"] for wid, spec in m.specs.items()}
@@ -364,8 +367,11 @@ def derive(
     wl = workload_tables.workload_table(specs, wids, workloads, sources)
     est = workload_tables.estimates_with_workloads(result.estimates, wl)
     spd = result.speedups.merge(wl.drop(columns=["dtype"]), on="workload_id", how="left", suffixes=("", "_wl"))
-    pp = stats.per_process(batches)
+    measured_pp = stats.per_process(batches)
     labels = diagnostics.batch_labels(batches)
+    # the A/A twin measured the margin (margin.py): the diagnostics keep it, no ranking does
+    est, spd, pp = contenders(est), contenders(spd), contenders(measured_pp)
+    ranked = [k for k in kernels if k not in TWINS]
     rank = ranking.ranking_table(est, spd, pp, margin)
     tables = {
         runfolder.ESTIMATES: result.estimates,
@@ -373,20 +379,20 @@ def derive(
         runfolder.WORKLOADS: wl,
         runfolder.WORKLOAD_FIGURES: workload_tables.workload_figures(wids, workloads),
         runfolder.CORRECTNESS: workload_tables.correctness_table(batches, kernels, workloads),
-        runfolder.PER_PROCESS: pp,
+        runfolder.PER_PROCESS: measured_pp,
         runfolder.BATCH_LABELS: labels,
-        runfolder.CROSSOVERS: scaling.crossovers(kernels, wl, pp),
+        runfolder.CROSSOVERS: scaling.crossovers(ranked, wl, pp),
         runfolder.SLOPES: scaling.scaling_slopes(est, pp),
         runfolder.DRIFT: diagnostics.drift_table(batches, kernels, base, wids, wl),
         runfolder.VARIANCE: diagnostics.variance_table(batches, kernels, wids, wl),
         runfolder.OUTLIERS: diagnostics.outlier_table(labels, wl),
         runfolder.WARMUP: diagnostics.warmup_table(labels, wl),
-        runfolder.KERNELS: ranking.kernel_table(kernels, batches, m.run, est, spd, base),
+        runfolder.KERNELS: ranking.kernel_table(ranked, batches, m.run, est, spd, base),
         runfolder.RANKING: rank,
         runfolder.ALGORITHMS: ranking.algorithm_table(rank, pp, margin),
         # each kernel's robustness beside its speed
         runfolder.BANDS: ranking.band_table(est, pp, specs, base, margin, m.validate),
-        runfolder.BVH: bvh.bvh_table(batches, m.traversals, wl, specs, pp, kernels, base, margin),
+        runfolder.BVH: bvh.bvh_table(batches, m.traversals, wl, specs, pp, ranked, base, margin),
     }
     for name, frame in tables.items():
         if list(frame.columns) != list(runfolder.FILES[name]):  # a bug: the table and the contract disagree

@@ -209,7 +209,8 @@ def load(run_dir: str | Path) -> Results:
     from tribench.reports.rundata import load_run
 
     data = load_run(_path(run_dir, "run_dir"))
-    return Results(data.run_dir, data.estimates, data.speedups, data.tables)
+    # the files as they are, the baseline's A/A twin included (the report leaves it out)
+    return Results(data.run_dir, data.tables["estimates.csv"], data.tables["speedups.csv"], data.tables)
 
 
 def compare(*run_dirs: str | Path) -> MultiComparison:

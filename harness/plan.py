@@ -55,6 +55,7 @@ from typing import Any
 import numpy as np
 
 from tribench.common import UserError, read_user_text
+from tribench.harness.margin import AA_TWINS
 from tribench.workloads.kinds import spec_from_dict
 from tribench.workloads.spec import MeshSpec, Spec, workload_id
 
@@ -403,7 +404,9 @@ def default_sweep(quick: bool = False) -> Sweep:
 
     Every algorithm in its best form, with the seed's two replays
     (``curless_seed``, ``moller_seed``) as the historical baseline, in
-    float32 and float64 (:func:`main_job_kernels` picks them from the registry):
+    float32 and float64 (:func:`main_job_kernels` picks them from the registry),
+    and the baseline's A/A twin (``moller_seed_aa``) wherever the baseline runs,
+    which gives the run its own equivalence margin (:mod:`tribench.analysis.margin`):
 
     * pairs at per-test hit rates 0, 25, 50, 75 and 100% (4096 pairs: in L2 at
       either precision, so they show the algorithms, not the memory): the seed's
@@ -430,6 +433,8 @@ def default_sweep(quick: bool = False) -> Sweep:
 
     roles = main_job_kernels()
     seed, scalar, native = roles["seed"], roles["scalar"], roles["native"]
+    # the baseline's A/A twin, timed wherever the baseline is: the run's own margin (analysis/margin.py)
+    seed = (*seed, AA_TWINS[DEFAULT_BASELINE])
     kernels = (*seed, *scalar, *native)
     if quick:
         pairs = [PairSpec(n=1024, hit_rate=h, dtype="float32") for h in (0.0, 0.5, 1.0)]

@@ -23,6 +23,7 @@ from typing import Any
 
 import pandas as pd
 
+from tribench.analysis.margin import TWINS, contenders
 from tribench.common import UserError
 from tribench.harness import runfolder
 from tribench.workloads.labels import family_of, short_label, spec_text
@@ -70,8 +71,8 @@ class RunData:
 
     @property
     def kernels(self) -> list[str]:
-        """Kernels of the run that have timed batches, in sweep order."""
-        present = set(self.batches["kernel"])
+        """Kernels of the run that have timed batches, in sweep order; no A/A twin (a measuring instrument)."""
+        present = set(self.batches["kernel"]) - TWINS
         return [k for k in self.run["sweep"]["kernels"] if k in present]
 
     @property
@@ -176,7 +177,8 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
     for name in (runfolder.ESTIMATES, runfolder.SPEEDUPS):
         if name not in tables:
             raise RunError(f"{run_dir / runfolder.ANALYSIS} lists no {name}: {_stats_hint(run_dir)}")
-    estimates, speedups = tables[runfolder.ESTIMATES], tables[runfolder.SPEEDUPS]
+    # an A/A twin measured the margin (its sentence says so): the report shows contenders only
+    estimates, speedups = (contenders(tables[name]) for name in (runfolder.ESTIMATES, runfolder.SPEEDUPS))
     margin = record.get("margin") or {}
     specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
     return RunData(

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 
 import pandas as pd
 import pytest
 
+from tribench import analysis
 from tribench.harness import plan, runfolder
 from tribench.harness.plan import Sweep
 from tribench.studies import main as main_job
@@ -101,14 +103,19 @@ def test_the_default_sweep_ranks_every_algorithm_in_its_best_form_against_the_se
     for spec in s.workloads:
         kind = "bvh" if getattr(spec, "accel", "brute") == "bvh" else spec.kind
         by_kind.setdefault(kind, []).append((spec, set(s.kernels_for(spec))))
+    # the baseline's A/A twin wherever the baseline runs (the run's own margin), nowhere else
+    for spec in s.workloads:
+        assert ("moller_seed_aa" in s.kernels_for(spec)) == ("moller_seed" in s.kernels_for(spec))
+    seed_and_twin = seed | {"moller_seed_aa"}
     # pairs: the seed's two and every scalar form, so every algorithm, at several hit rates
     for _, kernels in by_kind["pairs"]:
+        kernels -= {"moller_seed_aa"}
         assert seed < kernels and {info[k].algorithm for k in kernels} == {i.algorithm for i in info.values()}
     assert len({spec.hit_rate for spec, _ in by_kind["pairs"]}) >= 3
     # brute-force meshes: the seed's two and every native form, in both precisions
     assert {spec.dtype for spec, _ in by_kind["mesh"]} == {"float32", "float64"}
     for _, kernels in by_kind["mesh"]:
-        assert kernels == seed | native
+        assert kernels == seed_and_twin | native
     assert {info[k].algorithm for k in native} == {i.algorithm for k, i in info.items() if not i.seed_replay}
     # one BVH workload, camera rays, float32, every native form as its leaf test
     ((bvh, kernels),) = by_kind["bvh"]
@@ -116,7 +123,7 @@ def test_the_default_sweep_ranks_every_algorithm_in_its_best_form_against_the_se
     assert bvh.triangles >= (10_000 if quick else 250_000)
     assert s.sequential is not None and s.sequential.budget_s <= (15 if quick else 300)
     # every public kernel but the 8-lane forms (between an algorithm's scalar and native forms, never its best)
-    assert set(s.kernels) == {k for k, i in info.items() if i.scalar_form is None}
+    assert set(s.kernels) == {k for k, i in info.items() if i.scalar_form is None} | {"moller_seed_aa"}
 
 
 def test_an_interrupted_main_job_resumes_to_the_end(tmp_path, monkeypatch):
@@ -168,3 +175,27 @@ def test_run_resume_is_refused_in_one_line_where_it_cannot_apply(tmp_path):
             timeout=60,
         )
         assert done.returncode == 2 and said in done.stderr and "Traceback" not in done.stderr, done.stderr
+
+
+def test_the_baselines_a_a_twin_sets_the_margin_and_is_ranked_nowhere(tmp_path, monkeypatch):
+    from tribench import reports
+    from tribench.analysis import margin as twin
+
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    sweep = dataclasses.replace(TINY, kernels=(*TINY.kernels, "moller_seed_aa"), processes=3)
+    with monkeypatch.context() as mp:
+        mp.setattr(plan, "default_sweep", lambda quick=False: sweep)
+        done = main_job.run(tmp_path / "run", quick=True, progress=False, peers=False, log=io.StringIO())
+    # the twin is measured beside the baseline, and its A/A speedups are the margin
+    assert "moller_seed_aa" in set(done.estimates["kernel"]) and "moller_seed_aa" in set(done.speedups["kernel"])
+    expected = twin.twin_margin(done.tables[runfolder.PER_PROCESS], "moller_seed")
+    assert expected is not None and expected.source.startswith("A/A twin in this run")
+    assert (done.speedups["margin"] == expected.value).all()
+    assert (done.speedups["margin_source"] == expected.source).all()
+    # no ranking, kernel table or report row names it
+    for name in (runfolder.RANKING, runfolder.BANDS, runfolder.ALGORITHMS, runfolder.KERNELS):
+        assert "moller_seed_aa" not in set(done.tables[name].get("kernel", ())), name
+    data = reports.load(done.run_dir)
+    assert "moller_seed_aa" not in data.kernels and "moller_seed_aa" not in set(data.estimates["kernel"])
+    # --margin still wins
+    assert analysis.analyse(done.run_dir, margin=0.05).margin.source == "--margin"
