@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from ._core import _GROUP, _bca_interval, _check_confidence, _t_interval, _timed, _vector
+from ._core import _GROUP, _bca_interval, _check_confidence, _log_interval, _t_interval, _timed, _vector
 from .defaults import DEFAULTS
 
 
@@ -53,7 +53,8 @@ class Estimate:
     mean : float
         Mean across processes.
     ci_low, ci_high : float
-        Student-t interval of the mean (the primary interval).
+        Student-t interval of the mean on the log scale (the primary
+        interval): always positive, as a time is.
     bootstrap_low, bootstrap_high : float
         BCa bootstrap interval over processes, a cross-check; nan when the
         data are too few (< 3) or all equal.
@@ -104,7 +105,7 @@ def estimate(
     --------
     >>> e = estimate([1.0, 2.0, 3.0, 4.0, 5.0])
     >>> e.mean, round(e.ci_low, 4), round(e.ci_high, 4), e.minimum, e.n
-    (3.0, 1.0368, 4.9632, 1.0, 5)
+    (3.0, 1.5592, 5.772, 1.0, 5)
     >>> e.bootstrap_low < 3.0 < e.bootstrap_high
     True
     >>> estimate([2.0, 2.0, 2.0]).bootstrap_low  # degenerate: no interval
@@ -112,7 +113,7 @@ def estimate(
     """
     _check_confidence(confidence)
     x = _vector(values, "values")
-    mean, low, high, _ = _t_interval(x, confidence)
+    mean, low, high = _log_interval(x, confidence)
     boot_low, boot_high = _bca_interval(x, confidence, n_resamples, seed)
     sd = float(np.std(x, ddof=1)) if x.size > 1 else math.nan
     return Estimate(mean, low, high, boot_low, boot_high, float(x.min()), sd, x.size, confidence)

@@ -158,7 +158,10 @@ def test_per_render_arithmetic_by_hand():
     a = table.set_index("kernel").loc["A"]
     mean, half = 34_000e-9, sps.t.ppf(0.975, 1) * np.std([28_000e-9, 40_000e-9], ddof=1) / math.sqrt(2)
     assert a["render_s"] == pytest.approx(mean)
-    assert (a["render_s_ci_low"], a["render_s_ci_high"]) == pytest.approx((mean - half, mean + half))
+    relative = half / mean  # a time's interval is on the log scale
+    assert (a["render_s_ci_low"], a["render_s_ci_high"]) == pytest.approx(
+        (mean * math.exp(-relative), mean * math.exp(relative))
+    )
     d = np.log([28_000 / 14_000, 40_000 / 16_000])  # paired per process
     half = sps.t.ppf(0.975, 1) * d.std(ddof=1) / math.sqrt(2)
     assert a["ratio_to_moller_seed"] == pytest.approx(math.exp(d.mean()))

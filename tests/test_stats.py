@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import stats as scipy_stats
 
 from tribench import stats
 
@@ -172,12 +173,13 @@ def test_per_process_agrees_with_the_numpy_shortcut_of_the_simulation():
 
 
 def test_estimate_t_interval_by_hand():
-    # mean 3, sd sqrt(2.5), se sqrt(0.5); t(0.975, 4) = 2.7764 from a printed table.
+    # mean 3, sd sqrt(2.5), se sqrt(0.5); t(0.975, 4) = 2.7764 from a printed table; on the log
+    # scale the half-width is t se / mean
     e = stats.estimate([1.0, 2.0, 3.0, 4.0, 5.0])
-    half = 2.7764 * math.sqrt(0.5)
+    half = 2.7764 * math.sqrt(0.5) / 3.0
     assert e.mean == 3.0
-    assert e.ci_low == pytest.approx(3.0 - half, abs=1e-4)
-    assert e.ci_high == pytest.approx(3.0 + half, abs=1e-4)
+    assert e.ci_low == pytest.approx(3.0 * math.exp(-half), abs=1e-4)
+    assert e.ci_high == pytest.approx(3.0 * math.exp(half), abs=1e-4)
     assert e.sd == pytest.approx(math.sqrt(2.5))
     assert (e.minimum, e.n, e.confidence) == (1.0, 5, 0.95)
 
@@ -197,6 +199,17 @@ def test_estimate_bootstrap_agrees_with_t_and_is_reproducible():
     assert abs(e.bootstrap_high - e.ci_high) < 0.15 * width
     assert stats.estimate(values) == e  # seeded
     assert stats.estimate(values, seed=1).bootstrap_low != e.bootstrap_low
+
+
+def test_a_time_s_interval_stays_positive_however_few_and_spread_its_processes():
+    # two processes far apart: a plain t-interval would read 6.2 [-18.4, 30.7] ns
+    e = stats.estimate([3.153, 9.153])
+    assert 0 < e.ci_low < e.mean < e.ci_high
+    assert e.ci_high / e.mean == pytest.approx(e.mean / e.ci_low)  # symmetric on the log scale
+    tight = np.random.default_rng(4).normal(10.0, 0.1, 12)  # 1% spread: the plain t-interval to first order
+    t = stats.estimate(tight)
+    half = scipy_stats.t.ppf(0.975, 11) * np.std(tight, ddof=1) / math.sqrt(12)
+    assert (t.ci_low, t.ci_high) == pytest.approx((t.mean - half, t.mean + half), rel=1e-4)
 
 
 @pytest.mark.parametrize("values", [[2.0, 2.0, 2.0, 2.0], [1.0, 2.0], [5.0]])
@@ -589,15 +602,22 @@ def test_pilot_to_design_on_simulated_batches():
 HIT_RATES = np.array([0.1, 0.3, 0.5, 0.7, 0.9])
 
 
+def plain_t_interval(values) -> tuple[float, float, float]:
+    """Mean and 95% Student-t interval, by hand (a slope or a root may be negative, unlike a time)."""
+    x = np.asarray(values, dtype=float)
+    half = scipy_stats.t.ppf(0.975, x.size - 1) * np.std(x, ddof=1) / math.sqrt(x.size)
+    return float(x.mean()), float(x.mean() - half), float(x.mean() + half)
+
+
 def test_crossover_reduces_to_root_t_interval_when_slopes_are_equal():
     # Equal slopes: Fieller's interval is the t-interval of per-process roots.
     shifts = np.array([0.02, -0.01, 0.03, 0.0, -0.02, 0.01])
     lines = -2.0 * (HIT_RATES[None, :] - 0.45) + shifts[:, None]
     c = stats.crossover(HIT_RATES, lines)
     roots = 0.45 + shifts / 2.0
-    by_roots = stats.estimate(roots)
-    assert c.hit_rate == pytest.approx(by_roots.mean)
-    assert (c.ci_low, c.ci_high) == pytest.approx((by_roots.ci_low, by_roots.ci_high))
+    mean, low, high = plain_t_interval(roots)
+    assert c.hit_rate == pytest.approx(mean)
+    assert (c.ci_low, c.ci_high) == pytest.approx((low, high))
     assert (c.slope, c.n) == (pytest.approx(-2.0), 6)
 
 
@@ -646,8 +666,7 @@ def test_scaling_slope_matches_per_process_regressions():
     cost = 2.0 * sizes**0.3 * rng.lognormal(0, 0.05, (12, 7)) * rng.lognormal(0, 0.1, (12, 1))
     s = stats.scaling_slope(sizes, cost)
     slopes = [linregress(np.log(sizes), np.log(row)).slope for row in cost]
-    by_hand = stats.estimate(slopes)
-    assert (s.slope, s.ci_low, s.ci_high) == pytest.approx((by_hand.mean, by_hand.ci_low, by_hand.ci_high))
+    assert (s.slope, s.ci_low, s.ci_high) == pytest.approx(plain_t_interval(slopes))
     assert s.ci_low <= 0.3 <= s.ci_high
 
 

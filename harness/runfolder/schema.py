@@ -151,7 +151,7 @@ _ESTIMATES: dict[str, str] = {
     "kernel": "kernel name",
     "workload_id": "workload identifier",
     "ns_per_test": "ns per ray-triangle test: mean over processes of each process's median",
-    "ns_per_test_ci_low": "lower end of the Student-t confidence interval of ns_per_test",
+    "ns_per_test_ci_low": "lower end of the Student-t confidence interval of ns_per_test, on the log scale (always positive)",
     "ns_per_test_ci_high": "upper end of the Student-t confidence interval of ns_per_test",
     "ns_per_test_bootstrap_low": "lower end of the BCa bootstrap interval over processes (cross-check), ns",
     "ns_per_test_bootstrap_high": "upper end of the BCa bootstrap interval over processes, ns",
@@ -409,7 +409,7 @@ _BANDS: dict[str, str] = {
         "per process the geometric mean over the band's workloads of its median ns per test, then the mean "
         "over processes"
     ),
-    "ns_per_test_ci_low": "lower end of its 95% Student-t interval over processes",
+    "ns_per_test_ci_low": "lower end of its 95% Student-t interval over processes, on the log scale",
     "ns_per_test_ci_high": "upper end of that interval",
     "vs_fastest": "time_kernel / time_fastest on those per-process values, paired (1 for the fastest); unitless",
     "vs_fastest_ci_low": "lower end of its simultaneous interval (Bonferroni over the band's other kernels)",

@@ -17,7 +17,7 @@ _SEED: dict[str, str] = {
     "triangles": "triangles of the scene",
     "render_tests": "ray-triangle tests of one render (all ray kinds; shadow rays stop at the first occluder)",
     "render_s": "replayed time of one render's triangle tests, seconds: mean over processes",
-    "render_s_ci_low": "lower end of its 95% Student-t interval over processes, seconds",
+    "render_s_ci_low": "lower end of its 95% Student-t interval over processes on the log scale, seconds",
     "render_s_ci_high": "upper end of that interval, seconds",
     "render_s_min": "smallest per-process value, seconds",
     "replay_ns_per_test": "render_s / render_tests, nanoseconds",
