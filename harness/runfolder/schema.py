@@ -151,7 +151,7 @@ _ESTIMATES: dict[str, str] = {
     "kernel": "kernel name",
     "workload_id": "workload identifier",
     "ns_per_test": "ns per ray-triangle test: mean over processes of each process's median",
-    "ns_per_test_ci_low": "lower end of the Student-t confidence interval of ns_per_test, on the log scale (always positive)",
+    "ns_per_test_ci_low": "lower end of the log-scale Student-t interval of ns_per_test (always positive)",
     "ns_per_test_ci_high": "upper end of the Student-t confidence interval of ns_per_test",
     "ns_per_test_bootstrap_low": "lower end of the BCa bootstrap interval over processes (cross-check), ns",
     "ns_per_test_bootstrap_high": "upper end of the BCa bootstrap interval over processes, ns",
