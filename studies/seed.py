@@ -246,15 +246,18 @@ def _workloads(
 ) -> tuple[list, dict[str, dict[str, Any]]]:
     """Every scene's ray streams as workloads (traced the first time, then cached), and what each is:
     its scene's label, the paper's scene it replays, its ray kind and its stream's figures."""
+    from tribench.harness.runner import about
     from tribench.workloads import cache
-    from tribench.workloads.seed_workload import RAY_KINDS, EmptyStream, SeedSpec
+    from tribench.workloads.seed_workload import RAY_KINDS, EmptyStream, SeedSpec, trace_forecast
     from tribench.workloads.spec import workload_id
 
     specs: list = []
     info: dict[str, dict[str, Any]] = {}
     for scene in resolved:
-        for rays in RAY_KINDS:
-            spec = SeedSpec(scene, rays, sample=sample, width=size, height=size)
+        kinds = [SeedSpec(scene, rays, sample=sample, width=size, height=size) for rays in RAY_KINDS]
+        if not any(cache.cached(spec) for spec in kinds):  # one trace makes them all: said (or refused) first
+            print(f"tracing {labels[scene]}: expected about {about(trace_forecast(kinds[0]))}", file=log)
+        for spec in kinds:
             print(f"workload: {spec.summary()}", file=log)
             try:
                 w = cache.make(spec)  # the first time, traces the scene (seconds at 512 x 512)
@@ -266,7 +269,7 @@ def _workloads(
             info[workload_id(spec)] = {
                 "scene": labels[scene],
                 "paper": scene if scene in PAPER else None,
-                "rays": rays,
+                "rays": spec.rays,
                 "mode": spec.mode,
                 **{k: a[k] for k in (*_STREAM_FIGURES, "miss_mix")},
             }

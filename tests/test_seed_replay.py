@@ -186,6 +186,7 @@ def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, cap
     captured = capsys.readouterr()
     printed = captured.out
     assert "expected: about " in captured.err  # the seed states its duration before it starts
+    assert captured.err.index("tracing tiny: expected about ") < captured.err.index("workload: ")
     assert " in all; for the sweep: about " in captured.err and "then the pictures and tables about" in captured.err
     assert f"report: {out / 'seed.html'}" in printed and "Curless / Moller: replay" in printed
     for name in (
@@ -221,6 +222,29 @@ def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, cap
         "Kernels: the seed's two, their clean scalar forms",
     ):
         assert escape(words) in page, words
+
+
+def test_a_scene_past_the_triangle_bound_is_refused_before_it_is_parsed(cache_dir, tmp_path, capsys):
+    from tribench.workloads import seed_scene
+
+    scene = tmp_path / "huge.txt"
+    # one more triangle line than the bound; only the last is malformed, so parsing would say so instead
+    line = "tri -1 -1 -2  0 1 -2.5  0 -1 -3\n"
+    scene.write_text("source 0 3 1 1 1 1\n" + line * seed_scene.MAX_TRIANGLES + "tri 1 2\n")
+    assert main(["seed", "--quick", "--scene", str(scene), "--out", str(tmp_path / "run")]) == 2  # a usage error
+    err = capsys.readouterr().err.strip()
+    assert f"{seed_scene.MAX_TRIANGLES + 1:,} triangles, more than the {seed_scene.MAX_TRIANGLES:,}" in err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err and not (tmp_path / "run").exists()
+
+
+def test_a_trace_forecast_past_the_bound_is_refused_before_the_trace(cache_dir, tmp_path, capsys, monkeypatch):
+    scene = tmp_path / "tiny.txt"
+    scene.write_text(TINY)
+    monkeypatch.setattr(sw, "MAX_TRACE_S", 1e-9)  # every trace is then too long
+    rc = main(["seed", "--quick", "--scene", str(scene), "--out", str(tmp_path / "run"), "--size", "16"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "scene tiny: tracing its 16x16 render should take about" in err and "Traceback" not in err
+    assert "workload: " not in err and not list(cache_dir.glob("**/*.npz"))  # nothing traced, nothing cached
 
 
 def test_the_default_kernels_are_the_seeds_and_the_widest_form_of_every_two_sided_algorithm():

@@ -207,6 +207,11 @@ def make(spec: Spec) -> Workload:
         return _build(spec, path, e)
 
 
+def cached(spec: Spec) -> bool:
+    """Whether a file is cached under ``spec``'s id (valid or not: :func:`make` checks)."""
+    return _path(workload_id(spec)).exists()
+
+
 def load(wid: str) -> Workload:
     """A cached workload by id (rebuilt from its stored spec if the file is invalid).
 

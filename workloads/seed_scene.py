@@ -35,7 +35,8 @@ tabs, blank lines and Windows line ends are fine. Anything else raises
 
 Values are checked too: a sphere's radius must be positive, a plane's normal
 (a, b, c) non-zero, a triangle non-degenerate (the seed would divide by its
-zero normal), colours, intensities and coefficients non-negative.
+zero normal), colours, intensities and coefficients non-negative. A scene
+holds at most :data:`MAX_TRIANGLES` triangles, counted before parsing.
 
 Built-in scenes (:data:`BUILTIN_SCENES`) live in ``workloads/data`` as text in
 this format; ``scene03.txt`` is generated from ``suzanne.obj`` by
@@ -315,6 +316,12 @@ class _SceneReader:
         )
 
 
+#: The most triangles a scene may hold (the main job's largest mesh): the seed replay traces brute force,
+#: as the seed's renderer does, so a larger scene takes hours (docs/decisions.md, "The seed replay's design").
+MAX_TRIANGLES = 250_000
+_TRIANGLE_LINE = re.compile(r"^[ \t]*tri[ \t]", re.MULTILINE | re.IGNORECASE)
+
+
 def parse_scene(text: str, name: str = "<string>") -> Scene:
     """Read a scene from the text of a scene file.
 
@@ -340,6 +347,12 @@ def parse_scene(text: str, name: str = "<string>") -> Scene:
     """
     if text.startswith("\ufeff"):
         text = text[1:]
+    triangles = sum(1 for _ in _TRIANGLE_LINE.finditer(text))  # counted before parsing: millions take minutes
+    if triangles > MAX_TRIANGLES:
+        raise SceneError(
+            f"{name}: {triangles:,} triangles, more than the {MAX_TRIANGLES:,} a seed scene may hold "
+            "(the seed's renderer tests every triangle for every ray)"
+        )
     reader = _SceneReader()
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = _read_line(raw, f"{name}:{lineno}")

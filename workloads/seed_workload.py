@@ -69,6 +69,7 @@ from __future__ import annotations
 
 import functools
 import math
+import time
 from typing import Any
 
 import numpy as np
@@ -90,6 +91,7 @@ __all__ = [
     "generate_seed_workload",
     "stream_indices",
     "stream_trace",
+    "trace_forecast",
 ]
 
 #: Kernel and precision that trace the stream (see the module docstring).
@@ -122,6 +124,40 @@ def _trace(scene: str, sha256: str, width: int, height: int):
 def stream_trace(spec: SeedSpec):
     """The render whose rays ``spec`` samples (memoised: the three kinds of a scene share it)."""
     return _trace(spec.scene, spec.scene_identity()["scene_sha256"], spec.width, spec.height)
+
+
+#: Sides of the small renders whose times forecast a full one's: a trace's cost is a fixed part plus a
+#: part linear in its pixels, so two sizes give both.
+FORECAST_SIDES = (32, 64)
+#: A trace forecast to take longer than this is refused before it starts.
+MAX_TRACE_S = 3600.0
+
+
+def trace_forecast(spec: SeedSpec) -> float:
+    """Seconds the render ``spec`` samples should take to trace, from timed small renders of its scene.
+
+    Raises UserError, stating the bound, when that is more than :data:`MAX_TRACE_S`.
+    """
+    from .seed_trace import trace
+
+    kernel, dtype = STREAM_KERNEL
+    scene = load_scene(spec.scene)
+    trace(scene, kernel, dtype, 4, 4)  # the first trace of a process pays for imports and first calls
+    pixels, seconds = [], []
+    for side in FORECAST_SIDES:
+        start = time.perf_counter()
+        trace(scene, kernel, dtype, side, side)
+        pixels.append(side * side)
+        seconds.append(time.perf_counter() - start)
+    per_pixel = max((seconds[1] - seconds[0]) / (pixels[1] - pixels[0]), seconds[1] / pixels[1] / 2)
+    forecast = seconds[1] + per_pixel * max(0, spec.width * spec.height - pixels[1])
+    if forecast > MAX_TRACE_S:
+        raise UserError(
+            f"scene {spec.scene_label}: tracing its {spec.width}x{spec.height} render should take about "
+            f"{forecast / 60:.0f} minutes, more than the {MAX_TRACE_S / 60:.0f} the seed replay allows "
+            "(it traces brute force, as the seed's program does): give a scene with fewer triangles"
+        )
+    return forecast
 
 
 def stream_indices(tr, rays: str) -> np.ndarray:
