@@ -42,6 +42,8 @@ Internal kernels, for the harness's honesty checks (listed only by
 * ``moller_trumbore_aa``, ``moller_seed_aa``: identical copies of
   ``moller_trumbore`` and ``moller_seed`` under other names, each with code
   of its own (A/A calibration; the main job's margin);
+* ``moller_trumbore_same``: ``moller_trumbore``'s own code under another
+  name (a cost ratio of exactly 1, for checking the intervals);
 * ``moller_trumbore_twice``: ``moller_trumbore`` doing every test twice (a
   known 2x effect);
 * ``moller_trumbore_yardstick``: a plain AVX2 intrinsics Moller-Trumbore

@@ -360,6 +360,7 @@ TB_INSTANTIATE_(moller_seed_aa)
 #undef TB_INSTANTIATE
 #undef TB_INSTANTIATE_
 #include "kernels/moller_trumbore_twice.h" /* its own entry points, from moller_trumbore's */
+#include "kernels/moller_trumbore_same.h"  /* the same */
 
 /* Entry points of one wide kernel for one ISA: the same source compiled
  * for each instruction set by a target attribute (the kernels and helpers

@@ -18,11 +18,12 @@ from tribench.studies import calibrate as calibration
 from tribench.workloads import cache, front, reference
 from tribench.workloads.spec import MeshSpec, PairSpec, workload_id
 
-INTERNAL = ("moller_trumbore_aa", "moller_seed_aa", "moller_trumbore_twice")
+INTERNAL = ("moller_trumbore_aa", "moller_seed_aa", "moller_trumbore_same", "moller_trumbore_twice")
 #: the kernel each internal kernel copies
 ORIGINAL = {
     "moller_trumbore_aa": "moller_trumbore",
     "moller_seed_aa": "moller_seed",
+    "moller_trumbore_same": "moller_trumbore",
     "moller_trumbore_twice": "moller_trumbore",
 }
 
@@ -279,6 +280,21 @@ def test_an_aa_twin_has_code_of_its_own(twin):
     if not body:
         pytest.skip(f"{name} is not in the module's symbol table (a stripped build)")
     assert len(body) > 20 and "jmp" not in body[0], "\n".join(body[:5])
+
+
+@pytest.mark.skipif(shutil.which("objdump") is None, reason="needs binutils' objdump")
+def test_the_same_code_kernel_runs_the_originals_loop():
+    # its true ratio is exactly 1 only if its timed loop is moller_trumbore's own
+    name = "tb_moller_trumbore_same_time_closest_f32"
+    text = subprocess.run(
+        ["objdump", "-d", "--no-show-raw-insn", f"--disassemble={name}", ext._core.__file__],
+        capture_output=True,
+        text=True,
+    ).stdout
+    body = [line for line in text.splitlines() if line.startswith(" ") and ":" in line]
+    if not body:
+        pytest.skip(f"{name} is not in the module's symbol table (a stripped build)")
+    assert len(body) < 8 and "<tb_moller_trumbore_time_closest_f32>" in text, "\n".join(body)
 
 
 # -------------------------------------------------------------- FMA probe

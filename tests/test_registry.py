@@ -127,6 +127,7 @@ def test_the_declarations_say_what_the_readme_and_the_papers_say():
     assert {k for k, i in INFO.items() if i.internal} == {
         "moller_trumbore_aa",
         "moller_seed_aa",
+        "moller_trumbore_same",
         "moller_trumbore_twice",
         "moller_trumbore_yardstick",
     }

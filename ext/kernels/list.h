@@ -59,12 +59,14 @@
  * leaves them out; kernel_names(internal=True) includes them).
  * moller_trumbore_aa is an A/A copy of moller_trumbore (tribench calibrate),
  * moller_seed_aa one of moller_seed (the main job's own A/A margin),
- * moller_trumbore_twice times every pass twice (a known 2x effect). The three
+ * moller_trumbore_same calls moller_trumbore's own code (a ratio of exactly 1),
+ * moller_trumbore_twice times every pass twice (a known 2x effect). The four
  * are instantiated by name in kernels.h. moller_trumbore_yardstick is the plain
  * AVX2 intrinsics form bench/yardstick.py times the kernels against. */
 #define TB_INTERNAL_KERNEL_LIST(X)                                                           \
     X(moller_trumbore_aa,    TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
     X(moller_seed_aa,        TB_BOTH_FACES, TB_OPEN, "", TB_SEED_REPLAY, TB_SCALAR_ONLY)     \
+    X(moller_trumbore_same,  TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
     X(moller_trumbore_twice, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
     X(moller_trumbore_yardstick, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_NATIVE_AVX2)
 
