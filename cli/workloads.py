@@ -35,7 +35,7 @@ __all__ = ["add_parser", "main", "parse_miss_mix"]
 
 # The spec fields `make` has a flag for: the only attributes of the parsed
 # arguments that go into a spec (the namespace also holds the command's own).
-_PAIR_OPTIONS = ("n", "order", "miss_mix", "shape", "scale", "offset")
+_PAIR_OPTIONS = ("n", "order", "miss_mix", "shape", "scale", "offset", "winding")
 _MESH_OPTIONS = ("triangles", "rays", "n_rays", "width", "height", "accel")
 _SHARED_OPTIONS = ("hit_rate", "dtype", "seed")
 
@@ -96,6 +96,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     pairs.add_argument("--shape", choices=("sphere", "equilateral", "sliver"), help="default sphere")
     pairs.add_argument("--scale", type=float, help="size of every pair (default 1)")
     pairs.add_argument("--offset", type=float, help="distance moved from the origin (default 0)")
+    pairs.add_argument(
+        "--winding",
+        choices=("random", "facing"),
+        help="random (default: a ray meets a back face half the time) or facing (every ray meets a front face)",
+    )
     mesh = make.add_argument_group("meshes")
     mesh.add_argument("--triangles", type=int, help="exact triangle count (default: the base mesh)")
     mesh.add_argument(

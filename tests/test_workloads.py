@@ -9,6 +9,7 @@ figures.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import shutil
@@ -679,3 +680,45 @@ def test_a_mesh_past_float_range_is_refused_in_one_line_without_warnings(tmp_pat
         assert run_cli("make", str(huge), "--accel", "bvh") == 2
     err = capsys.readouterr().err
     assert "overflow" in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+# ------------------------------------------------------------ winding
+
+
+@pytest.mark.parametrize("shape", ["sphere", "sliver"])
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_facing_pairs_face_their_rays_and_keep_every_kind_and_answer(shape, dtype):
+    from tribench.workloads.geometry import dot, triangle_normals
+
+    common = dict(n=3000, hit_rate=0.4, miss_mix="uniform", shape=shape, dtype=dtype, seed=4)
+    drawn, facing = generate(PairSpec(**common)), generate(PairSpec(**common, winding="facing"))
+    cos = dot(facing.directions.astype(float), triangle_normals(facing.triangles.astype(float)))
+    parallel = classify_misses(facing.origins, facing.directions, facing.triangles) == MISS_STAGES.index("parallel")
+    assert (cos[~parallel] < 0).all() and parallel.sum() == facing.achieved["miss_counts"]["parallel"] > 0
+    drawn_front = dot(drawn.directions.astype(float), triangle_normals(drawn.triangles.astype(float))) < 0
+    assert 0.4 < drawn_front[~parallel].mean() < 0.6  # as drawn, half the rays meet a back face
+    assert facing.achieved["miss_counts"] == drawn.achieved["miss_counts"]
+    assert int(facing.ref_hit.sum()) == int(drawn.ref_hit.sum()) == 1200
+    assert facing.achieved["hits_front_facing"] == 1.0
+
+
+def test_a_culling_kernel_agrees_with_the_reference_on_facing_pairs_only():
+    from tribench import ext
+
+    for dtype in ("float32", "float64"):
+        spec = PairSpec(n=2000, hit_rate=0.5, miss_mix="uniform", dtype=dtype, seed=8)
+        for winding, agrees in (("facing", True), ("random", False)):
+            w = generate(dataclasses.replace(spec, winding=winding))
+            for k in ("moller_trumbore_cull", "moller_trumbore_cull_x8"):
+                if "pairs" not in ext.kernel_info(k).modes:
+                    continue
+                hit, _ = ext.intersect_pairs(k, w.origins, w.directions, w.triangles)
+                assert np.array_equal(hit, w.ref_hit) == agrees, (k, winding, dtype)
+
+
+def test_random_winding_keeps_the_ids_it_always_had_and_facing_is_another_workload():
+    assert "winding" not in PairSpec(n=10).to_dict()  # so every earlier workload id stands
+    assert workload_id(PairSpec(n=10)) != workload_id(PairSpec(n=10, winding="facing"))
+    assert " facing " in PairSpec(n=10, winding="facing").summary()
+    with pytest.raises(UserError, match="winding"):
+        PairSpec(n=10, winding="front")

@@ -28,8 +28,10 @@ the spec's dtype): ``+inf`` for every other pair. Without the stage,
 The reference answers and :func:`classify_misses` apply ``t_max``.
 
 Non-parallel rays meet the plane at least ~5.7 degrees off it (``|cos| >=
-0.1``). Ray directions are uniform otherwise, so both faces are hit (the
-achieved fraction of front-facing hits is recorded).
+0.1``). Ray directions are uniform otherwise, so with ``winding="random"``
+both faces are hit (the achieved fraction of front-facing hits is recorded);
+``winding="facing"`` swaps two vertices of each triangle whose ray would meet
+its back face, before the point is placed, so every pair keeps its kind.
 
 Safe margins
 ------------
@@ -270,8 +272,9 @@ def _oblique(rng: np.random.Generator, normal: np.ndarray) -> np.ndarray:
     return out
 
 
-def _rays(kinds: np.ndarray, tri: np.ndarray, scale: float, rng: np.random.Generator):
-    """Origins, directions and t_max realising each kind against its (already rounded) triangle."""
+def _rays(kinds: np.ndarray, tri: np.ndarray, scale: float, rng: np.random.Generator, facing: bool):
+    """Origins, directions and t_max realising each kind against its (already rounded) triangle, and the
+    triangles, rewound (v1 and v2 swapped) where ``facing`` asks each ray to meet the front face."""
     k = len(kinds)
     normal = normalise(triangle_normals(tri))
     margin = 2.0 * BARY_MARGIN  # twice the checked margin: rounding rarely costs a redraw
@@ -281,12 +284,20 @@ def _rays(kinds: np.ndarray, tri: np.ndarray, scale: float, rng: np.random.Gener
     for e in (1, 2, 3):
         sel = kinds == _edge_stage(e)
         bary[sel] = _sample_outside(rng, int(sel.sum()), _opposite(e), margin)
-    point = bary[:, 0:1] * tri[:, 0] + bary[:, 1:2] * tri[:, 1] + bary[:, 2:3] * tri[:, 2]
 
     parallel = kinds == _PARALLEL
     d = np.empty((k, 3))
     d[~parallel] = _oblique(rng, normal[~parallel])
     d[parallel] = random_perpendicular(rng, normal[parallel])
+    if facing:
+        # Rewound before the point is placed: the weights name vertex slots, so each pair keeps its kind
+        # (an edge miss stays outside the same edge) and its ray its direction. |cos| >= MIN_COS keeps
+        # the sign exact through rounding.
+        back = ~parallel & (dot(d, normal) > 0)
+        tri = tri.copy()
+        tri[back] = tri[back][:, [0, 2, 1]]
+        normal[back] = -normal[back]
+    point = bary[:, 0:1] * tri[:, 0] + bary[:, 1:2] * tri[:, 1] + bary[:, 2:3] * tri[:, 2]
     dist = scale * (1.0 + 2.0 * rng.random(k))
     away = np.where(kinds == _BEHIND, -1.0, 1.0)  # behind: start past the point, look away
     o = point - (away * dist)[:, None] * d
@@ -297,7 +308,7 @@ def _rays(kinds: np.ndarray, tri: np.ndarray, scale: float, rng: np.random.Gener
     beyond = kinds == _BEYOND
     t_max = np.full(k, np.inf)
     t_max[beyond] = (0.2 + 0.6 * rng.random(int(beyond.sum()))) * dist[beyond]  # d is unit: t = dist
-    return o, d, t_max
+    return o, d, t_max, tri
 
 
 def _keeps_margins(kinds, ans: PairAnswers, o, d, tri, t_max, scale: float) -> np.ndarray:
@@ -392,7 +403,7 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
         ok = np.zeros(len(todo), dtype=bool)
         sound = np.flatnonzero(aspect_ratios(tri[todo]) <= 2.0 * MAX_ASPECT)  # rounding can flatten one
         slots = todo[sound]
-        o_new, d_new, t_max_new = _rays(kinds[slots], tri[slots], scale, rng)
+        o_new, d_new, t_max_new, tri[slots] = _rays(kinds[slots], tri[slots], scale, rng, spec.winding == "facing")
         o[slots], d[slots] = round_to(o_new, dtype), round_to(d_new, dtype)
         t_max[slots] = round_to(t_max_new, dtype)
         ans = intersect_pairs(o[slots], d[slots], tri[slots])

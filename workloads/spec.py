@@ -99,6 +99,8 @@ MISS_MIX_PRESETS = {
 
 SHAPES = ("sphere", "equilateral", "sliver")
 ORDERS = ("shuffled", "sorted")
+#: How a pair's triangle is wound toward its ray: at random, or rewound so the ray meets its front face.
+WINDINGS = ("random", "facing")
 DTYPES = ("float32", "float64")
 MESH_NAMES = ("suzanne", "icosphere", "uvsphere", "soup", "heightfield")
 RAY_SETS = ("camera", "hit_rate", "bounce")
@@ -203,6 +205,12 @@ class PairSpec:
         origin along (1, 1, 1): precision experiments.
     dtype : {"float64", "float32"}
     seed : int
+    winding : {"random", "facing"}
+        Random leaves each triangle as drawn, so a ray meets its back face
+        half the time. Facing rewinds each triangle (two vertices swapped) so
+        that every ray not parallel to it meets its front face, as in
+        Loefstedt & Akenine-Moeller's framework: a back-face-culling kernel
+        then does the work every other kernel does.
 
     Examples
     --------
@@ -223,6 +231,7 @@ class PairSpec:
     offset: float = 0.0
     dtype: str = "float64"
     seed: int = 0
+    winding: str = "random"
 
     kind: ClassVar[str] = "pairs"
     mode: ClassVar[str] = "pairs"
@@ -241,6 +250,7 @@ class PairSpec:
         put(self, "offset", _float("offset", self.offset))
         _choice("dtype", self.dtype, DTYPES)
         put(self, "seed", _int("seed", self.seed, 0, 2**63 - 1))
+        _choice("winding", self.winding, WINDINGS)
 
     def miss_fractions(self) -> dict[str, float]:
         """The target miss-stage mix as ``{stage: fraction}``."""
@@ -251,6 +261,8 @@ class PairSpec:
         """JSON- and TOML-friendly fields (no ``None``), with ``kind``."""
         d = {f.name: getattr(self, f.name) for f in fields(self)}
         d["miss_mix"] = self.miss_fractions()
+        if self.winding == "random":  # as before the field existed: the same workload ids
+            del d["winding"]
         return {"kind": self.kind, **d}
 
     def targets(self) -> dict[str, Any]:
@@ -266,8 +278,9 @@ class PairSpec:
         """One line for listings."""
         mix = ",".join(f"{s}={f:.3g}" for s, f in self.miss_fractions().items() if f)
         extra = "" if (self.scale, self.offset) == (1.0, 0.0) else f" scale={self.scale:g} offset={self.offset:g}"
+        facing = " facing" if self.winding == "facing" else ""
         return (
-            f"pairs n={self.n} hit_rate={self.hit_rate:g} {self.order} {self.shape} "
+            f"pairs n={self.n} hit_rate={self.hit_rate:g} {self.order} {self.shape}{facing} "
             f"misses[{mix}]{extra} {self.dtype} seed={self.seed}"
         )
 
