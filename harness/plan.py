@@ -409,9 +409,10 @@ def default_sweep(quick: bool = False) -> Sweep:
     which gives the run its own equivalence margin (:mod:`tribench.analysis.margin`):
 
     * pairs at per-test hit rates 0, 25, 50, 75 and 100% (4096 pairs: in L2 at
-      either precision, so they show the algorithms, not the memory): the seed's
-      two and every clean scalar form (a pair is one test; wide forms have no
-      pairs mode);
+      either precision, so they show the algorithms, not the memory), each
+      triangle wound to face its ray (``winding="facing"``: a culling kernel
+      does the same work as the others): the seed's two and every clean scalar
+      form (a pair is one test; wide forms have no pairs mode);
     * Suzanne at 968 triangles (the seed's mesh), brute force, seen by the seed's
       camera at 48 x 48 pixels: the seed's two and every native form;
     * Suzanne at 250,000 triangles in a BVH, camera rays (64 x 64), float32: every
@@ -437,11 +438,13 @@ def default_sweep(quick: bool = False) -> Sweep:
     seed = (*seed, AA_TWINS[DEFAULT_BASELINE])
     kernels = (*seed, *scalar, *native)
     if quick:
-        pairs = [PairSpec(n=1024, hit_rate=h, dtype="float32") for h in (0.0, 0.5, 1.0)]
+        pairs = [PairSpec(n=1024, hit_rate=h, dtype="float32", winding="facing") for h in (0.0, 0.5, 1.0)]
         size, bvh_size, dtypes = 16, 32, ("float32", "float64")
     else:
         pairs = [
-            PairSpec(n=4096, hit_rate=h, dtype=d) for d in ("float32", "float64") for h in (0.0, 0.25, 0.5, 0.75, 1.0)
+            PairSpec(n=4096, hit_rate=h, dtype=d, winding="facing")
+            for d in ("float32", "float64")
+            for h in (0.0, 0.25, 0.5, 0.75, 1.0)
         ]
         size, bvh_size, dtypes = 48, 64, ("float32", "float64")
     meshes = [MeshSpec("suzanne", triangles=968, width=size, height=size, dtype=d) for d in dtypes]
