@@ -369,8 +369,12 @@ def derive(
     spd = result.speedups.merge(wl.drop(columns=["dtype"]), on="workload_id", how="left", suffixes=("", "_wl"))
     measured_pp = stats.per_process(batches)
     labels = diagnostics.batch_labels(batches)
-    # the A/A twin measured the margin (margin.py): the diagnostics keep it, no ranking does
-    est, spd, pp = contenders(est), contenders(spd), contenders(measured_pp)
+    correct = workload_tables.correctness_table(batches, kernels, workloads)
+    # the A/A twin measured the margin (margin.py), and a kernel whose answers differ did other work:
+    # the diagnostics keep both, no ranking does
+    est, spd, pp, ranked_batches = (
+        workload_tables.agreeing(contenders(f), correct) for f in (est, spd, measured_pp, batches)
+    )
     ranked = [k for k in kernels if k not in TWINS]
     rank = ranking.ranking_table(est, spd, pp, margin)
     tables = {
@@ -378,7 +382,7 @@ def derive(
         runfolder.SPEEDUPS: result.speedups,
         runfolder.WORKLOADS: wl,
         runfolder.WORKLOAD_FIGURES: workload_tables.workload_figures(wids, workloads),
-        runfolder.CORRECTNESS: workload_tables.correctness_table(batches, kernels, workloads),
+        runfolder.CORRECTNESS: correct,
         runfolder.PER_PROCESS: measured_pp,
         runfolder.BATCH_LABELS: labels,
         runfolder.CROSSOVERS: scaling.crossovers(ranked, wl, pp),
@@ -392,7 +396,7 @@ def derive(
         runfolder.ALGORITHMS: ranking.algorithm_table(rank, pp, margin),
         # each kernel's robustness beside its speed
         runfolder.BANDS: ranking.band_table(est, pp, specs, base, margin, m.validate),
-        runfolder.BVH: bvh.bvh_table(batches, m.traversals, wl, specs, pp, ranked, base, margin),
+        runfolder.BVH: bvh.bvh_table(ranked_batches, m.traversals, wl, specs, pp, ranked, base, margin),
     }
     for name, frame in tables.items():
         if list(frame.columns) != list(runfolder.FILES[name]):  # a bug: the table and the contract disagree

@@ -121,6 +121,20 @@ def correctness_table(batches: pd.DataFrame, kernels: Sequence[str], workloads: 
     return out.sort_values("kernel", key=lambda s: s.map(order), kind="stable").reset_index(drop=True)
 
 
+def agreeing(frame: pd.DataFrame, correct: pd.DataFrame) -> pd.DataFrame:
+    """``frame`` without the rows of a kernel on a workload where its answers differ from the reference.
+
+    What a ranking compares is the same work with the same answers: a culling kernel on randomly
+    wound pairs skips half the tests and returns half the hits, so its time is of other work.
+    Rows whose agreement is unknown (the workload could not be loaded) stay.
+    """
+    differs = correct.loc[correct["agrees"].eq(False), ["workload_id", "kernel"]]
+    if differs.empty:
+        return frame
+    key = pd.MultiIndex.from_frame(differs)
+    return frame.loc[~pd.MultiIndex.from_frame(frame[["workload_id", "kernel"]]).isin(key)]
+
+
 def estimates_with_workloads(estimates: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
     """``estimates.csv`` joined with the workload table (family, kind, triangles, rays...)."""
     return estimates.merge(wl, on="workload_id", how="left", suffixes=("", "_wl"))

@@ -226,12 +226,39 @@ def correctness_section(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) 
             digits=3,
         ),
     ]
+    differs = frame.loc[frame["agrees"].eq(False)]
+    if len(differs):
+        body.append(page.warn(_left_out(differs)))
     body.append(
         '<p class="note">Watertightness figures (cracks at exactly shared edges and vertices, misses '
         "from inside Embree's far-off sphere) and every kernel's answers at extreme input are in "
         '<a href="#robustness">Robustness</a>.</p>'
     )
     return "".join(body)
+
+
+def _left_out(differs: pd.DataFrame) -> str:
+    """The sentence naming the kernels left out of the rankings where their answers differ, and why."""
+    from tribench import ext
+
+    def culls(kernel: str) -> bool:
+        try:
+            return ext.kernel_info(kernel).culls_back_faces
+        except (KeyError, ValueError):  # a kernel this build lacks
+            return False
+
+    parts = []
+    for r in differs.itertuples(index=False):
+        why = (
+            "it culls back faces, so the tests it rejects at once are work it skipped, not speed"
+            if culls(r.kernel)
+            else "its answers differ"
+        )
+        parts.append(
+            f"{r.kernel} on {r.label}: {page.num(r.hits_per_pass_min)} hits per pass of the reference's "
+            f"{page.num(r.ref_hits)} ({why})"
+        )
+    return "Left out of every ranking, as doing other work than the reference asks: " + "; ".join(parts) + "."
 
 
 #: What each robustness test measures, in one sentence (after tribench.studies.validate's documentation).

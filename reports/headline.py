@@ -144,7 +144,7 @@ def run_warnings(data: RunData, drift: pd.DataFrame, correct: pd.DataFrame) -> l
     for r in bad.itertuples(index=False):
         out.append(
             f"Correctness: {r.kernel} on {r.workload_id} differs from the reference by "
-            f"{page.num(r.hit_difference)} hits per pass (see the correctness table)."
+            f"{page.num(r.hit_difference)} hits per pass, so no ranking names it there (see the correctness table)."
         )
     expected = data.run.get("n_batches")
     if expected and len(data.batches) < expected:

@@ -1,0 +1,69 @@
+"""Every ranking compares equal work: a kernel is ranked on a workload only where its answers are the reference's.
+
+A back-face-culling kernel on randomly wound pairs rejects about half the
+tests at its first comparison and returns about half the hits: its time is of
+other work. On pairs wound to face their rays it does every test the others do.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+from tribench.analysis.workload_tables import agreeing
+from tribench.harness import plan, runfolder, runner
+from tribench.harness.plan import Sweep
+from tribench.reports import write_report
+from tribench.studies.finish import finish
+from tribench.workloads.spec import PairSpec, workload_id
+
+CULL = "moller_trumbore_cull"
+RANDOM, FACING = PairSpec(n=400, hit_rate=0.5, seed=3), PairSpec(n=400, hit_rate=0.5, seed=3, winding="facing")
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    base = tmp_path_factory.mktemp("equal-work")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("TRIBENCH_CACHE", str(base / "cache"))
+        sweep = Sweep(("moller_seed", "moller_trumbore", CULL), (RANDOM, FACING), processes=3, rounds=2, target_ms=0.2)
+        runner.start(sweep, base / "run", progress=False)
+        finish(base / "run", quick=True)
+        write_report(base / "run")
+        yield base / "run"
+
+
+def test_a_kernel_whose_answers_differ_is_measured_but_ranked_nowhere(run):
+    correct = pd.read_csv(run / runfolder.CORRECTNESS).set_index(["workload_id", "kernel"])
+    random_id, facing_id = workload_id(RANDOM), workload_id(FACING)
+    assert not correct.loc[(random_id, CULL), "agrees"] and correct.loc[(facing_id, CULL), "agrees"]
+    estimates = pd.read_csv(run / runfolder.ESTIMATES)
+    assert {(random_id, CULL), (facing_id, CULL)} <= set(
+        zip(estimates["workload_id"], estimates["kernel"], strict=True)
+    )
+    ranking = pd.read_csv(run / runfolder.RANKING)
+    assert (random_id, CULL) not in set(zip(ranking["workload_id"], ranking["kernel"], strict=True))
+    assert (facing_id, CULL) in set(
+        zip(ranking["workload_id"], ranking["kernel"], strict=True)
+    )  # the same work: ranked
+    # both workloads make one band (pairs at 50%): a kernel that differs on one of them is not in it
+    bands = pd.read_csv(run / runfolder.BANDS)
+    assert list(bands["workloads"].unique()) == [2] and CULL not in set(bands["kernel"])
+
+
+def test_the_report_says_which_kernel_it_left_out_and_why(run):
+    page = (run / "report.html").read_text(encoding="utf-8")
+    assert "Left out of every ranking, as doing other work than the reference asks: moller_trumbore_cull" in page
+    assert "it culls back faces, so the tests it rejects at once are work it skipped, not speed" in page
+
+
+def test_agreeing_keeps_unknown_agreement_and_drops_only_the_differing_pairs():
+    frame = pd.DataFrame({"workload_id": ["a", "a", "b", "c"], "kernel": ["k", "m", "k", "k"], "x": [1, 2, 3, 4]})
+    correct = pd.DataFrame({"workload_id": ["a", "a", "b"], "kernel": ["k", "m", "k"], "agrees": [False, True, True]})
+    assert list(agreeing(frame, correct)["x"]) == [2, 3, 4]  # c's agreement is unknown: kept
+
+
+def test_the_main_job_times_every_pair_workload_facing_its_rays():
+    for quick in (False, True):
+        pairs = [w for w in plan.default_sweep(quick).workloads if isinstance(w, PairSpec)]
+        assert pairs and all(w.winding == "facing" for w in pairs)
