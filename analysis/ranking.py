@@ -219,20 +219,29 @@ def band_of(kind: str, test_hit_rate: float, accel: str | None = None) -> str:
     return f"pairs, hit rate {100 * high:.0f}–100%"
 
 
+#: validate.csv's tests whose failures the first table counts: the test, then the columns of its failures
+#: per million rays and of the rays they come from.
+ROBUSTNESS_TESTS = {
+    "shared_edges": ("cracks_per_million", "shared_edge_rays"),
+    "inside_sphere": ("sphere_misses_per_million", "sphere_rays"),
+}
+
+
 def _robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
-    """validate.csv's figures of one kernel at one precision (NaN without the table or its rows)."""
-    none = {"promises_checked": math.nan, "broken_promises": math.nan, "crack_rate": math.nan}
-    if val is None or val.empty:
-        return none
-    rows = val.loc[(val["kernel"] == kernel) & (val["dtype"] == dtype)]
+    """validate.csv's figures of one kernel at one precision (NaN without the table or its rows): its
+    promises, and the measured failures users compare, per million rays with the rays they come from."""
+    out: dict[str, Any] = {"promises_checked": math.nan, "broken_promises": math.nan}
+    out |= {column: math.nan for columns in ROBUSTNESS_TESTS.values() for column in columns}
+    rows = pd.DataFrame() if val is None or val.empty else val.loc[(val["kernel"] == kernel) & (val["dtype"] == dtype)]
     if rows.empty:
-        return none
-    cracks = rows.loc[rows["test"] == "shared_edges", "rate"]
-    return {
-        "promises_checked": int((rows["verdict"] != "measured").sum()),
-        "broken_promises": int((rows["verdict"] == "fail").sum()),
-        "crack_rate": float(cracks.iloc[0]) if len(cracks) else math.nan,
-    }
+        return out
+    out["promises_checked"] = int((rows["verdict"] != "measured").sum())
+    out["broken_promises"] = int((rows["verdict"] == "fail").sum())
+    for test, (per_million, rays) in ROBUSTNESS_TESTS.items():
+        row = rows.loc[rows["test"] == test]
+        if len(row):
+            out[per_million], out[rays] = 1e6 * float(row["rate"].iloc[0]), int(row["rays"].iloc[0])
+    return out
 
 
 def band_table(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import html
 import json
 import re
 import shutil
@@ -15,7 +16,7 @@ import pytest
 from test_report_run import run_fixture_dir
 
 from tribench import reports
-from tribench.reports import checks, headline
+from tribench.reports import charts, checks, headline
 from tribench.reports import html as report_html
 from tribench.reports.rundata import RunError
 from tribench.studies.finish import finish
@@ -411,6 +412,16 @@ def test_the_page_opens_on_the_answer_and_collapses_every_other_section(rendered
     assert [r[1] for r in shown] == list(best["kernel"])
     assert [r[0].split(" (")[0] for r in shown] == list(best["band"])
     assert [int(r[-1]) for r in shown] == list(best["bytes_per_triangle"])
+    # robustness as measured, never as promises kept (0 for every kernel by design): those are in Robustness
+    assert [html.unescape(h) for h in rows[0][-3:-1]] == [
+        "cracks at shared edges, per million rays",
+        "misses inside Embree's far sphere, per million rays",
+    ]
+    assert [r[-3] for r in shown] == [
+        f"{c:,.0f} (of {int(n):,} rays)"
+        for c, n in zip(best["cracks_per_million"], best["shared_edge_rays"], strict=True)
+    ]
+    assert "promises (validate)" not in answer
     assert answer.index("<table>") < answer.index("vegaEmbed(")  # the table before the chart
     # one sentence per question: the fastest, against the baseline, watertightness, curless or moller_trumbore
     items = re.findall(r"<li>(.*?)</li>", answer)
@@ -441,6 +452,20 @@ def test_the_charts_show_values_on_hover_and_toggle_kernels(rendered):
     got = {(d["where"], d["kernel"]): d["ns_per_test"] for d in data}
     want = {(f"{r.dtype} · {r.band}", r.kernel): r.ns_per_test for r in bands.itertuples()}
     assert got == pytest.approx(want, rel=1e-12)
+    # its robustness axis is what validate measured: cracks plus far-sphere misses per million rays
+    got = {(d["where"], d["kernel"]): d["failures_per_million"] for d in data}
+    want = {
+        (f"{r.dtype} · {r.band}", r.kernel): r.cracks_per_million + r.sphere_misses_per_million
+        for r in bands.itertuples()
+    }
+    assert got == pytest.approx(want)
+    assert '"field": "failures_per_million"' in json.dumps(answer)
+    # where the suite's figures differ between kernels, so do their heights
+    cracked = bands.assign(cracks_per_million=[88_250.0 * (r.kernel == "curless") for r in bands.itertuples()])
+    spec = charts.answer_chart(cracked, dict.fromkeys(bands["kernel"], "#000")).to_dict()
+    values = spec["datasets"][spec["data"]["name"]] if "datasets" in spec else spec["data"]["values"]
+    heights = {d["kernel"]: d["failures_per_million"] for d in values}
+    assert heights["curless"] == 88_250.0 and heights["moller_trumbore"] == 0.0
     menu = next(p for p in answer["params"] if p["name"] == "band")
     assert menu["bind"]["options"] == list(dict.fromkeys(w for w, _ in want))
 

@@ -298,7 +298,12 @@ def test_the_bands_table_ranks_kernels_per_precision_and_hit_rate_band(small_run
             mine = val.loc[(val["kernel"] == r.kernel) & (val["dtype"] == dtype)]
             assert r.broken_promises == (mine["verdict"] == "fail").sum()
             assert r.promises_checked == (mine["verdict"] != "measured").sum()
-            assert r.crack_rate == mine.loc[mine["test"] == "shared_edges", "rate"].iloc[0]
+            for test, per_million, rays in (
+                ("shared_edges", r.cracks_per_million, r.shared_edge_rays),
+                ("inside_sphere", r.sphere_misses_per_million, r.sphere_rays),
+            ):
+                row = mine.loc[mine["test"] == test].iloc[0]
+                assert per_million == pytest.approx(1e6 * row["rate"]) and rays == row["rays"]
     # a band of one workload is that workload's estimate
     est = pd.read_csv(small_run / runfolder.ESTIMATES).merge(wl, on="workload_id")
     one = est.loc[est["band"] == "pairs, hit rate 0–35%"].set_index("kernel")["ns_per_test"]

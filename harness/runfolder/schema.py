@@ -425,7 +425,11 @@ _BANDS: dict[str, str] = {
     "bytes_per_triangle": "bytes of prepared data per triangle at that precision (empty: unknown to this build)",
     "promises_checked": "validate.csv's judged tests of the kernel at this precision (count; empty: no validate.csv)",
     "broken_promises": "of those, failed (count; empty: no validate.csv)",
-    "crack_rate": "validate.csv's shared_edges rate: rays at an exact shared edge that hit nothing (fraction)",
+    "cracks_per_million": "validate.csv's shared_edges test: rays at an exact shared edge hitting nothing, per million",
+    "shared_edge_rays": "the rays of that test",
+    "sphere_misses_per_million": "validate.csv's inside_sphere test (Embree's): rays from inside a far-off closed "
+    "sphere that hit nothing, per million",
+    "sphere_rays": "the rays of that test",
 }
 
 _BVH: dict[str, str] = {
