@@ -48,6 +48,7 @@ from tribench.common import UserError, write_text
 from tribench.harness import runfolder
 from tribench.harness.margin import Margin
 from tribench.harness.plan import DEFAULT_BASELINE
+from tribench.workloads import mesh_files
 
 from . import measured
 from .margin import TWINS, contenders, twin_margin
@@ -438,6 +439,7 @@ def write_all(
     """
     m = measured.load(run_dir)
     result = estimate(m, baseline, margin)
+    mesh_files.adopt(run_dir)  # the run folder's mesh copies: its workloads rebuild on any machine
     workloads, sources = _workloads(m.run, m.workload_ids)
     tables = derive(m, result, workloads, sources)
     peer_tables, peer_note = _peer_tables(m)

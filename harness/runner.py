@@ -42,6 +42,8 @@ from typing import Any, TextIO
 from tribench.common import UserError
 from tribench.harness import runfolder
 from tribench.harness.plan import BatchKey, Sweep, plan, process_seed
+from tribench.workloads import mesh_files
+from tribench.workloads.spec import MeshSpec
 
 from .runfolder import (
     BATCH_COLUMNS,
@@ -336,6 +338,9 @@ def _start_locked(
         **(extra or {}),
     }
     runfolder.write_run(run_dir, record)
+    for spec in sweep.workloads:  # a run folder carries the mesh files it used (those that fit)
+        if isinstance(spec, MeshSpec) and spec.mesh_sha256 is not None:
+            mesh_files.copy_into_run(run_dir, spec.mesh, spec.mesh_sha256)
     if sweep.sequential is not None:
         return _execute_stages(run_dir, record, sweep, keys, progress, worker)
     return _execute(run_dir, record, sweep, keys, 0, progress, worker)

@@ -33,6 +33,7 @@ def run(tmp_path_factory):
         yield base / "run"
 
 
+@pytest.mark.slow
 def test_a_kernel_whose_answers_differ_is_measured_but_ranked_nowhere(run):
     correct = pd.read_csv(run / runfolder.CORRECTNESS).set_index(["workload_id", "kernel"])
     random_id, facing_id = workload_id(RANDOM), workload_id(FACING)
@@ -51,6 +52,7 @@ def test_a_kernel_whose_answers_differ_is_measured_but_ranked_nowhere(run):
     assert list(bands["workloads"].unique()) == [2] and CULL not in set(bands["kernel"])
 
 
+@pytest.mark.slow
 def test_the_report_says_which_kernel_it_left_out_and_why(run):
     page = (run / "report.html").read_text(encoding="utf-8")
     assert "Left out of every ranking, as doing other work than the reference asks: moller_trumbore_cull" in page

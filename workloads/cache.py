@@ -22,7 +22,6 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import os
 import warnings
 import zipfile
 from dataclasses import dataclass
@@ -34,6 +33,7 @@ import numpy as np
 from tribench.common import Notice, UserError, write_bytes
 
 from .kinds import generate, spec_from_dict
+from .location import cache_dir
 from .spec import (
     MeshSpec,
     Spec,
@@ -82,11 +82,6 @@ class CachedWorkload:
     spec: dict[str, Any] | None
     achieved: dict[str, Any] | None
     problem: str | None
-
-
-def cache_dir() -> Path:
-    """The cache directory (not created here)."""
-    return Path(os.environ.get("TRIBENCH_CACHE") or "~/.cache/tribench/workloads").expanduser()
 
 
 def _path(wid: str) -> Path:

@@ -53,6 +53,7 @@ import numpy as np
 
 from tribench.common import UserError
 
+from . import mesh_files
 from .geometry import (
     dot,
     norm,
@@ -377,7 +378,13 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
     >>> w.triangles.shape, int(w.hits.sum())
     ((20, 3, 3), 5)
     """
-    mesh = build_mesh(spec.mesh, spec.triangles, spec.seed)
+    if spec.is_file:  # the file with the content the spec names, wherever it now is
+        assert spec.mesh_sha256 is not None  # MeshSpec set it
+        found = mesh_files.source(spec.mesh, spec.mesh_sha256)
+        mesh_files.keep(found, spec.mesh_sha256)
+        mesh = build_mesh(str(found), spec.triangles, spec.seed)
+    else:
+        mesh = build_mesh(spec.mesh, spec.triangles, spec.seed)
     tri = round_to(mesh.triangles, spec.dtype)
     figures: dict = {}
     if spec.rays == "camera":

@@ -38,6 +38,7 @@ import hashlib
 import json
 import math
 import os
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
@@ -323,6 +324,11 @@ class MeshSpec:
         reference answers are the brute-force workload's; ``"brute"`` is left
         out of :meth:`to_dict`, so a brute-force workload keeps the id it had
         before this field existed.
+    mesh_sha256 : str or None
+        A mesh file's content hash, set here from the file. Given (a spec read
+        back from a run folder's ``run.json``), it is trusted and the file is
+        not read: a run folder names its mesh by content, so it renders after
+        the file moved or changed (:mod:`tribench.workloads.mesh_files`).
 
     Examples
     --------
@@ -346,6 +352,7 @@ class MeshSpec:
     seed: int = 0
     result: str = "closest"
     accel: str = "brute"
+    mesh_sha256: str | None = None
 
     kind: ClassVar[str] = "mesh"
     version: ClassVar[int] = MESHES_VERSION
@@ -361,8 +368,14 @@ class MeshSpec:
             put(self, "mesh", os.fspath(self.mesh))
         if not isinstance(self.mesh, str) or not self.mesh:
             raise UserError(f"mesh must be a name or a file path, got {self.mesh!r}")
-        if self.mesh not in MESH_NAMES:
+        if self.mesh in MESH_NAMES:
+            if self.mesh_sha256 is not None:
+                raise UserError(f"mesh_sha256 applies to a mesh file only, not to the built-in {self.mesh!r}")
+        elif self.mesh_sha256 is None:
             put(self, "mesh", _checked_mesh_file(self.mesh))
+            put(self, "mesh_sha256", _file_sha256(self.mesh))
+        elif not (isinstance(self.mesh_sha256, str) and re.fullmatch(r"[0-9a-f]{64}", self.mesh_sha256)):
+            raise UserError(f"mesh_sha256 must be 64 hexadecimal digits, got {self.mesh_sha256!r:.80}")
         if self.triangles is not None:
             put(self, "triangles", _int("triangles", self.triangles, 1, _MAX_TRIANGLES))
         _choice("rays", self.rays, RAY_SETS)
@@ -585,8 +598,7 @@ def identity(spec: Spec) -> dict[str, Any]:
         d.update(spec.scene_identity())
     if isinstance(spec, MeshSpec) and spec.is_file:
         d["mesh"] = "file"
-        d["mesh_sha256"] = _file_sha256(spec.mesh)
-        d["mesh_suffix"] = Path(spec.mesh).suffix.lower()
+        d["mesh_suffix"] = Path(spec.mesh).suffix.lower()  # the spec's own mesh_sha256 names the content
     return d
 
 

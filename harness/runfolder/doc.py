@@ -36,6 +36,8 @@ _ABOUT = {
     rf.RUN: "sweep, plan seeds, machine, build, versions, git revision, margin and throughput rates, written at the "
     "start (a sequential sweep rewrites it at its end: `n_batches` ran, of `n_batches_most` planned)",
     rf.LOCK: "held (`flock`) by the one process writing the folder; the kernel drops it if that process dies",
+    rf.MESHES_DIR + "/": "a copy of each mesh file the sweep used (up to 32 MB), named by its SHA-256: the "
+    "workloads rebuild on another machine, after the file moved or changed",
     rf.BATCHES: "one row per timed batch, appended and flushed as each batch finishes",
     rf.PROCESSES: "one row per FMA peak probe of a worker process, at its start and at its end",
     rf.CHECKS: "one row per kernel, workload and process: its answers against the float64 reference, before any batch",
@@ -77,7 +79,17 @@ _ABOUT = {
     rf.SEED_PICTURES: "`tribench seed`: the two seed kernels' renders and where their pixels differ",
 }
 
-_MEASURED = [rf.RUN, rf.BATCHES, rf.PROCESSES, rf.CHECKS, rf.TRAVERSALS, rf.STAGES, rf.PEERS, rf.LOCK]
+_MEASURED = [
+    rf.RUN,
+    rf.BATCHES,
+    rf.PROCESSES,
+    rf.CHECKS,
+    rf.TRAVERSALS,
+    rf.STAGES,
+    rf.PEERS,
+    rf.LOCK,
+    rf.MESHES_DIR + "/",
+]
 _DERIVED = [*rf.DERIVED, rf.PICTURES_DIR + "/", rf.GOOGLE_BENCHMARK, rf.ANALYSIS]
 _RENDERED = [rf.REPORT, rf.SWEEP_FILE]
 

@@ -59,6 +59,7 @@ __all__ = [
     "PEER_RATIOS",
     "PER_PROCESS",
     "PICTURES_DIR",
+    "MESHES_DIR",
     "PROCESSES",
     "RANKING",
     "REPORT",
@@ -131,6 +132,7 @@ GOOGLE_BENCHMARK = "google_benchmark.json"
 ANALYSIS = "analysis.json"
 #: One PNG per workload (``<workload_id>.png``), drawn by the analysis step.
 PICTURES_DIR = "pictures"
+MESHES_DIR = "meshes"  # the copies of tribench.workloads.mesh_files (its RUN_FOLDER)
 
 REPORT = "report.html"
 SWEEP_FILE = "sweep.toml"

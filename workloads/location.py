@@ -1,0 +1,13 @@
+"""Where the workload cache lives: one function, below every module that reads or writes the cache."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+__all__ = ["cache_dir"]
+
+
+def cache_dir() -> Path:
+    """The cache directory, ``$TRIBENCH_CACHE`` or ``~/.cache/tribench/workloads`` (not created here)."""
+    return Path(os.environ.get("TRIBENCH_CACHE") or "~/.cache/tribench/workloads").expanduser()

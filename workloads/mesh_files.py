@@ -1,0 +1,93 @@
+"""A mesh file named by its content: kept beside the cache and in run folders, found again when it moves.
+
+A :class:`~tribench.workloads.spec.MeshSpec` over a file carries the file's
+sha256, and its workload id comes from that hash, not from the path. So the
+file a workload is built from must have that content, wherever it now is:
+:func:`source` finds it at the spec's path if the content still matches, else
+in the cache's copy. Files up to :data:`MAX_COPY_BYTES` are copied there when
+their workload is built (:func:`keep`), and into every run folder that uses
+them (:func:`copy_into_run`); a run folder's copies join the cache when it is
+analysed elsewhere (:func:`adopt`). A larger file is not copied: its run
+folder still reports and exports (they read its tables, not the mesh), but a
+rebuild of its workloads needs the file back.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+from pathlib import Path
+
+from tribench.common import UserError, atomic_write
+
+from .location import cache_dir
+
+__all__ = ["MAX_COPY_BYTES", "RUN_FOLDER", "adopt", "copy_into_run", "keep", "source"]
+
+#: Mesh files up to this size are copied into the cache and into the run folders that use them.
+MAX_COPY_BYTES = 32 * 1024 * 1024
+#: The run folder's subfolder of mesh copies.
+RUN_FOLDER = "meshes"
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _name(sha256: str, suffix: str) -> str:
+    return f"{sha256}{suffix.lower()}"
+
+
+def _store() -> Path:
+    return cache_dir() / RUN_FOLDER
+
+
+def _copy(path: Path, folder: Path, sha256: str) -> None:
+    """Copy ``path`` into ``folder`` under its content's name, atomically, unless it is there or too large."""
+    target = folder / _name(sha256, path.suffix)
+    if target.is_file() or path.stat().st_size > MAX_COPY_BYTES:
+        return
+    with open(path, "rb") as src, atomic_write(target, "wb", encoding=None) as dst:
+        shutil.copyfileobj(src, dst)
+
+
+def keep(path: str | Path, sha256: str) -> None:
+    """Keep a copy of the mesh file beside the cache (done when its workload is built)."""
+    path = Path(path)
+    if path.is_file() and _sha256(path) == sha256:
+        _copy(path, _store(), sha256)
+
+
+def copy_into_run(run_dir: str | Path, path: str | Path, sha256: str) -> None:
+    """Copy the mesh file into ``run_dir/meshes/`` (done when a sweep starts), from wherever it is found."""
+    _copy(source(path, sha256), Path(run_dir) / RUN_FOLDER, sha256)
+
+
+def adopt(run_dir: str | Path) -> None:
+    """Add ``run_dir``'s mesh copies to the cache's, each checked against the hash it is named by."""
+    folder = Path(run_dir) / RUN_FOLDER
+    for copy in sorted(folder.glob("*")) if folder.is_dir() else []:
+        if copy.is_file() and not copy.is_symlink() and _sha256(copy) == copy.stem:
+            _copy(copy, _store(), copy.stem)
+
+
+def source(path: str | Path, sha256: str) -> Path:
+    """A file holding the mesh ``path`` held when its spec was made: ``path`` itself, else the cache's copy.
+
+    Raises UserError, naming the file and what to do, when neither has that content.
+    """
+    path = Path(path)
+    if path.is_file() and _sha256(path) == sha256:
+        return path
+    copy = _store() / _name(sha256, path.suffix)
+    if copy.is_file() and _sha256(copy) == sha256:
+        return copy
+    state = "has changed" if path.exists() else "is gone"
+    raise UserError(
+        f"mesh file {path} {state} since this workload was defined (sha256 {sha256[:12]}...), and no copy of it "
+        "is kept (a copy is kept up to 32 MB): put the file back, or analyse the run folder that holds a copy"
+    )
