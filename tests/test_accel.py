@@ -80,6 +80,7 @@ def test_a_bvh_workload_has_its_brute_twins_rays_and_answers(env):
     assert cache.load(bvh.workload_id).spec == bvh.spec  # cached under its own id
 
 
+@pytest.mark.slow
 def test_workloads_make_takes_accel_for_meshes_only(env):
     done = cli(
         "workloads", "make", "suzanne", "--triangles", "100", "--width", "8", "--height", "8", "--accel", "bvh", env=env
@@ -127,6 +128,7 @@ def test_a_sweep_with_a_bvh_workload_runs_its_native_kernels_through_the_bvh(tmp
     assert bvh_id not in set(speedups["workload_id"])
 
 
+@pytest.mark.slow
 def test_a_bvh_workload_without_a_native_kernel_is_refused_in_one_line(tmp_path, env):
     with pytest.raises(
         UserError, match=r"no kernel of the sweep can be a BVH's leaf test .*add one of moller_trumbore_fma"
@@ -167,6 +169,7 @@ TINY_BVH = peers.PeerDesign(
 )
 
 
+@pytest.mark.slow
 def test_peers_with_accel_bvh_write_a_tribench_row_with_implementation_bvh(tmp_path, env):
     frame = peers.measure(tmp_path / "peers.csv", TINY_BVH, progress=False)
     assert list(pd.read_csv(tmp_path / "peers.csv", nrows=0).columns) == list(peers.COLUMNS)
@@ -180,6 +183,7 @@ def test_peers_with_accel_bvh_write_a_tribench_row_with_implementation_bvh(tmp_p
     assert ("embree" in contenders) == (peers.available()["embree"] is not None)
 
 
+@pytest.mark.slow
 def test_peers_with_accel_bvh_without_embree_still_time_tribench(tmp_path, env, monkeypatch):
     monkeypatch.setattr(peers, "available", lambda: {"trimesh": "fake", "embree": None})
     with warnings.catch_warnings(record=True) as caught:

@@ -31,6 +31,7 @@ def test_help_parses_and_imports(script):
     assert done.stdout.startswith("usage:")
 
 
+@pytest.mark.slow
 def test_seed_speed_prints_every_kernel_and_precision_with_a_verdict(tmp_path):
     env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}  # its workloads made afresh, not the user's
     done = bench(BENCH / "seed_speed.py", "--processes", "2", "--rounds", "1", "--size", "8", env=env)

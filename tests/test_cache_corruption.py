@@ -169,6 +169,7 @@ def test_an_intact_file_is_used_as_it_is(pristine):
     assert w.checksum() == fresh and w.achieved["hits"] == 20
 
 
+@pytest.mark.slow
 def test_the_command_line_marks_and_rebuilds_a_corrupt_file(pristine, tmp_path):
     folder, path, good, _, _ = pristine
     path.write_bytes(_rewritten(good, _edit_achieved))

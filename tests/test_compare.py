@@ -146,6 +146,7 @@ def three_runs(tmp_path_factory):
         yield [_fake_run(real, base / tag, f, f"machine {tag}") for tag, f in FACTORS.items()]
 
 
+@pytest.mark.slow
 def test_n_runs_give_a_machine_by_kernel_table_of_known_speedups(three_runs):
     m = compare_many([load_run(r) for r in three_runs])
     assert m.tags == ["A", "B", "C"] and m.baseline == "moller_seed" and len(m.workload_ids) == 4
@@ -189,6 +190,7 @@ def test_a_workload_without_the_baseline_still_shows_its_orders(three_runs):
     assert f'{bvh_like})</small></h3><p class="note">(none)</p>' in render_compare(runs, m)
 
 
+@pytest.mark.slow
 def test_compare_cli_takes_three_runs(three_runs, tmp_path):
     out = tmp_path / "three.html"
     proc = subprocess.run(
@@ -290,6 +292,7 @@ def runs_sharing_only_the_baseline(two_runs, tmp_path_factory):
     return folders
 
 
+@pytest.mark.slow
 def test_runs_sharing_only_the_baseline_give_tables_of_what_they_share(runs_sharing_only_the_baseline, tmp_path):
     runs = [load_run(r) for r in runs_sharing_only_the_baseline]
     many = compare_many(runs)

@@ -126,6 +126,7 @@ def test_the_default_sweep_ranks_every_algorithm_in_its_best_form_against_the_se
     assert set(s.kernels) == {k for k, i in info.items() if i.scalar_form is None} | {"moller_seed_aa"}
 
 
+@pytest.mark.slow
 def test_an_interrupted_main_job_resumes_to_the_end(tmp_path, monkeypatch):
     from tribench.harness import runner
 
