@@ -248,7 +248,7 @@ def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
     >>> r["band"], r["fastest"], r["speedup"], r["tied"], r["next"]
     ('meshes, brute force (2 workloads)', 'a', '3× [2.8, 3.2]', 'b', 'c: 2× [1.8, 2.2] slower')
     >>> r["watertight"], r["cracks"], r["sphere"], int(r["bytes"])
-    ('no; fastest watertight: b, 1.1× [0.95, 1.2] slower', '31,600 (of 20,000 rays)', '0 (of 2,000 rays)', 48)
+    ('no; fastest watertight: b, 1.1× [0.95, 1.2] slower', '31,600 (20,000 rays)', '0 (2,000 rays)', 48)
     """
     rows = []
     for _, g in bands.groupby(["dtype", "band"], sort=False):
@@ -292,7 +292,7 @@ def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
 
 def _per_million(rate: float, rays: float) -> str:
     """A failure count per million rays, with the rays it was measured on (few rays: a coarse figure)."""
-    return "not validated" if pd.isna(rate) else f"{rate:,.0f} (of {int(rays):,} rays)"
+    return "not validated" if pd.isna(rate) else f"{rate:,.0f} ({int(rays):,} rays)"
 
 
 def _span(values: list[float], unit: str = "×") -> str:
@@ -387,8 +387,8 @@ def answer_section(data: RunData, bands: pd.DataFrame | None, alg: pd.DataFrame 
         ("tied", "not told apart from it"),
         ("next", "next, time / fastest's"),
         ("watertight", "watertight"),
-        ("cracks", "cracks at shared edges, per million rays"),
-        ("sphere", "misses inside Embree's far sphere, per million rays"),
+        ("cracks", "shared-edge cracks per 10⁶ rays"),
+        ("sphere", "far-sphere misses per 10⁶ rays"),
         ("bytes", "bytes per triangle"),
     ]
     parts = []

@@ -414,11 +414,11 @@ def test_the_page_opens_on_the_answer_and_collapses_every_other_section(rendered
     assert [int(r[-1]) for r in shown] == list(best["bytes_per_triangle"])
     # robustness as measured, never as promises kept (0 for every kernel by design): those are in Robustness
     assert [html.unescape(h) for h in rows[0][-3:-1]] == [
-        "cracks at shared edges, per million rays",
-        "misses inside Embree's far sphere, per million rays",
+        "shared-edge cracks per 10⁶ rays",
+        "far-sphere misses per 10⁶ rays",
     ]
     assert [r[-3] for r in shown] == [
-        f"{c:,.0f} (of {int(n):,} rays)"
+        f"{c:,.0f} ({int(n):,} rays)"
         for c, n in zip(best["cracks_per_million"], best["shared_edge_rays"], strict=True)
     ]
     assert "promises (validate)" not in answer
