@@ -418,8 +418,7 @@ def test_the_page_opens_on_the_answer_and_collapses_every_other_section(rendered
         "far-sphere misses per 10⁶ rays",
     ]
     assert [r[-3] for r in shown] == [
-        f"{c:,.0f} ({int(n):,} rays)"
-        for c, n in zip(best["cracks_per_million"], best["shared_edge_rays"], strict=True)
+        f"{c:,.0f} ({int(n):,} rays)" for c, n in zip(best["cracks_per_million"], best["shared_edge_rays"], strict=True)
     ]
     assert "promises (validate)" not in answer
     assert answer.index("<table>") < answer.index("vegaEmbed(")  # the table before the chart
