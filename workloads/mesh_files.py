@@ -14,13 +14,13 @@ rebuild of its workloads needs the file back.
 
 from __future__ import annotations
 
-import hashlib
 import shutil
 from pathlib import Path
 
 from tribench.common import UserError, atomic_write
 
 from .location import cache_dir
+from .spec import file_sha256
 
 __all__ = ["MAX_COPY_BYTES", "RUN_FOLDER", "adopt", "copy_into_run", "keep", "source"]
 
@@ -28,14 +28,6 @@ __all__ = ["MAX_COPY_BYTES", "RUN_FOLDER", "adopt", "copy_into_run", "keep", "so
 MAX_COPY_BYTES = 32 * 1024 * 1024
 #: The run folder's subfolder of mesh copies.
 RUN_FOLDER = "meshes"
-
-
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _name(sha256: str, suffix: str) -> str:
@@ -58,7 +50,7 @@ def _copy(path: Path, folder: Path, sha256: str) -> None:
 def keep(path: str | Path, sha256: str) -> None:
     """Keep a copy of the mesh file beside the cache (done when its workload is built)."""
     path = Path(path)
-    if path.is_file() and _sha256(path) == sha256:
+    if path.is_file() and file_sha256(path) == sha256:
         _copy(path, _store(), sha256)
 
 
@@ -71,7 +63,7 @@ def adopt(run_dir: str | Path) -> None:
     """Add ``run_dir``'s mesh copies to the cache's, each checked against the hash it is named by."""
     folder = Path(run_dir) / RUN_FOLDER
     for copy in sorted(folder.glob("*")) if folder.is_dir() else []:
-        if copy.is_file() and not copy.is_symlink() and _sha256(copy) == copy.stem:
+        if copy.is_file() and not copy.is_symlink() and file_sha256(copy) == copy.stem:
             _copy(copy, _store(), copy.stem)
 
 
@@ -81,10 +73,10 @@ def source(path: str | Path, sha256: str) -> Path:
     Raises UserError, naming the file and what to do, when neither has that content.
     """
     path = Path(path)
-    if path.is_file() and _sha256(path) == sha256:
+    if path.is_file() and file_sha256(path) == sha256:
         return path
     copy = _store() / _name(sha256, path.suffix)
-    if copy.is_file() and _sha256(copy) == sha256:
+    if copy.is_file() and file_sha256(copy) == sha256:
         return copy
     state = "has changed" if path.exists() else "is gone"
     raise UserError(

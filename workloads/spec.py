@@ -373,7 +373,7 @@ class MeshSpec:
                 raise UserError(f"mesh_sha256 applies to a mesh file only, not to the built-in {self.mesh!r}")
         elif self.mesh_sha256 is None:
             put(self, "mesh", _checked_mesh_file(self.mesh))
-            put(self, "mesh_sha256", _file_sha256(self.mesh))
+            put(self, "mesh_sha256", file_sha256(self.mesh))
         elif not (isinstance(self.mesh_sha256, str) and re.fullmatch(r"[0-9a-f]{64}", self.mesh_sha256)):
             raise UserError(f"mesh_sha256 must be 64 hexadecimal digits, got {self.mesh_sha256!r:.80}")
         if self.triangles is not None:
@@ -534,7 +534,7 @@ class SeedSpec:
 
     def scene_identity(self) -> dict[str, Any]:
         """What names the scene in a workload id: its text's sha256, not its path."""
-        return {"scene": "file" if self.is_file else self.scene, "scene_sha256": _file_sha256(str(self.scene_path))}
+        return {"scene": "file" if self.is_file else self.scene, "scene_sha256": file_sha256(str(self.scene_path))}
 
     def to_dict(self) -> dict[str, Any]:
         """JSON- and TOML-friendly fields, with ``kind``."""
@@ -579,7 +579,8 @@ def canonical_json(obj: Any) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
-def _file_sha256(path: str) -> str:
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a file's bytes, read in blocks (a mesh file may be large)."""
     h = hashlib.sha256()
     with open(path, "rb") as f:
         for block in iter(lambda: f.read(1 << 20), b""):
