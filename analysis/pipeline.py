@@ -51,7 +51,7 @@ from tribench.harness.plan import DEFAULT_BASELINE
 from tribench.workloads import mesh_files
 
 from . import measured
-from .margin import TWINS, contenders, twin_margin
+from .margin import TWINS, twin_margin
 from .measured import Measured, file_digest
 
 __all__ = [
@@ -373,9 +373,7 @@ def derive(
     correct = workload_tables.correctness_table(batches, kernels, workloads)
     # the A/A twin measured the margin (margin.py), and a kernel whose answers differ did other work:
     # the diagnostics keep both, no ranking does
-    est, spd, pp, ranked_batches = (
-        workload_tables.agreeing(contenders(f), correct) for f in (est, spd, measured_pp, batches)
-    )
+    est, spd, pp, ranked_batches = (workload_tables.compared(f, correct) for f in (est, spd, measured_pp, batches))
     ranked = [k for k in kernels if k not in TWINS]
     rank = ranking.ranking_table(est, spd, pp, margin)
     tables = {

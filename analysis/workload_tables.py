@@ -14,6 +14,7 @@ from tribench.harness import runfolder
 from tribench.workloads.labels import family_of, short_label, spec_text
 
 from .frames import table_frame
+from .margin import contenders
 
 
 def workload_table(
@@ -133,6 +134,13 @@ def agreeing(frame: pd.DataFrame, correct: pd.DataFrame) -> pd.DataFrame:
         return frame
     key = pd.MultiIndex.from_frame(differs)
     return frame.loc[~pd.MultiIndex.from_frame(frame[["workload_id", "kernel"]]).isin(key)]
+
+
+def compared(frame: pd.DataFrame, correct: pd.DataFrame | None) -> pd.DataFrame:
+    """The rows of ``frame`` a ranking compares: no A/A twin (a measuring instrument,
+    :mod:`.margin`) and, given ``correctness.csv``, no kernel where its answers differ."""
+    frame = contenders(frame)
+    return frame if correct is None else agreeing(frame, correct)
 
 
 def estimates_with_workloads(estimates: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:

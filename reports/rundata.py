@@ -23,8 +23,8 @@ from typing import Any
 
 import pandas as pd
 
-from tribench.analysis.margin import TWINS, contenders
-from tribench.analysis.workload_tables import agreeing
+from tribench.analysis.margin import TWINS
+from tribench.analysis.workload_tables import compared
 from tribench.common import UserError
 from tribench.harness import runfolder
 from tribench.workloads.labels import family_of, short_label, spec_text
@@ -181,10 +181,7 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
     # an A/A twin measured the margin (its sentence says so), and a kernel whose answers differ from the
     # reference did other work (the correctness section says so): the report's speeds are the others'
     correct = tables.get(runfolder.CORRECTNESS)
-    estimates, speedups = (
-        contenders(tables[name]) if correct is None else agreeing(contenders(tables[name]), correct)
-        for name in (runfolder.ESTIMATES, runfolder.SPEEDUPS)
-    )
+    estimates, speedups = (compared(tables[name], correct) for name in (runfolder.ESTIMATES, runfolder.SPEEDUPS))
     margin = record.get("margin") or {}
     specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
     return RunData(
