@@ -149,6 +149,7 @@ def trace_forecast(spec: SeedSpec) -> float:
         trace(scene, kernel, dtype, side, side)
         pixels.append(side * side)
         seconds.append(time.perf_counter() - start)
+    # the slope between the two, or (should noise make it tiny or negative) half the larger one's mean
     per_pixel = max((seconds[1] - seconds[0]) / (pixels[1] - pixels[0]), seconds[1] / pixels[1] / 2)
     forecast = seconds[1] + per_pixel * max(0, spec.width * spec.height - pixels[1])
     if forecast > MAX_TRACE_S:
