@@ -375,7 +375,7 @@ def derive(
     # the diagnostics keep both, no ranking does
     est, spd, pp, ranked_batches = (workload_tables.compared(f, correct) for f in (est, spd, measured_pp, batches))
     ranked = [k for k in kernels if k not in TWINS]
-    rank = ranking.ranking_table(est, spd, pp, margin)
+    rank = ranking.ranking_table(est, spd, pp, margin, m.validate)
     tables = {
         runfolder.ESTIMATES: result.estimates,
         runfolder.SPEEDUPS: result.speedups,

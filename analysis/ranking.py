@@ -100,7 +100,9 @@ def declared(kernel: str, field: str) -> Any:
     return info.watertight != "none" if field == "watertight" else getattr(info, field)
 
 
-def ranking_table(est: pd.DataFrame, spd: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.DataFrame:
+def ranking_table(
+    est: pd.DataFrame, spd: pd.DataFrame, pp: pd.DataFrame, margin: float, val: pd.DataFrame | None = None
+) -> pd.DataFrame:
     """Per workload, every kernel from the fastest down, each against the fastest (``ranking.csv``).
 
     ``est`` and ``spd`` are the estimates and speedups joined with the
@@ -111,6 +113,9 @@ def ranking_table(est: pd.DataFrame, spd: pd.DataFrame, pp: pd.DataFrame, margin
     other kernels, as the speedups over the baseline. A kernel is tied with
     the fastest when its interval reaches down to ``1 + margin``: choosing
     the fastest by its point estimate is not evidence that it beats those.
+    ``val`` is the robustness table (``validate.csv``) if there is one: each
+    row carries the kernel's measured failures at the workload's precision
+    (:func:`measured_robustness`).
     """
     rows = []
     for wid, g in est.groupby("workload_id", sort=False):
@@ -150,6 +155,7 @@ def ranking_table(est: pd.DataFrame, spd: pd.DataFrame, pp: pd.DataFrame, margin
                     "culls_back_faces": declared(kernel, "culls_back_faces"),
                     "bytes_per_triangle": _bytes_per_triangle(kernel, str(r.dtype)),
                     "form": _form(kernel),
+                    **measured_robustness(val, kernel, str(r.dtype)),
                 }
             )
     return table_frame(rows, runfolder.RANKING)
@@ -227,21 +233,42 @@ ROBUSTNESS_TESTS = {
 }
 
 
-def _robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
-    """validate.csv's figures of one kernel at one precision (NaN without the table or its rows): its
-    promises, and the measured failures users compare, per million rays with the rays they come from."""
-    out: dict[str, Any] = {"promises_checked": math.nan, "broken_promises": math.nan}
-    out |= {column: math.nan for columns in ROBUSTNESS_TESTS.values() for column in columns}
-    rows = pd.DataFrame() if val is None or val.empty else val.loc[(val["kernel"] == kernel) & (val["dtype"] == dtype)]
-    if rows.empty:
-        return out
-    out["promises_checked"] = int((rows["verdict"] != "measured").sum())
-    out["broken_promises"] = int((rows["verdict"] == "fail").sum())
+def _validated(val: pd.DataFrame | None, kernel: str, dtype: str) -> pd.DataFrame:
+    """validate.csv's rows of one kernel at one precision (none without the table): a kernel's figures at
+    float32 say nothing of it at float64, so the join is on both."""
+    if val is None or val.empty:
+        return pd.DataFrame()
+    return val.loc[(val["kernel"] == kernel) & (val["dtype"] == dtype)]
+
+
+def measured_robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
+    """The failures users compare, from validate.csv: per test of :data:`ROBUSTNESS_TESTS`, per million rays
+    and the rays they come from (NaN without the table or the test's row).
+
+    >>> val = pd.DataFrame({"kernel": ["a", "a"], "dtype": ["float32", "float64"], "test": ["shared_edges"] * 2,
+    ...     "rays": [200, 200], "rate": [0.005, 0.0]})
+    >>> r = measured_robustness(val, "a", "float32")
+    >>> r["cracks_per_million"], r["shared_edge_rays"], r["sphere_rays"]
+    (5000.0, 200, nan)
+    """
+    out: dict[str, Any] = {column: math.nan for columns in ROBUSTNESS_TESTS.values() for column in columns}
+    rows = _validated(val, kernel, dtype)
     for test, (per_million, rays) in ROBUSTNESS_TESTS.items():
-        row = rows.loc[rows["test"] == test]
+        row = rows.loc[rows["test"] == test] if len(rows) else rows
         if len(row):
             out[per_million], out[rays] = 1e6 * float(row["rate"].iloc[0]), int(row["rays"].iloc[0])
     return out
+
+
+def _robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
+    """validate.csv's figures of one kernel at one precision for bands.csv (NaN without the table or its
+    rows): its promises (shown under Robustness, not on the first screen), then the measured failures."""
+    rows = _validated(val, kernel, dtype)
+    out: dict[str, Any] = {"promises_checked": math.nan, "broken_promises": math.nan}
+    if len(rows):
+        out["promises_checked"] = int((rows["verdict"] != "measured").sum())
+        out["broken_promises"] = int((rows["verdict"] == "fail").sum())
+    return out | measured_robustness(val, kernel, dtype)
 
 
 def band_table(

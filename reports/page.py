@@ -118,15 +118,20 @@ def table(
     cols: Sequence[tuple[str, str]],
     digits: int = 4,
     classes: Mapping[str, Callable[[Any], str]] | None = None,
+    titles: Mapping[str, str] | None = None,
 ) -> str:
     """An HTML table of ``frame``; ``cols`` pairs a column with its header (units in it).
 
     Numbers go through :func:`num` and are right-aligned; a ``verdict`` cell takes its verdict as
-    CSS class; ``classes`` maps a column to a function giving each of its cells' CSS class from the value.
+    CSS class; ``classes`` maps a column to a function giving each of its cells' CSS class from the value;
+    ``titles`` maps a column to its header's tooltip, for what a short header cannot say.
     """
     if frame.empty:
         return '<p class="note">(none)</p>'
-    head = "".join(f"<th>{escape(h)}</th>" for _, h in cols)
+    tips = titles or {}
+    head = "".join(
+        f'<th title="{escape(tips[c])}">{escape(h)}</th>' if c in tips else f"<th>{escape(h)}</th>" for c, h in cols
+    )
     body = []
     for _, row in frame.iterrows():
         cells = []

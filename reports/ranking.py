@@ -8,10 +8,12 @@ analysis step wrote (:func:`tribench.analysis.ranking.band_table`,
 
 from __future__ import annotations
 
+import math
 from html import escape
 
 import pandas as pd
 
+from tribench.harness import runfolder
 from tribench.stats import format_estimate
 
 from . import charts, page
@@ -95,6 +97,9 @@ def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
                 "tied": ", ".join(tied) or "none",
                 "next": slower(rest.iloc[0]) if len(rest) else "–",
                 "watertight_best": watertight,
+                # a frame built by hand may lack validate's columns: its cells then say not validated
+                "cracks": _per_million(best.get("cracks_per_million", math.nan), best.get("shared_edge_rays")),
+                "sphere": _per_million(best.get("sphere_misses_per_million", math.nan), best.get("sphere_rays")),
                 "bytes": best["bytes_per_triangle"],
             }
         )
@@ -179,11 +184,13 @@ def ranking_section(data: RunData, rank: pd.DataFrame, alg: pd.DataFrame | None 
         ("tied", "not told apart from it"),
         ("next", "next kernel, time / fastest's"),
         ("watertight_best", "fastest watertight kernel"),
+        ("cracks", "shared-edge cracks per 10⁶ rays (fastest)"),
+        ("sphere", "far-sphere misses per 10⁶ rays (fastest)"),
         ("bytes", "bytes per triangle (fastest)"),
     ]
     parts = []
     for dtype, g in shown.groupby("dtype", sort=False):
-        parts.append(f"<h3>{dtype}</h3>" + page.table(g, cols))
+        parts.append(f"<h3>{dtype}</h3>" + page.table(g, cols, titles=ROBUSTNESS_TIPS))
     if rank["algorithm"].nunique() > 1:
         order = algorithm_order(rank)
         parts.append("<h3>The algorithms in order</h3>")
@@ -290,6 +297,17 @@ def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+#: Header tooltips of the measured-robustness columns: what each counts, at the row's precision.
+ROBUSTNESS_TIPS = {
+    "cracks": "tribench validate's shared_edges test at this precision: rays aimed exactly at an edge two "
+    "coplanar triangles share that hit neither, per million rays (cracks_per_million in bands.csv and ranking.csv)",
+    "sphere": "tribench validate's inside_sphere test (Embree's watertightness test) at this precision: rays "
+    "from inside a closed sphere of radius 2 centred at (148376, 1234, -223423), where float32 spacing is "
+    "1/64, that hit nothing, "
+    "per million rays (sphere_misses_per_million in bands.csv and ranking.csv)",
+}
+
+
 def _per_million(rate: float, rays: float) -> str:
     """A failure count per million rays, with the rays it was measured on (few rays: a coarse figure)."""
     return "not validated" if pd.isna(rate) else f"{rate:,.0f} ({int(rays):,} rays)"
@@ -393,9 +411,18 @@ def answer_section(data: RunData, bands: pd.DataFrame | None, alg: pd.DataFrame 
     ]
     parts = []
     for dtype, g in shown.groupby("dtype", sort=False):
-        parts.append(f'<h3>{escape(str(dtype))}</h3><div class="answer">{page.table(g, cols)}</div>')
+        table = page.table(g, cols, titles=ROBUSTNESS_TIPS)
+        parts.append(f'<h3>{escape(str(dtype))}</h3><div class="answer">{table}</div>')
     items = "".join(f"<li>{escape(s)}</li>" for s in answer_sentences(bands, alg))
     parts.append(f'<ul class="verdicts">{items}</ul>')
+    if bands["cracks_per_million"].isna().all():  # a missing rate is not 0: the chart has nowhere to put a kernel
+        parts.append(
+            page.p(
+                f"This run has no {runfolder.VALIDATE}, so the chart below has no robustness to place its kernels "
+                f"at: `tribench validate --out {data.run_dir}`, then `tribench stats {data.run_dir}`.",
+                "note",
+            )
+        )
     parts.append(
         charts.embed(
             charts.answer_chart(bands, colours),

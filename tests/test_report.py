@@ -218,9 +218,16 @@ def test_robustness_section_shows_the_validate_table_per_kernel_and_dtype(render
     assert "Read from validate.csv" in part
     rows = _section_rows(text, "robustness")
     head = rows[0]
-    assert head[:3] == ["kernel", "precision", "ISA"] and head[3:] == list(validate.SHORT_NAMES.values())
+    assert head[:4] == ["kernel", "precision", "ISA", "promises (validate)"]
+    assert head[4:] == list(validate.SHORT_NAMES.values())
     table = [r for r in rows if len(r) == len(head)][1 : len(KERNELS) + 1]
     assert [(r[0], r[1]) for r in table] == [(k, "float64") for k in KERNELS]
+    # the promises, moved here from the first screen: each kernel's judged tests and how many broke
+    val = pd.read_csv(run_dir / "validate.csv")
+    for r in table:
+        mine = val.loc[(val["kernel"] == r[0]) & (val["dtype"] == r[1])]
+        checked, broken = (mine["verdict"] != "measured").sum(), (mine["verdict"] == "fail").sum()
+        assert r[3] == (f"{broken} of {checked} broken" if checked else "none promised")
     # the rays per test, and one sentence on what each measures
     tests = [r for r in rows if len(r) > 1 and r[1] in validate.TESTS]
     assert [r[1] for r in tests] == list(validate.TESTS)
@@ -421,6 +428,10 @@ def test_the_page_opens_on_the_answer_and_collapses_every_other_section(rendered
         f"{c:,.0f} ({int(n):,} rays)" for c, n in zip(best["cracks_per_million"], best["shared_edge_rays"], strict=True)
     ]
     assert "promises (validate)" not in answer
+    # the headers' tooltips say which of validate's tests each column counts
+    tips = [html.unescape(t) for t in re.findall(r'<th title="([^"]*)">', answer)]
+    assert len(tips) == 2 * answer.count("<table>")
+    assert "shared_edges test" in tips[0] and "inside_sphere test" in tips[1]
     assert answer.index("<table>") < answer.index("vegaEmbed(")  # the table before the chart
     # one sentence per question: the fastest, against the baseline, watertightness, curless or moller_trumbore
     items = re.findall(r"<li>(.*?)</li>", answer)

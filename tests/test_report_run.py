@@ -200,6 +200,7 @@ def test_the_ranking_orders_every_workload_and_pairs_each_kernel_with_the_fastes
     pp = pd.read_csv(small_run / runfolder.PER_PROCESS)
     spd = pd.read_csv(small_run / runfolder.SPEEDUPS)
     est = pd.read_csv(small_run / runfolder.ESTIMATES)
+    val = pd.read_csv(small_run / runfolder.VALIDATE)
     assert set(rank["workload_id"]) == set(est["workload_id"])
     for wid, g in rank.groupby("workload_id"):
         assert list(g["rank"]) == list(range(1, len(g) + 1))
@@ -224,6 +225,11 @@ def test_the_ranking_orders_every_workload_and_pairs_each_kernel_with_the_fastes
             )
             s = spd.loc[(spd["workload_id"] == wid) & (spd["kernel"] == r.kernel)]
             assert r.speedup == (s["ratio"].iloc[0] if len(s) else 1.0)
+            # the kernel's measured robustness at the workload's precision (all float64 here, as validated)
+            mine = val.loc[(val["kernel"] == r.kernel) & (val["dtype"] == r.dtype)].set_index("test")
+            assert r.cracks_per_million == pytest.approx(1e6 * mine.loc["shared_edges", "rate"])
+            assert r.sphere_misses_per_million == pytest.approx(1e6 * mine.loc["inside_sphere", "rate"])
+            assert (r.shared_edge_rays, r.sphere_rays) == tuple(mine.loc[["shared_edges", "inside_sphere"], "rays"])
 
 
 def test_the_algorithm_table_pairs_every_two_algorithms_the_faster_first(small_run):

@@ -380,6 +380,12 @@ _RANKING: dict[str, str] = {
     "culls_back_faces": "True when the kernel skips back faces (it answers a different question)",
     "bytes_per_triangle": "bytes of prepared data per triangle at that precision (empty: unknown to this build)",
     "form": "scalar, or N lanes for a wide kernel",
+    "cracks_per_million": "validate.csv's shared_edges test at the workload's precision: rays at an exact shared "
+    "edge hitting nothing, per million (empty: no validate.csv)",
+    "shared_edge_rays": "the rays of that test",
+    "sphere_misses_per_million": "validate.csv's inside_sphere test (Embree's) at the workload's precision: rays "
+    "from inside a far-off closed sphere that hit nothing, per million (empty: no validate.csv)",
+    "sphere_rays": "the rays of that test",
 }
 
 _ALGORITHMS: dict[str, str] = {
