@@ -7,6 +7,8 @@ other work. On pairs wound to face their rays it does every test the others do.
 
 from __future__ import annotations
 
+import re
+
 import pandas as pd
 import pytest
 
@@ -50,6 +52,23 @@ def test_a_kernel_whose_answers_differ_is_measured_but_ranked_nowhere(run):
     # both workloads make one band (pairs at 50%): a kernel that differs on one of them is not in it
     bands = pd.read_csv(run / runfolder.BANDS)
     assert list(bands["workloads"].unique()) == [2] and CULL not in set(bands["kernel"])
+
+
+@pytest.mark.slow
+def test_the_first_screen_names_it_only_to_say_it_is_left_out(run):
+    page = (run / "report.html").read_text(encoding="utf-8")
+    answer = re.search(r'<section id="answer">(.*?)</section>', page, re.S)
+    assert answer and "pairs, hit rate 35–65%" in answer.group(1)  # the band's table and chart are there
+    warnings = re.findall(r'<div class="warn">.*?</div>', answer.group(1), re.S)
+    assert any(CULL in w for w in warnings)
+    assert CULL not in re.sub(r'<div class="warn">.*?</div>', "", answer.group(1), flags=re.S)  # table, chart, legend
+
+
+@pytest.mark.slow
+def test_random_and_facing_pairs_are_two_families(run):
+    families = pd.read_csv(run / runfolder.WORKLOADS).set_index("workload_id")["family"]
+    assert families[workload_id(FACING)] == families[workload_id(RANDOM)].replace(" sphere ", " sphere facing ")
+    assert families[workload_id(FACING)] != families[workload_id(RANDOM)]
 
 
 @pytest.mark.slow
