@@ -76,6 +76,11 @@ def test_the_report_says_which_kernel_it_left_out_and_why(run):
     page = (run / "report.html").read_text(encoding="utf-8")
     assert "Left out of every ranking, as doing other work than the reference asks: moller_trumbore_cull" in page
     assert "it culls back faces, so the tests it rejects at once are work it skipped, not speed" in page
+    # the workload named so a reader tells it from its facing twin, which has the same hit rate
+    assert f"Correctness: {CULL} on per-test hit rate 50% (pairs n=400 shuffled sphere float64) differs" in page
+    # its own answer, as a share of the reference's hits: about half, the rays that meet a front face
+    share = re.search(r"moller_trumbore_cull on [^:]*: [\d,]+ hits per pass of the reference&#x27;s 200, (\d+)%", page)
+    assert share and 35 <= int(share.group(1)) <= 65
 
 
 def test_agreeing_keeps_unknown_agreement_and_drops_only_the_differing_pairs():
