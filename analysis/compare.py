@@ -15,7 +15,9 @@ on the log scale from the runs' per-process values
 (:func:`tribench.stats.unpaired_ratio`), not a paired one. Intervals are
 simultaneous over the kernels of one workload (Bonferroni, as in
 ``stats.speedup_table``); verdicts come from ``stats.verdict`` with the larger
-of the two runs' equivalence margins. A run is any object with the fields of
+of the two runs' equivalence margins. As in a run's own rankings, a kernel on a
+workload where its answers differ from the reference (its ``correctness.csv``)
+did other work there and is compared nowhere on it. A run is any object with the fields of
 :class:`RunTables` (the report's :class:`~tribench.reports.rundata.RunTables` has them).
 """
 
@@ -34,6 +36,8 @@ from tribench import stats
 from tribench.common import UserError
 from tribench.harness import runfolder
 from tribench.workloads.labels import family_of, short_label
+
+from .workload_tables import compared
 
 __all__ = [
     "MAX_RUNS",
@@ -84,8 +88,15 @@ class Comparison:
     only_b: list[str]
 
 
+def _per_process(data: RunTables) -> pd.DataFrame:
+    """The run's per-process values (``per_process.csv``, as the analysis step wrote it) a comparison
+    may compare: none of a kernel on a workload where its answers differ from the reference (the run's
+    ``correctness.csv``), since its time there is of other work, as the run's own rankings have it."""
+    return compared(data.tables[runfolder.PER_PROCESS], data.tables.get(runfolder.CORRECTNESS))
+
+
 def _log_per_process(data: RunTables) -> pd.DataFrame:
-    pp = data.tables[runfolder.PER_PROCESS]  # written by the analysis step (stats.per_process)
+    pp = _per_process(data)
     return pp.assign(log_ns=np.log(pp["ns_per_test"]))
 
 
@@ -132,7 +143,8 @@ def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Compar
         wa = pa.loc[pa["workload_id"] == wid].pivot(index="process", columns="kernel", values="log_ns")
         wb = pb.loc[pb["workload_id"] == wid].pivot(index="process", columns="kernel", values="log_ns")
         present = [k for k in kernels if k in wa.columns and k in wb.columns]
-        others = [k for k in present if k != a.baseline]
+        # no speedups where the baseline did not run (a BVH workload runs native kernels only): times still
+        others = [k for k in present if k != a.baseline] if a.baseline in present else []
         level_s = stats.simultaneous_confidence(confidence, len(others)) if others else confidence
         level_t = stats.simultaneous_confidence(confidence, len(present)) if present else confidence
         for k in others:
@@ -335,7 +347,7 @@ def _orders(
     spec = runs[0].specs[wid]
     pers = []
     for d in runs:
-        pp = d.tables[runfolder.PER_PROCESS]  # per kernel and process, as the analysis step wrote it
+        pp = _per_process(d)
         pers.append(pp.loc[pp["workload_id"] == wid].pivot(index="process", columns="kernel", values="ns_per_test"))
     present = [k for k in kernels if all(k in per.columns for per in pers)]
     first = pers[0][present].mean().sort_values(kind="stable")  # orient each pair by run A's estimate

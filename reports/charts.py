@@ -189,6 +189,9 @@ def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart
     watertight by its paper.
     """
     data = _answer_data(bands)
+    # the legend names only the kernels some band ranks (not one whose answers differ everywhere it ran),
+    # each in the colour it has in every other figure
+    colours = {k: c for k, c in colours.items() if k in set(bands["kernel"])}
     places = list(dict.fromkeys(data["where"]))
     place = alt.param(name="band", value=places[0], bind=alt.binding_select(options=places, name="precision · band: "))
     kernels = _kernel_legend()

@@ -200,7 +200,10 @@ def diagnostics_section(data: RunData, batches: pd.DataFrame, wl: pd.DataFrame) 
 
 def correctness_section(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) -> str:
     """Every kernel's hits against the float64 reference, per workload."""
-    labels = dict(zip(wl["workload_id"], wl["label"], strict=True))
+    # the family too: two workloads of a run can share a label (a hit rate at both precisions or windings)
+    labels = {
+        w: f"{label} ({family})" for w, label, family in zip(wl["workload_id"], wl["label"], wl["family"], strict=True)
+    }
     frame = correct.assign(label=correct["workload_id"].map(labels))
     body = [
         page.p(
@@ -254,9 +257,10 @@ def _left_out(differs: pd.DataFrame) -> str:
             if culls(r.kernel)
             else "its answers differ"
         )
+        share = f", {100 * r.hits_per_pass_min / r.ref_hits:.0f}%" if r.ref_hits else ""
         parts.append(
             f"{r.kernel} on {r.label}: {page.num(r.hits_per_pass_min)} hits per pass of the reference's "
-            f"{page.num(r.ref_hits)} ({why})"
+            f"{page.num(r.ref_hits)}{share} ({why})"
         )
     return "Left out of every ranking, as doing other work than the reference asks: " + "; ".join(parts) + "."
 

@@ -13,7 +13,7 @@ import pandas as pd
 from tribench.stats import format_interval
 
 from . import page
-from .rundata import PeerTables, RunData
+from .rundata import PeerTables, RunData, family_of, short_label
 
 __all__ = ["title", "headline_sentences", "headline_section", "run_warnings", "peer_sentence"]
 
@@ -142,8 +142,10 @@ def run_warnings(data: RunData, drift: pd.DataFrame, correct: pd.DataFrame) -> l
         out.append(f"Drift: {r.kernel} against {data.baseline} on {r.label} ({r.reason}); see the drift section.")
     bad = correct.loc[correct["agrees"] == False]  # noqa: E712
     for r in bad.itertuples(index=False):
+        spec = data.specs.get(r.workload_id)
+        where = f"{short_label(spec)} ({family_of(spec)})" if spec else r.workload_id
         out.append(
-            f"Correctness: {r.kernel} on {r.workload_id} differs from the reference by "
+            f"Correctness: {r.kernel} on {where} differs from the reference by "
             f"{page.num(r.hit_difference)} hits per pass, so no ranking names it there (see the correctness table)."
         )
     expected = data.run.get("n_batches")

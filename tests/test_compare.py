@@ -324,3 +324,38 @@ def test_a_run_given_twice_is_refused(two_runs):
         timeout=60,
     )
     assert done.returncode == 2 and "given twice" in done.stderr and "Traceback" not in done.stderr
+
+
+# ------------------------------------------------------------------ equal work
+
+
+def _with_answers_that_differ(run: Path, folder: Path, kernel: str, wid: str) -> Path:
+    """A copy of an analysed run whose correctness.csv says ``kernel``'s answers differ on ``wid``."""
+    shutil.copytree(run, folder)
+    correct = pd.read_csv(folder / "correctness.csv")
+    correct.loc[(correct["kernel"] == kernel) & (correct["workload_id"] == wid), "agrees"] = False
+    correct.to_csv(folder / "correctness.csv", index=False)
+    return folder
+
+
+def test_a_kernel_whose_answers_differ_is_in_no_order_of_a_comparison(three_runs, tmp_path):
+    wid = load_run(three_runs[0]).workload_ids[0]
+    runs = [load_run(r) for r in three_runs[:2]]
+    assert {"curless"} <= set(compare_many(runs).orders.query("workload_id == @wid")["kernel"])  # else no test
+    differing = _with_answers_that_differ(three_runs[1], tmp_path / "B", "curless", wid)
+    m = compare_many([runs[0], load_run(differing)])
+    on_wid = m.orders.loc[m.orders["workload_id"] == wid]
+    assert len(on_wid) == 1 and "curless" not in {*on_wid["kernel"], *on_wid["other_kernel"]}
+    others = m.orders.loc[m.orders["workload_id"] != wid]
+    assert len(others) == 3 * 3  # curless is still ordered where its answers agree
+    pair = compare_runs(runs[0], load_run(differing))
+    assert (wid, "curless") not in set(zip(pair.times["workload_id"], pair.times["kernel"], strict=True))
+
+
+def test_a_comparison_where_the_baseline_is_missing_keeps_the_times(three_runs, tmp_path):
+    # as on a BVH workload, where the seed's baseline does not run
+    wid = load_run(three_runs[0]).workload_ids[0]
+    differing = _with_answers_that_differ(three_runs[1], tmp_path / "B", "moller_seed", wid)
+    pair = compare_runs(load_run(three_runs[0]), load_run(differing))
+    assert wid not in set(pair.speedups["workload_id"]) and len(set(pair.speedups["workload_id"])) == 3
+    assert set(pair.times.loc[pair.times["workload_id"] == wid, "kernel"]) == {"moller_trumbore", "curless"}

@@ -7,6 +7,8 @@ other work. On pairs wound to face their rays it does every test the others do.
 
 from __future__ import annotations
 
+import re
+
 import pandas as pd
 import pytest
 
@@ -53,10 +55,32 @@ def test_a_kernel_whose_answers_differ_is_measured_but_ranked_nowhere(run):
 
 
 @pytest.mark.slow
+def test_the_first_screen_names_it_only_to_say_it_is_left_out(run):
+    page = (run / "report.html").read_text(encoding="utf-8")
+    answer = re.search(r'<section id="answer">(.*?)</section>', page, re.S)
+    assert answer and "pairs, hit rate 35–65%" in answer.group(1)  # the band's table and chart are there
+    warnings = re.findall(r'<div class="warn">.*?</div>', answer.group(1), re.S)
+    assert any(CULL in w for w in warnings)
+    assert CULL not in re.sub(r'<div class="warn">.*?</div>', "", answer.group(1), flags=re.S)  # table, chart, legend
+
+
+@pytest.mark.slow
+def test_random_and_facing_pairs_are_two_families(run):
+    families = pd.read_csv(run / runfolder.WORKLOADS).set_index("workload_id")["family"]
+    assert families[workload_id(FACING)] == families[workload_id(RANDOM)].replace(" sphere ", " sphere facing ")
+    assert families[workload_id(FACING)] != families[workload_id(RANDOM)]
+
+
+@pytest.mark.slow
 def test_the_report_says_which_kernel_it_left_out_and_why(run):
     page = (run / "report.html").read_text(encoding="utf-8")
     assert "Left out of every ranking, as doing other work than the reference asks: moller_trumbore_cull" in page
     assert "it culls back faces, so the tests it rejects at once are work it skipped, not speed" in page
+    # the workload named so a reader tells it from its facing twin, which has the same hit rate
+    assert f"Correctness: {CULL} on per-test hit rate 50% (pairs n=400 shuffled sphere float64) differs" in page
+    # its own answer, as a share of the reference's hits: about half, the rays that meet a front face
+    share = re.search(r"moller_trumbore_cull on [^:]*: [\d,]+ hits per pass of the reference&#x27;s 200, (\d+)%", page)
+    assert share and 35 <= int(share.group(1)) <= 65
 
 
 def test_agreeing_keeps_unknown_agreement_and_drops_only_the_differing_pairs():

@@ -699,21 +699,29 @@ def test_facing_pairs_face_their_rays_and_keep_every_kind_and_answer(shape, dtyp
     assert 0.4 < drawn_front[~parallel].mean() < 0.6  # as drawn, half the rays meet a back face
     assert facing.achieved["miss_counts"] == drawn.achieved["miss_counts"]
     assert int(facing.ref_hit.sum()) == int(drawn.ref_hit.sum()) == 1200
-    assert facing.achieved["hits_front_facing"] == 1.0
+    assert (
+        facing.achieved["hits_front_facing"] == 1.0 == dict((f, t) for f, t, _ in facing.compare())["hits_front_facing"]
+    )
+    assert "hits_front_facing" not in drawn.targets()  # a random winding has no target for it
 
 
-def test_a_culling_kernel_agrees_with_the_reference_on_facing_pairs_only():
+def test_every_culling_kernel_agrees_with_the_reference_on_facing_pairs_only():
     from tribench import ext
 
+    # every stage, so rays behind the origin, parallel ones and ones stopped by t_max face their triangle too
+    every_stage = dict.fromkeys(MISS_STAGES, 1 / len(MISS_STAGES))
+    culling = [k for k in ext.kernel_names() if ext.kernel_info(k).culls_back_faces]
+    with_pairs = [k for k in culling if "pairs" in ext.kernel_info(k).modes]
+    assert with_pairs, culling  # else this test tests nothing
     for dtype in ("float32", "float64"):
-        spec = PairSpec(n=2000, hit_rate=0.5, miss_mix="uniform", dtype=dtype, seed=8)
+        spec = PairSpec(n=2400, hit_rate=0.5, miss_mix=every_stage, dtype=dtype, seed=8)
         for winding, agrees in (("facing", True), ("random", False)):
             w = generate(dataclasses.replace(spec, winding=winding))
-            for k in ("moller_trumbore_cull", "moller_trumbore_cull_x8"):
-                if "pairs" not in ext.kernel_info(k).modes:
-                    continue
-                hit, _ = ext.intersect_pairs(k, w.origins, w.directions, w.triangles)
+            for k in with_pairs:
+                hit, t = ext.intersect_pairs(k, w.origins, w.directions, w.triangles, t_max=w.t_max)
                 assert np.array_equal(hit, w.ref_hit) == agrees, (k, winding, dtype)
+                if agrees:
+                    np.testing.assert_allclose(t[hit], w.ref_t[hit], rtol=1e-5 if dtype == "float32" else 1e-12)
 
 
 def test_random_winding_keeps_the_ids_it_always_had_and_facing_is_another_workload():

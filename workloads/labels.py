@@ -20,6 +20,12 @@ def family_of(spec: Mapping[str, Any]) -> str:
     >>> family_of({"kind": "pairs", "n": 100, "hit_rate": 0.5, "order": "shuffled",
     ...            "shape": "sphere", "dtype": "float64", "seed": 0, "scale": 1.0, "offset": 0.0})
     'pairs n=100 shuffled sphere float64'
+
+    Pairs wound to face their rays are another family (a culling kernel does other work on the two):
+
+    >>> family_of({"kind": "pairs", "n": 100, "hit_rate": 0.5, "order": "shuffled",
+    ...            "shape": "sphere", "dtype": "float64", "winding": "facing"})
+    'pairs n=100 shuffled sphere facing float64'
     >>> family_of({"kind": "mesh", "mesh": "suzanne", "triangles": 200, "rays": "camera",
     ...            "width": 64, "height": 64, "dtype": "float64", "seed": 0})
     'mesh suzanne camera 64x64 float64'
@@ -41,8 +47,9 @@ def family_of(spec: Mapping[str, Any]) -> str:
         mix_text = ""
         if isinstance(mix, dict) and not _even_edges(mix):
             mix_text = " misses[" + ",".join(f"{k}={v:.2g}" for k, v in mix.items() if v) + "]"
+        facing = " facing" if spec.get("winding") == "facing" else ""  # a random winding is left out of the spec
         return (
-            f"pairs n={spec.get('n')} {spec.get('order', '')} {spec.get('shape', '')} "
+            f"pairs n={spec.get('n')} {spec.get('order', '')} {spec.get('shape', '')}{facing} "
             f"{spec.get('dtype', '')}{mix_text}{extra}"
         ).replace("  ", " ")
     mesh = Path(str(spec.get("mesh", "?"))).name

@@ -268,12 +268,15 @@ class PairSpec:
 
     def targets(self) -> dict[str, Any]:
         """Target figures, keyed like the achieved figures they are compared with."""
-        return {
+        out: dict[str, Any] = {
             "pairs": self.n,
             "hits": round(self.hit_rate * self.n),
             "hit_rate": self.hit_rate,
             "miss_mix": self.miss_fractions(),
         }
+        if self.winding == "facing" and out["hits"]:  # every hit on a front face: a culling kernel's work too
+            out["hits_front_facing"] = 1.0
+        return out
 
     def summary(self) -> str:
         """One line for listings."""
