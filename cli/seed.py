@@ -44,7 +44,8 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from tribench.reports.seed import write_seed_report
-    from tribench.studies.seed import KINDS_CSV, SEED_CSV, WORKLOADS_CSV, format_table, run_seed
+    from tribench.studies.seed import KINDS_CSV, SEED_CSV, WORKLOADS_CSV, run_seed
+    from tribench.studies.seed_terminal import format_table
 
     out = args.out or default_run_dir("seed-quick" if args.quick else "seed")
     words = [

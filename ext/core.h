@@ -66,6 +66,7 @@ typedef struct {
     PyThreadState *thread;             /* the caller's, while the loop runs without the GIL */
     int64_t start_ns, polled_ns;       /* when the loop started, and last looked for a signal */
     int interrupted;                   /* a signal handler raised: the loop stopped early */
+    int out_of_memory;                 /* a loop that allocates (seed_objects.h) could not */
 } tb_job;
 
 /* One batch of BVH traversal: the brute-force job (rays, t_max, the leaf

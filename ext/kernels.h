@@ -361,6 +361,9 @@ TB_INSTANTIATE_(moller_seed_aa)
 #undef TB_INSTANTIATE_
 #include "kernels/moller_trumbore_twice.h" /* its own entry points, from moller_trumbore's */
 #include "kernels/moller_trumbore_same.h"  /* the same */
+#include "kernels/seed_objects.h"         /* the seed's program around its tests: their own loop */
+#include "kernels/moller_seed_object.h"
+#include "kernels/curless_seed_object.h"
 
 /* Entry points of one wide kernel for one ISA: the same source compiled
  * for each instruction set by a target attribute (the kernels and helpers

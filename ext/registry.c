@@ -417,7 +417,9 @@ static int tb_run_loop(tb_loop_fn loop, tb_job *job)
     job->thread = PyEval_SaveThread();
     loop(job);
     PyEval_RestoreThread(job->thread);
-    return job->interrupted ? -1 : 0;
+    if (job->out_of_memory)
+        PyErr_NoMemory();
+    return job->interrupted || job->out_of_memory ? -1 : 0;
 }
 
 /* Checks the inputs shared by every loop entry point and fills `job`;

@@ -38,8 +38,8 @@ def kernel_names(internal: bool = False) -> tuple[str, ...]:
     >>> "moller_trumbore" in kernel_names()
     True
     >>> [k for k in kernel_names(internal=True) if k not in kernel_names()]  # doctest: +NORMALIZE_WHITESPACE
-    ['moller_trumbore_aa', 'moller_seed_aa', 'moller_trumbore_same', 'moller_trumbore_twice',
-     'moller_trumbore_yardstick']
+    ['moller_trumbore_aa', 'moller_seed_aa', 'moller_seed_object', 'curless_seed_object',
+     'moller_trumbore_same', 'moller_trumbore_twice', 'moller_trumbore_yardstick']
     """
     return _KERNELS if internal else _PUBLIC
 

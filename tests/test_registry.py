@@ -123,10 +123,18 @@ def test_the_declarations_say_what_the_readme_and_the_papers_say():
         "moller_trumbore_cull_fma",
     }
     assert {k for k, i in INFO.items() if i.watertight != "none"} == {"woop", "woop_x8", "woop_fma"}
-    assert {k for k, i in INFO.items() if i.seed_replay} == {"curless_seed", "moller_seed", "moller_seed_aa"}
+    assert {k for k, i in INFO.items() if i.seed_replay} == {
+        "curless_seed",
+        "moller_seed",
+        "moller_seed_aa",
+        "moller_seed_object",
+        "curless_seed_object",
+    }
     assert {k for k, i in INFO.items() if i.internal} == {
         "moller_trumbore_aa",
         "moller_seed_aa",
+        "moller_seed_object",
+        "curless_seed_object",
         "moller_trumbore_same",
         "moller_trumbore_twice",
         "moller_trumbore_yardstick",
@@ -255,7 +263,7 @@ def test_every_kernel_file_is_included_and_registered_once_and_has_a_row_in_the_
     ) == sorted(WIDE)
 
     # one file per registered kernel, wide forms included, and no file that is not one
-    helpers = {"vec", "list"}
+    helpers = {"vec", "list", "seed_objects"}
     files = {p.stem for p in (ROOT / "ext" / "kernels").glob("*.h")} - helpers
     assert files == set(KERNELS), f"unregistered files {files - set(KERNELS)}, missing {set(KERNELS) - files}"
     # kernels.h includes the scalar and _x8 files, native.h (included once per ISA) the native ones

@@ -175,6 +175,35 @@ def test_per_render_arithmetic_by_hand():
     assert len(hs.render_per_process(pp.drop(index=[0]), workloads).query("kernel == 'A'")) == 1
 
 
+def test_the_object_forms_are_set_beside_the_seeds_program_with_the_models_error():
+    # the program's two forms over each other, and the paper's columns of the seed kernel each replays
+    pp = pd.DataFrame(
+        {
+            "kernel": ["curless_seed_object"] * 3 + ["moller_seed_object"] * 3 + ["moller_seed"] * 3,
+            "workload_id": ["p"] * 9,
+            "process": [0, 1, 2] * 3,
+            "ns_per_test": [50.0, 52.0, 51.0, 36.0, 37.0, 38.0, 12.0, 12.5, 12.2],
+            "tests_per_pass": [100] * 9,
+        }
+    )
+    per = hs.render_per_process(pp, {"p": {"scene": "s1", "stream_tests": 1000, "sample_tests": 100}})
+    table = hs.render_table(per, {"s1": {"triangles": 968, "render_tests": 1000, "paper": "scene03"}}).set_index(
+        "kernel"
+    )
+    c, m, base = table.loc["curless_seed_object"], table.loc["moller_seed_object"], table.loc["moller_seed"]
+    d = np.log(np.array([50.0, 52.0, 51.0]) / [36.0, 37.0, 38.0])
+    assert c["ratio_baseline"] == "moller_seed_object" and base["ratio_baseline"] == "moller_seed"
+    assert c["ratio_to_moller_seed"] == pytest.approx(math.exp(d.mean())) and m["ratio_to_moller_seed"] == 1.0
+    assert c["paper_user_s"] == hs.PAPER["scene03"]["curless_seed"]["user"]  # the program's own figure
+    assert c["paper_ratio_user"] == pytest.approx(94.305 / 55.691)
+    e = hs.MODEL_ERROR
+    assert c["predicted_s_low"] == pytest.approx(c["render_s_ci_low"] / (1 + e))
+    assert c["predicted_s_high"] == pytest.approx(c["render_s_ci_high"] * (1 + e))
+    assert c["predicted_ratio_low"] == pytest.approx(c["ratio_to_moller_seed_ci_low"] / (1 + e))
+    assert c["predicted_ratio_high"] == pytest.approx(c["ratio_to_moller_seed_ci_high"] * (1 + e))
+    assert math.isnan(base["predicted_s_low"]) and math.isnan(base["predicted_ratio_high"])  # arithmetic only
+
+
 def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, capsys):
     scene = tmp_path / "tiny.txt"
     scene.write_text(TINY)
@@ -188,7 +217,7 @@ def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, cap
     assert "expected: about " in captured.err  # the seed states its duration before it starts
     assert captured.err.index("tracing tiny: expected about ") < captured.err.index("workload: ")
     assert " in all; for the sweep: about " in captured.err and "then the pictures and tables about" in captured.err
-    assert f"report: {out / 'seed.html'}" in printed and "Curless / Moller: replay" in printed
+    assert f"report: {out / 'seed.html'}" in printed and "Curless / Moller: replay (curless_seed_object)" in printed
     for name in (
         "seed.csv",
         "seed_kinds.csv",
@@ -249,18 +278,20 @@ def test_a_trace_forecast_past_the_bound_is_refused_before_the_trace(cache_dir, 
 
 def test_the_default_kernels_are_the_seeds_and_the_widest_form_of_every_two_sided_algorithm():
     names = ext.kernel_names()
-    info = {k: ext.kernel_info(k) for k in names}
+    info = {k: ext.kernel_info(k) for k in ext.kernel_names(internal=True)}
     chosen = hs.seed_kernels()
-    assert chosen[:4] == hs.FIRST_KERNELS and len(set(chosen)) == len(chosen)
+    assert chosen[:6] == hs.FIRST_KERNELS and len(set(chosen)) == len(chosen)
+    assert chosen[:2] == hs.PROGRAM and all(info[k].internal and info[k].seed_replay for k in hs.PROGRAM)
     assert not any(info[k].culls_back_faces for k in chosen)  # the seed's renders test both faces
     for k in names:
         kin = [c for c in names if info[c].algorithm == info[k].algorithm and not info[c].culls_back_faces]
         widest = max(info[c].lanes for c in kin) if kin else 0
         if k not in hs.FIRST_KERNELS and not info[k].culls_back_faces:
             assert (k in chosen) == (info[k].lanes == widest > 1), k
-    assert {info[k].algorithm for k in chosen} == {info[k].algorithm for k in names if not info[k].culls_back_faces}
+    public = [k for k in chosen if k not in hs.PROGRAM]
+    assert {info[k].algorithm for k in public} == {info[k].algorithm for k in names if not info[k].culls_back_faces}
     every = hs.seed_kernels(all_kernels=True)
-    assert every[:4] == hs.FIRST_KERNELS and sorted(every) == sorted(names)
+    assert every[:6] == hs.FIRST_KERNELS and sorted(every) == sorted([*names, *hs.PROGRAM])
 
 
 @pytest.mark.slow

@@ -61,11 +61,15 @@
  * moller_seed_aa one of moller_seed (the main job's own A/A margin),
  * moller_trumbore_same calls moller_trumbore's own code (a ratio of exactly 1),
  * moller_trumbore_twice times every pass twice (a known 2x effect). The four
- * are instantiated by name in kernels.h. moller_trumbore_yardstick is the plain
+ * are instantiated by name in kernels.h. moller_seed_object and
+ * curless_seed_object are the seed's tests as its program pays for them
+ * (kernels/seed_objects.h: its objects, calls and scene loop; tribench seed). moller_trumbore_yardstick is the plain
  * AVX2 intrinsics form bench/yardstick.py times the kernels against. */
 #define TB_INTERNAL_KERNEL_LIST(X)                                                           \
     X(moller_trumbore_aa,    TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
     X(moller_seed_aa,        TB_BOTH_FACES, TB_OPEN, "", TB_SEED_REPLAY, TB_SCALAR_ONLY)     \
+    X(moller_seed_object,    TB_BOTH_FACES, TB_OPEN, "", TB_SEED_REPLAY, TB_SCALAR_ONLY)     \
+    X(curless_seed_object,   TB_BOTH_FACES, TB_OPEN, "", TB_SEED_REPLAY, TB_SCALAR_ONLY)     \
     X(moller_trumbore_same,  TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
     X(moller_trumbore_twice, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
     X(moller_trumbore_yardstick, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_NATIVE_AVX2)

@@ -21,9 +21,18 @@ _SEED: dict[str, str] = {
     "render_s_ci_high": "upper end of that interval, seconds",
     "render_s_min": "smallest per-process value, seconds",
     "replay_ns_per_test": "render_s / render_tests, nanoseconds",
-    "ratio_to_moller_seed": "render time of this kernel / that of moller_seed (geometric mean of per-process ratios)",
+    "ratio_baseline": "the kernel the ratio divides by: moller_seed_object for the two object forms (the seed's "
+    "program, Curless over Moller), moller_seed for the others",
+    "ratio_to_moller_seed": "render time of this kernel / that of ratio_baseline (geometric mean of per-process "
+    "ratios)",
     "ratio_to_moller_seed_ci_low": "lower end of its 95% paired interval",
     "ratio_to_moller_seed_ci_high": "upper end of that interval",
+    "predicted_s_low": "object forms: the seed's own program's user time predicted on this machine, low end "
+    "(the 95% interval widened by the replay's model error, studies/seed.py MODEL_ERROR), seconds",
+    "predicted_s_high": "high end of that prediction, seconds",
+    "predicted_ratio_low": "object forms: the program's Curless / Moller ratio predicted, low end (the ratio's "
+    "interval widened by the model error)",
+    "predicted_ratio_high": "high end of that prediction",
     "n_processes": "processes (replicates) behind the estimate",
     "paper_real_s": "the seed's Unix time 'real' for this kernel and scene, seconds (empty: not in the paper)",
     "paper_user_s": "the seed's Unix time 'user', seconds",
