@@ -123,7 +123,13 @@ def run(args: argparse.Namespace) -> int:
     if result.batches_done == result.batches_total:  # the analysis step: every table the report reads
         from tribench.studies.finish import finish
 
-        finish(result.run_dir)
+        try:
+            finish(result.run_dir)
+        except KeyboardInterrupt:
+            raise runner.SweepInterrupted(
+                f"interrupted in the analysis: every batch is saved in {result.run_dir}; "
+                f"make its tables with: tribench stats {result.run_dir}"
+            ) from None
         print(f"next: tribench report {result.run_dir}", file=sys.stderr)
     else:
         print(f"next: tribench stats {result.run_dir}", file=sys.stderr)

@@ -271,3 +271,24 @@ def test_a_time_spread_wide_gives_a_wide_but_bounded_peak_fraction():
     row = analysis.pipeline._peak_columns(table, processes, {"w": "float32"}, throughput).iloc[0]
     assert 0 < row["peak_fraction_ci_low"] <= row["peak_fraction"] <= row["peak_fraction_ci_high"] < np.inf
     assert row["peak_fraction_ci_high"] / row["peak_fraction_ci_low"] > 100  # and says how little is known
+
+
+@pytest.mark.slow
+def test_a_ctrl_c_in_the_analysis_says_every_batch_is_saved_and_how_to_make_the_tables(
+    tmp_path, env, monkeypatch, capsys
+):
+    from tribench.cli.command import main
+    from tribench.studies import finish
+
+    def interrupted(run_dir):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(finish, "finish", interrupted)
+    out = tmp_path / "run"
+    assert main(["sweep", *TINY, "--out", str(out)]) == 130
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err == (
+        f"tribench sweep: interrupted in the analysis: every batch is saved in {out}; "
+        f"make its tables with: tribench stats {out}"
+    )
+    assert len(keys_of(out)) == 3 * 3 * 2  # processes x (rounds + warm-up) x kernels: all of them

@@ -1,0 +1,306 @@
+"""A hostile user's cases, class by class (#29): what each did, counted as the issue's table counts it.
+
+Every case runs the installed ``tribench`` command (or, for the notebook
+API, a fresh Python) in a scratch folder and cache, and is classed by what
+a user sees:
+  crash      exit status other than 0 (done) and 2 (refused), or a signal;
+  traceback  a Python traceback on either stream;
+  unclear    refused, but not in one line naming what the case expects;
+  rows lost  for interrupted sweeps: planned batches missing or duplicated
+             after ``--resume``.
+Printed: one markdown row per class (cases, crashes, tracebacks, unclear
+errors, rows lost), then each failing case with its command.
+
+    python bench/hostile.py [--only CLASS]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+SMALL = ["--processes", "2", "--rounds", "2", "--target-ms", "1", "--pairs", "200", "--no-progress"]
+
+
+@dataclass
+class Outcome:
+    case: str
+    command: str
+    crash: bool = False
+    traceback: bool = False
+    unclear: bool = False
+    rows_lost: int = 0
+    said: str = ""  # the last line the user saw
+
+    @property
+    def failed(self) -> bool:
+        return self.crash or self.traceback or self.unclear or self.rows_lost > 0
+
+
+@dataclass
+class Scratch:
+    root: Path
+    env: dict[str, str] = field(default_factory=dict)
+
+    def tribench(self, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            ["tribench", *args], cwd=self.root, env=self.env, capture_output=True, text=True, timeout=timeout
+        )
+
+    def python(self, code: str) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [sys.executable, "-c", code], cwd=self.root, env=self.env, capture_output=True, text=True, timeout=300
+        )
+
+
+def judge(case: str, p: subprocess.CompletedProcess, *, refused: bool, words: tuple[str, ...] = ()) -> Outcome:
+    """Class one finished command: done (exit 0) or refused (exit 2 in one line holding ``words``)."""
+    text = p.stdout + p.stderr
+    o = Outcome(case, " ".join(p.args) if isinstance(p.args, list) else str(p.args))
+    o.crash = p.returncode not in (0, 2)
+    o.traceback = "Traceback (most recent call last)" in text
+    o.said = (text.strip().splitlines() or [""])[-1][:200]
+    if refused:
+        lines = [line for line in p.stderr.splitlines() if line.strip()]
+        o.unclear = p.returncode != 2 or len(lines) != 1 or not all(w.lower() in p.stderr.lower() for w in words)
+    else:
+        o.unclear = p.returncode != 0
+    return o
+
+
+def small_sweep(s: Scratch, out: str, kernels: str, *extra: str) -> subprocess.CompletedProcess:
+    return s.tribench("sweep", "--kernels", kernels, "--hit-rates", "0.5", "--out", out, *SMALL, *extra)
+
+
+# ---------------------------------------------------------------- the classes
+
+
+def compare_cases(s: Scratch) -> list[Outcome]:
+    small_sweep(s, "a", "moller_seed,curless")
+    small_sweep(s, "b", "moller_seed,moller_trumbore")
+    return [
+        judge("runs that share only the baseline", s.tribench("compare", "a", "b", "--out", "c.html"), refused=False),
+        judge("a run given twice", s.tribench("compare", "a", "a"), refused=True, words=("twice",)),
+        judge("a folder that is no run", s.tribench("compare", "a", "."), refused=True),
+    ]
+
+
+def moved_mesh_cases(s: Scratch) -> list[Outcome]:
+    import trimesh
+
+    trimesh.creation.icosphere(subdivisions=2).export(s.root / "one.obj")
+    p = s.tribench(
+        "sweep", "--kernels", "moller_seed,curless", "--mesh", "one.obj", "--camera", "8x8", "--out", "m", *SMALL
+    )
+    (s.root / "one.obj").rename(s.root / "moved.obj")
+    return [
+        judge("sweep on a mesh file", p, refused=False),
+        judge("report after the mesh moved", s.tribench("report", "m"), refused=False),
+        judge("export after the mesh moved", s.tribench("export", "m", "--out", "m.json"), refused=False),
+    ]
+
+
+def cache_cases(s: Scratch) -> list[Outcome]:
+    out = []
+    small_sweep(s, "w1", "moller_seed")
+    files = sorted((Path(s.env["TRIBENCH_CACHE"])).rglob("*.npz"))
+    files[0].write_bytes(b"not a workload")  # corrupt: detected and rebuilt
+    out.append(judge("a corrupt workload file", small_sweep(s, "w2", "moller_seed"), refused=False))
+    files[0].unlink()
+    files[0].mkdir()  # a folder in its place
+    out.append(judge("a folder in place of a workload file", small_sweep(s, "w3", "moller_seed"), refused=False))
+    if s.tribench("cache", "--help").returncode == 0:
+        out.append(judge("tribench cache lists", s.tribench("cache", "list"), refused=False))
+    return out
+
+
+def overflow_cases(s: Scratch) -> list[Outcome]:
+    v = np.array([[0, 0, 0], [1e300, 0, 0], [0, 1e300, 0]])
+    (s.root / "huge.obj").write_text("".join(f"v {a} {b} {c}\n" for a, b, c in v) + "f 1 2 3\n")
+    return [
+        judge(
+            f"coordinates near 1e300, {what}",
+            s.tribench(*args),
+            refused=True,
+            words=("overflow",),
+        )
+        for what, args in (
+            ("brute-force sweep", ["sweep", "--kernels", "moller_seed", "--mesh", "huge.obj", "--out", "h", *SMALL]),
+            ("workloads make --accel bvh", ["workloads", "make", "huge.obj", "--accel", "bvh"]),
+        )
+    ]
+
+
+API_CASES = {
+    "sweep(None)": "tribench.sweep(None, [tribench.PairSpec(n=10, hit_rate=0.5)])",
+    "sweep of a string": "tribench.sweep('moller_trumbore', [tribench.PairSpec(n=10, hit_rate=0.5)])",
+    "one spec for a list": "tribench.sweep(['moller_seed'], tribench.PairSpec(n=10, hit_rate=0.5))",
+    "out=5": "tribench.sweep(['moller_seed'], [tribench.PairSpec(n=10, hit_rate=0.5)], out=5)",
+    "load(3)": "tribench.load(3)",
+    "load(None)": "tribench.load(None)",
+    "compare of names": "tribench.compare(['a', 'b'])",
+    "run(quick='yes')": "tribench.run(quick='yes')",
+    "progress='no'": "tribench.sweep(['moller_seed'], [tribench.PairSpec(n=10, hit_rate=0.5)], progress='no')",
+}
+
+
+def api_cases(s: Scratch) -> list[Outcome]:
+    out = []
+    for case, call in API_CASES.items():
+        code = (
+            "import sys, tribench\nfrom tribench.common import UserError\n"
+            f"try:\n    {call}\nexcept UserError as e:\n"
+            "    print(e, file=sys.stderr)\n    sys.exit(2 if len(str(e).splitlines()) == 1 else 3)\n"
+        )
+        out.append(judge(case, s.python(code), refused=True))
+    return out
+
+
+def interrupted_cases(s: Scratch) -> list[Outcome]:
+    """SIGINT a sweep mid-run, resume it: every planned batch exactly once."""
+    out = []
+    for delay in (3.0, 6.0):
+        run = f"i{delay:g}"
+        args = ["tribench", "sweep", "--kernels", "moller_seed,curless,moller_trumbore", "--hit-rates", "0.2,0.8"]
+        args += ["--out", run, *SMALL[:-3], "--pairs", "20000", "--rounds", "4"]
+        p = subprocess.Popen(args, cwd=s.root, env=s.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(delay)
+        p.send_signal(signal.SIGINT)
+        stdout, stderr = p.communicate(timeout=120)
+        first = subprocess.CompletedProcess(args, 0 if p.returncode in (0, 130, 2) else p.returncode, stdout, stderr)
+        o = judge(f"Ctrl-C after {delay:g} s", first, refused=False)
+        o.unclear = p.returncode != 0 and "tribench sweep --resume" not in stderr and "tribench stats" not in stderr
+        resumed = s.tribench("sweep", "--resume", run, "--no-progress")
+        r = judge(f"resume after Ctrl-C at {delay:g} s", resumed, refused=False)
+        batches = pd.read_csv(s.root / run / "batches.csv")
+        import json
+
+        planned = json.loads((s.root / run / "run.json").read_text())["sweep"]
+        expected = planned["processes"] * (planned["rounds"] + planned.get("warmup", 1)) * len(planned["kernels"])
+        expected *= len(planned["workloads"])
+        keys = batches[["process", "round", "kernel", "workload_id"]].astype(str).agg("|".join, axis=1)
+        r.rows_lost = abs(expected - keys.nunique()) + int(keys.duplicated().sum())
+        out += [o, r]
+    return out
+
+
+def huge_scene_cases(s: Scratch) -> list[Outcome]:
+    from tribench.workloads import seed_scene
+
+    line = "tri -1 -1 -2  0 1 -2.5  0 -1 -3\n"
+    (s.root / "huge.txt").write_text("source 0 3 1 1 1 1\n" + line * (seed_scene.MAX_TRIANGLES + 1))
+    return [
+        judge(
+            "a scene past the triangle bound",
+            s.tribench("seed", "--quick", "--scene", "huge.txt", "--out", "sd"),
+            refused=True,
+            words=("triangles",),
+        )
+    ]
+
+
+def interval_cases(s: Scratch) -> list[Outcome]:
+    p = small_sweep(s, "t2", "moller_seed,curless")
+    o = judge("two processes: a time's interval", p, refused=False)
+    est = pd.read_csv(s.root / "t2" / "estimates.csv")
+    o.unclear = o.unclear or bool((est["ns_per_test_ci_low"] <= 0).any())
+    return [o]
+
+
+def ray_file_cases(s: Scratch) -> list[Outcome]:
+    if "--rays" not in s.tribench("sweep", "--help").stdout:
+        return []
+    rng = np.random.default_rng(0)
+    good = {"origins": rng.normal(size=(64, 3)) + [0, 0, -4], "directions": np.tile([0.0, 0, 1], (64, 1))}
+    bad = {
+        "NaN in origins": {**good, "origins": np.where(np.arange(64)[:, None] == 5, np.nan, good["origins"])},
+        "a zero direction": {**good, "directions": np.vstack([good["directions"][:-1], [0, 0, 0]])},
+        "origins of shape (N, 2)": {**good, "origins": good["origins"][:, :2]},
+        "integer arrays": {k: v.astype(np.int64) for k, v in good.items()},
+        "no directions": {"origins": good["origins"]},
+    }
+    out = []
+    np.savez(s.root / "good.npz", **good)
+    out.append(
+        judge(
+            "a good ray file",
+            s.tribench(
+                "sweep", "--kernels", "moller_seed", "--mesh", "suzanne", "--rays", "good.npz", "--out", "r", *SMALL
+            ),
+            refused=False,
+        )
+    )
+    for case, arrays in bad.items():
+        np.savez(s.root / "bad.npz", **arrays)
+        p = s.tribench(
+            "sweep",
+            "--kernels",
+            "moller_seed",
+            "--mesh",
+            "suzanne",
+            "--rays",
+            "bad.npz",
+            "--out",
+            f"r-{len(out)}",
+            *SMALL,
+        )
+        out.append(judge(case, p, refused=True, words=("bad.npz",)))
+    (s.root / "junk.npz").write_bytes(b"PK\x03\x04 not really")
+    p = s.tribench(
+        "sweep", "--kernels", "moller_seed", "--mesh", "suzanne", "--rays", "junk.npz", "--out", "rj", *SMALL
+    )
+    out.append(judge("a file that is no npz", p, refused=True, words=("junk.npz",)))
+    return out
+
+
+CLASSES: dict[str, Callable[[Scratch], list[Outcome]]] = {
+    "1 compare": compare_cases,
+    "2 moved mesh file": moved_mesh_cases,
+    "3 cache": cache_cases,
+    "4 coordinates past float range": overflow_cases,
+    "5 notebook API": api_cases,
+    "6 interrupted sweeps": interrupted_cases,
+    "7 huge scenes": huge_scene_cases,
+    "8 time intervals": interval_cases,
+    "new: ray files": ray_file_cases,
+}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", help="run the classes whose name contains this")
+    args = ap.parse_args()
+    rows, failures = [], []
+    for name, cases in CLASSES.items():
+        if args.only and args.only not in name:
+            continue
+        with tempfile.TemporaryDirectory(prefix="tribench-hostile-") as tmp:
+            env = {**os.environ, "TRIBENCH_CACHE": f"{tmp}/cache"}
+            outcomes = cases(Scratch(Path(tmp), env))
+        if not outcomes:
+            continue
+        rows.append(
+            f"| {name} | {len(outcomes)} | {sum(o.crash for o in outcomes)} | {sum(o.traceback for o in outcomes)} "
+            f"| {sum(o.unclear for o in outcomes)} | {sum(o.rows_lost for o in outcomes)} |"
+        )
+        failures += [(name, o) for o in outcomes if o.failed]
+        print(rows[-1], flush=True)
+    print("\n| class | cases | crashes | tracebacks | unclear errors | rows lost |\n|---|---|---|---|---|---|")
+    print("\n".join(rows))
+    for name, o in failures:
+        print(f"\nFAILED {name}: {o.case}\n  {o.command}\n  said: {o.said}")
+
+
+if __name__ == "__main__":
+    main()
