@@ -11,7 +11,15 @@ render (``getrusage`` of the child) is the paper's "user" figure.
 Printed: each program's mean user time with a 95% t interval over the
 pairs, and Curless / Moller paired per pair on the log scale (t interval).
 
-    python bench/seed_program.py --source PATH/TO/LR [--scene scene03] [--pairs 6] [--cpu 1]
+With ``--replay``, each pair also times tribench's object forms
+(``moller_seed_object``, ``curless_seed_object``) on the same CPU, right
+after the programs: one render's time as ``tribench seed`` makes it (a pass
+over each ray kind's 4096-ray sample, scaled by the render's tests of that
+kind over the sample's). The machine's speed drifts by a quarter over
+minutes here (shared hosts), so the figure that holds is replay / program
+paired within each pair, which the script prints with its interval.
+
+    python bench/seed_program.py --source PATH/TO/LR [--scene scene03] [--pairs 6] [--cpu 1] [--replay]
 """
 
 from __future__ import annotations
@@ -30,6 +38,37 @@ import numpy as np
 from tribench import stats
 
 PROGRAMS = ("moller", "curless")
+REPLAY = {"moller": "moller_seed_object", "curless": "curless_seed_object"}
+
+
+def replay_jobs(scene: str) -> list[tuple[dict, float]]:
+    """Per object form and ray kind, a timing job and the render's tests over the sample's."""
+    from tribench import ext
+    from tribench.workloads import cache
+    from tribench.workloads.seed_workload import RAY_KINDS, SeedSpec
+
+    jobs = []
+    for rays in RAY_KINDS:
+        w = cache.make(SeedSpec(scene, rays, sample=4096, width=512, height=512))
+        scale = w.achieved["stream_tests"] / w.achieved["sample_tests"]
+        made = {
+            k: ext.make_job(k, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max) for k in REPLAY.values()
+        }
+        jobs.append((made, scale))
+    return jobs
+
+
+def replay_render(jobs: list[tuple[dict, float]], kernel: str, cpu: int) -> float:
+    """One render's seconds by ``kernel``: the median of three passes per ray kind, scaled."""
+    from tribench import ext
+
+    os.sched_setaffinity(0, {cpu})
+    total = 0.0
+    for made, scale in jobs:
+        job = made[kernel]
+        ext.time_batch(job, 1)  # warm-up
+        total += float(np.median([ext.time_batch(job, 1).elapsed_ns for _ in range(3)])) * 1e-9 * scale
+    return total
 
 
 def build(source: Path, out: Path) -> dict[str, Path]:
@@ -70,7 +109,10 @@ def main() -> None:
     ap.add_argument("--scene", default="scene03")
     ap.add_argument("--pairs", type=int, default=6)
     ap.add_argument("--cpu", type=int, default=os.cpu_count() - 1)
+    ap.add_argument("--replay", action="store_true", help="also time tribench's object forms in each pair")
     args = ap.parse_args()
+    jobs = replay_jobs(args.scene) if args.replay else []
+    replay: dict[str, list[float]] = {name: [] for name in PROGRAMS}
     scene = (args.source / "Scenes" / f"{args.scene}.txt").resolve()
     with tempfile.TemporaryDirectory(prefix="tribench-seed-program-") as tmp:
         binaries = build(args.source, Path(tmp))
@@ -80,13 +122,25 @@ def main() -> None:
             for name in order:
                 u, wall = render(binaries[name], scene, args.cpu, Path(tmp))
                 user[name].append(u)
-                print(f"pair {pair + 1}: {name:8s} user {u:7.2f} s  wall {wall:7.2f} s", flush=True)
+                line = f"pair {pair + 1}: {name:8s} user {u:7.2f} s  wall {wall:7.2f} s"
+                if jobs:
+                    replay[name].append(replay_render(jobs, REPLAY[name], args.cpu))
+                    line += f"  replay {replay[name][-1]:7.2f} s"
+                print(line, flush=True)
     print(f"\n{args.scene}, g++ -O2, {args.pairs} alternating pairs on CPU {args.cpu}:")
     for name in PROGRAMS:
         e = stats.estimate(np.array(user[name]))
         print(f"  {name:8s} user {stats.format_estimate(e.mean, e.ci_low, e.ci_high, ' s')}")
     ratio = stats.geometric_mean(np.array(user["curless"]) / np.array(user["moller"]))
     print(f"  curless / moller {stats.format_estimate(ratio.mean, ratio.ci_low, ratio.ci_high)}")
+    if jobs:
+        print("tribench's object forms in the same pairs, replay / program (paired, 95% t interval):")
+        for name in PROGRAMS:
+            r = stats.geometric_mean(np.array(replay[name]) / np.array(user[name]))
+            print(f"  {REPLAY[name]:20s} {stats.format_estimate(r.mean, r.ci_low, r.ci_high)}")
+        mine = np.array(replay["curless"]) / np.array(replay["moller"])
+        r = stats.geometric_mean(mine / (np.array(user["curless"]) / np.array(user["moller"])))
+        print(f"  Curless / Moller, replay's over program's {stats.format_estimate(r.mean, r.ci_low, r.ci_high)}")
 
 
 if __name__ == "__main__":

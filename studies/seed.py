@@ -113,11 +113,11 @@ class Design:
 
 
 # 2 ms batches, about one native kernel's pass over a sample (a longer pass is a
-# batch of its own); 8 rounds, the rounds per process that narrow a CI most for
-# the time, given what a process and a round cost (Kalibera & Jones); 20 processes,
-# so the sweep and the pictures fit in about 6 minutes on 2 cores. The measurements
-# and the arithmetic: docs/decisions.md, "The seed replay's design".
-FULL = Design(processes=20, rounds=8, warmup=1, target_ms=2.0, sample=4096, size=512)
+# batch of its own); 6 rounds and 12 processes: a render time's CI of about +-2%,
+# inside the replay's 3% model error, in about 7 minutes on 2 cores with the
+# object forms' passes of 0.1-0.35 s (20 x 8 took 11). The measurements and the
+# arithmetic: docs/decisions.md, "The seed replay's design".
+FULL = Design(processes=12, rounds=6, warmup=1, target_ms=2.0, sample=4096, size=512)
 # 5 processes, not 3: a t-interval over 3 is t(2) / sqrt(3) = 2.5 standard deviations
 # wide each side, over 5 t(4) / sqrt(5) = 1.2, for a few seconds more (about 20 s in all).
 QUICK = Design(processes=5, rounds=2, warmup=1, target_ms=1.0, sample=256, size=128)
