@@ -176,15 +176,10 @@ def test_concrete_forms_use_every_flag_of_the_example(example):
         )
 
 
-@pytest.mark.parametrize(
-    "command",
-    [
-        pytest.param(c, marks=pytest.mark.slow) if "--all-kernels" in c else c  # the whole zoo: seconds more
-        for cs in CONCRETE.values()
-        for c in cs
-        if c not in SLOW
-    ],
-)
+# Each example is a run of the installed command (2-8 s each, about a minute for all): CI runs them with
+# the slow tests, so the README's test command stays under its 3 minutes (docs/decisions.md).
+@pytest.mark.slow
+@pytest.mark.parametrize("command", [c for cs in CONCRETE.values() for c in cs if c not in SLOW])
 def test_readme_example_runs(command, env, run_dir, mesh_prefix, tmp_path):
     others = {"run_b": tmp_path / "run_b", "run_c": tmp_path / "run_c"}
     for name, copy in others.items():  # other runs for compare, as the run is now (a run given twice is refused)
@@ -211,6 +206,7 @@ def _sized(argv: list[str]) -> list[str]:
     return [*argv, "--width", "8", "--height", "8"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("example", docstring_examples())
 def test_workloads_docstring_example_runs(example, env, mesh_prefix, tmp_path):
     argv = shlex.split(example)[1:]
