@@ -165,3 +165,24 @@ def test_the_command_lists_and_prunes_and_refuses_a_bad_size(cache):
         "tribench cache: error: --max-size 'lots': expected a size such as 500MB, 2GB or 0"
     ]
     assert run("cache", "list", env={"TRIBENCH_CACHE": str(cache / "none")}).stdout.startswith("nothing cached")
+
+
+@pytest.mark.slow
+def test_a_sweep_shows_its_workers_cache_notices_once_each_and_finishes(cache, tmp_path):
+    env = {"TRIBENCH_CACHE": str(cache)}
+    design = ["--processes", "2", "--rounds", "1", "--warmup", "0", "--target-ms", "0.05", "--no-progress"]
+    sweep = ["sweep", "--kernels", KERNEL, "--mesh", "icosphere"]
+    sweep += ["--triangles", "80", "--camera", "6x6", "--accel", "bvh", *design]
+    first = run(*sweep, "--out", tmp_path / "a", env=env)
+    assert first.returncode == 0, first.stderr
+    (tree,) = (cache / "bvh").iterdir()
+    tree.unlink()
+    tree.mkdir()  # in the way of both workers
+    second = run(*sweep, "--out", tmp_path / "b", env=env)
+    assert second.returncode == 0, second.stderr
+    notices = [line for line in second.stderr.splitlines() if "not a cache file" in line]
+    assert notices == [
+        f"tribench: cache file {tree} is a folder, not a cache file (remove it to cache it again): "
+        "the BVH is built in memory"
+    ], second.stderr
+    assert "Traceback" not in second.stderr
