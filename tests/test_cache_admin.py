@@ -140,6 +140,9 @@ def test_a_folder_or_link_in_place_of_a_bvh_file_is_a_notice_and_the_tree_in_mem
     assert path.is_dir() if what == "folder" else path.is_symlink()  # left as it was, never replaced
     found = {e.path: e for e in cache_admin.entries()}
     assert f"a {what} in place" in found[path].problem
+    removed = [e.path for e in cache_admin.prune().removed]
+    assert removed == ([] if what == "folder" else [path]) and path.exists() == (what == "folder")
+    assert (cache / "elsewhere").exists() or what == "folder"  # the link went, not what it points at
 
 
 def test_an_unwritable_bvh_folder_is_a_notice_and_the_tree_in_memory(cache):
@@ -148,6 +151,7 @@ def test_an_unwritable_bvh_folder_is_a_notice_and_the_tree_in_memory(cache):
     _one_notice("kept in memory")
 
 
+@pytest.mark.slow  # five commands, a second or more each
 def test_the_command_lists_and_prunes_and_refuses_a_bad_size(cache):
     env = {"TRIBENCH_CACHE": str(cache)}
     old = _bvh_file(1)

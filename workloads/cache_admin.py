@@ -178,7 +178,8 @@ def prune(max_bytes: int | None = None, dry_run: bool = False) -> Pruned:
     tribench did not write, nor folders. A link in place of a cache file is removed (not what it points at).
     """
     found = entries()
-    doomed = [e for e in found if e.problem is not None and e.kind != "other" and not e.path.is_dir()]
+    folder = [e for e in found if e.path.is_dir() and not e.path.is_symlink()]  # a user's, perhaps: kept
+    doomed = [e for e in found if e.problem is not None and e.kind != "other" and e not in folder]
     kept = [e for e in found if e not in doomed]
     total = sum(e.size_bytes for e in kept)
     if max_bytes is not None:
