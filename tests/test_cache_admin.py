@@ -190,3 +190,14 @@ def test_a_sweep_shows_its_workers_cache_notices_once_each_and_finishes(cache, t
         "the BVH is built in memory"
     ], second.stderr
     assert "Traceback" not in second.stderr
+
+
+def test_a_folder_in_place_of_a_workload_file_is_a_notice_and_the_workload_in_memory(cache):
+    spec = PairSpec(n=200)
+    path = cache / f"{make(spec).workload_id}.npz"
+    fresh = make(spec).checksum()
+    path.unlink()
+    path.mkdir()
+    with pytest.warns(CacheWarning, match="is a folder, not a cache file.*kept in memory"):
+        assert make(spec).checksum() == fresh
+    assert path.is_dir()

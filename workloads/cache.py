@@ -211,6 +211,10 @@ def make(spec: Spec) -> Workload:
     An invalid file under the spec's id is rebuilt with a :class:`CacheWarning`.
     """
     path = _path(workload_id(spec))
+    in_the_way = not_a_file(path)
+    if in_the_way:  # never followed nor replaced
+        warnings.warn(f"cache file {path} {in_the_way}: the workload is kept in memory", CacheWarning, stacklevel=2)
+        return _generate(spec)
     if not path.exists():
         return _build(spec, path)
     try:
