@@ -33,6 +33,7 @@ COMMANDS = (
     "validate",
     "seed",
     "workloads",
+    "cache",
     "report",
     "compare",
     "export",

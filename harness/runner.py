@@ -34,12 +34,13 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-from tribench.common import UserError
+from tribench.common import Notice, UserError
 from tribench.harness import runfolder
 from tribench.harness.plan import BatchKey, Sweep, plan, process_seed
 from tribench.workloads import mesh_files
@@ -517,6 +518,9 @@ def _execute(
     return RunResult(run_dir, total, done_before + ran, ran, time.monotonic() - t0)
 
 
+_NOTICES_SHOWN: set[str] = set()
+
+
 def _run_process(
     record: dict[str, Any],
     sweep: Sweep,
@@ -575,6 +579,9 @@ def _run_process(
                     if _key(trav) not in planned:
                         raise SweepError(f"worker of process {process} sent an unplanned traversal {_key(trav)}")
                     on_traversal(trav)
+                elif kind == "notice" and message["message"] not in _NOTICES_SHOWN:  # once: ten workers, one file
+                    _NOTICES_SHOWN.add(message["message"])
+                    warnings.warn(message["message"], Notice, stacklevel=2)
                 elif kind == "error":
                     error = message["message"]
             code = proc.wait()

@@ -12,6 +12,8 @@ writes JSON lines to stdout, the only thing it ever writes there:
   sent as soon as the batch is timed and checked;
 * ``{"type": "traversal", ...}``: a :class:`~tribench.harness.runfolder.TraversalRow`,
   after each batch on a BVH workload;
+* ``{"type": "notice", "message": ...}``: a :class:`~tribench.common.Notice` (a cache file rebuilt),
+  printed once by the parent;
 * ``{"type": "error", "message": ...}``: the worker stops (exit code 3).
 
 What it does, in order:
@@ -53,6 +55,7 @@ import os
 import resource
 import sys
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, cast
@@ -60,6 +63,7 @@ from typing import Any, cast
 import numpy as np
 
 from tribench import ext
+from tribench.common import Notice
 from tribench.harness.runfolder import BatchRow, CheckRow, ProcessRow, TraversalRow
 from tribench.workloads import bvh_cache
 from tribench.workloads.spec import MeshSpec
@@ -444,8 +448,23 @@ def _emit_json(kind: str, record: Any) -> None:
     sys.stdout.flush()
 
 
+def _pass_notices(shown):
+    """tribench's notices (a cache file rebuilt) go to the parent, which prints each once; stderr is
+    only shown when a worker fails."""
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, Notice):
+            sys.stdout.write(json.dumps({"type": "notice", "message": str(message)}) + "\n")
+            sys.stdout.flush()
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``python -m tribench.harness.worker``: job on stdin, JSON lines out."""
+    warnings.showwarning = _pass_notices(warnings.showwarning)
     job = WorkerJob.from_json(sys.stdin.read())
     try:
         run_job(job, _emit_json)

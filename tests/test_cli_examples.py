@@ -83,6 +83,8 @@ CONCRETE = {
     ],
     "list": ["workloads list"],
     "show ID [--png FILE]": ["workloads show {mesh} --png {tmp}/mesh.png", "workloads show {mesh}"],
+    "tribench cache list": ["cache list"],
+    "tribench cache prune [--max-size SIZE] [--dry-run]": ["cache prune --dry-run", "cache prune --max-size 1GB"],
     "tribench sweep --kernels … --hit-rates … --mesh suzanne --triangles 100,968 --out RUN_DIR": [
         "sweep --kernels moller_trumbore,curless --hit-rates 0.2,0.8 --pairs 100 --mesh suzanne "
         "--triangles 100,968 --camera 6x6 --out {tmp}/sweep " + shlex.join(TINY_DESIGN)

@@ -36,7 +36,7 @@ import numpy as np
 from tribench import ext
 from tribench.common import UserError, write_bytes
 
-from .cache import CacheWarning, Invalid, cache_dir, sealed_npz, unsealed
+from .cache import CacheWarning, Invalid, cache_dir, not_a_file, sealed_npz, unsealed
 from .spec import canonical_json
 
 __all__ = ["BVH_FORMAT", "bvh_identity", "bvh_path", "cached_bvh"]
@@ -77,7 +77,10 @@ def cached_bvh(kernel: str, triangles: np.ndarray, max_leaf: int = ext.DEFAULT_M
         raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(ext.bvh_kernel_names())}")
     identity = bvh_identity(kernel, triangles, max_leaf)
     path = bvh_path(identity)
-    if path.exists():
+    in_the_way = not_a_file(path)
+    if in_the_way:  # never followed nor replaced: the tree is kept in memory
+        warnings.warn(f"cache file {path} {in_the_way}: the BVH is built in memory", CacheWarning, stacklevel=2)
+    elif path.exists():
         try:
             return _read(path, identity, triangles)
         except Invalid as e:
@@ -85,8 +88,12 @@ def cached_bvh(kernel: str, triangles: np.ndarray, max_leaf: int = ext.DEFAULT_M
     t0 = time.perf_counter_ns()
     bvh = ext.build_bvh(kernel, triangles, max_leaf=max_leaf)
     build_ns = time.perf_counter_ns() - t0
-    arrays = {"nodes": bvh.nodes, "perm": bvh.perm, "records": bvh.prepared.records}
-    write_bytes(path, sealed_npz({"identity": identity, "build_ns": build_ns}, arrays))
+    if not in_the_way:
+        arrays = {"nodes": bvh.nodes, "perm": bvh.perm, "records": bvh.prepared.records}
+        try:
+            write_bytes(path, sealed_npz({"identity": identity, "build_ns": build_ns}, arrays))
+        except UserError as e:  # a read-only cache stops nothing: this process uses the tree it built
+            warnings.warn(f"{e}: the BVH is kept in memory", CacheWarning, stacklevel=2)
     return bvh, build_ns
 
 

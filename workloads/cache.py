@@ -22,6 +22,8 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import os
+import stat
 import warnings
 import zipfile
 from dataclasses import dataclass
@@ -86,6 +88,21 @@ class CachedWorkload:
 
 def _path(wid: str) -> Path:
     return cache_dir() / f"{wid}.npz"
+
+
+def not_a_file(path: Path) -> str | None:
+    """Why ``path`` cannot be a cache file (a folder, a link, a device in its place), or None if it is a
+    regular file or nothing (a link is never followed: it could point anywhere)."""
+    try:
+        mode = os.lstat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):  # nothing there (a file in a folder's place fails the write)
+        return None
+    except OSError as e:
+        return f"cannot be read ({e.strerror or e})"
+    if stat.S_ISREG(mode):
+        return None
+    what = "a link" if stat.S_ISLNK(mode) else "a folder" if stat.S_ISDIR(mode) else "not a regular file"
+    return f"is {what}, not a cache file (remove it to cache it again)"
 
 
 def _seal(body: bytes) -> bytes:
@@ -194,6 +211,10 @@ def make(spec: Spec) -> Workload:
     An invalid file under the spec's id is rebuilt with a :class:`CacheWarning`.
     """
     path = _path(workload_id(spec))
+    in_the_way = not_a_file(path)
+    if in_the_way:  # never followed nor replaced
+        warnings.warn(f"cache file {path} {in_the_way}: the workload is kept in memory", CacheWarning, stacklevel=2)
+        return _generate(spec)
     if not path.exists():
         return _build(spec, path)
     try:

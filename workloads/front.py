@@ -27,10 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from tribench.common import write_bytes
+from tribench.common import UserError, write_bytes
 
 from . import reference
-from .cache import CacheWarning, Invalid, cache_dir, sealed_npz, unsealed
+from .cache import CacheWarning, Invalid, cache_dir, not_a_file, sealed_npz, unsealed
 from .workload import Workload
 
 __all__ = ["FRONT_VERSION", "compute_front_reference", "front_path", "front_reference"]
@@ -73,13 +73,20 @@ def front_path(workload_id: str) -> Path:
 def front_reference(w: Workload) -> tuple[np.ndarray, np.ndarray]:
     """:func:`compute_front_reference`, from the cache when a valid file is there, else computed and cached."""
     path = front_path(w.workload_id)
-    if path.exists():
+    in_the_way = not_a_file(path)
+    if in_the_way:  # never followed nor replaced
+        warnings.warn(f"cache file {path} {in_the_way}: the reference is kept in memory", CacheWarning, stacklevel=2)
+    elif path.exists():
         try:
             return _read(path, w)
         except Invalid as e:
             warnings.warn(f"cache file {path} is invalid ({e}); rebuilding it", CacheWarning, stacklevel=2)
     index, t = compute_front_reference(w)
-    _write(path, w, index, t)
+    if not in_the_way:
+        try:
+            _write(path, w, index, t)
+        except UserError as e:  # a read-only cache stops nothing
+            warnings.warn(f"{e}: the reference is kept in memory", CacheWarning, stacklevel=2)
     return index, t
 
 
