@@ -120,8 +120,24 @@ def cache_cases(s: Scratch) -> list[Outcome]:
     files[0].unlink()
     files[0].mkdir()  # a folder in its place
     out.append(judge("a folder in place of a workload file", small_sweep(s, "w3", "moller_seed"), refused=False))
-    if s.tribench("cache", "--help").returncode == 0:
-        out.append(judge("tribench cache lists", s.tribench("cache", "list"), refused=False))
+    bvh = ["--kernels", "moller_trumbore_fma", "--mesh", "suzanne", "--accel", "bvh", "--camera", "8x8"]
+    bvh += ["--processes", "2", "--rounds", "2", "--target-ms", "1", "--no-progress"]
+    out.append(judge("a BVH sweep", s.tribench("sweep", *bvh, "--out", "b1"), refused=False))
+    trees = sorted((Path(s.env["TRIBENCH_CACHE"]) / "bvh").rglob("*.npz"))
+    if trees:
+        trees[0].unlink()
+        trees[0].mkdir()  # a folder in a tree file's place
+        out.append(judge("a folder in place of a BVH file", s.tribench("sweep", *bvh, "--out", "b2"), refused=False))
+        trees[0].rmdir()
+        trees[0].symlink_to(s.root / "elsewhere.npz")  # a link in its place
+        out.append(judge("a link in place of a BVH file", s.tribench("sweep", *bvh, "--out", "b3"), refused=False))
+    out.append(judge("tribench cache list", s.tribench("cache", "list"), refused=False))
+    out.append(judge("tribench cache prune", s.tribench("cache", "prune", "--max-size", "1MB"), refused=False))
+    out.append(
+        judge(
+            "a size that is no size", s.tribench("cache", "prune", "--max-size", "lots"), refused=True, words=("lots",)
+        )
+    )
     return out
 
 
