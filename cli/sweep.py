@@ -23,6 +23,7 @@ _NEW_SWEEP_FLAGS = (
     "mesh",
     "triangles",
     "camera",
+    "rays",
     "accel",
     "dtype",
     *DESIGN_FLAGS,
@@ -40,8 +41,8 @@ def add_parser(sub) -> None:
         description="Time every kernel on every workload: replicates are fresh worker processes "
         "pinned to one CPU, rounds run every kernel once in a random order, every batch's checksum "
         "is checked. Workloads come from a TOML file (--file) or from the flags: pairs at each "
-        "hit rate and precision, and with --mesh, camera rays on each mesh, triangle count and "
-        "precision. Results: RUN_DIR/batches.csv (one row per batch, appended as it finishes), "
+        "hit rate and precision, and with --mesh, camera rays (or --rays, your own) on each mesh, "
+        "triangle count and precision. Results: RUN_DIR/batches.csv (one row per batch, appended as it finishes), "
         "processes.csv, run.json.",
     )
     add_run_out(p)
@@ -79,6 +80,13 @@ def add_parser(sub) -> None:
         metavar="WxH",
         type=flags.camera,
         help="camera rays of mesh workloads (default {}x{})".format(*DEFAULT_CAMERA),
+    )
+    p.add_argument(
+        "--rays",
+        metavar="FILE.npz,..",
+        type=flags.name_list,
+        help="your own rays for the mesh workloads instead of the camera: .npz files of origins and directions, "
+        "each (N, 3), and optionally t_max (N,) (docs/own-rays.md)",
     )
     p.add_argument(
         "--accel",
@@ -146,15 +154,20 @@ def _workloads_from_flags(args: argparse.Namespace) -> list:
         for h in args.hit_rates or [0.5]:
             specs += [PairSpec(n=10_000 if args.pairs is None else args.pairs, hit_rate=h, dtype=d) for d in dtypes]
     width, height = args.camera or DEFAULT_CAMERA
-    if args.accel and not args.mesh:
-        raise UserError("--accel applies to mesh workloads: give --mesh too")
+    for flag in ("accel", "rays"):
+        if getattr(args, flag) and not args.mesh:
+            raise UserError(f"--{flag} applies to mesh workloads: give --mesh too")
+    if args.rays and args.camera:
+        raise UserError("--camera and --rays both give the rays of the mesh workloads: give one")
     for mesh in args.mesh or []:
         for triangles in args.triangles or [None]:
-            for accel in args.accel or ["brute"]:
-                specs += [
-                    MeshSpec(mesh, triangles=triangles, width=width, height=height, dtype=d, accel=accel)
-                    for d in dtypes
-                ]
+            for rays in args.rays or ["camera"]:
+                w, h = (width, height) if rays in ("camera", "bounce") else (None, None)  # a file has its own rays
+                for accel in args.accel or ["brute"]:
+                    specs += [
+                        MeshSpec(mesh, triangles=triangles, rays=rays, width=w, height=h, dtype=d, accel=accel)
+                        for d in dtypes
+                    ]
     return specs
 
 

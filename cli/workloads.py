@@ -16,6 +16,7 @@ Examples
     tribench workloads make icosphere --hit-rate 0.5 --n-rays 4096
     tribench workloads make suzanne --rays bounce --triangles 5000  # secondary rays
     tribench workloads make ~/meshes/bunny.ply --triangles 20000
+    tribench workloads make suzanne --rays my_rays.npz            # your own rays
     tribench workloads list
     tribench workloads show mesh-3f2a --png suzanne.png
 """
@@ -105,8 +106,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     mesh.add_argument("--triangles", type=int, help="exact triangle count (default: the base mesh)")
     mesh.add_argument(
         "--rays",
-        choices=RAY_SETS,
-        help="default camera; bounce: one cosine-distributed bounce from each camera hit (incoherent secondary rays)",
+        metavar="SET|FILE.npz",
+        help=f"{', '.join(RAY_SETS)} (default camera; bounce: one cosine-distributed bounce from each camera hit, "
+        "incoherent secondary rays), or your own rays: an .npz file of origins and directions, each (N, 3), "
+        "and optionally t_max (N,) (docs/own-rays.md)",
     )
     mesh.add_argument("--n-rays", type=int, help="rays at a per-ray hit rate (default 4096)")
     mesh.add_argument("--width", type=int, help="camera width in pixels (default 512)")

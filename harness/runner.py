@@ -339,9 +339,11 @@ def _start_locked(
         **(extra or {}),
     }
     runfolder.write_run(run_dir, record)
-    for spec in sweep.workloads:  # a run folder carries the mesh files it used (those that fit)
+    for spec in sweep.workloads:  # a run folder carries the mesh and ray files it used (those that fit)
         if isinstance(spec, MeshSpec) and spec.mesh_sha256 is not None:
             mesh_files.copy_into_run(run_dir, spec.mesh, spec.mesh_sha256)
+        if isinstance(spec, MeshSpec) and spec.rays_sha256 is not None:
+            mesh_files.copy_into_run(run_dir, spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
     if sweep.sequential is not None:
         return _execute_stages(run_dir, record, sweep, keys, progress, worker)
     return _execute(run_dir, record, sweep, keys, 0, progress, worker)

@@ -57,6 +57,8 @@ def family_of(spec: Mapping[str, Any]) -> str:
         rays = f"{spec.get('n_rays')} rays per-ray hit rate {spec.get('hit_rate'):g}"
     elif spec.get("rays") == "bounce":
         rays = f"bounces of camera {spec.get('width')}x{spec.get('height')}"
+    elif spec.get("rays_sha256"):
+        rays = f"{spec.get('n_rays')} rays from {Path(str(spec.get('rays'))).name}"
     else:
         rays = f"camera {spec.get('width')}x{spec.get('height')}"
     accel = " bvh" if spec.get("accel") == "bvh" else ""

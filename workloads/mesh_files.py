@@ -1,4 +1,4 @@
-"""A mesh file named by its content: kept beside the cache and in run folders, found again when it moves.
+"""A mesh or ray file named by its content: kept beside the cache and in run folders, found again when it moves.
 
 A :class:`~tribench.workloads.spec.MeshSpec` over a file carries the file's
 sha256, and its workload id comes from that hash, not from the path. So the
@@ -9,7 +9,9 @@ their workload is built (:func:`keep`), and into every run folder that uses
 them (:func:`copy_into_run`); a run folder's copies join the cache when it is
 analysed elsewhere (:func:`adopt`). A larger file is not copied: its run
 folder still reports and exports (they read its tables, not the mesh), but a
-rebuild of its workloads needs the file back.
+rebuild of its workloads needs the file back. A ray file
+(:mod:`~tribench.workloads.ray_files`) is kept the same way, in the folder
+:data:`RAYS_FOLDER` instead of :data:`RUN_FOLDER`.
 """
 
 from __future__ import annotations
@@ -22,20 +24,24 @@ from tribench.common import UserError, atomic_write
 from .location import cache_dir
 from .spec import file_sha256
 
-__all__ = ["MAX_COPY_BYTES", "RUN_FOLDER", "adopt", "copy_into_run", "keep", "source"]
+__all__ = ["MAX_COPY_BYTES", "RAYS_FOLDER", "RUN_FOLDER", "adopt", "copy_into_run", "keep", "source"]
 
 #: Mesh files up to this size are copied into the cache and into the run folders that use them.
 MAX_COPY_BYTES = 32 * 1024 * 1024
 #: The run folder's subfolder of mesh copies.
 RUN_FOLDER = "meshes"
+#: The run folder's subfolder of ray file copies.
+RAYS_FOLDER = "rays"
+#: What each folder's files are, for messages.
+_WHAT = {RUN_FOLDER: "mesh file", RAYS_FOLDER: "ray file"}
 
 
 def _name(sha256: str, suffix: str) -> str:
     return f"{sha256}{suffix.lower()}"
 
 
-def _store() -> Path:
-    return cache_dir() / RUN_FOLDER
+def _store(folder: str) -> Path:
+    return cache_dir() / folder
 
 
 def _copy(path: Path, folder: Path, sha256: str) -> None:
@@ -47,39 +53,40 @@ def _copy(path: Path, folder: Path, sha256: str) -> None:
         shutil.copyfileobj(src, dst)
 
 
-def keep(path: str | Path, sha256: str) -> None:
-    """Keep a copy of the mesh file beside the cache (done when its workload is built)."""
+def keep(path: str | Path, sha256: str, folder: str = RUN_FOLDER) -> None:
+    """Keep a copy of the file beside the cache (done when its workload is built)."""
     path = Path(path)
     if path.is_file() and file_sha256(path) == sha256:
-        _copy(path, _store(), sha256)
+        _copy(path, _store(folder), sha256)
 
 
-def copy_into_run(run_dir: str | Path, path: str | Path, sha256: str) -> None:
-    """Copy the mesh file into ``run_dir/meshes/`` (done when a sweep starts), from wherever it is found."""
-    _copy(source(path, sha256), Path(run_dir) / RUN_FOLDER, sha256)
+def copy_into_run(run_dir: str | Path, path: str | Path, sha256: str, folder: str = RUN_FOLDER) -> None:
+    """Copy the file into ``run_dir/meshes/`` (or ``folder``; done when a sweep starts), from wherever it is found."""
+    _copy(source(path, sha256, folder), Path(run_dir) / folder, sha256)
 
 
 def adopt(run_dir: str | Path) -> None:
-    """Add ``run_dir``'s mesh copies to the cache's, each checked against the hash it is named by."""
-    folder = Path(run_dir) / RUN_FOLDER
-    for copy in sorted(folder.glob("*")) if folder.is_dir() else []:
-        if copy.is_file() and not copy.is_symlink() and file_sha256(copy) == copy.stem:
-            _copy(copy, _store(), copy.stem)
+    """Add ``run_dir``'s mesh and ray file copies to the cache's, each checked against the hash it is named by."""
+    for name in _WHAT:
+        folder = Path(run_dir) / name
+        for copy in sorted(folder.glob("*")) if folder.is_dir() else []:
+            if copy.is_file() and not copy.is_symlink() and file_sha256(copy) == copy.stem:
+                _copy(copy, _store(name), copy.stem)
 
 
-def source(path: str | Path, sha256: str) -> Path:
-    """A file holding the mesh ``path`` held when its spec was made: ``path`` itself, else the cache's copy.
+def source(path: str | Path, sha256: str, folder: str = RUN_FOLDER) -> Path:
+    """A file holding what ``path`` held when its spec was made: ``path`` itself, else the cache's copy.
 
     Raises UserError, naming the file and what to do, when neither has that content.
     """
     path = Path(path)
     if path.is_file() and file_sha256(path) == sha256:
         return path
-    copy = _store() / _name(sha256, path.suffix)
+    copy = _store(folder) / _name(sha256, path.suffix)
     if copy.is_file() and file_sha256(copy) == sha256:
         return copy
     state = "has changed" if path.exists() else "is gone"
     raise UserError(
-        f"mesh file {path} {state} since this workload was defined (sha256 {sha256[:12]}...), and no copy of it "
+        f"{_WHAT[folder]} {path} {state} since this workload was defined (sha256 {sha256[:12]}...), and no copy of it "
         "is kept (a copy is kept up to 32 MB): put the file back, or analyse the run folder that holds a copy"
     )

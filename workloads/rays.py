@@ -24,6 +24,10 @@ that hits is a candidate -- so the answers equal brute force:
 Bounces (:func:`bounce_rays`): one diffuse secondary ray from each camera
 ray's reference hit, culled as the per-ray hit rate's rays are.
 
+A ray file's rays (:func:`file_rays`): the user's own, rounded to the
+workload's precision, culled as those are, with the file's ``t_max`` if it
+has one (the reference then applies it).
+
 Camera
 ------
 The seed's pinhole camera: eye at (0, 0, 2) looking down -z, image plane
@@ -53,7 +57,7 @@ import numpy as np
 
 from tribench.common import UserError
 
-from . import mesh_files
+from . import mesh_files, ray_files
 from .geometry import (
     dot,
     norm,
@@ -82,6 +86,7 @@ __all__ = [
     "hit_rate_rays",
     "BOUNCE_OFFSET",
     "bounce_rays",
+    "file_rays",
     "generate_mesh_workload",
 ]
 
@@ -226,10 +231,13 @@ def sphere_candidates(
     return np.concatenate(rays_out), np.concatenate(tris_out)
 
 
-def closest_hits(origins, directions, triangles, rays: np.ndarray, tris: np.ndarray) -> ClosestAnswers:
+def closest_hits(
+    origins, directions, triangles, rays: np.ndarray, tris: np.ndarray, t_max: np.ndarray | None = None
+) -> ClosestAnswers:
     """Closest hit per ray among candidate pairs ``(rays[c], tris[c])``, by the float64 reference.
 
     Equals brute force when the candidates include every pair that hits.
+    ``t_max`` (per ray, or None: no limit) is applied as the kernels apply it.
 
     Examples
     --------
@@ -242,12 +250,13 @@ def closest_hits(origins, directions, triangles, rays: np.ndarray, tris: np.ndar
     d = np.asarray(directions, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.float64)
     m, c = len(o), len(rays)
+    limit = np.full(m, np.inf) if t_max is None else np.asarray(t_max, dtype=np.float64)
     t = np.empty(c)
     hit = np.empty(c, dtype=bool)
     margin = np.empty(c)
     for lo in range(0, c, _CANDIDATE_CHUNK):
         r, k = rays[lo : lo + _CANDIDATE_CHUNK], tris[lo : lo + _CANDIDATE_CHUNK]
-        ans = intersect_pairs(o[r], d[r], tri[k])
+        ans = intersect_pairs(o[r], d[r], tri[k], t_max=limit[r])
         t[lo : lo + len(r)], hit[lo : lo + len(r)], margin[lo : lo + len(r)] = ans.t, ans.hit, ans.edge_margin
 
     # Closest hit: sort hits by (ray, t, triangle) and keep the first of each ray.
@@ -365,8 +374,26 @@ def bounce_rays(triangles: np.ndarray, width: int, height: int, dtype: str, rng:
     return bo, bd, _closest_culled(bo, bd, tri), figures
 
 
-def _closest_culled(o: np.ndarray, d: np.ndarray, tri: np.ndarray) -> ClosestAnswers:
-    return closest_hits(o, d, tri, *sphere_candidates(o, d, tri))
+def _closest_culled(o: np.ndarray, d: np.ndarray, tri: np.ndarray, t_max: np.ndarray | None = None) -> ClosestAnswers:
+    return closest_hits(o, d, tri, *sphere_candidates(o, d, tri), t_max=t_max)
+
+
+def file_rays(spec: MeshSpec, triangles: np.ndarray):
+    """The rays of ``spec``'s ray file, rounded to its dtype and checked again, with their reference answers.
+
+    Returns
+    -------
+    origins, directions : float64 (n, 3); t_max : float64 (n,) or None
+    answers : ClosestAnswers
+    """
+    assert spec.rays_sha256 is not None  # MeshSpec set it
+    found = mesh_files.source(spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
+    mesh_files.keep(found, spec.rays_sha256, mesh_files.RAYS_FOLDER)
+    rays = ray_files.read_ray_file(found)
+    if len(rays.origins) != spec.n_rays:
+        raise UserError(f"ray file {found} holds {len(rays.origins)} rays, its spec says {spec.n_rays}")
+    o, d, t_max = ray_files.rounded(rays, spec.dtype, f"ray file {found}")
+    return o, d, t_max, _closest_culled(o, d, np.asarray(triangles, dtype=np.float64), t_max)
 
 
 def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
@@ -387,7 +414,10 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
         mesh = build_mesh(spec.mesh, spec.triangles, spec.seed)
     tri = round_to(mesh.triangles, spec.dtype)
     figures: dict = {}
-    if spec.rays == "camera":
+    t_max = None
+    if spec.rays_from_file:
+        o, d, t_max, ans = file_rays(spec, tri)
+    elif spec.rays == "camera":
         assert spec.width is not None and spec.height is not None  # MeshSpec set them
         o, d = camera_rays(spec.width, spec.height)
         o, d = round_to(o, spec.dtype), round_to(d, spec.dtype)
@@ -424,6 +454,7 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
         origins=o.astype(spec.dtype),
         directions=d.astype(spec.dtype),
         triangles=tri.astype(spec.dtype),
+        t_max=None if t_max is None else t_max.astype(spec.dtype),
         ref_index=ans.index,
         ref_t=ans.t,
         ref_edge_margin=ans.edge_margin,

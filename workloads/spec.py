@@ -35,17 +35,24 @@ must bump its version constant, which changes every id it makes.
 from __future__ import annotations
 
 import hashlib
-import json
-import math
 import os
-import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
 from tribench.common import UserError
 
+from .fields import (
+    canonical_json,
+    check_choice,
+    check_float,
+    check_hit_rate,
+    check_int,
+    check_sha256,
+    checked_mesh_file,
+    file_sha256,
+)
 from .seed_scene import BUILTIN_SCENES, builtin_scene_path, read_scene
 
 __all__ = [
@@ -117,40 +124,6 @@ _MAX_RAYS = 50_000_000
 _MIX_TOLERANCE = 1e-6
 
 
-def _int(name: str, value: Any, lo: int, hi: int) -> int:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, float))
-        or (isinstance(value, float) and not value.is_integer())
-    ):
-        raise UserError(f"{name} must be an integer, got {value!r}")
-    value = int(value)
-    if not lo <= value <= hi:
-        raise UserError(f"{name} must be between {lo} and {hi}, got {value}")
-    return value
-
-
-def _float(name: str, value: Any) -> float:
-    if isinstance(value, int) and not isinstance(value, bool) and abs(value) < 2**1000:
-        value = float(value)  # an int past float64's range is not a finite number
-    if not isinstance(value, float) or not math.isfinite(value):
-        raise UserError(f"{name} must be a finite number, got {value!r}")
-    return float(value)
-
-
-def _hit_rate(value: Any) -> float:
-    h = _float("hit_rate", value)
-    if not 0.0 <= h <= 1.0:
-        raise UserError(f"hit_rate must be in [0, 1], got {h}")
-    return h
-
-
-def _choice(name: str, value: Any, choices: Sequence[str]) -> str:
-    if not isinstance(value, str) or value not in choices:
-        raise UserError(f"unknown {name} {value!r}: choose one of {', '.join(choices)}")
-    return value
-
-
 def _miss_mix(value: Any) -> tuple[tuple[str, float], ...]:
     """Normalise a mix (preset name, mapping or pairs) to a fraction per stage, in stage order."""
     if isinstance(value, str):
@@ -166,7 +139,7 @@ def _miss_mix(value: Any) -> tuple[tuple[str, float], ...]:
     unknown = sorted(set(items) - set(MISS_STAGES))
     if unknown:
         raise UserError(f"unknown miss stage(s) {unknown}: stages are {', '.join(MISS_STAGES)}")
-    mix = tuple((s, _float(f"miss_mix[{s}]", items.get(s, 0.0))) for s in MISS_STAGES)
+    mix = tuple((s, check_float(f"miss_mix[{s}]", items.get(s, 0.0))) for s in MISS_STAGES)
     if any(f < 0 for _, f in mix):
         raise UserError(f"miss_mix fractions must be >= 0, got {dict(mix)}")
     total = sum(f for _, f in mix)
@@ -240,18 +213,18 @@ class PairSpec:
 
     def __post_init__(self) -> None:
         put = object.__setattr__  # frozen: normalise the fields once, here
-        put(self, "n", _int("n (number of pairs)", self.n, 1, _MAX_PAIRS))
-        put(self, "hit_rate", _hit_rate(self.hit_rate))
-        _choice("order", self.order, ORDERS)
+        put(self, "n", check_int("n (number of pairs)", self.n, 1, _MAX_PAIRS))
+        put(self, "hit_rate", check_hit_rate(self.hit_rate))
+        check_choice("order", self.order, ORDERS)
         put(self, "miss_mix", _miss_mix(self.miss_mix))
-        _choice("shape", self.shape, SHAPES)
-        put(self, "scale", _float("scale", self.scale))
+        check_choice("shape", self.shape, SHAPES)
+        put(self, "scale", check_float("scale", self.scale))
         if self.scale <= 0:
             raise UserError(f"scale must be > 0, got {self.scale}")
-        put(self, "offset", _float("offset", self.offset))
-        _choice("dtype", self.dtype, DTYPES)
-        put(self, "seed", _int("seed", self.seed, 0, 2**63 - 1))
-        _choice("winding", self.winding, WINDINGS)
+        put(self, "offset", check_float("offset", self.offset))
+        check_choice("dtype", self.dtype, DTYPES)
+        put(self, "seed", check_int("seed", self.seed, 0, 2**63 - 1))
+        check_choice("winding", self.winding, WINDINGS)
 
     def miss_fractions(self) -> dict[str, float]:
         """The target miss-stage mix as ``{stage: fraction}``."""
@@ -302,7 +275,7 @@ class MeshSpec:
         (so that no hit rate above 0 is possible) is refused here.
     triangles : int or None
         Exact triangle count wanted; ``None`` keeps the base mesh.
-    rays : {"camera", "hit_rate", "bounce"}
+    rays : {"camera", "hit_rate", "bounce"} or the path of a ray file
         The seed's pinhole camera (``width`` x ``height`` rays), or ``n_rays``
         rays of which exactly ``round(hit_rate * n_rays)`` hit the mesh, or
         incoherent secondary rays: one diffuse bounce from each hit of that
@@ -332,6 +305,10 @@ class MeshSpec:
         back from a run folder's ``run.json``), it is trusted and the file is
         not read: a run folder names its mesh by content, so it renders after
         the file moved or changed (:mod:`tribench.workloads.mesh_files`).
+    rays_sha256 : str or None
+        With ``rays`` the path of a ray file (:mod:`~tribench.workloads.ray_files`:
+        the user's own rays, checked here; ``n_rays`` is set to its count): the
+        file's content hash, set and trusted as ``mesh_sha256`` is.
 
     Examples
     --------
@@ -356,6 +333,7 @@ class MeshSpec:
     result: str = "closest"
     accel: str = "brute"
     mesh_sha256: str | None = None
+    rays_sha256: str | None = None
 
     kind: ClassVar[str] = "mesh"
     version: ClassVar[int] = MESHES_VERSION
@@ -375,21 +353,25 @@ class MeshSpec:
             if self.mesh_sha256 is not None:
                 raise UserError(f"mesh_sha256 applies to a mesh file only, not to the built-in {self.mesh!r}")
         elif self.mesh_sha256 is None:
-            put(self, "mesh", _checked_mesh_file(self.mesh))
+            put(self, "mesh", checked_mesh_file(self.mesh, MESH_NAMES))
             put(self, "mesh_sha256", file_sha256(self.mesh))
-        elif not (isinstance(self.mesh_sha256, str) and re.fullmatch(r"[0-9a-f]{64}", self.mesh_sha256)):
-            raise UserError(f"mesh_sha256 must be 64 hexadecimal digits, got {self.mesh_sha256!r:.80}")
+        else:
+            check_sha256("mesh_sha256", self.mesh_sha256)
         if self.triangles is not None:
-            put(self, "triangles", _int("triangles", self.triangles, 1, _MAX_TRIANGLES))
-        _choice("rays", self.rays, RAY_SETS)
-        if self.rays in ("camera", "bounce"):
+            put(self, "triangles", check_int("triangles", self.triangles, 1, _MAX_TRIANGLES))
+        check_choice("dtype", self.dtype, DTYPES)
+        if self.rays in RAY_SETS and self.rays_sha256 is not None:
+            raise UserError(f"rays_sha256 applies to a ray file only, not to rays={self.rays!r}")
+        if self.rays not in RAY_SETS:
+            self._ray_file()
+        elif self.rays in ("camera", "bounce"):
             for name in ("hit_rate", "n_rays"):
                 if getattr(self, name) is not None:
                     raise UserError(
                         f"{name} applies to rays='hit_rate' only: a camera's hit rate is a result, not a target"
                     )
-            width = _int("width", 512 if self.width is None else self.width, 1, 65536)
-            height = _int("height", 512 if self.height is None else self.height, 1, 65536)
+            width = check_int("width", 512 if self.width is None else self.width, 1, 65536)
+            height = check_int("height", 512 if self.height is None else self.height, 1, 65536)
             put(self, "width", width)
             put(self, "height", height)
             if width * height > _MAX_RAYS:
@@ -398,17 +380,46 @@ class MeshSpec:
             for name in ("width", "height"):
                 if getattr(self, name) is not None:
                     raise UserError(f"{name} applies to rays='camera' or 'bounce' only")
-            put(self, "hit_rate", _hit_rate(0.5 if self.hit_rate is None else self.hit_rate))
-            put(self, "n_rays", _int("n_rays", 4096 if self.n_rays is None else self.n_rays, 1, _MAX_RAYS))
-        _choice("dtype", self.dtype, DTYPES)
-        put(self, "seed", _int("seed", self.seed, 0, 2**63 - 1))
-        _choice("result", self.result, RESULTS)
-        _choice("accel", self.accel, ACCELS)
+            put(self, "hit_rate", check_hit_rate(0.5 if self.hit_rate is None else self.hit_rate))
+            put(self, "n_rays", check_int("n_rays", 4096 if self.n_rays is None else self.n_rays, 1, _MAX_RAYS))
+        put(self, "seed", check_int("seed", self.seed, 0, 2**63 - 1))
+        check_choice("result", self.result, RESULTS)
+        check_choice("accel", self.accel, ACCELS)
+
+    def _ray_file(self) -> None:
+        """Check a ray file's path, read its count and hash (unless a recorded hash is given: then trusted)."""
+        from . import ray_files
+
+        put = object.__setattr__
+        if isinstance(self.rays, os.PathLike):
+            put(self, "rays", os.fspath(self.rays))
+        for name in ("hit_rate", "width", "height"):
+            if getattr(self, name) is not None:
+                raise UserError(f"{name} does not apply to a ray file: its rays are given")
+        if self.rays_sha256 is not None:  # read back from a run folder or a cache file
+            check_sha256("rays_sha256", self.rays_sha256)
+            put(self, "n_rays", check_int("n_rays", self.n_rays, 1, ray_files.MAX_FILE_RAYS))
+            return
+        if self.n_rays is not None:
+            raise UserError("n_rays does not apply to a ray file: it has its own count")
+        path = Path(self.rays).expanduser() if isinstance(self.rays, str) and self.rays else None
+        if path is None or not path.is_file():
+            what = "a folder" if path is not None and path.is_dir() else "no such file"
+            raise UserError(f"unknown rays {self.rays!r:.200}: not one of {', '.join(RAY_SETS)} and {what}")
+        put(self, "rays", str(path.resolve()))
+        n, sha256 = ray_files.describe(self.rays, self.dtype)
+        put(self, "n_rays", n)
+        put(self, "rays_sha256", sha256)
 
     @property
     def is_file(self) -> bool:
         """Whether the mesh comes from a file rather than a built-in generator."""
         return self.mesh not in MESH_NAMES
+
+    @property
+    def rays_from_file(self) -> bool:
+        """Whether the rays are the user's own, from a ray file."""
+        return self.rays_sha256 is not None
 
     @property
     def n_rays_total(self) -> int:
@@ -450,6 +461,8 @@ class MeshSpec:
         count = "base" if self.triangles is None else str(self.triangles)
         if self.rays == "hit_rate":
             rays = f"{self.n_rays} rays hit_rate={self.hit_rate:g}"
+        elif self.rays_from_file:
+            rays = f"{self.n_rays} rays from {Path(self.rays).name}"
         else:
             rays = f"{'bounces of camera' if self.rays == 'bounce' else 'camera'} {self.width}x{self.height}"
         result = "" if self.result == "closest" else f" {self.result}"
@@ -510,12 +523,12 @@ class SeedSpec:
                 )
             read_scene(path)  # SceneError names a folder, an unreadable file or the bad line
             put(self, "scene", str(path.resolve()))
-        _choice("rays", self.rays, RAY_KINDS)
-        put(self, "sample", _int("sample", self.sample, 1, _MAX_RAYS))
-        put(self, "width", _int("width", self.width, 1, _MAX_SIDE))
-        put(self, "height", _int("height", self.height, 1, _MAX_SIDE))
-        _choice("dtype", self.dtype, DTYPES)
-        put(self, "seed", _int("seed", self.seed, 0, 2**63 - 1))
+        check_choice("rays", self.rays, RAY_KINDS)
+        put(self, "sample", check_int("sample", self.sample, 1, _MAX_RAYS))
+        put(self, "width", check_int("width", self.width, 1, _MAX_SIDE))
+        put(self, "height", check_int("height", self.height, 1, _MAX_SIDE))
+        check_choice("dtype", self.dtype, DTYPES)
+        put(self, "seed", check_int("seed", self.seed, 0, 2**63 - 1))
 
     @property
     def mode(self) -> str:
@@ -558,44 +571,12 @@ class SeedSpec:
 Spec = PairSpec | MeshSpec | SeedSpec
 
 
-def _checked_mesh_file(path: str) -> str:
-    """Absolute path of a readable mesh file, or a UserError saying what is wrong."""
-    p = Path(path).expanduser()
-    if p.is_dir():
-        raise UserError(f"mesh {path!r} is a folder: give a mesh file trimesh reads, or one of {', '.join(MESH_NAMES)}")
-    if not p.is_file():
-        raise UserError(f"unknown mesh {path!r}: not one of {', '.join(MESH_NAMES)} and no such file")
-    from .meshes import read_mesh_file  # lazy: trimesh is slow to import
-
-    read_mesh_file(p)  # raises UserError when trimesh cannot make a mesh of it
-    return str(p.resolve())
-
-
-def canonical_json(obj: Any) -> str:
-    """Sorted, compact JSON: equal values give equal strings.
-
-    Examples
-    --------
-    >>> canonical_json({"b": 1, "a": [0.1, "x"]})
-    '{"a":[0.1,"x"],"b":1}'
-    """
-    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
-
-
-def file_sha256(path: str | os.PathLike) -> str:
-    """SHA-256 of a file's bytes, read in blocks (a mesh file may be large)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def identity(spec: Spec) -> dict[str, Any]:
-    """What names a workload: the spec, its generator version, a mesh file's content.
+    """What names a workload: the spec, its generator version, a mesh or ray file's content.
 
     A mesh file enters by its sha256 and suffix (the suffix picks the parser),
-    not by its path, so the same file anywhere gives the same id.
+    a ray file by its sha256, not by their paths, so the same file anywhere
+    gives the same id.
     """
     d = {**spec.to_dict(), "version": spec.version}
     if isinstance(spec, SeedSpec):
@@ -603,6 +584,8 @@ def identity(spec: Spec) -> dict[str, Any]:
     if isinstance(spec, MeshSpec) and spec.is_file:
         d["mesh"] = "file"
         d["mesh_suffix"] = Path(spec.mesh).suffix.lower()  # the spec's own mesh_sha256 names the content
+    if isinstance(spec, MeshSpec) and spec.rays_from_file:
+        d["rays"] = "file"  # its rays_sha256 names the content
     return d
 
 

@@ -3,7 +3,8 @@
 A :class:`Workload` is what a spec generates and what the cache stores. Its
 arrays are read-only and C-contiguous:
 
-* ``origins (M, 3)``, ``directions (M, 3)`` (unit length) and
+* ``origins (M, 3)``, ``directions (M, 3)`` (unit length, but a ray file's
+  as the file gives them) and
   ``triangles (K, 3, 3)`` in the spec's dtype;
 * mode ``"pairs"`` (M == K, ray i against triangle i): ``ref_hit bool[M]``,
   ``ref_t float64[M]`` (nan for misses) and ``ref_edge_margin float64[M]`` =

@@ -38,6 +38,8 @@ _ABOUT = {
     rf.LOCK: "held (`flock`) by the one process writing the folder; the kernel drops it if that process dies",
     rf.MESHES_DIR + "/": "a copy of each mesh file the sweep used (up to 32 MB), named by its SHA-256: the "
     "workloads rebuild on another machine, after the file moved or changed",
+    rf.RAYS_DIR + "/": "a copy of each ray file (`--rays FILE.npz`) the sweep used (up to 32 MB), named by its "
+    "SHA-256, for the same reason",
     rf.BATCHES: "one row per timed batch, appended and flushed as each batch finishes",
     rf.PROCESSES: "one row per FMA peak probe of a worker process, at its start and at its end",
     rf.CHECKS: "one row per kernel, workload and process: its answers against the float64 reference, before any batch",
@@ -89,6 +91,7 @@ _MEASURED = [
     rf.PEERS,
     rf.LOCK,
     rf.MESHES_DIR + "/",
+    rf.RAYS_DIR + "/",
 ]
 _DERIVED = [*rf.DERIVED, rf.PICTURES_DIR + "/", rf.GOOGLE_BENCHMARK, rf.ANALYSIS]
 _RENDERED = [rf.REPORT, rf.SWEEP_FILE]

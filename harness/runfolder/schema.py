@@ -60,6 +60,7 @@ __all__ = [
     "PER_PROCESS",
     "PICTURES_DIR",
     "MESHES_DIR",
+    "RAYS_DIR",
     "PROCESSES",
     "RANKING",
     "REPORT",
@@ -133,6 +134,7 @@ ANALYSIS = "analysis.json"
 #: One PNG per workload (``<workload_id>.png``), drawn by the analysis step.
 PICTURES_DIR = "pictures"
 MESHES_DIR = "meshes"  # the copies of tribench.workloads.mesh_files (its RUN_FOLDER)
+RAYS_DIR = "rays"  # the ray file copies of tribench.workloads.mesh_files (its RAYS_FOLDER)
 
 REPORT = "report.html"
 SWEEP_FILE = "sweep.toml"

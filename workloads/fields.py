@@ -1,0 +1,97 @@
+"""The checks and hashes the workload specs share: field validators, canonical JSON, a file's sha256."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import re
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from tribench.common import UserError
+
+__all__ = [
+    "canonical_json",
+    "check_choice",
+    "check_float",
+    "check_hit_rate",
+    "check_int",
+    "check_sha256",
+    "checked_mesh_file",
+    "file_sha256",
+]
+
+
+def check_int(name: str, value: Any, lo: int, hi: int) -> int:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or (isinstance(value, float) and not value.is_integer())
+    ):
+        raise UserError(f"{name} must be an integer, got {value!r}")
+    value = int(value)
+    if not lo <= value <= hi:
+        raise UserError(f"{name} must be between {lo} and {hi}, got {value}")
+    return value
+
+
+def check_float(name: str, value: Any) -> float:
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) < 2**1000:
+        value = float(value)  # an int past float64's range is not a finite number
+    if not isinstance(value, float) or not math.isfinite(value):
+        raise UserError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def check_hit_rate(value: Any) -> float:
+    h = check_float("hit_rate", value)
+    if not 0.0 <= h <= 1.0:
+        raise UserError(f"hit_rate must be in [0, 1], got {h}")
+    return h
+
+
+def check_sha256(name: str, value: Any) -> None:
+    if not (isinstance(value, str) and re.fullmatch(r"[0-9a-f]{64}", value)):
+        raise UserError(f"{name} must be 64 hexadecimal digits, got {value!r:.80}")
+
+
+def check_choice(name: str, value: Any, choices: Sequence[str]) -> str:
+    if not isinstance(value, str) or value not in choices:
+        raise UserError(f"unknown {name} {value!r}: choose one of {', '.join(choices)}")
+    return value
+
+
+def checked_mesh_file(path: str, names: Sequence[str]) -> str:
+    """Absolute path of a readable mesh file, or a UserError saying what is wrong."""
+    p = Path(path).expanduser()
+    if p.is_dir():
+        raise UserError(f"mesh {path!r} is a folder: give a mesh file trimesh reads, or one of {', '.join(names)}")
+    if not p.is_file():
+        raise UserError(f"unknown mesh {path!r}: not one of {', '.join(names)} and no such file")
+    from .meshes import read_mesh_file  # lazy: trimesh is slow to import
+
+    read_mesh_file(p)  # raises UserError when trimesh cannot make a mesh of it
+    return str(p.resolve())
+
+
+def canonical_json(obj: Any) -> str:
+    """Sorted, compact JSON: equal values give equal strings.
+
+    Examples
+    --------
+    >>> canonical_json({"b": 1, "a": [0.1, "x"]})
+    '{"a":[0.1,"x"],"b":1}'
+    """
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a file's bytes, read in blocks (a mesh file may be large)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
