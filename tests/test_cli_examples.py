@@ -15,6 +15,7 @@ import shlex
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from test_cli import run
 
@@ -205,6 +206,8 @@ def _sized(argv: list[str]) -> list[str]:
         return argv
     if "--hit-rate" in argv or "--n-rays" in argv:
         return [*argv, "--n-rays", "64"]
+    if "--rays" in argv and argv[argv.index("--rays") + 1].endswith(".npz"):
+        return argv  # a ray file brings its own rays: no camera to size
     return [*argv, "--width", "8", "--height", "8"]
 
 
@@ -215,6 +218,10 @@ def test_workloads_docstring_example_runs(example, env, mesh_prefix, tmp_path):
     argv = [env["HOME"] + w[1:] if w.startswith("~/") else w for w in argv]  # as the shell expands ~
     if argv[:2] == ["workloads", "show"]:
         argv[2] = mesh_prefix
+    if "--rays" in argv and argv[argv.index("--rays") + 1].endswith(".npz"):  # the user's file, made here
+        rng = np.random.default_rng(0)
+        origins = rng.uniform(-0.5, 0.5, (64, 3)) + [0, 0, 4]
+        np.savez(tmp_path / argv[argv.index("--rays") + 1], origins=origins, directions=np.tile([0.0, 0, -1], (64, 1)))
     done = run(*_sized(argv), env=env, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "Traceback" not in done.stderr
