@@ -33,9 +33,9 @@ from typing import Any
 import numpy as np
 
 from tribench.common import Notice, UserError, write_bytes
+from tribench.common.location import cache_dir
 
 from .kinds import generate, spec_from_dict
-from .location import cache_dir
 from .spec import (
     MeshSpec,
     Spec,

@@ -1,8 +1,10 @@
 """What the cache holds, and pruning what no installed build can use.
 
-:func:`entries` lists every file under :func:`~tribench.workloads.location.cache_dir`:
+:func:`entries` lists every file under :func:`~tribench.common.location.cache_dir`:
 workloads (``*.npz`` directly in it), BVH trees (``bvh/``), front-face
-references (``front/``), mesh copies (``meshes/``), temporary files a killed
+references (``front/``), mesh, ray and kernel file copies (``meshes/``,
+``rays/``, ``kernel_files/``), kernel files' compiled modules
+(``kernel_builds/``, rebuilt on demand), temporary files a killed
 write left (``.*.tmp``) and anything else, each with its size, when it was
 last used and, if it cannot be used, why. :func:`prune` removes the files
 that cannot be used (a BVH tree made by another build of the extension, a
@@ -23,13 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from tribench.common import UserError
-
-from .location import cache_dir
+from tribench.common.location import cache_dir
 
 __all__ = ["Entry", "Pruned", "entries", "parse_size", "prune"]
 
 #: Kinds a size bound may remove: each is made again when it is next needed.
-REGENERABLE = ("workload", "bvh", "front")
+REGENERABLE = ("workload", "bvh", "front", "kernel build")
 _UNITS = {"": 1, "b": 1, "k": 10**3, "m": 10**6, "g": 10**9, "t": 10**12}
 _BINARY = {"ki": 2**10, "mi": 2**20, "gi": 2**30, "ti": 2**40}
 
@@ -71,7 +72,15 @@ def _kind(rel: Path) -> str:
         return "temporary"
     if len(rel.parts) == 1:
         return "workload" if rel.suffix == ".npz" else "other"
-    return {"bvh": "bvh", "front": "front", "meshes": "mesh"}.get(rel.parts[0], "other")
+    kinds = {
+        "bvh": "bvh",
+        "front": "front",
+        "meshes": "mesh",
+        "rays": "ray file",
+        "kernel_files": "kernel file",
+        "kernel_builds": "kernel build",
+    }
+    return kinds.get(rel.parts[0], "other")
 
 
 def _meta(path: Path) -> dict:

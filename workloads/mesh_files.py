@@ -11,7 +11,8 @@ analysed elsewhere (:func:`adopt`). A larger file is not copied: its run
 folder still reports and exports (they read its tables, not the mesh), but a
 rebuild of its workloads needs the file back. A ray file
 (:mod:`~tribench.workloads.ray_files`) is kept the same way, in the folder
-:data:`RAYS_FOLDER` instead of :data:`RUN_FOLDER`.
+:data:`RAYS_FOLDER` instead of :data:`RUN_FOLDER`, and a kernel file (a
+sweep's ``kernel_files``) in :data:`KERNELS_FOLDER`.
 """
 
 from __future__ import annotations
@@ -20,11 +21,11 @@ import shutil
 from pathlib import Path
 
 from tribench.common import UserError, atomic_write
+from tribench.common.location import cache_dir
 
-from .location import cache_dir
 from .spec import file_sha256
 
-__all__ = ["MAX_COPY_BYTES", "RAYS_FOLDER", "RUN_FOLDER", "adopt", "copy_into_run", "keep", "source"]
+__all__ = ["KERNELS_FOLDER", "MAX_COPY_BYTES", "RAYS_FOLDER", "RUN_FOLDER", "adopt", "copy_into_run", "keep", "source"]
 
 #: Mesh files up to this size are copied into the cache and into the run folders that use them.
 MAX_COPY_BYTES = 32 * 1024 * 1024
@@ -32,8 +33,10 @@ MAX_COPY_BYTES = 32 * 1024 * 1024
 RUN_FOLDER = "meshes"
 #: The run folder's subfolder of ray file copies.
 RAYS_FOLDER = "rays"
+#: The run folder's subfolder of kernel file copies (``--kernel-file``: the C source each run compiled).
+KERNELS_FOLDER = "kernel_files"
 #: What each folder's files are, for messages.
-_WHAT = {RUN_FOLDER: "mesh file", RAYS_FOLDER: "ray file"}
+_WHAT = {RUN_FOLDER: "mesh file", RAYS_FOLDER: "ray file", KERNELS_FOLDER: "kernel file"}
 
 
 def _name(sha256: str, suffix: str) -> str:

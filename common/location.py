@@ -1,4 +1,5 @@
-"""Where the workload cache lives: one function, below every module that reads or writes the cache."""
+"""Where the cache lives (workloads, BVHs, meshes, kernel files' builds): one function, below every module
+that reads or writes it."""
 
 from __future__ import annotations
 
