@@ -14,6 +14,15 @@
 
 #include "core.h"
 
+/* The module's name: _core, or a kernel file's build's own (ext/kernel_files.py),
+ * so that both load in one process. */
+#ifndef TB_MODULE_NAME
+#define TB_MODULE_NAME _core
+#endif
+#ifndef TB_FILE_CITATION
+#define TB_FILE_CITATION "" /* a kernel file's paper (kernels/list.h) */
+#endif
+
 #ifndef TB_BUILD_FLAGS
 #define TB_BUILD_FLAGS "unknown"
 #endif
@@ -86,13 +95,13 @@ static PyMethodDef tb_methods[] = {
 
 static struct PyModuleDef tb_module = {
     PyModuleDef_HEAD_INIT,
-    .m_name = "_core",
+    .m_name = TB_STR(TB_MODULE_NAME),
     .m_doc = "Ray-triangle kernels (private: use tribench.ext).",
     .m_size = -1,
     .m_methods = tb_methods,
 };
 
-PyMODINIT_FUNC PyInit__core(void)
+PyMODINIT_FUNC TB_CAT(PyInit_, TB_MODULE_NAME)(void)
 {
     PyObject *m = PyModule_Create(&tb_module);
     const char *names[] = {"MAX_BATCH_TESTS", "MAX_PEAK_ITERATIONS", "POLL_NS", "MAX_BVH_BATCH_RAYS",
@@ -105,5 +114,7 @@ PyMODINIT_FUNC PyInit__core(void)
             Py_CLEAR(m);
         Py_XDECREF(value);
     }
+    if (m && PyModule_AddStringConstant(m, "FILE_CITATION", TB_FILE_CITATION) < 0)
+        Py_CLEAR(m);
     return m;
 }

@@ -53,11 +53,13 @@ typedef struct {
 #define TB_BVH_KERNEL_TB_NATIVE(name) \
     {#name, {TB_NATIVE_ISA_LIST(TB_BVH_FNS_F32, name)}, {TB_NATIVE_ISA_LIST(TB_BVH_FNS_F64, name)}},
 static const tb_bvh_kernel tb_bvh_kernels[] = {TB_KERNEL_LIST(TB_BVH_KERNEL)};
+/* a variable, not the constant: a kernel file's build may have no native kernel (an empty table) */
+static const size_t tb_n_bvh_kernels = sizeof tb_bvh_kernels / sizeof *tb_bvh_kernels;
 
 /* bvh_kernels() -> the kernels a BVH can take as its leaf test, registry order */
 TB_HIDDEN PyObject *py_bvh_kernels(PyObject *Py_UNUSED(self), PyObject *Py_UNUSED(unused))
 {
-    size_t n = sizeof tb_bvh_kernels / sizeof *tb_bvh_kernels;
+    size_t n = tb_n_bvh_kernels;
     PyObject *out = PyTuple_New((Py_ssize_t)n);
     for (size_t i = 0; out && i < n; ++i) {
         PyObject *s = PyUnicode_FromString(tb_bvh_kernels[i].name);
@@ -164,7 +166,7 @@ static tb_bvh_fn tb_parse_bvh_job(const char *name, Py_ssize_t itemsize, int mod
     if (!tb_parse_job(name, itemsize, mode, isa, timed, o, d, n_rays, t_max, rec, n_slots, &job->base))
         return NULL;
     const tb_bvh_kernel *bk = NULL;
-    for (size_t i = 0; i < sizeof tb_bvh_kernels / sizeof *tb_bvh_kernels; ++i)
+    for (size_t i = 0; i < tb_n_bvh_kernels; ++i)
         if (strcmp(tb_bvh_kernels[i].name, name) == 0)
             bk = &tb_bvh_kernels[i];
     if (!bk) {

@@ -135,6 +135,11 @@ typedef struct {
 } tb_vray;
 
 #include "kernels/vec.h"
+#ifdef TB_KERNEL_FILE /* a build of a user's kernel file (kernels/list.h): its scalar part */
+#define TB_SCALAR_PART 1
+#include TB_KERNEL_FILE
+#undef TB_SCALAR_PART
+#else
 #include "kernels/curless_seed.h"
 #include "kernels/moller_seed.h"
 #include "kernels/curless.h"
@@ -156,6 +161,7 @@ typedef struct {
 #include "kernels/havel_herout_x8.h"
 #include "kernels/woop_x8.h"
 #include "kernels/plucker_x8.h"
+#endif
 
 typedef int (*TB_FN(tb_test_fn))(const tb_ray *restrict, const real *restrict, real,
                                  tb_hit *restrict);
@@ -352,18 +358,22 @@ stop:
 #define TB_ENTRY_ATTR
 TB_KERNEL_LIST(TB_INSTANTIATE)
 #undef TB_ENTRY_ATTR
-#define TB_ENTRY_ATTR TB_NO_ICF /* the A/A twins (list.h): code of their own */
+#ifndef TB_KERNEL_FILE /* the internal kernels (list.h) */
+#define TB_ENTRY_ATTR TB_NO_ICF /* the A/A twins: code of their own */
 TB_INSTANTIATE_(moller_trumbore_aa)
 TB_INSTANTIATE_(moller_seed_aa)
 #undef TB_ENTRY_ATTR
 #endif
+#endif
 #undef TB_INSTANTIATE
 #undef TB_INSTANTIATE_
+#ifndef TB_KERNEL_FILE
 #include "kernels/moller_trumbore_twice.h" /* its own entry points, from moller_trumbore's */
 #include "kernels/moller_trumbore_same.h"  /* the same */
 #include "kernels/seed_objects.h"         /* the seed's program around its tests: their own loop */
 #include "kernels/moller_seed_object.h"
 #include "kernels/curless_seed_object.h"
+#endif
 
 /* Entry points of one wide kernel for one ISA: the same source compiled
  * for each instruction set by a target attribute (the kernels and helpers

@@ -199,6 +199,11 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #define nv_lt(a, b) nv_cmp(a, b, _CMP_LT_OQ)
 #define nv_eq(a, b) nv_cmp(a, b, _CMP_EQ_OQ)
 
+#ifdef TB_KERNEL_FILE /* a build of a user's kernel file (kernels/list.h): its native part */
+#define TB_NATIVE_PART 1
+#include TB_KERNEL_FILE
+#undef TB_NATIVE_PART
+#else
 #include "kernels/moller_trumbore_fma.h"
 #include "kernels/moller_trumbore_fma_exit.h"
 #include "kernels/baldwin_weber_12_fma.h"
@@ -209,6 +214,7 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #include "kernels/plucker_fma.h"
 #include "kernels/curless_fma.h"
 #include "kernels/moller_trumbore_cull_fma.h"
+#endif
 
 typedef nmask (*TB_NFN(tb_native_fn))(const tb_nray *restrict, const real *restrict, nreal,
                                       tb_nhit *restrict);

@@ -32,6 +32,19 @@
  * triangle (tb_<name>_stride), operations per test (tb_<name>_ops, and
  * tb_<name>_x8_ops) and what becomes of an exactly flat triangle
  * (tb_<name>_flat) sit beside the code they describe, in the kernel's file. */
+#ifdef TB_KERNEL_FILE
+/* A build of a user's kernel file (tribench.ext.load_kernels,
+ * docs/own-kernel.md): its registration lines, TB_FILE_KERNELS, with the
+ * columns below, are the whole list. Read here with neither TB_SCALAR_PART
+ * nor TB_NATIVE_PART defined: the file's declarations alone; kernels.h and
+ * native.h include it again for its code. */
+#include TB_KERNEL_FILE
+#ifndef TB_FILE_KERNELS
+#error "a kernel file defines TB_FILE_KERNELS(X), its registration lines (docs/own-kernel.md)"
+#endif
+#define TB_KERNEL_LIST(X) TB_FILE_KERNELS(X)
+#define TB_INTERNAL_KERNEL_LIST(X)
+#else
 #define TB_KERNEL_LIST(X)                                                                    \
     X(curless_seed,         TB_BOTH_FACES,  TB_OPEN,       "",                          TB_SEED_REPLAY, TB_SCALAR_ONLY) \
     X(moller_seed,          TB_BOTH_FACES,  TB_OPEN,       "",                          TB_SEED_REPLAY, TB_SCALAR_ONLY) \
@@ -73,6 +86,7 @@
     X(moller_trumbore_same,  TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
     X(moller_trumbore_twice, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)           \
     X(moller_trumbore_yardstick, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_NATIVE_AVX2)
+#endif /* TB_KERNEL_FILE */
 
 /* The values of the columns. */
 enum { TB_BOTH_FACES, TB_FRONT_FACES };
