@@ -60,14 +60,16 @@ nan``. Conventions of the clean kernels match ``tribench.workloads.reference``.
 
 ``tribench.ext`` owns the kernels, their registration and the checked C
 boundary. It may import ``tribench.common`` only: it knows nothing of
-workloads, statistics or files.
+workloads, statistics or run folders.
 
 The modules, by job (this package re-exports every public name): ``checks``
 (argument and array checks), ``registry`` (kernel names, :class:`KernelInfo`,
 modes, build), ``intersection`` (:func:`prepare`, :func:`flat`,
 :func:`intersect`), ``timing`` (:func:`make_job`, :func:`time_batch`),
-``probes`` (:func:`fma_peak`, :func:`op_throughput`) and ``bvh``
-(:func:`build_bvh`, :class:`BVH`, :func:`adopt_bvh`), over ``_core``, the C
+``probes`` (:func:`fma_peak`, :func:`op_throughput`), ``bvh``
+(:func:`build_bvh`, :class:`BVH`, :func:`adopt_bvh`) and ``kernel_files``
+(:func:`load_kernels`: a user's kernel file compiled as the built-in kernels
+are, into a module of its own beside ``_core``), over ``_core``, the C
 module. Each imports only modules listed before it, never this package.
 
 Examples
@@ -98,6 +100,7 @@ from .bvh import (
     bvh_kernel_names,
 )
 from .intersection import Hits, Prepared, flat, intersect, intersect_closest, intersect_pairs, prepare
+from .kernel_files import KernelFile, KernelFileError, kernel_file_of, load_kernels, loaded_kernel_files
 from .probes import MAX_PEAK_ITERATIONS, OP_CLASSES, OpThroughput, Peak, fma_peak, op_throughput, probe_isas
 from .registry import (
     MODES,
@@ -118,6 +121,8 @@ __all__ = [
     "Batch",
     "Hits",
     "Job",
+    "KernelFile",
+    "KernelFileError",
     "KernelInfo",
     "Peak",
     "Prepared",
@@ -147,8 +152,11 @@ __all__ = [
     "intersect",
     "intersect_closest",
     "intersect_pairs",
+    "kernel_file_of",
     "kernel_info",
     "kernel_names",
+    "load_kernels",
+    "loaded_kernel_files",
     "make_job",
     "prepare",
     "time_batch",

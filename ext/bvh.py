@@ -18,7 +18,7 @@ from tribench.common import UserError, UserTypeError
 
 from .checks import check_array, check_flag
 from .intersection import Hits, Prepared, check_workload, flat
-from .registry import MODES, Mode, check_kernel, kernel_info
+from .registry import MODES, Mode, check_kernel, core_of, kernel_info, kernel_modules
 
 
 def bvh_kernel_names() -> tuple[str, ...]:
@@ -28,7 +28,7 @@ def bvh_kernel_names() -> tuple[str, ...]:
     >>> "moller_trumbore_fma" in bvh_kernel_names()
     True
     """
-    return _core.bvh_kernels()
+    return tuple(k for m in kernel_modules() for k in m.bvh_kernels() if core_of(k) is m)
 
 
 def _check_leaf_kernel(kernel: str) -> None:
@@ -167,7 +167,9 @@ class BVH:
         n, dtype = len(o), self.dtype
         hits = Hits(np.empty(n, np.int64), np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype))
         counts = np.empty((n, len(COUNT_NAMES)), np.int64)
-        _core.bvh_run(self.kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm, *self._tree(), *hits, counts)
+        core_of(self.kernel).bvh_run(
+            self.kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm, *self._tree(), *hits, counts
+        )
         return Trace(hits, counts)
 
     def time(
@@ -197,7 +199,7 @@ class BVH:
                 f"loops must be between 1 and {MAX_BVH_BATCH_RAYS // len(o)} for {len(o)} rays, got {loops}"
             )
         null_leaf = check_flag("null_leaf", null_leaf)
-        elapsed, hits, tris, t_sum, uv_sum, nodes, boxes, leaves = _core.bvh_time(
+        elapsed, hits, tris, t_sum, uv_sum, nodes, boxes, leaves = core_of(self.kernel).bvh_time(
             self.kernel,
             self.dtype.itemsize,
             MODES.index(mode),
@@ -266,7 +268,7 @@ def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = DEFAULT_MAX
     is_flat[slots] = flat(tris)[order]
     info = kernel_info(kernel)
     records = np.empty((n_slots // info.lanes, info.stride, info.lanes), dtype=tris.dtype)
-    _core.prepare(kernel, tris.itemsize, in_slots, n_slots, records, is_flat)
+    core_of(kernel).prepare(kernel, tris.itemsize, in_slots, n_slots, records, is_flat)
     return _frozen_bvh(kernel, tris, nodes, perm, records, int(max_leaf))
 
 
@@ -328,7 +330,7 @@ def adopt_bvh(
     in_slots = np.zeros((len(perm), 3, 3), dtype=tris.dtype)
     in_slots[used] = tris[perm[used]]
     expected = np.empty_like(records)
-    _core.prepare(kernel, tris.itemsize, in_slots, len(perm), expected, (slot_flat | ~used).view(np.uint8))
+    core_of(kernel).prepare(kernel, tris.itemsize, in_slots, len(perm), expected, (slot_flat | ~used).view(np.uint8))
     if not np.array_equal(expected.view(np.uint8), records.view(np.uint8)):
         raise UserError(f"malformed BVH: the records are not {kernel}'s records of the triangles its perm names")
     return _frozen_bvh(kernel, tris, nodes.copy(), perm.copy(), records.copy(), int(max_leaf))

@@ -15,11 +15,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-import tribench.ext._core as _core  # `from . import _core` would read as importing the package (a cycle)
 from tribench.common import UserError
 
 from .checks import check_array, check_name, check_same_dtype, check_t_max
-from .registry import MODES, Mode, kernel_info
+from .registry import MODES, Mode, core_of, kernel_info
 
 
 @dataclass(frozen=True)
@@ -62,7 +61,7 @@ def prepare(kernel: str, triangles: np.ndarray, *, allow_nonfinite: bool = False
     n = len(tris)
     shape = (n, info.stride) if info.lanes == 1 else (-(-n // info.lanes), info.stride, info.lanes)
     records = np.empty(shape, dtype=tris.dtype)
-    _core.prepare(kernel, tris.itemsize, tris, n, records, flat(tris).view(np.uint8))
+    core_of(kernel).prepare(kernel, tris.itemsize, tris, n, records, flat(tris).view(np.uint8))
     records.flags.writeable = False
     return Prepared(kernel, records, n)
 
@@ -201,7 +200,7 @@ def intersect(
     prepared = prepare(kernel, tris, allow_nonfinite=allow_nonfinite)
     n, dtype = len(o), tris.dtype
     out = Hits(np.empty(n, np.int64), np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype))
-    _core.run(kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm, prepared.records, len(tris), *out)
+    core_of(kernel).run(kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm, prepared.records, len(tris), *out)
     return out
 
 

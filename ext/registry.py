@@ -11,6 +11,7 @@ import functools
 import hashlib
 import os
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Literal
 
 import numpy as np
@@ -24,6 +25,11 @@ Mode = Literal["pairs", "any", "closest", "closest_uv"]
 MODES: tuple[str, ...] = ("pairs", "any", "closest", "closest_uv")  # the C enum's order
 _PUBLIC: tuple[str, ...] = _core.kernel_names(False)
 _KERNELS: tuple[str, ...] = _core.kernel_names(True)  # every name a call accepts
+BUILT_IN: frozenset[str] = frozenset(_KERNELS)
+# The compiled module that holds each kernel: _core, or a kernel file's own
+# build (kernel_files.py), which joins its kernels with adopt().
+_MODULES: dict[str, ModuleType] = dict.fromkeys(_KERNELS, _core)
+_FILES: dict[str, str] = {}  # a kernel file's kernel -> the file
 
 
 def kernel_names(internal: bool = False) -> tuple[str, ...]:
@@ -103,6 +109,12 @@ class KernelInfo:
         seed's code did).
     precisions : tuple[str, ...]
         The dtypes the kernel is compiled for.
+    source : str
+        ``"built-in"``, or the kernel file that declared the kernel
+        (:func:`~tribench.ext.load_kernels`).
+    citation : str
+        A kernel file's paper (its ``TB_FILE_CITATION``); ``""`` for a
+        built-in kernel, whose file's header cites it.
     """
 
     name: str
@@ -121,6 +133,8 @@ class KernelInfo:
     seed_replay: bool
     flat: str
     precisions: tuple[str, ...]
+    source: str = "built-in"
+    citation: str = ""
 
     @property
     def mix(self) -> dict[str, int]:
@@ -128,7 +142,9 @@ class KernelInfo:
         to :attr:`ops`), ``logic`` (mask and select work, outside ``ops``) and ``load``
         (reals read per test: the stride). Declared as ``tb_<name>_mix`` in the kernel's
         file; a wide form's is its compiled loop's (tests/test_ext_build.py)."""
-        counts = dict(zip(("fma", "mul", "add", "cmp", "div", "logic"), _core.kernel_mix(self.name), strict=True))
+        counts = dict(
+            zip(("fma", "mul", "add", "cmp", "div", "logic"), core_of(self.name).kernel_mix(self.name), strict=True)
+        )
         return {**counts, "load": self.stride}
 
     @property
@@ -160,7 +176,7 @@ def kernel_info(kernel: str) -> KernelInfo:
     ('edges_and_vertices', True)
     """
     check_kernel(kernel)
-    declared = dict(_core.kernel_info(kernel))  # afresh: which ISAs run can be asked again
+    declared = dict(core_of(kernel).kernel_info(kernel))  # afresh: which ISAs run can be asked again
     isas = declared.pop("isas")
     runnable = dict(isas)
     wanted = os.environ.get("TRIBENCH_ISA")
@@ -172,7 +188,16 @@ def kernel_info(kernel: str) -> KernelInfo:
         isa = wanted
     else:
         isa = next(i for i, ok in isas if ok)
-    return KernelInfo(name=kernel, isas=runnable, isa=isa, wide_form=_WIDE_FORMS.get(kernel), **declared)
+    module = core_of(kernel)
+    return KernelInfo(
+        name=kernel,
+        isas=runnable,
+        isa=isa,
+        wide_form=_WIDE_FORMS.get(kernel),
+        source=_FILES.get(kernel, "built-in"),
+        citation=module.FILE_CITATION,
+        **declared,
+    )
 
 
 def build_info() -> dict:
@@ -199,6 +224,37 @@ def bytes_per_triangle(kernel: str, dtype: np.dtype | type | str) -> int:
     if dt.name not in info.precisions:
         raise UserError(f"{kernel} is compiled for {', '.join(info.precisions)}, not {dt.name}")
     return info.bytes_per_triangle[dt.name]
+
+
+def core_of(kernel: str) -> ModuleType:
+    """The compiled module that holds ``kernel``: ``_core``, or the build of the kernel file that declared it."""
+    return _MODULES[check_kernel(kernel)]
+
+
+def kernel_modules() -> tuple[ModuleType, ...]:
+    """The compiled modules kernels come from: ``_core`` first, then each kernel file's, in the order adopted."""
+    return tuple(dict.fromkeys(_MODULES.values()))
+
+
+def adopt(module: ModuleType, source: str) -> tuple[str, ...]:
+    """Join a kernel file's compiled module to the registry: its kernels, public, after the others.
+
+    A name of a built-in kernel is refused; a name a module adopted before
+    is taken over (the same file compiled again after an edit)."""
+    global _PUBLIC, _KERNELS
+    names = tuple(module.kernel_names(True))
+    clashes = [k for k in names if k in BUILT_IN]
+    if clashes:
+        raise UserError(f"{', '.join(clashes)}: the name of a built-in kernel; give the kernel another name")
+    for k in names:
+        _MODULES[k] = module
+        _FILES[k] = source
+        scalar = module.kernel_info(k)["scalar_form"]
+        if scalar is not None:
+            _WIDE_FORMS[scalar] = k
+    _PUBLIC = (*_PUBLIC, *(k for k in names if k not in _PUBLIC))
+    _KERNELS = (*_KERNELS, *(k for k in names if k not in _KERNELS))
+    return names
 
 
 def check_kernel(kernel: object) -> str:

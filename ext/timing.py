@@ -15,7 +15,7 @@ import tribench.ext._core as _core  # `from . import _core` would read as import
 from tribench.common import UserError, UserTypeError
 
 from .intersection import Prepared, check_workload, prepare
-from .registry import MODES, Mode
+from .registry import MODES, Mode, core_of
 
 
 @dataclass(frozen=True)
@@ -115,7 +115,7 @@ def time_batch(job: Job, loops: int) -> Batch:
             f"{MAX_BATCH_TESTS // job.tests_per_pass} loops (the harness's batches take about 8 ms)"
         )
     p = job.prepared
-    elapsed, hits, tests, t_sum, uv_sum = _core.time(
+    elapsed, hits, tests, t_sum, uv_sum = core_of(job.kernel).time(
         job.kernel,
         p.dtype.itemsize,
         MODES.index(job.mode),
