@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .options import add_kernel_files, load_kernel_files
+
 __all__ = ["add_parser", "run"]
 
 
@@ -16,6 +18,7 @@ def add_parser(sub) -> None:
         help="also measure the FMA peak and each kernel's ns/test on the in-cache camera "
         "workload, as a fraction of its arithmetic bound (about 10 s)",
     )
+    add_kernel_files(p)
     p.set_defaults(func=run)
 
 
@@ -23,6 +26,10 @@ def run(args: argparse.Namespace) -> int:
     from tribench import ext
     from tribench.harness.machine import machine_record
 
+    if args.peak:
+        load_kernel_files(args)  # checked: --peak times them
+    for path in args.kernel_files or ():
+        ext.load_kernels(path)
     rec = machine_record()
     build = rec["build"]
     print(f"tribench {rec['tribench']}" + (f" (git {rec['git_revision'][:12]})" if rec["git_revision"] else ""))
@@ -49,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _print_kernels(ext, width: int) -> None:
-    """The registry's declarations (ext/kernels/list.h): faces tested, watertight promise, seed replay or clean."""
+    """The registry's declarations (ext/kernels/list.h): faces tested, watertight promise, and whether the
+    code is a seed replay, clean, or from a kernel file."""
     print(
         f"{'kernel':<{width}}{'form':<8}{'bytes/tri f32':>14}{'bytes/tri f64':>14}  {'faces':<6}{'watertight':<11}"
         f"{'code':<6} ISA (* = runs here, > = chosen)"
@@ -64,7 +72,7 @@ def _print_kernels(ext, width: int) -> None:
         )
         faces = "front" if info.culls_back_faces else "both"
         watertight = "yes" if info.watertight != "none" else "-"
-        code = "seed" if info.seed_replay else "clean"
+        code = "seed" if info.seed_replay else "file" if info.source != "built-in" else "clean"
         print(
             f"{name:<{width}}{form:<8}{info.bytes_per_triangle['float32']:>14}"
             f"{info.bytes_per_triangle['float64']:>14}  {faces:<6}{watertight:<11}{code:<6} {isas}"

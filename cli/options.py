@@ -55,6 +55,28 @@ def add_no_progress(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_kernel_files(parser: argparse.ArgumentParser) -> None:
+    """--kernel-file FILE.c, repeatable: kernels of the user's own, loaded by :func:`load_kernel_files`."""
+    from . import flags
+
+    parser.add_argument(
+        "--kernel-file",
+        dest="kernel_files",
+        action="append",
+        metavar="FILE.c",
+        type=flags.existing_file,
+        help="a C file of your own kernels (docs/own-kernel.md; repeatable): compiled as the built-in ones, "
+        "checked against the float64 reference, then known by the names it declares",
+    )
+
+
+def load_kernel_files(args: argparse.Namespace) -> tuple[str, ...]:
+    """Compile, load and check the --kernel-file files (exit 2, nothing timed, if one is refused): their kernels."""
+    from tribench.studies.kernel_check import load_checked
+
+    return load_checked(args.kernel_files or ())
+
+
 def add_run_out(parser: argparse.ArgumentParser, default: str = "runs/<date-time>") -> None:
     """--out RUN_DIR of a command that creates a run folder (refused up front if it cannot be one)."""
     parser.add_argument("--out", metavar="RUN_DIR", type=_new_run_folder, help=f"new run folder (default {default})")

@@ -8,7 +8,16 @@ import sys
 from tribench.common import UserError
 
 from . import flags
-from .options import DESIGN_FLAGS, DTYPES, add_design_flags, add_no_progress, add_run_out, default_run_dir
+from .options import (
+    DESIGN_FLAGS,
+    DTYPES,
+    add_design_flags,
+    add_kernel_files,
+    add_no_progress,
+    add_run_out,
+    default_run_dir,
+    load_kernel_files,
+)
 
 __all__ = ["add_parser", "run"]
 
@@ -29,6 +38,7 @@ _NEW_SWEEP_FLAGS = (
     *DESIGN_FLAGS,
     "cpu",
     "out",
+    "kernel_files",
 )
 
 
@@ -58,7 +68,10 @@ def add_parser(sub) -> None:
         type=flags.existing_file,
         help="sweep file (flags given too override its values)",
     )
-    p.add_argument("--kernels", metavar="A,B", type=flags.name_list, help="kernels (default: all of `tribench info`)")
+    p.add_argument(
+        "--kernels", metavar="A,B", type=flags.name_list, help="kernels (default: all of `tribench info`, and yours)"
+    )
+    add_kernel_files(p)
     p.add_argument(
         "--hit-rates",
         metavar="H,..",
@@ -112,7 +125,11 @@ def run(args: argparse.Namespace) -> int:
             raise UserError("--resume takes no other sweep options: the run's own sweep is used")
         result = runner.resume(args.resume, progress=args.progress)
     else:
+        from tribench.studies.kernel_check import load_checked
+
+        load_kernel_files(args)  # first: --kernels may name their kernels
         sweep = _sweep_from_args(args)
+        load_checked(sweep.kernel_files)  # a sweep file's too, checked before anything is timed
         out = args.out or default_run_dir()
         print(
             f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
@@ -184,7 +201,7 @@ def _sweep_from_args(args: argparse.Namespace):
 
     design = {k: getattr(args, k) for k in DESIGN_FLAGS}
     if args.file:
-        return load_sweep_file(args.file, {**design, "kernels": args.kernels})
+        return load_sweep_file(args.file, {**design, "kernels": args.kernels, "kernel_files": args.kernel_files})
     defaults = {
         "processes": DEFAULT_PROCESSES,
         "rounds": DEFAULT_ROUNDS,
@@ -194,4 +211,4 @@ def _sweep_from_args(args: argparse.Namespace):
     }
     design = {k: defaults[k] if v is None else v for k, v in design.items()}
     kernels = tuple(args.kernels or ext.kernel_names())
-    return Sweep(kernels, tuple(_workloads_from_flags(args)), **design)
+    return Sweep(kernels, tuple(_workloads_from_flags(args)), **design, kernel_files=tuple(args.kernel_files or ()))

@@ -39,14 +39,25 @@ def add_parser(sub) -> None:
     )
     p.add_argument("--quick", action="store_true", help="small sets, a few seconds (the tests' size)")
     p.add_argument("--seed", type=flags.seed, default=0, help="seed of every test's rays (default 0)")
+    p.add_argument(
+        "--kernel-file",
+        dest="kernel_files",
+        action="append",
+        metavar="FILE.c",
+        type=flags.existing_file,
+        help="a C file of your own kernels (docs/own-kernel.md; repeatable): validated with the others",
+    )
     add_no_progress(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from tribench import ext
     from tribench.harness.runfolder import write_csv
     from tribench.studies import validate
 
+    for path in args.kernel_files or ():  # not checked first: this is the check, and it shows what fails
+        ext.load_kernels(path)
     # each --kernels/--dtype word may itself be a comma list
     kernels = [k for words in args.kernels for k in words] if args.kernels else None
     dtypes = [d for words in args.dtype for d in words] if args.dtype else validate.DTYPES

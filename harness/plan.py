@@ -27,6 +27,8 @@ Sweep files are TOML (read with :mod:`tomllib`)::
     warmup = 1
     target_ms = 2.0
     seed = 1
+    kernel_files = ["my_kernel.c"]   # optional: kernels of your own (docs/own-kernel.md),
+                                     # paths relative to this file
 
     [[workloads]]            # lists expand to every combination
     kind = "pairs"
@@ -46,6 +48,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -57,7 +60,7 @@ import numpy as np
 from tribench.common import UserError, read_user_text
 from tribench.harness.margin import AA_TWINS
 from tribench.workloads.kinds import spec_from_dict
-from tribench.workloads.spec import MeshSpec, Spec, workload_id
+from tribench.workloads.spec import MeshSpec, Spec, file_sha256, workload_id
 
 __all__ = [
     "BatchKey",
@@ -211,6 +214,11 @@ class Sweep:
     sequential : Sequential, optional
         Run the processes in stages and stop the comparisons that are narrow
         (:class:`Sequential`); ``processes`` is then the most it may run.
+    kernel_files : tuple of str, optional
+        Kernel files (``--kernel-file``) whose kernels ``kernels`` may name:
+        loaded here (:func:`tribench.ext.load_kernels`), copied into the run
+        folder when the sweep starts, and loaded by every worker. Checking
+        their answers is the caller's (:mod:`tribench.studies.kernel_check`).
     """
 
     kernels: tuple[str, ...]
@@ -222,6 +230,7 @@ class Sweep:
     seed: int = 0
     workload_kernels: tuple[tuple[str, ...], ...] = ()
     sequential: Sequential | None = None
+    kernel_files: tuple[str, ...] = ()
     workload_ids: tuple[str, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -255,6 +264,7 @@ class Sweep:
             put(self, name, tuple(value))
         if not self.kernels:
             raise UserError("a sweep needs at least one kernel")
+        self._load_kernel_files()
         known = ext.kernel_names(internal=True)
         for k in self.kernels:
             if not isinstance(k, str) or k not in known:
@@ -293,6 +303,18 @@ class Sweep:
                 f"a plan holds at most {MAX_BATCHES:,}{_WHY['batches']}: use fewer processes, rounds or "
                 f"workloads, or split the study into several sweeps"
             )
+
+    def _load_kernel_files(self) -> None:
+        from tribench import ext
+
+        files = self.kernel_files
+        if isinstance(files, (str, bytes, Mapping)) or not isinstance(files, Sequence):
+            raise UserError(f"kernel_files must be a list of paths, got {files!r:.80}")
+        if not all(isinstance(f, (str, os.PathLike)) for f in files):
+            raise UserError(f"kernel_files must be a list of paths, got {files!r:.80}")
+        object.__setattr__(self, "kernel_files", tuple(str(Path(f).expanduser().resolve()) for f in files))
+        for f in self.kernel_files:
+            ext.load_kernels(f)
 
     def _check_workload_kernels(self) -> None:
         value = self.workload_kernels
@@ -352,10 +374,17 @@ class Sweep:
             # only when used, so the run.json of an ordinary sweep is what it always was
             **({"workload_kernels": [list(k) for k in self.workload_kernels]} if self.workload_kernels else {}),
             **({"sequential": self.sequential.to_dict()} if self.sequential is not None else {}),
+            **(
+                {"kernel_files": [{"path": f, "sha256": file_sha256(f)} for f in self.kernel_files]}
+                if self.kernel_files
+                else {}
+            ),
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> Sweep:
+    def from_dict(cls, d: Mapping[str, Any], run_dir: str | Path | None = None) -> Sweep:
+        """The sweep of :meth:`to_dict`'s form. Its kernel files are the run folder's copies where
+        ``run_dir`` has them, else the files at their recorded paths, if their content is unchanged."""
         return cls(
             kernels=tuple(d["kernels"]),
             workloads=tuple(spec_from_dict(w) for w in d["workloads"]),
@@ -366,7 +395,19 @@ class Sweep:
             seed=d["seed"],
             workload_kernels=tuple(tuple(k) for k in d.get("workload_kernels", ())),
             sequential=Sequential(**d["sequential"]) if d.get("sequential") is not None else None,
+            kernel_files=tuple(_kernel_file(f, run_dir) for f in d.get("kernel_files", ())),
         )
+
+
+def _kernel_file(recorded: Mapping[str, Any], run_dir: str | Path | None) -> str:
+    """The file holding a recorded kernel file's content: the run folder's copy, else the file itself."""
+    from tribench.workloads.mesh_files import KERNELS_FOLDER, source
+
+    path, sha = recorded["path"], recorded["sha256"]
+    copy = Path(run_dir or "") / KERNELS_FOLDER / f"{sha}{Path(path).suffix.lower()}"
+    if run_dir is not None and copy.is_file() and file_sha256(copy) == sha:
+        return str(copy)
+    return str(source(path, sha, KERNELS_FOLDER))
 
 
 #: The main job's sequential design (``tribench run``): stages of this many
@@ -399,7 +440,7 @@ def main_job_kernels() -> dict[str, tuple[str, ...]]:
     }
 
 
-def default_sweep(quick: bool = False) -> Sweep:
+def default_sweep(quick: bool = False, kernel_files: Sequence[str] = ()) -> Sweep:
     """The main job's sweep (``tribench run``): which intersector, on this machine.
 
     Every algorithm in its best form, with the seed's two replays
@@ -429,9 +470,13 @@ def default_sweep(quick: bool = False) -> Sweep:
     between-layout variance. ``quick`` keeps every kernel on fewer workloads
     (pairs at 0, 50 and 100% in float32, the small camera in both precisions, a
     10,000-triangle BVH) with 1 ms batches, stopping at ±5% or 15 s.
+    ``kernel_files``' kernels (:func:`tribench.ext.load_kernels`) join in their roles.
     """
+    from tribench import ext
     from tribench.workloads.spec import MeshSpec, PairSpec
 
+    for f in kernel_files:  # before the roles: their kernels have roles too
+        ext.load_kernels(f)
     roles = main_job_kernels()
     seed, scalar, native = roles["seed"], roles["scalar"], roles["native"]
     # the baseline's A/A twin, timed wherever the baseline is: the run's own margin (analysis/margin.py)
@@ -466,6 +511,7 @@ def default_sweep(quick: bool = False) -> Sweep:
         target_ms=1.0 if quick else DEFAULT_TARGET_MS,
         workload_kernels=tuple(sets),
         sequential=MAIN_JOB_DESIGN[quick],
+        kernel_files=tuple(kernel_files),
     )
 
 
@@ -525,14 +571,14 @@ def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
     ]
 
 
-_TOP_LEVEL = ("kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed")
+_TOP_LEVEL = ("kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed", "kernel_files")
 
 
 def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Sweep:
     """Read a TOML sweep file (see the module docstring).
 
     ``overrides`` (e.g. from command-line flags) replace the file's top-level
-    values; ``None`` values are ignored. Every mistake in the file is a
+    values (``kernel_files`` join the file's); ``None`` values are ignored. Every mistake in the file is a
     :class:`~tribench.common.UserError` naming the file and the key
     (``sweep.toml: workloads[2]: hit_rate must be in [0, 1], got 2.0``).
     """
@@ -547,7 +593,12 @@ def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None
     unknown = sorted(set(data) - set(_TOP_LEVEL))
     if unknown:
         raise UserError(f"{path}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(sorted(_TOP_LEVEL))}")
+    files = data.get("kernel_files", [])
+    if isinstance(files, list) and all(isinstance(f, str) for f in files):  # relative to the sweep file
+        data["kernel_files"] = [str(path.parent / Path(f).expanduser()) for f in files]
     given = {k: v for k, v in (overrides or {}).items() if v is not None}
+    if "kernel_files" in given and isinstance(data.get("kernel_files", []), list):  # the flags' join the file's
+        given["kernel_files"] = [*data.get("kernel_files", []), *given["kernel_files"]]
     data.update(given)
     if "kernels" not in data or "workloads" not in data:
         raise UserError(f"{path}: a sweep file needs 'kernels' and at least one [[workloads]] table")

@@ -344,6 +344,8 @@ def _start_locked(
             mesh_files.copy_into_run(run_dir, spec.mesh, spec.mesh_sha256)
         if isinstance(spec, MeshSpec) and spec.rays_sha256 is not None:
             mesh_files.copy_into_run(run_dir, spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
+    for f in record["sweep"].get("kernel_files", ()):  # the C its kernels were compiled from
+        mesh_files.copy_into_run(run_dir, f["path"], f["sha256"], mesh_files.KERNELS_FOLDER)
     if sweep.sequential is not None:
         return _execute_stages(run_dir, record, sweep, keys, progress, worker)
     return _execute(run_dir, record, sweep, keys, 0, progress, worker)
@@ -364,7 +366,7 @@ def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequenc
     """
     run_dir = Path(run_dir)
     record = runfolder.read_run(run_dir)
-    sweep = Sweep.from_dict(record["sweep"])
+    sweep = Sweep.from_dict(record["sweep"], run_dir)
     keys = plan(sweep)
     if _plan_digest(keys) != record["plan_sha256"]:
         raise UserError(f"{run_dir}: the plan of its sweep changed (another tribench version?); cannot resume")
@@ -551,6 +553,7 @@ def _run_process(
         sweep.target_ms,
         tuple(tuple(k.to_list()) for k in keys),
         {w: sweep.spec_of(w).to_dict() for w in wids},
+        sweep.kernel_files,
     )
     planned = frozenset(keys)
     expected = set(planned)

@@ -96,11 +96,13 @@ class WorkerJob:
     target_ms: float
     keys: tuple[tuple[int, str, int, int, str], ...]
     workloads: Mapping[str, Mapping[str, Any]]
+    kernel_files: tuple[str, ...] = ()  # loaded before anything else: their kernels are in keys
 
     @classmethod
     def from_json(cls, text: str) -> WorkerJob:
         d = json.loads(text)
         d["keys"] = tuple(tuple(k) for k in d["keys"])
+        d["kernel_files"] = tuple(d.get("kernel_files", ()))
         return cls(**d)
 
     def to_json(self) -> str:
@@ -467,12 +469,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings.showwarning = _pass_notices(warnings.showwarning)
     job = WorkerJob.from_json(sys.stdin.read())
     try:
+        for path in job.kernel_files:
+            ext.load_kernels(path)
         run_job(job, _emit_json)
     except KeyboardInterrupt:
         return 130  # Ctrl-C reaches the whole process group; the parent reports it
     except BrokenPipeError:
         return 141  # the parent is gone: nothing to report to
-    except (KernelCheckError, ValueError, FileNotFoundError) as exc:
+    except (KernelCheckError, ValueError, FileNotFoundError, ext.KernelFileError) as exc:
         sys.stdout.write(json.dumps({"type": "error", "message": str(exc)}) + "\n")
         sys.stdout.flush()
         return 3

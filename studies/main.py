@@ -8,7 +8,7 @@ report from the run folder and prints the tables; a notebook calls
 from __future__ import annotations
 
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,7 +48,12 @@ def _say(log: TextIO | None, text: str) -> None:
 
 
 def run(
-    out: str | Path, quick: bool = False, progress: bool | None = None, peers: bool = True, log: TextIO | None = None
+    out: str | Path,
+    quick: bool = False,
+    progress: bool | None = None,
+    peers: bool = True,
+    log: TextIO | None = None,
+    kernel_files: Sequence[str] = (),
 ) -> MainResult:
     """Run the main job into the new folder ``out`` and return its tables.
 
@@ -71,6 +76,11 @@ def run(
         Time the peers (trimesh, Embree) when installed.
     log : text stream, optional
         Where one-line notes go (default: ``sys.stderr`` when called; ``io.StringIO()`` keeps them).
+    kernel_files : sequence of paths
+        Kernel files of your own (``--kernel-file``): each is compiled and its
+        kernels checked against the float64 reference before anything is
+        timed (:mod:`tribench.studies.kernel_check`), then they join the job
+        in their roles (a scalar kernel on the pairs, a native one on the meshes).
 
     Returns
     -------
@@ -94,7 +104,10 @@ def run(
     """
     from tribench.harness.plan import default_sweep
 
-    sweep = default_sweep(quick=quick)
+    from .kernel_check import load_checked
+
+    load_checked(kernel_files)
+    sweep = default_sweep(quick=quick, kernel_files=kernel_files)
     runfolder.check_new_run_dir(Path(out))  # before the estimate, which builds the workloads
     _announce(sweep, out, log)
     with _resumable(out):

@@ -435,7 +435,8 @@ def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
         from tribench.harness.plan import Sweep, plan
 
         planned = {
-            (k.process, k.workload_id, k.round, k.position, k.kernel) for k in plan(Sweep.from_dict(run["sweep"]))
+            (k.process, k.workload_id, k.round, k.position, k.kernel)
+            for k in plan(Sweep.from_dict(run["sweep"], run_dir))
         }
 
         def outside(f: Any) -> Any:
@@ -573,7 +574,7 @@ def read_run(run_dir: str | Path) -> dict[str, Any]:
                 f"{path}: {key!r} is missing or not a {getattr(kind, '__name__', kind)}; not a tribench run record"
             )
     try:
-        sweep = Sweep.from_dict(run["sweep"])
+        sweep = Sweep.from_dict(run["sweep"], Path(path).parent)
     except UserError as exc:
         raise UserError(f"{path}: 'sweep' is not valid: {exc}") from None
     except (KeyError, TypeError, ValueError, AttributeError) as exc:

@@ -1,0 +1,157 @@
+"""A kernel file's kernels, checked before anything times them.
+
+Each kernel a file declares (:func:`tribench.ext.load_kernels`) must give the
+float64 reference's answers, in both precisions and on every ISA it is
+compiled for, where the answer does not depend on rounding: random ray and
+triangle pairs whose crossing lies at least :data:`MARGIN` (barycentric)
+from every edge, and the closest and any hit of rays into a closed mesh, as
+safe. It must also keep the promises the robustness suite holds every kernel
+to (``tribench validate``, :func:`tribench.studies.validate.promise`): none
+of its hits for parallel rays, degenerate triangles and non-finite input,
+and no crack if it declares itself watertight. A kernel that fails is
+refused with what it got wrong; :func:`load_checked` does both steps.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+import numpy as np
+
+from tribench import ext
+from tribench.common import UserError
+from tribench.workloads import reference
+
+from . import validate
+
+__all__ = ["MARGIN", "KernelRefused", "check_kernel", "load_checked"]
+
+#: How far (barycentric) from every edge a checked crossing lies, and how far along the ray.
+MARGIN = 1e-3
+_T_RTOL = {"float32": 1e-4, "float64": 1e-9}
+_UV_ATOL = {"float32": 1e-3, "float64": 1e-9}
+
+
+_PASSED: set[tuple[str, ext.KernelFile | None]] = set()  # checked in this process, and right
+
+
+class KernelRefused(UserError):
+    """A kernel file's kernel that gives answers other than the reference's."""
+
+
+def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
+    """Load every kernel file of ``paths`` and check each kernel they declare; the names, in order.
+
+    Raises :class:`~tribench.ext.KernelFileError` for a file that does not
+    compile and :class:`KernelRefused` for a kernel with wrong answers.
+    """
+    names: list[str] = []
+    for path in paths:
+        for kernel in ext.load_kernels(path):
+            names.append(kernel)
+            loaded = ext.kernel_file_of(kernel)
+            if (kernel, loaded) in _PASSED:
+                continue
+            problems = check_kernel(kernel)
+            if problems:
+                raise KernelRefused(
+                    f"{kernel} (from {path}) is refused: its answers differ from the float64 reference's:\n  "
+                    + "\n  ".join(problems)
+                )
+            _PASSED.add((kernel, loaded))
+    return tuple(names)
+
+
+def check_kernel(kernel: str, seed: int = 0) -> list[str]:
+    """What ``kernel`` gets wrong, one line per case; empty if nothing."""
+    info = ext.kernel_info(kernel)
+    problems = []
+    for dtype in info.precisions:
+        for isa in (i for i, runnable in info.isas.items() if runnable):
+            where = f"{dtype}, {isa}"
+            if "pairs" in info.modes:
+                problems += [f"{where}: {p}" for p in _check_pairs(kernel, isa, dtype, seed, info.culls_back_faces)]
+            problems += [f"{where}: {p}" for p in _check_mesh(kernel, isa, dtype, seed, info.culls_back_faces)]
+        for row in validate.measure(kernel, validate.build(dtype, quick=True, seed=seed)):
+            if row["verdict"] == "fail":
+                problems.append(
+                    f"{dtype}: robustness test {row['test']}: {row['failures']} of {row['rays']} rays "
+                    f"broke the promise {row['expected']}"
+                )
+    return problems
+
+
+def _safe_pairs(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Random pairs, about half hits, wound at random, each crossing at least MARGIN from every edge."""
+    rng = np.random.default_rng(seed)
+    tris = rng.normal(size=(n, 3, 3))
+    b = rng.dirichlet([1, 1, 1], n) * 2 - 0.5  # barycentrics of the aim point: inside about half the time
+    b /= b.sum(axis=1, keepdims=True)
+    target = np.einsum("nk,nkj->nj", b, tris)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = target - rng.uniform(0.5, 4, (n, 1)) * d
+    ref = reference.intersect_pairs(o, d, tris)
+    normal = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    cos = np.abs(np.einsum("nj,nj->n", normal, d)) / np.linalg.norm(normal, axis=1)
+    safe = (np.abs(ref.edge_margin) >= MARGIN) & (cos >= 0.05) & (np.linalg.norm(normal, axis=1) > 0.1)
+    return o[safe], d[safe], tris[safe]
+
+
+def _check_pairs(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) -> list[str]:
+    o, d, tris = (a.astype(dtype) for a in _safe_pairs(4000, seed))
+    f64 = [a.astype(np.float64) for a in (o, d, tris)]
+    ref = reference.intersect_pairs(f64[0], f64[1], f64[2], front_only=front_only)
+    index, t, _, _ = ext.intersect(kernel, o, d, tris, "pairs", isa=isa)
+    hit = index >= 0
+    wrong = hit != ref.hit
+    far = hit & ref.hit & ~np.isclose(t, ref.t, rtol=_T_RTOL[dtype], atol=0)
+    out = []
+    if wrong.any():
+        out.append(
+            f"pairs: {int(wrong.sum())} of {len(o)} hit or miss against the reference "
+            f"({int((hit & ~ref.hit).sum())} extra hits, {int((~hit & ref.hit).sum())} missed)"
+        )
+    if far.any():
+        out.append(f"pairs: t off by more than {_T_RTOL[dtype]:g} (relative) on {int(far.sum())} hits")
+    return out
+
+
+def _safe_mesh_rays(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A closed mesh (an icosphere) and rays from around it whose every plane crossing is safe."""
+    import trimesh
+
+    tris = np.ascontiguousarray(trimesh.creation.icosphere(subdivisions=2).triangles)
+    rng = np.random.default_rng(seed)
+    o = rng.normal(size=(400, 3))
+    o = 3 * o / np.linalg.norm(o, axis=1, keepdims=True)
+    d = rng.normal(size=(400, 3)) * 0.7 - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    m, k = len(o), len(tris)
+    every = reference.intersect_pairs(np.repeat(o, k, 0), np.repeat(d, k, 0), np.tile(tris, (m, 1, 1)))
+    near = (np.abs(every.edge_margin) < MARGIN) | (np.abs(every.t) < MARGIN)
+    safe = ~near.reshape(m, k).any(axis=1)
+    return o[safe], d[safe], tris
+
+
+def _check_mesh(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) -> list[str]:
+    o, d, tris = (a.astype(dtype) for a in _safe_mesh_rays(seed))
+    f64 = [a.astype(np.float64) for a in (o, d, tris)]
+    ref_index, ref_t = reference.intersect_closest(f64[0], f64[1], f64[2], front_only=front_only)
+    index, t, u, v = ext.intersect(kernel, o, d, tris, "closest_uv", isa=isa)
+    out = []
+    wrong = index != ref_index
+    if wrong.any():
+        out.append(f"closest hit on a mesh: {int(wrong.sum())} of {len(o)} rays name another triangle or miss")
+        return out
+    hit = index >= 0
+    if (~np.isclose(t[hit], ref_t[hit], rtol=_T_RTOL[dtype], atol=0)).any():
+        out.append(f"closest hit on a mesh: t off by more than {_T_RTOL[dtype]:g} (relative)")
+    ref = reference.intersect_pairs(f64[0][hit], f64[1][hit], f64[2][index[hit]])
+    if not (np.allclose(u[hit], ref.u, atol=_UV_ATOL[dtype]) and np.allclose(v[hit], ref.v, atol=_UV_ATOL[dtype])):
+        out.append("closest hit on a mesh: u or v (the barycentrics of v1 and v2) differ from the reference's")
+    any_hit = ext.intersect(kernel, o, d, tris, "any", isa=isa)
+    if not np.array_equal(any_hit.index >= 0, hit):
+        out.append("any hit on a mesh: another set of rays hits than the closest hit's")
+    return out

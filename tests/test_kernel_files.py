@@ -1,0 +1,172 @@
+"""A user's own kernel (``--kernel-file FILE.c``): compiled as the built-in kernels are, checked against the
+reference before anything is timed, ranked like any other kernel, carried by its run folder.
+
+Every test runs tribench in a process of its own (the installed command, or ``python -c``): a kernel file's
+kernels join the registry of the process that loads them, and must not leak into the other tests'."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "kernels" / "my_moller.c"
+TRIBENCH = Path(sys.executable).parent / "tribench"  # the installed command
+
+
+@pytest.fixture(scope="module")
+def builds(tmp_path_factory):
+    """One cache for the module's tests: each distinct file compiles once (a few seconds)."""
+    return tmp_path_factory.mktemp("cache")
+
+
+def tribench(*args, cwd, cache):
+    env = {**os.environ, "TRIBENCH_CACHE": str(cache)}
+    return subprocess.run([TRIBENCH, *map(str, args)], capture_output=True, text=True, timeout=600, cwd=cwd, env=env)
+
+
+def python(code: str, cache) -> subprocess.CompletedProcess:
+    env = {**os.environ, "TRIBENCH_CACHE": str(cache)}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600, env=env)
+
+
+def variant(tmp_path: Path, name: str, old: str = "", new: str = "") -> Path:
+    """The example kernel renamed to ``name``, with ``old`` replaced by ``new`` in its code."""
+    text = EXAMPLE.read_text().replace("my_moller", name)
+    assert old in text
+    path = tmp_path / f"{name}.c"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+def test_the_example_loads_from_python_and_answers_as_moller_trumbore(builds):
+    done = python(
+        f"""
+import numpy as np
+from tribench import ext
+print(ext.load_kernels({str(EXAMPLE)!r}))
+info = ext.kernel_info("my_moller")
+print(info.source, info.citation.split(",")[0], info.stride, info.watertight)
+rng = np.random.default_rng(0)
+o, d, tris = rng.normal(size=(300, 3)), rng.normal(size=(300, 3)), rng.normal(size=(40, 3, 3))
+mine, theirs = ext.intersect("my_moller", o, d, tris), ext.intersect("moller_trumbore", o, d, tris)
+print(bool((mine.index == theirs.index).all()), int((mine.index >= 0).sum()) > 0)
+print(ext.load_kernels({str(EXAMPLE)!r}) == ("my_moller",), "my_moller" in ext.kernel_names())
+""",
+        builds,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == [
+        "('my_moller',)",
+        f"{EXAMPLE} Moller & Trumbore 9 none",
+        "True True",
+        "True True",
+    ]
+
+
+@pytest.mark.slow
+def test_a_sweep_ranks_the_example_through_the_installed_command(tmp_path, builds):
+    done = tribench(
+        "sweep", "--kernel-file", EXAMPLE, "--kernels", "my_moller,moller_seed", "--pairs", "500",
+        "--processes", "2", "--rounds", "2", "--out", "run", "--no-progress", cwd=tmp_path, cache=builds,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    run = tmp_path / "run"
+    speedups = (run / "speedups.csv").read_text()
+    assert ",my_moller,moller_seed," in speedups
+    recorded = json.loads((run / "run.json").read_text())["sweep"]["kernel_files"]
+    assert [f["path"] for f in recorded] == [str(EXAMPLE)]
+    copy = run / "kernel_files" / f"{recorded[0]['sha256']}.c"
+    assert copy.read_bytes() == EXAMPLE.read_bytes()
+    # the run folder renders elsewhere without the original file: it carries the C it compiled
+    moved = tmp_path / "moved"
+    shutil.copytree(run, moved)
+    done = tribench("report", moved, cwd=tmp_path, cache=tmp_path / "fresh-cache")
+    assert done.returncode == 0, done.stderr
+    assert "my_moller" in (moved / "report.html").read_text()
+
+
+@pytest.mark.slow
+def test_a_sweep_file_names_kernel_files_relative_to_itself(tmp_path, builds):
+    own = variant(tmp_path, "file_moller")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "sweep.toml").write_text(
+        'kernels = ["file_moller", "moller_seed"]\nkernel_files = ["../file_moller.c"]\nprocesses = 2\nrounds = 1\n'
+        '[[workloads]]\nkind = "pairs"\nn = 300\n'
+    )
+    done = tribench("sweep", "--file", "sub/sweep.toml", "--out", "run", "--no-progress", cwd=tmp_path, cache=builds)
+    assert done.returncode == 0, done.stderr
+    recorded = json.loads((tmp_path / "run" / "run.json").read_text())["sweep"]["kernel_files"]
+    assert [f["path"] for f in recorded] == [str(own)]
+
+
+def test_a_kernel_file_that_does_not_compile_is_one_message_with_file_and_line(tmp_path, builds):
+    broken = variant(tmp_path, "broken_moller", "real abs_det = sign * det;", "real abs_det = sign * dett;")
+    done = tribench("sweep", "--kernel-file", broken, "--pairs", "100", "--out", "run", cwd=tmp_path, cache=builds)
+    assert done.returncode == 2
+    assert done.stderr.startswith(f"tribench sweep: error: {broken} does not compile (")
+    assert f"{broken}:" in done.stderr and "dett" in done.stderr and "error:" in done.stderr
+    assert "Traceback" not in done.stderr and not (tmp_path / "run").exists()  # nothing timed
+
+
+@pytest.mark.slow
+def test_a_kernel_with_wrong_answers_is_refused_before_anything_is_timed(tmp_path, builds):
+    sloppy = variant(
+        tmp_path, "sloppy_moller", "v >= 0 && u + v <= abs_det", "v >= -0.01f * abs_det && u + v <= abs_det"
+    )
+    done = tribench("sweep", "--kernel-file", sloppy, "--pairs", "100", "--out", "run", cwd=tmp_path, cache=builds)
+    assert done.returncode == 2, done.stderr
+    assert "sloppy_moller (from" in done.stderr and "is refused" in done.stderr
+    assert "closest hit on a mesh" in done.stderr  # which cases it got wrong
+    assert "Traceback" not in done.stderr and not (tmp_path / "run").exists()
+
+
+def test_a_kernel_file_may_not_take_a_built_in_name(tmp_path, builds):
+    clash = tmp_path / "clash.c"
+    clash.write_text(EXAMPLE.read_text().replace("my_moller", "moller_trumbore"))
+    done = tribench("info", "--kernel-file", clash, cwd=tmp_path, cache=builds)
+    assert done.returncode == 2
+    assert "moller_trumbore: the name of a built-in kernel" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_file_without_registration_lines_says_what_it_lacks(tmp_path, builds):
+    bare = tmp_path / "bare.c"
+    bare.write_text('#define TB_FILE_CITATION ""\n')
+    done = tribench("info", "--kernel-file", bare, cwd=tmp_path, cache=builds)
+    assert done.returncode == 2
+    assert "a kernel file defines TB_FILE_KERNELS(X)" in done.stderr
+    assert done.stderr.count("error:") <= 3  # the first error, not its cascade
+
+
+@pytest.mark.slow
+def test_a_damaged_build_in_the_cache_is_rebuilt(tmp_path):
+    cache = tmp_path / "cache"
+    code = f"from tribench import ext; print(ext.load_kernels({str(EXAMPLE)!r}))"
+    assert python(code, cache).returncode == 0
+    (module,) = (cache / "kernel_builds").rglob("*.so")
+    module.write_bytes(b"not a shared object")
+    done = python(code, cache)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "('my_moller',)"
+
+
+@pytest.mark.slow
+def test_the_walk_through_of_docs_own_kernel_runs_as_written(tmp_path, builds):
+    """The bash block of docs/own-kernel.md, line for line, from a folder holding the examples: a culling
+    variant ranked in a sweep and in the main job."""
+    page = (ROOT / "docs" / "own-kernel.md").read_text()
+    script = page.split("```bash\n", 1)[1].split("```", 1)[0]
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    env = {**os.environ, "TRIBENCH_CACHE": str(builds), "PATH": f"{TRIBENCH.parent}{os.pathsep}{os.environ['PATH']}"}
+    done = subprocess.run(["bash", "-euc", script], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-3000:]
+    for run in ("runs/my-cull", "runs/my-cull-main"):
+        lines = (tmp_path / run / "estimates.csv").read_text().splitlines()
+        assert any(line.startswith("my_cull,") for line in lines), run
+    assert "my_cull" in (tmp_path / "runs" / "my-cull-main" / "ranking.csv").read_text()
