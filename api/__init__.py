@@ -138,6 +138,7 @@ def sweep(
     seed: int = 0,
     baseline: str | None = None,
     progress: bool | None = None,
+    kernel_files: Sequence[str | Path] = (),
 ) -> Results:
     """Time ``kernels`` on ``workloads`` into the new folder ``out``, analyse it and return its tables.
 
@@ -160,14 +161,21 @@ def sweep(
         The speedups' baseline (default ``moller_seed`` if swept, else the first kernel).
     progress : bool, optional
         Progress lines (default: a bar on a terminal, plain lines elsewhere).
+    kernel_files : sequence of paths
+        Kernel files of your own (``--kernel-file``, docs/own-kernel.md): compiled, checked
+        against the float64 reference before anything is timed, then ``kernels`` may name theirs.
 
     Raises
     ------
     UserError
-        A bad kernel, workload or design value, or ``out`` is not a new folder.
+        A bad kernel, workload or design value, or ``out`` is not a new folder; a kernel
+        file that does not compile, or whose kernels answer wrongly.
     """
     from tribench.harness import duration, plan, runfolder, runner
     from tribench.studies.finish import finish
+    from tribench.studies.kernel_check import load_checked
+
+    load_checked(kernel_files)
 
     progress = _optional_flag(progress, "progress")
     spec = plan.Sweep(
@@ -178,6 +186,7 @@ def sweep(
         warmup=plan.DEFAULT_WARMUP if warmup is None else warmup,
         target_ms=plan.DEFAULT_TARGET_MS if target_ms is None else target_ms,
         seed=seed,
+        kernel_files=tuple(map(str, kernel_files)),
     )
     folder = _default_out(out)
     runfolder.check_new_run_dir(folder)  # before the estimate, which builds the workloads
@@ -188,19 +197,33 @@ def sweep(
 
 
 def run(
-    out: str | Path | None = None, *, quick: bool = False, peers: bool = True, progress: bool | None = None
+    out: str | Path | None = None,
+    *,
+    quick: bool = False,
+    peers: bool = True,
+    progress: bool | None = None,
+    kernel_files: Sequence[str | Path] = (),
 ) -> Results:
     """The main job (``tribench run``) into the new folder ``out``: its tables.
 
     The default sweep, the peers when installed, then the analysis step
     (:func:`tribench.studies.main.run`); ``quick=True`` takes seconds and
     gives wide intervals. The HTML report is ``tribench report RUN_DIR`` (or
-    ``tribench.reports.write_report(run_dir)``).
+    ``tribench.reports.write_report(run_dir)``). ``kernel_files``: as :func:`sweep`'s; their
+    kernels join the job in their roles.
     """
     from tribench.studies import main as main_job
+    from tribench.studies.kernel_check import load_checked
 
+    load_checked(kernel_files)  # a bad value's message, before anything else
     quick, peers = _flag(quick, "quick"), _flag(peers, "peers")
-    done = main_job.run(_default_out(out), quick=quick, progress=_optional_flag(progress, "progress"), peers=peers)
+    done = main_job.run(
+        _default_out(out),
+        quick=quick,
+        progress=_optional_flag(progress, "progress"),
+        peers=peers,
+        kernel_files=tuple(map(str, kernel_files)),
+    )
     return Results(done.run_dir, done.estimates, done.speedups, done.tables)
 
 

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from tribench import ext
-from tribench.common import UserError
+from tribench.common import UserError, UserTypeError
 from tribench.workloads import reference
 
 from . import validate
@@ -46,6 +46,10 @@ def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
     Raises :class:`~tribench.ext.KernelFileError` for a file that does not
     compile and :class:`KernelRefused` for a kernel with wrong answers.
     """
+    if isinstance(paths, (str, bytes, os.PathLike)) or not isinstance(paths, Sequence):
+        raise UserTypeError(f"kernel files must be a list of paths, got {type(paths).__name__}: give [path, ...]")
+    if not all(isinstance(p, (str, os.PathLike)) for p in paths):
+        raise UserTypeError(f"kernel files must be a list of paths, got {[type(p).__name__ for p in paths]}")
     names: list[str] = []
     for path in paths:
         for kernel in ext.load_kernels(path):

@@ -144,6 +144,19 @@ def test_a_file_without_registration_lines_says_what_it_lacks(tmp_path, builds):
     assert done.stderr.count("error:") <= 3  # the first error, not its cascade
 
 
+@pytest.mark.parametrize("bad", [5, "one.c", [3]])
+def test_the_notebook_api_refuses_kernel_files_that_are_not_a_list_of_paths(bad, tmp_path):
+    import tribench
+    from tribench.common import UserTypeError
+    from tribench.workloads.spec import PairSpec
+
+    with pytest.raises(UserTypeError, match="kernel files must be a list of paths"):
+        tribench.sweep(["moller_trumbore"], [PairSpec(n=10)], tmp_path / "run", kernel_files=bad)
+    with pytest.raises(UserTypeError, match="kernel files must be a list of paths"):
+        tribench.run(tmp_path / "run", quick=True, kernel_files=bad)
+    assert not (tmp_path / "run").exists()
+
+
 @pytest.mark.slow
 def test_a_damaged_build_in_the_cache_is_rebuilt(tmp_path):
     cache = tmp_path / "cache"
