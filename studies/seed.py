@@ -71,9 +71,10 @@ PAPER = {
 #: How far the object forms' render times and Curless/Moller ratio may stand from the seed's own program
 #: on the same machine, beyond timing noise: what the replay leaves out (the floor, shading, output, about
 #: 1% of the program's time by perf record) and what its C does differently from g++'s code of the seed's
-#: C++ (12 pairs on a noisy Xeon: the ratio 0.94 of the program's, the times 0.96-1.02).
-#: Measured with bench/seed_program.py beside tribench seed: docs/decisions.md, "The seed replay's model".
-MODEL_ERROR = 0.06
+#: C++: the largest miss on two machines (a Xeon: the ratio 0.94 of the program's, the times 0.96-1.02;
+#: a Zen 4: the ratio 0.90, Moller's time 1.12). Measured with bench/seed_program.py beside tribench
+#: seed: docs/decisions.md, "The seed replay's model".
+MODEL_ERROR = 0.12
 BASELINE = DEFAULT_BASELINE  # the seed's Möller: the paper's ratio is Curless over it
 PAIR = ("curless_seed", "moller_seed")
 #: The seed's two tests as its program pays for them (objects, calls and scene loop: ext/kernels/seed_objects.h),
