@@ -183,3 +183,33 @@ def test_the_walk_through_of_docs_own_kernel_runs_as_written(tmp_path, builds):
         lines = (tmp_path / run / "estimates.csv").read_text().splitlines()
         assert any(line.startswith("my_cull,") for line in lines), run
     assert "my_cull" in (tmp_path / "runs" / "my-cull-main" / "ranking.csv").read_text()
+
+
+@pytest.mark.slow
+def test_a_native_kernel_of_ones_own_is_a_bvh_leaf_test(tmp_path, builds):
+    """A native-width kernel file (TB_NATIVE_PART): built-in moller_trumbore_fma's code under another name."""
+    code = (ROOT / "ext" / "kernels" / "moller_trumbore_fma.h").read_text()
+    code = code.replace("moller_trumbore_fma", "my_fma").replace("tb_mt_fma", "tb_my_mt_fma")
+    own = tmp_path / "my_fma.c"
+    own.write_text(
+        '#define TB_FILE_CITATION "Moller & Trumbore 1997"\n'
+        '#define TB_FILE_KERNELS(X) X(my_fma, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_NATIVE)\n'
+        f"#ifdef TB_NATIVE_PART\n{code}\n#endif\n"
+    )
+    done = python(
+        f"""
+import numpy as np, trimesh
+from tribench import ext
+from tribench.studies.kernel_check import load_checked
+print(load_checked([{str(own)!r}]), "my_fma" in ext.bvh_kernel_names())
+tris = np.ascontiguousarray(trimesh.creation.icosphere(subdivisions=3).triangles).astype(np.float32)
+rng = np.random.default_rng(0)
+o = (3 * rng.normal(size=(200, 3))).astype(np.float32)
+d = (rng.normal(size=(200, 3)) * 0.3 - o).astype(np.float32)
+mine = ext.build_bvh("my_fma", tris).intersect(o, d).hits.index
+print(bool((mine == ext.intersect("moller_trumbore_fma", o, d, tris).index).all()), bool((mine >= 0).any()))
+""",
+        builds,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["('my_fma',) True", "True True"]
