@@ -91,3 +91,14 @@ def test_a_recorded_hash_is_checked_for_its_form_and_refused_on_a_built_in_mesh(
         MeshSpec("/nowhere/one.obj", mesh_sha256="abc")
     with pytest.raises(UserError, match="mesh file only"):
         MeshSpec("suzanne", mesh_sha256="0" * 64)
+
+
+def test_a_folder_where_a_copy_goes_is_a_notice_not_a_stop(tmp_path):
+    from tribench.common import Notice
+
+    mesh = tmp_path / "one.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    sha = mesh_files.file_sha256(mesh)
+    (tmp_path / "run" / mesh_files.RUN_FOLDER / f"{sha}.obj").mkdir(parents=True)
+    with pytest.warns(Notice, match="is not a regular file: no copy of one.obj is kept there"):
+        mesh_files.copy_into_run(tmp_path / "run", mesh, sha)

@@ -17,10 +17,12 @@ sweep's ``kernel_files``) in :data:`KERNELS_FOLDER`.
 
 from __future__ import annotations
 
+import os
 import shutil
+import warnings
 from pathlib import Path
 
-from tribench.common import UserError, atomic_write
+from tribench.common import Notice, UserError, atomic_write
 from tribench.common.location import cache_dir
 
 from .spec import file_sha256
@@ -51,6 +53,9 @@ def _copy(path: Path, folder: Path, sha256: str) -> None:
     """Copy ``path`` into ``folder`` under its content's name, atomically, unless it is there or too large."""
     target = folder / _name(sha256, path.suffix)
     if target.is_file() or path.stat().st_size > MAX_COPY_BYTES:
+        return
+    if os.path.lexists(target):  # a folder or a dangling link where the copy goes: the copy is optional
+        warnings.warn(f"{target} is not a regular file: no copy of {path.name} is kept there", Notice, stacklevel=3)
         return
     with open(path, "rb") as src, atomic_write(target, "wb", encoding=None) as dst:
         shutil.copyfileobj(src, dst)
