@@ -9,12 +9,17 @@ safe. It must also keep the promises the robustness suite holds every kernel
 to (``tribench validate``, :func:`tribench.studies.validate.promise`): none
 of its hits for parallel rays, degenerate triangles and non-finite input,
 and no crack if it declares itself watertight. A kernel that fails is
-refused with what it got wrong; :func:`load_checked` does both steps.
+refused with what it got wrong, and one that crashes is refused in one line: the check runs in a
+process of its own. :func:`load_checked` does both steps.
 """
 
 from __future__ import annotations
 
+import json
 import os
+import signal
+import subprocess
+import sys
 from collections.abc import Sequence
 
 import numpy as np
@@ -52,19 +57,31 @@ def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
         raise UserTypeError(f"kernel files must be a list of paths, got {[type(p).__name__ for p in paths]}")
     names: list[str] = []
     for path in paths:
-        for kernel in ext.load_kernels(path):
-            names.append(kernel)
-            loaded = ext.kernel_file_of(kernel)
-            if (kernel, loaded) in _PASSED:
-                continue
-            problems = check_kernel(kernel)
+        declared = ext.load_kernels(path)  # compiles; none of the file's code runs yet
+        names += declared
+        if all((k, ext.kernel_file_of(k)) in _PASSED for k in declared):
+            continue
+        for kernel, problems in _checked_elsewhere(path).items():
             if problems:
                 raise KernelRefused(
                     f"{kernel} (from {path}) is refused: its answers differ from the float64 reference's:\n  "
                     + "\n  ".join(problems)
                 )
-            _PASSED.add((kernel, loaded))
+            _PASSED.add((kernel, ext.kernel_file_of(kernel)))
     return tuple(names)
+
+
+def _checked_elsewhere(path: str | os.PathLike) -> dict[str, list[str]]:
+    """:func:`check_kernel` of each kernel of the file, in a process of its own: a kernel that crashes
+    (a stray pointer is likely in code being written) is refused in one line, and takes nothing down."""
+    done = subprocess.run(
+        [sys.executable, "-m", "tribench.studies.kernel_check", str(path)], capture_output=True, text=True
+    )
+    if done.returncode != 0:
+        how = signal.Signals(-done.returncode).name if done.returncode < 0 else f"exit code {done.returncode}"
+        last = (done.stderr.strip().splitlines() or [""])[-1]
+        raise KernelRefused(f"{path}: its kernels crashed the reference check ({how}){': ' + last if last else ''}")
+    return json.loads(done.stdout)
 
 
 def check_kernel(kernel: str, seed: int = 0) -> list[str]:
@@ -159,3 +176,10 @@ def _check_mesh(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) 
     if not np.array_equal(any_hit.index >= 0, hit):
         out.append("any hit on a mesh: another set of rays hits than the closest hit's")
     return out
+
+
+if __name__ == "__main__":  # _checked_elsewhere's process: one kernel file, its problems as JSON
+    import faulthandler
+
+    faulthandler.disable()  # a crash is reported by the parent, in one line
+    print(json.dumps({k: check_kernel(k) for k in ext.load_kernels(sys.argv[1])}))

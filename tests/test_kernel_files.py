@@ -127,6 +127,22 @@ def test_a_kernel_with_wrong_answers_is_refused_before_anything_is_timed(tmp_pat
     assert "Traceback" not in done.stderr and not (tmp_path / "run").exists()
 
 
+def test_a_kernel_that_crashes_is_refused_in_one_line(tmp_path, builds):
+    crashy = variant(
+        tmp_path,
+        "crashy_moller",
+        "    real e1[3], e2[3], p[3], s[3], q[3];\n",
+        "    real e1[3], e2[3], p[3], s[3], q[3];\n"
+        "    if (t_max > 0)\n        return *(volatile int *)0; /* a stray pointer */\n",
+    )
+    done = tribench("sweep", "--kernel-file", crashy, "--pairs", "100", "--out", "run", cwd=tmp_path, cache=builds)
+    assert done.returncode == 2
+    assert done.stderr.splitlines() == [
+        f"tribench sweep: error: {crashy}: its kernels crashed the reference check (SIGSEGV)"
+    ]
+    assert not (tmp_path / "run").exists()
+
+
 def test_a_kernel_file_may_not_take_a_built_in_name(tmp_path, builds):
     clash = tmp_path / "clash.c"
     clash.write_text(EXAMPLE.read_text().replace("my_moller", "moller_trumbore"))
