@@ -24,6 +24,7 @@ def test_there_are_benchmarks():
     assert {"peers.py", "scaling.py", "seed_speed.py", "harness_overhead.py"} <= {s.name for s in SCRIPTS}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("script", SCRIPTS, ids=lambda s: s.name)
 def test_help_parses_and_imports(script):
     done = bench(script, "--help")

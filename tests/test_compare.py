@@ -160,6 +160,7 @@ def test_n_runs_give_a_machine_by_kernel_table_of_known_speedups(three_runs):
                 assert r["ratio_ci_low"] <= r["ratio"] <= r["ratio_ci_high"] and r["verdict"] == "faster"
 
 
+@pytest.mark.slow
 def test_n_runs_say_which_orders_hold_on_every_machine(three_runs):
     m = compare_many([load_run(r) for r in three_runs])
     o = m.orders

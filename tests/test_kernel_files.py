@@ -127,6 +127,7 @@ def test_a_kernel_with_wrong_answers_is_refused_before_anything_is_timed(tmp_pat
     assert "Traceback" not in done.stderr and not (tmp_path / "run").exists()
 
 
+@pytest.mark.slow
 def test_a_kernel_that_crashes_is_refused_in_one_line(tmp_path, builds):
     crashy = variant(
         tmp_path,
@@ -143,6 +144,7 @@ def test_a_kernel_that_crashes_is_refused_in_one_line(tmp_path, builds):
     assert not (tmp_path / "run").exists()
 
 
+@pytest.mark.slow
 def test_a_kernel_file_may_not_take_a_built_in_name(tmp_path, builds):
     clash = tmp_path / "clash.c"
     clash.write_text(EXAMPLE.read_text().replace("my_moller", "moller_trumbore"))
@@ -151,6 +153,7 @@ def test_a_kernel_file_may_not_take_a_built_in_name(tmp_path, builds):
     assert "moller_trumbore: the name of a built-in kernel" in done.stderr and "Traceback" not in done.stderr
 
 
+@pytest.mark.slow
 def test_a_file_without_registration_lines_says_what_it_lacks(tmp_path, builds):
     bare = tmp_path / "bare.c"
     bare.write_text('#define TB_FILE_CITATION ""\n')
@@ -204,8 +207,9 @@ def test_the_walk_through_of_docs_own_kernel_runs_as_written(tmp_path, builds):
 @pytest.mark.slow
 def test_a_native_kernel_of_ones_own_is_a_bvh_leaf_test(tmp_path, builds):
     """A native-width kernel file (TB_NATIVE_PART): built-in moller_trumbore_fma's code under another name."""
-    code = (ROOT / "ext" / "kernels" / "moller_trumbore_fma.h").read_text()
-    code = code.replace("moller_trumbore_fma", "my_fma").replace("tb_mt_fma", "tb_my_mt_fma")
+    built_in = "moller_trumbore_fma"
+    code = (ROOT / "ext" / "kernels" / f"{built_in}.h").read_text()
+    code = code.replace(built_in, "my_fma").replace("tb_mt_fma", "tb_my_mt_fma")
     own = tmp_path / "my_fma.c"
     own.write_text(
         '#define TB_FILE_CITATION "Moller & Trumbore 1997"\n'

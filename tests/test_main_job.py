@@ -168,7 +168,10 @@ def test_run_resume_is_refused_in_one_line_where_it_cannot_apply(tmp_path):
 
     folder = tmp_path / "folder"
     folder.mkdir()
-    for extra, said in ((["--quick"], "--resume takes neither --quick, --out nor --kernel-file"), ([], "not a run directory")):
+    for extra, said in (
+        (["--quick"], "--resume takes neither --quick, --out nor --kernel-file"),
+        ([], "not a run directory"),
+    ):
         done = subprocess.run(
             [sys.executable, "-m", "tribench.cli", "run", "--resume", str(folder), *extra],
             capture_output=True,

@@ -164,6 +164,7 @@ def _section(page: str, sid: str) -> str:
     return page[start : page.index("</section>", start)]
 
 
+@pytest.mark.slow
 def test_report_shows_the_peers_with_their_ratios_and_a_headline_sentence(run_copy, measured):
     path, frame = measured
     shutil.copy(path, run_copy / peers.PEERS)

@@ -72,6 +72,7 @@ def test_validate_off_a_terminal_prints_plain_lines_per_kernel(tmp_path):
     assert quiet.returncode == 0 and "tribench validate:" not in quiet.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("bad", ["soon", "-1", "nan", "inf"])
 def test_a_bad_interval_is_one_line_naming_the_variable_before_the_run_folder(tmp_path, bad):
     done = cli(tmp_path, "sweep", "--out", str(tmp_path / "run"), *TINY, seconds=bad)
