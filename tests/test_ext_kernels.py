@@ -38,8 +38,9 @@ def test_pairs_agree_with_reference(kernel, dtype, hit_rate):
     assert np.isnan(t[~hit]).all()
 
 
+@functools.cache  # a few hundred tests ask for the same two sets
 def _mesh_and_safe_rays(seed: int):
-    """An icosphere and rays whose every plane crossing is far from every edge."""
+    """An icosphere and rays whose every plane crossing is far from every edge (read-only: shared)."""
     mesh = trimesh.creation.icosphere(subdivisions=2)
     tris = np.ascontiguousarray(mesh.triangles)
     rng = np.random.default_rng(seed)
@@ -52,7 +53,10 @@ def _mesh_and_safe_rays(seed: int):
     every = reference.intersect_pairs(np.repeat(o, k, 0), np.repeat(d, k, 0), np.tile(tris, (m, 1, 1)))
     near = (np.abs(every.edge_margin) < 1e-3) | (np.abs(every.t) < 1e-3)
     safe = ~near.reshape(m, k).any(axis=1)
-    return o[safe], d[safe], tris
+    out = (o[safe], d[safe], tris)
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])

@@ -219,15 +219,16 @@ def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
         (["--processes", "1", "--reps", "100000"], "processes x reps must be at most 10,000"),
     ],
 )
-def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message):
-    done = subprocess.run(
-        [sys.executable, "-m", "tribench.cli", "peers", "--out", str(tmp_path), *flags],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
-    assert done.returncode == 2, done.stderr
-    assert message in done.stderr and len(done.stderr.strip().splitlines()) == 1
+def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message, capsys):
+    from tribench import cli  # in this process: the input is refused before anything runs
+
+    try:
+        code = cli.main(["peers", "--out", str(tmp_path), *flags])
+    except SystemExit as stop:  # argparse's own refusals exit
+        code = stop.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / peers.PEERS).exists()
 
 
