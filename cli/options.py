@@ -55,7 +55,10 @@ def add_no_progress(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_kernel_files(parser: argparse.ArgumentParser) -> None:
+def add_kernel_files(
+    parser: argparse.ArgumentParser,
+    what: str = "checked against the float64 reference, then known by the names it declares",
+) -> None:
     """--kernel-file FILE.c, repeatable: kernels of the user's own, loaded by :func:`load_kernel_files`."""
     from . import flags
 
@@ -65,8 +68,7 @@ def add_kernel_files(parser: argparse.ArgumentParser) -> None:
         action="append",
         metavar="FILE.c",
         type=flags.existing_file,
-        help="a C file of your own kernels (docs/own-kernel.md; repeatable): compiled as the built-in ones, "
-        "checked against the float64 reference, then known by the names it declares",
+        help=f"a C file of your own kernels (docs/own-kernel.md; repeatable): compiled as the built-in ones, {what}",
     )
 
 

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from . import flags
-from .options import DTYPES, add_no_progress
+from .options import DTYPES, add_kernel_files, add_no_progress
 
 __all__ = ["add_parser", "run"]
 
@@ -39,14 +39,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument("--quick", action="store_true", help="small sets, a few seconds (the tests' size)")
     p.add_argument("--seed", type=flags.seed, default=0, help="seed of every test's rays (default 0)")
-    p.add_argument(
-        "--kernel-file",
-        dest="kernel_files",
-        action="append",
-        metavar="FILE.c",
-        type=flags.existing_file,
-        help="a C file of your own kernels (docs/own-kernel.md; repeatable): validated with the others",
-    )
+    add_kernel_files(p, "then validated with the others")
     add_no_progress(p)
     p.set_defaults(func=run)
 
