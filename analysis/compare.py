@@ -241,7 +241,7 @@ def order_summary(m: MultiComparison) -> pd.DataFrame:
     )
 
 
-def compare_many(runs: Sequence[RunTables], confidence: float = 0.95) -> MultiComparison:
+def compare_many(runs: Sequence[RunTables], confidence: float = 0.95, same_run: bool = False) -> MultiComparison:
     """Speedups of every run, and which orders of two kernels hold on every run.
 
     Workloads match by id (a hash of the spec) and must be in every run; the
@@ -253,6 +253,8 @@ def compare_many(runs: Sequence[RunTables], confidence: float = 0.95) -> MultiCo
     the same kernel significantly faster: an intersection of tests, each at
     its level, so the whole claim keeps that level without a further correction.
 
+    ``same_run``: the runs are the builds of one run folder (:mod:`.builds`), so they share it.
+
     Raises
     ------
     UserError
@@ -261,7 +263,7 @@ def compare_many(runs: Sequence[RunTables], confidence: float = 0.95) -> MultiCo
     tags = run_tags(len(runs))
     folders = [Path(d.run_dir).resolve() for d in runs]
     twice = sorted({str(f) for f in folders if folders.count(f) > 1})
-    if twice:
+    if twice and not same_run:
         raise UserError(f"{twice[0]} is given twice: a run compared with itself is not two machines")
     baselines = {d.baseline for d in runs}
     if len(baselines) > 1:

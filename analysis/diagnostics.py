@@ -24,7 +24,7 @@ def batch_labels(batches: pd.DataFrame) -> pd.DataFrame:
     b = b.join(med, on=["kernel", "workload_id", "process"])
     start = b.groupby(["process", "attempt"])["start_ns"].transform("min")
     b = b.assign(rel_to_median=b["ns_per_test"] / b["median_ns"], t_in_process_s=(b["start_ns"] - start) * 1e-9)
-    return b[list(runfolder.FILES[runfolder.BATCH_LABELS])].reset_index(drop=True)
+    return b[runfolder.part_columns(runfolder.BATCH_LABELS)].reset_index(drop=True)
 
 
 def outlier_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
@@ -40,7 +40,7 @@ def outlier_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
         }
     ).reset_index()
     out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"], strict=True)))
-    return out[list(runfolder.FILES[runfolder.OUTLIERS])]
+    return out[runfolder.part_columns(runfolder.OUTLIERS)]
 
 
 def warmup_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
@@ -55,7 +55,7 @@ def warmup_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
     ).reset_index()
     out["warmup_batches"] = out["warmup_batches"].fillna(0).astype(int)
     out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"], strict=True)))
-    return out[list(runfolder.FILES[runfolder.WARMUP])]
+    return out[runfolder.part_columns(runfolder.WARMUP)]
 
 
 def drift_table(

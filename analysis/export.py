@@ -142,24 +142,32 @@ def google_benchmark(
     dict
         ``{"context": {...}, "benchmarks": [...]}``, ready for ``json.dumps(..., allow_nan=False)``.
     """
+    keys = ["build", "kernel", "workload_id"]
     est = tables[runfolder.ESTIMATES]
-    spd = tables[runfolder.SPEEDUPS].set_index(["kernel", "workload_id"])
+    spd = tables[runfolder.SPEEDUPS].set_index(keys)
     pp = tables[runfolder.PER_PROCESS]
+    builds = list(dict.fromkeys(est["build"]))
     kernels = [k for k in run["sweep"]["kernels"] if k in set(est["kernel"])]
     wids = [w for w in run["sweep"]["workload_ids"] if w in set(est["workload_id"])]
-    rows = est.set_index(["kernel", "workload_id"])
+    rows = est.set_index(keys)
     benchmarks: list[dict[str, Any]] = []
+    families = [(b, k) for b in builds for k in kernels]
     for family, instance, r in (
-        (f, i, rows.loc[(k, w)]) for f, k in enumerate(kernels) for i, w in enumerate(wids) if (k, w) in rows.index
+        (f, i, rows.loc[(b, k, w)])
+        for f, (b, k) in enumerate(families)
+        for i, w in enumerate(wids)
+        if (b, k, w) in rows.index
     ):
-        kernel, wid = r.name
-        name, label = f"{kernel}/{wid}", str(r["workload"])
-        per = pp.loc[(pp["kernel"] == kernel) & (pp["workload_id"] == wid)].sort_values("process")
+        build, kernel, wid = r.name
+        # a run of several builds names each benchmark's build too (its own processes)
+        name, label = f"{kernel}/{wid}" + (f"/{build}" if len(builds) > 1 else ""), str(r["workload"])
+        per = pp.loc[(pp["build"] == build) & (pp["kernel"] == kernel) & (pp["workload_id"] == wid)]
+        per = per.sort_values("process")
         ids = (name, family, instance)
         benchmarks += _repetitions(ids, label, per)
         benchmarks += _time_aggregates(ids, label, r, len(per))
-        if (kernel, wid) in spd.index and math.isfinite(spd.loc[(kernel, wid)]["ratio"]):
-            benchmarks.append(_speedup(ids, label, spd.loc[(kernel, wid)], baseline, len(per)))
+        if (build, kernel, wid) in spd.index and math.isfinite(spd.loc[(build, kernel, wid)]["ratio"]):
+            benchmarks.append(_speedup(ids, label, spd.loc[(build, kernel, wid)], baseline, len(per)))
     return {"context": _context(run, baseline, margin), "benchmarks": benchmarks}
 
 

@@ -14,7 +14,7 @@ from tribench.harness import runfolder
 
 def table_frame(rows: list[dict[str, Any]], name: str) -> pd.DataFrame:
     """Rows as a frame with exactly ``name``'s documented columns, in file order."""
-    return pd.DataFrame(rows, columns=list(runfolder.FILES[name]))
+    return pd.DataFrame(rows, columns=runfolder.part_columns(name))
 
 
 def paired_time_ratio(per: pd.DataFrame, slower: str, faster: str, level: float) -> tuple[float, float, float, int]:

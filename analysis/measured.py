@@ -12,12 +12,13 @@ import hashlib
 import os
 import stat
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
+from tribench.ext.builds import INSTALLED
 from tribench.harness import runfolder
 
 __all__ = ["Measured", "file_digest", "load"]
@@ -69,6 +70,22 @@ class Measured:
         """The sweep's workloads that have batches, in sweep order."""
         present = set(self.batches["workload_id"])
         return [w for w in self.run["sweep"]["workload_ids"] if w in present]
+
+    @property
+    def builds(self) -> list[str]:
+        """The builds of the run's processes, in turn (``--builds``; else the installed build alone)."""
+        return list(self.run["sweep"].get("builds") or [INSTALLED])
+
+    def of_build(self, build: str) -> Measured:
+        """The run as its processes of ``build`` measured it (the processes take the builds in turn)."""
+        i, n = self.builds.index(build), len(self.builds)
+
+        def mine(frame: pd.DataFrame) -> pd.DataFrame:
+            return frame.loc[frame["process"] % n == i].reset_index(drop=True)
+
+        return replace(
+            self, batches=mine(self.batches), processes=mine(self.processes), traversals=mine(self.traversals)
+        )
 
 
 def load(run_dir: str | Path) -> Measured:

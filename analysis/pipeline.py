@@ -58,8 +58,11 @@ __all__ = [
     "Analysis",
     "Derived",
     "analyse",
+    "by_build",
+    "combined",
     "derive",
     "estimate",
+    "estimate_builds",
     "write_tables",
     "write_all",
     "file_digest",
@@ -124,7 +127,45 @@ def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | No
 
 
 def estimate(m: Measured, baseline: str | None = None, margin: float | None = None) -> Analysis:
-    """Estimates and speedups of a run's measured files (``baseline`` and ``margin`` as for :func:`analyse`)."""
+    """Estimates and speedups of a run's measured files (``baseline`` and ``margin`` as for :func:`analyse`),
+    each build's from its own processes (:func:`estimate_builds`), its rows first in the ``build`` column.
+    The margin and baseline are the first build's (each speedup row carries its own build's margin)."""
+    return combined(estimate_builds(m, baseline, margin))
+
+
+def estimate_builds(m: Measured, baseline: str | None = None, margin: float | None = None) -> dict[str, Analysis]:
+    """Per build with timed batches, in the run's order, its :class:`Analysis` (no ``build`` column)."""
+    parts = {}
+    for build in m.builds:
+        mb = m.of_build(build) if len(m.builds) > 1 else m
+        if len(m.builds) == 1 or (~mb.batches["warmup"]).any():  # a live run may have none of a build yet
+            parts[build] = _estimate_one(mb, baseline, margin)
+    if not parts:
+        raise UserError(f"{m.run_dir} has no timed batches yet")
+    return parts
+
+
+def combined(parts: dict[str, Analysis]) -> Analysis:
+    """The builds' analyses as one: their tables stacked, each row's build in the first column."""
+    first = next(iter(parts.values()))
+    return Analysis(
+        by_build({b: a.estimates for b, a in parts.items()}),
+        by_build({b: a.speedups for b, a in parts.items()}),
+        first.baseline,
+        first.margin,
+        sum(a.batches for a in parts.values()),
+        sum(a.processes for a in parts.values()),
+    )
+
+
+def by_build(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """One table per build, stacked in the builds' order, with its build as the first column."""
+    parts = [f.reset_index(drop=True).assign(build=b) for b, f in frames.items()]
+    table = pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0]
+    return table[["build", *(c for c in table.columns if c != "build")]]
+
+
+def _estimate_one(m: Measured, baseline: str | None, margin: float | None) -> Analysis:
     run, batches = m.run, m.batches
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
@@ -357,10 +398,31 @@ def _peer_tables(m: Measured) -> tuple[dict[str, pd.DataFrame], str]:
 
 
 def derive(
-    m: Measured, result: Analysis, workloads: dict[str, Any], sources: dict[str, str]
+    m: Measured, parts: dict[str, Analysis], workloads: dict[str, Any], sources: dict[str, str]
 ) -> dict[str, pd.DataFrame]:
     """Every derived table of the run, by file name, in the order of :data:`runfolder.DERIVED`:
-    a pure function of the measured files, their estimates and speedups, and the workloads."""
+    a pure function of the measured files, each build's estimates and speedups (:func:`estimate_builds`),
+    and the workloads. A table of :data:`runfolder.BY_BUILD` stacks one part per build, each made from
+    that build's processes alone; ``builds.csv`` tests every order of two kernels under each build."""
+    from .builds import builds_table
+
+    one = {b: _derive_one(m.of_build(b) if len(m.builds) > 1 else m, a, workloads, sources) for b, a in parts.items()}
+    first = next(iter(one.values()))
+    tables = {
+        name: by_build({b: t[name] for b, t in one.items()}) if name in runfolder.BY_BUILD else t0
+        for name, t0 in first.items()
+    }
+    tables[runfolder.BUILDS] = builds_table(m, parts, one)
+    for name, frame in tables.items():
+        if list(frame.columns) != list(runfolder.FILES[name]):  # a bug: the table and the contract disagree
+            raise AssertionError(f"{name}: columns {list(frame.columns)} are not runfolder.FILES[{name!r}]")
+    return tables
+
+
+def _derive_one(
+    m: Measured, result: Analysis, workloads: dict[str, Any], sources: dict[str, str]
+) -> dict[str, pd.DataFrame]:
+    """The derived tables of one build's processes (no ``build`` column)."""
     from . import bvh, diagnostics, ranking, scaling, workload_tables
 
     batches, kernels, wids, specs = m.batches, m.kernels, m.workload_ids, m.specs
@@ -397,9 +459,6 @@ def derive(
         runfolder.BANDS: ranking.band_table(est, pp, specs, base, margin, m.validate),
         runfolder.BVH: bvh.bvh_table(ranked_batches, m.traversals, wl, specs, pp, ranked, base, margin),
     }
-    for name, frame in tables.items():
-        if list(frame.columns) != list(runfolder.FILES[name]):  # a bug: the table and the contract disagree
-            raise AssertionError(f"{name}: columns {list(frame.columns)} are not runfolder.FILES[{name!r}]")
     return tables
 
 
@@ -436,10 +495,11 @@ def write_all(
         The folder cannot be read (``file:line``), has no timed batch, or cannot be written.
     """
     m = measured.load(run_dir)
-    result = estimate(m, baseline, margin)
+    parts = estimate_builds(m, baseline, margin)
+    result = combined(parts)
     mesh_files.adopt(run_dir)  # the run folder's mesh copies: its workloads rebuild on any machine
     workloads, sources = _workloads(m.run, m.workload_ids)
-    tables = derive(m, result, workloads, sources)
+    tables = derive(m, parts, workloads, sources)
     peer_tables, peer_note = _peer_tables(m)
     tables.update(peer_tables)
     for name, frame in tables.items():

@@ -20,7 +20,7 @@ The tables of a run folder made by ``tribench sweep`` or ``tribench run``
 >>> import tribench
 >>> r = tribench.load(run_dir)
 >>> list(r.speedups.columns[:4])
-['workload_id', 'kernel', 'baseline', 'ratio']
+['build', 'workload_id', 'kernel', 'baseline']
 >>> best = r.ranking.loc[r.ranking["rank"] == 1]
 >>> set(best["kernel"]) <= set(r.estimates["kernel"]), bool(best["ns_per_test_ci_low"].le(best["ns_per_test"]).all())
 (True, True)
@@ -107,6 +107,13 @@ def _path(value: Any, what: str) -> Path:
     return Path(value)
 
 
+def _builds(value: Any) -> tuple[str, ...]:
+    """Build specs: a list of them, or one string of specs separated by ';' (as ``--builds`` takes)."""
+    from tribench.ext import check_builds, parse_builds
+
+    return parse_builds(value) if isinstance(value, str) else check_builds(value)
+
+
 def _flag(value: Any, what: str) -> bool:
     """True or False: a string such as "no" is refused, never read as true."""
     if not isinstance(value, bool):
@@ -139,6 +146,7 @@ def sweep(
     baseline: str | None = None,
     progress: bool | None = None,
     kernel_files: Sequence[str | Path] = (),
+    builds: Sequence[str] = (),
 ) -> Results:
     """Time ``kernels`` on ``workloads`` into the new folder ``out``, analyse it and return its tables.
 
@@ -164,6 +172,10 @@ def sweep(
     kernel_files : sequence of paths
         Kernel files of your own (``--kernel-file``, docs/own-kernel.md): compiled, checked
         against the float64 reference before anything is timed, then ``kernels`` may name theirs.
+    builds : sequence of str
+        Builds to compare (``--builds``, docs/builds.md), such as ``["gcc -O2", "clang -O3"]``:
+        each compiled and its kernels checked again; the processes take them in turn, and every
+        table has a ``build`` column.
 
     Raises
     ------
@@ -173,7 +185,7 @@ def sweep(
     """
     from tribench.harness import duration, plan, runfolder, runner
     from tribench.studies.finish import finish
-    from tribench.studies.kernel_check import load_checked
+    from tribench.studies.kernel_check import check_builds, load_checked
 
     load_checked(kernel_files)
 
@@ -187,11 +199,13 @@ def sweep(
         target_ms=plan.DEFAULT_TARGET_MS if target_ms is None else target_ms,
         seed=seed,
         kernel_files=tuple(map(str, kernel_files)),
+        builds=_builds(builds),
     )
     folder = _default_out(out)
     runfolder.check_new_run_dir(folder)  # before the estimate, which builds the workloads
+    checks = check_builds(spec)
     print(f"tribench.sweep: {duration.estimate(spec).line()} -> {folder}", file=sys.stderr)
-    runner.start(spec, folder, progress=progress)
+    runner.start(spec, folder, progress=progress, build_checks=checks)
     derived = finish(folder, baseline=baseline)
     return Results(folder, derived.estimates, derived.speedups, derived.tables)
 
@@ -203,6 +217,7 @@ def run(
     peers: bool = True,
     progress: bool | None = None,
     kernel_files: Sequence[str | Path] = (),
+    builds: Sequence[str] = (),
 ) -> Results:
     """The main job (``tribench run``) into the new folder ``out``: its tables.
 
@@ -210,7 +225,7 @@ def run(
     (:func:`tribench.studies.main.run`); ``quick=True`` takes seconds and
     gives wide intervals. The HTML report is ``tribench report RUN_DIR`` (or
     ``tribench.reports.write_report(run_dir)``). ``kernel_files``: as :func:`sweep`'s; their
-    kernels join the job in their roles.
+    kernels join the job in their roles. ``builds``: as :func:`sweep`'s.
     """
     from tribench.studies import main as main_job
     from tribench.studies.kernel_check import load_checked
@@ -223,6 +238,7 @@ def run(
         progress=_optional_flag(progress, "progress"),
         peers=peers,
         kernel_files=tuple(map(str, kernel_files)),
+        builds=_builds(builds),
     )
     return Results(done.run_dir, done.estimates, done.speedups, done.tables)
 
@@ -232,8 +248,9 @@ def load(run_dir: str | Path) -> Results:
     from tribench.reports.rundata import load_run
 
     data = load_run(_path(run_dir, "run_dir"))
-    # the files as they are, the baseline's A/A twin included (the report leaves it out)
-    return Results(data.run_dir, data.tables["estimates.csv"], data.tables["speedups.csv"], data.tables)
+    # the files as they are, every build's rows and the baseline's A/A twin included (the report leaves it out)
+    tables = {**data.tables, **data.every_build}
+    return Results(data.run_dir, tables["estimates.csv"], tables["speedups.csv"], tables)
 
 
 def compare(*run_dirs: str | Path) -> MultiComparison:

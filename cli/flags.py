@@ -167,6 +167,19 @@ def choice_list(choices: Sequence[str]) -> Callable[[str], list[str]]:
     return _list_of(one)
 
 
+def builds(text: str) -> list[str]:
+    """Build specs separated by ``;``, each a compiler and its flags (``gcc -O2;clang -O3``)."""
+    from tribench.ext import BuildError, parse_builds
+
+    try:
+        specs = list(parse_builds(text))
+    except BuildError as exc:
+        raise _refuse(str(exc)) from None
+    if not specs:
+        raise _refuse("no build: give a compiler and its flags, such as 'gcc -O2;gcc -O3'")
+    return specs
+
+
 def camera(text: str) -> tuple[int, int]:
     """``WIDTHxHEIGHT``, each side from 1 to 65536."""
     width, sep, height = text.strip().lower().partition("x")

@@ -13,7 +13,15 @@ from tribench.common import UserError
 
 from . import flags
 
-__all__ = ["DTYPES", "add_design_flags", "add_no_progress", "add_run_out", "default_run_dir", "DESIGN_FLAGS"]
+__all__ = [
+    "DTYPES",
+    "add_builds",
+    "add_design_flags",
+    "add_no_progress",
+    "add_run_out",
+    "default_run_dir",
+    "DESIGN_FLAGS",
+]
 
 #: Precisions of the workloads (workloads.spec.DTYPES, kept here so --help imports nothing heavy).
 DTYPES = ("float32", "float64")
@@ -69,6 +77,19 @@ def add_kernel_files(
         metavar="FILE.c",
         type=flags.existing_file,
         help=f"a C file of your own kernels (docs/own-kernel.md; repeatable): compiled as the built-in ones, {what}",
+    )
+
+
+def add_builds(parser: argparse.ArgumentParser) -> None:
+    """--builds "SPEC;SPEC": builds of the kernels to compare (docs/builds.md)."""
+    parser.add_argument(
+        "--builds",
+        metavar='"CC FLAGS;.."',
+        type=flags.builds,
+        help="compare builds of the kernels: compilers and their flags, separated by ';' "
+        "(\"gcc -O2;clang -O3 -march=native\"; 'installed' is pip's build, the default); "
+        "each is compiled once and checked against the reference, and the processes take them in turn "
+        "(docs/builds.md)",
     )
 
 

@@ -7,7 +7,7 @@ import argparse
 from tribench.common import UserError
 
 from . import flags
-from .options import add_kernel_files, add_no_progress, add_run_out, default_run_dir
+from .options import add_builds, add_kernel_files, add_no_progress, add_run_out, default_run_dir
 
 __all__ = ["add_parser", "run"]
 
@@ -35,6 +35,7 @@ def add_parser(sub) -> None:
         help="finish an interrupted main job: the rest of its sweep, its peers, the robustness suite, the report",
     )
     add_kernel_files(p)
+    add_builds(p)
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -44,15 +45,22 @@ def run(args: argparse.Namespace) -> int:
     from tribench.studies import main as main_job
 
     if args.resume:
-        if args.quick or args.out or args.kernel_files:
+        if args.quick or args.out or args.kernel_files or args.builds:
             raise UserError(
-                "--resume takes neither --quick, --out nor --kernel-file: the run's own job is finished in its folder"
+                "--resume takes neither --quick, --out, --kernel-file nor --builds: the run's own job is finished "
+                "in its folder"
             )
         out = args.resume
         main_job.resume(out, progress=args.progress)
     else:
         out = args.out or default_run_dir("quick" if args.quick else "")
-        main_job.run(out, quick=args.quick, progress=args.progress, kernel_files=args.kernel_files or ())
+        main_job.run(
+            out,
+            quick=args.quick,
+            progress=args.progress,
+            kernel_files=args.kernel_files or (),
+            builds=args.builds or (),
+        )
     data = load(out)  # the run folder's tables, read once for the page and the terminal
     report = write_report(data)
     print(format_tables(data))

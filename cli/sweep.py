@@ -11,6 +11,7 @@ from . import flags
 from .options import (
     DESIGN_FLAGS,
     DTYPES,
+    add_builds,
     add_design_flags,
     add_kernel_files,
     add_no_progress,
@@ -39,6 +40,7 @@ _NEW_SWEEP_FLAGS = (
     "cpu",
     "out",
     "kernel_files",
+    "builds",
 )
 
 
@@ -72,6 +74,7 @@ def add_parser(sub) -> None:
         "--kernels", metavar="A,B", type=flags.name_list, help="kernels (default: all of `tribench info`, and yours)"
     )
     add_kernel_files(p)
+    add_builds(p)
     p.add_argument(
         "--hit-rates",
         metavar="H,..",
@@ -125,21 +128,22 @@ def run(args: argparse.Namespace) -> int:
             raise UserError("--resume takes no other sweep options: the run's own sweep is used")
         result = runner.resume(args.resume, progress=args.progress)
     else:
-        from tribench.studies.kernel_check import load_checked
+        from tribench.studies.kernel_check import check_builds, load_checked
 
         load_kernel_files(args)  # first: --kernels may name their kernels
         sweep = _sweep_from_args(args)
         load_checked(sweep.kernel_files)  # a sweep file's too, checked before anything is timed
+        checks = check_builds(sweep)  # each build compiled and its kernels checked again (docs/builds.md)
         out = args.out or default_run_dir()
         print(
             f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
-            f"{sweep.processes} processes x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
+            f"{sweep.processes} processes{_per_build(sweep)} x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
             f"{sweep.n_batches} batches -> {out}",
             file=sys.stderr,
         )
         runfolder.check_new_run_dir(out)  # before the estimate, which builds the workloads
         print(duration.estimate(sweep).line(), file=sys.stderr)
-        result = runner.start(sweep, out, cpu=args.cpu, progress=args.progress)
+        result = runner.start(sweep, out, cpu=args.cpu, progress=args.progress, build_checks=checks)
     print(
         f"{result.batches_run} batches run in {result.elapsed_s:.1f} s; "
         f"{result.batches_done}/{result.batches_total} in {result.run_dir}",
@@ -159,6 +163,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(f"next: tribench stats {result.run_dir}", file=sys.stderr)
     return 0
+
+
+def _per_build(sweep) -> str:
+    n = len(sweep.build_names)
+    return f" ({n} builds in turn: {'; '.join(sweep.build_names)})" if n > 1 else ""
 
 
 def _workloads_from_flags(args: argparse.Namespace) -> list:
@@ -201,7 +210,8 @@ def _sweep_from_args(args: argparse.Namespace):
 
     design = {k: getattr(args, k) for k in DESIGN_FLAGS}
     if args.file:
-        return load_sweep_file(args.file, {**design, "kernels": args.kernels, "kernel_files": args.kernel_files})
+        given = {"kernels": args.kernels, "kernel_files": args.kernel_files, "builds": args.builds}
+        return load_sweep_file(args.file, {**design, **given})
     defaults = {
         "processes": DEFAULT_PROCESSES,
         "rounds": DEFAULT_ROUNDS,
@@ -211,4 +221,10 @@ def _sweep_from_args(args: argparse.Namespace):
     }
     design = {k: defaults[k] if v is None else v for k, v in design.items()}
     kernels = tuple(args.kernels or ext.kernel_names())
-    return Sweep(kernels, tuple(_workloads_from_flags(args)), **design, kernel_files=tuple(args.kernel_files or ()))
+    return Sweep(
+        kernels,
+        tuple(_workloads_from_flags(args)),
+        **design,
+        kernel_files=tuple(args.kernel_files or ()),
+        builds=tuple(args.builds or ()),
+    )

@@ -69,8 +69,10 @@ modes, build), ``intersection`` (:func:`prepare`, :func:`flat`,
 ``probes`` (:func:`fma_peak`, :func:`op_throughput`), ``bvh``
 (:func:`build_bvh`, :class:`BVH`, :func:`adopt_bvh`) and ``kernel_files``
 (:func:`load_kernels`: a user's kernel file compiled as the built-in kernels
-are, into a module of its own beside ``_core``), over ``_core``, the C
-module. Each imports only modules listed before it, never this package.
+are, into a module of its own beside ``_core``, by ``toolchain``) and
+``builds`` (:func:`use_build`: the built-in kernels compiled by another
+compiler or with other flags), over ``_core``, the C module. Each imports
+only modules listed before it, never this package.
 
 Examples
 --------
@@ -86,6 +88,7 @@ from __future__ import annotations
 
 from tribench.common import UserError, UserTypeError
 
+from .builds import INSTALLED, BuildError, build_record, check_builds, load_build, parse_builds, use_build
 from .bvh import (
     BVH,
     BVH_BUILD_VERSION,
@@ -115,6 +118,13 @@ from .registry import (
 from .timing import MAX_BATCH_TESTS, Batch, Job, make_job, time_batch
 
 __all__ = [
+    "INSTALLED",
+    "BuildError",
+    "build_record",
+    "check_builds",
+    "load_build",
+    "parse_builds",
+    "use_build",
     "MAX_BATCH_TESTS",
     "MAX_PEAK_ITERATIONS",
     "MODES",

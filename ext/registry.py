@@ -201,17 +201,30 @@ def kernel_info(kernel: str) -> KernelInfo:
 
 
 def build_info() -> dict:
-    """How the extension was built: compiler, exact flags, FMA and fast-math
+    """How the built-in kernels in use were built (the installed extension, or the build
+    :func:`~tribench.ext.use_build` chose): compiler, exact flags, FMA and fast-math
     macros, and the resolution of the clock that times batches."""
-    return dict(_core.build_info())
+    return dict(_MODULES[_KERNELS[0]].build_info())
 
 
-@functools.cache
 def extension_sha256() -> str:
     """The sha256 of the compiled extension's file: which build of the C code
     this is (any change to a kernel, its records or the BVH build changes it)."""
-    with open(_core.__file__, "rb") as f:
+    return _file_sha256(_core.__file__)
+
+
+@functools.cache
+def _file_sha256(path: str) -> str:
+    with open(path, "rb") as f:
         return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def use_module(module: ModuleType) -> None:
+    """Take the built-in kernels from ``module``: a build of the extension's C files (``--builds``)."""
+    if tuple(module.kernel_names(True)) != tuple(k for k in _KERNELS if k in BUILT_IN):
+        raise UserError(f"{module.__name__} is not a build of this extension's kernels")
+    for k in BUILT_IN:
+        _MODULES[k] = module
 
 
 def bytes_per_triangle(kernel: str, dtype: np.dtype | type | str) -> int:

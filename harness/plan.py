@@ -29,6 +29,8 @@ Sweep files are TOML (read with :mod:`tomllib`)::
     seed = 1
     kernel_files = ["my_kernel.c"]   # optional: kernels of your own (docs/own-kernel.md),
                                      # paths relative to this file
+    builds = ["gcc -O2", "clang -O3"]  # optional: compilers and flags (docs/builds.md);
+                                       # the processes take them in turn
 
     [[workloads]]            # lists expand to every combination
     kind = "pairs"
@@ -219,6 +221,12 @@ class Sweep:
         loaded here (:func:`tribench.ext.load_kernels`), copied into the run
         folder when the sweep starts, and loaded by every worker. Checking
         their answers is the caller's (:mod:`tribench.studies.kernel_check`).
+    builds : tuple of str, optional
+        Builds of the extension to compare (:func:`tribench.ext.parse_builds`:
+        a compiler and its flags each, ``"installed"`` the pip build); empty
+        (the default): the installed build alone. The processes take them in
+        turn (process ``p`` runs :meth:`build_of`), so ``processes`` are
+        shared among them: 10 processes and 2 builds are 5 of each.
     """
 
     kernels: tuple[str, ...]
@@ -231,6 +239,7 @@ class Sweep:
     workload_kernels: tuple[tuple[str, ...], ...] = ()
     sequential: Sequential | None = None
     kernel_files: tuple[str, ...] = ()
+    builds: tuple[str, ...] = ()
     workload_ids: tuple[str, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -265,6 +274,12 @@ class Sweep:
         if not self.kernels:
             raise UserError("a sweep needs at least one kernel")
         self._load_kernel_files()
+        put(self, "builds", ext.check_builds(self.builds) if self.builds != () else ())
+        if len(self.build_names) > 1 and self.processes < 2 * len(self.build_names):
+            raise UserError(
+                f"{len(self.build_names)} builds need at least {2 * len(self.build_names)} processes "
+                f"(the processes take the builds in turn, and an interval needs two of each), got {self.processes}"
+            )
         known = ext.kernel_names(internal=True)
         for k in self.kernels:
             if not isinstance(k, str) or k not in known:
@@ -353,6 +368,17 @@ class Sweep:
         return baseline if baseline in kernels else kernels[0]
 
     @property
+    def build_names(self) -> tuple[str, ...]:
+        """The builds the processes run, in turn: ``builds``, or the installed build alone."""
+        from tribench.ext import INSTALLED
+
+        return self.builds or (INSTALLED,)
+
+    def build_of(self, process: int) -> str:
+        """The build process ``process`` runs: the builds in turn."""
+        return self.build_names[process % len(self.build_names)]
+
+    @property
     def n_batches(self) -> int:
         per_round = sum(len(self.kernels_for(w)) for w in self.workloads)
         return self.processes * (self.warmup + self.rounds) * per_round
@@ -379,6 +405,7 @@ class Sweep:
                 if self.kernel_files
                 else {}
             ),
+            **({"builds": list(self.builds)} if self.builds else {}),
         }
 
     @classmethod
@@ -396,6 +423,7 @@ class Sweep:
             workload_kernels=tuple(tuple(k) for k in d.get("workload_kernels", ())),
             sequential=Sequential(**d["sequential"]) if d.get("sequential") is not None else None,
             kernel_files=tuple(_kernel_file(f, run_dir) for f in d.get("kernel_files", ())),
+            builds=tuple(d.get("builds", ())),
         )
 
 
@@ -440,7 +468,7 @@ def main_job_kernels() -> dict[str, tuple[str, ...]]:
     }
 
 
-def default_sweep(quick: bool = False, kernel_files: Sequence[str] = ()) -> Sweep:
+def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds: Sequence[str] = ()) -> Sweep:
     """The main job's sweep (``tribench run``): which intersector, on this machine.
 
     Every algorithm in its best form, with the seed's two replays
@@ -471,6 +499,9 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = ()) -> Swee
     (pairs at 0, 50 and 100% in float32, the small camera in both precisions, a
     10,000-triangle BVH) with 1 ms batches, stopping at ±5% or 15 s.
     ``kernel_files``' kernels (:func:`tribench.ext.load_kernels`) join in their roles.
+    ``builds`` (:attr:`Sweep.builds`): the processes take them in turn, each stage
+    and the bound on processes growing with their number, so a stage holds as many
+    processes of each build and the budget is shared among them.
     """
     from tribench import ext
     from tribench.workloads.spec import MeshSpec, PairSpec
@@ -502,16 +533,19 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = ()) -> Swee
         accel="bvh",
     )
     sets = [(*seed, *scalar)] * len(pairs) + [(*seed, *native)] * len(meshes) + [native]
+    n_builds = max(len(builds), 1)
+    design = MAIN_JOB_DESIGN[quick]
     return Sweep(
         kernels,
         (*pairs, *meshes, bvh),
-        processes=36,  # a bound the budget reaches first (docs/decisions.md, "A 300 s budget")
+        processes=36 * n_builds,  # a bound the budget reaches first (docs/decisions.md, "A 300 s budget")
         rounds=2 if quick else 3,
         warmup=1,
         target_ms=1.0 if quick else DEFAULT_TARGET_MS,
         workload_kernels=tuple(sets),
-        sequential=MAIN_JOB_DESIGN[quick],
+        sequential=Sequential(design.stage * n_builds, design.target, design.budget_s),
         kernel_files=tuple(kernel_files),
+        builds=tuple(builds),
     )
 
 
@@ -571,7 +605,7 @@ def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
     ]
 
 
-_TOP_LEVEL = ("kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed", "kernel_files")
+_TOP_LEVEL = ("kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed", "kernel_files", "builds")
 
 
 def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Sweep:

@@ -35,11 +35,12 @@ import sys
 import tempfile
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+from tribench import ext
 from tribench.common import Notice, UserError
 from tribench.harness import runfolder
 from tribench.harness.plan import BatchKey, Sweep, plan, process_seed
@@ -260,6 +261,7 @@ def start(
     progress: bool | None = None,
     worker: Sequence[str] = WORKER,
     extra: dict[str, Any] | None = None,
+    build_checks: Mapping[str, Mapping[str, Sequence[str]]] | None = None,
 ) -> RunResult:
     """Create ``run_dir`` and run every batch of ``sweep``.
 
@@ -280,6 +282,10 @@ def start(
         Command that runs a worker (tests substitute a faulty one).
     extra : dict, optional
         More fields for ``run.json`` (e.g. what a calibration run is for).
+    build_checks : mapping, optional
+        Per build of the sweep, what each kernel got wrong when checked again under it
+        (:func:`tribench.studies.kernel_check.check_builds`), recorded in ``run.json``'s
+        ``builds``; a build without it is recorded as not checked (``check: null``).
 
     Raises
     ------
@@ -298,13 +304,19 @@ def start(
     machine = machine_record()
     margin = margin if margin is not None else latest_margin(machine["cpu_model"])
     keys = plan(sweep)
+    builds = [  # each compiled here, once, before the run folder exists: the workers find it in the cache
+        {**ext.build_record(b), "check": dict((build_checks or {})[b]) if b in (build_checks or {}) else None}
+        for b in sweep.build_names
+    ]
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UserError(f"cannot create the run folder {run_dir}: {exc.strerror or exc}") from None
     with runfolder.writer_lock(run_dir):
         runfolder.check_new_run_dir(run_dir)  # again, under the lock: another start may have been faster
-        return _start_locked(sweep, run_dir, margin, machine, keys, cpu, progress, worker, extra)
+        return _start_locked(
+            sweep, run_dir, margin, machine, keys, cpu, progress, worker, {"builds": builds, **(extra or {})}
+        )
 
 
 def _start_locked(
@@ -554,6 +566,7 @@ def _run_process(
         tuple(tuple(k.to_list()) for k in keys),
         {w: sweep.spec_of(w).to_dict() for w in wids},
         sweep.kernel_files,
+        sweep.build_of(process),
     )
     planned = frozenset(keys)
     expected = set(planned)

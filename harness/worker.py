@@ -97,6 +97,7 @@ class WorkerJob:
     keys: tuple[tuple[int, str, int, int, str], ...]
     workloads: Mapping[str, Mapping[str, Any]]
     kernel_files: tuple[str, ...] = ()  # loaded before anything else: their kernels are in keys
+    build: str = ext.INSTALLED  # the build of the kernels (ext.use_build), taken before the kernel files
 
     @classmethod
     def from_json(cls, text: str) -> WorkerJob:
@@ -379,6 +380,7 @@ def run_job(job: WorkerJob, emit) -> None:
                 round=rnd,
                 position=position,
                 kernel=kernel,
+                build=job.build,
                 workload_id=wid,
                 dtype=w.spec.dtype,
                 mode=w.mode,
@@ -469,6 +471,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings.showwarning = _pass_notices(warnings.showwarning)
     job = WorkerJob.from_json(sys.stdin.read())
     try:
+        if job.build != ext.INSTALLED:
+            ext.use_build(job.build)
         for path in job.kernel_files:
             ext.load_kernels(path)
         run_job(job, _emit_json)
@@ -476,7 +480,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130  # Ctrl-C reaches the whole process group; the parent reports it
     except BrokenPipeError:
         return 141  # the parent is gone: nothing to report to
-    except (KernelCheckError, ValueError, FileNotFoundError, ext.KernelFileError) as exc:
+    except (KernelCheckError, ValueError, FileNotFoundError, ext.KernelFileError, ext.BuildError) as exc:
         sys.stdout.write(json.dumps({"type": "error", "message": str(exc)}) + "\n")
         sys.stdout.flush()
         return 3

@@ -302,8 +302,11 @@ def format_many(runs: list[RunData], m: MultiComparison) -> str:
     return "\n".join(lines)
 
 
-def _many_parts(runs: list[RunData], m: MultiComparison) -> list[str]:
-    """The N-run sections: machine x kernel speedup tables per workload, and the orders that hold."""
+def _many_parts(
+    runs: list[RunData], m: MultiComparison, unit: str = "machine", ids: tuple[str, str] = ("speedups", "orders")
+) -> list[str]:
+    """The N-run sections: machine x kernel speedup tables per workload, and the orders that hold.
+    ``unit`` names what the runs are (``build``: the builds of one run, :mod:`.builds`); ``ids`` the sections'."""
     speed = []
     for wid in m.workload_ids:
         label, family = m.labels[wid]
@@ -328,10 +331,10 @@ def _many_parts(runs: list[RunData], m: MultiComparison) -> list[str]:
             [
                 ("kernel", "kernel"),
                 ("other_kernel", "other kernel"),
-                ("kernel_faster", "workloads: kernel faster on every machine"),
-                ("other_faster", "workloads: other faster on every machine"),
-                ("differs", "workloads: machines differ"),
-                ("undecided", "workloads: undecided on some machine"),
+                ("kernel_faster", f"workloads: kernel faster on every {unit}"),
+                ("other_faster", f"workloads: other faster on every {unit}"),
+                ("differs", f"workloads: {unit}s differ"),
+                ("undecided", f"workloads: undecided on some {unit}"),
             ],
         ),
         page.p(
@@ -345,13 +348,13 @@ def _many_parts(runs: list[RunData], m: MultiComparison) -> list[str]:
     ]
     return [
         page.section(
-            "speedups",
-            MANY_SECTIONS["speedups"],
+            ids[0],
+            MANY_SECTIONS["speedups"].replace("machine", unit),
             page.p(
                 f"Speedup = time_{m.baseline} / time_kernel, with each run's 95% interval (simultaneous over "
                 "the workload's kernels), as in its speedups.csv."
             )
             + "".join(speed),
         ),
-        page.section("orders", MANY_SECTIONS["orders"], "".join(orders)),
+        page.section(ids[1], MANY_SECTIONS["orders"].replace("machine", unit), "".join(orders)),
     ]

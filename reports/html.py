@@ -21,7 +21,7 @@ Sections, by id, in page order (a new section: its title here and its body in :f
 and, only in a run that has one, after the section named:
 
 >>> OPTIONAL_SECTIONS
-{'bvh': ('In a BVH', 'scaling')}
+{'builds': ('Across builds', 'ranking'), 'bvh': ('In a BVH', 'scaling')}
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ import pandas as pd
 from tribench import analysis
 from tribench.harness import runfolder
 
-from . import about, bvh, charts, checks, content, figures, headline, page, ranking, results
+from . import about, builds, bvh, charts, checks, content, figures, headline, page, ranking, results
 from .about import sweep_toml
 from .headline import headline_sentences
 from .rundata import RunData, load_peers, load_validation
@@ -62,7 +62,7 @@ SECTIONS = {
 OPEN = frozenset({"answer"})
 
 #: Sections a run has only sometimes: id -> (title, id of the section it follows).
-OPTIONAL_SECTIONS = {"bvh": ("In a BVH", "scaling")}
+OPTIONAL_SECTIONS = {"builds": ("Across builds", "ranking"), "bvh": ("In a BVH", "scaling")}
 
 #: At most this many workload pictures are drawn, at this resolution, by the analysis step
 #: (:mod:`tribench.analysis.pipeline`; 60 dpi: 840 to 1080 px wide, 1.5 to 2 times the ~550 px shown).
@@ -89,6 +89,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     bands = data.tables.get(runfolder.BANDS)  # None: tables of an older tribench
     bodies = {
         "answer": headline.title(data, wl)
+        + _build_shown(data)
         + ranking.answer_section(data, bands, alg, colours)
         + "".join(page.warn(w) for w in headline.run_warnings(data, drift, correct)),
         "headline": headline.headline_section(data, spd, wl, peers),
@@ -111,7 +112,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     }
     # an analysis made before bvh.csv existed has none: no section, as for a run without a BVH workload
     in_bvh = data.tables.get(runfolder.BVH, pd.DataFrame())
-    optional = {"bvh": bvh.bvh_section(in_bvh, peers, colours)}
+    optional = {"builds": builds.builds_section(data), "bvh": bvh.bvh_section(in_bvh, peers, colours)}
     titles: dict[str, str] = {}
     for sid, title in SECTIONS.items():
         titles[sid] = title
@@ -135,6 +136,16 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         titles,
         footer,
         script=charts.library() if charts.USED in body else "",
+    )
+
+
+def _build_shown(data: RunData) -> str:
+    if len(data.builds) < 2:
+        return ""
+    return page.p(
+        f"This page shows build {data.build} ({data.builds.index(data.build) + 1} of {len(data.builds)}: "
+        f"{'; '.join(data.builds)}); Across builds compares them.",
+        "note",
     )
 
 

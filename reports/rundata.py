@@ -69,6 +69,15 @@ class RunData:
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
     #: ``analysis.json``: what the tables were made from
     record: dict[str, Any] = field(default_factory=dict)
+    #: the build this view shows (a run of several builds is read one build at a time: ``load_run(build=)``)
+    build: str = "installed"
+    #: the tables of :data:`~tribench.harness.runfolder.BY_BUILD` as their files have them, every build's rows
+    every_build: dict[str, pd.DataFrame] = field(default_factory=dict)
+
+    @property
+    def builds(self) -> list[str]:
+        """The run's builds, in the order its processes take them (one: the installed build)."""
+        return list(self.run["sweep"].get("builds") or ["installed"])
 
     @property
     def kernels(self) -> list[str]:
@@ -134,8 +143,12 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
         raise RunError(f"{path} cannot be read ({type(exc).__name__}: {exc}): {_stats_hint(run_dir)}") from None
 
 
-def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
-    """Read a run folder and its derived tables.
+def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None = None) -> RunData:
+    """Read a run folder and its derived tables, as one build measured them (default: its first build).
+
+    A run of several builds (``--builds``) is shown one build at a time: the
+    batches and processes are that build's, and so are the rows of every table
+    of :data:`~tribench.harness.runfolder.BY_BUILD` (the ``build`` column stays).
 
     Raises
     ------
@@ -162,6 +175,15 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
         raise RunError(str(exc)) from None
     if batches.loc[~batches["warmup"]].empty:
         raise RunError(f"{run_dir} has no timed batches yet")
+    builds = list(run["sweep"].get("builds") or ["installed"])
+    build = builds[0] if build is None else build
+    if build not in builds:
+        raise RunError(f"{run_dir} has no build {build!r}; its builds: {'; '.join(builds)}")
+    if len(builds) > 1:
+        i = builds.index(build)
+        batches, processes = (
+            f.loc[f["process"] % len(builds) == i].reset_index(drop=True) for f in (batches, processes)
+        )
 
     record = _read_record(run_dir)
     if record.get("batches_sha256") != analysis.file_digest(run_dir / runfolder.BATCHES):
@@ -175,6 +197,11 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
             f"`tribench stats {run_dir} --baseline {baseline}` to remake them"
         )
     tables = {name: _read_table(run_dir, name) for name in record["tables"]}
+    every_build = {name: t for name, t in tables.items() if name in runfolder.BY_BUILD}
+    tables = {
+        name: t.loc[t["build"] == build].reset_index(drop=True) if name in runfolder.BY_BUILD else t
+        for name, t in tables.items()
+    }
     for name in (runfolder.ESTIMATES, runfolder.SPEEDUPS):
         if name not in tables:
             raise RunError(f"{run_dir / runfolder.ANALYSIS} lists no {name}: {_stats_hint(run_dir)}")
@@ -183,6 +210,8 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
     correct = tables.get(runfolder.CORRECTNESS)
     estimates, speedups = (compared(tables[name], correct) for name in (runfolder.ESTIMATES, runfolder.SPEEDUPS))
     margin = record.get("margin") or {}
+    if len(builds) > 1 and not speedups.empty:  # each build's own margin (its A/A twin's), as its rows have it
+        margin = {"value": float(speedups["margin"].iloc[0]), "source": str(speedups["margin_source"].iloc[0])}
     specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
     return RunData(
         run_dir,
@@ -197,6 +226,8 @@ def load_run(run_dir: str | Path, baseline: str | None = None) -> RunData:
         specs,
         tables,
         record,
+        build,
+        every_build,
     )
 
 

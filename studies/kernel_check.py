@@ -30,7 +30,7 @@ from tribench.workloads import reference
 
 from . import validate
 
-__all__ = ["MARGIN", "KernelRefused", "check_kernel", "load_checked"]
+__all__ = ["MARGIN", "KernelRefused", "check_builds", "check_kernel", "load_checked"]
 
 #: How far (barycentric) from every edge a checked crossing lies, and how far along the ray.
 MARGIN = 1e-3
@@ -74,14 +74,35 @@ def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
 def _checked_elsewhere(path: str | os.PathLike) -> dict[str, list[str]]:
     """:func:`check_kernel` of each kernel of the file, in a process of its own: a kernel that crashes
     (a stray pointer is likely in code being written) is refused in one line, and takes nothing down."""
+    return _in_a_process(["--kernel-file", str(path)], f"{path}: its kernels")
+
+
+def _in_a_process(argv: list[str], what: str) -> dict[str, list[str]]:
     done = subprocess.run(
-        [sys.executable, "-m", "tribench.studies.kernel_check", str(path)], capture_output=True, text=True
+        [sys.executable, "-m", "tribench.studies.kernel_check", *argv], capture_output=True, text=True
     )
     if done.returncode != 0:
         how = signal.Signals(-done.returncode).name if done.returncode < 0 else f"exit code {done.returncode}"
         last = (done.stderr.strip().splitlines() or [""])[-1]
-        raise KernelRefused(f"{path}: its kernels crashed the reference check ({how}){': ' + last if last else ''}")
+        raise KernelRefused(f"{what} crashed the reference check ({how}){': ' + last if last else ''}")
     return json.loads(done.stdout)
+
+
+def check_builds(sweep) -> dict[str, dict[str, list[str]]]:
+    """Every kernel of ``sweep`` checked again under each of its builds but the installed one
+    (:func:`check_kernel`, in a process per build): build -> kernel -> what it gets wrong.
+
+    A build may change results (``-ffast-math``, ``-ffp-contract=fast``), so nothing is refused
+    here: what a kernel gets wrong is recorded in ``run.json`` and shown in the report. A build's
+    answers on the sweep's own workloads are still held to the reference by every worker."""
+    checked = {}
+    for build in sweep.build_names:
+        if build == ext.INSTALLED:
+            continue
+        ext.load_build(build)  # compiled here, so a compile error is one message (and the check's process imports it)
+        argv = ["--build", build, *(a for f in sweep.kernel_files for a in ("--kernel-file", f)), *sweep.kernels]
+        checked[build] = _in_a_process(argv, f"the kernels of build {build!r}")
+    return checked
 
 
 def check_kernel(kernel: str, seed: int = 0) -> list[str]:
@@ -178,8 +199,24 @@ def _check_mesh(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) 
     return out
 
 
-if __name__ == "__main__":  # _checked_elsewhere's process: one kernel file, its problems as JSON
+def _main(argv: list[str]) -> None:
+    """The check's own process: [--build SPEC] [--kernel-file FILE]... [KERNEL...]; problems as JSON.
+    The kernels are those named, or else every kernel of the files."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m tribench.studies.kernel_check")
+    parser.add_argument("--build")
+    parser.add_argument("--kernel-file", action="append", default=[])
+    parser.add_argument("kernels", nargs="*")
+    args = parser.parse_args(argv)
+    if args.build:
+        ext.use_build(args.build)
+    declared = [k for f in args.kernel_file for k in ext.load_kernels(f)]
+    print(json.dumps({k: check_kernel(k) for k in args.kernels or declared}))
+
+
+if __name__ == "__main__":
     import faulthandler
 
     faulthandler.disable()  # a crash is reported by the parent, in one line
-    print(json.dumps({k: check_kernel(k) for k in ext.load_kernels(sys.argv[1])}))
+    _main(sys.argv[1:])

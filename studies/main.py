@@ -54,6 +54,7 @@ def run(
     peers: bool = True,
     log: TextIO | None = None,
     kernel_files: Sequence[str] = (),
+    builds: Sequence[str] = (),
 ) -> MainResult:
     """Run the main job into the new folder ``out`` and return its tables.
 
@@ -81,6 +82,11 @@ def run(
         kernels checked against the float64 reference before anything is
         timed (:mod:`tribench.studies.kernel_check`), then they join the job
         in their roles (a scalar kernel on the pairs, a native one on the meshes).
+    builds : sequence of str
+        Builds to compare (``--builds``: a compiler and its flags each;
+        :func:`tribench.ext.parse_builds`): each is compiled and its kernels
+        checked again (:func:`~tribench.studies.kernel_check.check_builds`), and
+        the job's processes take them in turn, a stage holding as many of each.
 
     Returns
     -------
@@ -104,14 +110,15 @@ def run(
     """
     from tribench.harness.plan import default_sweep
 
-    from .kernel_check import load_checked
+    from .kernel_check import check_builds, load_checked
 
     load_checked(kernel_files)
-    sweep = default_sweep(quick=quick, kernel_files=kernel_files)
+    sweep = default_sweep(quick=quick, kernel_files=kernel_files, builds=builds)
     runfolder.check_new_run_dir(Path(out))  # before the estimate, which builds the workloads
+    checks = check_builds(sweep)
     _announce(sweep, out, log)
     with _resumable(out):
-        done = runner.start(sweep, out, progress=progress, extra={"main_job": {"quick": quick}})
+        done = runner.start(sweep, out, progress=progress, extra={"main_job": {"quick": quick}}, build_checks=checks)
     return _complete(Path(out), done, quick, progress, peers, log)
 
 

@@ -109,6 +109,7 @@ def _row(i: int, **kw) -> runfolder.BatchRow:
         round=i - 1,
         position=0,
         kernel="k,1",
+        build='gcc -O2 -DX="a,b"',
         workload_id="w",
         dtype="float64",
         mode="pairs",

@@ -200,7 +200,7 @@ def test_the_walk_through_of_docs_own_kernel_runs_as_written(tmp_path, builds):
     assert done.returncode == 0, done.stderr[-3000:]
     for run in ("runs/my-cull", "runs/my-cull-main"):
         lines = (tmp_path / run / "estimates.csv").read_text().splitlines()
-        assert any(line.startswith("my_cull,") for line in lines), run
+        assert any(line.startswith("installed,my_cull,") for line in lines), run
     assert "my_cull" in (tmp_path / "runs" / "my-cull-main" / "ranking.csv").read_text()
 
 

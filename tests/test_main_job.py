@@ -37,7 +37,7 @@ def result(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("TRIBENCH_CACHE", str(base / "cache"))
         asked = []
-        mp.setattr(plan, "default_sweep", lambda quick=False, kernel_files=(): asked.append(quick) or TINY)
+        mp.setattr(plan, "default_sweep", lambda quick=False, kernel_files=(), builds=(): asked.append(quick) or TINY)
         log = io.StringIO()
         done = main_job.run(base / "run", quick=True, progress=False, peers=False, log=log)
     assert asked == [True]
@@ -169,7 +169,7 @@ def test_run_resume_is_refused_in_one_line_where_it_cannot_apply(tmp_path):
     folder = tmp_path / "folder"
     folder.mkdir()
     for extra, said in (
-        (["--quick"], "--resume takes neither --quick, --out nor --kernel-file"),
+        (["--quick"], "--resume takes neither --quick, --out, --kernel-file nor --builds"),
         ([], "not a run directory"),
     ):
         done = subprocess.run(
@@ -188,7 +188,7 @@ def test_the_baselines_a_a_twin_sets_the_margin_and_is_ranked_nowhere(tmp_path, 
     monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
     sweep = dataclasses.replace(TINY, kernels=(*TINY.kernels, "moller_seed_aa"), processes=3)
     with monkeypatch.context() as mp:
-        mp.setattr(plan, "default_sweep", lambda quick=False, kernel_files=(): sweep)
+        mp.setattr(plan, "default_sweep", lambda quick=False, kernel_files=(), builds=(): sweep)
         done = main_job.run(tmp_path / "run", quick=True, progress=False, peers=False, log=io.StringIO())
     # the twin is measured beside the baseline, and its A/A speedups are the margin
     assert "moller_seed_aa" in set(done.estimates["kernel"]) and "moller_seed_aa" in set(done.speedups["kernel"])

@@ -323,8 +323,8 @@ def _insert(text: str, line: int, new: str) -> str:
         ("header", lambda t: t.replace("elapsed_ns", "elapsed", 1), [":1: the header is not batches.csv's columns"]),
         ("garbage line", lambda t: _insert(t, 3, "#!garbage\x00"), [":3: "]),
         ("blank line", lambda t: _insert(t, 3, ""), [":3: a blank line"]),
-        ("quoted newline", lambda t: _insert(t, 3, '"a\nb"'), [":4: 1 fields, expected 20"]),
-        ("short row", lambda t: t.replace("\n", "\n1,2,3\n", 1), [":2: 3 fields, expected 20"]),
+        ("quoted newline", lambda t: _insert(t, 3, '"a\nb"'), [":4: 1 fields, expected 21"]),
+        ("short row", lambda t: t.replace("\n", "\n1,2,3\n", 1), [":2: 3 fields, expected 21"]),
         ("not utf-8", lambda t: t.replace("\n", "\n\udcff\n", 1), [":2: not UTF-8 text"]),
     ],
 )

@@ -68,6 +68,8 @@ _ABOUT = {
     "the band's workloads, with its speedup, bytes per triangle and robustness: the report's first table",
     rf.BVH: "per BVH workload and kernel: rays/s, the work per ray, the leaf tests' share of trace time, the "
     "speedup in the BVH beside the same in brute force (empty without a BVH workload)",
+    rf.BUILDS: "a run of several builds (`--builds`): every order of two kernels per workload, tested under each "
+    "build; whether it holds under every one (empty for one build)",
     rf.PEER_RATES: "rays/s of each contender of `peers.csv`, with intervals (only when the folder has `peers.csv`)",
     rf.PEER_RATIOS: "each contender over each other, paired by process (only when the folder has `peers.csv`)",
     rf.PICTURES_DIR + "/": "one PNG per workload (`<workload_id>.png`)",

@@ -434,10 +434,8 @@ def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
     if run is not None:
         from tribench.harness.plan import Sweep, plan
 
-        planned = {
-            (k.process, k.workload_id, k.round, k.position, k.kernel)
-            for k in plan(Sweep.from_dict(run["sweep"], run_dir))
-        }
+        sweep = Sweep.from_dict(run["sweep"], run_dir)
+        planned = {(k.process, k.workload_id, k.round, k.position, k.kernel) for k in plan(sweep)}
 
         def outside(f: Any) -> Any:
             return [
@@ -445,6 +443,12 @@ def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
                 for key in zip(f["process"], f["workload_id"], f["round"], f["position"], f["kernel"], strict=True)
             ]
 
+        rules.append(
+            (
+                lambda f: [b != sweep.build_of(p) for p, b in zip(f["process"], f["build"], strict=True)],
+                lambda r: f"build {_short(r['build'])} is not process {r['process']}'s, {sweep.build_of(r['process'])}",
+            )
+        )
         rules.append(
             (
                 outside,

@@ -41,6 +41,7 @@ class BatchRow:
     round: int = _col(_ROUND)
     position: int = _col("position of the kernel inside its round (random order, 0-based)")
     kernel: str = _col("kernel name, as registered in the C extension")
+    build: str = _col("build of the kernels: installed (pip's), or a --builds spec, a compiler and its flags")
     workload_id: str = _col("workload identifier (hash of its spec; see run.json sweep.workloads)")
     dtype: str = _col("precision of the workload's arrays: float32 or float64")
     mode: str = _col("pairs (ray i against triangle i) or closest (every ray against every triangle)")

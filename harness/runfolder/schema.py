@@ -41,6 +41,9 @@ __all__ = [
     "BATCHES",
     "BATCH_LABELS",
     "BVH",
+    "BUILDS",
+    "BY_BUILD",
+    "part_columns",
     "CALIBRATION",
     "CHECKS",
     "CORRECTNESS",
@@ -126,6 +129,8 @@ BANDS = "bands.csv"
 BVH = "bvh.csv"
 PEER_RATES = "peer_rates.csv"
 PEER_RATIOS = "peer_ratios.csv"
+#: Across the builds of a ``--builds`` run: which order of two kernels holds under every build.
+BUILDS = "builds.csv"
 #: The estimates and speedups with their intervals and the machine record, in Google Benchmark's
 #: JSON format (``context`` + ``benchmarks``; :mod:`tribench.analysis.export`), for tools that read it.
 GOOGLE_BENCHMARK = "google_benchmark.json"
@@ -492,6 +497,21 @@ _PEER_RATES: dict[str, str] = {
     "differ_ambiguous": "of those, rays within 1e-5 barycentric of an edge (count)",
 }
 
+_BUILDS: dict[str, str] = {
+    "workload_id": "workload identifier",
+    "family": "the workload's family (pairs, a mesh's name...)",
+    "label": "the workload's short label",
+    "kernel": "the kernel of the pair faster under the first build (its estimate)",
+    "other_kernel": "the other kernel of the pair",
+    "build": "the build this row's ratio was measured under (its own processes)",
+    "ratio": "time of other_kernel over time of kernel under this build, paired by process (>1: kernel is faster)",
+    "ratio_ci_low": "lower end of its interval, simultaneous over the workload's pairs (Bonferroni)",
+    "ratio_ci_high": "upper end of that interval",
+    "verdict": "faster, slower, equivalent or undecided under this build (the build's own margin)",
+    "order": "holds (kernel faster under every build), differs (faster under one, slower under another) or undecided",
+    "confidence": "the simultaneous confidence level of the interval",
+}
+
 _PEER_RATIOS: dict[str, str] = {
     "contender": "the contender whose rays per second are divided",
     "over": "the contender it is divided by",
@@ -529,7 +549,22 @@ FILES: dict[str, dict[str, str]] = {
     BVH: _BVH,
     PEER_RATES: _PEER_RATES,
     PEER_RATIOS: _PEER_RATIOS,
+    BUILDS: _BUILDS,
 }
+#: The derived tables made from the batches, one part per build: each starts with a ``build`` column,
+#: and a build's rows are made from its own processes alone (the processes take the builds in turn).
+BY_BUILD: frozenset[str] = frozenset(
+    {ESTIMATES, SPEEDUPS, CORRECTNESS, PER_PROCESS, BATCH_LABELS, CROSSOVERS, SLOPES, DRIFT, VARIANCE}
+    | {OUTLIERS, WARMUP, KERNELS, RANKING, ALGORITHMS, BANDS, BVH}
+)
+_BUILD = {"build": "the build of the kernels (a --builds spec, or installed): rows made from its processes"}
+FILES.update({name: {**_BUILD, **FILES[name]} for name in BY_BUILD})
+
+
+def part_columns(name: str) -> list[str]:
+    """The columns of one build's part of a derived table: its file's, but a leading ``build``."""
+    return [c for c in FILES[name] if not (name in BY_BUILD and c == "build")]
+
 
 #: The tables the analysis step derives from the measured files, in the order it writes them
 #: (``peer_rates.csv`` and ``peer_ratios.csv`` only when the folder has ``peers.csv``).
@@ -553,6 +588,7 @@ DERIVED: tuple[str, ...] = (
     ALGORITHMS,
     BANDS,
     BVH,
+    BUILDS,
     PEER_RATES,
     PEER_RATIOS,
 )

@@ -1,0 +1,146 @@
+"""Builds of the extension by another compiler or with other flags (``--builds "gcc -O2;clang -O3"``).
+
+A build spec is a compiler and its flags, as one would type them. The
+extension's C files are compiled by that compiler with ``-std=c11`` (the
+language they are written in), ``-DNDEBUG``, the platform's flag for shared
+code (``-fPIC``) and the spec's flags, nothing else: ``gcc -O2`` is exactly
+that. The installed extension is the build named :data:`INSTALLED` (pip's:
+``-O3 -ffp-contract=off -fno-math-errno``, no ``-march``). A build's module
+is cached under ``cache_dir()/kernel_builds``, named by the hash of the
+sources, the compiler's ``--version`` and the flags, so it is compiled once
+per machine. :func:`use_build` makes a process's built-in kernels (and the
+kernel files it loads afterwards) those of one build: a worker of a sweep
+runs one build.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import shlex
+import shutil
+import subprocess
+import sysconfig
+from types import ModuleType
+
+import tribench.ext._core as _core  # `from . import _core` would read as importing the package (a cycle)
+from tribench.common import UserError
+from tribench.common.location import cache_dir
+
+from .registry import use_module
+from .toolchain import Toolchain, compile_module, import_module, installed, set_current
+
+__all__ = ["INSTALLED", "BuildError", "build_record", "load_build", "parse_builds", "use_build"]
+
+#: The installed extension's build (the default).
+INSTALLED = "installed"
+#: Most builds one sweep compares (each is a full compile of the extension, about a minute on 2 cores).
+MAX_BUILDS = 8
+_REQUIRED = ("-std=c11", "-DNDEBUG")
+
+
+class BuildError(UserError):
+    """A build spec that cannot be read, or a build that does not compile."""
+
+
+def parse_builds(text: str) -> tuple[str, ...]:
+    """The build specs of ``--builds``: separated by ``;``, each a compiler and its flags, normalised.
+
+    >>> parse_builds("gcc -O2; clang  -O3 -march=native;")
+    ('gcc -O2', 'clang -O3 -march=native')
+    """
+    if not isinstance(text, str):
+        raise BuildError(f"builds must be a string of specs separated by ';', got {type(text).__name__}")
+    return check_builds([part for part in text.split(";") if part.strip()])
+
+
+def check_builds(specs: object) -> tuple[str, ...]:
+    """A list of build specs, each normalised (``shlex`` words joined by one space) and checked."""
+    if isinstance(specs, (str, bytes)) or not isinstance(specs, (list, tuple)):
+        raise BuildError(f"builds must be a list of build specs, got {specs!r:.80}")
+    out = []
+    for spec in specs:
+        if not isinstance(spec, str):
+            raise BuildError(f"a build spec is a string (a compiler and its flags), got {spec!r:.80}")
+        try:
+            words = shlex.split(spec)
+        except ValueError as e:
+            raise BuildError(f"build {spec!r:.80}: {e}") from None
+        if not words:
+            raise BuildError("an empty build spec: give a compiler and its flags, such as 'gcc -O2'")
+        if words[0].startswith("-"):
+            raise BuildError(f"build {spec!r:.80} starts with a flag: give the compiler first, such as 'gcc {spec}'")
+        bad = [w for w in words[1:] if not w.startswith("-")]
+        if bad and words != [INSTALLED]:
+            raise BuildError(f"build {spec!r:.80}: {bad[0]!r} is not a flag (each spec is one compiler and its flags)")
+        out.append(shlex.join(words))
+    if len(set(out)) != len(out):
+        raise BuildError(f"a build is listed twice: {'; '.join(out)}")
+    if len(out) > MAX_BUILDS:
+        raise BuildError(f"{len(out)} builds; at most {MAX_BUILDS} (each compiles the whole extension)")
+    return tuple(out)
+
+
+def toolchain_of(spec: str) -> Toolchain:
+    """The compiler, flags and link command of a build spec (the installed one's for :data:`INSTALLED`)."""
+    if spec == INSTALLED:
+        return installed()
+    cc, *flags = shlex.split(spec)
+    if shutil.which(cc) is None:
+        raise BuildError(f"build {spec!r}: no compiler {cc!r} on this machine (install it, or give its path)")
+    shared = shlex.split(sysconfig.get_config_var("CCSHARED") or "-fPIC")
+    return Toolchain((cc,), (*_REQUIRED, *shared, *flags), (cc, "-shared", *flags))
+
+
+@functools.cache
+def load_build(spec: str) -> ModuleType:
+    """The module of build ``spec``, compiled into the cache unless it is there (:data:`INSTALLED`: ``_core``)."""
+    if spec == INSTALLED:
+        return _core
+    toolchain = toolchain_of(spec)
+    key = toolchain.key
+    name = f"_bd_{key[:20]}"
+    path = cache_dir() / "kernel_builds" / key[:20] / f"{name}{sysconfig.get_config_var('EXT_SUFFIX')}"
+    module = import_module(name, path) if path.is_file() else None
+    if module is None:
+
+        def failed(result: subprocess.CompletedProcess) -> BuildError:
+            errors = [line for line in result.stderr.splitlines() if "error" in line][:20]
+            return BuildError(
+                f"build {spec!r} does not compile:\n" + "\n".join(errors or result.stderr.splitlines()[:20])
+            )
+
+        try:
+            compile_module(toolchain, name, path, [], failed)
+        except BuildError:
+            raise
+        except UserError as e:
+            raise BuildError(f"build {spec!r}: {e}") from None
+        module = import_module(name, path)
+        if module is None:
+            raise BuildError(f"build {spec!r}: compiled, but its module {path} does not import")
+    return module
+
+
+def use_build(spec: str) -> None:
+    """Make this process's built-in kernels, and the kernel files it loads from now on, build ``spec``'s.
+
+    Call it before loading kernel files: a file loaded before keeps the build it was compiled with."""
+    use_module(load_build(spec))
+    set_current(toolchain_of(spec))
+
+
+def build_record(spec: str) -> dict:
+    """What a run records of a build: the spec, the compiler's first ``--version`` line, the exact
+    compile flags, and the sha256 of the compiled module."""
+    module, toolchain = load_build(spec), toolchain_of(spec)
+    with open(module.__file__ or "", "rb") as f:
+        sha = hashlib.file_digest(f, "sha256").hexdigest()
+    info = module.build_info()
+    return {
+        "spec": spec,
+        "compiler": (toolchain.version.splitlines() or [info["compiler"]])[0],
+        "flags": shlex.join(toolchain.flags) if spec != INSTALLED else info["flags"],
+        "fast_math": bool(info["fast_math"]),
+        "module_sha256": sha,
+    }

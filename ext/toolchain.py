@@ -1,0 +1,149 @@
+"""Compiling the extension's C files into a module of its own: for a kernel file, or for a build.
+
+A :class:`Toolchain` is a compiler, its compile flags and its link command.
+:func:`installed` is the one pip used (``sysconfig``'s compiler, the flags
+the installed module recorded); a build of ``--builds`` has its own
+(:mod:`~tribench.ext.builds`). :func:`compile_module` compiles every C file
+of the extension (in parallel) and links them into one module, atomically;
+:func:`import_module` imports such a module, and removes a damaged one so
+it is compiled again. The toolchain that compiles kernel files is the
+process's :func:`current` one: the installed build's, or the build a worker
+runs (:func:`tribench.ext.use_build`).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib.machinery
+import importlib.util
+import os
+import shlex
+import shutil
+import subprocess
+import sysconfig
+import tempfile
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+from tribench.common import UserError
+
+from .registry import build_info
+
+__all__ = ["EXT", "SOURCES", "Toolchain", "compile_module", "current", "import_module", "installed", "set_current"]
+
+EXT = Path(__file__).resolve().parent
+#: The extension's C files (setup.py's SOURCES) and every header they include.
+SOURCES = tuple(sorted(EXT.glob("*.c")))
+_HEADERS = tuple(sorted([*EXT.glob("*.h"), *(EXT / "kernels").glob("*.h")]))
+
+
+@dataclass(frozen=True)
+class Toolchain:
+    """A compiler (its command), the flags every C file is compiled with, and the link command."""
+
+    cc: tuple[str, ...]
+    flags: tuple[str, ...]
+    link: tuple[str, ...]
+
+    @functools.cached_property
+    def version(self) -> str:
+        """The compiler's ``--version``, whole ("" if it does not run)."""
+        try:
+            return subprocess.run([*self.cc, "--version"], capture_output=True, text=True, timeout=60).stdout
+        except (OSError, subprocess.SubprocessError):
+            return ""
+
+    @functools.cached_property
+    def key(self) -> str:
+        """The hash of everything a module compiled by this toolchain depends on but the kernel file:
+        the extension's sources and headers, the compiler, its version, the flags and the link."""
+        h = hashlib.sha256()
+        for f in (*SOURCES, *_HEADERS):
+            h.update(f.name.encode() + b"\0" + f.read_bytes())
+        h.update(repr((self.cc, self.flags, self.link, self.version, sysconfig.get_config_var("EXT_SUFFIX"))).encode())
+        return h.hexdigest()
+
+
+@functools.cache
+def installed() -> Toolchain:
+    """The installed extension's toolchain: ``sysconfig``'s compiler and link, the module's recorded flags."""
+    flags = shlex.split(build_info()["flags"]) + shlex.split(sysconfig.get_config_var("CCSHARED") or "-fPIC")
+    link = shlex.split(sysconfig.get_config_var("LDSHARED") or "cc -shared")
+    link += [f for f in flags if f.startswith("-fsanitize")]  # a sanitized build links its runtime
+    return Toolchain(tuple(shlex.split(sysconfig.get_config_var("CC") or "cc")), tuple(flags), tuple(link))
+
+
+_CURRENT: list[Toolchain] = []
+
+
+def current() -> Toolchain:
+    """The toolchain kernel files are compiled with in this process: the installed one, or the build's in use."""
+    return _CURRENT[-1] if _CURRENT else installed()
+
+
+def set_current(toolchain: Toolchain) -> None:
+    _CURRENT[:] = [toolchain]
+
+
+def compile_module(
+    toolchain: Toolchain,
+    name: str,
+    module_path: Path,
+    defines: list[str],
+    failed: Callable[[subprocess.CompletedProcess], UserError],
+) -> None:
+    """Compile every C file of the extension with ``defines`` and link them into ``module_path`` (atomically).
+
+    ``failed(result)`` makes the error raised for the first translation unit that does not compile."""
+    defines = [
+        *defines,
+        f"-DTB_MODULE_NAME={name}",
+        "-DTB_BUILD_FLAGS=" + '"' + shlex.join(toolchain.flags).replace('"', "'") + '"',
+    ]
+    includes = [f"-I{EXT}", f"-I{sysconfig.get_paths()['include']}"]
+    module_path.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=module_path.parent) as tmp:
+        objects = [Path(tmp) / f"{c.stem}.o" for c in SOURCES]
+
+        def compile_one(c: Path, o: Path) -> subprocess.CompletedProcess:
+            return run([*toolchain.cc, *toolchain.flags, *defines, *includes, "-c", str(c), "-o", str(o)])
+
+        with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+            done = list(pool.map(compile_one, SOURCES, objects))
+        first = next((r for r in done if r.returncode), None)
+        if first is not None:
+            raise failed(first)
+        linked = run([*toolchain.link, *map(str, objects), "-o", str(Path(tmp) / module_path.name)])
+        if linked.returncode:
+            raise UserError(f"{name} does not link ({shlex.join(toolchain.link)}):\n{linked.stderr.strip()}")
+        os.replace(Path(tmp) / module_path.name, module_path)
+
+
+def run(argv: list[str]) -> subprocess.CompletedProcess:
+    """A compiler's run, its output captured; a missing compiler or a 10-minute compile is a UserError."""
+    try:
+        return subprocess.run(argv, capture_output=True, text=True, timeout=600)
+    except FileNotFoundError:
+        raise UserError(f"no compiler: {argv[0]} is not installed") from None
+    except subprocess.TimeoutExpired:
+        raise UserError(f"{argv[0]} took over 10 minutes on one file; stopped") from None
+
+
+def import_module(name: str, path: Path) -> ModuleType | None:
+    """The compiled module at ``path``, or None if it does not import (a damaged cache file: removed)."""
+    qualified = f"tribench.ext.{name}"
+    loader = importlib.machinery.ExtensionFileLoader(qualified, str(path))
+    spec = importlib.util.spec_from_file_location(qualified, path, loader=loader)
+    if spec is None:
+        return None
+    try:
+        module = importlib.util.module_from_spec(spec)
+        loader.exec_module(module)
+    except ImportError:
+        shutil.rmtree(path.parent, ignore_errors=True)
+        return None
+    return module
