@@ -98,8 +98,9 @@ def decide(
 
     ``done`` are the stages run so far (every batch of them in ``batches.csv``),
     ``seconds`` the sweep's wall time so far, ``last_stage_s`` the last stage's.
-    The next stage runs every comparison not yet narrow (:func:`tribench.stats.narrow_comparisons`
-    against :meth:`Sweep.reference_of` the baseline), with its workload's reference;
+    The next stage runs every comparison not yet narrow under every build
+    (:func:`tribench.stats.narrow_comparisons` against :meth:`Sweep.reference_of` the baseline),
+    with its workload's reference;
     it is not started when it would end past the budget (its time foreseen from the
     cost of each workload's kernels in the last stage), nor past ``sweep.processes``.
     """
@@ -112,7 +113,15 @@ def decide(
     references = {wid: sweep.reference_of(sweep.spec_of(wid), BASELINE) for wid in sweep.workload_ids}
     if done:
         batches = runfolder.read_batches(run_dir)
-        narrow = stats.narrow_comparisons(stats.per_process(batches), references, design.target)
+        # narrow under every build: each build's interval is its own processes' (they take the builds in turn)
+        narrow = set.intersection(
+            *(
+                stats.narrow_comparisons(
+                    stats.per_process(batches.loc[batches["build"] == b]), references, design.target
+                )
+                for b in sweep.build_names
+            )
+        )
         open_: dict[str, list[str]] = {}
         for wid, kernels in candidates.items():
             wanted = [k for k in kernels if k != references[wid] and (wid, k) not in narrow]

@@ -20,7 +20,9 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from collections.abc import Sequence
+from typing import TextIO
 
 import numpy as np
 
@@ -88,7 +90,7 @@ def _in_a_process(argv: list[str], what: str) -> dict[str, list[str]]:
     return json.loads(done.stdout)
 
 
-def check_builds(sweep) -> dict[str, dict[str, list[str]]]:
+def check_builds(sweep, log: TextIO | None = None) -> dict[str, dict[str, list[str]]]:
     """Every kernel of ``sweep`` checked again under each of its builds but the installed one
     (:func:`check_kernel`, in a process per build): build -> kernel -> what it gets wrong.
 
@@ -99,9 +101,17 @@ def check_builds(sweep) -> dict[str, dict[str, list[str]]]:
     for build in sweep.build_names:
         if build == ext.INSTALLED:
             continue
+        t0 = time.monotonic()
         ext.load_build(build)  # compiled here, so a compile error is one message (and the check's process imports it)
         argv = ["--build", build, *(a for f in sweep.kernel_files for a in ("--kernel-file", f)), *sweep.kernels]
         checked[build] = _in_a_process(argv, f"the kernels of build {build!r}")
+        wrong = sum(1 for problems in checked[build].values() if problems)
+        verdict = f"{wrong} broke a promise (shown in the report)" if wrong else "all right"
+        print(
+            f"build {build}: compiled (or cached) and its {len(checked[build])} kernels checked again in "
+            f"{time.monotonic() - t0:.0f} s: {verdict}",
+            file=sys.stderr if log is None else log,
+        )
     return checked
 
 
