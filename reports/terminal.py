@@ -19,7 +19,12 @@ def format_run(data: RunData, width: int = 24) -> str:
     sweep = data.run["sweep"]
     lines = [
         f"run {data.run.get('run_id', data.run_dir.name)}: {len(data.kernels)} kernels x "
-        f"{len(data.workload_ids)} workloads, {data.n_processes} processes x {sweep.get('rounds')} rounds",
+        f"{len(data.workload_ids)} workloads, {data.n_processes} processes x {sweep.get('rounds')} rounds"
+        + (
+            f"; build {data.build} ({len(data.builds)} builds: the report's Across builds compares them)"
+            if len(data.builds) > 1
+            else ""
+        ),
         f"ns/test: mean over processes, 95% CI; speedup = time_{data.baseline} / time_kernel, "
         f"simultaneous 95% CI; margin ±{100 * data.margin:.2g}%",
     ]
