@@ -205,8 +205,8 @@ def _sweep_from_args(args: argparse.Namespace):
         DEFAULT_TARGET_MS,
         DEFAULT_WARMUP,
         Sweep,
-        load_sweep_file,
     )
+    from tribench.harness.sweep_file import load_sweep_file
 
     design = {k: getattr(args, k) for k in DESIGN_FLAGS}
     if args.file:

@@ -19,39 +19,12 @@ Order inside one process (the replicate):
 Every random choice comes from :func:`process_seed`, derived from the sweep
 seed and the process index only, so the plan is reproducible.
 
-Sweep files are TOML (read with :mod:`tomllib`)::
-
-    kernels = ["moller_trumbore", "curless"]
-    processes = 10
-    rounds = 5
-    warmup = 1
-    target_ms = 2.0
-    seed = 1
-    kernel_files = ["my_kernel.c"]   # optional: kernels of your own (docs/own-kernel.md),
-                                     # paths relative to this file
-    builds = ["gcc -O2", "clang -O3"]  # optional: compilers and flags (docs/builds.md);
-                                       # the processes take them in turn
-
-    [[workloads]]            # lists expand to every combination
-    kind = "pairs"
-    n = 10000
-    hit_rate = [0.1, 0.5, 0.9]
-    dtype = ["float32", "float64"]
-
-    [[workloads]]
-    kind = "mesh"
-    mesh = "suzanne"
-    triangles = [100, 968]
-    width = 64
-    height = 64
+Sweep files (TOML) are read by :mod:`tribench.harness.sweep_file`.
 """
 
 from __future__ import annotations
 
-import itertools
-import math
 import os
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -59,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from tribench.common import UserError, read_user_text
+from tribench.common import UserError
 from tribench.harness.margin import AA_TWINS
 from tribench.workloads.kinds import spec_from_dict
 from tribench.workloads.spec import MeshSpec, Spec, file_sha256, workload_id
@@ -71,9 +44,7 @@ __all__ = [
     "Sweep",
     "default_sweep",
     "main_job_kernels",
-    "expand_workloads",
     "is_bvh",
-    "load_sweep_file",
     "plan",
     "process_seed",
 ]
@@ -584,84 +555,3 @@ def plan(sweep: Sweep) -> list[BatchKey]:
                 order = rng.permutation(len(kernels))
                 keys += [BatchKey(p, wid, r, pos, kernels[k]) for pos, k in enumerate(order)]
     return keys
-
-
-def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
-    """One spec per combination of the list-valued fields of a workload table.
-
-    >>> specs = expand_workloads({"kind": "pairs", "n": 10, "hit_rate": [0.1, 0.9],
-    ...                           "dtype": ["float32", "float64"]})
-    >>> [(s.hit_rate, s.dtype) for s in specs]
-    [(0.1, 'float32'), (0.1, 'float64'), (0.9, 'float32'), (0.9, 'float64')]
-    """
-    # miss_mix may legitimately be a table; only lists are grid axes.
-    axes = {k: v for k, v in table.items() if isinstance(v, list)}
-    fixed = {k: v for k, v in table.items() if k not in axes}
-    if any(len(v) == 0 for v in axes.values()):
-        raise UserError("an empty list in a workload table gives no workloads")
-    check_workload_count(math.prod(len(v) for v in axes.values()))  # before building the grid
-    return [
-        spec_from_dict({**fixed, **dict(zip(axes, combo, strict=True))}) for combo in itertools.product(*axes.values())
-    ]
-
-
-_TOP_LEVEL = ("kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed", "kernel_files", "builds")
-
-
-def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Sweep:
-    """Read a TOML sweep file (see the module docstring).
-
-    ``overrides`` (e.g. from command-line flags) replace the file's top-level
-    values (``kernel_files`` join the file's); ``None`` values are ignored. Every mistake in the file is a
-    :class:`~tribench.common.UserError` naming the file and the key
-    (``sweep.toml: workloads[2]: hit_rate must be in [0, 1], got 2.0``).
-    """
-    path = Path(path)
-    text = read_user_text(path, "sweep file")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"{path}: not valid TOML ({exc})") from None
-    except RecursionError:
-        raise UserError(f"{path}: not a sweep file (values nested too deeply to read)") from None
-    unknown = sorted(set(data) - set(_TOP_LEVEL))
-    if unknown:
-        raise UserError(f"{path}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(sorted(_TOP_LEVEL))}")
-    files = data.get("kernel_files", [])
-    if isinstance(files, list) and all(isinstance(f, str) for f in files):  # relative to the sweep file
-        data["kernel_files"] = [str(path.parent / Path(f).expanduser()) for f in files]
-    given = {k: v for k, v in (overrides or {}).items() if v is not None}
-    if "kernel_files" in given and isinstance(data.get("kernel_files", []), list):  # the flags' join the file's
-        given["kernel_files"] = [*data.get("kernel_files", []), *given["kernel_files"]]
-    data.update(given)
-    if "kernels" not in data or "workloads" not in data:
-        raise UserError(f"{path}: a sweep file needs 'kernels' and at least one [[workloads]] table")
-    kernels = data["kernels"]
-    if not isinstance(kernels, (list, tuple)) or not all(isinstance(k, str) for k in kernels):
-        raise UserError(
-            f'{path}: kernels: expected a list of kernel names (kernels = ["moller_trumbore"]), got {kernels!r:.80}'
-        )
-    tables = _as_tables(data.pop("workloads"), path)
-    try:  # the grid's size, before any of it is built
-        check_workload_count(sum(math.prod(len(v) for v in t.values() if isinstance(v, list)) for t in tables))
-    except UserError as exc:
-        raise UserError(f"{path}: {exc}") from None
-    workloads: list[Spec] = []
-    for i, table in enumerate(tables):
-        try:
-            workloads += expand_workloads(table)
-        except UserError as exc:
-            raise UserError(f"{path}: workloads[{i}]: {exc}") from None
-    try:
-        return Sweep(workloads=tuple(workloads), **{k: data[k] for k in data if k != "workloads"})
-    except UserError as exc:
-        where = f"{path} with the command-line flags" if given else str(path)
-        raise UserError(f"{where}: {exc}") from None
-
-
-def _as_tables(value: Any, path: Path) -> Sequence[Mapping[str, Any]]:
-    if isinstance(value, Mapping):
-        return [value]
-    if not isinstance(value, list) or not all(isinstance(t, Mapping) for t in value):
-        raise UserError(f"{path}: workloads: expected a list of tables ([[workloads]]), got {value!r:.80}")
-    return value

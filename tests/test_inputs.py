@@ -16,7 +16,8 @@ import tracemalloc
 import pytest
 
 from tribench.common import UserError
-from tribench.harness.plan import MAX_BATCHES, MAX_PROCESSES, Sweep, default_sweep, load_sweep_file
+from tribench.harness.plan import MAX_BATCHES, MAX_PROCESSES, Sweep, default_sweep
+from tribench.harness.sweep_file import load_sweep_file
 from tribench.studies import calibrate as calibration
 from tribench.studies.calibrate import MAX_MARGIN, Margin, latest_margin, user_calibration_path
 from tribench.workloads.spec import PairSpec

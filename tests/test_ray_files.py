@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from tribench.common import UserError
-from tribench.harness.plan import load_sweep_file
+from tribench.harness.sweep_file import load_sweep_file
 from tribench.workloads import cache, mesh_files, ray_files
 from tribench.workloads.kinds import spec_from_dict
 from tribench.workloads.reference import intersect_closest

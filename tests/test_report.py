@@ -146,7 +146,8 @@ def test_tables_carry_units_and_escaped_text(rendered):
 
 
 def test_reproduce_section_gives_a_sweep_file_that_reads_back(rendered, tmp_path):
-    from tribench.harness.plan import Sweep, load_sweep_file
+    from tribench.harness.plan import Sweep
+    from tribench.harness.sweep_file import load_sweep_file
 
     run_dir, _, text = rendered
     assert "tribench sweep --file sweep.toml" in text
