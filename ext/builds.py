@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import os
 import shlex
 import shutil
 import subprocess
@@ -73,12 +74,29 @@ def check_builds(specs: object) -> tuple[str, ...]:
         bad = [w for w in words[1:] if not w.startswith("-")]
         if bad and words != [INSTALLED]:
             raise BuildError(f"build {spec!r:.80}: {bad[0]!r} is not a flag (each spec is one compiler and its flags)")
+        taken = next((w for w in words[1:] if _tribench_sets(w)), None)
+        if taken is not None:
+            raise BuildError(f"build {spec!r:.80}: {taken} {_tribench_sets(taken)}")
         out.append(shlex.join(words))
     if len(set(out)) != len(out):
         raise BuildError(f"a build is listed twice: {'; '.join(out)}")
     if len(out) > MAX_BUILDS:
         raise BuildError(f"{len(out)} builds; at most {MAX_BUILDS} (each compiles the whole extension)")
     return tuple(out)
+
+
+def _tribench_sets(flag: str) -> str:
+    """Why tribench refuses ``flag`` in a build spec ("" if it does not)."""
+    if flag in ("-E", "-S", "-c", "-shared", "-static") or flag.startswith(("-o", "-M")):
+        return "sets what the compiler writes: tribench compiles and links the module itself"
+    if flag.startswith(("-DTB_", "-UTB_")):
+        return "sets one of tribench's own macros (TB_*)"
+    if flag.startswith("-fsanitize"):
+        return (
+            "needs the sanitizer's runtime loaded before Python starts: build the installed extension "
+            "with TRIBENCH_SANITIZE=1 instead (setup.py)"
+        )
+    return ""
 
 
 def toolchain_of(spec: str) -> Toolchain:
@@ -88,8 +106,20 @@ def toolchain_of(spec: str) -> Toolchain:
     cc, *flags = shlex.split(spec)
     if shutil.which(cc) is None:
         raise BuildError(f"build {spec!r}: no compiler {cc!r} on this machine (install it, or give its path)")
+    if not _is_a_c_compiler(cc):
+        raise BuildError(f"build {spec!r}: {cc} is not a C compiler (it does not compile C to a predefined __STDC__)")
     shared = shlex.split(sysconfig.get_config_var("CCSHARED") or "-fPIC")
     return Toolchain((cc,), (*_REQUIRED, *shared, *flags), (cc, "-shared", *flags))
+
+
+@functools.cache
+def _is_a_c_compiler(cc: str) -> bool:
+    """Whether ``cc`` preprocesses C as a C compiler does (``cc -E -dM -x c /dev/null`` defines ``__STDC__``)."""
+    try:
+        done = subprocess.run([cc, "-E", "-dM", "-x", "c", os.devnull], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.SubprocessError):
+        return False
+    return done.returncode == 0 and "#define __STDC__ " in done.stdout
 
 
 @functools.cache

@@ -118,8 +118,9 @@ def compile_module(
         if first is not None:
             raise failed(first)
         linked = run([*toolchain.link, *map(str, objects), "-o", str(Path(tmp) / module_path.name)])
-        if linked.returncode:
-            raise UserError(f"{name} does not link ({shlex.join(toolchain.link)}):\n{linked.stderr.strip()}")
+        if linked.returncode or not (Path(tmp) / module_path.name).is_file():
+            said = linked.stderr.strip() or "it wrote no module"
+            raise UserError(f"does not link ({shlex.join(toolchain.link)}):\n{said}")
         os.replace(Path(tmp) / module_path.name, module_path)
 
 

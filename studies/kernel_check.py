@@ -83,6 +83,8 @@ def _in_a_process(argv: list[str], what: str) -> dict[str, list[str]]:
     done = subprocess.run(
         [sys.executable, "-m", "tribench.studies.kernel_check", *argv], capture_output=True, text=True
     )
+    if done.returncode == 2:  # a UserError there (a kernel file that does not compile under a build): its message
+        raise KernelRefused(done.stderr.strip())
     if done.returncode != 0:
         how = signal.Signals(-done.returncode).name if done.returncode < 0 else f"exit code {done.returncode}"
         last = (done.stderr.strip().splitlines() or [""])[-1]
@@ -219,9 +221,13 @@ def _main(argv: list[str]) -> None:
     parser.add_argument("--kernel-file", action="append", default=[])
     parser.add_argument("kernels", nargs="*")
     args = parser.parse_args(argv)
-    if args.build:
-        ext.use_build(args.build)
-    declared = [k for f in args.kernel_file for k in ext.load_kernels(f)]
+    try:
+        if args.build:
+            ext.use_build(args.build)
+        declared = [k for f in args.kernel_file for k in ext.load_kernels(f)]
+    except UserError as e:
+        print(f"build {args.build}: {e}" if args.build else str(e), file=sys.stderr)
+        sys.exit(2)
     print(json.dumps({k: check_kernel(k) for k in args.kernels or declared}))
 
 

@@ -44,6 +44,10 @@ def tribench(*args, cwd, cache):
         ("gcc -O2;gcc  -O2", "listed twice"),
         (";".join(f"gcc -O{i % 4} -g{i}" for i in range(9)), "at most 8"),
         ("gcc '-O2", "No closing quotation"),
+        ("gcc -O2 -E", "sets what the compiler writes"),
+        ("gcc -O2 -o/tmp/x", "sets what the compiler writes"),
+        ("gcc -DTB_KERNEL_FILE=x", "tribench's own macros"),
+        ("gcc -fsanitize=address", "TRIBENCH_SANITIZE=1"),
     ],
 )
 def test_a_bad_build_spec_is_refused_in_one_line(text, said):
@@ -73,6 +77,7 @@ def test_processes_take_the_builds_in_turn_and_two_of_each_are_needed():
     [
         ("nocc -O2", "no compiler 'nocc'"),
         ("gcc -O2 -fno-such-flag", "does not compile"),
+        (f"{sys.executable} -O2", "is not a C compiler"),
     ],
 )
 def test_a_build_that_cannot_be_made_stops_the_sweep_with_exit_2_and_nothing_made(tmp_path, cache, builds, said):
