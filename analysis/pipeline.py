@@ -7,7 +7,12 @@ table the report reads (:data:`tribench.harness.runfolder.DERIVED`), the
 workload pictures and ``analysis.json``, so the report computes nothing.
 All statistics come from :mod:`tribench.stats`.
 
-``estimates.csv``: the fields of :func:`~tribench.stats.estimate_table`
+Each table made from the batches starts with a ``build`` column
+(:data:`~tribench.harness.runfolder.BY_BUILD`): a run of several builds
+(``--builds``) is analysed build by build, each from its own processes
+(:func:`estimate_builds`), and ``builds.csv`` compares them.
+
+``estimates.csv``: after ``build``, the fields of :func:`~tribench.stats.estimate_table`
 renamed by :data:`ESTIMATE_COLUMNS` so each name carries its unit
 (``kernel, workload_id, ns_per_test, ns_per_test_ci_low, ns_per_test_ci_high,
 ns_per_test_bootstrap_low, ns_per_test_bootstrap_high, ns_per_test_min,
@@ -21,7 +26,7 @@ own clock of that moment, a machine-normalised figure steadier than raw time;
 then the old, secondary ``bound_8lane_ns_per_test, peak_fraction_8lane``
 (every operation at the 8-lane FMA peak) (:mod:`tribench.harness.peak`).
 
-``speedups.csv``: the columns of :func:`~tribench.stats.speedup_table`
+``speedups.csv``: after ``build``, the columns of :func:`~tribench.stats.speedup_table`
 renamed by :data:`SPEEDUP_COLUMNS` (``workload_id, kernel, baseline, ratio,
 ratio_ci_low, ratio_ci_high, p_value, p_holm, n_processes, confidence,
 margin, verdict``), then ``workload`` and ``margin_source``.
