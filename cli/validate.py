@@ -48,9 +48,11 @@ def run(args: argparse.Namespace) -> int:
     from tribench import ext
     from tribench.harness.runfolder import write_csv
     from tribench.studies import validate
+    from tribench.studies.kernel_check import refuse_crashing
 
-    for path in args.kernel_files or ():  # not checked first: this is the check, and it shows what fails
+    for path in args.kernel_files or ():  # what fails is this command's table; only a crash is refused first
         ext.load_kernels(path)
+        refuse_crashing(path)
     # each --kernels/--dtype word may itself be a comma list
     kernels = [k for words in args.kernels for k in words] if args.kernels else None
     dtypes = [d for words in args.dtype for d in words] if args.dtype else validate.DTYPES

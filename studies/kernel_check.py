@@ -32,7 +32,7 @@ from tribench.workloads import reference
 
 from . import validate
 
-__all__ = ["MARGIN", "KernelRefused", "check_builds", "check_kernel", "load_checked"]
+__all__ = ["MARGIN", "KernelRefused", "check_builds", "check_kernel", "load_checked", "refuse_crashing"]
 
 #: How far (barycentric) from every edge a checked crossing lies, and how far along the ray.
 MARGIN = 1e-3
@@ -71,6 +71,13 @@ def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
                 )
             _PASSED.add((kernel, ext.kernel_file_of(kernel)))
     return tuple(names)
+
+
+def refuse_crashing(path: str | os.PathLike) -> None:
+    """Run the reference check of a kernel file's kernels in a process of its own, and refuse the file
+    (:class:`KernelRefused`, one line) only if they crash it: what ``tribench validate`` needs before
+    running them in its own process, where their wrong answers are the measurement."""
+    _checked_elsewhere(path)
 
 
 def _checked_elsewhere(path: str | os.PathLike) -> dict[str, list[str]]:

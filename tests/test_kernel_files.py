@@ -142,6 +142,10 @@ def test_a_kernel_that_crashes_is_refused_in_one_line(tmp_path, builds):
         f"tribench sweep: error: {crashy}: its kernels crashed the reference check (SIGSEGV)"
     ]
     assert not (tmp_path / "run").exists()
+    # validate runs kernels in its own process: a crashing one is refused first, the same way
+    done = tribench("validate", "--kernel-file", crashy, "--quick", "--out", "v.csv", cwd=tmp_path, cache=builds)
+    assert done.returncode == 2 and "crashed the reference check (SIGSEGV)" in done.stderr, done.stderr
+    assert "Traceback" not in done.stderr and not (tmp_path / "v.csv").exists()
 
 
 @pytest.mark.slow
