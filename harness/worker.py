@@ -466,6 +466,12 @@ def _pass_notices(shown):
     return show
 
 
+def _os_error(exc: OSError) -> str:
+    """An operating-system error of a worker as one line: what failed, on which file."""
+    where = f" on {exc.filename}" if exc.filename else ""
+    return f"a worker could not go on: {exc.strerror or type(exc).__name__}{where}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``python -m tribench.harness.worker``: job on stdin, JSON lines out."""
     warnings.showwarning = _pass_notices(warnings.showwarning)
@@ -480,8 +486,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130  # Ctrl-C reaches the whole process group; the parent reports it
     except BrokenPipeError:
         return 141  # the parent is gone: nothing to report to
-    except (KernelCheckError, ValueError, FileNotFoundError, ext.KernelFileError, ext.BuildError) as exc:
-        sys.stdout.write(json.dumps({"type": "error", "message": str(exc)}) + "\n")
+    except (KernelCheckError, ValueError, OSError) as exc:  # a UserError is a ValueError; OSError: a cache file
+        message = str(exc) if not isinstance(exc, OSError) or isinstance(exc, FileNotFoundError) else _os_error(exc)
+        sys.stdout.write(json.dumps({"type": "error", "message": message}) + "\n")
         sys.stdout.flush()
         return 3
     return 0

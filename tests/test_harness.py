@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
+import io
+import json
 import math
 import shutil
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -348,3 +351,21 @@ def test_latest_margin_uses_a_calibration_of_this_cpu_only(tmp_path):
 def test_batch_key_warmup_flag():
     assert BatchKey(0, "w", -1, 0, "k").warmup and not BatchKey(0, "w", 0, 0, "k").warmup
     assert workload_id(PairSpec(n=5)) in {k.workload_id for k in plan(small_sweep(workloads=(PairSpec(n=5),)))}
+
+
+def test_a_worker_that_meets_an_os_error_reports_one_line_not_a_traceback(monkeypatch, capsys):
+    """A cache file the worker cannot read (a folder in its place, no permission) ends the worker with
+    one message the runner shows, naming the file."""
+    job = worker.WorkerJob("r", 0, 0, 1, None, 1.0, (), {})
+
+    def refuse(*_):
+        raise PermissionError(13, "Permission denied", "/cache/bvh/x.npz")
+
+    monkeypatch.setattr(worker, "run_job", refuse)
+    monkeypatch.setattr(sys, "stdin", io.StringIO(job.to_json()))
+    assert worker.main() == 3
+    (line,) = capsys.readouterr().out.splitlines()
+    assert json.loads(line) == {
+        "type": "error",
+        "message": "a worker could not go on: Permission denied on /cache/bvh/x.npz",
+    }
