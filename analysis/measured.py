@@ -18,8 +18,8 @@ from typing import Any
 
 import pandas as pd
 
-from tribench.ext.builds import INSTALLED
 from tribench.harness import runfolder
+from tribench.harness.plan import recorded_builds, rows_of_build
 
 __all__ = ["Measured", "file_digest", "load"]
 
@@ -74,17 +74,16 @@ class Measured:
     @property
     def builds(self) -> list[str]:
         """The builds of the run's processes, in turn (``--builds``; else the installed build alone)."""
-        return list(self.run["sweep"].get("builds") or [INSTALLED])
+        return recorded_builds(self.run["sweep"])
 
     def of_build(self, build: str) -> Measured:
         """The run as its processes of ``build`` measured it (the processes take the builds in turn)."""
-        i, n = self.builds.index(build), len(self.builds)
-
-        def mine(frame: pd.DataFrame) -> pd.DataFrame:
-            return frame.loc[frame["process"] % n == i].reset_index(drop=True)
-
+        b = self.builds
         return replace(
-            self, batches=mine(self.batches), processes=mine(self.processes), traversals=mine(self.traversals)
+            self,
+            batches=rows_of_build(self.batches, b, build),
+            processes=rows_of_build(self.processes, b, build),
+            traversals=rows_of_build(self.traversals, b, build),
         )
 
 

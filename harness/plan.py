@@ -346,7 +346,7 @@ class Sweep:
         return self.builds or (INSTALLED,)
 
     def build_of(self, process: int) -> str:
-        """The build process ``process`` runs: the builds in turn."""
+        """The build process ``process`` runs: the builds in turn (:func:`rows_of_build` selects by it)."""
         return self.build_names[process % len(self.build_names)]
 
     @property
@@ -518,6 +518,21 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds:
         kernel_files=tuple(kernel_files),
         builds=tuple(builds),
     )
+
+
+def recorded_builds(sweep: Mapping[str, Any]) -> list[str]:
+    """The builds a run's processes took in turn, from its recorded sweep (``run.json``'s ``sweep``),
+    without making the :class:`Sweep` (which would compile its kernel files)."""
+    from tribench.ext import INSTALLED
+
+    return list(sweep.get("builds") or [INSTALLED])
+
+
+def rows_of_build(frame: Any, builds: Sequence[str], build: str) -> Any:
+    """The rows of a per-process table (a ``process`` column) measured by ``build``'s processes:
+    process ``p`` runs ``builds[p % len(builds)]`` (:meth:`Sweep.build_of`)."""
+    mine = frame["process"] % len(builds) == list(builds).index(build)
+    return frame.loc[mine].reset_index(drop=True)
 
 
 def process_seed(seed: int, process: int) -> int:

@@ -26,7 +26,9 @@ import pandas as pd
 from tribench.analysis.margin import TWINS
 from tribench.analysis.workload_tables import compared
 from tribench.common import UserError
+from tribench.ext.builds import INSTALLED
 from tribench.harness import runfolder
+from tribench.harness.plan import recorded_builds, rows_of_build
 from tribench.workloads.labels import family_of, short_label, spec_text
 
 __all__ = [
@@ -70,14 +72,14 @@ class RunData:
     #: ``analysis.json``: what the tables were made from
     record: dict[str, Any] = field(default_factory=dict)
     #: the build this view shows (a run of several builds is read one build at a time: ``load_run(build=)``)
-    build: str = "installed"
+    build: str = INSTALLED
     #: the tables of :data:`~tribench.harness.runfolder.BY_BUILD` as their files have them, every build's rows
     every_build: dict[str, pd.DataFrame] = field(default_factory=dict)
 
     @property
     def builds(self) -> list[str]:
         """The run's builds, in the order its processes take them (one: the installed build)."""
-        return list(self.run["sweep"].get("builds") or ["installed"])
+        return recorded_builds(self.run["sweep"])
 
     @property
     def kernels(self) -> list[str]:
@@ -175,15 +177,11 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
         raise RunError(str(exc)) from None
     if batches.loc[~batches["warmup"]].empty:
         raise RunError(f"{run_dir} has no timed batches yet")
-    builds = list(run["sweep"].get("builds") or ["installed"])
+    builds = recorded_builds(run["sweep"])
     build = builds[0] if build is None else build
     if build not in builds:
         raise RunError(f"{run_dir} has no build {build!r}; its builds: {'; '.join(builds)}")
-    if len(builds) > 1:
-        i = builds.index(build)
-        batches, processes = (
-            f.loc[f["process"] % len(builds) == i].reset_index(drop=True) for f in (batches, processes)
-        )
+    batches, processes = (rows_of_build(f, builds, build) for f in (batches, processes))
 
     record = _read_record(run_dir)
     if record.get("batches_sha256") != analysis.file_digest(run_dir / runfolder.BATCHES):

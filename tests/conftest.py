@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -12,6 +17,18 @@ from tribench.workloads import reference
 # seed's epsilons cannot flip an answer.
 MARGIN = 0.05
 MIN_COS = 0.2
+
+
+#: The installed command, beside this interpreter.
+TRIBENCH = Path(sys.executable).parent / "tribench"
+
+
+def run_tribench(*args, cwd, cache, timeout: float = 1200) -> subprocess.CompletedProcess:
+    """The installed ``tribench ARGS`` in ``cwd``, with its own cache (``TRIBENCH_CACHE``), output captured."""
+    env = {**os.environ, "TRIBENCH_CACHE": str(cache)}
+    return subprocess.run(
+        [TRIBENCH, *map(str, args)], capture_output=True, text=True, timeout=timeout, cwd=cwd, env=env
+    )
 
 
 def safe_pairs(n: int, seed: int, hit_rate: float = 0.5):

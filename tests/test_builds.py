@@ -7,14 +7,13 @@ extension takes about half a minute on 2 cores, so they are slow tests: CI runs 
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
+from conftest import run_tribench as tribench
 
 from tribench import ext
 from tribench.harness.plan import Sweep
@@ -22,18 +21,12 @@ from tribench.workloads.spec import PairSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "kernels" / "my_moller.c"
-TRIBENCH = Path(sys.executable).parent / "tribench"  # the installed command
 
 
 @pytest.fixture(scope="module")
 def cache(tmp_path_factory):
     """One cache for the module's tests: each build compiles once."""
     return tmp_path_factory.mktemp("cache")
-
-
-def tribench(*args, cwd, cache):
-    env = {**os.environ, "TRIBENCH_CACHE": str(cache)}
-    return subprocess.run([TRIBENCH, *map(str, args)], capture_output=True, text=True, timeout=1200, cwd=cwd, env=env)
 
 
 @pytest.mark.parametrize(
@@ -88,35 +81,23 @@ def test_a_build_that_cannot_be_made_stops_the_sweep_with_exit_2_and_nothing_mad
     assert not out.exists()
 
 
+def small_sweep(out: Path, cache: Path, *flags) -> None:
+    """``tribench sweep FLAGS`` into ``out`` with a small design: 4 processes (2 per build) of 0.5 ms batches."""
+    design = ("--processes", 4, "--rounds", 1, "--target-ms", 0.5, "--no-progress")
+    done = tribench("sweep", *flags, *design, "--out", out, cwd=out.parent, cache=cache)
+    assert done.returncode == 0, done.stderr
+
+
 @pytest.mark.slow
 def test_a_sweep_of_two_builds_has_estimates_speedups_and_orders_per_build(tmp_path, cache):
     """The issue's own command, with a kernel file (compiled again under each build) and a fast-math build,
     whose broken promises are recorded and shown, while its processes still run."""
     builds = ["gcc -O2", "gcc -O3 -ffast-math"]
     out = tmp_path / "run"
-    done = tribench(
-        "sweep",
-        "--kernels",
-        "moller_seed,moller_trumbore,curless,my_moller",
-        "--kernel-file",
-        EXAMPLE,
-        "--pairs",
-        "2000",
-        "--builds",
-        ";".join(builds),
-        "--processes",
-        "4",
-        "--rounds",
-        "2",
-        "--target-ms",
-        "0.5",
-        "--out",
-        out,
-        "--no-progress",
-        cwd=tmp_path,
-        cache=cache,
+    kernels = "moller_seed,moller_trumbore,curless,my_moller"
+    small_sweep(
+        out, cache, "--kernels", kernels, "--kernel-file", EXAMPLE, "--pairs", 2000, "--builds", ";".join(builds)
     )
-    assert done.returncode == 0, done.stderr
     batches = pd.read_csv(out / "batches.csv")
     assert {p: set(g["build"]) for p, g in batches.groupby("process")} == {
         0: {builds[0]},
@@ -163,29 +144,10 @@ def test_a_clang_build_runs_and_its_broken_watertight_promise_is_recorded(tmp_pa
     """clang contracts a*b+c into an FMA by default (-ffp-contract=on) where the ISA has one: the wide
     Woop's edge functions are then no longer exact, and its watertight promise breaks (checked, recorded)."""
     out = tmp_path / "run"
-    done = tribench(
-        "sweep",
-        "--kernels",
-        "woop_x8,moller_trumbore_x8",
-        "--mesh",
-        "icosphere",
-        "--camera",
-        "16x16",
-        "--builds",
-        "installed;clang -O3",
-        "--processes",
-        "4",
-        "--rounds",
-        "1",
-        "--target-ms",
-        "0.5",
-        "--out",
-        out,
-        "--no-progress",
-        cwd=tmp_path,
-        cache=cache,
+    kernels = "woop_x8,moller_trumbore_x8"
+    small_sweep(
+        out, cache, "--kernels", kernels, "--mesh", "icosphere", "--camera", "16x16", "--builds", "installed;clang -O3"
     )
-    assert done.returncode == 0, done.stderr
     run = json.loads((out / "run.json").read_text())
     installed, clang = run["builds"]
     assert installed["check"] is None and "clang" in clang["compiler"]

@@ -14,21 +14,17 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import TRIBENCH
+from conftest import run_tribench as tribench
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "kernels" / "my_moller.c"
-TRIBENCH = Path(sys.executable).parent / "tribench"  # the installed command
 
 
 @pytest.fixture(scope="module")
 def builds(tmp_path_factory):
     """One cache for the module's tests: each distinct file compiles once (a few seconds)."""
     return tmp_path_factory.mktemp("cache")
-
-
-def tribench(*args, cwd, cache):
-    env = {**os.environ, "TRIBENCH_CACHE": str(cache)}
-    return subprocess.run([TRIBENCH, *map(str, args)], capture_output=True, text=True, timeout=600, cwd=cwd, env=env)
 
 
 def python(code: str, cache) -> subprocess.CompletedProcess:
