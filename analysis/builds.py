@@ -70,7 +70,8 @@ def builds_table(m: Any, parts: dict[str, Any], tables: dict[str, dict[str, pd.D
 
 def long_orders(orders: pd.DataFrame, tags: list[str], builds: list[str]) -> pd.DataFrame:
     """A comparison's orders (a column group per run tag) in long form: a row per pair and build."""
-    keys = ["workload_id", "family", "label", "kernel", "other_kernel"]
+    from .compare import _ORDER_KEYS as keys  # the pair's columns, as the comparison has them
+
     rows = []
     for r in orders.to_dict("records"):
         for tag, build in zip(tags, builds, strict=True):

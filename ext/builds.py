@@ -16,7 +16,6 @@ runs one build.
 from __future__ import annotations
 
 import functools
-import hashlib
 import os
 import shlex
 import shutil
@@ -28,7 +27,7 @@ import tribench.ext._core as _core  # `from . import _core` would read as import
 from tribench.common import UserError
 from tribench.common.location import cache_dir
 
-from .registry import use_module
+from .registry import file_sha256, use_module
 from .toolchain import Toolchain, compile_module, import_module, installed, set_current
 
 __all__ = ["INSTALLED", "BuildError", "build_record", "load_build", "parse_builds", "use_build"]
@@ -99,8 +98,11 @@ def _tribench_sets(flag: str) -> str:
     return ""
 
 
+@functools.cache
 def toolchain_of(spec: str) -> Toolchain:
-    """The compiler, flags and link command of a build spec (the installed one's for :data:`INSTALLED`)."""
+    """The compiler, flags and link command of a build spec (the installed one's for :data:`INSTALLED`).
+
+    One per spec and process, so its ``--version`` and its hash of the sources are made once."""
     if spec == INSTALLED:
         return installed()
     cc, *flags = shlex.split(spec)
@@ -164,13 +166,11 @@ def build_record(spec: str) -> dict:
     """What a run records of a build: the spec, the compiler's first ``--version`` line, the exact
     compile flags, and the sha256 of the compiled module."""
     module, toolchain = load_build(spec), toolchain_of(spec)
-    with open(module.__file__ or "", "rb") as f:
-        sha = hashlib.file_digest(f, "sha256").hexdigest()
     info = module.build_info()
     return {
         "spec": spec,
         "compiler": (toolchain.version.splitlines() or [info["compiler"]])[0],
         "flags": shlex.join(toolchain.flags) if spec != INSTALLED else info["flags"],
         "fast_math": bool(info["fast_math"]),
-        "module_sha256": sha,
+        "module_sha256": file_sha256(module.__file__ or ""),
     }

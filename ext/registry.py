@@ -210,11 +210,12 @@ def build_info() -> dict:
 def extension_sha256() -> str:
     """The sha256 of the compiled extension's file: which build of the C code
     this is (any change to a kernel, its records or the BVH build changes it)."""
-    return _file_sha256(_core.__file__)
+    return file_sha256(_core.__file__)
 
 
 @functools.cache
-def _file_sha256(path: str) -> str:
+def file_sha256(path: str) -> str:
+    """The sha256 of a compiled module's file (read once per process)."""
     with open(path, "rb") as f:
         return hashlib.file_digest(f, "sha256").hexdigest()
 

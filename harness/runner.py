@@ -304,9 +304,9 @@ def start(
     machine = machine_record()
     margin = margin if margin is not None else latest_margin(machine["cpu_model"])
     keys = plan(sweep)
+    checks = build_checks or {}
     builds = [  # each compiled here, once, before the run folder exists: the workers find it in the cache
-        {**ext.build_record(b), "check": dict((build_checks or {})[b]) if b in (build_checks or {}) else None}
-        for b in sweep.build_names
+        {**ext.build_record(b), "check": dict(checks[b]) if b in checks else None} for b in sweep.build_names
     ]
     try:
         run_dir.mkdir(parents=True, exist_ok=True)

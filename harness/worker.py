@@ -487,7 +487,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:
         return 141  # the parent is gone: nothing to report to
     except (KernelCheckError, ValueError, OSError) as exc:  # a UserError is a ValueError; OSError: a cache file
-        message = str(exc) if not isinstance(exc, OSError) or isinstance(exc, FileNotFoundError) else _os_error(exc)
+        message = str(exc)
+        if isinstance(exc, OSError) and not isinstance(exc, FileNotFoundError):  # a missing file's message names it
+            message = _os_error(exc)
         sys.stdout.write(json.dumps({"type": "error", "message": message}) + "\n")
         sys.stdout.flush()
         return 3
