@@ -30,23 +30,21 @@ import json
 import math
 import os
 import secrets
-import subprocess
 import sys
-import tempfile
 import time
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
 from tribench import ext
-from tribench.common import Notice, UserError
+from tribench.common import UserError
 from tribench.harness import runfolder
 from tribench.harness.plan import BatchKey, Sweep, plan, process_seed
 from tribench.workloads import mesh_files
 from tribench.workloads.spec import MeshSpec
 
+from .protocol import WorkerError, run_worker
 from .runfolder import (
     BATCH_COLUMNS,
     CHECK_COLUMNS,
@@ -72,7 +70,6 @@ __all__ = [
     "progress_seconds",
     "resume",
     "start",
-    "stderr_tail",
 ]
 
 WORKER = (sys.executable, "-m", "tribench.harness.worker")
@@ -220,13 +217,6 @@ def default_cpu() -> int | None:
     if not hasattr(os, "sched_getaffinity"):
         return None
     return max(os.sched_getaffinity(0))
-
-
-def stderr_tail(err: TextIO, lines: int = 5) -> str:
-    """The last lines a dead worker wrote to ``err`` (a temporary file), as ": a | b", or "" if none."""
-    err.seek(0)
-    tail = err.read().strip().splitlines()[-lines:]
-    return f": {' | '.join(tail)}" if tail else ""
 
 
 def _plan_digest(keys: Sequence[BatchKey]) -> str:
@@ -534,9 +524,6 @@ def _execute(
     return RunResult(run_dir, total, done_before + ran, ran, time.monotonic() - t0)
 
 
-_NOTICES_SHOWN: set[str] = set()
-
-
 def _run_process(
     record: dict[str, Any],
     sweep: Sweep,
@@ -570,47 +557,29 @@ def _run_process(
     )
     planned = frozenset(keys)
     expected = set(planned)
-    error = None
-    with tempfile.TemporaryFile("w+") as err:
-        proc = subprocess.Popen(
-            list(worker), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, env=env, text=True
-        )
-        assert proc.stdin is not None and proc.stdout is not None  # both are pipes
-        try:
-            proc.stdin.write(job.to_json())
-            proc.stdin.close()
-            for line in proc.stdout:
-                message = json.loads(line)
-                kind = message.pop("type")
-                if kind == "batch":
-                    row = BatchRow(**message)
-                    if _key(row) not in expected:
-                        raise SweepError(f"worker of process {process} sent an unplanned batch {_key(row)}")
-                    expected.discard(_key(row))
-                    on_batch(row)
-                elif kind == "process":
-                    on_process(ProcessRow(**message))
-                elif kind == "check":
-                    on_check(CheckRow(**message))
-                elif kind == "traversal":
-                    trav = TraversalRow(**message)
-                    if _key(trav) not in planned:
-                        raise SweepError(f"worker of process {process} sent an unplanned traversal {_key(trav)}")
-                    on_traversal(trav)
-                elif kind == "notice" and message["message"] not in _NOTICES_SHOWN:  # once: ten workers, one file
-                    _NOTICES_SHOWN.add(message["message"])
-                    warnings.warn(message["message"], Notice, stacklevel=2)
-                elif kind == "error":
-                    error = message["message"]
-            code = proc.wait()
-        except BaseException:
-            proc.kill()
-            proc.wait()
-            raise
-        if error is not None:
-            raise SweepError(error)
-        if code != 0 or expected:
-            raise SweepError(
-                f"worker of process {process} exited with code {code} "
-                f"({len(expected)} batches not run){stderr_tail(err)}"
-            )
+
+    def on_batch_line(message: dict[str, Any]) -> None:
+        row = BatchRow(**message)
+        if _key(row) not in expected:
+            raise SweepError(f"worker of process {process} sent an unplanned batch {_key(row)}")
+        expected.discard(_key(row))
+        on_batch(row)
+
+    def on_traversal_line(message: dict[str, Any]) -> None:
+        trav = TraversalRow(**message)
+        if _key(trav) not in planned:
+            raise SweepError(f"worker of process {process} sent an unplanned traversal {_key(trav)}")
+        on_traversal(trav)
+
+    handlers = {
+        "batch": on_batch_line,
+        "traversal": on_traversal_line,
+        "process": lambda m: on_process(ProcessRow(**m)),
+        "check": lambda m: on_check(CheckRow(**m)),
+    }
+    try:
+        run_worker(worker, job.to_json(), env, handlers, f"worker of process {process}")
+    except WorkerError as exc:
+        raise SweepError(str(exc)) from None
+    if expected:
+        raise SweepError(f"worker of process {process} exited with code 0 ({len(expected)} batches not run)")

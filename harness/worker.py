@@ -1,8 +1,9 @@
 """The worker: one replicate of a sweep, in a fresh process.
 
 Run as ``python -m tribench.harness.worker`` by :mod:`tribench.harness.runner`,
-never by hand. It reads one JSON job from stdin (:class:`WorkerJob`) and
-writes JSON lines to stdout, the only thing it ever writes there:
+never by hand, in the one worker protocol (:mod:`.protocol`). It reads one
+JSON job from stdin (:class:`WorkerJob`) and writes JSON lines to stdout,
+the only thing it ever writes there:
 
 * ``{"type": "process", ...}``: a :class:`~tribench.harness.runfolder.ProcessRow`
   (an FMA peak probe, at the start and at the end);
@@ -55,7 +56,6 @@ import os
 import resource
 import sys
 import time
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, cast
@@ -63,12 +63,11 @@ from typing import Any, cast
 import numpy as np
 
 from tribench import ext
-from tribench.common import Notice
 from tribench.harness.runfolder import BatchRow, CheckRow, ProcessRow, TraversalRow
 from tribench.workloads import bvh_cache
 from tribench.workloads.spec import MeshSpec
 
-from . import layout
+from . import layout, protocol
 from .checks import Checksum, KernelCheckError, check_batch, one_pass_checksum
 
 __all__ = [
@@ -446,54 +445,18 @@ def _bvh_job(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, tris: np.ndarray
     return bjob
 
 
-def _emit_json(kind: str, record: Any) -> None:
-    # vars, not asdict: the rows are flat, and asdict's deep copy costs 45 us a batch
-    sys.stdout.write(json.dumps({"type": kind, **vars(record)}) + "\n")
-    sys.stdout.flush()
-
-
-def _pass_notices(shown):
-    """tribench's notices (a cache file rebuilt) go to the parent, which prints each once; stderr is
-    only shown when a worker fails."""
-
-    def show(message, category, filename, lineno, file=None, line=None) -> None:
-        if issubclass(category, Notice):
-            sys.stdout.write(json.dumps({"type": "notice", "message": str(message)}) + "\n")
-            sys.stdout.flush()
-        else:
-            shown(message, category, filename, lineno, file, line)
-
-    return show
-
-
-def _os_error(exc: OSError) -> str:
-    """An operating-system error of a worker as one line: what failed, on which file."""
-    where = f" on {exc.filename}" if exc.filename else ""
-    return f"a worker could not go on: {exc.strerror or type(exc).__name__}{where}"
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``python -m tribench.harness.worker``: job on stdin, JSON lines out."""
-    warnings.showwarning = _pass_notices(warnings.showwarning)
-    job = WorkerJob.from_json(sys.stdin.read())
-    try:
+
+    def work(text: str) -> None:
+        job = WorkerJob.from_json(text)
         if job.build != ext.INSTALLED:
             ext.use_build(job.build)
         for path in job.kernel_files:
             ext.load_kernels(path)
-        run_job(job, _emit_json)
-    except KeyboardInterrupt:
-        return 130  # Ctrl-C reaches the whole process group; the parent reports it
-    except BrokenPipeError:
-        return 141  # the parent is gone: nothing to report to
-    except (KernelCheckError, ValueError, OSError) as exc:  # a UserError is a ValueError; OSError: a cache file
-        message = str(exc)
-        if isinstance(exc, OSError) and not isinstance(exc, FileNotFoundError):  # a missing file's message names it
-            message = _os_error(exc)
-        sys.stdout.write(json.dumps({"type": "error", "message": message}) + "\n")
-        sys.stdout.flush()
-        return 3
-    return 0
+        run_job(job, protocol.emit)
+
+    return protocol.serve(work, (KernelCheckError,))
 
 
 if __name__ == "__main__":

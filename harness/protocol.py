@@ -1,0 +1,145 @@
+"""The one worker protocol: a fresh process per replicate, its job on stdin, typed JSON lines on stdout.
+
+Every measurement runs in such workers: the sweeps' (:mod:`.worker`) and the
+peers' (:mod:`tribench.studies.peers`), each pinned to one CPU and with its
+memory layout randomised (:mod:`.layout`). The parent side is
+:func:`run_worker`: it starts the worker in an environment the caller padded
+(:func:`.layout.padded_env`), sends the job, and hands each line to the
+handler of its ``type``. The worker side is :func:`serve`: it passes tribench's notices
+to the parent and turns the errors a user can act on into one ``error``
+line. Two types belong to the protocol itself:
+
+* ``{"type": "notice", "message": ...}``: a :class:`~tribench.common.Notice`
+  (a cache file rebuilt), printed once by the parent however many workers send it;
+* ``{"type": "error", "message": ...}``: the worker stops (exit code 3), and
+  the parent raises :class:`WorkerError` with the message.
+
+A worker's stderr is kept in a temporary file and shown only when it fails.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, TextIO
+
+from tribench.common import Notice
+
+__all__ = ["WorkerError", "emit", "run_worker", "serve", "stderr_tail"]
+
+
+class WorkerError(RuntimeError):
+    """A worker's own error line (``said`` True), or its exit without one (with the last lines of its stderr)."""
+
+    def __init__(self, message: str, said: bool = False) -> None:
+        super().__init__(message)
+        self.said = said
+
+
+_NOTICES_SHOWN: set[str] = set()
+
+
+def stderr_tail(err: TextIO, lines: int = 5) -> str:
+    """The last lines a dead worker wrote to ``err`` (a temporary file), as ": a | b", or "" if none."""
+    err.seek(0)
+    tail = err.read().strip().splitlines()[-lines:]
+    return f": {' | '.join(tail)}" if tail else ""
+
+
+def run_worker(
+    command: Sequence[str],
+    job: str,
+    env: Mapping[str, str],
+    handlers: Mapping[str, Callable[[dict[str, Any]], None]],
+    name: str,
+) -> None:
+    """Run one worker to its end: ``job`` to its stdin, each line to ``handlers[type]``.
+
+    Raises :class:`WorkerError` on the worker's error line, an unknown line, or
+    a non-zero exit (``name`` says which worker); an exception of a handler
+    kills the worker and propagates.
+    """
+    error = None
+    with tempfile.TemporaryFile("w+") as err:
+        proc = subprocess.Popen(
+            list(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, env=dict(env), text=True
+        )
+        assert proc.stdin is not None and proc.stdout is not None  # both are pipes
+        try:
+            proc.stdin.write(job)
+            proc.stdin.close()
+            for line in proc.stdout:
+                message = json.loads(line)
+                kind = message.pop("type")
+                if kind == "notice":
+                    if message["message"] not in _NOTICES_SHOWN:  # once: ten workers, one file
+                        _NOTICES_SHOWN.add(message["message"])
+                        warnings.warn(message["message"], Notice, stacklevel=2)
+                elif kind == "error":
+                    error = message["message"]
+                elif kind in handlers:
+                    handlers[kind](message)
+                else:
+                    raise WorkerError(f"{name} sent a line of unknown type {kind!r}")
+            code = proc.wait()
+        except BaseException:
+            proc.kill()
+            proc.wait()
+            raise
+        if error is not None:
+            raise WorkerError(error, said=True)
+        if code != 0:
+            raise WorkerError(f"{name} exited with code {code}{stderr_tail(err)}")
+
+
+def emit(kind: str, record: Any) -> None:
+    """Send one line of type ``kind``: a flat row (a dataclass, by its fields) or a dict."""
+    # vars, not asdict: the rows are flat, and asdict's deep copy costs 45 us a batch
+    fields = record if isinstance(record, dict) else vars(record)
+    sys.stdout.write(json.dumps({"type": kind, **fields}) + "\n")
+    sys.stdout.flush()
+
+
+def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] = ()) -> int:
+    """A worker's main: run ``work(job)`` on the job read from stdin; the exit code.
+
+    ``errors`` (and every ValueError, a UserError among them, and OSError: a
+    cache file) become the ``error`` line, exit code 3.
+    """
+    warnings.showwarning = _pass_notices(warnings.showwarning)
+    expected: tuple[type[BaseException], ...] = (ValueError, OSError, *errors)
+    try:
+        work(sys.stdin.read())
+    except KeyboardInterrupt:
+        return 130  # Ctrl-C reaches the whole process group; the parent reports it
+    except BrokenPipeError:
+        return 141  # the parent is gone: nothing to report to
+    except expected as exc:
+        message = str(exc)
+        if isinstance(exc, OSError) and not isinstance(exc, FileNotFoundError):  # a missing file's message names it
+            message = _os_error(exc)
+        emit("error", {"message": message})
+        return 3
+    return 0
+
+
+def _pass_notices(shown):
+    """tribench's notices (a cache file rebuilt) go to the parent, which prints each once."""
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if issubclass(category, Notice):
+            emit("notice", {"message": str(message)})
+        else:
+            shown(message, category, filename, lineno, file, line)
+
+    return show
+
+
+def _os_error(exc: OSError) -> str:
+    """An operating-system error of a worker as one line: what failed, on which file."""
+    where = f" on {exc.filename}" if exc.filename else ""
+    return f"a worker could not go on: {exc.strerror or type(exc).__name__}{where}"
