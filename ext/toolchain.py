@@ -95,8 +95,11 @@ def compile_module(
     module_path: Path,
     defines: list[str],
     failed: Callable[[subprocess.CompletedProcess], UserError],
+    sources: tuple[Path, ...] = SOURCES,
+    libs: tuple[str, ...] = (),
 ) -> None:
-    """Compile every C file of the extension with ``defines`` and link them into ``module_path`` (atomically).
+    """Compile ``sources`` (every C file of the extension) with ``defines`` and link them, and ``libs``,
+    into ``module_path`` (atomically).
 
     ``failed(result)`` makes the error raised for the first translation unit that does not compile."""
     defines = [
@@ -107,17 +110,17 @@ def compile_module(
     includes = [f"-I{EXT}", f"-I{sysconfig.get_paths()['include']}"]
     module_path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=module_path.parent) as tmp:
-        objects = [Path(tmp) / f"{c.stem}.o" for c in SOURCES]
+        objects = [Path(tmp) / f"{c.stem}.o" for c in sources]
 
         def compile_one(c: Path, o: Path) -> subprocess.CompletedProcess:
             return run([*toolchain.cc, *toolchain.flags, *defines, *includes, "-c", str(c), "-o", str(o)])
 
         with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
-            done = list(pool.map(compile_one, SOURCES, objects))
+            done = list(pool.map(compile_one, sources, objects))
         first = next((r for r in done if r.returncode), None)
         if first is not None:
             raise failed(first)
-        linked = run([*toolchain.link, *map(str, objects), "-o", str(Path(tmp) / module_path.name)])
+        linked = run([*toolchain.link, *map(str, objects), *libs, "-o", str(Path(tmp) / module_path.name)])
         if linked.returncode or not (Path(tmp) / module_path.name).is_file():
             said = linked.stderr.strip() or "it wrote no module"
             raise UserError(f"does not link ({shlex.join(toolchain.link)}):\n{said}")

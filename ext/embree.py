@@ -1,0 +1,156 @@
+"""Native Embree, the peer of tribench's BVH: Embree's own C API, timed in C (``ext/peers/embree.c``).
+
+It is an optional build step: the module is compiled on first use with the
+installed extension's toolchain against the system's Embree 3 (Debian's
+``libembree-dev``; ``pkg-config embree3`` where it is installed so) and
+cached under ``cache_dir()/kernel_builds`` like a build. Where there is no
+Embree, :func:`missing` says why in one line and :func:`load` raises it.
+The embreex wheel bundles an Embree 4 library without its headers, so it
+cannot be compiled against; tribench's peers time it through Python as a
+labelled secondary (:mod:`tribench.studies.peers`).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import shlex
+import subprocess
+import sysconfig
+from types import ModuleType
+from typing import NamedTuple
+
+import numpy as np
+
+from tribench.common import UserError
+from tribench.common.location import cache_dir
+
+from .checks import check_array, check_t_max
+from .toolchain import EXT, compile_module, import_module, installed
+
+__all__ = ["INSTALL", "EmbreeMissing", "EmbreeScene", "Trace", "load", "missing", "version"]
+
+#: What to install where Embree is missing.
+INSTALL = "apt-get install libembree-dev (Embree 3 headers and library)"
+
+SOURCE = EXT / "peers" / "embree.c"
+
+#: The ray widths :meth:`EmbreeScene.trace` calls: rtcIntersect1 and rtcIntersect16.
+WIDTHS = (1, 16)
+
+
+class EmbreeMissing(UserError):
+    """Native Embree cannot be compiled or loaded here."""
+
+
+def _flags() -> tuple[list[str], list[str]]:
+    """Compile and link flags of the system's Embree 3: pkg-config's where it knows Embree, else the
+    default paths (Debian installs no .pc file)."""
+    try:
+        found = subprocess.run(["pkg-config", "--cflags", "--libs", "embree3"], capture_output=True, text=True)
+    except OSError:  # no pkg-config
+        found = None
+    words = shlex.split(found.stdout) if found is not None and found.returncode == 0 else ["-lembree3"]
+    return [w for w in words if not w.startswith(("-l", "-L"))], [w for w in words if w.startswith(("-l", "-L"))]
+
+
+@functools.cache
+def _loaded() -> ModuleType | EmbreeMissing:
+    toolchain = installed()
+    cflags, libs = _flags()
+    key = hashlib.sha256(repr((SOURCE.read_bytes(), toolchain.key, cflags, libs)).encode()).hexdigest()[:20]
+    name = f"_embree_{key}"
+    path = cache_dir() / "kernel_builds" / key / f"{name}{sysconfig.get_config_var('EXT_SUFFIX')}"
+    module = import_module(name, path) if path.is_file() else None
+    if module is not None:
+        return module
+
+    def failed(result: subprocess.CompletedProcess) -> EmbreeMissing:
+        said = next((line for line in result.stderr.splitlines() if "error" in line), result.stderr.strip()[:200])
+        return EmbreeMissing(f"native Embree is not available ({said.strip()}); {INSTALL}")
+
+    try:
+        compile_module(toolchain, name, path, cflags, failed, sources=(SOURCE,), libs=tuple(libs))
+    except EmbreeMissing as e:
+        return e
+    except UserError as e:  # does not link: no library
+        return EmbreeMissing(f"native Embree is not available ({str(e).splitlines()[-1].strip()}); {INSTALL}")
+    return import_module(name, path) or EmbreeMissing(f"native Embree compiled, but {path} does not import")
+
+
+def load() -> ModuleType:
+    """The compiled module (compiled now if it is not cached); :class:`EmbreeMissing` where Embree is absent."""
+    module = _loaded()
+    if isinstance(module, EmbreeMissing):
+        raise module
+    return module
+
+
+def missing() -> str | None:
+    """Why native Embree cannot run here, in one line, or None when it can."""
+    module = _loaded()
+    return str(module) if isinstance(module, EmbreeMissing) else None
+
+
+def version() -> str | None:
+    """The Embree version the module was compiled against, or None where it is absent."""
+    module = _loaded()
+    return None if isinstance(module, EmbreeMissing) else f"Embree {module.version}"
+
+
+class Trace(NamedTuple):
+    """One timed call of :meth:`EmbreeScene.trace`: ``loops`` passes over the rays, timed in C."""
+
+    elapsed_ns: int
+    loops: int
+    rays: int
+    hits: int
+    t_sum: float
+
+    @property
+    def rays_per_s(self) -> float:
+        return self.loops * self.rays / self.elapsed_ns * 1e9 if self.elapsed_ns > 0 else float("nan")
+
+
+class EmbreeScene:
+    """An Embree scene of a float32 triangle array (high build quality, one thread); ``robust`` sets
+    Embree's watertight mode. ``build_ns`` is the build's wall time."""
+
+    def __init__(self, triangles: np.ndarray, robust: bool = False) -> None:
+        tris = check_array("triangles", triangles, (3, 3))
+        if tris.dtype != np.float32:
+            raise UserError(f"Embree takes float32 triangles, got {tris.dtype}")
+        self.n_triangles = len(tris)
+        self.robust = bool(robust)
+        self._scene = load().Scene(tris, len(tris), self.robust)
+        self.build_ns: int = self._scene.build_ns
+
+    def _rays(self, origins, directions, t_max) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        o, d = check_array("origins", origins, (3,)), check_array("directions", directions, (3,))
+        if o.dtype != np.float32 or d.dtype != np.float32:
+            raise UserError(f"Embree takes float32 rays, got {o.dtype} and {d.dtype}")
+        if len(o) != len(d):
+            raise UserError(f"origins and directions differ in length: {len(o)} and {len(d)}")
+        return o, d, check_t_max(t_max, len(o), np.dtype(np.float32))
+
+    def intersect(self, origins, directions, t_max=None, width: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """Every ray's closest hit: (triangle index, -1 on a miss; t, inf on a miss)."""
+        o, d, tm = self._rays(origins, directions, t_max)
+        index, t = np.empty(len(o), np.int64), np.empty(len(o), np.float32)
+        self._scene.trace(o, d, tm, len(o), _width(width), 1, index, t)
+        return index, t
+
+    def trace(self, origins, directions, t_max=None, width: int = 1, loops: int = 1) -> Trace:
+        """``loops`` closest-hit passes over the rays, timed in C: rtcIntersect1 (``width`` 1) or
+        rtcIntersect16 over packets of 16 consecutive rays (``width`` 16)."""
+        o, d, tm = self._rays(origins, directions, t_max)
+        if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)) or loops < 1:
+            raise UserError(f"loops must be a positive integer, got {loops!r:.40}")
+        elapsed, hits, t_sum = self._scene.trace(o, d, tm, len(o), _width(width), int(loops))
+        return Trace(elapsed, int(loops), len(o), hits, t_sum)
+
+
+def _width(width: object) -> int:
+    if width not in WIDTHS or isinstance(width, bool):
+        raise UserError(f"width must be 1 (rtcIntersect1) or 16 (rtcIntersect16), got {width!r:.40}")
+    return int(width)
