@@ -14,17 +14,25 @@ from tribench import stats
 from tribench.common import UserError
 from tribench.harness import runfolder
 
-__all__ = ["CONTENDERS", "PEER_NAMES", "summarise"]
+__all__ = ["CONTENDERS", "HEADLINE_PEERS", "NATIVE_EMBREE", "PEER_NAMES", "summarise"]
 
 #: Contender -> what is timed (the report's and the printout's words).
 CONTENDERS = {
     "tribench": "tribench, kernel loop timed in C",
     "tribench_call": "tribench, wall time of ext.intersect (BVH.intersect in a BVH)",
+    "embree": "native Embree, rtcIntersect1, loop timed in C",
+    "embree_16": "native Embree, rtcIntersect16 over packets of 16 rays, loop timed in C",
+    "embree_robust": "native Embree, robust (watertight) mode, rtcIntersect1",
+    "embree_robust_16": "native Embree, robust (watertight) mode, rtcIntersect16",
+    "embreex": "Embree via embreex, called from Python (secondary)",
     "trimesh": "trimesh ray_triangle (NumPy, rtree)",
-    "embree": "Embree via embreex",
 }
+#: Native Embree's contenders: rtcIntersect1 and rtcIntersect16, plain and robust.
+NATIVE_EMBREE = ("embree", "embree_16", "embree_robust", "embree_robust_16")
 #: The peers, in the order of the ratios.
-PEER_NAMES = ("trimesh", "embree")
+PEER_NAMES = ("embree", "embree_16", "embree_robust", "embree_robust_16", "embreex", "trimesh")
+#: The peers a headline names: native Embree's two calls (and trimesh, where it ran); embreex stays in the table.
+HEADLINE_PEERS = ("embree", "embree_16", "trimesh")
 
 
 def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -36,7 +44,8 @@ def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFra
     1 on one core; below 1, other processes took the core), the median setup
     time and the disagreements with the float64 reference. ``ratios``:
     tribench's rays/s over each peer's (and tribench's C loop over its own
-    call), paired by process (:func:`tribench.stats.speedup`).
+    call, and Embree's robust mode over its plain one: what watertightness
+    costs there), paired by process (:func:`tribench.stats.speedup`).
     """
     rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
     if peers.empty or not rates_ok.all():
@@ -83,7 +92,7 @@ def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFra
     for a, b in (
         [("tribench", p) for p in PEER_NAMES]
         + [("tribench_call", p) for p in PEER_NAMES]
-        + [("tribench", "tribench_call")]
+        + [("tribench", "tribench_call"), ("embree_robust", "embree"), ("embree_robust_16", "embree_16")]
     ):
         if a in wide and b in wide:
             pair = wide[[a, b]].dropna()

@@ -26,13 +26,15 @@ def add_parser(sub) -> None:
 
     p = sub.add_parser(
         "peers",
-        help="rays/s of tribench's fastest kernel against trimesh and Embree on the seed's camera, as ratios with CIs",
+        help="rays/s of tribench's fastest kernel against native Embree and trimesh on the seed's camera, with CIs",
         description="Times tribench's fastest closest-mode kernel (chosen on a sample of the rays), trimesh's "
-        "intersector and Embree through embreex on Suzanne (or --mesh) through a pinhole camera (512x512, float32, "
+        "intersector, native Embree (its C API: rtcIntersect1 and rtcIntersect16, plain and robust) and Embree "
+        "through embreex on Suzanne (or --mesh) through a pinhole camera (512x512, float32, "
         "closest hit): fresh worker processes pinned to one CPU with one BLAS thread, every contender once per "
         "repetition in a random order. Prints rays/s with 95% CIs and tribench's ratios over each peer, "
         "paired by process, and writes peers.csv (into a run folder, the report shows it). Needs "
-        "pip install 'tribench[peers]' (embreex, and rtree for trimesh's intersector). About 40 s.",
+        "pip install 'tribench[peers]' (embreex, and rtree for trimesh's intersector); native Embree needs "
+        "apt-get install libembree-dev. About 40 s.",
     )
     full, quick = PeerDesign(), PeerDesign.quick()
     p.add_argument("--out", metavar="RUN_DIR|FILE.csv", type=_out, help="where peers.csv goes (default ./peers.csv)")

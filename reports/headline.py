@@ -10,6 +10,7 @@ from html import escape
 
 import pandas as pd
 
+from tribench.analysis.peers import HEADLINE_PEERS
 from tribench.stats import format_interval
 
 from . import page
@@ -160,8 +161,7 @@ def run_warnings(data: RunData, drift: pd.DataFrame, correct: pd.DataFrame) -> l
 def peer_sentence(ratios: pd.DataFrame, kernel: str, workload: str, in_bvh: bool = False) -> str | None:
     """tribench's rays/s over each peer's in one sentence (None when no peer was measured);
     ``in_bvh``: tribench was timed through its BVH with ``kernel`` as the leaf test."""
-    rows = ratios.loc[ratios["contender"] == "tribench"]
-    rows = rows.loc[rows["over"] != "tribench_call"]
+    rows = ratios.loc[(ratios["contender"] == "tribench") & ratios["over"].isin(HEADLINE_PEERS)]
     if rows.empty:
         return None
     parts = [f"{format_interval(r.ratio, r.ci_low, r.ci_high, unit='×')} {r.over}'s rays/s" for r in rows.itertuples()]

@@ -256,16 +256,18 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
 
     if peers is not None and peers.in_bvh:
         about = (
-            "tribench's BVH with its fastest leaf kernel against Embree (through embreex, after building its "
-            "BVH), on the same camera rays, closest hit, one core (tribench.studies.peers, as `tribench peers "
-            "--accel bvh`): two tracers, each with its own acceleration structure; the build is the untimed "
-            "set-up of both."
+            "tribench's BVH with its fastest leaf kernel against native Embree (its C API, rtcIntersect1 and "
+            "rtcIntersect16, plain and robust, after building its BVH), on the same camera rays, closest hit, "
+            "one core, both loops timed in C (tribench.studies.peers, as `tribench peers --accel bvh`): two "
+            "tracers, each with its own acceleration structure; the build is the untimed set-up of both. "
+            "embreex is Embree called from Python, a secondary figure."
         )
     else:
         about = (
             "tribench's fastest brute-force kernel against trimesh's own intersector (NumPy after an rtree "
-            "broad phase) and Embree (through embreex, after building its BVH), on the same camera rays, "
-            "closest hit (tribench.studies.peers, as `tribench peers`). Embree's BVH skips most triangles "
+            "broad phase) and native Embree (its C API, after building its BVH; embreex: Embree from Python), "
+            "on the same camera rays, closest hit (tribench.studies.peers, as `tribench peers`). Embree's BVH "
+            "skips most triangles "
             "of every ray; tribench tests every one: the ratio is what an acceleration structure is worth "
             "over the fastest brute force, not a comparison of ray–triangle tests."
         )

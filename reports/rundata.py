@@ -296,7 +296,8 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
 
     path = data.run_dir / runfolder.PEERS
     how = (
-        f"`{INSTALL}` (embreex and rtree), then `tribench peers --out {data.run_dir}` (it refreshes the run's "
+        f"`{INSTALL}` (embreex and rtree) and `apt-get install libembree-dev` (native Embree), "
+        f"then `tribench peers --out {data.run_dir}` (it refreshes the run's "
         f"tables) and `tribench report {data.run_dir}` add them"
     )
     if not path.is_file():

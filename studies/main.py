@@ -226,7 +226,8 @@ def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO 
     design = peers.PeerDesign.quick() if quick else peers.PeerDesign()
     _say(
         log,
-        f"peers: tribench's fastest kernel, trimesh and Embree on Suzanne {design.width}x{design.height}, "
+        f"peers: tribench's fastest kernel, native Embree, embreex and trimesh on Suzanne "
+        f"{design.width}x{design.height}, "
         f"{design.processes} processes x {design.reps} repetitions...",
     )
     try:
@@ -241,6 +242,6 @@ def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO 
         return None
     _, ratios = peers.summarise(frame)
     for r in ratios.itertuples(index=False):
-        if r.contender == "tribench" and r.over in peers.PEER_NAMES:
+        if r.contender == "tribench" and r.over in peers.HEADLINE_PEERS:
             _say(log, f"peers: tribench / {r.over}: {r.ratio:.3g}x [{r.ci_low:.3g}, {r.ci_high:.3g}] rays/s")
     return frame

@@ -21,13 +21,21 @@ Embree, tribench's own rows are still written):
     trimesh's own intersector (``trimesh.ray.ray_triangle``: NumPy after an rtree
     broad phase, so it needs ``rtree``), on a fixed random subset of the rays
     because it is slow; its rays/s is scaled from those;
-``embree``
-    Embree through ``embreex`` (``trimesh.ray.ray_pyembree``), after its BVH is
-    built (the build is ``setup_ns``, not timed).
+``embree``, ``embree_16``, ``embree_robust``, ``embree_robust_16``
+    native Embree through its C API (:mod:`tribench.ext.embree`: the system's
+    Embree 3), after its BVH is built (the build is ``setup_ns``, not timed):
+    ``rtcIntersect1`` ray by ray, or ``rtcIntersect16`` over packets of 16
+    consecutive rays, each plain or in Embree's robust (watertight) mode, the
+    loop timed in C as tribench's is;
+``embreex``
+    Embree through ``embreex`` (``trimesh.ray.ray_pyembree``), called from
+    Python: a labelled secondary figure (float64 arrays, conversions and a
+    call's overhead included), never the headline.
 
-Replicates are fresh worker processes, as in the sweeps, with the sweeps'
-pinning and layout randomisation (:mod:`tribench.harness.layout`: a padded
-environment, small allocations, the arrays at random offsets). Each runs
+Replicates are fresh worker processes in the sweeps' own worker protocol
+(:mod:`tribench.harness.protocol`), with their pinning and layout
+randomisation (:mod:`tribench.harness.layout`: a padded environment, small
+allocations, the arrays at random offsets). Each runs
 with one BLAS thread: OpenBLAS starts its threads when NumPy
 is imported, before any pinning, and they spun on the other CPU during
 trimesh's NumPy work (an earlier bench saw 180% CPU). Each repetition runs
@@ -36,7 +44,8 @@ lets the previous one's helper threads go idle. ``peers.csv`` keeps every
 call (:data:`COLUMNS`); :func:`summarise` makes the figures: per contender the
 geometric mean of rays/s over processes (each process's own geometric mean
 over its repetitions) with its t interval, and tribench's ratio over each
-peer paired by process. ``pip install 'tribench[peers]'`` installs both peers.
+peer paired by process. ``pip install 'tribench[peers]'`` installs trimesh's
+and embreex's peers; native Embree needs the system's (:data:`tribench.ext.embree.INSTALL`).
 """
 
 from __future__ import annotations
@@ -44,9 +53,7 @@ from __future__ import annotations
 import functools
 import json
 import os
-import subprocess
 import sys
-import tempfile
 import time
 import warnings
 from collections.abc import Callable, Sequence
@@ -56,9 +63,9 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from tribench.analysis.peers import CONTENDERS, PEER_NAMES, summarise
+from tribench.analysis.peers import CONTENDERS, HEADLINE_PEERS, NATIVE_EMBREE, PEER_NAMES, summarise
 from tribench.common import Notice, UserError
-from tribench.harness import layout, runfolder
+from tribench.harness import layout, protocol, runfolder
 from tribench.harness.runfolder.rows import PeerRow
 
 if TYPE_CHECKING:
@@ -69,6 +76,8 @@ __all__ = [
     "COLUMNS",
     "CONTENDERS",
     "PEER_NAMES",
+    "HEADLINE_PEERS",
+    "NATIVE_EMBREE",
     "PAUSE_S",
     "INSTALL",
     "PeerDesign",
@@ -153,17 +162,21 @@ COLUMNS = tuple(runfolder.FILES[runfolder.PEERS])
 
 
 def available() -> dict[str, str | None]:
-    """Each peer's version when it can run here, else None (trimesh's intersector needs rtree)."""
+    """Each peer's version when it can run here, else None: trimesh's intersector (it needs rtree),
+    native Embree (:func:`tribench.ext.embree.version`) and Embree through embreex."""
     from importlib import metadata
 
+    from tribench.ext import embree
+
     found: dict[str, str | None] = {}
-    for peer, modules in (("trimesh", ("trimesh", "rtree")), ("embree", ("trimesh", "embreex"))):
+    for peer, modules in (("trimesh", ("trimesh", "rtree")), ("embreex", ("trimesh", "embreex"))):
         try:
             for module in modules:
                 __import__(module)
             found[peer] = " ".join(f"{m} {metadata.version(m)}" for m in modules)
         except Exception:  # ImportError, or a binary wheel that cannot load here
             found[peer] = None
+    found["embree"] = embree.version()
     return found
 
 
@@ -250,11 +263,16 @@ def measure(
         raise UserError(
             f"kernel {kernel!r} cannot be a BVH's leaf test; these can: {', '.join(candidate_kernels('bvh'))}"
         )
-    peers = [p for p, v in available().items() if v is not None and (p == "embree" or not bvh)]
+    found = available()
+    peers = [p for p, v in found.items() if v is not None and (p != "trimesh" or not bvh)]
     if not peers and not bvh:
-        raise RuntimeError(f"no peer is installed ({INSTALL}: embreex and rtree)")
-    if not peers:
-        warnings.warn(f"Embree is not installed ({INSTALL}): tribench's BVH is timed alone", Notice, stacklevel=2)
+        raise RuntimeError(f"no peer is installed ({INSTALL}: embreex and rtree; {embree_install()})")
+    if found["embree"] is None:
+        from tribench.ext import embree
+
+        alone = ": tribench's BVH is timed alone" if bvh and not peers else ""
+        why = embree.missing() or f"native Embree is not available; {embree.INSTALL}"
+        warnings.warn(f"{why}{alone}", Notice, stacklevel=2)
     path = peers_path(out)
     workload = cache.make(camera_spec(design))  # built once here; the workers read the cache
     if kernel is None:
@@ -278,7 +296,13 @@ def measure(
                 "peers": peers,
                 "cpu": -1 if cpu is None else cpu,
             }
-            rows += _run_worker(job, layout.padded_env(design.seed, process, blas))
+            name = f"peers worker of process {process}"
+            try:
+                protocol.run_worker(
+                    WORKER, json.dumps(job), layout.padded_env(design.seed, process, blas), {"peer": rows.append}, name
+                )
+            except protocol.WorkerError as exc:
+                raise RuntimeError(f"{name}: {exc}" if exc.said else str(exc)) from None
             frame = pd.DataFrame(rows, columns=list(COLUMNS))
             write_csv(frame, path)
             if bar:
@@ -299,33 +323,34 @@ def peers_path(out: str | Path) -> Path:
     return out if out.suffix.lower() == ".csv" else out / PEERS
 
 
-def _run_worker(job: dict[str, Any], env: dict[str, str]) -> list[dict[str, Any]]:
-    from tribench.harness.runner import stderr_tail
+def embree_install() -> str:
+    """How to get native Embree."""
+    from tribench.ext.embree import INSTALL as NATIVE
 
-    with tempfile.TemporaryFile("w+") as err:
-        done = subprocess.run(
-            [sys.executable, "-m", "tribench.studies.peers", json.dumps(job)],
-            stdout=subprocess.PIPE,
-            stderr=err,
-            text=True,
-            env=env,
-        )
-        if done.returncode != 0:
-            raise RuntimeError(
-                f"peers worker of process {job['process']} exited with code {done.returncode}{stderr_tail(err)}"
-            )
-    return [json.loads(line) for line in done.stdout.splitlines() if line.strip()]
+    return f"native Embree: {NATIVE}"
 
 
-#: A contender of one worker: its label, the rays it runs (all, or trimesh's subset), the timed call, and
-#: its one-off set-up time in ns.
-_Contender = tuple[str, "np.ndarray | slice", Callable[[], Any], int]
+#: The peers' worker, in the one worker protocol.
+WORKER = (sys.executable, "-m", "tribench.studies.peers")
 
 
-def _worker(job: dict[str, Any]) -> None:
+@dataclass(frozen=True)
+class _Contender:
+    """A contender of one worker: its label, the rays it runs (all, or trimesh's subset), the timed
+    call, its one-off set-up time in ns, and whether the call returns its own time, read in C."""
+
+    label: str
+    rows: np.ndarray | slice
+    call: Callable[[], Any]
+    setup_ns: int
+    timed_in_c: bool = False
+
+
+def _worker(text: str) -> None:
     """One replicate: build every contender once, then time them ``reps`` times; rows go to stdout."""
     from tribench.workloads import cache
 
+    job = json.loads(text)
     design = PeerDesign(**job["design"])
     cpu = job["cpu"]
     layout.pin(cpu)  # cpu -1: not pinned, and the rows say so, as the sweep worker's do
@@ -347,25 +372,28 @@ def _worker(job: dict[str, Any]) -> None:
     # the C-timed loop returns counts only; both tribench contenders run the same kernel on the same rays
     answers = disagreements(closest(), slice(None))
     differ = {"tribench": answers, "tribench_call": answers}
+    natives, native_answers = _embree_contenders(job["peers"], w)
+    contenders.update(natives)
+    differ.update({name: disagreements(index, slice(None)) for name, index in native_answers.items()})
     contenders.update(_peer_contenders(job["peers"], design, w))
     rng = np.random.default_rng([design.seed, 2, job["process"]])
     for rep in range(design.reps):
         for position, name in enumerate(rng.permutation(list(contenders))):
-            label, rows, call, setup_ns = contenders[name]
-            rays = len(w.origins[rows])
+            c = contenders[name]
+            rays = len(w.origins[c.rows])
             time.sleep(PAUSE_S)
             t0, c0 = time.perf_counter_ns(), time.process_time_ns()
-            answer = call()
+            answer = c.call()
             wall, used = time.perf_counter_ns() - t0, time.process_time_ns() - c0
-            elapsed = answer.elapsed_ns if name == "tribench" else wall  # tribench: the loop alone, timed in C
+            elapsed = answer.elapsed_ns if c.timed_in_c else wall  # the loop alone, timed in C
             if name not in differ:
-                differ[name] = disagreements(answer, rows)
+                differ[name] = disagreements(answer, c.rows)
             row = PeerRow(
                 process=job["process"],
                 rep=rep,
                 position=position,
                 contender=name,
-                implementation=label,
+                implementation=c.label,
                 kernel=job["kernel"],
                 workload_id=w.workload_id,
                 workload=w.spec.summary(),
@@ -374,13 +402,12 @@ def _worker(job: dict[str, Any]) -> None:
                 wall_ns=int(wall),
                 cpu_ns=int(used),
                 rays_per_s=rays / elapsed * 1e9,
-                setup_ns=setup_ns,
+                setup_ns=c.setup_ns,
                 differ=differ[name][0],
                 differ_ambiguous=differ[name][1],
                 cpu=cpu,
             )
-            sys.stdout.write(json.dumps(asdict(row)) + "\n")
-    sys.stdout.flush()
+            protocol.emit("peer", row)
     del dummies  # kept alive until the last call: they shift every later heap address
 
 
@@ -407,19 +434,46 @@ def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Co
         timed = functools.partial(ext.time_batch, ext.make_job(kernel, o, d, tris, "closest"), 1)
         closest, closest_name = (lambda: ext.intersect(kernel, o, d, tris, "closest").index), "ext.intersect"
         setup_ns = time.perf_counter_ns() - t0
-    contenders: dict[str, _Contender] = {
-        "tribench": (label, slice(None), timed, setup_ns),
-        "tribench_call": (f"{label}, {closest_name}", slice(None), closest, 0),
+    contenders = {
+        "tribench": _Contender(label, slice(None), timed, setup_ns, timed_in_c=True),
+        "tribench_call": _Contender(f"{label}, {closest_name}", slice(None), closest, 0),
     }
     return contenders, closest
 
 
+def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:
+    """Native Embree's four contenders (plain and robust; rtcIntersect1 and rtcIntersect16), each scene
+    built once (its set-up), and each contender's closest hits."""
+    from tribench.ext import embree
+
+    if "embree" not in peers:
+        return {}, {}
+    o, d = w.origins, w.directions
+    contenders: dict[str, _Contender] = {}
+    answers: dict[str, np.ndarray] = {}
+    for robust in (False, True):
+        scene = embree.EmbreeScene(w.triangles, robust)
+        for width in embree.WIDTHS:
+            name = NATIVE_EMBREE[2 * robust + (width == 16)]
+            call = "rtcIntersect16, packets of 16 rays" if width == 16 else "rtcIntersect1"
+            mode = ", robust" if robust else ""
+            contenders[name] = _Contender(
+                f"native {embree.version()} {call}{mode}",
+                slice(None),
+                functools.partial(scene.trace, o, d, None, width, 1),
+                scene.build_ns,
+                timed_in_c=True,
+            )
+            answers[name] = scene.intersect(o, d, width=width)[0]
+    return contenders, answers
+
+
 def _peer_contenders(peers: Sequence[str], design: PeerDesign, w: Any) -> dict[str, _Contender]:
-    """The installed peers asked for: trimesh's intersector on a fixed random subset of the rays (it is
-    slow), Embree through embreex on every ray; each built (rtree, BVH) by one first call, its set-up."""
+    """The installed Python peers asked for: trimesh's intersector on a fixed random subset of the rays
+    (it is slow), Embree through embreex on every ray; each built (rtree, BVH) by one first call, its set-up."""
     import trimesh
 
-    if not peers:
+    if not {"trimesh", "embreex"} & set(peers):
         return {}
     o, d, n = w.origins, w.directions, len(w.origins)
     versions = available()
@@ -436,21 +490,18 @@ def _peer_contenders(peers: Sequence[str], design: PeerDesign, w: Any) -> dict[s
         slow = ray_triangle.RayMeshIntersector(mesh)
         slow.intersects_first(o_sub[:1], d_sub[:1])  # builds the rtree
         setup = time.perf_counter_ns() - t0
-        out["trimesh"] = (
-            f"trimesh ray_triangle ({versions['trimesh']})",
-            subset,
-            lambda: slow.intersects_first(o_sub, d_sub),
-            setup,
+        out["trimesh"] = _Contender(
+            f"trimesh ray_triangle ({versions['trimesh']})", subset, lambda: slow.intersects_first(o_sub, d_sub), setup
         )
-    if "embree" in peers:
+    if "embreex" in peers:
         from trimesh.ray import ray_pyembree
 
         t0 = time.perf_counter_ns()
         fast = ray_pyembree.RayMeshIntersector(mesh)
         fast.intersects_first(o[:1], d[:1])  # builds the BVH
         setup = time.perf_counter_ns() - t0
-        out["embree"] = (
-            f"Embree via trimesh ray_pyembree ({versions['embree']})",
+        out["embreex"] = _Contender(
+            f"Embree via trimesh ray_pyembree, from Python ({versions['embreex']})",
             slice(None),
             lambda: fast.intersects_first(o, d),
             setup,
@@ -460,30 +511,23 @@ def _peer_contenders(peers: Sequence[str], design: PeerDesign, w: Any) -> dict[s
 
 def format_summary(rates: pd.DataFrame, ratios: pd.DataFrame) -> str:
     """The two tables of :func:`summarise` as text."""
-    lines = [f"{'contender':<15}{'rays':>8}{'rays/s':>12}   {'95% CI':<24}{'CPU':>5}{'setup ms':>10}   implementation"]
+    lines = [f"{'contender':<18}{'rays':>8}{'rays/s':>12}   {'95% CI':<24}{'CPU':>5}{'setup ms':>10}   implementation"]
     for r in rates.itertuples(index=False):
         ci = f"[{r.ci_low:.4g}, {r.ci_high:.4g}]"
         lines.append(
-            f"{r.contender:<15}{r.rays:>8}{r.rays_per_s:>12.4g}   {ci:<24}{r.cpu_share:>5.0%}"
+            f"{r.contender:<18}{r.rays:>8}{r.rays_per_s:>12.4g}   {ci:<24}{r.cpu_share:>5.0%}"
             f"{r.setup_ms:>10.1f}   {r.implementation}"
         )
     lines.append("\nrays/s ratios, paired by process (>1: the first is faster)")
     for r in ratios.itertuples(index=False):
-        lines.append(f"  {r.contender:<14} / {r.over:<14}{r.ratio:>10.4g}   [{r.ci_low:.4g}, {r.ci_high:.4g}]")
+        lines.append(f"  {r.contender:<17} / {r.over:<17}{r.ratio:>10.4g}   [{r.ci_low:.4g}, {r.ci_high:.4g}]")
     return "\n".join(lines)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """The worker's entry point: ``python -m tribench.studies.peers JOB_JSON``."""
-    args = list(sys.argv[1:] if argv is None else argv)
-    if len(args) != 1:
-        print(
-            "usage: python -m tribench.studies.peers JOB_JSON (started by tribench.studies.peers.measure)",
-            file=sys.stderr,
-        )
-        return 2
-    _worker(json.loads(args[0]))
-    return 0
+def main() -> int:
+    """The worker's entry point: ``python -m tribench.studies.peers``, its job on stdin (started by
+    :func:`measure`)."""
+    return protocol.serve(_worker)
 
 
 if __name__ == "__main__":

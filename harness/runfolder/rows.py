@@ -138,13 +138,18 @@ class PeerRow:
     process: int = _col(_PROCESS)
     rep: int = _col("repetition inside the process (0-based)")
     position: int = _col("position of the contender inside its repetition (random order, 0-based)")
-    contender: str = _col("tribench (kernel loop timed in C), tribench_call (ext.intersect), trimesh or embree")
+    contender: str = _col(
+        "tribench (kernel loop timed in C), tribench_call (ext.intersect), embree, embree_16, embree_robust, "
+        "embree_robust_16 (native Embree, loop timed in C), embreex (Embree from Python) or trimesh"
+    )
     implementation: str = _col("what ran, with its version (and the kernel's form and ISA for tribench)")
     kernel: str = _col("the tribench kernel of the run (the fastest closest-mode kernel on this workload)")
     workload_id: str = _col("workload identifier (the camera workload; see tribench workloads show)")
     workload: str = _col("the workload's spec in one line")
     rays: int = _col("rays in the call (count; trimesh runs a fixed random subset)")
-    elapsed_ns: int = _col("time the rate is computed from, ns: the C-timed loop for tribench, else wall_ns")
+    elapsed_ns: int = _col(
+        "time the rate is computed from, ns: the C-timed loop for tribench and native Embree, else wall_ns"
+    )
     wall_ns: int = _col("wall time of the call from Python, in nanoseconds")
     cpu_ns: int = _col("CPU time of the process during the call, in nanoseconds")
     rays_per_s: float = _col("rays / elapsed_ns, per second")

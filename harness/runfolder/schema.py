@@ -484,7 +484,7 @@ _BVH: dict[str, str] = {
 }
 
 _PEER_RATES: dict[str, str] = {
-    "contender": "tribench, tribench_call, trimesh or embree",
+    "contender": "tribench, tribench_call, a native Embree call (embree...), embreex or trimesh",
     "implementation": "what ran, with its version",
     "rays": "rays per call (count)",
     "rays_per_s": "geometric mean over processes of rays per second (each process's own geometric mean)",
