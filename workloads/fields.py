@@ -14,6 +14,8 @@ from typing import Any
 from tribench.common import UserError
 
 __all__ = [
+    "DTYPES",
+    "MAX_RAYS",
     "canonical_json",
     "check_choice",
     "check_float",
@@ -23,6 +25,11 @@ __all__ = [
     "checked_mesh_file",
     "file_sha256",
 ]
+
+#: The precisions every workload is made in.
+DTYPES = ("float32", "float64")
+#: At most this many rays in one workload.
+MAX_RAYS = 50_000_000
 
 
 def check_int(name: str, value: Any, lo: int, hi: int) -> int:
