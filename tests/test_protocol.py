@@ -1,0 +1,63 @@
+"""The one worker protocol (tribench.harness.protocol): lines by type, notices once, errors in one line."""
+
+from __future__ import annotations
+
+import os
+import sys
+import warnings
+
+import pytest
+
+from tribench.common import Notice
+from tribench.harness import protocol
+
+#: A worker in the protocol: its job is the Python code it runs, with ``emit`` at hand.
+WORKER = [
+    sys.executable,
+    "-c",
+    "import sys; from tribench.harness import protocol as p; "
+    "sys.exit(p.serve(lambda job: exec(job, {'emit': p.emit, 'sys': sys})))",
+]
+
+
+def run(job: str) -> list[tuple[str, dict]]:
+    got: list[tuple[str, dict]] = []
+    handlers = {kind: (lambda m, k=kind: got.append((k, m))) for kind in ("row", "other")}
+    protocol.run_worker(WORKER, job, os.environ, handlers, "test worker")
+    return got
+
+
+def test_each_line_goes_to_the_handler_of_its_type_in_order():
+    got = run("emit('row', {'a': 1}); emit('other', {'b': 2}); emit('row', {'a': 3})")
+    assert got == [("row", {"a": 1}), ("other", {"b": 2}), ("row", {"a": 3})]
+
+
+def test_a_notice_is_shown_once_however_many_workers_send_it():
+    job = "import warnings; from tribench.common import Notice; warnings.warn('cache rebuilt: x', Notice)"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run(job)
+        run(job)
+    assert [str(c.message) for c in caught if issubclass(c.category, Notice)] == ["cache rebuilt: x"]
+
+
+def test_a_users_error_is_one_line_said_by_the_worker():
+    with pytest.raises(protocol.WorkerError, match="^no such kernel 'x'$") as caught:
+        run("emit('row', {'a': 1}); raise ValueError(\"no such kernel 'x'\")")
+    assert caught.value.said
+
+
+def test_an_os_error_names_its_file():
+    with pytest.raises(protocol.WorkerError, match="a worker could not go on: Is a directory on /tmp"):
+        run("open('/tmp').read()")
+
+
+def test_a_crash_names_the_worker_its_exit_code_and_the_end_of_its_stderr():
+    with pytest.raises(protocol.WorkerError, match=r"^test worker exited with code 1: .*ZeroDivisionError") as caught:
+        run("1 / 0")
+    assert not caught.value.said
+
+
+def test_a_line_of_unknown_type_stops_the_worker():
+    with pytest.raises(protocol.WorkerError, match="test worker sent a line of unknown type 'surprise'"):
+        run("emit('surprise', {}); import time; time.sleep(30)")
