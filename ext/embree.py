@@ -35,8 +35,19 @@ INSTALL = "apt-get install libembree-dev (Embree 3 headers and library)"
 
 SOURCE = EXT / "peers" / "embree.c"
 
+#: Embree's valid coordinates: |x| at most its FLT_LARGE, for vertices and rays alike. Past it a
+#: triangle is dropped silently and a ray fails an assertion that aborts the process (Debian builds
+#: Embree with assertions on), so tribench refuses both before C.
+LIMIT = 1.844e18
+
 #: The ray widths :meth:`EmbreeScene.trace` calls: rtcIntersect1 and rtcIntersect16.
 WIDTHS = (1, 16)
+
+
+def _within_limit(name: str, a: np.ndarray) -> None:
+    largest = float(np.abs(a).max())
+    if largest > LIMIT:
+        raise UserError(f"{name}: Embree takes coordinates within +-{LIMIT:.4g} (its FLT_LARGE), got {largest:.4g}")
 
 
 class EmbreeMissing(UserError):
@@ -120,6 +131,7 @@ class EmbreeScene:
         tris = check_array("triangles", triangles, (3, 3))
         if tris.dtype != np.float32:
             raise UserError(f"Embree takes float32 triangles, got {tris.dtype}")
+        _within_limit("triangles", tris)
         self.n_triangles = len(tris)
         self.robust = bool(robust)
         self._scene = load().Scene(tris, len(tris), self.robust)
@@ -131,6 +143,8 @@ class EmbreeScene:
             raise UserError(f"Embree takes float32 rays, got {o.dtype} and {d.dtype}")
         if len(o) != len(d):
             raise UserError(f"origins and directions differ in length: {len(o)} and {len(d)}")
+        _within_limit("origins", o)
+        _within_limit("directions", d)
         return o, d, check_t_max(t_max, len(o), np.dtype(np.float32))
 
     def intersect(self, origins, directions, t_max=None, width: int = 1) -> tuple[np.ndarray, np.ndarray]:

@@ -78,6 +78,23 @@ def test_bad_input_is_refused_before_c(workload):
         scene.intersect(w.origins[:, :2].copy(), w.directions)
 
 
+@needs_embree
+def test_coordinates_past_embrees_range_are_refused_not_dropped_or_aborted():
+    # past FLT_LARGE Embree drops a triangle silently, and a ray aborts the process on an assertion
+    tri = np.array([[[1e19, 0, 0], [0, 1, 0], [-1, -1, 0]]], np.float32)
+    with pytest.raises(UserError, match="triangles: Embree takes coordinates within"):
+        embree.EmbreeScene(tri)
+    scene = embree.EmbreeScene(np.array([[[1, 0, 0], [0, 1, 0], [-1, -1, 0]]], np.float32))
+    far = np.array([[1e30, 0, -1]], np.float32)
+    with pytest.raises(UserError, match="origins: Embree takes coordinates within"):
+        scene.trace(far, np.array([[0, 0, 1]], np.float32), width=16)
+    with pytest.raises(UserError, match="directions: Embree takes coordinates within"):
+        scene.intersect(np.zeros((1, 3), np.float32), np.array([[0, 0, 1e19]], np.float32))
+    # a zero direction and degenerate triangles are defined: misses, as the reference says
+    index, _ = scene.intersect(np.array([[0, 0, -1]], np.float32), np.zeros((1, 3), np.float32))
+    assert index.tolist() == [-1]
+
+
 def test_without_embree_it_says_how_to_install_in_one_line(monkeypatch):
     missing = embree.EmbreeMissing(f"native Embree is not available (no header); {embree.INSTALL}")
     monkeypatch.setattr(embree, "_loaded", lambda: missing)
