@@ -1,4 +1,4 @@
-"""The BVH (ext/bvh.h): build rate, and rays/s for camera rays beside Embree.
+"""The BVH (ext/bvh.h): build rate, and rays/s and traversal counts for camera rays.
 
 Meshes: Suzanne, placed as tribench places it, loop-subdivided 2-5 times
 (trimesh; 15,488 / 61,952 / 247,808 / 991,232 triangles), float32.
@@ -16,10 +16,8 @@ Printed:
             null leaf test (t_max = each ray's closest hit, so it traverses
             as a ray that found its hit at once): the leaf test's share of
             trace time is 1 - null / real;
-  embree    Embree through trimesh's ray_pyembree (embreex), intersects_first
-            on the same rays (float64, as trimesh passes them), best and
-            median of --reps calls timed around the call, and how many rays
-            name another triangle than tribench's BVH.
+
+Against native Embree, side by side with intervals: bench/embree_native.py.
 
 One process, no CIs: a quick look, not the harness's protocol. Run it alone:
 
@@ -110,34 +108,6 @@ def bench_trace(tris: np.ndarray, o: np.ndarray, d: np.ndarray, kernels: list[st
     return first
 
 
-def bench_embree(tris: np.ndarray, o: np.ndarray, d: np.ndarray, ours: np.ndarray | None, reps: int) -> None:
-    try:
-        import trimesh
-        from trimesh.ray import ray_pyembree
-    except ImportError:  # the peers extra is not installed
-        print("embree not installed (pip install 'tribench[peers]')")
-        return
-    mesh = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tris.astype(np.float64)), process=False)
-    o64, d64 = o.astype(np.float64), d.astype(np.float64)
-    t0 = time.perf_counter()
-    fast = ray_pyembree.RayMeshIntersector(mesh)
-    fast.intersects_first(o64[:1], d64[:1])  # builds its BVH
-    setup = time.perf_counter() - t0
-    times, cpu, index = [], [], fast.intersects_first(o64, d64)  # and a warm-up
-    for _ in range(reps):
-        t0, c0 = time.perf_counter_ns(), time.process_time_ns()
-        fast.intersects_first(o64, d64)
-        times.append(time.perf_counter_ns() - t0)
-        cpu.append(time.process_time_ns() - c0)
-    rates = sorted(len(o) / t * 1e9 for t in times)
-    differ = "" if ours is None else f"; differs from tribench's BVH on {int((index != ours).sum())} rays"
-    print(
-        f"embree {rates[-1] / 1e6:6.2f} M rays/s best wall, {np.median(rates) / 1e6:6.2f} median; "
-        f"{len(o) / min(cpu) * 1e3:6.2f} best by CPU time "
-        f"(trimesh ray_pyembree intersects_first, float64; set-up {setup * 1e3:.0f} ms){differ}"
-    )
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="meshes up to 61,952 triangles, 128x128 rays, 3 reps")
@@ -146,7 +116,7 @@ def main() -> None:
     parser.add_argument("--trace-level", type=int, default=4, help="subdivisions of the traced mesh (4: 247,808)")
     parser.add_argument("--kernels", nargs="+", default=["moller_trumbore_fma", "moller_trumbore_fma_exit"])
     args = parser.parse_args()
-    layout.pin(default_cpu())  # one core, for tribench and Embree alike
+    layout.pin(default_cpu())  # one core
     levels = [2, 3] if args.quick else [2, 3, 4, 5]
     width, height = (128, 128) if args.quick else map(int, args.camera.split("x"))
     reps = 3 if args.quick else args.reps
@@ -160,8 +130,7 @@ def main() -> None:
     assert traced is not None
     o, d = (np.ascontiguousarray(a, np.float32) for a in camera_rays(width, height))
     print(f"camera {width}x{height} rays, Suzanne {len(traced):,} triangles, float32, one thread")
-    ours = bench_trace(traced, o, d, args.kernels, reps)
-    bench_embree(traced, o, d, ours, reps)
+    bench_trace(traced, o, d, args.kernels, reps)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,128 @@
+"""tribench's BVH against native Embree, side by side: issue #28's targets.
+
+Suzanne at --triangles (default 250,000 and 1,000,000), float32, closest hit,
+one core; two ray sets: the seed's camera (--camera, default 256x256) and one
+diffuse bounce from each camera hit (MeshSpec rays="bounce": incoherent).
+Contenders on the same arrays:
+
+  tribench   every BVH leaf kernel but the culling ones (--kernels) through ext.build_bvh's default
+             tree, on its own ISA and held to AVX2 (isa="avx2");
+  embree     native Embree 3 (tribench.ext.embree, its C API): rtcIntersect1,
+             rtcIntersect16 over packets of 16 consecutive rays, and both in
+             robust (watertight) mode.
+
+Every loop is timed in C around it. Each round runs every contender once in
+a fresh random order, each batch ``loops`` passes (about --batch-ms). Printed
+per mesh and ray set: each contender's rays/s (median over rounds) and the
+best tribench form's ratio over each Embree call, the geometric mean over
+rounds of the per-round ratio with its 95% t interval (rounds paired: one
+process, so the interval covers round-to-round noise, not process layout).
+Answers are checked first: a contender is timed only where its closest
+triangle agrees with the float64 reference but on ambiguous rays. Run it alone:
+
+    flock /tmp/tribench-timing.lock python bench/embree_native.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from tribench import ext, stats
+from tribench.ext import embree
+from tribench.harness import layout
+from tribench.harness.runner import default_cpu
+from tribench.workloads import bvh_cache, make
+from tribench.workloads.spec import MeshSpec
+
+RAYS = ("camera", "bounce")
+EMBREE = {"rtcIntersect1": (False, 1), "rtcIntersect16": (False, 16), "robust 1": (True, 1), "robust 16": (True, 16)}
+
+
+def contenders(tris: np.ndarray, kernels: list[str]) -> dict[str, object]:
+    """Name -> a call ``(o, d, loops) -> elapsed ns`` (timed in C), and each one's closest-hit call."""
+    calls, answers = {}, {}
+    for k in kernels:
+        bvh = bvh_cache.cached_bvh(k, tris)[0]
+        isas = [i for i, ok in ext.kernel_info(k).isas.items() if ok and i in ("avx512", "avx2")]
+        for isa in isas:
+            calls[f"{k} {isa}"] = lambda o, d, n, b=bvh, i=isa: b.time(o, d, "closest", n, isa=i).elapsed_ns
+            answers[f"{k} {isa}"] = lambda o, d, b=bvh, i=isa: b.intersect(o, d, isa=i).hits.index
+    for name, (robust, width) in EMBREE.items():
+        scene = embree.EmbreeScene(tris, robust)
+        calls[f"embree {name}"] = lambda o, d, n, s=scene, w=width: s.trace(o, d, None, w, n).elapsed_ns
+        answers[f"embree {name}"] = lambda o, d, s=scene, w=width: s.intersect(o, d, width=w)[0]
+    return {"calls": calls, "answers": answers}
+
+
+def measure(w, named: dict, rounds: int, batch_ms: float, rng: np.random.Generator) -> dict[str, list[float]]:
+    """Rays/s per contender per round; a contender whose answers differ from the reference is left out."""
+    o, d = w.origins, w.directions
+    calls = {}
+    for name, answer in named["answers"].items():
+        wrong = (answer(o, d) != w.ref_index) & ~w.ambiguous()
+        if wrong.any():
+            print(f"  left out: {name} differs from the reference on {int(wrong.sum())} unambiguous rays")
+        else:
+            calls[name] = named["calls"][name]
+    loops = {n: max(1, round(batch_ms * 1e6 / max(call(o, d, 1), 1))) for n, call in calls.items()}
+    rates: dict[str, list[float]] = {n: [] for n in calls}
+    for _ in range(rounds):
+        for n in rng.permutation(list(calls)):
+            rates[n].append(loops[n] * len(o) / calls[n](o, d, loops[n]) * 1e9)
+    return rates
+
+
+def report(label: str, rates: dict[str, list[float]]) -> None:
+    median = {n: float(np.median(r)) for n, r in rates.items()}
+    ours = [n for n in rates if not n.startswith("embree")]
+    best = max(ours, key=median.__getitem__)
+    print(f"\n{label}")
+    for n in sorted(rates, key=median.__getitem__, reverse=True):
+        print(f"  {n:<34}{median[n] / 1e6:8.2f} M rays/s")
+    for isa in ("avx512", "avx2"):
+        held = [n for n in ours if n.endswith(isa)]
+        if not held:
+            continue
+        top = max(held, key=median.__getitem__)
+        for n in (m for m in rates if m.startswith("embree")):
+            s = stats.speedup(1 / np.array(rates[n]), 1 / np.array(rates[top]))
+            mark = " (best)" if top == best else ""
+            print(f"  {top}{mark} / {n:<24}{s.ratio:7.3f}  [{s.ci_low:.3f}, {s.ci_high:.3f}]")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--triangles", type=int, nargs="+", default=[250_000, 1_000_000])
+    parser.add_argument("--camera", default="256x256", help="camera WxH of both ray sets (default 256x256)")
+    # culling kernels answer the front-face question, Embree the two-sided one: not the same work
+    parser.add_argument(
+        "--kernels", nargs="+", default=[k for k in ext.bvh_kernel_names() if not ext.kernel_info(k).culls_back_faces]
+    )
+    parser.add_argument("--rounds", type=int, default=7)
+    parser.add_argument("--batch-ms", type=float, default=30.0)
+    parser.add_argument("--quick", action="store_true", help="20,000 triangles, 64x64, 3 rounds")
+    args = parser.parse_args()
+    if args.quick:
+        args.triangles, args.camera, args.rounds = [20_000], "64x64", 3
+    if (why := embree.missing()) is not None:
+        raise SystemExit(why)
+    layout.pin(default_cpu())  # one core, for tribench and Embree alike
+    width, height = map(int, args.camera.split("x"))
+    rng = np.random.default_rng(0)
+    print(f"{embree.version()}; tribench {ext.kernel_info(args.kernels[0]).isa} machine; one core, float32")
+    for n in args.triangles:
+        t0 = time.perf_counter()
+        spec = {"width": width, "height": height, "dtype": "float32"}
+        workloads = {r: make(MeshSpec("suzanne", n, rays=r, **spec)) for r in RAYS}
+        named = contenders(workloads["camera"].triangles, args.kernels)
+        print(f"Suzanne {len(workloads['camera'].triangles):,} triangles: ready in {time.perf_counter() - t0:.0f} s")
+        for r in RAYS:
+            w = workloads[r]
+            report(f"{r}: {len(w.origins):,} rays", measure(w, named, args.rounds, args.batch_ms, rng))
+
+
+if __name__ == "__main__":
+    main()
