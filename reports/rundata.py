@@ -145,6 +145,25 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
         raise RunError(f"{path} cannot be read ({type(exc).__name__}: {exc}): {_stats_hint(run_dir)}") from None
 
 
+def _read_measured(run_dir: Path) -> tuple[dict, pd.DataFrame, pd.DataFrame]:
+    """``run.json``, ``batches.csv`` and ``processes.csv``, validated; a RunError says what is wrong."""
+    from tribench.harness import runfolder
+
+    if not run_dir.is_dir():
+        raise RunError(f"no run directory {run_dir}")
+    try:
+        run = runfolder.read_run(run_dir)
+        batches = runfolder.read_batches(run_dir, run)
+        processes = runfolder.read_processes(run_dir, run)
+    except runfolder.MissingRunFile as exc:
+        raise RunError(f"{exc} (was the sweep started?)") from None
+    except UserError as exc:  # the records' validation: file:line and what is wrong
+        raise RunError(str(exc)) from None
+    if batches.loc[~batches["warmup"]].empty:
+        raise RunError(f"{run_dir} has no timed batches yet")
+    return run, batches, processes
+
+
 def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None = None) -> RunData:
     """Read a run folder and its derived tables, as one build measured them (default: its first build).
 
@@ -165,18 +184,7 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
     from tribench.harness import runfolder
 
     run_dir = Path(run_dir)
-    if not run_dir.is_dir():
-        raise RunError(f"no run directory {run_dir}")
-    try:
-        run = runfolder.read_run(run_dir)
-        batches = runfolder.read_batches(run_dir, run)
-        processes = runfolder.read_processes(run_dir, run)
-    except runfolder.MissingRunFile as exc:
-        raise RunError(f"{exc} (was the sweep started?)") from None
-    except UserError as exc:  # the records' validation: file:line and what is wrong
-        raise RunError(str(exc)) from None
-    if batches.loc[~batches["warmup"]].empty:
-        raise RunError(f"{run_dir} has no timed batches yet")
+    run, batches, processes = _read_measured(run_dir)
     builds = recorded_builds(run["sweep"])
     build = builds[0] if build is None else build
     if build not in builds:
