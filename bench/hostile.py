@@ -280,6 +280,21 @@ def ray_file_cases(s: Scratch) -> list[Outcome]:
     return out
 
 
+def embree_cases(s: Scratch) -> list[Outcome]:
+    """The native Embree peer: a run, its compiled module damaged in the cache, coordinates past its range."""
+    quick = ["peers", "--quick", "--accel", "bvh", "--triangles", "2000"]
+    out = [judge("peers --accel bvh with native Embree", s.tribench(*quick, "--out", "p1"), refused=False)]
+    for module in (Path(s.env["TRIBENCH_CACHE"]) / "kernel_builds").rglob("_embree_*.so"):
+        module.write_bytes(b"not a module")  # detected on import, compiled again
+    out.append(judge("a damaged native Embree module", s.tribench(*quick, "--out", "p2"), refused=False))
+    v = np.array([[0, 0, 0], [1e20, 0, 0], [0, 1e20, 0], [0, 0, 1e20]])  # finite in float32, past Embree's 1.8e18
+    faces = "f 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n"
+    (s.root / "far.obj").write_text("".join(f"v {a} {b} {c}\n" for a, b, c in v) + faces)
+    p = s.tribench("peers", "--quick", "--mesh", "far.obj", "--triangles", "4", "--out", "p3")
+    out.append(judge("peers on a mesh past Embree's range", p, refused=p.returncode != 0, words=("Embree",)))
+    return out
+
+
 CLASSES: dict[str, Callable[[Scratch], list[Outcome]]] = {
     "1 compare": compare_cases,
     "2 moved mesh file": moved_mesh_cases,
@@ -290,6 +305,7 @@ CLASSES: dict[str, Callable[[Scratch], list[Outcome]]] = {
     "7 huge scenes": huge_scene_cases,
     "8 time intervals": interval_cases,
     "new: ray files": ray_file_cases,
+    "new: native Embree peer": embree_cases,
 }
 
 

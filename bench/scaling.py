@@ -80,7 +80,7 @@ def t_ci(x) -> tuple[float, float]:
     return tuple(float(v) for v in stats.t.interval(0.95, len(x) - 1, loc=x.mean(), scale=stats.sem(x)))
 
 
-def main() -> None:
+def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("kernels", nargs="*", help=f"more kernels (always: {', '.join(DEFAULT_KERNELS)})")
     ap.add_argument("--rays", type=int, default=64, help="rays at large K (at least)")
@@ -102,6 +102,11 @@ def main() -> None:
         help="pin to this CPU (default: not pinned; the harness's workers, everyone's, pin to the last CPU)",
     )
     ap.add_argument("--seed", type=int, default=0)
+    return ap
+
+
+def main() -> None:
+    ap = _parser()
     args = ap.parse_args()
 
     kernels = list(dict.fromkeys([*DEFAULT_KERNELS, *args.kernels]))
@@ -168,6 +173,12 @@ def main() -> None:
             flush=True,
         )
 
+    print_table(results, kernels, dtypes, counts, caches)
+
+
+def print_table(results: dict, kernels: list[str], dtypes: list[str], counts: list[int], caches: dict) -> None:
+    """ns/test per kernel, precision and K, against the largest K in L1; float64 over float32."""
+    combos = list(results)
     print("\nns/test: median over rounds of the C-timed batches, 95% t CI; cpu: the same from this thread's CPU time")
     print(
         f"{'kernel':<20}{'dtype':<9}{'K':>9}{'records':>11}{'fits':>8}{'ns/test':>10}{'95% CI':>20}"

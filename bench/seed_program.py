@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from tribench import stats
+from tribench.harness import layout
 
 PROGRAMS = ("moller", "curless")
 REPLAY = {"moller": "moller_seed_object", "curless": "curless_seed_object"}
@@ -62,7 +63,7 @@ def replay_render(jobs: list[tuple[dict, float]], kernel: str, cpu: int) -> floa
     """One render's seconds by ``kernel``: the median of three passes per ray kind, scaled."""
     from tribench import ext
 
-    os.sched_setaffinity(0, {cpu})
+    layout.pin(cpu)
     total = 0.0
     for made, scale in jobs:
         job = made[kernel]
