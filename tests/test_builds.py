@@ -90,9 +90,10 @@ def small_sweep(out: Path, cache: Path, *flags) -> None:
 
 @pytest.mark.slow
 def test_a_sweep_of_two_builds_has_estimates_speedups_and_orders_per_build(tmp_path, cache):
-    """The issue's own command, with a kernel file (compiled again under each build) and a fast-math build,
-    whose broken promises are recorded and shown, while its processes still run."""
-    builds = ["gcc -O2", "gcc -O3 -ffast-math"]
+    """The installed build beside a fast-math one, with a kernel file (compiled again under each build): the
+    fast-math build's broken promises are recorded and shown, while its processes still run. One build is
+    the installed one, so the test compiles the extension once (about a minute of CI's on 2 cores)."""
+    builds = ["installed", "gcc -O3 -ffast-math"]
     out = tmp_path / "run"
     kernels = "moller_seed,moller_trumbore,curless,my_moller"
     small_sweep(
@@ -116,7 +117,7 @@ def test_a_sweep_of_two_builds_has_estimates_speedups_and_orders_per_build(tmp_p
     run = json.loads((out / "run.json").read_text())
     recorded = {b["spec"]: b for b in run["builds"]}
     assert recorded[builds[1]]["fast_math"] and "-ffast-math" in recorded[builds[1]]["flags"]
-    assert not any(recorded[builds[0]]["check"].values())  # -O2 keeps every promise
+    assert recorded[builds[0]]["check"] is None  # the installed build's promises are the test suite's to check
     broken = recorded[builds[1]]["check"]
     assert set(broken) == {"moller_seed", "moller_trumbore", "curless", "my_moller"}
     assert any("nonfinite" in p for p in broken["moller_trumbore"]), broken
