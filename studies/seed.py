@@ -140,14 +140,15 @@ def seed_kernels(all_kernels: bool = False) -> tuple[str, ...]:
     triangles per block; Moller-Trumbore has two, with and without the early exit). Every native form was
     faster than its 8-lane and scalar forms in the 27-kernel ranking of session 8 (Suzanne, both
     precisions). Kernels that cull back faces are left out: the seed's renderer tests both faces (its
-    shadow rays meet the back of the monkey), so they would time another render.
+    shadow rays meet the back of the monkey), so they would time another render. Only built-in
+    kernels: the replay takes no kernel file, so one this process loaded would not reach its workers.
 
     >>> seed_kernels()[:6] == FIRST_KERNELS and len(seed_kernels()) < len(seed_kernels(all_kernels=True))
     True
     """
     from tribench import ext
 
-    names = ext.kernel_names()
+    names = [k for k in ext.kernel_names() if ext.kernel_info(k).source == "built-in"]
     first = [k for k in FIRST_KERNELS if k in ext.kernel_names(internal=True)]
     info = {k: ext.kernel_info(k) for k in names}
     two_sided = [k for k in names if not info[k].culls_back_faces]
