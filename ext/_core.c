@@ -84,11 +84,12 @@ static PyMethodDef tb_methods[] = {
      "bvh_build(itemsize, vertices, n, max_leaf, nodes_out, order_out) -> (n_nodes, n_slots)."},
     {"bvh_check", py_bvh_check, METH_VARARGS,
      "bvh_check(itemsize, nodes, n_nodes, perm, n_slots, vertices, n, max_leaf): raise on a malformed tree."},
+    {"bvh_widen", py_bvh_widen, METH_VARARGS, "bvh_widen(itemsize, nodes, n_nodes, wide_out) -> n_wide."},
     {"bvh_run", py_bvh_run, METH_VARARGS,
-     "bvh_run(name, itemsize, mode, isa, o, d, n_rays, t_max, nodes, n_nodes, perm, n_slots, records, "
+     "bvh_run(name, itemsize, mode, isa, layout, o, d, n_rays, t_max, nodes, n_nodes, perm, n_slots, records, "
      "index_out, t_out, u_out, v_out, counts_out)."},
     {"bvh_time", py_bvh_time, METH_VARARGS,
-     "bvh_time(name, itemsize, mode, isa, o, d, n_rays, t_max, nodes, n_nodes, perm, n_slots, records, "
+     "bvh_time(name, itemsize, mode, isa, layout, o, d, n_rays, t_max, nodes, n_nodes, perm, n_slots, records, "
      "loops, null) -> (elapsed_ns, hits, triangle_tests, t_sum, uv_sum, nodes_visited, box_tests, leaves)."},
     {NULL, NULL, 0, NULL},
 };

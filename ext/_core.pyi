@@ -63,11 +63,13 @@ def bvh_build(
 def bvh_check(
     itemsize: int, nodes: _In, n_nodes: int, perm: _In, n_slots: int, vertices: _In, n: int, max_leaf: int, /
 ) -> None: ...
+def bvh_widen(itemsize: int, nodes: _In, n_nodes: int, wide_out: _Out, /) -> int: ...
 def bvh_run(
     name: str,
     itemsize: int,
     mode: int,
     isa: str,
+    layout: int,
     o: _In,
     d: _In,
     n_rays: int,
@@ -89,6 +91,7 @@ def bvh_time(
     itemsize: int,
     mode: int,
     isa: str,
+    layout: int,
     o: _In,
     d: _In,
     n_rays: int,

@@ -36,14 +36,16 @@ TB_HIDDEN const long long tb_bvh_build_version = TB_BVH_BUILD_VERSION;
 
 enum { TB_BVH_RUN_ANY, TB_BVH_RUN_CLOSEST, TB_BVH_TIME_ANY, TB_BVH_TIME_CLOSEST, TB_BVH_TIME_CLOSEST_UV,
        TB_BVH_TIME_NULL, TB_BVH_N_FNS };
+enum { TB_BVH_WIDE, TB_BVH_BINARY, TB_BVH_N_LAYOUTS }; /* bvh.py's LAYOUTS, in order */
 typedef struct {
     const char *name;
-    tb_bvh_fn f32[TB_MAX_ISAS][TB_BVH_N_FNS], f64[TB_MAX_ISAS][TB_BVH_N_FNS];
+    tb_bvh_fn f32[TB_MAX_ISAS][TB_BVH_N_LAYOUTS][TB_BVH_N_FNS], f64[TB_MAX_ISAS][TB_BVH_N_LAYOUTS][TB_BVH_N_FNS];
 } tb_bvh_kernel;
-#define TB_BVH_FNS(name, isa, sfx)                                                                     \
-    {TB_CAT(tb_##name##_bvh_run_any_##isa, sfx), TB_CAT(tb_##name##_bvh_run_closest_##isa, sfx),       \
-     TB_CAT(tb_##name##_bvh_time_any_##isa, sfx), TB_CAT(tb_##name##_bvh_time_closest_##isa, sfx),     \
-     TB_CAT(tb_##name##_bvh_time_closest_uv_##isa, sfx), TB_CAT(tb_##name##_bvh_time_null_##isa, sfx)},
+#define TB_BVH_LAYOUT_FNS(name, layout, isa, sfx)                                                      \
+    {TB_CAT(tb_##name##_bvh_##layout##run_any_##isa, sfx), TB_CAT(tb_##name##_bvh_##layout##run_closest_##isa, sfx), \
+     TB_CAT(tb_##name##_bvh_##layout##time_any_##isa, sfx), TB_CAT(tb_##name##_bvh_##layout##time_closest_##isa, sfx), \
+     TB_CAT(tb_##name##_bvh_##layout##time_closest_uv_##isa, sfx), TB_CAT(tb_##name##_bvh_##layout##time_null_##isa, sfx)}
+#define TB_BVH_FNS(name, isa, sfx) {TB_BVH_LAYOUT_FNS(name, , isa, sfx), TB_BVH_LAYOUT_FNS(name, binary_, isa, sfx)},
 #define TB_BVH_FNS_F32(name, isa) TB_BVH_FNS(name, isa, _f32)
 #define TB_BVH_FNS_F64(name, isa) TB_BVH_FNS(name, isa, _f64)
 #define TB_BVH_KERNEL(name, faces, watertight, promised_by, origin, wide) TB_BVH_KERNEL_##wide(name)
@@ -151,11 +153,40 @@ done:
     return result;
 }
 
+/* bvh_widen(itemsize, nodes, n_nodes, wide_out) -> n_wide: the wide tree
+ * (bvh.h) of a binary tree that bvh_build made or bvh_check passed; wide_out
+ * has room for (n_nodes - 1) / 2 + 1 nodes of 256 bytes. */
+TB_HIDDEN PyObject *py_bvh_widen(PyObject *Py_UNUSED(self), PyObject *args)
+{
+    Py_ssize_t itemsize, n_nodes;
+    Py_buffer nodes = {0}, wide = {0};
+    PyObject *result = NULL;
+    if (!PyArg_ParseTuple(args, "ny*nw*:bvh_widen", &itemsize, &nodes, &n_nodes, &wide))
+        return NULL;
+    if (tb_check_itemsize(itemsize) || tb_check_count("n_nodes", n_nodes, 64) ||
+        tb_check_buffer(&nodes, "nodes", TB_BVH_NODE_REALS * n_nodes, itemsize) ||
+        tb_check_buffer(&wide, "wide_out", TB_BVH_WIDE_BYTES / itemsize * ((n_nodes - 1) / 2 + 1), itemsize))
+        goto done;
+    size_t cap = (size_t)(n_nodes - 1) / 2 + 1, n_wide;
+    Py_BEGIN_ALLOW_THREADS
+    n_wide = itemsize == 4 ? tb_bvh_widen_f32(nodes.buf, (size_t)n_nodes, wide.buf, cap)
+                           : tb_bvh_widen_f64(nodes.buf, (size_t)n_nodes, wide.buf, cap);
+    Py_END_ALLOW_THREADS
+    if (n_wide == 0)
+        PyErr_SetString(PyExc_ValueError, "malformed BVH: the binary tree cannot be widened (check it first)");
+    else
+        result = PyLong_FromSize_t(n_wide);
+done:
+    PyBuffer_Release(&nodes);
+    PyBuffer_Release(&wide);
+    return result;
+}
+
 /* Checks a BVH call (the brute-force job's checks, with the slots as the
  * records, then the tree's buffers) and fills `job`; returns the traversal
  * to call, or NULL with a Python exception set. */
-static tb_bvh_fn tb_parse_bvh_job(const char *name, Py_ssize_t itemsize, int mode, const char *isa, int timed,
-                                  int null, Py_buffer *o, Py_buffer *d, Py_ssize_t n_rays, Py_buffer *t_max,
+static tb_bvh_fn tb_parse_bvh_job(const char *name, Py_ssize_t itemsize, int mode, const char *isa, int layout,
+                                  int timed, int null, Py_buffer *o, Py_buffer *d, Py_ssize_t n_rays, Py_buffer *t_max,
                                   Py_buffer *nodes, Py_ssize_t n_nodes, Py_buffer *perm, Py_ssize_t n_slots,
                                   Py_buffer *rec, tb_bvh_job *job)
 {
@@ -173,8 +204,13 @@ static tb_bvh_fn tb_parse_bvh_job(const char *name, Py_ssize_t itemsize, int mod
         PyErr_Format(PyExc_ValueError, "kernel '%s' has no BVH traversal (native kernels only)", name);
         return NULL;
     }
+    if (layout < 0 || layout >= TB_BVH_N_LAYOUTS) {
+        PyErr_Format(PyExc_ValueError, "layout must be 0 (wide) or 1 (binary), got %d", layout);
+        return NULL;
+    }
+    Py_ssize_t node_reals = layout == TB_BVH_WIDE ? TB_BVH_WIDE_BYTES / itemsize : TB_BVH_NODE_REALS;
     if (n_slots % 16 || tb_check_count("n_nodes", n_nodes, 64) ||
-        tb_check_buffer(nodes, "nodes", TB_BVH_NODE_REALS * n_nodes, itemsize) ||
+        tb_check_buffer(nodes, "nodes", node_reals * n_nodes, itemsize) ||
         tb_check_buffer(perm, "perm", n_slots, 8)) {
         if (!PyErr_Occurred())
             PyErr_Format(PyExc_ValueError, "n_slots must be a multiple of 16, got %zd", n_slots);
@@ -188,7 +224,11 @@ static tb_bvh_fn tb_parse_bvh_job(const char *name, Py_ssize_t itemsize, int mod
     job->counts_out = NULL;
     memset(job->counts, 0, sizeof job->counts);
     job->bad_tree = 0;
-    const tb_bvh_fn *fns = itemsize == 4 ? bk->f32[i] : bk->f64[i];
+    if (n_nodes == 0) {
+        PyErr_SetString(PyExc_ValueError, "malformed BVH: no nodes");
+        return NULL;
+    }
+    const tb_bvh_fn *fns = itemsize == 4 ? bk->f32[i][layout] : bk->f64[i][layout];
     if (!timed)
         return fns[mode == TB_ANY ? TB_BVH_RUN_ANY : TB_BVH_RUN_CLOSEST];
     if (null)
@@ -213,21 +253,21 @@ static int tb_run_bvh(tb_bvh_fn fn, tb_bvh_job *job)
     return 0;
 }
 
-/* bvh_run(name, itemsize, mode, isa, o, d, n_rays, t_max, nodes, n_nodes, perm, n_slots,
+/* bvh_run(name, itemsize, mode, isa, layout, o, d, n_rays, t_max, nodes, n_nodes, perm, n_slots,
  *         records, index_out, t_out, u_out, v_out, counts_out) */
 TB_HIDDEN PyObject *py_bvh_run(PyObject *Py_UNUSED(self), PyObject *args)
 {
     const char *name, *isa;
     Py_ssize_t itemsize, n_rays, n_nodes, n_slots;
-    int mode;
+    int mode, layout;
     Py_buffer o = {0}, d = {0}, t_max = {0}, nodes = {0}, perm = {0}, rec = {0}, index = {0}, t = {0}, u = {0},
               v = {0}, counts = {0};
     PyObject *result = NULL;
     tb_bvh_job job;
-    if (!PyArg_ParseTuple(args, "snisy*y*ny*y*ny*ny*w*w*w*w*w*:bvh_run", &name, &itemsize, &mode, &isa, &o, &d,
+    if (!PyArg_ParseTuple(args, "snisiy*y*ny*y*ny*ny*w*w*w*w*w*:bvh_run", &name, &itemsize, &mode, &isa, &layout, &o, &d,
                           &n_rays, &t_max, &nodes, &n_nodes, &perm, &n_slots, &rec, &index, &t, &u, &v, &counts))
         return NULL;
-    tb_bvh_fn fn = tb_parse_bvh_job(name, itemsize, mode, isa, 0, 0, &o, &d, n_rays, &t_max, &nodes, n_nodes, &perm,
+    tb_bvh_fn fn = tb_parse_bvh_job(name, itemsize, mode, isa, layout, 0, 0, &o, &d, n_rays, &t_max, &nodes, n_nodes, &perm,
                                     n_slots, &rec, &job);
     if (!fn || tb_check_buffer(&index, "index_out", n_rays, 8) || tb_check_buffer(&t, "t_out", n_rays, itemsize) ||
         tb_check_buffer(&u, "u_out", n_rays, itemsize) || tb_check_buffer(&v, "v_out", n_rays, itemsize) ||
@@ -255,7 +295,7 @@ done:
     return result;
 }
 
-/* bvh_time(name, itemsize, mode, isa, o, d, n_rays, t_max, nodes, n_nodes, perm, n_slots,
+/* bvh_time(name, itemsize, mode, isa, layout, o, d, n_rays, t_max, nodes, n_nodes, perm, n_slots,
  *          records, loops, null) -> (elapsed_ns, hits, triangle_tests, t_sum, uv_sum,
  *          nodes_visited, box_tests, leaves) */
 TB_HIDDEN PyObject *py_bvh_time(PyObject *Py_UNUSED(self), PyObject *args)
@@ -263,14 +303,14 @@ TB_HIDDEN PyObject *py_bvh_time(PyObject *Py_UNUSED(self), PyObject *args)
     const char *name, *isa;
     Py_ssize_t itemsize, n_rays, n_nodes, n_slots;
     long long loops;
-    int mode, null;
+    int mode, layout, null;
     Py_buffer o = {0}, d = {0}, t_max = {0}, nodes = {0}, perm = {0}, rec = {0};
     PyObject *result = NULL;
     tb_bvh_job job;
-    if (!PyArg_ParseTuple(args, "snisy*y*ny*y*ny*ny*Lp:bvh_time", &name, &itemsize, &mode, &isa, &o, &d, &n_rays,
+    if (!PyArg_ParseTuple(args, "snisiy*y*ny*y*ny*ny*Lp:bvh_time", &name, &itemsize, &mode, &isa, &layout, &o, &d, &n_rays,
                           &t_max, &nodes, &n_nodes, &perm, &n_slots, &rec, &loops, &null))
         return NULL;
-    tb_bvh_fn fn = tb_parse_bvh_job(name, itemsize, mode, isa, 1, null, &o, &d, n_rays, &t_max, &nodes, n_nodes,
+    tb_bvh_fn fn = tb_parse_bvh_job(name, itemsize, mode, isa, layout, 1, null, &o, &d, n_rays, &t_max, &nodes, n_nodes,
                                     &perm, n_slots, &rec, &job);
     if (!fn)
         goto done;

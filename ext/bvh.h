@@ -1,5 +1,6 @@
-/* A bounding volume hierarchy over a triangle array: binned SAH build and
- * single-ray traversal with a native kernel's block test at the leaves.
+/* A bounding volume hierarchy over a triangle array: binned SAH build, its
+ * collapse into a wide tree, and single-ray traversal of either with a native
+ * kernel's block test at the leaves.
  *
  * No include guard: native.h includes this file at its end, once per ISA of
  * each precision. The build and the node layout belong to the precision
@@ -26,14 +27,15 @@
  *   b[0] = lower corner, b[1] = upper corner of the box (exact min/max of the
  *   stored vertices: no rounding), then two uint32: for an inner node
  *   a = right child, n = 0; for a leaf a = first slot, n = its triangles.
- * A 2-wide tree: its two child boxes are read from two adjacent-or-near
- * nodes; wide (4/8) nodes are the next step (see the report of issue 19).
+ * This binary tree is what is built, cached and checked; the traversal
+ * the library runs by default walks the wide tree collapsed from it (below).
  * Slots: each leaf starts on a block boundary (a multiple of 16) and takes
  * whole blocks, so its records are the kernel's prepared blocks as brute force
  * uses them, tested with the kernel's own block test. The build writes the
  * input indices in leaf order (order_out); Python maps slots to them.
  *
- * Traversal: see TB_NFN(tb_bvh_loop) below. */
+ * Traversal: see TB_NFN(tb_bvh_loop) below; the wide tree's is 1.3-1.5x
+ * faster than the binary one's (docs/decisions.md, "Wide BVH"). */
 
 #if TB_NFIRST
 #ifndef TB_BVH_BUILD_VERSION
@@ -374,6 +376,110 @@ static const char *TB_FN(tb_bvh_check)(const tb_bvh_node *nodes, size_t n_nodes,
     return fault;
 }
 
+/* The wide tree (Wald et al. 2008, "Getting rid of packets: efficient SIMD
+ * single-ray traversal using multi-branching BVHs"; Dammertz et al. 2008,
+ * "Shallow bounding volume hierarchies for fast SIMD ray tracing of
+ * incoherent rays"), derived from the binary tree above, which stays what is
+ * built, cached and checked: the wide tree is a pure function of a sound
+ * binary tree, so it needs no check of its own. TB_BVH_WIDTH children per
+ * node, one 32-byte vector per box plane (8 floats, 4 doubles: one AVX
+ * register), 256 bytes a node. b[2k] and b[2k + 1] are the children's lower
+ * and upper planes on axis k; a child is inner (a = its wide node, n = 0), a
+ * leaf (a = first slot, n = its triangles, as in the binary tree) or empty
+ * (a = n = 0 with an empty box, lower +inf and upper -inf, which no finite
+ * ray enters). Nodes depth first, every child after its parent. */
+#define TB_BVH_WIDTH ((int)(32 / sizeof(real)))
+#define TB_BVH_WIDE_BYTES 256
+#define tb_bvh_wide TB_FN(tb_bvh_wide)
+typedef struct {
+    real b[6][32 / sizeof(real)];
+    uint32_t a[32 / sizeof(real)], n[32 / sizeof(real)];
+#if TB_REAL_IS_DOUBLE
+    uint32_t pad[8];
+#endif
+} tb_bvh_wide;
+_Static_assert(sizeof(tb_bvh_wide) == TB_BVH_WIDE_BYTES, "wide node size");
+
+static double TB_FN(tb_bvh_node_area)(const tb_bvh_node *nd)
+{
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+        lo[k] = nd->b[0][k];
+        hi[k] = nd->b[1][k];
+    }
+    return TB_FN(tb_bvh_area)(lo, hi);
+}
+
+/* Collapses binary node `at` and the inner nodes below it into one wide
+ * node: its children start as the binary node's two, and the inner child of
+ * the largest surface area is opened (replaced by its two children, in
+ * place, so siblings stay in the binary tree's order) until there are
+ * TB_BVH_WIDTH or only leaves; then each inner child becomes a wide node of
+ * its own. The greedy rule is Wald's and Embree's: the largest boxes are the
+ * likeliest to be entered, so they are the ones worth testing side by side.
+ * Returns the wide node's index, or (size_t)-1 if the binary tree is
+ * malformed or deeper than the stack (the caller raises). */
+static size_t TB_FN(tb_bvh_widen_node)(const tb_bvh_node *bin, size_t n_bin, size_t at, int depth,
+                                       tb_bvh_wide *wide, size_t cap, size_t *n_wide)
+{
+    if (*n_wide >= cap || depth >= TB_BVH_STACK)
+        return (size_t)-1;
+    size_t me = (*n_wide)++, kids[32 / sizeof(real)];
+    int n_kids = 1;
+    kids[0] = at;
+    for (;;) {
+        int open = -1;
+        double open_area = -1;
+        for (int i = 0; i < n_kids; ++i)
+            if (bin[kids[i]].n == 0 && TB_FN(tb_bvh_node_area)(&bin[kids[i]]) > open_area) {
+                open = i;
+                open_area = TB_FN(tb_bvh_node_area)(&bin[kids[i]]);
+            }
+        if (open < 0)
+            break;
+        size_t node = kids[open], left = node + 1, right = bin[node].a;
+        if (right <= left || right >= n_bin)
+            return (size_t)-1;
+        memmove(&kids[open + 2], &kids[open + 1], (size_t)(n_kids - open - 1) * sizeof *kids);
+        kids[open] = left;
+        kids[open + 1] = right;
+        if (++n_kids == TB_BVH_WIDTH)
+            break;
+    }
+    tb_bvh_wide *w = &wide[me];
+    memset(w, 0, sizeof *w);
+    for (int i = 0; i < TB_BVH_WIDTH; ++i)
+        for (int k = 0; k < 3; ++k) {
+            w->b[2 * k][i] = i < n_kids ? bin[kids[i]].b[0][k] : (real)INFINITY;
+            w->b[2 * k + 1][i] = i < n_kids ? bin[kids[i]].b[1][k] : -(real)INFINITY;
+        }
+    for (int i = 0; i < n_kids; ++i) {
+        const tb_bvh_node *kid = &bin[kids[i]];
+        if (kid->n) { /* a leaf: the binary tree's own */
+            w->a[i] = kid->a;
+            w->n[i] = kid->n;
+            continue;
+        }
+        size_t sub = TB_FN(tb_bvh_widen_node)(bin, n_bin, kids[i], depth + 1, wide, cap, n_wide);
+        if (sub == (size_t)-1)
+            return sub;
+        w->a[i] = (uint32_t)sub;
+    }
+    return me;
+}
+
+/* The wide tree of a sound binary tree of n_bin nodes into `wide` (room for
+ * cap nodes: (n_bin - 1) / 2 + 1 always suffice, as every wide node but a
+ * lone leaf's consumes an inner node). Returns the wide nodes' count, or 0
+ * when the binary tree is malformed. */
+static size_t TB_FN(tb_bvh_widen)(const tb_bvh_node *bin, size_t n_bin, tb_bvh_wide *wide, size_t cap)
+{
+    size_t n_wide = 0;
+    if (n_bin == 0 || TB_FN(tb_bvh_widen_node)(bin, n_bin, 0, 0, wide, cap, &n_wide) == (size_t)-1)
+        return 0;
+    return n_wide;
+}
+
 #endif /* TB_NFIRST */
 
 /* Slab test of the ray against one node's box, within [0, t_max] (Ize 2013,
@@ -404,40 +510,295 @@ TB_NWIDE int TB_NFN(tb_bvh_box)(const tb_bvh_node *node, const real o[3], const 
     return t0 <= t1;
 }
 
-/* One batch of BVH traversal with a native kernel's block test at the leaves.
+/* The same slab test on every child of a wide node at once: one 32-byte
+ * vector per plane, the same arithmetic and rounding margin as tb_bvh_box,
+ * lane by lane. max and min keep the running value when the new one is NaN
+ * (the 0 x inf case above): the AVX forms return their second operand on a
+ * NaN, and the baseline's select does the same. An empty child's box
+ * (+inf, -inf) is missed by every finite ray. Returns the bits of the
+ * children met, and their entry distances in *t_in. */
+#if TB_NISA_ID >= 1 && !TB_REAL_IS_DOUBLE
+#define tb_wv_max(a, b) _mm256_max_ps(a, b)
+#define tb_wv_min(a, b) _mm256_min_ps(a, b)
+#define tb_wv_le_bits(a, b) ((unsigned)_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ)))
+#elif TB_NISA_ID >= 1
+#define tb_wv_max(a, b) _mm256_max_pd(a, b)
+#define tb_wv_min(a, b) _mm256_min_pd(a, b)
+#define tb_wv_le_bits(a, b) ((unsigned)_mm256_movemask_pd(_mm256_cmp_pd(a, b, _CMP_LE_OQ)))
+#else
+#define tb_wv_max(a, b) TB_NFN(tb_wv_pick)(a, b, (a) > (b))
+#define tb_wv_min(a, b) TB_NFN(tb_wv_pick)(a, b, (a) < (b))
+#define tb_wv_le_bits(a, b) TB_NFN(tb_wv_bits)((a) <= (b))
+TB_NWIDE vreal TB_NFN(tb_wv_pick)(vreal a, vreal b, vmask m)
+{
+    return (vreal)((m & (vmask)a) | (~m & (vmask)b));
+}
+TB_NWIDE unsigned TB_NFN(tb_wv_bits)(vmask m)
+{
+    mask_elem lanes[TB_BVH_WIDTH];
+    memcpy(lanes, &m, sizeof lanes);
+    unsigned bits = 0;
+    for (int i = 0; i < TB_BVH_WIDTH; ++i)
+        bits |= (unsigned)(lanes[i] != 0) << i;
+    return bits;
+}
+#endif
+TB_NWIDE unsigned TB_NFN(tb_bvh_wide_box)(const tb_bvh_wide *w, const vreal org[3], const vreal inv[3],
+                                          const int near[3], real t_max, vreal *t_in)
+{
+    const vreal grow = (real)(1 + 4 * (TB_REAL_IS_DOUBLE ? DBL_EPSILON : FLT_EPSILON)) + (vreal){0};
+    vreal t0 = (vreal){0}, t1 = t_max + (vreal){0};
+    for (int k = 0; k < 3; ++k) {
+        vreal enter, leave;
+        memcpy(&enter, w->b[2 * k + near[k]], sizeof enter);
+        memcpy(&leave, w->b[2 * k + 1 - near[k]], sizeof leave);
+        t0 = tb_wv_max((enter - org[k]) * inv[k], t0);
+        t1 = tb_wv_min((leave - org[k]) * inv[k] * grow, t1);
+    }
+    *t_in = t0;
+    return tb_wv_le_bits(t0, t1);
+}
+
+/* A ray as both traversals take it: the kernel's ray in every lane, and
+ * the slab test's origin, inverse direction and near side per axis. */
+typedef struct {
+    tb_nray r;
+    real org[3], inv[3];
+    int near[3], finite;
+} TB_NFN(tb_bvh_ray);
+
+TB_NWIDE void TB_NFN(tb_bvh_ray_of)(TB_FN(tb_ray_fn) make_ray, const real *o, const real *d, TB_NFN(tb_bvh_ray) * ray)
+{
+    tb_ray sr;
+    make_ray(o, d, &sr);
+    ray->r = TB_NFN(tb_nray_of)(&sr);
+    ray->finite = 1;
+    for (int k = 0; k < 3; ++k) {
+        ray->finite &= isfinite(sr.o[k]) && isfinite(sr.d[k]);
+        ray->org[k] = sr.o[k];
+        ray->inv[k] = 1 / sr.d[k];
+        ray->near[k] = signbit(ray->inv[k]) ? 1 : 0;
+    }
+}
+
+/* The closest hit so far: t starts at the ray's t_max; slot and index -1
+ * until a hit; filter is the kernel's t_max, t grown by 1 + 4 eps so that an
+ * equal t (coincident triangles) reaches the tie rule. */
+typedef struct {
+    real t, u, v;
+    int64_t slot, index;
+    nreal filter;
+} TB_NFN(tb_bvh_best);
+
+/* A leaf's triangles through the kernel: each vector's worth of its blocks
+ * with the closest hit so far as t_max, dividing as native.h's loop does.
+ * The closest hit is the smallest t; equal t goes to the lowest input index,
+ * as brute force does; hits with t >= the ray's own t_max never count.
+ * Counts the leaf (c[2], c[3]). Returns -1 on a leaf out of range (a
+ * malformed tree), 1 when mode any has its hit (the ray is done), else 0. */
+TB_NWIDE int TB_NFN(tb_bvh_visit_leaf)(TB_NFN(tb_native_fn) test, size_t stride, const tb_bvh_job *job,
+                                       const TB_NFN(tb_bvh_ray) * ray, size_t first, size_t count, int mode,
+                                       int timed, int null, nreal iota, TB_NFN(tb_bvh_best) * b, uint64_t c[4])
+{
+    const real *rec = job->base.records;
+    const real grow = (real)1 + 4 * (TB_REAL_IS_DOUBLE ? DBL_EPSILON : FLT_EPSILON);
+    const nreal zero = nv_set1(0), one = nv_set1(1), nan = nv_set1((real)NAN);
+    if (first % 16 || first > job->n_slots || count > job->n_slots - first)
+        return -1;
+    ++c[2];
+    c[3] += count;
+    if (null) {
+        __asm__ volatile("" : : "r"(rec + stride * first) : "memory");
+        return 0;
+    }
+    for (size_t at = 0; at < count; at += TB_NL) {
+        const size_t slot = first + at;
+        tb_nhit h;
+        h.uv_den_set = 0;
+        nmask m = test(&ray->r, rec + stride * (slot - slot % 16) + slot % 16, b->filter, &h);
+        if (!nm_any(m))
+            continue;
+        if (count - at < (size_t)TB_NL) /* lanes past the leaf's last triangle */
+            m = nm_and(m, nv_lt(iota, nv_set1((real)(count - at))));
+        nreal inv_den = one / h.den, t = h.t * inv_den;
+        m = nm_and(m, nm_and(nv_gt(t, zero), nv_le(t, nv_set1(b->t))));
+        if (!nm_any(m))
+            continue;
+        real ts[TB_NL], us[TB_NL], vs[TB_NL];
+        nreal t_sel = nv_select(m, t, nan);
+        memcpy(ts, &t_sel, sizeof ts);
+        if (mode == TB_CLOSEST_UV || !timed) {
+            const nreal inv_uv = TB_NFN(tb_nhit_uv_inv)(&h, inv_den);
+            const nreal u = h.u * inv_uv, v = h.v * inv_uv;
+            memcpy(us, &u, sizeof us);
+            memcpy(vs, &v, sizeof vs);
+        }
+        for (int l = 0; l < TB_NL; ++l) {
+            if (!(ts[l] <= b->t)) /* not a candidate (NaN), or beaten by an earlier lane */
+                continue;
+            int64_t index = job->perm[slot + l];
+            if (ts[l] < b->t || (b->slot >= 0 && index < b->index)) {
+                b->t = ts[l];
+                b->slot = (int64_t)(slot + l);
+                b->index = index;
+                if (mode == TB_CLOSEST_UV || !timed) {
+                    b->u = us[l];
+                    b->v = vs[l];
+                }
+                if (mode == TB_ANY)
+                    return 1;
+            }
+        }
+        b->filter = nv_set1(b->t * grow);
+    }
+    return 0;
+}
+
+/* The binary tree, one ray: the root's box, then depth first: at an inner
+ * node both children's boxes are tested, the nearer (by entry distance, ties
+ * to the left) is entered next and the farther pushed with its entry
+ * distance; a popped node whose entry lies beyond the closest hit so far is
+ * skipped. Counts: the root's box test, two per inner node. Returns 0 on a
+ * malformed tree, else 1. */
+TB_NWIDE int TB_NFN(tb_bvh_trace_binary)(TB_NFN(tb_native_fn) test, size_t stride, const tb_bvh_job *job,
+                                         const TB_NFN(tb_bvh_ray) * ray, int mode, int timed, int null, nreal iota,
+                                         TB_NFN(tb_bvh_best) * b, uint64_t c[4])
+{
+    const tb_bvh_node *nodes = job->nodes;
+    size_t node = 0, sp = 0, stack[TB_BVH_STACK];
+    real stack_t[TB_BVH_STACK], t_in;
+    c[1] = (uint64_t)ray->finite;
+    if (!ray->finite || !TB_NFN(tb_bvh_box)(&nodes[0], ray->org, ray->inv, ray->near, b->t, &t_in))
+        return 1;
+    for (;;) {
+        const tb_bvh_node *nd = &nodes[node];
+        ++c[0];
+        if (nd->n == 0) { /* inner: test both children */
+            size_t left = node + 1, right = nd->a;
+            if (right <= left || right >= job->n_nodes)
+                return 0;
+            real t_left, t_right;
+            int hit_left = TB_NFN(tb_bvh_box)(&nodes[left], ray->org, ray->inv, ray->near, b->t, &t_left);
+            int hit_right = TB_NFN(tb_bvh_box)(&nodes[right], ray->org, ray->inv, ray->near, b->t, &t_right);
+            c[1] += 2;
+            if (hit_left && hit_right) {
+                if (sp == TB_BVH_STACK)
+                    return 0;
+                int left_first = t_left <= t_right;
+                stack[sp] = left_first ? right : left;
+                stack_t[sp++] = left_first ? t_right : t_left;
+                node = left_first ? left : right;
+                continue;
+            }
+            if (hit_left || hit_right) {
+                node = hit_left ? left : right;
+                continue;
+            }
+        } else {
+            int done = TB_NFN(tb_bvh_visit_leaf)(test, stride, job, ray, nd->a, nd->n, mode, timed, null, iota, b, c);
+            if (done)
+                return done > 0;
+        }
+        do { /* the next pushed node still in reach */
+            if (sp == 0)
+                return 1;
+            --sp;
+        } while (!(stack_t[sp] <= b->t));
+        node = stack[sp];
+    }
+}
+
+/* The wide tree, one ray, in order (Wald et al. 2008; Embree does the
+ * same): a wide node's children are tested at once; those met are pushed
+ * farthest first, so the nearest is entered next and each popped child is
+ * the nearest left; a child whose entry lies beyond the closest hit so far
+ * is skipped when popped. Equal entries go to the lower child first, as the
+ * binary traversal's left. Counts: TB_BVH_WIDTH box tests per wide node
+ * (the lanes tested, empty ones included). Returns 0 on a malformed tree. */
+TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride, const tb_bvh_job *job,
+                                       const TB_NFN(tb_bvh_ray) * ray, int mode, int timed, int null, nreal iota,
+                                       TB_NFN(tb_bvh_best) * b, uint64_t c[4])
+{
+    typedef struct {
+        uint32_t a, n; /* as a wide node's child */
+        real t;        /* its entry distance */
+    } entry;
+    const tb_bvh_wide *nodes = job->nodes;
+    entry stack[TB_BVH_STACK * (TB_BVH_WIDTH - 1)], kids[TB_BVH_WIDTH];
+    size_t sp = 0;
+    if (!ray->finite)
+        return 1;
+    vreal org[3], inv[3];
+    for (int k = 0; k < 3; ++k) {
+        org[k] = ray->org[k] + (vreal){0};
+        inv[k] = ray->inv[k] + (vreal){0};
+    }
+    uint32_t a = 0, n = 0; /* the root, wide node 0 */
+    for (;;) {
+        if (n == 0) {
+            const tb_bvh_wide *w = &nodes[a];
+            vreal t_in;
+            unsigned met = TB_NFN(tb_bvh_wide_box)(w, org, inv, ray->near, b->t, &t_in);
+            ++c[0];
+            c[1] += TB_BVH_WIDTH;
+            if (met) {
+                real ts[TB_BVH_WIDTH];
+                memcpy(ts, &t_in, sizeof ts);
+                int k = 0;
+                for (; met; met &= met - 1) { /* insertion by entry, farthest first */
+                    int i = __builtin_ctz(met), j = k++;
+                    if (w->n[i] == 0 && !(w->a[i] > a && w->a[i] < job->n_nodes))
+                        return 0;
+                    entry e = {w->a[i], w->n[i], ts[i]};
+                    for (; j > 0 && kids[j - 1].t <= e.t; --j)
+                        kids[j] = kids[j - 1];
+                    kids[j] = e;
+                }
+                if (sp + (size_t)k - 1 > sizeof stack / sizeof *stack)
+                    return 0;
+                memcpy(&stack[sp], kids, (size_t)(k - 1) * sizeof *kids);
+                sp += (size_t)k - 1;
+                a = kids[k - 1].a;
+                n = kids[k - 1].n;
+                continue;
+            }
+        } else {
+            ++c[0];
+            int done = TB_NFN(tb_bvh_visit_leaf)(test, stride, job, ray, a, n, mode, timed, null, iota, b, c);
+            if (done)
+                return done > 0;
+        }
+        do { /* the nearest pushed child still in reach */
+            if (sp == 0)
+                return 1;
+            --sp;
+        } while (!(stack[sp].t <= b->t));
+        a = stack[sp].a;
+        n = stack[sp].n;
+    }
+}
+
+/* One batch of BVH traversal with a native kernel's block test at the
+ * leaves, on the binary tree or the wide one (`wide`, a constant in each
+ * entry point). Non-finite rays (NaN or Inf in o or d) miss at once. Mode
+ * any stops at the first hit.
  *
- * Per ray: the root's box, then depth first from the root: at an inner node
- * both children's boxes are tested, the nearer (by entry distance, ties to
- * the left) is entered next and the farther pushed with its entry distance;
- * a popped node whose entry lies beyond the closest hit so far is skipped.
- * At a leaf, each vector's worth of its blocks goes through the kernel's test
- * with the closest hit so far as t_max, and the loop divides as native.h's
- * does. The closest hit is the smallest t; equal t (coincident triangles)
- * goes to the lowest input index, as brute force does. The kernel is told
- * t_max slightly above the best t (1 + 4 eps) so an equal t reaches that
- * comparison; hits with t >= the ray's own t_max never count. Mode any stops
- * at the first hit. Non-finite rays (NaN or Inf in o or d) miss at once.
- *
- * Counts: nodes visited (inner nodes and leaves entered), box tests (the
- * root's, none for a non-finite ray, and two per inner node), leaves, triangle tests (the leaf's
- * triangles, not its padding lanes). With `null`, the leaf test is replaced
- * by a compiler barrier on the leaf's records (no load, no arithmetic): the
- * same traversal order, but nothing is ever hit, so no interval shrinks; run
- * it with each ray's t_max at its closest hit to traverse as a ray that found
- * its hit at once (the counts say how the two traversals differ). */
+ * Counts per ray: nodes visited (inner nodes and leaves entered), box tests,
+ * leaves, triangle tests (the leaf's triangles, not its padding lanes). With
+ * `null`, the leaf test is replaced by a compiler barrier on the leaf's
+ * records (no load, no arithmetic): the same traversal order, but nothing is
+ * ever hit, so no interval shrinks; run it with each ray's t_max at its
+ * closest hit to traverse as a ray that found its hit at once (the counts
+ * say how the two traversals differ). */
 TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) make_ray, size_t stride,
-                                  tb_bvh_job *job, const int mode, const int timed, const int null)
+                                  tb_bvh_job *job, const int mode, const int timed, const int null, const int wide)
 {
     tb_job *base = &job->base;
-    const real *o = base->origins, *d = base->directions, *rec = base->records, *t_max = base->t_max;
-    const tb_bvh_node *nodes = job->nodes;
-    const int64_t *perm = job->perm;
-    const size_t n_nodes = job->n_nodes, n_slots = job->n_slots;
-    const real grow = (real)1 + 4 * (TB_REAL_IS_DOUBLE ? DBL_EPSILON : FLT_EPSILON);
+    const real *o = base->origins, *d = base->directions, *t_max = base->t_max;
     real lane[TB_NL];
     for (int l = 0; l < TB_NL; ++l)
         lane[l] = (real)l;
-    const nreal iota = nv_load(lane), zero = nv_set1(0), one = nv_set1(1), nan = nv_set1((real)NAN);
+    const nreal iota = nv_load(lane);
     uint64_t hits = 0, rays = 0, poll_at = 1, sums[4] = {0, 0, 0, 0};
     double t_sum = 0, uv_sum = 0;
     const uint64_t loops = timed ? base->loops : 1;
@@ -445,140 +806,33 @@ TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) ma
         for (size_t i = 0; i < base->n_rays; ++i) {
             if (++rays == poll_at && !(poll_at = tb_poll(base, rays)))
                 goto stop;
-            tb_ray sr;
-            make_ray(o + 3 * i, d + 3 * i, &sr);
-            const tb_nray r = TB_NFN(tb_nray_of)(&sr);
-            real org[3], inv[3];
-            int near[3], finite = 1;
-            for (int k = 0; k < 3; ++k) {
-                finite &= isfinite(sr.o[k]) && isfinite(sr.d[k]);
-                org[k] = sr.o[k];
-                inv[k] = 1 / sr.d[k];
-                near[k] = signbit(inv[k]) ? 1 : 0;
+            TB_NFN(tb_bvh_ray) ray;
+            TB_NFN(tb_bvh_ray_of)(make_ray, o + 3 * i, d + 3 * i, &ray);
+            TB_NFN(tb_bvh_best) b = {t_max[i], (real)NAN, (real)NAN, -1, -1, nv_set1(t_max[i])};
+            uint64_t c[4] = {0, 0, 0, 0};
+            int sound = wide ? TB_NFN(tb_bvh_trace_wide)(test, stride, job, &ray, mode, timed, null, iota, &b, c)
+                             : TB_NFN(tb_bvh_trace_binary)(test, stride, job, &ray, mode, timed, null, iota, &b, c);
+            if (!sound) {
+                job->bad_tree = 1;
+                goto stop;
             }
-            real best_t = t_max[i], best_u = (real)NAN, best_v = (real)NAN, t_in;
-            int64_t best_slot = -1, best_index = -1;
-            nreal filter = nv_set1(best_t); /* the kernel's t_max */
-            uint64_t visited = 0, boxes = finite, leaves = 0, tris = 0;
-            size_t node = 0, sp = 0, stack[TB_BVH_STACK];
-            real stack_t[TB_BVH_STACK];
-            if (!finite || !TB_NFN(tb_bvh_box)(&nodes[0], org, inv, near, best_t, &t_in))
-                goto ray_done;
-            for (;;) {
-                const tb_bvh_node *nd = &nodes[node];
-                ++visited;
-                if (nd->n == 0) { /* inner: test both children */
-                    size_t left = node + 1, right = nd->a;
-                    if (right <= left || right >= n_nodes) {
-                        job->bad_tree = 1;
-                        goto stop;
-                    }
-                    real t_left, t_right;
-                    int hit_left = TB_NFN(tb_bvh_box)(&nodes[left], org, inv, near, best_t, &t_left);
-                    int hit_right = TB_NFN(tb_bvh_box)(&nodes[right], org, inv, near, best_t, &t_right);
-                    boxes += 2;
-                    if (hit_left && hit_right) {
-                        if (sp == TB_BVH_STACK) {
-                            job->bad_tree = 1;
-                            goto stop;
-                        }
-                        int left_first = t_left <= t_right;
-                        stack[sp] = left_first ? right : left;
-                        stack_t[sp++] = left_first ? t_right : t_left;
-                        node = left_first ? left : right;
-                        continue;
-                    }
-                    if (hit_left || hit_right) {
-                        node = hit_left ? left : right;
-                        continue;
-                    }
-                } else { /* a leaf: its blocks through the kernel */
-                    const size_t first = nd->a, count = nd->n;
-                    if (first % 16 || first > n_slots || count > n_slots - first) {
-                        job->bad_tree = 1;
-                        goto stop;
-                    }
-                    ++leaves;
-                    tris += count;
-                    if (null) {
-                        __asm__ volatile("" : : "r"(rec + stride * first) : "memory");
-                    } else {
-                        for (size_t at = 0; at < count; at += TB_NL) {
-                            const size_t slot = first + at;
-                            tb_nhit h;
-                            h.uv_den_set = 0;
-                            nmask m = test(&r, rec + stride * (slot - slot % 16) + slot % 16, filter, &h);
-                            if (!nm_any(m))
-                                continue;
-                            if (count - at < (size_t)TB_NL) /* lanes past the leaf's last triangle */
-                                m = nm_and(m, nv_lt(iota, nv_set1((real)(count - at))));
-                            nreal inv_den = one / h.den, t = h.t * inv_den;
-                            m = nm_and(m, nm_and(nv_gt(t, zero), nv_le(t, nv_set1(best_t))));
-                            if (!nm_any(m))
-                                continue;
-                            real ts[TB_NL], us[TB_NL], vs[TB_NL];
-                            nreal t_sel = nv_select(m, t, nan);
-                            memcpy(ts, &t_sel, sizeof ts);
-                            if (mode == TB_CLOSEST_UV || !timed) {
-                                const nreal inv_uv = TB_NFN(tb_nhit_uv_inv)(&h, inv_den);
-                                const nreal u = h.u * inv_uv, v = h.v * inv_uv;
-                                memcpy(us, &u, sizeof us);
-                                memcpy(vs, &v, sizeof vs);
-                            }
-                            for (int l = 0; l < TB_NL; ++l) {
-                                if (!(ts[l] <= best_t)) /* not a candidate (NaN), or beaten by an earlier lane */
-                                    continue;
-                                int64_t index = perm[slot + l];
-                                if (ts[l] < best_t || (best_slot >= 0 && index < best_index)) {
-                                    best_t = ts[l];
-                                    best_slot = (int64_t)(slot + l);
-                                    best_index = index;
-                                    if (mode == TB_CLOSEST_UV || !timed) {
-                                        best_u = us[l];
-                                        best_v = vs[l];
-                                    }
-                                    if (mode == TB_ANY)
-                                        break;
-                                }
-                            }
-                            if (mode == TB_ANY && best_slot >= 0)
-                                break;
-                            filter = nv_set1(best_t * grow);
-                        }
-                        if (mode == TB_ANY && best_slot >= 0)
-                            goto ray_done;
-                    }
-                }
-                do { /* the next pushed node still in reach */
-                    if (sp == 0)
-                        goto ray_done;
-                    --sp;
-                } while (!(stack_t[sp] <= best_t));
-                node = stack[sp];
-            }
-        ray_done:
             if (timed) {
-                if (best_slot >= 0) {
+                if (b.slot >= 0) {
                     ++hits;
-                    t_sum += best_t;
+                    t_sum += b.t;
                     if (mode == TB_CLOSEST_UV)
-                        uv_sum += (double)best_u + best_v;
+                        uv_sum += (double)b.u + b.v;
                 }
-                sums[0] += visited;
-                sums[1] += boxes;
-                sums[2] += leaves;
-                sums[3] += tris;
+                for (int k = 0; k < 4; ++k)
+                    sums[k] += c[k];
             } else {
                 real *t_out = base->t_out, *u_out = base->u_out, *v_out = base->v_out;
-                int64_t *c = job->counts_out + 4 * i;
-                base->index_out[i] = best_index;
-                t_out[i] = best_slot >= 0 ? best_t : (real)NAN;
-                u_out[i] = best_slot >= 0 ? best_u : (real)NAN;
-                v_out[i] = best_slot >= 0 ? best_v : (real)NAN;
-                c[0] = (int64_t)visited;
-                c[1] = (int64_t)boxes;
-                c[2] = (int64_t)leaves;
-                c[3] = (int64_t)tris;
+                base->index_out[i] = b.index;
+                t_out[i] = b.slot >= 0 ? b.t : (real)NAN;
+                u_out[i] = b.slot >= 0 ? b.u : (real)NAN;
+                v_out[i] = b.slot >= 0 ? b.v : (real)NAN;
+                for (int k = 0; k < 4; ++k)
+                    job->counts_out[4 * i + k] = (int64_t)c[k];
             }
         }
 stop:
@@ -588,22 +842,32 @@ stop:
     base->uv_sum = uv_sum;
     memcpy(job->counts, sums, sizeof sums);
 }
+#undef tb_wv_max
+#undef tb_wv_min
+#undef tb_wv_le_bits
 
-/* Entry points of one native kernel's BVH traversal for this ISA; only the
+/* Entry points of one native kernel's BVH traversals for this ISA (the wide
+ * tree's, then the binary tree's: bvh.c's table in the same order); only the
  * TB_NATIVE kernels of the public list (one line each, from list.h). */
-#define TB_BVH_ENTRY(name, fn_mode, mode, timed, null)                                              \
+#define TB_BVH_ENTRY(name, fn_mode, mode, timed, null, wide)                                        \
     TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_bvh_##fn_mode)(tb_bvh_job *job)                    \
     {                                                                                               \
         TB_NFN(tb_bvh_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, job, \
-                            mode, timed, null);                                                     \
+                            mode, timed, null, wide);                                               \
     }
-#define TB_BVH_ENTRIES(name)                                  \
-    TB_BVH_ENTRY(name, run_any, TB_ANY, 0, 0)                 \
-    TB_BVH_ENTRY(name, run_closest, TB_CLOSEST_UV, 0, 0)      \
-    TB_BVH_ENTRY(name, time_any, TB_ANY, 1, 0)                \
-    TB_BVH_ENTRY(name, time_closest, TB_CLOSEST, 1, 0)        \
-    TB_BVH_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1, 0)  \
-    TB_BVH_ENTRY(name, time_null, TB_CLOSEST, 1, 1)
+#define TB_BVH_ENTRIES(name)                                            \
+    TB_BVH_ENTRY(name, run_any, TB_ANY, 0, 0, 1)                        \
+    TB_BVH_ENTRY(name, run_closest, TB_CLOSEST_UV, 0, 0, 1)             \
+    TB_BVH_ENTRY(name, time_any, TB_ANY, 1, 0, 1)                       \
+    TB_BVH_ENTRY(name, time_closest, TB_CLOSEST, 1, 0, 1)               \
+    TB_BVH_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1, 0, 1)         \
+    TB_BVH_ENTRY(name, time_null, TB_CLOSEST, 1, 1, 1)                  \
+    TB_BVH_ENTRY(name, binary_run_any, TB_ANY, 0, 0, 0)                 \
+    TB_BVH_ENTRY(name, binary_run_closest, TB_CLOSEST_UV, 0, 0, 0)      \
+    TB_BVH_ENTRY(name, binary_time_any, TB_ANY, 1, 0, 0)                \
+    TB_BVH_ENTRY(name, binary_time_closest, TB_CLOSEST, 1, 0, 0)        \
+    TB_BVH_ENTRY(name, binary_time_closest_uv, TB_CLOSEST_UV, 1, 0, 0)  \
+    TB_BVH_ENTRY(name, binary_time_null, TB_CLOSEST, 1, 1, 0)
 #define TB_BVH_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
     TB_BVH_IF_##wide(TB_BVH_ENTRIES(name))
 #define TB_BVH_IF_TB_SCALAR_ONLY(...)

@@ -9,7 +9,7 @@ invariant of it, and :meth:`BVH.intersect` and :meth:`BVH.time` trace rays.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
 import numpy as np
 
@@ -44,6 +44,19 @@ MAX_BVH_TRIANGLES: int = _core.MAX_BVH_TRIANGLES
 MAX_BVH_BATCH_RAYS: int = _core.MAX_BVH_BATCH_RAYS
 #: The version of the tree ext/bvh.h builds (bumped when it changes; the BVH cache names files by it).
 BVH_BUILD_VERSION: int = _core.BVH_BUILD_VERSION
+#: Tree layouts a traversal can walk: ``wide`` (the default, the faster: 8 children a node in
+#: float32, 4 in float64, their boxes tested at once) and ``binary`` (the tree as built, two boxes
+#: tested one after the other); docs/decisions.md, "Wide BVH".
+Layout = Literal["wide", "binary"]
+LAYOUTS: tuple[str, ...] = ("wide", "binary")
+#: Bytes of one wide node (ext/bvh.h's tb_bvh_wide).
+WIDE_NODE_BYTES: int = 256
+
+
+def _check_layout(layout: object) -> int:
+    if not isinstance(layout, str) or layout not in LAYOUTS:
+        raise UserError(f"layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
+    return LAYOUTS.index(layout)
 
 
 class Trace(NamedTuple):
@@ -107,6 +120,9 @@ class BVH:
     prepared : Prepared
         The kernel's records in slot order (``n_triangles`` = n_slots).
     max_leaf : int
+    wide : ndarray (n_wide, 256 / itemsize), read-only
+        The same tree collapsed to wide nodes (``ext/bvh.h``'s ``tb_bvh_wide``), derived from
+        ``nodes``: what the default ``layout="wide"`` traverses.
     """
 
     kernel: str
@@ -115,6 +131,7 @@ class BVH:
     perm: np.ndarray
     prepared: Prepared
     max_leaf: int
+    wide: np.ndarray
 
     @property
     def dtype(self) -> np.dtype:
@@ -147,6 +164,7 @@ class BVH:
         t_max: np.ndarray | float | None = None,
         isa: str | None = None,
         allow_nonfinite: bool = False,
+        layout: Layout = "wide",
     ) -> Trace:
         """Trace every ray (untimed); the arguments as :func:`intersect`'s.
 
@@ -154,7 +172,8 @@ class BVH:
         kernel (ties in ``t`` to the lowest index), up to rounding where two
         triangles' hits are within a few ulps; ``any`` stops at the first hit.
         With ``allow_nonfinite``, a ray with NaN or Inf in its origin or
-        direction is a miss (it is not traversed).
+        direction is a miss (it is not traversed). ``layout`` picks the tree
+        walked (:data:`LAYOUTS`); both give the same answers.
 
         >>> import numpy as np
         >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]], [[0., 0, 1], [1, 0, 1], [0, 1, 1]]])
@@ -164,11 +183,12 @@ class BVH:
         (1, 2.0)
         """
         o, d, _, tm, isa = self._rays(origins, directions, mode, t_max, isa, allow_nonfinite)
+        which = _check_layout(layout)
         n, dtype = len(o), self.dtype
         hits = Hits(np.empty(n, np.int64), np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype))
         counts = np.empty((n, len(COUNT_NAMES)), np.int64)
         core_of(self.kernel).bvh_run(
-            self.kernel, dtype.itemsize, MODES.index(mode), isa, o, d, n, tm, *self._tree(), *hits, counts
+            self.kernel, dtype.itemsize, MODES.index(mode), isa, which, o, d, n, tm, *self._tree(which), *hits, counts
         )
         return Trace(hits, counts)
 
@@ -182,6 +202,7 @@ class BVH:
         t_max: np.ndarray | float | None = None,
         isa: str | None = None,
         null_leaf: bool = False,
+        layout: Layout = "wide",
     ) -> TraceBatch:
         """Trace the rays ``loops`` times in C with the GIL released; time it.
 
@@ -189,9 +210,10 @@ class BVH:
         compiler barrier (nothing is hit, so no interval shrinks; give each
         ray's closest-hit ``t`` as ``t_max`` to traverse as if every ray found
         its hit at once). Inputs must be finite; ``loops * len(origins)`` at
-        most :data:`MAX_BVH_BATCH_RAYS`.
+        most :data:`MAX_BVH_BATCH_RAYS`. ``layout`` as in :meth:`intersect`.
         """
         o, d, _, tm, isa = self._rays(origins, directions, mode, t_max, isa, False)
+        which = _check_layout(layout)
         if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)):
             raise UserTypeError(f"loops must be an int, got {type(loops).__name__}")
         if not 1 <= loops <= MAX_BVH_BATCH_RAYS // len(o):
@@ -204,18 +226,20 @@ class BVH:
             self.dtype.itemsize,
             MODES.index(mode),
             isa,
+            which,
             o,
             d,
             len(o),
             tm,
-            *self._tree(),
+            *self._tree(which),
             int(loops),
             null_leaf,
         )
         return TraceBatch(elapsed, int(loops), len(o), hits, t_sum, uv_sum, nodes, boxes, leaves, tris)
 
-    def _tree(self) -> tuple[np.ndarray, int, np.ndarray, int, np.ndarray]:
-        return self.nodes, self.n_nodes, self.perm, self.n_slots, self.prepared.records
+    def _tree(self, layout: int) -> tuple[np.ndarray, int, np.ndarray, int, np.ndarray]:
+        nodes = self.wide if LAYOUTS[layout] == "wide" else self.nodes
+        return nodes, len(nodes), self.perm, self.n_slots, self.prepared.records
 
 
 def _leaves(nodes: np.ndarray) -> np.ndarray:
@@ -273,10 +297,12 @@ def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = DEFAULT_MAX
 
 
 def _frozen_bvh(kernel: str, tris: np.ndarray, nodes: np.ndarray, perm: np.ndarray, records: np.ndarray, max_leaf: int):
+    wide = np.empty(((len(nodes) - 1) // 2 + 1, WIDE_NODE_BYTES // nodes.itemsize), dtype=nodes.dtype)
+    wide = wide[: _core.bvh_widen(nodes.itemsize, nodes, len(nodes), wide)].copy()
     view = tris.view()
-    for a in (view, nodes, perm, records):
+    for a in (view, nodes, perm, records, wide):
         a.flags.writeable = False
-    return BVH(kernel, view, nodes, perm, Prepared(kernel, records, len(perm)), max_leaf)
+    return BVH(kernel, view, nodes, perm, Prepared(kernel, records, len(perm)), max_leaf, wide)
 
 
 def adopt_bvh(

@@ -175,16 +175,18 @@ TB_KERNEL_LIST(TB_DECLARE_X8)
 #undef TB_DECLARE_X8
 #undef TB_DECLARE_X8_ISA
 
-/* a native kernel's, and (public TB_NATIVE kernels) its BVH traversal's six */
+/* a native kernel's, and (public TB_NATIVE kernels) its BVH traversals' six
+ * per tree layout (wide, then binary_) */
 #define TB_DECLARE_NATIVE_ISA(name, isa)                                                           \
     TB_DECLARE_WIDE_(tb_##name, isa, _f32) TB_DECLARE_WIDE_(tb_##name, isa, _f64)
-#define TB_DECLARE_BVH_(name, isa, sfx)                                                            \
-    TB_HIDDEN void tb_##name##_bvh_run_any_##isa##sfx(tb_bvh_job *);                               \
-    TB_HIDDEN void tb_##name##_bvh_run_closest_##isa##sfx(tb_bvh_job *);                           \
-    TB_HIDDEN void tb_##name##_bvh_time_any_##isa##sfx(tb_bvh_job *);                              \
-    TB_HIDDEN void tb_##name##_bvh_time_closest_##isa##sfx(tb_bvh_job *);                          \
-    TB_HIDDEN void tb_##name##_bvh_time_closest_uv_##isa##sfx(tb_bvh_job *);                       \
-    TB_HIDDEN void tb_##name##_bvh_time_null_##isa##sfx(tb_bvh_job *);
+#define TB_DECLARE_BVH_LAYOUT(name, layout, isa, sfx)                                              \
+    TB_HIDDEN void tb_##name##_bvh_##layout##run_any_##isa##sfx(tb_bvh_job *);                     \
+    TB_HIDDEN void tb_##name##_bvh_##layout##run_closest_##isa##sfx(tb_bvh_job *);                 \
+    TB_HIDDEN void tb_##name##_bvh_##layout##time_any_##isa##sfx(tb_bvh_job *);                    \
+    TB_HIDDEN void tb_##name##_bvh_##layout##time_closest_##isa##sfx(tb_bvh_job *);                \
+    TB_HIDDEN void tb_##name##_bvh_##layout##time_closest_uv_##isa##sfx(tb_bvh_job *);             \
+    TB_HIDDEN void tb_##name##_bvh_##layout##time_null_##isa##sfx(tb_bvh_job *);
+#define TB_DECLARE_BVH_(name, isa, sfx) TB_DECLARE_BVH_LAYOUT(name, , isa, sfx) TB_DECLARE_BVH_LAYOUT(name, binary_, isa, sfx)
 #define TB_DECLARE_BVH_ISA(name, isa) TB_DECLARE_BVH_(name, isa, _f32) TB_DECLARE_BVH_(name, isa, _f64)
 #define TB_DECLARE_NATIVE(name, faces, watertight, promised_by, origin, wide) TB_DECLARE_NATIVE_##wide(name)
 #define TB_DECLARE_NATIVE_TB_SCALAR_ONLY(name)
@@ -234,6 +236,7 @@ TB_PY_FN(time)
 TB_PY_FN(bvh_kernels) /* bvh.c */
 TB_PY_FN(bvh_build)
 TB_PY_FN(bvh_check)
+TB_PY_FN(bvh_widen)
 TB_PY_FN(bvh_run)
 TB_PY_FN(bvh_time)
 TB_PY_FN(fma_peak) /* probes.c */

@@ -15,6 +15,8 @@ triangle met (or nearly) at t ~ 0: the origin in its plane, up to 1e-3 relative.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -80,30 +82,35 @@ def _check(tris: np.ndarray, o: np.ndarray, d: np.ndarray, max_leaf: int = 16) -
         ref_index, ambiguous = answers[ext.kernel_info(kernel).culls_back_faces]
         ok = ~ambiguous
         bvh = ext.build_bvh(kernel, tris, max_leaf=max_leaf)
-        for isa in _isas(kernel):
+        for isa, layout in itertools.product(_isas(kernel), ext.LAYOUTS):
             brute = ext.intersect(kernel, o, d, tris, "closest", isa=isa)
-            tr = bvh.intersect(o, d, "closest", isa=isa)
-            where = (kernel, isa, tris.dtype)
+            tr = bvh.intersect(o, d, "closest", isa=isa, layout=layout)
+            where = (kernel, isa, layout, tris.dtype)
             np.testing.assert_array_equal(tr.hits.index[ok], brute.index[ok], err_msg=str(where))
             np.testing.assert_array_equal(tr.hits.index[ok], ref_index[ok], err_msg=str(where))
             same = tr.hits.index == brute.index  # the same triangle: the same arithmetic, bit for bit
             for name in ("t", "u", "v"):
                 np.testing.assert_array_equal(getattr(tr.hits, name)[same], getattr(brute, name)[same])
-            shadow = bvh.intersect(o, d, "any", isa=isa)
+            shadow = bvh.intersect(o, d, "any", isa=isa, layout=layout)
             np.testing.assert_array_equal(shadow.hits.hit[ok], ref_index[ok] >= 0, err_msg=str(where))
             hit = shadow.hits.hit  # any hit is a hit of the kernel with t below the closest's bound
             assert (shadow.hits.t[hit] > 0).all()
-            _check_counts(bvh, tr.counts)
-            _check_counts(bvh, shadow.counts)
+            _check_counts(bvh, tr.counts, layout)
+            _check_counts(bvh, shadow.counts, layout)
             assert (shadow.counts[:, 0] <= tr.counts[:, 0])[ok & (ref_index < 0)].all()
     return float(answers[False][1].mean())
 
 
-def _check_counts(bvh: ext.BVH, counts: np.ndarray) -> None:
+def _check_counts(bvh: ext.BVH, counts: np.ndarray, layout: str) -> None:
     nodes, boxes, leaves, tris = counts.T
     assert (tris <= leaves * bvh.max_leaf).all() and (tris >= leaves).all()
-    assert (leaves <= nodes).all() and (nodes <= bvh.n_nodes).all()
-    assert (boxes == 1 + 2 * (nodes - leaves)).all()  # the root's, then two per inner node
+    assert (leaves <= nodes).all() and (leaves <= len(bvh.leaves)).all()
+    if layout == "binary":
+        assert (nodes <= bvh.n_nodes).all()
+        assert (boxes == 1 + 2 * (nodes - leaves)).all()  # the root's, then two per inner node
+    else:  # every child of each wide node at once: 8 float or 4 double lanes
+        assert (nodes - leaves <= len(bvh.wide)).all()
+        assert (boxes == 32 // bvh.dtype.itemsize * (nodes - leaves)).all()
 
 
 def _soup(n: int, seed: int, dtype, scale: float = 1.0, shift: float = 0.0, rays: int = 300):
@@ -269,6 +276,30 @@ def _structure(bvh: ext.BVH) -> None:
             v = bvh.triangles[members].reshape(-1, 3)
             assert (v >= lo[i]).all() and (v <= hi[i]).all()
     assert slot_end == bvh.n_slots
+    _wide_structure(bvh, lo, hi, words)
+
+
+def _wide_structure(bvh: ext.BVH, lo: np.ndarray, hi: np.ndarray, words: np.ndarray) -> None:
+    """The wide tree holds every leaf of the binary one once, with its box; inner children come after
+    their parent and their planes bound everything below them; empty children have empty boxes."""
+    width = 32 // bvh.dtype.itemsize
+    planes = bvh.wide[:, : 6 * width].reshape(-1, 6, width)
+    child = bvh.wide.view(np.uint32)[:, 48 : 48 + 2 * width].reshape(-1, 2, width).astype(np.int64)  # after 192 bytes
+    leaf_box = {int(a): (lo[i], hi[i]) for i, (a, count) in enumerate(words) if count}
+    seen = []
+    for i in range(len(bvh.wide)):
+        for lane in range(width):
+            a, count = child[i, :, lane]
+            c_lo, c_hi = planes[i, 0::2, lane], planes[i, 1::2, lane]
+            if count:
+                seen.append((a, count))
+                np.testing.assert_array_equal((c_lo, c_hi), leaf_box[a])
+            elif a:
+                assert i < a < len(bvh.wide)
+                assert (planes[a, 0::2].min(axis=1) >= c_lo).all() and (planes[a, 1::2].max(axis=1) <= c_hi).all()
+            else:
+                assert (c_lo == np.inf).all() and (c_hi == -np.inf).all()
+    assert sorted(seen) == sorted(map(tuple, bvh.leaves.tolist()))
 
 
 @settings(max_examples=25, deadline=None)
@@ -350,12 +381,13 @@ def test_a_malformed_tree_raises_in_c_instead_of_reading_out_of_bounds():
     outs = [np.empty(len(o), np.int64)] + [np.empty(len(o), np.float32) for _ in range(3)]
     counts = np.empty((len(o), 4), np.int64)
 
-    def run(nodes, perm=bvh.perm, records=bvh.prepared.records):
+    def run(nodes, perm=bvh.perm, records=bvh.prepared.records, layout=ext.LAYOUTS.index("binary")):
         _core.bvh_run(
             KERNELS[0],
             4,
             2,
             ext.kernel_info(KERNELS[0]).isa,
+            layout,
             o,
             d,
             len(o),
@@ -378,3 +410,21 @@ def test_a_malformed_tree_raises_in_c_instead_of_reading_out_of_bounds():
             run(nodes)
     with pytest.raises(ValueError, match="multiple of 16"):
         run(bvh.nodes, bvh.perm[:-1], bvh.prepared.records)
+    # the wide tree (8 children in float32: 48 plane floats, then 8 child words and 8 counts)
+    wide = ext.LAYOUTS.index("wide")
+    run(bvh.wide, layout=wide)
+    words = bvh.wide.view(np.uint32)
+    inner = int(np.flatnonzero((words[0, 56:] == 0) & (words[0, 48:56] > 0))[0])  # an inner child of the root
+    leaf_row, leaf_lane = (int(x[0]) for x in np.nonzero(words[:, 56:] > 0))
+    for row, word, value in ((0, 48 + inner, 0), (0, 48 + inner, 10**6), (leaf_row, 48 + leaf_lane, 8),
+                             (leaf_row, 56 + leaf_lane, 10**6)):
+        tree = bvh.wide.copy()
+        tree.view(np.uint32)[row, word] = value
+        with pytest.raises(ValueError, match="malformed BVH"):
+            run(tree, layout=wide)
+    with pytest.raises(ValueError, match="layout"):
+        run(bvh.wide, layout=2)
+    broken = bvh.nodes.copy()
+    broken.view(np.uint32)[0, 6] = 1  # the root's right child is its left
+    with pytest.raises(ValueError, match="cannot be widened"):
+        _core.bvh_widen(4, broken, len(broken), np.empty(((len(broken) - 1) // 2 + 1, 64), np.float32))
