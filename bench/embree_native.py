@@ -7,8 +7,7 @@ Contenders on the same arrays:
 
   tribench   every BVH leaf kernel but the culling ones (--kernels) through ext.build_bvh's default
              (wide) tree, on its own ISA and held to AVX2 (isa="avx2"), and the same through the
-             binary tree it is collapsed from (layout="binary", named "... binary"), and in packets
-             of 16 consecutive rays through the wide tree (packet=16, named "... x16");
+             binary tree it is collapsed from (layout="binary", named "... binary");
   embree     native Embree 3 (tribench.ext.embree, its C API): rtcIntersect1,
              rtcIntersect16 over packets of 16 consecutive rays, and both in
              robust (watertight) mode.
@@ -16,8 +15,7 @@ Contenders on the same arrays:
 Every loop is timed in C around it. Each round runs every contender once in
 a fresh random order, each batch ``loops`` passes (about --batch-ms). Printed
 per mesh and ray set: each contender's rays/s (median over rounds), the
-best default-tree form's ratio over each Embree call and over its own binary tree,
-the best packet form's over Embree's packets, the geometric mean over
+best default-tree form's ratio over each Embree call and over its own binary tree, the geometric mean over
 rounds of the per-round ratio with its 95% t interval (rounds paired: one
 process, so the interval covers round-to-round noise, not process layout).
 Answers are checked first: a contender is timed only where its closest
@@ -41,7 +39,6 @@ from tribench.workloads import bvh_cache, make
 from tribench.workloads.spec import MeshSpec
 
 RAYS = ("camera", "bounce")
-TRACES = (("wide", 1, ""), ("binary", 1, " binary"), ("wide", 16, " x16"))  # tribench's: layout, packet, tag
 EMBREE = {"rtcIntersect1": (False, 1), "rtcIntersect16": (False, 16), "robust 1": (True, 1), "robust 16": (True, 16)}
 
 
@@ -51,10 +48,10 @@ def contenders(tris: np.ndarray, kernels: list[str]) -> dict[str, object]:
     for k in kernels:
         bvh = bvh_cache.cached_bvh(k, tris)[0]
         isas = [i for i, ok in ext.kernel_info(k).isas.items() if ok and i in ("avx512", "avx2")]
-        for isa, (tree, packet, tag) in ((i, t) for i in isas for t in TRACES):
-            kw = {"isa": isa, "layout": tree, "packet": packet}
-            calls[f"{k} {isa}{tag}"] = lambda o, d, n, b=bvh, kw=kw: b.time(o, d, "closest", n, **kw).elapsed_ns
-            answers[f"{k} {isa}{tag}"] = lambda o, d, b=bvh, kw=kw: b.intersect(o, d, **kw).hits.index
+        for isa, tree in ((i, t) for i in isas for t in ext.LAYOUTS):
+            name = f"{k} {isa}" + (" binary" if tree == "binary" else "")
+            calls[name] = lambda o, d, n, b=bvh, i=isa, t=tree: b.time(o, d, "closest", n, isa=i, layout=t).elapsed_ns
+            answers[name] = lambda o, d, b=bvh, i=isa, t=tree: b.intersect(o, d, isa=i, layout=t).hits.index
     for name, (robust, width) in EMBREE.items():
         scene = embree.EmbreeScene(tris, robust)
         calls[f"embree {name}"] = lambda o, d, n, s=scene, w=width: s.trace(o, d, None, w, n).elapsed_ns
@@ -82,7 +79,7 @@ def measure(w, named: dict, rounds: int, batch_ms: float, rng: np.random.Generat
 
 def report(label: str, rates: dict[str, list[float]]) -> None:
     median = {n: float(np.median(r)) for n, r in rates.items()}
-    ours = [n for n in rates if not n.startswith("embree") and not n.endswith((" binary", " x16"))]
+    ours = [n for n in rates if not n.startswith("embree") and not n.endswith(" binary")]
     best = max(ours, key=median.__getitem__)
     print(f"\n{label}")
     for n in sorted(rates, key=median.__getitem__, reverse=True):
@@ -92,19 +89,10 @@ def report(label: str, rates: dict[str, list[float]]) -> None:
         if not held:
             continue
         top = max(held, key=median.__getitem__)
-        mark = " (best)" if top == best else ""
         for n in [m for m in rates if m.startswith("embree")] + [f"{top} binary"] * (f"{top} binary" in rates):
-            _ratio(rates, f"{top}{mark}", top, n)
-        packets = [n for n in rates if n.endswith(f"{isa} x16")]
-        if packets:
-            top16 = max(packets, key=median.__getitem__)
-            for n in ("embree rtcIntersect16", "embree robust 16", top):
-                _ratio(rates, top16, top16, n)
-
-
-def _ratio(rates: dict[str, list[float]], label: str, ours: str, theirs: str) -> None:
-    s = stats.speedup(1 / np.array(rates[theirs]), 1 / np.array(rates[ours]))
-    print(f"  {label} / {theirs:<24}{s.ratio:7.3f}  [{s.ci_low:.3f}, {s.ci_high:.3f}]")
+            s = stats.speedup(1 / np.array(rates[n]), 1 / np.array(rates[top]))
+            mark = " (best)" if top == best else ""
+            print(f"  {top}{mark} / {n:<24}{s.ratio:7.3f}  [{s.ci_low:.3f}, {s.ci_high:.3f}]")
 
 
 def main() -> None:

@@ -778,205 +778,10 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
     }
 }
 
-/* Packets of TB_BVH_PACKET consecutive rays through the wide tree (Wald,
- * Slusallek, Benthin and Wagner 2001, "Interactive rendering with coherent
- * ray tracing"; Embree's rtcIntersect16 is the same idea): a node is fetched
- * and its children's boxes tested once for the whole packet, each child
- * against every ray still active in it, the rays in the lanes of 32-byte
- * vectors (8 floats, 4 doubles). The children met by any ray are pushed
- * farthest first by their nearest ray's entry, each with the rays that met
- * it; a popped child keeps only the rays whose closest hit so far lies beyond
- * that nearest entry (a bound for every ray in it: a ray that can no longer
- * gain is dropped at the next box test, its own). At a leaf each of its rays
- * runs the single-ray leaf test, so every ray gets the answer it gets alone.
- * The boxes take the same arithmetic and rounding margin as tb_bvh_box,
- * per ray its own near and far planes. Counts are per ray, as if each of a
- * node's rays had visited it alone. Returns 0 on a malformed tree. */
-#define TB_BVH_PACKET 16
-#define TB_BVH_PV (TB_BVH_PACKET / TB_BVH_WIDTH) /* vectors per packet: 2 float, 4 double */
-#if TB_NISA_ID >= 1 && !TB_REAL_IS_DOUBLE
-#define tb_wv_bits(m) ((unsigned)_mm256_movemask_ps((__m256)(m)))
-#elif TB_NISA_ID >= 1
-#define tb_wv_bits(m) ((unsigned)_mm256_movemask_pd((__m256d)(m)))
-#else
-#define tb_wv_bits(m) TB_NFN(tb_wv_bits)(m)
-#endif
-
-typedef struct {
-    vreal org[3][TB_BVH_PV], inv[3][TB_BVH_PV];
-    vmask far_is_lo[3][TB_BVH_PV]; /* per ray and axis: the direction is negative (near = the upper plane) */
-    vmask bit[TB_BVH_PV];           /* lane l of vector v holds bit v * width + l */
-} TB_NFN(tb_bvh_packet);
-
-/* One child's box against the packet's rays in `rays`; the rays that meet
- * it, and the least entry among them in *t_near. */
-TB_NWIDE unsigned TB_NFN(tb_bvh_packet_box)(const tb_bvh_wide *w, int child, const TB_NFN(tb_bvh_packet) * p,
-                                            unsigned rays, const real *best_t, real *t_near)
-{
-    const vreal grow = (real)(1 + 4 * (TB_REAL_IS_DOUBLE ? DBL_EPSILON : FLT_EPSILON)) + (vreal){0};
-    const vreal far_away = (real)INFINITY + (vreal){0};
-    vreal lo[3], hi[3], nearest = far_away;
-    for (int k = 0; k < 3; ++k) {
-        lo[k] = w->b[2 * k][child] + (vreal){0};
-        hi[k] = w->b[2 * k + 1][child] + (vreal){0};
-    }
-    unsigned met = 0;
-    for (int v = 0; v < TB_BVH_PV; ++v) {
-        vreal t0 = (vreal){0}, t1;
-        memcpy(&t1, best_t + v * TB_BVH_WIDTH, sizeof t1);
-        for (int k = 0; k < 3; ++k) {
-            vmask neg = p->far_is_lo[k][v];
-            vreal enter = (vreal)((neg & (vmask)hi[k]) | (~neg & (vmask)lo[k]));
-            vreal leave = (vreal)((neg & (vmask)lo[k]) | (~neg & (vmask)hi[k]));
-            t0 = tb_wv_max((enter - p->org[k][v]) * p->inv[k][v], t0);
-            t1 = tb_wv_min((leave - p->org[k][v]) * p->inv[k][v] * grow, t1);
-        }
-        vmask in = (t0 <= t1) & ((((mask_elem)(rays >> (v * TB_BVH_WIDTH)) + (vmask){0}) & p->bit[v]) != 0);
-        met |= tb_wv_bits(in) << (v * TB_BVH_WIDTH);
-        nearest = tb_wv_min((vreal)((in & (vmask)t0) | (~in & (vmask)far_away)), nearest);
-    }
-    real lanes[TB_BVH_WIDTH], least = (real)INFINITY;
-    memcpy(lanes, &nearest, sizeof lanes);
-    for (int l = 0; l < TB_BVH_WIDTH; ++l)
-        least = lanes[l] < least ? lanes[l] : least;
-    *t_near = least;
-    return met;
-}
-
-/* the rays of `rays` whose closest hit so far is at or beyond t */
-TB_NWIDE unsigned TB_NFN(tb_bvh_packet_reach)(unsigned rays, real t, const real *best_t)
-{
-    unsigned keep = 0;
-    for (int v = 0; v < TB_BVH_PV; ++v) {
-        vreal b;
-        memcpy(&b, best_t + v * TB_BVH_WIDTH, sizeof b);
-        keep |= tb_wv_bits(t + (vreal){0} <= b) << (v * TB_BVH_WIDTH);
-    }
-    return rays & keep;
-}
-
-TB_NWIDE int TB_NFN(tb_bvh_trace_packet)(TB_NFN(tb_native_fn) test, size_t stride, const tb_bvh_job *job,
-                                         const TB_NFN(tb_bvh_ray) * ray, unsigned alive, int mode, int timed,
-                                         int null, nreal iota, TB_NFN(tb_bvh_best) * best, uint64_t (*c)[4])
-{
-    typedef struct {
-        uint32_t a, n; /* as a wide node's child */
-        unsigned rays; /* the rays that met its box */
-        real t;        /* the nearest of their entries */
-    } entry;
-    const tb_bvh_wide *nodes = job->nodes;
-    entry stack[TB_BVH_STACK * (TB_BVH_WIDTH - 1)], kids[TB_BVH_WIDTH];
-    size_t sp = 0;
-    TB_NFN(tb_bvh_packet) p;
-    real best_t[TB_BVH_PACKET];
-    for (int j = 0; j < TB_BVH_PACKET; ++j) {
-        int v = j / TB_BVH_WIDTH, l = j % TB_BVH_WIDTH, live = (alive >> j) & 1;
-        best_t[j] = live ? best[j].t : -(real)INFINITY; /* a lane no box test lets through */
-        for (int k = 0; k < 3; ++k) {
-            p.org[k][v][l] = live ? ray[j].org[k] : 0;
-            p.inv[k][v][l] = live ? ray[j].inv[k] : 0;
-            p.far_is_lo[k][v][l] = live && ray[j].near[k] ? -1 : 0;
-        }
-        p.bit[v][l] = (mask_elem)1 << l;
-    }
-    uint32_t a = 0, n = 0; /* the root, wide node 0 */
-    unsigned rays = alive;
-    while (rays) {
-        if (n == 0) {
-            const tb_bvh_wide *w = &nodes[a];
-            for (unsigned r = rays; r; r &= r - 1) {
-                ++c[__builtin_ctz(r)][0];
-                c[__builtin_ctz(r)][1] += TB_BVH_WIDTH;
-            }
-            int k = 0;
-            for (int i = 0; i < TB_BVH_WIDTH; ++i) {
-                if (w->b[0][i] == (real)INFINITY) /* empty: no ray meets it */
-                    continue;
-                real t;
-                unsigned met = TB_NFN(tb_bvh_packet_box)(w, i, &p, rays, best_t, &t);
-                if (!met)
-                    continue;
-                if (w->n[i] == 0 && !(w->a[i] > a && w->a[i] < job->n_nodes))
-                    return 0;
-                entry e = {w->a[i], w->n[i], met, t};
-                int j = k++;
-                for (; j > 0 && kids[j - 1].t <= e.t; --j)
-                    kids[j] = kids[j - 1];
-                kids[j] = e;
-            }
-            if (k) {
-                if (sp + (size_t)k - 1 > sizeof stack / sizeof *stack)
-                    return 0;
-                memcpy(&stack[sp], kids, (size_t)(k - 1) * sizeof *kids);
-                sp += (size_t)k - 1;
-                a = kids[k - 1].a;
-                n = kids[k - 1].n;
-                rays = kids[k - 1].rays;
-                continue;
-            }
-        } else {
-            for (unsigned r = rays; r; r &= r - 1) {
-                int j = __builtin_ctz(r);
-                int done = TB_NFN(tb_bvh_visit_leaf)(test, stride, job, &ray[j], a, n, mode, timed, null, iota,
-                                                     &best[j], c[j]);
-                ++c[j][0];
-                if (done < 0)
-                    return 0;
-                best_t[j] = best[j].t;
-                if (done) { /* mode any: this ray is done */
-                    alive &= ~(1u << j);
-                    best_t[j] = -(real)INFINITY;
-                }
-            }
-        }
-        for (rays = 0; !rays;) { /* the nearest pushed child with a ray still in reach */
-            if (sp == 0)
-                return 1;
-            --sp;
-            rays = TB_NFN(tb_bvh_packet_reach)(stack[sp].rays & alive, stack[sp].t, best_t);
-        }
-        a = stack[sp].a;
-        n = stack[sp].n;
-    }
-    return 1;
-}
-#undef tb_wv_bits
-
-/* What tracing ray i left: summed into the batch's checksums (timed) or
- * written to the ray's outputs. */
-typedef struct {
-    uint64_t hits, sums[4];
-    double t_sum, uv_sum;
-} TB_NFN(tb_bvh_tally);
-
-TB_NWIDE void TB_NFN(tb_bvh_ray_done)(tb_bvh_job *job, size_t i, int mode, int timed, const TB_NFN(tb_bvh_best) * b,
-                                      const uint64_t c[4], TB_NFN(tb_bvh_tally) * tally)
-{
-    if (timed) {
-        if (b->slot >= 0) {
-            ++tally->hits;
-            tally->t_sum += b->t;
-            if (mode == TB_CLOSEST_UV)
-                tally->uv_sum += (double)b->u + b->v;
-        }
-        for (int k = 0; k < 4; ++k)
-            tally->sums[k] += c[k];
-        return;
-    }
-    real *t_out = job->base.t_out, *u_out = job->base.u_out, *v_out = job->base.v_out;
-    job->base.index_out[i] = b->index;
-    t_out[i] = b->slot >= 0 ? b->t : (real)NAN;
-    u_out[i] = b->slot >= 0 ? b->u : (real)NAN;
-    v_out[i] = b->slot >= 0 ? b->v : (real)NAN;
-    for (int k = 0; k < 4; ++k)
-        job->counts_out[4 * i + k] = (int64_t)c[k];
-}
-
 /* One batch of BVH traversal with a native kernel's block test at the
- * leaves: `trace` is 0 (the wide tree, ray by ray), 1 (the binary tree) or
- * 2 (the wide tree, packets of TB_BVH_PACKET consecutive rays, the last one
- * partial), a constant in each entry point. Non-finite rays (NaN or Inf in o
- * or d) miss at once. Mode any stops at the first hit.
+ * leaves, on the binary tree or the wide one (`wide`, a constant in each
+ * entry point). Non-finite rays (NaN or Inf in o or d) miss at once. Mode
+ * any stops at the first hit.
  *
  * Counts per ray: nodes visited (inner nodes and leaves entered), box tests,
  * leaves, triangle tests (the leaf's triangles, not its padding lanes). With
@@ -986,7 +791,7 @@ TB_NWIDE void TB_NFN(tb_bvh_ray_done)(tb_bvh_job *job, size_t i, int mode, int t
  * closest hit to traverse as a ray that found its hit at once (the counts
  * say how the two traversals differ). */
 TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) make_ray, size_t stride,
-                                  tb_bvh_job *job, const int mode, const int timed, const int null, const int trace)
+                                  tb_bvh_job *job, const int mode, const int timed, const int null, const int wide)
 {
     tb_job *base = &job->base;
     const real *o = base->origins, *d = base->directions, *t_max = base->t_max;
@@ -994,69 +799,75 @@ TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) ma
     for (int l = 0; l < TB_NL; ++l)
         lane[l] = (real)l;
     const nreal iota = nv_load(lane);
-    const size_t step = trace == 2 ? TB_BVH_PACKET : 1;
-    uint64_t rays = 0, poll_at = 1;
-    TB_NFN(tb_bvh_tally) tally = {0, {0, 0, 0, 0}, 0, 0};
+    uint64_t hits = 0, rays = 0, poll_at = 1, sums[4] = {0, 0, 0, 0};
+    double t_sum = 0, uv_sum = 0;
     const uint64_t loops = timed ? base->loops : 1;
     for (uint64_t pass = 0; pass < loops; ++pass)
-        for (size_t first = 0; first < base->n_rays; first += step) {
-            const size_t m = trace != 2 ? 1 : base->n_rays - first < step ? base->n_rays - first : step;
-            if ((rays += m) >= poll_at && !(poll_at = tb_poll(base, rays)))
+        for (size_t i = 0; i < base->n_rays; ++i) {
+            if (++rays == poll_at && !(poll_at = tb_poll(base, rays)))
                 goto stop;
-            TB_NFN(tb_bvh_ray) ray[TB_BVH_PACKET];
-            TB_NFN(tb_bvh_best) b[TB_BVH_PACKET];
-            uint64_t c[TB_BVH_PACKET][4];
-            unsigned alive = 0;
-            for (size_t j = 0; j < m; ++j) {
-                const size_t i = first + j;
-                TB_NFN(tb_bvh_ray_of)(make_ray, o + 3 * i, d + 3 * i, &ray[j]);
-                b[j] = (TB_NFN(tb_bvh_best)){t_max[i], (real)NAN, (real)NAN, -1, -1, nv_set1(t_max[i])};
-                memset(c[j], 0, sizeof c[j]);
-                alive |= (unsigned)ray[j].finite << j;
-            }
-            int sound = trace == 2 ? TB_NFN(tb_bvh_trace_packet)(test, stride, job, ray, alive, mode, timed, null,
-                                                                 iota, b, c)
-                        : trace == 1 ? TB_NFN(tb_bvh_trace_binary)(test, stride, job, ray, mode, timed, null, iota, b,
-                                                                   c[0])
-                                     : TB_NFN(tb_bvh_trace_wide)(test, stride, job, ray, mode, timed, null, iota, b,
-                                                                 c[0]);
+            TB_NFN(tb_bvh_ray) ray;
+            TB_NFN(tb_bvh_ray_of)(make_ray, o + 3 * i, d + 3 * i, &ray);
+            TB_NFN(tb_bvh_best) b = {t_max[i], (real)NAN, (real)NAN, -1, -1, nv_set1(t_max[i])};
+            uint64_t c[4] = {0, 0, 0, 0};
+            int sound = wide ? TB_NFN(tb_bvh_trace_wide)(test, stride, job, &ray, mode, timed, null, iota, &b, c)
+                             : TB_NFN(tb_bvh_trace_binary)(test, stride, job, &ray, mode, timed, null, iota, &b, c);
             if (!sound) {
                 job->bad_tree = 1;
                 goto stop;
             }
-            for (size_t j = 0; j < m; ++j)
-                TB_NFN(tb_bvh_ray_done)(job, first + j, mode, timed, &b[j], c[j], &tally);
+            if (timed) {
+                if (b.slot >= 0) {
+                    ++hits;
+                    t_sum += b.t;
+                    if (mode == TB_CLOSEST_UV)
+                        uv_sum += (double)b.u + b.v;
+                }
+                for (int k = 0; k < 4; ++k)
+                    sums[k] += c[k];
+            } else {
+                real *t_out = base->t_out, *u_out = base->u_out, *v_out = base->v_out;
+                base->index_out[i] = b.index;
+                t_out[i] = b.slot >= 0 ? b.t : (real)NAN;
+                u_out[i] = b.slot >= 0 ? b.u : (real)NAN;
+                v_out[i] = b.slot >= 0 ? b.v : (real)NAN;
+                for (int k = 0; k < 4; ++k)
+                    job->counts_out[4 * i + k] = (int64_t)c[k];
+            }
         }
 stop:
-    base->hits = tally.hits;
-    base->tests = tally.sums[3];
-    base->t_sum = tally.t_sum;
-    base->uv_sum = tally.uv_sum;
-    memcpy(job->counts, tally.sums, sizeof tally.sums);
+    base->hits = hits;
+    base->tests = sums[3];
+    base->t_sum = t_sum;
+    base->uv_sum = uv_sum;
+    memcpy(job->counts, sums, sizeof sums);
 }
 #undef tb_wv_max
 #undef tb_wv_min
 #undef tb_wv_le_bits
 
 /* Entry points of one native kernel's BVH traversals for this ISA (the wide
- * tree's, the binary tree's, the wide tree's in packets: bvh.c's table in
- * the same order); only the TB_NATIVE kernels of the public list (one line
- * each, from list.h). */
-#define TB_BVH_ENTRY(name, fn_mode, mode, timed, null, trace)                                       \
+ * tree's, then the binary tree's: bvh.c's table in the same order); only the
+ * TB_NATIVE kernels of the public list (one line each, from list.h). */
+#define TB_BVH_ENTRY(name, fn_mode, mode, timed, null, wide)                                        \
     TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_bvh_##fn_mode)(tb_bvh_job *job)                    \
     {                                                                                               \
         TB_NFN(tb_bvh_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, job, \
-                            mode, timed, null, trace);                                              \
+                            mode, timed, null, wide);                                               \
     }
-#define TB_BVH_TRACE_ENTRIES(name, trace, prefix)                                  \
-    TB_BVH_ENTRY(name, prefix##run_any, TB_ANY, 0, 0, trace)                       \
-    TB_BVH_ENTRY(name, prefix##run_closest, TB_CLOSEST_UV, 0, 0, trace)            \
-    TB_BVH_ENTRY(name, prefix##time_any, TB_ANY, 1, 0, trace)                      \
-    TB_BVH_ENTRY(name, prefix##time_closest, TB_CLOSEST, 1, 0, trace)              \
-    TB_BVH_ENTRY(name, prefix##time_closest_uv, TB_CLOSEST_UV, 1, 0, trace)        \
-    TB_BVH_ENTRY(name, prefix##time_null, TB_CLOSEST, 1, 1, trace)
-#define TB_BVH_ENTRIES(name) \
-    TB_BVH_TRACE_ENTRIES(name, 0, ) TB_BVH_TRACE_ENTRIES(name, 1, binary_) TB_BVH_TRACE_ENTRIES(name, 2, packet_)
+#define TB_BVH_ENTRIES(name)                                            \
+    TB_BVH_ENTRY(name, run_any, TB_ANY, 0, 0, 1)                        \
+    TB_BVH_ENTRY(name, run_closest, TB_CLOSEST_UV, 0, 0, 1)             \
+    TB_BVH_ENTRY(name, time_any, TB_ANY, 1, 0, 1)                       \
+    TB_BVH_ENTRY(name, time_closest, TB_CLOSEST, 1, 0, 1)               \
+    TB_BVH_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1, 0, 1)         \
+    TB_BVH_ENTRY(name, time_null, TB_CLOSEST, 1, 1, 1)                  \
+    TB_BVH_ENTRY(name, binary_run_any, TB_ANY, 0, 0, 0)                 \
+    TB_BVH_ENTRY(name, binary_run_closest, TB_CLOSEST_UV, 0, 0, 0)      \
+    TB_BVH_ENTRY(name, binary_time_any, TB_ANY, 1, 0, 0)                \
+    TB_BVH_ENTRY(name, binary_time_closest, TB_CLOSEST, 1, 0, 0)        \
+    TB_BVH_ENTRY(name, binary_time_closest_uv, TB_CLOSEST_UV, 1, 0, 0)  \
+    TB_BVH_ENTRY(name, binary_time_null, TB_CLOSEST, 1, 1, 0)
 #define TB_BVH_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
     TB_BVH_IF_##wide(TB_BVH_ENTRIES(name))
 #define TB_BVH_IF_TB_SCALAR_ONLY(...)
@@ -1072,5 +883,4 @@ TB_KERNEL_LIST(TB_BVH_INSTANTIATE)
 #undef TB_BVH_IF_TB_SCALAR_ONLY
 #undef TB_BVH_INSTANTIATE
 #undef TB_BVH_ENTRIES
-#undef TB_BVH_TRACE_ENTRIES
 #undef TB_BVH_ENTRY

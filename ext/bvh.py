@@ -51,22 +51,12 @@ Layout = Literal["wide", "binary"]
 LAYOUTS: tuple[str, ...] = ("wide", "binary")
 #: Bytes of one wide node (ext/bvh.h's tb_bvh_wide).
 WIDE_NODE_BYTES: int = 256
-#: Rays traced together: one at a time, or packets of 16 consecutive rays through the wide tree
-#: (as Embree's rtcIntersect16), each ray with the answer it gets alone.
-PACKETS: tuple[int, ...] = (1, 16)
-# ext/bvh.c's traversals, in order: (layout, packet)
-_TRACES = (("wide", 1), ("binary", 1), ("wide", 16))
 
 
-def _trace(layout: object, packet: object) -> int:
-    """ext/bvh.c's number of the traversal of ``layout`` with ``packet`` rays at a time."""
+def _check_layout(layout: object) -> int:
     if not isinstance(layout, str) or layout not in LAYOUTS:
         raise UserError(f"layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
-    if isinstance(packet, bool) or packet not in PACKETS:
-        raise UserError(f"packet must be one of {', '.join(map(str, PACKETS))}, got {packet!r}")
-    if (layout, packet) not in _TRACES:
-        raise UserError(f"packets of {packet} rays need the wide layout, not {layout!r}")
-    return _TRACES.index((layout, packet))
+    return LAYOUTS.index(layout)
 
 
 class Trace(NamedTuple):
@@ -175,7 +165,6 @@ class BVH:
         isa: str | None = None,
         allow_nonfinite: bool = False,
         layout: Layout = "wide",
-        packet: int = 1,
     ) -> Trace:
         """Trace every ray (untimed); the arguments as :func:`intersect`'s.
 
@@ -184,8 +173,7 @@ class BVH:
         triangles' hits are within a few ulps; ``any`` stops at the first hit.
         With ``allow_nonfinite``, a ray with NaN or Inf in its origin or
         direction is a miss (it is not traversed). ``layout`` picks the tree
-        walked (:data:`LAYOUTS`) and ``packet`` how many consecutive rays walk
-        it together (:data:`PACKETS`); every choice gives the same answers.
+        walked (:data:`LAYOUTS`); both give the same answers.
 
         >>> import numpy as np
         >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]], [[0., 0, 1], [1, 0, 1], [0, 1, 1]]])
@@ -195,7 +183,7 @@ class BVH:
         (1, 2.0)
         """
         o, d, _, tm, isa = self._rays(origins, directions, mode, t_max, isa, allow_nonfinite)
-        which = _trace(layout, packet)
+        which = _check_layout(layout)
         n, dtype = len(o), self.dtype
         hits = Hits(np.empty(n, np.int64), np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype))
         counts = np.empty((n, len(COUNT_NAMES)), np.int64)
@@ -215,7 +203,6 @@ class BVH:
         isa: str | None = None,
         null_leaf: bool = False,
         layout: Layout = "wide",
-        packet: int = 1,
     ) -> TraceBatch:
         """Trace the rays ``loops`` times in C with the GIL released; time it.
 
@@ -223,10 +210,10 @@ class BVH:
         compiler barrier (nothing is hit, so no interval shrinks; give each
         ray's closest-hit ``t`` as ``t_max`` to traverse as if every ray found
         its hit at once). Inputs must be finite; ``loops * len(origins)`` at
-        most :data:`MAX_BVH_BATCH_RAYS`. ``layout`` and ``packet`` as in :meth:`intersect`.
+        most :data:`MAX_BVH_BATCH_RAYS`. ``layout`` as in :meth:`intersect`.
         """
         o, d, _, tm, isa = self._rays(origins, directions, mode, t_max, isa, False)
-        which = _trace(layout, packet)
+        which = _check_layout(layout)
         if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)):
             raise UserTypeError(f"loops must be an int, got {type(loops).__name__}")
         if not 1 <= loops <= MAX_BVH_BATCH_RAYS // len(o):
@@ -250,8 +237,8 @@ class BVH:
         )
         return TraceBatch(elapsed, int(loops), len(o), hits, t_sum, uv_sum, nodes, boxes, leaves, tris)
 
-    def _tree(self, trace: int) -> tuple[np.ndarray, int, np.ndarray, int, np.ndarray]:
-        nodes = self.wide if _TRACES[trace][0] == "wide" else self.nodes
+    def _tree(self, layout: int) -> tuple[np.ndarray, int, np.ndarray, int, np.ndarray]:
+        nodes = self.wide if LAYOUTS[layout] == "wide" else self.nodes
         return nodes, len(nodes), self.perm, self.n_slots, self.prepared.records
 
 

@@ -31,8 +31,6 @@ from tribench.workloads.rays import camera_rays, sphere_candidates
 
 KERNELS = ext.bvh_kernel_names()
 DTYPES = [np.float32, np.float64]
-#: every traversal: (layout, rays traced together)
-TRACES = [("wide", 1), ("binary", 1), ("wide", 16)]
 TOL = 1e-3
 
 
@@ -84,16 +82,16 @@ def _check(tris: np.ndarray, o: np.ndarray, d: np.ndarray, max_leaf: int = 16) -
         ref_index, ambiguous = answers[ext.kernel_info(kernel).culls_back_faces]
         ok = ~ambiguous
         bvh = ext.build_bvh(kernel, tris, max_leaf=max_leaf)
-        for isa, (layout, packet) in itertools.product(_isas(kernel), TRACES):
+        for isa, layout in itertools.product(_isas(kernel), ext.LAYOUTS):
             brute = ext.intersect(kernel, o, d, tris, "closest", isa=isa)
-            tr = bvh.intersect(o, d, "closest", isa=isa, layout=layout, packet=packet)
-            where = (kernel, isa, layout, packet, tris.dtype)
+            tr = bvh.intersect(o, d, "closest", isa=isa, layout=layout)
+            where = (kernel, isa, layout, tris.dtype)
             np.testing.assert_array_equal(tr.hits.index[ok], brute.index[ok], err_msg=str(where))
             np.testing.assert_array_equal(tr.hits.index[ok], ref_index[ok], err_msg=str(where))
             same = tr.hits.index == brute.index  # the same triangle: the same arithmetic, bit for bit
             for name in ("t", "u", "v"):
                 np.testing.assert_array_equal(getattr(tr.hits, name)[same], getattr(brute, name)[same])
-            shadow = bvh.intersect(o, d, "any", isa=isa, layout=layout, packet=packet)
+            shadow = bvh.intersect(o, d, "any", isa=isa, layout=layout)
             np.testing.assert_array_equal(shadow.hits.hit[ok], ref_index[ok] >= 0, err_msg=str(where))
             hit = shadow.hits.hit  # any hit is a hit of the kernel with t below the closest's bound
             assert (shadow.hits.t[hit] > 0).all()
@@ -247,14 +245,13 @@ def test_nonfinite_rays_miss_without_traversal():
     o[0, 0], d[1, 1], o[2, 2], d[3, 0] = np.nan, np.nan, np.inf, -np.inf
     for kernel in KERNELS:
         bvh = ext.build_bvh(kernel, tris)
-        for isa, mode, (layout, packet) in itertools.product(_isas(kernel), ("closest", "any"), TRACES):
-            tr = bvh.intersect(o, d, mode, isa=isa, allow_nonfinite=True, layout=layout, packet=packet)
-            assert (tr.hits.index[:4] == -1).all() and np.isnan(tr.hits.t[:4]).all()
-            assert (tr.counts[:4] == 0).all()
-            brute = ext.intersect(kernel, o, d, tris, mode, isa=isa, allow_nonfinite=True)
-            assert (brute.index[:4] == -1).all()  # brute force agrees: a miss
-            if mode == "closest":  # the finite rays are traced as ever
-                np.testing.assert_array_equal(tr.hits.index[4:], brute.index[4:])
+        for isa in _isas(kernel):
+            for mode in ("closest", "any"):
+                tr = bvh.intersect(o, d, mode, isa=isa, allow_nonfinite=True)
+                assert (tr.hits.index[:4] == -1).all() and np.isnan(tr.hits.t[:4]).all()
+                assert (tr.counts[:4] == 0).all()
+                brute = ext.intersect(kernel, o, d, tris, mode, isa=isa, allow_nonfinite=True)
+                assert (brute.index[:4] == -1).all()  # brute force agrees: a miss
     with pytest.raises(UserError, match="origins contains NaN or Inf"):
         bvh.intersect(o, d)
 
@@ -339,10 +336,6 @@ def test_counts_timed_equal_counts_untimed_and_null_leaf_traverses_more():
     assert batch.t_sum == pytest.approx(2 * np.nansum(tr.hits.t.astype(float)), rel=1e-6)
     uv = bvh.time(o, d, "closest_uv", 1)
     assert uv.uv_sum == pytest.approx(np.nansum(tr.hits.u.astype(float) + tr.hits.v), rel=1e-5)
-    packets = bvh.time(o, d, "closest", 2, packet=16)
-    tr16 = bvh.intersect(o, d, "closest", packet=16)
-    assert (packets.nodes, packets.box_tests, packets.leaves, packets.triangle_tests) == tuple(2 * tr16.counts.sum(0))
-    assert packets.hits == batch.hits and packets.t_sum == batch.t_sum
     null = bvh.time(o, d, "closest", 1, null_leaf=True)
     assert null.hits == 0 and null.nodes >= sums[0] / 2
     t_hit = np.where(tr.hits.hit, tr.hits.t * np.float32(1.0001), np.inf).astype(np.float32)
@@ -379,9 +372,6 @@ def test_malformed_inputs_raise_user_errors():
         bvh.time(o, d, "closest", 0)
     with pytest.raises(UserTypeError, match="null_leaf"):
         bvh.time(o, d, "closest", 1, null_leaf="yes")
-    for layout, packet, words in (("tall", 1, "layout"), ("wide", 8, "packet"), ("binary", 16, "wide layout")):
-        with pytest.raises(UserError, match=words):
-            bvh.intersect(o, d, layout=layout, packet=packet)
 
 
 def test_a_malformed_tree_raises_in_c_instead_of_reading_out_of_bounds():
@@ -432,10 +422,8 @@ def test_a_malformed_tree_raises_in_c_instead_of_reading_out_of_bounds():
         tree.view(np.uint32)[row, word] = value
         with pytest.raises(ValueError, match="malformed BVH"):
             run(tree, layout=wide)
-        with pytest.raises(ValueError, match="malformed BVH"):
-            run(tree, layout=2)  # the same tree in packets
     with pytest.raises(ValueError, match="layout"):
-        run(bvh.wide, layout=3)
+        run(bvh.wide, layout=2)
     broken = bvh.nodes.copy()
     broken.view(np.uint32)[0, 6] = 1  # the root's right child is its left
     with pytest.raises(ValueError, match="cannot be widened"):
