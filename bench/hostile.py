@@ -295,6 +295,53 @@ def embree_cases(s: Scratch) -> list[Outcome]:
     return out
 
 
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "kernels" / "my_moller.c"
+
+
+def kernel_file_cases(s: Scratch) -> list[Outcome]:
+    """A user's own kernel file: missing, a folder, empty, junk, not compiling, a built-in's name, wrong answers."""
+    text = EXAMPLE.read_text()
+    files = {
+        "empty.c": "",
+        "junk.c": "\x00\x01 not C at all \xff",
+        "typo.c": text.replace("my_moller", "typo_moller").replace("sign * det;", "sign * dett;"),
+        "clash.c": text.replace("my_moller", "moller_trumbore"),
+        "sloppy.c": text.replace("my_moller", "sloppy_moller").replace("v >= 0 &&", "v >= -0.01f * abs_det &&"),
+    }
+    for name, body in files.items():
+        (s.root / name).write_text(body)
+    (s.root / "folder.c").mkdir()
+    cases = {"no such file": "missing.c", "a folder": "folder.c", **{f"{n}": n for n in files}}
+    out = []
+    for case, name in cases.items():
+        p = s.tribench("sweep", "--kernel-file", name, "--out", f"k-{len(out)}", *SMALL)
+        out.append(judge(case, p, refused=True, words=(name,) if name != "sloppy.c" else ("sloppy_moller",)))
+    good = s.tribench("sweep", "--kernel-file", str(EXAMPLE), "--kernels", "my_moller,moller_seed", "--out", "k", *SMALL)
+    out.append(judge("the example kernel file", good, refused=False))
+    return out
+
+
+def build_cases(s: Scratch) -> list[Outcome]:
+    """--builds: no such compiler, an unknown flag, flags that write elsewhere, a shell in the spec, one build."""
+    marker = s.root / "pwned"
+    cases = {
+        "no such compiler": ("installed;nosuchcc -O2", ("nosuchcc",)),
+        "an unknown flag": ("installed;gcc -fno-such-flag", ("-fno-such-flag",)),
+        "a flag that writes elsewhere": ("installed;gcc -O2 -o/tmp/x", ("writes",)),
+        "a shell in the spec": (f"installed;gcc -O2 $(touch {marker})", ("$(touch",)),
+        "one build only": ("installed", ("two",)),
+        "an empty spec": ("installed;", ("spec",)),
+    }
+    out = []
+    for case, (spec, words) in cases.items():
+        p = s.tribench("sweep", "--kernels", "moller_seed", "--builds", spec, "--out", f"b-{len(out)}", *SMALL)
+        must_refuse = case not in ("a shell in the spec", "one build only")  # those two may also run
+        o = judge(case, p, refused=must_refuse or p.returncode != 0, words=words)
+        o.crash |= marker.exists()  # a spec is never run by a shell
+        out.append(o)
+    return out
+
+
 CLASSES: dict[str, Callable[[Scratch], list[Outcome]]] = {
     "1 compare": compare_cases,
     "2 moved mesh file": moved_mesh_cases,
@@ -306,6 +353,8 @@ CLASSES: dict[str, Callable[[Scratch], list[Outcome]]] = {
     "8 time intervals": interval_cases,
     "new: ray files": ray_file_cases,
     "new: native Embree peer": embree_cases,
+    "new: kernel files": kernel_file_cases,
+    "new: builds": build_cases,
 }
 
 

@@ -12,7 +12,7 @@ leaf test, the implementation says ``bvh``, and the peer is Embree alone
 Embree, tribench's own rows are still written):
 
 ``tribench``
-    the fastest public closest-mode kernel (:func:`choose_kernel`), timed in C
+    the fastest public two-sided closest-mode kernel (:func:`choose_kernel`), timed in C
     around its loop (``ext.time_batch``), as the sweeps time it;
 ``tribench_call``
     the wall time of ``ext.intersect`` with that kernel: checks, the run and the
@@ -196,11 +196,18 @@ def camera_spec(design: PeerDesign):
 
 
 def candidate_kernels(accel: str) -> list[str]:
-    """The kernels tribench's row may run: public closest-mode kernels, and
-    in a BVH only those that can be its leaf test."""
+    """The kernels tribench's row may run: public closest-mode kernels that test
+    both faces, as every peer does (Embree's default build, trimesh), and in a
+    BVH only those that can be its leaf test. A culling kernel skips the back
+    faces' work the peers do: on a closed mesh seen from outside it gives the
+    same answers, but it does not do the same work."""
     from tribench import ext
 
-    kernels = [k for k in ext.kernel_names() if "closest" in ext.kernel_info(k).modes]
+    kernels = [
+        k
+        for k in ext.kernel_names()
+        if "closest" in ext.kernel_info(k).modes and not ext.kernel_info(k).culls_back_faces
+    ]
     return [k for k in kernels if k in ext.bvh_kernel_names()] if accel == "bvh" else kernels
 
 

@@ -301,3 +301,12 @@ def test_peers_timed_through_the_bvh_are_reported_as_the_bvh_not_brute_force(run
     finish(run_copy)
     section = _peers_section(run_copy)
     assert "tribench&#x27;s BVH with k runs at" in section and "brute" not in section
+
+
+@pytest.mark.parametrize("accel", ["brute", "bvh"])
+def test_tribench_competes_with_two_sided_kernels_only(accel):
+    from tribench import ext
+
+    kernels = peers.candidate_kernels(accel)
+    assert kernels and not any(ext.kernel_info(k).culls_back_faces for k in kernels)
+    assert "moller_trumbore_fma" in kernels and "moller_trumbore_cull_fma" not in kernels
