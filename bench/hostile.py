@@ -64,16 +64,21 @@ class Scratch:
         )
 
 
-def judge(case: str, p: subprocess.CompletedProcess, *, refused: bool, words: tuple[str, ...] = ()) -> Outcome:
-    """Class one finished command: done (exit 0) or refused (exit 2 in one line holding ``words``)."""
+def judge(
+    case: str, p: subprocess.CompletedProcess, *, refused: bool, words: tuple[str, ...] = (), quoted: bool = False
+) -> Outcome:
+    """Class one finished command: done (exit 0) or refused (exit 2 in one line holding ``words``; with
+    ``quoted``, that line may be followed by what it quotes: a compiler's diagnostics, the failed checks)."""
     text = p.stdout + p.stderr
     o = Outcome(case, " ".join(p.args) if isinstance(p.args, list) else str(p.args))
     o.crash = p.returncode not in (0, 2)
     o.traceback = "Traceback (most recent call last)" in text
     o.said = (text.strip().splitlines() or [""])[-1][:200]
     if refused:
-        lines = [line for line in p.stderr.splitlines() if line.strip()]
-        o.unclear = p.returncode != 2 or len(lines) != 1 or not all(w.lower() in p.stderr.lower() for w in words)
+        lines = [line for line in p.stderr.splitlines() if line.strip()] or [""]
+        said = lines[0] if quoted else p.stderr
+        one = quoted or len(lines) == 1
+        o.unclear = p.returncode != 2 or not one or not all(w.lower() in said.lower() for w in words)
     else:
         o.unclear = p.returncode != 0
     return o
@@ -315,7 +320,8 @@ def kernel_file_cases(s: Scratch) -> list[Outcome]:
     out = []
     for case, name in cases.items():
         p = s.tribench("sweep", "--kernel-file", name, "--out", f"k-{len(out)}", *SMALL)
-        out.append(judge(case, p, refused=True, words=(name,) if name != "sloppy.c" else ("sloppy_moller",)))
+        said = (name,) if name != "sloppy.c" else ("sloppy_moller", "refused")
+        out.append(judge(case, p, refused=True, words=said, quoted=True))
     good = s.tribench("sweep", "--kernel-file", str(EXAMPLE), "--kernels", "my_moller,moller_seed", "--out", "k", *SMALL)
     out.append(judge("the example kernel file", good, refused=False))
     return out
@@ -330,13 +336,15 @@ def build_cases(s: Scratch) -> list[Outcome]:
         "a flag that writes elsewhere": ("installed;gcc -O2 -o/tmp/x", ("writes",)),
         "a shell in the spec": (f"installed;gcc -O2 $(touch {marker})", ("$(touch",)),
         "one build only": ("installed", ("two",)),
-        "an empty spec": ("installed;", ("spec",)),
+        "a trailing separator": ("installed;", ("spec",)),
     }
+    may_run = ("a shell in the spec", "one build only", "a trailing separator")
     out = []
     for case, (spec, words) in cases.items():
-        p = s.tribench("sweep", "--kernels", "moller_seed", "--builds", spec, "--out", f"b-{len(out)}", *SMALL)
-        must_refuse = case not in ("a shell in the spec", "one build only")  # those two may also run
-        o = judge(case, p, refused=must_refuse or p.returncode != 0, words=words)
+        four = [*SMALL[:1], "4", *SMALL[2:]]  # two builds need four processes
+        p = s.tribench("sweep", "--kernels", "moller_seed", "--builds", spec, "--out", f"b-{len(out)}", *four)
+        must_refuse = case not in may_run
+        o = judge(case, p, refused=must_refuse or p.returncode != 0, words=words, quoted=True)
         o.crash |= marker.exists()  # a spec is never run by a shell
         out.append(o)
     return out

@@ -130,7 +130,8 @@ def compile_module(
 def run(argv: list[str]) -> subprocess.CompletedProcess:
     """A compiler's run, its output captured; a missing compiler or a 10-minute compile is a UserError."""
     try:
-        return subprocess.run(argv, capture_output=True, text=True, timeout=600)
+        # errors="replace": a compiler quotes the source, whose bytes need not be UTF-8
+        return subprocess.run(argv, capture_output=True, text=True, errors="replace", timeout=600)
     except FileNotFoundError:
         raise UserError(f"no compiler: {argv[0]} is not installed") from None
     except subprocess.TimeoutExpired:

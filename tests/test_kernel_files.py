@@ -111,6 +111,14 @@ def test_a_kernel_file_that_does_not_compile_is_one_message_with_file_and_line(t
     assert "Traceback" not in done.stderr and not (tmp_path / "run").exists()  # nothing timed
 
 
+def test_a_kernel_file_of_bytes_that_are_not_utf8_is_refused_without_a_traceback(tmp_path, builds):
+    junk = tmp_path / "junk.c"
+    junk.write_bytes(b"\x00\x01 not C at all \xff\xfe")  # the compiler quotes them back
+    done = tribench("info", "--kernel-file", junk, cwd=tmp_path, cache=builds)
+    assert done.returncode == 2 and done.stderr.startswith(f"tribench info: error: {junk} does not compile (")
+    assert "Traceback" not in done.stderr
+
+
 @pytest.mark.slow
 def test_a_kernel_with_wrong_answers_is_refused_before_anything_is_timed(tmp_path, builds):
     sloppy = variant(
