@@ -35,6 +35,7 @@ _NEW_SWEEP_FLAGS = (
     "camera",
     "rays",
     "accel",
+    "max_leaf",
     "dtype",
     *DESIGN_FLAGS,
     "cpu",
@@ -112,6 +113,13 @@ def add_parser(sub) -> None:
         "through a BVH with the kernel as its leaf test (bvh: only the kernels of ext.bvh_kernel_names())",
     )
     p.add_argument(
+        "--max-leaf",
+        metavar="N,..",
+        type=flags.int_list(1, 1024),
+        help="the most triangles in a BVH leaf, one workload per value (with --accel bvh; default "
+        "ext.DEFAULT_MAX_LEAF, 32)",
+    )
+    p.add_argument(
         "--dtype", metavar="float32,float64", type=flags.choice_list(DTYPES), help="precisions (default float64)"
     )
     add_design_flags(p)
@@ -180,9 +188,11 @@ def _workloads_from_flags(args: argparse.Namespace) -> list:
         for h in args.hit_rates or [0.5]:
             specs += [PairSpec(n=10_000 if args.pairs is None else args.pairs, hit_rate=h, dtype=d) for d in dtypes]
     width, height = args.camera or DEFAULT_CAMERA
-    for flag in ("accel", "rays"):
+    for flag in ("accel", "rays", "max_leaf"):
         if getattr(args, flag) and not args.mesh:
-            raise UserError(f"--{flag} applies to mesh workloads: give --mesh too")
+            raise UserError(f"--{flag.replace('_', '-')} applies to mesh workloads: give --mesh too")
+    if args.max_leaf and "bvh" not in (args.accel or []):
+        raise UserError("--max-leaf is the size of a BVH's leaves: give --accel bvh too")
     if args.rays and args.camera:
         raise UserError("--camera and --rays both give the rays of the mesh workloads: give one")
     for mesh in args.mesh or []:
@@ -190,10 +200,11 @@ def _workloads_from_flags(args: argparse.Namespace) -> list:
             for rays in args.rays or ["camera"]:
                 w, h = (width, height) if rays in ("camera", "bounce") else (None, None)  # a file has its own rays
                 for accel in args.accel or ["brute"]:
-                    specs += [
-                        MeshSpec(mesh, triangles=triangles, rays=rays, width=w, height=h, dtype=d, accel=accel)
-                        for d in dtypes
-                    ]
+                    for leaf in (args.max_leaf or [None]) if accel == "bvh" else [None]:
+                        specs += [
+                            MeshSpec(mesh, triangles, rays, width=w, height=h, dtype=d, accel=accel, max_leaf=leaf)
+                            for d in dtypes
+                        ]
     return specs
 
 

@@ -429,7 +429,8 @@ def _traversal_row(job: WorkerJob, key: tuple[int, str, int, int, str], trace, n
 def _bvh_job(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, tris: np.ndarray) -> BvhJob:
     """``kernel``'s BVH over the workload's triangles (this process's copy) and
     its rays; from the BVH cache, so a big mesh's tree is built once per machine."""
-    bvh, _ = bvh_cache.cached_bvh(kernel, tris)
+    max_leaf = w.spec.max_leaf or ext.DEFAULT_MAX_LEAF
+    bvh, _ = bvh_cache.cached_bvh(kernel, tris, max_leaf)
     mode = cast(ext.Mode, w.mode)
     hits = bvh.intersect(o, d, mode, t_max=w.t_max).hits
     # just above each hit (the traversal's own 1 + 4 eps), so the null traversal still enters the hit's leaf

@@ -56,6 +56,19 @@ def test_brute_ids_are_unchanged_and_a_bvh_id_differs_from_its_twin():
         MeshSpec("suzanne", accel="kd-tree")
 
 
+def test_max_leaf_is_a_bvh_workloads_field_left_out_when_default():
+    bvh = MeshSpec("suzanne", triangles=100, width=16, height=16, dtype="float32", accel="bvh")
+    small = dataclasses.replace(bvh, max_leaf=4)
+    assert "max_leaf" not in bvh.to_dict() and small.to_dict()["max_leaf"] == 4
+    assert workload_id(small) != workload_id(bvh) and spec_from_dict(small.to_dict()) == small
+    assert small.brute_twin() == bvh.brute_twin() and small.summary().endswith("bvh max_leaf=4 float32 seed=0")
+    with pytest.raises(UserError, match="max_leaf applies to accel='bvh' only"):
+        MeshSpec("suzanne", max_leaf=4)
+    for bad in (0, 2000, 4.5, True):
+        with pytest.raises(UserError, match="max_leaf"):
+            MeshSpec("suzanne", accel="bvh", max_leaf=bad)
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     mesh=st.sampled_from(["suzanne", "icosphere", "soup"]),
@@ -126,6 +139,24 @@ def test_a_sweep_with_a_bvh_workload_runs_its_native_kernels_through_the_bvh(tmp
     assert (out / "estimates.csv").is_file()  # the analysis step ran: no speedup against a kernel it lacks
     speedups = pd.read_csv(out / "speedups.csv")
     assert bvh_id not in set(speedups["workload_id"])
+
+
+@pytest.mark.slow
+def test_a_sweep_varies_the_leaf_size_one_workload_per_value(tmp_path, env):
+    out = tmp_path / "run"
+    args = ["sweep", "--kernels", NATIVE, "--mesh", "suzanne", "--triangles", "200", "--camera", "16x16"]
+    args += ["--dtype", "float32", "--accel", "bvh", "--processes", "2", "--rounds", "1", "--warmup", "0"]
+    done = cli(*args, "--max-leaf", "4,64", "--target-ms", "0.2", "--no-progress", "--out", str(out), env=env)
+    assert done.returncode == 0, done.stderr
+    batches = runfolder.read_batches(out)
+    for leaf in (4, 64):
+        spec = MeshSpec(**SMALL, accel="bvh", max_leaf=leaf)
+        w = cache.make(spec)
+        per_pass = ext.build_bvh(NATIVE, w.triangles, max_leaf=leaf).intersect(w.origins, w.directions).counts[:, 3]
+        b = batches.loc[batches["workload_id"] == workload_id(spec)]
+        assert len(b) and (b["tests"] == b["loops"] * int(per_pass.sum())).all()
+    done = cli("sweep", "--mesh", "suzanne", "--max-leaf", "8", "--out", str(tmp_path / "no"), env=env)
+    assert done.returncode == 2 and "--max-leaf is the size of a BVH's leaves: give --accel bvh too" in done.stderr
 
 
 @pytest.mark.slow

@@ -300,6 +300,11 @@ class MeshSpec:
         reference answers are the brute-force workload's; ``"brute"`` is left
         out of :meth:`to_dict`, so a brute-force workload keeps the id it had
         before this field existed.
+    max_leaf : int or None
+        With ``accel="bvh"``: the most triangles in one of the BVH's leaves
+        (1..1024; ``None``, left out of :meth:`to_dict`, is
+        ``ext.DEFAULT_MAX_LEAF``). A sweep varies it as it varies any field:
+        one workload per value.
     mesh_sha256 : str or None
         A mesh file's content hash, set here from the file. Given (a spec read
         back from a run folder's ``run.json``), it is trusted and the file is
@@ -332,6 +337,7 @@ class MeshSpec:
     seed: int = 0
     result: str = "closest"
     accel: str = "brute"
+    max_leaf: int | None = None
     mesh_sha256: str | None = None
     rays_sha256: str | None = None
 
@@ -385,6 +391,10 @@ class MeshSpec:
         put(self, "seed", check_int("seed", self.seed, 0, 2**63 - 1))
         check_choice("result", self.result, RESULTS)
         check_choice("accel", self.accel, ACCELS)
+        if self.max_leaf is not None:
+            if self.accel != "bvh":
+                raise UserError("max_leaf applies to accel='bvh' only: it is the size of a BVH's leaves")
+            put(self, "max_leaf", check_int("max_leaf", self.max_leaf, 1, 1024))
 
     def _ray_file(self) -> None:
         """Check a ray file's path, read its count and hash (unless a recorded hash is given: then trusted)."""
@@ -440,7 +450,7 @@ class MeshSpec:
 
     def brute_twin(self) -> MeshSpec:
         """The same spec with ``accel="brute"``: the workload whose rays and answers a BVH workload shares."""
-        return replace(self, accel="brute")
+        return replace(self, accel="brute", max_leaf=None)
 
     def targets(self) -> dict[str, Any]:
         """Target figures, keyed like the achieved figures they are compared with."""
@@ -467,6 +477,7 @@ class MeshSpec:
             rays = f"{'bounces of camera' if self.rays == 'bounce' else 'camera'} {self.width}x{self.height}"
         result = "" if self.result == "closest" else f" {self.result}"
         accel = "" if self.accel == "brute" else f" {self.accel}"
+        accel += "" if self.max_leaf is None else f" max_leaf={self.max_leaf}"
         return f"mesh {name} triangles={count} {rays}{result}{accel} {self.dtype} seed={self.seed}"
 
 
