@@ -322,7 +322,9 @@ def kernel_file_cases(s: Scratch) -> list[Outcome]:
         p = s.tribench("sweep", "--kernel-file", name, "--out", f"k-{len(out)}", *SMALL)
         said = (name,) if name != "sloppy.c" else ("sloppy_moller", "refused")
         out.append(judge(case, p, refused=True, words=said, quoted=True))
-    good = s.tribench("sweep", "--kernel-file", str(EXAMPLE), "--kernels", "my_moller,moller_seed", "--out", "k", *SMALL)
+    good = s.tribench(
+        "sweep", "--kernel-file", str(EXAMPLE), "--kernels", "my_moller,moller_seed", "--out", "k", *SMALL
+    )
     out.append(judge("the example kernel file", good, refused=False))
     return out
 

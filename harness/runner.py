@@ -580,6 +580,7 @@ def _run_process(
     try:
         run_worker(worker, job.to_json(), env, handlers, f"worker of process {process}")
     except WorkerError as exc:
-        raise SweepError(str(exc)) from None
+        lost = f" ({len(expected)} batches not run)" if expected else ""
+        raise SweepError(f"{exc}{lost}") from None
     if expected:
         raise SweepError(f"worker of process {process} exited with code 0 ({len(expected)} batches not run)")

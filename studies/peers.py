@@ -266,14 +266,17 @@ def measure(
     from tribench.workloads import cache
 
     bvh = design.accel == "bvh"
-    if bvh and kernel is not None and kernel not in candidate_kernels("bvh"):
+    from tribench import ext
+    from tribench.ext.embree import INSTALL as EMBREE_INSTALL
+
+    if bvh and kernel is not None and kernel not in ext.bvh_kernel_names():  # a user's choice may cull
         raise UserError(
-            f"kernel {kernel!r} cannot be a BVH's leaf test; these can: {', '.join(candidate_kernels('bvh'))}"
+            f"kernel {kernel!r} cannot be a BVH's leaf test; these can: {', '.join(ext.bvh_kernel_names())}"
         )
     found = available()
     peers = [p for p, v in found.items() if v is not None and (p != "trimesh" or not bvh)]
     if not peers and not bvh:
-        raise RuntimeError(f"no peer is installed ({INSTALL}: embreex and rtree; {embree_install()})")
+        raise RuntimeError(f"no peer is installed ({INSTALL}: embreex and rtree; native Embree: {EMBREE_INSTALL})")
     if found["embree"] is None:
         from tribench.ext import embree
 
@@ -328,13 +331,6 @@ def peers_path(out: str | Path) -> Path:
     """
     out = Path(out)
     return out if out.suffix.lower() == ".csv" else out / PEERS
-
-
-def embree_install() -> str:
-    """How to get native Embree."""
-    from tribench.ext.embree import INSTALL as NATIVE
-
-    return f"native Embree: {NATIVE}"
 
 
 #: The peers' worker, in the one worker protocol.

@@ -381,7 +381,9 @@ def test_a_malformed_tree_raises_in_c_instead_of_reading_out_of_bounds():
     outs = [np.empty(len(o), np.int64)] + [np.empty(len(o), np.float32) for _ in range(3)]
     counts = np.empty((len(o), 4), np.int64)
 
-    def run(nodes, perm=bvh.perm, records=bvh.prepared.records, layout=ext.LAYOUTS.index("binary")):
+    binary = ext.LAYOUTS.index("binary")
+
+    def run(nodes, perm=bvh.perm, records=bvh.prepared.records, layout=binary):
         _core.bvh_run(
             KERNELS[0],
             4,
@@ -416,8 +418,12 @@ def test_a_malformed_tree_raises_in_c_instead_of_reading_out_of_bounds():
     words = bvh.wide.view(np.uint32)
     inner = int(np.flatnonzero((words[0, 56:] == 0) & (words[0, 48:56] > 0))[0])  # an inner child of the root
     leaf_row, leaf_lane = (int(x[0]) for x in np.nonzero(words[:, 56:] > 0))
-    for row, word, value in ((0, 48 + inner, 0), (0, 48 + inner, 10**6), (leaf_row, 48 + leaf_lane, 8),
-                             (leaf_row, 56 + leaf_lane, 10**6)):
+    for row, word, value in (
+        (0, 48 + inner, 0),
+        (0, 48 + inner, 10**6),
+        (leaf_row, 48 + leaf_lane, 8),
+        (leaf_row, 56 + leaf_lane, 10**6),
+    ):
         tree = bvh.wide.copy()
         tree.view(np.uint32)[row, word] = value
         with pytest.raises(ValueError, match="malformed BVH"):
