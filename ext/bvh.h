@@ -490,19 +490,21 @@ static size_t TB_FN(tb_bvh_widen)(const tb_bvh_node *bin, size_t n_bin, tb_bvh_w
  * the comparisons are written so a NaN never replaces the running value
  * (x > t0 ? x : t0 is false for NaN), so that slab is ignored, which keeps
  * the ray (a conservative answer, never a lost hit). Rounding: (b - o) * inv
- * is within 2 rounding errors of the exact entry or exit; scaling every exit
- * by 1 + 4 eps (more than Ize's 1 + 2 gamma_3) keeps an exit computed too
- * early from dropping a box the exact ray meets, flat boxes of axis-aligned
- * triangles included. Non-finite rays never get here (they miss). Returns
- * whether the box is met, and its entry distance in *t_in. */
+ * is within 3 rounding errors of the exact entry or exit (the difference, the
+ * reciprocal, the product); every exit is computed with inv_far, the
+ * reciprocal scaled by 1 + 4 eps per ray (tb_bvh_ray_of; one rounding more,
+ * as scaling each exit would take), which is more than Ize's 1 + 2 gamma_3
+ * and keeps an exit computed too early from dropping a box the exact ray
+ * meets, flat boxes of axis-aligned triangles included. Non-finite rays never
+ * get here (they miss). Returns whether the box is met, and its entry
+ * distance in *t_in. */
 TB_NWIDE int TB_NFN(tb_bvh_box)(const tb_bvh_node *node, const real o[3], const real inv[3],
-                                const int near[3], real t_max, real *t_in)
+                                const real inv_far[3], const int near[3], real t_max, real *t_in)
 {
-    const real grow = (real)1 + 4 * (TB_REAL_IS_DOUBLE ? DBL_EPSILON : FLT_EPSILON);
     real t0 = 0, t1 = t_max;
     for (int k = 0; k < 3; ++k) {
         real enter = (node->b[near[k]][k] - o[k]) * inv[k];
-        real leave = (node->b[1 - near[k]][k] - o[k]) * inv[k] * grow;
+        real leave = (node->b[1 - near[k]][k] - o[k]) * inv_far[k];
         t0 = enter > t0 ? enter : t0;
         t1 = leave < t1 ? leave : t1;
     }
@@ -544,16 +546,15 @@ TB_NWIDE unsigned TB_NFN(tb_wv_bits)(vmask m)
 }
 #endif
 TB_NWIDE unsigned TB_NFN(tb_bvh_wide_box)(const tb_bvh_wide *w, const vreal org[3], const vreal inv[3],
-                                          const int near[3], real t_max, vreal *t_in)
+                                          const vreal inv_far[3], const int near[3], real t_max, vreal *t_in)
 {
-    const vreal grow = (real)(1 + 4 * (TB_REAL_IS_DOUBLE ? DBL_EPSILON : FLT_EPSILON)) + (vreal){0};
     vreal t0 = (vreal){0}, t1 = t_max + (vreal){0};
     for (int k = 0; k < 3; ++k) {
         vreal enter, leave;
         memcpy(&enter, w->b[2 * k + near[k]], sizeof enter);
         memcpy(&leave, w->b[2 * k + 1 - near[k]], sizeof leave);
         t0 = tb_wv_max((enter - org[k]) * inv[k], t0);
-        t1 = tb_wv_min((leave - org[k]) * inv[k] * grow, t1);
+        t1 = tb_wv_min((leave - org[k]) * inv_far[k], t1);
     }
     *t_in = t0;
     return tb_wv_le_bits(t0, t1);
@@ -563,7 +564,7 @@ TB_NWIDE unsigned TB_NFN(tb_bvh_wide_box)(const tb_bvh_wide *w, const vreal org[
  * the slab test's origin, inverse direction and near side per axis. */
 typedef struct {
     tb_nray r;
-    real org[3], inv[3];
+    real org[3], inv[3], inv_far[3]; /* inv_far: inv scaled by 1 + 4 eps, for the exits (tb_bvh_box) */
     int near[3], finite;
 } TB_NFN(tb_bvh_ray);
 
@@ -577,6 +578,7 @@ TB_NWIDE void TB_NFN(tb_bvh_ray_of)(TB_FN(tb_ray_fn) make_ray, const real *o, co
         ray->finite &= isfinite(sr.o[k]) && isfinite(sr.d[k]);
         ray->org[k] = sr.o[k];
         ray->inv[k] = 1 / sr.d[k];
+        ray->inv_far[k] = ray->inv[k] * ((real)1 + 4 * (TB_REAL_IS_DOUBLE ? DBL_EPSILON : FLT_EPSILON));
         ray->near[k] = signbit(ray->inv[k]) ? 1 : 0;
     }
 }
@@ -668,7 +670,7 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_binary)(TB_NFN(tb_native_fn) test, size_t strid
     size_t node = 0, sp = 0, stack[TB_BVH_STACK];
     real stack_t[TB_BVH_STACK], t_in;
     c[1] = (uint64_t)ray->finite;
-    if (!ray->finite || !TB_NFN(tb_bvh_box)(&nodes[0], ray->org, ray->inv, ray->near, b->t, &t_in))
+    if (!ray->finite || !TB_NFN(tb_bvh_box)(&nodes[0], ray->org, ray->inv, ray->inv_far, ray->near, b->t, &t_in))
         return 1;
     for (;;) {
         const tb_bvh_node *nd = &nodes[node];
@@ -678,8 +680,8 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_binary)(TB_NFN(tb_native_fn) test, size_t strid
             if (right <= left || right >= job->n_nodes)
                 return 0;
             real t_left, t_right;
-            int hit_left = TB_NFN(tb_bvh_box)(&nodes[left], ray->org, ray->inv, ray->near, b->t, &t_left);
-            int hit_right = TB_NFN(tb_bvh_box)(&nodes[right], ray->org, ray->inv, ray->near, b->t, &t_right);
+            int hit_left = TB_NFN(tb_bvh_box)(&nodes[left], ray->org, ray->inv, ray->inv_far, ray->near, b->t, &t_left);
+            int hit_right = TB_NFN(tb_bvh_box)(&nodes[right], ray->org, ray->inv, ray->inv_far, ray->near, b->t, &t_right);
             c[1] += 2;
             if (hit_left && hit_right) {
                 if (sp == TB_BVH_STACK)
@@ -728,17 +730,18 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
     size_t sp = 0;
     if (!ray->finite)
         return 1;
-    vreal org[3], inv[3];
+    vreal org[3], inv[3], inv_far[3];
     for (int k = 0; k < 3; ++k) {
         org[k] = ray->org[k] + (vreal){0};
         inv[k] = ray->inv[k] + (vreal){0};
+        inv_far[k] = ray->inv_far[k] + (vreal){0};
     }
     uint32_t a = 0, n = 0; /* the root, wide node 0 */
     for (;;) {
         if (n == 0) {
             const tb_bvh_wide *w = &nodes[a];
             vreal t_in;
-            unsigned met = TB_NFN(tb_bvh_wide_box)(w, org, inv, ray->near, b->t, &t_in);
+            unsigned met = TB_NFN(tb_bvh_wide_box)(w, org, inv, inv_far, ray->near, b->t, &t_in);
             ++c[0];
             c[1] += TB_BVH_WIDTH;
             if (met) {
