@@ -159,6 +159,7 @@ def overflow_cases(s: Scratch) -> list[Outcome]:
         for what, args in (
             ("brute-force sweep", ["sweep", "--kernels", "moller_seed", "--mesh", "huge.obj", "--out", "h", *SMALL]),
             ("workloads make --accel bvh", ["workloads", "make", "huge.obj", "--accel", "bvh"]),
+            ("peers", ["peers", "--mesh", "huge.obj", "--quick", "--out", "p.csv"]),
         )
     ]
 

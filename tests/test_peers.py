@@ -237,6 +237,17 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message, capsys):
     assert not (tmp_path / peers.PEERS).exists()
 
 
+def test_peers_refuse_a_mesh_the_sweep_refuses(tmp_path, capsys):
+    from tribench import cli
+
+    huge = tmp_path / "huge.obj"  # issue #29.4: peers once timed Embree on rays that all missed it
+    huge.write_text("v 0 0 0\nv 1e300 0 0\nv 0 1e300 0\nf 1 2 3\n")
+    assert cli.main(["peers", "--out", str(tmp_path), "--mesh", str(huge), "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert "overflow" in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / peers.PEERS).exists()
+
+
 def test_tribench_run_goes_on_without_peers_or_when_they_fail(monkeypatch, capsys, tmp_path):
     from tribench.studies import main as main_job
 
