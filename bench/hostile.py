@@ -214,7 +214,26 @@ def interrupted_cases(s: Scratch) -> list[Outcome]:
         keys = batches[["process", "round", "kernel", "workload_id"]].astype(str).agg("|".join, axis=1)
         r.rows_lost = abs(expected - keys.nunique()) + int(keys.duplicated().sum())
         out += [o, r]
+    out.append(late_ctrl_c_case(s))
     return out
+
+
+def late_ctrl_c_case(s: Scratch) -> Outcome:
+    """Ctrl-C 50 ms after a sweep's last line, while Python tears down: a finished command stays finished."""
+    args = ["tribench", "sweep", "--kernels", "moller_seed,curless", "--hit-rates", "0.5", "--out", "late", *SMALL]
+    p = subprocess.Popen(args, cwd=s.root, env=s.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    said = []
+    for line in p.stderr:  # type: ignore[union-attr]
+        said.append(line)
+        if line.startswith("next:"):
+            time.sleep(0.05)
+            p.send_signal(signal.SIGINT)
+            break
+    stdout, stderr = p.communicate(timeout=120)
+    done = subprocess.CompletedProcess(args, p.returncode, stdout, "".join(said) + stderr)
+    o = judge("Ctrl-C as the sweep ends", done, refused=False)
+    o.crash, o.unclear = p.returncode not in (0, 130), False
+    return o
 
 
 def huge_scene_cases(s: Scratch) -> list[Outcome]:

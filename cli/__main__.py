@@ -1,7 +1,5 @@
 """``python -m tribench.cli``: the ``tribench`` command."""
 
-import sys
+from .command import console
 
-from .command import main
-
-sys.exit(main())
+console()

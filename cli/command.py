@@ -69,10 +69,23 @@ def _ctrl_c(signum: int, frame) -> None:
     raise KeyboardInterrupt
 
 
-def main(argv: list[str] | None = None) -> int:
+def console() -> None:
+    """The ``tribench`` command: :func:`main`, then exit with its status.
+
+    A Ctrl-C once the command has finished, while Python tears down its
+    modules (a few hundred ms after a sweep), is ignored: the work is done and
+    saved, and the signal would only turn a finished command's status into a
+    signal death, or a traceback from a library's exit hook.
+    """
+    sys.exit(main(leaving=True))
+
+
+def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
     """Run one subcommand; map its failures to exit codes, one line on stderr.
 
     See :func:`_run_command`; Ctrl-C is deferred past imports (:func:`_ctrl_c`).
+    ``leaving``: the process exits next (:func:`console`), so Ctrl-C is then
+    ignored instead of given back to its handler before the command.
     """
     if threading.current_thread() is not threading.main_thread():
         return _run_command(argv)
@@ -85,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         for sig, handler in before.items():
-            signal.signal(sig, handler)
+            signal.signal(sig, signal.SIG_IGN if leaving and sig == signal.SIGINT else handler)
 
 
 def _show_notice(shown, message, category, filename, lineno, file=None, line=None) -> None:
@@ -137,4 +150,4 @@ def _run_command(argv: list[str] | None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    console()

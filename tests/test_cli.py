@@ -37,6 +37,20 @@ def test_unknown_command_is_a_usage_error():
     assert "invalid choice" in out.stderr
 
 
+def test_a_ctrl_c_after_the_command_finished_changes_nothing():
+    """An interrupt while Python tears down (a user's late Ctrl-C, here sent from an exit hook)
+    leaves a finished command's status 0 and prints nothing: it used to die of the signal."""
+    code = (
+        "import atexit, os, signal, sys\n"
+        "from tribench.cli import console\n"
+        "atexit.register(lambda: os.kill(os.getpid(), signal.SIGINT))\n"
+        "sys.argv = ['tribench', 'info']\n"
+        "console()\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and "KeyboardInterrupt" not in out.stderr, (out.returncode, out.stderr)
+
+
 @pytest.mark.slow
 def test_run_quick_is_the_main_job_end_to_end(tmp_path):
     # the README's main job, in its quick form: sweep, statistics, report
