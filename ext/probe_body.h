@@ -75,6 +75,12 @@ TB_P_TARGET static double TB_P_FN(int op, uint64_t steps, const TB_P_REAL *c, do
         }
         break;
     }
+    case TB_OP_FMA_MUL: /* one FMA then one multiply by 1: do multiplies share the FMA pipes? */
+        per_step = 2;
+        for (uint64_t i = 0; i < steps; ++i)
+            for (int k = 0; k < N; ++k)
+                acc[k] = TB_P_MUL(TB_P_FMA(acc[k], m, add), one);
+        break;
     default: /* TB_OP_FMA_ADD: one FMA then one add, to learn whether adds share the FMA pipes */
         per_step = 2;
         for (uint64_t i = 0; i < steps; ++i)

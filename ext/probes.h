@@ -20,12 +20,16 @@
  *            logic op on AVX-512, an and and an or elsewhere)
  *   fma_add  an FMA then an add, both counted: a rate near fma's says adds
  *            share the FMA pipes, a rate above it says the core has adders
- *            of its own (AMD Zen's FADD pipes) */
+ *            of its own (AMD Zen's FADD pipes)
+ *   fma_mul  an FMA then a multiply, both counted: the same question for
+ *            multiplies (they share the FMA pipes on every current x86 core,
+ *            so its rate is fma's; measured, not assumed) */
 
 #include <string.h>
 
-enum { TB_OP_FMA, TB_OP_MUL, TB_OP_ADD, TB_OP_CMP, TB_OP_LOGIC, TB_OP_DIV, TB_OP_LOAD, TB_OP_FMA_ADD, TB_N_OPS };
-static const char *const tb_op_names[TB_N_OPS] = {"fma", "mul", "add", "cmp", "logic", "div", "load", "fma_add"};
+enum { TB_OP_FMA, TB_OP_MUL, TB_OP_ADD, TB_OP_CMP, TB_OP_LOGIC, TB_OP_DIV, TB_OP_LOAD, TB_OP_FMA_ADD, TB_OP_FMA_MUL, TB_N_OPS };
+static const char *const tb_op_names[TB_N_OPS] = {"fma", "mul", "add", "cmp", "logic", "div", "load", "fma_add",
+                                                    "fma_mul"};
 
 #define TB_P_CHAINS 12
 /* the constants (8 reals) then the load probe's buffer: 8 offsets x 2 N vectors

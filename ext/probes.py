@@ -58,7 +58,7 @@ class OpThroughput:
         ``"avx512"``, ``"avx2"`` (with FMA) or ``"baseline"`` (SSE2 on x86-64).
     float32, float64 : dict[str, float]
         Per class of :data:`OP_CLASSES` (``fma, mul, add, cmp, logic, div, load,
-        fma_add``), the best rate of the probe's repeats.
+        fma_add, fma_mul``), the best rate of the probe's repeats.
     """
 
     isa: str

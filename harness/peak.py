@@ -3,7 +3,8 @@
 The rates. :func:`tribench.ext.op_throughput` probes, on the widest vector
 the core has (AVX-512, else AVX2 with FMA, else SSE2), the lane-operations
 per ns of each operation class: ``fma, mul, add, cmp, logic, div, load``,
-and ``fma_add`` (an FMA and an add mixed 1:1). The counts.
+and two mixes, ``fma_add`` and ``fma_mul`` (an FMA and an add, or a
+multiply, 1:1). The counts.
 :attr:`tribench.ext.KernelInfo.mix`: a kernel's operations per test and lane
 by class (``tb_<name>_mix`` beside its code; a wide form's counted in its
 compiled loop).
@@ -12,13 +13,18 @@ The port model: the bound is the largest of these lower bounds on time,
 each a count over a measured rate (lane-ops per ns, so ns per test):
 
 1. each class alone: ``n_c / r_c`` (no class runs faster than its probe);
-2. the FP arithmetic pool: ``(n_fma + n_mul + n_add) / max(r_fma, r_fma_add)``.
-   Multiplies and FMAs share the FMA pipes on Intel and AMD alike; whether
-   adds share them is measured, not assumed: on Intel's AVX-512 (ports 0 and
-   5) the 1:1 mix runs at the FMA rate, so this is the sum-over-shared-pipes
-   rule; on cores with adders of their own (AMD Zen's FADD pipes; Golden
-   Cove's 256-bit adders on ports 1 and 5) the mix runs faster, and its rate
-   caps the pool instead;
+2. the pools of the mixes: for each mix ``a_b``, ``(n_a + n_b) / max(r_a,
+   r_b, r_a_b)``, and the FP arithmetic pool ``(n_fma + n_mul + n_add)`` over
+   the fastest FP probe, alone or mixed. Whether two classes share pipes is measured, not
+   assumed: where they do, the 1:1 mix runs at the rate of either alone and
+   the pool is their sum over it; where they do not, the mix runs faster and
+   its rate caps the pool instead. Multiplies share the FMA pipes on Intel
+   and AMD alike (``fma_mul`` runs at ``fma``'s rate). Adds share them on
+   Intel's AVX-512 (ports 0 and 5) and have pipes of their own on AMD Zen
+   (FADD) and on Golden Cove's 256-bit adders (ports 1 and 5). Without the
+   ``fma_mul`` pool a Zen core's bound let multiplies and FMAs each use the
+   adders' share of the FP pipes: up to twice too fast for a kernel of
+   multiplies and FMAs (docs/decisions.md, "How near the bound");
 3. the vector-ALU pool: every class but loads issues on the same vector
    pipes, so ``sum of those counts / the fastest rate of any ALU probe``
    (valid where the fastest class uses every vector pipe, as bitwise logic
@@ -84,12 +90,17 @@ def bound_from_mix(mix: Mapping[str, float], rates: Mapping[str, float]) -> floa
     6.0
     >>> bound_from_mix({"add": 3, "cmp": 1, "logic": 4, "load": 20}, rates)  # loads bind: 20 / 2
     10.0
+    >>> zen = {**rates, "fma_add": 4, "fma_mul": 2}  # adders of their own; multiplies on the FMA pipes
+    >>> bound_from_mix({"fma": 4, "mul": 4, "add": 4}, zen)  # fma + mul: 8 / 2; all three: 12 / 4
+    4.0
     """
     n = {c: float(mix.get(c, 0)) for c in (*ALU_CLASSES, "load")}
     alone = max(n[c] / rates[c] for c in n)
-    fp_pool = sum(n[c] for c in FP_CLASSES) / max(rates["fma"], rates["fma_add"])
-    alu_pool = sum(n[c] for c in ALU_CLASSES) / max(rates[c] for c in (*ALU_CLASSES, "fma_add"))
-    return max(alone, fp_pool, alu_pool)
+    mixes = [name.split("_") for name in rates if "_" in name]
+    pairs = max((n[a] + n[b]) / max(rates[a], rates[b], rates[f"{a}_{b}"]) for a, b in mixes) if mixes else 0.0
+    fp_pool = sum(n[c] for c in FP_CLASSES) / max(r for c, r in rates.items() if set(c.split("_")) <= set(FP_CLASSES))
+    alu_pool = sum(n[c] for c in ALU_CLASSES) / max(r for c, r in rates.items() if c != "load")
+    return max(alone, pairs, fp_pool, alu_pool)
 
 
 def measure_rates(repeats: int = 3) -> ext.OpThroughput:

@@ -48,6 +48,9 @@ RATES = {"fma": 2.0, "mul": 2.0, "add": 2.0, "cmp": 1.0, "logic": 2.0, "div": 0.
         ({"mul": 4, "add": 4}, RATES, 4.0),  # adds share the FMA pipes: summed
         ({"mul": 4, "add": 4}, {**RATES, "fma_add": 4.0}, 2.0),  # own adders: the mix's rate, and mul alone
         ({"mul": 6, "add": 2}, {**RATES, "fma_add": 4.0}, 3.0),  # muls bind on their own pipes
+        # own adders, multiplies on the FMA pipes (a Zen core): fma + mul bind, 8 / 2, not 12 / 4
+        ({"fma": 4, "mul": 4, "add": 4}, {**RATES, "fma_add": 4.0, "fma_mul": 2.0}, 4.0),
+        ({"fma": 4, "mul": 4}, {**RATES, "fma_mul": 4.0}, 2.0),  # a core whose multiplies had pipes of their own
         ({"div": 1, "add": 1}, RATES, 4.0),  # the divider binds
         ({"cmp": 2, "logic": 2, "add": 2}, RATES, 3.0),  # the vector-ALU pool: 6 ops at 2 per ns
         ({"add": 1, "load": 9}, RATES, 4.5),  # loads bind
