@@ -30,10 +30,11 @@ Kernels (see ``kernel_names()``; each C file's header cites its paper):
   function recomputed exactly), leaving a vector when no lane is inside all
   three edges; held to the reference with the same error bound;
 * ``baldwin_weber_12_fma`` and ``baldwin_weber_9_fma``: Baldwin & Weber
-  as native wide kernels, fused, on the scalar forms' records, with the
-  early exit after the u test; held to the reference with their own bound;
+  as native wide kernels, fused, on the scalar forms' records, branchless
+  (an exit after the u test mispredicted more than it saved); held to the
+  reference with their own bound;
 * ``havel_herout_fma`` and ``plucker_fma``: the same treatment of Havel &
-  Herout (its 12-real planes, early exit after u) and of the Plucker test
+  Herout (its 12-real planes, branchless) and of the Plucker test
   (vertices, edges and normal stored, early exit after the edge tests).
 
 Internal kernels, for the harness's honesty checks (listed only by

@@ -1,5 +1,5 @@
 /* baldwin_weber_12_fma: Baldwin & Weber's coordinate transformation (12-real
- * form) at the CPU's native width, fused multiply-adds, with an early exit.
+ * form) at the CPU's native width, fused multiply-adds, branchless.
  *
  * Reference: D. Baldwin, M. Weber, "Fast Ray-Triangle Intersections by
  * Coordinate Transformation", JCGT 5(3):39-49, 2016; the map M (rows U, V,
@@ -26,18 +26,17 @@
  *    from the transformed ray (the 2 x 2 determinants above), which needs
  *    U(o) and U(d) (6 operations) where the paper's homogeneous hit point
  *    P = o W(d) - d W(o) would need 6 for P and 4 for u' = U . P + U_c W(d);
- *    the determinant form is 2 operations more in all (V too) but 2 fewer
- *    before the exit, which is what most vectors run (below);
- *  - early exit after u: a vector none of whose lanes has 0 <= u' <= den
- *    returns at once (V and the t test are skipped: 14 of the 22). Why
- *    after u and not after W (the t test): on issue #18's camera workload
- *    (Suzanne, 1,280 triangles, 128 x 128 rays, closest hit, t_max the
- *    lane's best t), the t test rejects 12% of lanes and no 16-lane vector
- *    whole (a closed mesh seen from outside: most planes are crossed in front
- *    of the camera), while the u test rejects 98% of lanes and every lane of
- *    74% of the vectors (u and v together: 99.5%). The t test is not added
- *    to the exit's mask either: it raises 74.4% to 75.3% for three more
- *    operations on every vector;
+ *    the determinant form is 2 operations more in all (V too); it was
+ *    chosen when the kernel exited early after u, where it is 2 fewer before
+ *    the exit. The hit-point form, tried then, cracked as often (below);
+ *  - no early exit. After u, a vector none of whose lanes has
+ *    0 <= u' <= den could return (V and the t test skipped: 14 of the 22),
+ *    and 74% of the vectors could on issue #18's camera workload (Suzanne,
+ *    1,280 triangles, 128 x 128 rays); but the branch is unpredictable and
+ *    resolves at the end of a long dependency chain, so each mispredict
+ *    drains the loop. Without it: 0.66 ns per test against 0.91 with it
+ *    (Suzanne 968 triangles, 64^2 camera, float32, AVX-512, Zen 4), and
+ *    0.63 against 0.91 on AVX2; docs/decisions.md, "How near the bound";
  *  - W(d) == 0 (a parallel ray, or a degenerate triangle's miss record)
  *    gives den = 0, and 0 < t' < t_max den then fails (NaN for t_max = inf);
  *    a NaN anywhere fails a comparison: a miss, as in the scalar form.
@@ -121,8 +120,7 @@ TB_NWIDE nreal TB_NFN(tb_bw_row)(const real *restrict lanes, const int layout, c
     return acc;
 }
 
-/* The test of both Baldwin-Weber native forms (layout 12 or 9), with the
- * early exit after u. */
+/* The test of both Baldwin-Weber native forms (layout 12 or 9). */
 TB_NWIDE nmask TB_NFN(tb_bw_fma)(const tb_nray *restrict r, const real *restrict lanes,
                                  nreal t_max, tb_nhit *restrict h, const int layout)
 {
@@ -152,11 +150,6 @@ TB_NWIDE nmask TB_NFN(tb_bw_fma)(const tb_nray *restrict r, const real *restrict
     const nreal u_d = TB_NFN(tb_bw_row)(lanes, layout, 0, d, 0);
     const nreal u = (nreal)((nbits)nv_fmsub(u_o, w_d, w_o * u_d) ^ sign);
     nmask hit = nm_and(nv_ge(u, zero), nv_le(u, den));
-    if (!nm_any(hit)) {
-        h->t = h->u = h->v = u; /* unread (no lane set): defined all the same */
-        h->den = den;
-        return hit;
-    }
     const nreal v_o = TB_NFN(tb_bw_row)(lanes, layout, 1, o, 1);
     const nreal v_d = TB_NFN(tb_bw_row)(lanes, layout, 1, d, 0);
     const nreal v = (nreal)((nbits)nv_fmsub(v_o, w_d, w_o * v_d) ^ sign);
@@ -178,4 +171,4 @@ TB_NWIDE nmask TB_NFN(tb_baldwin_weber_12_fma_test)(const tb_nray *restrict r, c
 
 /* operations per test by class (fma, mul, add, cmp, div, logic), per lane, counted in the compiled
  * AVX-512 block loop (tests/test_ext_build.py); see kernels.h */
-#define tb_baldwin_weber_12_fma_mix {17, 7, 1, 8, 1, 10}
+#define tb_baldwin_weber_12_fma_mix {17, 7, 1, 8, 1, 9}

@@ -1,5 +1,5 @@
 /* havel_herout_fma: Havel & Herout's three-plane test at the CPU's native
- * width, fused multiply-adds, with an early exit after u.
+ * width, fused multiply-adds, branchless.
  *
  * Reference: J. Havel, A. Herout, "Yet Faster Ray-Triangle Intersection
  * (Using SSE4)", IEEE TVCG 16(3):434-438, 2010 (as havel_herout.h, whose
@@ -35,20 +35,14 @@
  *    then fails (t_max = inf gives NaN, also a fail); the closed edge rule is
  *    u' >= 0, v' >= 0, u' + v' <= |det| (after the fold), every rejection
  *    !(accept), so a NaN is a miss, as havel_herout;
- *  - early exit after u: a vector none of whose lanes passes the plane test
- *    (0 < t' < t_max |det|) and 0 <= u' <= |det| returns at once (v' is
- *    skipped). Of the two natural exits this is the one that rejects on
- *    camera rays. The plane test fails only where the plane is crossed
- *    behind the origin or beyond the closest hit so far: a camera in front
- *    of a mesh crosses nearly every triangle's plane ahead of it, and most
- *    of its rays hit nothing, so their t_max stays infinite. The band
- *    0 <= u' <= |det| is a strip one triangle wide across the whole plane,
- *    which a ray's plane point misses for nearly every triangle. Measured on
- *    the Suzanne camera workload (1,280 triangles, 128^2 rays, closest, 17%
- *    of the rays hit): the plane test fails on 19% of lanes and leaves 2% of
- *    vectors with no lane; plane and u fail on 98% of lanes and leave 78% of
- *    vectors with no lane. An exit after the plane test alone would skip
- *    more per exit (P' too) but almost never exit;
+ *  - no early exit: every lane computes v' as well. An exit after u (a
+ *    vector none of whose lanes passes the plane and u tests returns) would
+ *    be taken by 78% of vectors on the Suzanne camera workload, but it is
+ *    unpredictable and resolves at the end of the test's longest dependency
+ *    chain, so each mispredict drains the loop: with it the kernel ran at
+ *    0.87 ns per test against 0.55 without (Suzanne 968 triangles, 64^2
+ *    camera, float32, AVX-512, Zen 4; docs/decisions.md, "How near the
+ *    bound");
  *  - the loop, not the kernel, divides: once per vector with a candidate.
  * Not bit-for-bit havel_herout: a fused operation rounds once where the
  * scalar form rounds twice, and t' is N . o - N_c in one fused chain. Error
@@ -107,11 +101,6 @@ TB_NWIDE nmask TB_NFN(tb_havel_herout_fma_test)(const tb_nray *restrict r, const
         plane_u[k] = nv_load(lanes + TB_NBLOCK * (4 + k));
     nreal u = (nreal)((nbits)(plane_u[0] * q[0] + plane_u[1] * q[1] + plane_u[2] * q[2] - det * plane_u[3]) ^ flip);
     nmask first = nm_and(front, nm_and(nv_ge(u, zero), nv_le(u, abs_det)));
-    if (!nm_any(first)) {
-        h->t = h->u = h->v = u; /* unread (no lane set): defined all the same */
-        h->den = abs_det;
-        return first;
-    }
     nreal plane_v[4];
     for (int k = 0; k < 4; ++k)
         plane_v[k] = nv_load(lanes + TB_NBLOCK * (8 + k));
