@@ -11,12 +11,12 @@ from __future__ import annotations
 import platform
 import re
 import shutil
-import subprocess
 
 import pytest
 
 from tribench import ext
 from tribench.ext import _core
+from tribench.ext.disassembly import CLASSES, functions, loop_arithmetic, loop_mix
 
 WIDE = [k for k in ext.kernel_names() if ext.kernel_info(k).lanes > 1]
 
@@ -29,18 +29,7 @@ pytestmark = [
 @pytest.fixture(scope="module")
 def disassembly() -> dict[str, str]:
     """Machine code of the module, by function name."""
-    text = subprocess.run(
-        ["objdump", "-d", "--no-show-raw-insn", _core.__file__], capture_output=True, text=True, check=True
-    ).stdout
-    functions, name = {}, None
-    for line in text.splitlines():
-        head = re.match(r"^[0-9a-f]+ <([^>]+)>:$", line)
-        if head:
-            name = head.group(1)
-            functions[name] = []
-        elif name:
-            functions[name].append(line)
-    return {k: "\n".join(v) for k, v in functions.items()}
+    return functions(_core.__file__)
 
 
 @pytest.mark.parametrize("kernel", WIDE)
@@ -80,21 +69,6 @@ def test_loops_inline_their_kernel(disassembly):
     assert not offenders, f"{len(offenders)} loops call functions of the module: {dict(list(offenders.items())[:5])}"
 
 
-def _loop_arithmetic(code: str) -> int:
-    """Packed arithmetic instructions (add, sub, mul, div, sqrt, compare, min, max,
-    FMA) in the largest loop of a function: the block loop of a wide kernel."""
-    lines = [re.match(r"\s*([0-9a-f]+):\s+(\S+)\s*(\S*)", line) for line in code.splitlines()]
-    ins = [(int(m.group(1), 16), m.group(2), m.group(3)) for m in lines if m]
-    arith = re.compile(r"^v(add|sub|mul|div|sqrt|cmp\w*|min|max|f\w*madd\w*|f\w*msub\w*)p[sd]$")
-    best = 0
-    for address, op, target in ins:
-        back = re.fullmatch(r"[0-9a-f]+", target)
-        if op.startswith("j") and back and int(target, 16) < address:
-            body = [o for a, o, _ in ins if int(target, 16) <= a <= address]
-            best = max(best, sum(1 for o in body if arith.match(o)))
-    return best
-
-
 @pytest.mark.parametrize("kernel", WIDE)
 def test_documented_ops_are_the_compiled_arithmetic(disassembly, kernel):
     """A wide kernel's documented operation count (the bound of `tribench info
@@ -104,42 +78,7 @@ def test_documented_ops_are_the_compiled_arithmetic(disassembly, kernel):
     arithmetic the compiler fused or dropped, fails here."""
     isa = {8: "avx2", 16: "avx512"}[ext.kernel_info(kernel).lanes]
     code = disassembly[f"tb_{kernel}_time_closest_{isa}_f32"]
-    assert _loop_arithmetic(code) == ext.kernel_info(kernel).ops
-
-
-CLASSES = {
-    "fma": r"^vf\w*(madd|msub)\w*p[sd]$",
-    "mul": r"^vmulp[sd]$",
-    "add": r"^v(add|sub|min|max)p[sd]$",
-    "cmp": r"^vcmp\w*p[sd]$",
-    "div": r"^v(div|sqrt)p[sd]$",
-    # bit operations, blends and selects: AVX2's and/or/xor/blendv; AVX-512's mask-register
-    # operations, ternary logic, mask blends and masked register-to-register moves (a select)
-    "logic": r"^(v(p?and|p?andn|p?or|p?xor|blendv|blendm|pblendm|pternlog)\w*|k(and|andn|or|xor|not)[bwdq])$",
-}
-_MASKED_MOVE = re.compile(r"^vmov(a|u)p[sd]$")
-
-
-def _class_of(op: str, operands: str) -> str | None:
-    """The class of one instruction (None: bookkeeping, loads, branches)."""
-    if _MASKED_MOVE.match(op) and "{%k" in operands and "(" not in operands:
-        return "logic"  # a masked move between registers: a select
-    return next((c for c, rx in CLASSES.items() if re.match(rx, op)), None)
-
-
-def _loop_mix(code: str) -> dict[str, int]:
-    """Instructions per class in the largest loop (by arithmetic) of a function."""
-    lines = [re.match(r"\s*([0-9a-f]+):\s+(\S+)\s*(.*)", line) for line in code.splitlines()]
-    ins = [(int(m.group(1), 16), m.group(2), m.group(3)) for m in lines if m]
-    arithmetic = {"fma", "mul", "add", "cmp", "div"}
-    best: list[str | None] = []
-    for address, op, operands in ins:
-        target = operands.split()[0] if operands else ""
-        if op.startswith("j") and re.fullmatch(r"[0-9a-f]+", target) and int(target, 16) < address:
-            body = [_class_of(o, r) for a, o, r in ins if int(target, 16) <= a <= address]
-            if sum(c in arithmetic for c in body) > sum(c in arithmetic for c in best):
-                best = body
-    return {c: best.count(c) for c in CLASSES}
+    assert loop_arithmetic(code) == ext.kernel_info(kernel).ops
 
 
 @pytest.mark.parametrize("kernel", WIDE)
@@ -148,5 +87,5 @@ def test_declared_mix_is_the_compiled_loop(disassembly, kernel):
     are its compiled block loop's instructions of each class."""
     mix = ext.kernel_info(kernel).mix
     isa = {8: "avx2", 16: "avx512"}[ext.kernel_info(kernel).lanes]  # as for the total, above
-    compiled = _loop_mix(disassembly[f"tb_{kernel}_time_closest_{isa}_f32"])
+    compiled = loop_mix(disassembly[f"tb_{kernel}_time_closest_{isa}_f32"])
     assert compiled == {c: mix[c] for c in CLASSES}
