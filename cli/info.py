@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from tribench.common import UserError
+
 from .options import add_kernel_files, load_kernel_files
 
 __all__ = ["add_parser", "run"]
@@ -18,6 +20,12 @@ def add_parser(sub) -> None:
         help="also measure the FMA peak and each kernel's ns/test on the in-cache camera "
         "workload, as a fraction of its arithmetic bound (about 10 s)",
     )
+    p.add_argument(
+        "--isa",
+        choices=("avx512", "avx2", "baseline"),
+        help="with --peak: hold every wide form to this instruction set and probe the pipes on it "
+        "(default: the widest this CPU runs)",
+    )
     add_kernel_files(p)
     p.set_defaults(func=run)
 
@@ -26,8 +34,12 @@ def run(args: argparse.Namespace) -> int:
     from tribench import ext
     from tribench.harness.machine import machine_record
 
+    if args.isa and not args.peak:
+        raise UserError("--isa chooses what --peak measures; add --peak")
     if args.peak:
         load_kernel_files(args)  # checked: --peak times them
+        if args.isa and args.isa not in ext.probe_isas():
+            raise UserError(f"--isa {args.isa}: this CPU runs only {', '.join(ext.probe_isas())}")
     for path in args.kernel_files or ():
         ext.load_kernels(path)
     rec = machine_record()
@@ -51,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     width = max(map(len, ext.kernel_names())) + 2
     _print_kernels(ext, width)
     if args.peak:
-        _print_peak(width)
+        _print_peak(width, args.isa)
     return 0
 
 
@@ -79,7 +91,7 @@ def _print_kernels(ext, width: int) -> None:
         )
 
 
-def _print_peak(width: int) -> None:
+def _print_peak(width: int, isa: str | None) -> None:
     from tribench.harness.peak import camera_fractions
 
     print(
@@ -87,14 +99,16 @@ def _print_peak(width: int) -> None:
         "(Suzanne 968 triangles, 64x64 rays, closest hit)...",
         file=sys.stderr,
     )
-    gflops, isa, rate_isa, rates, table = camera_fractions()
-    print(f"\nthroughput probes ({rate_isa}, widest vector), lane-ops per ns:")
+    gflops, peak_isa, rate_isa, rates, table = camera_fractions(isa=isa)
+    held = "every wide form held to it" if isa else "widest vector"
+    print(f"\nthroughput probes ({rate_isa}, {held}), lane-ops per ns:")
     for dtype, r in rates.items():
         print(f"  {dtype:<8}" + "  ".join(f"{c} {v:.1f}" for c, v in r.items()))
     print(
         "bound = the port model over each kernel's operation mix (rules: tribench.harness.peak); % = bound / measured"
     )
-    print(f"8-lane FMA peak {gflops:.1f} GFLOP/s ({isa}): the old bound, ops / {gflops / 2:.1f}, shown as '% 8-lane'")
+    old = f"ops / {gflops / 2:.1f}, shown as '% 8-lane'"
+    print(f"8-lane FMA peak {gflops:.1f} GFLOP/s ({peak_isa}): the old bound, {old}")
     for dtype, g in table.groupby("dtype", sort=False):
         print(
             f"\n{dtype:<{width}}{'form':<18}{'ops/test':>9}{'bound ns':>10}{'ns/test':>10}"

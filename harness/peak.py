@@ -103,9 +103,9 @@ def bound_from_mix(mix: Mapping[str, float], rates: Mapping[str, float]) -> floa
     return max(alone, pairs, fp_pool, alu_pool)
 
 
-def measure_rates(repeats: int = 3) -> ext.OpThroughput:
-    """The probes on the widest ISA, best of ``repeats`` each (about 0.2 s)."""
-    return ext.op_throughput(repeats=repeats)
+def measure_rates(repeats: int = 3, isa: str | None = None) -> ext.OpThroughput:
+    """The probes on ``isa`` (default: the widest), best of ``repeats`` each (about 0.2 s)."""
+    return ext.op_throughput(isa, repeats=repeats)
 
 
 def throughput_record() -> dict:
@@ -127,7 +127,7 @@ def measure_peak(repeats: int = 5) -> ext.Peak:
     return max((ext.fma_peak(PROBE_ITERATIONS) for _ in range(repeats)), key=lambda p: p.gflops)
 
 
-def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int = 64, seed: int = 0):
+def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int = 64, seed: int = 0, isa=None):
     """Every public kernel on the in-cache camera workload, as a fraction of its bound.
 
     A quick look in this process (``tribench info --peak``), not the sweep's
@@ -140,7 +140,9 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     peak and its ISA, the probes' ISA and rates per dtype, and a DataFrame
     with ``dtype, kernel, form, ops_per_test, bound_ns_per_test`` (the port
     model's), ``ns_per_test`` (median over rounds), ``fraction``, and the
-    secondary ``bound_8lane_ns_per_test, fraction_8lane``.
+    secondary ``bound_8lane_ns_per_test, fraction_8lane``. ``isa`` (a probe
+    ISA of :func:`tribench.ext.probe_isas`) holds every wide form to it and
+    probes the pipes on it, so that an AVX-512 core answers for AVX2 too.
     """
     import pandas as pd
 
@@ -153,16 +155,17 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     for dtype in dtypes:
         w = cache.make(MeshSpec("suzanne", triangles=968, width=size, height=size, dtype=dtype, result="closest"))
         for kernel in ext.kernel_names():
-            job = ext.make_job(kernel, w.origins, w.directions, w.triangles, "closest")
+            held = isa if isa in ext.kernel_info(kernel).isas else None  # scalar forms have one
+            job = ext.make_job(kernel, w.origins, w.directions, w.triangles, "closest", isa=held)
             jobs[dtype, kernel] = (job, calibrate_loops(job, 5e6))
-    before, rates_before = measure_peak(3), measure_rates()
+    before, rates_before = measure_peak(3), measure_rates(isa=isa)
     times: dict[tuple[str, str], list[float]] = {key: [] for key in jobs}
     keys = list(jobs)
     for _ in range(rounds):
         for i in rng.permutation(len(keys)):
             job, loops = jobs[keys[i]]
             times[keys[i]].append(ext.time_batch(job, loops).ns_per_test)
-    after, rates_after = measure_peak(3), measure_rates()
+    after, rates_after = measure_peak(3), measure_rates(isa=isa)
     gflops = (before.gflops + after.gflops) / 2
     rates = {
         d: {c: (rates_before.rates(d)[c] + rates_after.rates(d)[c]) / 2 for c in rates_before.rates(d)} for d in dtypes
@@ -177,7 +180,7 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
             {
                 "dtype": dtype,
                 "kernel": kernel,
-                "form": "scalar" if info.lanes == 1 else f"{info.lanes} lanes, {info.isa}",
+                "form": "scalar" if info.lanes == 1 else f"{info.lanes} lanes, {jobs[dtype, kernel][0].isa}",
                 "ops_per_test": info.ops,
                 "bound_ns_per_test": bound,
                 "ns_per_test": ns,

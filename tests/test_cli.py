@@ -31,6 +31,17 @@ def test_info_prints_kernels_flags_and_cpu():
     assert "compiler" in out.stdout and "simd" in out.stdout and "cpu" in out.stdout
 
 
+def test_info_isa_is_refused_without_peak_and_beyond_the_cpu():
+    out = run("info", "--isa", "avx2")
+    assert (
+        out.returncode == 2
+        and out.stderr.strip() == "tribench info: error: --isa chooses what --peak measures; add --peak"
+    )
+    if "avx512" not in ext.probe_isas():
+        out = run("info", "--peak", "--isa", "avx512")
+        assert out.returncode == 2 and "this CPU runs only" in out.stderr and "Traceback" not in out.stderr
+
+
 def test_unknown_command_is_a_usage_error():
     out = run("frobnicate")
     assert out.returncode == 2

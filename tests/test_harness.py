@@ -335,6 +335,17 @@ def test_camera_fractions_put_every_kernel_against_its_bound():
         assert r.fraction_8lane == pytest.approx(r.bound_8lane_ns_per_test / r.ns_per_test)
 
 
+@pytest.mark.skipif("avx2" not in ext.probe_isas(), reason="needs AVX2")
+def test_camera_fractions_hold_every_wide_form_to_the_isa_asked():
+    from tribench.harness.peak import camera_fractions
+
+    _, _, rate_isa, _, table = camera_fractions(dtypes=("float32",), rounds=1, size=8, isa="avx2")
+    assert rate_isa == "avx2"
+    wide = table[[ext.kernel_info(k).lanes > 1 for k in table["kernel"]]]
+    assert len(wide) > 10 and all(f.endswith(", avx2") for f in wide["form"])
+    assert set(table.loc[[ext.kernel_info(k).lanes == 1 for k in table["kernel"]], "form"]) == {"scalar"}
+
+
 # ------------------------------------------------------------ calibration
 
 
