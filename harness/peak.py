@@ -14,17 +14,18 @@ each a count over a measured rate (lane-ops per ns, so ns per test):
 
 1. each class alone: ``n_c / r_c`` (no class runs faster than its probe);
 2. the pools of the mixes: for each mix ``a_b``, ``(n_a + n_b) / max(r_a,
-   r_b, r_a_b)``, and the FP arithmetic pool ``(n_fma + n_mul + n_add)`` over
-   the fastest FP probe, alone or mixed. Whether two classes share pipes is measured, not
-   assumed: where they do, the 1:1 mix runs at the rate of either alone and
-   the pool is their sum over it; where they do not, the mix runs faster and
-   its rate caps the pool instead. Multiplies share the FMA pipes on Intel
-   and AMD alike (``fma_mul`` runs at ``fma``'s rate). Adds share them on
-   Intel's AVX-512 (ports 0 and 5) and have pipes of their own on AMD Zen
-   (FADD) and on Golden Cove's 256-bit adders (ports 1 and 5). Without the
-   ``fma_mul`` pool a Zen core's bound let multiplies and FMAs each use the
-   adders' share of the FP pipes: up to twice too fast for a kernel of
-   multiplies and FMAs (docs/decisions.md, "How near the bound");
+   r_b, r_a_b)``, and the FP arithmetic pool ``(n_fma + n_mul + n_add)``
+   over the fastest FP probe, alone or mixed. Whether two classes share
+   pipes is measured, not assumed: where they do, the 1:1 mix runs at the
+   rate of either alone and the pool is their sum over it; where they do
+   not, the mix runs faster and its rate caps the pool instead. Multiplies
+   share the FMA pipes on Intel and AMD alike (``fma_mul`` runs at ``fma``'s
+   rate). Adds share them on Intel's AVX-512 (ports 0 and 5) and have pipes
+   of their own on AMD Zen (FADD) and on Golden Cove's 256-bit adders (ports
+   1 and 5). Without the ``fma_mul`` pool a Zen core's bound let multiplies
+   and FMAs each use the adders' share of the FP pipes: up to twice too fast
+   for a kernel of multiplies and FMAs (docs/decisions.md, "How near the
+   bound");
 3. the vector-ALU pool: every class but loads issues on the same vector
    pipes, so ``sum of those counts / the fastest rate of any ALU probe``
    (valid where the fastest class uses every vector pipe, as bitwise logic
