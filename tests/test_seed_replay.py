@@ -97,6 +97,20 @@ def test_sample_sizes_seed_order_and_shifted_secondary_rays(cache_dir):
         assert np.array_equal(d[j], d_i) and np.allclose(o_i, p[j] + ORIGIN_SHIFT * d_i, rtol=0, atol=1e-15)
 
 
+def test_the_sample_is_runs_of_consecutive_rays_one_in_each_share_of_the_render():
+    n, size, run = 100_000, 4096, sw.RUN_LENGTH
+    rows = sw.sample_runs(n, size, np.random.default_rng(7))
+    assert len(rows) == size and (np.diff(rows) > 0).all() and 0 <= rows[0] and rows[-1] < n
+    shares = np.arange(size // run + 1) * n // (size // run)  # the render cut into one share per run
+    run_of_row = np.arange(size) // run
+    assert (np.searchsorted(shares, rows, side="right") - 1 == run_of_row).all()
+    assert (np.diff(rows)[np.diff(run_of_row) == 0] == 1).all()  # consecutive within a run
+    assert not np.array_equal(rows, sw.sample_runs(n, size, np.random.default_rng(8)))
+    for n, size in [(200, 65), (1000, 999), (64, 10), (130, 130), (5, 9)]:  # short runs, tight fits, all rows
+        rows = sw.sample_runs(n, size, np.random.default_rng(0))
+        assert len(rows) == min(n, size) == len(np.unique(rows)) and 0 <= rows.min() and rows.max() < n
+
+
 def test_shadow_rays_any_hit_no_t_max_and_exact_test_counts(cache_dir):
     spec = SeedSpec("scene02", "shadow", sample=60, width=14, height=14, dtype="float64")
     w = cache.make(spec)

@@ -1,4 +1,4 @@
-"""The seed's workloads' spec: a uniform sample of one kind of ray from the seed's render of a scene.
+"""The seed's workloads' spec: a sample of one kind of ray from the seed's render of a scene.
 
 Re-exported by :mod:`.spec`, where every other spec lives.
 """
@@ -17,14 +17,14 @@ from .seed_scene import BUILTIN_SCENES, builtin_scene_path, read_scene
 
 __all__ = ["RAY_KINDS", "SEED_VERSION", "SeedSpec"]
 
-SEED_VERSION = 1
+SEED_VERSION = 2  # 2: the sample is runs of consecutive rays (seed_workload.sample_runs)
 RAY_KINDS = ("primary", "reflected", "shadow")
 _MAX_SIDE = 4096  # a 4096 x 4096 trace is about 4 GB of ray records
 
 
 @dataclass(frozen=True)
 class SeedSpec:
-    """A uniform sample of one kind of ray from the seed's render of a scene.
+    """A sample of one kind of ray from the seed's render of a scene.
 
     Parameters
     ----------
@@ -35,7 +35,8 @@ class SeedSpec:
         Primary and reflected rays ask for the closest hit; shadow rays for
         any hit (mode ``any``).
     sample : int
-        Rays drawn, uniformly without replacement (all of them if fewer).
+        Rays drawn, as runs of consecutive rays spread over the render
+        (:func:`~tribench.workloads.seed_workload.sample_runs`; all of them if fewer).
     width, height : int
         Image size of the render (the seed: 512 x 512).
     dtype : {"float32", "float64"}

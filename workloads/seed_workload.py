@@ -1,9 +1,10 @@
-"""The seed's ray stream as a workload: a uniform sample of one kind of ray from a render.
+"""The seed's ray stream as a workload: a sample of one kind of ray from a render.
 
 A whole replay of scene03 is about 10^9 ray-triangle tests, too long for one
 timed batch. A :class:`SeedSpec` names one kind of ray (``primary``,
 ``reflected`` or ``shadow``) of one scene's render; its workload is a
-reproducible uniform sample of those rays against every triangle of the
+reproducible sample of those rays (runs of consecutive rays spread evenly
+over the render, :func:`sample_runs`) against every triangle of the
 scene, with float64 reference answers, and it records what is needed to
 scale a timing of the sample back to the whole render (``achieved``):
 
@@ -88,7 +89,9 @@ __all__ = [
     "SEED_VERSION",
     "STREAM_KERNEL",
     "SeedSpec",
+    "RUN_LENGTH",
     "generate_seed_workload",
+    "sample_runs",
     "stream_indices",
     "stream_trace",
     "trace_forecast",
@@ -270,6 +273,37 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
 
 # ---------------------------------------------------------------- generator
 
+RUN_LENGTH = 64
+"""Consecutive rays per run of the sample: neighbours in the seed's shooting
+order travel alike, so a kernel's branches are predicted as in the render.
+A uniform draw lost that and timed the seed's Moller 5-11% slow per ray
+kind (docs/decisions.md, "The seed replay's model")."""
+
+
+def sample_runs(n_stream: int, size: int, rng: np.random.Generator) -> np.ndarray:
+    """Sorted rows of ``size`` rays of a stream of ``n_stream``, as runs of :data:`RUN_LENGTH`.
+
+    The stream is cut into as many shares as there are runs, each a run's
+    length plus an equal part of the rows left out, and each run is placed at
+    random within its own share: runs never overlap and cover the render
+    evenly (a stratified cluster sample). All rows if ``size >= n_stream``.
+
+    >>> rows = sample_runs(1000, 130, np.random.default_rng(0))
+    >>> len(rows), len(set(rows)), bool(np.all(np.diff(rows) > 0))
+    (130, 130, True)
+    """
+    if size >= n_stream:
+        return np.arange(n_stream)
+    n_runs = -(-size // RUN_LENGTH)
+
+    def split(total: int) -> np.ndarray:
+        return np.diff(np.arange(n_runs + 1) * total // n_runs)
+
+    lengths, spare = split(size), split(n_stream - size)
+    stratum_starts = np.concatenate([[0], np.cumsum(lengths + spare)[:-1]])
+    starts = stratum_starts + rng.integers(0, spare + 1)
+    return np.concatenate([np.arange(a, a + n) for a, n in zip(starts, lengths, strict=True)])
+
 
 def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
     """Build the workload of ``spec`` (no caching: see :func:`tribench.workloads.make`).
@@ -292,8 +326,7 @@ def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
         )
     rs = getattr(tr, spec.rays)
     n_stream = len(rows)
-    rng = np.random.default_rng(spec.seed)
-    pick = np.sort(rng.choice(n_stream, size=min(spec.sample, n_stream), replace=False))
+    pick = sample_runs(n_stream, spec.sample, np.random.default_rng(spec.seed))
 
     dt = np.dtype(spec.dtype)
     o_all, d_all = _shifted(rs, rows, spec.rays)
