@@ -96,3 +96,11 @@ def test_every_vector_operation_stays_a_call_as_in_the_seeds_build():
         assert curless.count(f"tb_so_cross_{p}") == 3 and curless.count(f"tb_so_vec_from_{p}") == 6
         scene = re.search(rf"^[0-9a-f]+ <tb_so_scene_intersecte_{p}>:\n(.*?)\n\n", text, re.S | re.M).group(1)
         assert re.search(r"\bcall\s+\*", scene), "the virtual call is gone"
+        # the seed's origin: x and y each stored by itself, then read back as one 16-byte pair (the
+        # load the CPU cannot forward from the two stores, as g++'s code of Curless's test does)
+        for fn in (f"tb_so_curless_intersecte_{p}", f"tb_so_curless_coupe_{p}"):
+            body = re.search(rf"^[0-9a-f]+ <{fn}>:\n(.*?)\n\n", text, re.S | re.M).group(1)
+            slot = r"(?:0x([0-9a-f]+))?\(%rsp\)"
+            stored = {int(x or "0", 16) for x in re.findall(rf"\bv?movsd\s+%xmm\d+,{slot}", body)}
+            pairs = {int(x or "0", 16) for x in re.findall(rf"\b(?:v?mov[au]pd|v?addpd)\s+{slot},%xmm", body)}
+            assert any(x in stored and x + 8 in stored for x in pairs), f"{fn}: origin's x and y not split"

@@ -16,11 +16,23 @@
 static inline __attribute__((always_inline)) int
 TB_FN(tb_so_curless_body)(const tb_so_triangle *self, const tb_so_ray *r, tb_so_hit *inter, real *t_out)
 {
-    tb_so_point origin = tb_so_point_copy(&r->origine), a, b, c, q;
+    /* auto origin = r.origine: g++ keeps its three doubles in registers and
+     * spills each across the calls with a store of its own, then reads x and y
+     * back as one 16-byte pair to compute q. That load spans two stores, which
+     * the CPU cannot forward (seed_objects.h): written so, not as a Point copy. */
+    double origin[3];
+    origin[0] = r->origine.x;
+    TB_SO_STORED(origin); /* one 8-byte store each */
+    origin[1] = r->origine.y;
+    TB_SO_STORED(origin);
+    origin[2] = r->origine.z;
+    TB_SO_STORED(origin);
+    tb_so_point a, b, c, q;
     tb_so_vec direction = r->direction, p, a_vec, ab, aq, bc, bq, ca, cq, side;
     real side_ab, side_bc, side_ca;
     int hit = 0;
-    TB_FN(tb_so_vec_make)(&p, (real)origin.x, (real)origin.y, (real)origin.z);
+    /* p from the values just loaded, as g++ converts them from registers */
+    TB_FN(tb_so_vec_make)(&p, (real)r->origine.x, (real)r->origine.y, (real)r->origine.z);
     a = tb_so_point_copy(&self->s[0]);
     TB_FN(tb_so_vec_make)(&a_vec, (real)a.x, (real)a.y, (real)a.z);
     real dist = TB_FN(tb_so_dot)(&self->n, &a_vec);
@@ -33,8 +45,10 @@ TB_FN(tb_so_curless_body)(const tb_so_triangle *self, const tb_so_ray *r, tb_so_
         goto destroy_p;
     b = tb_so_point_copy(&self->s[1]);
     c = tb_so_point_copy(&self->s[2]);
-    q = (tb_so_point){1, origin.x + (double)(t * direction.dx), origin.y + (double)(t * direction.dy),
-                      origin.z + (double)(t * direction.dz)};
+    tb_so_double_pair origin_xy;
+    memcpy(&origin_xy, origin, sizeof origin_xy); /* the 16-byte load over the two stores */
+    origin_xy += (tb_so_double_pair){(double)(t * direction.dx), (double)(t * direction.dy)};
+    q = (tb_so_point){1, origin_xy[0], origin_xy[1], origin[2] + (double)(t * direction.dz)};
     TB_FN(tb_so_vec_from)(&ab, &a, &b);
     TB_FN(tb_so_vec_from)(&aq, &a, &q);
     TB_FN(tb_so_cross)(&side, &ab, &aq);

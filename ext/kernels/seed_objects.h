@@ -61,6 +61,11 @@ static inline tb_so_point tb_so_point_copy(const tb_so_point *p)
 {
     return (tb_so_point){1, p->x, p->y, p->z};
 }
+/* Two doubles as one SSE register, as g++ vectorises a Point's x and y. */
+typedef double tb_so_double_pair __attribute__((vector_size(2 * sizeof(double))));
+/* A store the compiler must make now, to memory, as itself: the object
+ * forms reproduce how g++ stores and reloads the seed's temporaries. */
+#define TB_SO_STORED(p) __asm__ volatile("" : : "r"(p) : "memory")
 #define TB_SO_CHUNK 160 /* bytes malloc gives a 152-byte object: 8 of header, rounded to 16 */
 #define TB_SO_STRIDE 40 /* reals per record in either precision (the registry has one stride): 160 bytes of float, room to spare in double */
 enum { TB_SO_MOLLER, TB_SO_CURLESS };
