@@ -97,14 +97,13 @@ _PAPER_INTRO = (
     "moller_seed_object as the seed's program runs them (its C++ objects, out-of-line vector calls, "
     "virtual dispatch and scene loop, so their seconds predict its user time on this machine, within "
     "the model error the widened interval adds), and by every other kernel as tribench's loop runs it. "
-    "Each kind of ray (primary, reflected, shadow) is a sampled workload, a pass over the sample "
-    "each kind of ray (primary, reflected, shadow) is a sampled workload, a pass over the sample "
-    "is scaled by the render's tests of that kind over the sample's, and the kinds are added; one "
-    "render time per worker process, mean with a 95% Student-t interval over processes. The ratio "
-    "(to moller_seed_object for the object forms, to moller_seed for the others) is paired per process "
-    "(log scale). The paper's times also cover spheres, the "
-    "floor, shading, output and start-up, so its seconds are larger and its ratio is diluted where "
-    "triangles are a small part of the work (scene02 has 12)."
+    "Each kind of ray (primary, reflected, shadow) is a workload sampled as runs of consecutive rays "
+    "spread over the render; a pass over the sample is scaled by the render's tests of that kind over "
+    "the sample's, and the kinds are added: one render time per worker process, mean with a 95% "
+    "Student-t interval over processes. The ratio (to moller_seed_object for the object forms, to "
+    "moller_seed for the others) is paired per process (log scale). The paper's times also cover "
+    "spheres, the floor, shading, output and start-up, so its seconds are larger and its ratio is "
+    "diluted where triangles are a small part of the work (scene02 has 12)."
 )
 
 
