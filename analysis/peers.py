@@ -20,8 +20,8 @@ __all__ = ["CONTENDERS", "HEADLINE_PEERS", "NATIVE_EMBREE", "PEER_NAMES", "summa
 CONTENDERS = {
     "tribench": "tribench, kernel loop timed in C",
     "tribench_call": "tribench, wall time of ext.intersect (BVH.intersect in a BVH)",
-    "embree": "native Embree, rtcIntersect1, loop timed in C",
-    "embree_16": "native Embree, rtcIntersect16 over packets of 16 rays, loop timed in C",
+    "embree": "native Embree, rtcIntersect1 at its fastest ISA here, loop timed in C",
+    "embree_16": "native Embree, rtcIntersect16 over packets of 16 rays at its fastest ISA, loop timed in C",
     "embree_robust": "native Embree, robust (watertight) mode, rtcIntersect1",
     "embree_robust_16": "native Embree, robust (watertight) mode, rtcIntersect16",
     "embreex": "Embree via embreex, called from Python (secondary)",

@@ -28,7 +28,7 @@ from tribench.common.location import cache_dir
 from .checks import check_array, check_t_max
 from .toolchain import EXT, compile_module, import_module, installed
 
-__all__ = ["INSTALL", "EmbreeMissing", "EmbreeScene", "Trace", "load", "missing", "version"]
+__all__ = ["INSTALL", "ISAS", "EmbreeMissing", "EmbreeScene", "Trace", "load", "missing", "version"]
 
 #: What to install where Embree is missing.
 INSTALL = "apt-get install libembree-dev (Embree 3 headers and library)"
@@ -42,6 +42,10 @@ LIMIT = 1.844e18
 
 #: The ray widths :meth:`EmbreeScene.trace` calls: rtcIntersect1 and rtcIntersect16.
 WIDTHS = (1, 16)
+
+#: The ISAs an :class:`EmbreeScene` may be held to, as Embree's device ``max_isa`` names them
+#: (None: Embree picks the widest the CPU has, AVX-512 where there is one).
+ISAS: dict[str | None, str | None] = {None: None, "avx2": "avx2"}
 
 
 def _within_limit(name: str, a: np.ndarray) -> None:
@@ -125,16 +129,21 @@ class Trace(NamedTuple):
 
 class EmbreeScene:
     """An Embree scene of a float32 triangle array (high build quality, one thread); ``robust`` sets
-    Embree's watertight mode. ``build_ns`` is the build's wall time."""
+    Embree's watertight mode; ``isa="avx2"`` holds Embree to AVX2 (its device's ``max_isa``), as
+    tribench's ``isa="avx2"`` holds a kernel, and None lets it pick its widest. ``build_ns`` is the
+    build's wall time."""
 
-    def __init__(self, triangles: np.ndarray, robust: bool = False) -> None:
+    def __init__(self, triangles: np.ndarray, robust: bool = False, isa: str | None = None) -> None:
         tris = check_array("triangles", triangles, (3, 3))
         if tris.dtype != np.float32:
             raise UserError(f"Embree takes float32 triangles, got {tris.dtype}")
+        if isa not in ISAS:
+            raise UserError(f"isa must be one of {', '.join(map(repr, ISAS))}, got {isa!r:.40}")
         _within_limit("triangles", tris)
         self.n_triangles = len(tris)
         self.robust = bool(robust)
-        self._scene = load().Scene(tris, len(tris), self.robust)
+        self.isa = isa
+        self._scene = load().Scene(tris, len(tris), self.robust, ISAS[isa])
         self.build_ns: int = self._scene.build_ns
 
     def _rays(self, origins, directions, t_max) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -11,7 +11,7 @@ from tribench.workloads import cache, robustness
 from tribench.workloads.spec import MeshSpec
 
 needs_embree = pytest.mark.skipif(embree.missing() is not None, reason=str(embree.missing()))
-CASES = [(robust, width) for robust in (False, True) for width in embree.WIDTHS]
+CASES = [(robust, width, isa) for robust in (False, True) for width in embree.WIDTHS for isa in embree.ISAS]
 
 
 @pytest.fixture(scope="module")
@@ -22,10 +22,10 @@ def workload(tmp_path_factory):
 
 
 @needs_embree
-@pytest.mark.parametrize("robust,width", CASES)
-def test_closest_hits_agree_with_the_reference_but_on_ambiguous_rays(workload, robust, width):
+@pytest.mark.parametrize("robust,width,isa", CASES)
+def test_closest_hits_agree_with_the_reference_but_on_ambiguous_rays(workload, robust, width, isa):
     w = workload
-    scene = embree.EmbreeScene(w.triangles, robust)
+    scene = embree.EmbreeScene(w.triangles, robust, isa=isa)
     index, t = scene.intersect(w.origins, w.directions, width=width)
     wrong = index != w.ref_index
     assert not (wrong & ~w.ambiguous()).any()
@@ -67,6 +67,8 @@ def test_bad_input_is_refused_before_c(workload):
     bad[0, 0, 0] = np.nan
     with pytest.raises(UserError, match="NaN or Inf"):
         embree.EmbreeScene(bad)
+    with pytest.raises(UserError, match="isa must be one of"):
+        embree.EmbreeScene(w.triangles, isa="avx2,threads=8")
     scene = embree.EmbreeScene(w.triangles)
     with pytest.raises(UserError, match="differ in length"):
         scene.trace(w.origins, w.directions[:-1])

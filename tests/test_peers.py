@@ -13,6 +13,7 @@ import pytest
 from test_report_run import run_fixture_dir
 
 from tribench import analysis, reports, stats
+from tribench.ext import embree
 from tribench.reports import columns
 from tribench.reports import html as report_html
 from tribench.reports.rundata import load_peers, load_run
@@ -321,3 +322,19 @@ def test_tribench_competes_with_two_sided_kernels_only(accel):
     kernels = peers.candidate_kernels(accel)
     assert kernels and not any(ext.kernel_info(k).culls_back_faces for k in kernels)
     assert "moller_trumbore_fma" in kernels and "moller_trumbore_cull_fma" not in kernels
+
+
+def test_embree_is_timed_at_the_isa_it_is_fastest_at_per_call():
+    class Scene:  # a scene whose passes take fixed times per width
+        def __init__(self, ns: dict[int, int]):
+            self.ns, self.passes = ns, 0
+
+        def trace(self, o, d, t_max, width, loops):
+            self.passes += 1
+            return embree.Trace(self.ns[width] + self.passes % 2, loops, len(o), 0, 0.0)
+
+    native, held = Scene({1: 100, 16: 50}), Scene({1: 90, 16: 60})
+    o = np.zeros((4, 3), np.float32)
+    assert peers._fastest_isa({None: native, "avx2": held}, o, o, 1) == "avx2"
+    assert peers._fastest_isa({None: native, "avx2": held}, o, o, 16) is None
+    assert native.passes == held.passes == 6  # three alternating passes each, per call

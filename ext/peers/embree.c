@@ -19,6 +19,7 @@
 #include <embree3/rtcore.h>
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <string.h>
 #include <time.h>
 
@@ -64,15 +65,26 @@ static void scene_dealloc(Scene *self)
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
-/* Scene(vertices, n_triangles, robust): vertices are n_triangles x 3 x 3 floats. */
+/* Scene(vertices, n_triangles, robust, max_isa=None): vertices are n_triangles x 3 x 3 floats;
+ * max_isa caps the ISA Embree picks (its device's max_isa, e.g. "avx2"), None lets it choose. */
 static int scene_init(Scene *self, PyObject *args, PyObject *kwargs)
 {
     Py_buffer v = {0};
     Py_ssize_t n;
     int robust;
-    static char *names[] = {"vertices", "n_triangles", "robust", NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "y*np:Scene", names, &v, &n, &robust))
+    const char *max_isa = NULL;
+    static char *names[] = {"vertices", "n_triangles", "robust", "max_isa", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "y*np|z:Scene", names, &v, &n, &robust, &max_isa))
         return -1;
+    char config[64] = "threads=1";
+    const char *isa_letters = "abcdefghijklmnopqrstuvwxyz0123456789.";
+    if (max_isa && (strlen(max_isa) > 16 || strspn(max_isa, isa_letters) != strlen(max_isa))) {
+        PyErr_SetString(PyExc_ValueError, "max_isa must be a short lower-case ISA name such as avx2");
+        PyBuffer_Release(&v);
+        return -1;
+    }
+    if (max_isa)
+        snprintf(config, sizeof config, "threads=1,max_isa=%s", max_isa);
     int failed = -1;
     if (self->device) {
         PyErr_SetString(PyExc_RuntimeError, "a Scene is built once");
@@ -83,7 +95,7 @@ static int scene_init(Scene *self, PyObject *args, PyObject *kwargs)
         goto done;
     }
     int64_t start = now_ns();
-    self->device = rtcNewDevice("threads=1");
+    self->device = rtcNewDevice(config);
     if (!self->device) {
         PyErr_Format(PyExc_RuntimeError, "Embree has no device here (RTCError %d)", (int)rtcGetDeviceError(NULL));
         goto done;
