@@ -45,7 +45,7 @@ WIDTHS = (1, 16)
 
 #: The ISAs an :class:`EmbreeScene` may be held to, as Embree's device ``max_isa`` names them
 #: (None: Embree picks the widest the CPU has, AVX-512 where there is one).
-ISAS: dict[str | None, str | None] = {None: None, "avx2": "avx2"}
+ISAS = (None, "avx2")
 
 
 def _within_limit(name: str, a: np.ndarray) -> None:
@@ -143,7 +143,7 @@ class EmbreeScene:
         self.n_triangles = len(tris)
         self.robust = bool(robust)
         self.isa = isa
-        self._scene = load().Scene(tris, len(tris), self.robust, ISAS[isa])
+        self._scene = load().Scene(tris, len(tris), self.robust, isa)
         self.build_ns: int = self._scene.build_ns
 
     def _rays(self, origins, directions, t_max) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

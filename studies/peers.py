@@ -450,7 +450,7 @@ def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Co
 def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:
     """Native Embree's four contenders (plain and robust; rtcIntersect1 and rtcIntersect16), each scene
     built once (its set-up), and each contender's closest hits. Each call runs at the ISA Embree is
-    fastest at here (:func:`_fastest_isa`): on a Zen 5 its AVX2 path beats its AVX-512 one by 1-7%."""
+    fastest at here (:func:`_fastest_isa`): on a Zen 5 its AVX2 rtcIntersect1 beats its AVX-512 one by 3-7%."""
     from tribench import ext
     from tribench.ext import embree
 
