@@ -72,7 +72,7 @@ PAPER = {
 #: How far the object forms' render times and Curless/Moller ratio may stand from the seed's own program
 #: on the same machine, beyond timing noise: what the replay leaves out (the floor, shading, output, about
 #: 1% of the program's time by perf record) and what differs between machines. On the Zen 5 of the
-#: measurement the replay misses by 2.6% at most (the ratio; 95% interval to 4%); on a Zen 4 the Curless
+#: measurement the replay misses by 3.0% at most (the ratio; its paired interval reaches 4%); on a Zen 4 the Curless
 #: form ran 6-10% under the program before the fix that added 2.5% on the Zen 5, so up to 5% may remain
 #: there. Measured with bench/seed_program.py beside tribench seed: docs/decisions.md, "The seed replay's model".
 MODEL_ERROR = 0.05
