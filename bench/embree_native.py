@@ -61,8 +61,8 @@ def contenders(tris: np.ndarray, kernels: list[str]) -> dict[str, object]:
             calls[name] = lambda o, d, n, b=bvh, i=isa, t=tree: b.time(o, d, "closest", n, isa=i, layout=t).elapsed_ns
             answers[name] = lambda o, d, b=bvh, i=isa, t=tree: b.intersect(o, d, isa=i, layout=t).hits.index
     for name, (robust, width, isa) in EMBREE.items():
-        if isa and "avx512" not in ext.probe_isas():
-            continue  # Embree's own pick is AVX2 or less already
+        if isa not in embree.isas_here():
+            continue
         scene = embree.EmbreeScene(tris, robust, isa)
         calls[f"embree {name}"] = lambda o, d, n, s=scene, w=width: s.trace(o, d, None, w, n).elapsed_ns
         answers[f"embree {name}"] = lambda o, d, s=scene, w=width: s.intersect(o, d, width=w)[0]

@@ -28,7 +28,7 @@ from tribench.common.location import cache_dir
 from .checks import check_array, check_t_max
 from .toolchain import EXT, compile_module, import_module, installed
 
-__all__ = ["INSTALL", "ISAS", "EmbreeMissing", "EmbreeScene", "Trace", "load", "missing", "version"]
+__all__ = ["INSTALL", "ISAS", "EmbreeMissing", "EmbreeScene", "Trace", "isas_here", "load", "missing", "version"]
 
 #: What to install where Embree is missing.
 INSTALL = "apt-get install libembree-dev (Embree 3 headers and library)"
@@ -46,6 +46,14 @@ WIDTHS = (1, 16)
 #: The ISAs an :class:`EmbreeScene` may be held to, as Embree's device ``max_isa`` names them
 #: (None: Embree picks the widest the CPU has, AVX-512 where there is one).
 ISAS = (None, "avx2")
+
+
+def isas_here() -> tuple[str | None, ...]:
+    """The :data:`ISAS` that give Embree a path of its own on this CPU: its own pick, and AVX2 where
+    its pick is AVX-512 (elsewhere it is AVX2 or less already)."""
+    from tribench.ext.probes import probe_isas
+
+    return ISAS if "avx512" in probe_isas() else (None,)
 
 
 def _within_limit(name: str, a: np.ndarray) -> None:

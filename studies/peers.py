@@ -451,17 +451,15 @@ def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contend
     """Native Embree's four contenders (plain and robust; rtcIntersect1 and rtcIntersect16), each scene
     built once (its set-up), and each contender's closest hits. Each call runs at the ISA Embree is
     fastest at here (:func:`_fastest_isa`): on a Zen 5 its AVX2 rtcIntersect1 beats its AVX-512 one by 3-7%."""
-    from tribench import ext
     from tribench.ext import embree
 
     if "embree" not in peers:
         return {}, {}
     o, d = w.origins, w.directions
-    isas = [None, "avx2"] if "avx512" in ext.probe_isas() else [None]  # else Embree's pick is AVX2 or less
     contenders: dict[str, _Contender] = {}
     answers: dict[str, np.ndarray] = {}
     for robust in (False, True):
-        scenes = {isa: embree.EmbreeScene(w.triangles, robust, isa) for isa in isas}
+        scenes = {isa: embree.EmbreeScene(w.triangles, robust, isa) for isa in embree.isas_here()}
         for width in embree.WIDTHS:
             name = NATIVE_EMBREE[2 * robust + (width == 16)]
             isa = _fastest_isa(scenes, o, d, width)
