@@ -517,7 +517,9 @@ TB_NWIDE int TB_NFN(tb_bvh_box)(const tb_bvh_node *node, const real o[3], const 
  * lane by lane. max and min keep the running value when the new one is NaN
  * (the 0 x inf case above): the AVX forms return their second operand on a
  * NaN, and the baseline's select does the same. An empty child's box
- * (+inf, -inf) is missed by every finite ray. Returns the bits of the
+ * (+inf, -inf) is missed by every finite ray. rows: the ray's entry and
+ * exit plane per axis (tb_bvh_trace_wide), so that a node's loads need no
+ * arithmetic on the ray's signs. Returns the bits of the
  * children met, and their entry distances in *t_in. */
 #if TB_NISA_ID >= 1 && !TB_REAL_IS_DOUBLE
 #define tb_wv_max(a, b) _mm256_max_ps(a, b)
@@ -546,13 +548,13 @@ TB_NWIDE unsigned TB_NFN(tb_wv_bits)(vmask m)
 }
 #endif
 TB_NWIDE unsigned TB_NFN(tb_bvh_wide_box)(const tb_bvh_wide *w, const vreal org[3], const vreal inv[3],
-                                          const vreal inv_far[3], const int near[3], real t_max, vreal *t_in)
+                                          const vreal inv_far[3], const int rows[6], real t_max, vreal *t_in)
 {
     vreal t0 = (vreal){0}, t1 = t_max + (vreal){0};
     for (int k = 0; k < 3; ++k) {
         vreal enter, leave;
-        memcpy(&enter, w->b[2 * k + near[k]], sizeof enter);
-        memcpy(&leave, w->b[2 * k + 1 - near[k]], sizeof leave);
+        memcpy(&enter, w->b[rows[2 * k]], sizeof enter);
+        memcpy(&leave, w->b[rows[2 * k + 1]], sizeof leave);
         t0 = tb_wv_max((enter - org[k]) * inv[k], t0);
         t1 = tb_wv_min((leave - org[k]) * inv_far[k], t1);
     }
@@ -588,7 +590,7 @@ TB_NWIDE void TB_NFN(tb_bvh_ray_of)(TB_FN(tb_ray_fn) make_ray, const real *o, co
  * equal t (coincident triangles) reaches the tie rule. */
 typedef struct {
     real t, u, v;
-    int64_t slot, index;
+    int64_t slot; /* its input index is job->perm[slot], looked up on a tie and once the ray is done */
     nreal filter;
 } TB_NFN(tb_bvh_best);
 
@@ -604,7 +606,7 @@ TB_NWIDE int TB_NFN(tb_bvh_visit_leaf)(TB_NFN(tb_native_fn) test, size_t stride,
 {
     const real *rec = job->base.records;
     const real grow = (real)1 + 4 * (TB_REAL_IS_DOUBLE ? DBL_EPSILON : FLT_EPSILON);
-    const nreal zero = nv_set1(0), one = nv_set1(1), nan = nv_set1((real)NAN);
+    const nreal zero = nv_set1(0), one = nv_set1(1);
     if (first % 16 || first > job->n_slots || count > job->n_slots - first)
         return -1;
     ++c[2];
@@ -627,22 +629,20 @@ TB_NWIDE int TB_NFN(tb_bvh_visit_leaf)(TB_NFN(tb_native_fn) test, size_t stride,
         if (!nm_any(m))
             continue;
         real ts[TB_NL], us[TB_NL], vs[TB_NL];
-        nreal t_sel = nv_select(m, t, nan);
-        memcpy(ts, &t_sel, sizeof ts);
+        memcpy(ts, &t, sizeof ts);
         if (mode == TB_CLOSEST_UV || !timed) {
             const nreal inv_uv = TB_NFN(tb_nhit_uv_inv)(&h, inv_den);
             const nreal u = h.u * inv_uv, v = h.v * inv_uv;
             memcpy(us, &u, sizeof us);
             memcpy(vs, &v, sizeof vs);
         }
-        for (int l = 0; l < TB_NL; ++l) {
-            if (!(ts[l] <= b->t)) /* not a candidate (NaN), or beaten by an earlier lane */
+        for (unsigned lanes = nm_bits(m); lanes; lanes &= lanes - 1) { /* the candidates */
+            const int l = __builtin_ctz(lanes);
+            if (!(ts[l] <= b->t)) /* beaten by an earlier lane */
                 continue;
-            int64_t index = job->perm[slot + l];
-            if (ts[l] < b->t || (b->slot >= 0 && index < b->index)) {
+            if (ts[l] < b->t || (b->slot >= 0 && job->perm[slot + l] < job->perm[b->slot])) {
                 b->t = ts[l];
                 b->slot = (int64_t)(slot + l);
-                b->index = index;
                 if (mode == TB_CLOSEST_UV || !timed) {
                     b->u = us[l];
                     b->v = vs[l];
@@ -726,27 +726,35 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
         real t;        /* its entry distance */
     } entry;
     const tb_bvh_wide *nodes = job->nodes;
-    entry stack[TB_BVH_STACK * (TB_BVH_WIDTH - 1)], kids[TB_BVH_WIDTH];
+    /* the children met are sorted in place on top of the stack, the nearest last, then entered: room
+     * for the deepest tree's pushes and one node's children past them */
+    entry stack[TB_BVH_STACK * (TB_BVH_WIDTH - 1) + TB_BVH_WIDTH];
     size_t sp = 0;
     if (!ray->finite)
         return 1;
     vreal org[3], inv[3], inv_far[3];
+    int rows[6];
     for (int k = 0; k < 3; ++k) {
         org[k] = ray->org[k] + (vreal){0};
         inv[k] = ray->inv[k] + (vreal){0};
         inv_far[k] = ray->inv_far[k] + (vreal){0};
+        rows[2 * k] = 2 * k + ray->near[k];
+        rows[2 * k + 1] = 2 * k + 1 - ray->near[k];
     }
     uint32_t a = 0, n = 0; /* the root, wide node 0 */
     for (;;) {
         if (n == 0) {
             const tb_bvh_wide *w = &nodes[a];
             vreal t_in;
-            unsigned met = TB_NFN(tb_bvh_wide_box)(w, org, inv, inv_far, ray->near, b->t, &t_in);
+            unsigned met = TB_NFN(tb_bvh_wide_box)(w, org, inv, inv_far, rows, b->t, &t_in);
             ++c[0];
             c[1] += TB_BVH_WIDTH;
             if (met) {
                 real ts[TB_BVH_WIDTH];
                 memcpy(ts, &t_in, sizeof ts);
+                if (sp + TB_BVH_WIDTH > sizeof stack / sizeof *stack)
+                    return 0;
+                entry *kids = &stack[sp];
                 int k = 0;
                 for (; met; met &= met - 1) { /* insertion by entry, farthest first */
                     int i = __builtin_ctz(met), j = k++;
@@ -755,15 +763,13 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
                     entry e = {w->a[i], w->n[i], ts[i]};
                     if (e.n == 0) /* fetched while the nearer children are visited: +3-5% at 1M triangles */
                         __builtin_prefetch(&nodes[e.a]);
-                    else if (e.a < job->n_slots)
-                        __builtin_prefetch((const real *)job->base.records + stride * e.a);
+                    else if (e.a < job->n_slots) /* a leaf's first block: a line per field */
+                        for (size_t f = 0; f < stride; ++f)
+                            __builtin_prefetch((const real *)job->base.records + stride * e.a + 16 * f);
                     for (; j > 0 && kids[j - 1].t <= e.t; --j)
                         kids[j] = kids[j - 1];
                     kids[j] = e;
                 }
-                if (sp + (size_t)k - 1 > sizeof stack / sizeof *stack)
-                    return 0;
-                memcpy(&stack[sp], kids, (size_t)(k - 1) * sizeof *kids);
                 sp += (size_t)k - 1;
                 a = kids[k - 1].a;
                 n = kids[k - 1].n;
@@ -815,7 +821,7 @@ TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) ma
                 goto stop;
             TB_NFN(tb_bvh_ray) ray;
             TB_NFN(tb_bvh_ray_of)(make_ray, o + 3 * i, d + 3 * i, &ray);
-            TB_NFN(tb_bvh_best) b = {t_max[i], (real)NAN, (real)NAN, -1, -1, nv_set1(t_max[i])};
+            TB_NFN(tb_bvh_best) b = {t_max[i], (real)NAN, (real)NAN, -1, nv_set1(t_max[i])};
             uint64_t c[4] = {0, 0, 0, 0};
             int sound = wide ? TB_NFN(tb_bvh_trace_wide)(test, stride, job, &ray, mode, timed, null, iota, &b, c)
                              : TB_NFN(tb_bvh_trace_binary)(test, stride, job, &ray, mode, timed, null, iota, &b, c);
@@ -825,6 +831,8 @@ TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) ma
             }
             if (timed) {
                 if (b.slot >= 0) {
+                    const int64_t index = job->perm[b.slot]; /* what the untimed call returns, loaded as it is */
+                    __asm__ volatile("" : : "r"(index));
                     ++hits;
                     t_sum += b.t;
                     if (mode == TB_CLOSEST_UV)
@@ -834,7 +842,7 @@ TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) ma
                     sums[k] += c[k];
             } else {
                 real *t_out = base->t_out, *u_out = base->u_out, *v_out = base->v_out;
-                base->index_out[i] = b.index;
+                base->index_out[i] = b.slot >= 0 ? job->perm[b.slot] : -1;
                 t_out[i] = b.slot >= 0 ? b.t : (real)NAN;
                 u_out[i] = b.slot >= 0 ? b.u : (real)NAN;
                 v_out[i] = b.slot >= 0 ? b.v : (real)NAN;

@@ -64,6 +64,7 @@ typedef __mmask16 nmask;
 #define nm_and(a, b) ((nmask)((a) & (b)))
 #define nm_or(a, b) ((nmask)((a) | (b)))
 #define nm_any(m) ((m) != 0)
+#define nm_bits(m) ((unsigned)(m))
 #define nv_min _mm512_min_ps
 #define nv_max _mm512_max_ps
 #elif TB_NISA_ID == 2
@@ -79,6 +80,7 @@ typedef __mmask8 nmask;
 #define nm_and(a, b) ((nmask)((a) & (b)))
 #define nm_or(a, b) ((nmask)((a) | (b)))
 #define nm_any(m) ((m) != 0)
+#define nm_bits(m) ((unsigned)(m))
 #define nv_min _mm512_min_pd
 #define nv_max _mm512_max_pd
 #elif TB_NISA_ID == 1 && !TB_REAL_IS_DOUBLE
@@ -94,6 +96,7 @@ typedef __m256 nmask;
 #define nm_and _mm256_and_ps
 #define nm_or _mm256_or_ps
 #define nm_any(m) (_mm256_movemask_ps(m) != 0)
+#define nm_bits(m) ((unsigned)_mm256_movemask_ps(m))
 #define nv_min _mm256_min_ps
 #define nv_max _mm256_max_ps
 #elif TB_NISA_ID == 1
@@ -109,6 +112,7 @@ typedef __m256d nmask;
 #define nm_and _mm256_and_pd
 #define nm_or _mm256_or_pd
 #define nm_any(m) (_mm256_movemask_pd(m) != 0)
+#define nm_bits(m) ((unsigned)_mm256_movemask_pd(m))
 #define nv_min _mm256_min_pd
 #define nv_max _mm256_max_pd
 #else /* the baseline: plain vector extensions, 16 bytes (SSE2 on x86-64) */
@@ -129,6 +133,7 @@ typedef mask_elem nmask __attribute__((vector_size(16)));
 #define nm_and(a, b) ((a) & (b))
 #define nm_or(a, b) ((a) | (b))
 #define nm_any(m) TB_FN(tb_nany)(m)
+#define nm_bits(m) TB_FN(tb_nbits_of)(m)
 #define nv_min(a, b) nv_select(nv_lt(a, b), a, b)
 #define nv_max(a, b) nv_select(nv_gt(a, b), a, b)
 TB_NWIDE int TB_FN(tb_nany)(nmask m)
@@ -138,6 +143,15 @@ TB_NWIDE int TB_FN(tb_nany)(nmask m)
     for (size_t k = 0; k < sizeof m / 8; ++k)
         any |= w[k];
     return any != 0;
+}
+TB_NWIDE unsigned TB_FN(tb_nbits_of)(nmask m)
+{
+    mask_elem lanes[TB_NL];
+    memcpy(lanes, &m, sizeof lanes);
+    unsigned bits = 0;
+    for (int l = 0; l < TB_NL; ++l)
+        bits |= (unsigned)(lanes[l] != 0) << l;
+    return bits;
 }
 #endif
 /* the lanes' bits as integers, for sign and absolute-value masks */
@@ -360,6 +374,7 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef nv_max
 #undef nv_min
 #undef nm_any
+#undef nm_bits
 #undef nm_or
 #undef nm_and
 #undef nv_select
