@@ -749,6 +749,14 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
             unsigned met = TB_NFN(tb_bvh_wide_box)(w, org, inv, inv_far, rows, b->t, &t_in);
             ++c[0];
             c[1] += TB_BVH_WIDTH;
+            if (met && !(met & (met - 1))) { /* one child met: entered at once, no sort, no push */
+                const int i = __builtin_ctz(met);
+                if (w->n[i] == 0 && !(w->a[i] > a && w->a[i] < job->n_nodes))
+                    return 0;
+                n = w->n[i];
+                a = w->a[i];
+                continue;
+            }
             if (met) {
                 real ts[TB_BVH_WIDTH];
                 memcpy(ts, &t_in, sizeof ts);
