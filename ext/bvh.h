@@ -541,10 +541,7 @@ TB_NWIDE unsigned TB_NFN(tb_wv_bits)(vmask m)
 {
     mask_elem lanes[TB_BVH_WIDTH];
     memcpy(lanes, &m, sizeof lanes);
-    unsigned bits = 0;
-    for (int i = 0; i < TB_BVH_WIDTH; ++i)
-        bits |= (unsigned)(lanes[i] != 0) << i;
-    return bits;
+    return TB_FN(tb_lane_bits)(lanes, TB_BVH_WIDTH);
 }
 #endif
 TB_NWIDE unsigned TB_NFN(tb_bvh_wide_box)(const tb_bvh_wide *w, const vreal org[3], const vreal inv[3],

@@ -144,14 +144,19 @@ TB_NWIDE int TB_FN(tb_nany)(nmask m)
         any |= w[k];
     return any != 0;
 }
+/* n lanes of a vector mask as the low bits of an integer (bvh.h's box masks too) */
+TB_NWIDE unsigned TB_FN(tb_lane_bits)(const mask_elem *lanes, int n)
+{
+    unsigned bits = 0;
+    for (int l = 0; l < n; ++l)
+        bits |= (unsigned)(lanes[l] != 0) << l;
+    return bits;
+}
 TB_NWIDE unsigned TB_FN(tb_nbits_of)(nmask m)
 {
     mask_elem lanes[TB_NL];
     memcpy(lanes, &m, sizeof lanes);
-    unsigned bits = 0;
-    for (int l = 0; l < TB_NL; ++l)
-        bits |= (unsigned)(lanes[l] != 0) << l;
-    return bits;
+    return TB_FN(tb_lane_bits)(lanes, TB_NL);
 }
 #endif
 /* the lanes' bits as integers, for sign and absolute-value masks */
