@@ -71,12 +71,12 @@ def _print_kernels(ext, width: int) -> None:
     """The registry's declarations (ext/kernels/list.h): faces tested, watertight promise, and whether the
     code is a seed replay, clean, or from a kernel file."""
     print(
-        f"{'kernel':<{width}}{'form':<8}{'bytes/tri f32':>14}{'bytes/tri f64':>14}  {'faces':<6}{'watertight':<11}"
+        f"{'kernel':<{width}}{'form':<10}{'bytes/tri f32':>14}{'bytes/tri f64':>14}  {'faces':<6}{'watertight':<11}"
         f"{'code':<6} ISA (* = runs here, > = chosen)"
     )
     for name in ext.kernel_names():
         info = ext.kernel_info(name)
-        form = "scalar" if info.lanes == 1 else f"{info.lanes} lanes"
+        form = "scalar" if info.lanes == 1 else f"{info.lanes}/block"  # triangles per record block, not vector lanes
         isas = (
             " ".join(("> " if i == info.isa else "* " if ok else "  ") + i for i, ok in info.isas.items())
             if info.lanes > 1
@@ -86,7 +86,7 @@ def _print_kernels(ext, width: int) -> None:
         watertight = "yes" if info.watertight != "none" else "-"
         code = "seed" if info.seed_replay else "file" if info.source != "built-in" else "clean"
         print(
-            f"{name:<{width}}{form:<8}{info.bytes_per_triangle['float32']:>14}"
+            f"{name:<{width}}{form:<10}{info.bytes_per_triangle['float32']:>14}"
             f"{info.bytes_per_triangle['float64']:>14}  {faces:<6}{watertight:<11}{code:<6} {isas}"
         )
 
@@ -111,11 +111,11 @@ def _print_peak(width: int, isa: str | None) -> None:
     print(f"8-lane FMA peak {gflops:.1f} GFLOP/s ({peak_isa}): the old bound, {old}")
     for dtype, g in table.groupby("dtype", sort=False):
         print(
-            f"\n{dtype:<{width}}{'form':<18}{'ops/test':>9}{'bound ns':>10}{'ns/test':>10}"
+            f"\n{dtype:<{width}}{'form':<22}{'ops/test':>9}{'bound ns':>10}{'ns/test':>10}"
             f"{'% of bound':>12}{'% 8-lane':>10}"
         )
         for r in g.itertuples(index=False):
             print(
-                f"{r.kernel:<{width}}{r.form:<18}{r.ops_per_test:>9}{r.bound_ns_per_test:>10.3f}"
+                f"{r.kernel:<{width}}{r.form:<22}{r.ops_per_test:>9}{r.bound_ns_per_test:>10.3f}"
                 f"{r.ns_per_test:>10.3f}{100 * r.fraction:>11.1f}%{100 * r.fraction_8lane:>9.1f}%"
             )

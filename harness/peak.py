@@ -181,7 +181,7 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
             {
                 "dtype": dtype,
                 "kernel": kernel,
-                "form": "scalar" if info.lanes == 1 else f"{info.lanes} lanes, {jobs[dtype, kernel][0].isa}",
+                "form": "scalar" if info.lanes == 1 else f"blocks of {info.lanes}, {jobs[dtype, kernel][0].isa}",
                 "ops_per_test": info.ops,
                 "bound_ns_per_test": bound,
                 "ns_per_test": ns,
