@@ -34,7 +34,7 @@ class Prepared:
         the others. A wide kernel's are the same records in blocks of
         L = ``kernel_info(kernel).lanes`` triangles (8 or 16), structure of
         arrays: shape (ceil(K / L), stride, L), lanes past the last triangle
-        zero. An exactly flat triangle's record is all
+        NaN (as a flat triangle's). An exactly flat triangle's record is all
         NaN (every ray misses it), except for the seed replays, which keep
         the seed's behaviour (see each kernel's header and :func:`flat`).
     n_triangles : int

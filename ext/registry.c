@@ -238,7 +238,10 @@ static void tb_prepare_scalar(const tb_kernel *k, const tb_variant *v, Py_ssize_
 
 /* Records of a wide kernel: the scalar records of each block of `lanes`
  * (8 or 16) triangles, transposed to structure of arrays (field f of lane l
- * at lanes f + l); lanes past the last triangle are zero (the loops mask them). */
+ * at lanes f + l). Lanes past the last triangle hold the flat triangle's
+ * record, NaN: the loops mask them, and NaN fails every kernel's tests on its
+ * common path, where zeros (a triangle at the origin, its edge functions
+ * exactly 0) sent woop_fma to its exact fallback on every vector holding one. */
 static int tb_prepare_blocked(const tb_kernel *k, const tb_variant *v, Py_ssize_t itemsize,
                               const void *vertices, const uint8_t *flat, size_t n, void *out)
 {
@@ -247,11 +250,16 @@ static int tb_prepare_blocked(const tb_kernel *k, const tb_variant *v, Py_ssize_
     if (!scalar)
         return -1;
     tb_prepare_scalar(k, v, itemsize, vertices, flat, n, scalar);
-    memset(out, 0, blocks * lanes * stride * (size_t)itemsize);
-    for (size_t i = 0; i < n; ++i)
-        for (size_t f = 0; f < stride; ++f)
-            memcpy((char *)out + ((i / lanes) * lanes * stride + f * lanes + i % lanes) * (size_t)itemsize,
-                   scalar + (i * stride + f) * (size_t)itemsize, (size_t)itemsize);
+    for (size_t i = 0; i < blocks * lanes; ++i)
+        for (size_t f = 0; f < stride; ++f) {
+            char *at = (char *)out + ((i / lanes) * lanes * stride + f * lanes + i % lanes) * (size_t)itemsize;
+            if (i < n)
+                memcpy(at, scalar + (i * stride + f) * (size_t)itemsize, (size_t)itemsize);
+            else if (itemsize == 4)
+                *(float *)at = NAN;
+            else
+                *(double *)at = NAN;
+        }
     free(scalar);
     return 0;
 }

@@ -121,6 +121,26 @@ def test_prepare_poisons_flat_records_of_clean_kernels_only(dtype):
         assert poisoned.tolist() == ([not ext.kernel_info(kernel).seed_replay] * len(tris) + [False]), kernel
 
 
+@pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
+def test_a_blocks_lanes_past_the_last_triangle_hold_the_flat_record(dtype):
+    """Padding is NaN, which every kernel's tests fail on their common path; zeros (a triangle at the
+    origin, edge functions exactly 0) sent woop_fma to its exact fallback on every vector holding them."""
+    tris = np.ascontiguousarray(np.random.default_rng(3).normal(size=(12, 3, 3)), dtype=dtype)
+    for kernel in ext.kernel_names(internal=True):
+        lanes = ext.kernel_info(kernel).lanes
+        if lanes == 1:
+            continue
+        records = ext.prepare(kernel, tris).records  # blocks of 8 or 16: 12 triangles, then padding
+        rows = records.transpose(0, 2, 1).reshape(-1, records.shape[1])  # one row per lane
+        assert len(rows) == 16 and np.isfinite(rows[:12]).all() and np.isnan(rows[12:]).all(), kernel
+    o, d = np.zeros((1, 3), dtype), np.array([[0, 0, 1]], dtype)  # through the origin, where zeros lay
+    expected = reference.intersect_closest(o.astype(np.float64), d.astype(np.float64), tris.astype(np.float64))
+    for kernel in (
+        k for k in ext.kernel_names() if ext.kernel_info(k).lanes > 1 and not ext.kernel_info(k).culls_back_faces
+    ):
+        assert ext.intersect(kernel, o, d, tris, "closest").index[0] == expected[0][0], kernel
+
+
 # ------------------------------------------------------------- the kernels
 
 
