@@ -295,7 +295,7 @@ def test_info_shows_the_declared_properties():
     script = Path(sys.executable).parent / "tribench"  # the installed command, wherever its module lives
     done = subprocess.run([script, "info"], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
-    row = re.compile(r"^(\w+)\s+(?:scalar|\d+ lanes)\s+(\d+)\s+(\d+)\s+(both|front)\s+(yes|-)\s+(seed|clean)\s")
+    row = re.compile(r"^(\w+)\s+(?:scalar|\d+/block)\s+(\d+)\s+(\d+)\s+(both|front)\s+(yes|-)\s+(seed|clean)\s")
     shown = {m[1]: m.groups()[1:] for m in map(row.match, done.stdout.splitlines()) if m}
     assert sorted(shown) == sorted(ext.kernel_names())
     for k, (f32, f64, faces, watertight, code) in shown.items():
