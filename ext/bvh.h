@@ -512,6 +512,14 @@ TB_NWIDE int TB_NFN(tb_bvh_box)(const tb_bvh_node *node, const real o[3], const 
     return t0 <= t1;
 }
 
+/* Whether child i of wide node `at` can be entered: a leaf, or an inner
+ * node after its parent and inside the tree (so a malformed tree cannot loop
+ * or read out of bounds). */
+TB_NWIDE int TB_NFN(tb_bvh_child_sound)(const tb_bvh_wide *w, int i, uint32_t at, size_t n_nodes)
+{
+    return w->n[i] != 0 || (w->a[i] > at && w->a[i] < n_nodes);
+}
+
 /* The same slab test on every child of a wide node at once: one 32-byte
  * vector per plane, the same arithmetic and rounding margin as tb_bvh_box,
  * lane by lane. max and min keep the running value when the new one is NaN
@@ -748,7 +756,7 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
             c[1] += TB_BVH_WIDTH;
             if (met && !(met & (met - 1))) { /* one child met: entered at once, no sort, no push */
                 const int i = __builtin_ctz(met);
-                if (w->n[i] == 0 && !(w->a[i] > a && w->a[i] < job->n_nodes))
+                if (!TB_NFN(tb_bvh_child_sound)(w, i, a, job->n_nodes))
                     return 0;
                 n = w->n[i];
                 a = w->a[i];
@@ -763,7 +771,7 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
                 int k = 0;
                 for (; met; met &= met - 1) { /* insertion by entry, farthest first */
                     int i = __builtin_ctz(met), j = k++;
-                    if (w->n[i] == 0 && !(w->a[i] > a && w->a[i] < job->n_nodes))
+                    if (!TB_NFN(tb_bvh_child_sound)(w, i, a, job->n_nodes))
                         return 0;
                     entry e = {w->a[i], w->n[i], ts[i]};
                     if (e.n == 0) /* fetched while the nearer children are visited: +3-5% at 1M triangles */

@@ -218,6 +218,15 @@ TB_HIDDEN int tb_isa_index(const char *name, const char *isa)
     return -1;
 }
 
+/* out[at] = NaN, in the records' precision */
+static void tb_set_nan(void *out, size_t at, Py_ssize_t itemsize)
+{
+    if (itemsize == 4)
+        ((float *)out)[at] = NAN;
+    else
+        ((double *)out)[at] = NAN;
+}
+
 /* Scalar records of n triangles: the kernel's prepare, then NaN in every
  * real of an exactly flat triangle's record if the kernel misses those. */
 static void tb_prepare_scalar(const tb_kernel *k, const tb_variant *v, Py_ssize_t itemsize,
@@ -228,12 +237,8 @@ static void tb_prepare_scalar(const tb_kernel *k, const tb_variant *v, Py_ssize_
         return;
     for (size_t i = 0; i < n; ++i)
         if (flat[i])
-            for (size_t f = 0; f < k->stride; ++f) {
-                if (itemsize == 4)
-                    ((float *)out)[i * k->stride + f] = NAN;
-                else
-                    ((double *)out)[i * k->stride + f] = NAN;
-            }
+            for (size_t f = 0; f < k->stride; ++f)
+                tb_set_nan(out, i * k->stride + f, itemsize);
 }
 
 /* Records of a wide kernel: the scalar records of each block of `lanes`
@@ -252,13 +257,12 @@ static int tb_prepare_blocked(const tb_kernel *k, const tb_variant *v, Py_ssize_
     tb_prepare_scalar(k, v, itemsize, vertices, flat, n, scalar);
     for (size_t i = 0; i < blocks * lanes; ++i)
         for (size_t f = 0; f < stride; ++f) {
-            char *at = (char *)out + ((i / lanes) * lanes * stride + f * lanes + i % lanes) * (size_t)itemsize;
+            const size_t at = (i / lanes) * lanes * stride + f * lanes + i % lanes;
             if (i < n)
-                memcpy(at, scalar + (i * stride + f) * (size_t)itemsize, (size_t)itemsize);
-            else if (itemsize == 4)
-                *(float *)at = NAN;
+                memcpy((char *)out + at * (size_t)itemsize, scalar + (i * stride + f) * (size_t)itemsize,
+                       (size_t)itemsize);
             else
-                *(double *)at = NAN;
+                tb_set_nan(out, at, itemsize);
         }
     free(scalar);
     return 0;
