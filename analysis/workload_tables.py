@@ -91,7 +91,7 @@ def correctness_table(batches: pd.DataFrame, kernels: Sequence[str], workloads: 
 
     ``hits_per_pass`` is a batch's hit count over its loops; the difference
     to the reference may only come from ambiguous rays (rays within 1e-5
-    barycentric of an edge, whose answer legitimately depends on rounding).
+    barycentric or the precision's rounding of an edge, whose answer legitimately depends on rounding).
     """
     rows = []
     for (wid, kernel), g in batches.groupby(["workload_id", "kernel"], sort=False):

@@ -210,7 +210,8 @@ def correctness_section(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) 
             "Every batch returns a checksum (hits and the sum of t) that the worker checked against the "
             "float64 reference before keeping it: a kernel that is fast because it is wrong stops the run. "
             "Hits may differ from the reference only on ambiguous rays (within 1e-5, in barycentric terms, "
-            "of an edge). Mesh workloads count rays that hit; pair workloads count pairs that hit.",
+            "of an edge, or within the precision's rounding of it). Mesh workloads count rays that hit; "
+            "pair workloads count pairs that hit.",
             "note",
         ),
         page.table(

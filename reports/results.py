@@ -319,7 +319,7 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
             f"process (its geometric mean over repetitions); ratios are paired by process. trimesh runs a fixed "
             f"random subset of the rays (it is slow) and its rays/s is scaled from those. CPU / wall below 1: "
             f"other processes took the core; above 1: a contender used a second thread. Ambiguous rays pass "
-            f"within 1e-5 barycentric of an edge, where rounding may pick either triangle. {note}",
+            f"within 1e-5 barycentric, or the precision's rounding, of an edge, where either triangle is right. {note}",
             "note",
         ),
     ]

@@ -430,6 +430,7 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
         ref_hit=ans.hit,
         ref_t=np.where(ans.hit, ans.t, np.nan),
         ref_edge_margin=ans.edge_margin,
+        ref_edge_clearance=ans.clearance,
         t_max=t_max.astype(dtype) if spec.miss_fractions()["beyond_t_max"] > 0 else None,
         achieved=_figures(spec, ans, codes, d, tri, t_max, redrawn),
     )

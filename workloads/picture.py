@@ -144,7 +144,7 @@ def _draw_camera(plt, w: Workload):
         handles=[
             Patch(color=tuple(green), label=f"hit ({int(hit.sum())}; shaded by surface angle)"),
             Patch(color=(0.96, 0.80, 0.80), label=f"miss ({int((~hit).sum())})"),
-            Patch(color=_AMBIGUOUS, label=f"ambiguous: |edge margin| < 1e-5 ({int(amb.sum())})"),
+            Patch(color=_AMBIGUOUS, label=f"ambiguous: within 1e-5 or rounding of an edge ({int(amb.sum())})"),
         ],
         loc="lower left",
         fontsize=8,

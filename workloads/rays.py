@@ -73,7 +73,7 @@ from .meshes import bounding_sphere, build_mesh
 from .pairs import BARY_MARGIN
 from .reference import intersect_pairs
 from .spec import MeshSpec
-from .workload import AMBIGUOUS_MARGIN, Workload, library_versions
+from .workload import Workload, ambiguous_rays, library_versions
 
 __all__ = [
     "EYE",
@@ -111,6 +111,7 @@ class ClosestAnswers:
     index: np.ndarray
     t: np.ndarray
     edge_margin: np.ndarray
+    edge_clearance: np.ndarray
     test_hits: int
     tests: int
 
@@ -254,10 +255,12 @@ def closest_hits(
     t = np.empty(c)
     hit = np.empty(c, dtype=bool)
     margin = np.empty(c)
+    clearance = np.empty(c)
     for lo in range(0, c, _CANDIDATE_CHUNK):
         r, k = rays[lo : lo + _CANDIDATE_CHUNK], tris[lo : lo + _CANDIDATE_CHUNK]
         ans = intersect_pairs(o[r], d[r], tri[k], t_max=limit[r])
-        t[lo : lo + len(r)], hit[lo : lo + len(r)], margin[lo : lo + len(r)] = ans.t, ans.hit, ans.edge_margin
+        part = slice(lo, lo + len(r))
+        t[part], hit[part], margin[part], clearance[part] = ans.t, ans.hit, ans.edge_margin, ans.clearance
 
     # Closest hit: sort hits by (ray, t, triangle) and keep the first of each ray.
     index = np.full(m, -1, dtype=np.int64)
@@ -271,13 +274,15 @@ def closest_hits(
     # Margin: the nearest brush with an edge among crossings that could decide the answer.
     with np.errstate(invalid="ignore"):
         decisive = np.isfinite(t) & (t > 0) & (t <= best[rays])
-    nearest = np.full(m, np.inf)
+    nearest, clearest = np.full(m, np.inf), np.full(m, np.inf)
     np.minimum.at(nearest, rays[decisive], np.abs(margin[decisive]))
+    np.minimum.at(clearest, rays[decisive], np.abs(clearance[decisive]))
     found = index >= 0
     return ClosestAnswers(
         index=index,
         t=np.where(found, best, np.nan),
         edge_margin=np.where(found, nearest, -nearest),
+        edge_clearance=np.where(found, clearest, -clearest),
         test_hits=int(hit.sum()),
         tests=c,
     )
@@ -442,7 +447,7 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
         "tests": m * k,
         "test_hits": ans.test_hits,
         "test_hit_rate": ans.test_hits / (m * k),
-        "ambiguous_rays": int((np.abs(ans.edge_margin) < AMBIGUOUS_MARGIN).sum()),
+        "ambiguous_rays": int(ambiguous_rays(ans.edge_margin, ans.edge_clearance, spec.dtype).sum()),
         "reference_tests": ans.tests,
         "bounding_sphere": {"centre": centre.tolist(), "radius": radius},
         **figures,
@@ -458,5 +463,6 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
         ref_index=ans.index,
         ref_t=ans.t,
         ref_edge_margin=ans.edge_margin,
+        ref_edge_clearance=ans.edge_clearance,
         achieved=achieved,
     )

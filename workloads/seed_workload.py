@@ -80,7 +80,7 @@ from tribench.common import UserError
 from .reference import intersect_pairs
 from .seed_scene import Scene, load_scene
 from .spec import MISS_STAGES, RAY_KINDS, SEED_VERSION, SeedSpec  # the spec is defined with the others
-from .workload import AMBIGUOUS_MARGIN, Workload, library_versions
+from .workload import AMBIGUOUS_MARGIN, Workload, ambiguous_rays, library_versions
 
 __all__ = [
     "EmptyStream",
@@ -198,7 +198,7 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
     m, k = len(o), len(tri)
     index = np.full(m, -1, np.int64)
     best = np.full(m, np.nan)
-    margin = np.empty(m)
+    margin, clearance = np.empty(m), np.empty(m)
     stages = np.zeros(len(MISS_STAGES), np.int64)
     tests = test_hits = ties = on_surface = beyond_light = 0
     step = max(1, (1 << 16) // k)
@@ -219,13 +219,15 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
         with np.errstate(invalid="ignore"):
             decisive = np.isfinite(t) & (t > 0) & (t <= tj[:, None])
             near = np.where(decisive, edge, np.inf).min(axis=1)
+            clear = np.where(decisive, np.abs(a.clearance.reshape(n, k)), np.inf).min(axis=1)
             surface = (np.abs(t) < T_NEAR_ZERO) & (a.edge_margin.reshape(n, k) > -AMBIGUOUS_MARGIN)
         second = np.partition(th, 1, axis=1)[:, 1] if k > 1 else np.full(n, np.inf)
         with np.errstate(invalid="ignore"):
             tie = found & (second - tj <= TIE_RTOL * tj)
         unsure = surface.any(axis=1) | tie
-        near = np.where(unsure, 0.0, near)
+        near, clear = np.where(unsure, 0.0, near), np.where(unsure, 0.0, clear)
         margin[lo:hi] = np.where(found, near, -near)
+        clearance[lo:hi] = np.where(found, clear, -clear)
         ties += int(tie.sum())
         on_surface += int(surface.any(axis=1).sum())
         # the tests a kernel runs: all, or up to the first hit in index order
@@ -258,6 +260,7 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
         "index": index,
         "t": best,
         "edge_margin": margin,
+        "edge_clearance": clearance,
         "figures": {
             "tests": tests,
             "test_hits": test_hits,
@@ -353,7 +356,7 @@ def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
         "ray_hits": hits,
         "ray_hit_rate": hits / len(pick),
         **ref["figures"],
-        "ambiguous_rays": int((np.abs(ref["edge_margin"]) < AMBIGUOUS_MARGIN).sum()),
+        "ambiguous_rays": int(ambiguous_rays(ref["edge_margin"], ref["edge_clearance"], spec.dtype).sum()),
         "origin_shift": ORIGIN_SHIFT if spec.rays != "primary" else 0.0,
         "stream_traced_with": f"{kernel} {precision}",
         "generated_with": library_versions("numpy"),
@@ -367,5 +370,6 @@ def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
         ref_index=ref["index"],
         ref_t=ref["t"],
         ref_edge_margin=ref["edge_margin"],
+        ref_edge_clearance=ref["edge_clearance"],
         achieved=achieved,
     )

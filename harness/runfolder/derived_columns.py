@@ -96,7 +96,8 @@ CORRECTNESS_COLUMNS: dict[str, str] = {
     "hits_per_pass_min": "fewest hits per pass of a batch (hits / loops)",
     "hits_per_pass_max": "most hits per pass of a batch",
     "hit_difference": "largest |hits per pass - ref_hits| over the batches (count)",
-    "ambiguous_rays": "rays within 1e-5 barycentric of an edge, which rounding may answer either way (count)",
+    "ambiguous_rays": "rays near an edge (1e-5 barycentric, or 8 epsilons of rounding): "
+    "a correct kernel may answer either way (count)",
     "t_sum_rel_diff": "largest relative difference of a batch's sum of t per pass from the reference's",
     "agrees": "True when hit_difference <= ambiguous_rays and every batch has the same hits per pass",
 }
@@ -345,7 +346,7 @@ PEER_RATES_COLUMNS: dict[str, str] = {
     "cpu_share": "median of process CPU time / wall time (1 on one core)",
     "setup_ms": "median one-off set-up, ms",
     "differ": "rays whose closest triangle differs from the float64 reference's (count)",
-    "differ_ambiguous": "of those, rays within 1e-5 barycentric of an edge (count)",
+    "differ_ambiguous": "of those, ambiguous rays (near an edge: see `ambiguous_rays`) (count)",
 }
 
 BUILDS_COLUMNS: dict[str, str] = {

@@ -93,7 +93,10 @@ class CheckRow:
     workload_id: str = _col("workload identifier")
     kernel: str = _col("kernel name")
     rays: int = _col("rays of the workload (count)")
-    ambiguous_rays: int = _col("rays within 1e-5 barycentric of an edge, which rounding may answer either way (count)")
+    ambiguous_rays: int = _col(
+        "rays near an edge (1e-5 barycentric, or 8 epsilons of rounding): "
+        "a correct kernel may answer either way (count)"
+    )
     disagreements: int = _col("rays the kernel answered differently from the float64 reference (count)")
     ambiguous_disagreements: int = _col("of those, how many are ambiguous rays (count)")
     hits: int = _col("hits of the kernel in one pass (its checksum)")
@@ -155,5 +158,5 @@ class PeerRow:
     rays_per_s: float = _col("rays / elapsed_ns, per second")
     setup_ns: int = _col("one-off set-up before the timing, ns (Embree's BVH, trimesh's rtree, tribench's job)")
     differ: int = _col("rays whose closest triangle differs from the float64 reference's (count)")
-    differ_ambiguous: int = _col("of those, rays within 1e-5 barycentric of an edge (count)")
+    differ_ambiguous: int = _col("of those, ambiguous rays (near an edge: see `ambiguous_rays`) (count)")
     cpu: int = _col("CPU the process was pinned to")
