@@ -38,6 +38,8 @@ CHECK_S = 0.007
 BATCH_OVERHEAD_S = 150e-6
 #: Tests per measured pass: big enough to be timed, small enough to cost little.
 SLICE_TESTS = 1 << 17
+#: Rays per measured pass through a BVH (a few hundred tests each).
+SLICE_RAYS = 1 << 11
 
 
 @dataclass(frozen=True)
@@ -70,9 +72,16 @@ def _ms(seconds: float) -> str:
     return f"{ms:.0f}" if ms >= 10 else f"{ms:.2g}"
 
 
-def model(sweep: Sweep, tests: Mapping[str, int], pass_s: Mapping[tuple[str, str], float]) -> Estimate:
+def model(
+    sweep: Sweep,
+    tests: Mapping[str, int],
+    pass_s: Mapping[tuple[str, str], float],
+    twin_s: Mapping[tuple[str, str], float] | None = None,
+) -> Estimate:
     """The expected duration of ``sweep`` from each workload's tests per pass
-    and each (kernel, workload id) pair's seconds per pass.
+    and each (kernel, workload id) pair's seconds per pass; ``twin_s``: a BVH
+    pair's seconds per pass of the null-leaf traversal each batch also runs
+    (with as many loops, untimed by the target).
 
     >>> from tribench.workloads.spec import PairSpec
     >>> s = Sweep(("moller_seed",), (PairSpec(n=4096),), processes=10, rounds=10, warmup=1, target_ms=8.0)
@@ -92,7 +101,8 @@ def model(sweep: Sweep, tests: Mapping[str, int], pass_s: Mapping[tuple[str, str
             lengths.append(batch)
             # calibration doubles loops up to a quarter of the target, then times 3 batches
             setup += CHECK_S + one + max(1.25 * target, 4 * one)
-            batches_s += per_pair * (batch + BATCH_OVERHEAD_S)
+            twin = batch * (twin_s or {}).get((kernel, wid), 0.0) / one
+            batches_s += per_pair * (batch + twin + BATCH_OVERHEAD_S)
     return Estimate(
         seconds=sweep.processes * (setup + batches_s),
         processes=sweep.processes,
@@ -102,14 +112,17 @@ def model(sweep: Sweep, tests: Mapping[str, int], pass_s: Mapping[tuple[str, str
     )
 
 
-def measure_passes(sweep: Sweep) -> tuple[dict[str, int], dict[tuple[str, str], float]]:
-    """Tests per pass of every workload, and one pass's seconds for every
-    (kernel, workload id) pair, timed here on a strided slice and scaled.
+def measure_passes(
+    sweep: Sweep,
+) -> tuple[dict[str, int], dict[tuple[str, str], float], dict[tuple[str, str], float]]:
+    """Tests per pass of every workload, one pass's seconds for every (kernel,
+    workload id) pair, and on BVH workloads the pass of its null-leaf twin,
+    timed here on a strided slice of the rays (and pairs) and scaled.
 
-    Builds the workloads the workers would build, and the front-face
-    references their culling kernels are checked against (into the cache, so
-    this is no extra work, and no worker computes one); the timed passes take
-    well under a second in all.
+    Builds the workloads the workers would build, the front-face references
+    their culling kernels are checked against and the BVH trees they trace
+    (into the caches, so this is no extra work, and no worker computes one);
+    the timed passes take well under a second in all.
     """
     from tribench import ext
     from tribench.workloads import cache
@@ -117,6 +130,7 @@ def measure_passes(sweep: Sweep) -> tuple[dict[str, int], dict[tuple[str, str], 
 
     tests: dict[str, int] = {}
     seconds: dict[tuple[str, str], float] = {}
+    twins: dict[tuple[str, str], float] = {}
     for spec, wid in zip(sweep.workloads, sweep.workload_ids, strict=True):
         w = cache.make(spec)
         pairs = w.mode == "pairs"
@@ -124,18 +138,40 @@ def measure_passes(sweep: Sweep) -> tuple[dict[str, int], dict[tuple[str, str], 
             front_reference(w)
         rays, tris = len(w.origins), len(w.triangles)
         tests[wid] = rays if pairs else rays * tris
-        part = slice(None, None, max(1, math.ceil(tests[wid] / SLICE_TESTS)))  # rays (and pairs) across the set
+        bvh = getattr(spec, "accel", "brute") == "bvh"  # a ray costs a traversal, not a test of every triangle
+        step = math.ceil(rays / SLICE_RAYS) if bvh else math.ceil(tests[wid] / SLICE_TESTS)
+        part = slice(None, None, max(1, step))
 
         def cut(a: Any, part: slice = part) -> Any:
             return None if a is None or np.ndim(a) == 0 else np.ascontiguousarray(a[part])
 
         o, d, tm = cut(w.origins), cut(w.directions), cut(w.t_max)
-        t = cut(w.triangles) if pairs else w.triangles
         for kernel in sweep.kernels_for(spec):
-            job = ext.make_job(kernel, o, d, t, cast(ext.Mode, w.mode), t_max=tm)
+            if bvh:
+                seconds[(kernel, wid)], twins[(kernel, wid)] = _bvh_passes(kernel, w, o, d, tm)
+                continue
+            job = ext.make_job(
+                kernel, o, d, cut(w.triangles) if pairs else w.triangles, cast(ext.Mode, w.mode), t_max=tm
+            )
             best = min(ext.time_batch(job, 1).elapsed_ns for _ in range(2))
             seconds[(kernel, wid)] = best * 1e-9 * tests[wid] / job.tests_per_pass
-    return tests, seconds
+    return tests, seconds, twins
+
+
+def _bvh_passes(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, t_max: Any) -> tuple[float, float]:
+    """Seconds per pass of ``w``'s rays through ``kernel``'s tree, and of the null-leaf twin
+    the worker traces beside each batch."""
+    from tribench import ext
+    from tribench.harness.worker import null_leaf_t_max
+    from tribench.workloads import bvh_cache
+
+    tree, _ = bvh_cache.cached_bvh(kernel, w.triangles, w.spec.max_leaf or ext.DEFAULT_MAX_LEAF)
+    scale = 1e-9 * len(w.origins) / len(o)
+    mode = cast(ext.Mode, w.mode)
+    null_t_max = null_leaf_t_max(tree, o, d, mode, t_max)
+    trace = min(tree.time(o, d, mode, 1, t_max=t_max).elapsed_ns for _ in range(2))
+    null = min(tree.time(o, d, "closest", 1, t_max=null_t_max, null_leaf=True).elapsed_ns for _ in range(2))
+    return trace * scale, null * scale
 
 
 def estimate(sweep: Sweep) -> Estimate:

@@ -426,18 +426,21 @@ def _traversal_row(job: WorkerJob, key: tuple[int, str, int, int, str], trace, n
     )
 
 
+def null_leaf_t_max(bvh: ext.BVH, o: np.ndarray, d: np.ndarray, mode: ext.Mode, t_max: Any) -> np.ndarray:
+    """Each ray's limit for the null-leaf traversal: just above the kernel's own hit (the
+    traversal's own 1 + 4 eps, so it still enters the hit's leaf), ``t_max`` where it misses."""
+    hits = bvh.intersect(o, d, mode, t_max=t_max).hits
+    grow = 1 + 4 * np.finfo(o.dtype).eps
+    return np.where(hits.hit, hits.t * grow, np.inf if t_max is None else t_max).astype(o.dtype)
+
+
 def _bvh_job(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, tris: np.ndarray) -> BvhJob:
     """``kernel``'s BVH over the workload's triangles (this process's copy) and
     its rays; from the BVH cache, so a big mesh's tree is built once per machine."""
     max_leaf = w.spec.max_leaf or ext.DEFAULT_MAX_LEAF
     bvh, _ = bvh_cache.cached_bvh(kernel, tris, max_leaf)
     mode = cast(ext.Mode, w.mode)
-    hits = bvh.intersect(o, d, mode, t_max=w.t_max).hits
-    # just above each hit (the traversal's own 1 + 4 eps), so the null traversal still enters the hit's leaf
-    grow = 1 + 4 * np.finfo(tris.dtype).eps
-    far = np.inf if w.t_max is None else w.t_max
-    null_t_max = np.where(hits.hit, hits.t * grow, far).astype(tris.dtype)
-    bjob = BvhJob(bvh, o, d, mode, w.t_max, null_t_max)
+    bjob = BvhJob(bvh, o, d, mode, w.t_max, null_leaf_t_max(bvh, o, d, mode, w.t_max))
     if time_job(bjob, 1).tests == 0:  # ns per test needs a test; batches.csv holds positive counts
         raise ValueError(
             f"workload {w.workload_id} ({w.spec.summary()}): no ray reaches a leaf of the BVH, so its "

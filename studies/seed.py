@@ -303,7 +303,7 @@ def _expected(sweep: Any, info: Mapping[str, Mapping[str, Any]], size: int) -> s
     from tribench.harness import duration
     from tribench.harness.runner import about
 
-    tests, pass_s = duration.measure_passes(sweep)
+    tests, pass_s, _ = duration.measure_passes(sweep)  # the seed's workloads are brute force
     sweep_estimate = duration.model(sweep, tests, pass_s)
     after = TABLES_S
     for wid in sweep.workload_ids:  # one pass over the sample, scaled to the render as render_per_process does

@@ -150,10 +150,24 @@ def test_the_estimate_counts_every_batch_and_grows_with_the_design(tmp_path, mon
     monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
     small = Sweep(("moller_trumbore", "curless"), (PairSpec(n=300),), processes=2, rounds=2, warmup=1, target_ms=0.2)
     big = Sweep(small.kernels, small.workloads, processes=4, rounds=8, warmup=1, target_ms=0.2)
-    tests, passes = duration.measure_passes(small)
+    tests, passes, twins = duration.measure_passes(small)
+    assert twins == {}  # no BVH workload
     assert tests == {small.workload_ids[0]: 300} and set(passes) == {(k, small.workload_ids[0]) for k in small.kernels}
     assert all(s > 0 for s in passes.values())
     a, b = duration.model(small, tests, passes), duration.model(big, tests, passes)
     assert (a.batches, b.batches) == (small.n_batches, big.n_batches)
     assert 0 < a.seconds < b.seconds
     assert a.line().startswith("expected: about ") and a.line("for the sweep").startswith("expected for the sweep: ")
+
+
+def test_a_bvh_workloads_forecast_times_its_tree_and_the_null_twin_of_each_batch(tmp_path, monkeypatch):
+    # a BVH pass was once forecast as brute force (rays x triangles tests): 11 minutes for a sweep of 2 s
+    from tribench.workloads.spec import MeshSpec
+
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    spec = MeshSpec("suzanne", 2000, width=16, height=16, dtype="float32", accel="bvh")
+    sweep = Sweep(("moller_trumbore_fma",), (spec,), processes=2, rounds=2, warmup=1, target_ms=0.2)
+    tests, passes, twins = duration.measure_passes(sweep)
+    assert set(twins) == set(passes) == {("moller_trumbore_fma", sweep.workload_ids[0])}
+    assert all(s > 0 for s in (*passes.values(), *twins.values()))
+    assert duration.model(sweep, tests, passes, twins).seconds > duration.model(sweep, tests, passes).seconds
