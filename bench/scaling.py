@@ -5,7 +5,7 @@ from 64 to about 4M in x4 steps. Every ray tests every triangle in order, so
 a pass streams the prepared records (``Job.prepared.records``: K x
 bytes_per_triangle) once per ray: they stay in L1, L2 or L3 or come from
 memory depending on their size, read against this machine's cache sizes
-(``machine_record()["caches"]``). The triangles are i.i.d., the first K of
+(``harness.machine.cache_bytes``). The triangles are i.i.d., the first K of
 one cloud, so the mix of hits and misses per test is the same at every K:
 only the working set changes (the share of rays that hit something, which
 grows with K, is printed).
@@ -41,15 +41,9 @@ from scipy import stats
 
 from tribench import ext
 from tribench.harness import layout
-from tribench.harness.machine import machine_record
+from tribench.harness.machine import cache_bytes
 
 DEFAULT_KERNELS = ("moller_trumbore", "moller_trumbore_x8")
-
-
-def size_bytes(text: str) -> int:
-    """'32K' -> 32768 (sysfs cache sizes)."""
-    units = {"K": 1 << 10, "M": 1 << 20, "G": 1 << 30}
-    return int(text[:-1]) * units[text[-1]] if text[-1] in units else int(text)
 
 
 def level(nbytes: int, caches: dict[str, int]) -> str:
@@ -115,7 +109,7 @@ def main() -> None:
             ap.error(f"{k} has no closest mode")
     dtypes = args.dtypes.split(",")
     layout.pin(args.pin)
-    caches = {name: size_bytes(s) for name, s in machine_record()["caches"].items()}
+    caches = cache_bytes()
     print(
         f"caches: {', '.join(f'{n} {s // 1024} KiB' for n, s in caches.items())}; "
         f"CPUs: {sorted(os.sched_getaffinity(0))}; load average {os.getloadavg()[0]:.2f}"

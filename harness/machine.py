@@ -60,6 +60,12 @@ def cache_sizes() -> dict[str, str]:
     return sizes
 
 
+def cache_bytes() -> dict[str, int]:
+    """:func:`cache_sizes` in bytes ('32K' -> 32768)."""
+    units = {"K": 1 << 10, "M": 1 << 20, "G": 1 << 30}
+    return {name: int(s[:-1]) * units[s[-1]] if s[-1] in units else int(s) for name, s in cache_sizes().items()}
+
+
 def git_revision() -> str | None:
     """The source checkout's revision, if tribench runs from one."""
     here = Path(__file__).resolve().parent

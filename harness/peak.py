@@ -132,14 +132,16 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     """Every public kernel on the in-cache camera workload, as a fraction of its bound.
 
     A quick look in this process (``tribench info --peak``), not the sweep's
-    protocol: Suzanne at 968 triangles (its records fit in L2) seen by a
+    protocol: Suzanne at 968 triangles (its records, 35-83 KiB in float32, fit in L2;
+    L1d holds some of them, and the port model counts no L2 traffic) seen by a
     ``size`` x ``size`` pinhole camera, closest hit; ``rounds`` rounds run
     every kernel once in a fresh random order, each batch timed in C and
     about 5 ms long; the probe runs before and after (best of 3 each) and
     their mean is the peak, and so do the throughput probes (their mean
     the rates). Returns ``(gflops, isa, rate_isa, rates, table)``: the 8-lane
     peak and its ISA, the probes' ISA and rates per dtype, and a DataFrame
-    with ``dtype, kernel, form, ops_per_test, bound_ns_per_test`` (the port
+    with ``dtype, kernel, form, ops_per_test, records_bytes`` (the prepared
+    triangles a ray streams), ``bound_ns_per_test`` (the port
     model's), ``ns_per_test`` (median over rounds), ``fraction``, and the
     secondary ``bound_8lane_ns_per_test, fraction_8lane``. ``isa`` (a probe
     ISA of :func:`tribench.ext.probe_isas`) holds every wide form to it and
@@ -183,6 +185,7 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
                 "kernel": kernel,
                 "form": "scalar" if info.lanes == 1 else f"blocks of {info.lanes}, {jobs[dtype, kernel][0].isa}",
                 "ops_per_test": info.ops,
+                "records_bytes": jobs[dtype, kernel][0].prepared.records.nbytes,
                 "bound_ns_per_test": bound,
                 "ns_per_test": ns,
                 "fraction": bound / ns,

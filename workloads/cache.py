@@ -152,7 +152,8 @@ def _read_meta(npz) -> dict[str, Any]:
         raise Invalid(f"unreadable metadata ({type(e).__name__})") from None
     if not isinstance(meta, dict) or meta.get("format") != CACHE_FORMAT:
         old = isinstance(meta, dict) and isinstance(meta.get("format"), int) and 0 < meta["format"] < CACHE_FORMAT
-        raise Invalid(f"stale: cache format {meta['format']}, current {CACHE_FORMAT}" if old else "unknown cache format")
+        why = f"stale: cache format {meta['format']}, current {CACHE_FORMAT}" if old else "unknown cache format"
+        raise Invalid(why)
     for key, kind in (("spec", dict), ("identity", dict), ("achieved", dict), ("arrays", list)):
         if not isinstance(meta.get(key), kind):
             raise Invalid(f"metadata key {key!r} is missing or not a {kind.__name__}")
