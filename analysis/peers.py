@@ -20,6 +20,7 @@ __all__ = ["CONTENDERS", "HEADLINE_PEERS", "NATIVE_EMBREE", "PEER_NAMES", "summa
 CONTENDERS = {
     "tribench": "tribench, kernel loop timed in C",
     "tribench_call": "tribench, wall time of ext.intersect (BVH.intersect in a BVH)",
+    "tribench_packets": "tribench, the BVH walked by packets of 16 rays, loop timed in C",
     "embree": "native Embree, rtcIntersect1 at its fastest ISA here, loop timed in C",
     "embree_16": "native Embree, rtcIntersect16 over packets of 16 rays at its fastest ISA, loop timed in C",
     "embree_robust": "native Embree, robust (watertight) mode, rtcIntersect1",
@@ -92,7 +93,9 @@ def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFra
     for a, b in (
         [("tribench", p) for p in PEER_NAMES]
         + [("tribench_call", p) for p in PEER_NAMES]
-        + [("tribench", "tribench_call"), ("embree_robust", "embree"), ("embree_robust_16", "embree_16")]
+        + [("tribench_packets", p) for p in NATIVE_EMBREE]
+        + [("tribench", "tribench_call"), ("tribench_packets", "tribench")]
+        + [("embree_robust", "embree"), ("embree_robust_16", "embree_16")]
     ):
         if a in wide and b in wide:
             pair = wide[[a, b]].dropna()

@@ -6,8 +6,9 @@ diffuse bounce from each camera hit (MeshSpec rays="bounce": incoherent).
 Contenders on the same arrays:
 
   tribench   every BVH leaf kernel but the culling ones (--kernels) through ext.build_bvh's default
-             (wide) tree, on its own ISA and held to AVX2 (isa="avx2"), and the same through the
-             binary tree it is collapsed from (layout="binary", named "... binary");
+             (wide) tree, on its own ISA and held to AVX2 (isa="avx2"), the same through the
+             binary tree it is collapsed from (layout="binary", named "... binary"), and the wide
+             tree walked by packets of 16 consecutive rays (layout="packets", "... packets");
   embree     native Embree 3 (tribench.ext.embree, its C API): rtcIntersect1,
              rtcIntersect16 over packets of 16 consecutive rays, both in
              robust (watertight) mode, and both held to AVX2 (its device's max_isa)
@@ -15,8 +16,9 @@ Contenders on the same arrays:
 
 Every loop is timed in C around it. Each round runs every contender once in
 a fresh random order, each batch ``loops`` passes (about --batch-ms). Printed
-per mesh and ray set: each contender's rays/s (median over rounds), the
-best default-tree form's ratio over each Embree call and over its own binary tree, the geometric mean over
+per mesh and ray set: each contender's rays/s (median over rounds); the
+best single-ray form's ratio over each Embree call and over its own binary tree, and the best
+packet form's over Embree's packets (rtcIntersect16) and its own single rays: the geometric mean over
 rounds of the per-round ratio with its 95% t interval (rounds paired: one
 process, so the interval covers round-to-round noise, not process layout).
 Answers are checked first: a contender is timed only where its closest
@@ -57,7 +59,7 @@ def contenders(tris: np.ndarray, kernels: list[str]) -> dict[str, object]:
         bvh = bvh_cache.cached_bvh(k, tris)[0]
         isas = [i for i, ok in ext.kernel_info(k).isas.items() if ok and i in ("avx512", "avx2")]
         for isa, tree in ((i, t) for i in isas for t in ext.LAYOUTS):
-            name = f"{k} {isa}" + (" binary" if tree == "binary" else "")
+            name = f"{k} {isa}" + ("" if tree == "wide" else f" {tree}")
             calls[name] = lambda o, d, n, b=bvh, i=isa, t=tree: b.time(o, d, "closest", n, isa=i, layout=t).elapsed_ns
             answers[name] = lambda o, d, b=bvh, i=isa, t=tree: b.intersect(o, d, isa=i, layout=t).hits.index
     for name, (robust, width, isa) in EMBREE.items():
@@ -89,26 +91,27 @@ def measure(w, named: dict, rounds: int, batch_ms: float, rng: np.random.Generat
 
 def report(label: str, rates: dict[str, list[float]]) -> None:
     median = {n: float(np.median(r)) for n, r in rates.items()}
-    ours = [n for n in rates if not n.startswith("embree") and not n.endswith(" binary")]
-    best = max(ours, key=median.__getitem__)
     print(f"\n{label}")
     for n in sorted(rates, key=median.__getitem__, reverse=True):
         print(f"  {n:<34}{median[n] / 1e6:8.2f} M rays/s")
-    for isa in ("avx512", "avx2"):
-        held = [n for n in ours if n.endswith(isa)]
-        if not held:
-            continue
-        top = max(held, key=median.__getitem__)
-        peers = [m for m in rates if m.startswith("embree") and (isa == "avx2" or not m.endswith(" avx2"))]
-        for call in ("rtcIntersect1", "rtcIntersect16"):  # the target: Embree at its fastest ISA here
-            forms = [m for m in rates if m in (f"embree {call}", f"embree {call} avx2")]
-            fastest = max(forms, key=median.__getitem__, default=None)
-            if fastest is not None and fastest not in peers:
-                peers.append(fastest)  # Embree held to AVX2 outran its own pick: the AVX-512 forms face it too
-        for n in peers + [f"{top} binary"] * (f"{top} binary" in rates):
-            s = stats.speedup(1 / np.array(rates[n]), 1 / np.array(rates[top]))
-            mark = " (best)" if top == best else ""
-            print(f"  {top}{mark} / {n:<24}{s.ratio:7.3f}  [{s.ci_low:.3f}, {s.ci_high:.3f}]")
+    # single rays (the wide tree) face every Embree call; packets face Embree's packets
+    for walk, suffix, widths in (("single rays", "", (1, 16)), ("packets", " packets", (16,))):
+        for isa in ("avx512", "avx2"):
+            held = [n for n in rates if n.endswith(f"{isa}{suffix}") and not n.startswith("embree")]
+            if not held:
+                continue
+            top = max(held, key=median.__getitem__)
+            embree_calls = {m: EMBREE[m.removeprefix("embree ")] for m in rates if m.startswith("embree")}
+            peers = [m for m, (_, w, held_to) in embree_calls.items() if w in widths and (isa == "avx2" or not held_to)]
+            for call in (f"rtcIntersect{w}" for w in widths):  # the target: Embree at its fastest ISA here
+                forms = [m for m in rates if m in (f"embree {call}", f"embree {call} avx2")]
+                fastest = max(forms, key=median.__getitem__, default=None)
+                if fastest is not None and fastest not in peers:
+                    peers.append(fastest)  # Embree held to AVX2 outran its own pick: the AVX-512 forms face it too
+            own = [f"{top.removesuffix(suffix)} binary"] if not suffix else [top.removesuffix(suffix)]
+            for n in peers + [m for m in own if m in rates]:
+                s = stats.speedup(1 / np.array(rates[n]), 1 / np.array(rates[top]))
+                print(f"  {walk}: {top} / {n:<24}{s.ratio:7.3f}  [{s.ci_low:.3f}, {s.ci_high:.3f}]")
 
 
 def main() -> None:

@@ -36,7 +36,7 @@ TB_HIDDEN const long long tb_bvh_build_version = TB_BVH_BUILD_VERSION;
 
 enum { TB_BVH_RUN_ANY, TB_BVH_RUN_CLOSEST, TB_BVH_TIME_ANY, TB_BVH_TIME_CLOSEST, TB_BVH_TIME_CLOSEST_UV,
        TB_BVH_TIME_NULL, TB_BVH_N_FNS };
-enum { TB_BVH_WIDE, TB_BVH_BINARY, TB_BVH_N_LAYOUTS }; /* bvh.py's LAYOUTS, in order */
+enum { TB_BVH_WIDE, TB_BVH_BINARY, TB_BVH_PACKETS, TB_BVH_N_LAYOUTS }; /* bvh.py's LAYOUTS, in order */
 typedef struct {
     const char *name;
     tb_bvh_fn f32[TB_MAX_ISAS][TB_BVH_N_LAYOUTS][TB_BVH_N_FNS], f64[TB_MAX_ISAS][TB_BVH_N_LAYOUTS][TB_BVH_N_FNS];
@@ -45,7 +45,9 @@ typedef struct {
     {TB_CAT(tb_##name##_bvh_##layout##run_any_##isa, sfx), TB_CAT(tb_##name##_bvh_##layout##run_closest_##isa, sfx), \
      TB_CAT(tb_##name##_bvh_##layout##time_any_##isa, sfx), TB_CAT(tb_##name##_bvh_##layout##time_closest_##isa, sfx), \
      TB_CAT(tb_##name##_bvh_##layout##time_closest_uv_##isa, sfx), TB_CAT(tb_##name##_bvh_##layout##time_null_##isa, sfx)}
-#define TB_BVH_FNS(name, isa, sfx) {TB_BVH_LAYOUT_FNS(name, , isa, sfx), TB_BVH_LAYOUT_FNS(name, binary_, isa, sfx)},
+#define TB_BVH_FNS(name, isa, sfx)                                                                 \
+    {TB_BVH_LAYOUT_FNS(name, , isa, sfx), TB_BVH_LAYOUT_FNS(name, binary_, isa, sfx),                  \
+     TB_BVH_LAYOUT_FNS(name, packet_, isa, sfx)},
 #define TB_BVH_FNS_F32(name, isa) TB_BVH_FNS(name, isa, _f32)
 #define TB_BVH_FNS_F64(name, isa) TB_BVH_FNS(name, isa, _f64)
 #define TB_BVH_KERNEL(name, faces, watertight, promised_by, origin, wide) TB_BVH_KERNEL_##wide(name)
@@ -205,10 +207,10 @@ static tb_bvh_fn tb_parse_bvh_job(const char *name, Py_ssize_t itemsize, int mod
         return NULL;
     }
     if (layout < 0 || layout >= TB_BVH_N_LAYOUTS) {
-        PyErr_Format(PyExc_ValueError, "layout must be 0 (wide) or 1 (binary), got %d", layout);
+        PyErr_Format(PyExc_ValueError, "layout must be 0 (wide), 1 (binary) or 2 (packets), got %d", layout);
         return NULL;
     }
-    Py_ssize_t node_reals = layout == TB_BVH_WIDE ? TB_BVH_WIDE_BYTES / itemsize : TB_BVH_NODE_REALS;
+    Py_ssize_t node_reals = layout == TB_BVH_BINARY ? TB_BVH_NODE_REALS : TB_BVH_WIDE_BYTES / itemsize;
     if (n_slots % 16 || tb_check_count("n_nodes", n_nodes, 64) ||
         tb_check_buffer(nodes, "nodes", node_reals * n_nodes, itemsize) ||
         tb_check_buffer(perm, "perm", n_slots, 8)) {

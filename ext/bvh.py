@@ -44,11 +44,13 @@ MAX_BVH_TRIANGLES: int = _core.MAX_BVH_TRIANGLES
 MAX_BVH_BATCH_RAYS: int = _core.MAX_BVH_BATCH_RAYS
 #: The version of the tree ext/bvh.h builds (bumped when it changes; the BVH cache names files by it).
 BVH_BUILD_VERSION: int = _core.BVH_BUILD_VERSION
-#: Tree layouts a traversal can walk: ``wide`` (the default, the faster: 8 children a node in
-#: float32, 4 in float64, their boxes tested at once) and ``binary`` (the tree as built, two boxes
-#: tested one after the other); docs/decisions.md, "Wide BVH".
-Layout = Literal["wide", "binary"]
-LAYOUTS: tuple[str, ...] = ("wide", "binary")
+#: How a traversal walks the tree: ``wide`` (the default, the faster: 8 children a node in
+#: float32, 4 in float64, their boxes tested at once), ``binary`` (the tree as built, two boxes
+#: tested one after the other) and ``packets`` (the wide tree, 16 consecutive rays at a time: one
+#: box test per child for a packet of rays sharing their origin and direction signs, such as a
+#: camera's; others ray by ray); docs/decisions.md, "Wide BVH".
+Layout = Literal["wide", "binary", "packets"]
+LAYOUTS: tuple[str, ...] = ("wide", "binary", "packets")
 #: Bytes of one wide node (ext/bvh.h's tb_bvh_wide).
 WIDE_NODE_BYTES: int = 256
 
@@ -173,7 +175,8 @@ class BVH:
         triangles' hits are within a few ulps; ``any`` stops at the first hit.
         With ``allow_nonfinite``, a ray with NaN or Inf in its origin or
         direction is a miss (it is not traversed). ``layout`` picks the tree
-        walked (:data:`LAYOUTS`); both give the same answers.
+        and the walk (:data:`LAYOUTS`); all give the same closest hits (in mode
+        ``any``, a hit each, not always the same one).
 
         >>> import numpy as np
         >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]], [[0., 0, 1], [1, 0, 1], [0, 1, 1]]])
@@ -238,7 +241,7 @@ class BVH:
         return TraceBatch(elapsed, int(loops), len(o), hits, t_sum, uv_sum, nodes, boxes, leaves, tris)
 
     def _tree(self, layout: int) -> tuple[np.ndarray, int, np.ndarray, int, np.ndarray]:
-        nodes = self.wide if LAYOUTS[layout] == "wide" else self.nodes
+        nodes = self.nodes if LAYOUTS[layout] == "binary" else self.wide
         return nodes, len(nodes), self.perm, self.n_slots, self.prepared.records
 
 

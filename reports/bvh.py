@@ -176,7 +176,15 @@ def _embree(peers: PeerTables | None) -> str:
         f"tribench's BVH with {peers.kernel} runs at "
         + (" and ".join(said) + " rays/s (95% CIs)." if said else "(native Embree was not measured).")
     )
-    shown = peers.rates.loc[peers.rates["contender"].isin(["tribench", *(n for n in PEER_NAMES if n != "trimesh")])]
+    packets = peers.ratios.loc[peers.ratios["contender"] == "tribench_packets"].set_index("over")
+    if "embree_16" in packets.index:
+        r = packets.loc["embree_16"]
+        text += (
+            f" Walked by packets of 16 rays (one box test per node for a packet sharing its origin), it runs at "
+            f"{format_estimate(r.ratio, r.ci_low, r.ci_high, '×')} Embree's rtcIntersect16's."
+        )
+    ours_too = ["tribench", "tribench_packets"]
+    shown = peers.rates.loc[peers.rates["contender"].isin([*ours_too, *(n for n in PEER_NAMES if n != "trimesh")])]
     return (
         "<h3>Against Embree</h3>"
         + page.p(text)

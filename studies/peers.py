@@ -14,6 +14,10 @@ Embree, tribench's own rows are still written):
 ``tribench``
     the fastest public two-sided closest-mode kernel (:func:`choose_kernel`), timed in C
     around its loop (``ext.time_batch``), as the sweeps time it;
+``tribench_packets``
+    through the BVH only: the same tree and kernel walked by packets of 16
+    consecutive rays (``BVH.time(..., layout="packets")``), Embree's
+    ``rtcIntersect16``'s peer;
 ``tribench_call``
     the wall time of ``ext.intersect`` with that kernel: checks, the run and the
     output arrays, the like of a peer's one call;
@@ -375,9 +379,8 @@ def _worker(text: str) -> None:
         return int(wrong.sum()), int((wrong & ambiguous[rows]).sum())
 
     contenders, closest = _tribench_contenders(job["kernel"], design.accel, w)
-    # the C-timed loop returns counts only; both tribench contenders run the same kernel on the same rays
-    answers = disagreements(closest(), slice(None))
-    differ = {"tribench": answers, "tribench_call": answers}
+    # the C-timed loops return counts only: each tribench contender's answers, from its untimed twin
+    differ = {name: disagreements(index, slice(None)) for name, index in closest.items()}
     natives, native_answers = _embree_contenders(job["peers"], w)
     contenders.update(natives)
     differ.update({name: disagreements(index, slice(None)) for name, index in native_answers.items()})
@@ -417,9 +420,10 @@ def _worker(text: str) -> None:
     del dummies  # kept alive until the last call: they shift every later heap address
 
 
-def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Contender], Callable[[], np.ndarray]]:
-    """tribench's two contenders (its C-timed loop, and its Python call) and the call that gives every ray's
-    closest triangle. Through the BVH, the build is the set-up, as Embree's is: its time when it was built."""
+def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:
+    """tribench's contenders (its C-timed loop, its Python call and, through the BVH, the loop walking the
+    tree by packets of 16 rays) and each one's closest triangle per ray. Through the BVH, the build is the
+    set-up, as Embree's is: its time when it was built."""
     from tribench import ext
     from tribench.harness.machine import version
     from tribench.workloads import bvh_cache
@@ -444,7 +448,14 @@ def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Co
         "tribench": _Contender(label, slice(None), timed, setup_ns, timed_in_c=True),
         "tribench_call": _Contender(f"{label}, {closest_name}", slice(None), closest, 0),
     }
-    return contenders, closest
+    answers = {"tribench": closest(), "tribench_call": closest()}
+    if accel == "bvh":  # packets: the same tree and leaf test; for Embree's rtcIntersect16
+        packets = functools.partial(bvh.time, o, d, "closest", 1, layout="packets")
+        contenders["tribench_packets"] = _Contender(
+            f"{label}, packets of 16 rays", slice(None), packets, setup_ns, True
+        )
+        answers["tribench_packets"] = bvh.intersect(o, d, layout="packets").hits.index
+    return contenders, answers
 
 
 def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:

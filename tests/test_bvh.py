@@ -105,12 +105,16 @@ def _check_counts(bvh: ext.BVH, counts: np.ndarray, layout: str) -> None:
     nodes, boxes, leaves, tris = counts.T
     assert (tris <= leaves * bvh.max_leaf).all() and (tris >= leaves).all()
     assert (leaves <= nodes).all() and (leaves <= len(bvh.leaves)).all()
+    width = 32 // bvh.dtype.itemsize  # a wide node's children, tested at once: 8 float or 4 double lanes
     if layout == "binary":
         assert (nodes <= bvh.n_nodes).all()
         assert (boxes == 1 + 2 * (nodes - leaves)).all()  # the root's, then two per inner node
-    else:  # every child of each wide node at once: 8 float or 4 double lanes
+    elif layout == "wide":
         assert (nodes - leaves <= len(bvh.wide)).all()
-        assert (boxes == 32 // bvh.dtype.itemsize * (nodes - leaves)).all()
+        assert (boxes == width * (nodes - leaves)).all()
+    else:  # a packet's wide nodes count on its first ray; each ray tests each leaf's box on its own
+        packed = boxes == width * (nodes - leaves) + leaves
+        assert (packed | (boxes == width * (nodes - leaves))).all()
 
 
 def _soup(n: int, seed: int, dtype, scale: float = 1.0, shift: float = 0.0, rays: int = 300):
@@ -230,6 +234,32 @@ def test_suzanne_subdivided_to_1e5_triangles(suzanne, dtype):
     assert amb < 0.1
     counts = ext.build_bvh(KERNELS[0], tris).intersect(o, d).counts
     assert counts[:, 3].mean() < 0.01 * len(tris)  # a BVH, not brute force
+
+
+@pytest.mark.parametrize("dtype", DTYPES, ids=["f32", "f64"])
+def test_packets_of_camera_rays_answer_as_single_rays_do(dtype):
+    """layout="packets" traces a camera's rays 16 at a time (one origin): the closest hits of
+    the wide tree's single rays, bit for bit, with far fewer node visits; packets whose rays
+    cross an axis (mixed signs), hold a zero direction component or a NaN go ray by ray."""
+    tris = build_mesh("suzanne", 3000, seed=0).triangles
+    o, d = camera_rays(64, 24)  # packets of 16 in a row of 64: a quarter row each, one sign per axis
+    d[[5, 37, 100], 0] = 0.0  # inv = inf: that packet ray by ray
+    o[200], o[201, 1], d[300, 2] = np.nan, np.inf, np.nan  # a NaN origin splits a packet; the rest miss
+    o, d, tris = (np.ascontiguousarray(a, dtype) for a in (o, d, tris))
+    ok = np.isfinite(o).all(axis=1) & np.isfinite(d).all(axis=1)
+    assert _check(tris, o[ok], d[ok]) < 0.1  # every layout against brute force and the reference
+    for kernel in KERNELS:
+        bvh = ext.build_bvh(kernel, tris)
+        for isa in _isas(kernel):
+            one, packed = (
+                bvh.intersect(o, d, "closest_uv", isa=isa, layout=w, allow_nonfinite=True) for w in ("wide", "packets")
+            )
+            for name in ("index", "t", "u", "v"):
+                np.testing.assert_array_equal(getattr(packed.hits, name), getattr(one.hits, name), err_msg=name)
+            shadow = bvh.intersect(o, d, "any", isa=isa, layout="packets", allow_nonfinite=True)
+            np.testing.assert_array_equal(shadow.hits.hit, one.hits.hit)
+            inner = [(c.counts[:, 0] - c.counts[:, 2]).sum() for c in (packed, one)]
+            assert inner[0] < 0.75 * inner[1]  # the packets were traced as one: a wide node once for 16 rays
 
 
 @pytest.mark.parametrize("max_leaf", [1, 4, 40])
@@ -429,7 +459,7 @@ def test_a_malformed_tree_raises_in_c_instead_of_reading_out_of_bounds():
         with pytest.raises(ValueError, match="malformed BVH"):
             run(tree, layout=wide)
     with pytest.raises(ValueError, match="layout"):
-        run(bvh.wide, layout=2)
+        run(bvh.wide, layout=len(ext.LAYOUTS))
     broken = bvh.nodes.copy()
     broken.view(np.uint32)[0, 6] = 1  # the root's right child is its left
     with pytest.raises(ValueError, match="cannot be widened"):
