@@ -1,6 +1,6 @@
 """A bounding volume hierarchy over a triangle array, with a native kernel's block test at its leaves.
 
-The tree is built, checked and traversed in C (``ext/bvh.h``) and lives in
+The tree is built and checked in C (``ext/bvh.h``), traversed there too (``ext/bvh_trace.h``) and lives in
 numpy arrays between calls (:class:`BVH`): :func:`build_bvh` makes one,
 :func:`adopt_bvh` takes one made elsewhere (a cache file) after checking every
 invariant of it, and :meth:`BVH.intersect` and :meth:`BVH.time` trace rays.

@@ -367,7 +367,8 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef TB_NATIVE_ENTRIES
 #undef TB_NATIVE_ENTRY
 
-#include "bvh.h" /* the BVH traversal, with these kernels' block tests at its leaves */
+#include "bvh.h"       /* the BVH build and check (first pass) */
+#include "bvh_trace.h" /* its traversals, with these kernels' block tests at the leaves */
 
 #undef nv_eq
 #undef nv_lt

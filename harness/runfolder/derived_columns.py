@@ -336,7 +336,7 @@ BVH_COLUMNS: dict[str, str] = {
 }
 
 PEER_RATES_COLUMNS: dict[str, str] = {
-    "contender": "tribench, tribench_call, a native Embree call (embree...), embreex or trimesh",
+    "contender": "tribench, tribench_call, tribench_packets, a native Embree call (embree...), embreex or trimesh",
     "implementation": "what ran, with its version",
     "rays": "rays per call (count)",
     "rays_per_s": "geometric mean over processes of rays per second (each process's own geometric mean)",

@@ -142,8 +142,9 @@ class PeerRow:
     rep: int = _col("repetition inside the process (0-based)")
     position: int = _col("position of the contender inside its repetition (random order, 0-based)")
     contender: str = _col(
-        "tribench (kernel loop timed in C), tribench_call (ext.intersect), embree, embree_16, embree_robust, "
-        "embree_robust_16 (native Embree, loop timed in C), embreex (Embree from Python) or trimesh"
+        "tribench (kernel loop timed in C), tribench_call (ext.intersect), tribench_packets (the BVH walked by "
+        "packets of 16 rays), embree, embree_16, embree_robust, embree_robust_16 (native Embree, loop timed in C), "
+        "embreex (Embree from Python) or trimesh"
     )
     implementation: str = _col("what ran, with its version (and the kernel's form and ISA for tribench)")
     kernel: str = _col("the tribench kernel of the run (the fastest closest-mode kernel on this workload)")
