@@ -1,25 +1,26 @@
-/* The wide tree walked by packets of coherent rays (bvh.h's tb_bvh_loop, layout "packets").
+/* The wide tree walked by packets of coherent rays (layout "packets": bvh_trace.h's tb_bvh_loop).
  *
  * A packet is up to TB_BVH_PACKET consecutive rays of the input that share
- * one origin (tb_bvh_loop). Where they also share, per axis, the sign of
- * their directions (a camera's rays, in a tile or a row of the image), the
- * packet is traversed as one:
- * each wide node's children are tested once, against the interval of the
- * packet's inverse directions (interval arithmetic: Boulos et al. 2007,
- * "Packet-based Whitted and distribution ray tracing"; Wald et al. 2007,
- * "SIMD ray stream tracing"; Reshetov et al. 2005, "Multi-level ray
- * tracing algorithm"), so a node costs one box test for the whole packet,
- * not one per ray. A child is entered when some ray of the packet may meet
- * it: its boxes' entry over the interval is the smallest a ray of the packet
- * can have, the exit the largest, and the nearest child by that entry goes
- * first. At a leaf each ray is tested against the leaf's box on its own, the
- * rays met run the kernel's leaf test one by one (tb_bvh_visit_leaf, the
- * single-ray traversal's), and each keeps its own closest hit; a node is
- * skipped once its entry lies beyond every ray's closest hit. Any other
- * packet (mixed signs, a non-finite ray) is traced ray by ray by
- * tb_bvh_trace_wide, as are rays whose origin no neighbour shares (bounces). The answers are the single-ray traversal's: every ray
- * meets every leaf it would meet alone (the interval test is conservative,
- * its exits scaled by the same 1 + 4 eps) and tests it as it would.
+ * one origin (tb_bvh_loop; a ray whose origin no neighbour shares, such as a
+ * bounce, is traced alone as the wide walk traces it). Where they also share,
+ * per axis, the sign of their directions (a camera's rays, in a tile or a row
+ * of the image), the packet is traversed as one: each wide node's children
+ * are tested once, against the interval of the packet's inverse directions
+ * (interval arithmetic: Boulos et al. 2007, "Packet-based Whitted and
+ * distribution ray tracing"; Wald et al. 2007, "SIMD ray stream tracing";
+ * Reshetov et al. 2005, "Multi-level ray tracing algorithm"), so a node costs
+ * one box test for the whole packet, not one per ray. A child is entered when
+ * some ray of the packet may meet it: its box's entry over the interval is
+ * the smallest a ray of the packet can have, the exit the largest, and the
+ * nearest child by that entry goes first. At a leaf each ray is tested
+ * against the leaf's box on its own, the rays met run the kernel's leaf test
+ * one by one (tb_bvh_visit_leaf, the single-ray traversal's), and each keeps
+ * its own closest hit; a node is skipped once its entry lies beyond every
+ * ray's closest hit. A packet with mixed signs or a non-finite ray is traced
+ * ray by ray by tb_bvh_trace_wide. The closest hits are the single-ray
+ * traversal's: every ray meets every leaf it would meet alone (the interval
+ * test is conservative, its exits scaled by the same 1 + 4 eps) and tests it
+ * as it would.
  *
  * Counts: a packet's node visits and box tests (one per child lane of each
  * wide node it tests) go to its first ray; each ray counts its own leaf box
@@ -29,7 +30,7 @@
 #define TB_BVH_GROUPS (TB_BVH_PACKET / TB_BVH_WIDTH) /* vectors of TB_BVH_WIDTH rays */
 
 /* A packet entry point's trace of one packet: tb_bvh_trace_packet with its kernel, mode and flags
- * (TB_BVH_PACKET_ENTRY, bvh.h). */
+ * (TB_BVH_PACKET_ENTRY, bvh_trace.h). */
 typedef int (*TB_NFN(tb_bvh_packet_fn))(const tb_bvh_job *job, const TB_NFN(tb_bvh_ray) * ray, int n, nreal iota,
                                        TB_NFN(tb_bvh_best) * b, uint64_t (*c)[4]);
 

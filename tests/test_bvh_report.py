@@ -254,3 +254,29 @@ def test_the_claim_holds_exactly_when_the_interval_shows_a_gain_reaching_1_to_6_
     assert (answer == "holds here") == (1 < low <= most and high >= least)
     assert answer.startswith("does not hold") == (high < least)
     assert answer.startswith("is exceeded") == (low > most)
+
+
+def test_against_embree_names_the_packet_walks_ratio_to_rtcintersect16():
+    from tribench.reports.rundata import PeerTables
+
+    frame = pd.DataFrame({"kernel": ["moller_trumbore_fma"], "workload": ["mesh-x (suzanne 250,000)"]})
+    bvh = "tribench 0.1.0 bvh moller_trumbore_fma (x16 avx2)"
+    contenders = [("tribench", bvh), ("tribench_packets", f"{bvh}, packets of 16 rays"), ("embree", "Embree 1")]
+    contenders += [("embree_16", "Embree 16")]
+    rates = pd.DataFrame(
+        [
+            {"contender": c, "implementation": i, "rays_per_s": 1e7, "ci_low": 9e6, "ci_high": 1.1e7}
+            | {"n_processes": 5, "setup_ms": 1.0}
+            for c, i in contenders
+        ]
+    )
+    ratio = {"ratio": 1.14, "ci_low": 1.11, "ci_high": 1.18, "n_processes": 5}
+    ratios = pd.DataFrame(
+        [{"contender": "tribench", "over": o} | ratio for o in ("embree", "embree_16")]
+        + [{"contender": "tribench_packets", "over": "embree_16"} | ratio]
+    )
+    html = report_bvh._embree(PeerTables(frame, rates, ratios))
+    assert "Walked by packets of 16 rays" in html and "1.14× [1.11, 1.18] Embree" in html
+    assert html.count("tribench_packets") == 1  # its row in the table
+    html = report_bvh._embree(PeerTables(frame, rates, ratios[ratios["contender"] == "tribench"]))
+    assert "Walked by packets" not in html  # a run made before the packet walk says nothing of it
