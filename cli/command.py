@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
     try:
         with warnings.catch_warnings():
             shown = warnings.showwarning
-            warnings.showwarning = functools.partial(_show_notice, shown)
+            warnings.showwarning = functools.partial(_show_notice, shown, set())
             return _run_command(argv)
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
@@ -101,10 +101,14 @@ def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
             signal.signal(sig, signal.SIG_IGN if leaving and sig == signal.SIGINT else handler)
 
 
-def _show_notice(shown, message, category, filename, lineno, file=None, line=None) -> None:
-    """tribench's own notices in one line; any other warning as Python shows it (it may point at a bug)."""
+def _show_notice(shown, said: set[str], message, category, filename, lineno, file=None, line=None) -> None:
+    """tribench's own notices in one line, each once a command (a worker's notice may repeat the
+    command's own: the sweep's forecast reads the BVH cache its workers read); any other warning as
+    Python shows it (it may point at a bug)."""
     if issubclass(category, Notice):
-        print(f"tribench: {message}", file=sys.stderr)
+        if str(message) not in said:
+            said.add(str(message))
+            print(f"tribench: {message}", file=sys.stderr)
     else:
         shown(message, category, filename, lineno, file, line)
 
