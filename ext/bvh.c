@@ -37,17 +37,17 @@ TB_HIDDEN const long long tb_bvh_build_version = TB_BVH_BUILD_VERSION;
 enum { TB_BVH_RUN_ANY, TB_BVH_RUN_CLOSEST, TB_BVH_TIME_ANY, TB_BVH_TIME_CLOSEST, TB_BVH_TIME_CLOSEST_UV,
        TB_BVH_TIME_NULL, TB_BVH_N_FNS };
 enum { TB_BVH_WIDE, TB_BVH_BINARY, TB_BVH_PACKETS, TB_BVH_N_LAYOUTS }; /* bvh.py's LAYOUTS, in order */
+enum { TB_BVH_N_TREES = 2 }; /* the wide tree's entry points (which also walk it by packets), the binary's */
 typedef struct {
     const char *name;
-    tb_bvh_fn f32[TB_MAX_ISAS][TB_BVH_N_LAYOUTS][TB_BVH_N_FNS], f64[TB_MAX_ISAS][TB_BVH_N_LAYOUTS][TB_BVH_N_FNS];
+    tb_bvh_fn f32[TB_MAX_ISAS][TB_BVH_N_TREES][TB_BVH_N_FNS], f64[TB_MAX_ISAS][TB_BVH_N_TREES][TB_BVH_N_FNS];
 } tb_bvh_kernel;
-#define TB_BVH_LAYOUT_FNS(name, layout, isa, sfx)                                                      \
+#define TB_BVH_TREE_FNS(name, layout, isa, sfx)                                                        \
     {TB_CAT(tb_##name##_bvh_##layout##run_any_##isa, sfx), TB_CAT(tb_##name##_bvh_##layout##run_closest_##isa, sfx), \
      TB_CAT(tb_##name##_bvh_##layout##time_any_##isa, sfx), TB_CAT(tb_##name##_bvh_##layout##time_closest_##isa, sfx), \
      TB_CAT(tb_##name##_bvh_##layout##time_closest_uv_##isa, sfx), TB_CAT(tb_##name##_bvh_##layout##time_null_##isa, sfx)}
 #define TB_BVH_FNS(name, isa, sfx)                                                                 \
-    {TB_BVH_LAYOUT_FNS(name, , isa, sfx), TB_BVH_LAYOUT_FNS(name, binary_, isa, sfx),                  \
-     TB_BVH_LAYOUT_FNS(name, packet_, isa, sfx)},
+    {TB_BVH_TREE_FNS(name, , isa, sfx), TB_BVH_TREE_FNS(name, binary_, isa, sfx)},
 #define TB_BVH_FNS_F32(name, isa) TB_BVH_FNS(name, isa, _f32)
 #define TB_BVH_FNS_F64(name, isa) TB_BVH_FNS(name, isa, _f64)
 #define TB_BVH_KERNEL(name, faces, watertight, promised_by, origin, wide) TB_BVH_KERNEL_##wide(name)
@@ -225,12 +225,14 @@ static tb_bvh_fn tb_parse_bvh_job(const char *name, Py_ssize_t itemsize, int mod
     job->n_slots = (size_t)n_slots;
     job->counts_out = NULL;
     memset(job->counts, 0, sizeof job->counts);
+    job->packets = layout == TB_BVH_PACKETS;
     job->bad_tree = 0;
     if (n_nodes == 0) {
         PyErr_SetString(PyExc_ValueError, "malformed BVH: no nodes");
         return NULL;
     }
-    const tb_bvh_fn *fns = itemsize == 4 ? bk->f32[i][layout] : bk->f64[i][layout];
+    const int tree = layout == TB_BVH_BINARY ? 1 : 0;
+    const tb_bvh_fn *fns = itemsize == 4 ? bk->f32[i][tree] : bk->f64[i][tree];
     if (!timed)
         return fns[mode == TB_ANY ? TB_BVH_RUN_ANY : TB_BVH_RUN_CLOSEST];
     if (null)

@@ -29,11 +29,6 @@
 #define TB_BVH_PACKET 16 /* at most 32: a packet's rays are the bits of an unsigned */
 #define TB_BVH_GROUPS (TB_BVH_PACKET / TB_BVH_WIDTH) /* vectors of TB_BVH_WIDTH rays */
 
-/* A packet entry point's trace of one packet: tb_bvh_trace_packet with its kernel, mode and flags
- * (TB_BVH_PACKET_ENTRY, bvh_trace.h). */
-typedef int (*TB_NFN(tb_bvh_packet_fn))(const tb_bvh_job *job, const TB_NFN(tb_bvh_ray) * ray, int n, nreal iota,
-                                       TB_NFN(tb_bvh_best) * b, uint64_t (*c)[4]);
-
 /* The rays of a packet as the leaf box test takes them: one vector of rays per group. */
 typedef struct {
     vreal inv[3][TB_BVH_GROUPS], inv_far[3][TB_BVH_GROUPS];

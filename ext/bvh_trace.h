@@ -326,22 +326,28 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
 
 #include "bvh_packet.h" /* the wide tree walked by packets of coherent rays */
 
+/* A batch's sums over its timed rays: hits, their t and u + v, and the four counts. */
+typedef struct {
+    uint64_t hits, counts[4];
+    double t_sum, uv_sum;
+} TB_NFN(tb_bvh_tally);
+
 /* A traced ray's answer: its outputs (untimed), or the batch's sums. */
 TB_NWIDE void TB_NFN(tb_bvh_record)(tb_bvh_job *job, size_t i, const TB_NFN(tb_bvh_best) * b, const uint64_t c[4],
-                                    int mode, int timed, uint64_t *hits, double *t_sum, double *uv_sum, uint64_t sums[4])
+                                    int mode, int timed, TB_NFN(tb_bvh_tally) * sum)
 {
     tb_job *base = &job->base;
     if (timed) {
         if (b->slot >= 0) {
             const int64_t index = job->perm[b->slot]; /* what the untimed call returns, loaded as it is */
             __asm__ volatile("" : : "r"(index));
-            ++*hits;
-            *t_sum += b->t;
+            ++sum->hits;
+            sum->t_sum += b->t;
             if (mode == TB_CLOSEST_UV)
-                *uv_sum += (double)b->u + b->v;
+                sum->uv_sum += (double)b->u + b->v;
         }
         for (int k = 0; k < 4; ++k)
-            sums[k] += c[k];
+            sum->counts[k] += c[k];
         return;
     }
     real *t_out = base->t_out, *u_out = base->u_out, *v_out = base->v_out;
@@ -353,12 +359,42 @@ TB_NWIDE void TB_NFN(tb_bvh_record)(tb_bvh_job *job, size_t i, const TB_NFN(tb_b
         job->counts_out[4 * i + k] = (int64_t)c[k];
 }
 
+/* Rays i .. i + n - 1 of the batch, which share one origin, as a packet: set up, traced
+ * (tb_bvh_trace_packet) and recorded into *sum. Returns 0 on a malformed tree. */
+TB_NWIDE int TB_NFN(tb_bvh_packet_batch)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) make_ray, size_t stride,
+                                         tb_bvh_job *job, size_t i, int n, int mode, int timed, int null,
+                                         nreal iota, TB_NFN(tb_bvh_tally) * sum)
+{
+    const real *o = job->base.origins, *d = job->base.directions, *t_max = job->base.t_max;
+    TB_NFN(tb_bvh_ray) ray[TB_BVH_PACKET];
+    TB_NFN(tb_bvh_best) b[TB_BVH_PACKET];
+    uint64_t c[TB_BVH_PACKET][4];
+    memset(c, 0, (size_t)n * sizeof *c);
+    for (int r = 0; r < n; ++r) {
+        TB_NFN(tb_bvh_ray_of)(make_ray, o + 3 * (i + r), d + 3 * (i + r), &ray[r]);
+        b[r] = (TB_NFN(tb_bvh_best)){t_max[i + r], (real)NAN, (real)NAN, -1, nv_set1(t_max[i + r])};
+    }
+    if (!TB_NFN(tb_bvh_trace_packet)(test, stride, job, ray, n, mode, timed, null, iota, b, c))
+        return 0;
+    for (int r = 0; r < n; ++r)
+        TB_NFN(tb_bvh_record)(job, i + r, &b[r], c[r], mode, timed, sum);
+    return 1;
+}
+
+/* A kernel's packets' trace (TB_BVH_ENTRIES): tb_bvh_packet_batch with the kernel compiled in and its
+ * mode and flags passed, one out-of-line copy for all six entry points. */
+typedef int (*TB_NFN(tb_bvh_packet_fn))(tb_bvh_job *job, size_t i, int n, int mode, int timed, int null, nreal iota,
+                                       TB_NFN(tb_bvh_tally) * sum);
+
 /* One batch of BVH traversal with a native kernel's block test at the
- * leaves, on the binary tree, the wide one, or the wide one by packets
- * (`walk`: 0, 1, 2, a constant in each entry point): a packet is the
- * consecutive rays, up to TB_BVH_PACKET, that share the first one's origin
- * (bvh_packet.h); a ray alone is traced alone. Non-finite rays (NaN or Inf
- * in o or d) miss at once. Mode any stops at the first hit.
+ * leaves, on the binary tree (`wide` 0) or the wide one (1, constants in
+ * each entry point). On the wide tree with job->packets (layout "packets"),
+ * the consecutive rays, up to TB_BVH_PACKET, that share the first one's
+ * origin go as a packet (bvh_packet.h) through `trace_packet`, out of line:
+ * inlined beside the single ray's walk, or with a ray alone in the packet's
+ * arrays, the rays traced alone ran 8-15% slower. A ray alone is traced
+ * alone. Non-finite rays (NaN or Inf in o or d) miss at once. Mode any
+ * stops at the first hit.
  *
  * Counts per ray: nodes visited (inner nodes and leaves entered), box tests,
  * leaves, triangle tests (the leaf's triangles, not its padding lanes). With
@@ -368,43 +404,39 @@ TB_NWIDE void TB_NFN(tb_bvh_record)(tb_bvh_job *job, size_t i, const TB_NFN(tb_b
  * closest hit to traverse as a ray that found its hit at once (the counts
  * say how the two traversals differ). */
 TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) make_ray, size_t stride,
-                                  tb_bvh_job *job, const int mode, const int timed, const int null, const int walk,
+                                  tb_bvh_job *job, const int mode, const int timed, const int null, const int wide,
                                   TB_NFN(tb_bvh_packet_fn) trace_packet)
 {
     tb_job *base = &job->base;
     const real *o = base->origins, *d = base->directions, *t_max = base->t_max;
+    const int packets = wide && job->packets;
     real lane[TB_NL];
     for (int l = 0; l < TB_NL; ++l)
         lane[l] = (real)l;
     const nreal iota = nv_load(lane);
-    uint64_t hits = 0, rays = 0, poll_at = 1, sums[4] = {0, 0, 0, 0};
-    double t_sum = 0, uv_sum = 0;
+    TB_NFN(tb_bvh_tally) sum = {0, {0, 0, 0, 0}, 0, 0};
+    uint64_t rays = 0, poll_at = 1;
     const uint64_t loops = timed ? base->loops : 1;
     for (uint64_t pass = 0; pass < loops; ++pass)
         for (size_t i = 0; i < base->n_rays;) {
-            /* a packet: up to TB_BVH_PACKET rays from one origin, traced out of line; else one ray */
-            int n = 1;
-            const size_t left = base->n_rays - i, most = walk == 2 && left > TB_BVH_PACKET ? TB_BVH_PACKET : left;
-            for (const real *a = o + 3 * i, *x = a + 3; walk == 2 && (size_t)n < most; ++n, x += 3)
+            int n = 1; /* the rays from ray i's origin, up to a packet's */
+            const size_t left = base->n_rays - i, most = packets && left > TB_BVH_PACKET ? TB_BVH_PACKET : left;
+            for (const real *a = o + 3 * i, *x = a + 3; packets && (size_t)n < most; ++n, x += 3)
                 if (!(x[0] == a[0] && x[1] == a[1] && x[2] == a[2]))
                     break;
             if ((rays += (uint64_t)n) >= poll_at && !(poll_at = tb_poll(base, rays)))
                 goto stop;
             if (n > 1) {
-                TB_NFN(tb_bvh_ray) ray[TB_BVH_PACKET];
-                TB_NFN(tb_bvh_best) b[TB_BVH_PACKET];
-                uint64_t c[TB_BVH_PACKET][4];
-                memset(c, 0, (size_t)n * sizeof *c);
-                for (int r = 0; r < n; ++r) {
-                    TB_NFN(tb_bvh_ray_of)(make_ray, o + 3 * (i + r), d + 3 * (i + r), &ray[r]);
-                    b[r] = (TB_NFN(tb_bvh_best)){t_max[i + r], (real)NAN, (real)NAN, -1, nv_set1(t_max[i + r])};
-                }
-                if (!trace_packet(job, ray, n, iota, b, c)) {
+                TB_NFN(tb_bvh_tally) part = {0, {0, 0, 0, 0}, 0, 0};
+                if (!trace_packet(job, i, n, mode, timed, null, iota, &part)) {
                     job->bad_tree = 1;
                     goto stop;
                 }
-                for (int r = 0; r < n; ++r)
-                    TB_NFN(tb_bvh_record)(job, i + r, &b[r], c[r], mode, timed, &hits, &t_sum, &uv_sum, sums);
+                sum.hits += part.hits;
+                sum.t_sum += part.t_sum;
+                sum.uv_sum += part.uv_sum;
+                for (int k = 0; k < 4; ++k)
+                    sum.counts[k] += part.counts[k];
                 i += (size_t)n;
                 continue;
             }
@@ -412,69 +444,56 @@ TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) ma
             TB_NFN(tb_bvh_ray_of)(make_ray, o + 3 * i, d + 3 * i, &ray);
             TB_NFN(tb_bvh_best) b = {t_max[i], (real)NAN, (real)NAN, -1, nv_set1(t_max[i])};
             uint64_t c[4] = {0, 0, 0, 0};
-            int sound = walk ? TB_NFN(tb_bvh_trace_wide)(test, stride, job, &ray, mode, timed, null, iota, &b, c)
+            int sound = wide ? TB_NFN(tb_bvh_trace_wide)(test, stride, job, &ray, mode, timed, null, iota, &b, c)
                              : TB_NFN(tb_bvh_trace_binary)(test, stride, job, &ray, mode, timed, null, iota, &b, c);
             if (!sound) {
                 job->bad_tree = 1;
                 goto stop;
             }
-            TB_NFN(tb_bvh_record)(job, i, &b, c, mode, timed, &hits, &t_sum, &uv_sum, sums);
+            TB_NFN(tb_bvh_record)(job, i, &b, c, mode, timed, &sum);
             ++i;
         }
 stop:
-    base->hits = hits;
-    base->tests = sums[3];
-    base->t_sum = t_sum;
-    base->uv_sum = uv_sum;
-    memcpy(job->counts, sums, sizeof sums);
+    base->hits = sum.hits;
+    base->tests = sum.counts[3];
+    base->t_sum = sum.t_sum;
+    base->uv_sum = sum.uv_sum;
+    memcpy(job->counts, sum.counts, sizeof sum.counts);
 }
 #undef tb_wv_max
 #undef tb_wv_min
 #undef tb_wv_le_bits
 
 /* Entry points of one native kernel's BVH traversals for this ISA (the wide
- * tree's, then the binary tree's: bvh.c's table in the same order); only the
- * TB_NATIVE kernels of the public list (one line each, from list.h). */
-#define TB_BVH_ENTRY(name, fn_mode, mode, timed, null, walk)                                        \
+ * tree's, which also walk it by packets, then the binary tree's: bvh.c's
+ * table in the same order), and the one out-of-line packet trace the wide
+ * ones share; only the TB_NATIVE kernels of the public list (one line each,
+ * from list.h). */
+#define TB_BVH_ENTRY(name, fn_mode, mode, timed, null, wide)                                        \
     TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_bvh_##fn_mode)(tb_bvh_job *job)                    \
     {                                                                                               \
         TB_NFN(tb_bvh_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, job, \
-                            mode, timed, null, walk, NULL);                                         \
+                            mode, timed, null, wide, TB_NFN(tb_##name##_bvh_packet));               \
     }
-/* a packet entry point traces its packets out of line, and a ray alone as the wide entry point does:
- * with both inlined, or the ray in the packet's arrays, the rays traced alone ran 8-15% slower */
-#define TB_BVH_PACKET_ENTRY(name, fn_mode, mode, timed, null)                                          \
-    static __attribute__((noinline)) TB_NTARGET int TB_NFN(tb_##name##_bvh_##fn_mode##_trace)(        \
-        const tb_bvh_job *job, const TB_NFN(tb_bvh_ray) * ray, int n, nreal iota, TB_NFN(tb_bvh_best) * b, \
-        uint64_t (*c)[4])                                                                              \
-    {                                                                                                  \
-        return TB_NFN(tb_bvh_trace_packet)(TB_NFN(tb_##name##_test), tb_##name##_stride, job, ray, n, mode, \
-                                           timed, null, iota, b, c);                                   \
-    }                                                                                                  \
-    TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_bvh_##fn_mode)(tb_bvh_job *job)                       \
-    {                                                                                                  \
-        TB_NFN(tb_bvh_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, job,    \
-                            mode, timed, null, 2, TB_NFN(tb_##name##_bvh_##fn_mode##_trace));          \
-    }
-#define TB_BVH_ENTRIES(name)                                            \
-    TB_BVH_ENTRY(name, run_any, TB_ANY, 0, 0, 1)                        \
-    TB_BVH_ENTRY(name, run_closest, TB_CLOSEST_UV, 0, 0, 1)             \
-    TB_BVH_ENTRY(name, time_any, TB_ANY, 1, 0, 1)                       \
-    TB_BVH_ENTRY(name, time_closest, TB_CLOSEST, 1, 0, 1)               \
-    TB_BVH_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1, 0, 1)         \
-    TB_BVH_ENTRY(name, time_null, TB_CLOSEST, 1, 1, 1)                  \
-    TB_BVH_ENTRY(name, binary_run_any, TB_ANY, 0, 0, 0)                 \
-    TB_BVH_ENTRY(name, binary_run_closest, TB_CLOSEST_UV, 0, 0, 0)      \
-    TB_BVH_ENTRY(name, binary_time_any, TB_ANY, 1, 0, 0)                \
-    TB_BVH_ENTRY(name, binary_time_closest, TB_CLOSEST, 1, 0, 0)        \
-    TB_BVH_ENTRY(name, binary_time_closest_uv, TB_CLOSEST_UV, 1, 0, 0)  \
-    TB_BVH_ENTRY(name, binary_time_null, TB_CLOSEST, 1, 1, 0)           \
-    TB_BVH_PACKET_ENTRY(name, packet_run_any, TB_ANY, 0, 0)                \
-    TB_BVH_PACKET_ENTRY(name, packet_run_closest, TB_CLOSEST_UV, 0, 0)     \
-    TB_BVH_PACKET_ENTRY(name, packet_time_any, TB_ANY, 1, 0)               \
-    TB_BVH_PACKET_ENTRY(name, packet_time_closest, TB_CLOSEST, 1, 0)       \
-    TB_BVH_PACKET_ENTRY(name, packet_time_closest_uv, TB_CLOSEST_UV, 1, 0) \
-    TB_BVH_PACKET_ENTRY(name, packet_time_null, TB_CLOSEST, 1, 1)
+#define TB_BVH_ENTRIES(name)                                                                        \
+    static __attribute__((noinline)) TB_NTARGET int TB_NFN(tb_##name##_bvh_packet)(                \
+        tb_bvh_job *job, size_t i, int n, int mode, int timed, int null, nreal iota, TB_NFN(tb_bvh_tally) * sum) \
+    {                                                                                               \
+        return TB_NFN(tb_bvh_packet_batch)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, \
+                                           job, i, n, mode, timed, null, iota, sum);                \
+    }                                                                                               \
+    TB_BVH_ENTRY(name, run_any, TB_ANY, 0, 0, 1)                                                    \
+    TB_BVH_ENTRY(name, run_closest, TB_CLOSEST_UV, 0, 0, 1)                                         \
+    TB_BVH_ENTRY(name, time_any, TB_ANY, 1, 0, 1)                                                   \
+    TB_BVH_ENTRY(name, time_closest, TB_CLOSEST, 1, 0, 1)                                           \
+    TB_BVH_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1, 0, 1)                                     \
+    TB_BVH_ENTRY(name, time_null, TB_CLOSEST, 1, 1, 1)                                              \
+    TB_BVH_ENTRY(name, binary_run_any, TB_ANY, 0, 0, 0)                                             \
+    TB_BVH_ENTRY(name, binary_run_closest, TB_CLOSEST_UV, 0, 0, 0)                                  \
+    TB_BVH_ENTRY(name, binary_time_any, TB_ANY, 1, 0, 0)                                            \
+    TB_BVH_ENTRY(name, binary_time_closest, TB_CLOSEST, 1, 0, 0)                                    \
+    TB_BVH_ENTRY(name, binary_time_closest_uv, TB_CLOSEST_UV, 1, 0, 0)                              \
+    TB_BVH_ENTRY(name, binary_time_null, TB_CLOSEST, 1, 1, 0)
 #define TB_BVH_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
     TB_BVH_IF_##wide(TB_BVH_ENTRIES(name))
 #define TB_BVH_IF_TB_SCALAR_ONLY(...)
@@ -490,5 +509,4 @@ TB_KERNEL_LIST(TB_BVH_INSTANTIATE)
 #undef TB_BVH_IF_TB_SCALAR_ONLY
 #undef TB_BVH_INSTANTIATE
 #undef TB_BVH_ENTRIES
-#undef TB_BVH_PACKET_ENTRY
 #undef TB_BVH_ENTRY

@@ -78,6 +78,7 @@ typedef struct {
     size_t n_nodes, n_slots;
     int64_t *counts_out;   /* run: per ray, nodes visited, box tests, leaves, triangle tests */
     uint64_t counts[4];    /* time: the same, summed over all passes */
+    int packets;           /* the wide tree walked by packets of rays that share an origin */
     int bad_tree;          /* a node pointed out of range: the loop stopped */
 } tb_bvh_job;
 
@@ -176,7 +177,7 @@ TB_KERNEL_LIST(TB_DECLARE_X8)
 #undef TB_DECLARE_X8_ISA
 
 /* a native kernel's, and (public TB_NATIVE kernels) its BVH traversals' six
- * per tree layout (wide, binary_, packet_: bvh.py's LAYOUTS) */
+ * per tree (wide, binary_; bvh.py's "packets" is the wide one's with job->packets) */
 #define TB_DECLARE_NATIVE_ISA(name, isa)                                                           \
     TB_DECLARE_WIDE_(tb_##name, isa, _f32) TB_DECLARE_WIDE_(tb_##name, isa, _f64)
 #define TB_DECLARE_BVH_LAYOUT(name, layout, isa, sfx)                                              \
@@ -187,8 +188,7 @@ TB_KERNEL_LIST(TB_DECLARE_X8)
     TB_HIDDEN void tb_##name##_bvh_##layout##time_closest_uv_##isa##sfx(tb_bvh_job *);             \
     TB_HIDDEN void tb_##name##_bvh_##layout##time_null_##isa##sfx(tb_bvh_job *);
 #define TB_DECLARE_BVH_(name, isa, sfx)                                                            \
-    TB_DECLARE_BVH_LAYOUT(name, , isa, sfx)                                                        \
-    TB_DECLARE_BVH_LAYOUT(name, binary_, isa, sfx) TB_DECLARE_BVH_LAYOUT(name, packet_, isa, sfx)
+    TB_DECLARE_BVH_LAYOUT(name, , isa, sfx) TB_DECLARE_BVH_LAYOUT(name, binary_, isa, sfx)
 #define TB_DECLARE_BVH_ISA(name, isa) TB_DECLARE_BVH_(name, isa, _f32) TB_DECLARE_BVH_(name, isa, _f64)
 #define TB_DECLARE_NATIVE(name, faces, watertight, promised_by, origin, wide) TB_DECLARE_NATIVE_##wide(name)
 #define TB_DECLARE_NATIVE_TB_SCALAR_ONLY(name)
