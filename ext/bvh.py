@@ -299,9 +299,28 @@ def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = DEFAULT_MAX
     return _frozen_bvh(kernel, tris, nodes, perm, records, int(max_leaf))
 
 
+#: Where a tree's nodes and records start: a cache line's boundary, so that no node (32, 64 or 256
+#: bytes) and no 16-lane field of a leaf block straddles two lines, as in Embree's own allocations.
+#: numpy gives 16 bytes; a wide node 16 bytes off its line touches 5 lines, not 4, and an AVX2 load
+#: of a block's fields splits 1 in 2: 2-4% of a bounce's trace (docs/decisions.md, "Wide BVH").
+LINE_BYTES = 64
+
+
+def _line_aligned(a: np.ndarray) -> np.ndarray:
+    """``a``, or a copy of it starting on a :data:`LINE_BYTES` boundary."""
+    if a.ctypes.data % LINE_BYTES == 0:
+        return a
+    raw = np.empty(a.nbytes + LINE_BYTES, dtype=np.uint8)
+    start = -raw.ctypes.data % LINE_BYTES
+    out = raw[start : start + a.nbytes].view(a.dtype).reshape(a.shape)
+    out[...] = a
+    return out
+
+
 def _frozen_bvh(kernel: str, tris: np.ndarray, nodes: np.ndarray, perm: np.ndarray, records: np.ndarray, max_leaf: int):
     wide = np.empty(((len(nodes) - 1) // 2 + 1, WIDE_NODE_BYTES // nodes.itemsize), dtype=nodes.dtype)
-    wide = wide[: _core.bvh_widen(nodes.itemsize, nodes, len(nodes), wide)].copy()
+    wide = wide[: _core.bvh_widen(nodes.itemsize, nodes, len(nodes), wide)]
+    nodes, records, wide = (_line_aligned(a) for a in (nodes, records, wide.copy()))
     view = tris.view()
     for a in (view, nodes, perm, records, wide):
         a.flags.writeable = False

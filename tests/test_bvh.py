@@ -270,6 +270,25 @@ def test_leaf_size_is_a_parameter(max_leaf):
     assert leaves[:, 1].max() <= max_leaf
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_nodes_and_records_start_on_a_cache_line_built_or_adopted(dtype):
+    tris, _, _ = _soup(700, 12, dtype)
+    built = ext.build_bvh(KERNELS[0], tris)
+
+    def off_line(a):  # a copy 16 bytes past a line's start, as numpy may give (a cache file's arrays)
+        raw = np.empty(a.nbytes + 80, dtype=np.uint8)
+        start = -raw.ctypes.data % 64 + 16
+        out = raw[start : start + a.nbytes].view(a.dtype).reshape(a.shape)
+        out[...] = a
+        return out
+
+    nodes, records = off_line(built.nodes), off_line(built.prepared.records)
+    for bvh in (built, ext.adopt_bvh(built.kernel, tris, nodes, built.perm, records, 32)):
+        for a in (bvh.nodes, bvh.wide, bvh.prepared.records):
+            assert a.ctypes.data % ext.bvh.LINE_BYTES == 0
+            assert not a.flags.writeable
+
+
 def test_nonfinite_rays_miss_without_traversal():
     tris, o, d = _soup(300, 10, np.float32, rays=6)
     o[0, 0], d[1, 1], o[2, 2], d[3, 0] = np.nan, np.nan, np.inf, -np.inf
