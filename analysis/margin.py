@@ -19,6 +19,7 @@ import pandas as pd
 
 from tribench import stats
 from tribench.harness.margin import AA_TWINS, Margin
+from tribench.stats.defaults import MAX_MARGIN
 
 __all__ = ["MIN_WORKLOADS", "TWINS", "contenders", "twin_margin", "twin_speedups"]
 
@@ -52,17 +53,29 @@ def twin_margin(per_process: pd.DataFrame, baseline: str) -> Margin | None:
     >>> m = twin_margin(pd.DataFrame(rows), "moller_seed")
     >>> 0 < m.value < 0.05, m.source.startswith("A/A twin in this run")
     (True, True)
+
+    A twin further off than :data:`~tribench.stats.defaults.MAX_MARGIN` (a loaded machine) gives
+    that bound, and the source says so, rather than a margin the verdicts cannot take:
+
+    >>> rows = [dict(kernel=k, workload_id=f"w{w}", process=p, ns_per_test=rng.lognormal(0, 1.0))
+    ...         for k in ("moller_seed", "moller_seed_aa") for w in range(5) for p in range(6)]
+    >>> m = twin_margin(pd.DataFrame(rows), "moller_seed")
+    >>> m.value, m.source.endswith("capped at 50%, the widest margin: this run's timings are too noisy")
+    (0.5, True)
     """
     results = twin_speedups(per_process, baseline)
     if len(results) < MIN_WORKLOADS:
         return None
-    floor = stats.aa_noise_floor([math.log(r.ratio) for r in results])
+    value = math.expm1(stats.aa_noise_floor([math.log(r.ratio) for r in results]))
     covered = sum(r.ci_low <= 1 <= r.ci_high for r in results)
-    return Margin(
-        math.expm1(floor),
+    source = (
         f"A/A twin in this run ({baseline} against {AA_TWINS[baseline]} on {len(results)} workloads; "
-        f"{covered} of {len(results)} intervals cover 1)",
+        f"{covered} of {len(results)} intervals cover 1)"
     )
+    if value > MAX_MARGIN:  # a run this noisy still gets its results, and is told why its verdicts are loose
+        source += f", {value:.0%} capped at {MAX_MARGIN:.0%}, the widest margin: this run's timings are too noisy"
+        value = MAX_MARGIN
+    return Margin(value, source)
 
 
 def contenders(frame: pd.DataFrame) -> pd.DataFrame:
