@@ -165,7 +165,7 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_packet)(TB_NFN(tb_native_fn) test, size_t strid
                     return 0;
                 entry e = {w, i, ts[i]};
                 if (w->n[i] == 0)
-                    __builtin_prefetch(&nodes[w->a[i]]);
+                    TB_NFN(tb_bvh_prefetch_wide)(&nodes[w->a[i]]);
                 for (; j > 0 && kids[j - 1].t <= e.t; --j)
                     kids[j] = kids[j - 1];
                 kids[j] = e;
