@@ -24,7 +24,9 @@ What it does, in order:
    number of bytes (which moves the stack); here a random number of dummy
    allocations comes first, then every array is copied into a fresh buffer
    at a random offset of 0-15 elements (which moves the data's alignment
-   within cache lines and pages). The seed is recorded;
+   within cache lines and pages). The seed is recorded. A BVH's nodes and
+   records are not moved: their start on a cache line is part of the tree,
+   as in any tracer (``ext/bvh.py``, ``LINE_BYTES``);
 3. runs the FMA peak probe;
 4. per workload, before its first batch: checks each kernel's per-ray answers
    against the reference (differences allowed only on the workload's
