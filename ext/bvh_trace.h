@@ -435,16 +435,10 @@ TB_NWIDE void TB_NFN(tb_bvh_loop)(TB_NFN(tb_native_fn) test, TB_FN(tb_ray_fn) ma
             if ((rays += (uint64_t)n) >= poll_at && !(poll_at = tb_poll(base, rays)))
                 goto stop;
             if (n > 1) {
-                TB_NFN(tb_bvh_tally) part = {0, {0, 0, 0, 0}, 0, 0};
-                if (!trace_packet(job, i, n, mode, timed, null, iota, &part)) {
+                if (!trace_packet(job, i, n, mode, timed, null, iota, &sum)) {
                     job->bad_tree = 1;
                     goto stop;
                 }
-                sum.hits += part.hits;
-                sum.t_sum += part.t_sum;
-                sum.uv_sum += part.uv_sum;
-                for (int k = 0; k < 4; ++k)
-                    sum.counts[k] += part.counts[k];
                 i += (size_t)n;
                 continue;
             }
