@@ -13,6 +13,7 @@ runs (:func:`tribench.ext.use_build`).
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.machinery
@@ -20,9 +21,11 @@ import importlib.util
 import os
 import shlex
 import shutil
+import signal
 import subprocess
 import sysconfig
 import tempfile
+import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -101,7 +104,7 @@ def compile_module(
     """Compile ``sources`` (every C file of the extension) with ``defines`` and link them, and ``libs``,
     into ``module_path`` (atomically).
 
-    ``failed(result)`` makes the error raised for the first translation unit that does not compile."""
+    ``failed(result)`` makes the error raised for the first translation unit to fail (the others are stopped)."""
     defines = [
         *defines,
         f"-DTB_MODULE_NAME={name}",
@@ -111,13 +114,8 @@ def compile_module(
     module_path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=module_path.parent) as tmp:
         objects = [Path(tmp) / f"{c.stem}.o" for c in sources]
-
-        def compile_one(c: Path, o: Path) -> subprocess.CompletedProcess:
-            return run([*toolchain.cc, *toolchain.flags, *defines, *includes, "-c", str(c), "-o", str(o)])
-
-        with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
-            done = list(pool.map(compile_one, sources, objects))
-        first = next((r for r in done if r.returncode), None)
+        compile_c = [*toolchain.cc, *toolchain.flags, *defines, *includes, "-c"]
+        first = _first_failure([[*compile_c, str(c), "-o", str(o)] for c, o in zip(sources, objects, strict=True)])
         if first is not None:
             raise failed(first)
         linked = run([*toolchain.link, *map(str, objects), *libs, "-o", str(Path(tmp) / module_path.name)])
@@ -127,15 +125,80 @@ def compile_module(
         os.replace(Path(tmp) / module_path.name, module_path)
 
 
-def run(argv: list[str]) -> subprocess.CompletedProcess:
-    """A compiler's run, its output captured; a missing compiler or a 10-minute compile is a UserError."""
+def _first_failure(commands: list[list[str]]) -> subprocess.CompletedProcess | None:
+    """Runs the compile commands, as many at once as there are cores, and returns the first that fails,
+    having stopped the others (its error is the answer: the rest would only take seconds to say more),
+    or None when every one succeeds. An exception here (Ctrl-C) stops them all too."""
+    lock, running, stop = threading.Lock(), set(), threading.Event()
+    failure: list[subprocess.CompletedProcess] = []
+
+    def stop_all() -> None:  # under the lock
+        stop.set()
+        for proc in running:
+            _kill(proc)
+
+    def compile_one(argv: list[str]) -> None:
+        with lock:
+            if stop.is_set():
+                return
+            proc = _start(argv)
+            running.add(proc)
+        try:
+            done = _finish(proc)
+        finally:
+            with lock:
+                running.discard(proc)
+        with lock:
+            if done.returncode and not stop.is_set():  # one stopped here fails too, but after the first
+                failure.append(done)
+                stop_all()
+
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        try:
+            for done in [pool.submit(compile_one, argv) for argv in commands]:
+                done.result()
+        except BaseException:
+            with lock:
+                stop_all()
+            raise
+    return failure[0] if failure else None
+
+
+def _start(argv: list[str]) -> subprocess.Popen:
+    """A compiler started in a process group of its own (so that stopping it stops the programs it runs,
+    gcc's cc1 and as), its output piped as text; a missing compiler is a UserError."""
     try:
         # errors="replace": a compiler quotes the source, whose bytes need not be UTF-8
-        return subprocess.run(argv, capture_output=True, text=True, errors="replace", timeout=600)
+        return subprocess.Popen(
+            argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace", process_group=0
+        )
     except FileNotFoundError:
         raise UserError(f"no compiler: {argv[0]} is not installed") from None
-    except subprocess.TimeoutExpired:
-        raise UserError(f"{argv[0]} took over 10 minutes on one file; stopped") from None
+
+
+def _kill(proc: subprocess.Popen) -> None:
+    """Stops a started compiler and what it runs (its process group: Ctrl-C does not reach it)."""
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(proc.pid, signal.SIGKILL)
+
+
+def _finish(proc: subprocess.Popen) -> subprocess.CompletedProcess:
+    """A started compiler's run, waited for; one over 10 minutes is stopped, a UserError, and so is one
+    waited for when an exception (Ctrl-C) comes."""
+    try:
+        out, err = proc.communicate(timeout=600)
+    except BaseException as e:
+        _kill(proc)
+        proc.communicate()
+        if isinstance(e, subprocess.TimeoutExpired):
+            raise UserError(f"{proc.args[0]} took over 10 minutes on one file; stopped") from None
+        raise
+    return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+
+
+def run(argv: list[str]) -> subprocess.CompletedProcess:
+    """A compiler's run, its output captured; a missing compiler or a 10-minute compile is a UserError."""
+    return _finish(_start(argv))
 
 
 def import_module(name: str, path: Path) -> ModuleType | None:

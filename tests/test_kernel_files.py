@@ -111,6 +111,18 @@ def test_a_kernel_file_that_does_not_compile_is_one_message_with_file_and_line(t
     assert "Traceback" not in done.stderr and not (tmp_path / "run").exists()  # nothing timed
 
 
+def test_the_first_compile_to_fail_stops_the_others(tmp_path):
+    """A kernel file's error is known as soon as one C file fails: the compilers still running are stopped
+    (a compiler left to finish would have written its file before the answer came back)."""
+    from tribench.ext.toolchain import _first_failure
+
+    late = tmp_path / "late"
+    failed = _first_failure([["sh", "-c", "echo oops >&2; exit 3"], ["sh", "-c", f"sleep 5; touch {late}"]])
+    assert failed is not None and failed.returncode == 3 and failed.stderr == "oops\n"
+    assert not late.exists()
+    assert _first_failure([["true"], ["true"]]) is None
+
+
 def test_a_kernel_file_of_bytes_that_are_not_utf8_is_refused_without_a_traceback(tmp_path, builds):
     junk = tmp_path / "junk.c"
     junk.write_bytes(b"\x00\x01 not C at all \xff\xfe")  # the compiler quotes them back
