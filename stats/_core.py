@@ -5,11 +5,20 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
+from types import ModuleType
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy import stats as sps
+
+
+def _scipy_stats() -> ModuleType:
+    """scipy.stats, imported at first use: it takes most of a second, which every command, its help
+    and its usage errors included, used to pay before reading its arguments."""
+    import scipy.stats
+
+    return scipy.stats
+
 
 _GROUP = ["kernel", "workload_id", "process"]
 _BATCH_COLUMNS = ("process", "kernel", "workload_id", "warmup", "tests", "elapsed_ns")
@@ -43,7 +52,7 @@ def _check_confidence(confidence: float) -> None:
 
 
 def _t_quantile(confidence: float, df: int) -> float:
-    return float(sps.t.ppf(0.5 + confidence / 2, df))
+    return float(_scipy_stats().t.ppf(0.5 + confidence / 2, df))
 
 
 def _t_interval(x: np.ndarray, confidence: float) -> tuple[float, float, float, float]:
@@ -60,7 +69,7 @@ def _t_interval(x: np.ndarray, confidence: float) -> tuple[float, float, float, 
     half = _t_quantile(confidence, n - 1) * se
     with np.errstate(divide="ignore", invalid="ignore"):
         t_stat = np.float64(mean) / np.float64(se)
-    p = float(2 * sps.t.sf(abs(t_stat), n - 1))
+    p = float(2 * _scipy_stats().t.sf(abs(t_stat), n - 1))
     return mean, mean - half, mean + half, p
 
 
@@ -91,7 +100,7 @@ def _bca_interval(x: np.ndarray, confidence: float, n_resamples: int, seed: int)
         return math.nan, math.nan
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # DegenerateDataWarning is one
-        result = sps.bootstrap(
+        result = _scipy_stats().bootstrap(
             (x,),
             np.mean,
             confidence_level=confidence,

@@ -8,9 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats as sps
 
-from ._core import _vector
+from ._core import _scipy_stats, _vector
 from .estimates import Speedup
 
 
@@ -99,7 +98,7 @@ def aa_summary(results: Sequence[Speedup]) -> AASummary:
         raise ValueError("A/A results need p-values (at least two processes each)")
     covered = np.array([r.ci_low <= 1 <= r.ci_high for r in results])
     significant = np.array([r.p_value < 1 - r.confidence for r in results])
-    ks = sps.kstest(p, "uniform")
+    ks = _scipy_stats().kstest(p, "uniform")
     floor = aa_noise_floor([math.log(r.ratio) for r in results])
     return AASummary(
         len(results),

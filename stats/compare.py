@@ -7,7 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats as sps
+
+from ._core import _scipy_stats
 
 
 @dataclass(frozen=True)
@@ -71,8 +72,8 @@ def unpaired_ratio(log_a: npt.ArrayLike, log_b: npt.ArrayLike, confidence: float
             confidence,
         )
     df = (va + vb) ** 2 / (va**2 / (a.size - 1) + vb**2 / (b.size - 1))
-    q = float(sps.t.ppf(0.5 + confidence / 2, df))
-    p = float(2 * sps.t.sf(abs(diff) / se, df))
+    q = float(_scipy_stats().t.ppf(0.5 + confidence / 2, df))
+    p = float(2 * _scipy_stats().t.sf(abs(diff) / se, df))
     return LogRatio(
         math.exp(diff), math.exp(diff - q * se), math.exp(diff + q * se), se, df, p, a.size, b.size, confidence
     )

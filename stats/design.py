@@ -8,9 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy import stats as sps
 
-from ._core import _check_confidence, _require_columns, _t_quantile, _timed
+from ._core import _check_confidence, _require_columns, _scipy_stats, _t_quantile, _timed
 from .defaults import DEFAULTS
 
 
@@ -218,7 +217,7 @@ def suggest_design(
         return _t_quantile(confidence, n - 1) * rel_sd / math.sqrt(n)
 
     # The normal approximation never asks for too many; walk up from there.
-    z = float(sps.norm.ppf(0.5 + confidence / 2))
+    z = float(_scipy_stats().norm.ppf(0.5 + confidence / 2))
     processes = max(2, math.ceil((z * rel_sd / target_rel_halfwidth) ** 2))
     while rel_halfwidth(processes) > target_rel_halfwidth:
         processes += 1

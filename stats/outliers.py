@@ -8,9 +8,8 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy import stats as sps
 
-from ._core import _GROUP, _check_confidence, _require_columns, _t_interval, _timed, _vector
+from ._core import _GROUP, _check_confidence, _require_columns, _scipy_stats, _t_interval, _timed, _vector
 from .defaults import DEFAULTS
 
 
@@ -68,7 +67,7 @@ def _theil_sen_slopes(frame: pd.DataFrame, by: str | list[str], x: str, y: str) 
     """Theil–Sen slope of ``y`` on ``x`` in every group (robust to spikes)."""
     return pd.Series(
         {
-            key: float(sps.theilslopes(group[y].to_numpy(), group[x].to_numpy())[0])
+            key: float(_scipy_stats().theilslopes(group[y].to_numpy(), group[x].to_numpy())[0])
             for key, group in frame.groupby(by, sort=True)
         }
     )

@@ -48,6 +48,14 @@ def test_unknown_command_is_a_usage_error():
     assert "invalid choice" in out.stderr
 
 
+def test_the_parser_is_built_without_scipy_stats():
+    """Every command builds the whole parser first, its help and usage errors included: scipy.stats (most
+    of a second of imports) waits for the first statistic."""
+    code = "import sys; from tribench.cli import command; command.build_parser(); print('scipy.stats' in sys.modules)"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "False", done.stderr
+
+
 def test_a_ctrl_c_after_the_command_finished_changes_nothing():
     """An interrupt while Python tears down (a user's late Ctrl-C, here sent from an exit hook)
     leaves a finished command's status 0 and prints nothing: it used to die of the signal."""
