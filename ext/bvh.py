@@ -306,9 +306,9 @@ def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = DEFAULT_MAX
 LINE_BYTES = 64
 
 
-def _line_aligned(a: np.ndarray) -> np.ndarray:
-    """``a``, or a copy of it starting on a :data:`LINE_BYTES` boundary."""
-    if a.ctypes.data % LINE_BYTES == 0:
+def _line_aligned(a: np.ndarray, copy: bool = False) -> np.ndarray:
+    """``a`` (unless ``copy``), or a copy of it starting on a :data:`LINE_BYTES` boundary."""
+    if not copy and a.ctypes.data % LINE_BYTES == 0:
         return a
     raw = np.empty(a.nbytes + LINE_BYTES, dtype=np.uint8)
     start = -raw.ctypes.data % LINE_BYTES
@@ -319,8 +319,9 @@ def _line_aligned(a: np.ndarray) -> np.ndarray:
 
 def _frozen_bvh(kernel: str, tris: np.ndarray, nodes: np.ndarray, perm: np.ndarray, records: np.ndarray, max_leaf: int):
     wide = np.empty(((len(nodes) - 1) // 2 + 1, WIDE_NODE_BYTES // nodes.itemsize), dtype=nodes.dtype)
-    wide = wide[: _core.bvh_widen(nodes.itemsize, nodes, len(nodes), wide)]
-    nodes, records, wide = (_line_aligned(a) for a in (nodes, records, wide.copy()))
+    # copied: the trimmed array, not the room allotted for the most wide nodes a tree can have
+    wide = _line_aligned(wide[: _core.bvh_widen(nodes.itemsize, nodes, len(nodes), wide)], copy=True)
+    nodes, records = _line_aligned(nodes), _line_aligned(records)
     view = tris.view()
     for a in (view, nodes, perm, records, wide):
         a.flags.writeable = False
