@@ -154,7 +154,7 @@ TB_NWIDE nmask TB_NFN(tb_plucker_fma_test)(const tb_nray *restrict r, const real
     nmask same_sign = nm_or(nv_ge(low, (nreal)((nbits)tolerance ^ sign_bit)), nv_le(high, tolerance));
     if (!nm_any(same_sign)) {
         h->t = h->u = h->v = sum; /* unread (no lane set): defined all the same */
-        h->den = abs_sum;
+        h->den = h->uv_den = abs_sum;
         return same_sign;
     }
 
