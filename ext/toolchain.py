@@ -129,7 +129,8 @@ def _first_failure(commands: list[list[str]]) -> subprocess.CompletedProcess | N
     """Runs the compile commands, as many at once as there are cores, and returns the first that fails,
     having stopped the others (its error is the answer: the rest would only take seconds to say more),
     or None when every one succeeds. An exception here (Ctrl-C) stops them all too."""
-    lock, running, stop = threading.Lock(), set(), threading.Event()
+    lock, stop = threading.Lock(), threading.Event()
+    running: set[subprocess.Popen] = set()
     failure: list[subprocess.CompletedProcess] = []
 
     def stop_all() -> None:  # under the lock
@@ -144,7 +145,7 @@ def _first_failure(commands: list[list[str]]) -> subprocess.CompletedProcess | N
             proc = _start(argv)
             running.add(proc)
         try:
-            done = _finish(proc)
+            done = _finish(proc, argv)
         finally:
             with lock:
                 running.discard(proc)
@@ -182,8 +183,8 @@ def _kill(proc: subprocess.Popen) -> None:
         os.killpg(proc.pid, signal.SIGKILL)
 
 
-def _finish(proc: subprocess.Popen) -> subprocess.CompletedProcess:
-    """A started compiler's run, waited for; one over 10 minutes is stopped, a UserError, and so is one
+def _finish(proc: subprocess.Popen, argv: list[str]) -> subprocess.CompletedProcess:
+    """A started compiler's run (``argv``), waited for; one over 10 minutes is stopped, a UserError, and so is one
     waited for when an exception (Ctrl-C) comes."""
     try:
         out, err = proc.communicate(timeout=600)
@@ -191,14 +192,14 @@ def _finish(proc: subprocess.Popen) -> subprocess.CompletedProcess:
         _kill(proc)
         proc.communicate()
         if isinstance(e, subprocess.TimeoutExpired):
-            raise UserError(f"{proc.args[0]} took over 10 minutes on one file; stopped") from None
+            raise UserError(f"{argv[0]} took over 10 minutes on one file; stopped") from None
         raise
-    return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+    return subprocess.CompletedProcess(argv, proc.returncode, out, err)
 
 
 def run(argv: list[str]) -> subprocess.CompletedProcess:
     """A compiler's run, its output captured; a missing compiler or a 10-minute compile is a UserError."""
-    return _finish(_start(argv))
+    return _finish(_start(argv), argv)
 
 
 def import_module(name: str, path: Path) -> ModuleType | None:
