@@ -42,7 +42,7 @@ typedef struct {
     const char *name;
     tb_bvh_fn f32[TB_MAX_ISAS][TB_BVH_N_TREES][TB_BVH_N_FNS], f64[TB_MAX_ISAS][TB_BVH_N_TREES][TB_BVH_N_FNS];
 } tb_bvh_kernel;
-#define TB_BVH_TREE_FNS(name, tree, isa, sfx)                                                        \
+#define TB_BVH_TREE_FNS(name, tree, isa, sfx)                                                      \
     {TB_CAT(tb_##name##_bvh_##tree##run_any_##isa, sfx), TB_CAT(tb_##name##_bvh_##tree##run_closest_##isa, sfx), \
      TB_CAT(tb_##name##_bvh_##tree##time_any_##isa, sfx), TB_CAT(tb_##name##_bvh_##tree##time_closest_##isa, sfx), \
      TB_CAT(tb_##name##_bvh_##tree##time_closest_uv_##isa, sfx), TB_CAT(tb_##name##_bvh_##tree##time_null_##isa, sfx)}

@@ -180,12 +180,12 @@ TB_KERNEL_LIST(TB_DECLARE_X8)
  * per tree (wide, binary_; bvh.py's "packets" is the wide one's with job->packets) */
 #define TB_DECLARE_NATIVE_ISA(name, isa)                                                           \
     TB_DECLARE_WIDE_(tb_##name, isa, _f32) TB_DECLARE_WIDE_(tb_##name, isa, _f64)
-#define TB_DECLARE_BVH_TREE(name, tree, isa, sfx)                                              \
-    TB_HIDDEN void tb_##name##_bvh_##tree##run_any_##isa##sfx(tb_bvh_job *);                     \
-    TB_HIDDEN void tb_##name##_bvh_##tree##run_closest_##isa##sfx(tb_bvh_job *);                 \
-    TB_HIDDEN void tb_##name##_bvh_##tree##time_any_##isa##sfx(tb_bvh_job *);                    \
-    TB_HIDDEN void tb_##name##_bvh_##tree##time_closest_##isa##sfx(tb_bvh_job *);                \
-    TB_HIDDEN void tb_##name##_bvh_##tree##time_closest_uv_##isa##sfx(tb_bvh_job *);             \
+#define TB_DECLARE_BVH_TREE(name, tree, isa, sfx)                                                  \
+    TB_HIDDEN void tb_##name##_bvh_##tree##run_any_##isa##sfx(tb_bvh_job *);                       \
+    TB_HIDDEN void tb_##name##_bvh_##tree##run_closest_##isa##sfx(tb_bvh_job *);                   \
+    TB_HIDDEN void tb_##name##_bvh_##tree##time_any_##isa##sfx(tb_bvh_job *);                      \
+    TB_HIDDEN void tb_##name##_bvh_##tree##time_closest_##isa##sfx(tb_bvh_job *);                  \
+    TB_HIDDEN void tb_##name##_bvh_##tree##time_closest_uv_##isa##sfx(tb_bvh_job *);               \
     TB_HIDDEN void tb_##name##_bvh_##tree##time_null_##isa##sfx(tb_bvh_job *);
 #define TB_DECLARE_BVH_(name, isa, sfx)                                                            \
     TB_DECLARE_BVH_TREE(name, , isa, sfx) TB_DECLARE_BVH_TREE(name, binary_, isa, sfx)
