@@ -5,7 +5,9 @@ script must parse its flags and import what it uses, and the quickest one
 runs end to end through the harness on a tiny design.
 """
 
+import importlib.util
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -44,3 +46,76 @@ def test_seed_speed_prints_every_kernel_and_precision_with_a_verdict(tmp_path):
         (k, d) for k in ("curless_seed", "moller_seed") for d in ("float32", "float64")
     ]
     assert all(r[-1] in ("met", "missed", "undecided") for r in rows)
+
+
+def load_script(name: str):
+    spec = importlib.util.spec_from_file_location(name, BENCH / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+# A callgrind profile as valgrind 3.19 writes one: names numbered at first use ("(1) name", then
+# "(1)"), files and functions numbered apart, inlined code under fi=/fe=, and a call's inclusive
+# cost on the line after calls= (the callee's own lines are counted where they stand).
+PROFILE = """\
+# callgrind format
+version: 1
+positions: line
+events: Ir D1mr
+
+fl=(1) /src/ext/bvh.c
+fn=(1) py_time
+cfi=(2) /src/ext/bvh_trace.h
+cfn=(2) walk
+calls=1 10
+20 1000 9
+5 4 0
+
+fl=(2)
+fn=(2)
+30 100 2
+fi=(3) /src/ext/kernels/woop.h
++3 50 5
+fe=(2)
+*
+31 7 1
+fi=(4) /usr/lib/gcc/include/fmaintrin.h
+12 3 1
+"""
+
+
+def test_the_callgrind_profile_is_read_file_by_file(tmp_path):
+    counts = load_script("bvh_counts")
+    (profile := tmp_path / "p.callgrind").write_text(PROFILE)
+    events, by_file = counts.costs_by_file(profile)
+    assert events == ["Ir", "D1mr"]
+    got = {f: list(c) for f, c in by_file.items() if c.any()}
+    assert got == {
+        "/src/ext/bvh.c": [4, 0],  # not the 1000 the call to walk cost: walk's lines are counted below
+        "/src/ext/bvh_trace.h": [107, 3],
+        "/src/ext/kernels/woop.h": [50, 5],
+        "/usr/lib/gcc/include/fmaintrin.h": [3, 1],
+    }
+    assert [counts.part(f) for f in got] == ["walk", "walk", "leaf test", "leaf test"]
+    assert counts.part("/usr/lib/gcc/include/avxintrin.h") == "either"  # the walk's vectors and the leaves' alike
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
+def test_bvh_counts_counts_each_contender_under_valgrind(tmp_path):
+    from tribench.ext import embree
+
+    if embree.missing():
+        pytest.skip(embree.missing())
+    env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
+    args = ("--triangles", "2000", "--camera", "32x32", "--rays", "100", "--kernels", "moller_trumbore_fma")
+    done = bench(BENCH / "bvh_counts.py", *args, env=env)
+    assert done.returncode == 0, done.stderr
+    rows = [line.split() for line in done.stdout.splitlines()]
+    for contender in ("moller_trumbore_fma", "embree"):
+        counted = [r for r in rows if r and r[0] == contender]
+        assert len(counted) == 2 * (2 if contender == "embree" else 1)  # camera and bounce
+        assert all(float(r[-7]) > 0 for r in counted)  # instructions a ray
+    split = [line for line in done.stdout.splitlines() if "walk | leaf test | either" in line]
+    assert len(split) == 2

@@ -1,0 +1,210 @@
+"""What a ray costs tribench's BVH and native Embree, counted by Valgrind: issue #28's "why".
+
+The timing bench (bench/embree_native.py) says how fast each tracer is; on a machine without
+hardware counters it cannot say where the time goes. This one counts it. Each contender traces
+the same rays once inside Valgrind's callgrind, which collects only inside the C function that
+walks them (tribench's ``tb_<kernel>_bvh_time_closest_<isa>_f32``, the Embree peer's
+``scene_trace`` around rtcIntersect1 or rtcIntersect16), with its cache model set to this CPU's
+L1 data cache and L2 (from sysfs; --l2 to set another) and its branch predictor model on.
+Printed per ray: instructions, loads, stores, L1 and L2 load misses, conditional branches and
+the model's mispredictions. For tribench, instructions and misses are also split by source file
+between the walk (ext/bvh*), the leaf test (ext/kernels/, ext/native.h and fmaintrin.h: the
+leaves' loads) and code either inlines (avxintrin.h, ext/core.h), beside tribench's own counts
+of nodes entered and triangles tested. Embree's library has no line tables: its costs are one.
+
+Read the misses as the cache lines a ray brings in, not as stalls: callgrind models no hardware
+prefetcher and ignores prefetch instructions, and its branch predictor is 2004's (two-bit
+counters indexed by address and recent history), not a modern one. Counts are not timings, so
+this may run beside other work. Valgrind has no AVX-512: every form counted is AVX2 or less,
+tribench's and Embree's alike. Under Valgrind a process runs 50-100x slower; at 250,000
+triangles each contender takes 1-3 minutes (Embree's build most of it), two at a time.
+
+    python bench/bvh_counts.py [--triangles 250000] [--rays N] [--packets]
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import subprocess
+import sys
+import tempfile
+from collections import defaultdict
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from tribench.ext import embree
+from tribench.workloads import bvh_cache, make
+from tribench.workloads.spec import MeshSpec
+
+RAYS = ("camera", "bounce")
+KERNELS = ["moller_trumbore_fma", "woop_fma", "baldwin_weber_12_fma", "havel_herout_fma"]
+#: The keys that name a source file in callgrind's format (a call's target's too: cfi, cfl).
+FILE_KEYS = ("fl", "fi", "fe", "cfi", "cfl")
+#: callgrind's events, and the names they are printed under (per ray).
+EVENTS = {
+    "Ir": "instructions",
+    "Dr": "loads",
+    "Dw": "stores",
+    "D1mr": "L1 load misses",
+    "DLmr": "L2 load misses",
+    "Bc": "cond. branches",
+    "Bcm": "mispredicted",
+}
+
+
+def contenders(kernels: list[str], isa: str, packets: bool) -> dict[str, str]:
+    """Name -> the function callgrind collects in."""
+    suffix = " packets" if packets else ""
+    named = {f"{k} {isa}{suffix}": f"tb_{k}_bvh_time_closest_{isa}_f32" for k in kernels}
+    width = 16 if packets else 1
+    named.update({f"embree rtcIntersect{width}": "scene_trace", f"embree robust {width}": "scene_trace"})
+    return named
+
+
+def trace_once(arrays: Path, name: str, isa: str) -> None:
+    """The child under Valgrind: one pass of ``name`` over the saved rays."""
+    with np.load(arrays) as saved:
+        triangles, o, d = saved["triangles"], saved["origins"], saved["directions"]
+    packets = name.endswith(" packets")
+    if name.startswith("embree "):
+        scene = embree.EmbreeScene(triangles, robust="robust" in name)
+        scene.trace(o, d, None, 16 if name.endswith("16") else 1, 1)
+    else:
+        bvh = bvh_cache.cached_bvh(name.split()[0], triangles)[0]
+        bvh.time(o, d, "closest", 1, isa=isa, layout="packets" if packets else "wide")
+
+
+def cache_option(level: int, kind: str) -> str:
+    """``size,ways,line`` of this CPU's cache ``level`` of ``kind`` (Data or Unified), from sysfs."""
+    for index in sorted(Path("/sys/devices/system/cpu/cpu0/cache").glob("index*")):
+        fact = {f.name: f.read_text().strip() for f in index.iterdir() if f.is_file()}
+        if fact.get("level") == str(level) and fact.get("type") == kind and "ways_of_associativity" in fact:
+            kib = int(fact["size"][:-1]) * (1024 if fact["size"].endswith("M") else 1)
+            return f"{kib * 1024},{fact['ways_of_associativity']},{fact['coherency_line_size']}"
+    raise SystemExit(f"no level-{level} {kind} cache in sysfs: give --l1 and --l2")
+
+
+def count(arrays: Path, name: str, function: str, args: argparse.Namespace) -> Path:
+    """Run the child under callgrind; the path of its profile."""
+    out = arrays.with_name(name.replace(" ", "_") + ".callgrind")
+    valgrind = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--D1={args.l1}"]
+    valgrind += [f"--LL={args.l2}", "--collect-atstart=no", f"--toggle-collect={function}"]
+    child = [sys.executable, __file__, "--child", str(arrays), name, "--isa", args.isa]
+    run = subprocess.run([*valgrind, f"--callgrind-out-file={out}", *child], capture_output=True, text=True)
+    if run.returncode != 0:
+        raise SystemExit(f"{name} under valgrind failed:\n{run.stderr[-2000:]}")
+    return out
+
+
+def costs_by_file(profile: Path) -> tuple[list[str], dict[str, np.ndarray]]:
+    """callgrind's events, and the self cost of each source file (inlined code under its own file)."""
+    events: list[str] = []
+    names: dict[tuple[bool, str], str] = {}  # files and functions are numbered apart
+    by_file: dict[str, np.ndarray] = defaultdict(lambda: np.zeros(len(events)))
+    file = function_file = ""
+    skip_next = False  # the cost line after calls= is the callee's inclusive cost
+    for line in profile.read_text().splitlines():
+        key, _, value = line.partition("=")
+        if line.startswith("events:"):
+            events = line.split()[1:]
+        elif key in FILE_KEYS or key == "fn":
+            if value.startswith("("):  # name compression: "(id) name" once, "(id)" after
+                ident, _, given = value[1:].partition(")")
+                value = names.setdefault((key == "fn", ident), given.strip())
+            if key == "fl":
+                file = function_file = value
+            elif key == "fn":
+                file = function_file
+            elif key in ("fi", "fe"):
+                file = value
+        elif key == "calls":
+            skip_next = True
+        elif line and (line[0].isdigit() or line[0] in "+-*"):
+            if skip_next:
+                skip_next = False
+                continue
+            fields = line.split()[1:]
+            by_file[file] += np.array([int(f) for f in fields] + [0] * (len(events) - len(fields)))
+    return events, by_file
+
+
+def part(file: str) -> str:
+    """Which part of tribench's trace a source file's code is: the walk, the leaf test, or either.
+    The walk's vectors load through ext/bvh_trace.h and use no FMA, so fmaintrin.h (whose lines
+    carry the loads folded into FMAs) is the leaf test's; avxintrin.h serves both."""
+    if Path(file).name.startswith("bvh"):
+        return "walk"
+    leaf = "/kernels/" in file or file.endswith(("/native.h", "/fmaintrin.h"))
+    return "leaf test" if leaf else "either"
+
+
+def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray]) -> None:
+    print(f"  {'per ray':<34}" + "".join(f"{e:>16}" for e in EVENTS.values()))
+    for name, profile in profiles.items():
+        events, by_file = costs_by_file(profile)
+        total = sum(by_file.values(), np.zeros(len(events)))
+        if total[events.index("Ir")] == 0:
+            raise SystemExit(f"{name}: nothing collected (has the traced function's name changed?)")
+        print(f"  {name:<34}" + "".join(f"{total[events.index(e)] / rays:16.1f}" for e in EVENTS))
+        if name.startswith("embree"):
+            continue  # one function without line tables: not split
+        parts = {p: np.zeros(len(events)) for p in ("walk", "leaf test", "either")}
+        for file, cost in by_file.items():
+            parts[part(file)] += cost / rays
+        split = ", ".join(
+            f"{EVENTS[e]} " + " | ".join(f"{parts[p][events.index(e)]:.1f}" for p in ("walk", "leaf test", "either"))
+            for e in ("Ir", "D1mr", "DLmr")
+        )
+        nodes, _, leaves, tests = counts[name.split()[0]]
+        print(f"    walk | leaf test | either: {split}")
+        print(f"    {nodes:.2f} nodes entered, {leaves:.2f} of them leaves, {tests:.1f} triangle tests a ray")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--triangles", type=int, default=250_000)
+    parser.add_argument("--camera", default="512x512", help="camera WxH of both ray sets (default 512x512)")
+    parser.add_argument("--rays", type=int, help="rays counted, consecutive from the middle of each set (default all)")
+    parser.add_argument("--kernels", nargs="+", default=KERNELS)
+    parser.add_argument("--isa", default="avx2", help="tribench's form (valgrind has no AVX-512)")
+    parser.add_argument("--packets", action="store_true", help="packet walks and rtcIntersect16, not single rays")
+    parser.add_argument("--l1", help="size,ways,line of the L1 data cache modelled (default: this CPU's)")
+    parser.add_argument("--l2", help="size,ways,line of the L2 modelled (default: this CPU's)")
+    parser.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        return trace_once(Path(args.child[0]), args.child[1], args.isa)
+    if shutil.which("valgrind") is None:
+        raise SystemExit("valgrind is not installed (apt-get install valgrind)")
+    if (why := embree.missing()) is not None:
+        raise SystemExit(why)
+    args.l1, args.l2 = args.l1 or cache_option(1, "Data"), args.l2 or cache_option(2, "Unified")
+    width, height = map(int, args.camera.split("x"))
+    print(f"{embree.version()}; callgrind's L1 {args.l1}, L2 {args.l2} (size,ways,line); float32")
+    named = contenders(args.kernels, args.isa, args.packets)
+    walk = "packets" if args.packets else "wide"
+    with tempfile.TemporaryDirectory() as tmp:
+        for r in RAYS:
+            w = make(MeshSpec("suzanne", args.triangles, rays=r, width=width, height=height, dtype="float32"))
+            n = len(w.origins) if args.rays is None else min(args.rays, len(w.origins))
+            pick = np.arange(n) + (len(w.origins) - n) // 2  # consecutive: neighbours share lines, as in a pass
+            o, d = w.origins[pick], w.directions[pick]
+            counts = {}
+            for k in args.kernels:  # cached for the children, and the tree's own counts of the walk
+                bvh = bvh_cache.cached_bvh(k, w.triangles)[0]
+                counts[k] = bvh.intersect(o, d, isa=args.isa, layout=walk).counts.mean(0)
+            arrays = Path(tmp) / f"{r}.npz"
+            np.savez(arrays, triangles=w.triangles, origins=o, directions=d)
+            with ThreadPoolExecutor(2) as pool:  # two cores: counts do not depend on the load
+                jobs = {n: pool.submit(count, arrays, n, f, args) for n, f in named.items()}
+                profiles = {n: j.result() for n, j in jobs.items()}
+            hit = float((w.ref_index[pick] >= 0).mean())
+            print(f"\n{r}: {len(pick):,} of {len(w.origins):,} rays, {hit:.0%} hit, Suzanne {len(w.triangles):,}")
+            report(profiles, len(pick), counts)
+
+
+if __name__ == "__main__":
+    main()
