@@ -10,7 +10,9 @@ Printed per ray: instructions, loads, stores, L1 and L2 load misses, conditional
 the model's mispredictions. For tribench, instructions and misses are also split by source file
 between the walk (ext/bvh*), the leaf test (ext/kernels/, ext/native.h and fmaintrin.h: the
 leaves' loads) and code either inlines (avxintrin.h, ext/core.h), beside tribench's own counts
-of nodes entered and triangles tested. Embree's library has no line tables: its costs are one.
+of nodes entered and triangles tested; Embree's library has no line tables, so its costs are one.
+As in bench/embree_native.py, a contender is counted only where its closest triangles, traced
+natively, are the float64 reference's (but on ambiguous rays): the same work on every side.
 
 Read the misses as the cache lines a ray brings in, not as stalls: callgrind models no hardware
 prefetcher and ignores prefetch instructions, and its branch predictor is 2004's (two-bit
@@ -35,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tribench import ext
 from tribench.ext import embree
 from tribench.workloads import bvh_cache, make
 from tribench.workloads.spec import MeshSpec
@@ -75,6 +78,18 @@ def trace_once(arrays: Path, name: str, isa: str) -> None:
     else:
         bvh = bvh_cache.cached_bvh(name.split()[0], triangles)[0]
         bvh.time(o, d, "closest", 1, isa=isa, layout="packets" if packets else "wide")
+
+
+def closest_hits(w, pick: np.ndarray, name: str, args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
+    """``name``'s closest triangle for each ray picked, traced natively; and for a tribench kernel,
+    its tree's mean counts a ray (:data:`tribench.ext.bvh.COUNT_NAMES`)."""
+    o, d = w.origins[pick], w.directions[pick]
+    if name.startswith("embree "):
+        scene = embree.EmbreeScene(w.triangles, robust="robust" in name)
+        return scene.intersect(o, d, width=16 if name.endswith("16") else 1)[0], np.zeros(4)
+    bvh = bvh_cache.cached_bvh(name.split()[0], w.triangles)[0]  # cached here for the child, too
+    trace = bvh.intersect(o, d, isa=args.isa, layout="packets" if args.packets else "wide")
+    return trace.hits.index, trace.counts.mean(0)
 
 
 def cache_option(level: int, kind: str) -> str:
@@ -163,11 +178,17 @@ def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray]) 
         print(f"    {nodes:.2f} nodes entered, {leaves:.2f} of them leaves, {tests:.1f} triangle tests a ray")
 
 
+def positive(text: str) -> int:
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"a whole number of at least 1, not {text!r}")
+    return int(text)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--triangles", type=int, default=250_000)
     parser.add_argument("--camera", default="512x512", help="camera WxH of both ray sets (default 512x512)")
-    parser.add_argument("--rays", type=int, help="rays counted, consecutive from the middle of each set (default all)")
+    parser.add_argument("--rays", type=positive, help="rays counted, consecutive, mid-set (default all)")
     parser.add_argument("--kernels", nargs="+", default=KERNELS)
     parser.add_argument("--isa", default="avx2", help="tribench's form (valgrind has no AVX-512)")
     parser.add_argument("--packets", action="store_true", help="packet walks and rtcIntersect16, not single rays")
@@ -177,6 +198,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.child:
         return trace_once(Path(args.child[0]), args.child[1], args.isa)
+    if unknown := sorted(set(args.kernels) - set(ext.bvh_kernel_names())):
+        raise SystemExit(f"not BVH leaf kernels: {', '.join(unknown)}; these are: {', '.join(ext.bvh_kernel_names())}")
     if shutil.which("valgrind") is None:
         raise SystemExit("valgrind is not installed (apt-get install valgrind)")
     if (why := embree.missing()) is not None:
@@ -185,25 +208,26 @@ def main() -> None:
     width, height = map(int, args.camera.split("x"))
     print(f"{embree.version()}; callgrind's L1 {args.l1}, L2 {args.l2} (size,ways,line); float32")
     named = contenders(args.kernels, args.isa, args.packets)
-    walk = "packets" if args.packets else "wide"
     with tempfile.TemporaryDirectory() as tmp:
         for r in RAYS:
             w = make(MeshSpec("suzanne", args.triangles, rays=r, width=width, height=height, dtype="float32"))
             n = len(w.origins) if args.rays is None else min(args.rays, len(w.origins))
             pick = np.arange(n) + (len(w.origins) - n) // 2  # consecutive: neighbours share lines, as in a pass
-            o, d = w.origins[pick], w.directions[pick]
-            counts = {}
-            for k in args.kernels:  # cached for the children, and the tree's own counts of the walk
-                bvh = bvh_cache.cached_bvh(k, w.triangles)[0]
-                counts[k] = bvh.intersect(o, d, isa=args.isa, layout=walk).counts.mean(0)
+            print(f"\n{r}: {n:,} of {len(w.origins):,} rays, {(w.ref_index[pick] >= 0).mean():.0%} hit, ", end="")
+            print(f"Suzanne {len(w.triangles):,}")
+            counts = {k: closest_hits(w, pick, k, args)[1] for k in args.kernels}
+            counted = {}
+            for name, function in named.items():  # the same work: the reference's answers
+                wrong = (closest_hits(w, pick, name, args)[0] != w.ref_index[pick]) & ~w.ambiguous()[pick]
+                if wrong.any():
+                    print(f"  left out: {name} differs from the reference on {int(wrong.sum())} unambiguous rays")
+                else:
+                    counted[name] = function
             arrays = Path(tmp) / f"{r}.npz"
-            np.savez(arrays, triangles=w.triangles, origins=o, directions=d)
+            np.savez(arrays, triangles=w.triangles, origins=w.origins[pick], directions=w.directions[pick])
             with ThreadPoolExecutor(2) as pool:  # two cores: counts do not depend on the load
-                jobs = {n: pool.submit(count, arrays, n, f, args) for n, f in named.items()}
-                profiles = {n: j.result() for n, j in jobs.items()}
-            hit = float((w.ref_index[pick] >= 0).mean())
-            print(f"\n{r}: {len(pick):,} of {len(w.origins):,} rays, {hit:.0%} hit, Suzanne {len(w.triangles):,}")
-            report(profiles, len(pick), counts)
+                jobs = {name: pool.submit(count, arrays, name, f, args) for name, f in counted.items()}
+                report({name: job.result() for name, job in jobs.items()}, n, counts)
 
 
 if __name__ == "__main__":
