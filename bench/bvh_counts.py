@@ -16,7 +16,8 @@ natively, are the float64 reference's (but on ambiguous rays): the same work on 
 
 Read the misses as the cache lines a ray brings in, not as stalls: callgrind models no hardware
 prefetcher and ignores prefetch instructions, and its branch predictor is 2004's (two-bit
-counters indexed by address and recent history), not a modern one. Counts are not timings, so
+counters indexed by address and recent history), not a modern one. Instructions repeat exactly
+from run to run; misses move by a few percent (the addresses differ). Counts are not timings, so
 this may run beside other work. Valgrind has no AVX-512: every form counted is AVX2 or less,
 tribench's and Embree's alike. Under Valgrind a process runs 50-100x slower; at 250,000
 triangles each contender takes 1-3 minutes (Embree's build most of it), two at a time.
@@ -80,13 +81,13 @@ def trace_once(arrays: Path, name: str, isa: str) -> None:
         bvh.time(o, d, "closest", 1, isa=isa, layout="packets" if packets else "wide")
 
 
-def closest_hits(w, pick: np.ndarray, name: str, args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray]:
+def closest_hits(w, pick: np.ndarray, name: str, args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray | None]:
     """``name``'s closest triangle for each ray picked, traced natively; and for a tribench kernel,
-    its tree's mean counts a ray (:data:`tribench.ext.bvh.COUNT_NAMES`)."""
+    its tree's mean counts a ray (:data:`tribench.ext.bvh.COUNT_NAMES`; None for Embree)."""
     o, d = w.origins[pick], w.directions[pick]
     if name.startswith("embree "):
         scene = embree.EmbreeScene(w.triangles, robust="robust" in name)
-        return scene.intersect(o, d, width=16 if name.endswith("16") else 1)[0], np.zeros(4)
+        return scene.intersect(o, d, width=16 if name.endswith("16") else 1)[0], None
     bvh = bvh_cache.cached_bvh(name.split()[0], w.triangles)[0]  # cached here for the child, too
     trace = bvh.intersect(o, d, isa=args.isa, layout="packets" if args.packets else "wide")
     return trace.hits.index, trace.counts.mean(0)
@@ -156,7 +157,7 @@ def part(file: str) -> str:
     return "leaf test" if leaf else "either"
 
 
-def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray]) -> None:
+def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray | None]) -> None:
     print(f"  {'per ray':<34}" + "".join(f"{e:>16}" for e in EVENTS.values()))
     for name, profile in profiles.items():
         events, by_file = costs_by_file(profile)
@@ -164,8 +165,9 @@ def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray]) 
         if total[events.index("Ir")] == 0:
             raise SystemExit(f"{name}: nothing collected (has the traced function's name changed?)")
         print(f"  {name:<34}" + "".join(f"{total[events.index(e)] / rays:16.1f}" for e in EVENTS))
-        if name.startswith("embree"):
-            continue  # one function without line tables: not split
+        tree = counts[name]
+        if tree is None:
+            continue  # Embree: one function without line tables, not split
         parts = {p: np.zeros(len(events)) for p in ("walk", "leaf test", "either")}
         for file, cost in by_file.items():
             parts[part(file)] += cost / rays
@@ -173,7 +175,7 @@ def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray]) 
             f"{EVENTS[e]} " + " | ".join(f"{parts[p][events.index(e)]:.1f}" for p in ("walk", "leaf test", "either"))
             for e in ("Ir", "D1mr", "DLmr")
         )
-        nodes, _, leaves, tests = counts[name.split()[0]]
+        nodes, _, leaves, tests = tree
         print(f"    walk | leaf test | either: {split}")
         print(f"    {nodes:.2f} nodes entered, {leaves:.2f} of them leaves, {tests:.1f} triangle tests a ray")
 
@@ -215,10 +217,10 @@ def main() -> None:
             pick = np.arange(n) + (len(w.origins) - n) // 2  # consecutive: neighbours share lines, as in a pass
             print(f"\n{r}: {n:,} of {len(w.origins):,} rays, {(w.ref_index[pick] >= 0).mean():.0%} hit, ", end="")
             print(f"Suzanne {len(w.triangles):,}")
-            counts = {k: closest_hits(w, pick, k, args)[1] for k in args.kernels}
-            counted = {}
+            counted, counts = {}, {}
             for name, function in named.items():  # the same work: the reference's answers
-                wrong = (closest_hits(w, pick, name, args)[0] != w.ref_index[pick]) & ~w.ambiguous()[pick]
+                index, counts[name] = closest_hits(w, pick, name, args)
+                wrong = (index != w.ref_index[pick]) & ~w.ambiguous()[pick]
                 if wrong.any():
                     print(f"  left out: {name} differs from the reference on {int(wrong.sum())} unambiguous rays")
                 else:
