@@ -192,7 +192,8 @@ def main() -> None:
     parser.add_argument("--camera", default="512x512", help="camera WxH of both ray sets (default 512x512)")
     parser.add_argument("--rays", type=positive, help="rays counted, consecutive, mid-set (default all)")
     parser.add_argument("--kernels", nargs="+", default=KERNELS)
-    parser.add_argument("--isa", default="avx2", help="tribench's form (valgrind has no AVX-512)")
+    # valgrind runs no AVX-512: tribench's forms that it can count
+    parser.add_argument("--isa", default="avx2", choices=["avx2", "baseline"], help="tribench's form (default avx2)")
     parser.add_argument("--packets", action="store_true", help="packet walks and rtcIntersect16, not single rays")
     parser.add_argument("--l1", help="size,ways,line of the L1 data cache modelled (default: this CPU's)")
     parser.add_argument("--l2", help="size,ways,line of the L2 modelled (default: this CPU's)")
