@@ -47,6 +47,8 @@ RAYS = ("camera", "bounce")
 KERNELS = ["moller_trumbore_fma", "woop_fma", "baldwin_weber_12_fma", "havel_herout_fma"]
 #: The keys that name a source file in callgrind's format (a call's target's too: cfi, cfl).
 FILE_KEYS = ("fl", "fi", "fe", "cfi", "cfl")
+#: The parts of tribench's trace that its costs are split between (:func:`part`).
+PARTS = ("walk", "leaf test", "either")
 #: callgrind's events, and the names they are printed under (per ray).
 EVENTS = {
     "Ir": "instructions",
@@ -68,28 +70,34 @@ def contenders(kernels: list[str], isa: str, packets: bool) -> dict[str, str]:
     return named
 
 
+def tracer(name: str, triangles: np.ndarray):
+    """``name``'s tracer over ``triangles`` (an Embree scene or the kernel's cached tree), and how it
+    walks: Embree's ray width (1 or 16) or tribench's layout (wide or packets)."""
+    if name.startswith("embree "):
+        return embree.EmbreeScene(triangles, robust="robust" in name), 16 if name.endswith("16") else 1
+    return bvh_cache.cached_bvh(name.split()[0], triangles)[0], "packets" if name.endswith(" packets") else "wide"
+
+
 def trace_once(arrays: Path, name: str, isa: str) -> None:
     """The child under Valgrind: one pass of ``name`` over the saved rays."""
     with np.load(arrays) as saved:
         triangles, o, d = saved["triangles"], saved["origins"], saved["directions"]
-    packets = name.endswith(" packets")
+    traced, walk = tracer(name, triangles)
     if name.startswith("embree "):
-        scene = embree.EmbreeScene(triangles, robust="robust" in name)
-        scene.trace(o, d, None, 16 if name.endswith("16") else 1, 1)
+        traced.trace(o, d, None, walk, 1)
     else:
-        bvh = bvh_cache.cached_bvh(name.split()[0], triangles)[0]
-        bvh.time(o, d, "closest", 1, isa=isa, layout="packets" if packets else "wide")
+        traced.time(o, d, "closest", 1, isa=isa, layout=walk)
 
 
-def closest_hits(w, pick: np.ndarray, name: str, args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray | None]:
-    """``name``'s closest triangle for each ray picked, traced natively; and for a tribench kernel,
-    its tree's mean counts a ray (:data:`tribench.ext.bvh.COUNT_NAMES`; None for Embree)."""
+def closest_hits(w, pick: np.ndarray, name: str, isa: str) -> tuple[np.ndarray, np.ndarray | None]:
+    """``name``'s closest triangle for each ray picked, traced natively (which also caches a tree for
+    the child); and for a tribench kernel, its tree's mean counts a ray
+    (:data:`tribench.ext.bvh.COUNT_NAMES`; None for Embree)."""
     o, d = w.origins[pick], w.directions[pick]
+    traced, walk = tracer(name, w.triangles)
     if name.startswith("embree "):
-        scene = embree.EmbreeScene(w.triangles, robust="robust" in name)
-        return scene.intersect(o, d, width=16 if name.endswith("16") else 1)[0], None
-    bvh = bvh_cache.cached_bvh(name.split()[0], w.triangles)[0]  # cached here for the child, too
-    trace = bvh.intersect(o, d, isa=args.isa, layout="packets" if args.packets else "wide")
+        return traced.intersect(o, d, width=walk)[0], None
+    trace = traced.intersect(o, d, isa=isa, layout=walk)
     return trace.hits.index, trace.counts.mean(0)
 
 
@@ -168,11 +176,11 @@ def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray | 
         tree = counts[name]
         if tree is None:
             continue  # Embree: one function without line tables, not split
-        parts = {p: np.zeros(len(events)) for p in ("walk", "leaf test", "either")}
+        parts = {p: np.zeros(len(events)) for p in PARTS}
         for file, cost in by_file.items():
             parts[part(file)] += cost / rays
         split = ", ".join(
-            f"{EVENTS[e]} " + " | ".join(f"{parts[p][events.index(e)]:.1f}" for p in ("walk", "leaf test", "either"))
+            f"{EVENTS[e]} " + " | ".join(f"{parts[p][events.index(e)]:.1f}" for p in PARTS)
             for e in ("Ir", "D1mr", "DLmr")
         )
         nodes, _, leaves, tests = tree
@@ -220,7 +228,7 @@ def main() -> None:
             print(f"Suzanne {len(w.triangles):,}")
             counted, counts = {}, {}
             for name, function in named.items():  # the same work: the reference's answers
-                index, counts[name] = closest_hits(w, pick, name, args)
+                index, counts[name] = closest_hits(w, pick, name, args.isa)
                 wrong = (index != w.ref_index[pick]) & ~w.ambiguous()[pick]
                 if wrong.any():
                     print(f"  left out: {name} differs from the reference on {int(wrong.sum())} unambiguous rays")
