@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from test_report_run import run_fixture_dir
+from test_report_run import copy_run_inputs, run_fixture_dir
 
 from tribench import reports
 from tribench.common import UserError
@@ -31,9 +31,7 @@ FACTOR = 1.25  # run B: moller_trumbore made exactly this much faster
 def two_runs(tmp_path_factory):
     run_a, cache = run_fixture_dir(tmp_path_factory)
     run_b = tmp_path_factory.mktemp("compare") / "run_b"
-    run_b.mkdir()
-    for name in ("run.json", "processes.csv", "validate.csv"):
-        shutil.copy(run_a / name, run_b / name)
+    copy_run_inputs(run_a, run_b)
     b = pd.read_csv(run_a / "batches.csv")
     faster = b["kernel"] == "moller_trumbore"
     b.loc[faster, "elapsed_ns"] = (b.loc[faster, "elapsed_ns"] / FACTOR).round().astype("int64")
@@ -115,9 +113,7 @@ FACTORS = {
 def _fake_run(real: Path, folder: Path, factors: dict[str, float], cpu_model: str) -> Path:
     """A copy of a real run with each kernel's batch times set to moller_seed's in the same round
     times a known factor (with a 0.2% wobble between processes), and another CPU in run.json."""
-    folder.mkdir()
-    for name in ("processes.csv", "validate.csv"):
-        shutil.copy(real / name, folder / name)
+    copy_run_inputs(real, folder, ("processes.csv", "validate.csv"))
     run = json.loads((real / "run.json").read_text())
     run["machine"]["cpu_model"] = cpu_model
     (folder / "run.json").write_text(json.dumps(run))
@@ -281,9 +277,7 @@ def runs_sharing_only_the_baseline(two_runs, tmp_path_factory):
     folders = []
     for name, kept in (("only_curless", "curless"), ("only_mt", "moller_trumbore")):
         folder = tmp_path_factory.mktemp("shared-baseline") / name
-        folder.mkdir()
-        for f in ("run.json", "processes.csv", "validate.csv"):
-            shutil.copy(run_a / f, folder / f)
+        copy_run_inputs(run_a, folder)
         b = pd.read_csv(run_a / "batches.csv")
         b.loc[b["kernel"].isin(["moller_seed", kept])].to_csv(folder / "batches.csv", index=False)
         with pytest.MonkeyPatch.context() as mp:

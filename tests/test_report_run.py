@@ -5,7 +5,9 @@ Other report test modules import :func:`run_fixture_dir` from here.
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -35,19 +37,51 @@ def run_fixture_dir(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Pat
     3 kernels x 4 workloads (pairs at two per-test hit rates, Suzanne at two
     triangle counts), 3 processes x 3 rounds (+1 warm-up), its robustness
     table at validate's quick sizes, then the analysis step (as ``tribench run``
-    does, smaller).
+    does, smaller). It is made once per session (:func:`_made_once`) and each
+    pytest-xdist worker reads its own copy, which the report tests write into.
     The caller sets ``TRIBENCH_CACHE`` to ``cache_dir`` while it reads the run.
     """
     base = tmp_path_factory.getbasetemp() / "report-run"
     run_dir, cache = base / "run", base / "cache"
     if not (run_dir / "batches.csv").is_file():
-        with pytest.MonkeyPatch.context() as mp:
-            mp.setenv("TRIBENCH_CACHE", str(cache))
-            sweep = Sweep(KERNELS, WORKLOADS, processes=3, rounds=3, warmup=1, target_ms=0.2, seed=5)
-            runner.start(sweep, run_dir, progress=False)
-            validate.run(KERNELS, ["float64"], quick=True).to_csv(run_dir / "validate.csv", index=False)
-            finish(run_dir)
+        made = _made_once(tmp_path_factory)
+        shutil.copytree(made / "cache", cache)
+        shutil.copytree(made / "run", run_dir)
     return run_dir, cache
+
+
+def _made_once(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The folder holding the session's small run (``run/``) and its cache (``cache/``).
+
+    Under pytest-xdist the workers share their session's folder (the parent of
+    each worker's own), and the first to get there makes the run while the
+    others wait on a lock: it is about 9 s of work, not worth doing twice."""
+    own = tmp_path_factory.getbasetemp()
+    shared = own.parent if os.environ.get("PYTEST_XDIST_WORKER") else own
+    made = shared / "report-run-made"
+    with open(shared / "report-run.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (made / "done").is_file():
+            shutil.rmtree(made, ignore_errors=True)  # a worker that died making it
+            with pytest.MonkeyPatch.context() as mp:
+                mp.setenv("TRIBENCH_CACHE", str(made / "cache"))
+                sweep = Sweep(KERNELS, WORKLOADS, processes=3, rounds=3, warmup=1, target_ms=0.2, seed=5)
+                runner.start(sweep, made / "run", progress=False)
+                validate.run(KERNELS, ["float64"], quick=True).to_csv(made / "run" / "validate.csv", index=False)
+                finish(made / "run")
+            (made / "done").touch()
+    return made
+
+
+def copy_run_inputs(run_dir: Path, folder: Path, names=("run.json", "processes.csv", "validate.csv")) -> None:
+    """Start a run folder made from ``run_dir``'s files ``names``, and its workload pictures.
+
+    A picture is a pure function of its workload and the analysis keeps one it
+    finds, so a run derived from the fixture's does not draw them again (1 s each)."""
+    folder.mkdir(parents=True)
+    for name in names:
+        shutil.copy(run_dir / name, folder / name)
+    shutil.copytree(run_dir / runfolder.PICTURES_DIR, folder / runfolder.PICTURES_DIR)
 
 
 @pytest.fixture(scope="module")
