@@ -110,6 +110,12 @@ def sphere_triangles(dtype: str) -> np.ndarray:
     return round_to(np.asarray(fine.vertices) + np.array(EMBREE_CENTRE), dtype)[fine.faces]
 
 
+#: The icosphere whose vertices group the sphere's rays: 162 patches of about 300 triangles each.
+#: At 3 (642 patches of 76) the kernel calls' fixed cost ruled: the quick suite's sphere took 2.8x
+#: as long, the full one 1.2x, with the same answers (docs/decisions.md, "The robustness suite's time").
+_PATCH_SUBDIVISIONS = 2
+
+
 def _sphere(rng: np.random.Generator, size: Size, dtype: str) -> list[MeshRays]:
     """Embree's sphere test, rays grouped by exit region (see :mod:`.robustness`)."""
     import trimesh
@@ -128,7 +134,7 @@ def _sphere(rng: np.random.Generator, size: Size, dtype: str) -> list[MeshRays]:
     a, b, c = dot(d, d), dot(oc, d), dot(oc, oc) - EMBREE_RADIUS**2
     t = (-b + np.sqrt(b * b - a * c)) / a
     exit_dir = normalise(oc + t[:, None] * d)
-    patches = np.asarray(trimesh.creation.icosphere(subdivisions=3).vertices)
+    patches = np.asarray(trimesh.creation.icosphere(subdivisions=_PATCH_SUBDIVISIONS).vertices)
     patch = np.argmax(exit_dir @ patches.T, axis=1)
     face_dir = normalise(tris.mean(axis=1) - centre)
     ideal = sphere_triangles("float64") - centre
