@@ -5,26 +5,7 @@
 
 #include "core.h"
 
-#define TB_EMIT_SCALAR 0
-#define TB_EMIT_avx512 0
-#define TB_EMIT_avx2 0
-#define TB_EMIT_baseline 0
-
-#define TB_REAL float
-#define TB_REAL_IS_DOUBLE 0
-#define TB_SUFFIX _f32
-#include "kernels.h"
-#undef TB_REAL
-#undef TB_REAL_IS_DOUBLE
-#undef TB_SUFFIX
-
-#define TB_REAL double
-#define TB_REAL_IS_DOUBLE 1
-#define TB_SUFFIX _f64
-#include "kernels.h"
-#undef TB_REAL
-#undef TB_REAL_IS_DOUBLE
-#undef TB_SUFFIX
+#include "declarations.h"
 
 TB_HIDDEN const long long tb_bvh_build_version = TB_BVH_BUILD_VERSION;
 

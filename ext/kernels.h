@@ -12,11 +12,12 @@
  *                     the _x8 forms', the native kernels' and the BVH
  *                     traversal's entry points for that ISA (isa_<isa>.c)
  * The declarations (types, every kernel's stride, ops, flat, mix and
- * prepare) come with every inclusion; a file that compiles no loops (the
- * registry's) includes this for them alone. Entry points are hidden, not
- * static (core.h declares them), so the registry in another file can list
- * them; a kernel's prepare is static and is compiled where it is used (the
- * registry's file), as is every other static function here.
+ * prepare) come with every inclusion; the files that compile no loops
+ * (registry.c, bvh.c) include them alone, through declarations.h. Entry
+ * points are hidden, not static (core.h declares them), so the registry in
+ * another file can list them; a kernel's prepare is static and is compiled
+ * where it is used (the registry's file), as is every other static function
+ * here.
  *
  * A scalar kernel file kernels/<name>.h defines, for the current precision:
  *   tb_<name>_stride     macro: reals per prepared triangle record

@@ -2,32 +2,13 @@
  * (tb_kernels, made from the registration lines of kernels/list.h), and
  * kernel_names, kernel_info, kernel_mix, prepare, run and time, with the
  * argument checks the other glue (bvh.c) shares. This file compiles no loops:
- * it includes kernels.h for the kernels' declarations (stride, ops, flat,
+ * it includes declarations.h for the kernels' declarations (stride, ops, flat,
  * mix) and their prepare functions, and core.h declares the loops' entry
  * points, which the other files define. */
 
 #include "core.h"
 
-#define TB_EMIT_SCALAR 0
-#define TB_EMIT_avx512 0
-#define TB_EMIT_avx2 0
-#define TB_EMIT_baseline 0
-
-#define TB_REAL float
-#define TB_REAL_IS_DOUBLE 0
-#define TB_SUFFIX _f32
-#include "kernels.h"
-#undef TB_REAL
-#undef TB_REAL_IS_DOUBLE
-#undef TB_SUFFIX
-
-#define TB_REAL double
-#define TB_REAL_IS_DOUBLE 1
-#define TB_SUFFIX _f64
-#include "kernels.h"
-#undef TB_REAL
-#undef TB_REAL_IS_DOUBLE
-#undef TB_SUFFIX
+#include "declarations.h"
 
 static const char *const tb_mode_names[TB_N_MODES] = {"pairs", "any", "closest", "closest_uv"};
 
