@@ -228,6 +228,8 @@ def existing_file(text: str) -> str:
     path = _path(text)
     if path.is_dir():
         raise _refuse(f"must be a file, got the folder {text!r}")
+    if path.exists() and not path.is_file():  # a device, a pipe, a socket
+        raise _refuse(f"must be a regular file, got {text!r}")
     if not path.is_file():
         raise _refuse(f"no such file: {text!r}")
     return str(path)

@@ -230,6 +230,14 @@ def test_a_camera_is_two_sides_or_refused(text):
     assert 1 <= width <= flags.MAX_SIDE and 1 <= height <= flags.MAX_SIDE
 
 
+def test_a_file_to_read_is_a_regular_file_or_refused_saying_what_it_is(tmp_path):
+    (tmp_path / "scene.txt").write_text("fond 0 0 0\n")
+    assert flags.existing_file(str(tmp_path / "scene.txt")) == str(tmp_path / "scene.txt")
+    for path, said in ((tmp_path, "the folder"), ("/dev/null", "a regular file"), (tmp_path / "nope", "no such file")):
+        with pytest.raises(argparse.ArgumentTypeError, match=said):
+            flags.existing_file(str(path))
+
+
 @pytest.mark.skipif(os.geteuid() == 0, reason="root may write anywhere")
 def test_an_unwritable_folder_is_refused(tmp_path):
     locked = tmp_path / "locked"
