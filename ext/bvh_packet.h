@@ -166,9 +166,7 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_packet)(TB_NFN(tb_native_fn) test, size_t strid
                 entry e = {w, i, ts[i]};
                 if (w->n[i] == 0)
                     TB_NFN(tb_bvh_prefetch_wide)(&nodes[w->a[i]]);
-                for (; j > 0 && kids[j - 1].t <= e.t; --j)
-                    kids[j] = kids[j - 1];
-                kids[j] = e;
+                TB_BVH_PUSH_IN_ORDER(kids, j, e);
             }
             sp += (size_t)k;
         }

@@ -243,6 +243,18 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_binary)(TB_NFN(tb_native_fn) test, size_t strid
     }
 }
 
+/* The order a wide node's children met are entered in, for both walks of the wide tree: child
+ * `e`, met after the j children at kids[0 .. j-1] (in lane order), is inserted among them, which
+ * stay sorted by entry distance, farthest first, so that the nearest ends on top of the stack; an
+ * equal entry goes above the lower lanes', so the lower child is entered first (as the binary
+ * walk's left). A macro, as the two walks' entries differ in type; j is moved. */
+#define TB_BVH_PUSH_IN_ORDER(kids, j, e)                     \
+    do {                                                     \
+        for (; (j) > 0 && (kids)[(j) - 1].t <= (e).t; --(j)) \
+            (kids)[j] = (kids)[(j) - 1];                     \
+        (kids)[j] = (e);                                     \
+    } while (0)
+
 /* The wide tree, one ray, in order (Wald et al. 2008; Embree does the
  * same): a wide node's children are tested at once; those met are pushed
  * farthest first, so the nearest is entered next and each popped child is
@@ -307,9 +319,7 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
                     else if (e.a < job->n_slots) /* a leaf's first block: a line per field */
                         for (size_t f = 0; f < stride; ++f)
                             __builtin_prefetch((const real *)job->base.records + stride * e.a + 16 * f);
-                    for (; j > 0 && kids[j - 1].t <= e.t; --j)
-                        kids[j] = kids[j - 1];
-                    kids[j] = e;
+                    TB_BVH_PUSH_IN_ORDER(kids, j, e);
                 }
                 sp += (size_t)k - 1;
                 a = kids[k - 1].a;
@@ -465,6 +475,7 @@ stop:
 #undef tb_wv_max
 #undef tb_wv_min
 #undef tb_wv_le_bits
+#undef TB_BVH_PUSH_IN_ORDER
 
 /* Entry points of one native kernel's BVH traversals for this ISA (the wide
  * tree's, which also walk it by packets, then the binary tree's: bvh.c's
