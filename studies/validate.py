@@ -23,7 +23,7 @@ for non-finite input (clean kernels). Rays exactly in a triangle's plane are
 measured for every kernel (``in_plane_rays``: their answer is rounding's). Everything else is
 ``measured``: reported, never judged.
 
-Sizes: :data:`FULL` (``tribench validate``; about 0.5 s per kernel and
+Sizes: :data:`FULL` (``tribench validate``; about 0.3 s per kernel and
 precision on one core) and :data:`QUICK` (``--quick``, the tests).
 """
 
