@@ -10,7 +10,11 @@ Printed per ray: instructions, loads, stores, L1 and L2 load misses, conditional
 the model's mispredictions. For tribench, instructions and misses are also split by source file
 between the walk (ext/bvh*), the leaf test (ext/kernels/, ext/native.h and fmaintrin.h: the
 leaves' loads) and code either inlines (avxintrin.h, ext/core.h), beside tribench's own counts
-of nodes entered and triangles tested; Embree's library has no line tables, so its costs are one.
+of nodes entered and triangles tested. Embree's library has no line tables, so its costs are one;
+but its single-ray walk tests a node with one 8-wide mask (vmovmskps of a ymm register) and a
+block of four triangles with one 4-wide mask (the one after the triangle test's products), so the
+executions of those instructions, found in its disassembly (objdump), count its node tests and its
+triangle blocks a ray.
 As in bench/embree_native.py, a contender is counted only where its closest triangles, traced
 natively, are the float64 reference's (but on ambiguous rays): the same work on every side.
 
@@ -28,6 +32,7 @@ triangles each contender takes 1-3 minutes (Embree's build most of it), two at a
 from __future__ import annotations
 
 import argparse
+import re
 import shutil
 import subprocess
 import sys
@@ -116,6 +121,7 @@ def count(arrays: Path, name: str, function: str, args: argparse.Namespace) -> P
     out = arrays.with_name(name.replace(" ", "_") + ".callgrind")
     valgrind = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--D1={args.l1}"]
     valgrind += [f"--LL={args.l2}", "--collect-atstart=no", f"--toggle-collect={function}"]
+    valgrind += ["--dump-instr=yes"] if name.startswith("embree ") else []  # its masks, by address
     child = [sys.executable, __file__, "--child", str(arrays), name, "--isa", args.isa]
     run = subprocess.run([*valgrind, f"--callgrind-out-file={out}", *child], capture_output=True, text=True)
     if run.returncode != 0:
@@ -129,10 +135,13 @@ def costs_by_file(profile: Path) -> tuple[list[str], dict[str, np.ndarray]]:
     names: dict[tuple[bool, str], str] = {}  # files and functions are numbered apart
     by_file: dict[str, np.ndarray] = defaultdict(lambda: np.zeros(len(events)))
     file = function_file = ""
+    positions = 1  # a cost line's leading columns: its line, or its instruction's address and line
     skip_next = False  # the cost line after calls= is the callee's inclusive cost
     for line in profile.read_text().splitlines():
         key, _, value = line.partition("=")
-        if line.startswith("events:"):
+        if line.startswith("positions:"):
+            positions = len(line.split()) - 1
+        elif line.startswith("events:"):
             events = line.split()[1:]
         elif key in FILE_KEYS or key == "fn":
             if value.startswith("("):  # name compression: "(id) name" once, "(id)" after
@@ -150,9 +159,60 @@ def costs_by_file(profile: Path) -> tuple[list[str], dict[str, np.ndarray]]:
             if skip_next:
                 skip_next = False
                 continue
-            fields = line.split()[1:]
+            fields = line.split()[positions:]
             by_file[file] += np.array([int(f) for f in fields] + [0] * (len(events) - len(fields)))
     return events, by_file
+
+
+def executions(profile: Path, library: str) -> tuple[str, dict[int, int]]:
+    """The path of the object whose name holds ``library``, and how many times each of its
+    instructions ran (its Ir by address, from a ``--dump-instr=yes`` profile)."""
+    objects: dict[str, str] = {}
+    found, where, address, skip_next, positions = "", "", 0, False, 1
+    ran: dict[int, int] = defaultdict(int)
+    for line in profile.read_text().splitlines():
+        key, _, value = line.partition("=")
+        if line.startswith("positions:"):
+            positions = len(line.split()) - 1  # "instr line": the address, then the line
+        elif key in ("ob", "cob") and value.startswith("("):
+            ident, _, given = value[1:].partition(")")
+            name = objects.setdefault(ident, given.strip())
+            if key == "ob":
+                where = name
+        elif key == "calls":
+            skip_next = True
+        elif line and (line.startswith("0x") or line[0] in "+-*"):
+            first, *rest = line.split()
+            address = address if first == "*" else address + int(first) if first[0] in "+-" else int(first, 16)
+            if skip_next:
+                skip_next = False
+            elif library in where:
+                found = where
+                ran[address] += int(rest[positions - 1]) if len(rest) >= positions else 0  # Ir
+    return found, dict(ran)
+
+
+def embree_masks(profile: Path, rays: int) -> str:
+    """Embree's node tests and triangle blocks a ray, from its mask instructions (see above): the
+    8-wide masks are its node tests; of its 4-wide ones, the block test's is the one after the most
+    multiplies (a ray's setup and a hit's update have masks of their own, with little arithmetic)."""
+    library, ran = executions(profile, "libembree")
+    if not ran or shutil.which("objdump") is None:
+        return "its node tests not counted (no instruction costs in its library, or no objdump)"
+    span = [f"--start-address={min(ran):#x}", f"--stop-address={max(ran) + 1:#x}"]
+    listing = subprocess.run(["objdump", "-d", "--no-show-raw-insn", *span, library], capture_output=True, text=True)
+    nodes, blocks, products = 0, (-1, 0), 0  # blocks: (products before the mask, its executions)
+    for line in listing.stdout.splitlines():
+        address, _, text = line.strip().partition(":")
+        products += bool(re.search(r"\bv(fn?m|mul)", text))  # vmul*, vfmadd*, vfmsub*, vfnm*
+        if "vmovmskps" in text:
+            n = ran.get(int(address, 16), 0)
+            if "%ymm" in text:
+                nodes += n
+            elif n and products > blocks[0]:
+                blocks = (products, n)
+            products = 0
+    return f"{nodes / rays:.2f} node tests (8-wide masks), {blocks[1] / rays:.2f} blocks of 4 triangles a ray"
 
 
 def part(file: str) -> str:
@@ -174,8 +234,10 @@ def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray | 
             raise SystemExit(f"{name}: nothing collected (has the traced function's name changed?)")
         print(f"  {name:<34}" + "".join(f"{total[events.index(e)] / rays:16.1f}" for e in EVENTS))
         tree = counts[name]
-        if tree is None:
-            continue  # Embree: one function without line tables, not split
+        if tree is None:  # Embree: one function without line tables, not split; its masks counted
+            if not name.endswith("16"):  # single rays (rtcIntersect16's masks are over rays)
+                print(f"    {embree_masks(profile, rays)}")
+            continue
         parts = {p: np.zeros(len(events)) for p in PARTS}
         for file, cost in by_file.items():
             parts[part(file)] += cost / rays

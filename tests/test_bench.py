@@ -101,6 +101,42 @@ def test_the_callgrind_profile_is_read_file_by_file(tmp_path):
     assert counts.part("/usr/lib/gcc/include/avxintrin.h") == "either"  # the walk's vectors and the leaves' alike
 
 
+# The same with --dump-instr=yes: each cost line starts with its instruction's address (absolute,
+# relative or "*"), then its line; objects named like files (ob=, and a call's cob=).
+PROFILE_BY_INSTRUCTION = """\
+# callgrind format
+version: 1
+positions: instr line
+events: Ir D1mr
+
+ob=(1) /usr/lib/libembree3.so.3
+fl=(1) ???
+fn=(1) 0x0000000000001000
+0x1000 0 5 1
++4 0 5
+cob=(2) /work/peer.so
+cfl=(2) ???
+cfn=(2) 0x0000000000002000
+calls=1 0x2000 0
+* 0 100
++3 0 2
+
+ob=(2)
+fl=(2)
+fn=(2)
+0x2000 0 9
+"""
+
+
+def test_the_callgrind_profile_by_instruction_is_read_by_address(tmp_path):
+    counts = load_script("bvh_counts")
+    (profile := tmp_path / "p.callgrind").write_text(PROFILE_BY_INSTRUCTION)
+    assert counts.executions(profile, "libembree") == ("/usr/lib/libembree3.so.3", {0x1000: 5, 0x1004: 5, 0x1007: 2})
+    assert counts.executions(profile, "libnothing") == ("", {})
+    events, by_file = counts.costs_by_file(profile)  # the two position columns are not costs
+    assert events == ["Ir", "D1mr"] and list(by_file["???"]) == [21, 1]
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
 def test_bvh_counts_counts_each_contender_under_valgrind(tmp_path):
@@ -119,3 +155,6 @@ def test_bvh_counts_counts_each_contender_under_valgrind(tmp_path):
         assert all(float(r[-7]) > 0 for r in counted)  # instructions a ray
     split = [line for line in done.stdout.splitlines() if "walk | leaf test | either" in line]
     assert len(split) == 2
+    # Embree's single rays, both modes, both ray sets: its node tests and triangle blocks, counted
+    masks = [line.split() for line in done.stdout.splitlines() if "node tests (8-wide masks)" in line]
+    assert len(masks) == 4 and all(float(m[0]) > 0 and float(m[5]) > 0 for m in masks)
