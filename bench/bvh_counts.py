@@ -50,8 +50,19 @@ from tribench.workloads.spec import MeshSpec
 
 RAYS = ("camera", "bounce")
 KERNELS = ["moller_trumbore_fma", "woop_fma", "baldwin_weber_12_fma", "havel_herout_fma"]
-#: The keys that name a source file in callgrind's format (a call's target's too: cfi, cfl).
-FILE_KEYS = ("fl", "fi", "fe", "cfi", "cfl")
+#: The keys that name things in callgrind's format, and the namespace each numbers its names in:
+#: objects, source files and functions (a call's target's too: cob, cfi, cfl, cfn).
+NAMESPACES = {
+    "ob": "ob",
+    "cob": "ob",
+    "fl": "fl",
+    "fi": "fl",
+    "fe": "fl",
+    "cfi": "fl",
+    "cfl": "fl",
+    "fn": "fn",
+    "cfn": "fn",
+}
 #: The parts of tribench's trace that its costs are split between (:func:`part`).
 PARTS = ("walk", "leaf test", "either")
 #: callgrind's events, and the names they are printed under (per ray).
@@ -129,66 +140,64 @@ def count(arrays: Path, name: str, function: str, args: argparse.Namespace) -> P
     return out
 
 
-def costs_by_file(profile: Path) -> tuple[list[str], dict[str, np.ndarray]]:
-    """callgrind's events, and the self cost of each source file (inlined code under its own file)."""
+def cost_lines(profile: Path) -> tuple[list[str], list[tuple[str, str, int, list[int]]]]:
+    """callgrind's events, and each line of self cost: its object, its source file (inlined code
+    under its own file), its instruction's address (0 without ``--dump-instr=yes``) and its costs."""
     events: list[str] = []
-    names: dict[tuple[bool, str], str] = {}  # files and functions are numbered apart
-    by_file: dict[str, np.ndarray] = defaultdict(lambda: np.zeros(len(events)))
-    file = function_file = ""
-    positions = 1  # a cost line's leading columns: its line, or its instruction's address and line
-    skip_next = False  # the cost line after calls= is the callee's inclusive cost
+    positions = ["line"]  # a cost line's leading columns: its line, or its instruction's address and line
+    names: dict[tuple[str, str], str] = {}  # objects, files and functions are numbered apart
+    obj = file = function_file = ""
+    address, skip_next, rows = 0, False, []
     for line in profile.read_text().splitlines():
         key, _, value = line.partition("=")
         if line.startswith("positions:"):
-            positions = len(line.split()) - 1
+            positions = line.split()[1:]
         elif line.startswith("events:"):
             events = line.split()[1:]
-        elif key in FILE_KEYS or key == "fn":
+        elif key in NAMESPACES:
             if value.startswith("("):  # name compression: "(id) name" once, "(id)" after
                 ident, _, given = value[1:].partition(")")
-                value = names.setdefault((key == "fn", ident), given.strip())
-            if key == "fl":
+                value = names.setdefault((NAMESPACES[key], ident), given.strip())
+            if key == "ob":
+                obj = value
+            elif key == "fl":
                 file = function_file = value
             elif key == "fn":
                 file = function_file
             elif key in ("fi", "fe"):
                 file = value
         elif key == "calls":
-            skip_next = True
+            skip_next = True  # the cost line after calls= is the callee's inclusive cost
         elif line and (line[0].isdigit() or line[0] in "+-*"):
+            fields = line.split()
+            if positions[0] == "instr":  # absolute, relative to the last, or the same ("*")
+                first = fields[0]
+                address = address if first == "*" else address + int(first) if first[0] in "+-" else int(first, 16)
             if skip_next:
                 skip_next = False
                 continue
-            fields = line.split()[positions:]
-            by_file[file] += np.array([int(f) for f in fields] + [0] * (len(events) - len(fields)))
+            rows.append((obj, file, address, [int(f) for f in fields[len(positions) :]]))
+    return events, rows
+
+
+def costs_by_file(profile: Path) -> tuple[list[str], dict[str, np.ndarray]]:
+    """callgrind's events, and the self cost of each source file (inlined code under its own file)."""
+    events, rows = cost_lines(profile)
+    by_file: dict[str, np.ndarray] = defaultdict(lambda: np.zeros(len(events)))
+    for _, file, _, costs in rows:
+        by_file[file] += np.array(costs + [0] * (len(events) - len(costs)))
     return events, by_file
 
 
 def executions(profile: Path, library: str) -> tuple[str, dict[int, int]]:
     """The path of the object whose name holds ``library``, and how many times each of its
     instructions ran (its Ir by address, from a ``--dump-instr=yes`` profile)."""
-    objects: dict[str, str] = {}
-    found, where, address, skip_next, positions = "", "", 0, False, 1
-    ran: dict[int, int] = defaultdict(int)
-    for line in profile.read_text().splitlines():
-        key, _, value = line.partition("=")
-        if line.startswith("positions:"):
-            positions = len(line.split()) - 1  # "instr line": the address, then the line
-        elif key in ("ob", "cob") and value.startswith("("):
-            ident, _, given = value[1:].partition(")")
-            name = objects.setdefault(ident, given.strip())
-            if key == "ob":
-                where = name
-        elif key == "calls":
-            skip_next = True
-        elif line and (line.startswith("0x") or line[0] in "+-*"):
-            first, *rest = line.split()
-            address = address if first == "*" else address + int(first) if first[0] in "+-" else int(first, 16)
-            if skip_next:
-                skip_next = False
-            elif library in where:
-                found = where
-                ran[address] += int(rest[positions - 1]) if len(rest) >= positions else 0  # Ir
+    events, rows = cost_lines(profile)
+    found, ran = "", defaultdict(int)
+    for obj, _, address, costs in rows:
+        if library in obj and costs:
+            found = obj
+            ran[address] += costs[events.index("Ir")]
     return found, dict(ran)
 
 
