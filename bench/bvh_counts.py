@@ -53,15 +53,9 @@ KERNELS = ["moller_trumbore_fma", "woop_fma", "baldwin_weber_12_fma", "havel_her
 #: The keys that name things in callgrind's format, and the namespace each numbers its names in:
 #: objects, source files and functions (a call's target's too: cob, cfi, cfl, cfn).
 NAMESPACES = {
-    "ob": "ob",
-    "cob": "ob",
-    "fl": "fl",
-    "fi": "fl",
-    "fe": "fl",
-    "cfi": "fl",
-    "cfl": "fl",
-    "fn": "fn",
-    "cfn": "fn",
+    **dict.fromkeys(("ob", "cob"), "ob"),
+    **dict.fromkeys(("fl", "fi", "fe", "cfi", "cfl"), "fl"),
+    **dict.fromkeys(("fn", "cfn"), "fn"),
 }
 #: The parts of tribench's trace that its costs are split between (:func:`part`).
 PARTS = ("walk", "leaf test", "either")
