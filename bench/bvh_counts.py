@@ -174,32 +174,31 @@ def cost_lines(profile: Path) -> tuple[list[str], list[tuple[str, str, int, list
     return events, rows
 
 
-def costs_by_file(profile: Path) -> tuple[list[str], dict[str, np.ndarray]]:
-    """callgrind's events, and the self cost of each source file (inlined code under its own file)."""
-    events, rows = cost_lines(profile)
+def costs_by_file(events: list[str], rows: list) -> dict[str, np.ndarray]:
+    """The self cost of each source file (inlined code under its own file), from :func:`cost_lines`."""
     by_file: dict[str, np.ndarray] = defaultdict(lambda: np.zeros(len(events)))
     for _, file, _, costs in rows:
         by_file[file] += np.array(costs + [0] * (len(events) - len(costs)))
-    return events, by_file
+    return by_file
 
 
-def executions(profile: Path, library: str) -> tuple[str, dict[int, int]]:
+def executions(events: list[str], rows: list, library: str) -> tuple[str, dict[int, int]]:
     """The path of the object whose name holds ``library``, and how many times each of its
-    instructions ran (its Ir by address, from a ``--dump-instr=yes`` profile)."""
-    events, rows = cost_lines(profile)
+    instructions ran (its Ir by address, from :func:`cost_lines` of a ``--dump-instr=yes`` profile)."""
+    ir = events.index("Ir")
     found, ran = "", defaultdict(int)
     for obj, _, address, costs in rows:
         if library in obj and costs:
             found = obj
-            ran[address] += costs[events.index("Ir")]
+            ran[address] += costs[ir]
     return found, dict(ran)
 
 
-def embree_masks(profile: Path, rays: int) -> str:
-    """Embree's node tests and triangle blocks a ray, from its mask instructions (see above): the
-    8-wide masks are its node tests; of its 4-wide ones, the block test's is the one after the most
-    multiplies (a ray's setup and a hit's update have masks of their own, with little arithmetic)."""
-    library, ran = executions(profile, "libembree")
+def embree_masks(library: str, ran: dict[int, int], rays: int) -> str:
+    """Embree's node tests and triangle blocks a ray, from its mask instructions (see above) and
+    :func:`executions` in its ``library``: the 8-wide masks are its node tests; of its 4-wide ones,
+    the block test's is the one after the most multiplies (a ray's setup and a hit's update have
+    masks of their own, with little arithmetic)."""
     if not ran or shutil.which("objdump") is None:
         return "its node tests not counted (no instruction costs in its library, or no objdump)"
     span = [f"--start-address={min(ran):#x}", f"--stop-address={max(ran) + 1:#x}"]
@@ -231,7 +230,8 @@ def part(file: str) -> str:
 def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray | None]) -> None:
     print(f"  {'per ray':<34}" + "".join(f"{e:>16}" for e in EVENTS.values()))
     for name, profile in profiles.items():
-        events, by_file = costs_by_file(profile)
+        events, rows = cost_lines(profile)  # read once: the costs by file and, for Embree, by address
+        by_file = costs_by_file(events, rows)
         total = sum(by_file.values(), np.zeros(len(events)))
         if total[events.index("Ir")] == 0:
             raise SystemExit(f"{name}: nothing collected (has the traced function's name changed?)")
@@ -239,7 +239,7 @@ def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray | 
         tree = counts[name]
         if tree is None:  # Embree: one function without line tables, not split; its masks counted
             if not name.endswith("16"):  # single rays (rtcIntersect16's masks are over rays)
-                print(f"    {embree_masks(profile, rays)}")
+                print(f"    {embree_masks(*executions(events, rows, 'libembree'), rays)}")
             continue
         parts = {p: np.zeros(len(events)) for p in PARTS}
         for file, cost in by_file.items():

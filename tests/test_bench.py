@@ -88,7 +88,8 @@ fi=(4) /usr/lib/gcc/include/fmaintrin.h
 def test_the_callgrind_profile_is_read_file_by_file(tmp_path):
     counts = load_script("bvh_counts")
     (profile := tmp_path / "p.callgrind").write_text(PROFILE)
-    events, by_file = counts.costs_by_file(profile)
+    events, rows = counts.cost_lines(profile)
+    by_file = counts.costs_by_file(events, rows)
     assert events == ["Ir", "D1mr"]
     got = {f: list(c) for f, c in by_file.items() if c.any()}
     assert got == {
@@ -131,9 +132,13 @@ fn=(2)
 def test_the_callgrind_profile_by_instruction_is_read_by_address(tmp_path):
     counts = load_script("bvh_counts")
     (profile := tmp_path / "p.callgrind").write_text(PROFILE_BY_INSTRUCTION)
-    assert counts.executions(profile, "libembree") == ("/usr/lib/libembree3.so.3", {0x1000: 5, 0x1004: 5, 0x1007: 2})
-    assert counts.executions(profile, "libnothing") == ("", {})
-    events, by_file = counts.costs_by_file(profile)  # the two position columns are not costs
+    events, rows = counts.cost_lines(profile)
+    assert counts.executions(events, rows, "libembree") == (
+        "/usr/lib/libembree3.so.3",
+        {0x1000: 5, 0x1004: 5, 0x1007: 2},
+    )
+    assert counts.executions(events, rows, "libnothing") == ("", {})
+    by_file = counts.costs_by_file(events, rows)  # the two position columns are not costs
     assert events == ["Ir", "D1mr"] and list(by_file["???"]) == [21, 1]
 
 
