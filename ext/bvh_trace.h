@@ -53,9 +53,11 @@ TB_NWIDE int TB_NFN(tb_bvh_child_sound)(const tb_bvh_wide *w, int i, uint32_t at
  * lane by lane. max and min keep the running value when the new one is NaN
  * (the 0 x inf case above): the AVX forms return their second operand on a
  * NaN, and the baseline's select does the same. An empty child's box
- * (+inf, -inf) is missed by every finite ray. rows: the ray's entry and
- * exit plane per axis (tb_bvh_trace_wide), so that a node's loads need no
- * arithmetic on the ray's signs. Returns the bits of the
+ * (+inf, -inf) is missed by every finite ray. rows: the byte offsets of
+ * the ray's entry and exit plane per axis (tb_bvh_trace_wide), so that a
+ * node's loads need no arithmetic on the ray's signs. Written as
+ * (o - b) * -inv, which is (b - o) * inv bit for bit (negation is exact), so
+ * that each plane's load folds into the subtraction. Returns the bits of the
  * children met, and their entry distances in *t_in. */
 #if TB_NISA_ID >= 1 && !TB_REAL_IS_DOUBLE
 #define tb_wv_max(a, b) _mm256_max_ps(a, b)
@@ -80,16 +82,17 @@ TB_NWIDE unsigned TB_NFN(tb_wv_bits)(vmask m)
     return TB_FN(tb_lane_bits)(lanes, TB_BVH_WIDTH);
 }
 #endif
-TB_NWIDE unsigned TB_NFN(tb_bvh_wide_box)(const tb_bvh_wide *w, const vreal org[3], const vreal inv[3],
-                                          const vreal inv_far[3], const int rows[6], real t_max, vreal *t_in)
+TB_NWIDE unsigned TB_NFN(tb_bvh_wide_box)(const tb_bvh_wide *w, const vreal org[3], const vreal ninv[3],
+                                          const vreal ninv_far[3], const size_t rows[6], real t_max, vreal *t_in)
 {
     vreal t0 = (vreal){0}, t1 = t_max + (vreal){0};
+    const char *planes = (const char *)w->b;
     for (int k = 0; k < 3; ++k) {
         vreal enter, leave;
-        memcpy(&enter, w->b[rows[2 * k]], sizeof enter);
-        memcpy(&leave, w->b[rows[2 * k + 1]], sizeof leave);
-        t0 = tb_wv_max((enter - org[k]) * inv[k], t0);
-        t1 = tb_wv_min((leave - org[k]) * inv_far[k], t1);
+        memcpy(&enter, planes + rows[2 * k], sizeof enter);
+        memcpy(&leave, planes + rows[2 * k + 1], sizeof leave);
+        t0 = tb_wv_max((org[k] - enter) * ninv[k], t0);
+        t1 = tb_wv_min((org[k] - leave) * ninv_far[k], t1);
     }
     *t_in = t0;
     return tb_wv_le_bits(t0, t1);
@@ -277,21 +280,21 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
     size_t sp = 0;
     if (!ray->finite)
         return 1;
-    vreal org[3], inv[3], inv_far[3];
-    int rows[6];
+    vreal org[3], ninv[3], ninv_far[3];
+    size_t rows[6];
     for (int k = 0; k < 3; ++k) {
         org[k] = ray->org[k] + (vreal){0};
-        inv[k] = ray->inv[k] + (vreal){0};
-        inv_far[k] = ray->inv_far[k] + (vreal){0};
-        rows[2 * k] = 2 * k + ray->near[k];
-        rows[2 * k + 1] = 2 * k + 1 - ray->near[k];
+        ninv[k] = -ray->inv[k] + (vreal){0};
+        ninv_far[k] = -ray->inv_far[k] + (vreal){0};
+        rows[2 * k] = (size_t)(2 * k + ray->near[k]) * sizeof(vreal);
+        rows[2 * k + 1] = (size_t)(2 * k + 1 - ray->near[k]) * sizeof(vreal);
     }
     uint32_t a = 0, n = 0; /* the root, wide node 0 */
     for (;;) {
         if (n == 0) {
             const tb_bvh_wide *w = &nodes[a];
             vreal t_in;
-            unsigned met = TB_NFN(tb_bvh_wide_box)(w, org, inv, inv_far, rows, b->t, &t_in);
+            unsigned met = TB_NFN(tb_bvh_wide_box)(w, org, ninv, ninv_far, rows, b->t, &t_in);
             ++c[0];
             c[1] += TB_BVH_WIDTH;
             if (met && !(met & (met - 1))) { /* one child met: entered at once, no sort, no push */
