@@ -286,8 +286,8 @@ TB_NWIDE int TB_NFN(tb_bvh_trace_wide)(TB_NFN(tb_native_fn) test, size_t stride,
         org[k] = ray->org[k] + (vreal){0};
         ninv[k] = -ray->inv[k] + (vreal){0};
         ninv_far[k] = -ray->inv_far[k] + (vreal){0};
-        rows[2 * k] = (size_t)(2 * k + ray->near[k]) * sizeof(vreal);
-        rows[2 * k + 1] = (size_t)(2 * k + 1 - ray->near[k]) * sizeof(vreal);
+        rows[2 * k] = (size_t)(2 * k + ray->near[k]) * sizeof nodes->b[0];
+        rows[2 * k + 1] = (size_t)(2 * k + 1 - ray->near[k]) * sizeof nodes->b[0];
     }
     uint32_t a = 0, n = 0; /* the root, wide node 0 */
     for (;;) {
