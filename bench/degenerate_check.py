@@ -22,12 +22,13 @@ About 5 s. Run: ``python bench/degenerate_check.py``.
 from __future__ import annotations
 
 import os
-import platform
 import subprocess
 import sys
 import sysconfig
 import tempfile
 from pathlib import Path
+
+from tribench.harness.machine import cpu_model
 
 SOURCE = r"""#define _POSIX_C_SOURCE 199309L
 #include <stdint.h>
@@ -174,16 +175,6 @@ int main(void)
     return 0;
 }
 """
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def main() -> int:

@@ -26,12 +26,11 @@ Workloads (float32 unless --dtype):
 from __future__ import annotations
 
 import argparse
-import platform
-import subprocess
 
 import numpy as np
 
 from tribench import ext, workloads
+from tribench.harness.machine import cpu_model
 from tribench.workloads.spec import MeshSpec
 
 YARDSTICK = "moller_trumbore_yardstick"
@@ -62,15 +61,6 @@ FORMS = [
     ("curless_x8", None),
     ("curless_fma", None),
 ]
-
-
-def cpu_model() -> str:
-    """lscpu's model name (the machine the figures come from)."""
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return platform.processor() or "unknown"
-    return next((line.split(":", 1)[1].strip() for line in out.splitlines() if line.startswith("Model name")), "?")
 
 
 def stack(n_tris: int, n_rays: int, hit_rate: float, dtype: type, seed: int = 0) -> tuple:

@@ -38,8 +38,16 @@ def _read(path: str) -> str | None:
 
 
 def cpu_model() -> str:
+    """The CPU's name, with its family and model numbers where /proc/cpuinfo gives them.
+
+    A hypervisor may show only a brand ("AMD EPYC" for a Zen 3, a Zen 4 and a Zen 5 alike); the
+    family and model tell them apart, so that a figure names its machine and a calibration's
+    margin (harness.margin.latest_margin) is applied only on the CPU it was measured on.
+    """
     info = _cpuinfo()
-    return info.get("model name") or info.get("Model") or platform.processor() or platform.machine()
+    name = info.get("model name") or info.get("Model") or platform.processor() or platform.machine()
+    family, model = info.get("cpu family"), info.get("model")
+    return f"{name} (family {family}, model {model})" if family and model else name
 
 
 def simd_features() -> list[str]:

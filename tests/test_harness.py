@@ -15,7 +15,7 @@ import pytest
 from conftest import safe_pairs
 
 from tribench import ext
-from tribench.harness import checks, runfolder, worker
+from tribench.harness import checks, machine, runfolder, worker
 from tribench.harness.plan import BatchKey, Sweep, plan
 from tribench.harness.sweep_file import expand_workloads, load_sweep_file
 from tribench.studies import calibrate as calibration
@@ -360,6 +360,22 @@ def test_latest_margin_uses_a_calibration_of_this_cpu_only(tmp_path):
     m = calibration.latest_margin("cpu x")
     assert m.value == 0.02 and str(path) in m.source
     assert calibration.latest_margin("cpu y").value == 0.01
+
+
+def test_two_cpus_behind_one_brand_name_are_two_machines(tmp_path, monkeypatch):
+    """A hypervisor shows a Zen 3 and a Zen 5 both as "AMD EPYC": their family and model numbers
+    name them apart, so the Zen 5's calibration is not applied on the Zen 3."""
+    brand = {"model name": "AMD EPYC", "stepping": "1"}
+    monkeypatch.setattr(machine, "_cpuinfo", lambda: {**brand, "cpu family": "26", "model": "2"})
+    zen5 = machine.cpu_model()
+    monkeypatch.setattr(machine, "_cpuinfo", lambda: {**brand, "cpu family": "25", "model": "1"})
+    zen3 = machine.cpu_model()
+    assert (zen5, zen3) == ("AMD EPYC (family 26, model 2)", "AMD EPYC (family 25, model 1)")
+    calibration.user_calibration_path().write_text(json.dumps({"margin": 0.03, "cpu_model": zen5}))
+    assert calibration.latest_margin(zen5).value == 0.03
+    assert "another CPU" in calibration.latest_margin(zen3).source
+    monkeypatch.setattr(machine, "_cpuinfo", lambda: {"Model": "Raspberry Pi 4 Model B Rev 1.4"})
+    assert machine.cpu_model() == "Raspberry Pi 4 Model B Rev 1.4"  # no numbers given: the name alone
 
 
 def test_batch_key_warmup_flag():
