@@ -34,6 +34,7 @@ import numpy as np
 from tribench import ext
 from tribench.ext import _core
 from tribench.harness import layout
+from tribench.harness.machine import describe
 from tribench.harness.runner import default_cpu
 from tribench.workloads import meshes
 from tribench.workloads.rays import camera_rays
@@ -116,6 +117,7 @@ def main() -> None:
     parser.add_argument("--trace-level", type=int, default=4, help="subdivisions of the traced mesh (4: 247,808)")
     parser.add_argument("--kernels", nargs="+", default=["moller_trumbore_fma", "moller_trumbore_fma_exit"])
     args = parser.parse_args()
+    print(describe())
     layout.pin(default_cpu())  # one core
     levels = [2, 3] if args.quick else [2, 3, 4, 5]
     width, height = (128, 128) if args.quick else map(int, args.camera.split("x"))

@@ -45,6 +45,7 @@ import numpy as np
 
 from tribench import ext
 from tribench.ext import embree
+from tribench.harness.machine import describe
 from tribench.workloads import bvh_cache, make
 from tribench.workloads.spec import MeshSpec
 
@@ -282,6 +283,7 @@ def main() -> None:
         raise SystemExit(why)
     args.l1, args.l2 = args.l1 or cache_option(1, "Data"), args.l2 or cache_option(2, "Unified")
     width, height = map(int, args.camera.split("x"))
+    print(describe())
     print(f"{embree.version()}; callgrind's L1 {args.l1}, L2 {args.l2} (size,ways,line); float32")
     named = contenders(args.kernels, args.isa, args.packets)
     with tempfile.TemporaryDirectory() as tmp:

@@ -29,6 +29,7 @@ import numpy as np
 
 from tribench import ext
 from tribench.harness import layout
+from tribench.harness.machine import describe
 from tribench.harness.runner import default_cpu
 from tribench.workloads import bvh_cache, make
 from tribench.workloads.spec import MeshSpec
@@ -51,6 +52,7 @@ def main() -> None:
     parser.add_argument("--batch-ms", type=float, default=10.0)
     parser.add_argument("--quick", action="store_true", help="20,000 triangles, 64x64, 3 rounds")
     args = parser.parse_args()
+    print(describe())
     if args.quick:
         args.triangles, args.camera, args.rounds = 20_000, "64x64", 3
     layout.pin(default_cpu())

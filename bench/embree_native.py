@@ -37,6 +37,7 @@ import numpy as np
 from tribench import ext, stats
 from tribench.ext import embree
 from tribench.harness import layout
+from tribench.harness.machine import describe
 from tribench.harness.runner import default_cpu
 from tribench.workloads import bvh_cache, make
 from tribench.workloads.spec import MeshSpec
@@ -133,6 +134,7 @@ def main() -> None:
     layout.pin(default_cpu())  # one core, for tribench and Embree alike
     width, height = map(int, args.camera.split("x"))
     rng = np.random.default_rng(0)
+    print(describe())
     print(f"{embree.version()}; tribench {ext.kernel_info(args.kernels[0]).isa} machine; one core, float32")
     for n in args.triangles:
         t0 = time.perf_counter()

@@ -39,6 +39,7 @@ import numpy as np
 
 from tribench import ext
 from tribench.harness import runfolder, runner
+from tribench.harness.machine import describe
 from tribench.harness.plan import Sweep, plan, process_seed
 from tribench.harness.worker import WorkerJob, calibrate_loops, run_job
 from tribench.workloads import cache
@@ -135,6 +136,7 @@ def main() -> None:
     ap.add_argument("--bare-batches", type=int, default=60, help="bare gaps per job and target")
     ap.add_argument("--keep", metavar="DIR", help="keep the sweeps' run folders under DIR (default: deleted)")
     args = ap.parse_args()
+    print(describe())
     targets = [float(t) for t in args.target_ms.split(",")]
 
     # the bare loop's jobs: the same kernels and workloads, pinned where the workers run

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from tribench import ext
+from tribench.harness.machine import describe
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from conftest import safe_pairs  # noqa: E402  (the tests' safe-margin pairs)
@@ -24,6 +25,7 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=30)
     ap.add_argument("--hit-rates", default="0,0.5,1")
     args = ap.parse_args()
+    print(describe())
     rng = np.random.default_rng(0)
     kernels = [k for k in ext.kernel_names() if "pairs" in ext.kernel_info(k).modes]  # wide forms have no pairs
     print(f"{'dtype':<8}{'hit':>5}  " + "".join(f"{k:>17}" for k in kernels) + "   (ns/test, x = speed vs moller_seed)")

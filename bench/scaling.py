@@ -41,7 +41,7 @@ from scipy import stats
 
 from tribench import ext
 from tribench.harness import layout
-from tribench.harness.machine import cache_bytes
+from tribench.harness.machine import cache_bytes, describe
 
 DEFAULT_KERNELS = ("moller_trumbore", "moller_trumbore_x8")
 
@@ -102,6 +102,7 @@ def _parser() -> argparse.ArgumentParser:
 def main() -> None:
     ap = _parser()
     args = ap.parse_args()
+    print(describe())
 
     kernels = list(dict.fromkeys([*DEFAULT_KERNELS, *args.kernels]))
     for k in kernels:

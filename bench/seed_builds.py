@@ -30,6 +30,7 @@ from pathlib import Path
 
 import tribench
 from tribench import stats
+from tribench.harness.machine import describe
 from tribench.reports import write_report
 from tribench.workloads.spec import MeshSpec
 
@@ -44,6 +45,7 @@ def main() -> int:
     ap.add_argument("--size", type=int, default=48, help="camera side in pixels (default 48, the main job's)")
     ap.add_argument("--out", help="run folder to keep (default: a temporary one, removed)")
     args = ap.parse_args()
+    print(describe())
     builds = [b for b in BUILDS if shutil.which(b.split()[0])]
     for b in sorted(set(BUILDS) - set(builds)):
         print(f"left out: {b} (no {b.split()[0]} here)", file=sys.stderr)

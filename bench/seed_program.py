@@ -37,6 +37,7 @@ import numpy as np
 
 from tribench import stats
 from tribench.harness import layout
+from tribench.harness.machine import describe
 
 PROGRAMS = ("moller", "curless")
 REPLAY = {"moller": "moller_seed_object", "curless": "curless_seed_object"}
@@ -112,6 +113,7 @@ def main() -> None:
     ap.add_argument("--cpu", type=int, default=os.cpu_count() - 1)
     ap.add_argument("--replay", action="store_true", help="also time tribench's object forms in each pair")
     args = ap.parse_args()
+    print(describe())
     jobs = replay_jobs(args.scene) if args.replay else []
     replay: dict[str, list[float]] = {name: [] for name in PROGRAMS}
     scene = (args.source / "Scenes" / f"{args.scene}.txt").resolve()

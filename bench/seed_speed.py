@@ -30,6 +30,7 @@ import tempfile
 
 from tribench import stats
 from tribench.harness import runfolder, runner
+from tribench.harness.machine import describe
 from tribench.harness.plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, Sweep
 from tribench.workloads.spec import MeshSpec, workload_id
 
@@ -45,6 +46,7 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=128, help="camera width and height in pixels")
     ap.add_argument("--cpu", type=int, help="CPU for the workers (default: the harness's, the last)")
     args = ap.parse_args()
+    print(describe())
     kernels = (*SEED_CPP_NS, *CLEAN_FORMS.values())
     workloads = tuple(
         MeshSpec("suzanne", triangles=968, width=args.size, height=args.size, dtype=d) for d in ("float32", "float64")

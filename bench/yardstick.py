@@ -30,7 +30,7 @@ import argparse
 import numpy as np
 
 from tribench import ext, workloads
-from tribench.harness.machine import cpu_model
+from tribench.harness.machine import describe
 from tribench.workloads.spec import MeshSpec
 
 YARDSTICK = "moller_trumbore_yardstick"
@@ -126,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     rng = np.random.default_rng(0)
     dtype = np.dtype(args.dtype).type
-    print(f"CPU: {cpu_model()}; build: {ext.build_info()['compiler']}")
+    print(describe())
     if args.only in (None, "camera"):
         w = workloads.make(MeshSpec("suzanne", triangles=1280, width=128, height=128, dtype=args.dtype))
         bench("camera", w.origins, w.directions, w.triangles, args.rounds, rng)

@@ -50,6 +50,18 @@ def cpu_model() -> str:
     return f"{name} (family {family}, model {model})" if family and model else name
 
 
+def describe() -> str:
+    """One line naming the machine and build a figure comes from, for bench/'s printouts: the CPU,
+    its widest vector ISA, tribench's version and compiler."""
+    from tribench import ext
+
+    simd = simd_features()
+    widest = next(
+        (name for flag, name in (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("asimd", "NEON")) if flag in simd), ""
+    )
+    return f"machine: {cpu_model()}, {widest or 'no AVX2'}; tribench {version()}, {ext.build_info()['compiler']}"
+
+
 def simd_features() -> list[str]:
     """The SIMD-relevant CPU features this machine reports."""
     info = _cpuinfo()
