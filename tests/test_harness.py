@@ -378,6 +378,16 @@ def test_two_cpus_behind_one_brand_name_are_two_machines(tmp_path, monkeypatch):
     assert machine.cpu_model() == "Raspberry Pi 4 Model B Rev 1.4"  # no numbers given: the name alone
 
 
+def test_a_bench_figure_names_its_cpu_widest_isa_and_compiler(monkeypatch):
+    zen5 = {"model name": "AMD EPYC", "cpu family": "26", "model": "2", "flags": "sse2 avx2 fma avx512f"}
+    monkeypatch.setattr(machine, "_cpuinfo", lambda: zen5)
+    line = machine.describe()
+    assert line.startswith("machine: AMD EPYC (family 26, model 2), AVX-512; tribench ")
+    assert line.endswith(ext.build_info()["compiler"])
+    monkeypatch.setattr(machine, "_cpuinfo", lambda: {**zen5, "flags": "sse2 avx2 fma"})
+    assert ", AVX2; " in machine.describe()
+
+
 def test_batch_key_warmup_flag():
     assert BatchKey(0, "w", -1, 0, "k").warmup and not BatchKey(0, "w", 0, 0, "k").warmup
     assert workload_id(PairSpec(n=5)) in {k.workload_id for k in plan(small_sweep(workloads=(PairSpec(n=5),)))}
