@@ -87,6 +87,7 @@ def latest_margin(cpu_model: str | None = None) -> Margin:
     if not isinstance(cal.get("cpu_model"), (str, type(None))):
         raise UserError(f"{path}: key 'cpu_model' must be a string, got {cal['cpu_model']!r:.40}; {_FIX}")
     if cpu_model is not None and cal.get("cpu_model") != cpu_model:
-        return Margin(DEFAULTS.margin, f"default (stats.DEFAULTS.margin: {path} is for another CPU)")
+        other = str(cal.get("cpu_model"))[:200]
+        return Margin(DEFAULTS.margin, f"default (stats.DEFAULTS.margin: {path} is for another CPU, {other})")
     created, run = str(cal.get("created", "?"))[:40], str(cal.get("run_dir", "?"))[:200]
     return Margin(value, f"calibration {path} ({created}, run {run})")

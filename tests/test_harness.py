@@ -373,7 +373,7 @@ def test_two_cpus_behind_one_brand_name_are_two_machines(tmp_path, monkeypatch):
     assert (zen5, zen3) == ("AMD EPYC (family 26, model 2)", "AMD EPYC (family 25, model 1)")
     calibration.user_calibration_path().write_text(json.dumps({"margin": 0.03, "cpu_model": zen5}))
     assert calibration.latest_margin(zen5).value == 0.03
-    assert "another CPU" in calibration.latest_margin(zen3).source
+    assert f"another CPU, {zen5}" in calibration.latest_margin(zen3).source
     monkeypatch.setattr(machine, "_cpuinfo", lambda: {"Model": "Raspberry Pi 4 Model B Rev 1.4"})
     assert machine.cpu_model() == "Raspberry Pi 4 Model B Rev 1.4"  # no numbers given: the name alone
 
