@@ -55,11 +55,9 @@ def describe() -> str:
     its widest vector ISA, tribench's version and compiler."""
     from tribench import ext
 
-    simd = simd_features()
-    widest = next(
-        (name for flag, name in (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("asimd", "NEON")) if flag in simd), ""
-    )
-    return f"machine: {cpu_model()}, {widest or 'no AVX2'}; tribench {version()}, {ext.build_info()['compiler']}"
+    simd = set(simd_features())
+    widest = "AVX-512" if "avx512f" in simd else "AVX2" if "avx2" in simd else "NEON" if "asimd" in simd else "no AVX2"
+    return f"machine: {cpu_model()}, {widest}; tribench {version()}, {ext.build_info()['compiler']}"
 
 
 def simd_features() -> list[str]:
