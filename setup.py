@@ -16,6 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
+from setuptools.command.build_py import build_py
 
 # -ffp-contract=off: no silent FMA contraction (it changes results, and breaks
 # watertight kernels); never -ffast-math (it removes the NaN/Inf handling the
@@ -69,8 +70,17 @@ class ParallelBuildExt(build_ext):
             del compiler.compile  # the class's own again
 
 
+class BuildPackage(build_py):
+    """build_py that leaves this script out of the package: the repository's root is the
+    package `tribench` (pyproject.toml), and a PEP 517 build does not exclude it by itself."""
+
+    def find_package_modules(self, package, package_dir):
+        found = super().find_package_modules(package, package_dir)
+        return [m for m in found if (m[0], m[1]) != ("tribench", "setup")]
+
+
 setup(
-    cmdclass={"build_ext": ParallelBuildExt},
+    cmdclass={"build_ext": ParallelBuildExt, "build_py": BuildPackage},
     ext_modules=[
         Extension(
             "tribench.ext._core",

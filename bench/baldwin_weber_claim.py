@@ -18,9 +18,9 @@ import argparse
 import sys
 import tempfile
 
-from tribench import analysis
 from tribench.harness import runner
 from tribench.harness.plan import Sweep
+from tribench.reports import tables as analysis
 from tribench.workloads.spec import PairSpec
 
 CLAIMANTS = ("baldwin_weber_12", "baldwin_weber_9")

@@ -34,10 +34,11 @@ import time
 import pandas as pd
 
 from tribench.harness import runfolder, runner
+from tribench.harness.jobs.sweep import measure_robustness
 from tribench.harness.plan import Sweep
+from tribench.harness.stats import format_interval
+from tribench.reports import tables
 from tribench.reports.bvh import CLAIMANTS, claim_answer
-from tribench.stats import format_interval
-from tribench.studies.finish import finish
 from tribench.workloads.spec import MeshSpec
 
 BASELINE = "moller_trumbore_fma"
@@ -67,7 +68,11 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.monotonic()
     result = runner.start(sweep, run_dir)
     print(f"{result.batches_run} batches, {sweep.processes} processes, {result.elapsed_s:.0f} s; {result.run_dir}")
-    finish(result.run_dir, baseline=BASELINE if BASELINE in kernels else None, quick=True)
+    tables.write_all(
+        result.run_dir,
+        baseline=BASELINE if BASELINE in kernels else None,
+        validate_note=measure_robustness(result.run_dir, quick=True),
+    )
     bvh = pd.read_csv(result.run_dir / runfolder.BVH)
     print(f"analysed in {time.monotonic() - t0 - result.elapsed_s:.0f} s; {result.run_dir / runfolder.BVH}\n")
 

@@ -39,11 +39,10 @@ from pathlib import Path
 import numpy as np
 from scipy import stats as sps
 
-from tribench import stats
-from tribench.analysis import measured
-from tribench.analysis.pipeline import estimate
-from tribench.harness import runner
+from tribench.harness import runner, stats
 from tribench.harness.plan import Sequential, Sweep
+from tribench.reports.tables import measured
+from tribench.reports.tables.pipeline import estimate
 from tribench.workloads.spec import MeshSpec, PairSpec
 
 REFERENCE, SAME, TWICE, AA = "moller_trumbore", "moller_trumbore_same", "moller_trumbore_twice", "moller_trumbore_aa"

@@ -34,9 +34,9 @@ import time
 
 import numpy as np
 
-from tribench import ext, stats
+from tribench import ext
 from tribench.ext import embree
-from tribench.harness import layout
+from tribench.harness import layout, stats
 from tribench.harness.machine import describe
 from tribench.harness.runner import default_cpu
 from tribench.workloads import bvh_cache, make

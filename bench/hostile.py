@@ -237,7 +237,7 @@ def late_ctrl_c_case(s: Scratch) -> Outcome:
 
 
 def huge_scene_cases(s: Scratch) -> list[Outcome]:
-    from tribench.workloads import seed_scene
+    from tribench.workloads.seed import scene as seed_scene
 
     line = "tri -1 -1 -2  0 1 -2.5  0 -1 -3\n"
     (s.root / "huge.txt").write_text("source 0 3 1 1 1 1\n" + line * (seed_scene.MAX_TRIANGLES + 1))

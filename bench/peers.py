@@ -1,6 +1,6 @@
 """Against peers: rays/s of tribench's fastest brute-force kernel vs trimesh and Embree, as ratios with CIs.
 
-The measurement is ``tribench peers`` (tribench.studies.peers, whose docstring
+The measurement is ``tribench peers`` (tribench.harness.jobs.peers, whose docstring
 says what is timed and how): Suzanne, 968 triangles, 512x512 camera, closest
 hit; fresh worker processes pinned to one CPU with one BLAS thread, each
 contender once per repetition in a random order; rays/s with 95% CIs over

@@ -34,8 +34,7 @@ import tempfile
 
 import numpy as np
 
-from tribench import stats
-from tribench.harness import runfolder, runner
+from tribench.harness import runfolder, runner, stats
 from tribench.harness.plan import DEFAULT_ROUNDS, Sweep
 from tribench.workloads.spec import MeshSpec
 

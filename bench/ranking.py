@@ -30,9 +30,10 @@ import pandas as pd
 
 from tribench import ext, reports
 from tribench.harness import runfolder, runner
+from tribench.harness.jobs.sweep import measure_robustness
 from tribench.harness.plan import Sweep
+from tribench.reports import tables
 from tribench.reports.ranking import algorithm_order, question_rows
-from tribench.studies.finish import finish
 from tribench.workloads.spec import MeshSpec, PairSpec
 
 DTYPES = ("float32", "float64")
@@ -69,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(sweep.kernels)} kernels, {len(sweep.workloads)} workloads, {sweep.n_batches} batches", flush=True)
     done = runner.start(sweep, args.run_dir)
     print(f"{done.batches_run} batches in {done.elapsed_s:.0f} s -> {done.run_dir}")
-    finish(args.run_dir, quick=True)
+    tables.write_all(args.run_dir, validate_note=measure_robustness(args.run_dir, quick=True))
     report = reports.write_report(args.run_dir)
     machine = runner_machine(Path(args.run_dir))
     print(f"machine: {machine}\nreport: {report}\n")

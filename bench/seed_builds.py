@@ -29,7 +29,7 @@ import tempfile
 from pathlib import Path
 
 import tribench
-from tribench import stats
+from tribench.harness import stats
 from tribench.harness.machine import describe
 from tribench.reports import write_report
 from tribench.workloads.spec import MeshSpec

@@ -35,8 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tribench import stats
-from tribench.harness import layout
+from tribench.harness import layout, stats
 from tribench.harness.machine import describe
 
 PROGRAMS = ("moller", "curless")
@@ -47,7 +46,7 @@ def replay_jobs(scene: str) -> list[tuple[dict, float]]:
     """Per object form and ray kind, a timing job and the render's tests over the sample's."""
     from tribench import ext
     from tribench.workloads import cache
-    from tribench.workloads.seed_workload import RAY_KINDS, SeedSpec
+    from tribench.workloads.seed.workload import RAY_KINDS, SeedSpec
 
     jobs = []
     for rays in RAY_KINDS:

@@ -28,8 +28,7 @@ import argparse
 import shutil
 import tempfile
 
-from tribench import stats
-from tribench.harness import runfolder, runner
+from tribench.harness import runfolder, runner, stats
 from tribench.harness.machine import describe
 from tribench.harness.plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, Sweep
 from tribench.workloads.spec import MeshSpec, workload_id

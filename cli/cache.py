@@ -60,8 +60,8 @@ def _line(e, root) -> str:
 
 
 def _list(args: argparse.Namespace) -> int:
-    from tribench.common.location import cache_dir
-    from tribench.workloads.cache_admin import entries
+    from ..common.location import cache_dir
+    from ..workloads.cache_admin import entries
 
     found = entries()
     if not found:
@@ -77,8 +77,8 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _prune(args: argparse.Namespace) -> int:
-    from tribench.common.location import cache_dir
-    from tribench.workloads.cache_admin import parse_size, prune
+    from ..common.location import cache_dir
+    from ..workloads.cache_admin import parse_size, prune
 
     max_bytes = None if args.max_size is None else parse_size(args.max_size)
     done = prune(max_bytes, dry_run=args.dry_run)

@@ -30,11 +30,11 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.studies.calibrate import calibrate, user_calibration_path
+    from ..harness.jobs.calibrate import calibrate, user_calibration_path
 
     workloads: tuple = ()
     if args.workload:
-        from tribench.workloads import cache
+        from ..workloads import cache
 
         workloads = (cache.load(cache.resolve_id(args.workload)).spec,)
     out = args.out or default_run_dir("calibrate")

@@ -18,8 +18,7 @@ import sys
 import threading
 import warnings
 
-from tribench.common import Notice, UserError
-
+from ..common import Notice, UserError
 from . import flags
 
 #: The subcommands' modules, in the order of ``tribench --help``.
@@ -41,7 +40,7 @@ COMMANDS = (
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from tribench.harness.machine import version
+    from ..harness.machine import version
 
     parser = flags.Parser(
         prog="tribench",
@@ -126,7 +125,7 @@ def _run_command(argv: list[str] | None) -> int:
     try:
         args = build_parser().parse_args(argv)
         prog = f"tribench {args.command}"
-        from tribench.harness.runner import SweepError, SweepInterrupted, progress_seconds
+        from ..harness.runner import SweepError, SweepInterrupted, progress_seconds
 
         if getattr(args, "progress", False) is not False:
             progress_seconds()  # a bad $TRIBENCH_PROGRESS_SECONDS fails first, like a bad flag

@@ -6,8 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from tribench.common import UserError, write_text
-
+from ..common import UserError, write_text
 from . import flags
 
 __all__ = ["add_parser", "run"]
@@ -32,9 +31,9 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the comparison of N runs and write it as an HTML page."""
-    from tribench.analysis.compare import compare, run_tags
-    from tribench.reports.compare import format_compare_text, render_compare
-    from tribench.reports.rundata import load_run
+    from ..reports.compare import format_compare_text, render_compare
+    from ..reports.rundata import load_run
+    from ..reports.tables.compare import compare, run_tags
 
     try:
         run_tags(len(args.runs))  # the count first, before reading any folder

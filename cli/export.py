@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tribench.common import write_text
-
+from ..common import write_text
 from . import flags
 
 __all__ = ["add_parser", "run"]
@@ -28,8 +27,8 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print (or write to ``--out``) the run's estimates and speedups in Google Benchmark's JSON format."""
-    from tribench.analysis import export
-    from tribench.reports.rundata import load_run
+    from ..reports.rundata import load_run
+    from ..reports.tables import export
 
     data = load_run(args.run_dir)
     margin = {"value": data.margin, "source": data.margin_source}

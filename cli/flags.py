@@ -169,7 +169,7 @@ def choice_list(choices: Sequence[str]) -> Callable[[str], list[str]]:
 
 def builds(text: str) -> list[str]:
     """Build specs separated by ``;``, each a compiler and its flags (``gcc -O2;clang -O3``)."""
-    from tribench.ext import BuildError, parse_builds
+    from ..ext import BuildError, parse_builds
 
     try:
         specs = list(parse_builds(text))

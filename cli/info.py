@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tribench.common import UserError
-
+from ..common import UserError
 from .options import add_kernel_files, load_kernel_files
 
 __all__ = ["add_parser", "run"]
@@ -31,8 +30,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench import ext
-    from tribench.harness.machine import machine_record
+    from .. import ext
+    from ..harness.machine import machine_record
 
     if args.isa and not args.peak:
         raise UserError("--isa chooses what --peak measures; add --peak")
@@ -92,8 +91,8 @@ def _print_kernels(ext, width: int) -> None:
 
 
 def _print_peak(width: int, isa: str | None) -> None:
-    from tribench.harness.machine import cache_bytes
-    from tribench.harness.peak import camera_fractions
+    from ..harness.machine import cache_bytes
+    from ..harness.peak import camera_fractions
 
     print(
         "\nmeasuring the FMA peak and every kernel on the in-cache camera workload "

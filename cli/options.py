@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from tribench.common import UserError
-
+from ..common import UserError
 from . import flags
 
 __all__ = [
@@ -32,14 +31,14 @@ DESIGN_FLAGS = ("processes", "rounds", "warmup", "target_ms", "seed")
 
 def default_run_dir(kind: str = "") -> str:
     """The run folder a command writes when --out is not given: runs/[KIND-]<date-time>."""
-    from tribench.harness.runfolder import default_run_dir as default
+    from ..harness.runfolder import default_run_dir as default
 
     return default(kind)
 
 
 def _new_run_folder(text: str) -> str:
     """A run folder to create: writable, and new or empty (the runner's own check, run up front)."""
-    from tribench.harness.runfolder import check_new_run_dir
+    from ..harness.runfolder import check_new_run_dir
 
     out = flags.output_folder(text)
     try:
@@ -95,7 +94,7 @@ def add_builds(parser: argparse.ArgumentParser) -> None:
 
 def load_kernel_files(args: argparse.Namespace) -> tuple[str, ...]:
     """Compile, load and check the --kernel-file files (exit 2, nothing timed, if one is refused): their kernels."""
-    from tribench.studies.kernel_check import load_checked
+    from ..harness.jobs.kernel_check import load_checked
 
     return load_checked(args.kernel_files or ())
 
@@ -107,7 +106,7 @@ def add_run_out(parser: argparse.ArgumentParser, default: str = "runs/<date-time
 
 def add_design_flags(p: argparse.ArgumentParser) -> None:
     """The sweep design's flags (:data:`DESIGN_FLAGS`); None where not given."""
-    from tribench.harness.plan import (
+    from ..harness.plan import (
         DEFAULT_PROCESSES,
         DEFAULT_ROUNDS,
         DEFAULT_TARGET_MS,

@@ -7,8 +7,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from tribench.common import UserError
-
+from ..common import UserError
 from . import flags
 from .options import add_no_progress
 
@@ -21,8 +20,8 @@ def _out(text: str) -> str:
 
 
 def add_parser(sub) -> None:
-    from tribench.studies.peers import PeerDesign
-    from tribench.workloads.spec import ACCELS
+    from ..harness.jobs.peers import PeerDesign
+    from ..workloads.spec import ACCELS
 
     p = sub.add_parser(
         "peers",
@@ -75,8 +74,9 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.harness import runfolder
-    from tribench.studies import peers
+    from ..harness import runfolder
+    from ..harness.jobs import peers
+    from ..reports.tables.peers import format_summary, summarise
 
     design = _design(args, peers.PeerDesign.quick() if args.quick else peers.PeerDesign())
     if args.kernel is not None:
@@ -87,11 +87,11 @@ def run(args: argparse.Namespace) -> int:
     except RuntimeError as exc:
         print(f"tribench peers: error: {exc}", file=sys.stderr)
         return 1
-    print(peers.format_summary(*peers.summarise(frame)))
+    print(format_summary(*summarise(frame)))
     print(f"wrote {path}", file=sys.stderr)
     run_dir = path.parent
     if path.name == runfolder.PEERS and (run_dir / runfolder.ANALYSIS).is_file():
-        from tribench.analysis.pipeline import reanalyse
+        from ..reports.tables.pipeline import reanalyse
 
         try:
             derived = reanalyse(run_dir)
@@ -119,7 +119,7 @@ def _design(args: argparse.Namespace, design):
 
 
 def _check_kernel(kernel: str, accel: str) -> None:
-    from tribench import ext
+    from .. import ext
 
     if kernel not in ext.kernel_names(internal=True) or "closest" not in ext.kernel_info(kernel).modes:
         raise UserError(f"--kernel {kernel!r} is not a kernel with a closest-hit mode (see tribench info)")

@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tribench.common import UserError
-
+from ..common import UserError
 from . import flags
 
 __all__ = ["add_parser", "run"]
@@ -35,7 +34,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Write RUN_DIR/report.html, print the compact tables, optionally open the page."""
-    from tribench.reports import format_tables, load, write_report
+    from ..reports import format_tables, load, write_report
 
     try:
         data = load(args.run_dir, baseline=args.baseline)  # read once for the page and the terminal

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from tribench.common import UserError
-
+from ..common import UserError
 from . import flags
 from .options import add_builds, add_kernel_files, add_no_progress, add_run_out, default_run_dir
 
@@ -41,8 +40,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.reports import format_tables, load, write_report
-    from tribench.studies import main as main_job
+    from ..harness.jobs import main as main_job
+    from ..reports import format_tables, load, tables, write_report
 
     if args.resume:
         if args.quick or args.out or args.kernel_files or args.builds:
@@ -51,16 +50,17 @@ def run(args: argparse.Namespace) -> int:
                 "in its folder"
             )
         out = args.resume
-        main_job.resume(out, progress=args.progress)
+        note = main_job.resume(out, progress=args.progress)
     else:
         out = args.out or default_run_dir("quick" if args.quick else "")
-        main_job.run(
+        note = main_job.run(
             out,
             quick=args.quick,
             progress=args.progress,
             kernel_files=args.kernel_files or (),
             builds=args.builds or (),
         )
+    tables.write_all(out, validate_note=note)
     data = load(out)  # the run folder's tables, read once for the page and the terminal
     report = write_report(data)
     print(format_tables(data))

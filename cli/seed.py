@@ -43,9 +43,10 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.reports.seed import write_seed_report
-    from tribench.studies.seed import KINDS_CSV, SEED_CSV, WORKLOADS_CSV, run_seed
-    from tribench.studies.seed_terminal import format_table
+    from ..harness.jobs.seed import KINDS_CSV, SEED_CSV, WORKLOADS_CSV, run_seed
+    from ..reports.seed import write_seed_report
+    from ..reports.seed_terminal import format_table
+    from ..reports.tables.seed import write_seed_tables
 
     out = args.out or default_run_dir("seed-quick" if args.quick else "seed")
     words = [
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         out,
         *[w for k in ("size", "sample") if getattr(args, k) for w in (f"--{k}", str(getattr(args, k)))],
     ]
-    result = run_seed(
+    elapsed = run_seed(
         out,
         scenes=args.scene,
         quick=args.quick,
@@ -68,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
         progress=args.progress,
         command=shlex.join(words),
     )
+    tables = write_seed_tables(out)
     report = write_seed_report(out)
-    print(format_table(result.tables[SEED_CSV], result.tables[WORKLOADS_CSV]))
-    print(f"\n{result.elapsed_s:.0f} s; tables: {out}/{SEED_CSV}, {KINDS_CSV}, {WORKLOADS_CSV}; report: {report}")
+    print(format_table(tables[SEED_CSV], tables[WORKLOADS_CSV]))
+    print(f"\n{elapsed:.0f} s; tables: {out}/{SEED_CSV}, {KINDS_CSV}, {WORKLOADS_CSV}; report: {report}")
     return 0

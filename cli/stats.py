@@ -1,9 +1,10 @@
-"""``tribench stats``: the analysis step, every table the report reads (never times anything)."""
+"""``tribench stats``: the analysis step, every table the report reads (never measures anything)."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from . import flags
 
@@ -23,10 +24,19 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.reports import format_tables
-    from tribench.studies.finish import finish
+    from ..harness import runfolder
+    from ..reports import format_tables, tables
 
-    derived = finish(args.run_dir, baseline=args.baseline, margin=args.margin)
+    derived = tables.write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
+    if "validate" not in derived.record or not (Path(args.run_dir) / runfolder.VALIDATE).is_file():
+        sweep = runfolder.read_run(args.run_dir)["sweep"]
+        dtypes = sorted({w["dtype"] for w in sweep["workloads"] if "dtype" in w})
+        print(
+            f"no {runfolder.VALIDATE}: the robustness suite has not run on this folder, so its tables have no "
+            f"robustness; measure it (stats never does) with: tribench validate --kernels {','.join(sweep['kernels'])}"
+            f" --dtype {','.join(dtypes)} --out {Path(args.run_dir) / runfolder.VALIDATE}",
+            file=sys.stderr,
+        )
     print(format_tables(args.run_dir))
     print(
         f"wrote {', '.join(derived.tables)}, google_benchmark.json, the workload pictures and analysis.json "

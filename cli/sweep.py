@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from tribench.common import UserError
-
+from ..common import UserError
 from . import flags
 from .options import (
     DESIGN_FLAGS,
@@ -46,7 +45,7 @@ _NEW_SWEEP_FLAGS = (
 
 
 def add_parser(sub) -> None:
-    from tribench.workloads.spec import ACCELS
+    from ..workloads.spec import ACCELS
 
     p = sub.add_parser(
         "sweep",
@@ -129,19 +128,19 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench.harness import duration, runfolder, runner
+    from ..harness import runner
 
     if args.resume:
         if any(getattr(args, k) is not None for k in _NEW_SWEEP_FLAGS):
             raise UserError("--resume takes no other sweep options: the run's own sweep is used")
         result = runner.resume(args.resume, progress=args.progress)
     else:
-        from tribench.studies.kernel_check import check_builds, load_checked
+        from ..harness.jobs.kernel_check import load_checked
+        from ..harness.jobs.sweep import run_sweep
 
         load_kernel_files(args)  # first: --kernels may name their kernels
         sweep = _sweep_from_args(args)
         load_checked(sweep.kernel_files)  # a sweep file's too, checked before anything is timed
-        checks = check_builds(sweep)  # each build compiled and its kernels checked again (docs/builds.md)
         out = args.out or default_run_dir()
         print(
             f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
@@ -149,22 +148,23 @@ def run(args: argparse.Namespace) -> int:
             f"{sweep.n_batches} batches -> {out}",
             file=sys.stderr,
         )
-        runfolder.check_new_run_dir(out)  # before the estimate, which builds the workloads
-        print(duration.estimate(sweep).line(), file=sys.stderr)
-        result = runner.start(sweep, out, cpu=args.cpu, progress=args.progress, build_checks=checks)
+        result = run_sweep(
+            sweep, out, say=lambda line: print(line, file=sys.stderr), cpu=args.cpu, progress=args.progress
+        )
     print(
         f"{result.batches_run} batches run in {result.elapsed_s:.1f} s; "
         f"{result.batches_done}/{result.batches_total} in {result.run_dir}",
         file=sys.stderr,
     )
-    if result.batches_done == result.batches_total:  # the analysis step: every table the report reads
-        from tribench.studies.finish import finish
+    if result.batches_done == result.batches_total:  # the robustness suite, then every table the report reads
+        from ..harness.jobs.sweep import measure_robustness
+        from ..reports import tables
 
         try:
-            finish(result.run_dir)
+            tables.write_all(result.run_dir, validate_note=measure_robustness(result.run_dir))
         except KeyboardInterrupt:
             raise runner.SweepInterrupted(
-                f"interrupted in the analysis: every batch is saved in {result.run_dir}; "
+                f"interrupted after the sweep: every batch is saved in {result.run_dir}; "
                 f"make its tables with: tribench stats {result.run_dir}"
             ) from None
         print(f"next: tribench report {result.run_dir}", file=sys.stderr)
@@ -180,7 +180,7 @@ def _per_build(sweep) -> str:
 
 def _workloads_from_flags(args: argparse.Namespace) -> list:
     """The workload grid of the sweep flags (see `tribench sweep --help`)."""
-    from tribench.workloads.spec import MeshSpec, PairSpec
+    from ..workloads.spec import MeshSpec, PairSpec
 
     dtypes = args.dtype or ["float64"]
     specs: list = []
@@ -209,15 +209,15 @@ def _workloads_from_flags(args: argparse.Namespace) -> list:
 
 
 def _sweep_from_args(args: argparse.Namespace):
-    from tribench import ext
-    from tribench.harness.plan import (
+    from .. import ext
+    from ..harness.plan import (
         DEFAULT_PROCESSES,
         DEFAULT_ROUNDS,
         DEFAULT_TARGET_MS,
         DEFAULT_WARMUP,
         Sweep,
     )
-    from tribench.harness.sweep_file import load_sweep_file
+    from ..harness.sweep_file import load_sweep_file
 
     design = {k: getattr(args, k) for k in DESIGN_FLAGS}
     if args.file:

@@ -24,7 +24,7 @@ def add_parser(sub) -> None:
         description="Asks every kernel, at each precision, rays aimed exactly at shared edges and vertices of "
         "exactly coplanar meshes, rays from inside a finely tessellated sphere far from the origin (Embree's "
         "test), and pairs at scales 1e-8 to 1e8, tiny and needle triangles, grazing and parallel rays, "
-        "degenerate triangles, NaN and Inf (see tribench.studies.validate). Prints one row per kernel and "
+        "degenerate triangles, NaN and Inf (see tribench.harness.jobs.validate). Prints one row per kernel and "
         "precision, one column per test, and writes the tidy CSV: kernel, dtype, isa, test, rays, failures, "
         "rate, expected, verdict, detail. Exits 0 even where a promise is broken.",
     )
@@ -45,10 +45,10 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tribench import ext
-    from tribench.harness.runfolder import write_csv
-    from tribench.studies import validate
-    from tribench.studies.kernel_check import refuse_crashing
+    from .. import ext
+    from ..harness.jobs import validate
+    from ..harness.jobs.kernel_check import refuse_crashing
+    from ..harness.runfolder import write_csv
 
     for path in args.kernel_files or ():  # what fails is this command's table; only a crash is refused first
         ext.load_kernels(path)

@@ -28,8 +28,7 @@ import json
 import sys
 from typing import Any
 
-from tribench.common import UserError
-
+from ..common import UserError
 from . import flags
 
 __all__ = ["add_parser", "main", "parse_miss_mix"]
@@ -65,7 +64,7 @@ def parse_miss_mix(text: str) -> str | dict[str, float]:
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Add the ``workloads`` command (``make``, ``list``, ``show``) to ``subparsers``."""
-    from tribench.workloads.spec import ACCELS, RAY_SETS
+    from ..workloads.spec import ACCELS, RAY_SETS
 
     parser = subparsers.add_parser(
         "workloads",
@@ -149,7 +148,7 @@ def _error(message: str) -> int:
 
 
 def _spec_from_args(args: argparse.Namespace):
-    from tribench.workloads.spec import MeshSpec, PairSpec
+    from ..workloads.spec import MeshSpec, PairSpec
 
     options = _PAIR_OPTIONS + _MESH_OPTIONS + _SHARED_OPTIONS
     given = {k: getattr(args, k) for k in options if getattr(args, k) is not None}
@@ -204,7 +203,7 @@ def _report(w, as_json: bool) -> None:
 
 
 def _make(args: argparse.Namespace) -> int:
-    from tribench.workloads.cache import make
+    from ..workloads.cache import make
 
     try:
         w = make(_spec_from_args(args))
@@ -215,8 +214,8 @@ def _make(args: argparse.Namespace) -> int:
 
 
 def _list(args: argparse.Namespace) -> int:
-    from tribench.workloads.cache import cache_dir, list_cached
-    from tribench.workloads.kinds import spec_from_dict
+    from ..workloads.cache import cache_dir, list_cached
+    from ..workloads.kinds import spec_from_dict
 
     entries = list_cached()
     if not entries:
@@ -234,7 +233,7 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _show(args: argparse.Namespace) -> int:
-    from tribench.workloads.cache import load, resolve_id
+    from ..workloads.cache import load, resolve_id
 
     try:
         w = load(resolve_id(args.workload_id))
@@ -242,7 +241,7 @@ def _show(args: argparse.Namespace) -> int:
         return _error(str(e))
     _report(w, args.json)
     if args.png:
-        from tribench.workloads.picture import draw
+        from ..workloads.picture import draw
 
         try:
             draw(w, args.png)

@@ -87,8 +87,7 @@ Examples
 
 from __future__ import annotations
 
-from tribench.common import UserError, UserTypeError
-
+from ..common import UserError, UserTypeError
 from .builds import INSTALLED, BuildError, build_record, check_builds, load_build, parse_builds, use_build
 from .bvh import (
     BVH,

@@ -23,10 +23,9 @@ import subprocess
 import sysconfig
 from types import ModuleType
 
-import tribench.ext._core as _core  # `from . import _core` would read as importing the package (a cycle)
-from tribench.common import UserError
-from tribench.common.location import cache_dir
-
+from ..common import UserError
+from ..common.location import cache_dir
+from . import _core
 from .registry import file_sha256, use_module
 from .toolchain import Toolchain, compile_module, import_module, installed, set_current
 

@@ -13,9 +13,8 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 
-import tribench.ext._core as _core  # `from . import _core` would read as importing the package (a cycle)
-from tribench.common import UserError, UserTypeError
-
+from ..common import UserError, UserTypeError
+from . import _core
 from .checks import check_array, check_flag
 from .intersection import Hits, Prepared, check_workload, flat
 from .registry import MODES, Mode, check_kernel, core_of, kernel_info, kernel_modules

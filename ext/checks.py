@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from tribench.common import UserError, UserTypeError
+from ..common import UserError, UserTypeError
 
 #: The precisions the kernels are compiled for (native byte order).
 DTYPES = (np.dtype(np.float32), np.dtype(np.float64))

@@ -7,7 +7,7 @@ cached under ``cache_dir()/kernel_builds`` like a build. Where there is no
 Embree, :func:`missing` says why in one line and :func:`load` raises it.
 The embreex wheel bundles an Embree 4 library without its headers, so it
 cannot be compiled against; tribench's peers time it through Python as a
-labelled secondary (:mod:`tribench.studies.peers`).
+labelled secondary (:mod:`tribench.harness.jobs.peers`).
 """
 
 from __future__ import annotations
@@ -22,9 +22,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from tribench.common import UserError
-from tribench.common.location import cache_dir
-
+from ..common import UserError
+from ..common.location import cache_dir
 from .checks import check_array, check_t_max
 from .toolchain import EXT, compile_module, import_module, installed
 
@@ -51,7 +50,7 @@ ISAS = (None, "avx2")
 def isas_here() -> tuple[str | None, ...]:
     """The :data:`ISAS` that give Embree a path of its own on this CPU: its own pick, and AVX2 where
     its pick is AVX-512 (elsewhere it is AVX2 or less already)."""
-    from tribench.ext.probes import probe_isas
+    from .probes import probe_isas
 
     return ISAS if "avx512" in probe_isas() else (None,)
 

@@ -15,8 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from tribench.common import UserError
-
+from ..common import UserError
 from .checks import check_array, check_name, check_same_dtype, check_t_max
 from .registry import MODES, Mode, core_of, kernel_info
 

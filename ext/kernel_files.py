@@ -24,9 +24,8 @@ import sysconfig
 from dataclasses import dataclass
 from pathlib import Path
 
-from tribench.common import UserError
-from tribench.common.location import cache_dir
-
+from ..common import UserError
+from ..common.location import cache_dir
 from .registry import adopt
 from .toolchain import Toolchain, compile_module, current, import_module
 

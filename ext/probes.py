@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-import tribench.ext._core as _core  # `from . import _core` would read as importing the package (a cycle)
-from tribench.common import UserError, UserTypeError
+from ..common import UserError, UserTypeError
+from . import _core
 
 
 @dataclass(frozen=True)

@@ -16,9 +16,8 @@ from typing import Literal
 
 import numpy as np
 
-import tribench.ext._core as _core  # `from . import _core` would read as importing the package (a cycle)
-from tribench.common import UserError, UserTypeError
-
+from ..common import UserError, UserTypeError
+from . import _core
 from .checks import check_dtype_name
 
 Mode = Literal["pairs", "any", "closest", "closest_uv"]

@@ -11,9 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-import tribench.ext._core as _core  # `from . import _core` would read as importing the package (a cycle)
-from tribench.common import UserError, UserTypeError
-
+from ..common import UserError, UserTypeError
+from . import _core
 from .intersection import Prepared, check_workload, prepare
 from .registry import MODES, Mode, core_of
 

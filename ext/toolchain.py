@@ -32,8 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 
-from tribench.common import UserError
-
+from ..common import UserError
 from .registry import build_info
 
 __all__ = ["EXT", "SOURCES", "Toolchain", "compile_module", "current", "import_module", "installed", "set_current"]

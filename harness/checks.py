@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from tribench import ext
-from tribench.workloads import reference
-from tribench.workloads.front import front_reference
+from .. import ext
+from ..workloads import reference
+from ..workloads.front import front_reference
 
 __all__ = [
     "T_SUM_RTOL",

@@ -23,8 +23,8 @@ from typing import Any, cast
 
 import numpy as np
 
-from tribench.harness.plan import Sweep
-from tribench.harness.runner import about
+from .plan import Sweep
+from .runner import about
 
 __all__ = ["Estimate", "estimate", "measure_passes", "model"]
 
@@ -124,9 +124,9 @@ def measure_passes(
     (into the caches, so this is no extra work, and no worker computes one);
     the timed passes take well under a second in all.
     """
-    from tribench import ext
-    from tribench.workloads import cache
-    from tribench.workloads.front import front_reference
+    from .. import ext
+    from ..workloads import cache
+    from ..workloads.front import front_reference
 
     tests: dict[str, int] = {}
     seconds: dict[tuple[str, str], float] = {}
@@ -161,9 +161,9 @@ def measure_passes(
 def _bvh_passes(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, t_max: Any) -> tuple[float, float]:
     """Seconds per pass of ``w``'s rays through ``kernel``'s tree, and of the null-leaf twin
     the worker traces beside each batch."""
-    from tribench import ext
-    from tribench.harness.worker import null_leaf_t_max
-    from tribench.workloads import bvh_cache
+    from .. import ext
+    from ..workloads import bvh_cache
+    from .worker import null_leaf_t_max
 
     tree, _ = bvh_cache.cached_bvh(kernel, w.triangles, w.spec.max_leaf or ext.DEFAULT_MAX_LEAF)
     scale = 1e-9 * len(w.origins) / len(o)

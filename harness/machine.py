@@ -53,7 +53,7 @@ def cpu_model() -> str:
 def describe() -> str:
     """One line naming the machine and build a figure comes from, for bench/'s printouts: the CPU,
     its widest vector ISA, tribench's version and compiler."""
-    from tribench import ext
+    from .. import ext
 
     simd = set(simd_features())
     widest = "AVX-512" if "avx512f" in simd else "AVX2" if "avx2" in simd else "NEON" if "asimd" in simd else "no AVX2"
@@ -105,7 +105,7 @@ def machine_record() -> dict:
     """Machine, build and versions, as one JSON-ready dict."""
     import numpy
 
-    from tribench import ext
+    from .. import ext
 
     load = os.getloadavg() if hasattr(os, "getloadavg") else None
     return {

@@ -1,7 +1,7 @@
 """The equivalence margin a sweep uses: the latest A/A calibration's, or the default.
 
 Reading the margin is what the runner needs before a sweep; running a
-calibration (:mod:`.calibration`) needs the runner. Keeping the two apart
+calibration (:mod:`.jobs.calibrate`) needs the runner. Keeping the two apart
 keeps the import order one-way: runner -> margin, calibration -> runner.
 """
 
@@ -12,8 +12,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from tribench.common import UserError
-from tribench.stats import DEFAULTS, check_margin
+from ..common import UserError
+from .stats import DEFAULTS, check_margin
 
 __all__ = ["AA_TWINS", "CALIBRATION", "Margin", "latest_margin", "user_calibration_path"]
 
@@ -21,7 +21,7 @@ CALIBRATION = "calibration.json"
 
 #: The kernels with an A/A twin (the same source compiled again under another
 #: name, ext/kernels/*_aa.h): ``tribench calibrate`` times the first pair, and the
-#: main job times its baseline's twin beside it (:mod:`tribench.analysis.margin`).
+#: main job times its baseline's twin beside it (:mod:`tribench.reports.tables.margin`).
 AA_TWINS = {"moller_trumbore": "moller_trumbore_aa", "moller_seed": "moller_seed_aa"}
 
 

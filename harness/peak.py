@@ -53,7 +53,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from tribench import ext
+from .. import ext
 
 #: probe iterations: about 20 ms at 100 GFLOP/s (12 chains x 16 flops each)
 PROBE_ITERATIONS = 10_000_000
@@ -80,7 +80,7 @@ def bound_from_mix(mix: Mapping[str, float], rates: Mapping[str, float]) -> floa
     """ns per test at the port model's bound (rules in the module's note).
 
     ``mix``: operations per test by class; ``rates``: lane-ops per ns by class
-    (:attr:`tribench.ext.OpThroughput.float32` or ``float64``).
+    (the ``float32`` or ``float64`` field of :class:`tribench.ext.OpThroughput`).
 
     >>> rates = {"fma": 2, "mul": 2, "add": 2, "cmp": 1, "logic": 2, "div": 0.25, "load": 2, "fma_add": 2}
     >>> bound_from_mix({"mul": 4, "add": 4}, rates)  # adds share the FMA pipes: (4 + 4) / 2
@@ -149,9 +149,9 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     """
     import pandas as pd
 
-    from tribench.harness.worker import calibrate_loops
-    from tribench.workloads import cache
-    from tribench.workloads.spec import MeshSpec
+    from ..workloads import cache
+    from ..workloads.spec import MeshSpec
+    from .worker import calibrate_loops
 
     rng = np.random.default_rng(seed)
     jobs = {}

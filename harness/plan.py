@@ -32,10 +32,10 @@ from typing import Any
 
 import numpy as np
 
-from tribench.common import UserError
-from tribench.harness.margin import AA_TWINS
-from tribench.workloads.kinds import spec_from_dict
-from tribench.workloads.spec import MeshSpec, Spec, file_sha256, workload_id
+from ..common import UserError
+from ..workloads.kinds import spec_from_dict
+from ..workloads.spec import MeshSpec, Spec, file_sha256, workload_id
+from .margin import AA_TWINS
 
 __all__ = [
     "BatchKey",
@@ -90,8 +90,8 @@ def check_workload_count(n: int) -> None:
 
 
 def _spec_types() -> tuple[type, ...]:
-    from tribench.workloads.seed_workload import SeedSpec
-    from tribench.workloads.spec import MeshSpec, PairSpec
+    from ..workloads.seed.workload import SeedSpec
+    from ..workloads.spec import MeshSpec, PairSpec
 
     return (PairSpec, MeshSpec, SeedSpec)
 
@@ -131,7 +131,7 @@ class Sequential:
     ``stage`` at a time; after each stage every comparison (a kernel against
     its workload's reference kernel, :meth:`Sweep.reference_of`) whose 95%
     interval is at most ``target`` wide (relative half-width,
-    :func:`tribench.stats.narrow_comparisons`) stops, and the next stage runs
+    :func:`tribench.harness.stats.narrow_comparisons`) stops, and the next stage runs
     only the open ones (and their references). The sweep ends when none is
     open, at ``processes``, or when the next stage would end past
     ``budget_s`` seconds of sweep. Only the interval's width decides, so the
@@ -191,7 +191,7 @@ class Sweep:
         Kernel files (``--kernel-file``) whose kernels ``kernels`` may name:
         loaded here (:func:`tribench.ext.load_kernels`), copied into the run
         folder when the sweep starts, and loaded by every worker. Checking
-        their answers is the caller's (:mod:`tribench.studies.kernel_check`).
+        their answers is the caller's (:mod:`tribench.harness.jobs.kernel_check`).
     builds : tuple of str, optional
         Builds of the extension to compare (:func:`tribench.ext.parse_builds`:
         a compiler and its flags each, ``"installed"`` the pip build); empty
@@ -214,7 +214,7 @@ class Sweep:
     workload_ids: tuple[str, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        from tribench import ext
+        from .. import ext
 
         put = object.__setattr__  # frozen: normalise once, here
         # sizes first, arithmetically: nothing is expanded before the plan is known to be bounded
@@ -291,7 +291,7 @@ class Sweep:
             )
 
     def _load_kernel_files(self) -> None:
-        from tribench import ext
+        from .. import ext
 
         files = self.kernel_files
         if isinstance(files, (str, bytes, Mapping)) or not isinstance(files, Sequence):
@@ -325,7 +325,7 @@ class Sweep:
         list (every kernel without one) that run its mode (wide kernels have no
         pairs mode) and, on a BVH workload, can be its leaf test
         (``ext.bvh_kernel_names()``), in sweep order."""
-        from tribench import ext
+        from .. import ext
 
         chosen = self.workload_kernels[self.workloads.index(spec)] if self.workload_kernels else self.kernels
         leaf = ext.bvh_kernel_names() if is_bvh(spec) else self.kernels
@@ -341,7 +341,7 @@ class Sweep:
     @property
     def build_names(self) -> tuple[str, ...]:
         """The builds the processes run, in turn: ``builds``, or the installed build alone."""
-        from tribench.ext import INSTALLED
+        from ..ext import INSTALLED
 
         return self.builds or (INSTALLED,)
 
@@ -400,7 +400,7 @@ class Sweep:
 
 def _kernel_file(recorded: Mapping[str, Any], run_dir: str | Path | None) -> str:
     """The file holding a recorded kernel file's content: the run folder's copy, else the file itself."""
-    from tribench.workloads.mesh_files import KERNELS_FOLDER, source
+    from ..workloads.mesh_files import KERNELS_FOLDER, source
 
     path, sha = recorded["path"], recorded["sha256"]
     copy = Path(run_dir or "") / KERNELS_FOLDER / f"{sha}{Path(path).suffix.lower()}"
@@ -429,7 +429,7 @@ def main_job_kernels() -> dict[str, tuple[str, ...]]:
     scalar form (the only ones with a pairs mode), ``native`` every native form
     (wide at the CPU's width, no scalar form: each algorithm's fastest, and the
     ones a BVH takes as its leaf test)."""
-    from tribench import ext
+    from .. import ext
 
     info = {k: ext.kernel_info(k) for k in ext.kernel_names()}
     return {
@@ -446,7 +446,7 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds:
     (``curless_seed``, ``moller_seed``) as the historical baseline, in
     float32 and float64 (:func:`main_job_kernels` picks them from the registry),
     and the baseline's A/A twin (``moller_seed_aa``) wherever the baseline runs,
-    which gives the run its own equivalence margin (:mod:`tribench.analysis.margin`):
+    which gives the run its own equivalence margin (:mod:`tribench.reports.tables.margin`):
 
     * pairs at per-test hit rates 0, 25, 50, 75 and 100% (4096 pairs: in L2 at
       either precision, so they show the algorithms, not the memory), each
@@ -474,14 +474,14 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds:
     and the bound on processes growing with their number, so a stage holds as many
     processes of each build and the budget is shared among them.
     """
-    from tribench import ext
-    from tribench.workloads.spec import MeshSpec, PairSpec
+    from .. import ext
+    from ..workloads.spec import MeshSpec, PairSpec
 
     for f in kernel_files:  # before the roles: their kernels have roles too
         ext.load_kernels(f)
     roles = main_job_kernels()
     seed, scalar, native = roles["seed"], roles["scalar"], roles["native"]
-    # the baseline's A/A twin, timed wherever the baseline is: the run's own margin (analysis/margin.py)
+    # the baseline's A/A twin, timed wherever the baseline is: the run's own margin (reports/tables/margin.py)
     seed = (*seed, AA_TWINS[DEFAULT_BASELINE])
     kernels = (*seed, *scalar, *native)
     if quick:
@@ -523,7 +523,7 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds:
 def recorded_builds(sweep: Mapping[str, Any]) -> list[str]:
     """The builds a run's processes took in turn, from its recorded sweep (``run.json``'s ``sweep``),
     without making the :class:`Sweep` (which would compile its kernel files)."""
-    from tribench.ext import INSTALLED
+    from ..ext import INSTALLED
 
     return list(sweep.get("builds") or [INSTALLED])
 

@@ -1,7 +1,7 @@
 """The one worker protocol: a fresh process per replicate, its job on stdin, typed JSON lines on stdout.
 
 Every measurement runs in such workers: the sweeps' (:mod:`.worker`) and the
-peers' (:mod:`tribench.studies.peers`), each pinned to one CPU and with its
+peers' (:mod:`tribench.harness.jobs.peers`), each pinned to one CPU and with its
 memory layout randomised (:mod:`.layout`). The parent side is
 :func:`run_worker`: it starts the worker in an environment the caller padded
 (:func:`.layout.padded_env`), sends the job, and hands each line to the
@@ -27,7 +27,7 @@ import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TextIO
 
-from tribench.common import Notice
+from ..common import Notice
 
 __all__ = ["WorkerError", "emit", "run_worker", "serve", "stderr_tail"]
 

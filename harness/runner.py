@@ -37,13 +37,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-from tribench import ext
-from tribench.common import UserError
-from tribench.harness import runfolder
-from tribench.harness.plan import BatchKey, Sweep, plan, process_seed
-from tribench.workloads import mesh_files
-from tribench.workloads.spec import MeshSpec
-
+from .. import ext
+from ..common import UserError
+from ..workloads import mesh_files
+from ..workloads.spec import MeshSpec
+from . import runfolder
+from .plan import BatchKey, Sweep, plan, process_seed
 from .protocol import WorkerError, run_worker
 from .runfolder import (
     BATCH_COLUMNS,
@@ -274,7 +273,7 @@ def start(
         More fields for ``run.json`` (e.g. what a calibration run is for).
     build_checks : mapping, optional
         Per build of the sweep, what each kernel got wrong when checked again under it
-        (:func:`tribench.studies.kernel_check.check_builds`), recorded in ``run.json``'s
+        (:func:`tribench.harness.jobs.kernel_check.check_builds`), recorded in ``run.json``'s
         ``builds``; a build without it is recorded as not checked (``check: null``).
 
     Raises
@@ -284,8 +283,8 @@ def start(
         ``run_dir`` is not empty, another process writes it, or a file
         cannot be written (a full disk: the message says how to resume).
     """
-    from tribench.harness.machine import machine_record
-    from tribench.harness.margin import latest_margin
+    from .machine import machine_record
+    from .margin import latest_margin
 
     run_dir = Path(run_dir)
     runfolder.check_new_run_dir(run_dir)
@@ -320,8 +319,8 @@ def _start_locked(
     worker: Sequence[str],
     extra: dict[str, Any] | None,
 ) -> RunResult:
-    from tribench.harness.peak import throughput_record
-    from tribench.harness.worker import kernel_isa
+    from .peak import throughput_record
+    from .worker import kernel_isa
 
     record = {
         "run_id": _dt.datetime.now().strftime("%Y%m%dT%H%M%S-") + secrets.token_hex(3),
@@ -412,7 +411,7 @@ def _execute_stages(
     """A sequential sweep (:mod:`tribench.harness.stages`): finish the stages
     ``stages.json`` records (a resume), then decide and run one stage after
     another until :func:`~tribench.harness.stages.decide` ends the sweep."""
-    from tribench.harness import stages
+    from . import stages
 
     def say(text: str) -> None:
         if progress is not False:
@@ -537,8 +536,8 @@ def _run_process(
     on_traversal: Callable[[TraversalRow], None],
 ) -> None:
     """One worker process: send its job, keep its rows, raise on its error."""
-    from tribench.harness.layout import padded_env
-    from tribench.harness.worker import WorkerJob
+    from .layout import padded_env
+    from .worker import WorkerJob
 
     seed = record["process_seeds"][process]
     env = padded_env(seed, attempt)  # moves the worker's initial stack: part of the layout randomisation

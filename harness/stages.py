@@ -5,7 +5,7 @@ A sequential sweep's plan is the plan of its largest design
 the plan's keys of its processes whose (workload, kernel) is still open, so
 every batch it writes is a key of that plan and ``batches.csv`` is checked
 as any sweep's. Which comparisons a stage runs is decided before it starts,
-from the batches of the stages before (:func:`tribench.stats.narrow_comparisons`),
+from the batches of the stages before (:func:`tribench.harness.stats.narrow_comparisons`),
 and recorded in ``stages.json`` (:data:`tribench.harness.runfolder.STAGES`)
 before its first process: a resumed sweep finishes the recorded stages as
 they were decided, then decides the next ones the same way.
@@ -22,11 +22,10 @@ from typing import Any
 
 import pandas as pd
 
-from tribench import stats
-from tribench.common import UserError, write_text
-from tribench.harness import runfolder
-from tribench.harness.plan import DEFAULT_BASELINE as BASELINE
-from tribench.harness.plan import BatchKey, Sweep, plan
+from ..common import UserError, write_text
+from . import runfolder, stats
+from .plan import DEFAULT_BASELINE as BASELINE
+from .plan import BatchKey, Sweep, plan
 
 __all__ = ["Stage", "decide", "keys_of", "read_stages", "write_stages"]
 
@@ -99,7 +98,7 @@ def decide(
     ``done`` are the stages run so far (every batch of them in ``batches.csv``),
     ``seconds`` the sweep's wall time so far, ``last_stage_s`` the last stage's.
     The next stage runs every comparison not yet narrow under every build
-    (:func:`tribench.stats.narrow_comparisons` against :meth:`Sweep.reference_of` the baseline),
+    (:func:`tribench.harness.stats.narrow_comparisons` against :meth:`Sweep.reference_of` the baseline),
     with its workload's reference;
     it is not started when it would end past the budget (its time foreseen from the
     cost of each workload's kernels in the last stage), nor past ``sweep.processes``.

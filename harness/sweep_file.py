@@ -36,10 +36,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from tribench.common import UserError, read_user_text
-from tribench.workloads.kinds import spec_from_dict
-from tribench.workloads.spec import Spec
-
+from ..common import UserError, read_user_text
+from ..workloads.kinds import spec_from_dict
+from ..workloads.spec import Spec
 from .plan import Sweep, check_workload_count
 
 __all__ = ["expand_workloads", "load_sweep_file"]

@@ -64,13 +64,12 @@ from typing import Any, cast
 
 import numpy as np
 
-from tribench import ext
-from tribench.harness.runfolder import BatchRow, CheckRow, ProcessRow, TraversalRow
-from tribench.workloads import bvh_cache
-from tribench.workloads.spec import MeshSpec
-
+from .. import ext
+from ..workloads import bvh_cache
+from ..workloads.spec import MeshSpec
 from . import layout, protocol
 from .checks import Checksum, KernelCheckError, check_batch, one_pass_checksum
+from .runfolder import BatchRow, CheckRow, ProcessRow, TraversalRow
 
 __all__ = [
     "BvhJob",
@@ -302,9 +301,9 @@ def _timed(kjob: ext.Job | BvhJob, loops: int, rng: np.random.Generator, meter: 
 def _load_workloads(job: WorkerJob, rng: np.random.Generator) -> tuple[dict[str, Any], dict[str, tuple]]:
     """The job's workloads from the cache (each checked against its id), and this process's fresh copies
     of their arrays, at random offsets (the layout randomisation)."""
-    from tribench.workloads import cache
-    from tribench.workloads.kinds import spec_from_dict
-    from tribench.workloads.spec import workload_id
+    from ..workloads import cache
+    from ..workloads.kinds import spec_from_dict
+    from ..workloads.spec import workload_id
 
     workloads, arrays = {}, {}
     for wid, spec_dict in job.workloads.items():

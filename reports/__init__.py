@@ -1,32 +1,12 @@
-"""Reports: the HTML report, plots and terminal tables, from a run folder's files. Never measures.
+"""Reports: from a run folder's files to answers. Never measures.
 
-The report reads what measuring and the analysis step wrote into the run
-folder (:mod:`tribench.harness.runfolder`) and computes nothing: it never
-times, never generates a workload, never runs the robustness suite and never
-writes a table. Missing or stale tables are refused with the command that
-makes them (``tribench stats RUN_DIR``).
-
-Public API (heavy modules are imported on first use):
-
-* :func:`write_report` — ``RUN_DIR/report.html`` (one self-contained page) and
-  ``RUN_DIR/sweep.toml`` (the sweep, to run it again).
-* :func:`write_compare` — the same kernels on N runs: every run's speedups
-  with CIs, the orders of kernels that hold on every run, and for two runs the
-  ratio of their speedups, as an HTML page.
-* :func:`format_tables` — compact terminal tables of estimates and speedups.
-
-The CSV columns are defined and documented in :mod:`tribench.harness.runfolder`.
-
-``tribench.reports`` owns the HTML pages, figures and terminal tables, and
-renders the column docs. Every page is built with one kit, :mod:`.page` (the
-shell, the stylesheet, tables, figures, escaping); ``report.html`` is put
-together by :mod:`.html` from its section modules (:mod:`.headline`,
-:mod:`.ranking`, :mod:`.results`, :mod:`.checks`, :mod:`.about`), opens on the
-answer (:mod:`.ranking`) with every other section collapsed, and draws its
-main charts interactively (:mod:`.charts`: Vega-Lite, its library inlined once)
-and the dense diagnostics as static figures (:mod:`.figures`). Intervals are written by
-:func:`tribench.stats.format_interval`. It may import ``common``, ``ext``, ``workloads``, ``stats``,
-``harness``, ``analysis`` and ``studies`` (to read a run folder); never ``cli``.
+:mod:`.tables` derives every table from the measured files (``tribench stats``);
+the rest reads those tables and writes: :func:`write_report` the
+self-contained ``report.html`` (built with the kit :mod:`.page` by :mod:`.html`
+from its sections), :func:`write_compare` N runs side by side, and
+:func:`format_tables` the terminal tables. Missing or stale tables are refused
+with the command that makes them. It may import ``common``, ``ext``,
+``workloads`` and ``harness``; never ``cli``.
 """
 
 from __future__ import annotations
@@ -36,7 +16,7 @@ from typing import TYPE_CHECKING
 
 __all__ = ["load", "write_report", "write_compare", "format_tables", "format_compare", "RunError", "REPORT"]
 
-from tribench.harness.runfolder import REPORT, SWEEP_FILE
+from ..harness.runfolder import REPORT, SWEEP_FILE
 
 if TYPE_CHECKING:
     from .rundata import RunData
@@ -76,8 +56,7 @@ def write_report(run_dir: str | Path | RunData, baseline: str | None = None) -> 
         The folder is missing, incomplete or unreadable, or its tables are
         missing or stale (a one-line reason naming ``tribench stats``).
     """
-    from tribench.common import write_text
-
+    from ..common import write_text
     from .html import render, sweep_toml
 
     data = _load(run_dir, baseline)
@@ -90,8 +69,7 @@ def write_report(run_dir: str | Path | RunData, baseline: str | None = None) -> 
 
 def write_compare(*run_dirs: str | Path, out: str | Path | None = None) -> Path:
     """Write the comparison page of N >= 2 runs (default ``LAST_RUN/compare.html``) and return its path."""
-    from tribench.common import write_text
-
+    from ..common import write_text
     from .compare import compare, render_compare
 
     runs = [_load(r) for r in run_dirs]

@@ -2,7 +2,7 @@
 
 Each build's processes are read as a run of their own (``load_run(build=)``)
 and compared by the code that compares the runs of several machines
-(:func:`tribench.analysis.compare.compare_many`, which also made
+(:func:`tribench.reports.tables.compare.compare_many`, which also made
 ``builds.csv``): every kernel's speedup under each build, and every order of
 two kernels tested under each. Above them, what each build is (compiler,
 flags) and what it broke when its kernels were checked against the
@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import pandas as pd
 
-from tribench.analysis.compare import compare_many
-
 from . import page
 from .compare import _many_parts
 from .rundata import RunData, load_run
+from .tables.compare import compare_many
 
 __all__ = ["builds_section", "build_views"]
 

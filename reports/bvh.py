@@ -1,7 +1,7 @@
 """The report's "In a BVH" section: every kernel as the leaf test of a tracer's BVH.
 
 Part of ``report.html`` (:mod:`.html` puts the sections together). Every number
-is read from ``bvh.csv`` (:func:`tribench.analysis.bvh.bvh_table`) and, for
+is read from ``bvh.csv`` (:func:`tribench.reports.tables.bvh.bvh_table`) and, for
 Embree, from ``peer_rates.csv`` and ``peer_ratios.csv`` when the run's peers
 were timed through tribench's BVH (``tribench peers --accel bvh``). A run
 without a BVH workload has no such section.
@@ -13,9 +13,8 @@ import math
 
 import pandas as pd
 
-from tribench.analysis.peers import PEER_NAMES
-from tribench.stats import format_estimate
-
+from ..harness.jobs.peers import PEER_NAMES
+from ..harness.stats import format_estimate
 from . import figures, page
 from .rundata import PeerTables
 

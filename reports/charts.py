@@ -70,7 +70,7 @@ def _records(frame: pd.DataFrame, columns: list[str]) -> pd.DataFrame:
 
 def _interval(value: Any, low: Any, high: Any, unit: str = "") -> str:
     """A record's value with its interval (records hold None for NaN); the value alone where it has none."""
-    from tribench.stats import format_estimate
+    from ..harness.stats import format_estimate
 
     if value is None:
         return "–"

@@ -12,10 +12,8 @@ from typing import Any
 
 import pandas as pd
 
-from tribench import stats
-from tribench.harness import runfolder
-from tribench.studies import validate
-
+from ..harness import runfolder, stats
+from ..harness.jobs import validate
 from . import content, figures, page
 from .rundata import VALIDATE, RunData
 
@@ -243,7 +241,7 @@ def correctness_section(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) 
 
 def _left_out(differs: pd.DataFrame) -> str:
     """The sentence naming the kernels left out of the rankings where their answers differ, and why."""
-    from tribench import ext
+    from .. import ext
 
     def culls(kernel: str) -> bool:
         try:
@@ -266,7 +264,7 @@ def _left_out(differs: pd.DataFrame) -> str:
     return "Left out of every ranking, as doing other work than the reference asks: " + "; ".join(parts) + "."
 
 
-#: What each robustness test measures, in one sentence (after tribench.studies.validate's documentation).
+#: What each robustness test measures, in one sentence (after tribench.harness.jobs.validate's documentation).
 _TEST_TEXT = {
     "shared_edges": "Cracks: rays aimed exactly at a point inside an edge shared by two triangles of an exactly "
     "coplanar mesh (dyadic coordinates, exact at both precisions) that hit no triangle of it.",
@@ -303,7 +301,7 @@ def _rate_class(cell: Any) -> str:
 
 #: What the robustness section says first: where its rays come from and how to read a cell.
 _ROBUSTNESS_INTRO = (
-    "Rays no timing workload asks (tribench.studies.validate, as `tribench validate`): aimed exactly at "
+    "Rays no timing workload asks (tribench.harness.jobs.validate, as `tribench validate`): aimed exactly at "
     "shared edges and vertices of exactly coplanar meshes, from inside a far-off sphere, and at extreme "
     "scales, sizes, shapes, angles and non-finite input. A cell is a kernel's failure rate on a test at "
     "one precision (failures / rays, 0 = none). What the papers promise (validate's expected column): "

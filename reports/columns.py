@@ -8,8 +8,8 @@ renders them (:func:`describe`). The report never changes a file it reads.
 
 from __future__ import annotations
 
-from tribench.harness import runfolder as _rf
-from tribench.harness.runfolder import DERIVED, FILES, OPTIONAL, SEED_FILES, describe
+from ..harness import runfolder as _rf
+from ..harness.runfolder import DERIVED, FILES, OPTIONAL, SEED_FILES, describe
 
 __all__ = [
     "BATCHES",

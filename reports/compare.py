@@ -2,7 +2,7 @@
 
 The tables themselves (each run's speedups, the orders that hold on every
 run, and for two runs the ratio of speedups and the time ratios, with their
-Welch intervals) are computed by :mod:`tribench.analysis.compare`; this
+Welch intervals) are computed by :mod:`tribench.reports.tables.compare`; this
 module only words and renders them.
 """
 
@@ -12,8 +12,10 @@ from html import escape
 
 import pandas as pd
 
-from tribench import stats
-from tribench.analysis.compare import (
+from ..harness import stats
+from . import page
+from .rundata import RunData
+from .tables.compare import (
     Comparison,
     MultiComparison,
     compare,
@@ -21,9 +23,6 @@ from tribench.analysis.compare import (
     compare_runs,
     order_summary,
 )
-
-from . import page
-from .rundata import RunData
 
 __all__ = [
     "Comparison",
@@ -210,7 +209,7 @@ def render_compare(runs: list[RunData], m: MultiComparison, pair: Comparison | N
     else:
         nav["machines"] = SECTIONS["machines"]
     parts.append(_machines_part(runs, m.tags))
-    footer = page.p(f"Written by tribench compare at {page.now()}. Statistics: tribench.stats.", "note")
+    footer = page.p(f"Written by tribench compare at {page.now()}. Statistics: tribench.harness.stats.", "note")
     return page.document("tribench compare", "".join(parts), nav, footer)
 
 

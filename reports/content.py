@@ -2,7 +2,7 @@
 
 Nothing here computes a statistic: every interval, slope, crossover, drift
 test, outlier label and variance component was computed by
-:func:`tribench.analysis.pipeline.write_all` (through :mod:`tribench.stats`)
+:func:`tribench.reports.tables.pipeline.write_all` (through :mod:`tribench.harness.stats`)
 and read by :func:`~tribench.reports.rundata.load_run`. This module only
 joins those tables for display and reads the workload pictures.
 """
@@ -16,8 +16,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from tribench.harness import runfolder
-
+from ..harness import runfolder
 from .rundata import RunData
 
 __all__ = [

@@ -10,7 +10,7 @@ font and references nothing outside itself; dense scatters are rasterised
 inside the SVG to keep the file small.
 
 No figure computes a statistic: intervals, crossovers and labels arrive in
-the frames, computed by :mod:`tribench.stats`.
+the frames, computed by :mod:`tribench.harness.stats`.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from matplotlib.ticker import FuncFormatter, MaxNLocator, NullFormatter  # noqa:
 if TYPE_CHECKING:  # matplotlib.typing is new in 3.8
     from matplotlib.typing import RcKeyType
 
-from tribench.stats import format_interval  # noqa: E402
+from ..harness.stats import format_interval  # noqa: E402
 
 __all__ = [
     "VERDICT_COLOURS",

@@ -10,9 +10,8 @@ from html import escape
 
 import pandas as pd
 
-from tribench.analysis.peers import HEADLINE_PEERS
-from tribench.stats import format_interval
-
+from ..harness.jobs.peers import HEADLINE_PEERS
+from ..harness.stats import format_interval
 from . import page
 from .rundata import PeerTables, RunData, family_of, short_label
 

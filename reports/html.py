@@ -28,10 +28,9 @@ from __future__ import annotations
 
 import pandas as pd
 
-from tribench import analysis
-from tribench.harness import runfolder
-
+from ..harness import runfolder
 from . import about, builds, bvh, charts, checks, content, figures, headline, page, ranking, results
+from . import tables as analysis
 from .about import sweep_toml
 from .headline import headline_sentences
 from .rundata import RunData, load_peers, load_validation
@@ -65,7 +64,7 @@ OPEN = frozenset({"answer"})
 OPTIONAL_SECTIONS = {"builds": ("Across builds", "ranking"), "bvh": ("In a BVH", "scaling")}
 
 #: At most this many workload pictures are drawn, at this resolution, by the analysis step
-#: (:mod:`tribench.analysis.pipeline`; 60 dpi: 840 to 1080 px wide, 1.5 to 2 times the ~550 px shown).
+#: (:mod:`tribench.reports.tables.pipeline`; 60 dpi: 840 to 1080 px wide, 1.5 to 2 times the ~550 px shown).
 MAX_PICTURES, PICTURE_DPI = analysis.MAX_PICTURES, analysis.PICTURE_DPI
 
 
@@ -127,7 +126,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     )
     footer = page.p(
         f"Written by tribench report at {page.now()} from {data.run_dir}; tables made by the analysis "
-        f"step at {data.record.get('created', '?')}. Statistics: tribench.stats.",
+        f"step at {data.record.get('created', '?')}. Statistics: tribench.harness.stats.",
         "note",
     )
     return page.document(

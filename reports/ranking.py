@@ -2,8 +2,8 @@
 
 Part of ``report.html`` (:mod:`.html` puts the sections together); every number
 is read from ``bands.csv``, ``ranking.csv`` and ``algorithms.csv``, which the
-analysis step wrote (:func:`tribench.analysis.ranking.band_table`,
-:func:`~tribench.analysis.ranking.ranking_table`, :func:`~tribench.analysis.ranking.algorithm_table`).
+analysis step wrote (:func:`tribench.reports.tables.ranking.band_table`,
+:func:`~tribench.reports.tables.ranking.ranking_table`, :func:`~tribench.reports.tables.ranking.algorithm_table`).
 """
 
 from __future__ import annotations
@@ -13,9 +13,8 @@ from html import escape
 
 import pandas as pd
 
-from tribench.harness import runfolder
-from tribench.stats import format_estimate
-
+from ..harness import runfolder
+from ..harness.stats import format_estimate
 from . import charts, page
 from .rundata import RunData
 

@@ -252,13 +252,13 @@ def scaling_section(data: RunData, est: pd.DataFrame, slopes: pd.DataFrame, colo
 
 def peers_section(peers: PeerTables | None, note: str) -> str:
     """tribench against trimesh and Embree on the same rays, or ``note`` saying why there is nothing."""
-    from tribench.studies.peers import PAUSE_S
+    from ..harness.jobs.peers import PAUSE_S
 
     if peers is not None and peers.in_bvh:
         about = (
             "tribench's BVH with its fastest leaf kernel against native Embree (its C API, rtcIntersect1 and "
             "rtcIntersect16, plain and robust, after building its BVH), on the same camera rays, closest hit, "
-            "one core, both loops timed in C (tribench.studies.peers, as `tribench peers --accel bvh`): two "
+            "one core, both loops timed in C (tribench.harness.jobs.peers, as `tribench peers --accel bvh`): two "
             "tracers, each with its own acceleration structure; the build is the untimed set-up of both. "
             "embreex is Embree called from Python, a secondary figure."
         )
@@ -266,7 +266,7 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
         about = (
             "tribench's fastest brute-force kernel against trimesh's own intersector (NumPy after an rtree "
             "broad phase) and native Embree (its C API, after building its BVH; embreex: Embree from Python), "
-            "on the same camera rays, closest hit (tribench.studies.peers, as `tribench peers`). Embree's BVH "
+            "on the same camera rays, closest hit (tribench.harness.jobs.peers, as `tribench peers`). Embree's BVH "
             "skips most triangles "
             "of every ray; tribench tests every one: the ratio is what an acceleration structure is worth "
             "over the fastest brute force, not a comparison of ray–triangle tests."

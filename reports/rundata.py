@@ -23,13 +23,13 @@ from typing import Any
 
 import pandas as pd
 
-from tribench.analysis.margin import TWINS
-from tribench.analysis.workload_tables import compared
-from tribench.common import UserError
-from tribench.ext.builds import INSTALLED
-from tribench.harness import runfolder
-from tribench.harness.plan import recorded_builds, rows_of_build
-from tribench.workloads.labels import family_of, short_label, spec_text
+from ..common import UserError
+from ..ext.builds import INSTALLED
+from ..harness import runfolder
+from ..harness.plan import recorded_builds, rows_of_build
+from ..workloads.labels import family_of, short_label, spec_text
+from .tables.margin import TWINS
+from .tables.workload_tables import compared
 
 __all__ = [
     "RunData",
@@ -147,7 +147,7 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
 
 def _read_measured(run_dir: Path) -> tuple[dict, pd.DataFrame, pd.DataFrame]:
     """``run.json``, ``batches.csv`` and ``processes.csv``, validated; a RunError says what is wrong."""
-    from tribench.harness import runfolder
+    from ..harness import runfolder
 
     if not run_dir.is_dir():
         raise RunError(f"no run directory {run_dir}")
@@ -180,8 +180,8 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
         ``batches.csv``, or against another ``baseline`` than asked (each
         message says to run ``tribench stats``).
     """
-    from tribench import analysis
-    from tribench.harness import runfolder
+    from ..harness import runfolder
+    from . import tables as analysis
 
     run_dir = Path(run_dir)
     run, batches, processes = _read_measured(run_dir)
@@ -299,8 +299,8 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
     columns, or not yet summarised by the analysis step: the report then says
     what to run.
     """
-    from tribench import analysis
-    from tribench.studies.peers import INSTALL
+    from ..harness.jobs.peers import INSTALL
+    from . import tables as analysis
 
     path = data.run_dir / runfolder.PEERS
     how = (

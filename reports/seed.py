@@ -1,6 +1,6 @@
 """``seed.html``: the page of a ``tribench seed`` run, one self-contained file.
 
-Reads only the run folder: ``run.json``, the tables :mod:`tribench.studies.seed`
+Reads only the run folder: ``run.json``, the tables :mod:`tribench.harness.jobs.seed`
 wrote (``seed.csv``, ``seed_kinds.csv``, ``seed_workloads.csv``,
 ``seed_pictures.csv``) and the pictures, which are inlined as base64 PNG.
 No script, no network; all text goes through :func:`html.escape`.
@@ -18,9 +18,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from tribench.common import write_text
-from tribench.stats import format_interval
-
+from ..common import write_text
+from ..harness.stats import format_interval
 from . import figures, page
 from .about import machine_rows
 
@@ -323,7 +322,7 @@ def _machine(run: dict) -> str:
 
 
 def _reproduce(run: dict) -> str:
-    from tribench.studies.seed import COLUMNS
+    from ..harness.jobs.seed import COLUMNS
 
     rev = run.get("machine", {}).get("git_revision")
     steps = ([f"git checkout {rev}"] if rev else []) + ["pip install -e .", run.get("command") or "tribench seed"]
@@ -360,8 +359,8 @@ def _kernels_timed(replay: dict) -> str:
 
 def render_seed(run_dir: str | Path) -> str:
     """The whole page of a seed run, as a string."""
-    from tribench.harness import runfolder
-    from tribench.studies.seed import KINDS_CSV, PICTURES_CSV, SEED_CSV, WORKLOADS_CSV
+    from ..harness import runfolder
+    from ..harness.jobs.seed import KINDS_CSV, PICTURES_CSV, SEED_CSV, WORKLOADS_CSV
 
     run_dir = Path(run_dir)
     run = runfolder.read_run(run_dir)
@@ -380,7 +379,9 @@ def render_seed(run_dir: str | Path) -> str:
         f"{run.get('created')}, {run['sweep']['processes']} processes. {_kernels_timed(run['seed_replay'])}",
         "sub",
     )
-    footer = page.p(f"Written by tribench seed at {page.now()} from {run_dir}. Statistics: tribench.stats.", "note")
+    footer = page.p(
+        f"Written by tribench seed at {page.now()} from {run_dir}. Statistics: tribench.harness.stats.", "note"
+    )
     return page.document(title, head + "".join(sections), SECTIONS, footer)
 
 

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from tribench.stats import format_interval
-
+from ..harness.stats import format_interval
 from .rundata import RunData, short_label
 
 __all__ = ["format_run"]

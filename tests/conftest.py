@@ -31,6 +31,16 @@ def run_tribench(*args, cwd, cache, timeout: float = 1200) -> subprocess.Complet
     )
 
 
+def analysed(run_dir, baseline=None, margin=None, quick: bool = False):
+    """What ``tribench sweep`` does after its last batch: the robustness suite (``quick``: at its quick
+    sizes) where the folder lacks it, then every derived table; the tables made."""
+    from tribench.harness.jobs.sweep import measure_robustness
+    from tribench.reports import tables
+
+    note = measure_robustness(run_dir, quick=quick)
+    return tables.write_all(run_dir, baseline=baseline, margin=margin, validate_note=note)
+
+
 def safe_pairs(n: int, seed: int, hit_rate: float = 0.5):
     """n (origin, direction, triangle) float64 pairs; about hit_rate of them hit.
 

@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 from tribench import ext
 from tribench.common import Notice, UserError
 from tribench.harness import checks, runfolder, worker
+from tribench.harness.jobs import peers
 from tribench.harness.plan import Sweep
-from tribench.studies import peers
 from tribench.workloads import bvh_cache, cache, reference
 from tribench.workloads.kinds import spec_from_dict
 from tribench.workloads.spec import MeshSpec, workload_id

@@ -1,14 +1,18 @@
 """The packages import in one direction only, and no module imports itself back.
 
-The written order (docs/architecture.md, "Layout and data flow"), bottom first:
+The order (docs/architecture.md, "Layout and data flow"), bottom first; a
+sub-package named here is a layer of its own, above or below the rest of its
+package:
 
-    common <- ext <- workloads <- stats <- harness <- analysis <- studies <- reports <- cli
+    common <- ext <- workloads <- harness.stats <- harness <- harness.jobs
+           <- reports.tables <- reports <- cli <- tribench (the notebook facade)
 
-A module may import its own package and any package below it, never one
-above. Every import counts: at module level, inside a function, under
-``if TYPE_CHECKING``, relative or absolute. Between modules there is no cycle,
-function-level imports included, so each module can be read (and imported)
-knowing only what is below it.
+A module may import its own layer and any layer below it, never one above.
+Every import counts: at module level, inside a function, under
+``if TYPE_CHECKING``. Between modules there is no cycle, function-level
+imports included, so each module can be read (and imported) knowing only what
+is below it. Inside the package every import is relative, so that it resolves
+from the files alone.
 """
 
 from __future__ import annotations
@@ -21,8 +25,20 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-ORDER = ["common", "ext", "workloads", "stats", "harness", "analysis", "studies", "reports", "cli"]
-RANK = {package: rank for rank, package in enumerate(ORDER)}
+ORDER = [
+    "common",
+    "ext",
+    "workloads",
+    "harness.stats",
+    "harness",
+    "harness.jobs",
+    "reports.tables",
+    "reports",
+    "cli",
+    "",  # the facade, the package's own __init__.py
+]
+RANK = {layer: rank for rank, layer in enumerate(ORDER)}
+PACKAGES = ["common", "ext", "workloads", "harness", "reports", "cli"]
 
 
 @dataclass(frozen=True)
@@ -32,6 +48,7 @@ class Edge:
     source: str
     target: str
     where: str
+    absolute: bool = False
 
     def __str__(self) -> str:
         return f"{self.source} -> {self.target} ({self.where})"
@@ -45,11 +62,12 @@ def _module_name(path: Path) -> str:
 
 
 def _sources() -> dict[str, Path]:
-    """Every module of the seven packages, by its import name."""
-    found = {}
-    for package in ORDER:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            found[_module_name(path)] = path
+    """Every module of the package, by its import name (a compiled module by its stub)."""
+    found = {"tribench": ROOT / "__init__.py"}
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py*")):
+            if path.suffix in (".py", ".pyi"):
+                found[_module_name(path)] = path
     return found
 
 
@@ -82,38 +100,47 @@ def _imports(module: str, path: Path) -> list[Edge]:
         else:
             continue
         where = f"{path.relative_to(ROOT)}:{node.lineno}"
-        edges += [Edge(module, t, where) for t in targets if t == "tribench" or t.startswith("tribench.")]
+        absolute = isinstance(node, ast.Import) or not node.level
+        edges += [Edge(module, t, where, absolute) for t in targets if t == "tribench" or t.startswith("tribench.")]
     return edges
 
 
 EDGES = [edge for module, path in MODULES.items() for edge in _imports(module, path)]
 
 
-def _package(module: str) -> str | None:
-    parts = module.split(".")
-    return parts[1] if len(parts) > 1 else None
+def _layer(module: str) -> str:
+    """The layer of the order a module belongs to: its longest sub-package named there."""
+    parts = module.split(".")[1:]
+    for n in range(len(parts), -1, -1):
+        if ".".join(parts[:n]) in RANK:
+            return ".".join(parts[:n])
+    raise AssertionError(module)
 
 
-def test_the_scan_sees_every_package_and_every_kind_of_import():
+def test_the_scan_sees_every_layer_and_every_kind_of_import():
     # a scan that found nothing would pass everything below
-    assert {_package(m) for m in MODULES} == set(ORDER)
+    assert {_layer(m) for m in MODULES} == set(ORDER)
     assert len(EDGES) > 100
     pairs = {(e.source, e.target) for e in EDGES}
     assert ("tribench.harness.runner", "tribench.harness.runfolder") in pairs  # from . import module
     assert ("tribench.harness.runner", "tribench.harness.margin") in pairs  # relative, in a function
-    assert ("tribench.analysis.pipeline", "tribench.stats") in pairs  # from tribench import package
-    assert ("tribench.cli.command", "tribench.harness.runner") in pairs  # absolute, in a function
+    assert ("tribench.reports.tables.pipeline", "tribench.harness.stats") in pairs  # from ..package import package
+    assert ("tribench.cli.command", "tribench.harness.runner") in pairs  # in a function
     assert ("tribench.workloads.cache", "tribench.workloads.kinds") in pairs  # from .module import name
+    assert ("tribench.ext.registry", "tribench.ext._core") in pairs  # the compiled module, by its stub
+
+
+def test_every_import_inside_the_package_is_relative():
+    absolute = [str(e) for e in EDGES if e.absolute]
+    assert not absolute, "absolute imports of tribench inside it (import relatively):\n" + "\n".join(absolute)
 
 
 def test_every_import_points_down_the_order():
     bad = []
     for edge in EDGES:
-        source, target = _package(edge.source), _package(edge.target)
-        if target not in RANK:
-            bad.append(f"{edge}: {edge.target} is in no package of the order {ORDER}")
-        elif RANK[target] > RANK[source]:
-            bad.append(f"{edge}: {source} may not import {target} (order: {' <- '.join(ORDER)})")
+        source, target = _layer(edge.source), _layer(edge.target)
+        if RANK[target] > RANK[source]:
+            bad.append(f"{edge}: {source or 'tribench'} may not import {target or 'tribench'}")
     assert not bad, "imports against the order:\n" + "\n".join(bad)
 
 
@@ -186,7 +213,7 @@ def test_the_cycle_finder_finds_a_cycle_and_names_its_edges():
     assert _cycles(edges[:2] + edges[3:]) == []
 
 
-@pytest.mark.parametrize("package", ORDER)
+@pytest.mark.parametrize("package", PACKAGES)
 def test_each_package_says_what_it_owns_and_may_import(package):
     doc = ast.get_docstring(ast.parse((ROOT / package / "__init__.py").read_text(encoding="utf-8")))
     assert doc, f"{package}/__init__.py has no docstring"

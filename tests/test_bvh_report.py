@@ -10,18 +10,18 @@ from html.parser import HTMLParser
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import analysed
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tribench import ext
-from tribench.analysis import bvh as bvh_tables
 from tribench.common import UserError
 from tribench.harness import runfolder, runner
 from tribench.harness.plan import Sweep
 from tribench.reports import bvh as report_bvh
 from tribench.reports import html as report_html
 from tribench.reports.rundata import load_run
-from tribench.studies.finish import finish
+from tribench.reports.tables import bvh as bvh_tables
 from tribench.workloads import cache
 from tribench.workloads.spec import MeshSpec, PairSpec, workload_id
 
@@ -39,7 +39,7 @@ def _run(tmp_path_factory, name: str, sweep: Sweep):
         runner.start(sweep, run_dir, progress=False)
         # an empty robustness table: the analysis does not run the suite (its own tests do)
         pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE])).to_csv(run_dir / "validate.csv", index=False)
-        finish(run_dir)
+        analysed(run_dir)
     return run_dir, base / "cache"
 
 
@@ -142,7 +142,7 @@ def test_a_run_made_before_traversals_csv_gets_rates_and_speedups_without_counts
     copy = tmp_path / "copy"
     shutil.copytree(bvh_run, copy)
     (copy / runfolder.TRAVERSALS).unlink()
-    finish(copy)
+    analysed(copy)
     bvh = pd.read_csv(copy / runfolder.BVH)
     assert list(bvh["kernel"]) == list(KERNELS) and bvh["rays_per_s"].notna().all()
     assert bvh[["nodes_per_ray", "leaf_share", "leaf_share_ci_low"]].isna().all().all()

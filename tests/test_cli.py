@@ -89,7 +89,7 @@ def test_run_quick_is_the_main_job_end_to_end(tmp_path):
     assert f"report: {out / 'report.html'}" in done.stdout
     for kernel in ("curless_seed", "moller_seed", "moller_trumbore"):
         assert kernel in done.stdout
-    from tribench.studies import peers
+    from tribench.harness.jobs import peers
 
     if any(peers.available().values()):  # the report's peers, measured by the run
         frame = pd.read_csv(out / "peers.csv")

@@ -21,7 +21,7 @@ from test_cli import run
 
 from tribench.cli import workloads as workloads_cli
 from tribench.cli.command import build_parser
-from tribench.workloads.seed_scene import builtin_scene_path
+from tribench.workloads.seed.scene import builtin_scene_path
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"

@@ -14,15 +14,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import analysed
 from test_report_run import copy_run_inputs, run_fixture_dir
 
 from tribench import reports
 from tribench.common import UserError
+from tribench.harness.stats import unpaired_ratio
 from tribench.reports import page
 from tribench.reports.compare import compare_many, compare_runs, format_many, order_summary, render_compare
 from tribench.reports.rundata import load_run
-from tribench.stats import unpaired_ratio
-from tribench.studies.finish import finish
 
 FACTOR = 1.25  # run B: moller_trumbore made exactly this much faster
 
@@ -38,7 +38,7 @@ def two_runs(tmp_path_factory):
     b.to_csv(run_b / "batches.csv", index=False)
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("TRIBENCH_CACHE", str(cache))
-        finish(run_b)  # `tribench stats`: compare reads the tables, as the report does
+        analysed(run_b)  # `tribench stats`: compare reads the tables, as the report does
         yield run_a, run_b
 
 
@@ -129,7 +129,7 @@ def _fake_run(real: Path, folder: Path, factors: dict[str, float], cpu_model: st
     )
     b["elapsed_ns"] = (per_test * factor * b["tests"]).round().astype("int64")
     b.to_csv(folder / "batches.csv", index=False)
-    finish(folder)
+    analysed(folder)
     return folder
 
 
@@ -225,7 +225,7 @@ def test_compare_cli_refuses_fewer_than_two_or_more_than_26_runs(three_runs, cou
 def test_compare_refuses_runs_with_different_baselines(three_runs, tmp_path):
     other = tmp_path / "other"
     shutil.copytree(three_runs[2], other)
-    finish(other, baseline="curless")
+    analysed(other, baseline="curless")
     with pytest.raises(UserError, match="different baselines .*C: curless"):
         compare_many([load_run(r) for r in [*three_runs[:2], other]])
 
@@ -282,7 +282,7 @@ def runs_sharing_only_the_baseline(two_runs, tmp_path_factory):
         b.loc[b["kernel"].isin(["moller_seed", kept])].to_csv(folder / "batches.csv", index=False)
         with pytest.MonkeyPatch.context() as mp:
             mp.setenv("TRIBENCH_CACHE", str(cache))
-            finish(folder)
+            analysed(folder)
         folders.append(folder)
     return folders
 

@@ -10,11 +10,11 @@ SUBPACKAGES = [
     "tribench.common",
     "tribench.ext",
     "tribench.workloads",
-    "tribench.stats",
+    "tribench.harness.stats",
     "tribench.harness",
     "tribench.harness.runfolder",
-    "tribench.analysis",
-    "tribench.studies",
+    "tribench.reports.tables",
+    "tribench.harness.jobs",
     "tribench.reports",
     "tribench.cli",
 ]
@@ -41,7 +41,7 @@ def test_the_modules_with_examples_are_found():
         "tribench.common.files",
         "tribench.ext",
         "tribench.workloads.reference",
-        "tribench.stats.estimates",
+        "tribench.harness.stats.estimates",
         "tribench.reports.html",
         "tribench.harness.runfolder.doc",  # docs/run-folder.md's generator
     } <= set(MODULES)

@@ -11,12 +11,12 @@ import re
 
 import pandas as pd
 import pytest
+from conftest import analysed
 
-from tribench.analysis.workload_tables import agreeing
 from tribench.harness import plan, runfolder, runner
 from tribench.harness.plan import Sweep
 from tribench.reports import write_report
-from tribench.studies.finish import finish
+from tribench.reports.tables.workload_tables import agreeing
 from tribench.workloads.spec import PairSpec, workload_id
 
 CULL = "moller_trumbore_cull"
@@ -30,7 +30,7 @@ def run(tmp_path_factory):
         mp.setenv("TRIBENCH_CACHE", str(base / "cache"))
         sweep = Sweep(("moller_seed", "moller_trumbore", CULL), (RANDOM, FACING), processes=3, rounds=2, target_ms=0.2)
         runner.start(sweep, base / "run", progress=False)
-        finish(base / "run", quick=True)
+        analysed(base / "run", quick=True)
         write_report(base / "run")
         yield base / "run"
 

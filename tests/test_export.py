@@ -24,8 +24,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_report_run import run_fixture_dir
 
-from tribench.analysis import export
 from tribench.harness import runfolder
+from tribench.reports.tables import export
 
 SCHEMA = json.loads((Path(__file__).parent / "google_benchmark.schema.json").read_text(encoding="utf-8"))
 VALIDATOR = jsonschema.Draft202012Validator(SCHEMA)

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from tribench.harness import checks
 from tribench.workloads import CacheWarning, cache, front, list_cached, reference
-from tribench.workloads.seed_workload import SeedSpec
+from tribench.workloads.seed.workload import SeedSpec
 from tribench.workloads.spec import MeshSpec
 
 # a shadow stream: a few of its rays meet a back face first (the brute-force part runs)

@@ -16,9 +16,9 @@ from conftest import safe_pairs
 
 from tribench import ext
 from tribench.harness import checks, machine, runfolder, worker
+from tribench.harness.jobs import calibrate as calibration
 from tribench.harness.plan import BatchKey, Sweep, plan
 from tribench.harness.sweep_file import expand_workloads, load_sweep_file
-from tribench.studies import calibrate as calibration
 from tribench.workloads import cache, front, reference
 from tribench.workloads.spec import MeshSpec, PairSpec, workload_id
 

@@ -16,10 +16,10 @@ import tracemalloc
 import pytest
 
 from tribench.common import UserError
+from tribench.harness.jobs import calibrate as calibration
+from tribench.harness.jobs.calibrate import MAX_MARGIN, Margin, latest_margin, user_calibration_path
 from tribench.harness.plan import MAX_BATCHES, MAX_PROCESSES, Sweep, default_sweep
 from tribench.harness.sweep_file import load_sweep_file
-from tribench.studies import calibrate as calibration
-from tribench.studies.calibrate import MAX_MARGIN, Margin, latest_margin, user_calibration_path
 from tribench.workloads.spec import PairSpec
 
 PAIR = (PairSpec(n=10),)

@@ -240,7 +240,7 @@ def test_a_native_kernel_of_ones_own_is_a_bvh_leaf_test(tmp_path, builds):
         f"""
 import numpy as np, trimesh
 from tribench import ext
-from tribench.studies.kernel_check import load_checked
+from tribench.harness.jobs.kernel_check import load_checked
 print(load_checked([{str(own)!r}]), "my_fma" in ext.bvh_kernel_names())
 tris = np.ascontiguousarray(trimesh.creation.icosphere(subdivisions=3).triangles).astype(np.float32)
 rng = np.random.default_rng(0)

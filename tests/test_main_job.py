@@ -1,4 +1,4 @@
-"""``tribench run`` as a library function (tribench.studies.main.run): what it returns is what it wrote."""
+"""The main job (tribench.harness.jobs.main) and its tables: what the analysis returns is what it wrote."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import json
 import pandas as pd
 import pytest
 
-from tribench import analysis
 from tribench.harness import plan, runfolder
+from tribench.harness.jobs import main as main_job
 from tribench.harness.plan import Sweep
-from tribench.studies import main as main_job
+from tribench.reports import tables as analysis
 from tribench.workloads.spec import MeshSpec, PairSpec
 
 #: The default sweep's shape (pairs at two hit rates, a mesh; the baseline and a clean kernel), as small as it goes.
@@ -39,9 +39,18 @@ def result(tmp_path_factory):
         asked = []
         mp.setattr(plan, "default_sweep", lambda quick=False, kernel_files=(), builds=(): asked.append(quick) or TINY)
         log = io.StringIO()
-        done = main_job.run(base / "run", quick=True, progress=False, peers=False, log=log)
+        note = main_job.run(base / "run", quick=True, progress=False, peers=False, log=log)
     assert asked == [True]
-    return done, log.getvalue()
+    derived = analysis.write_all(base / "run", validate_note=note)
+    return _Done(base / "run", derived.estimates, derived.speedups, derived.tables), log.getvalue()
+
+
+@dataclasses.dataclass
+class _Done:
+    run_dir: object
+    estimates: pd.DataFrame
+    speedups: pd.DataFrame
+    tables: dict
 
 
 def _read(run_dir, name: str) -> pd.DataFrame:
@@ -67,8 +76,7 @@ def test_the_returned_frames_are_the_csvs_it_wrote(result):
     assert set(done.speedups["kernel"]) == {"moller_trumbore"} and set(done.speedups["baseline"]) == {"moller_seed"}
     for name, frame in done.tables.items():
         _same(frame, name, _read(run_dir, name))
-    _same(done.validate, runfolder.VALIDATE, _read(run_dir, runfolder.VALIDATE))
-    assert set(done.validate["kernel"]) == set(TINY.kernels)
+    assert set(_read(run_dir, runfolder.VALIDATE)["kernel"]) == set(TINY.kernels)
 
 
 def test_the_run_folder_holds_every_table_of_a_run_without_peers(result):
@@ -86,7 +94,7 @@ def test_the_run_folder_holds_every_table_of_a_run_without_peers(result):
     assert len(pictures) == len(TINY.workloads)
     assert all((run_dir / p).read_bytes().startswith(b"\x89PNG") for p in pictures)
     assert json.loads((run_dir / runfolder.RUN).read_text(encoding="utf-8"))["n_batches"] == TINY.n_batches
-    assert done.peers is None and done.sweep.batches_run == TINY.n_batches
+    assert not (run_dir / runfolder.PEERS).exists() and f"{TINY.n_batches} batches run in" in log
     assert "tribench run: moller_seed, moller_trumbore on 3 workloads" in log and "validate:" in log
 
 
@@ -136,9 +144,9 @@ def test_an_interrupted_main_job_resumes_to_the_end(tmp_path, monkeypatch):
     lines = (out / "batches.csv").read_text().splitlines(keepends=True)
     (out / "batches.csv").write_text("".join(lines[: len(lines) // 2]))  # the sweep stopped half-way
     log = io.StringIO()
-    done = main_job.resume(out, progress=False, peers=False, log=log)
-    assert done.sweep.batches_done == done.sweep.batches_total == len(lines) - 1 and done.sweep.batches_run > 0
-    assert (out / runfolder.ANALYSIS).is_file() and (out / runfolder.VALIDATE).is_file()
+    main_job.resume(out, progress=False, peers=False, log=log)
+    assert len((out / "batches.csv").read_text().splitlines()) == len(lines)
+    assert (out / runfolder.VALIDATE).is_file() and not (out / runfolder.ANALYSIS).exists()  # it measures only
     assert "finishing the main job" in log.getvalue()
 
 
@@ -183,13 +191,14 @@ def test_run_resume_is_refused_in_one_line_where_it_cannot_apply(tmp_path):
 
 def test_the_baselines_a_a_twin_sets_the_margin_and_is_ranked_nowhere(tmp_path, monkeypatch):
     from tribench import reports
-    from tribench.analysis import margin as twin
+    from tribench.reports.tables import margin as twin
 
     monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
     sweep = dataclasses.replace(TINY, kernels=(*TINY.kernels, "moller_seed_aa"), processes=3)
     with monkeypatch.context() as mp:
         mp.setattr(plan, "default_sweep", lambda quick=False, kernel_files=(), builds=(): sweep)
-        done = main_job.run(tmp_path / "run", quick=True, progress=False, peers=False, log=io.StringIO())
+        note = main_job.run(tmp_path / "run", quick=True, progress=False, peers=False, log=io.StringIO())
+    done = analysis.write_all(tmp_path / "run", validate_note=note)
     # the twin is measured beside the baseline, and its A/A speedups are the margin
     assert "moller_seed_aa" in set(done.estimates["kernel"]) and "moller_seed_aa" in set(done.speedups["kernel"])
     expected = twin.twin_margin(done.tables[runfolder.PER_PROCESS], "moller_seed")
@@ -199,7 +208,7 @@ def test_the_baselines_a_a_twin_sets_the_margin_and_is_ranked_nowhere(tmp_path, 
     # no ranking, kernel table or report row names it
     for name in (runfolder.RANKING, runfolder.BANDS, runfolder.ALGORITHMS, runfolder.KERNELS):
         assert "moller_seed_aa" not in set(done.tables[name].get("kernel", ())), name
-    data = reports.load(done.run_dir)
+    data = reports.load(tmp_path / "run")
     assert "moller_seed_aa" not in data.kernels and "moller_seed_aa" not in set(data.estimates["kernel"])
     # --margin still wins
-    assert analysis.analyse(done.run_dir, margin=0.05).margin.source == "--margin"
+    assert analysis.analyse(tmp_path / "run", margin=0.05).margin.source == "--margin"

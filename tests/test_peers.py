@@ -1,4 +1,4 @@
-"""Peers (tribench.studies.peers): the statistics, a real tiny measurement, the report's section, the CLI."""
+"""Peers (tribench.harness.jobs.peers): the statistics, a real tiny measurement, the report's section, the CLI."""
 
 from __future__ import annotations
 
@@ -10,15 +10,18 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import analysed
 from test_report_run import run_fixture_dir
 
-from tribench import analysis, reports, stats
+from tribench import reports
 from tribench.ext import embree
+from tribench.harness import stats
+from tribench.harness.jobs import peers
 from tribench.reports import columns
 from tribench.reports import html as report_html
+from tribench.reports import tables as analysis
 from tribench.reports.rundata import load_peers, load_run
-from tribench.studies import peers
-from tribench.studies.finish import finish
+from tribench.reports.tables.peers import summarise
 
 TINY = peers.PeerDesign(
     width=24, height=24, triangles=100, processes=2, reps=2, trimesh_rays=128, choice_rays=128, choice_rounds=1
@@ -63,7 +66,7 @@ def test_summary_gives_geometric_means_and_ratios_paired_by_process():
     frame = _rows(
         {"tribench": [100.0, 200.0, 400.0], "trimesh": [10.0, 20.0, 40.0], "embree": [1000.0, 1000.0, 1000.0]}
     )
-    rates, ratios = peers.summarise(frame)
+    rates, ratios = summarise(frame)
     assert list(rates["contender"]) == ["tribench", "embree", "trimesh"]
     tb = rates.set_index("contender").loc["tribench"]
     assert tb["rays_per_s"] == pytest.approx(200.0) and tb["ci_low"] < 200.0 < tb["ci_high"]
@@ -174,7 +177,7 @@ def _section(page: str, sid: str) -> str:
 def test_report_shows_the_peers_with_their_ratios_and_a_headline_sentence(run_copy, measured):
     path, frame = measured
     shutil.copy(path, run_copy / peers.PEERS)
-    finish(run_copy)  # `tribench stats`: the report reads the peer tables it writes
+    analysed(run_copy)  # `tribench stats`: the report reads the peer tables it writes
     page = reports.write_report(run_copy).read_text(encoding="utf-8")
     section = _section(page, "peers")
     kernel = frame["kernel"].iloc[0]
@@ -206,7 +209,7 @@ def test_a_corrupt_peers_file_does_not_stop_the_report(run_copy, content):
 
 def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
     _rows({"tribench": [100.0], "trimesh": [10.0]}).assign(rays_per_s=-1.0).to_csv(run_copy / peers.PEERS, index=False)
-    finish(run_copy)  # the analysis cannot summarise them, and says why
+    analysed(run_copy)  # the analysis cannot summarise them, and says why
     section = _peers_section(run_copy)
     assert "cannot be used" in section and "positive" in section
 
@@ -250,7 +253,7 @@ def test_peers_refuse_a_mesh_the_sweep_refuses(tmp_path, capsys):
 
 
 def test_tribench_run_goes_on_without_peers_or_when_they_fail(monkeypatch, capsys, tmp_path):
-    from tribench.studies import main as main_job
+    from tribench.harness.jobs import main as main_job
 
     monkeypatch.setattr(peers, "available", lambda: {"trimesh": None, "embree": None})
     main_job._run_peers(str(tmp_path), quick=True, progress=False)
@@ -273,7 +276,7 @@ def test_peers_into_an_analysed_run_folder_refresh_its_peer_tables(run_copy):
 
     from tribench.harness import runfolder
 
-    finish(run_copy, baseline="curless")  # a choice of `tribench stats` the refresh must keep
+    analysed(run_copy, baseline="curless")  # a choice of `tribench stats` the refresh must keep
     assert load_peers(load_run(run_copy))[0] is None  # no peers yet
     done = subprocess.run(
         [
@@ -310,7 +313,7 @@ def test_peers_timed_through_the_bvh_are_reported_as_the_bvh_not_brute_force(run
     rows = _rows({"tribench": [100.0, 110.0, 105.0], "embree": [50.0, 52.0, 51.0]})
     rows.loc[rows.contender == "tribench", "implementation"] = "tribench 0.1.0 bvh woop_fma (16 lanes)"
     rows.to_csv(run_copy / peers.PEERS, index=False)
-    finish(run_copy)
+    analysed(run_copy)
     section = _peers_section(run_copy)
     assert "tribench&#x27;s BVH with k runs at" in section and "brute" not in section
 

@@ -13,9 +13,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tribench.analysis import ranking
 from tribench.reports import charts, checks, page
 from tribench.reports import ranking as report_ranking
+from tribench.reports.tables import ranking
 
 KERNELS = ("moller_trumbore", "baldwin_weber_12", "woop")
 DTYPES = ("float32", "float64")

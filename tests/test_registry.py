@@ -16,7 +16,7 @@ import pytest
 
 from tribench import ext
 from tribench.harness import checks
-from tribench.studies import validate
+from tribench.harness.jobs import validate
 
 ROOT = Path(__file__).resolve().parents[1]
 KERNELS = ext.kernel_names(internal=True)

@@ -13,13 +13,13 @@ from html.parser import HTMLParser
 
 import pandas as pd
 import pytest
+from conftest import analysed
 from test_report_run import run_fixture_dir
 
 from tribench import reports
 from tribench.reports import charts, checks, headline
 from tribench.reports import html as report_html
 from tribench.reports.rundata import RunError
-from tribench.studies.finish import finish
 
 
 @pytest.fixture(scope="module")
@@ -212,7 +212,7 @@ def test_kernels_section_gives_bytes_per_triangle_beside_speed(rendered):
 def test_robustness_section_shows_the_validate_table_per_kernel_and_dtype(rendered):
     from test_report_run import KERNELS
 
-    from tribench.studies import validate
+    from tribench.harness.jobs import validate
 
     run_dir, _, text = rendered
     part = text[text.index('id="robustness"') : text.index('id="workloads"')]
@@ -299,7 +299,7 @@ def test_the_analysis_rebuilds_a_workload_missing_from_the_cache(tmp_path_factor
     copy = tmp_path_factory.mktemp("rebuild") / "run"
     shutil.copytree(run_dir, copy)
     monkeypatch.setenv("TRIBENCH_CACHE", str(copy.parent / "empty-cache"))
-    finish(copy)  # `tribench stats` on another machine: the workloads are made from their specs
+    analysed(copy)  # `tribench stats` on another machine: the workloads are made from their specs
     text = reports.write_report(copy).read_text()
     assert "rebuilt from the spec recorded in run.json" in text
     rebuilt, cached = pd.read_csv(copy / "workloads.csv"), pd.read_csv(run_dir / "workloads.csv")

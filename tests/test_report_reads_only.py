@@ -12,10 +12,11 @@ from pathlib import Path
 import pytest
 from test_report_run import run_fixture_dir
 
-from tribench import analysis, ext, reports, stats
-from tribench.analysis import pipeline
-from tribench.harness import runfolder
-from tribench.studies import finish, validate
+from tribench import ext, reports
+from tribench.harness import runfolder, stats
+from tribench.harness.jobs import sweep, validate
+from tribench.reports import tables as analysis
+from tribench.reports.tables import pipeline
 from tribench.workloads import cache
 
 #: Every entry point that measures, makes a workload, runs the suite, computes a statistic or writes a table.
@@ -26,8 +27,7 @@ POISONED = [
     (cache, "generate"),
     (cache, "load"),
     (validate, "run"),
-    (finish, "finish"),
-    (finish, "measure_robustness"),
+    (sweep, "measure_robustness"),
     (analysis, "analyse"),
     (analysis, "write_all"),
     (analysis, "write_tables"),

@@ -13,13 +13,13 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from conftest import analysed
 
-from tribench import analysis
 from tribench.harness import runfolder, runner
+from tribench.harness.jobs import peers, validate
 from tribench.harness.plan import Sweep
 from tribench.reports import columns
-from tribench.studies import peers, validate
-from tribench.studies.finish import finish
+from tribench.reports import tables as analysis
 from tribench.workloads.spec import MeshSpec, PairSpec
 
 KERNELS = ("moller_seed", "moller_trumbore", "curless")
@@ -68,7 +68,7 @@ def _made_once(tmp_path_factory: pytest.TempPathFactory) -> Path:
                 sweep = Sweep(KERNELS, WORKLOADS, processes=3, rounds=3, warmup=1, target_ms=0.2, seed=5)
                 runner.start(sweep, made / "run", progress=False)
                 validate.run(KERNELS, ["float64"], quick=True).to_csv(made / "run" / "validate.csv", index=False)
-                finish(made / "run")
+                analysed(made / "run")
             (made / "done").touch()
     return made
 
@@ -115,7 +115,7 @@ def test_the_analysis_writes_every_derived_table_and_lists_it(small_run):
 
 
 def test_one_module_owns_the_names_and_columns():
-    from tribench.studies import seed
+    from tribench.harness.jobs import seed
 
     assert tuple(columns.BATCHES) == runfolder.BATCH_COLUMNS
     assert tuple(columns.PROCESSES) == runfolder.PROCESS_COLUMNS
@@ -197,7 +197,7 @@ def test_stats_makes_a_missing_robustness_table_and_the_report_reads_it(tmp_path
     (copy / "validate.csv").unlink()
     df, note = load_validation(load_run(copy))  # the report alone does not run the suite
     assert df.empty and f"tribench stats {copy}" in note and not (copy / "validate.csv").exists()
-    finish(copy, quick=True)
+    analysed(copy, quick=True)
     data = load_run(copy)
     df, note = load_validation(data)
     assert note.startswith("Read from validate.csv") and "made by the robustness suite" in note
@@ -218,7 +218,7 @@ def test_a_robustness_suite_that_cannot_run_does_not_stop_the_analysis(tmp_path_
         raise RuntimeError("no extension")
 
     monkeypatch.setattr(validate, "run", fail)
-    finish(copy)
+    analysed(copy)
     df, note = load_validation(load_run(copy))
     assert df.empty and "could not run" in note and "no extension" in note
     assert not (copy / "validate.csv").exists()
@@ -267,7 +267,7 @@ def test_the_ranking_orders_every_workload_and_pairs_each_kernel_with_the_fastes
 
 
 def test_the_algorithm_table_pairs_every_two_algorithms_the_faster_first(small_run):
-    from tribench import stats
+    from tribench.harness import stats
 
     rank = pd.read_csv(small_run / runfolder.RANKING)
     alg = pd.read_csv(small_run / runfolder.ALGORITHMS)
@@ -287,8 +287,9 @@ def test_the_bands_table_ranks_kernels_per_precision_and_hit_rate_band(small_run
     """bands.csv, recomputed by hand from per_process.csv, workloads.csv and validate.csv."""
     import numpy as np
 
-    from tribench import ext, stats
-    from tribench.analysis.ranking import band_of
+    from tribench import ext
+    from tribench.harness import stats
+    from tribench.reports.tables.ranking import band_of
 
     bands = pd.read_csv(small_run / runfolder.BANDS)
     pp = pd.read_csv(small_run / runfolder.PER_PROCESS)

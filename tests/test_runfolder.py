@@ -19,14 +19,14 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import analysed
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tribench import analysis
 from tribench.common import UserError
 from tribench.harness import runfolder, runner
 from tribench.harness.plan import Sweep, plan
-from tribench.studies.finish import finish
+from tribench.reports import tables as analysis
 from tribench.workloads.spec import PairSpec
 
 SLOW = [
@@ -64,7 +64,7 @@ def finished(cache, tmp_path_factory):
     out = tmp_path_factory.mktemp("finished") / "run"
     sweep = Sweep(("moller_trumbore", "curless"), (PairSpec(n=200),), processes=3, rounds=2, warmup=1, target_ms=0.2)
     runner.start(sweep, out, progress=False)
-    finish(out)  # the analysis step: every table the report reads
+    analysed(out)  # the analysis step: every table the report reads
     return out
 
 

@@ -14,12 +14,13 @@ from scipy import stats as sps
 from tribench import ext
 from tribench.cli.command import main
 from tribench.harness import runfolder
-from tribench.studies import seed as hs
+from tribench.harness.jobs import seed as hs
+from tribench.reports.tables import seed as seed_tables
 from tribench.workloads import cache, reference
-from tribench.workloads import seed_workload as sw
 from tribench.workloads.kinds import spec_from_dict
-from tribench.workloads.seed_scene import Scene, builtin_scene, builtin_scene_path
-from tribench.workloads.seed_workload import ORIGIN_SHIFT, EmptyStream, SeedSpec
+from tribench.workloads.seed import workload as sw
+from tribench.workloads.seed.scene import Scene, builtin_scene, builtin_scene_path
+from tribench.workloads.seed.workload import ORIGIN_SHIFT, EmptyStream, SeedSpec
 from tribench.workloads.spec import workload_id
 
 # A tiny scene with every kind of ray: a reflective floor, a sphere, and a
@@ -162,13 +163,13 @@ def test_per_render_arithmetic_by_hand():
         "p": {"scene": "s1", "stream_tests": 10_000, "sample_tests": 100},  # x100
         "s": {"scene": "s1", "stream_tests": 2_000, "sample_tests": 40},
     }  # x50
-    per = hs.render_per_process(pp, workloads)
+    per = seed_tables.render_per_process(pp, workloads)
     got = {(r.kernel, r.process): r.render_s * 1e9 for r in per.itertuples()}
     # A, process 0: 2*100*100 + 4*40*50 = 28000 ns; process 1: 3*100*100 + 5*40*50 = 40000
     assert got == pytest.approx(
         {("A", 0): 28_000, ("A", 1): 40_000, ("moller_seed", 0): 14_000, ("moller_seed", 1): 16_000}
     )
-    table = hs.render_table(per, {"s1": {"triangles": 12, "render_tests": 12_000, "paper": "scene03"}})
+    table = seed_tables.render_table(per, {"s1": {"triangles": 12, "render_tests": 12_000, "paper": "scene03"}})
     a = table.set_index("kernel").loc["A"]
     mean, half = 34_000e-9, sps.t.ppf(0.975, 1) * np.std([28_000e-9, 40_000e-9], ddof=1) / math.sqrt(2)
     assert a["render_s"] == pytest.approx(mean)
@@ -186,7 +187,7 @@ def test_per_render_arithmetic_by_hand():
     assert m["paper_user_ns_per_test"] == pytest.approx(55.691 / 12_000 * 1e9)
     assert math.isnan(a["paper_real_s"])
     # a process missing one ray kind is left out, not summed short
-    assert len(hs.render_per_process(pp.drop(index=[0]), workloads).query("kernel == 'A'")) == 1
+    assert len(seed_tables.render_per_process(pp.drop(index=[0]), workloads).query("kernel == 'A'")) == 1
 
 
 def test_the_object_forms_are_set_beside_the_seeds_program_with_the_models_error():
@@ -200,10 +201,10 @@ def test_the_object_forms_are_set_beside_the_seeds_program_with_the_models_error
             "tests_per_pass": [100] * 9,
         }
     )
-    per = hs.render_per_process(pp, {"p": {"scene": "s1", "stream_tests": 1000, "sample_tests": 100}})
-    table = hs.render_table(per, {"s1": {"triangles": 968, "render_tests": 1000, "paper": "scene03"}}).set_index(
-        "kernel"
-    )
+    per = seed_tables.render_per_process(pp, {"p": {"scene": "s1", "stream_tests": 1000, "sample_tests": 100}})
+    table = seed_tables.render_table(
+        per, {"s1": {"triangles": 968, "render_tests": 1000, "paper": "scene03"}}
+    ).set_index("kernel")
     c, m, base = table.loc["curless_seed_object"], table.loc["moller_seed_object"], table.loc["moller_seed"]
     d = np.log(np.array([50.0, 52.0, 51.0]) / [36.0, 37.0, 38.0])
     assert c["ratio_baseline"] == "moller_seed_object" and base["ratio_baseline"] == "moller_seed"
@@ -268,7 +269,7 @@ def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, cap
 
 
 def test_a_scene_past_the_triangle_bound_is_refused_before_it_is_parsed(cache_dir, tmp_path, capsys):
-    from tribench.workloads import seed_scene
+    from tribench.workloads.seed import scene as seed_scene
 
     scene = tmp_path / "huge.txt"
     # one more triangle line than the bound; only the last is malformed, so parsing would say so instead

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tribench.workloads import seed_scene
-from tribench.workloads.seed_scene import (
+from tribench.workloads.seed import scene as seed_scene
+from tribench.workloads.seed.scene import (
     DEFAULT_MATERIAL,
     SceneError,
     builtin_scene,
@@ -185,7 +185,7 @@ def test_numbers_as_the_seed_writes_them_are_read():
 
 
 def test_a_folder_given_as_a_scene_is_named_a_folder(tmp_path):
-    from tribench.workloads.seed_workload import SeedSpec
+    from tribench.workloads.seed.workload import SeedSpec
 
     with pytest.raises(SceneError, match=f"{tmp_path}: is a folder, not a scene file"):
         SeedSpec(scene=str(tmp_path))

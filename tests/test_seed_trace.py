@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tribench.workloads import seed_trace
-from tribench.workloads.seed_scene import builtin_scene, parse_scene
-from tribench.workloads.seed_trace import (
+from tribench.workloads.seed import trace as seed_trace
+from tribench.workloads.seed.scene import builtin_scene, parse_scene
+from tribench.workloads.seed.trace import (
     camera_rays,
     difference_mask,
     pixel_edge_margins,

@@ -8,12 +8,11 @@ import shutil
 
 import pandas as pd
 import pytest
+from conftest import analysed
 
-from tribench import stats
 from tribench.common import UserError
-from tribench.harness import runfolder, runner, stages
+from tribench.harness import runfolder, runner, stages, stats
 from tribench.harness.plan import Sequential, Sweep, plan
-from tribench.studies.finish import finish
 from tribench.workloads.spec import MeshSpec, PairSpec
 
 KERNELS = ("moller_seed", "moller_trumbore", "curless", "woop_fma")
@@ -79,7 +78,7 @@ def test_each_stage_runs_exactly_the_comparisons_still_wide(finished):
 
 
 def test_the_stopped_comparisons_end_narrow_and_the_tables_pair_what_ran(finished, cache):
-    result = finish(finished, quick=True)
+    result = analysed(finished, quick=True)
     spd = result.speedups
     record = stages.read_stages(finished)
     last = {(w, k) for w, ks in record["stages"][-1]["open"].items() for k in ks}

@@ -1,4 +1,4 @@
-"""Tests of tribench.stats: known answers, and honesty by simulation.
+"""Tests of tribench.harness.stats: known answers, and honesty by simulation.
 
 Hand-computed figures use printed t-table values, not scipy, so that an error
 shared by the code and the test cannot cancel. The simulations are seeded.
@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats as scipy_stats
 
-from tribench import stats
+from tribench.harness import stats
 
 # --------------------------------------------------------------------------
 # A synthetic benchmark with known truth

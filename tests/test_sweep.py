@@ -15,9 +15,10 @@ import pandas as pd
 import pytest
 from test_runfolder import SLOW
 
-from tribench import analysis, ext
+from tribench import ext
 from tribench.harness import runfolder, runner
 from tribench.harness.plan import Sweep, plan
+from tribench.reports import tables as analysis
 from tribench.workloads.spec import PairSpec
 
 # A tiny design: 2 kernels, one workload, 3 processes x 2 rounds (+1 warm-up).
@@ -286,17 +287,17 @@ def test_a_ctrl_c_in_the_analysis_says_every_batch_is_saved_and_how_to_make_the_
     tmp_path, env, monkeypatch, capsys
 ):
     from tribench.cli.command import main
-    from tribench.studies import finish
+    from tribench.reports import tables
 
-    def interrupted(run_dir):
+    def interrupted(run_dir, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(finish, "finish", interrupted)
+    monkeypatch.setattr(tables, "write_all", interrupted)
     out = tmp_path / "run"
     assert main(["sweep", *TINY, "--out", str(out)]) == 130
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert err == (
-        f"tribench sweep: interrupted in the analysis: every batch is saved in {out}; "
+        f"tribench sweep: interrupted after the sweep: every batch is saved in {out}; "
         f"make its tables with: tribench stats {out}"
     )
     assert len(keys_of(out)) == 3 * 3 * 2  # processes x (rounds + warm-up) x kernels: all of them

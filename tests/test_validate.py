@@ -14,7 +14,7 @@ import pytest
 from tribench import ext
 from tribench.cli.command import main
 from tribench.common import UserError
-from tribench.studies import validate
+from tribench.harness.jobs import validate
 from tribench.workloads import robustness
 
 KERNELS = ext.kernel_names()

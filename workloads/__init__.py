@@ -2,7 +2,7 @@
 
 ``tribench.workloads`` owns specs, generators, reference answers, the workload
 cache, pictures of workloads and the robustness suite's cases
-(:mod:`.robustness`, judged by ``tribench.studies.validate``); it never times
+(:mod:`.robustness`, judged by ``tribench.harness.jobs.validate``); it never times
 anything. It may import ``tribench.common`` and ``tribench.ext`` (to count a
 stream's tests).
 

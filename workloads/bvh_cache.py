@@ -33,9 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from tribench import ext
-from tribench.common import UserError, write_bytes
-
+from .. import ext
+from ..common import UserError, write_bytes
 from .cache import CacheWarning, Invalid, cache_dir, not_a_file, sealed_npz, unsealed
 from .spec import canonical_json
 

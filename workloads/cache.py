@@ -32,9 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from tribench.common import Notice, UserError, write_bytes
-from tribench.common.location import cache_dir
-
+from ..common import Notice, UserError, write_bytes
+from ..common.location import cache_dir
 from .kinds import generate, spec_from_dict
 from .spec import (
     MeshSpec,

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tribench.common import UserError
-from tribench.common.location import cache_dir
+from ..common import UserError
+from ..common.location import cache_dir
 
 __all__ = ["Entry", "Pruned", "entries", "parse_size", "prune"]
 
@@ -99,8 +99,7 @@ def _meta(path: Path) -> dict:
 
 
 def _bvh_problem(path: Path) -> str | None:
-    from tribench import ext
-
+    from .. import ext
     from .bvh_cache import BVH_FORMAT
 
     identity = _meta(path).get("identity")

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from tribench.common import UserError
+from ..common import UserError
 
 __all__ = [
     "DTYPES",

@@ -27,8 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tribench.common import UserError, write_bytes
-
+from ..common import UserError, write_bytes
 from . import reference
 from .cache import CacheWarning, Invalid, cache_dir, not_a_file, sealed_npz, unsealed
 from .workload import Workload

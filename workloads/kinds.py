@@ -21,8 +21,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
-from tribench.common import UserError
-
+from ..common import UserError
 from .spec import MeshSpec, PairSpec, SeedSpec, Spec, workload_id
 from .workload import Workload
 
@@ -51,7 +50,7 @@ def _mesh(spec: MeshSpec, wid: str) -> Workload:
 
 
 def _seed(spec: SeedSpec, wid: str) -> Workload:
-    from .seed_workload import generate_seed_workload  # lazy: traces a scene on use
+    from .seed.workload import generate_seed_workload  # lazy: traces a scene on use
 
     return generate_seed_workload(spec, wid)
 

@@ -90,7 +90,7 @@ def short_label(spec: Mapping[str, Any]) -> str:
 def spec_text(spec: Mapping[str, Any]) -> str:
     """The spec's own one-line summary (falls back to JSON for an unknown spec)."""
     try:
-        from tribench.workloads.kinds import spec_from_dict
+        from .kinds import spec_from_dict
 
         return spec_from_dict(dict(spec)).summary()
     except Exception:  # an old or foreign spec: still show something true

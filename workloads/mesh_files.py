@@ -22,9 +22,8 @@ import shutil
 import warnings
 from pathlib import Path
 
-from tribench.common import Notice, UserError, atomic_write
-from tribench.common.location import cache_dir
-
+from ..common import Notice, UserError, atomic_write
+from ..common.location import cache_dir
 from .spec import file_sha256
 
 __all__ = ["KERNELS_FOLDER", "MAX_COPY_BYTES", "RAYS_FOLDER", "RUN_FOLDER", "adopt", "copy_into_run", "keep", "source"]

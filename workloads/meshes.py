@@ -32,8 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tribench.common import UserError
-
+from ..common import UserError
 from .geometry import norm, random_unit_vectors, triangle_areas
 
 __all__ = [

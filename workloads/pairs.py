@@ -67,8 +67,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tribench.common import UserError
-
+from ..common import UserError
 from .geometry import (
     aspect_ratios,
     dot,

@@ -22,8 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from tribench.common import atomic_write
-
+from ..common import atomic_write
 from .geometry import dot, normalise, triangle_normals
 from .spec import MISS_STAGES, MeshSpec, PairSpec
 from .workload import Workload

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from tribench.common import UserError
+from ..common import UserError
 
 __all__ = ["ARRAYS", "MAX_FILE_BYTES", "MAX_FILE_RAYS", "RayFile", "check_rays", "describe", "read_ray_file"]
 

@@ -55,8 +55,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tribench.common import UserError
-
+from ..common import UserError
 from . import mesh_files, ray_files
 from .geometry import (
     dot,

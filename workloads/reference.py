@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tribench.common import UserError
+from ..common import UserError
 
 __all__ = ["PairAnswers", "edge_clearance", "intersect_pairs", "intersect_closest"]
 

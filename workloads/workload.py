@@ -41,8 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from tribench.common import UserError
-
+from ..common import UserError
 from .spec import Spec
 
 __all__ = ["AMBIGUOUS_MARGIN", "ROUNDING_UNITS", "Workload", "ambiguous_rays", "arrays_sha256", "library_versions"]

@@ -3,7 +3,7 @@
  * Internal kernel (TB_INTERNAL_KERNEL_LIST): the A/A twin of the main job's
  * baseline. `tribench run` times it beside moller_seed on every workload
  * moller_seed runs, and the spread of the twin's speedups over those
- * workloads is the run's own equivalence margin (analysis/margin, docs/
+ * workloads is the run's own equivalence margin (reports/tables/margin, docs/
  * methodology.md). Built as moller_trumbore_aa is (see there): the source is
  * included again with its test renamed, and TB_NO_ICF (core.h) keeps GCC
  * from folding the twin's loops back into moller_seed's. See

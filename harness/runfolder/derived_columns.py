@@ -57,7 +57,7 @@ VALIDATE_COLUMNS: dict[str, str] = {
     "kernel": "kernel name, as registered in the C extension",
     "dtype": "precision of every array: float32 or float64",
     "isa": "instruction set the kernel ran with (scalar kernels: scalar)",
-    "test": "robustness test (see tribench.studies.validate)",
+    "test": "robustness test (see tribench.harness.jobs.validate)",
     "rays": "rays asked (count, after dropping rays rounding made ambiguous)",
     "failures": "cracks, double hits, misses, wrong answers or hits, as the test defines (count)",
     "rate": "failures / rays (fraction)",

@@ -12,8 +12,7 @@ from __future__ import annotations
 import sys
 from dataclasses import fields
 
-from tribench.common import write_text
-
+from ...common import write_text
 from . import rows
 from . import schema as rf
 
@@ -106,7 +105,7 @@ _INTRO = f"""\
 A run folder (`runs/[KIND-]<date-time>` unless `--out` names one) is the only thing measuring hands to
 reporting; `harness/runfolder/` names every file in it and every CSV's columns (`schema.py`; the measured
 files' rows in `rows.py`), and this page is made from it. The sweep writes the measured files, and a study
-may add `validate.csv` and `peers.csv`. The analysis step (`analysis/pipeline.py`, at the end of
+may add `validate.csv` and `peers.csv`. The analysis step (`reports/tables/pipeline.py`, at the end of
 `tribench run`, and `tribench stats RUN_DIR` on demand) derives every table from them and from the workloads
 they name (from the cache, or rebuilt from the specs in `run.json`), never timing anything. `tribench report`
 only reads: it never times a kernel, generates a workload or runs the robustness suite, so a folder copied to

@@ -13,7 +13,7 @@
     RUN_DIR/traversals.csv  one row per batch on a BVH workload: its traversal's counts
                             and its null-leaf twin's time (:data:`TRAVERSAL_COLUMNS`)
     RUN_DIR/estimates.csv ... analysis.json   derived by the analysis step
-                            (:mod:`tribench.analysis.pipeline`)
+                            (:mod:`tribench.reports.tables.pipeline`)
     RUN_DIR/.lock           held by the one process writing the folder (:func:`writer_lock`)
 
 One writer per run folder: a sweep or a resume holds an exclusive ``flock``
@@ -55,8 +55,7 @@ from dataclasses import astuple, fields
 from pathlib import Path
 from typing import Any
 
-from tribench.common import UserError, atomic_write, write_text
-
+from ...common import UserError, atomic_write, write_text
 from .lock import live_writer, writer_lock
 from .rows import BatchRow, CheckRow, ProcessRow, TraversalRow
 from .schema import BATCHES, CHECKS, LOCK, PROCESSES, RUN, TRAVERSALS
@@ -432,7 +431,7 @@ def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
         _unique(("process", "workload_id", "round", "position", "kernel"), "the batch"),
     ]
     if run is not None:
-        from tribench.harness.plan import Sweep, plan
+        from ..plan import Sweep, plan
 
         sweep = Sweep.from_dict(run["sweep"], run_dir)
         planned = {(k.process, k.workload_id, k.round, k.position, k.kernel) for k in plan(sweep)}
@@ -552,8 +551,8 @@ _RUN_FIELDS: dict[str, type | tuple[type, ...]] = {
 
 def read_run(run_dir: str | Path) -> dict[str, Any]:
     """``run.json`` of a run, checked: a JSON object with a valid sweep, run id, seeds and margin."""
-    from tribench.harness.plan import Sweep
-    from tribench.stats import check_margin
+    from ..plan import Sweep
+    from ..stats import check_margin
 
     run_dir = Path(run_dir)
     path = run_dir / RUN

@@ -21,8 +21,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from tribench.common import UserError
-
+from ...common import UserError
 from .schema import LOCK
 
 __all__ = ["live_writer", "writer_lock"]

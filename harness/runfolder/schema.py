@@ -4,7 +4,7 @@ The run folder is the only thing measuring hands to reporting. This module
 is where its names and columns are written, once (the derived tables'
 columns in :mod:`.derived_columns`); it imports nothing else, so
 every stage reads it (:mod:`tribench.harness.runfolder` writes and checks the
-measured files, :mod:`tribench.analysis.pipeline` writes the derived ones,
+measured files, :mod:`tribench.reports.tables.pipeline` writes the derived ones,
 :mod:`tribench.reports` reads both and renders :data:`FILES` as column docs).
 
 Every CSV is tidy: one row per observation, snake_case names, raw units
@@ -21,10 +21,10 @@ Who writes what:
   sequential sweep;
   ``peers.csv`` by ``tribench peers --out RUN_DIR`` (or ``tribench run``);
 * derived, by the analysis step at the end of ``tribench run`` and by
-  ``tribench stats RUN_DIR`` on demand (:func:`tribench.analysis.pipeline.write_all`):
+  ``tribench stats RUN_DIR`` on demand (:func:`tribench.reports.tables.pipeline.write_all`):
   every name in :data:`DERIVED`, the pictures in :data:`PICTURES_DIR`,
   :data:`GOOGLE_BENCHMARK` (the estimates and speedups with their intervals and
-  the machine record, in Google Benchmark's JSON format: :mod:`~tribench.analysis.export`)
+  the machine record, in Google Benchmark's JSON format: :mod:`~tribench.reports.tables.export`)
   and :data:`ANALYSIS`, the record of what the tables were made from;
 * rendered, by ``tribench report`` (:data:`REPORT`, :data:`SWEEP_FILE`),
   which reads everything above and changes none of it.
@@ -157,7 +157,7 @@ PEER_RATIOS = "peer_ratios.csv"
 #: Across the builds of a ``--builds`` run: which order of two kernels holds under every build.
 BUILDS = "builds.csv"
 #: The estimates and speedups with their intervals and the machine record, in Google Benchmark's
-#: JSON format (``context`` + ``benchmarks``; :mod:`tribench.analysis.export`), for tools that read it.
+#: JSON format (``context`` + ``benchmarks``; :mod:`tribench.reports.tables.export`), for tools that read it.
 GOOGLE_BENCHMARK = "google_benchmark.json"
 #: What the derived tables were made from (batches.csv's digest, baseline, margin, tables, pictures).
 ANALYSIS = "analysis.json"

@@ -9,7 +9,7 @@ SEED_KINDS = "seed_kinds.csv"
 SEED_WORKLOADS = "seed_workloads.csv"
 SEED_PICTURES = "seed_pictures.csv"
 
-_MISS_STAGES = ("parallel", "behind_origin", "outside_edge_1", "outside_edge_2", "outside_edge_3")
+MISS_STAGES = ("parallel", "behind_origin", "outside_edge_1", "outside_edge_2", "outside_edge_3")
 
 _SEED: dict[str, str] = {
     "scene": "scene name (file stem for a scene file)",
@@ -28,7 +28,7 @@ _SEED: dict[str, str] = {
     "ratio_to_moller_seed_ci_low": "lower end of its 95% paired interval",
     "ratio_to_moller_seed_ci_high": "upper end of that interval",
     "predicted_s_low": "object forms: the seed's own program's user time predicted on this machine, low end "
-    "(the 95% interval widened by the replay's model error, studies/seed.py MODEL_ERROR), seconds",
+    "(the 95% interval widened by the replay's model error, harness/jobs/seed.py MODEL_ERROR), seconds",
     "predicted_s_high": "high end of that prediction, seconds",
     "predicted_ratio_low": "object forms: the program's Curless / Moller ratio predicted, low end (the ratio's "
     "interval widened by the model error)",
@@ -73,7 +73,7 @@ _SEED_WORKLOADS: dict[str, str] = {
     "test_hit_rate": "per-test hit rate: hits / tests run, by the float64 reference (fraction)",
     "ray_hit_rate": "per-ray hit rate: rays that hit a triangle / rays (fraction)",
     "ambiguous_rays": "sampled rays a finite-precision kernel may answer either way",
-    **{f"miss_{s}": f"fraction of the misses rejected at stage {s} of Curless's test" for s in _MISS_STAGES},
+    **{f"miss_{s}": f"fraction of the misses rejected at stage {s} of Curless's test" for s in MISS_STAGES},
 }
 
 _SEED_PICTURES: dict[str, str] = {

@@ -1,0 +1,276 @@
+"""tribench from Python: run a sweep or the main job, or read a run, and get pandas frames.
+
+The ``tribench`` package itself, above its sub-packages (it may import them all;
+none imports it). A thin facade over :mod:`tribench.harness.jobs` and
+:mod:`tribench.reports`: each function makes or reads a run folder, exactly
+as the ``tribench`` command does, and returns its tables as :class:`Results`.
+Nothing is imported until a function is called, so ``import tribench.ext``
+stays as light as before.
+
+* :func:`sweep` — a timed sweep of kernels x workloads, then the analysis step;
+* :func:`run` — the main job (``tribench run``), then the analysis step;
+* :func:`load` — the tables of a run folder already analysed (``tribench stats``);
+* :func:`compare` — N runs side by side (``tribench compare``).
+
+Examples
+--------
+The tables of a run folder made by ``tribench sweep`` or ``tribench run``
+(``run_dir``), and the fastest kernel of each workload with its interval:
+
+>>> import tribench
+>>> r = tribench.load(run_dir)
+>>> list(r.speedups.columns[:4])
+['build', 'workload_id', 'kernel', 'baseline']
+>>> best = r.ranking.loc[r.ranking["rank"] == 1]
+>>> set(best["kernel"]) <= set(r.estimates["kernel"]), bool(best["ns_per_test_ci_low"].le(best["ns_per_test"]).all())
+(True, True)
+
+A sweep is ``tribench.sweep(["moller_trumbore", "curless"], [tribench.PairSpec(n=500,
+hit_rate=0.2)], out="runs/mine", processes=3, rounds=3)``; docs/notebook.md
+has a whole example, which a test runs.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from .common import UserError, UserTypeError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from .reports.tables.compare import MultiComparison
+    from .workloads.spec import MeshSpec, PairSpec
+
+__all__ = ["Results", "sweep", "run", "load", "compare", "PairSpec", "MeshSpec"]
+
+
+@dataclass(frozen=True)
+class Results:
+    """A run folder and its tables, as the files have them (columns: :mod:`tribench.harness.runfolder`)."""
+
+    #: The run folder: every file of the run, the report is ``tribench report RUN_DIR`` away.
+    run_dir: Path
+    #: ``estimates.csv``: ns per ray-triangle test with its 95% CI, per kernel and workload.
+    estimates: pd.DataFrame
+    #: ``speedups.csv``: every kernel against the baseline, per workload, with CIs and verdicts.
+    speedups: pd.DataFrame
+    #: Every derived table by file name (``ranking.csv``, ``per_process.csv``, ...).
+    tables: dict[str, pd.DataFrame] = field(repr=False)
+
+    @property
+    def ranking(self) -> pd.DataFrame:
+        """``ranking.csv``: per workload, every kernel from the fastest down, with CIs."""
+        return self.tables["ranking.csv"]
+
+
+def _default_out(out: str | Path | None) -> Path:
+    from .harness.runfolder import default_run_dir
+
+    return Path(default_run_dir()) if out is None else _path(out, "out")
+
+
+def _names(value: Any, what: str) -> tuple[str, ...]:
+    """A non-empty list of names (kernels): one string is refused, not read as a list of letters."""
+    if isinstance(value, str):
+        raise UserTypeError(f"{what} must be a list of names, not one string: give [{value!r}]")
+    if not isinstance(value, Sequence) or not value or not all(isinstance(v, str) for v in value):
+        raise UserTypeError(f"{what} must be a non-empty list of names, got {_shown(value)}")
+    return tuple(value)
+
+
+def _specs(value: Any) -> tuple:
+    """A non-empty list of workload specs (PairSpec, MeshSpec): one spec alone is refused, naming the fix."""
+    from .workloads.spec import MeshSpec, PairSpec
+
+    if isinstance(value, (PairSpec, MeshSpec)):
+        raise UserTypeError(f"workloads must be a list of specs, not one spec: give [{type(value).__name__}(...)]")
+    if (
+        isinstance(value, str)
+        or not isinstance(value, Sequence)
+        or not value
+        or not all(isinstance(v, (PairSpec, MeshSpec)) for v in value)
+    ):
+        raise UserTypeError(f"workloads must be a non-empty list of PairSpec or MeshSpec, got {_shown(value)}")
+    return tuple(value)
+
+
+def _path(value: Any, what: str) -> Path:
+    """A folder's path (str or os.PathLike)."""
+    if not isinstance(value, (str, os.PathLike)):
+        raise UserTypeError(f"{what} must be a folder's path (str or pathlib.Path), got {_shown(value)}")
+    return Path(value)
+
+
+def _builds(value: Any) -> tuple[str, ...]:
+    """Build specs: a list of them, or one string of specs separated by ';' (as ``--builds`` takes)."""
+    from .ext import check_builds, parse_builds
+
+    return parse_builds(value) if isinstance(value, str) else check_builds(value)
+
+
+def _flag(value: Any, what: str) -> bool:
+    """True or False: a string such as "no" is refused, never read as true."""
+    if not isinstance(value, bool):
+        raise UserTypeError(f"{what} must be True or False, got {_shown(value)}")
+    return value
+
+
+def _optional_flag(value: Any, what: str) -> bool | None:
+    """True, False or None (the default: a bar on a terminal, plain lines elsewhere)."""
+    if value is not None and not isinstance(value, bool):
+        raise UserTypeError(f"{what} must be True, False or None, got {_shown(value)}")
+    return value
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
+
+
+def sweep(
+    kernels: Sequence[str],
+    workloads: Sequence[PairSpec | MeshSpec],
+    out: str | Path | None = None,
+    *,
+    processes: int | None = None,
+    rounds: int | None = None,
+    warmup: int | None = None,
+    target_ms: float | None = None,
+    seed: int = 0,
+    baseline: str | None = None,
+    progress: bool | None = None,
+    kernel_files: Sequence[str | Path] = (),
+    builds: Sequence[str] = (),
+) -> Results:
+    """Time ``kernels`` on ``workloads`` into the new folder ``out``, analyse it and return its tables.
+
+    ``tribench sweep`` then ``tribench stats``: fresh pinned worker processes,
+    every batch appended to ``out/batches.csv`` as it is measured, then every
+    derived table (:func:`tribench.reports.tables.write_all`). Like the
+    command, it first prints the expected duration on stderr.
+
+    Parameters
+    ----------
+    kernels : sequence of str
+        Kernel names (``tribench.ext.kernel_names()``).
+    workloads : sequence of PairSpec or MeshSpec
+        The workloads, e.g. ``PairSpec(n=500, hit_rate=0.2)``, ``MeshSpec("suzanne", triangles=968)``.
+    out : path, optional
+        A new or empty folder; default ``runs/<date-time>``.
+    processes, rounds, warmup, target_ms, seed
+        The design (defaults: :mod:`tribench.harness.plan`, as ``tribench sweep``).
+    baseline : str, optional
+        The speedups' baseline (default ``moller_seed`` if swept, else the first kernel).
+    progress : bool, optional
+        Progress lines (default: a bar on a terminal, plain lines elsewhere).
+    kernel_files : sequence of paths
+        Kernel files of your own (``--kernel-file``, docs/own-kernel.md): compiled, checked
+        against the float64 reference before anything is timed, then ``kernels`` may name theirs.
+    builds : sequence of str
+        Builds to compare (``--builds``, docs/builds.md), such as ``["gcc -O2", "clang -O3"]``:
+        each compiled and its kernels checked again; the processes take them in turn, and every
+        table has a ``build`` column.
+
+    Raises
+    ------
+    UserError
+        A bad kernel, workload or design value, or ``out`` is not a new folder; a kernel
+        file that does not compile, or whose kernels answer wrongly.
+    """
+    from .harness import plan
+    from .harness.jobs.kernel_check import load_checked
+    from .harness.jobs.sweep import measure_robustness, run_sweep
+    from .reports import tables
+
+    load_checked(kernel_files)  # first: ``kernels`` may name their kernels
+    progress = _optional_flag(progress, "progress")
+    spec = plan.Sweep(
+        _names(kernels, "kernels"),
+        _specs(workloads),
+        processes=plan.DEFAULT_PROCESSES if processes is None else processes,
+        rounds=plan.DEFAULT_ROUNDS if rounds is None else rounds,
+        warmup=plan.DEFAULT_WARMUP if warmup is None else warmup,
+        target_ms=plan.DEFAULT_TARGET_MS if target_ms is None else target_ms,
+        seed=seed,
+        kernel_files=tuple(map(str, kernel_files)),
+        builds=_builds(builds),
+    )
+    if baseline is not None and baseline not in spec.kernels:  # refused before the sweep, not after it
+        raise UserError(f"baseline {baseline!r} is not one of the kernels swept: {', '.join(spec.kernels)}")
+    folder = _default_out(out)
+    run_sweep(
+        spec, folder, say=lambda line: print(f"tribench.sweep: {line} -> {folder}", file=sys.stderr), progress=progress
+    )
+    derived = tables.write_all(folder, baseline=baseline, validate_note=measure_robustness(folder))
+    return Results(folder, derived.estimates, derived.speedups, derived.tables)
+
+
+def run(
+    out: str | Path | None = None,
+    *,
+    quick: bool = False,
+    peers: bool = True,
+    progress: bool | None = None,
+    kernel_files: Sequence[str | Path] = (),
+    builds: Sequence[str] = (),
+) -> Results:
+    """The main job (``tribench run``) into the new folder ``out``: its tables.
+
+    The default sweep, the peers when installed, then the analysis step
+    (:mod:`tribench.harness.jobs.main`); ``quick=True`` takes seconds and
+    gives wide intervals. The HTML report is ``tribench report RUN_DIR`` (or
+    ``tribench.reports.write_report(run_dir)``). ``kernel_files``: as :func:`sweep`'s; their
+    kernels join the job in their roles. ``builds``: as :func:`sweep`'s.
+    """
+    from .harness.jobs import main as main_job
+    from .harness.jobs.kernel_check import load_checked
+    from .reports import tables
+
+    load_checked(kernel_files)  # a bad value's message, before anything else
+    quick, peers = _flag(quick, "quick"), _flag(peers, "peers")
+    folder = _default_out(out)
+    note = main_job.run(
+        folder,
+        quick=quick,
+        progress=_optional_flag(progress, "progress"),
+        peers=peers,
+        kernel_files=tuple(map(str, kernel_files)),
+        builds=_builds(builds),
+    )
+    derived = tables.write_all(folder, validate_note=note)
+    return Results(folder, derived.estimates, derived.speedups, derived.tables)
+
+
+def load(run_dir: str | Path) -> Results:
+    """The tables of an analysed run folder, refused (one line naming ``tribench stats``) if missing or stale."""
+    from .reports.rundata import load_run
+
+    data = load_run(_path(run_dir, "run_dir"))
+    # the files as they are, every build's rows and the baseline's A/A twin included (the report leaves it out)
+    tables = {**data.tables, **data.every_build}
+    return Results(data.run_dir, tables["estimates.csv"], tables["speedups.csv"], tables)
+
+
+def compare(*run_dirs: str | Path) -> MultiComparison:
+    """N >= 2 runs side by side (``tribench compare``): ``.speedups`` of every run, ``.orders`` that hold."""
+    from .reports.rundata import load_run
+    from .reports.tables.compare import compare_many
+
+    if len(run_dirs) == 1 and isinstance(run_dirs[0], (list, tuple)):
+        raise UserTypeError("give the run folders as separate arguments: tribench.compare('run_a', 'run_b')")
+    return compare_many([load_run(_path(r, "each run folder")) for r in run_dirs])
+
+
+def __getattr__(name: str) -> Any:
+    # the workload specs, imported on first use like everything here
+    if name in ("PairSpec", "MeshSpec"):
+        from .workloads import spec
+
+        return getattr(spec, name)
+    raise AttributeError(f"module 'tribench' has no attribute {name!r}")

@@ -1,0 +1,165 @@
+"""A/A calibration: how large a speedup this machine shows between identical code.
+
+``tribench calibrate`` times a kernel against its ``_aa`` copy (the same
+source compiled under another name, see ``ext/kernels/moller_trumbore_aa.h``)
+in the normal protocol. Its processes are split into ``experiments`` disjoint
+groups of ``processes`` each; each group gives one A/A speedup with its
+interval, exactly as a sweep of that many processes would. From those,
+:func:`tribench.harness.stats.aa_summary` gives the coverage of 1, the
+distribution of the p-values (KS test against uniform) and the noise floor,
+whose relative form is the equivalence margin later verdicts use.
+
+The result goes to ``RUN_DIR/calibration.json`` and to a user-level file
+(:func:`user_calibration_path`); a sweep on the same CPU model takes its margin
+from there, else ``stats.DEFAULTS.margin``, and records which in ``run.json``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from ...common import UserError, write_text
+
+# reading the margin is below the runner, which uses it; calibrating is above it
+from ..margin import AA_TWINS, CALIBRATION, Margin, latest_margin, user_calibration_path
+from ..plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
+from ..stats import DEFAULTS, MAX_MARGIN, check_margin
+
+__all__ = [
+    "AA_COPIES",
+    "MAX_MARGIN",
+    "Margin",
+    "check_margin",
+    "aa_speedups",
+    "calibrate",
+    "latest_margin",
+    "user_calibration_path",
+]
+
+#: Kernels that have an A/A copy, and its name.
+AA_COPIES = AA_TWINS
+
+
+def _nan_to_none(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _nan_to_none(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_nan_to_none(v) for v in value]
+    return value
+
+
+def aa_speedups(batches: Any, kernel: str, copy: str, processes: int) -> list:
+    """One A/A :class:`~tribench.harness.stats.Speedup` per group of ``processes``
+    consecutive process indices and per workload (incomplete groups are left out)."""
+    from .. import stats
+
+    table = stats.per_process(batches)
+    out = []
+    for _, group in table.groupby("workload_id", sort=True):
+        wide = group.pivot(index="process", columns="kernel", values="ns_per_test").dropna()
+        wide = wide.assign(experiment=wide.index // processes)
+        for _, exp in wide.groupby("experiment"):
+            if len(exp) == processes:
+                out.append(stats.speedup(exp[kernel], exp[copy]))
+    return out
+
+
+def calibrate(
+    run_dir: str | Path,
+    *,
+    kernel: str = "moller_trumbore",
+    workloads: tuple = (),
+    processes: int = DEFAULT_PROCESSES,
+    experiments: int = 10,
+    rounds: int = DEFAULT_ROUNDS,
+    warmup: int = DEFAULT_WARMUP,
+    target_ms: float = DEFAULT_TARGET_MS,
+    seed: int = 0,
+    progress: bool | None = None,
+    save: bool = True,
+) -> dict[str, Any]:
+    """Run an A/A calibration into ``run_dir`` and return its record.
+
+    Parameters
+    ----------
+    kernel : str
+        A kernel of :data:`AA_COPIES`.
+    workloads : tuple of specs
+        Default: 10 000 pairs at hit rate 0.5, float64.
+    processes, rounds, warmup, target_ms
+        The design of each A/A comparison; the defaults are the sweeps'
+        (``plan.DEFAULT_*``), so the margin measured is that of the default
+        protocol. Use your sweeps' values if they differ.
+    experiments : int
+        Number of A/A comparisons (``processes * experiments`` processes run).
+    save : bool
+        Also write the user-level calibration file.
+    """
+    from ...workloads.spec import PairSpec
+    from .. import runfolder, runner
+    from ..plan import Sweep
+
+    if kernel not in AA_COPIES:
+        raise UserError(f"no A/A copy of {kernel!r}; kernels with one: {', '.join(AA_COPIES)}")
+    if processes < 2 or experiments < 1:
+        raise UserError("an A/A calibration needs processes >= 2 and experiments >= 1")
+    copy = AA_COPIES[kernel]
+    sweep = Sweep(
+        (kernel, copy),
+        tuple(workloads) or (PairSpec(n=10_000, hit_rate=0.5),),
+        processes=processes * experiments,
+        rounds=rounds,
+        warmup=warmup,
+        target_ms=target_ms,
+        seed=seed,
+    )
+    run_dir = Path(run_dir)
+    # an A/A run records the default margin: the margin is what it measures
+    runner.start(
+        sweep,
+        run_dir,
+        margin=Margin(DEFAULTS.margin, "default (this is a calibration run)"),
+        progress=progress,
+        extra={"calibration": {"kernel": kernel, "copy": copy, "processes_per_experiment": processes}},
+    )
+    record = _record(
+        run_dir, kernel, copy, processes, aa_speedups(runfolder.read_batches(run_dir), kernel, copy, processes)
+    )
+    # the run keeps its record whatever it measured (NaN as null: JSON has no NaN)
+    text = json.dumps(_nan_to_none(record), indent=2, allow_nan=False) + "\n"
+    write_text(run_dir / CALIBRATION, text)
+    if save:
+        # only a usable margin becomes the margin of later sweeps
+        check_margin(
+            record["margin"],
+            f"the A/A calibration in {run_dir / CALIBRATION} (not saved as the "
+            f"user-level calibration; the default margin stays in use)",
+        )
+        write_text(user_calibration_path(), text)
+    return record
+
+
+def _record(run_dir: Path, kernel: str, copy: str, processes: int, results: list) -> dict[str, Any]:
+    """calibration.json: the A/A comparisons' summary (coverage, p-values, noise floor, margin) and ratios."""
+    from ..machine import cpu_model
+    from ..stats import aa_summary
+
+    return {
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "cpu_model": cpu_model(),
+        "kernel": kernel,
+        "copy": copy,
+        "processes_per_experiment": processes,
+        "experiments": len(results),
+        "run_dir": str(run_dir.resolve()),
+        **asdict(aa_summary(results)),
+        "ratios": [r.ratio for r in results],
+        "p_values": [r.p_value for r in results],
+    }

@@ -1,0 +1,244 @@
+"""A kernel file's kernels, checked before anything times them.
+
+Each kernel a file declares (:func:`tribench.ext.load_kernels`) must give the
+float64 reference's answers, in both precisions and on every ISA it is
+compiled for, where the answer does not depend on rounding: random ray and
+triangle pairs whose crossing lies at least :data:`MARGIN` (barycentric)
+from every edge, and the closest and any hit of rays into a closed mesh, as
+safe. It must also keep the promises the robustness suite holds every kernel
+to (``tribench validate``, :func:`tribench.harness.jobs.validate.promise`): none
+of its hits for parallel rays, degenerate triangles and non-finite input,
+and no crack if it declares itself watertight. A kernel that fails is
+refused with what it got wrong, and one that crashes is refused in one line: the check runs in a
+process of its own. :func:`load_checked` does both steps.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from typing import TextIO
+
+import numpy as np
+
+from ... import ext
+from ...common import UserError, UserTypeError
+from ...workloads import reference
+from . import validate
+
+__all__ = ["MARGIN", "KernelRefused", "check_builds", "check_kernel", "load_checked", "refuse_crashing"]
+
+#: How far (barycentric) from every edge a checked crossing lies, and how far along the ray.
+MARGIN = 1e-3
+_T_RTOL = {"float32": 1e-4, "float64": 1e-9}
+_UV_ATOL = {"float32": 1e-3, "float64": 1e-9}
+
+
+_PASSED: set[tuple[str, ext.KernelFile | None]] = set()  # checked in this process, and right
+
+
+class KernelRefused(UserError):
+    """A kernel file's kernel that gives answers other than the reference's."""
+
+
+def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
+    """Load every kernel file of ``paths`` and check each kernel they declare; the names, in order.
+
+    Raises :class:`~tribench.ext.KernelFileError` for a file that does not
+    compile and :class:`KernelRefused` for a kernel with wrong answers.
+    """
+    if isinstance(paths, (str, bytes, os.PathLike)) or not isinstance(paths, Sequence):
+        raise UserTypeError(f"kernel files must be a list of paths, got {type(paths).__name__}: give [path, ...]")
+    if not all(isinstance(p, (str, os.PathLike)) for p in paths):
+        raise UserTypeError(f"kernel files must be a list of paths, got {[type(p).__name__ for p in paths]}")
+    names: list[str] = []
+    for path in paths:
+        declared = ext.load_kernels(path)  # compiles; none of the file's code runs yet
+        names += declared
+        if all((k, ext.kernel_file_of(k)) in _PASSED for k in declared):
+            continue
+        for kernel, problems in _checked_elsewhere(path).items():
+            if problems:
+                raise KernelRefused(
+                    f"{kernel} (from {path}) is refused: its answers differ from the float64 reference's:\n  "
+                    + "\n  ".join(problems)
+                )
+            _PASSED.add((kernel, ext.kernel_file_of(kernel)))
+    return tuple(names)
+
+
+def refuse_crashing(path: str | os.PathLike) -> None:
+    """Run the reference check of a kernel file's kernels in a process of its own, and refuse the file
+    (:class:`KernelRefused`, one line) only if they crash it: what ``tribench validate`` needs before
+    running them in its own process, where their wrong answers are the measurement."""
+    _checked_elsewhere(path)
+
+
+def _checked_elsewhere(path: str | os.PathLike) -> dict[str, list[str]]:
+    """:func:`check_kernel` of each kernel of the file, in a process of its own: a kernel that crashes
+    (a stray pointer is likely in code being written) is refused in one line, and takes nothing down."""
+    return _in_a_process(["--kernel-file", str(path)], f"{path}: its kernels")
+
+
+def _in_a_process(argv: list[str], what: str) -> dict[str, list[str]]:
+    done = subprocess.run(
+        [sys.executable, "-m", "tribench.harness.jobs.kernel_check", *argv], capture_output=True, text=True
+    )
+    if done.returncode == 2:  # a UserError there (a kernel file that does not compile under a build): its message
+        raise KernelRefused(done.stderr.strip())
+    if done.returncode != 0:
+        how = signal.Signals(-done.returncode).name if done.returncode < 0 else f"exit code {done.returncode}"
+        last = (done.stderr.strip().splitlines() or [""])[-1]
+        raise KernelRefused(f"{what} crashed the reference check ({how}){': ' + last if last else ''}")
+    return json.loads(done.stdout)
+
+
+def check_builds(sweep, log: TextIO | None = None) -> dict[str, dict[str, list[str]]]:
+    """Every kernel of ``sweep`` checked again under each of its builds but the installed one
+    (:func:`check_kernel`, in a process per build): build -> kernel -> what it gets wrong.
+
+    A build may change results (``-ffast-math``, ``-ffp-contract=fast``), so nothing is refused
+    here: what a kernel gets wrong is recorded in ``run.json`` and shown in the report. A build's
+    answers on the sweep's own workloads are still held to the reference by every worker."""
+    checked = {}
+    for build in sweep.build_names:
+        if build == ext.INSTALLED:
+            continue
+        t0 = time.monotonic()
+        ext.load_build(build)  # compiled here, so a compile error is one message (and the check's process imports it)
+        argv = ["--build", build, *(a for f in sweep.kernel_files for a in ("--kernel-file", f)), *sweep.kernels]
+        checked[build] = _in_a_process(argv, f"the kernels of build {build!r}")
+        wrong = sum(1 for problems in checked[build].values() if problems)
+        verdict = f"{wrong} broke a promise (shown in the report)" if wrong else "all right"
+        print(
+            f"build {build}: compiled (or cached) and its {len(checked[build])} kernels checked again in "
+            f"{time.monotonic() - t0:.0f} s: {verdict}",
+            file=sys.stderr if log is None else log,
+        )
+    return checked
+
+
+def check_kernel(kernel: str, seed: int = 0) -> list[str]:
+    """What ``kernel`` gets wrong, one line per case; empty if nothing."""
+    info = ext.kernel_info(kernel)
+    problems = []
+    for dtype in info.precisions:
+        for isa in (i for i, runnable in info.isas.items() if runnable):
+            where = f"{dtype}, {isa}"
+            if "pairs" in info.modes:
+                problems += [f"{where}: {p}" for p in _check_pairs(kernel, isa, dtype, seed, info.culls_back_faces)]
+            problems += [f"{where}: {p}" for p in _check_mesh(kernel, isa, dtype, seed, info.culls_back_faces)]
+        for row in validate.measure(kernel, validate.build(dtype, quick=True, seed=seed)):
+            if row["verdict"] == "fail":
+                problems.append(
+                    f"{dtype}: robustness test {row['test']}: {row['failures']} of {row['rays']} rays "
+                    f"broke the promise {row['expected']}"
+                )
+    return problems
+
+
+def _safe_pairs(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Random pairs, about half hits, wound at random, each crossing at least MARGIN from every edge."""
+    rng = np.random.default_rng(seed)
+    tris = rng.normal(size=(n, 3, 3))
+    b = rng.dirichlet([1, 1, 1], n) * 2 - 0.5  # barycentrics of the aim point: inside about half the time
+    b /= b.sum(axis=1, keepdims=True)
+    target = np.einsum("nk,nkj->nj", b, tris)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = target - rng.uniform(0.5, 4, (n, 1)) * d
+    ref = reference.intersect_pairs(o, d, tris)
+    normal = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    cos = np.abs(np.einsum("nj,nj->n", normal, d)) / np.linalg.norm(normal, axis=1)
+    safe = (np.abs(ref.edge_margin) >= MARGIN) & (cos >= 0.05) & (np.linalg.norm(normal, axis=1) > 0.1)
+    return o[safe], d[safe], tris[safe]
+
+
+def _check_pairs(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) -> list[str]:
+    o, d, tris = (a.astype(dtype) for a in _safe_pairs(4000, seed))
+    f64 = [a.astype(np.float64) for a in (o, d, tris)]
+    ref = reference.intersect_pairs(f64[0], f64[1], f64[2], front_only=front_only)
+    index, t, _, _ = ext.intersect(kernel, o, d, tris, "pairs", isa=isa)
+    hit = index >= 0
+    wrong = hit != ref.hit
+    far = hit & ref.hit & ~np.isclose(t, ref.t, rtol=_T_RTOL[dtype], atol=0)
+    out = []
+    if wrong.any():
+        out.append(
+            f"pairs: {int(wrong.sum())} of {len(o)} hit or miss against the reference "
+            f"({int((hit & ~ref.hit).sum())} extra hits, {int((~hit & ref.hit).sum())} missed)"
+        )
+    if far.any():
+        out.append(f"pairs: t off by more than {_T_RTOL[dtype]:g} (relative) on {int(far.sum())} hits")
+    return out
+
+
+def _safe_mesh_rays(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A closed mesh (an icosphere) and rays from around it whose every plane crossing is safe."""
+    import trimesh
+
+    tris = np.ascontiguousarray(trimesh.creation.icosphere(subdivisions=2).triangles)
+    rng = np.random.default_rng(seed)
+    o = rng.normal(size=(400, 3))
+    o = 3 * o / np.linalg.norm(o, axis=1, keepdims=True)
+    d = rng.normal(size=(400, 3)) * 0.7 - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    m, k = len(o), len(tris)
+    every = reference.intersect_pairs(np.repeat(o, k, 0), np.repeat(d, k, 0), np.tile(tris, (m, 1, 1)))
+    near = (np.abs(every.edge_margin) < MARGIN) | (np.abs(every.t) < MARGIN)
+    safe = ~near.reshape(m, k).any(axis=1)
+    return o[safe], d[safe], tris
+
+
+def _check_mesh(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) -> list[str]:
+    o, d, tris = (a.astype(dtype) for a in _safe_mesh_rays(seed))
+    f64 = [a.astype(np.float64) for a in (o, d, tris)]
+    ref_index, ref_t = reference.intersect_closest(f64[0], f64[1], f64[2], front_only=front_only)
+    index, t, u, v = ext.intersect(kernel, o, d, tris, "closest_uv", isa=isa)
+    out = []
+    wrong = index != ref_index
+    if wrong.any():
+        out.append(f"closest hit on a mesh: {int(wrong.sum())} of {len(o)} rays name another triangle or miss")
+        return out
+    hit = index >= 0
+    if (~np.isclose(t[hit], ref_t[hit], rtol=_T_RTOL[dtype], atol=0)).any():
+        out.append(f"closest hit on a mesh: t off by more than {_T_RTOL[dtype]:g} (relative)")
+    ref = reference.intersect_pairs(f64[0][hit], f64[1][hit], f64[2][index[hit]])
+    if not (np.allclose(u[hit], ref.u, atol=_UV_ATOL[dtype]) and np.allclose(v[hit], ref.v, atol=_UV_ATOL[dtype])):
+        out.append("closest hit on a mesh: u or v (the barycentrics of v1 and v2) differ from the reference's")
+    any_hit = ext.intersect(kernel, o, d, tris, "any", isa=isa)
+    if not np.array_equal(any_hit.index >= 0, hit):
+        out.append("any hit on a mesh: another set of rays hits than the closest hit's")
+    return out
+
+
+def _main(argv: list[str]) -> None:
+    """The check's own process: [--build SPEC] [--kernel-file FILE]... [KERNEL...]; problems as JSON.
+    The kernels are those named, or else every kernel of the files."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m tribench.harness.jobs.kernel_check")
+    parser.add_argument("--build")
+    parser.add_argument("--kernel-file", action="append", default=[])
+    parser.add_argument("kernels", nargs="*")
+    args = parser.parse_args(argv)
+    try:
+        if args.build:
+            ext.use_build(args.build)
+        declared = [k for f in args.kernel_file for k in ext.load_kernels(f)]
+    except UserError as e:
+        print(f"build {args.build}: {e}" if args.build else str(e), file=sys.stderr)
+        sys.exit(2)
+    print(json.dumps({k: check_kernel(k) for k in args.kernels or declared}))
+
+
+if __name__ == "__main__":
+    import faulthandler
+
+    faulthandler.disable()  # a crash is reported by the parent, in one line
+    _main(sys.argv[1:])

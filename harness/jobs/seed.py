@@ -1,0 +1,351 @@
+"""``tribench seed``: the seed's two renders replayed through the harness, beside the paper's table.
+
+The seed (Vitse 2022) timed whole 512 x 512 renders of scene02 and scene03
+with Unix ``time``, once per algorithm. Here each render's ray stream is cut
+into its three kinds of ray (primary, reflected, shadow), each kind is a
+workload (:class:`~tribench.workloads.seed.workload.SeedSpec`: runs of
+consecutive rays spread over the render, against every triangle), and
+every kernel is timed on every workload by the ordinary runner (fresh
+pinned processes, interleaved rounds, checked checksums). Per process,
+one render's time is then
+
+    render_s = sum over ray kinds of  ns_per_test x tests_per_pass x stream_tests / sample_tests
+
+i.e. the time of one pass over the sample scaled by the ratio of the
+render's ray-triangle tests of that kind to the sample's (exact counts, see
+the workload). Each process gives one render time; the estimate is their
+mean with a Student-t interval, and a ratio to ``moller_seed`` is paired
+per process (log scale, t-interval): :mod:`tribench.harness.stats`.
+
+What the replay covers: the ray-triangle tests of the render, and only
+them. The seed's times also cover spheres, the floor, shading, writing the
+image and starting the program (scene02's 12 triangles are a small part of
+its time; scene03's 968 dominate). So the replay's seconds are smaller than
+the paper's, and its ratio is the kernels' own, undiluted.
+
+Files written into the run folder, besides the runner's (run.json,
+batches.csv, processes.csv, checks.csv) and the analysis's (estimates.csv,
+speedups.csv): :data:`COLUMNS` documents each one's columns.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+import pandas as pd
+
+from ...common import UserError
+from .. import runfolder
+from ..plan import DEFAULT_BASELINE
+
+__all__ = [
+    "BASELINE",
+    "COLUMNS",
+    "FULL",
+    "PAPER",
+    "QUICK",
+    "Design",
+    "make_pictures",
+    "run_seed",
+    "seed_kernels",
+]
+
+#: The seed's table: Unix ``time`` of the whole 512 x 512 render, seconds
+#: (2.3 GHz Core i9; Vitse 2022, "Performances").
+PAPER = {
+    "scene02": {"curless_seed": {"real": 4.131, "user": 2.029}, "moller_seed": {"real": 3.544, "user": 1.704}},
+    "scene03": {"curless_seed": {"real": 96.438, "user": 94.305}, "moller_seed": {"real": 57.970, "user": 55.691}},
+}
+#: How far the object forms' render times and Curless/Moller ratio may stand from the seed's own program
+#: on the same machine, beyond timing noise: what the replay leaves out (the floor, shading, output, about
+#: 1% of the program's time by perf record) and what differs between machines. On the Zen 5 of the
+#: measurement the replay misses by 3.0% at most (the ratio; its paired interval reaches 4%); on a Zen 4 the Curless
+#: form ran 6-10% under the program before the fix that added 2.5% on the Zen 5, so up to 5% may remain
+#: there. Measured with bench/seed_program.py beside tribench seed: docs/decisions.md, "The seed replay's model".
+MODEL_ERROR = 0.05
+BASELINE = DEFAULT_BASELINE  # the seed's Möller: the paper's ratio is Curless over it
+PAIR = ("curless_seed", "moller_seed")
+#: The seed's two tests as its program pays for them (objects, calls and scene loop: ext/kernels/seed_objects.h),
+#: the render times the paper's are set beside.
+PROGRAM = ("curless_seed_object", "moller_seed_object")
+#: The seed's two kernels and their clean scalar forms: the seed's algorithms at the seed's form, flaws and no flaws.
+FIRST_KERNELS = (*PROGRAM, "curless_seed", "moller_seed", "curless", "moller_trumbore")
+#: The pictures are rendered as the seed computed them: float triangle tests.
+PICTURE_DTYPE = "float32"
+#: A differing pixel is explained when one of its rays passes within this
+#: (barycentric) distance of a triangle's boundary: float32 rounding and the
+#: seed kernels' absolute epsilons decide such rays differently.
+EDGE_TOLERANCE = 5e-3
+#: ... or when its colours differ by less than this (an 8-bit truncation flipped).
+LAST_BIT = 1e-5
+
+#: The achieved figures of a seed workload that seed_workloads.csv keeps as they are.
+STREAM_FIGURES = (
+    "triangles",
+    "stream_rays",
+    "stream_tests",
+    "sample_rays",
+    "sample_tests",
+    "test_hit_rate",
+    "ray_hit_rate",
+    "ambiguous_rays",
+)
+
+
+MISS_STAGES = ("parallel", "behind_origin", "outside_edge_1", "outside_edge_2", "outside_edge_3")
+
+SEED_CSV = runfolder.SEED
+KINDS_CSV = runfolder.SEED_KINDS
+WORKLOADS_CSV = runfolder.SEED_WORKLOADS
+PICTURES_CSV = runfolder.SEED_PICTURES
+
+#: Every file this module writes, with its columns and their units (defined in :mod:`~tribench.harness.runfolder`).
+COLUMNS: dict[str, dict[str, str]] = runfolder.SEED_FILES
+
+
+@dataclass(frozen=True)
+class Design:
+    """How much ``tribench seed`` measures."""
+
+    processes: int
+    rounds: int
+    warmup: int
+    target_ms: float
+    sample: int
+    size: int
+
+
+# 2 ms batches, about one native kernel's pass over a sample (a longer pass is a
+# batch of its own); 6 rounds and 12 processes: a render time's CI of about +-2%,
+# inside the replay's 3% model error, in about 7 minutes on 2 cores with the
+# object forms' passes of 0.1-0.35 s (20 x 8 took 11). The measurements and the
+# arithmetic: docs/decisions.md, "The seed replay's design".
+FULL = Design(processes=12, rounds=6, warmup=1, target_ms=2.0, sample=4096, size=512)
+# 5 processes, not 3: a t-interval over 3 is t(2) / sqrt(3) = 2.5 standard deviations
+# wide each side, over 5 t(4) / sqrt(5) = 1.2, for a few seconds more (about 20 s in all).
+QUICK = Design(processes=5, rounds=2, warmup=1, target_ms=1.0, sample=256, size=128)
+
+
+def seed_kernels(all_kernels: bool = False) -> tuple[str, ...]:
+    """The kernels ``tribench seed`` times: :data:`FIRST_KERNELS`, then the best form of every algorithm
+    that answers the seed's renders; with ``all_kernels`` every public kernel instead of the best forms.
+
+    The best form of an algorithm is its widest, the native one (``kernel_info(k).lanes``: the most
+    triangles per block; Moller-Trumbore has two, with and without the early exit). Every native form was
+    faster than its 8-lane and scalar forms in the 27-kernel ranking of session 8 (Suzanne, both
+    precisions). Kernels that cull back faces are left out: the seed's renderer tests both faces (its
+    shadow rays meet the back of the monkey), so they would time another render. Only built-in
+    kernels: the replay takes no kernel file, so one this process loaded would not reach its workers.
+
+    >>> seed_kernels()[:6] == FIRST_KERNELS and len(seed_kernels()) < len(seed_kernels(all_kernels=True))
+    True
+    """
+    from ... import ext
+
+    names = [k for k in ext.kernel_names() if ext.kernel_info(k).source == "built-in"]
+    first = [k for k in FIRST_KERNELS if k in ext.kernel_names(internal=True)]
+    info = {k: ext.kernel_info(k) for k in names}
+    two_sided = [k for k in names if not info[k].culls_back_faces]
+    widest: dict[str, int] = {}  # per algorithm, the most lanes of its forms
+    for k in two_sided:
+        widest[info[k].algorithm] = max(widest.get(info[k].algorithm, 1), info[k].lanes)
+    best = [k for k in two_sided if 1 < info[k].lanes == widest[info[k].algorithm]]
+    rest = names if all_kernels else best
+    return (*first, *(k for k in rest if k not in FIRST_KERNELS))
+
+
+def _labels(scenes: Sequence[str]) -> dict[str, str]:
+    """A short unique name per scene (file stems; a repeated stem gets -2, -3...)."""
+    out: dict[str, str] = {}
+    for s in scenes:
+        base = Path(s).stem if s not in PAPER else s
+        label, n = base, 1
+        while label in out.values():
+            n += 1
+            label = f"{base}-{n}"
+        out[s] = label
+    return out
+
+
+# ------------------------------------------------------------------ running
+
+
+def run_seed(
+    out: str | Path,
+    scenes: Sequence[str] | None = None,
+    quick: bool = False,
+    size: int | None = None,
+    sample: int | None = None,
+    all_kernels: bool = False,
+    progress: bool | None = None,
+    command: str | None = None,
+    log: TextIO | None = None,
+) -> float:
+    """Make the workloads, run the sweep into ``out`` and draw the pictures; the seconds it took.
+    The tables are :func:`tribench.reports.tables.seed.write_seed_tables`'.
+
+    Parameters
+    ----------
+    scenes : built-in names or scene files (default scene02 and scene03)
+    quick : the same shape in well under a minute (:data:`QUICK`; wide intervals)
+    size, sample : override the image side and the rays sampled per kind
+    all_kernels : every public kernel, not only the seed's and the best forms (:func:`seed_kernels`)
+    log : where one-line notes go (default: ``sys.stderr`` when called, so a redirection holds)
+    """
+    from ...workloads.seed.workload import SeedSpec
+    from ..plan import Sweep
+    from .sweep import run_sweep
+
+    t0 = time.monotonic()
+    log = sys.stderr if log is None else log
+    design = QUICK if quick else FULL
+    size, sample = size or design.size, sample or design.sample
+    out = Path(out)
+    runfolder.check_new_run_dir(out)
+    scenes = [str(s) for s in (scenes or tuple(PAPER))]
+    resolved = [SeedSpec(s, sample=sample, width=size, height=size).scene for s in scenes]
+    labels = _labels(resolved)
+    specs, info = _workloads(resolved, labels, size, sample, log)
+    sweep = Sweep(
+        seed_kernels(all_kernels),
+        tuple(specs),
+        processes=design.processes,
+        rounds=design.rounds,
+        warmup=design.warmup,
+        target_ms=design.target_ms,
+    )
+    print(
+        f"sweep: {len(sweep.kernels)} kernels x {len(specs)} workloads, {sweep.processes} processes x "
+        f"{sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
+        file=log,
+    )
+    replay = {
+        "scenes": [labels[s] for s in resolved],
+        "quick": quick,
+        "all_kernels": all_kernels,
+        "width": size,
+        "height": size,
+        "sample": sample,
+        "paper": PAPER,
+        "workloads": info,
+    }
+    run_sweep(
+        sweep,
+        out,
+        say=lambda line: print(line, file=log),
+        progress=progress,
+        extra={"command": command, "seed_replay": replay},
+        announce=lambda sweep: _expected(sweep, info, size),
+    )
+
+    pictures = []
+    for scene in resolved:
+        if any(v["scene"] == labels[scene] for v in info.values()):
+            print(f"pictures: {labels[scene]}, curless_seed and moller_seed at {size}x{size}", file=log)
+            pictures.append(make_pictures(scene, labels[scene], size, out))
+    runfolder.write_csv(pd.DataFrame(pictures, columns=list(COLUMNS[PICTURES_CSV])), out / PICTURES_CSV)
+    return time.monotonic() - t0
+
+
+def _workloads(
+    resolved: list[str], labels: dict[str, str], size: int, sample: int, log: TextIO
+) -> tuple[list, dict[str, dict[str, Any]]]:
+    """Every scene's ray streams as workloads (traced the first time, then cached), and what each is:
+    its scene's label, the paper's scene it replays, its ray kind and its stream's figures."""
+    from ...workloads import cache
+    from ...workloads.seed.workload import RAY_KINDS, EmptyStream, SeedSpec, trace_forecast
+    from ...workloads.spec import workload_id
+    from ..runner import about
+
+    specs: list = []
+    info: dict[str, dict[str, Any]] = {}
+    for scene in resolved:
+        kinds = [SeedSpec(scene, rays, sample=sample, width=size, height=size) for rays in RAY_KINDS]
+        if not any(cache.cached(spec) for spec in kinds):  # one trace makes them all: said (or refused) first
+            print(f"tracing {labels[scene]}: expected about {about(trace_forecast(kinds[0]))}", file=log)
+        for spec in kinds:
+            print(f"workload: {spec.summary()}", file=log)
+            try:
+                w = cache.make(spec)  # the first time, traces the scene (seconds at 512 x 512)
+            except EmptyStream as exc:
+                print(f"  skipped: {exc}", file=log)
+                continue
+            specs.append(spec)
+            a = w.achieved
+            info[workload_id(spec)] = {
+                "scene": labels[scene],
+                "paper": scene if scene in PAPER else None,
+                "rays": spec.rays,
+                "mode": spec.mode,
+                **{k: a[k] for k in (*STREAM_FIGURES, "miss_mix")},
+            }
+    if not specs:
+        raise UserError("no scene shoots a ray that tests a triangle: nothing to replay")
+    return specs, info
+
+
+#: The pictures' tracer does about this share of a render's triangle tests (it skips some), plus its own
+#: NumPy work per pixel; read off finished renders: docs/decisions.md, "The seed replay's design".
+PICTURE_TEST_SHARE = 0.6
+PICTURE_S_PER_PIXEL = 1e-5
+TABLES_S = 10.0
+
+
+def _expected(sweep: Any, info: Mapping[str, Mapping[str, Any]], size: int) -> str:
+    """The line said before the sweep starts: the sweep's forecast (:mod:`..duration`), then the pictures'
+    (``info``: each workload's ``stream_tests`` and ``sample_tests``)."""
+    from .. import duration
+    from ..runner import about
+
+    tests, pass_s, _ = duration.measure_passes(sweep)  # the seed's workloads are brute force
+    sweep_estimate = duration.model(sweep, tests, pass_s)
+    after = TABLES_S
+    for wid in sweep.workload_ids:  # one pass over the sample, scaled to the render as render_per_process does
+        render = info[wid]["stream_tests"] / info[wid]["sample_tests"]
+        after += sum(PICTURE_TEST_SHARE * pass_s[(k, wid)] * render for k in PAIR)
+    after += len({info[wid]["scene"] for wid in sweep.workload_ids}) * len(PAIR) * PICTURE_S_PER_PIXEL * size**2
+    return (
+        f"expected: about {about(sweep_estimate.seconds + after)} in all; "
+        f"{sweep_estimate.line('for the sweep').removeprefix('expected ')}, "
+        f"then the pictures and tables about {about(after)}"
+    )
+
+
+def make_pictures(scene: str, label: str, size: int, out: Path) -> dict[str, Any]:
+    """Render ``scene`` with both seed kernels, save the PNGs and the difference mask; count the differences."""
+    from ...workloads.seed.scene import load_scene
+    from ...workloads.seed.trace import (
+        difference_mask,
+        pixel_edge_margins,
+        save_mask_png,
+        trace,
+    )
+
+    s = load_scene(scene)
+    traces = {k: trace(s, k, PICTURE_DTYPE, size, size) for k in PAIR}
+    row: dict[str, Any] = {"scene": label, "width": size, "height": size, "dtype": PICTURE_DTYPE}
+    for k, tr in traces.items():
+        row[f"{k}_png"] = tr.to_png(out / f"{label}_{k}.png").name
+    a, b = traces["curless_seed"], traces["moller_seed"]
+    mask, count = difference_mask(a, b)
+    row["difference_png"] = save_mask_png(mask, out / f"{label}_difference.png", b.to_uint8()).name
+    margin = np.minimum(pixel_edge_margins(a, mask), pixel_edge_margins(b, mask))
+    near = margin < EDGE_TOLERANCE
+    tiny = np.abs(a.image - b.image)[mask].max(axis=1) < LAST_BIT
+    row.update(
+        differing_pixels=count,
+        near_edge_pixels=int(near.sum()),
+        last_bit_pixels=int((~near & tiny).sum()),
+        other_pixels=int((~near & ~tiny).sum()),
+        edge_tolerance=EDGE_TOLERANCE,
+    )
+    return row
+
+
+# ------------------------------------------------------------------ figures

@@ -1,0 +1,71 @@
+"""The one way a sweep is measured: ``tribench sweep``, the notebook's ``tribench.sweep`` and the main job.
+
+:func:`run_sweep` checks the kernel files and builds before anything is
+timed, claims the run folder and runs the runner; :func:`measure_robustness`
+adds the robustness suite's ``validate.csv``. Nothing here analyses: the
+tables are :mod:`tribench.reports.tables`'s, made from the folder afterwards.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+from ... import ext
+from ...common import UserError
+from .. import duration, runfolder, runner
+from ..plan import Sweep
+from . import validate
+from .kernel_check import check_builds, load_checked
+
+__all__ = ["measure_robustness", "run_sweep"]
+
+
+def run_sweep(
+    sweep: Sweep,
+    out: str | Path,
+    *,
+    say: Callable[[str], None],
+    cpu: int | None = None,
+    progress: bool | None = None,
+    extra: Mapping[str, Any] | None = None,
+    announce: Callable[[Sweep], str] | None = None,
+) -> runner.RunResult:
+    """Measure ``sweep`` into the new folder ``out``: kernel files checked against the
+    reference, the folder claimed, each build compiled and checked again, then the
+    workers. ``say`` gets one line on what runs (``announce``'s, by default the
+    expected duration) before the first batch."""
+    load_checked(sweep.kernel_files)
+    out = Path(out)
+    runfolder.check_new_run_dir(out)  # before the estimate, which builds the workloads
+    checks = check_builds(sweep)
+    say(announce(sweep) if announce else duration.estimate(sweep).line())
+    return runner.start(
+        sweep, out, cpu=cpu, progress=progress, extra=dict(extra) if extra else None, build_checks=checks
+    )
+
+
+def measure_robustness(run_dir: str | Path, quick: bool = False) -> str:
+    """``validate.csv`` for the run's kernels and precisions, made if missing; a sentence on where it came from.
+
+    A failure of the suite never stops the job: the sentence says why, and the report shows it.
+    """
+    run_dir = Path(run_dir)
+    path = run_dir / runfolder.VALIDATE
+    if path.is_file():
+        return f"Read from {runfolder.VALIDATE} in the run folder."
+    sweep = runfolder.read_run(run_dir)["sweep"]
+    dtypes = sorted({w["dtype"] for w in sweep["workloads"] if "dtype" in w})
+    known = [k for k in sweep["kernels"] if k in ext.kernel_names(internal=True)]
+    try:
+        if not known:
+            raise UserError("none of the run's kernels is in this build of the extension")
+        df = validate.run(known, dtypes, quick=quick, progress=False)  # a quiet step
+    except Exception as exc:  # the suite must never stop the job: the report shows why
+        return f"The robustness suite could not run: {type(exc).__name__}: {exc}"
+    runfolder.write_csv(df, path)
+    return (
+        f"Read from {runfolder.VALIDATE} in the run folder, made by the robustness suite ({df.attrs['size']} "
+        f"sizes, RNG seed {df.attrs['seed']}, {df.attrs['seconds']:.1f} s)."
+    )

@@ -1,0 +1,396 @@
+"""The same kernels on N runs (N machines, N builds): what ``tribench compare`` shows, as tables.
+
+For N >= 2 runs (:func:`compare_many`): per workload in every run, each run's
+speedups over the common baseline with its intervals, and which orders of
+two kernels hold on every run. For two runs, also (:func:`compare_runs`), for
+every workload and kernel both have (matched by workload id, a hash of the
+spec, so the workloads are byte-identical), with the same baseline:
+
+* **ratio of speedups** ``speedup_B / speedup_A``: above 1, the kernel's
+  advantage over the baseline is larger on run B;
+* **time ratio** ``time_B / time_A`` of each kernel: above 1, run B is slower.
+
+The runs are independent, so each of those is a two-sample (Welch) interval
+on the log scale from the runs' per-process values
+(:func:`tribench.harness.stats.unpaired_ratio`), not a paired one. Intervals are
+simultaneous over the kernels of one workload (Bonferroni, as in
+``stats.speedup_table``); verdicts come from ``stats.verdict`` with the larger
+of the two runs' equivalence margins. As in a run's own rankings, a kernel on a
+workload where its answers differ from the reference (its ``correctness.csv``)
+did other work there and is compared nowhere on it. A run is any object with the fields of
+:class:`RunTables` (the report's :class:`~tribench.reports.rundata.RunData` has them).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+import pandas as pd
+
+from ...common import UserError
+from ...harness import runfolder, stats
+from ...workloads.labels import family_of, short_label
+from .workload_tables import compared
+
+__all__ = [
+    "MAX_RUNS",
+    "Comparison",
+    "MultiComparison",
+    "RunTables",
+    "compare",
+    "compare_many",
+    "compare_runs",
+    "order_summary",
+    "run_tags",
+]
+
+
+class RunTables(Protocol):
+    """What a comparison reads of one analysed run (read-only)."""
+
+    @property
+    def run_dir(self) -> Path: ...
+    @property
+    def baseline(self) -> str: ...
+    @property
+    def margin(self) -> float: ...
+    @property
+    def kernels(self) -> list[str]: ...
+    @property
+    def workload_ids(self) -> list[str]: ...
+    @property
+    def specs(self) -> Mapping[str, Mapping[str, Any]]: ...
+    @property
+    def tables(self) -> Mapping[str, pd.DataFrame]: ...
+    @property
+    def estimates(self) -> pd.DataFrame: ...
+    @property
+    def speedups(self) -> pd.DataFrame: ...
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Both tables of a comparison and what they rest on."""
+
+    # Columns named as in speedups.csv (ratio, ratio_ci_low, ratio_ci_high), so figures.forest draws both.
+    speedups: pd.DataFrame  # ratio of speedups, per workload and kernel
+    times: pd.DataFrame  # time ratio, per workload and kernel
+    baseline: str
+    margin: float
+    only_a: list[str]  # workload ids only in run A
+    only_b: list[str]
+
+
+def _per_process(data: RunTables) -> pd.DataFrame:
+    """The run's per-process values (``per_process.csv``, as the analysis step wrote it) a comparison
+    may compare: none of a kernel on a workload where its answers differ from the reference (the run's
+    ``correctness.csv``), since its time there is of other work, as the run's own rankings have it."""
+    return compared(data.tables[runfolder.PER_PROCESS], data.tables.get(runfolder.CORRECTNESS))
+
+
+def _log_per_process(data: RunTables) -> pd.DataFrame:
+    pp = _per_process(data)
+    return pp.assign(log_ns=np.log(pp["ns_per_test"]))
+
+
+def _ratio_fields(r: stats.LogRatio, confidence: float, margin: float) -> dict[str, float | int | str]:
+    """The columns every row of a comparison has: the ratio, its interval and test, and the verdict."""
+    return {
+        "ratio": r.ratio,
+        "ratio_ci_low": r.ci_low,
+        "ratio_ci_high": r.ci_high,
+        "p_value": r.p_value,
+        "df": r.df,
+        "n_a": r.n_a,
+        "n_b": r.n_b,
+        "confidence": confidence,
+        "verdict": stats.verdict(r.ci_low, r.ci_high, margin),
+    }
+
+
+def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Comparison:
+    """Ratio of speedups and time ratios of the kernels and workloads two runs share.
+
+    Raises
+    ------
+    ValueError
+        The runs share no workload, or their baselines differ.
+    """
+    if a.baseline != b.baseline:
+        raise UserError(
+            f"the runs have different baselines ({a.baseline} and {b.baseline}): "
+            f"re-run `tribench stats --baseline` on one of them"
+        )
+    shared = [w for w in a.workload_ids if w in set(b.workload_ids)]
+    if not shared:
+        raise UserError("the two runs share no workload (workloads match by id, a hash of their spec)")
+    kernels = [k for k in a.kernels if k in set(b.kernels)]
+    if a.baseline not in kernels:
+        raise UserError(f"baseline {a.baseline} is missing from one run")
+    margin = max(a.margin, b.margin)
+    pa, pb = _log_per_process(a), _log_per_process(b)
+    spd_rows, time_rows = [], []
+    for wid in shared:
+        spec = a.specs[wid]
+        info = {"workload_id": wid, "family": family_of(spec), "label": short_label(spec)}
+        wa = pa.loc[pa["workload_id"] == wid].pivot(index="process", columns="kernel", values="log_ns")
+        wb = pb.loc[pb["workload_id"] == wid].pivot(index="process", columns="kernel", values="log_ns")
+        present = [k for k in kernels if k in wa.columns and k in wb.columns]
+        # no speedups where the baseline did not run (a BVH workload runs native kernels only): times still
+        others = [k for k in present if k != a.baseline] if a.baseline in present else []
+        level_s = stats.simultaneous_confidence(confidence, len(others)) if others else confidence
+        level_t = stats.simultaneous_confidence(confidence, len(present)) if present else confidence
+        for k in others:
+            da = (wa[a.baseline] - wa[k]).dropna()
+            db = (wb[a.baseline] - wb[k]).dropna()
+            r = stats.unpaired_ratio(da, db, level_s)
+            spd_rows.append(
+                {
+                    **info,
+                    "kernel": k,
+                    "baseline": a.baseline,
+                    "speedup_a": math.exp(da.mean()),
+                    "speedup_b": math.exp(db.mean()),
+                    **_ratio_fields(r, level_s, margin),
+                }
+            )
+        for k in present:
+            ta, tb = wa[k].dropna(), wb[k].dropna()
+            r = stats.unpaired_ratio(ta, tb, level_t)
+            time_rows.append(
+                {
+                    **info,
+                    "kernel": k,
+                    "ns_per_test_a": math.exp(ta.mean()),
+                    "ns_per_test_b": math.exp(tb.mean()),
+                    **_ratio_fields(r, level_t, margin),
+                }
+            )
+    ratio = ["ratio", "ratio_ci_low", "ratio_ci_high", "p_value", "df", "n_a", "n_b", "confidence", "verdict"]
+    keys = ["workload_id", "family", "label", "kernel"]  # explicit: two runs may share only the baseline
+    return Comparison(
+        pd.DataFrame(spd_rows, columns=[*keys, "baseline", "speedup_a", "speedup_b", *ratio]),
+        pd.DataFrame(time_rows, columns=[*keys, "ns_per_test_a", "ns_per_test_b", *ratio]),
+        a.baseline,
+        margin,
+        [w for w in a.workload_ids if w not in set(b.workload_ids)],
+        [w for w in b.workload_ids if w not in set(a.workload_ids)],
+    )
+
+
+#: The most runs one comparison takes: each is a letter in the tables, in the order given.
+MAX_RUNS = 26
+
+
+@dataclass(frozen=True)
+class MultiComparison:
+    """N runs side by side: each run's speedups, and the orders of kernels every run agrees on.
+
+    ``speedups`` has one row per run, workload and kernel: the run's own
+    ``speedups.csv`` figures (``ratio``, ``ratio_ci_low``, ``ratio_ci_high``,
+    ``verdict``; the baseline itself 1). ``orders`` has one row per workload
+    and pair of kernels: ``kernel`` the faster on the first run by point
+    estimate, ``other_kernel`` the other; per run tag ``T``, ``ratio_T``,
+    ``ratio_T_ci_low``, ``ratio_T_ci_high`` (time_other / time_kernel) and
+    ``verdict_T``; then ``order``: ``holds`` (faster on every run),
+    ``differs`` (significantly faster on one run and slower on another) or
+    ``undecided`` (neither).
+    """
+
+    tags: list[str]
+    speedups: pd.DataFrame
+    orders: pd.DataFrame
+    baseline: str
+    kernels: list[str]
+    workload_ids: list[str]
+    #: workload ids some runs have and others lack (not compared)
+    not_shared: list[str]
+    #: workload id -> (its label, its family), for headings
+    labels: dict[str, tuple[str, str]]
+
+
+def run_tags(n: int) -> list[str]:
+    """``A``, ``B``, ... for ``n`` runs (at most :data:`MAX_RUNS`)."""
+    if not 2 <= n <= MAX_RUNS:
+        raise UserError(f"compare needs 2 to {MAX_RUNS} run folders (RUN RUN ...), got {n}")
+    return [chr(ord("A") + i) for i in range(n)]
+
+
+def order_summary(m: MultiComparison) -> pd.DataFrame:
+    """Per pair of kernels, over the workloads: on how many each kernel is faster on every machine,
+    on how many the machines differ, and on how many some machine cannot tell (``undecided``)."""
+    rank = {k: i for i, k in enumerate(m.kernels)}
+    counts: dict[tuple[str, str], dict[str, int]] = {}
+    for r in m.orders.itertuples(index=False):
+        a, b = sorted((str(r.kernel), str(r.other_kernel)), key=rank.__getitem__)
+        c = counts.setdefault((a, b), {"kernel_faster": 0, "other_faster": 0, "differs": 0, "undecided": 0})
+        if r.order == "holds":
+            c["kernel_faster" if r.kernel == a else "other_faster"] += 1
+        else:
+            c[str(r.order)] += 1
+    rows = [{"kernel": a, "other_kernel": b, **c} for (a, b), c in counts.items()]
+    return pd.DataFrame(
+        rows, columns=["kernel", "other_kernel", "kernel_faster", "other_faster", "differs", "undecided"]
+    )
+
+
+def compare_many(runs: Sequence[RunTables], confidence: float = 0.95, same_run: bool = False) -> MultiComparison:
+    """Speedups of every run, and which orders of two kernels hold on every run.
+
+    Workloads match by id (a hash of the spec) and must be in every run; the
+    kernels compared are those every run has on the workload. An order of two
+    kernels on one workload is tested in each run as ``algorithms.csv`` tests
+    one: a paired ratio of the per-process values (``stats.speedup``) with a
+    Bonferroni-simultaneous interval over the workload's pairs and the run's
+    equivalence margin (``stats.verdict``). It *holds* when every run finds
+    the same kernel significantly faster: an intersection of tests, each at
+    its level, so the whole claim keeps that level without a further correction.
+
+    ``same_run``: the runs are the builds of one run folder (:mod:`.builds`), so they share it.
+
+    Raises
+    ------
+    UserError
+        Fewer than two or more than 26 runs, different baselines, or no workload in every run.
+    """
+    tags = run_tags(len(runs))
+    folders = [Path(d.run_dir).resolve() for d in runs]
+    twice = sorted({str(f) for f in folders if folders.count(f) > 1})
+    if twice and not same_run:
+        raise UserError(f"{twice[0]} is given twice: a run compared with itself is not two machines")
+    baselines = {d.baseline for d in runs}
+    if len(baselines) > 1:
+        named = ", ".join(f"{t}: {d.baseline}" for t, d in zip(tags, runs, strict=True))
+        raise UserError(
+            f"the runs have different baselines ({named}): re-run `tribench stats RUN_DIR --baseline NAME` "
+            "on some of them so they share one"
+        )
+    baseline = runs[0].baseline
+    in_all = set.intersection(*(set(d.workload_ids) for d in runs))
+    wids = [w for w in runs[0].workload_ids if w in in_all]
+    if not wids:
+        raise UserError("the runs share no workload (workloads match by id, a hash of their spec)")
+    seen = [w for d in runs for w in d.workload_ids]
+    not_shared = list(dict.fromkeys(w for w in seen if w not in in_all))
+    kernels = [k for k in runs[0].kernels if all(k in d.kernels for d in runs)]
+    spd_rows = [row for tag, d in zip(tags, runs, strict=True) for row in _run_speedups(tag, d, wids, kernels)]
+    order_rows = [row for wid in wids for row in _orders(tags, runs, wid, kernels, confidence)]
+    labels = {w: (short_label(runs[0].specs[w]), family_of(runs[0].specs[w])) for w in wids}
+    # explicit columns: runs that share only the baseline have no pair of kernels, and still a table
+    order_columns = [
+        *_ORDER_KEYS,
+        *(c for t in tags for c in (f"ratio_{t}", f"ratio_{t}_ci_low", f"ratio_{t}_ci_high", f"verdict_{t}")),
+        "order",
+        "confidence",
+    ]
+    return MultiComparison(
+        tags,
+        pd.DataFrame(spd_rows, columns=_SPEEDUP_COLUMNS),
+        pd.DataFrame(order_rows, columns=order_columns),
+        baseline,
+        kernels,
+        wids,
+        not_shared,
+        labels,
+    )
+
+
+#: The columns of a comparison's speedups, and the first columns of its orders.
+_SPEEDUP_COLUMNS = [
+    "run",
+    "workload_id",
+    "family",
+    "label",
+    "kernel",
+    "ratio",
+    "ratio_ci_low",
+    "ratio_ci_high",
+    "verdict",
+]
+_ORDER_KEYS = ["workload_id", "family", "label", "kernel", "other_kernel"]
+
+
+def _run_speedups(tag: str, d: RunTables, wids: list[str], kernels: list[str]) -> list[dict[str, Any]]:
+    """One run's own speedups.csv figures on the shared workloads and kernels (the baseline itself 1)."""
+    s = d.speedups.loc[d.speedups["workload_id"].isin(set(wids)) & d.speedups["kernel"].isin(kernels)]
+    rows = []
+    for wid in wids:
+        spec = d.specs[wid]
+        info = {"run": tag, "workload_id": wid, "family": family_of(spec), "label": short_label(spec)}
+        ran = set(d.estimates.loc[d.estimates["workload_id"] == wid, "kernel"])
+        if d.baseline in ran:
+            one = {"ratio": 1.0, "ratio_ci_low": 1.0, "ratio_ci_high": 1.0, "verdict": "baseline"}
+            rows.append({**info, "kernel": d.baseline, **one})
+        for r in s.loc[s["workload_id"] == wid].itertuples(index=False):
+            rows.append(
+                {
+                    **info,
+                    "kernel": r.kernel,
+                    "ratio": r.ratio,
+                    "ratio_ci_low": r.ratio_ci_low,
+                    "ratio_ci_high": r.ratio_ci_high,
+                    "verdict": r.verdict,
+                }
+            )
+    return rows
+
+
+def _orders(
+    tags: list[str], runs: Sequence[RunTables], wid: str, kernels: list[str], confidence: float
+) -> list[dict[str, object]]:
+    """Every pair of kernels on one workload, oriented by run A's estimates, tested in each run."""
+    spec = runs[0].specs[wid]
+    pers = []
+    for d in runs:
+        pp = _per_process(d)
+        pers.append(pp.loc[pp["workload_id"] == wid].pivot(index="process", columns="kernel", values="ns_per_test"))
+    present = [k for k in kernels if all(k in per.columns for per in pers)]
+    first = pers[0][present].mean().sort_values(kind="stable")  # orient each pair by run A's estimate
+    ordered = list(first.index)
+    pairs = [(a, b) for i, a in enumerate(ordered) for b in ordered[i + 1 :]]
+    level = stats.simultaneous_confidence(confidence, max(len(pairs), 1))
+    rows = []
+    for a, b in pairs:
+        row: dict[str, object] = {
+            "workload_id": wid,
+            "family": family_of(spec),
+            "label": short_label(spec),
+            "kernel": a,
+            "other_kernel": b,
+        }
+        verdicts = []
+        for tag, d, per in zip(tags, runs, pers, strict=True):
+            both = per[[a, b]].dropna()
+            if len(both) >= 2:
+                v = stats.speedup(both[b], both[a], confidence=level)
+                ratio, low, high = v.ratio, v.ci_low, v.ci_high
+            else:
+                ratio = low = high = math.nan
+            verdict = stats.verdict(low, high, d.margin)
+            verdicts.append(verdict)
+            row |= {
+                f"ratio_{tag}": ratio,
+                f"ratio_{tag}_ci_low": low,
+                f"ratio_{tag}_ci_high": high,
+                f"verdict_{tag}": verdict,
+            }
+        if all(v == "faster" for v in verdicts):
+            row["order"] = "holds"
+        elif "faster" in verdicts and "slower" in verdicts:
+            row["order"] = "differs"
+        else:
+            row["order"] = "undecided"
+        row["confidence"] = level
+        rows.append(row)
+    return rows
+
+
+def compare(runs: Sequence[RunTables]) -> tuple[MultiComparison, Comparison | None]:
+    """Every run side by side (:func:`compare_many`), and for two runs the ratio of their speedups too."""
+    many = compare_many(runs)
+    return many, compare_runs(runs[0], runs[1]) if len(runs) == 2 else None

@@ -1,0 +1,116 @@
+"""How the batches behaved: outlier and warm-up labels, drift over a run, variance components."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import pandas as pd
+
+from ...harness import runfolder, stats
+from .frames import table_frame
+
+
+def batch_labels(batches: pd.DataFrame) -> pd.DataFrame:
+    """Every batch's key with ``ns_per_test``, Tukey labels (``stats.label_outliers``),
+    ``rel_to_median`` (ns/test over its process's timed median for that kernel and
+    workload) and ``t_in_process_s`` (seconds since the process's first batch)."""
+    b = stats.label_outliers(batches)
+    timed = b.loc[~b["warmup"]]
+    med = timed.groupby(["kernel", "workload_id", "process"])["ns_per_test"].median().rename("median_ns")
+    b = b.join(med, on=["kernel", "workload_id", "process"])
+    start = b.groupby(["process", "attempt"])["start_ns"].transform("min")
+    b = b.assign(rel_to_median=b["ns_per_test"] / b["median_ns"], t_in_process_s=(b["start_ns"] - start) * 1e-9)
+    return b[runfolder.part_columns(runfolder.BATCH_LABELS)].reset_index(drop=True)
+
+
+def outlier_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
+    """Counts of Tukey-labelled batches (kept, never dropped) per kernel and workload (``outliers.csv``)."""
+    timed = labels.loc[~labels["warmup"]]
+    g = timed.groupby(["workload_id", "kernel"], sort=False)
+    out = pd.DataFrame(
+        {
+            "batches": g.size(),
+            "outliers": g["outlier"].sum(),
+            "far_out": g["far_out"].sum(),
+            "worst_rel": g["rel_to_median"].max(),
+        }
+    ).reset_index()
+    out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"], strict=True)))
+    return out[runfolder.part_columns(runfolder.OUTLIERS)]
+
+
+def warmup_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
+    """Warm-up against timed batches: median of ``ns/test / process median`` of each (``warmup.csv``)."""
+    g = labels.groupby(["workload_id", "kernel"])
+    warm = labels.loc[labels["warmup"]].groupby(["workload_id", "kernel"])
+    out = pd.DataFrame(
+        {
+            "warmup_rel": warm["rel_to_median"].median().reindex(g.size().index),
+            "warmup_batches": warm.size().reindex(g.size().index),
+        }
+    ).reset_index()
+    out["warmup_batches"] = out["warmup_batches"].fillna(0).astype(int)
+    out["label"] = out["workload_id"].map(dict(zip(wl["workload_id"], wl["label"], strict=True)))
+    return out[runfolder.part_columns(runfolder.WARMUP)]
+
+
+def drift_table(
+    batches: pd.DataFrame, kernels: Sequence[str], baseline: str, workload_ids: Sequence[str], wl: pd.DataFrame
+) -> pd.DataFrame:
+    """``stats.drift`` of every kernel against the baseline on every workload (``drift.csv``);
+    ``reason`` explains a comparison that could not be tested."""
+    rows = []
+    labels = dict(zip(wl["workload_id"], wl["label"], strict=True))
+    for wid in workload_ids:
+        for kernel in kernels:
+            if kernel == baseline:
+                continue
+            row: dict[str, Any] = {"workload_id": wid, "label": labels.get(wid, wid), "kernel": kernel}
+            try:
+                d = stats.drift(batches, kernel, baseline, workload_id=wid)
+            except ValueError as exc:
+                row.update(flagged=False, reason=f"not tested: {exc}")
+            else:
+                row.update(
+                    baseline_slope=d.baseline_slope,
+                    ratio_slope=d.ratio_slope,
+                    ratio_p=d.ratio_p,
+                    ratio_change=d.ratio_change,
+                    confound_bias=d.confound_bias,
+                    confound_p=d.confound_p,
+                    flagged=d.flagged,
+                    reason=d.reason,
+                    n=d.n,
+                )
+            rows.append(row)
+    return table_frame(rows, runfolder.DRIFT)
+
+
+def variance_table(
+    batches: pd.DataFrame, kernels: Sequence[str], workload_ids: Sequence[str], wl: pd.DataFrame
+) -> pd.DataFrame:
+    """Kalibera-Jones variance components per kernel and workload (``variance.csv``): square roots of
+    ``stats.variance_components`` relative to the mean, in percent."""
+    rows = []
+    labels = dict(zip(wl["workload_id"], wl["label"], strict=True))
+    for wid in workload_ids:
+        for kernel in kernels:
+            try:
+                vc = stats.variance_components(stats.rounds_matrix(batches, kernel, wid))
+            except ValueError:
+                continue
+            rows.append(
+                {
+                    "workload_id": wid,
+                    "label": labels.get(wid, wid),
+                    "kernel": kernel,
+                    "mean_ns": vc.mean,
+                    "round_sd_pct": 100 * math.sqrt(vc.between_round) / vc.mean,
+                    "process_sd_pct": 100 * math.sqrt(vc.between_process) / vc.mean,
+                    "n_processes": vc.n_processes,
+                    "n_rounds": vc.n_rounds,
+                }
+            )
+    return table_frame(rows, runfolder.VARIANCE)

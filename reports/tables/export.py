@@ -1,0 +1,276 @@
+"""A run's estimates and speedups in Google Benchmark's JSON format (``google_benchmark.json``).
+
+Why this format: Google Benchmark's JSON (a ``context`` object, then a
+``benchmarks`` list) has a place for the machine record (``context``) and
+tools that already read it (its ``tools/compare.py``, dashboards fed by
+``--benchmark_format=json``); Bencher's BMF carries an interval per figure
+natively but has no place for the machine, and its one consumer is a hosted
+service. Google Benchmark has no interval field, so each interval travels as
+extra numeric fields, the way Google Benchmark writes user counters.
+
+How a run maps onto it (one "benchmark" per kernel and workload, named
+``KERNEL/WORKLOAD_ID``; ``label`` is the workload in one line):
+
+* one ``iteration`` entry per worker process, as Google Benchmark writes one
+  per repetition: ``real_time`` is the process's median ns per ray-triangle
+  test (``per_process.csv``), ``iterations`` its timed batches. So
+  ``compare.py`` can run its U test on two exports;
+* the ``_mean`` aggregate: ``real_time`` is ``ns_per_test`` of
+  ``estimates.csv`` with ``ci_low``, ``ci_high`` (Student t),
+  ``bootstrap_low``, ``bootstrap_high`` and ``confidence`` beside it;
+* the ``_stddev`` aggregate: the standard deviation of the per-process values;
+* the ``_speedup`` aggregate (unit ``percentage``, Google Benchmark's unit of
+  a unitless statistic, written as a fraction): ``speedups.csv``'s ratio
+  ``time_baseline / time_kernel`` with its simultaneous interval, ``p_holm``
+  and ``confidence``; the verdict in ``label``.
+
+``time_unit`` is ``ns`` and the time is per test, not per loop; tribench
+times wall-clock inside C on a pinned process and measures no CPU time
+apart, so ``cpu_time`` repeats ``real_time``. ``context`` has Google
+Benchmark's fields, filled from ``run.json``'s machine record, then every
+field of that record as a string (``machine.<key>``, JSON text for the
+non-strings), as Google Benchmark writes custom context. No number is NaN or
+infinite (the file is strict JSON): an undefined interval is left out.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from collections.abc import Mapping
+from typing import Any
+
+import pandas as pd
+
+from ...harness import runfolder
+
+__all__ = ["google_benchmark", "dumps", "JSON_SCHEMA_VERSION"]
+
+#: The ``context.json_schema_version`` Google Benchmark's tools accept.
+JSON_SCHEMA_VERSION = 1
+
+_CACHE_TYPES = {"d": "Data", "i": "Instruction", "": "Unified"}
+_SIZE_UNITS = {"": 1, "K": 1024, "M": 1024**2, "G": 1024**3}
+
+
+def _caches(sizes: Mapping[str, str]) -> list[dict[str, Any]]:
+    """``{'L1d': '48K', ...}`` (the machine record) as Google Benchmark's cache list; unreadable ones left out."""
+    out = []
+    for name, size in sizes.items():
+        key = re.fullmatch(r"L(\d)([di]?)", name)
+        value = re.fullmatch(r"(\d+)([KMG]?)", str(size).strip())
+        if key and value:
+            out.append(
+                {
+                    "type": _CACHE_TYPES[key.group(2)],
+                    "level": int(key.group(1)),
+                    "size": int(value.group(1)) * _SIZE_UNITS[value.group(2)],
+                    "num_sharing": 0,  # not recorded
+                }
+            )
+    return out
+
+
+def _context(run: Mapping[str, Any], baseline: str, margin: Mapping[str, Any]) -> dict[str, Any]:
+    machine = run.get("machine") or {}
+    try:
+        mhz = round(float(machine.get("cpu_mhz") or 0))
+    except ValueError:  # not a number: unknown, as Google Benchmark writes an unknown clock
+        mhz = 0
+    context: dict[str, Any] = {
+        "date": str(run.get("created", "")),
+        "host_name": "",  # tribench records no host name
+        "executable": "tribench",
+        "num_cpus": int(machine.get("logical_cpus") or 0),
+        "mhz_per_cpu": mhz,
+    }
+    if machine.get("governor"):
+        context["cpu_scaling_enabled"] = machine["governor"] != "performance"
+    context |= {
+        "caches": _caches(machine.get("caches") or {}),
+        "load_avg": [float(x) for x in machine.get("load_average") or []],
+        "library_version": f"tribench {machine.get('tribench', 'unknown')}",
+        "library_build_type": "release",
+        "json_schema_version": JSON_SCHEMA_VERSION,
+        "run_id": str(run["run_id"]),
+        "time_per": "ray-triangle test",
+        "baseline": baseline,
+        "margin": f"{margin.get('value')} ({margin.get('source')})",
+    }
+    for key, value in machine.items():
+        context[f"machine.{key}"] = value if isinstance(value, str) else json.dumps(value, sort_keys=True)
+    return context
+
+
+def _finite(fields: Mapping[str, Any]) -> dict[str, float]:
+    """The fields that are finite numbers, as floats (an undefined interval is left out)."""
+    return {k: float(v) for k, v in fields.items() if v is not None and math.isfinite(float(v))}
+
+
+def _entry(name: str, run_name: str, family: int, instance: int, label: str, **fields: Any) -> dict[str, Any]:
+    return {
+        "name": name,
+        "family_index": family,
+        "per_family_instance_index": instance,
+        "run_name": run_name,
+        **fields,
+        "time_unit": "ns",
+        "label": label,
+    }
+
+
+def google_benchmark(
+    run: Mapping[str, Any], tables: Mapping[str, pd.DataFrame], baseline: str, margin: Mapping[str, Any]
+) -> dict[str, Any]:
+    """A run's estimates, speedups and machine record as one Google Benchmark JSON object.
+
+    Parameters
+    ----------
+    run : mapping
+        ``run.json``.
+    tables : mapping
+        The derived tables by file name; ``estimates.csv``, ``speedups.csv`` and
+        ``per_process.csv`` are read.
+    baseline : str
+        The speedups' baseline.
+    margin : mapping
+        ``{"value": ..., "source": ...}``, the equivalence margin of the verdicts.
+
+    Returns
+    -------
+    dict
+        ``{"context": {...}, "benchmarks": [...]}``, ready for ``json.dumps(..., allow_nan=False)``.
+    """
+    keys = ["build", "kernel", "workload_id"]
+    est = tables[runfolder.ESTIMATES]
+    spd = tables[runfolder.SPEEDUPS].set_index(keys)
+    pp = tables[runfolder.PER_PROCESS]
+    builds = list(dict.fromkeys(est["build"]))
+    kernels = [k for k in run["sweep"]["kernels"] if k in set(est["kernel"])]
+    wids = [w for w in run["sweep"]["workload_ids"] if w in set(est["workload_id"])]
+    rows = est.set_index(keys)
+    benchmarks: list[dict[str, Any]] = []
+    families = [(b, k) for b in builds for k in kernels]
+    for family, instance, r in (
+        (f, i, rows.loc[(b, k, w)])
+        for f, (b, k) in enumerate(families)
+        for i, w in enumerate(wids)
+        if (b, k, w) in rows.index
+    ):
+        build, kernel, wid = r.name
+        # a run of several builds names each benchmark's build too (its own processes)
+        name, label = f"{kernel}/{wid}" + (f"/{build}" if len(builds) > 1 else ""), str(r["workload"])
+        per = pp.loc[(pp["build"] == build) & (pp["kernel"] == kernel) & (pp["workload_id"] == wid)]
+        per = per.sort_values("process")
+        ids = (name, family, instance)
+        benchmarks += _repetitions(ids, label, per)
+        benchmarks += _time_aggregates(ids, label, r, len(per))
+        if (build, kernel, wid) in spd.index and math.isfinite(spd.loc[(build, kernel, wid)]["ratio"]):
+            benchmarks.append(_speedup(ids, label, spd.loc[(build, kernel, wid)], baseline, len(per)))
+    return {"context": _context(run, baseline, margin), "benchmarks": benchmarks}
+
+
+def _repetitions(ids: tuple[str, int, int], label: str, per: pd.DataFrame) -> list[dict[str, Any]]:
+    """One ``iteration`` entry per worker process: its median ns per test (the replicate)."""
+    name, family, instance = ids
+    return [
+        _entry(
+            name,
+            name,
+            family,
+            instance,
+            label,
+            run_type="iteration",
+            repetitions=len(per),
+            threads=1,
+            repetition_index=i,
+            iterations=int(p.n_rounds),
+            real_time=float(p.ns_per_test),
+            cpu_time=float(p.ns_per_test),
+            process=int(p.process),
+        )
+        for i, p in enumerate(per.itertuples(index=False))
+    ]
+
+
+def _time_aggregates(ids: tuple[str, int, int], label: str, r: pd.Series, n: int) -> list[dict[str, Any]]:
+    """The ``_mean`` entry (ns per test with its intervals) and, where finite, the ``_stddev`` entry."""
+    name, family, instance = ids
+    aggregate = {"run_type": "aggregate", "repetitions": n, "threads": 1}
+    out = [
+        _entry(
+            f"{name}_mean",
+            name,
+            family,
+            instance,
+            label,
+            **aggregate,
+            aggregate_name="mean",
+            aggregate_unit="time",
+            iterations=n,
+            real_time=float(r["ns_per_test"]),
+            cpu_time=float(r["ns_per_test"]),
+            **_finite(
+                {
+                    "ci_low": r["ns_per_test_ci_low"],
+                    "ci_high": r["ns_per_test_ci_high"],
+                    "bootstrap_low": r["ns_per_test_bootstrap_low"],
+                    "bootstrap_high": r["ns_per_test_bootstrap_high"],
+                    "confidence": r["confidence"],
+                }
+            ),
+        )
+    ]
+    if math.isfinite(r["ns_per_test_sd"]):
+        sd = float(r["ns_per_test_sd"])
+        out.append(
+            _entry(
+                f"{name}_stddev",
+                name,
+                family,
+                instance,
+                label,
+                **aggregate,
+                aggregate_name="stddev",
+                aggregate_unit="time",
+                iterations=n,
+                real_time=sd,
+                cpu_time=sd,
+            )
+        )
+    return out
+
+
+def _speedup(ids: tuple[str, int, int], label: str, s: pd.Series, baseline: str, n: int) -> dict[str, Any]:
+    """The ``_speedup`` entry: the ratio over the baseline with its simultaneous interval and verdict."""
+    name, family, instance = ids
+    return _entry(
+        f"{name}_speedup",
+        name,
+        family,
+        instance,
+        f"{label}; {s['verdict']} against {baseline}",
+        run_type="aggregate",
+        repetitions=n,
+        threads=1,
+        aggregate_name="speedup",
+        aggregate_unit="percentage",
+        iterations=int(s["n_processes"]),
+        real_time=float(s["ratio"]),
+        cpu_time=float(s["ratio"]),
+        **_finite(
+            {
+                "ci_low": s["ratio_ci_low"],
+                "ci_high": s["ratio_ci_high"],
+                "confidence": s["confidence"],
+                "p_holm": s["p_holm"],
+                "margin": s["margin"],
+            }
+        ),
+    )
+
+
+def dumps(document: Mapping[str, Any]) -> str:
+    """The export as strict JSON text (no NaN or Infinity), one field per line."""
+    return json.dumps(document, indent=2, allow_nan=False) + "\n"

@@ -1,0 +1,138 @@
+"""A run folder's measured files, read once: what every derived table is a pure function of.
+
+:func:`load` reads and validates ``run.json``, ``batches.csv``,
+``processes.csv`` and ``traversals.csv`` (:mod:`tribench.harness.runfolder`),
+and the two measurements a study may have added, ``validate.csv`` (the
+robustness suite) and ``peers.csv``; nothing after it reads the folder again.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import stat
+import sys
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from ...harness import runfolder
+from ...harness.plan import recorded_builds, rows_of_build
+
+__all__ = ["Measured", "file_digest", "load"]
+
+
+def file_digest(path: str | Path) -> str | None:
+    """SHA-256 of a file's bytes: how the report knows a table is stale. None where there is no such regular
+    file (a FIFO or a device in its place would block or never end; the readers refuse it, naming it)."""
+    try:
+        if not stat.S_ISREG(os.lstat(path).st_mode):
+            return None
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except FileNotFoundError:
+        return None
+
+
+@dataclass(frozen=True)
+class Measured:
+    """Everything measured about one run, as its files hold it."""
+
+    run_dir: Path
+    run: dict[str, Any]
+    batches: pd.DataFrame
+    processes: pd.DataFrame
+    traversals: pd.DataFrame
+    #: ``validate.csv`` in today's columns, else None (the bands table then has no robustness)
+    validate: pd.DataFrame | None
+    #: ``peers.csv`` in today's columns, else None, and a sentence on why not
+    peers: pd.DataFrame | None
+    peers_note: str
+    #: SHA-256 of ``batches.csv`` and ``peers.csv`` as read (``analysis.json`` records them)
+    batches_sha256: str | None
+    peers_sha256: str | None
+
+    @property
+    def specs(self) -> dict[str, dict[str, Any]]:
+        """Workload id -> its spec dict, as ``run.json`` records the sweep."""
+        sweep = self.run["sweep"]
+        return dict(zip(sweep["workload_ids"], sweep["workloads"], strict=True))
+
+    @property
+    def kernels(self) -> list[str]:
+        """The sweep's kernels that have batches, in sweep order."""
+        present = set(self.batches["kernel"])
+        return [k for k in self.run["sweep"]["kernels"] if k in present]
+
+    @property
+    def workload_ids(self) -> list[str]:
+        """The sweep's workloads that have batches, in sweep order."""
+        present = set(self.batches["workload_id"])
+        return [w for w in self.run["sweep"]["workload_ids"] if w in present]
+
+    @property
+    def builds(self) -> list[str]:
+        """The builds of the run's processes, in turn (``--builds``; else the installed build alone)."""
+        return recorded_builds(self.run["sweep"])
+
+    def of_build(self, build: str) -> Measured:
+        """The run as its processes of ``build`` measured it (the processes take the builds in turn)."""
+        b = self.builds
+        return replace(
+            self,
+            batches=rows_of_build(self.batches, b, build),
+            processes=rows_of_build(self.processes, b, build),
+            traversals=rows_of_build(self.traversals, b, build),
+        )
+
+
+def load(run_dir: str | Path) -> Measured:
+    """Read a run folder's measured files once, each validated (a UserError names ``file:line``)."""
+    run_dir = Path(run_dir)
+    batches_sha256 = file_digest(run_dir / runfolder.BATCHES)  # before reading: a live sweep may append
+    run = runfolder.read_run(run_dir)
+    batches = runfolder.read_batches(run_dir, run)
+    writer = runfolder.live_writer(run_dir)
+    if writer is not None:
+        print(
+            f"tribench: note: {run_dir} is still being written by {writer}; these tables cover "
+            f"{len(batches)} of its {run['n_batches']} batches",
+            file=sys.stderr,
+        )
+    peers, peers_note = _read_peers(run_dir)
+    return Measured(
+        run_dir=run_dir,
+        run=run,
+        batches=batches,
+        processes=runfolder.read_processes(run_dir, run),
+        traversals=runfolder.read_traversals(run_dir, run),
+        validate=_read_validation(run_dir),
+        peers=peers,
+        peers_note=peers_note,
+        batches_sha256=batches_sha256,
+        peers_sha256=file_digest(run_dir / runfolder.PEERS) if peers is not None else None,
+    )
+
+
+def _read_validation(run_dir: Path) -> pd.DataFrame | None:
+    path = run_dir / runfolder.VALIDATE
+    try:
+        frame = pd.read_csv(path)
+    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError):
+        return None
+    return frame if list(frame.columns) == list(runfolder.FILES[runfolder.VALIDATE]) else None
+
+
+def _read_peers(run_dir: Path) -> tuple[pd.DataFrame | None, str]:
+    path = run_dir / runfolder.PEERS
+    if not path.is_file():
+        return None, f"no {runfolder.PEERS}"
+    try:
+        with open(path, encoding="utf-8") as f:
+            header = f.readline(65536).rstrip("\r\n").split(",")
+        if header != list(runfolder.FILES[runfolder.PEERS]):
+            return None, f"{runfolder.PEERS} is not in today's columns (an older tribench wrote it)"
+        return pd.read_csv(path), "read"
+    except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError) as exc:
+        return None, f"{runfolder.PEERS} cannot be used ({type(exc).__name__}: {exc})"

@@ -1,0 +1,110 @@
+"""The peers' figures: rays/s per contender and tribench's ratios over each peer, from ``peers.csv``.
+
+The peers are timed by :mod:`tribench.harness.jobs.peers`; this module only
+summarises what they wrote (the analysis step's peer tables, and the study's
+printout).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ...common import UserError
+from ...harness import runfolder, stats
+from ...harness.jobs.peers import CONTENDERS, NATIVE_EMBREE, PEER_NAMES
+
+__all__ = ["format_summary", "summarise"]
+
+
+def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """``(rates, ratios)`` of a ``peers.csv``.
+
+    ``rates``: per contender the geometric mean of rays/s over processes (each
+    process's own geometric mean over its repetitions), its t interval, the
+    processes behind it, the median CPU share (process CPU time / wall time:
+    1 on one core; below 1, other processes took the core), the median setup
+    time and the disagreements with the float64 reference. ``ratios``:
+    tribench's rays/s over each peer's (and tribench's C loop over its own
+    call, and Embree's robust mode over its plain one: what watertightness
+    costs there), paired by process (:func:`tribench.harness.stats.speedup`).
+    """
+    rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
+    if peers.empty or not rates_ok.all():
+        raise UserError(
+            f"{runfolder.PEERS} needs rows with positive, finite rays_per_s ({int((~rates_ok).sum())} are not)"
+        )
+    per_process = (
+        peers.assign(log_rate=np.log(peers["rays_per_s"]), share=peers["cpu_ns"] / peers["wall_ns"])
+        .groupby(["contender", "process"], sort=False)
+        .agg(
+            log_rate=("log_rate", "mean"),
+            share=("share", "median"),
+            setup_ns=("setup_ns", "median"),
+            rays=("rays", "first"),
+            differ=("differ", "max"),
+            differ_ambiguous=("differ_ambiguous", "max"),
+            implementation=("implementation", "first"),
+        )
+        .reset_index()
+    )
+    per_process["rays_per_s"] = np.exp(per_process["log_rate"])
+    order = [c for c in CONTENDERS if c in set(per_process["contender"])]
+    rates = []
+    for name in order:
+        g = per_process.loc[per_process["contender"] == name]
+        gm = stats.geometric_mean(g["rays_per_s"], confidence)
+        rates.append(
+            {
+                "contender": name,
+                "implementation": g["implementation"].iloc[0],
+                "rays": int(g["rays"].iloc[0]),
+                "rays_per_s": gm.mean,
+                "ci_low": gm.ci_low,
+                "ci_high": gm.ci_high,
+                "n_processes": gm.n,
+                "cpu_share": float(g["share"].median()),
+                "setup_ms": float(g["setup_ns"].median()) / 1e6,
+                "differ": int(g["differ"].max()),
+                "differ_ambiguous": int(g["differ_ambiguous"].max()),
+            }
+        )
+    wide = per_process.pivot(index="process", columns="contender", values="rays_per_s")
+    ratios = []
+    for a, b in (
+        [("tribench", p) for p in PEER_NAMES]
+        + [("tribench_call", p) for p in PEER_NAMES]
+        + [("tribench_packets", p) for p in NATIVE_EMBREE]
+        + [("tribench", "tribench_call"), ("tribench_packets", "tribench")]
+        + [("embree_robust", "embree"), ("embree_robust_16", "embree_16")]
+    ):
+        if a in wide and b in wide:
+            pair = wide[[a, b]].dropna()
+            # rays/s a over b = time per ray of b over a's: a speedup with b as the baseline
+            s = stats.speedup(1 / pair[b], 1 / pair[a], confidence)
+            ratios.append(
+                {
+                    "contender": a,
+                    "over": b,
+                    "ratio": s.ratio,
+                    "ci_low": s.ci_low,
+                    "ci_high": s.ci_high,
+                    "n_processes": s.n,
+                }
+            )
+    return pd.DataFrame(rates), pd.DataFrame(ratios)
+
+
+def format_summary(rates: pd.DataFrame, ratios: pd.DataFrame) -> str:
+    """The two tables of :func:`summarise` as text."""
+    lines = [f"{'contender':<18}{'rays':>8}{'rays/s':>12}   {'95% CI':<24}{'CPU':>5}{'setup ms':>10}   implementation"]
+    for r in rates.itertuples(index=False):
+        ci = f"[{r.ci_low:.4g}, {r.ci_high:.4g}]"
+        lines.append(
+            f"{r.contender:<18}{r.rays:>8}{r.rays_per_s:>12.4g}   {ci:<24}{r.cpu_share:>5.0%}"
+            f"{r.setup_ms:>10.1f}   {r.implementation}"
+        )
+    lines.append("\nrays/s ratios, paired by process (>1: the first is faster)")
+    for r in ratios.itertuples(index=False):
+        lines.append(f"  {r.contender:<17} / {r.over:<17}{r.ratio:>10.4g}   [{r.ci_low:.4g}, {r.ci_high:.4g}]")
+    return "\n".join(lines)

@@ -1,0 +1,147 @@
+"""Per workload: its spec and achieved figures, and every kernel's answers against the reference."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ...harness import runfolder
+from ...workloads.labels import family_of, short_label, spec_text
+from .frames import table_frame
+from .margin import contenders
+
+
+def workload_table(
+    specs: Mapping[str, Mapping[str, Any]],
+    workload_ids: Sequence[str],
+    workloads: Mapping[str, Any],
+    sources: Mapping[str, str],
+) -> pd.DataFrame:
+    """One row per workload: family, label and the achieved figures (``workloads.csv``).
+
+    ``workloads`` maps an id to its :class:`~tribench.workloads.Workload` (or
+    None when it could not be had); without it the spec's targets stand in.
+    Hit rates are achieved values (per-test: fraction of ray-triangle tests
+    that hit; per-ray: fraction of rays that hit anything); nan where not defined.
+    """
+    rows = []
+    for wid in workload_ids:
+        spec = specs[wid]
+        w = workloads.get(wid)
+        a = dict(w.achieved) if w is not None else {}
+        rays: Any  # a count, or what the run folder holds
+        if spec["kind"] == "pairs":
+            n = int(a.get("pairs", spec["n"]))
+            hits = a.get("hits", round(spec["hit_rate"] * spec["n"]))
+            triangles, rays, tests = n, n, n
+            test_rate, ray_rate = hits / n, hits / n
+        else:
+            triangles = a.get("triangles", spec.get("triangles") or math.nan)
+            rays = a.get("rays", (spec.get("width") or 0) * (spec.get("height") or 0) or spec.get("n_rays"))
+            tests = a.get("tests", triangles * rays if not pd.isna(triangles) else math.nan)
+            test_rate = a.get("test_hit_rate", math.nan)
+            ray_rate = a.get("ray_hit_rate", spec.get("hit_rate") if spec.get("rays") == "hit_rate" else math.nan)
+        rows.append(
+            {
+                "workload_id": wid,
+                "kind": spec["kind"],
+                "family": family_of(spec),
+                "label": short_label(spec),
+                "summary": spec_text(spec),
+                "dtype": spec.get("dtype", "float64"),
+                "triangles": triangles,
+                "rays": rays,
+                "tests_per_pass": tests,
+                "test_hit_rate": test_rate,
+                "ray_hit_rate": ray_rate,
+                "source": sources.get(wid, "cache"),
+            }
+        )
+    return table_frame(rows, runfolder.WORKLOADS)
+
+
+def workload_figures(workload_ids: Sequence[str], workloads: Mapping[str, Any]) -> pd.DataFrame:
+    """Every workload's targets against its achieved figures (``workload_figures.csv``), values as JSON text."""
+    rows = []
+    for wid in workload_ids:
+        w = workloads.get(wid)
+        if w is None:
+            continue
+        for figure, target, achieved in w.compare():
+            if not figure.startswith("generated_with"):
+                rows.append(
+                    {
+                        "workload_id": wid,
+                        "figure": figure,
+                        "target": json.dumps(target, default=str),
+                        "achieved": json.dumps(achieved, default=str),
+                    }
+                )
+    return table_frame(rows, runfolder.WORKLOAD_FIGURES)
+
+
+def correctness_table(batches: pd.DataFrame, kernels: Sequence[str], workloads: Mapping[str, Any]) -> pd.DataFrame:
+    """Each kernel's checksums against the float64 reference, per workload (``correctness.csv``).
+
+    ``hits_per_pass`` is a batch's hit count over its loops; the difference
+    to the reference may only come from ambiguous rays (rays within 1e-5
+    barycentric or the precision's rounding of an edge, whose answer legitimately depends on rounding).
+    """
+    rows = []
+    for (wid, kernel), g in batches.groupby(["workload_id", "kernel"], sort=False):
+        w = workloads.get(wid)
+        hits = g["hits"] / g["loops"]
+        row = {
+            "kernel": kernel,
+            "workload_id": wid,
+            "batches": len(g),
+            "hits_per_pass_min": float(hits.min()),
+            "hits_per_pass_max": float(hits.max()),
+        }
+        if w is not None:
+            ref_hits, ref_t = w.expected_checksum()
+            ambiguous = int(w.ambiguous().sum())
+            diff = float(np.max(np.abs(hits - ref_hits)))
+            rel = float(np.max(np.abs(g["t_sum"] / g["loops"] - ref_t))) / abs(ref_t) if ref_t else 0.0
+            row.update(
+                ref_hits=ref_hits,
+                hit_difference=diff,
+                ambiguous_rays=ambiguous,
+                t_sum_rel_diff=rel,
+                agrees=bool(diff <= ambiguous and hits.nunique() == 1),
+            )
+        rows.append(row)
+    order = {k: i for i, k in enumerate(kernels)}
+    out = table_frame(rows, runfolder.CORRECTNESS)
+    return out.sort_values("kernel", key=lambda s: s.map(order), kind="stable").reset_index(drop=True)
+
+
+def agreeing(frame: pd.DataFrame, correct: pd.DataFrame) -> pd.DataFrame:
+    """``frame`` without the rows of a kernel on a workload where its answers differ from the reference.
+
+    What a ranking compares is the same work with the same answers: a culling kernel on randomly
+    wound pairs skips half the tests and returns half the hits, so its time is of other work.
+    Rows whose agreement is unknown (the workload could not be loaded) stay.
+    """
+    differs = correct.loc[correct["agrees"].eq(False), ["workload_id", "kernel"]]
+    if differs.empty:
+        return frame
+    key = pd.MultiIndex.from_frame(differs)
+    return frame.loc[~pd.MultiIndex.from_frame(frame[["workload_id", "kernel"]]).isin(key)]
+
+
+def compared(frame: pd.DataFrame, correct: pd.DataFrame | None) -> pd.DataFrame:
+    """The rows of ``frame`` a ranking compares: no A/A twin (a measuring instrument,
+    :mod:`.margin`) and, given ``correctness.csv``, no kernel where its answers differ."""
+    frame = contenders(frame)
+    return frame if correct is None else agreeing(frame, correct)
+
+
+def estimates_with_workloads(estimates: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
+    """``estimates.csv`` joined with the workload table (family, kind, triangles, rays...)."""
+    return estimates.merge(wl, on="workload_id", how="left", suffixes=("", "_wl"))

@@ -1,0 +1,1 @@
+"""The seed paper's scenes, its tracer and the workloads replayed from it."""

@@ -1,0 +1,137 @@
+"""Where two renders of the seed tracer differ, and how near an edge their rays pass.
+
+Part of :mod:`.trace`: :func:`difference_mask` compares two
+:class:`~.records.Trace` objects by image or by ray tree,
+:func:`save_mask_png` draws the mask, and :func:`edge_margins` and
+:func:`pixel_edge_margins` tell a difference near an edge (where two correct
+tests may disagree) from one elsewhere.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import BinaryIO, cast
+
+import numpy as np
+
+from ...common import UserError, atomic_write
+from .records import KINDS, Trace
+
+
+def _hit_codes(tr: Trace) -> np.ndarray:
+    """One int64 per ray: (pixel, position in the pixel's ray tree, what it hit)."""
+    stride = tr._seq_stride()
+    parts = []
+    for name in KINDS:
+        rs = getattr(tr, name)
+        n_lights = len(tr.scene.lights)
+        seq = rs.depth.astype(np.int64) * (n_lights + 1)
+        if name == "shadow":
+            seq = seq + 1 + rs.light.astype(np.int64)
+            what = (rs.hit_kind >= 0).astype(np.int64)  # occluded or not: all the seed uses
+        else:
+            what = (rs.hit_kind.astype(np.int64) + 1) * (1 << 21) + (rs.hit_index + 1)
+        key = rs.pixel * stride + seq
+        parts.append(key * (1 << 23) + what)
+    return np.concatenate(parts)
+
+
+def difference_mask(a: Trace, b: Trace, by: str = "image") -> tuple[np.ndarray, int]:
+    """Pixels where two traces of the same scene and image size differ.
+
+    Parameters
+    ----------
+    by : {"image", "hits"}
+        ``"image"`` (default): the 8-bit pixels differ -- what the seed's
+        pictures show. ``"hits"``: the pixel's ray trees differ (an object hit
+        by a primary or reflected ray, a shadow ray's occlusion, or a ray
+        present in one trace only). Many more pixels differ by hits than by
+        image: a last-bit difference in a triangle's ``t`` moves the hit point,
+        and the seed's sphere test (``t >= 0``, no epsilon) then flips the
+        self-occlusion of shadow rays leaving a sphere toward a light behind
+        it, which changes no colour (such a light adds no diffuse term).
+
+    Returns
+    -------
+    mask : bool (height, width)
+    count : int
+    """
+    if (a.width, a.height) != (b.width, b.height):
+        raise UserError(f"traces differ in size: {a.width}x{a.height} and {b.width}x{b.height}")
+    if by == "image":
+        mask = (a.to_uint8() != b.to_uint8()).any(axis=2)
+    elif by == "hits":
+        if len(a.scene.lights) != len(b.scene.lights) or a.depth != b.depth:
+            raise UserError("traces of different scenes or depths cannot be compared by hits")
+        diff = np.setxor1d(_hit_codes(a), _hit_codes(b))
+        pixels = (diff >> 23) // a._seq_stride()
+        mask = np.zeros(a.width * a.height, bool)
+        mask[pixels] = True
+        mask = mask.reshape(a.height, a.width)
+    else:
+        raise UserError(f"by must be 'hits' or 'image', got {by!r}")
+    return mask, int(mask.sum())
+
+
+def save_mask_png(mask: np.ndarray, path: str | Path, background: np.ndarray | None = None) -> Path:
+    """Save a difference mask as PNG: differing pixels red, over a dimmed ``background`` image if given."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    h, w = mask.shape
+    if background is None:
+        rgb = np.full((h, w, 3), 255, np.uint8)
+    else:
+        rgb = (0.35 * np.asarray(background, np.float64) + 0.65 * 255).astype(np.uint8)
+    rgb[mask] = (220, 0, 0)
+    path = Path(path)
+    with atomic_write(path, "wb") as f:
+        plt.imsave(cast(BinaryIO, f), rgb, format="png")  # "wb": a binary file
+    return path
+
+
+def edge_margins(origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray, t_min: float = 0.0) -> np.ndarray:
+    """For each ray, how close it passes to the boundary of any triangle, in barycentric units.
+
+    The smallest ``|min(u, v, w)|`` over the triangles whose plane the ray
+    crosses at ``t > t_min`` (float64 reference barycentrics); ``inf`` if it
+    crosses none. Near 0 means the ray passes next to an edge or a vertex,
+    where two correct tests may disagree.
+    """
+    from ..reference import intersect_pairs
+
+    o = np.asarray(origins, np.float64)
+    d = np.asarray(directions, np.float64)
+    tri = np.asarray(triangles, np.float64)
+    m, k = len(o), len(tri)
+    out = np.full(m, np.inf)
+    if m == 0 or k == 0:
+        return out
+    step = max(1, (1 << 18) // k)
+    for lo in range(0, m, step):
+        hi = min(lo + step, m)
+        n = hi - lo
+        ans = intersect_pairs(np.repeat(o[lo:hi], k, 0), np.repeat(d[lo:hi], k, 0), np.tile(tri, (n, 1, 1)))
+        margin = np.abs(ans.edge_margin)
+        with np.errstate(invalid="ignore"):
+            margin = np.where(ans.t > t_min, margin, np.inf)
+        margin = np.where(np.isnan(margin), np.inf, margin).reshape(n, k)
+        out[lo:hi] = margin.min(axis=1)
+    return out
+
+
+def pixel_edge_margins(tr: Trace, mask: np.ndarray) -> np.ndarray:
+    """For each pixel of ``mask`` (row-major order), the smallest :func:`edge_margins` of its rays."""
+    pixels = np.flatnonzero(np.asarray(mask).ravel())
+    best = np.full(len(pixels), np.inf)
+    for name in KINDS:
+        rs = getattr(tr, name)
+        sel = np.isin(rs.pixel, pixels)
+        if not sel.any():
+            continue
+        m = edge_margins(rs.origins[sel], rs.directions[sel], tr.scene.triangles)
+        where = np.searchsorted(pixels, rs.pixel[sel])
+        np.minimum.at(best, where, m)
+    return best

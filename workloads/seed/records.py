@@ -1,0 +1,227 @@
+"""The seed tracer's records: the rays of one kind (:class:`RaySet`) and one render (:class:`Trace`).
+
+Part of :mod:`.trace`, which renders a scene and returns a
+:class:`Trace`; the kinds of rays (:data:`KINDS`) and of hits (``MISS``,
+``PLANE``, ``SPHERE``, ``TRIANGLE``) every ray stores are defined here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import BinaryIO, cast
+
+import numpy as np
+
+from ...common import atomic_write
+from .scene import Scene
+
+KINDS = ("primary", "reflected", "shadow")
+
+# hit kinds stored per ray
+MISS, PLANE, SPHERE, TRIANGLE = -1, Scene.PLANE, Scene.SPHERE, Scene.TRIANGLE
+
+
+@dataclass(frozen=True, eq=False)
+class RaySet:
+    """Rays of one kind, as the seed shot them, with what they hit. All arrays length N.
+
+    Attributes
+    ----------
+    origins, directions : float64 (N, 3)
+        Exactly as shot: primary and reflected directions are unit vectors,
+        shadow directions are ``light - p`` (not normalised; ``t = 1`` at the light).
+    pixel : int64
+        Row-major pixel index ``j * width + i`` the ray contributes to.
+    depth : int8
+        Generation of the ray (primary 0, reflected 1 or 2); for a shadow ray,
+        the generation of the ray whose hit point it leaves.
+    light : int16
+        Light index for a shadow ray, -1 otherwise.
+    hit_kind, hit_index : int8, int64
+        Primary and reflected rays: the closest object (kind -1 none, 0 plane,
+        1 sphere, 2 triangle; index within its kind). Shadow rays: the
+        occluder: -1 when the light is visible; a sphere if one cuts the ray
+        and comes before the nearest cutting triangle in file order (the
+        seed stops at the first occluder in file order; this is exact when the
+        spheres precede the triangles, as in both built-in scenes); else the
+        nearest cutting triangle.
+    triangle, t_triangle : int64, float64
+        Closest triangle the kernel hit, whatever else is nearer (-1 and nan
+        for none): what the triangle tests of this ray answer.
+    """
+
+    origins: np.ndarray
+    directions: np.ndarray
+    pixel: np.ndarray
+    depth: np.ndarray
+    light: np.ndarray
+    hit_kind: np.ndarray
+    hit_index: np.ndarray
+    triangle: np.ndarray
+    t_triangle: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.origins)
+
+    @property
+    def hit(self) -> np.ndarray:
+        """Closest rays: hit something; shadow rays: occluded."""
+        return self.hit_kind >= 0
+
+    @staticmethod
+    def concatenate(parts: list[RaySet]) -> RaySet:
+        if not parts:
+            return RaySet.empty()
+        return RaySet(*(np.concatenate([getattr(p, f) for p in parts]) for f in RaySet.__dataclass_fields__))
+
+    @staticmethod
+    def empty() -> RaySet:
+        z3 = np.zeros((0, 3))
+        i64 = np.zeros(0, np.int64)
+        return RaySet(
+            z3,
+            z3.copy(),
+            i64,
+            np.zeros(0, np.int8),
+            np.zeros(0, np.int16),
+            np.zeros(0, np.int8),
+            i64.copy(),
+            i64.copy(),
+            np.zeros(0),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Trace:
+    """One render of a scene with one triangle kernel: the image and the rays shot.
+
+    Attributes
+    ----------
+    scene : Scene
+    kernel : str or None
+        ``None``: the float64 reference.
+    dtype : str
+        Precision of the triangle tests.
+    width, height, depth : int
+    image : float64 (height, width, 3)
+        Colours as the seed computes them, not clamped (see :meth:`to_uint8`).
+    primary, reflected, shadow : RaySet
+    elapsed_s : float
+        Wall time of the whole render; ``triangle_s`` of it in triangle tests.
+    """
+
+    scene: Scene
+    kernel: str | None
+    dtype: str
+    width: int
+    height: int
+    depth: int
+    image: np.ndarray
+    primary: RaySet
+    reflected: RaySet
+    shadow: RaySet
+    elapsed_s: float
+    triangle_s: float
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """Rays shot per kind, and in total."""
+        c = {k: len(getattr(self, k)) for k in KINDS}
+        c["total"] = sum(c.values())
+        return c
+
+    @property
+    def primary_triangle(self) -> np.ndarray:
+        """int64 (height, width): triangle seen by each pixel's primary ray, -1 if none."""
+        p = self.primary
+        seen = np.where(p.hit_kind == TRIANGLE, p.hit_index, -1)
+        out = np.full(self.width * self.height, -1, dtype=np.int64)
+        out[p.pixel] = seen
+        return out.reshape(self.height, self.width)
+
+    @property
+    def triangle_tests(self) -> dict[str, int]:
+        """Ray-triangle tests a brute-force replay runs per kind (every ray against every triangle).
+
+        The seed's shadow test stops at the first occluder in file order, so
+        it runs fewer (see :meth:`RaySet`); this is the closest-hit count.
+        """
+        k = len(self.scene.triangles)
+        return {kind: len(getattr(self, kind)) * k for kind in KINDS}
+
+    def to_uint8(self) -> np.ndarray:
+        """The image as the seed writes it: ``> 1`` gives 255, else ``int(x * 255)``."""
+        x = self.image
+        return np.where(x > 1.0, 255, np.floor(np.maximum(x, 0.0) * 255.0)).astype(np.uint8)
+
+    def to_png(self, path: str | Path) -> Path:
+        """Save the image as PNG (matplotlib's ``imsave``); returns the path."""
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        path = Path(path)
+        with atomic_write(path, "wb") as f:
+            plt.imsave(cast(BinaryIO, f), self.to_uint8(), format="png")
+        return path
+
+    def seed_order(self) -> tuple[np.ndarray, np.ndarray]:
+        """The seed's shooting order: ``(kind, index)`` arrays over all rays.
+
+        The seed renders pixel by pixel, columns outer and rows inner, and
+        within a pixel depth first: the primary ray, the shadow rays of its
+        hit (lights in order), the reflected ray, its hit's shadow rays, the
+        next reflected ray, and so on. ``kind`` indexes :data:`KINDS`;
+        ``index`` is the row within that kind's :class:`RaySet`.
+        """
+        keys, kinds, idx = [], [], []
+        for k, name in enumerate(KINDS):
+            rs = getattr(self, name)
+            keys.append(self._order_key(rs, shadow=(name == "shadow")))
+            kinds.append(np.full(len(rs), k, dtype=np.int8))
+            idx.append(np.arange(len(rs)))
+        key = np.concatenate(keys)
+        order = np.argsort(key, kind="stable")
+        return np.concatenate(kinds)[order], np.concatenate(idx)[order]
+
+    def replay_rays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """All rays in the seed's order: ``origins, directions`` float64 (N, 3) and ``kind`` int8."""
+        kind, idx = self.seed_order()
+        o = np.empty((len(kind), 3))
+        d = np.empty((len(kind), 3))
+        for k, name in enumerate(KINDS):
+            rs = getattr(self, name)
+            sel = kind == k
+            o[sel] = rs.origins[idx[sel]]
+            d[sel] = rs.directions[idx[sel]]
+        return o, d, kind
+
+    # A per-pixel sequence number: the seed's position of each ray within its pixel.
+    def _seq_stride(self) -> int:
+        return (self.depth + 1) * (len(self.scene.lights) + 1)
+
+    def _order_key(self, rs: RaySet, shadow: bool) -> np.ndarray:
+        n_lights = len(self.scene.lights)
+        seq = rs.depth.astype(np.int64) * (n_lights + 1)
+        if shadow:
+            seq = seq + 1 + rs.light.astype(np.int64)
+        i, j = rs.pixel % self.width, rs.pixel // self.width
+        column_major = i * self.height + j
+        return column_major * self._seq_stride() + seq
+
+
+def _rayset(o, d, pixel, depth, light, hit_kind, hit_index, tri_index, tri_t) -> RaySet:
+    return RaySet(
+        origins=np.ascontiguousarray(o, np.float64),
+        directions=np.ascontiguousarray(d, np.float64),
+        pixel=np.asarray(pixel, np.int64),
+        depth=np.full(len(o), depth, np.int8) if np.isscalar(depth) else np.asarray(depth, np.int8),
+        light=np.full(len(o), light, np.int16) if np.isscalar(light) else np.asarray(light, np.int16),
+        hit_kind=np.asarray(hit_kind, np.int8),
+        hit_index=np.asarray(hit_index, np.int64),
+        triangle=np.asarray(tri_index, np.int64),
+        t_triangle=np.where(tri_index >= 0, tri_t, np.nan),
+    )

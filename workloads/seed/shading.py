@@ -1,0 +1,87 @@
+"""The seed tracer's camera and shading: primary rays, a hit's normal and material, the light it gets.
+
+Part of :mod:`.trace`, whose docstring gives the seed's camera
+(``Camera.cpp``), shading (``Objet::calculerDirect``) and reflection
+(``Objet::getReflechi``) these follow. The shadow rays are shot by the
+tracing loop; :func:`_direct` is told which hits their light reaches.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .intersect import _dot, _normalise
+from .records import PLANE, SPHERE, TRIANGLE
+from .scene import Scene
+
+EYE = np.array([0.0, 0.0, 2.0])
+
+
+def camera_rays(width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """The seed's primary rays, float64, row-major from the top-left pixel.
+
+    >>> o, d = camera_rays(2, 1)
+    >>> d.round(3).tolist()
+    [[-0.243, 0.0, -0.97], [0.243, 0.0, -0.97]]
+    """
+    i, j = np.meshgrid(np.arange(width), np.arange(height))
+    x = -1.0 + (2.0 * i.ravel() + 1.0) / width
+    y = 1.0 - (2.0 * j.ravel() + 1.0) / height
+    d = np.column_stack([x, y, np.zeros_like(x)]) - EYE
+    d /= np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
+    return np.repeat(EYE[None], len(x), axis=0), d
+
+
+def _normals(scene: Scene, kind: np.ndarray, index: np.ndarray, p: np.ndarray) -> np.ndarray:
+    n = np.empty_like(p)
+    sel = kind == PLANE
+    if sel.any():
+        n[sel] = _normalise(scene.planes[index[sel], :3])
+    sel = kind == SPHERE
+    if sel.any():
+        n[sel] = _normalise(p[sel] - scene.spheres[index[sel], :3])
+    sel = kind == TRIANGLE
+    if sel.any():
+        tri = scene.triangles[index[sel]]
+        n[sel] = _normalise(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
+    return n
+
+
+def _material_arrays(scene: Scene, kind: np.ndarray, index: np.ndarray):
+    mat_of = (scene.plane_material, scene.sphere_material, scene.triangle_material)
+    m = np.empty(len(kind), np.int64)
+    for k in (PLANE, SPHERE, TRIANGLE):
+        sel = kind == k
+        m[sel] = mat_of[k][index[sel]]
+    table = np.array([[*x.colour, x.ka, x.kd, x.ks, x.shininess] for x in scene.materials]).reshape(-1, 7)
+    return table[m]
+
+
+def _direct(
+    n: np.ndarray,
+    view: np.ndarray,
+    to_light: np.ndarray,
+    lit: np.ndarray,
+    material: np.ndarray,
+) -> np.ndarray:
+    """One light's diffuse plus specular colour at each hit, before its intensity (0 where not ``lit``).
+
+    ``to_light`` is ``light - p``, ``view`` the unit vector toward the
+    observer and ``material`` the rows of :func:`_material_arrays`; the
+    mirrored light ``r`` is computed even when ``n.l <= 0``, as the seed does.
+    """
+    base, kd, ks, shine = material[:, :3], material[:, 4], material[:, 5], material[:, 6]
+    inc = _normalise(to_light)
+    ps = _dot(n, inc)
+    diffuse = np.where(lit & (ps > 0.0), kd * ps, 0.0)
+    refl = _normalise(2.0 * ps[:, None] * n - inc)
+    vr = _dot(view, refl)
+    with np.errstate(invalid="ignore", over="ignore"):
+        spec = np.where(lit & (vr > 0.0), ks * np.power(np.maximum(vr, 0.0), shine), 0.0)
+    return diffuse[:, None] * base + spec[:, None]
+
+
+def _reflect(n: np.ndarray, view: np.ndarray) -> np.ndarray:
+    """The mirror direction of ``view`` about ``n``, normalised (``Objet::getReflechi``)."""
+    nv = _dot(n, view)
+    return _normalise(2.0 * nv[:, None] * n - view)

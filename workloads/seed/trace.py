@@ -1,0 +1,248 @@
+"""The seed's Whitted ray tracer, vectorised, with the ray stream it shoots.
+
+:func:`trace` renders a :class:`~tribench.workloads.seed.scene.Scene` as the
+seed's renderer does (C. Renaud's teaching ray tracer with Vitse's triangle
+tests, ``LR/Src`` of github.com/Weamix/InitiationALaRecherche) and records
+every ray it shoots, by kind: ``primary``, ``reflected`` and ``shadow``.
+Planes and spheres are intersected here in NumPy float64; triangles through
+a C kernel, ``tribench.ext.intersect_closest(kernel, ...)``, at the chosen
+precision (or the float64 reference with ``kernel=None``). All rays of one
+generation are processed at once; no per-pixel Python loop.
+
+The seed's semantics, and where the seed's code says so
+--------------------------------------------------------
+Camera (``Camera.cpp``, ``lr.cpp``)
+    Eye (0, 0, 2); the image plane z = 0 spans [-1, 1]^2; pixel (i, j), i the
+    column from the left and j the row from the top, is aimed at its centre
+    (-1 + (i + 1/2) 2/W, 1 - (j + 1/2) 2/H, 0). The direction is normalised.
+    512 x 512 (``Image im(512,512)``). The seed loops over columns then rows
+    (``for i ... for j``): see :meth:`Trace.seed_order`.
+Closest hit (``Scene::intersecte``)
+    Every object in file order, brute force; a hit replaces the current one
+    only if strictly nearer (ties go to the earlier object).
+Planes (``Plan.cpp``)
+    ``a x + b y + c z + d = 0``; parallel only when the denominator is exactly
+    0; a hit needs ``t >= 1e-4``. ``Plan::coupe`` returns false at once:
+    **planes cast no shadows**.
+Spheres (``Sphere.cpp``)
+    Quadratic with ``a = d.d``; a miss when the discriminant is ``< 1e-4``
+    (an absolute epsilon on the discriminant, not on t); ``t`` is the smaller
+    root and a hit needs ``t >= 0`` (so a ray starting inside a sphere misses
+    it). The shadow test (``coupe``) is the same test.
+Triangles (``Triangle.cpp``, final version)
+    The kernel: Curless (``t < 1e-4`` rejects, strict edges) or Moller
+    (``|det| < 1e-4`` rejects, ``t > 1e-4``), the same test for closest hits
+    and for shadows. The normal is ``normalise((v1 - v0) x (v2 - v0))``, never
+    flipped toward the viewer.
+Shading (``Intersection::getCouleur``, ``Objet::calculerDirect``, ``calculerAmbiant``)
+    colour = ambient + direct (+ reflected). Ambient: ``ka * colour * ambient``.
+    For each light, in order: **one shadow ray** from the hit point ``p``
+    (no offset) with direction ``light - p``, **not normalised** (so ``t = 1``
+    at the light), tested against every object in file order until the first
+    that cuts it (``Scene::coupe``), with **no upper bound on t**: an object
+    beyond the light still shadows. A shadowed light adds nothing. Otherwise,
+    with ``l = normalise(light - p)`` and ``n.l = ps``: diffuse
+    ``kd * colour * ps * I`` if ``ps > 0``; specular ``ks * (v.r)^shininess * I``
+    if ``v.r > 0``, where ``v = normalise(observer - p)`` and
+    ``r = normalise(2 ps n - l)`` (computed even when ``ps <= 0``, as the seed does).
+Reflection (``Intersection::getCouleur``, ``Objet::getReflechi``)
+    If the remaining depth is > 0 and ``ks != 0``: one reflected ray from ``p``
+    (no offset), direction ``normalise(2 (n.v) n - v)``; if it hits, the colour
+    computed there (with the observer at ``p``, depth - 1) is **added unweighted**
+    (not multiplied by ks); if it misses, nothing is added (not the background).
+Depth 2 (``#define PROF 2`` in ``lr.cpp``)
+    The primary hit is shaded with depth 2, so a pixel shoots at most two
+    reflected rays: primary, first bounce, second bounce (whose hit is shaded
+    but reflects no further).
+Pixels (``Couleur::getRougei``, ``Image::sauver``)
+    No clamping while shading; on output a channel ``> 1`` becomes 255, else
+    ``int(x * 255)`` (truncation). A primary miss takes the background colour.
+
+Deviations: the seed computes in single precision with non-inlined helpers
+(``Vecteur`` holds floats); here planes, spheres, shading and ray set-up are
+float64 and only the triangle tests run at the chosen precision. The sphere's
+``c`` is computed as ``|o - c|^2 - r^2`` (the seed expands it).
+
+Modules: this one holds the tracing loop and the names the rest of tribench
+uses; the records are in :mod:`.records`, what rays meet in
+:mod:`.intersect`, the camera and shading in :mod:`.shading`, and
+the comparison of two renders in :mod:`.differences`.
+
+Examples
+--------
+>>> from tribench.workloads.seed.scene import parse_scene
+>>> s = parse_scene("source 0 5 0 1 1 1\\nmateriau 1 0 0 0.1 0.5 0 10\\n"
+...                 "tri -1 -1 -1  1 -1 -1  0 1 -1\\n")
+>>> tr = trace(s, "moller_seed", "float64", width=4, height=4)
+>>> tr.counts
+{'primary': 16, 'reflected': 0, 'shadow': 2, 'total': 18}
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...common import UserError
+from .differences import difference_mask, edge_margins, pixel_edge_margins, save_mask_png
+from .intersect import PLANE_EPS as PLANE_EPS
+from .intersect import REFERENCE_LIMIT as REFERENCE_LIMIT
+from .intersect import SPHERE_EPS as SPHERE_EPS
+from .intersect import TRIANGLE_EPS as TRIANGLE_EPS
+from .intersect import _closest, _normalise, _occluders
+from .records import KINDS, MISS, RaySet, Trace, _rayset
+from .records import PLANE as PLANE
+from .records import SPHERE as SPHERE
+from .records import TRIANGLE as TRIANGLE
+from .scene import Scene
+from .shading import EYE, _direct, _material_arrays, _normals, _reflect, camera_rays
+
+__all__ = [
+    "DEPTH",
+    "EYE",
+    "KINDS",
+    "RaySet",
+    "Trace",
+    "camera_rays",
+    "difference_mask",
+    "edge_margins",
+    "pixel_edge_margins",
+    "save_mask_png",
+    "trace",
+]
+
+DEPTH = 2  # lr.cpp: #define PROF 2
+
+
+@dataclass
+class _Render:
+    """One render under way: what its generations share, the image they add to and the rays they shot."""
+
+    scene: Scene
+    kernel: str | None
+    dtype: np.dtype
+    colour: np.ndarray  # (pixels, 3), row-major, not clamped
+    clock: list[float] = field(default_factory=lambda: [0.0])  # seconds spent in triangle tests
+    closest: list[RaySet] = field(default_factory=list)  # the primary rays, then each reflected generation
+    shadow: list[RaySet] = field(default_factory=list)
+    lights_p: np.ndarray = field(init=False)
+    lights_i: np.ndarray = field(init=False)
+    ambient: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        lights = self.scene.lights
+        self.lights_p = np.array([light.position for light in lights], dtype=np.float64).reshape(-1, 3)
+        self.lights_i = np.array([light.intensity for light in lights], dtype=np.float64).reshape(-1, 3)
+        self.ambient = np.array(self.scene.ambient)
+
+
+def _check_arguments(kernel: str | None, dtype: str, width: int, height: int, depth: int) -> np.dtype:
+    """The triangle tests' dtype, once every argument of :func:`trace` is one it can take."""
+    dt = np.dtype(dtype)
+    if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
+        raise UserError(f"dtype must be float32 or float64, got {dtype!r}")
+    if not (isinstance(width, (int, np.integer)) and isinstance(height, (int, np.integer))) or width < 1 or height < 1:
+        raise UserError(f"width and height must be positive integers, got {width!r} and {height!r}")
+    if depth < 0:
+        raise UserError(f"depth must be >= 0, got {depth}")
+    if kernel is not None:
+        from ... import ext
+
+        if kernel not in ext.kernel_names():
+            raise UserError(f"unknown kernel {kernel!r}; known kernels: {', '.join(ext.kernel_names())}")
+    return dt
+
+
+def _shade(
+    r: _Render, gen: int, pixel: np.ndarray, p: np.ndarray, n: np.ndarray, view: np.ndarray, mat: np.ndarray
+) -> np.ndarray:
+    """Each hit's colour: ambient, then every light its shadow ray reaches (the shadow rays are recorded)."""
+    base, ka = mat[:, :3], mat[:, 3]
+    shade = ka[:, None] * base * r.ambient
+    for li in range(len(r.lights_p)):
+        sd = r.lights_p[li] - p  # not normalised, as the seed shoots it
+        s_kind, s_index, s_tri, s_tri_t = _occluders(r.scene, r.kernel, r.dtype, p, sd, r.clock)
+        r.shadow.append(_rayset(p, sd, pixel, gen, li, s_kind, s_index, s_tri, s_tri_t))
+        shade += _direct(n, view, sd, s_kind == MISS, mat) * r.lights_i[li]
+    return shade
+
+
+def _generation(
+    r: _Render, gen: int, depth: int, o: np.ndarray, d: np.ndarray, pixel: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Shoot one generation of rays and add the colour of what they hit; the reflected rays to shoot next, if any."""
+    kind, index, t, tri_index, tri_t = _closest(r.scene, r.kernel, r.dtype, o, d, r.clock)
+    r.closest.append(_rayset(o, d, pixel, gen, -1, kind, index, tri_index, tri_t))
+    hit = kind != MISS
+    if gen == 0:
+        r.colour[pixel[~hit]] = r.scene.background
+    if not hit.any():
+        return None
+    o, d, pixel, kind, index, t = o[hit], d[hit], pixel[hit], kind[hit], index[hit], t[hit]
+    p = o + t[:, None] * d
+    n = _normals(r.scene, kind, index, p)
+    mat = _material_arrays(r.scene, kind, index)
+    view = _normalise(o - p)  # toward the observer: the eye, or the previous hit point
+    np.add.at(r.colour, pixel, _shade(r, gen, pixel, p, n, view, mat))
+    if gen == depth:
+        return None
+    go = mat[:, 5] != 0.0  # only a surface with ks != 0 reflects
+    if not go.any():
+        return None
+    return p[go], _reflect(n, view)[go], pixel[go]
+
+
+def trace(
+    scene: Scene,
+    kernel: str | None = "moller_seed",
+    dtype: str = "float32",
+    width: int = 512,
+    height: int = 512,
+    depth: int = DEPTH,
+) -> Trace:
+    """Render ``scene`` as the seed does, recording every ray shot.
+
+    Parameters
+    ----------
+    scene : Scene
+    kernel : str or None
+        A kernel of ``tribench.ext.kernel_names()`` for the triangle tests, or
+        ``None`` for the float64 reference (closed triangles, ``t > 1e-4``;
+        brute force, so only for small images).
+    dtype : {"float32", "float64"}
+        Precision of the triangle tests (ignored by the reference).
+    width, height : int
+        The seed renders 512 x 512.
+    depth : int
+        Reflection depth (the seed's ``PROF``, 2).
+
+    Returns
+    -------
+    Trace
+    """
+    dt = _check_arguments(kernel, dtype, width, height, depth)
+    start = time.perf_counter()
+    render = _Render(scene, kernel, dt, colour=np.zeros((width * height, 3)))
+    o, d = camera_rays(width, height)
+    rays = o, d, np.arange(width * height, dtype=np.int64)
+    for gen in range(depth + 1):
+        shot = _generation(render, gen, depth, *rays)
+        if shot is None:
+            break
+        rays = shot
+    return Trace(
+        scene=scene,
+        kernel=kernel,
+        dtype=str(dt),
+        width=int(width),
+        height=int(height),
+        depth=int(depth),
+        image=render.colour.reshape(height, width, 3),
+        primary=render.closest[0],
+        reflected=RaySet.concatenate(render.closest[1:]),
+        shadow=RaySet.concatenate(render.shadow),
+        elapsed_s=time.perf_counter() - start,
+        triangle_s=render.clock[0],
+    )
