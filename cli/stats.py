@@ -25,16 +25,16 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..harness import runfolder
+    from ..harness.jobs.sweep import robustness_command
     from ..reports import format_tables, tables
 
     derived = tables.write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
-    if "validate" not in derived.record or not (Path(args.run_dir) / runfolder.VALIDATE).is_file():
+    if not (Path(args.run_dir) / runfolder.VALIDATE).is_file():
         sweep = runfolder.read_run(args.run_dir)["sweep"]
         dtypes = sorted({w["dtype"] for w in sweep["workloads"] if "dtype" in w})
         print(
             f"no {runfolder.VALIDATE}: the robustness suite has not run on this folder, so its tables have no "
-            f"robustness; measure it (stats never does) with: tribench validate --kernels {','.join(sweep['kernels'])}"
-            f" --dtype {','.join(dtypes)} --out {Path(args.run_dir) / runfolder.VALIDATE}",
+            f"robustness; measure it with: {robustness_command(args.run_dir, sweep['kernels'], dtypes)}",
             file=sys.stderr,
         )
     print(format_tables(args.run_dir))

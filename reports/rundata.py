@@ -240,8 +240,7 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
 def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
     """The robustness table of the run's kernels and precisions, and a sentence saying where it came from.
 
-    ``RUN_DIR/validate.csv`` as the analysis step left it (it runs the suite
-    when the folder has none). Rows of other kernels or precisions are left
+    ``RUN_DIR/validate.csv`` as the job that measured the run left it. Rows of other kernels or precisions are left
     out, rows are in the run's kernel order. A missing or unusable table gives
     an empty frame and a sentence saying why and what to run.
     """
@@ -250,11 +249,14 @@ def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
     empty = pd.DataFrame(columns=list(columns))
     if not path.is_file():
         why = data.record.get("validate") or f"No {VALIDATE} in the run folder."
-        return empty, f"{why} `tribench stats {data.run_dir}` runs the robustness suite and writes it."
+        from ..harness.jobs.sweep import robustness_command
+
+        command = robustness_command(data.run_dir, data.kernels, data.dtypes)
+        return empty, f"{why} `{command}` measures it; then `tribench stats {data.run_dir}`."
     if not _has_columns(path, columns):
         return empty, (
-            f"{VALIDATE} is not in today's columns (an older tribench wrote it): remove it and run "
-            f"`tribench stats {data.run_dir}`."
+            f"{VALIDATE} is not in today's columns (an older tribench wrote it): measure it again with "
+            f"`tribench validate ... --out {path}`, then `tribench stats {data.run_dir}`."
         )
     df = pd.read_csv(path)
     note = str(data.record.get("validate") or f"Read from {VALIDATE} in the run folder.")

@@ -95,6 +95,6 @@ def test_run_quick_is_the_main_job_end_to_end(tmp_path):
         frame = pd.read_csv(out / "peers.csv")
         assert {"tribench", "tribench_call"} <= set(frame["contender"])
         assert "brute force, runs at" in (out / "report.html").read_text(encoding="utf-8")
-        assert "peers: tribench brute force / " in done.stderr
+        assert "contenders measured -> " in done.stderr
     else:
         assert not (out / "peers.csv").exists() and "tribench[peers]" in done.stderr

@@ -9,6 +9,8 @@ import fcntl
 import json
 import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -188,7 +190,9 @@ def test_report_refuses_missing_or_stale_tables(tmp_path_factory, change, messag
     assert f"tribench stats {copy}" in str(info.value)
 
 
-def test_stats_makes_a_missing_robustness_table_and_the_report_reads_it(tmp_path_factory, monkeypatch):
+def test_a_missing_robustness_table_is_named_with_its_command_and_the_sweep_path_makes_it(
+    tmp_path_factory, monkeypatch
+):
     from tribench.reports.rundata import load_run, load_validation
 
     run_dir, cache = run_fixture_dir(tmp_path_factory)
@@ -196,7 +200,12 @@ def test_stats_makes_a_missing_robustness_table_and_the_report_reads_it(tmp_path
     copy = _copy(tmp_path_factory, "no-validate")
     (copy / "validate.csv").unlink()
     df, note = load_validation(load_run(copy))  # the report alone does not run the suite
-    assert df.empty and f"tribench stats {copy}" in note and not (copy / "validate.csv").exists()
+    assert df.empty and f"--out {copy / 'validate.csv'}" in note and not (copy / "validate.csv").exists()
+    said = subprocess.run(
+        [sys.executable, "-m", "tribench.cli", "stats", str(copy)], capture_output=True, text=True, timeout=300
+    )
+    assert said.returncode == 0 and "tribench validate --kernels " in said.stderr, said.stderr
+    assert not (copy / "validate.csv").exists()  # stats never measures
     analysed(copy, quick=True)
     data = load_run(copy)
     df, note = load_validation(data)

@@ -8,7 +8,7 @@ tables are :mod:`tribench.reports.tables`'s, made from the folder afterwards.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +19,7 @@ from ..plan import Sweep
 from . import validate
 from .kernel_check import check_builds, load_checked
 
-__all__ = ["measure_robustness", "run_sweep"]
+__all__ = ["measure_robustness", "robustness_command", "run_sweep"]
 
 
 def run_sweep(
@@ -69,3 +69,9 @@ def measure_robustness(run_dir: str | Path, quick: bool = False) -> str:
         f"Read from {runfolder.VALIDATE} in the run folder, made by the robustness suite ({df.attrs['size']} "
         f"sizes, RNG seed {df.attrs['seed']}, {df.attrs['seconds']:.1f} s)."
     )
+
+
+def robustness_command(run_dir: str | Path, kernels: Sequence[str], dtypes: Sequence[str]) -> str:
+    """The command that measures a run folder's missing ``validate.csv`` (the analysis never does)."""
+    out = Path(run_dir) / runfolder.VALIDATE
+    return f"tribench validate --kernels {','.join(kernels)} --dtype {','.join(dtypes)} --out {out}"
