@@ -682,6 +682,17 @@ def test_a_mesh_past_float_range_is_refused_in_one_line_without_warnings(tmp_pat
     assert "overflow" in err and err.count("\n") == 1 and "Traceback" not in err
 
 
+def test_a_mesh_finite_in_float64_but_past_float32_is_refused_for_float32_only(tmp_path, capsys):
+    huge = tmp_path / "f32.obj"
+    huge.write_text("v 5e38 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n")
+    assert run_cli("make", str(huge), "--dtype", "float32") == 2
+    err = capsys.readouterr().err
+    assert "in float32 their squares overflow" in err and "float64" in err and err.count("\n") == 1
+    with pytest.raises(UserError, match="in float32 their squares overflow"):
+        MeshSpec(str(huge), dtype="float32")
+    assert MeshSpec(str(huge), dtype="float64").dtype == "float64"  # 5e38 squared is finite in float64
+
+
 # ------------------------------------------------------------ winding
 
 

@@ -71,7 +71,7 @@ def check_choice(name: str, value: Any, choices: Sequence[str]) -> str:
     return value
 
 
-def checked_mesh_file(path: str, names: Sequence[str]) -> str:
+def checked_mesh_file(path: str, names: Sequence[str], dtype: str = "float64") -> str:
     """Absolute path of a readable mesh file, or a UserError saying what is wrong."""
     p = Path(path).expanduser()
     if p.is_dir():
@@ -80,7 +80,7 @@ def checked_mesh_file(path: str, names: Sequence[str]) -> str:
         raise UserError(f"unknown mesh {path!r}: not one of {', '.join(names)} and no such file")
     from .meshes import read_mesh_file  # lazy: trimesh is slow to import
 
-    read_mesh_file(p)  # raises UserError when trimesh cannot make a mesh of it
+    read_mesh_file(p, dtype)  # raises UserError when trimesh cannot make a mesh of it, or dtype cannot hold it
     return str(p.resolve())
 
 

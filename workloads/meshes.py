@@ -82,12 +82,13 @@ def _compact(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nd
     return np.ascontiguousarray(vertices[used], dtype=np.float64), remap[faces]
 
 
-#: The largest coordinate of a mesh file: squares and cross products of coordinates above it overflow float64
-#: (a mesh at 1e300 became a point of radius 0, with warnings, and every ray missed).
-MAX_COORDINATE = 1e150
+#: The largest coordinate of a mesh file per precision: squares and cross products of coordinates above it
+#: overflow (a mesh at 1e300 became a point of radius 0 in float64, and every ray missed; one at 5e38 is infinite
+#: in float32), with a margin of about 1e4 below the square root of the precision's largest number.
+MAX_COORDINATE = {"float64": 1e150, "float32": 1e15}
 
 
-def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+def read_mesh_file(path: str | Path, dtype: str = "float64") -> tuple[np.ndarray, np.ndarray]:
     """Vertices and faces of a mesh file, as trimesh reads it with ``process=False``.
 
     Raises
@@ -108,11 +109,12 @@ def read_mesh_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         raise UserError(f"mesh file {str(path)!r} holds no triangles")
     if not np.isfinite(vertices).all():
         raise UserError(f"mesh file {str(path)!r} has non-finite vertex coordinates")
-    largest = float(np.abs(vertices).max())
-    if largest > MAX_COORDINATE:
+    largest, limit = float(np.abs(vertices).max()), MAX_COORDINATE[dtype]
+    if largest > limit:
+        other = " or time it in float64" if dtype == "float32" and largest <= MAX_COORDINATE["float64"] else ""
         raise UserError(
-            f"mesh file {str(path)!r} has coordinates up to {largest:.3g}: their squares overflow float64 "
-            f"(edge products and distances to place it), so scale it to at most {MAX_COORDINATE:.0e}"
+            f"mesh file {str(path)!r} has coordinates up to {largest:.3g}: in {dtype} their squares overflow "
+            f"(edge products and distances to place it), so scale it to at most {limit:.0e}{other}"
         )
     if not (triangle_areas(vertices[faces]) > 0).any():
         raise UserError(f"mesh file {str(path)!r} has no triangle of non-zero area")

@@ -358,7 +358,8 @@ class MeshSpec:
             if self.mesh_sha256 is not None:
                 raise UserError(f"mesh_sha256 applies to a mesh file only, not to the built-in {self.mesh!r}")
         elif self.mesh_sha256 is None:
-            put(self, "mesh", checked_mesh_file(self.mesh, MESH_NAMES))
+            check_choice("dtype", self.dtype, DTYPES)
+            put(self, "mesh", checked_mesh_file(self.mesh, MESH_NAMES, self.dtype))
             put(self, "mesh_sha256", file_sha256(self.mesh))
         else:
             check_sha256("mesh_sha256", self.mesh_sha256)
