@@ -107,20 +107,18 @@ def _print_peak(width: int, isa: str | None) -> None:
     print(
         "bound = the port model over each kernel's operation mix (rules: tribench.harness.peak); % = bound / measured"
     )
-    old = f"ops / {gflops / 2:.1f}, shown as '% 8-lane'"
-    print(f"8-lane FMA peak {gflops:.1f} GFLOP/s ({peak_isa}): the old bound, {old}")
+    print(f"FMA peak {gflops:.1f} GFLOP/s ({peak_isa})")
     l1d = cache_bytes().get("L1d")
     for dtype, g in table.groupby("dtype", sort=False):
         print(
             f"\n{dtype:<{width}}{'form':<22}{'ops/test':>9}{'records':>10}{'bound ns':>10}{'ns/test':>10}"
-            f"{'% of bound':>12}{'% 8-lane':>10}"
+            f"{'% of bound':>12}"
         )
         for r in g.itertuples(index=False):
             over = "*" if l1d and r.records_bytes > l1d else " "
             print(
                 f"{r.kernel:<{width}}{r.form:<22}{r.ops_per_test:>9}{r.records_bytes / 1024:>6.0f} KiB{over}"
                 f"{r.bound_ns_per_test:>9.3f}{r.ns_per_test:>10.3f}{100 * r.fraction:>11.1f}%"
-                f"{100 * r.fraction_8lane:>9.1f}%"
             )
     if l1d:
         print(

@@ -38,10 +38,6 @@ without FMA, or a scalar form on one lane, shows that as a small fraction.
 Not modelled: the front end's issue width, latency chains, branches and
 cache misses (the in-cache workload keeps misses out).
 
-The old figure stays as a labelled secondary number: ``ops / (8-lane FMA
-peak GFLOP/s / 2)`` (:func:`lane_ops_per_ns`, :func:`tribench.ext.fma_peak`),
-which counts every operation as an FMA-pipe slot of an 8-lane vector.
-
 ``fraction = bound / measured ns per test``, 1 at the bound. A scalar
 early-exit kernel's counts are the path of a hit, while most tests exit
 earlier, so its fraction overstates how busy it keeps the lane.
@@ -57,18 +53,6 @@ from .. import ext
 
 #: probe iterations: about 20 ms at 100 GFLOP/s (12 chains x 16 flops each)
 PROBE_ITERATIONS = 10_000_000
-
-
-def lane_ops_per_ns(peak_gflops: float, dtype, peak_isa: str = "avx2+fma") -> float:
-    """Operations per ns the probe's peak allows at ``dtype`` (see the module's note).
-
-    >>> lane_ops_per_ns(100.0, "float32"), lane_ops_per_ns(100.0, "float64")
-    (50.0, 25.0)
-    >>> lane_ops_per_ns(10.0, "float64", peak_isa="scalar")  # a scalar probe: one lane either way
-    5.0
-    """
-    per_lane = 1.0 if np.dtype(dtype).itemsize == 4 or peak_isa == "scalar" else 0.5
-    return peak_gflops / 2 * per_lane
 
 
 #: classes that issue on the vector pipes (all but loads), and the FP arithmetic among them
@@ -118,11 +102,6 @@ def throughput_record() -> dict:
     return {"isa": rates.isa, "peak_gflops": peak.gflops, "float32": rates.float32, "float64": rates.float64}
 
 
-def bound_8lane_ns_per_test(kernel: str, dtype, peak_gflops: float, peak_isa: str = "avx2+fma") -> float:
-    """The old, secondary bound: every operation an FMA-pipe slot at the 8-lane FMA peak, in ns."""
-    return ext.kernel_info(kernel).ops / lane_ops_per_ns(peak_gflops, dtype, peak_isa)
-
-
 def measure_peak(repeats: int = 5) -> ext.Peak:
     """The best of ``repeats`` probes: the peak of this moment, least disturbed by other processes."""
     return max((ext.fma_peak(PROBE_ITERATIONS) for _ in range(repeats)), key=lambda p: p.gflops)
@@ -138,12 +117,11 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     every kernel once in a fresh random order, each batch timed in C and
     about 5 ms long; the probe runs before and after (best of 3 each) and
     their mean is the peak, and so do the throughput probes (their mean
-    the rates). Returns ``(gflops, isa, rate_isa, rates, table)``: the 8-lane
+    the rates). Returns ``(gflops, isa, rate_isa, rates, table)``: the FMA
     peak and its ISA, the probes' ISA and rates per dtype, and a DataFrame
     with ``dtype, kernel, form, ops_per_test, records_bytes`` (the prepared
     triangles a ray streams), ``bound_ns_per_test`` (the port
-    model's), ``ns_per_test`` (median over rounds), ``fraction``, and the
-    secondary ``bound_8lane_ns_per_test, fraction_8lane``. ``isa`` (a probe
+    model's), ``ns_per_test`` (median over rounds) and ``fraction``. ``isa`` (a probe
     ISA of :func:`tribench.ext.probe_isas`) holds every wide form to it and
     probes the pipes on it, so that an AVX-512 core answers for AVX2 too.
     """
@@ -177,7 +155,6 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     for (dtype, kernel), ts in times.items():
         info = ext.kernel_info(kernel)
         bound = bound_from_mix(info.mix, rates[dtype])
-        bound_8lane = bound_8lane_ns_per_test(kernel, dtype, gflops, before.isa)
         ns = float(np.median(ts))
         rows.append(
             {
@@ -189,8 +166,6 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
                 "bound_ns_per_test": bound,
                 "ns_per_test": ns,
                 "fraction": bound / ns,
-                "bound_8lane_ns_per_test": bound_8lane,
-                "fraction_8lane": bound_8lane / ns,
             }
         )
     return gflops, before.isa, rates_before.isa, rates, pd.DataFrame(rows)

@@ -124,8 +124,7 @@ def kernels_section(data: RunData, kern: pd.DataFrame) -> str:
         "(FMA, multiply, add, compare, divide, logic, load) over the throughput of each class the core "
         "measured at its widest vector width (AVX-512, AVX2 or SSE2), FMA-capable, with adds, multiplies "
         "and FMAs sharing the FMA pipes where the probes show they do (tribench.harness.peak). A scalar "
-        "kernel uses one lane of the widest vector, and its early exits do less than the count. The old "
-        "figure (every operation at the 8-lane FMA peak) is estimates.csv's peak_fraction_8lane. "
+        "kernel uses one lane of the widest vector, and its early exits do less than the count. "
         f"ns/test and the speedup over {data.baseline} summarise the family's workloads (median, lowest, "
         "highest); their 95% CIs are in the speedups section, and verdicts counts the workloads by verdict."
     )

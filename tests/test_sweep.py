@@ -112,9 +112,9 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
         (est["peak_fraction_ci_low"] <= est["peak_fraction"]) & (est["peak_fraction"] <= est["peak_fraction_ci_high"])
     ).all()
     assert ((est["peak_fraction"] > 0) & (est["peak_fraction"] < 1)).all()  # scalar kernels: one lane of 8
-    # the bound is the port model's at the rates run.json recorded; the old 8-lane figure is secondary
+    # the bound is the port model's at the rates run.json recorded
     assert set(run["throughput"]) == {"isa", "peak_gflops", "float32", "float64"}
-    assert (est["bound_ns_per_test"] > 0).all() and (est["peak_fraction_8lane"] >= est["peak_fraction"]).all()
+    assert (est["bound_ns_per_test"] > 0).all() and (est["peak_fraction"] > 0).all()
     assert list(spd["baseline"]) == ["moller_trumbore"] and list(spd["kernel"]) == ["curless"]
     # re-analysis reads files only: the same tables again, with another baseline on request
     again = analysis.analyse(out, baseline="curless")

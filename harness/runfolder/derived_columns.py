@@ -30,10 +30,6 @@ ESTIMATES_COLUMNS: dict[str, str] = {
     "peak_fraction": "bound / measured time (1 = at the bound), each process against its own clock of that moment",
     "peak_fraction_ci_low": "lower end of its 95% confidence interval",
     "peak_fraction_ci_high": "upper end of its 95% confidence interval",
-    "bound_8lane_ns_per_test": (
-        "secondary, the old bound: ops_per_test at the 8-lane FMA peak, every operation an FMA-pipe slot, ns"
-    ),
-    "peak_fraction_8lane": "secondary: bound_8lane_ns_per_test / measured time, each process against its own peak",
 }
 
 SPEEDUPS_COLUMNS: dict[str, str] = {

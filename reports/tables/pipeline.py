@@ -22,9 +22,8 @@ one-line summary), ``peak_gflops`` (mean FMA peak of the processes),
 (the port model's bound over the kernel's operation mix at the throughput
 rates run.json recorded) and ``peak_fraction, peak_fraction_ci_low,
 peak_fraction_ci_high``: bound over measured time, each process against its
-own clock of that moment, a machine-normalised figure steadier than raw time;
-then the old, secondary ``bound_8lane_ns_per_test, peak_fraction_8lane``
-(every operation at the 8-lane FMA peak) (:mod:`tribench.harness.peak`).
+own clock of that moment, a machine-normalised figure steadier than raw time
+(:mod:`tribench.harness.peak`).
 
 ``speedups.csv``: after ``build``, the columns of :func:`~tribench.harness.stats.speedup_table`
 renamed by :data:`SPEEDUP_COLUMNS` (``workload_id, kernel, baseline, ratio,
@@ -216,11 +215,9 @@ def _peak_columns(
     FMA peak to that one (its clock against the probes'); the t-interval of the
     mean scaled time maps to the fraction ``bound / time`` (a monotone map, so
     the interval carries over, ends swapped). A run without recorded rates (made
-    before they were) has no such bound: NaN. The old, secondary figure,
-    ``peak_fraction_8lane``, counts every operation at the 8-lane FMA peak
-    (:func:`tribench.harness.peak.lane_ops_per_ns`)."""
+    before they were) has no such bound: NaN."""
     from ... import ext
-    from ...harness.peak import bound_from_mix, lane_ops_per_ns
+    from ...harness.peak import bound_from_mix
 
     keys = ["kernel", "workload_id"]
     columns = [
@@ -230,40 +227,26 @@ def _peak_columns(
         "peak_fraction",
         "peak_fraction_ci_low",
         "peak_fraction_ci_high",
-        "bound_8lane_ns_per_test",
-        "peak_fraction_8lane",
     ]
     if processes.empty:
         return pd.DataFrame(columns=[*keys, *columns]).set_index(keys)
-    peak = processes.groupby("process").agg(peak_gflops=("peak_gflops", "mean"), peak_isa=("peak_isa", "first"))
+    peak = processes.groupby("process").agg(peak_gflops=("peak_gflops", "mean"))
     joined = table.join(peak, on="process").dropna(subset=["peak_gflops"])
-    rate_8lane = [
-        lane_ops_per_ns(g, dtypes[w], isa)
-        for g, w, isa in zip(joined["peak_gflops"], joined["workload_id"], joined["peak_isa"], strict=True)
-    ]
-    slots = stats.estimate_table(joined.assign(ns_per_test=joined["ns_per_test"] * rate_8lane)).set_index(keys)
-    peaks = joined.groupby(keys).agg(peak_gflops=("peak_gflops", "mean"), peak_isa=("peak_isa", "first"))
-    peaks = peaks.reindex(slots.index)
+    peaks = joined.groupby(keys).agg(peak_gflops=("peak_gflops", "mean"))
     known = set(ext.kernel_names(internal=True))
     ops = np.array([ext.kernel_info(k).ops if k in known else np.nan for k, _ in peaks.index], dtype=float)
-    mean_rate = np.array(
-        [
-            lane_ops_per_ns(g, dtypes[w], isa)
-            for (_, w), g, isa in zip(peaks.index, peaks["peak_gflops"], peaks["peak_isa"], strict=True)
-        ]
-    )
-    nan = np.full(len(slots), np.nan)
+    nan = np.full(len(peaks), np.nan)
     bound, fraction, low, high = nan, nan, nan, nan
     if throughput:
         ref = float(throughput["peak_gflops"])
         bound_ref = np.array(
             [
                 bound_from_mix(ext.kernel_info(k).mix, throughput[dtypes[w]]) if k in known else np.nan
-                for k, w in slots.index
+                for k, w in peaks.index
             ]
         )
         scaled = stats.estimate_table(joined.assign(ns_per_test=joined["ns_per_test"] * joined["peak_gflops"] / ref))
-        scaled = scaled.set_index(keys).reindex(slots.index)
+        scaled = scaled.set_index(keys).reindex(peaks.index)
         bound = bound_ref * ref / peaks["peak_gflops"].to_numpy()
         fraction = bound_ref / scaled["mean"].to_numpy()
         low = bound_ref / scaled["ci_high"].to_numpy()
@@ -278,10 +261,8 @@ def _peak_columns(
             "peak_fraction": fraction,
             "peak_fraction_ci_low": low,
             "peak_fraction_ci_high": high,
-            "bound_8lane_ns_per_test": ops / mean_rate,
-            "peak_fraction_8lane": ops / slots["mean"],
         },
-        index=slots.index,
+        index=peaks.index,
     )
 
 
