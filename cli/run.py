@@ -63,6 +63,6 @@ def run(args: argparse.Namespace) -> int:
     tables.write_all(out, validate_note=note)
     data = load(out)  # the run folder's tables, read once for the page and the terminal
     report = write_report(data)
-    print(format_tables(data))
-    print(f"\nreport: {report}")
+    print(f"report: {report}\n")
+    print(format_tables(data))  # last: the report's answer in words
     return 0

@@ -135,21 +135,27 @@ def run(args: argparse.Namespace) -> int:
             raise UserError("--resume takes no other sweep options: the run's own sweep is used")
         result = runner.resume(args.resume, progress=args.progress)
     else:
-        from ..harness.jobs.kernel_check import load_checked
+        from ..harness import duration
         from ..harness.jobs.sweep import run_sweep
 
         load_kernel_files(args)  # first: --kernels may name their kernels
         sweep = _sweep_from_args(args)
-        load_checked(sweep.kernel_files)  # a sweep file's too, checked before anything is timed
         out = args.out or default_run_dir()
-        print(
-            f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
-            f"{sweep.processes} processes{_per_build(sweep)} x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
-            f"{sweep.n_batches} batches -> {out}",
-            file=sys.stderr,
-        )
+
+        def announce(sweep) -> str:
+            return (
+                f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
+                f"{sweep.processes} processes{_per_build(sweep)} x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
+                f"{sweep.n_batches} batches -> {out}\n{duration.estimate(sweep).line()}"
+            )
+
         result = run_sweep(
-            sweep, out, say=lambda line: print(line, file=sys.stderr), cpu=args.cpu, progress=args.progress
+            sweep,
+            out,
+            say=lambda line: print(line, file=sys.stderr),
+            cpu=args.cpu,
+            progress=args.progress,
+            announce=announce,
         )
     print(
         f"{result.batches_run} batches run in {result.elapsed_s:.1f} s; "

@@ -1,11 +1,13 @@
-"""Compact terminal tables of a run: estimates and speedups with CIs and verdicts."""
+"""Terminal tables of a run: per workload, estimates and speedups with CIs and verdicts, then the answer."""
 
 from __future__ import annotations
 
+from ..harness import runfolder
 from ..harness.stats import format_interval
+from ..workloads.labels import family_of
 from .rundata import RunData, short_label
 
-__all__ = ["format_run"]
+__all__ = ["format_answer", "format_run"]
 
 
 def format_run(data: RunData, width: int = 24) -> str:
@@ -36,7 +38,7 @@ def format_run(data: RunData, width: int = 24) -> str:
         sp = spd.loc[spd["workload_id"] == wid].set_index("kernel")
         lines += [
             "",
-            f"{short_label(spec)}  [{wid}]",
+            f"{family_of(spec)}: {short_label(spec)}  [{wid}]",
             f"  {'kernel':<{width}}{'ns/test':>9}  {'95% CI':<18}{'speedup':>8}  {'CI':<16}  verdict",
         ]
         for r in rows.itertuples(index=False):
@@ -49,4 +51,22 @@ def format_run(data: RunData, width: int = 24) -> str:
             elif r.kernel == data.baseline:
                 left += "(baseline)"
             lines.append(left.rstrip())
+    return "\n".join(lines + ["", format_answer(data)])
+
+
+def format_answer(data: RunData) -> str:
+    """The report's first screen in words: per precision and band the fastest kernel, its speedup over the
+    baseline and the kernels tied with it, then the answers to the questions (the seed's among them)."""
+    from .ranking import answer_sentences, band_rows
+
+    bands = data.tables.get(runfolder.BANDS)
+    if bands is None or bands.empty:
+        return "the answer: no ranking by band in these tables (run tribench stats on the folder)"
+    lines = [f"the answer, per precision and band (speedup over {data.baseline}, 95% CI):"]
+    for r in band_rows(bands).itertuples(index=False):
+        lines.append(
+            f"  {r.dtype} {r.band}: {r.fastest}, {r.ns} ns/test, {r.speedup}; tied with it: {r.tied}; "
+            f"watertight: {r.watertight}"
+        )
+    lines += [f"  {sentence}" for sentence in answer_sentences(bands, data.tables.get(runfolder.ALGORITHMS))]
     return "\n".join(lines)

@@ -88,6 +88,20 @@ def test_a_sweep_ranks_the_example_through_the_installed_command(tmp_path, build
     assert "my_moller" in (moved / "report.html").read_text()
 
 
+def test_a_kernel_files_kernels_join_the_sweep_whatever_kernels_names(tmp_path, builds):
+    done = tribench(
+        "sweep", "--kernel-file", EXAMPLE, "--kernels", "moller_trumbore", "--pairs", "200",
+        "--processes", "2", "--rounds", "1", "--warmup", "0", "--target-ms", "0.2", "--out", "run",
+        "--no-progress", cwd=tmp_path, cache=builds,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "my_moller join the sweep's kernels" in done.stderr and "sweep: 2 kernels x 1 workloads" in done.stderr
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["sweep"]["kernels"] == [
+        "moller_trumbore",
+        "my_moller",
+    ]
+
+
 @pytest.mark.slow
 def test_a_sweep_file_names_kernel_files_relative_to_itself(tmp_path, builds):
     own = variant(tmp_path, "file_moller")

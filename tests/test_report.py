@@ -335,6 +335,13 @@ def test_format_tables_lists_estimates_and_speedups(rendered):
     assert "per-test hit rate 20%" in text and "suzanne, 300 triangles" in text
     assert "(baseline)" in text and "ns/test" in text
     assert re.search(r"moller_trumbore\s+[\d.]+\s+\[[\d.]+, [\d.]+\]\s+[\d.]+x\s+\[[\d.]+, [\d.]+\]", text)
+    # every block names its workload in words (its family, then what varies), not by its id alone
+    headings = [line for line in text.splitlines() if line.endswith("]") and "  [" in line]
+    assert headings and all(line.startswith(("pairs n=", "mesh ")) for line in headings)
+    # and the text ends on the report's answer: per band the fastest kernel, then the questions
+    answer = text[text.index("the answer, per precision and band") :].splitlines()
+    assert answer[1].startswith("  float") and "ns/test" in answer[1] and "tied with it" in answer[1]
+    assert any(line.startswith("  Fastest: ") for line in answer) and text.endswith(answer[-1])
 
 
 # ----------------------------------------------------------------- bad input

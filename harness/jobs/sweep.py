@@ -8,6 +8,7 @@ tables are :mod:`tribench.reports.tables`'s, made from the folder afterwards.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,7 @@ from ..plan import Sweep
 from . import validate
 from .kernel_check import check_builds, load_checked
 
-__all__ = ["measure_robustness", "robustness_command", "run_sweep"]
+__all__ = ["measure_robustness", "robustness_command", "run_sweep", "with_file_kernels"]
 
 
 def run_sweep(
@@ -33,10 +34,11 @@ def run_sweep(
     announce: Callable[[Sweep], str] | None = None,
 ) -> runner.RunResult:
     """Measure ``sweep`` into the new folder ``out``: kernel files checked against the
-    reference, the folder claimed, each build compiled and checked again, then the
+    reference (their kernels join ``sweep.kernels``: a user who brings a kernel wants it
+    ranked), the folder claimed, each build compiled and checked again, then the
     workers. ``say`` gets one line on what runs (``announce``'s, by default the
     expected duration) before the first batch."""
-    load_checked(sweep.kernel_files)
+    sweep = with_file_kernels(sweep, load_checked(sweep.kernel_files), say)
     out = Path(out)
     runfolder.check_new_run_dir(out)  # before the estimate, which builds the workloads
     checks = check_builds(sweep)
@@ -44,6 +46,16 @@ def run_sweep(
     return runner.start(
         sweep, out, cpu=cpu, progress=progress, extra=dict(extra) if extra else None, build_checks=checks
     )
+
+
+def with_file_kernels(sweep: Sweep, file_kernels: Sequence[str], say: Callable[[str], None]) -> Sweep:
+    """``sweep`` with every kernel of its kernel files among its kernels (where no workload
+    names its own kernels: the main job places them itself), saying which joined."""
+    missing = tuple(k for k in file_kernels if k not in sweep.kernels)
+    if not missing or sweep.workload_kernels:
+        return sweep
+    say(f"the kernel files' {', '.join(missing)} join the sweep's kernels")
+    return dataclasses.replace(sweep, kernels=(*sweep.kernels, *missing))
 
 
 def measure_robustness(run_dir: str | Path, quick: bool = False) -> str:
