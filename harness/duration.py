@@ -24,9 +24,8 @@ from typing import Any, cast
 import numpy as np
 
 from .plan import Sweep
-from .runner import about
 
-__all__ = ["Estimate", "estimate", "measure_passes", "model"]
+__all__ = ["Estimate", "estimate", "format_duration", "measure_passes", "model"]
 
 #: A worker's start-up: the interpreter, NumPy, the extension, its workloads from the cache.
 START_S = 0.5
@@ -40,6 +39,22 @@ BATCH_OVERHEAD_S = 150e-6
 SLICE_TESTS = 1 << 17
 #: Rays per measured pass through a BVH (a few hundred tests each).
 SLICE_RAYS = 1 << 11
+
+
+def format_duration(seconds: float) -> str:
+    """A duration as people say it: "about" goes before it.
+
+    >>> format_duration(42.4), format_duration(150), format_duration(6000), format_duration(3 * 3600)
+    ('40 s', '3 min', '1.7 h', '3 h')
+    """
+    if seconds < 10:
+        return f"{max(1, math.floor(seconds + 0.5))} s"
+    if seconds < 90:
+        return f"{10 * math.floor(seconds / 10 + 0.5)} s"
+    if seconds < 90 * 60:
+        return f"{math.floor(seconds / 60 + 0.5)} min"
+    hours = seconds / 3600
+    return f"{hours:.0f} h" if hours >= 10 else f"{hours:.1f}".removesuffix(".0") + " h"
 
 
 @dataclass(frozen=True)
@@ -61,8 +76,8 @@ class Estimate:
         batch = f"{lo} ms" if lo == hi else f"{lo}-{hi} ms"
         head = f"expected {what}" if what else "expected"
         return (
-            f"{head}: about {about(self.seconds)} ({self.processes} processes x about {about(self.setup_s)} "
-            f"of start-up and checks, then {self.batches:,} batches of {batch})"
+            f"{head}: about {format_duration(self.seconds)} ({self.processes} processes x about "
+            f"{format_duration(self.setup_s)} of start-up and checks, then {self.batches:,} batches of {batch})"
         )
 
 

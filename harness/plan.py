@@ -346,7 +346,7 @@ class Sweep:
         return self.builds or (INSTALLED,)
 
     def build_of(self, process: int) -> str:
-        """The build process ``process`` runs: the builds in turn (:func:`rows_of_build` selects by it)."""
+        """The build process ``process`` runs: the builds in turn (its batches record it)."""
         return self.build_names[process % len(self.build_names)]
 
     @property
@@ -480,10 +480,10 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds:
     for f in kernel_files:  # before the roles: their kernels have roles too
         ext.load_kernels(f)
     roles = main_job_kernels()
-    seed, scalar, native = roles["seed"], roles["scalar"], roles["native"]
+    paper, scalar, native = roles["seed"], roles["scalar"], roles["native"]
     # the baseline's A/A twin, timed wherever the baseline is: the run's own margin (reports/tables/margin.py)
-    seed = (*seed, AA_TWINS[DEFAULT_BASELINE])
-    kernels = (*seed, *scalar, *native)
+    paper = (*paper, AA_TWINS[DEFAULT_BASELINE])
+    kernels = (*paper, *scalar, *native)
     if quick:
         pairs = [PairSpec(n=1024, hit_rate=h, dtype="float32", winding="facing") for h in (0.0, 0.5, 1.0)]
         size, bvh_size, dtypes = 16, 32, ("float32", "float64")
@@ -503,7 +503,7 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds:
         dtype="float32",
         accel="bvh",
     )
-    sets = [(*seed, *scalar)] * len(pairs) + [(*seed, *native)] * len(meshes) + [native]
+    sets = [(*paper, *scalar)] * len(pairs) + [(*paper, *native)] * len(meshes) + [native]
     n_builds = max(len(builds), 1)
     design = MAIN_JOB_DESIGN[quick]
     return Sweep(
@@ -528,10 +528,10 @@ def recorded_builds(sweep: Mapping[str, Any]) -> list[str]:
     return list(sweep.get("builds") or [INSTALLED])
 
 
-def rows_of_build(frame: Any, builds: Sequence[str], build: str) -> Any:
-    """The rows of a per-process table (a ``process`` column) measured by ``build``'s processes:
-    process ``p`` runs ``builds[p % len(builds)]`` (:meth:`Sweep.build_of`)."""
-    mine = frame["process"] % len(builds) == list(builds).index(build)
+def rows_of_build(frame: Any, batches: Any, build: str) -> Any:
+    """The rows of a per-process table (a ``process`` column) measured by ``build``'s processes: those
+    whose batches carry ``build`` in their ``build`` column, the one place a row's build is recorded."""
+    mine = frame["process"].isin(batches.loc[batches["build"] == build, "process"].unique())
     return frame.loc[mine].reset_index(drop=True)
 
 

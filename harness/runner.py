@@ -42,6 +42,7 @@ from ..common import UserError
 from ..workloads import mesh_files
 from ..workloads.spec import MeshSpec
 from . import runfolder
+from .duration import format_duration
 from .plan import BatchKey, Sweep, plan, process_seed
 from .protocol import WorkerError, run_worker
 from .runfolder import (
@@ -62,7 +63,6 @@ __all__ = [
     "RunResult",
     "SweepError",
     "SweepInterrupted",
-    "about",
     "default_cpu",
     "done_keys",
     "missing_keys",
@@ -182,28 +182,12 @@ class Progress:
             f"tribench {self.label}: {self.done}/{self.total} {self.unit} ({int(100 * frac)}%)"  # 100% only at the end
         )
         text += f", {round(elapsed)} s elapsed"
-        return text if left is None or self.done == self.total else f"{text}, about {about(left)} left"
+        return text if left is None or self.done == self.total else f"{text}, about {format_duration(left)} left"
 
     def close(self) -> None:
         if self.bar:
             self.stream.write("\n")
             self.stream.flush()
-
-
-def about(seconds: float) -> str:
-    """A duration as people say it: "about" goes before it.
-
-    >>> about(42.4), about(150), about(6000), about(3 * 3600)
-    ('40 s', '3 min', '1.7 h', '3 h')
-    """
-    if seconds < 10:
-        return f"{max(1, math.floor(seconds + 0.5))} s"
-    if seconds < 90:
-        return f"{10 * math.floor(seconds / 10 + 0.5)} s"
-    if seconds < 90 * 60:
-        return f"{math.floor(seconds / 60 + 0.5)} min"
-    hours = seconds / 3600
-    return f"{hours:.0f} h" if hours >= 10 else f"{hours:.1f}".removesuffix(".0") + " h"
 
 
 def _clock(seconds: float) -> str:

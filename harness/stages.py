@@ -27,12 +27,12 @@ from . import runfolder, stats
 from .plan import DEFAULT_BASELINE as BASELINE
 from .plan import BatchKey, Sweep, plan
 
-__all__ = ["Stage", "decide", "keys_of", "read_stages", "write_stages"]
+__all__ = ["StageRecord", "decide", "keys_of", "read_stages", "write_stages"]
 
 
 #: One stage as stages.json holds it: ``{"stage", "first_process", "last_process",
 #: "open": {workload id: [kernels]}, "seconds_before"}``.
-Stage = dict[str, Any]
+StageRecord = dict[str, Any]
 
 
 def read_stages(run_dir: str | Path) -> dict[str, Any]:
@@ -54,7 +54,7 @@ def write_stages(run_dir: str | Path, data: Mapping[str, Any]) -> None:
     write_text(Path(run_dir) / runfolder.STAGES, json.dumps(data, indent=1, sort_keys=True) + "\n")
 
 
-def keys_of(sweep: Sweep, stage: Stage, keys: Sequence[BatchKey] | None = None) -> list[BatchKey]:
+def keys_of(sweep: Sweep, stage: StageRecord, keys: Sequence[BatchKey] | None = None) -> list[BatchKey]:
     """The plan's keys (``keys``, default the whole plan) that ``stage`` runs, in plan order."""
     first, last = stage["first_process"], stage["last_process"]
     open_ = {(w, k) for w, ks in stage["open"].items() for k in ks}
@@ -91,8 +91,8 @@ def _block_seconds(batches: pd.DataFrame, processes: range) -> dict[str, float]:
 
 
 def decide(
-    sweep: Sweep, run_dir: str | Path, done: Sequence[Stage], seconds: float, last_stage_s: float | None
-) -> tuple[Stage | None, str]:
+    sweep: Sweep, run_dir: str | Path, done: Sequence[StageRecord], seconds: float, last_stage_s: float | None
+) -> tuple[StageRecord | None, str]:
     """The next stage of ``sweep``, or None and why the sweep ends.
 
     ``done`` are the stages run so far (every batch of them in ``batches.csv``),

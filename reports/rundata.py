@@ -189,7 +189,7 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
     build = builds[0] if build is None else build
     if build not in builds:
         raise RunError(f"{run_dir} has no build {build!r}; its builds: {'; '.join(builds)}")
-    batches, processes = (rows_of_build(f, builds, build) for f in (batches, processes))
+    batches, processes = (rows_of_build(f, batches, build) for f in (batches, processes))
 
     record = _read_record(run_dir)
     if record.get("batches_sha256") != analysis.file_digest(run_dir / runfolder.BATCHES):

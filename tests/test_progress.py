@@ -140,8 +140,8 @@ def test_progress_seconds_reads_the_variable(monkeypatch):
 
 @settings(max_examples=40, deadline=None)
 @given(seconds=st.floats(0, 1e6))
-def test_about_is_short_and_never_zero(seconds):
-    text = runner.about(seconds)
+def test_format_duration_is_short_and_never_zero(seconds):
+    text = duration.format_duration(seconds)
     number, unit = text.split()
     assert unit in ("s", "min", "h") and float(number) > 0 and "e" not in number
 

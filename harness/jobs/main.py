@@ -16,6 +16,7 @@ from typing import TextIO
 import pandas as pd
 
 from .. import runfolder, runner
+from ..duration import format_duration
 from .sweep import measure_robustness, run_sweep
 
 __all__ = ["resume", "run"]
@@ -148,8 +149,8 @@ def _robustness(out: Path, note: str, log: TextIO | None) -> None:
 
 
 def _seconds(seconds: float) -> str:
-    """A budget as said: ``15 s`` exactly below a minute and a half, else :func:`runner.about`'s words."""
-    return f"{seconds:.0f} s" if seconds < 90 else runner.about(seconds)
+    """A budget as said: ``15 s`` exactly below a minute and a half, else in :func:`format_duration`'s words."""
+    return f"{seconds:.0f} s" if seconds < 90 else format_duration(seconds)
 
 
 def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO | None = None) -> None:

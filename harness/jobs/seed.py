@@ -261,14 +261,14 @@ def _workloads(
     from ...workloads import cache
     from ...workloads.seed.workload import RAY_KINDS, EmptyStream, SeedSpec, trace_forecast
     from ...workloads.spec import workload_id
-    from ..runner import about
+    from ..duration import format_duration
 
     specs: list = []
     info: dict[str, dict[str, Any]] = {}
     for scene in resolved:
         kinds = [SeedSpec(scene, rays, sample=sample, width=size, height=size) for rays in RAY_KINDS]
         if not any(cache.cached(spec) for spec in kinds):  # one trace makes them all: said (or refused) first
-            print(f"tracing {labels[scene]}: expected about {about(trace_forecast(kinds[0]))}", file=log)
+            print(f"tracing {labels[scene]}: expected about {format_duration(trace_forecast(kinds[0]))}", file=log)
         for spec in kinds:
             print(f"workload: {spec.summary()}", file=log)
             try:
@@ -301,7 +301,7 @@ def _expected(sweep: Any, info: Mapping[str, Mapping[str, Any]], size: int) -> s
     """The line said before the sweep starts: the sweep's forecast (:mod:`..duration`), then the pictures'
     (``info``: each workload's ``stream_tests`` and ``sample_tests``)."""
     from .. import duration
-    from ..runner import about
+    from ..duration import format_duration
 
     tests, pass_s, _ = duration.measure_passes(sweep)  # the seed's workloads are brute force
     sweep_estimate = duration.model(sweep, tests, pass_s)
@@ -311,9 +311,9 @@ def _expected(sweep: Any, info: Mapping[str, Mapping[str, Any]], size: int) -> s
         after += sum(PICTURE_TEST_SHARE * pass_s[(k, wid)] * render for k in PAIR)
     after += len({info[wid]["scene"] for wid in sweep.workload_ids}) * len(PAIR) * PICTURE_S_PER_PIXEL * size**2
     return (
-        f"expected: about {about(sweep_estimate.seconds + after)} in all; "
+        f"expected: about {format_duration(sweep_estimate.seconds + after)} in all; "
         f"{sweep_estimate.line('for the sweep').removeprefix('expected ')}, "
-        f"then the pictures and tables about {about(after)}"
+        f"then the pictures and tables about {format_duration(after)}"
     )
 
 

@@ -78,12 +78,11 @@ class Measured:
 
     def of_build(self, build: str) -> Measured:
         """The run as its processes of ``build`` measured it (the processes take the builds in turn)."""
-        b = self.builds
         return replace(
             self,
-            batches=rows_of_build(self.batches, b, build),
-            processes=rows_of_build(self.processes, b, build),
-            traversals=rows_of_build(self.traversals, b, build),
+            batches=rows_of_build(self.batches, self.batches, build),
+            processes=rows_of_build(self.processes, self.batches, build),
+            traversals=rows_of_build(self.traversals, self.batches, build),
         )
 
 
