@@ -112,6 +112,8 @@ class Analysis:
     margin: Margin
     batches: int
     processes: int
+    #: The per-process table the estimates came from (:func:`tribench.harness.stats.per_process`), made once.
+    per_process: pd.DataFrame = field(default_factory=pd.DataFrame, repr=False)
 
 
 def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | None = None) -> Analysis:
@@ -156,6 +158,7 @@ def combined(parts: dict[str, Analysis]) -> Analysis:
         first.margin,
         sum(a.batches for a in parts.values()),
         sum(a.processes for a in parts.values()),
+        by_build({b: a.per_process for b, a in parts.items()}),
     )
 
 
@@ -195,7 +198,7 @@ def _estimate_one(m: Measured, baseline: str | None, margin: float | None) -> An
     speedups = speedups.rename(columns=SPEEDUP_COLUMNS)
     speedups["workload"] = speedups["workload_id"].map(names)
     speedups["margin_source"] = mg.source
-    return Analysis(estimates, speedups, baseline, mg, len(batches), int(table["process"].nunique()))
+    return Analysis(estimates, speedups, baseline, mg, len(batches), int(table["process"].nunique()), table)
 
 
 def _summary(spec: dict) -> str:
@@ -413,7 +416,7 @@ def _derive_one(
     wl = workload_tables.workload_table(specs, wids, workloads, sources)
     est = workload_tables.estimates_with_workloads(result.estimates, wl)
     spd = result.speedups.merge(wl.drop(columns=["dtype"]), on="workload_id", how="left", suffixes=("", "_wl"))
-    measured_pp = stats.per_process(batches)
+    measured_pp = result.per_process
     labels = diagnostics.batch_labels(batches)
     correct = workload_tables.correctness_table(batches, kernels, workloads)
     # the A/A twin measured the margin (margin.py), and a kernel whose answers differ did other work:
