@@ -23,7 +23,7 @@ def bench(script: Path, *args: str, env=None) -> subprocess.CompletedProcess:
 
 
 def test_there_are_benchmarks():
-    assert {"peers.py", "scaling.py", "seed_speed.py", "harness_overhead.py"} <= {s.name for s in SCRIPTS}
+    assert {"embree_native.py", "scaling.py", "seed_speed.py", "harness_overhead.py"} <= {s.name for s in SCRIPTS}
 
 
 @pytest.mark.slow
