@@ -88,6 +88,22 @@ def test_a_sweep_ranks_the_example_through_the_installed_command(tmp_path, build
     assert "my_moller" in (moved / "report.html").read_text()
 
 
+def test_with_file_kernels_adds_the_missing_ones_and_says_so_unless_workloads_name_theirs():
+    from tribench.harness.jobs.sweep import with_file_kernels
+    from tribench.harness.plan import Sweep
+    from tribench.workloads.spec import PairSpec
+
+    sweep, said = Sweep(("moller_trumbore",), (PairSpec(n=64),)), []
+    joined = with_file_kernels(sweep, ("moller_trumbore", "curless"), said.append)
+    assert joined.kernels == ("moller_trumbore", "curless") and said == [
+        "the kernel files' curless join the sweep's kernels"
+    ]
+    assert with_file_kernels(joined, ("curless",), said.append) is joined and len(said) == 1
+    placed = Sweep(("moller_trumbore",), (PairSpec(n=64),), workload_kernels=(("moller_trumbore",),))
+    assert with_file_kernels(placed, ("curless",), said.append) is placed  # the main job places its own
+
+
+@pytest.mark.slow
 def test_a_kernel_files_kernels_join_the_sweep_whatever_kernels_names(tmp_path, builds):
     done = tribench(
         "sweep", "--kernel-file", EXAMPLE, "--kernels", "moller_trumbore", "--pairs", "200",
