@@ -1,28 +1,37 @@
-"""The one worker protocol: a fresh process per replicate, its job on stdin, typed JSON lines on stdout.
+"""The one worker protocol: a fresh process per job, the job on stdin, typed JSON lines on a private channel.
 
 Every measurement runs in such workers: the sweeps' (:mod:`.worker`) and the
 peers' (:mod:`tribench.harness.jobs.peers`), each pinned to one CPU and with its
-memory layout randomised (:mod:`.layout`). The parent side is
-:func:`run_worker`: it starts the worker in an environment the caller padded
-(:func:`.layout.padded_env`), sends the job, and hands each line to the
-handler of its ``type``. The worker side is :func:`serve`: it passes tribench's notices
-to the parent and turns the errors a user can act on into one ``error``
-line. Two types belong to the protocol itself:
+memory layout randomised (:mod:`.layout`), and a kernel file's check before
+anything is timed (:mod:`tribench.harness.jobs.kernel_check`). The parent side
+is :func:`run_worker`: it starts the worker, sends the job, and hands each line
+to the handler of its ``type``, within an optional time limit. The worker side is
+:func:`serve`: it keeps the channel to itself (the process's stdout, moved to a
+descriptor of its own; file descriptor 1 then goes to stderr, so a ``printf`` in a
+user's kernel cannot break a line), passes tribench's notices to the parent and
+turns the errors a user can act on into one ``error`` line. Three types belong
+to the protocol itself:
 
 * ``{"type": "notice", "message": ...}``: a :class:`~tribench.common.Notice`
   (a cache file rebuilt), printed once by the parent however many workers send it;
 * ``{"type": "error", "message": ...}``: the worker stops (exit code 3), and
-  the parent raises :class:`WorkerError` with the message.
+  the parent raises :class:`WorkerError` with the message;
+* ``{"type": "end"}``: the job is done. A worker that exits without it (a
+  kernel that called ``exit()``) failed, whatever its exit code.
 
 A worker's stderr is kept in a temporary file and shown only when it fails.
 """
 
 from __future__ import annotations
 
+import io
 import json
+import os
+import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TextIO
@@ -56,26 +65,42 @@ def run_worker(
     env: Mapping[str, str],
     handlers: Mapping[str, Callable[[dict[str, Any]], None]],
     name: str,
+    timeout: float | None = None,
 ) -> None:
     """Run one worker to its end: ``job`` to its stdin, each line to ``handlers[type]``.
 
-    Raises :class:`WorkerError` on the worker's error line, an unknown line, or
-    a non-zero exit (``name`` says which worker); an exception of a handler
-    kills the worker and propagates.
+    Raises :class:`WorkerError` on the worker's error line, a line that is not the
+    protocol's, an exit before its ``end`` line or with a non-zero code, or a worker
+    still running after ``timeout`` seconds (it is killed; ``name`` says which worker).
+    An exception of a handler kills the worker and propagates.
     """
-    error = None
+    error, ended = None, False
     with tempfile.TemporaryFile("w+") as err:
         proc = subprocess.Popen(
             list(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, env=dict(env), text=True
         )
         assert proc.stdin is not None and proc.stdout is not None  # both are pipes
+        timed_out = threading.Event()
+
+        def stop() -> None:
+            timed_out.set()
+            proc.kill()
+
+        timer = threading.Timer(timeout, stop) if timeout is not None else None
+        if timer is not None:
+            timer.start()
         try:
             proc.stdin.write(job)
             proc.stdin.close()
             for line in proc.stdout:
-                message = json.loads(line)
-                kind = message.pop("type")
-                if kind == "notice":
+                try:
+                    message = json.loads(line)
+                    kind = message.pop("type")
+                except (ValueError, AttributeError, KeyError):
+                    raise WorkerError(f"{name} sent a line that is not the protocol's: {line.strip()[:80]!r}") from None
+                if kind == "end":
+                    ended = True
+                elif kind == "notice":
                     if message["message"] not in _NOTICES_SHOWN:  # once: ten workers, one file
                         _NOTICES_SHOWN.add(message["message"])
                         warnings.warn(message["message"], Notice, stacklevel=2)
@@ -90,18 +115,40 @@ def run_worker(
             proc.kill()
             proc.wait()
             raise
+        finally:
+            if timer is not None:
+                timer.cancel()
+        if timed_out.is_set():
+            raise WorkerError(f"{name} did not finish in {timeout:g} s (a kernel that never returns?): it was stopped")
         if error is not None:
             raise WorkerError(error, said=True)
         if code != 0:
-            raise WorkerError(f"{name} exited with code {code}{stderr_tail(err)}")
+            raise WorkerError(f"{name} {_exit_words(code)}{stderr_tail(err)}")
+        if not ended:
+            raise WorkerError(f"{name} exited before its job was done (exit code 0: its code called exit()?)")
+
+
+def _exit_words(code: int) -> str:
+    """How a worker ended, as said: ``exited with code 4`` or ``was killed by SIGSEGV``."""
+    if code < 0:
+        try:
+            return f"was killed by {signal.Signals(-code).name}"
+        except ValueError:
+            pass
+    return f"exited with code {code}"
+
+
+#: The worker's end of the channel (see :func:`serve`); stdout outside a worker.
+_CHANNEL: TextIO | None = None
 
 
 def emit(kind: str, record: Any) -> None:
     """Send one line of type ``kind``: a flat row (a dataclass, by its fields) or a dict."""
     # vars, not asdict: the rows are flat, and asdict's deep copy costs 45 us a batch
     fields = record if isinstance(record, dict) else vars(record)
-    sys.stdout.write(json.dumps({"type": kind, **fields}) + "\n")
-    sys.stdout.flush()
+    out = _CHANNEL or sys.stdout
+    out.write(json.dumps({"type": kind, **fields}) + "\n")
+    out.flush()
 
 
 def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] = ()) -> int:
@@ -110,6 +157,8 @@ def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] =
     ``errors`` (and every ValueError, a UserError among them, and OSError: a
     cache file) become the ``error`` line, exit code 3.
     """
+    global _CHANNEL
+    _CHANNEL = _take_channel()
     warnings.showwarning = _pass_notices(warnings.showwarning)
     expected: tuple[type[BaseException], ...] = (ValueError, OSError, *errors)
     try:
@@ -124,7 +173,22 @@ def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] =
             message = _os_error(exc)
         emit("error", {"message": message})
         return 3
+    emit("end", {})
     return 0
+
+
+def _take_channel() -> TextIO | None:
+    """The process's stdout as the protocol's alone: moved to a descriptor of its own, while fd 1
+    (C's printf, Python's print) goes to stderr, which the parent keeps. None where stdout is no
+    file descriptor (a test's capture): :func:`emit` then writes to ``sys.stdout`` as it is."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, ValueError, io.UnsupportedOperation):
+        return None
+    sys.stdout.flush()
+    channel = os.fdopen(os.dup(fd), "w")
+    os.dup2(sys.stderr.fileno(), fd)
+    return channel
 
 
 def _pass_notices(shown):

@@ -88,6 +88,55 @@ def test_a_sweep_ranks_the_example_through_the_installed_command(tmp_path, build
     assert "my_moller" in (moved / "report.html").read_text()
 
 
+def injected(tmp_path: Path, name: str, code: str) -> Path:
+    """The example kernel renamed to ``name``, with ``code`` run at the start of every test."""
+    start = "    real e1[3], e2[3], p[3], s[3], q[3];"
+    path = variant(tmp_path, name, start, f"{start}\n    {code}")
+    path.write_text("#include <stdio.h>\n#include <stdlib.h>\n" + path.read_text())
+    return path
+
+
+# what a kernel file's C may do to the process it runs in, and the one line the check then says
+HOSTILE_C = {
+    "exits_0": ("exit(0);", "exited before its job was done"),
+    "exits_2": ("exit(2);", "exited with code 2"),
+    "aborts": ("abort();", "was killed by SIGABRT"),
+    "loops": ("for (volatile int i = 0;; ++i) {}", "did not finish in 5 s"),
+}
+
+
+@pytest.mark.slow  # a compile each (seconds)
+@pytest.mark.parametrize("name", HOSTILE_C)
+def test_a_kernel_that_exits_crashes_or_hangs_is_refused_in_one_line_by_the_check(tmp_path, builds, name):
+    code, said = HOSTILE_C[name]
+    path = injected(tmp_path, f"k_{name}", code)
+    done = python(
+        f"""
+from tribench.harness.jobs import kernel_check
+kernel_check.CHECK_SECONDS = (5.0, 0.0)
+try:
+    kernel_check.load_checked([{str(path)!r}])
+except kernel_check.KernelRefused as e:
+    print("refused:", e)
+""",
+        builds,
+    )
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    assert done.stdout.startswith("refused: ") and said in done.stdout and done.stdout.count("\n") == 1, done.stdout
+
+
+@pytest.mark.slow
+def test_a_kernel_that_prints_neither_breaks_the_check_nor_the_sweep(tmp_path, builds):
+    path = injected(tmp_path, "k_prints", 'printf("debug\\n");')
+    done = tribench(
+        "sweep", "--kernel-file", path, "--kernels", "k_prints", "--pairs", "200", "--processes", "2",
+        "--rounds", "1", "--warmup", "0", "--target-ms", "0.2", "--out", "run", "--no-progress",
+        cwd=tmp_path, cache=builds,
+    )  # fmt: skip
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    assert (tmp_path / "run" / "estimates.csv").is_file()
+
+
 def test_with_file_kernels_adds_the_missing_ones_and_says_so_unless_workloads_name_theirs():
     from tribench.harness.jobs.sweep import with_file_kernels
     from tribench.harness.plan import Sweep

@@ -61,3 +61,28 @@ def test_a_crash_names_the_worker_its_exit_code_and_the_end_of_its_stderr():
 def test_a_line_of_unknown_type_stops_the_worker():
     with pytest.raises(protocol.WorkerError, match="test worker sent a line of unknown type 'surprise'"):
         run("emit('surprise', {}); import time; time.sleep(30)")
+
+
+def test_what_the_workers_code_writes_to_stdout_cannot_break_a_line():
+    # a debug printf in a user's kernel writes to fd 1, which the worker points at stderr
+    job = "import os; emit('row', {'a': 1}); print('debug'); os.write(1, b'raw\\n'); emit('row', {'a': 2})"
+    assert run(job) == [("row", {"a": 1}), ("row", {"a": 2})]
+
+
+@pytest.mark.parametrize(
+    ("job", "said"),
+    [
+        ("import os; os._exit(0)", "exited before its job was done (exit code 0"),
+        ("import os; os._exit(2)", "exited with code 2"),
+        ("import os, signal; os.kill(os.getpid(), signal.SIGABRT)", "was killed by SIGABRT"),
+    ],
+)
+def test_a_worker_that_exits_or_dies_before_its_end_line_fails_in_one_line(job, said):
+    with pytest.raises(protocol.WorkerError, match="test worker") as info:
+        run(job)
+    assert said in str(info.value) and "\n" not in str(info.value)
+
+
+def test_a_worker_past_its_time_limit_is_stopped_and_said_so():
+    with pytest.raises(protocol.WorkerError, match=r"did not finish in 1 s"):
+        protocol.run_worker(WORKER, "import time; time.sleep(60)", os.environ, {}, "test worker", timeout=1.0)

@@ -9,16 +9,15 @@ safe. It must also keep the promises the robustness suite holds every kernel
 to (``tribench validate``, :func:`tribench.harness.jobs.validate.promise`): none
 of its hits for parallel rays, degenerate triangles and non-finite input,
 and no crack if it declares itself watertight. A kernel that fails is
-refused with what it got wrong, and one that crashes is refused in one line: the check runs in a
-process of its own. :func:`load_checked` does both steps.
+refused with what it got wrong, and one that crashes, exits or never returns is refused in one line:
+the check runs in a worker of its own (the one protocol, :mod:`tribench.harness.protocol`), stopped
+after :data:`CHECK_SECONDS`. :func:`load_checked` does both steps.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import signal
-import subprocess
 import sys
 import time
 from collections.abc import Sequence
@@ -29,10 +28,15 @@ import numpy as np
 from ... import ext
 from ...common import UserError, UserTypeError
 from ...workloads import reference
+from ..protocol import WorkerError, emit, run_worker, serve
 from . import validate
 
-__all__ = ["MARGIN", "KernelRefused", "check_builds", "check_kernel", "load_checked", "refuse_crashing"]
+__all__ = ["CHECK_SECONDS", "MARGIN", "KernelRefused", "check_builds", "check_kernel", "load_checked"]
+__all__ += ["refuse_crashing"]
 
+#: The longest a check may take: a start-up, then per kernel (both precisions, every ISA: about a
+#: second each here); past it the check is stopped and its kernels refused, so an unattended run never hangs.
+CHECK_SECONDS = (30.0, 15.0)
 #: How far (barycentric) from every edge a checked crossing lies, and how far along the ray.
 MARGIN = 1e-3
 _T_RTOL = {"float32": 1e-4, "float64": 1e-9}
@@ -82,20 +86,19 @@ def refuse_crashing(path: str | os.PathLike) -> None:
 def _checked_elsewhere(path: str | os.PathLike) -> dict[str, list[str]]:
     """:func:`check_kernel` of each kernel of the file, in a process of its own: a kernel that crashes
     (a stray pointer is likely in code being written) is refused in one line, and takes nothing down."""
-    return _in_a_process(["--kernel-file", str(path)], f"{path}: its kernels")
+    return _in_a_process(["--kernel-file", str(path)], f"{path}: its kernels", len(ext.load_kernels(path)))
 
 
-def _in_a_process(argv: list[str], what: str) -> dict[str, list[str]]:
-    done = subprocess.run(
-        [sys.executable, "-m", "tribench.harness.jobs.kernel_check", *argv], capture_output=True, text=True
-    )
-    if done.returncode == 2:  # a UserError there (a kernel file that does not compile under a build): its message
-        raise KernelRefused(done.stderr.strip())
-    if done.returncode != 0:
-        how = signal.Signals(-done.returncode).name if done.returncode < 0 else f"exit code {done.returncode}"
-        last = (done.stderr.strip().splitlines() or [""])[-1]
-        raise KernelRefused(f"{what} crashed the reference check ({how}){': ' + last if last else ''}")
-    return json.loads(done.stdout)
+def _in_a_process(argv: list[str], what: str, kernels: int) -> dict[str, list[str]]:
+    checked: dict[str, list[str]] = {}
+    command = [sys.executable, "-m", "tribench.harness.jobs.kernel_check"]
+    timeout = CHECK_SECONDS[0] + CHECK_SECONDS[1] * kernels
+    try:
+        run_worker(command, json.dumps(argv), os.environ, {"checked": checked.update}, what, timeout=timeout)
+    except WorkerError as exc:
+        # its own message (a kernel file that does not compile under a build), or how it died
+        raise KernelRefused(str(exc) if exc.said else f"the reference check failed: {exc}") from None
+    return checked
 
 
 def check_builds(sweep, log: TextIO | None = None) -> dict[str, dict[str, list[str]]]:
@@ -112,7 +115,7 @@ def check_builds(sweep, log: TextIO | None = None) -> dict[str, dict[str, list[s
         t0 = time.monotonic()
         ext.load_build(build)  # compiled here, so a compile error is one message (and the check's process imports it)
         argv = ["--build", build, *(a for f in sweep.kernel_files for a in ("--kernel-file", f)), *sweep.kernels]
-        checked[build] = _in_a_process(argv, f"the kernels of build {build!r}")
+        checked[build] = _in_a_process(argv, f"the kernels of build {build!r}", len(sweep.kernels))
         wrong = sum(1 for problems in checked[build].values() if problems)
         verdict = f"{wrong} broke a promise (shown in the report)" if wrong else "all right"
         print(
@@ -217,28 +220,27 @@ def _check_mesh(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) 
     return out
 
 
-def _main(argv: list[str]) -> None:
-    """The check's own process: [--build SPEC] [--kernel-file FILE]... [KERNEL...]; problems as JSON.
-    The kernels are those named, or else every kernel of the files."""
+def _work(job: str) -> None:
+    """The check's worker: the job is [--build SPEC] [--kernel-file FILE]... [KERNEL...] as a JSON list;
+    one ``checked`` line of kernel -> problems. The kernels are those named, or else every kernel of the files."""
     import argparse
 
     parser = argparse.ArgumentParser(prog="python -m tribench.harness.jobs.kernel_check")
     parser.add_argument("--build")
     parser.add_argument("--kernel-file", action="append", default=[])
     parser.add_argument("kernels", nargs="*")
-    args = parser.parse_args(argv)
+    args = parser.parse_args(json.loads(job))
     try:
         if args.build:
             ext.use_build(args.build)
         declared = [k for f in args.kernel_file for k in ext.load_kernels(f)]
     except UserError as e:
-        print(f"build {args.build}: {e}" if args.build else str(e), file=sys.stderr)
-        sys.exit(2)
-    print(json.dumps({k: check_kernel(k) for k in args.kernels or declared}))
+        raise UserError(f"build {args.build}: {e}" if args.build else str(e)) from None
+    emit("checked", {k: check_kernel(k) for k in args.kernels or declared})
 
 
 if __name__ == "__main__":
     import faulthandler
 
     faulthandler.disable()  # a crash is reported by the parent, in one line
-    _main(sys.argv[1:])
+    sys.exit(serve(_work))
