@@ -12,6 +12,10 @@ A sweep file is TOML (read with :mod:`tomllib`)::
                                      # paths relative to this file
     builds = ["gcc -O2", "clang -O3"]  # optional: compilers and flags (docs/builds.md);
                                        # the processes take them in turn
+    # optional, as a run folder's sweep.toml writes them: which kernels run each workload
+    # (in the workloads' order), and a sequential design (docs/methodology.md)
+    workload_kernels = [["moller_trumbore"], ["moller_trumbore", "curless"]]
+    sequential = {stage = 2, target = 0.02, budget_s = 300.0}
 
     [[workloads]]            # lists expand to every combination
     kind = "pairs"
@@ -39,7 +43,7 @@ from typing import Any
 from ..common import UserError, read_user_text
 from ..workloads.kinds import spec_from_dict
 from ..workloads.spec import Spec
-from .plan import Sweep, check_workload_count
+from .plan import Sequential, Sweep, check_workload_count
 
 __all__ = ["expand_workloads", "load_sweep_file"]
 
@@ -63,7 +67,19 @@ def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
     ]
 
 
-_TOP_LEVEL = ("kernels", "workloads", "processes", "rounds", "warmup", "target_ms", "seed", "kernel_files", "builds")
+_TOP_LEVEL = (
+    "kernels",
+    "workloads",
+    "processes",
+    "rounds",
+    "warmup",
+    "target_ms",
+    "seed",
+    "kernel_files",
+    "builds",
+    "workload_kernels",
+    "sequential",
+)
 
 
 def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Sweep:
@@ -111,10 +127,23 @@ def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None
         except UserError as exc:
             raise UserError(f"{path}: workloads[{i}]: {exc}") from None
     try:
+        if "workload_kernels" in data:  # which kernels run each workload, in workloads' order
+            data["workload_kernels"] = tuple(tuple(_names(k, path)) for k in _names(data["workload_kernels"], path))
+        if "sequential" in data:
+            rule = dict(_as_tables(data["sequential"], path)[0])
+            if set(rule) != {"stage", "target", "budget_s"}:
+                raise UserError(f"sequential: expected {{stage = N, target = X, budget_s = S}}, got {rule!r:.80}")
+            data["sequential"] = Sequential(**rule)
         return Sweep(workloads=tuple(workloads), **{k: data[k] for k in data if k != "workloads"})
     except UserError as exc:
         where = f"{path} with the command-line flags" if given else str(path)
         raise UserError(f"{where}: {exc}") from None
+
+
+def _names(value: Any, path: Path) -> list[Any]:
+    if not isinstance(value, list):
+        raise UserError(f"{path}: workload_kernels: expected a list of lists of kernel names, got {value!r:.80}")
+    return value
 
 
 def _as_tables(value: Any, path: Path) -> Sequence[Mapping[str, Any]]:

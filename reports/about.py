@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 from html import escape
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
@@ -114,7 +115,9 @@ def _toml_value(v: Any) -> str:
 
 
 def sweep_toml(sweep: dict[str, Any]) -> str:
-    """The run's sweep as a sweep file that ``tribench sweep --file`` reads back.
+    """The run's sweep (run.json's, the plan's own record) as a sweep file that ``tribench sweep --file``
+    reads back into the same plan: its design, builds and sequential rule, which kernels run which
+    workload, and its kernel files as the run folder's copies (the file sits in the run folder).
 
     Examples
     --------
@@ -133,10 +136,17 @@ def sweep_toml(sweep: dict[str, Any]) -> str:
     n = 10
     <BLANKLINE>
     """
+    from ..workloads.mesh_files import KERNELS_FOLDER
+
     lines = ["# tribench sweep file, written by tribench report"]
-    for key in ("kernels", "processes", "rounds", "warmup", "target_ms", "seed"):
+    for key in ("kernels", "processes", "rounds", "warmup", "target_ms", "seed", "builds", "workload_kernels"):
         if key in sweep:
             lines.append(f"{key} = {_toml_value(sweep[key])}")
+    if sweep.get("kernel_files"):
+        copies = [f"{KERNELS_FOLDER}/{f['sha256']}{Path(f['path']).suffix.lower()}" for f in sweep["kernel_files"]]
+        lines.append(f"kernel_files = {_toml_value(copies)}  # the run folder's copies")
+    if sweep.get("sequential"):
+        lines.append(f"sequential = {_toml_value(sweep['sequential'])}")
     for spec in sweep.get("workloads", []):
         lines += ["", "[[workloads]]"]
         lines += [f"{k} = {_toml_value(v)}" for k, v in spec.items() if v is not None]

@@ -17,6 +17,7 @@ from conftest import analysed
 from test_report_run import run_fixture_dir
 
 from tribench import reports
+from tribench.harness.plan import plan
 from tribench.reports import charts, checks, headline
 from tribench.reports import html as report_html
 from tribench.reports.rundata import RunError
@@ -160,6 +161,22 @@ def test_reproduce_section_gives_a_sweep_file_that_reads_back(rendered, tmp_path
         recorded.rounds,
         recorded.seed,
     )
+    assert plan(sweep) == plan(recorded)  # the same batches, in the same order
+
+
+def test_a_main_jobs_sweep_file_reproduces_its_design_and_who_runs_what(tmp_path):
+    """The sequential rule and the per-workload kernels of the main job survive the round trip, so a
+    rerun plans the same batches (2,574 of them, not 8,856 on 36 processes as without them)."""
+    from tribench.harness.plan import Sweep, default_sweep
+    from tribench.harness.sweep_file import load_sweep_file
+    from tribench.reports.about import sweep_toml
+
+    job = default_sweep(quick=True)
+    assert job.sequential is not None and job.workload_kernels  # what the round trip must keep
+    (tmp_path / "sweep.toml").write_text(sweep_toml(job.to_dict()))
+    again = load_sweep_file(tmp_path / "sweep.toml")
+    assert again == job and plan(again) == plan(job)
+    assert Sweep.from_dict(again.to_dict()) == job
 
 
 def test_machine_section_shows_caches_and_build(rendered):
