@@ -23,6 +23,8 @@ __all__ = ["add_parser", "run"]
 
 DEFAULT_CAMERA = (64, 64)
 
+#: The flags that make the workload grid (a sweep file has its own).
+_WORKLOAD_FLAGS = ("hit_rates", "pairs", "mesh", "triangles", "camera", "rays", "accel", "max_leaf", "dtype")
 #: The flags that describe a new sweep: --resume takes none of them (the run's own sweep is used).
 _NEW_SWEEP_FLAGS = (
     "file",
@@ -194,7 +196,7 @@ def _workloads_from_flags(args: argparse.Namespace) -> list:
         for h in args.hit_rates or [0.5]:
             specs += [PairSpec(n=10_000 if args.pairs is None else args.pairs, hit_rate=h, dtype=d) for d in dtypes]
     width, height = args.camera or DEFAULT_CAMERA
-    for flag in ("accel", "rays", "max_leaf"):
+    for flag in ("accel", "rays", "max_leaf", "triangles", "camera"):
         if getattr(args, flag) and not args.mesh:
             raise UserError(f"--{flag.replace('_', '-')} applies to mesh workloads: give --mesh too")
     if args.max_leaf and "bvh" not in (args.accel or []):
@@ -226,6 +228,12 @@ def _sweep_from_args(args: argparse.Namespace):
     from ..harness.sweep_file import load_sweep_file
 
     design = {k: getattr(args, k) for k in DESIGN_FLAGS}
+    ignored = [f"--{k.replace('_', '-')}" for k in _WORKLOAD_FLAGS if getattr(args, k) is not None]
+    if args.file and ignored:
+        raise UserError(
+            f"{', '.join(ignored)} describe workloads, which the sweep file gives: "
+            f"put them in {args.file}'s [[workloads]] tables, or leave out --file"
+        )
     if args.file:
         given = {"kernels": args.kernels, "kernel_files": args.kernel_files, "builds": args.builds}
         return load_sweep_file(args.file, {**design, **given})

@@ -179,6 +179,28 @@ def test_the_issues_values_are_refused_by_the_installed_command(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
 
 
+@pytest.mark.parametrize(
+    ("extra", "said"),
+    [
+        (
+            ["--file", "s.toml", "--hit-rates", "0.1,0.9", "--dtype", "float32"],
+            "--hit-rates, --dtype describe workloads",
+        ),
+        (["--file", "s.toml", "--pairs", "100"], "--pairs describe workloads"),
+        (["--file", "s.toml", "--mesh", "suzanne", "--camera", "8x8"], "--mesh, --camera describe workloads"),
+        (["--kernels", "moller_trumbore", "--triangles", "100"], "--triangles applies to mesh workloads"),
+        (["--kernels", "moller_trumbore", "--camera", "8x8"], "--camera applies to mesh workloads"),
+        (["--kernels", "moller_trumbore_x8,moller_trumbore", "--pairs", "50"], "moller_trumbore_x8 has no pairs mode"),
+    ],
+)
+def test_a_flag_the_sweep_would_ignore_is_refused_in_one_line(extra, said, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    (tmp_path / "s.toml").write_text('kernels = ["moller_trumbore"]\n[[workloads]]\nkind = "pairs"\nn = 50\n')
+    assert said in _refused(["sweep", *extra, "--out", str(tmp_path / "run")], capsys)
+    assert not (tmp_path / "run").exists()
+
+
 def test_resume_refuses_every_other_sweep_flag(tmp_path, capsys):
     (tmp_path / "run").mkdir()
     for extra in (["--camera", "8x8"], ["--cpu", str(min(os.sched_getaffinity(0)))], ["--seed", "3"]):

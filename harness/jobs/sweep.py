@@ -39,6 +39,7 @@ def run_sweep(
     workers. ``say`` gets one line on what runs (``announce``'s, by default the
     expected duration) before the first batch."""
     sweep = with_file_kernels(sweep, load_checked(sweep.kernel_files), say)
+    _refuse_idle_kernels(sweep)
     out = Path(out)
     runfolder.check_new_run_dir(out)  # before the estimate, which builds the workloads
     checks = check_builds(sweep)
@@ -46,6 +47,22 @@ def run_sweep(
     return runner.start(
         sweep, out, cpu=cpu, progress=progress, extra=dict(extra) if extra else None, build_checks=checks
     )
+
+
+def _refuse_idle_kernels(sweep: Sweep) -> None:
+    """A kernel that runs none of the sweep's workloads would be dropped without a word: refused."""
+    idle = [k for k in sweep.kernels if not any(k in sweep.kernels_for(w) for w in sweep.workloads)]
+    if idle:
+        why = "; ".join(_why_idle(k) for k in idle)
+        raise UserError(f"{', '.join(idle)} would run none of the sweep's workloads ({why}): drop or give them some")
+
+
+def _why_idle(kernel: str) -> str:
+    if "pairs" not in ext.kernel_info(kernel).modes:
+        return f"{kernel} has no pairs mode: it runs meshes (--mesh)"
+    if kernel not in ext.bvh_kernel_names():
+        return f"{kernel} is no BVH's leaf test"
+    return f"no workload lists {kernel}"
 
 
 def with_file_kernels(sweep: Sweep, file_kernels: Sequence[str], say: Callable[[str], None]) -> Sweep:
