@@ -124,6 +124,9 @@ def _items(text: str) -> list[str]:
         raise _refuse(f"must be a non-empty comma-separated list, got {text!r}")
     if not all(items):
         raise _refuse(f"has an empty item in {text!r}")
+    twice = sorted({x for x in items if items.count(x) > 1})
+    if twice:  # it would run (or validate) the same thing twice and count it twice
+        raise _refuse(f"names {', '.join(twice)} more than once in {text!r}")
     return items
 
 

@@ -182,3 +182,20 @@ def test_the_command_line_marks_and_rebuilds_a_corrupt_file(pristine, tmp_path):
     assert shown.returncode == 0 and f"cache file {path} is invalid" in shown.stderr
     assert shown.stderr.count("\n") == 1, "the rebuild is said in one line"
     assert "Traceback" not in shown.stderr and path.read_bytes() == good
+
+
+def test_a_pipe_a_link_out_and_a_dangling_link_in_the_cache_are_listed_never_opened(tmp_path):
+    cache = folder = tmp_path / "cache"
+    folder.mkdir()
+    os.mkfifo(folder / "pipe.npz")  # opening it would block every reader
+    (folder / "out.npz").symlink_to("/etc")
+    (folder / "gone.npz").symlink_to(tmp_path / "nothing")
+    env = {**os.environ, "TRIBENCH_CACHE": str(cache)}
+    for args in (["workloads", "list"], ["cache", "list"]):
+        done = subprocess.run(
+            [sys.executable, "-m", "tribench.cli", *args], capture_output=True, text=True, timeout=60, env=env
+        )
+        assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+        for name in ("pipe", "out", "gone"):
+            assert name in done.stdout, (args, done.stdout)
+        assert done.stdout.count("not a regular file") == 3

@@ -201,6 +201,26 @@ def test_a_flag_the_sweep_would_ignore_is_refused_in_one_line(extra, said, tmp_p
     assert not (tmp_path / "run").exists()
 
 
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (
+            ["validate", "--kernels", "moller_trumbore,moller_trumbore", "--quick"],
+            "names moller_trumbore more than once",
+        ),
+        (["validate", "--dtype", "float32,float32", "--quick"], "names float32 more than once"),
+        (["sweep", "--hit-rates", "0.5,0.5"], "names 0.5 more than once"),
+        (["workloads", "show", "/etc"], "'/etc' is not a workload id"),
+        (["workloads", "show", "a**b"], "'a**b' is not a workload id"),
+        (["calibrate", "--workload", "/etc"], "'/etc' is not a workload id"),
+        (["cache", "prune", "--max-size", "9" * 400], "too large"),
+    ],
+)
+def test_what_once_raised_a_traceback_is_one_line(argv, said, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    assert said in _refused(argv, capsys)
+
+
 def test_resume_refuses_every_other_sweep_flag(tmp_path, capsys):
     (tmp_path / "run").mkdir()
     for extra in (["--camera", "8x8"], ["--cpu", str(min(os.sched_getaffinity(0)))], ["--seed", "3"]):

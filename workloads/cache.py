@@ -135,7 +135,10 @@ def sealed_npz(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
 
 def unsealed(path: Path) -> bytes:
     """The bytes of a file :func:`sealed_npz` made, if its seal matches them
-    (else :class:`Invalid`, which says so)."""
+    (else :class:`Invalid`, which says so). Only a regular file is read: a link, folder or pipe in a
+    cache file's place is never followed or opened (a pipe would block the reader)."""
+    if not stat.S_ISREG(os.lstat(path).st_mode):
+        raise Invalid("not a regular file (a link, folder or pipe in a cache file's place)")
     data = path.read_bytes()
     if len(data) <= _SEAL_LEN or data[-_SEAL_LEN:] != _seal(data[:-_SEAL_LEN]):
         raise Invalid(
@@ -276,9 +279,11 @@ def resolve_id(prefix: str) -> str:
     ValueError
         Several match.
     """
+    if not prefix or not all(c.isalnum() or c in "-_" for c in prefix):  # an id, never a path or a pattern
+        raise UserError(f"{prefix!r:.80} is not a workload id (see `tribench workloads list`)")
     if _path(prefix).is_file():
         return prefix
-    ids = sorted(p.stem for p in cache_dir().glob(f"{prefix}*.npz"))
+    ids = sorted(p.stem for p in cache_dir().glob("*.npz") if p.stem.startswith(prefix))
     if not ids:
         raise FileNotFoundError(f"no cached workload {prefix!r} in {cache_dir()} (see `tribench workloads list`)")
     if len(ids) > 1:
@@ -297,25 +302,27 @@ def list_cached() -> list[CachedWorkload]:
     for path in sorted(cache_dir().glob("*.npz")):
         spec = achieved = problem = None
         try:
+            st = os.lstat(path)
+        except OSError:  # removed meanwhile
+            continue
+        try:
             w = _read(path, None)
             spec, achieved = w.spec.to_dict(), dict(w.achieved)
         except Invalid as e:
             problem = str(e)
             try:
+                if not stat.S_ISREG(st.st_mode):  # never opened: a pipe would block, a link lead out
+                    raise Invalid(problem)
                 with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
                     claimed = json.loads(str(npz["meta"][()]))
                 spec, achieved = claimed.get("spec"), claimed.get("achieved")
             except Exception:
                 pass
-        try:
-            size = path.stat().st_size
-        except OSError:  # removed meanwhile
-            continue
         out.append(
             CachedWorkload(
                 path.stem,
                 path,
-                size,
+                st.st_size,
                 spec if isinstance(spec, dict) else None,
                 achieved if isinstance(achieved, dict) else None,
                 problem,

@@ -64,7 +64,10 @@ def parse_size(text: str) -> int:
     if not m:
         raise UserError(f"--max-size {text!r}: expected a size such as 500MB, 2GB or 0")
     unit = m.group(2) or ""
-    return int(float(m.group(1)) * (_BINARY[unit] if unit.endswith("i") else _UNITS[unit]))
+    size = float(m.group(1)) * (_BINARY[unit] if unit.endswith("i") else _UNITS[unit])
+    if not size < 2**63:  # a 400-digit number is infinite as a float
+        raise UserError(f"--max-size {text[:40]!r}: too large; give at most 8EiB, e.g. 500MB or 2GB")
+    return int(size)
 
 
 def _kind(rel: Path) -> str:
