@@ -54,7 +54,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _ctrl_c(signum: int, frame) -> None:
-    """SIGINT (and its retry, SIGALRM): KeyboardInterrupt, but never inside an import.
+    """SIGINT and SIGTERM (and their retry, SIGALRM): KeyboardInterrupt, but never inside an import.
+
+    SIGTERM (a CI job stopped, ``kill``) takes Ctrl-C's way out, so every batch is kept and
+    what the command started (a compiler's process group, a worker) is stopped with it.
 
     trimesh's imports catch BaseException around its optional dependencies,
     so a Ctrl-C during ``import trimesh`` was swallowed and the command ran
@@ -88,7 +91,7 @@ def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
     """
     if threading.current_thread() is not threading.main_thread():
         return _run_command(argv)
-    before = {sig: signal.signal(sig, _ctrl_c) for sig in (signal.SIGINT, signal.SIGALRM)}
+    before = {sig: signal.signal(sig, _ctrl_c) for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGALRM)}
     try:
         with warnings.catch_warnings():
             shown = warnings.showwarning
@@ -97,7 +100,7 @@ def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         for sig, handler in before.items():
-            signal.signal(sig, signal.SIG_IGN if leaving and sig == signal.SIGINT else handler)
+            signal.signal(sig, signal.SIG_IGN if leaving and sig != signal.SIGALRM else handler)
 
 
 def _show_notice(shown, said: set[str], message, category, filename, lineno, file=None, line=None) -> None:

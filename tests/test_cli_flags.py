@@ -416,3 +416,49 @@ def test_a_number_is_a_plain_ascii_decimal(text, value):
     for bad in ("1_0", "inf", "nan", "0x1", "\u0661"):
         with pytest.raises(argparse.ArgumentTypeError):
             flags.float_in(0, 1)(bad)
+
+
+def _compilers_under(folder: Path) -> list[str]:
+    """The compiler processes (cc1, as, gcc) whose command line names ``folder``."""
+    found = []
+    for proc in Path("/proc").iterdir():
+        try:
+            argv = (proc / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if any(str(folder).encode() in a for a in argv) and Path(argv[0].decode(errors="replace")).name in (
+            "cc1",
+            "as",
+            "gcc",
+        ):
+            found.append(proc.name)
+    return found
+
+
+@pytest.mark.slow
+def test_sigterm_during_a_builds_compile_stops_the_compilers_and_leaves_no_objects(tmp_path):
+    cache = tmp_path / "cache"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tribench.cli", "sweep", *SMALL, "--builds", "gcc -O1", "--out", tmp_path / "run"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "TRIBENCH_CACHE": str(cache)},
+        start_new_session=True,
+    )
+    try:
+        end = time.monotonic() + 120
+        while not _compilers_under(cache) and time.monotonic() < end and proc.poll() is None:
+            time.sleep(0.1)
+        assert _compilers_under(cache), "the build's compile never started"
+        os.kill(proc.pid, signal.SIGTERM)  # the parent alone, as `kill` or a CI runner's stop
+        err = proc.stderr.read()
+        assert proc.wait(timeout=20) == 130 and "Traceback" not in err, err
+        assert err.splitlines()[-1] == "tribench sweep: interrupted"
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    time.sleep(0.5)
+    assert _compilers_under(cache) == []
+    assert not list((cache / "kernel_builds").glob("*/tmp*")), "a stopped compile's objects were left"
