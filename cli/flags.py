@@ -262,10 +262,15 @@ def output_folder(text: str) -> str:
 
 
 def output_file(text: str) -> str:
-    """A file to write: not a folder, in a folder that exists or can be created."""
+    """A file to write: not a folder, in a folder that exists or can be created, and never a file the
+    runner measured (a run folder's ``batches.csv``: writing over it would lose the run)."""
+    from ..harness.runfolder import MEASURED, RUN
+
     path = _path(text)
     if path.is_dir():
         raise _refuse(f"must be a file, got the folder {text!r}")
+    if path.name in MEASURED and (path.parent / RUN).is_file():
+        raise _refuse(f"{text!r} is a measured file of the run folder {str(path.parent)!r}: write elsewhere")
     if path.exists():
         if not os.access(path, os.W_OK) or not os.access(path.parent, os.W_OK | os.X_OK):
             raise _refuse(f"no permission to write {text!r}")

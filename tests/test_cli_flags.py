@@ -214,11 +214,18 @@ def test_a_flag_the_sweep_would_ignore_is_refused_in_one_line(extra, said, tmp_p
         (["workloads", "show", "a**b"], "'a**b' is not a workload id"),
         (["calibrate", "--workload", "/etc"], "'/etc' is not a workload id"),
         (["cache", "prune", "--max-size", "9" * 400], "too large"),
+        (["export", "run", "--out", "run/batches.csv"], "is a measured file of the run folder"),
+        (["compare", "run", "run", "--out", "run/run.json"], "is a measured file of the run folder"),
     ],
 )
 def test_what_once_raised_a_traceback_is_one_line(argv, said, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "run").mkdir()
+    for name in ("run.json", "batches.csv"):
+        (tmp_path / "run" / name).write_text("measured\n")
     assert said in _refused(argv, capsys)
+    assert (tmp_path / "run" / "batches.csv").read_text() == "measured\n"
 
 
 def test_resume_refuses_every_other_sweep_flag(tmp_path, capsys):

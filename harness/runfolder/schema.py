@@ -71,6 +71,7 @@ __all__ = [
     "part_columns",
     "CALIBRATION",
     "CHECKS",
+    "MEASURED",
     "CORRECTNESS",
     "CROSSOVERS",
     "DERIVED",
@@ -131,6 +132,9 @@ PEERS = "peers.csv"
 STAGES = "stages.json"
 #: An A/A calibration's record (``tribench calibrate --out RUN_DIR``).
 CALIBRATION = "calibration.json"
+
+#: What the runner measured: a run folder's files no command may write over.
+MEASURED = (RUN, LOCK, BATCHES, PROCESSES, CHECKS, TRAVERSALS, STAGES)
 
 ESTIMATES = "estimates.csv"
 SPEEDUPS = "speedups.csv"
