@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..harness.stats.defaults import MAX_MARGIN
 from . import flags
 
 __all__ = ["add_parser", "run"]
@@ -18,7 +19,9 @@ def add_parser(sub) -> None:
     p.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder)
     p.add_argument("--baseline", metavar="NAME", help="baseline kernel (default moller_seed, else the first)")
     p.add_argument(
-        "--margin", type=flags.float_in(0, 1), help="equivalence margin, in [0, 1] (default: the one run.json records)"
+        "--margin",
+        type=flags.float_in(0, MAX_MARGIN),
+        help=f"equivalence margin, in [0, {MAX_MARGIN:g}] (default: the one run.json records)",
     )
     p.set_defaults(func=run)
 

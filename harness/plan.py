@@ -265,7 +265,8 @@ class Sweep:
                 raise UserError(f"a workload must be a PairSpec, MeshSpec or SeedSpec, got {type(spec).__name__}")
         ids = tuple(workload_id(s) for s in self.workloads)
         if len(set(ids)) != len(ids):
-            raise UserError("the same workload is listed twice")
+            twice = sorted({s.summary() for s, i in zip(self.workloads, ids, strict=True) if ids.count(i) > 1})
+            raise UserError(f"a workload is listed twice (two flags or tables make the same one): {'; '.join(twice)}")
         put(self, "workload_ids", ids)
         self._check_workload_kernels()
         if self.sequential is not None and not isinstance(self.sequential, Sequential):

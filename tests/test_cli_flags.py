@@ -215,6 +215,8 @@ def test_a_flag_the_sweep_would_ignore_is_refused_in_one_line(extra, said, tmp_p
         (["calibrate", "--workload", "/etc"], "'/etc' is not a workload id"),
         (["cache", "prune", "--max-size", "9" * 400], "too large"),
         (["export", "run", "--out", "run/batches.csv"], "is a measured file of the run folder"),
+        (["workloads", "make", "pairs", "--n", "64", "--scale", "1e300"], "scale = 1e+300 is outside what float64"),
+        (["workloads", "make", "pairs", "--n", "64", "--scale", "1e-320"], "scale = 1e-320 is outside what float64"),
         (["compare", "run", "run", "--out", "run/run.json"], "is a measured file of the run folder"),
     ],
 )

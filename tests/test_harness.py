@@ -82,8 +82,12 @@ def test_sweep_round_trips_through_json_and_rejects_bad_input():
         small_sweep(kernels=("nope",))
     with pytest.raises(ValueError, match="processes"):
         small_sweep(processes=0)
-    with pytest.raises(ValueError, match="listed twice"):
-        small_sweep(workloads=(PairSpec(n=5), PairSpec(n=5)))
+    with pytest.raises(ValueError, match=r"a workload is listed twice .*: pairs n=5 "):
+        small_sweep(workloads=(PairSpec(n=5), PairSpec(n=5)))  # it names the workload
+    # numpy's integers are integers (a notebook's arange), its non-integral floats are not
+    assert PairSpec(n=np.int64(5)) == PairSpec(n=5)
+    with pytest.raises(ValueError, match="must be an integer"):
+        PairSpec(n=np.float64(5.5))
 
 
 def test_sweep_file_expands_lists_into_a_grid(tmp_path):

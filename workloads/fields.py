@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import numbers
 import os
 import re
 from collections.abc import Sequence
@@ -33,10 +34,10 @@ MAX_RAYS = 50_000_000
 
 
 def check_int(name: str, value: Any, lo: int, hi: int) -> int:
-    if (
+    if (  # numpy's integers and floats are numbers.Integral and numbers.Real too
         isinstance(value, bool)
-        or not isinstance(value, (int, float))
-        or (isinstance(value, float) and not value.is_integer())
+        or not isinstance(value, numbers.Real)
+        or (not isinstance(value, numbers.Integral) and not float(value).is_integer())
     ):
         raise UserError(f"{name} must be an integer, got {value!r}")
     value = int(value)

@@ -412,10 +412,12 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
             break
         redrawn += len(todo)
     else:
-        raise UserError(
-            f"{len(todo)} pair(s) kept losing their safe margins when rounded to {dtype}: "
+        cause = (
             f"offset/scale = {abs(spec.offset) / scale:.3g} is too large for this precision"
+            if spec.offset
+            else f"scale = {scale:.3g} is outside what {dtype} holds with its products (they overflow or underflow)"
         )
+        raise UserError(f"{len(todo)} pair(s) kept losing their safe margins when rounded to {dtype}: {cause}")
     ans = intersect_pairs(o, d, tri, t_max=t_max)
     codes = _classify(ans, d, tri, t_max)
     if not np.array_equal(codes, kinds):  # construction and classification disagree: a bug
