@@ -496,6 +496,11 @@ def _execute(
             f"interrupted: {done_before + ran} of {total} batches saved in {run_dir}; "
             f"finish with: tribench sweep --resume {run_dir}"
         ) from None
+    except SweepError as exc:  # a worker died: what is kept, and how to go on once its cause is fixed
+        raise SweepError(
+            f"{exc}; {done_before + ran} of {total} batches saved in {run_dir}; once the cause is fixed, "
+            f"finish with: tribench sweep --resume {run_dir}"
+        ) from None
     except OSError as exc:  # a full disk, mostly; the writers left whole lines only
         raise UserError(
             f"cannot write {exc.filename or run_dir}: {exc.strerror or exc}; {done_before + ran} of {total} "
@@ -563,7 +568,6 @@ def _run_process(
     try:
         run_worker(worker, job.to_json(), env, handlers, f"worker of process {process}")
     except WorkerError as exc:
-        lost = f" ({len(expected)} batches not run)" if expected else ""
-        raise SweepError(f"{exc}{lost}") from None
+        raise SweepError(str(exc)) from None
     if expected:
-        raise SweepError(f"worker of process {process} exited with code 0 ({len(expected)} batches not run)")
+        raise SweepError(f"worker of process {process} ended with {len(expected)} of its batches not run")
