@@ -253,6 +253,16 @@ def test_a_kernel_file_may_not_take_a_built_in_name(tmp_path, builds):
 
 
 @pytest.mark.slow
+def test_two_kernel_files_may_not_declare_the_same_name(tmp_path, builds):
+    (tmp_path / "other").mkdir()
+    twin = tmp_path / "other" / "my_moller.c"
+    twin.write_text(EXAMPLE.read_text().replace("u >= 0", "!(u < 0)"))  # other code, the same name
+    done = tribench("info", "--kernel-file", EXAMPLE, "--kernel-file", twin, cwd=tmp_path, cache=builds)
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    assert f"my_moller (declared by {EXAMPLE}): the name of another kernel file's kernel" in done.stderr
+
+
+@pytest.mark.slow
 def test_a_file_without_registration_lines_says_what_it_lacks(tmp_path, builds):
     bare = tmp_path / "bare.c"
     bare.write_text('#define TB_FILE_CITATION ""\n')
