@@ -39,7 +39,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .common import UserError, UserTypeError
+# Nothing of the package is imported here at module level: pytest imports this file as a plain
+# module when the checkout's folder is no Python name (a CI clone's), where a relative import fails.
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -69,6 +70,13 @@ class Results:
         return self.tables["ranking.csv"]
 
 
+def _user_error(kind: str, message: str) -> Exception:
+    """tribench's UserTypeError (``kind`` "type") or UserError, imported when raised."""
+    from .common import UserError, UserTypeError
+
+    return UserTypeError(message) if kind == "type" else UserError(message)
+
+
 def _default_out(out: str | Path | None) -> Path:
     from .harness.runfolder import default_run_dir
 
@@ -78,9 +86,9 @@ def _default_out(out: str | Path | None) -> Path:
 def _names(value: Any, what: str) -> tuple[str, ...]:
     """A non-empty list of names (kernels): one string is refused, not read as a list of letters."""
     if isinstance(value, str):
-        raise UserTypeError(f"{what} must be a list of names, not one string: give [{value!r}]")
+        raise _user_error("type", f"{what} must be a list of names, not one string: give [{value!r}]")
     if not isinstance(value, Sequence) or not value or not all(isinstance(v, str) for v in value):
-        raise UserTypeError(f"{what} must be a non-empty list of names, got {_shown(value)}")
+        raise _user_error("type", f"{what} must be a non-empty list of names, got {_shown(value)}")
     return tuple(value)
 
 
@@ -89,21 +97,23 @@ def _specs(value: Any) -> tuple:
     from .workloads.spec import MeshSpec, PairSpec
 
     if isinstance(value, (PairSpec, MeshSpec)):
-        raise UserTypeError(f"workloads must be a list of specs, not one spec: give [{type(value).__name__}(...)]")
+        raise _user_error(
+            "type", f"workloads must be a list of specs, not one spec: give [{type(value).__name__}(...)]"
+        )
     if (
         isinstance(value, str)
         or not isinstance(value, Sequence)
         or not value
         or not all(isinstance(v, (PairSpec, MeshSpec)) for v in value)
     ):
-        raise UserTypeError(f"workloads must be a non-empty list of PairSpec or MeshSpec, got {_shown(value)}")
+        raise _user_error("type", f"workloads must be a non-empty list of PairSpec or MeshSpec, got {_shown(value)}")
     return tuple(value)
 
 
 def _path(value: Any, what: str) -> Path:
     """A folder's path (str or os.PathLike)."""
     if not isinstance(value, (str, os.PathLike)):
-        raise UserTypeError(f"{what} must be a folder's path (str or pathlib.Path), got {_shown(value)}")
+        raise _user_error("type", f"{what} must be a folder's path (str or pathlib.Path), got {_shown(value)}")
     return Path(value)
 
 
@@ -117,14 +127,14 @@ def _builds(value: Any) -> tuple[str, ...]:
 def _flag(value: Any, what: str) -> bool:
     """True or False: a string such as "no" is refused, never read as true."""
     if not isinstance(value, bool):
-        raise UserTypeError(f"{what} must be True or False, got {_shown(value)}")
+        raise _user_error("type", f"{what} must be True or False, got {_shown(value)}")
     return value
 
 
 def _optional_flag(value: Any, what: str) -> bool | None:
     """True, False or None (the default: a bar on a terminal, plain lines elsewhere)."""
     if value is not None and not isinstance(value, bool):
-        raise UserTypeError(f"{what} must be True, False or None, got {_shown(value)}")
+        raise _user_error("type", f"{what} must be True, False or None, got {_shown(value)}")
     return value
 
 
@@ -202,7 +212,7 @@ def sweep(
         builds=_builds(builds),
     )
     if baseline is not None and baseline not in spec.kernels:  # refused before the sweep, not after it
-        raise UserError(f"baseline {baseline!r} is not one of the kernels swept: {', '.join(spec.kernels)}")
+        raise _user_error("value", f"baseline {baseline!r} is not one of the kernels swept: {', '.join(spec.kernels)}")
     folder = _default_out(out)
     run_sweep(
         spec, folder, say=lambda line: print(f"tribench.sweep: {line} -> {folder}", file=sys.stderr), progress=progress
@@ -263,7 +273,7 @@ def compare(*run_dirs: str | Path) -> MultiComparison:
     from .reports.tables.compare import compare_many
 
     if len(run_dirs) == 1 and isinstance(run_dirs[0], (list, tuple)):
-        raise UserTypeError("give the run folders as separate arguments: tribench.compare('run_a', 'run_b')")
+        raise _user_error("type", "give the run folders as separate arguments: tribench.compare('run_a', 'run_b')")
     return compare_many([load_run(_path(r, "each run folder")) for r in run_dirs])
 
 

@@ -218,3 +218,19 @@ def test_each_package_says_what_it_owns_and_may_import(package):
     doc = ast.get_docstring(ast.parse((ROOT / package / "__init__.py").read_text(encoding="utf-8")))
     assert doc, f"{package}/__init__.py has no docstring"
     assert "may import" in doc, f"{package}/__init__.py: the docstring should say what the package may import"
+
+
+def test_the_facade_imports_under_any_name():
+    """pytest imports the root's __init__.py as a plain module when the checkout's folder is no Python
+    name (``tribench-ci-1``): it must import nothing of the package at module level."""
+    import importlib.util
+    import sys
+
+    spec = importlib.util.spec_from_file_location("any_name", ROOT / "__init__.py")
+    assert spec is not None and spec.loader is not None
+    sys.modules["any_name"] = module = importlib.util.module_from_spec(spec)  # as an import does
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        del sys.modules["any_name"]
+    assert module.__all__[0] == "Results"
