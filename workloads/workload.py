@@ -12,8 +12,7 @@ closest hit and any nearer near-miss, for a miss minus the smallest over the for
 (``-inf`` when none came near). ``ref_edge_clearance``: the same crossings' distance from the nearest edge
 line in units of a kernel's rounding (:func:`tribench.workloads.reference.edge_clearance`), signed alike.
 A ray is ambiguous (:meth:`Workload.ambiguous`) when either is small: a finite-precision kernel may
-rightly answer it otherwise (camera rays through shared edges; rays at small triangles far from the
-origin, where rounding reaches past a fixed barycentric margin)."""
+rightly answer it otherwise (docs/decisions.md, "Ambiguous rays")."""
 
 from __future__ import annotations
 
@@ -32,9 +31,8 @@ __all__ = ["AMBIGUOUS_MARGIN", "ROUNDING_UNITS", "Workload", "ambiguous_rays", "
 
 #: Default ``|ref_edge_margin|`` below which a ray counts as ambiguous.
 AMBIGUOUS_MARGIN = 1e-5
-#: ``|ref_edge_clearance|`` below this many epsilons of the workload's precision: ambiguous too.
-#: Every kernel decides the split quads of tests/test_reference.py the reference's way beyond
-#: 3.3 epsilons (the worst, Curless); 8 leaves room for rays no test has drawn.
+#: ``|ref_edge_clearance|`` below this many epsilons of the workload's precision: ambiguous too. Every kernel
+#: decides as the reference does beyond 3.35 (docs/decisions.md, "Ambiguous rays"); 8 leaves room.
 ROUNDING_UNITS = 8.0
 
 _ARRAY_NAMES = (
