@@ -1,9 +1,5 @@
-"""What every tribench package shares, at the bottom of the import order.
-
-``tribench.common`` may import nothing else of tribench, and every other package
-may import it: the one user-error type (:mod:`.errors`) and the one atomic
-file write (:mod:`.files`).
-"""
+"""What every tribench package shares, at the bottom of the import order (it may import nothing else of
+tribench): the user-error types (:mod:`.errors`) and the atomic file write (:mod:`.files`)."""
 
 from .errors import Notice, UserError, UserTypeError
 from .files import atomic_write, read_user_text, write_bytes, write_text

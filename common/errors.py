@@ -1,13 +1,7 @@
-"""The one user-error type of tribench, at the bottom of the import order.
+"""The user-error types; the rule they follow (one line, exit 2; anything else is a bug) is docs/input.md's.
 
-A user's mistake -- an argument, a file, a command-line flag, the
-environment (a full disk, a missing permission) -- raises :class:`UserError`
-with a message that names the thing and, where there is one, the fix. The
-``tribench`` command prints such an error as one line and exits 2; anything
-else is a bug in tribench and keeps its traceback.
-
-``UserError`` is a ``ValueError`` and :class:`UserTypeError` also a
-``TypeError``, so code that caught the built-in types before still works.
+``UserError`` is a ``ValueError`` and :class:`UserTypeError` a ``TypeError`` too, so code that caught the
+built-in types still works.
 
 >>> try:
 ...     raise UserError("--rounds must be at least 1, got 0")
@@ -30,5 +24,4 @@ class UserTypeError(UserError, TypeError):
 
 
 class Notice(UserWarning):
-    """Something the user should know that stops nothing (a corrupt cache file
-    rebuilt, say); the ``tribench`` command prints it as one line."""
+    """Something the user should know that stops nothing (a corrupt cache file rebuilt); printed as one line."""

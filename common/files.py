@@ -1,11 +1,5 @@
-"""The one way tribench writes a whole file: atomically, or not at all.
-
-A file is written under a unique temporary name in its own folder, flushed to
-disk, then renamed over the target (``os.replace``, atomic on POSIX), so a
-reader never sees half a file and a full disk or a kill leaves the previous
-version, or nothing, never a truncated one. A failure to write is the
-environment's, not a bug: it raises :class:`~tribench.common.UserError`
-naming the file.
+"""The one way tribench writes a whole file: atomically, so a reader, a full disk or a kill never leaves a
+truncated one; a failure to write is the environment's, a UserError naming the file.
 
 >>> import tempfile, pathlib
 >>> folder = pathlib.Path(tempfile.mkdtemp())
@@ -35,16 +29,11 @@ __all__ = ["atomic_write", "read_user_text", "write_bytes", "write_text"]
 
 @contextmanager
 def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "utf-8") -> Iterator[IO[Any]]:
-    """Open a temporary file beside ``path``; on a clean exit, replace ``path`` with it.
+    """Open a temporary file beside ``path``; on a clean exit, flush it and rename it over ``path``.
 
-    ``mode`` is ``"w"`` (text, ``encoding``, ``"\\n"`` line ends) or
-    ``"wb"``. The parent folder is created. The file gets the usual
-    permissions (``0o666`` less the umask, as ``open`` would give; not
-    ``mkstemp``'s private ``0o600``). If the body raises (Ctrl-C included),
-    or the write fails, the temporary file is removed and ``path`` is left
-    as it was; an ``OSError`` (a full disk, a missing permission, a file
-    where a folder should be) becomes a ``UserError`` that names ``path``.
-    """
+    ``mode`` is ``"w"`` (text, ``"\\n"`` line ends) or ``"wb"``. The parent folder is created, and the file
+    gets ``open``'s permissions (``0o666`` less the umask), not ``mkstemp``'s ``0o600``. If the body raises
+    (Ctrl-C included) or the write fails, ``path`` is left as it was; an ``OSError`` becomes a ``UserError``."""
     if mode not in ("w", "wb"):
         raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
     path = Path(path)
@@ -96,12 +85,8 @@ def write_bytes(path: str | Path, data: bytes) -> None:
 
 
 def read_user_text(path: str | Path, what: str, error: type[UserError] = UserError) -> str:
-    """The text of a file the user named (a sweep file, a scene), as UTF-8.
-
-    Every way it can fail is an ``error`` (a :class:`UserError` or a subclass)
-    that starts with the path and names ``what`` the file should be: missing,
-    a folder, not text, unreadable.
-    """
+    """The UTF-8 text of a file the user named; every failure (missing, a folder, not text, unreadable) is an
+    ``error`` that starts with the path and names ``what`` the file should be."""
     path = Path(path)
     try:
         return path.read_text(encoding="utf-8")

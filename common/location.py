@@ -1,5 +1,4 @@
-"""Where the cache lives (workloads, BVHs, meshes, kernel files' builds): one function, below every module
-that reads or writes it."""
+"""Where the cache lives: one function, below every module that reads or writes it."""
 
 from __future__ import annotations
 

@@ -1,17 +1,6 @@
-"""Builds of the extension by another compiler or with other flags (``--builds "gcc -O2;clang -O3"``).
-
-A build spec is a compiler and its flags, as one would type them. The
-extension's C files are compiled by that compiler with ``-std=c11`` (the
-language they are written in), ``-DNDEBUG``, the platform's flag for shared
-code (``-fPIC``) and the spec's flags, nothing else: ``gcc -O2`` is exactly
-that. The installed extension is the build named :data:`INSTALLED` (pip's:
-``-O3 -ffp-contract=off -fno-math-errno``, no ``-march``). A build's module
-is cached under ``cache_dir()/kernel_builds``, named by the hash of the
-sources, the compiler's ``--version`` and the flags, so it is compiled once
-per machine. :func:`use_build` makes a process's built-in kernels (and the
-kernel files it loads afterwards) those of one build: a worker of a sweep
-runs one build.
-"""
+"""Builds of the extension by another compiler or with other flags (``--builds "gcc -O2;clang -O3"``; what a
+build is: docs/builds.md). :data:`INSTALLED` is pip's build; :func:`use_build` makes a process's built-in
+kernels, and the kernel files it loads afterwards, one build's: a worker of a sweep runs one build."""
 
 from __future__ import annotations
 
@@ -99,9 +88,8 @@ def _tribench_sets(flag: str) -> str:
 
 @functools.cache
 def toolchain_of(spec: str) -> Toolchain:
-    """The compiler, flags and link command of a build spec (the installed one's for :data:`INSTALLED`).
-
-    One per spec and process, so its ``--version`` and its hash of the sources are made once."""
+    """The compiler, flags and link command of a build spec (:data:`INSTALLED`: the installed one's); one per
+    spec and process, so its ``--version`` and its hash of the sources are made once."""
     if spec == INSTALLED:
         return installed()
     cc, *flags = shlex.split(spec)

@@ -1,10 +1,5 @@
-"""A bounding volume hierarchy over a triangle array, with a native kernel's block test at its leaves.
-
-The tree is built and checked in C (``ext/bvh.h``), traversed there too (``ext/bvh_trace.h``) and lives in
-numpy arrays between calls (:class:`BVH`): :func:`build_bvh` makes one,
-:func:`adopt_bvh` takes one made elsewhere (a cache file) after checking every
-invariant of it, and :meth:`BVH.intersect` and :meth:`BVH.time` trace rays.
-"""
+"""A bounding volume hierarchy over a triangle array, a native kernel's block test at its leaves: built,
+checked and traversed in C (``ext/bvh.h``, ``ext/bvh_trace.h``), kept in numpy arrays between calls."""
 
 from __future__ import annotations
 
@@ -21,8 +16,7 @@ from .registry import MODES, Mode, check_kernel, core_of, kernel_info, kernel_mo
 
 
 def bvh_kernel_names() -> tuple[str, ...]:
-    """Kernels a :class:`BVH` can take as its leaf test: the native kernels
-    (blocks of 16 triangles, one block test per leaf block).
+    """Kernels a :class:`BVH` can take as its leaf test: the native kernels (blocks of 16 triangles).
 
     >>> "moller_trumbore_fma" in bvh_kernel_names()
     True
@@ -61,13 +55,8 @@ def _check_layout(layout: object) -> int:
 
 
 class Trace(NamedTuple):
-    """Answers of :meth:`BVH.intersect`, with the work each ray took.
-
-    hits : Hits
-        As :func:`intersect` answers (indices are the caller's triangle indices).
-    counts : int64 ndarray, shape (N, 4)
-        Per ray, the columns of :data:`COUNT_NAMES`.
-    """
+    """Answers of :meth:`BVH.intersect` (as :func:`intersect`'s, in the caller's triangle indices) and, per ray,
+    its work: int64 (N, 4), the columns of :data:`COUNT_NAMES`."""
 
     hits: Hits
     counts: np.ndarray
@@ -75,11 +64,8 @@ class Trace(NamedTuple):
 
 @dataclass(frozen=True)
 class TraceBatch:
-    """One timed BVH batch: ``loops`` passes over the rays, timed inside C.
-
-    ``hits``, ``t_sum`` and ``uv_sum`` as in :class:`Batch`; the counts are
-    summed over every ray of every pass (:data:`COUNT_NAMES`).
-    """
+    """One timed BVH batch: ``loops`` passes over the rays, timed inside C; ``hits``, ``t_sum`` and ``uv_sum`` as
+    in :class:`Batch`, the counts summed over every ray of every pass."""
 
     elapsed_ns: int
     loops: int
@@ -99,32 +85,15 @@ class TraceBatch:
 
 @dataclass(frozen=True, eq=False)
 class BVH:
-    """A bounding volume hierarchy over a triangle array, with one native
-    kernel's records at its leaves. Build with :func:`build_bvh`.
+    """A BVH over a triangle array with one native kernel's records at its leaves (:func:`build_bvh`).
 
-    The tree is ``ext/bvh.h``'s: binned SAH, deterministic, nodes depth first
-    (left child next), leaves of at most ``max_leaf`` triangles, each leaf on
-    whole blocks of 16 slots. Answers are always in the caller's triangle
-    indices; a traversal never sees the caller's array again.
-
-    Attributes
-    ----------
-    kernel : str
-    triangles : ndarray (K, 3, 3), read-only
-        The triangles as given (kept for validation and for reference checks).
-    nodes : ndarray (n_nodes, 8), read-only, the triangles' precision
-        Box corners (6 reals), then two uint32 per node (``nodes.view(np.uint32)``
-        columns 6-7 in float32; the first two uint32 of column 6 in float64):
-        inner ``(right child, 0)``, leaf ``(first slot, triangles)``.
-    perm : int64 ndarray (n_slots,), read-only
-        Slot -> caller's triangle index; ``-1`` for the padding of a leaf's last block.
-    prepared : Prepared
-        The kernel's records in slot order (``n_triangles`` = n_slots).
-    max_leaf : int
-    wide : ndarray (n_wide, 256 / itemsize), read-only
-        The same tree collapsed to wide nodes (``ext/bvh.h``'s ``tb_bvh_wide``), derived from
-        ``nodes``: what the default ``layout="wide"`` traverses.
-    """
+    ``ext/bvh.h``'s tree: binned SAH, deterministic, nodes depth first (left child next), leaves of at most
+    ``max_leaf`` triangles on whole blocks of 16 slots. ``nodes`` (n, 8), the triangles' precision: box corners
+    (6 reals), then two uint32 (``nodes.view(np.uint32)`` columns 6-7 in float32, the first two of column 6 in
+    float64), inner ``(right child, 0)``, leaf ``(first slot, triangles)``. ``perm``: slot -> the caller's
+    triangle index, ``-1`` for a leaf's padding. ``prepared``: the records in slot order. ``wide``: the same
+    tree in ``tb_bvh_wide`` nodes, which ``layout="wide"`` traverses. Every array is read-only, and answers
+    are in the caller's indices: a traversal never sees the caller's array again."""
 
     kernel: str
     triangles: np.ndarray
@@ -167,15 +136,11 @@ class BVH:
         allow_nonfinite: bool = False,
         layout: Layout = "wide",
     ) -> Trace:
-        """Trace every ray (untimed); the arguments as :func:`intersect`'s.
+        """Trace every ray (untimed); the arguments are :func:`intersect`'s.
 
-        ``closest`` finds the same triangle as brute force with the same
-        kernel (ties in ``t`` to the lowest index), up to rounding where two
-        triangles' hits are within a few ulps; ``any`` stops at the first hit.
-        With ``allow_nonfinite``, a ray with NaN or Inf in its origin or
-        direction is a miss (it is not traversed). ``layout`` picks the tree
-        and the walk (:data:`LAYOUTS`); all give the same closest hits (in mode
-        ``any``, a hit each, not always the same one).
+        ``closest`` finds brute force's triangle with the same kernel (ties to the lowest index), up to rounding
+        where two hits are within a few ulps; ``any`` stops at the first hit. With ``allow_nonfinite`` a ray with
+        NaN or Inf is a miss, not traversed. Every ``layout`` (:data:`LAYOUTS`) gives the same closest hits.
 
         >>> import numpy as np
         >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]], [[0., 0, 1], [1, 0, 1], [0, 1, 1]]])
@@ -206,14 +171,10 @@ class BVH:
         null_leaf: bool = False,
         layout: Layout = "wide",
     ) -> TraceBatch:
-        """Trace the rays ``loops`` times in C with the GIL released; time it.
-
-        ``null_leaf``: the same traversal with the leaf test replaced by a
-        compiler barrier (nothing is hit, so no interval shrinks; give each
-        ray's closest-hit ``t`` as ``t_max`` to traverse as if every ray found
-        its hit at once). Inputs must be finite; ``loops * len(origins)`` at
-        most :data:`MAX_BVH_BATCH_RAYS`. ``layout`` as in :meth:`intersect`.
-        """
+        """Trace the rays ``loops`` times in C with the GIL released; time it. Inputs must be finite, and
+        ``loops * len(origins)`` at most :data:`MAX_BVH_BATCH_RAYS`. ``null_leaf`` puts a compiler barrier in place
+        of the leaf test: nothing is hit, so give each ray's closest ``t`` as ``t_max`` to walk as if it found it
+        at once."""
         o, d, _, tm, isa = self._rays(origins, directions, mode, t_max, isa, False)
         which = _check_layout(layout)
         if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)):
@@ -256,12 +217,9 @@ DEFAULT_MAX_LEAF: int = 32
 
 
 def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = DEFAULT_MAX_LEAF) -> BVH:
-    """Build a BVH over ``triangles`` (K, 3, 3), float32 or float64, finite,
-    with ``kernel``'s records at its leaves (one of :func:`bvh_kernel_names`).
-
-    ``max_leaf`` (1..1024): the most triangles in one leaf (default :data:`DEFAULT_MAX_LEAF`). Exactly
-    flat triangles become records no ray hits, as
-    :func:`prepare` makes them. The same input gives the same tree, bit for bit.
+    """A BVH over finite ``triangles`` (K, 3, 3) with ``kernel``'s records at its leaves (one of
+    :func:`bvh_kernel_names`), leaves of at most ``max_leaf`` (1..1024) triangles. Exactly flat triangles get
+    records no ray hits, as :func:`prepare` makes them; the same input gives the same tree, bit for bit.
 
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
@@ -330,17 +288,10 @@ def _frozen_bvh(kernel: str, tris: np.ndarray, nodes: np.ndarray, perm: np.ndarr
 def adopt_bvh(
     kernel: str, triangles: np.ndarray, nodes: np.ndarray, perm: np.ndarray, records: np.ndarray, max_leaf: int
 ) -> BVH:
-    """A :class:`BVH` from arrays made elsewhere (a cache file): the
-    ``nodes``, ``perm`` and ``prepared.records`` of a :func:`build_bvh` over
-    the same ``triangles`` with the same ``kernel`` and ``max_leaf``.
-
-    Nothing is trusted. The C layer checks every structural invariant of the
-    tree before it can be traversed (node order and indices, depth, boxes
-    inside their parents and around their triangles, leaves on whole blocks
-    of 16 slots, ``perm`` a permutation of the triangles plus padding), and
-    the records must be, bit for bit, what the kernel prepares for the
-    triangles ``perm`` names (flat triangles aside, whose records no ray
-    hits). Raises :class:`~tribench.common.UserError` naming the first fault.
+    """A :class:`BVH` from arrays made elsewhere (a cache file): a :func:`build_bvh`'s ``nodes``, ``perm`` and
+    records over the same ``triangles``, ``kernel`` and ``max_leaf``. Nothing is trusted: C checks every
+    structural invariant of the tree, and the records must be, bit for bit, what the kernel prepares for the
+    triangles ``perm`` names. Raises :class:`~tribench.common.UserError` naming the first fault.
 
     >>> import numpy as np
     >>> tri = np.random.default_rng(0).normal(size=(100, 3, 3))

@@ -1,11 +1,6 @@
-"""Argument checks shared by the kernel calls: dtypes, names, flags, arrays and t_max.
-
-Each check raises :class:`~tribench.common.UserError` (a bad value) or
-:class:`~tribench.common.UserTypeError` (a bad type) naming the argument, and
-returns the value as the calls use it. Nothing here knows the kernels: the
-registry checks kernel names (:func:`tribench.ext.registry.check_kernel`), and
-a whole workload is checked by :func:`tribench.ext.intersection.check_workload`.
-"""
+"""Argument checks shared by the kernel calls: each raises a UserError (a bad value) or UserTypeError (a bad
+type) naming the argument, and returns the value as the calls use it. Kernel names and whole workloads are
+checked by :func:`tribench.ext.registry.check_kernel` and :func:`tribench.ext.intersection.check_workload`."""
 
 from __future__ import annotations
 
@@ -49,9 +44,8 @@ def check_flag(name: str, value: object) -> bool:
 
 
 def plain_array(name: str, a: np.ndarray) -> np.ndarray:
-    """``a`` as a plain ndarray view (never a copy). A masked array is refused:
-    the kernels read every value, masked or not, so its mask would be ignored
-    silently (and a NaN under the mask would pass the finiteness check)."""
+    """``a`` as a plain ndarray view (never a copy). A masked array is refused: the kernels read every value, so
+    its mask would be ignored silently (and a NaN under it would pass the finiteness check)."""
     if isinstance(a, np.ma.MaskedArray):
         raise UserTypeError(
             f"{name} is a numpy.ma.MaskedArray: the kernels would read the masked values "
@@ -93,9 +87,8 @@ def check_same_dtype(**arrays: np.ndarray) -> np.dtype:
 
 
 def check_t_max(t_max, n: int, dtype: np.dtype) -> np.ndarray:
-    """t_max per ray: None means +inf; a real number applies to every ray.
-    NaN and values <= 0 are errors (no hit could ever count). A number past
-    the dtype's range rounds to inf, which is what it means: no limit."""
+    """t_max per ray: None means +inf, a real number applies to every ray. NaN and values <= 0 are errors (no hit
+    could count); a number past the dtype's range rounds to inf, which is what it means: no limit."""
     if t_max is None:
         return np.full(n, np.inf, dtype=dtype)
     if isinstance(t_max, (int, float, np.integer, np.floating)) and not isinstance(t_max, (bool, np.bool_)):

@@ -1,11 +1,6 @@
-"""The built module's machine code read back (objdump), and what a kernel's block loop executes.
-
-Two readers: tests/test_ext_build.py holds each wide kernel's declared operation mix
-(``tb_<name>_mix``, the port model's input) to its compiled AVX-512 loop, and
-bench/compiled_mix.py counts the loop each ISA compiled, to bound a form held to AVX2
-by the instructions it really runs there (AVX2 has no mask registers: its masks are
-vectors, and combining them costs logic instructions the AVX-512 count does not have).
-"""
+"""The built module's machine code read back (objdump), and what a kernel's block loop executes: the
+instruction mix tests/test_ext_build.py holds each wide kernel's declared ``tb_<name>_mix`` to, and that
+bench/compiled_mix.py counts per ISA (AVX2 has no mask registers, so its masks cost logic instructions)."""
 
 from __future__ import annotations
 

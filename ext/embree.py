@@ -1,14 +1,9 @@
 """Native Embree, the peer of tribench's BVH: Embree's own C API, timed in C (``ext/peers/embree.c``).
 
-It is an optional build step: the module is compiled on first use with the
-installed extension's toolchain against the system's Embree 3 (Debian's
-``libembree-dev``; ``pkg-config embree3`` where it is installed so) and
-cached under ``cache_dir()/kernel_builds`` like a build. Where there is no
-Embree, :func:`missing` says why in one line and :func:`load` raises it.
-The embreex wheel bundles an Embree 4 library without its headers, so it
-cannot be compiled against; tribench's peers time it through Python as a
-labelled secondary (:mod:`tribench.harness.jobs.peers`).
-"""
+The module is compiled on first use with the installed extension's toolchain against the system's Embree 3
+(``libembree-dev``; ``pkg-config embree3`` where it knows it) and cached like a build; where there is none,
+:func:`missing` says why in one line. The embreex wheel bundles Embree 4 without its headers, so tribench's
+peers time it through Python instead (:mod:`tribench.harness.jobs.peers`)."""
 
 from __future__ import annotations
 
@@ -135,10 +130,9 @@ class Trace(NamedTuple):
 
 
 class EmbreeScene:
-    """An Embree scene of a float32 triangle array (high build quality, one thread); ``robust`` sets
-    Embree's watertight mode; ``isa="avx2"`` holds Embree to AVX2 (its device's ``max_isa``), as
-    tribench's ``isa="avx2"`` holds a kernel, and None lets it pick its widest. ``build_ns`` is the
-    build's wall time."""
+    """An Embree scene of a float32 triangle array (high build quality, one thread). ``robust`` sets Embree's
+    watertight mode; ``isa="avx2"`` holds it to AVX2 (its device's ``max_isa``), as tribench's ``isa`` holds a
+    kernel, None lets it pick its widest. ``build_ns``: the build's wall time."""
 
     def __init__(self, triangles: np.ndarray, robust: bool = False, isa: str | None = None) -> None:
         tris = check_array("triangles", triangles, (3, 3))

@@ -1,11 +1,6 @@
-"""Brute force: a kernel's prepared records, and every ray against every triangle.
-
-:func:`prepare` computes a kernel's records once (finding exactly flat
-triangles, :func:`flat`, on the way); :func:`intersect` runs the kernel
-untimed and returns each ray's answer (:class:`Hits`). :func:`check_workload`
-is every check of a kernel call on a workload, shared with the timed batches
-(:mod:`tribench.ext.timing`) and the BVH (:mod:`tribench.ext.bvh`).
-"""
+"""Brute force: a kernel's prepared records (:func:`prepare`) and every ray against every triangle
+(:func:`intersect`); :func:`check_workload` is every check of a call, shared with the timed batches and
+the BVH."""
 
 from __future__ import annotations
 
@@ -24,20 +19,9 @@ from .registry import MODES, Mode, core_of, kernel_info
 class Prepared:
     """A kernel's per-triangle records, computed once outside any timed loop.
 
-    Attributes
-    ----------
-    kernel : str
-    records : ndarray, read-only
-        Shape (K, stride) for a scalar kernel: raw vertices for kernels that
-        test them directly; vertices plus precomputed planes or normals for
-        the others. A wide kernel's are the same records in blocks of
-        L = ``kernel_info(kernel).lanes`` triangles (8 or 16), structure of
-        arrays: shape (ceil(K / L), stride, L), lanes past the last triangle
-        NaN (as a flat triangle's). An exactly flat triangle's record is all
-        NaN (every ray misses it), except for the seed replays, which keep
-        the seed's behaviour (see each kernel's header and :func:`flat`).
-    n_triangles : int
-    """
+    ``records`` is (K, stride) for a scalar kernel; a wide kernel's are in blocks of L = ``lanes`` triangles,
+    structure of arrays, (ceil(K / L), stride, L), lanes past the last triangle NaN. An exactly flat triangle's
+    record is all NaN (every ray misses it), but for the seed replays, which keep the seed's behaviour."""
 
     kernel: str
     records: np.ndarray
@@ -49,12 +33,8 @@ class Prepared:
 
 
 def prepare(kernel: str, triangles: np.ndarray, *, allow_nonfinite: bool = False) -> Prepared:
-    """Compute ``kernel``'s records for ``triangles`` of shape (K, 3, 3).
-
-    Exactly flat triangles (:func:`flat`) are found here, once, and every
-    kernel but the seed replays gets a record no ray can hit: the promise
-    that zero-area triangles are misses costs no time per test.
-    """
+    """``kernel``'s records for ``triangles`` (K, 3, 3). Exactly flat triangles (:func:`flat`) are found here,
+    once, and get a record no ray can hit (but for the seed replays): the promise costs no time per test."""
     info = kernel_info(kernel)
     tris = check_array("triangles", triangles, (3, 3), allow_nonfinite)
     n = len(tris)
@@ -75,14 +55,11 @@ _FILTER_ABSOLUTE = 2.0**-1000
 
 
 def flat(triangles: np.ndarray) -> np.ndarray:
-    """Which triangles have exactly zero area: a point, a repeated vertex, or
-    three vertices on one line, in exact arithmetic on the stored values.
+    """Which triangles have exactly zero area (a point, a repeated vertex, three vertices on a line), in exact
+    arithmetic on the stored values; a triangle with a non-finite vertex is not flat.
 
-    ``cross(v1 - v0, v2 - v0) == 0`` decided exactly: the cross product in
-    float64 with an error bound settles every triangle it is clearly not zero
-    for; the few others (flat or within rounding of it) are decided in rational
-    arithmetic (``fractions.Fraction`` holds a float exactly). A triangle with
-    a non-finite vertex is not flat. Returns a bool array, one per triangle.
+    The float64 cross product with an error bound settles every triangle it is clearly not zero for; the few
+    others are decided in rational arithmetic (``fractions.Fraction`` holds a float exactly).
 
     >>> import numpy as np
     >>> a = np.array([0.1, 0.2, 0.3])  # not dyadic
@@ -107,11 +84,8 @@ def flat(triangles: np.ndarray) -> np.ndarray:
 
 
 def check_workload(kernel, origins, directions, triangles, mode, t_max, isa, allow_nonfinite):
-    """Every check of a kernel call on a workload.
-
-    Returns (o, d, triangles, t_max, isa): t_max as an array of the
-    workload's precision (a new array when given None or a scalar), isa the
-    checked ISA name."""
+    """Every check of a kernel call on a workload: (o, d, triangles, t_max, isa), ``t_max`` an array of the
+    workload's precision (new for None or a number), ``isa`` checked."""
     info = kernel_info(kernel)
     check_name("mode", mode, MODES)
     if mode not in info.modes:
@@ -134,16 +108,9 @@ def check_workload(kernel, origins, directions, triangles, mode, t_max, isa, all
 
 
 class Hits(NamedTuple):
-    """Per-ray answers of ``intersect``.
-
-    index : int64 ndarray, shape (N,)
-        Triangle hit (``-1`` for a miss). Closest modes: ties go to the
-        lowest index. ``any``: some hit triangle, not necessarily the
-        closest. ``pairs``: ``i`` or ``-1``.
-    t, u, v : ndarray, shape (N,), the input precision
-        Distance and barycentrics of that hit (the point is
-        ``(1-u-v) v0 + u v1 + v v2``); nan for a miss.
-    """
+    """Per-ray answers of :func:`intersect`: ``index`` of the triangle hit (``-1`` for a miss; ties in the closest
+    modes to the lowest index; ``any``: some hit; ``pairs``: ``i``), and its ``t``, ``u``, ``v`` in the input
+    precision (the point ``(1-u-v) v0 + u v1 + v v2``; nan for a miss)."""
 
     index: np.ndarray  # type: ignore[assignment]  # the field hides tuple.index, as meant
     t: np.ndarray
@@ -168,25 +135,11 @@ def intersect(
 ) -> Hits:
     """Run ``kernel`` on a workload (untimed) and return every ray's answer.
 
-    Parameters
-    ----------
-    kernel : str
-        One of ``kernel_names()``.
-    origins, directions : ndarray, shape (N, 3)
-    triangles : ndarray, shape (K, 3, 3)
-        All three float32, or all float64: the kernel runs at that precision.
-        ``pairs`` needs K == N.
-    mode : str
-        ``pairs``, ``any``, ``closest`` or ``closest_uv`` (``closest`` and
-        ``closest_uv`` both return u and v here; they differ when timed).
-    t_max : None, number or ndarray (N,)
-        Only hits with ``t < t_max`` count (default: +inf).
-    isa : str, optional
-        Instruction set of a wide kernel (default: ``kernel_info(kernel).isa``).
-    allow_nonfinite : bool
-        By default NaN or Inf in any input is a ``ValueError``. With True they
-        reach the kernel, whose documented behaviour applies (the clean
-        kernels report a miss; see each kernel's header).
+    ``origins``, ``directions`` (N, 3) and ``triangles`` (K, 3, 3) are all float32 or all float64, the
+    kernel's precision (``pairs``: K == N). ``closest`` and ``closest_uv`` both return u and v here (they
+    differ when timed). ``t_max``: None (+inf), a number, or one per ray. ``isa`` defaults to
+    ``kernel_info(kernel).isa``. NaN or Inf is an error unless ``allow_nonfinite``: then it reaches the kernel,
+    whose header says what it does (the clean kernels report a miss).
 
     >>> import numpy as np
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
@@ -210,7 +163,6 @@ def intersect_pairs(kernel, origins, directions, triangles, **options) -> tuple[
 
 
 def intersect_closest(kernel, origins, directions, triangles, **options) -> tuple[np.ndarray, np.ndarray]:
-    """Closest hit of every ray against every triangle: ``(index, t)``
-    (see ``intersect``)."""
+    """Closest hit of every ray against every triangle: ``(index, t)`` (see ``intersect``)."""
     r = intersect(kernel, origins, directions, triangles, "closest", **options)
     return r.index, r.t

@@ -1,18 +1,7 @@
-"""Kernels of the user's own: a C file written against the kernel contract
-(``docs/own-kernel.md``), compiled as the built-in kernels are, cached, and
-joined to the registry.
-
-A kernel file is what a built-in kernel's file is (``ext/kernels/<name>.h``,
-the contract in ``ext/kernels.h`` and ``ext/native.h``) plus its own
-registration lines, ``TB_FILE_KERNELS(X)``, and ``TB_FILE_CITATION``. It is
-compiled with every C file of the extension, by the compiler and with the
-flags of the process's build (:func:`tribench.ext.toolchain.current`: the
-installed extension's, or a ``--builds`` build's), with the file's
-kernels in place of the built-in list: the loops, the BVH traversal and the
-glue are the built-in kernels' own. The module is cached under
-``cache_dir()/kernel_builds``, named by the hash of the file, the extension's
-sources, the compiler and the flags, so a second load costs an import.
-"""
+"""Kernels of the user's own (docs/own-kernel.md): a C file written against the kernel contract, compiled with
+every C file of the extension by the process's toolchain (:func:`tribench.ext.toolchain.current`), its
+kernels in place of the built-in list, cached under ``cache_dir()/kernel_builds`` by the hash of the file,
+the sources, the compiler and the flags, and joined to the registry."""
 
 from __future__ import annotations
 
@@ -41,21 +30,8 @@ class KernelFileError(UserError):
 
 @dataclass(frozen=True)
 class KernelFile:
-    """A kernel file loaded into this process.
-
-    Attributes
-    ----------
-    path : str
-        The file, resolved.
-    sha256 : str
-        Of its content when it was compiled.
-    kernels : tuple[str, ...]
-        The names it declares (its registration lines), in its order.
-    citation : str
-        The paper it cites (``TB_FILE_CITATION``).
-    module : str
-        The compiled module's file (in the cache).
-    """
+    """A kernel file loaded into this process: its resolved ``path``, the ``sha256`` of what was compiled, the
+    ``kernels`` it declares (in its order), its ``citation`` and its compiled ``module`` file (in the cache)."""
 
     path: str
     sha256: str
@@ -78,18 +54,13 @@ def kernel_file_of(kernel: str) -> KernelFile | None:
 
 
 def load_kernels(path: str | os.PathLike) -> tuple[str, ...]:
-    """Compile (or take from the cache) the kernel file at ``path`` and join its kernels to the registry.
+    """Compile (or take from the cache) the kernel file at ``path``, join its kernels to the registry and return
+    their names.
 
-    Returns the names the file declares. They are then known to every call
-    of :mod:`tribench.ext` (``kernel_info``, ``intersect``, ``make_job``,
-    ``build_bvh`` for a native kernel). Loading the same file again is
-    free; loading it after an edit compiles it again and the new code takes
-    over its names. Raises :class:`KernelFileError` when the file cannot be
-    read, does not compile (with the compiler's own ``file:line`` messages),
-    or declares the name of a built-in kernel. This checks no answer: the
-    command line and ``tribench.sweep`` check a file's kernels against the
-    float64 reference before timing them.
-    """
+    Loading the same file again is free; after an edit it is compiled again and the new code takes over its
+    names. Raises :class:`KernelFileError` when the file cannot be read, does not compile (with the compiler's
+    ``file:line`` messages) or declares a built-in kernel's name. No answer is checked here: the command line
+    and ``tribench.sweep`` check a file's kernels against the float64 reference before timing them."""
     source, text = _read(path)
     sha = hashlib.sha256(text).hexdigest()
     toolchain = current()

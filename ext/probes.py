@@ -1,10 +1,6 @@
-"""The core's own limits, measured: the FMA peak (:func:`fma_peak`) and the
-throughput of each operation class the kernels use (:func:`op_throughput`).
-
-The probes are C loops (``ext/fma_peak.h``, ``ext/probes.h``) timed with the
-GIL released; the harness states estimates as fractions of the peak of the
-moment, and the port model reads the per-class rates.
-"""
+"""The core's own limits, measured by C loops (``ext/fma_peak.h``, ``ext/probes.h``) with the GIL released:
+the FMA peak, which estimates are stated as fractions of, and each operation class's throughput, which the
+port model reads."""
 
 from __future__ import annotations
 
@@ -18,17 +14,8 @@ from . import _core
 
 @dataclass(frozen=True)
 class Peak:
-    """One run of the FMA peak probe.
-
-    Attributes
-    ----------
-    flops : float
-        Floating-point operations done (one FMA counts as two).
-    elapsed_ns : int
-    isa : str
-        ``"avx2+fma"`` (8 float lanes, fused) or ``"scalar"`` (the portable
-        fallback: separate multiply and add on one lane).
-    """
+    """One run of the FMA peak probe: ``flops`` (an FMA counts two) on ``isa``, ``"avx2+fma"`` or ``"scalar"``
+    (the portable fallback: a separate multiply and add on one lane)."""
 
     flops: float
     elapsed_ns: int
@@ -50,16 +37,8 @@ OP_CLASSES: tuple[str, ...] = _core.op_classes()
 
 @dataclass(frozen=True)
 class OpThroughput:
-    """Lane-operations per ns of each operation class on one ISA's widest vector.
-
-    Attributes
-    ----------
-    isa : str
-        ``"avx512"``, ``"avx2"`` (with FMA) or ``"baseline"`` (SSE2 on x86-64).
-    float32, float64 : dict[str, float]
-        Per class of :data:`OP_CLASSES` (``fma, mul, add, cmp, logic, div, load,
-        fma_add, fma_mul``), the best rate of the probe's repeats.
-    """
+    """Lane-operations per ns of each class of :data:`OP_CLASSES` on one ISA's widest vector (``"avx512"``,
+    ``"avx2"`` with FMA, or ``"baseline"``), per precision: the best of the probe's repeats."""
 
     isa: str
     float32: dict[str, float]
@@ -76,12 +55,8 @@ def probe_isas() -> tuple[str, ...]:
 
 
 def op_throughput(isa: str | None = None, *, target_ns: float = 2e6, repeats: int = 3) -> OpThroughput:
-    """Probe every operation class on ``isa`` (default: the widest runnable) in both precisions.
-
-    Each probe runs 12 independent chains of one class (ext/probes.h) for about
-    ``target_ns`` (scaled from a short first run), timed in C with the GIL
-    released; the best of ``repeats`` is kept. About 0.1 s in all.
-    """
+    """Probe every operation class on ``isa`` (default: the widest runnable) in both precisions: 12 independent
+    chains of one class for about ``target_ns`` each, the best of ``repeats`` kept; about 0.1 s in all."""
     runnable = probe_isas()
     isa = runnable[0] if isa is None else isa
     if isa not in runnable:
@@ -100,12 +75,8 @@ def op_throughput(isa: str | None = None, *, target_ns: float = 2e6, repeats: in
 
 
 def fma_peak(iterations: int = 200_000, *, force_scalar: bool = False) -> Peak:
-    """Measure this core's arithmetic peak with independent FMA chains.
-
-    Each iteration updates 12 independent 8-lane accumulators with one FMA
-    (192 flops); the AVX2+FMA loop is chosen at run time when the CPU has
-    both, else a scalar loop runs. 200 000 iterations take about 1-2 ms on a
-    current x86 core. The GIL is released.
+    """This core's arithmetic peak: 12 independent 8-lane FMA chains (192 flops an iteration), AVX2+FMA where the
+    CPU has both, else a scalar loop; 200 000 iterations take 1-2 ms on a current x86 core.
 
     >>> p = fma_peak(1000)
     >>> p.flops > 0 and p.elapsed_ns >= 0

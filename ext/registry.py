@@ -1,9 +1,5 @@
-"""The kernel registry as Python reads it: names, declared properties, modes and build.
-
-Every property comes from the compiled module (its registration lines in
-``ext/kernels/list.h`` and the kernels' files): nothing here is inferred from
-a kernel's name.
-"""
+"""The kernel registry as Python reads it: names, declared properties, modes and build, every property from
+the compiled module (``ext/kernels/list.h`` and the kernels' files), none inferred from a kernel's name."""
 
 from __future__ import annotations
 
@@ -32,13 +28,7 @@ _FILES: dict[str, str] = {}  # a kernel file's kernel -> the file
 
 
 def kernel_names(internal: bool = False) -> tuple[str, ...]:
-    """Names of the registered kernels, in registry order.
-
-    Parameters
-    ----------
-    internal : bool
-        Also list the internal kernels (the harness's A/A copy and
-        double-work kernel), after the others.
+    """Names of the registered kernels, in registry order; ``internal`` adds the harness's honesty-check kernels.
 
     >>> "moller_trumbore" in kernel_names()
     True
@@ -51,70 +41,18 @@ def kernel_names(internal: bool = False) -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class KernelInfo:
-    """What the registry says of one kernel.
+    """What the registry says of one kernel: each property is declared once (docs/kernels.md, "Where a kernel's
+    properties live") and read here from the extension.
 
-    Every property is declared once, on the kernel's registration line in
-    ``ext/kernels/list.h`` (or, for stride, ops and flat, beside the code in
-    its file), and read here from the extension: no property is inferred
-    from a kernel's name.
-
-    Attributes
-    ----------
-    name : str
-    lanes : int
-        Triangles per record block: 1 for a scalar early-exit kernel, 8 for
-        an ``_x8`` wide form, 16 for a native wide kernel (one vector of 16
-        float lanes with AVX-512, two of 8 with AVX2).
-    stride : int
-        Reals of prepared data per triangle.
-    ops : int
-        Arithmetic operations per test (per lane for a wide form; a scalar
-        kernel's count is the path of a hit). Documented per kernel in its
-        header, with the counting rules in ``ext/kernels.h``.
-    internal : bool
-        One of the harness's honesty-check kernels (the A/A copy and the
-        double-work kernel), left out of ``kernel_names()``.
-    isas : dict[str, bool]
-        Instruction sets the kernel is compiled for (best first), and whether
-        this CPU can run each. Scalar kernels have one, ``"scalar"``.
-    isa : str
-        The ISA calls use by default: ``TRIBENCH_ISA`` if set and runnable,
-        else the best runnable one.
-    scalar_form : str or None
-        For a wide form, the scalar kernel it is the wide form of (same
-        algorithm, properties and answers); None for a scalar kernel.
-    wide_form : str or None
-        For a scalar kernel that has one, the name of its wide form.
-    algorithm : str
-        The clean scalar kernel whose algorithm this kernel is a form of:
-        itself for a scalar kernel (a seed replay is its own), the scalar form
-        for an ``_x8`` form, the one a native kernel declares
-        (``tb_<name>_algorithm`` in its file). Rankings by algorithm group by it.
-    culls_back_faces : bool
-        Only front faces count: ``det = e1 . (d x e2) > 0``, the vertices
-        counter-clockwise seen from the ray's origin.
-    watertight : str
-        ``"none"``, or ``"edges_and_vertices"``: the kernel's paper promises
-        no crack on shared edges and vertices (``tribench validate`` holds it
-        to that, and to Embree's threshold inside a sphere).
-    watertight_source : str
-        The paper that makes the watertight promise (``""`` if none).
-    seed_replay : bool
-        A faithful copy of the seed's code, flaws included: its differences
-        from the reference are measured and recorded, never judged.
-    flat : str
-        What becomes of an exactly flat triangle: ``"miss"`` (every ray
-        misses it) or ``"as_is"`` (the kernel's own test decides, as the
-        seed's code did).
-    precisions : tuple[str, ...]
-        The dtypes the kernel is compiled for.
-    source : str
-        ``"built-in"``, or the kernel file that declared the kernel
-        (:func:`~tribench.ext.load_kernels`).
-    citation : str
-        A kernel file's paper (its ``TB_FILE_CITATION``); ``""`` for a
-        built-in kernel, whose file's header cites it.
-    """
+    ``lanes``: triangles per record block (1 scalar, 8 an ``_x8`` form, 16 a native kernel). ``stride``: reals
+    of prepared data per triangle. ``ops``: arithmetic operations per test (per lane; a scalar kernel's hit
+    path), by ``ext/kernels.h``'s counting rules. ``isas``: the ISAs it is compiled for, best first, and
+    whether this CPU runs each (``"scalar"`` alone for a scalar kernel); ``isa``: the one calls use,
+    ``TRIBENCH_ISA`` if set and runnable, else the best runnable. ``algorithm``: the clean scalar kernel whose
+    algorithm this is a form of (itself, its scalar form, or a native kernel's ``tb_<name>_algorithm``), which
+    rankings by algorithm group by. ``flat``: ``"miss"``, or ``"as_is"`` (the kernel's own test decides, as the
+    seed's code did). ``source``: ``"built-in"`` or the kernel file that declared it, whose paper is
+    ``citation``."""
 
     name: str
     lanes: int
@@ -137,10 +75,9 @@ class KernelInfo:
 
     @property
     def mix(self) -> dict[str, int]:
-        """Operations per test (and lane) by class: ``fma, mul, add, cmp, div`` (summing
-        to :attr:`ops`), ``logic`` (mask and select work, outside ``ops``) and ``load``
-        (reals read per test: the stride). Declared as ``tb_<name>_mix`` in the kernel's
-        file; a wide form's is its compiled loop's (tests/test_ext_build.py)."""
+        """Operations per test (and lane) by class: ``fma, mul, add, cmp, div`` (summing to :attr:`ops`), ``logic``
+        (mask and select work, outside ``ops``) and ``load`` (the stride); declared as ``tb_<name>_mix``, and a
+        wide form's is its compiled loop's (tests/test_ext_build.py)."""
         counts = dict(
             zip(("fma", "mul", "add", "cmp", "div", "logic"), core_of(self.name).kernel_mix(self.name), strict=True)
         )
@@ -200,15 +137,13 @@ def kernel_info(kernel: str) -> KernelInfo:
 
 
 def build_info() -> dict:
-    """How the built-in kernels in use were built (the installed extension, or the build
-    :func:`~tribench.ext.use_build` chose): compiler, exact flags, FMA and fast-math
-    macros, and the resolution of the clock that times batches."""
+    """How the built-in kernels in use were built (the installed extension, or :func:`~tribench.ext.use_build`'s):
+    compiler, flags, FMA and fast-math macros, and the resolution of the clock that times batches."""
     return dict(_MODULES[_KERNELS[0]].build_info())
 
 
 def extension_sha256() -> str:
-    """The sha256 of the compiled extension's file: which build of the C code
-    this is (any change to a kernel, its records or the BVH build changes it)."""
+    """The sha256 of the compiled extension's file: which build of the C code this is."""
     return file_sha256(_core.__file__)
 
 
@@ -250,10 +185,9 @@ def kernel_modules() -> tuple[ModuleType, ...]:
 
 
 def adopt(module: ModuleType, source: str) -> tuple[str, ...]:
-    """Join a kernel file's compiled module to the registry: its kernels, public, after the others.
-
-    A name of a built-in kernel, or of another file's kernel, is refused; a name the same
-    file declared before is taken over (the file compiled again after an edit)."""
+    """Join a kernel file's compiled module to the registry: its kernels, public, after the others. A built-in
+    kernel's name, or another file's kernel's, is refused; one the same file declared before is taken over
+    (the file compiled again after an edit)."""
     global _PUBLIC, _KERNELS
     names = tuple(module.kernel_names(True))
     clashes = [k for k in names if k in BUILT_IN]

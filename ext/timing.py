@@ -1,9 +1,5 @@
-"""Timed batches: a validated job (:func:`make_job`) run ``loops`` times in C (:func:`time_batch`).
-
-Checking and preparing happen once, in :func:`make_job`, so a batch adds
-nothing to the timed region but the call; the loop runs with the GIL
-released between two reads of ``CLOCK_MONOTONIC``.
-"""
+"""Timed batches: a job checked and prepared once (:func:`make_job`), so a batch adds nothing to the timed
+region but the call, run ``loops`` times in C with the GIL released (:func:`time_batch`)."""
 
 from __future__ import annotations
 
@@ -19,11 +15,7 @@ from .registry import MODES, Mode, core_of
 
 @dataclass(frozen=True)
 class Job:
-    """Validated inputs of timed batches: one kernel on one workload.
-
-    Build with ``make_job``; checking happens there once, so ``time_batch``
-    adds nothing but the call to the timed region's surroundings.
-    """
+    """Validated inputs of timed batches, one kernel on one workload (:func:`make_job`)."""
 
     kernel: str
     mode: Mode
@@ -35,9 +27,8 @@ class Job:
 
     @property
     def tests_per_pass(self) -> int:
-        """Ray-triangle tests in one pass over the workload; for ``any`` the
-        most there can be (a batch counts the tests it did, up to each ray's
-        first hit)."""
+        """Ray-triangle tests in one pass over the workload; for ``any`` the most there can be (a batch counts the
+        tests it did, up to each ray's first hit)."""
         if self.mode == "pairs":
             return len(self.origins)
         return len(self.origins) * self.prepared.n_triangles
@@ -53,11 +44,8 @@ def make_job(
     t_max: np.ndarray | float | None = None,
     isa: str | None = None,
 ) -> Job:
-    """Validate a workload for timing and prepare ``kernel``'s records.
-
-    ``mode``, ``t_max`` and ``isa`` are as in ``intersect``. Inputs must be
-    finite. The arrays are kept as read-only views, not copied.
-    """
+    """Validate a workload for timing (finite inputs; ``mode``, ``t_max`` and ``isa`` as in ``intersect``) and
+    prepare ``kernel``'s records; the arrays are kept as read-only views, not copied."""
     o, d, tris, tm, isa = check_workload(kernel, origins, directions, triangles, mode, t_max, isa, False)
     views = []
     for a in (o, d, tm):
@@ -69,12 +57,9 @@ def make_job(
 
 @dataclass(frozen=True)
 class Batch:
-    """One timed batch: ``loops`` passes of a job, timed inside C.
-
-    ``hits`` and ``t_sum`` are summed over all passes; compare them with
-    ``loops`` times the reference's hit count and sum of ``t``. ``uv_sum``
-    is the sum of ``u + v`` in mode ``closest_uv``, else 0.
-    """
+    """One timed batch: ``loops`` passes of a job, timed inside C; ``hits`` and ``t_sum`` (and ``uv_sum``, of
+    ``u + v`` in mode ``closest_uv``) are summed over the passes, to compare with ``loops`` times the
+    reference's."""
 
     elapsed_ns: int
     loops: int
@@ -94,13 +79,9 @@ MAX_BATCH_TESTS: int = _core.MAX_BATCH_TESTS
 
 
 def time_batch(job: Job, loops: int) -> Batch:
-    """Run ``job`` ``loops`` times in C with the GIL released; time it.
-
-    The clock is ``CLOCK_MONOTONIC`` read just before and after the loop.
-    ``loops * job.tests_per_pass`` may be at most :data:`MAX_BATCH_TESTS`.
-    The loop looks for signals about every 0.1 s, so Ctrl-C stops a long
-    batch with ``KeyboardInterrupt`` (a short one never takes the GIL).
-    """
+    """Run ``job`` ``loops`` times in C with the GIL released, timed by ``CLOCK_MONOTONIC`` read around the loop;
+    ``loops * job.tests_per_pass`` is at most :data:`MAX_BATCH_TESTS`. The loop looks for signals about every
+    0.1 s, so Ctrl-C stops a long batch with ``KeyboardInterrupt``."""
     if not isinstance(job, Job):
         raise UserTypeError(f"job must be a tribench.ext.Job (see make_job), got {type(job).__name__}")
     if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)):

@@ -1,15 +1,7 @@
-"""Compiling the extension's C files into a module of its own: for a kernel file, or for a build.
-
-A :class:`Toolchain` is a compiler, its compile flags and its link command.
-:func:`installed` is the one pip used (``sysconfig``'s compiler, the flags
-the installed module recorded); a build of ``--builds`` has its own
-(:mod:`~tribench.ext.builds`). :func:`compile_module` compiles every C file
-of the extension (in parallel) and links them into one module, atomically;
-:func:`import_module` imports such a module, and removes a damaged one so
-it is compiled again. The toolchain that compiles kernel files is the
-process's :func:`current` one: the installed build's, or the build a worker
-runs (:func:`tribench.ext.use_build`).
-"""
+"""Compiling the extension's C files into a module of its own, for a kernel file or a build: a
+:class:`Toolchain` (compiler, flags, link), :func:`compile_module` (every C file in parallel, linked
+atomically) and :func:`import_module` (which removes a damaged module, so it compiles again). Kernel files
+are compiled by the process's :func:`current` toolchain: the installed one, or the build a worker runs."""
 
 from __future__ import annotations
 
@@ -100,10 +92,8 @@ def compile_module(
     sources: tuple[Path, ...] = SOURCES,
     libs: tuple[str, ...] = (),
 ) -> None:
-    """Compile ``sources`` (every C file of the extension) with ``defines`` and link them, and ``libs``,
-    into ``module_path`` (atomically).
-
-    ``failed(result)`` makes the error raised for the first translation unit to fail (the others are stopped)."""
+    """Compile ``sources`` (every C file of the extension) with ``defines`` and link them, and ``libs``, into
+    ``module_path`` (atomically); ``failed(result)`` makes the error raised for the first unit to fail."""
     defines = [
         *defines,
         f"-DTB_MODULE_NAME={name}",

@@ -1,17 +1,10 @@
 """Workloads: meshes and ray sets from frozen specs, with float64 reference answers.
 
-``tribench.workloads`` owns specs, generators, reference answers, the workload
-cache, pictures of workloads and the robustness suite's cases
-(:mod:`.robustness`, judged by ``tribench.harness.jobs.validate``); it never times
-anything. It may import ``tribench.common`` and ``tribench.ext`` (to count a
-stream's tests).
-
-A workload is a pure function of a frozen spec (:class:`PairSpec`,
-:class:`MeshSpec` or ``SeedSpec``; :mod:`.kinds` maps a kind to its class and
-generator); :func:`make` returns it from the cache or builds and caches
-it, :func:`load` finds it by id, :func:`list_cached` lists the cache. Importing
-this package does not import trimesh or matplotlib.
-"""
+``tribench.workloads`` owns specs, generators, reference answers, the workload cache, pictures of
+workloads and the robustness suite's cases (:mod:`.robustness`); it never times anything, and may import
+``tribench.common`` and ``tribench.ext`` (to count a stream's tests). :func:`make` returns a spec's
+workload from the cache or builds and caches it, :func:`load` finds one by id, :func:`list_cached` lists
+the cache. Importing this package does not import trimesh or matplotlib."""
 
 from . import robustness
 from .cache import CachedWorkload, CacheWarning, cache_dir, generate, list_cached, load, make

@@ -1,25 +1,12 @@
-"""The BVH cache: a kernel's BVH over a mesh's triangles, built once per machine.
+"""The BVH cache: a kernel's BVH over a mesh's triangles, built once per machine, not once per process.
 
-A BVH over a million triangles takes seconds to build (and its leaf records
-to prepare); every worker process of a sweep and of ``tribench peers`` would
-otherwise build it again. :func:`cached_bvh` builds it once, keeps it beside
-the workloads (``cache_dir() / "bvh"``) and hands later calls the stored tree.
-
-A file ``bvh-<16 hex>.npz`` is named by the sha256 of its identity: the
-triangles (their sha256, dtype and count: the same mesh under any ray set,
-result mode or accel shares one file), the kernel (its prepared layout is its
-own), ``max_leaf``, :data:`BVH_FORMAT` (this file's layout),
-``ext.BVH_BUILD_VERSION`` (the tree ext/bvh.h builds) and the sha256 of the
-compiled extension (the code that built the tree and prepared its records:
-any rebuild of the C code makes new files). It holds the tree's arrays
-(``nodes``, ``perm``, ``records``) and a ``meta`` member (the identity, and
-how long the build took), sealed as workload files are
-(:func:`tribench.workloads.cache.sealed_npz`). A file that fails the seal,
-whose identity is not the one asked for (a stale version), or whose arrays
-:func:`tribench.ext.adopt_bvh` refuses (it checks every structural invariant
-in C, and the records against the triangles) is never used: it is rebuilt,
-with one :class:`~tribench.workloads.cache.CacheWarning`.
-"""
+A file ``bvh/bvh-<16 hex>.npz`` is named by the sha256 of its identity (:func:`bvh_identity`): the
+triangles (their sha256, dtype and count, so every ray set of a mesh shares it), the kernel, ``max_leaf``,
+:data:`BVH_FORMAT`, ``ext.BVH_BUILD_VERSION`` and the compiled extension's sha256 (any rebuild of the C
+code makes new files). It holds ``nodes``, ``perm`` and ``records`` and a ``meta`` member, sealed as
+workload files are (:func:`tribench.workloads.cache.sealed_npz`). A file that fails the seal, names
+another identity, or whose arrays :func:`tribench.ext.adopt_bvh` refuses (it checks every invariant) is
+rebuilt, with one :class:`~tribench.workloads.cache.CacheWarning`."""
 
 from __future__ import annotations
 
@@ -67,11 +54,8 @@ def bvh_path(identity: dict[str, Any]) -> Path:
 
 
 def cached_bvh(kernel: str, triangles: np.ndarray, max_leaf: int = ext.DEFAULT_MAX_LEAF) -> tuple[ext.BVH, int]:
-    """``kernel``'s BVH over ``triangles`` (as :func:`tribench.ext.build_bvh`
-    makes it), from the cache if a
-    sound file is there, else built and cached; and how long its build took,
-    in ns (when it was built, by whichever process built it).
-    """
+    """``kernel``'s BVH over ``triangles`` (as :func:`tribench.ext.build_bvh` makes it), from the cache if a sound
+    file is there, else built and cached; and its build's time in ns, by whichever process built it."""
     if kernel not in ext.bvh_kernel_names():  # before hashing anything
         raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(ext.bvh_kernel_names())}")
     identity = bvh_identity(kernel, triangles, max_leaf)

@@ -1,21 +1,11 @@
-"""The workload cache: one ``.npz`` file per workload, named by its id.
+"""The workload cache: one ``.npz`` file per workload, named by its id, under ``$TRIBENCH_CACHE``.
 
-Directory: ``$TRIBENCH_CACHE``, default ``~/.cache/tribench/workloads``.
-
-A file is an ordinary ``.npz`` holding the arrays and one JSON member,
-``meta``: the cache format, the workload id, the spec, its identity (spec +
-generator version + mesh file hash), the achieved figures and the library
-versions. The zip's comment, its last bytes, seals everything before it:
-``tribench-sha256:`` and the sha256 of the rest of the file. So every byte a
-cache entry carries -- arrays, metadata, the zip's own structure -- is
-checked, and any change to a file (a flipped bit, a cut, an edited figure,
-swapped arrays) is detected. A file that fails the seal, or whose format,
-identity, version or id does not match, is never used: :func:`make` and
-:func:`load` rebuild it with a :class:`CacheWarning` (printed on stderr),
-:func:`list_cached` marks it. Files are written atomically
-(:func:`tribench.common.write_bytes`), so an interrupted write never leaves
-half a file under a workload's name.
-"""
+A file holds the arrays and one JSON member, ``meta`` (the cache format, the id, the spec, its identity,
+the achieved figures and the library versions), and its zip comment, its last bytes, seals everything
+before it: ``tribench-sha256:`` and the sha256 of the rest of the file. So any change to a file (a flipped
+bit, a cut, an edited figure, swapped arrays) is detected. A file that fails the seal, or whose format,
+identity, version or id does not match, is never used: :func:`make` and :func:`load` rebuild it with a
+:class:`CacheWarning`, :func:`list_cached` marks it. Files are written atomically."""
 
 from __future__ import annotations
 
@@ -73,10 +63,7 @@ class Invalid(Exception):
 
 @dataclass(frozen=True)
 class CachedWorkload:
-    """One file of the cache, as listed (only its ``meta`` member is read).
-
-    ``problem`` is None for a file that looks usable, else why it is not.
-    """
+    """One file of the cache as listed (only its ``meta`` is read); ``problem`` is why it cannot be used, or None."""
 
     workload_id: str
     path: Path
@@ -134,9 +121,8 @@ def sealed_npz(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
 
 
 def unsealed(path: Path) -> bytes:
-    """The bytes of a file :func:`sealed_npz` made, if its seal matches them
-    (else :class:`Invalid`, which says so). Only a regular file is read: a link, folder or pipe in a
-    cache file's place is never followed or opened (a pipe would block the reader)."""
+    """The bytes of a file :func:`sealed_npz` made, if its seal matches them (else :class:`Invalid`). Only a
+    regular file is read: a link, folder or pipe in a cache file's place is never followed or opened."""
     if not stat.S_ISREG(os.lstat(path).st_mode):
         raise Invalid("not a regular file (a link, folder or pipe in a cache file's place)")
     data = path.read_bytes()
@@ -201,9 +187,8 @@ def _build(spec: Spec, path: Path, invalid: Invalid | None = None) -> Workload:
 
 
 def _generate(spec: Spec) -> Workload:
-    """``generate(spec)``, but a BVH workload takes its brute-force twin's
-    arrays and figures from the cache (made there if missing): the same rays
-    and answers, under its own spec and id, without computing them again."""
+    """``generate(spec)``, but a BVH workload takes its brute-force twin's arrays and figures from the cache (made
+    there if missing): the same rays and answers, under its own spec and id, without computing them again."""
     if isinstance(spec, MeshSpec) and spec.accel != "brute":
         twin = make(spec.brute_twin())
         return Workload(workload_id=workload_id(spec), spec=spec, achieved=twin.achieved, **twin.arrays())
@@ -211,10 +196,8 @@ def _generate(spec: Spec) -> Workload:
 
 
 def make(spec: Spec) -> Workload:
-    """The workload of ``spec``: from the cache if a valid file is there, else built and cached.
-
-    An invalid file under the spec's id is rebuilt with a :class:`CacheWarning`.
-    """
+    """The workload of ``spec``: from the cache if a valid file is there, else built and cached (an invalid file
+    rebuilt with a :class:`CacheWarning`)."""
     path = _path(workload_id(spec))
     in_the_way = not_a_file(path)
     if in_the_way:  # never followed nor replaced
@@ -234,15 +217,8 @@ def cached(spec: Spec) -> bool:
 
 
 def load(wid: str) -> Workload:
-    """A cached workload by id (rebuilt from its stored spec if the file is invalid).
-
-    Raises
-    ------
-    FileNotFoundError
-        No such workload in the cache.
-    ValueError
-        The file is invalid and its spec cannot be read back to rebuild it.
-    """
+    """A cached workload by id, rebuilt from its stored spec if the file is invalid; ``FileNotFoundError`` if
+    there is none, ``ValueError`` if it is invalid and its spec cannot be read back."""
     path = _path(wid)
     if not path.is_file():
         raise FileNotFoundError(f"no cached workload {wid!r} in {cache_dir()} (see `tribench workloads list`)")
@@ -260,8 +236,8 @@ def load(wid: str) -> Workload:
 
 
 def _stored_spec(path: Path) -> Spec | None:
-    """The spec of an invalid file, if it can still be read (only used when it
-    gives the file's own id, which is the hash of the spec)."""
+    """The spec of an invalid file, if it can still be read (used only when it gives the file's own id, the hash
+    of the spec)."""
     try:
         with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
             return spec_from_dict(json.loads(str(npz["meta"][()]))["spec"])
@@ -270,15 +246,8 @@ def _stored_spec(path: Path) -> Spec | None:
 
 
 def resolve_id(prefix: str) -> str:
-    """The one cached workload id that starts with ``prefix`` (like a short git hash).
-
-    Raises
-    ------
-    FileNotFoundError
-        None matches.
-    ValueError
-        Several match.
-    """
+    """The one cached workload id that starts with ``prefix`` (like a short git hash); ``FileNotFoundError`` if
+    none does, ``ValueError`` if several do."""
     if not prefix or not all(c.isalnum() or c in "-_" for c in prefix):  # an id, never a path or a pattern
         raise UserError(f"{prefix!r:.80} is not a workload id (see `tribench workloads list`)")
     if _path(prefix).is_file():
@@ -292,12 +261,8 @@ def resolve_id(prefix: str) -> str:
 
 
 def list_cached() -> list[CachedWorkload]:
-    """Every ``.npz`` file of the cache, sorted by id, with its spec and achieved figures.
-
-    Each file is checked as :func:`load` checks it (the seal, the format, the
-    spec, the version, the id); ``problem`` says why one cannot be used, and
-    its spec and figures are then those it claims (None if unreadable).
-    """
+    """Every ``.npz`` file of the cache, sorted by id, checked as :func:`load` checks it; ``problem`` says why one
+    cannot be used (its spec and figures are then those it claims, None if unreadable)."""
     out = []
     for path in sorted(cache_dir().glob("*.npz")):
         spec = achieved = problem = None

@@ -1,16 +1,11 @@
 """What the cache holds, and pruning what no installed build can use.
 
-:func:`entries` lists every file under :func:`~tribench.common.location.cache_dir`:
-workloads (``*.npz`` directly in it), BVH trees (``bvh/``), front-face
-references (``front/``), mesh, ray and kernel file copies (``meshes/``,
-``rays/``, ``kernel_files/``), kernel files' compiled modules
-(``kernel_builds/``, rebuilt on demand), temporary files a killed
-write left (``.*.tmp``) and anything else, each with its size, when it was
-last used and, if it cannot be used, why. :func:`prune` removes the files
-that cannot be used (a BVH tree made by another build of the extension, a
-file that fails its seal, a stale version, a temporary file whose writer is
-gone) and then, under a size bound, the regenerable files used longest ago.
-"""
+:func:`entries` lists every file under :func:`~tribench.common.location.cache_dir` (workloads, ``bvh/``,
+``front/``, the copies in ``meshes/``, ``rays/`` and ``kernel_files/``, ``kernel_builds/``, a killed
+write's ``.*.tmp`` and anything else) with its size, when it was last used and why it cannot be used, if
+so. :func:`prune` removes what cannot be used (a tree of another build of the extension, a file that fails
+its seal, a stale version, a temporary file whose writer is gone), then, under a size bound, the
+regenerable files used longest ago."""
 
 from __future__ import annotations
 
@@ -182,12 +177,10 @@ def entries() -> list[Entry]:
 
 
 def prune(max_bytes: int | None = None, dry_run: bool = False) -> Pruned:
-    """Remove every cache file no installed build can use; then, if the rest is over ``max_bytes``, the
-    workloads, BVH trees and front-face references used longest ago until it is not.
-
-    Mesh copies are never removed by the bound (one may be the only copy of a mesh), nor are files
-    tribench did not write, nor folders. A link in place of a cache file is removed (not what it points at).
-    """
+    """Remove every cache file no installed build can use; then, while the rest is over ``max_bytes``, the
+    workloads, BVH trees and front-face references used longest ago. Never removed by the bound: mesh copies
+    (one may be the only copy of a mesh), files tribench did not write, folders. A link in a cache file's
+    place is removed, not what it points at."""
     found = entries()
     folder = [e for e in found if e.path.is_dir() and not e.path.is_symlink()]  # a user's, perhaps: kept
     doomed = [e for e in found if e.problem is not None and e.kind != "other" and e not in folder]

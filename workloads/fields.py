@@ -88,8 +88,6 @@ def checked_mesh_file(path: str, names: Sequence[str], dtype: str = "float64") -
 def canonical_json(obj: Any) -> str:
     """Sorted, compact JSON: equal values give equal strings.
 
-    Examples
-    --------
     >>> canonical_json({"b": 1, "a": [0.1, "x"]})
     '{"a":[0.1,"x"],"b":1}'
     """

@@ -1,22 +1,11 @@
 """The front-face reference of a workload, cached beside it: what a kernel that culls back faces must answer.
 
-A kernel that culls back faces (``ext.kernel_info(k).culls_back_faces``) is
-checked against the closest *front-face* hit of every ray (closest and any-hit
-modes), not against the workload's two-sided reference. It follows from the
-two-sided one: a ray whose closest hit is a front face keeps it, a ray that
-misses every face misses the front ones, and only the rays whose closest hit is
-a back face meet a brute-force float64 search over the front faces.
-
-Every worker process of a sweep checks its culling kernels, so the answer is
-computed once and kept in the workload cache, one file per workload:
-``<cache>/front/<workload id>.npz`` (a folder of its own: every ``*.npz``
-directly in the cache is a workload). The file is sealed as a workload's is
-(:func:`~tribench.workloads.cache.sealed_npz`: the sha256 of the rest of the
-file in the zip's comment) and names :data:`FRONT_VERSION` and the checksum of
-the workload's arrays it was made from. A file that fails any of these, or whose
-arrays do not fit the workload, is never used: it is recomputed and rewritten
-with a :class:`~tribench.workloads.cache.CacheWarning`.
-"""
+A culling kernel (``ext.kernel_info(k).culls_back_faces``) is checked against every ray's closest
+*front-face* hit. Every worker of a sweep checks its culling kernels, so the answer is kept in
+``<cache>/front/<workload id>.npz``, sealed as a workload's file is
+(:func:`~tribench.workloads.cache.sealed_npz`), naming :data:`FRONT_VERSION` and the checksum of the
+workload's arrays; a file that fails any of these, or does not fit the workload, is recomputed with a
+:class:`~tribench.workloads.cache.CacheWarning`."""
 
 from __future__ import annotations
 
@@ -39,13 +28,9 @@ FRONT_VERSION = 1
 
 
 def compute_front_reference(w: Workload) -> tuple[np.ndarray, np.ndarray]:
-    """Index and t of every ray's closest front-face hit (-1 and nan for none), float64, uncached.
-
-    A two-sided reference that names a front face is kept; brute force only
-    for the rays whose two-sided closest hit is a back face (few on a closed
-    mesh seen from outside), so a workload of a million triangles never meets
-    an every-ray-against-every-triangle search.
-    """
+    """Index and t of every ray's closest front-face hit (-1 and nan for none), float64, uncached. A two-sided
+    hit on a front face stands, a two-sided miss misses; only rays whose closest hit is a back face (few on a
+    closed mesh seen from outside) meet a brute-force search, so a million triangles stay cheap."""
     if w.mode == "pairs":
         raise ValueError("a pairs workload has no closest hit: test its pairs with reference.intersect_pairs")
     assert w.ref_index is not None and w.ref_t is not None  # closest and any-hit workloads carry both

@@ -1,11 +1,6 @@
-"""Small vector helpers shared by the workload generators.
-
-Everything here uses only ``+ - * /`` and ``sqrt`` (all correctly rounded in
-IEEE 754) on random numbers drawn from numpy's PCG64 bit stream, never
-``sin``, ``exp`` or ``log`` whose last bit may differ between machines and
-numpy builds. That is what makes a generated workload the same bytes
-everywhere.
-"""
+"""Small vector helpers of the workload generators: only ``+ - * /`` and ``sqrt`` (correctly rounded in IEEE
+754) on numpy's PCG64 stream, never ``sin``, ``exp`` or ``log``, whose last bit may differ between
+machines and numpy builds; so a generated workload is the same bytes everywhere."""
 
 from __future__ import annotations
 
@@ -29,8 +24,6 @@ __all__ = [
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise dot product of (..., 3) arrays, summed in a fixed order.
 
-    Examples
-    --------
     >>> dot(np.array([[1., 2, 3]]), np.array([[4., 5, 6]]))
     array([32.])
     """
@@ -45,8 +38,6 @@ def norm(a: np.ndarray) -> np.ndarray:
 def normalise(a: np.ndarray) -> np.ndarray:
     """Rows of ``a`` scaled to unit length (rows must be non-zero).
 
-    Examples
-    --------
     >>> normalise(np.array([[3., 0, 4]]))
     array([[0.6, 0. , 0.8]])
     """
@@ -54,11 +45,8 @@ def normalise(a: np.ndarray) -> np.ndarray:
 
 
 def random_in_ball(rng: np.random.Generator, n: int, min_radius: float = 0.0) -> np.ndarray:
-    """``n`` points uniform in the unit ball (outside ``min_radius``), by rejection from the cube.
-
-    The number of draws depends only on the random stream, so the result is a
-    pure function of the generator's state.
-    """
+    """``n`` points uniform in the unit ball (outside ``min_radius``), by rejection from the cube: a pure function
+    of the generator's state."""
     out = np.empty((n, 3))
     have = 0
     while have < n:
@@ -74,8 +62,6 @@ def random_in_ball(rng: np.random.Generator, n: int, min_radius: float = 0.0) ->
 def random_unit_vectors(rng: np.random.Generator, n: int) -> np.ndarray:
     """``n`` directions uniform on the unit sphere.
 
-    Examples
-    --------
     >>> v = random_unit_vectors(np.random.default_rng(0), 4)
     >>> bool(np.allclose(norm(v), 1.0))
     True
@@ -98,13 +84,9 @@ def random_perpendicular(rng: np.random.Generator, axis: np.ndarray) -> np.ndarr
 
 
 def sample_inside(rng: np.random.Generator, n: int, margin: float = 0.0) -> np.ndarray:
-    """Barycentric weights ``(w, u, v)`` uniform over a triangle, each at least ``margin``.
+    """Barycentric weights ``(w, u, v)`` uniform over the inner triangle ``min(w, u, v) >= margin`` (a scaled
+    copy), so a point is uniform in area whatever the triangle's shape.
 
-    Uniform over the inner triangle ``min(w, u, v) >= margin`` (a scaled copy),
-    so a sampled point is uniform in area whatever the triangle's shape.
-
-    Examples
-    --------
     >>> b = sample_inside(np.random.default_rng(1), 1000, margin=0.01)
     >>> bool(np.allclose(b.sum(axis=1), 1.0)), bool(b.min() >= 0.01)
     (True, True)
@@ -124,8 +106,6 @@ def triangle_normals(tris: np.ndarray) -> np.ndarray:
 def triangle_areas(tris: np.ndarray) -> np.ndarray:
     """Areas of (K, 3, 3) triangles.
 
-    Examples
-    --------
     >>> triangle_areas(np.array([[[0., 0, 0], [2, 0, 0], [0, 1, 0]]]))
     array([1.])
     """
@@ -135,8 +115,6 @@ def triangle_areas(tris: np.ndarray) -> np.ndarray:
 def aspect_ratios(tris: np.ndarray) -> np.ndarray:
     """Longest edge over the altitude onto it (``2/sqrt(3)`` for equilateral, ``inf`` if flat).
 
-    Examples
-    --------
     >>> aspect_ratios(np.array([[[0., 0, 0], [10, 0, 0], [3, 1, 0]]]))
     array([10.])
     """

@@ -1,13 +1,9 @@
 """The workload kinds, in one registry: each ``kind`` names its spec class and its generator.
 
-A spec's ``kind`` field (in a cache file, a run folder's ``run.json`` or a
-sweep file) is looked up here and nowhere else: :func:`spec_from_dict`
-rebuilds the spec, :func:`generate` builds its workload. A new kind is one
-spec class in :mod:`.spec`, one generator module and one line in
+A spec's ``kind`` (in a cache file, a run folder's ``run.json`` or a sweep file) is looked up here and
+nowhere else. A new kind is one spec class in :mod:`.spec`, one generator module and one line in
 :data:`KINDS`.
 
-Examples
---------
 >>> sorted(KINDS)
 ['mesh', 'pairs', 'seed']
 >>> s = PairSpec(n=5, hit_rate=0.2, miss_mix="uniform")

@@ -9,14 +9,9 @@ from typing import Any
 
 
 def family_of(spec: Mapping[str, Any]) -> str:
-    """The family a workload belongs to: its spec without the swept axis.
+    """The family a workload belongs to: its spec without the swept axis, hit rate for pairs (the hit-rate
+    curves) and triangle count for meshes (the scaling curves).
 
-    Pair workloads that differ only in hit rate form one family (the hit-rate
-    curves); mesh workloads that differ only in triangle count form another
-    (the scaling curves).
-
-    Examples
-    --------
     >>> family_of({"kind": "pairs", "n": 100, "hit_rate": 0.5, "order": "shuffled",
     ...            "shape": "sphere", "dtype": "float64", "seed": 0, "scale": 1.0, "offset": 0.0})
     'pairs n=100 shuffled sphere float64'
@@ -30,8 +25,7 @@ def family_of(spec: Mapping[str, Any]) -> str:
     ...            "width": 64, "height": 64, "dtype": "float64", "seed": 0})
     'mesh suzanne camera 64x64 float64'
 
-    A BVH workload is not in its brute-force twin's family (its times per test
-    are of another kind: a scaling slope across both would mean nothing):
+    So is a BVH workload (its times per test are of another kind: a slope across both would mean nothing):
 
     >>> family_of({"kind": "mesh", "mesh": "suzanne", "triangles": 200, "rays": "camera",
     ...            "width": 64, "height": 64, "dtype": "float64", "seed": 0, "accel": "bvh"})
@@ -73,8 +67,6 @@ def _even_edges(mix: Mapping[str, float]) -> bool:
 def short_label(spec: Mapping[str, Any]) -> str:
     """What varies inside a family, in words (for table rows and plot labels).
 
-    Examples
-    --------
     >>> short_label({"kind": "pairs", "hit_rate": 0.5})
     'per-test hit rate 50%'
     >>> short_label({"kind": "mesh", "mesh": "suzanne", "triangles": None})

@@ -1,19 +1,11 @@
 """A mesh or ray file named by its content: kept beside the cache and in run folders, found again when it moves.
 
-A :class:`~tribench.workloads.spec.MeshSpec` over a file carries the file's
-sha256, and its workload id comes from that hash, not from the path. So the
-file a workload is built from must have that content, wherever it now is:
-:func:`source` finds it at the spec's path if the content still matches, else
-in the cache's copy. Files up to :data:`MAX_COPY_BYTES` are copied there when
-their workload is built (:func:`keep`), and into every run folder that uses
-them (:func:`copy_into_run`); a run folder's copies join the cache when it is
-analysed elsewhere (:func:`adopt`). A larger file is not copied: its run
-folder still reports and exports (they read its tables, not the mesh), but a
-rebuild of its workloads needs the file back. A ray file
-(:mod:`~tribench.workloads.ray_files`) is kept the same way, in the folder
-:data:`RAYS_FOLDER` instead of :data:`RUN_FOLDER`, and a kernel file (a
-sweep's ``kernel_files``) in :data:`KERNELS_FOLDER`.
-"""
+A spec over a file carries its sha256, and its workload id comes from that hash, not from the path; so
+:func:`source` finds the file at the spec's path if its content still matches, else in the cache's copy.
+Files up to :data:`MAX_COPY_BYTES` are copied there when their workload is built (:func:`keep`) and into
+every run folder that uses them (:func:`copy_into_run`); a run folder's copies join the cache when it is
+analysed elsewhere (:func:`adopt`). A larger file's run folder still reports (from its tables), but a
+rebuild needs the file back. Ray files go in :data:`RAYS_FOLDER`, kernel files in :data:`KERNELS_FOLDER`."""
 
 from __future__ import annotations
 
@@ -82,10 +74,8 @@ def adopt(run_dir: str | Path) -> None:
 
 
 def source(path: str | Path, sha256: str, folder: str = RUN_FOLDER) -> Path:
-    """A file holding what ``path`` held when its spec was made: ``path`` itself, else the cache's copy.
-
-    Raises UserError, naming the file and what to do, when neither has that content.
-    """
+    """A file holding what ``path`` held when its spec was made: ``path`` itself, else the cache's copy; a
+    UserError naming the file and what to do when neither has that content."""
     path = Path(path)
     if path.is_file() and file_sha256(path) == sha256:
         return path

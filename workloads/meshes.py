@@ -13,16 +13,10 @@ soup       1000    random triangles in a box (seeded); any count directly
 file       --      any mesh file trimesh reads, loaded with ``process=False``
 ========== ======= ===========================================================
 
-Placement (before the count is changed, so every count of a mesh sits in the
-same place): Suzanne is turned Y-up facing +z, Blender ``(x, y, z)`` ->
-``(x, z, -y)``, and moved by (0, 0.5, -2), as in the seed's scene03, where the
-seed's camera (eye at (0, 0, 2) looking down -z) sees it. Every other mesh is
-scaled and moved so that its bounding sphere (centred on the bounding box) has
-radius 1.5 -- about Suzanne's -- and centre (0, 0, -2), in the middle of the
-view. The heightfield lies in the x-y plane, facing the camera.
-
-The exact triangle count is reached by :func:`with_triangle_count`.
-"""
+Every count of a mesh sits in the same place, where the seed's camera sees it (placed before the count
+changes): Suzanne as in the seed's scene03 (Y-up facing +z, Blender ``(x, y, z)`` -> ``(x, z, -y)``, moved
+by (0, 0.5, -2)); every other mesh scaled and moved so that its bounding sphere has radius 1.5 (about
+Suzanne's) and centre (0, 0, -2). :func:`with_triangle_count` reaches the exact count."""
 
 from __future__ import annotations
 
@@ -89,13 +83,8 @@ MAX_COORDINATE = {"float64": 1e150, "float32": 1e15}
 
 
 def read_mesh_file(path: str | Path, dtype: str = "float64") -> tuple[np.ndarray, np.ndarray]:
-    """Vertices and faces of a mesh file, as trimesh reads it with ``process=False``.
-
-    Raises
-    ------
-    ValueError
-        The file cannot be read as a mesh, or holds no triangle of non-zero area.
-    """
+    """Vertices and faces of a mesh file as trimesh reads it with ``process=False``; a UserError when it cannot be
+    read as a mesh or has a non-finite coordinate, one too large for ``dtype``, or no triangle of non-zero area."""
     import trimesh  # lazy: slow to import
 
     try:
@@ -122,13 +111,9 @@ def read_mesh_file(path: str | Path, dtype: str = "float64") -> tuple[np.ndarray
 
 
 def soup(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """``n`` random triangles in the cube [-1, 1]^3, unconnected.
+    """``n`` random triangles in the cube [-1, 1]^3, unconnected, on spheres of radius ``0.25 * sqrt(1000 / n)``
+    around uniform centres: the soup keeps about the same look at any count.
 
-    Each triangle's vertices lie on a sphere of radius ``0.25 * sqrt(1000 / n)``
-    around a uniform centre, so the soup keeps about the same look at any count.
-
-    Examples
-    --------
     >>> v, f = soup(5, seed=0)
     >>> v.shape, f.shape
     ((15, 3), (5, 3))
@@ -141,13 +126,9 @@ def soup(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def heightfield(cells: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """A ``cells`` x ``cells`` grid over [-1, 1]^2 with six smooth bumps; normals toward +z.
+    """A ``cells`` x ``cells`` grid over [-1, 1]^2 with six smooth bumps, normals toward +z; the bumps are
+    ``a / (1 + r^2 / s^2)``, rational, so the heights need no transcendental function.
 
-    The bumps are ``a / (1 + r^2 / s^2)``: rational, so the heights need no
-    transcendental function.
-
-    Examples
-    --------
     >>> v, f = heightfield(2, seed=0)
     >>> v.shape, f.shape
     ((9, 3), (8, 3))
@@ -172,8 +153,6 @@ def heightfield(cells: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
 def base_mesh(name: str, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Vertices and faces of a base mesh by name (see the module table) or file path.
 
-    Examples
-    --------
     >>> v, f = base_mesh("suzanne")
     >>> v.shape, f.shape
     ((507, 3), (968, 3))
@@ -202,13 +181,9 @@ def bounding_sphere(vertices: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def place(name: str, vertices: np.ndarray, like: np.ndarray | None = None) -> np.ndarray:
-    """Vertices moved where the seed's camera sees them (see the module docstring).
+    """Vertices moved where the seed's camera sees them (see the module docstring); ``like`` (default
+    ``vertices``) sets the move, so finer versions of a mesh are placed exactly as the base mesh.
 
-    ``like`` (default ``vertices``) is the mesh whose bounding sphere sets the
-    move, so finer versions of a mesh are placed exactly as the base mesh.
-
-    Examples
-    --------
     >>> place("suzanne", np.array([[1.0, 2.0, 3.0]]))
     array([[ 1. ,  3.5, -4. ]])
     """
@@ -220,12 +195,8 @@ def place(name: str, vertices: np.ndarray, like: np.ndarray | None = None) -> np
 
 
 def _split_longest_edges(vertices: np.ndarray, faces: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """Add exactly ``k`` triangles, splitting ``k`` times the triangle with the longest edge.
-
-    Triangle (a, b, c) with longest edge a-b becomes (a, m, c) and (m, b, c), m
-    the midpoint of a-b: winding and surface unchanged. The neighbour across
-    a-b is left whole (a T-junction at m).
-    """
+    """Add exactly ``k`` triangles, splitting ``k`` times the triangle with the longest edge at its midpoint:
+    winding and surface unchanged, the neighbour across that edge left whole (a T-junction)."""
     v, f = vertices, faces.copy()
     for _ in range(k):
         edge_vec = v[f[:, [1, 2, 0]]] - v[f]  # edge j runs from corner j to corner j+1
@@ -247,30 +218,15 @@ def _drop_smallest(vertices: np.ndarray, faces: np.ndarray, k: int) -> tuple[np.
 
 
 def with_triangle_count(vertices: np.ndarray, faces: np.ndarray, n: int) -> Mesh:
-    """The mesh with exactly ``n`` triangles.
+    """The mesh with exactly ``n`` triangles; ``Mesh.method`` says how it was reached.
 
-    1. ``n`` equal to the current count: the mesh unchanged.
-    2. Fewer triangles than ``n``: trimesh loop subdivision (x4 per step)
-       until there are at least ``n``.
-    3. More than ``n``: ``fast_simplification.simplify(target_count=n)``,
-       trying aggressiveness 7 (the default), 8, 9, 10, 6, 5 and keeping the
-       first result with exactly ``n`` triangles.
-    4. If none is exact -- the simplifier collapses edges, each removing two
-       triangles inside the surface (one on a border), so it lands one short
-       when the parity is wrong, and a closed mesh always has an even count --
-       the result closest below ``n`` is topped up by splitting the triangle
-       with the longest edge in two at its midpoint, once per missing triangle
-       (the surface is unchanged; the neighbour across that edge keeps it
-       whole, leaving a T-junction).
-    5. If every result stays above ``n`` or comes back empty (a count too
-       small for the mesh's topology, e.g. under 12 for Suzanne), the smallest
-       triangles of the smallest result above ``n`` (or of the mesh itself)
-       are removed: exact, but no longer a closed surface.
+    Fewer than ``n``: trimesh loop subdivision (x4 a step) to at least ``n``. More: fast-simplification to
+    ``n``, trying aggressiveness 7 (its default), 8, 9, 10, 6, 5 for an exact result. It collapses edges, two
+    triangles each inside the surface, so it lands one short when the parity is wrong (a closed mesh's count
+    is even): the closest result below ``n`` is topped up by :func:`_split_longest_edges`. If every result is
+    above ``n`` or empty (a count too small for the mesh's topology, e.g. under 12 for Suzanne), the smallest
+    triangles are dropped: exact, but no longer a closed surface.
 
-    ``Mesh.method`` says which steps were taken.
-
-    Examples
-    --------
     >>> v, f = base_mesh("icosphere")
     >>> m = with_triangle_count(v, f, 501)
     >>> len(m.faces), m.method
@@ -321,17 +277,10 @@ def with_triangle_count(vertices: np.ndarray, faces: np.ndarray, n: int) -> Mesh
 
 
 def build_mesh(mesh: str, triangles: int | None, seed: int) -> Mesh:
-    """The placed mesh of a spec's ``mesh``/``triangles``/``seed`` fields.
+    """The placed mesh of a spec's ``mesh``, ``triangles`` and ``seed``. The soup is made at the count directly,
+    and so is the heightfield above its base count: sampled on the finest grid it needs, then simplified (a
+    finer grid of the same function is its exact subdivision; loop subdivision moves a grid's corners).
 
-    Two meshes are made at the count directly rather than subdivided: the
-    soup (random anyway), and the heightfield above its base count, which is
-    sampled on the finest grid it needs (``2 c^2 >= triangles``) and then
-    simplified -- a finer grid of the same height function is its exact
-    subdivision (and trimesh's loop subdivision moves the corners of a grid
-    outward).
-
-    Examples
-    --------
     >>> len(build_mesh("suzanne", 100, seed=0).faces)
     100
     """

@@ -1,67 +1,33 @@
 """Pair workloads: N (ray, triangle) pairs with an exact per-test hit rate and miss-stage mix.
 
-Construction
-------------
-Every pair is built for one outcome, its *kind*, decided before any geometry
-is drawn: ``round(h * N)`` hits, and the misses shared among the stages of
-:data:`~tribench.workloads.spec.MISS_STAGES` by largest-remainder rounding of
-the target mix. The triangle comes first (its shape from the spec), then a
-point of its plane chosen by barycentric weights ``(w, u, v)`` (of v0, v1, v2):
+Every pair is built for one outcome, its *kind*, decided before any geometry: ``round(h * N)`` hits, the
+misses shared among :data:`~tribench.workloads.spec.MISS_STAGES` by largest-remainder rounding. The triangle
+comes first, then a point of its plane by barycentric weights ``(w, u, v)`` (of v0, v1, v2):
 
-* **hit** -- a point uniform over the triangle (uniform by area within the
-  triangle, never by rejection, so no bias toward large triangles), reached
-  from an origin 1 to 3 units away (times ``scale``);
-* **behind_origin** -- the same kind of point, but the ray starts past it and
-  points away, so the crossing is at ``t < 0``;
-* **outside_edge_e** -- a point outside edge ``e`` only: edge 1 = v0->v1
-  (``v < 0``), edge 2 = v1->v2 (``w < 0``), edge 3 = v2->v0 (``u < 0``); the
-  negative weight is in ``[-1, -margin]``, the other two are positive;
-* **parallel** -- a direction in the triangle's plane (perpendicular to the
-  normal of the triangle *as rounded*), the origin 0.1 to 1 unit off the plane;
-* **beyond_t_max** -- built as a hit, but the ray's ``t_max`` is drawn
-  uniform in ``[0.2, 0.8]`` times the distance to the point, so the crossing
-  lies past it: a miss for every kernel that honours ``t_max``.
+* **hit**: a point uniform in area over the triangle (never by rejection, so no bias toward large
+  triangles), reached from an origin 1 to 3 units away (times ``scale``); **behind_origin**: the same, the
+  ray starting past the point and pointing away (``t < 0``); **beyond_t_max**: a hit whose ``t_max`` is
+  0.2 to 0.8 of the distance. Only a mix with it gives the workload a ``t_max`` array (``+inf`` elsewhere);
+* **outside_edge_e**: outside edge ``e`` only (1 = v0->v1, ``v < 0``; 2 = v1->v2, ``w < 0``; 3 = v2->v0,
+  ``u < 0``), the negative weight in ``[-1, -margin]``, the other two positive;
+* **parallel**: a direction in the plane of the triangle *as rounded*, the origin 0.1 to 1 unit off it.
 
-Only a mix with beyond_t_max pairs gives the workload a ``t_max`` array (in
-the spec's dtype): ``+inf`` for every other pair. Without the stage,
-``t_max`` is None and the arrays are those of a workload without a limit.
-The reference answers and :func:`classify_misses` apply ``t_max``.
+Other rays meet the plane at least ~5.7 degrees off it (``|cos| >= 0.1``), otherwise uniform, so a
+randomly wound triangle is hit on both faces; ``winding="facing"`` swaps two vertices of each triangle
+whose ray would meet its back face, before the point is placed, so every pair keeps its kind.
 
-Non-parallel rays meet the plane at least ~5.7 degrees off it (``|cos| >=
-0.1``). Ray directions are uniform otherwise, so with ``winding="random"``
-both faces are hit (the achieved fraction of front-facing hits is recorded);
-``winding="facing"`` swaps two vertices of each triangle whose ray would meet
-its back face, before the point is placed, so every pair keeps its kind.
+Every pair keeps a safe margin, so that all kernels agree: barycentrics at least :data:`BARY_MARGIN`
+inside (an edge miss's negative weight at most ``-BARY_MARGIN``), ``|t|`` and a beyond_t_max crossing's
+distance past ``t_max`` at least :data:`T_MARGIN` times ``scale``, a parallel ray's origin
+:data:`PLANE_MARGIN` times ``scale`` off the plane and its direction within :data:`PARALLEL_COS` of it. The
+margins are checked on the arrays *after* rounding to the spec's dtype, and a pair that lost one is drawn
+again. ``scale`` and ``offset`` (along (1, 1, 1)) move whole pairs, so an extreme ``offset / scale`` in
+float32 costs margins and at last raises: the precision experiment the robustness suite is for.
 
-Safe margins
-------------
-Every hit and every miss is kept at a margin so that all kernels agree: the
-smallest barycentric of a hit or behind-origin crossing is at least
-:data:`BARY_MARGIN`, the negative weight of an edge miss at most
-``-BARY_MARGIN`` with the other two at least ``BARY_MARGIN``, ``|t|`` at least
-:data:`T_MARGIN` times ``scale``, a beyond_t_max crossing at least ``T_MARGIN``
-times ``scale`` past its ``t_max`` (itself at least that far from 0; as drawn
-the gap is at least a fifth of ``t``, i.e. 0.2 ``scale``, so this check only
-catches rounding), and a parallel ray's origin at least
-:data:`PLANE_MARGIN` times ``scale`` off the plane. The margins are checked on
-the arrays *after* rounding to the spec's dtype (the reference runs in float64
-on the rounded values) and any pair that lost one is redrawn. A parallel ray
-stays parallel within rounding: ``|cos(direction, normal)| <``
-:data:`PARALLEL_COS`; in float64 the reference finds the system singular, in
-float32 the crossing is millions of units away, far outside every edge.
-
-Scale and offset move whole pairs, so extreme ``offset / scale`` ratios in
-float32 cost margins (and eventually raise a ValueError): that is the
-precision experiment, and what the robustness suite is for.
-
-Triangle shapes
----------------
-``sphere``: three vertices uniform on the unit sphere (Loefstedt &
-Akenine-Moeller 2005); ``equilateral``: circumradius 0.5, each vertex jittered
-by up to 5% of it; ``sliver``: base 1 and altitude 1/aspect with the aspect
-ratio uniform in [10, 100) or [100, 1000) (half each), the long edge any of
-the three. All shapes are limited to aspect ratio :data:`MAX_ASPECT`.
-"""
+Shapes: ``sphere``, three vertices uniform on the unit sphere (Loefstedt & Akenine-Moeller 2005);
+``equilateral``, circumradius 0.5, each vertex jittered by up to 5% of it; ``sliver``, base 1 and altitude
+1/aspect, aspect uniform in [10, 100) or [100, 1000), the long edge any of the three; every shape at most
+:data:`MAX_ASPECT`."""
 
 from __future__ import annotations
 
@@ -127,8 +93,6 @@ def _opposite(e: int) -> int:
 def apportion(fractions: list[float], total: int) -> list[int]:
     """Split ``total`` by ``fractions`` with largest-remainder rounding (ties to the first).
 
-    Examples
-    --------
     >>> apportion([1/3, 1/3, 1/3], 10)
     [4, 3, 3]
     >>> apportion([0.5, 0.0, 0.5], 3)
@@ -170,18 +134,11 @@ def _classify(ans: PairAnswers, directions: np.ndarray, triangles: np.ndarray, t
 def classify_misses(
     origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray, t_max: np.ndarray | None = None
 ) -> np.ndarray:
-    """Which stage rejects each (ray, triangle) pair, by the float64 reference.
+    """Which stage rejects each (ray, triangle) pair, by the float64 reference, as int8 codes: :data:`HIT`, a
+    stage's index in ``MISS_STAGES``, or :data:`OTHER` (outside two edges, or outside an edge behind the origin
+    or past ``t_max``). Parallel: a singular system, or a direction within :data:`PARALLEL_COS` of the plane.
+    ``t_max`` is the workload's: without it a beyond_t_max pair is a hit.
 
-    Returns int8 codes: :data:`HIT` (-1) for a hit, the index in
-    ``MISS_STAGES`` for a miss of one stage, :data:`OTHER` for a miss of none
-    (outside two edges, or outside an edge behind the origin or past
-    ``t_max``). Parallel means no crossing: the reference finds the system
-    singular or the direction is within :data:`PARALLEL_COS` of the plane.
-    ``t_max`` (per pair, or None for no limit) is the workload's: without it
-    a beyond_t_max pair is a hit.
-
-    Examples
-    --------
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]] * 3)
     >>> o = np.array([[0.2, 0.2, 1], [0.2, -0.5, 1], [0.2, 0.2, -1]])
     >>> d = np.array([[0., 0, -1], [0, 0, -1], [0, 0, -1]])
@@ -197,10 +154,8 @@ def classify_misses(
 
 
 def stage_counts(codes: np.ndarray) -> dict[str, int]:
-    """Misses per stage (``"other"`` included only when present).
+    """Misses per stage (``"other"`` only when present).
 
-    Examples
-    --------
     >>> stage_counts(np.array([-1, 2, 2, 0], dtype=np.int8))["outside_edge_1"]
     2
     """
@@ -311,10 +266,8 @@ def _rays(kinds: np.ndarray, tri: np.ndarray, scale: float, rng: np.random.Gener
 
 
 def _keeps_margins(kinds, ans: PairAnswers, o, d, tri, t_max, scale: float) -> np.ndarray:
-    """Whether each pair is its kind with every safe margin (on the rounded arrays).
-
-    ``ans`` is without ``t_max``: a beyond_t_max pair must be a deep hit without it.
-    """
+    """Whether each pair is its kind with every safe margin, on the rounded arrays; ``ans`` is without ``t_max``
+    (a beyond_t_max pair must be a deep hit without it)."""
     b = np.column_stack([ans.w, ans.u, ans.v])
     t = ans.t
     t_tol = T_MARGIN * scale
@@ -383,8 +336,6 @@ def _figures(spec: PairSpec, ans: PairAnswers, codes, d, tri, t_max, redrawn: in
 def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
     """Build the pair workload of ``spec`` (no caching: see :func:`tribench.workloads.make`).
 
-    Examples
-    --------
     >>> w = generate_pairs(PairSpec(n=20, hit_rate=0.25), "doc")
     >>> w.expected_checksum()[0], w.achieved["miss_counts"]["outside_edge_1"]
     (5, 5)

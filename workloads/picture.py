@@ -1,18 +1,9 @@
-"""Pictures of workloads, so a person can see what a workload is (``workloads show --png``).
-
-* **Camera** workloads: what the camera sees (every pixel's ray: hit, shaded
-  by the angle of the surface, or miss; ambiguous rays marked) next to a side
-  view of the scene with the eye, the image plane and a fan of rays.
-* **Per-ray hit rate** workloads: front and side views of the mesh with a
-  sample of rays, hits ending at their hit point, misses drawn through.
-* **Pair** workloads: every pair's plane crossing mapped into one reference
-  triangle (hits inside, edge misses beyond their edge, behind-origin
-  crossings inside but marked), the target and achieved counts per outcome,
-  and a few sample pairs in 3-D.
-
-The title gives the spec and the targets against the achieved figures.
-matplotlib is imported here only, with the Agg backend.
-"""
+"""Pictures of workloads, so a person can see what a workload is (``workloads show --png``): a camera
+workload's view (every pixel's ray: hit, shaded by the surface's angle, or miss; ambiguous rays marked)
+beside a side view with the eye and a fan of rays; a hit-rate workload's mesh with a sample of rays; a
+pair workload's crossings mapped into one reference triangle, the outcome counts and a few pairs in 3-D.
+The title gives the spec and the targets against the achieved figures. Only this module imports
+matplotlib (Agg)."""
 
 from __future__ import annotations
 
@@ -50,12 +41,8 @@ _MAX_DRAWN_TRIANGLES = 25000
 
 
 def draw(w: Workload, path: str | Path, dpi: float = 110) -> None:
-    """Draw workload ``w`` into the PNG file ``path``.
-
-    ``dpi`` sets the resolution only: the figures are 14 to 18 inches wide,
-    so 110 gives about 2000 pixels, for ``workloads show --png``; the report
-    passes less, as it shows each picture about 550 pixels wide.
-    """
+    """Draw workload ``w`` into the PNG file ``path``. ``dpi`` sets the resolution only: the figures are 14 to 18
+    inches wide, so 110 gives about 2000 pixels; the report passes less (it shows each about 550 wide)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)

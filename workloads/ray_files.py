@@ -1,16 +1,7 @@
-"""A user's own rays: an ``.npz`` file read and checked before any array reaches a kernel.
-
-The file (``numpy.savez`` or ``savez_compressed``) holds ``origins`` and
-``directions``, each (N, 3), and optionally ``t_max``, (N,): float32 or
-float64, finite, every direction non-zero, every ``t_max`` > 0 (``inf`` is no
-limit, as in the kernels). Shapes and dtypes are read from the arrays' headers
-before their data, so an oversized or mistyped array is refused without being
-read. Every problem is one :class:`~tribench.common.UserError` naming the file,
-the array and, for a bad value, its first row.
-
-The checks run again on the arrays rounded to the workload's precision: a
-float64 direction of 1e-50 is zero in float32, and 1e300 is infinite there.
-"""
+"""A user's own rays: an ``.npz`` file read and checked before any array reaches a kernel (the format:
+docs/own-rays.md). Shapes and dtypes are read from the arrays' headers before their data, so an oversized
+or mistyped array is refused unread; every problem is one UserError naming the file, the array and, for a
+bad value, its first row. The checks run again on the arrays rounded to the workload's precision."""
 
 from __future__ import annotations
 
@@ -151,8 +142,8 @@ _described: dict[tuple[str, int, int, str], tuple[int, str]] = {}
 
 
 def describe(path: str | Path, dtype: str) -> tuple[int, str]:
-    """``(ray count, sha256)`` of a checked ray file at ``dtype``; remembered while the file is unchanged
-    (a sweep makes one spec per mesh, size and precision from the same file)."""
+    """``(ray count, sha256)`` of a checked ray file at ``dtype``, remembered while the file is unchanged (a
+    sweep makes one spec per mesh, size and precision from one file)."""
     path = Path(path)
     st = path.stat()
     key = (str(path), st.st_size, st.st_mtime_ns, dtype)

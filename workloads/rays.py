@@ -1,53 +1,19 @@
 """Ray sets for meshes, and their closest-hit reference answers computed with exact culling.
 
-Brute force (:func:`tribench.workloads.reference.intersect_closest`) tests
-every ray against every triangle: far too slow for a 512 x 512 camera against
-20 000 triangles. The reference here tests only *candidate* (ray, triangle)
-pairs with :func:`~tribench.workloads.reference.intersect_pairs` and keeps
-the closest hit (ties to the lowest index). Culling is exact -- every pair
-that hits is a candidate -- so the answers equal brute force:
+Brute force is far too slow for a 512 x 512 camera against 20 000 triangles, so the reference tests only
+*candidate* (ray, triangle) pairs (:func:`closest_hits`); every pair that hits is one, so the answers equal
+brute force's. Camera rays (:func:`camera_candidates`): a triangle wholly in front of the eye can be hit
+only by the pixels of its projection's bounding box, grown by one pixel so rounding loses no hit (one
+straddling the eye's plane meets every ray). Other rays (:func:`sphere_candidates`): a ray can hit a
+triangle only if its line passes through the triangle's bounding sphere, grown by 1e-6 of the distance;
+triangles are grouped by the cell of a coarse grid, so a ray meets only the groups it passes near.
 
-* **camera rays** (:func:`camera_candidates`): a triangle wholly in front of
-  the eye projects to a triangle of the image plane, and the ray through a
-  pixel centre hits it only if that centre lies inside the projection. The
-  candidates are the pixels of the projection's bounding box, grown by one
-  pixel on every side (so rounding of rays and vertices cannot lose a hit).
-  Triangles wholly behind the eye are never hit; one that straddles the eye's
-  plane is tested against every ray.
-* **any rays** (:func:`sphere_candidates`): a ray can hit a triangle only if
-  its line passes within the radius of the triangle's bounding sphere
-  (centroid, farthest vertex) and not wholly behind the origin; tested in
-  chunks of rays against all triangles, with the radius grown by 1e-6 of the
-  distance for rounding; triangles are first grouped by the cell of a
-  coarse grid so a ray is tested only against the groups it passes near.
-
-Bounces (:func:`bounce_rays`): one diffuse secondary ray from each camera
-ray's reference hit, culled as the per-ray hit rate's rays are.
-
-A ray file's rays (:func:`file_rays`): the user's own, rounded to the
-workload's precision, culled as those are, with the file's ``t_max`` if it
-has one (the reference then applies it).
-
-Camera
-------
-The seed's pinhole camera: eye at (0, 0, 2) looking down -z, image plane
-z = 0 spanning [-1, 1]^2, one ray through each pixel centre, rays in row-major
-order from the top-left pixel (ray ``j * width + i`` for column i, row j).
-
-Per-ray hit rate
-----------------
-Exactly ``round(h * n)`` of ``n`` rays hit the mesh, the others miss it, by the
-reference on the rounded arrays. A hit ray starts on the sphere of twice the
-mesh's bounding radius and aims at an area-weighted random point of the
-surface (its closest hit may be another triangle in front: it still hits). A
-miss ray first aims from there at a random point of the bounding ball and is
-kept if it misses (it passes near the mesh); after :data:`NEAR_MISS_ROUNDS`
-tries the remaining misses pass outside the bounding ball (for closed meshes,
-where rays through the ball nearly always hit). Every ray must clear every
-triangle it crosses by a barycentric margin of
-:data:`~tribench.workloads.pairs.BARY_MARGIN` (else it is drawn again), so all
-kernels agree on hit or miss.
-"""
+Rays at a hit rate (:func:`hit_rate_rays`): exactly ``round(h * n)`` hit, by the reference on the rounded
+arrays. A hit ray starts on the sphere of twice the mesh's bounding radius and aims at an area-weighted
+point of the surface; a miss ray aims at a random point of the bounding ball and is kept if it misses;
+after :data:`NEAR_MISS_ROUNDS` tries the remaining misses pass outside the ball (on a closed mesh, rays
+through it nearly always hit). Every ray clears every triangle it crosses by
+:data:`~tribench.workloads.pairs.BARY_MARGIN` (else it is drawn again), so all kernels agree on it."""
 
 from __future__ import annotations
 
@@ -100,12 +66,9 @@ _CULL_CHUNK = 1 << 22  # ray x triangle pairs examined at once, at most
 
 @dataclass(frozen=True, eq=False)
 class ClosestAnswers:
-    """Closest-hit reference answers for M rays (see :mod:`tribench.workloads.workload`).
-
-    ``test_hits`` counts every (ray, triangle) pair that hits, closest or not:
-    the numerator of the per-test hit rate; ``tests`` is how many candidate
-    pairs the culled reference actually solved.
-    """
+    """Closest-hit reference answers for M rays (the fields of :mod:`tribench.workloads.workload`'s ``ref_*``);
+    ``test_hits`` counts every (ray, triangle) pair that hits, closest or not (the per-test hit rate's
+    numerator), ``tests`` the candidate pairs the culled reference solved."""
 
     index: np.ndarray
     t: np.ndarray
@@ -118,8 +81,6 @@ class ClosestAnswers:
 def camera_rays(width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """Origins and unit directions of the seed's camera, float64, row-major from the top left.
 
-    Examples
-    --------
     >>> o, d = camera_rays(2, 1)
     >>> o[0].tolist(), d.round(3).tolist()
     ([0.0, 0.0, 2.0], [[-0.243, 0.0, -0.97], [0.243, 0.0, -0.97]])
@@ -146,8 +107,6 @@ def _boxes_to_pairs(i0, i1, j0, j1, width: int) -> tuple[np.ndarray, np.ndarray]
 def camera_candidates(triangles: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """(ray, triangle) index pairs that may hit, for the seed's camera (exact culling).
 
-    Examples
-    --------
     >>> tri = np.array([[[-0.1, -0.1, 0], [0.1, -0.1, 0], [0, 0.1, 0]]])
     >>> rays, tris = camera_candidates(tri, 4, 4)
     >>> sorted(rays.tolist())  # the four central pixels, and their neighbours
@@ -188,13 +147,6 @@ def sphere_candidates(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(ray, triangle) index pairs whose ray line passes through the triangle's bounding sphere.
 
-    Two levels: triangles are grouped by the cell of a coarse grid their
-    centroid falls in, each group has a sphere enclosing its triangles'
-    spheres, and only rays that pass a group's sphere are tested against its
-    triangles' spheres.
-
-    Examples
-    --------
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]], [[5., 5, 0], [6, 5, 0], [5, 6, 0]]])
     >>> sphere_candidates([[0.2, 0.2, 1]], [[0, 0, -1]], tri)
     (array([0]), array([0]))
@@ -234,13 +186,9 @@ def sphere_candidates(
 def closest_hits(
     origins, directions, triangles, rays: np.ndarray, tris: np.ndarray, t_max: np.ndarray | None = None
 ) -> ClosestAnswers:
-    """Closest hit per ray among candidate pairs ``(rays[c], tris[c])``, by the float64 reference.
+    """Closest hit per ray among candidate pairs ``(rays[c], tris[c])``, by the float64 reference: brute force's
+    when the candidates include every pair that hits. ``t_max`` (per ray; None: no limit) as the kernels apply it.
 
-    Equals brute force when the candidates include every pair that hits.
-    ``t_max`` (per ray, or None: no limit) is applied as the kernels apply it.
-
-    Examples
-    --------
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]], [[0., 0, 1], [1, 0, 1], [0, 1, 1]]])
     >>> a = closest_hits([[0.2, 0.2, 3]], [[0, 0, -1]], tri, np.array([0, 0]), np.array([0, 1]))
     >>> a.index.tolist(), a.t.tolist(), a.test_hits
@@ -288,15 +236,9 @@ def closest_hits(
 
 
 def hit_rate_rays(triangles: np.ndarray, n: int, hit_rate: float, dtype: str, rng: np.random.Generator):
-    """``n`` rays of which exactly ``round(hit_rate * n)`` hit the mesh (see the module docstring).
-
-    Returns
-    -------
-    origins, directions : float64 (n, 3), already rounded to ``dtype``
-    answers : ClosestAnswers
-    figures : dict
-        ``misses_outside_bounding_sphere`` and ``redrawn_rays``.
-    """
+    """``n`` rays of which exactly ``round(hit_rate * n)`` hit the mesh (see the module docstring): origins and
+    directions float64 (n, 3), already rounded to ``dtype``, their :class:`ClosestAnswers`, and the figures
+    ``misses_outside_bounding_sphere`` and ``redrawn_rays``."""
     tri = np.asarray(triangles, dtype=np.float64)
     centre, radius = bounding_sphere(tri.reshape(-1, 3))
     wants_hit = rng.permutation(np.arange(n) < round(hit_rate * n))
@@ -343,24 +285,14 @@ def hit_rate_rays(triangles: np.ndarray, n: int, hit_rate: float, dtype: str, rn
 
 
 def bounce_rays(triangles: np.ndarray, width: int, height: int, dtype: str, rng: np.random.Generator):
-    """One cosine-distributed bounce from each camera ray's reference hit (see :class:`MeshSpec`).
+    """One cosine-distributed bounce from each camera ray's reference hit: origins and directions float64 (hits,
+    3), rounded to ``dtype``, their :class:`ClosestAnswers`, and the figures ``primary_rays``,
+    ``primary_hits`` and ``bounce_offset``.
 
-    The camera rays and their closest hits are those of ``rays="camera"``
-    (float64 reference on the rounded rays). Each hit point moves off its
-    triangle along the normal facing the camera's side by
-    :data:`BOUNCE_OFFSET` times the mesh's scale (bounding radius plus the
-    centre's distance from the origin: float rounding of a vertex grows with
-    both), and leaves in a direction drawn with density cos(angle to that
-    normal): ``sqrt(u)`` along a random tangent plus ``sqrt(1 - u)`` along the
-    normal, ``u`` uniform in [0, 1).
-
-    Returns
-    -------
-    origins, directions : float64 (hits, 3), already rounded to ``dtype``
-    answers : ClosestAnswers
-    figures : dict
-        ``primary_rays``, ``primary_hits`` and ``bounce_offset``.
-    """
+    Each hit point moves off its triangle along the normal on the camera's side by :data:`BOUNCE_OFFSET` times
+    the mesh's scale (bounding radius plus the centre's distance from the origin: a vertex's rounding grows
+    with both), and leaves along ``sqrt(u)`` a random tangent plus ``sqrt(1 - u)`` the normal, ``u`` uniform
+    in [0, 1): density cos(angle to the normal)."""
     tri = np.asarray(triangles, dtype=np.float64)
     o, d = (round_to(a, dtype) for a in camera_rays(width, height))
     primary = closest_hits(o, d, tri, *camera_candidates(tri, width, height))
@@ -383,13 +315,8 @@ def _closest_culled(o: np.ndarray, d: np.ndarray, tri: np.ndarray, t_max: np.nda
 
 
 def file_rays(spec: MeshSpec, triangles: np.ndarray):
-    """The rays of ``spec``'s ray file, rounded to its dtype and checked again, with their reference answers.
-
-    Returns
-    -------
-    origins, directions : float64 (n, 3); t_max : float64 (n,) or None
-    answers : ClosestAnswers
-    """
+    """The rays of ``spec``'s ray file, rounded to its dtype and checked again: origins, directions and ``t_max``
+    (or None) as float64, and their :class:`ClosestAnswers`."""
     assert spec.rays_sha256 is not None  # MeshSpec set it
     found = mesh_files.source(spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
     mesh_files.keep(found, spec.rays_sha256, mesh_files.RAYS_FOLDER)
@@ -403,8 +330,6 @@ def file_rays(spec: MeshSpec, triangles: np.ndarray):
 def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
     """Build the mesh workload of ``spec`` (no caching: see :func:`tribench.workloads.make`).
 
-    Examples
-    --------
     >>> w = generate_mesh_workload(MeshSpec("icosphere", 20, rays="hit_rate", n_rays=10), "doc")
     >>> w.triangles.shape, int(w.hits.sum())
     ((20, 3, 3), 5)

@@ -1,25 +1,12 @@
-"""Float64 reference answers for ray-triangle tests.
+"""Float64 reference answers for ray-triangle tests: the ground truth every kernel and every generator is
+checked against, written from the geometry, not from any kernel.
 
-This is the ground truth every kernel and every generator is checked against.
-It is written from the geometry, not from any kernel: a ray ``o + t d`` meets
-the plane of a triangle ``v0 + u e1 + v e2`` where the 3x3 linear system
-
-    [-d  e1  e2] @ [t, u, v] = o - v0
-
-holds, and the triangle is hit when the barycentrics ``u, v, w = 1 - u - v``
-are all non-negative and ``t_min < t < t_max``. The system is solved with
-``numpy.linalg.solve`` (LU with partial pivoting), never with the scalar triple
-products the C kernels use, so a shared algebra slip cannot hide in both.
-
-Conventions (shared with the C kernels' clean forms):
-
-* the triangle is closed: points on an edge or a vertex are inside;
-* a singular system (ray parallel to the plane, or a degenerate triangle) is
-  a miss;
-* a miss has ``t = nan`` (in :func:`intersect_closest`; :func:`intersect_pairs`
-  keeps the plane crossing's ``t`` of a miss);
-* ``t_max`` is per ray (``None``: no limit), as in the kernels' API.
-"""
+A ray ``o + t d`` meets the plane of ``v0 + u e1 + v e2`` where ``[-d e1 e2] @ [t, u, v] = o - v0``, solved
+with ``numpy.linalg.solve`` (LU with partial pivoting), never with the C kernels' scalar triple products,
+so a shared algebra slip cannot hide in both. Conventions, shared with the clean kernels: the triangle is
+closed (a point on an edge or a vertex is inside); a singular system (a parallel ray, a degenerate
+triangle) is a miss; a hit needs ``t_min < t < t_max``, ``t_max`` per ray (None: no limit); a miss has
+``t = nan`` in :func:`intersect_closest` (:func:`intersect_pairs` keeps its plane crossing's ``t``)."""
 
 from __future__ import annotations
 
@@ -37,24 +24,9 @@ _CHUNK = 1 << 16
 
 @dataclass(frozen=True)
 class PairAnswers:
-    """Reference answers for N (ray, triangle) pairs, all float64.
-
-    Attributes
-    ----------
-    hit : bool[N]
-    t : float64[N]
-        Ray parameter of the plane crossing; ``nan`` where the system is singular
-        (kept for misses too, so generators can see *why* a pair misses).
-    u, v : float64[N]
-        Barycentric coordinates of the crossing (weights of ``v1`` and ``v2``).
-    clearance : float64[N]
-        The crossing's distance from the triangle's nearest edge line (negative
-        outside), in units of the rounding a kernel makes there: over
-        ``(|o| + max |v_i| + |t d|) / |cos|`` (``cos`` between the ray and the
-        normal), the scale of a kernel's error in the point, so ``|clearance|``
-        under a few epsilons of a precision means a correct kernel in that
-        precision may decide either way (:func:`edge_clearance`).
-    """
+    """Reference answers for N pairs, float64: ``t``, ``u``, ``v`` of the plane crossing (``u``, ``v`` the
+    weights of ``v1``, ``v2``), nan where the system is singular and kept for misses, so that generators see
+    *why* a pair misses; ``clearance``: :func:`edge_clearance`."""
 
     hit: np.ndarray
     t: np.ndarray
@@ -116,30 +88,12 @@ def intersect_pairs(
     t_max: np.ndarray | None = None,
     front_only: bool = False,
 ) -> PairAnswers:
-    """Test ray ``i`` against triangle ``i`` in float64.
+    """Test ray ``i`` against triangle ``i`` (``triangles[i, j]`` its vertex ``j``) in float64.
 
-    Parameters
-    ----------
-    origins, directions : array_like, shape (N, 3)
-    triangles : array_like, shape (N, 3, 3)
-        ``triangles[i, j]`` is vertex ``j`` of triangle ``i``.
-    t_min : float
-        A crossing counts only where ``t > t_min``.
-    t_max : array_like, shape (N,), or None
-        A crossing counts only where ``t < t_max`` (pair ``i``'s own limit);
-        ``None``: no limit. A crossing at ``t >= t_max`` is a miss that keeps
-        its ``t``.
-    front_only : bool
-        Back-face culling: only crossings where the ray meets the triangle's
-        front, ``d . ((v1 - v0) x (v2 - v0)) < 0`` (vertices counter-clockwise
-        seen from the origin), count.
+    A crossing counts where ``t_min < t < t_max`` (pair ``i``'s own limit: a crossing past it is a miss that
+    keeps its ``t``) and, with ``front_only`` (back-face culling), where the ray meets the front face,
+    ``d . ((v1 - v0) x (v2 - v0)) < 0`` (vertices counter-clockwise seen from the origin).
 
-    Returns
-    -------
-    PairAnswers
-
-    Examples
-    --------
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
     >>> r = intersect_pairs([[0.25, 0.25, 1]], [[0., 0, -1]], tri)
     >>> bool(r.hit[0]), float(r.t[0])
@@ -173,18 +127,14 @@ def intersect_pairs(
 
 
 def edge_clearance(o: np.ndarray, d: np.ndarray, tri: np.ndarray, t: np.ndarray, u: np.ndarray, v: np.ndarray):
-    """:attr:`PairAnswers.clearance` of crossings ``(t, u, v)`` (float64 arrays, one row per pair).
+    """The crossings' distance from their triangle's nearest edge line (negative outside), in units of a kernel's
+    rounding there: over ``(|o| + max |v_i| + |t d|) / |cos|``, so ``|clearance|`` under a few epsilons of a
+    precision means a correct kernel in it may decide either way.
 
-    The barycentric margin alone (:attr:`PairAnswers.edge_margin`) does not say
-    whether a precision can resolve a crossing: a kernel's point is off by about
-    ``eps (|o| + |v0| + t |d|) / |cos|`` (Curless's and Plucker's sums of
-    products, Moller-Trumbore's translated origin at worst), which on a small
-    triangle far from the origin is many thousandths of its height.
-    The distance to edge ``i`` is ``lambda_i |n| / |e_i|`` (``lambda_i`` the
-    weight of the vertex facing it), and ``|cos| = |n . d| / (|n| |d|)``.
+    The barycentric margin alone cannot say so: a kernel's point is off by about
+    ``eps (|o| + |v0| + t |d|) / |cos|`` (Curless's and Plucker's sums of products, Moller-Trumbore's
+    translated origin at worst), on a small triangle far from the origin many thousandths of its height.
 
-    Examples
-    --------
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
     >>> a = intersect_pairs([[0.25, 0.5, 1]], [[0., 0, -1]], tri)  # 0.25 / sqrt(2) from x + y = 1
     >>> bool(np.isclose(a.clearance[0], 0.25 / np.sqrt(2) / (np.sqrt(1.3125) + 1 + 1)))
@@ -210,21 +160,9 @@ def intersect_closest(
     t_max: np.ndarray | None = None,
     front_only: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Closest hit of every ray against every triangle (brute force, float64).
+    """Closest hit of every ray against every triangle (brute force, float64): the triangle's index (``-1`` for a
+    miss, ties to the lowest) and its ``t`` (nan for a miss); the other arguments as :func:`intersect_pairs`'s.
 
-    Ties in ``t`` go to the lowest triangle index. ``t_min``, ``t_max``
-    (per ray, shape (M,), or None) and ``front_only`` are as in
-    :func:`intersect_pairs`.
-
-    Returns
-    -------
-    index : int64[M]
-        Index of the closest triangle hit, ``-1`` for a miss.
-    t : float64[M]
-        Its ``t``; ``nan`` for a miss.
-
-    Examples
-    --------
     >>> tris = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]],
     ...                  [[0., 0, 1], [1, 0, 1], [0, 1, 1]]])
     >>> intersect_closest([[0.2, 0.2, 3]], [[0., 0, -1]], tris)

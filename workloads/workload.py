@@ -1,35 +1,18 @@
 """The workload record: arrays for the kernels plus float64 reference answers.
 
-A :class:`Workload` is what a spec generates and what the cache stores. Its
-arrays are read-only and C-contiguous:
-
-* ``origins (M, 3)``, ``directions (M, 3)`` (unit length, but a ray file's
-  as the file gives them) and
-  ``triangles (K, 3, 3)`` in the spec's dtype;
-* mode ``"pairs"`` (M == K, ray i against triangle i): ``ref_hit bool[M]``,
-  ``ref_t float64[M]`` (nan for misses) and ``ref_edge_margin float64[M]`` =
-  ``min(u, v, w)`` of the plane crossing (negative outside, nan when parallel);
-* optionally ``t_max (M,)`` in the spec's dtype: hits at ``t >= t_max`` do
-  not count (absent: no limit); the reference answers already apply it;
-* modes ``"closest"``, ``"closest_uv"``, ``"any"`` (every ray against every
-  triangle; the mode is what is asked, the reference is the same): ``ref_index
-  int64[M]`` (-1 for a miss, ties to the lowest index), ``ref_t float64[M]``
-  and ``ref_edge_margin float64[M]``: for a hit, the smallest ``|min(u, v,
-  w)|`` over its closest hit and any nearer near-miss; for a miss, minus the
-  smallest ``|min(u, v, w)|`` over the forward plane crossings tested (``-inf``
-  when none came near);
-* ``ref_edge_clearance float64[M]``: the same crossings' distance from the
-  nearest edge line in units of a kernel's rounding there
-  (:func:`tribench.workloads.reference.edge_clearance`), signed as
-  ``ref_edge_margin``. A ray is ambiguous (:meth:`Workload.ambiguous`) when
-  either is small: it is one a finite-precision kernel may legitimately answer
-  differently (camera rays through shared edges are such rays by nature; on a
-  mesh of small triangles far from the origin the rounding reaches past the
-  fixed barycentric margin).
-
-The reference answers are those of the arrays as stored (rounded to the
-dtype), computed in float64 by :mod:`tribench.workloads.reference`.
-"""
+A :class:`Workload` is what a spec generates and the cache stores, its arrays read-only and C-contiguous:
+``origins``, ``directions`` (M, 3; unit length, but a ray file's as the file gives them) and ``triangles``
+(K, 3, 3) in the spec's dtype, and an optional ``t_max`` (M,): hits at ``t >= t_max`` do not count. The
+reference answers are those of the arrays as stored, in float64 (:mod:`tribench.workloads.reference`),
+``t_max`` applied. Mode ``"pairs"`` (M == K): ``ref_hit`` and ``ref_t`` (nan for a miss). The other modes
+(every ray against every triangle; the mode is what is asked, the reference the same): ``ref_index`` (-1
+for a miss, ties to the lowest index) and ``ref_t``. ``ref_edge_margin``: a pair's ``min(u, v, w)``
+(negative outside, nan when parallel); otherwise, for a hit the smallest ``|min(u, v, w)|`` over its
+closest hit and any nearer near-miss, for a miss minus the smallest over the forward crossings tested
+(``-inf`` when none came near). ``ref_edge_clearance``: the same crossings' distance from the nearest edge
+line in units of a kernel's rounding (:func:`tribench.workloads.reference.edge_clearance`), signed alike.
+A ray is ambiguous (:meth:`Workload.ambiguous`) when either is small: a finite-precision kernel may
+rightly answer it otherwise (docs/decisions.md, "Ambiguous rays")."""
 
 from __future__ import annotations
 
@@ -48,9 +31,8 @@ __all__ = ["AMBIGUOUS_MARGIN", "ROUNDING_UNITS", "Workload", "ambiguous_rays", "
 
 #: Default ``|ref_edge_margin|`` below which a ray counts as ambiguous.
 AMBIGUOUS_MARGIN = 1e-5
-#: ``|ref_edge_clearance|`` below this many epsilons of the workload's precision: ambiguous too.
-#: Every kernel decides the split quads of tests/test_reference.py the reference's way beyond
-#: 3.3 epsilons (the worst, Curless); 8 leaves room for rays no test has drawn.
+#: ``|ref_edge_clearance|`` below this many epsilons of the workload's precision: ambiguous too. Every kernel
+#: decides as the reference does beyond 3.35 (docs/decisions.md, "Ambiguous rays"); 8 leaves room.
 ROUNDING_UNITS = 8.0
 
 _ARRAY_NAMES = (
@@ -67,13 +49,9 @@ _ARRAY_NAMES = (
 
 
 def ambiguous_rays(edge_margin, edge_clearance, dtype: str, margin: float = AMBIGUOUS_MARGIN) -> np.ndarray:
-    """Rays whose ``|edge_margin|`` is under ``margin`` or whose ``|edge_clearance|`` is
-    under :data:`ROUNDING_UNITS` epsilons of ``dtype``.
+    """Rays whose ``|edge_margin|`` is under ``margin`` or whose ``|edge_clearance|`` is under
+    :data:`ROUNDING_UNITS` epsilons of ``dtype``; a parallel pair (nan for both) is not: no crossing exists.
 
-    Parallel pairs (nan margin and clearance) are not ambiguous: no crossing exists.
-
-    Examples
-    --------
     >>> ambiguous_rays(np.array([0.5, 5e-6, 0.5]), np.array([1e-3, 1e-3, 1e-7]), "float32").tolist()
     [False, True, True]
     >>> ambiguous_rays(np.array([0.5]), np.array([1e-7]), "float64").tolist()
@@ -86,8 +64,6 @@ def ambiguous_rays(edge_margin, edge_clearance, dtype: str, margin: float = AMBI
 def arrays_sha256(arrays: Mapping[str, np.ndarray]) -> str:
     """sha256 over named arrays: name, dtype, shape and bytes, in name order.
 
-    Examples
-    --------
     >>> a = {"x": np.zeros(2)}
     >>> arrays_sha256(a) == arrays_sha256({"x": np.zeros(2, dtype=np.float32)})
     False
@@ -103,8 +79,6 @@ def arrays_sha256(arrays: Mapping[str, np.ndarray]) -> str:
 def library_versions(*names: str) -> dict[str, str]:
     """Installed versions of the named distributions (recorded with each workload).
 
-    Examples
-    --------
     >>> list(library_versions("numpy"))
     ['numpy']
     """
@@ -131,11 +105,8 @@ def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
 
 @dataclass(frozen=True, eq=False)
 class Workload:
-    """Arrays, reference answers and achieved figures of one spec.
-
-    ``achieved`` holds the figures actually reached, keyed like
-    ``spec.targets()`` for those that have a target, plus diagnostics.
-    """
+    """Arrays, reference answers and achieved figures of one spec: ``achieved`` is keyed like ``spec.targets()``
+    for the figures that have a target, plus diagnostics."""
 
     workload_id: str
     spec: Spec
@@ -200,11 +171,8 @@ class Workload:
         return arrays_sha256(self.arrays())
 
     def expected_checksum(self) -> tuple[int, float]:
-        """``(hits, sum of t over the hits)`` in float64, the sum exactly rounded (``math.fsum``).
-
-        A kernel run over the workload should reproduce the count exactly and the
-        sum to within its precision (its own summation order aside).
-        """
+        """``(hits, sum of t over the hits)``, the sum exactly rounded (``math.fsum``): a kernel's run should give the
+        count exactly and the sum to within its precision."""
         hits = self.hits
         return int(hits.sum()), math.fsum(self.ref_t[hits].tolist())
 
@@ -218,16 +186,13 @@ class Workload:
         return self.spec.targets()
 
     def compare(self) -> list[tuple[str, Any, Any]]:
-        """``(figure, target, achieved)`` rows: targeted figures first, then the other achieved ones.
-
-        Nested figures are flattened with dotted names (``miss_mix.parallel``);
-        a figure without a target has target ``None``.
-        """
+        """``(figure, target, achieved)`` rows, targeted figures first; nested figures are flattened with dotted
+        names (``miss_mix.parallel``), and one without a target has target ``None``."""
         targets, achieved = _flatten(self.targets()), _flatten(dict(self.achieved))
         rows = [(k, v, achieved.get(k)) for k, v in targets.items()]
         return rows + [(k, None, v) for k, v in achieved.items() if k not in targets]
 
     @property
     def kind(self) -> str:
-        """``"pairs"`` or ``"mesh"``."""
+        """The spec's kind: ``"pairs"``, ``"mesh"`` or ``"seed"``."""
         return self.spec.kind

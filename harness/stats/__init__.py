@@ -1,39 +1,12 @@
-"""Statistics for tribench: pure functions from timed batches to estimates.
-Nothing here reads or writes files, prints, or touches global random state:
-every function maps its arguments to a value, and results are frozen
-dataclasses that carry the confidence level they were computed at.
+"""Statistics for tribench: pure functions from timed batches to estimates, importing ``tribench.common`` only.
 
-Conventions
------------
-* **The replicate is the worker process.** Batches inside one process share its
-  memory layout, so they are not independent; each process is reduced to one
-  number (the median ns/test of its non-warm-up batches) and intervals are taken
-  across processes, with ``R - 1`` degrees of freedom.
-* **Speedup of kernel K over baseline B** is ``time_B / time_K``: above 1 means
-  K is faster. It is estimated on the log scale, ``d_p = log B_p - log K_p``,
-  so swapping the two kernels gives exactly the inverse ratio and interval.
-* **Warm-up batches** stay in the data, labelled by the ``warmup`` column, and
-  are left out of every estimate. **Outliers** are labelled (Tukey fences),
-  never dropped: the per-process median is what makes the estimates robust.
-* Defaults live in one place, :data:`DEFAULTS`.
-
-The batch table has one row per timed batch with (at least) the columns
-``process, round, position, kernel, workload_id, warmup, loops, tests,
-elapsed_ns, start_ns``.
-
-What this package owns and may import
--------------------------------------
-``tribench.harness.stats`` owns every statistic of tribench, as pure functions on arrays
-and data frames. It may import ``tribench.common`` only; the rest of ``harness`` (the
-sequential rule, while measuring) and ``reports`` call it. One module per section:
-:mod:`.defaults` (:data:`DEFAULTS`, the margin), :mod:`.estimates` (per process, per
-kernel), :mod:`.compare` (two runs), :mod:`.multiplicity` (several kernels against a
-baseline, verdicts, tables), :mod:`.calibration` (A/A), :mod:`.design` (variance
-components, design), :mod:`.curves` (crossover, scaling), :mod:`.outliers` (drift,
-outliers), :mod:`.sequential` (the stopping rule of a sequential design) and
-:mod:`.formatting` (an estimate with its interval as text, the one style of every table
-and page).
-"""
+Nothing here reads or writes files, prints, or touches global random state; results are frozen dataclasses
+that carry their confidence level, and defaults live in :data:`DEFAULTS`. The replicate is the worker
+process: its batches share a memory layout, so each process is reduced to the median ns/test of its
+non-warm-up batches and intervals are taken across processes. A speedup of K over baseline B is
+``time_B / time_K`` (above 1: K is faster), estimated from ``log B_p - log K_p`` so that swapping the two
+inverts it exactly. Warm-up batches and outliers are labelled, never dropped. What each figure means:
+docs/methodology.md, "The statistics"; the batch table's columns: ``tribench.harness.runfolder.schema``."""
 
 from .calibration import AASummary, aa_noise_floor, aa_summary
 from .compare import LogRatio, unpaired_ratio

@@ -13,8 +13,8 @@ import pandas as pd
 
 
 def _scipy_stats() -> ModuleType:
-    """scipy.stats, imported at first use: it takes most of a second, which every command, its help
-    and its usage errors included, used to pay before reading its arguments."""
+    """scipy.stats, imported at first use: it takes most of a second, which every command (its help and usage
+    errors too) paid before reading its arguments."""
     import scipy.stats
 
     return scipy.stats
@@ -56,11 +56,8 @@ def _t_quantile(confidence: float, df: int) -> float:
 
 
 def _t_interval(x: np.ndarray, confidence: float) -> tuple[float, float, float, float]:
-    """Mean, t-interval and two-sided one-sample p-value (against 0) of ``x``.
-
-    Fewer than two values give a nan interval and p-value; zero spread gives
-    a zero-width interval (what the formula says), not an error.
-    """
+    """Mean, t-interval and two-sided p-value (against 0) of ``x``: nan under two values; zero spread gives a
+    zero-width interval (what the formula says), not an error."""
     mean = float(np.mean(x))
     n = x.size
     if n < 2:
@@ -76,12 +73,9 @@ def _t_interval(x: np.ndarray, confidence: float) -> tuple[float, float, float, 
 def _log_interval(x: np.ndarray, confidence: float) -> tuple[float, float, float]:
     """Mean of positive ``x`` and its t-interval on the log scale, ``mean * exp(-/+ t * cv / sqrt(n))``.
 
-    A time is positive, so its interval is taken where the speedups' are, on
-    the log scale (the delta method: the standard error of ``log mean`` is
-    ``sd / (mean sqrt n)``). It never reaches 0; where the spread is small it
-    equals the plain t-interval to first order, and where it is large (two
-    processes far apart) it widens upward instead of crossing 0.
-    """
+    A time is positive, so its interval is taken where a speedup's is (delta method: the standard error of
+    ``log mean`` is ``sd / (mean sqrt n)``): it never reaches 0, equals the plain t-interval to first order
+    where the spread is small, and widens upward where it is large."""
     mean = float(np.mean(x))
     n = x.size
     if n < 2:
@@ -115,11 +109,8 @@ def _bca_interval(x: np.ndarray, confidence: float, n_resamples: int, seed: int)
 
 
 def _lines(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares line of every row of ``y`` against ``x``.
-
-    Returns the fitted value at ``mean(x)`` and the slope, one per row: with
-    the same ``x`` for every process, their means are the pooled fit.
-    """
+    """Least-squares line of every row of ``y`` against ``x``: its value at ``mean(x)`` and its slope (with one
+    ``x`` for every process, their means are the pooled fit)."""
     centred = x - x.mean()
     slope = y @ centred / (centred @ centred)
     return y.mean(axis=1), slope

@@ -14,23 +14,9 @@ from .estimates import Speedup
 
 
 def aa_noise_floor(log_ratios: npt.ArrayLike, quantile: float = 0.975) -> float:
-    """Noise floor of A/A comparisons: a quantile of ``|log speedup|``.
+    """Noise floor of A/A comparisons (a kernel against itself): the ``quantile`` of ``|log speedup|``.
+    ``math.expm1`` of it is a relative margin for :func:`verdict` (equivalence is symmetric on the log scale).
 
-    Parameters
-    ----------
-    log_ratios : array_like
-        ``log(ratio)`` of many A/A comparisons (a kernel against itself).
-    quantile : float
-        0.975 by the protocol.
-
-    Returns
-    -------
-    float
-        On the log scale; ``math.expm1`` of it is a relative margin for
-        :func:`verdict` (equivalence is symmetric on the log scale).
-
-    Examples
-    --------
     >>> aa_noise_floor([-0.02, 0.01, 0.0, 0.005, -0.01])
     0.019
     """
@@ -40,24 +26,11 @@ def aa_noise_floor(log_ratios: npt.ArrayLike, quantile: float = 0.975) -> float:
 
 @dataclass(frozen=True)
 class AASummary:
-    """How honest the intervals are on the real machine (A/A runs).
+    """How honest the intervals are on the real machine (:func:`aa_summary`).
 
-    Attributes
-    ----------
-    n : int
-        Number of A/A comparisons.
-    coverage : float
-        Fraction of intervals containing 1 (should be near their confidence).
-    false_positive_rate : float
-        Fraction with ``p < 1 - confidence`` (should be near ``1 - confidence``).
-    ks_statistic, ks_p_value : float
-        Kolmogorov–Smirnov test of the p-values against Uniform(0, 1), which
-        is their distribution when the intervals are honest.
-    noise_floor : float
-        :func:`aa_noise_floor` of the log ratios.
-    margin : float
-        ``expm1(noise_floor)``, the relative margin for :func:`verdict`.
-    """
+    ``coverage`` (intervals holding 1) should be near their confidence and ``false_positive_rate``
+    (``p < 1 - confidence``) near ``1 - confidence``; ``ks_*`` tests the p-values against Uniform(0, 1), their
+    distribution when the intervals are honest; ``margin`` is ``expm1(noise_floor)``."""
 
     n: int
     coverage: float
@@ -69,19 +42,8 @@ class AASummary:
 
 
 def aa_summary(results: Sequence[Speedup]) -> AASummary:
-    """Summarise many A/A speedups (a kernel timed against a copy of itself).
+    """Summarise many A/A speedups (a kernel timed against a copy of itself); a nan p-value is refused.
 
-    Parameters
-    ----------
-    results : sequence of Speedup
-        One per A/A comparison; comparisons with a nan p-value are rejected.
-
-    Returns
-    -------
-    AASummary
-
-    Examples
-    --------
     >>> import numpy as np
     >>> from tribench.harness.stats import speedup
     >>> rng = np.random.default_rng(1)

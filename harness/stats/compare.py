@@ -27,18 +27,11 @@ class LogRatio:
 
 
 def unpaired_ratio(log_a: npt.ArrayLike, log_b: npt.ArrayLike, confidence: float = 0.95) -> LogRatio:
-    """Ratio ``exp(mean(log_b) - mean(log_a))`` of two independent samples, with a Welch interval.
+    """Ratio ``exp(mean(log_b) - mean(log_a))`` of two independent samples (one log value per process: log
+    speedups, or log ns/test), with a Welch interval ``exp(diff -/+ t_df se)``,
+    ``se = sqrt(s_a^2/n_a + s_b^2/n_b)``. Swapping the samples inverts ratio and interval exactly; under two
+    values in either sample the interval is nan.
 
-    Each sample holds one log value per process (log speedups for a ratio of
-    speedups, log ns/test for a time ratio). The standard errors of the two
-    means are combined, ``se = sqrt(s_a^2/n_a + s_b^2/n_b)``, with
-    Welch-Satterthwaite degrees of freedom; the interval is
-    ``exp(diff -/+ t_df * se)``. Swapping the samples inverts the ratio and
-    its interval exactly. Fewer than two values in either sample gives a nan
-    interval.
-
-    Examples
-    --------
     >>> r = unpaired_ratio(np.log([1.0, 1.1, 0.9]), np.log([2.0, 2.2, 1.8]))
     >>> round(r.ratio, 6), r.ci_low < 2.0 < r.ci_high
     (2.0, True)

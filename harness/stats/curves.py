@@ -14,22 +14,11 @@ from .defaults import DEFAULTS
 
 @dataclass(frozen=True)
 class Crossover:
-    """Hit rate at which a speedup crosses 1 (the ranking flips).
+    """Hit rate at which a speedup crosses 1 (the ranking flips), from :func:`crossover`.
 
-    Attributes
-    ----------
-    hit_rate : float
-        Root of the fitted line ``log ratio = intercept + slope * hit_rate``;
-        nan when the line does not cross 0 inside the measured range.
-    ci_low, ci_high : float
-        Fieller interval of the root; nan when the root is not in range, or
-        the interval is unbounded (slope not clearly non-zero).
-    intercept, slope : float
-        The fitted line, mean of the per-process fits.
-    n : int
-        Number of processes.
-    confidence : float
-    """
+    ``hit_rate`` is the root of the mean fitted line ``log ratio = intercept + slope * hit_rate``; it and its
+    Fieller interval are nan when the root is outside the measured range, the interval also when it is
+    unbounded (the slope not clearly non-zero)."""
 
     hit_rate: float
     ci_low: float
@@ -47,31 +36,12 @@ def crossover(
 ) -> Crossover:
     """Where the speedup of one kernel over another crosses 1, with its interval.
 
-    Each process gets its own least-squares line of log speedup against hit
-    rate; the lines are averaged and the root is ``-intercept / slope``. The
-    interval is Fieller's, with the process as replicate: the hit rates at
-    which the mean fitted log speedup is not significantly different from 0,
-    i.e. where the two kernels cannot be told apart. It is exact for normal
-    per-process coefficients (no bootstrap noise, no delta-method symmetry)
-    and is unbounded, reported as nan, when the slope itself is not
-    significant. A straight line is a local model: use hit rates near the
-    crossing.
+    ``per_process_log_ratios`` is (processes, k): each process's log speedup at the ``k >= 2`` distinct
+    ``hit_rates``. Each process gets its own least-squares line; the lines are averaged and the root is
+    ``-intercept / slope``. The interval is Fieller's with the process as replicate: exact for normal
+    per-process coefficients (no bootstrap noise, no delta-method symmetry). A straight line is a local model:
+    use hit rates near the crossing.
 
-    Parameters
-    ----------
-    hit_rates : array_like
-        The ``k >= 2`` distinct hit rates of the workloads.
-    per_process_log_ratios : array_like
-        Shape ``(processes, k)``: ``log(speedup)`` of each process at each
-        hit rate (processes paired across workloads).
-    confidence : float
-
-    Returns
-    -------
-    Crossover
-
-    Examples
-    --------
     >>> import math, numpy as np
     >>> h = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
     >>> lines = np.array([[-1.0], [-1.2], [-0.8]]) * (h - 0.4)  # all cross at 0.4
@@ -111,21 +81,8 @@ def crossover(
 
 @dataclass(frozen=True)
 class Slope:
-    """Log–log slope of cost against size, with its interval.
-
-    Attributes
-    ----------
-    slope : float
-        Mean of the per-process slopes of ``log ns/test`` on ``log size``
-        (1 = cost proportional to size, 0 = flat).
-    ci_low, ci_high : float
-        t-interval across processes.
-    intercept : float
-        ``log ns/test`` at size 1 of the mean line.
-    n : int
-        Number of processes.
-    confidence : float
-    """
+    """Log–log slope of cost against size (1: proportional to size, 0: flat), the mean of per-process slopes with
+    a t-interval across processes; ``intercept`` is ``log ns/test`` at size 1 of the mean line."""
 
     slope: float
     ci_low: float
@@ -140,26 +97,12 @@ def scaling_slope(
     ns_per_test_per_process: npt.ArrayLike,
     confidence: float = DEFAULTS.confidence,
 ) -> Slope:
-    """Log–log slope of cost versus triangle count or working-set size.
+    """Log–log slope of cost against triangle count or working-set size: ``ns_per_test_per_process`` is
+    (processes, k), at the ``k >= 2`` distinct positive ``sizes``.
 
-    One least-squares slope per process, then a t-interval across processes:
-    pooling all points into one regression would treat the sizes measured in
-    the same process as independent, which they are not.
+    One least-squares slope per process, then a t-interval across processes: one regression of every point
+    would treat the sizes measured in one process as independent, which they are not.
 
-    Parameters
-    ----------
-    sizes : array_like
-        The ``k >= 2`` distinct positive sizes.
-    ns_per_test_per_process : array_like
-        Shape ``(processes, k)``, positive.
-    confidence : float
-
-    Returns
-    -------
-    Slope
-
-    Examples
-    --------
     >>> import numpy as np
     >>> sizes = np.array([1e3, 1e4, 1e5, 1e6])
     >>> cost = np.array([[2.0], [2.5], [3.0]]) * sizes ** 0.25

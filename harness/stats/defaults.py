@@ -7,16 +7,14 @@ from dataclasses import dataclass
 
 from ...common import UserError
 
-#: The largest equivalence margin tribench accepts. A margin is relative: at
-#: 0.5 two kernels within 1.5x of each other would be "equivalent", which is
-#: not a noise floor but a machine too noisy to compare on (an A/A noise floor
-#: is a few percent: docs/decisions.md, "The equivalence margin").
+#: The largest equivalence margin tribench accepts: at 0.5, kernels within 1.5x of each other would be
+#: "equivalent", not a noise floor but a machine too noisy to compare on (an A/A noise floor is a few
+#: percent: docs/decisions.md, "The equivalence margin").
 MAX_MARGIN = 0.5
 
 
 def check_margin(value: object, where: str) -> float:
-    """``value`` as a margin: a finite number in ``[0, MAX_MARGIN]``; else a
-    UserError naming ``where`` (a file and key, or a flag).
+    """``value`` as a margin, a finite number in ``[0, MAX_MARGIN]``; else a UserError naming ``where``.
 
     >>> check_margin(0.02, "--margin")
     0.02
@@ -41,10 +39,9 @@ class Defaults:
 
     #: Two-sided confidence level of every interval.
     confidence: float = 0.95
-    #: Relative equivalence margin of :func:`verdict` (0.01 = 1 %). Used only
-    #: when no A/A calibration exists; otherwise pass ``AASummary.margin``.
-    #: 1 % matches Criterion.rs's noise threshold; too small a margin only
-    #: makes "equivalent" rarer (it turns into "inconclusive"), never wrong.
+    #: Relative equivalence margin of :func:`verdict` (0.01 = 1 %, Criterion.rs's noise threshold) where no
+    #: A/A calibration exists (else ``AASummary.margin``). Too small a margin only makes "equivalent" rarer
+    #: (it turns into "inconclusive"), never wrong.
     margin: float = 0.01
     #: Resamples of the BCa bootstrap (scipy's default).
     n_resamples: int = 9999

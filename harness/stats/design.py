@@ -14,30 +14,11 @@ from .defaults import DEFAULTS
 
 
 def rounds_matrix(batches: pd.DataFrame, kernel: str, workload_id: str | None = None) -> np.ndarray:
-    """Balanced processes x rounds matrix of ns/test for one kernel and workload.
+    """Balanced processes x rounds matrix of one kernel's ns/test on one workload, warm-up batches left out.
 
-    Warm-up batches are left out. Processes with different numbers of rounds
-    are balanced by keeping every process's first ``n`` rounds (in round
-    order), ``n`` the smallest count: the balanced ANOVA estimators then stay
-    exact, and using the earliest rounds everywhere keeps time effects alike
-    across processes.
+    Every process keeps its first ``n`` rounds, ``n`` the smallest count: the balanced ANOVA estimators stay
+    exact, and the earliest rounds everywhere keep time effects alike across processes.
 
-    Parameters
-    ----------
-    batches : DataFrame
-        The batch table; must include a ``round`` column.
-    kernel : str
-        Kernel to select.
-    workload_id : str, optional
-        Workload to select; required when ``batches`` holds several.
-
-    Returns
-    -------
-    ndarray
-        Shape ``(processes, rounds)``, rows in process order.
-
-    Examples
-    --------
     >>> import pandas as pd
     >>> batches = pd.DataFrame({
     ...     "process": [0, 0, 0, 1, 1], "round": [0, 1, 2, 0, 1], "kernel": ["k"] * 5,
@@ -62,24 +43,10 @@ def rounds_matrix(batches: pd.DataFrame, kernel: str, workload_id: str | None = 
 
 @dataclass(frozen=True)
 class VarianceComponents:
-    """Two-level random-effects decomposition of one kernel's cost.
+    """Two-level random-effects model ``y[p, r] = mu + b_p + e_pr`` of one kernel's cost.
 
-    The model is ``y[p, r] = mu + b_p + e_pr`` with independent process
-    effects ``b_p`` (variance ``between_process``) and round effects
-    ``e_pr`` (variance ``between_round``).
-
-    Attributes
-    ----------
-    between_round : float
-        ``T1^2 = S1^2``: the mean within-process sample variance.
-    between_process : float
-        ``T2^2 = S2^2 - S1^2 / n_rounds``, clipped at 0, where ``S2^2`` is the
-        sample variance of the process means (method of moments / ANOVA).
-    mean : float
-        Grand mean.
-    n_processes, n_rounds : int
-        The balanced design used.
-    """
+    ``between_round`` is ``T1^2 = S1^2``, the mean within-process sample variance; ``between_process`` is
+    ``T2^2 = S2^2 - S1^2 / n_rounds`` (``S2^2``: the sample variance of the process means), clipped at 0."""
 
     between_round: float
     between_process: float
@@ -89,25 +56,12 @@ class VarianceComponents:
 
 
 def variance_components(matrix: npt.ArrayLike) -> VarianceComponents:
-    """Split the variance of a balanced processes x rounds matrix.
+    """Split the variance of a balanced processes x rounds matrix (at least 2 x 2: :func:`rounds_matrix`).
 
-    Kalibera & Jones (2013), "Rigorous Benchmarking in Reasonable Time",
-    with level 1 = rounds within a process and level 2 = processes. Their
-    ``T_i^2`` are the unbiased (ANOVA) estimators of the variance added at
-    level ``i``; for two levels the paper's erratum (``T_i^2 = S_i^2 -
-    S_{i-1}^2 / n_{i-1}``) and the original formula coincide.
+    Kalibera & Jones (2013), "Rigorous Benchmarking in Reasonable Time", level 1 the rounds and level 2 the
+    processes: their unbiased (ANOVA) ``T_i^2``, for which the erratum's formula and the original coincide
+    at two levels.
 
-    Parameters
-    ----------
-    matrix : array_like
-        Shape ``(processes, rounds)``, at least 2 x 2 (see :func:`rounds_matrix`).
-
-    Returns
-    -------
-    VarianceComponents
-
-    Examples
-    --------
     >>> vc = variance_components([[1.0, 3.0], [5.0, 7.0]])
     >>> vc.between_round, vc.between_process, vc.mean
     (2.0, 7.0, 4.0)
@@ -127,16 +81,7 @@ def variance_components(matrix: npt.ArrayLike) -> VarianceComponents:
 
 @dataclass(frozen=True)
 class Design:
-    """A suggested experiment: rounds per process and number of processes.
-
-    Attributes
-    ----------
-    rounds_per_process : int
-    processes : int
-    rel_halfwidth : float
-        Predicted relative half-width of the interval of the mean.
-    confidence : float
-    """
+    """A suggested experiment; ``rel_halfwidth`` is the predicted relative half-width of the mean's interval."""
 
     rounds_per_process: int
     processes: int
@@ -153,42 +98,15 @@ def suggest_design(
     max_rounds: int = DEFAULTS.max_rounds,
     rounds: int | None = None,
 ) -> Design:
-    """Rounds per process and processes needed, from a pilot's components.
+    """Rounds per process and processes needed, from a pilot's components (Kalibera & Jones 2013).
 
-    Rounds per process follow Kalibera & Jones (2013):
-    ``ceil(sqrt((c2 / c1) * (T1^2 / T2^2)))`` with ``c1 = round_cost`` (one
-    round) and ``c2 = process_cost`` (starting a process, without its
-    rounds): spend repetitions where the variance is and where they are
-    cheap. With ``T2^2 = 0`` more rounds always pay; ``max_rounds`` caps them.
+    Rounds: ``ceil(sqrt((c2 / c1) * (T1^2 / T2^2)))``, ``c1 = round_cost``, ``c2 = process_cost`` (one unit for
+    both): repetitions go where the variance is and where they are cheap; ``max_rounds`` caps them (with
+    ``T2^2 = 0`` more always pay), and ``rounds`` fixes them instead. Processes: the smallest ``R >= 2`` with
+    ``t_{R-1} * sqrt((T2^2 + T1^2 / I) / R) / mean <= target_rel_halfwidth`` (0.01 = 1 %). tribench summarises
+    a process by its median, noisier than the mean for Gaussian rounds (up to ``pi/2`` on ``T1^2``): treat the
+    answer as a lower bound.
 
-    Processes: the smallest ``R >= 2`` with
-    ``t_{R-1} * sqrt((T2^2 + T1^2 / I) / R) / mean <= target_rel_halfwidth``,
-    the variance of a mean of process means. tribench summarises a process
-    by its median, which for Gaussian rounds is noisier than the mean (up to
-    ``pi/2`` on ``T1^2``): treat the answer as a lower bound.
-
-    Parameters
-    ----------
-    components : VarianceComponents
-        From :func:`variance_components` on a pilot run.
-    round_cost, process_cost : float
-        ``c1`` and ``c2``, in any common unit (e.g. seconds).
-    target_rel_halfwidth : float
-        Wanted half-width of the interval relative to the mean (0.01 = 1 %).
-    confidence : float
-        Confidence level of that interval.
-    max_rounds : int
-        Upper bound on rounds per process.
-    rounds : int, optional
-        Rounds per process fixed by the caller (e.g. a sweep's default): only
-        the processes are then chosen.
-
-    Returns
-    -------
-    Design
-
-    Examples
-    --------
     >>> vc = VarianceComponents(between_round=4.0, between_process=1.0, mean=100.0,
     ...                         n_processes=10, n_rounds=10)
     >>> d = suggest_design(vc, round_cost=0.01, process_cost=1.0, target_rel_halfwidth=0.01)

@@ -14,23 +14,8 @@ from .defaults import DEFAULTS
 
 
 def per_process(batches: pd.DataFrame) -> pd.DataFrame:
-    """Reduce timed batches to one value per kernel, workload and process.
+    """One row per kernel, workload and process: the median ns/test of its non-warm-up batches and their count.
 
-    Parameters
-    ----------
-    batches : DataFrame
-        One row per batch (see the module docstring). Warm-up batches are
-        ignored here, not removed from ``batches``.
-
-    Returns
-    -------
-    DataFrame
-        Columns ``kernel, workload_id, process, ns_per_test, n_rounds``:
-        the median ns/test of the process's non-warm-up batches and how many
-        there were, sorted by kernel, workload and process.
-
-    Examples
-    --------
     >>> import pandas as pd
     >>> batches = pd.DataFrame({
     ...     "process": [0, 0, 0, 0], "kernel": ["mt"] * 4, "workload_id": ["w"] * 4,
@@ -48,26 +33,9 @@ def per_process(batches: pd.DataFrame) -> pd.DataFrame:
 class Estimate:
     """Mean of per-process values with its intervals.
 
-    Attributes
-    ----------
-    mean : float
-        Mean across processes.
-    ci_low, ci_high : float
-        Student-t interval of the mean on the log scale (the primary
-        interval): always positive, as a time is.
-    bootstrap_low, bootstrap_high : float
-        BCa bootstrap interval over processes, a cross-check; nan when the
-        data are too few (< 3) or all equal.
-    minimum : float
-        Smallest per-process value, a robust secondary figure (Chen & Revels
-        2016): noise only ever adds time.
-    sd : float
-        Standard deviation across processes (nan for one process).
-    n : int
-        Number of processes.
-    confidence : float
-        Confidence level of both intervals.
-    """
+    ``ci_low, ci_high``: Student-t on the log scale, always positive as a time is (the primary interval);
+    ``bootstrap_low, bootstrap_high``: BCa over processes, a cross-check, nan under 3 values or all equal;
+    ``minimum``: a robust secondary figure, since noise only ever adds time (Chen & Revels 2016)."""
 
     mean: float
     ci_low: float
@@ -86,23 +54,8 @@ def estimate(
     n_resamples: int = DEFAULTS.n_resamples,
     seed: int = DEFAULTS.seed,
 ) -> Estimate:
-    """Estimate a kernel's cost from its per-process values.
+    """A kernel's cost from one value per process; the bootstrap is seeded, so a re-analysis repeats it.
 
-    Parameters
-    ----------
-    values : array_like
-        One value per process (e.g. ``per_process(...)["ns_per_test"]``).
-    confidence : float
-        Two-sided confidence level.
-    n_resamples, seed : int
-        Bootstrap resamples and seed (seeded, so re-analysis is reproducible).
-
-    Returns
-    -------
-    Estimate
-
-    Examples
-    --------
     >>> e = estimate([1.0, 2.0, 3.0, 4.0, 5.0])
     >>> e.mean, round(e.ci_low, 4), round(e.ci_high, 4), e.minimum, e.n
     (3.0, 1.5592, 5.772, 1.0, 5)
@@ -121,22 +74,11 @@ def estimate(
 
 @dataclass(frozen=True)
 class Speedup:
-    """Speedup of a kernel over a baseline, ``time_baseline / time_kernel``.
+    """Speedup ``time_baseline / time_kernel`` (above 1: the kernel is faster) over ``n`` paired processes.
 
-    Attributes
-    ----------
-    ratio : float
-        ``exp(mean d)`` with ``d_p = log baseline_p - log kernel_p``;
-        above 1 means the kernel is faster.
-    ci_low, ci_high : float
-        ``exp(mean d -/+ t_{n-1} sd(d) / sqrt(n))``; nan for one process.
-    p_value : float
-        Two-sided one-sample t-test of ``d`` against 0.
-    n : int
-        Number of paired processes.
-    confidence : float
-        Confidence level of the interval.
-    """
+    ``ratio = exp(mean d)``, ``d_p = log baseline_p - log kernel_p``; the interval is
+    ``exp(mean d -/+ t_{n-1} sd(d) / sqrt(n))``, nan for one process; ``p_value`` is the two-sided t-test of
+    ``d`` against 0."""
 
     ratio: float
     ci_low: float
@@ -151,22 +93,8 @@ def speedup(
     kernel_values: npt.ArrayLike,
     confidence: float = DEFAULTS.confidence,
 ) -> Speedup:
-    """Speedup of a kernel over a baseline from paired per-process values.
+    """Speedup from paired per-process values: element ``p`` of both from one process, which removes its effect.
 
-    Parameters
-    ----------
-    baseline_values, kernel_values : array_like
-        Per-process costs (e.g. median ns/test), element ``p`` of both from
-        the same process: the pairing removes the process effect.
-    confidence : float
-        Two-sided confidence level.
-
-    Returns
-    -------
-    Speedup
-
-    Examples
-    --------
     >>> s = speedup([2.0, 2.2, 1.8], [1.0, 1.1, 0.9])
     >>> round(s.ratio, 6), round(s.ci_low, 6), round(s.ci_high, 6)
     (2.0, 2.0, 2.0)
@@ -196,14 +124,9 @@ class GeometricMean:
 
 
 def geometric_mean(values: npt.ArrayLike, confidence: float = DEFAULTS.confidence) -> GeometricMean:
-    """Geometric mean of rates or ratios, one value per replicate, with its interval.
+    """Geometric mean of rates or ratios (one per replicate) with its interval: multiplicative values, so the
+    Student-t interval is taken on their logs and mapped back (nan for one value).
 
-    Rates and ratios are multiplicative, so the mean and its Student-t
-    interval are taken on their logarithms and mapped back; the interval is
-    nan for one value.
-
-    Examples
-    --------
     >>> g = geometric_mean([1.0, 4.0])
     >>> round(g.mean, 6), g.ci_low < 2.0 < g.ci_high
     (2.0, True)

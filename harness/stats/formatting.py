@@ -1,10 +1,6 @@
-"""An estimate and its confidence interval as text: the one style every table, page and sentence uses.
-
-It lives with the statistics because an interval is theirs (a non-finite bound
-is how :mod:`tribench.harness.stats` says there is none, e.g. from one process), and so
-that both ``harness`` (the seed replay's terminal table) and ``reports`` can
-use it.
-"""
+"""An estimate and its confidence interval as text: the one style of every table, page and sentence. It lives
+with the statistics, whose intervals it writes (a non-finite bound: none), so that ``harness`` (the seed
+replay's terminal table) and ``reports`` share it."""
 
 from __future__ import annotations
 
@@ -19,19 +15,10 @@ NO_INTERVAL = "[no interval]"
 def format_interval(value: float | None, low: float, high: float, spec: str = ".3g", unit: str = "") -> str:
     """``value`` followed by its interval in brackets: ``"1.18× [1.15, 1.21]"``.
 
-    Parameters
-    ----------
-    value : float or None
-        The estimate; None writes the interval alone. A non-finite estimate is ``–``.
-    low, high : float
-        The interval's bounds; if either is not finite, :data:`NO_INTERVAL` stands for it.
-    spec : str
-        The format spec of all three numbers (``".3g"``: 3 significant digits; ``".3f"``: 3 decimals).
-    unit : str
-        Written right after the estimate, as given: ``"×"``, ``" ns"`` (unused without one).
+    ``value`` None writes the interval alone, a non-finite one ``–``; a non-finite bound gives
+    :data:`NO_INTERVAL`. ``spec`` formats all three numbers; ``unit`` follows the estimate as given (``"×"``,
+    ``" ns"``).
 
-    Examples
-    --------
     >>> format_interval(1.18, 1.15, 1.21, unit="×")
     '1.18× [1.15, 1.21]'
     >>> format_interval(None, 0.0123456, 0.0234567, ".4g")

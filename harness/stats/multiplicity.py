@@ -1,5 +1,4 @@
-"""Several kernels against one baseline: Holm's correction, simultaneous intervals,
-equivalence verdicts and the estimate and speedup tables."""
+"""Several kernels against one baseline: Holm's correction, simultaneous intervals, verdicts and the tables."""
 
 from __future__ import annotations
 
@@ -16,24 +15,9 @@ from .estimates import estimate, speedup
 
 
 def holm(p_values: npt.ArrayLike) -> np.ndarray:
-    """Holm–Bonferroni adjusted p-values (step-down, family-wise error).
+    """Holm–Bonferroni adjusted p-values (step-down, family-wise), in the input order; nan entries stay nan and do
+    not count towards ``m``.
 
-    The ``i``-th smallest of ``m`` p-values is multiplied by ``m - i + 1``,
-    the running maximum keeps the order, and values are capped at 1.
-    nan entries stay nan and do not count towards ``m``.
-
-    Parameters
-    ----------
-    p_values : array_like
-        Raw p-values, in any order.
-
-    Returns
-    -------
-    ndarray
-        Adjusted p-values, in the input order.
-
-    Examples
-    --------
     >>> holm([0.01, 0.04, 0.03, 0.005]).round(3).tolist()
     [0.03, 0.06, 0.06, 0.02]
     """
@@ -56,15 +40,10 @@ def holm(p_values: npt.ArrayLike) -> np.ndarray:
 
 
 def simultaneous_confidence(confidence: float, m: int) -> float:
-    """Per-comparison level giving simultaneous intervals for ``m`` comparisons.
+    """Per-comparison level giving simultaneous intervals for ``m`` comparisons (Bonferroni:
+    ``1 - (1 - confidence) / m``). Conservative, and consistent with Holm's strictest step: Holm can reject
+    where such an interval holds 1, never the reverse.
 
-    Bonferroni: each interval at ``1 - (1 - confidence) / m``, so all ``m``
-    cover together with probability at least ``confidence``. Conservative,
-    and consistent with Holm's first (strictest) step; Holm's later steps can
-    reject where a Bonferroni interval still contains 1, never the reverse.
-
-    Examples
-    --------
     >>> simultaneous_confidence(0.95, 4)
     0.9875
     """
@@ -75,20 +54,13 @@ def simultaneous_confidence(confidence: float, m: int) -> float:
 
 
 def verdict(ci_low: float, ci_high: float, margin: float = DEFAULTS.margin) -> str:
-    """Classify a speedup interval against a relative equivalence margin.
+    """Classify a speedup interval against a relative equivalence ``margin``.
 
-    * ``"equivalent"``: the interval lies inside ``[1/(1+margin), 1+margin]``
-      (an interval-inclusion equivalence test: with a 95 % interval this is
-      TOST at the 2.5 % level, on the symmetric log scale);
-    * ``"faster"``: ``ci_low > 1`` and not equivalent;
-    * ``"slower"``: ``ci_high < 1`` and not equivalent;
-    * ``"inconclusive"``: anything else, including a nan interval.
+    ``"equivalent"`` where it lies inside ``[1/(1+margin), 1+margin]`` (interval inclusion: at 95 %, TOST at
+    the 2.5 % level on the symmetric log scale), significant or not: the margin is what counts as a difference
+    worth reporting. Else ``"faster"`` (``ci_low > 1``), ``"slower"`` (``ci_high < 1``) or ``"inconclusive"``
+    (a nan interval too).
 
-    A significant but tiny effect inside the margin is "equivalent", not
-    "faster": the margin is what counts as a difference worth reporting.
-
-    Examples
-    --------
     >>> verdict(1.10, 1.30, margin=0.01), verdict(0.80, 0.95, margin=0.01)
     ('faster', 'slower')
     >>> verdict(0.995, 1.005, margin=0.01), verdict(0.97, 1.20, margin=0.01)
@@ -108,24 +80,9 @@ def verdict(ci_low: float, ci_high: float, margin: float = DEFAULTS.margin) -> s
 
 
 def estimate_table(table: pd.DataFrame, confidence: float = DEFAULTS.confidence) -> pd.DataFrame:
-    """One :class:`Estimate` per kernel and workload, as a tidy table.
+    """One :class:`Estimate` per kernel and workload of a :func:`per_process` table; estimates.csv gives the
+    columns units (``tribench.reports.tables.pipeline.ESTIMATE_COLUMNS``).
 
-    Parameters
-    ----------
-    table : DataFrame
-        Output of :func:`per_process`.
-    confidence : float
-        Two-sided confidence level.
-
-    Returns
-    -------
-    DataFrame
-        ``kernel, workload_id`` and the fields of :class:`Estimate`, named
-        for any quantity; estimates.csv gives them units
-        (``tribench.reports.tables.pipeline.ESTIMATE_COLUMNS``).
-
-    Examples
-    --------
     >>> import pandas as pd
     >>> table = pd.DataFrame({"kernel": ["a"] * 3, "workload_id": ["w"] * 3,
     ...                       "process": [0, 1, 2], "ns_per_test": [1.0, 2.0, 3.0]})
@@ -191,36 +148,14 @@ def speedup_table(
     confidence: float = DEFAULTS.confidence,
     margin: float = DEFAULTS.margin,
 ) -> pd.DataFrame:
-    """Every kernel against one baseline, with multiplicity handled.
+    """Every kernel of a :func:`per_process` table against ``baseline``, workload by workload, with multiplicity.
 
-    The family is the set of kernels compared with ``baseline`` on one
-    workload (``m`` = their number). Each interval is a Bonferroni
-    simultaneous interval (:func:`simultaneous_confidence`), its verdict is
-    taken from that interval, and ``p_holm`` holds the Holm-adjusted p-values.
-    Processes are paired by their ``process`` id; a process missing either
-    kernel is left out of that comparison.
+    A workload's family is its kernels compared with ``baseline``: each interval is a Bonferroni simultaneous
+    one (:func:`simultaneous_confidence`; the ``confidence`` column is the per-comparison level used), its
+    verdict is taken from it, and ``p_holm`` is Holm-adjusted. Processes pair by their id; one missing either
+    kernel is left out of that comparison. speedups.csv renames some columns
+    (``tribench.reports.tables.pipeline.SPEEDUP_COLUMNS``).
 
-    Parameters
-    ----------
-    table : DataFrame
-        Output of :func:`per_process`.
-    baseline : str
-        Kernel name of the baseline.
-    confidence : float
-        Family-wise (simultaneous) confidence level.
-    margin : float
-        Relative equivalence margin for :func:`verdict`.
-
-    Returns
-    -------
-    DataFrame
-        ``workload_id, kernel, baseline, ratio, ci_low, ci_high, p_value,
-        p_holm, n, confidence, margin, verdict``; ``confidence`` is the
-        per-comparison level actually used. speedups.csv renames some of
-        them (``tribench.reports.tables.pipeline.SPEEDUP_COLUMNS``).
-
-    Examples
-    --------
     >>> import pandas as pd
     >>> table = pd.DataFrame({
     ...     "kernel": ["base"] * 3 + ["fast"] * 3, "workload_id": ["w"] * 6,

@@ -15,40 +15,15 @@ from .defaults import DEFAULTS
 
 @dataclass(frozen=True)
 class Drift:
-    """Trends against wall time inside processes, and whether to warn.
+    """Trends against wall time inside processes, and whether to warn (:func:`drift`).
 
-    Slopes are per second, on the log scale (0.001 is about 0.1 % per
-    second), each the mean of per-process Theil–Sen slopes, tested across
-    processes with a one-sample t-test.
-
-    Attributes
-    ----------
-    baseline_slope, baseline_p : float
-        Trend of the per-round log baseline time. On its own harmless when
-        kernels are interleaved, so it does not raise the flag.
-    ratio_slope, ratio_p : float
-        Trend of the per-round log speedup: the kernels drift differently.
-    ratio_change : float
-        ``ratio_slope`` times the median process duration: how much the log
-        speedup moves across one process.
-    confound_bias : float
-        Bias of the log speedup that time drift causes through unequal
-        timing of the two kernels: per process, the common drift rate times
-        the gap between the kernels' mean start times. Near 0 when rounds
-        are interleaved in random order; large when one kernel runs after
-        the other on a drifting machine.
-    confound_p : float
-        t-test of the per-process biases against 0.
-    flagged : bool
-        ``ratio_p < alpha`` and ``|ratio_change| > threshold``, or
-        ``confound_p < alpha`` and ``|confound_bias| > threshold``, with
-        ``alpha = 1 - confidence``: significant *and* large enough to matter.
-    reason : str
-        Which of the two raised the flag ("" when not flagged).
-    n : int
-        Processes used.
-    confidence : float
-    """
+    Slopes are per second on the log scale (0.001 is about 0.1 % a second), means of per-process Theil–Sen
+    slopes t-tested across processes. ``baseline_*``: the log baseline time's trend, harmless when kernels are
+    interleaved, so it never raises the flag. ``ratio_*``: the log speedup's (the kernels drift differently);
+    ``ratio_change`` is its slope times the median process duration. ``confound_bias``: per process, the
+    common drift rate times the gap between the kernels' mean start times (near 0 when rounds interleave in
+    random order). ``flagged``: a ratio trend or a confound both significant (``p < 1 - confidence``) and above
+    the threshold; ``reason`` says which ("" when not flagged)."""
 
     baseline_slope: float
     baseline_p: float
@@ -88,8 +63,8 @@ def _timed_pair(batches: pd.DataFrame, kernel: str, baseline: str, workload_id: 
 
 
 def _paired_rounds(timed: pd.DataFrame, kernel: str, baseline: str) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """The rounds that pair the two kernels (same process and round) in processes with 3 or more, and the
-    batches of those processes."""
+    """The rounds pairing the two kernels (same process and round) in processes with 3 or more, and those
+    processes' batches."""
     wide = timed.pivot(index=["process", "round"], columns="kernel", values=["log_ns", "t_s"]).dropna()
     rounds = pd.DataFrame(
         {
@@ -158,39 +133,12 @@ def drift(
     confidence: float = DEFAULTS.confidence,
     threshold: float = DEFAULTS.drift_threshold,
 ) -> Drift:
-    """Trend tests against wall time, and a time/order confound check.
+    """Trend tests against wall time, and a time/order confound check, of two kernels (see :class:`Drift`).
 
-    Rounds pair the two kernels (same process and round). Three checks, each
-    per process (the replicate) and then tested across processes:
+    Rounds pair the two kernels (same process and round). The confound check catches a bias that no per-round
+    ratio trend shows: one kernel running later than the other on a drifting machine. ``threshold``: the
+    practical size (log scale, about relative) of a drift worth a warning.
 
-    1. per-round log baseline time against its start time (reported);
-    2. per-round log speedup against the pair's mean start time (flags when
-       the kernels drift differently);
-    3. confound: common drift rate (Theil–Sen of each kernel's log time on
-       start time, averaged over the two kernels) times the gap between the
-       mean start times of baseline and kernel batches. Flags designs where
-       one kernel runs later than the other on a drifting machine, a bias
-       that no per-round ratio trend shows.
-
-    Parameters
-    ----------
-    batches : DataFrame
-        The batch table (needs ``round`` and ``start_ns``).
-    kernel, baseline : str
-        The two kernels compared.
-    workload_id : str, optional
-        Required when ``batches`` holds several workloads.
-    confidence : float
-        Significance level is ``1 - confidence``.
-    threshold : float
-        Practical size (log scale, ~relative) of a drift worth a warning.
-
-    Returns
-    -------
-    Drift
-
-    Examples
-    --------
     >>> import numpy as np, pandas as pd
     >>> rng = np.random.default_rng(0)
     >>> rows = []
@@ -215,15 +163,9 @@ def drift(
 
 
 def tukey_outliers(values: npt.ArrayLike, k: float = DEFAULTS.tukey_k) -> np.ndarray:
-    """Mask of values outside Tukey's fences ``[Q1 - k IQR, Q3 + k IQR]``.
+    """Mask of values outside Tukey's fences ``[Q1 - k IQR, Q3 + k IQR]``: labels only. The quartiles are numpy's
+    (linear interpolation), which differ slightly from Tukey's hinges on small samples.
 
-    Labels only: nothing is dropped. ``k = 1.5`` marks outliers and
-    ``k = DEFAULTS.tukey_far_k`` (3) far-out values. Quartiles are numpy's
-    default (linear interpolation), which differs slightly from Tukey's
-    hinges on small samples.
-
-    Examples
-    --------
     >>> x = [1, 2, 3, 4, 5, 6, 7, 8, 9, 17, 40]
     >>> tukey_outliers(x).nonzero()[0].tolist(), tukey_outliers(x, k=3.0).nonzero()[0].tolist()
     ([9, 10], [10])
@@ -235,13 +177,9 @@ def tukey_outliers(values: npt.ArrayLike, k: float = DEFAULTS.tukey_k) -> np.nda
 
 
 def label_outliers(batches: pd.DataFrame) -> pd.DataFrame:
-    """Copy of ``batches`` with ``ns_per_test``, ``outlier`` and ``far_out`` columns.
+    """Copy of ``batches`` with ``ns_per_test``, ``outlier`` and ``far_out`` columns, the fences per kernel,
+    workload and process over non-warm-up batches.
 
-    Fences are computed per kernel, workload and process over non-warm-up
-    batches (warm-up batches are never labelled outliers).
-
-    Examples
-    --------
     >>> import pandas as pd
     >>> batches = pd.DataFrame({
     ...     "process": [0] * 6, "kernel": ["k"] * 6, "workload_id": ["w"] * 6,

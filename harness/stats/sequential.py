@@ -1,13 +1,9 @@
 """The stopping rule of a sequential design: which comparisons still need processes.
 
-A sequential sweep runs its processes in stages. After each stage, every
-comparison (a kernel against its workload's reference kernel, paired per
-process) whose interval is already narrower than a target stops: later
-processes no longer run that kernel on that workload. The rule looks only at
-the interval's *width*, never at its position (not at whether it excludes 1),
-so stopping barely changes what the interval covers; tests/test_stats.py
-measures the coverage of the 95% intervals with the rule in the loop.
-"""
+After each stage, a comparison (a kernel against its workload's reference kernel, paired per process)
+whose interval is already narrower than a target stops. The rule reads the interval's width, never its
+position, so stopping barely changes what it covers (docs/methodology.md, "The main job's sequential
+design"; tests/test_stats.py measures it)."""
 
 from __future__ import annotations
 
@@ -24,23 +20,17 @@ from .estimates import speedup
 
 __all__ = ["MIN_PROCESSES", "narrow_comparisons", "relative_halfwidth"]
 
-#: Fewest processes before a comparison may stop. A t-interval's own width is
-#: a noisy guide on few processes: a lucky small spread stops a comparison whose
-#: true spread is larger, and those intervals cover less. 8 keeps the rule's
-#: coverage near the fixed design's in tests/test_stats.py's simulation (the
-#: figures for 4, 8 and 12: docs/decisions.md, "3 rounds per process, stages of 2").
+#: Fewest processes before a comparison may stop: on few processes a t-interval's own width is a noisy guide
+#: (a lucky small spread stops a comparison early, and such intervals cover less). 8 keeps the coverage near
+#: the fixed design's (the figures for 4, 8 and 12: docs/decisions.md, "3 rounds per process, stages of 2").
 MIN_PROCESSES = 8
 
 
 def relative_halfwidth(
     baseline_values: npt.ArrayLike, kernel_values: npt.ArrayLike, confidence: float = DEFAULTS.confidence
 ) -> float:
-    """Half the width of the speedup's interval, relative: ``sqrt(high / low) - 1``.
-
-    The interval is :func:`tribench.harness.stats.speedup`'s (a t-interval of the paired
-    per-process log-ratios), symmetric on the log scale, so this is
-    ``exp(half-width of the log interval) - 1``: 0.02 means "within about 2%".
-    Infinite with fewer than two pairs.
+    """Half the width of :func:`tribench.harness.stats.speedup`'s interval, relative: ``sqrt(high / low) - 1``
+    (the interval is symmetric on the log scale: 0.02 means "within about 2%"); infinite under two pairs.
 
     >>> round(relative_halfwidth([2.0, 2.2, 1.8], [1.0, 1.1, 0.9]), 12)
     0.0
@@ -61,30 +51,11 @@ def narrow_comparisons(
     confidence: float = DEFAULTS.confidence,
     min_processes: int = MIN_PROCESSES,
 ) -> set[tuple[str, str]]:
-    """The (workload id, kernel) comparisons that need no more processes.
+    """The (workload id, kernel) comparisons of a :func:`tribench.harness.stats.per_process` table that need no
+    more processes: each kernel whose interval against its workload's ``references`` kernel is at most
+    ``target`` wide (:func:`relative_halfwidth`) on at least ``min_processes`` pairs. A comparison not measured
+    yet is not among them.
 
-    Parameters
-    ----------
-    table : DataFrame
-        :func:`tribench.harness.stats.per_process` of the batches so far.
-    references : mapping
-        Per workload id, the kernel every other kernel of it is compared with.
-    target : float
-        Relative half-width (:func:`relative_halfwidth`) at or below which a
-        comparison has enough processes.
-    min_processes : int
-        A comparison on fewer pairs of processes is never narrow.
-
-    Returns
-    -------
-    set of (workload_id, kernel)
-        Every kernel of ``table`` other than its workload's reference whose
-        interval against the reference is at most ``target`` wide, on at least
-        ``min_processes`` processes. A comparison absent from ``table`` (not
-        measured yet) is not in it.
-
-    Examples
-    --------
     >>> t = pd.DataFrame({"workload_id": ["w"] * 6, "kernel": ["b"] * 3 + ["k"] * 3,
     ...                   "process": [0, 1, 2] * 2, "ns_per_test": [2.0, 2.2, 1.8, 1.0, 1.1, 0.95]})
     >>> narrow_comparisons(t, {"w": "b"}, target=0.5, min_processes=3)

@@ -1,22 +1,9 @@
 """Generate suzanne.obj (Blender's monkey head, triangulated) with the `bpy` package.
 
-This script is run by hand, once, offline; it is NOT part of tribench and `bpy`
-must never become a tribench dependency.  `bpy` pins numpy<2 and its wheel is
-~374 MB, so install it in a throwaway virtual environment outside the repo:
-
-    python3.11 -m venv /tmp/bpyenv
-    /tmp/bpyenv/bin/pip install bpy==5.0.1
-    /tmp/bpyenv/bin/python workloads/data/make_suzanne.py [OUTPUT.obj]
-    rm -rf /tmp/bpyenv
-
-OUTPUT.obj defaults to suzanne.obj next to this script.  See SUZANNE.md.
-
-The mesh is written exactly as Blender holds it: Blender's coordinates (Z up,
-no transform), vertices in Blender's vertex order, triangles in
-`mesh.loop_triangles` order, 1-based OBJ indices.  Every coordinate is a
-multiple of 1/128 (exact in float32); `repr` of the float prints the shortest
-decimal that round-trips, which for these values is the exact value.
-"""
+Run by hand, once, offline, in a throwaway virtual environment: `bpy` must never become a tribench
+dependency. How, and what the file holds: SUZANNE.md. OUTPUT.obj defaults to suzanne.obj next to this
+script; the mesh is written exactly as Blender holds it, and `repr` of each coordinate (a multiple of
+1/128) is its exact value."""
 
 import datetime
 import os

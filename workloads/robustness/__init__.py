@@ -1,112 +1,52 @@
 """The robustness suite's cases: rays aimed at the hard spots of ray-triangle tests, with their answers.
 
-``tribench validate`` (:mod:`tribench.harness.jobs.validate`) asks every kernel
-these questions and judges the answers; this module (with the four it draws
-on, listed at the end) only builds them. Each test's rays are a pure
-function of (seed, test name, size, precision): one ``numpy``
-``default_rng`` stream per test, so a test's rays do not depend on which
-other tests are built. :func:`build` returns them for one precision
-as :class:`RaySets`: :class:`MeshRays` (closest-mode questions about a small
-mesh) and :class:`PairRays` (each ray about one triangle, with the right
-answer). Nothing here is timed and no kernel is called; the float64
-reference (:mod:`..reference`) decides which rounded rays stay unambiguous.
+``tribench validate`` (:mod:`tribench.harness.jobs.validate`) asks every kernel these questions and judges
+the answers; this package only builds them, calling no kernel. :func:`build` returns one precision's
+:class:`RaySets`: :class:`MeshRays` (closest-mode questions about a small mesh) and :class:`PairRays` (each
+ray about one triangle, with the right answer). A test's rays are a pure function of (seed, test name,
+size, precision), so no test depends on which others are built. Sizes: :data:`FULL` and :data:`QUICK`
+(``--quick``). Builders: :mod:`.meshes`, :mod:`.pairs`, :mod:`.exact`; types: :mod:`.sets`.
 
 Tests
 -----
 ``shared_edges``, ``shared_edges_double``, ``shared_vertices``
-    Exactly coplanar meshes: an ``n x n`` grid of cells, each split into a
-    *lower* and an *upper* triangle along the same diagonal, interior
-    vertices moved by multiples of 1/16, mapped onto a plane by a dyadic
-    affine map (axis-aligned planes, ``x + y + z = c`` and random planes with
-    coefficients in multiples of 1/8), then moved by an integer offset (up to
-    1024 cells, half the meshes) and scaled by ``2**k`` (cells of 1/4 to 8
-    units). Every coordinate is a dyadic rational that float32 holds exactly
-    (checked). A ray aims at a
-    point of an interior edge (``A + s (B - A)``, ``s`` in eighths) or at an
-    interior vertex; its direction ``D`` is a dyadic vector and its origin
-    ``O = P - D``, both exact, so the ray meets the aim at ``t = 1`` exactly:
-    it truly passes through the edge or vertex. A **crack** is a ray that
-    hits no triangle of the mesh (closest mode). A **double hit** (edges
-    only) is a ray that hits both triangles of its edge, each asked alone:
-    every interior edge joins a lower and an upper triangle, so the two are
-    answered by one closest call on the lower triangles and one on the upper
-    ones. Closed-triangle rules (the reference's, Woop's) count an exact
-    edge point in both triangles, so for them a double hit is by design; it
-    is a defect only where crossings are counted (parity tests of
-    inside/outside). At a vertex, all six incident triangles hit is what a
-    closed rule gives, so vertices are measured for cracks only.
+    Exactly coplanar ``n x n`` grids, each cell split along one diagonal into a *lower* and an *upper*
+    triangle, on axis-aligned, ``x + y + z = c`` and random planes, moved and scaled by powers of 2: every
+    coordinate is dyadic, exact in float32 (checked). A ray aims at a point of an interior edge, or at an
+    interior vertex, from ``O = P - D``, both exact, so it truly meets it at ``t = 1``. A **crack** is a
+    ray that hits no triangle (closest mode). A **double hit** (edges only) hits both triangles of its
+    edge, each asked alone: by design under closed-triangle rules (the reference's, Woop's), a defect only
+    where crossings are counted (parity tests). Vertices are measured for cracks only.
 ``inside_sphere``
-    Embree's watertightness test (``tests/verify.cpp``, ``WatertightTest``):
-    a sphere of radius 2 centred at (148376, 1234, -223423), where float32
-    spacing is 1/64; rays start uniformly in the centre's ``[-1, 1]^3`` box,
-    directions uniform in ``[-1, 1]^3``; a miss is a failure and Embree fails
-    above a 0.002% miss rate. Here the sphere is a trimesh icosphere
-    (subdivisions 5: 20480 triangles; Embree's, of 500 segments, is finer).
-    Brute force over 20480 triangles is too slow for 50 000 rays, so each ray
-    is asked about the triangles around the point where it leaves the
-    circumscribed sphere: rays are grouped by the nearest vertex of a coarser
-    icosphere and each group meets every triangle whose centre is within
-    reach (the group's widest exit angle, the largest centre-to-vertex angle
-    of a triangle and 0.03 rad for rounding), a superset of the triangles
-    that can hold the exit point.
+    Embree's watertightness test (``tests/verify.cpp``, ``WatertightTest``): a sphere of radius 2 at
+    (148376, 1234, -223423), where float32 spacing is 1/64, here an icosphere of 20480 triangles; rays
+    start uniform in the centre's ``[-1, 1]^3`` box, directions uniform in it; a miss is a failure (Embree
+    fails above 0.002%). Each ray is asked only about the triangles near where it leaves the circumscribed
+    sphere (grouped by the nearest vertex of a coarser icosphere, with room for rounding), a superset of
+    those that can hold the exit point: brute force over 50 000 rays would be too slow.
 ``scales``
-    Safe pairs (:func:`tribench.workloads.pairs.generate_pairs`, hit rate
-    0.5, every crossing at least 1e-3 barycentric from an edge) scaled by
-    1e-8, 1e-4, 1, 1e4, 1e8: a failure is an answer other than the
-    float64 reference's.
+    Safe pairs (:func:`tribench.workloads.pairs.generate_pairs`, hit rate 0.5) scaled by 1e-8 to 1e8: a
+    failure is an answer other than the float64 reference's.
 ``tiny_triangles``, ``needle_triangles``, ``grazing_rays``
-    Triangles placed at random in the unit ball: near-equilateral with
-    sizes from 1e-2 down to about 100 ulps of the precision; needles with
-    base 1 and aspect ratios 1e3 to 1e6; unit triangles met by rays at
-    slopes 1e-3 to 1e-6 (about that angle in radians) to the plane. Rays
-    aim at points at least 0.2 (barycentric) inside, from 1 to 3 lengths of
-    their direction away (tiny and needle: dyadic directions at least 0.2 in
-    cosine off the plane);
-    once rounded to the precision, rays that the float64 reference does not
-    see as hits at least 0.05 inside are dropped (``detail`` counts them). A
+    Triangles from 1e-2 down to about 100 ulps of the precision, needles of aspect 1e3 to 1e6, and unit
+    triangles met at slopes 1e-3 to 1e-6, with rays aimed at least 0.2 (barycentric) inside; those the
+    reference no longer sees as hits 0.05 inside once rounded are dropped (``detail`` counts them). A
     failure is a miss.
-``parallel_rays``
-    Dyadic triangles on dyadic planes; rays exactly parallel to the plane
-    just above the triangle (offsets ``2**-4`` to ``2**-12`` times the
-    plane's normal): every one must miss.
-``in_plane_rays``
-    The same triangles and rays, but exactly in the plane, through the
-    triangle. The float64 reference calls them misses (its determinant is
-    0), but the exact answer is a segment of contact: a kernel whose
-    prepared plane or per-ray transform is rounded (Baldwin-Weber's stored
-    rows, Havel-Herout's normalised planes, Woop's shear) sees the ray cross
-    a plane turned by a rounding error, and a hit or a miss is that rounding's
-    call. Measured for every kernel, never judged.
+``parallel_rays``, ``in_plane_rays``
+    Dyadic triangles, and rays exactly parallel to the plane just above them: every one must miss. Rays in
+    the plane, through the triangle, touch it along a segment: a kernel whose prepared plane or per-ray
+    transform is rounded (Baldwin-Weber, Havel-Herout, Woop) sees a plane turned by rounding, so these are
+    measured for every kernel, never judged.
 ``degenerate_triangles``
-    Zero-area triangles: a point, a segment with a repeated vertex, three
-    collinear points (all dyadic, so exactly degenerate), rays aimed exactly at
-    them; then, from coordinates that are not dyadic (random, rounded to the
-    precision, scaled by ``2**-4`` to ``2**14``), a repeated vertex and three
-    exactly collinear vertices (``a + k (b - a)`` for a few k, kept where that
-    is exact in the precision, verified in rational arithmetic), rays aimed at
-    points of the segment. Every clean kernel must miss every one (flat
-    triangles are found exactly at prepare time, ``ext.flat``). The seed
-    replays keep the seed's tests, and are measured: ``moller_seed``'s
-    ``|det| < 1e-4`` misses the dyadic ones (det is exactly 0) but the rounding
-    noise of det reaches 1e-4 on larger non-dyadic ones, which it then hits;
-    ``curless_seed`` misses a triangle whose rounded normal is exactly 0 (its
-    stored normal is 0) and can hit one whose normal is rounding noise.
+    Zero-area triangles (a point, a repeated vertex, three collinear vertices; dyadic, then from random
+    coordinates, verified in rational arithmetic) with rays aimed at them: every clean kernel must miss
+    (``ext.flat``). The seed replays keep the seed's tests and are measured: ``moller_seed``'s
+    ``|det| < 1e-4`` misses the dyadic ones, but rounding noise reaches 1e-4 on larger others;
+    ``curless_seed`` misses a triangle whose rounded normal is exactly 0 and can hit one whose is noise.
 ``nonfinite``
-    Safe hits with one NaN, +Inf or -Inf in one coordinate of the origin,
-    the direction or a vertex, every combination (``allow_nonfinite=True``):
-    the call must return (no crash) and a hit is a failure, except for the
-    seed replays (``ext.kernel_info(k).seed_replay``), faithful copies of
-    flawed code, whose hits are reported, not judged.
-
-Sizes: :data:`FULL` (``tribench validate``) and :data:`QUICK` (``--quick``, the tests).
-
-Modules: this one is the suite's public face (every name below, and
-:func:`build`); the sizes and ray-set types are in :mod:`.sets`,
-the closest-mode tests in :mod:`.meshes`, the aimed pair tests
-(scales, tiny, needle, grazing, non-finite) in :mod:`.pairs` and the
-exactly constructed ones (parallel, in-plane, degenerate) in
-:mod:`.exact`.
-"""
+    Safe hits with one NaN, +Inf or -Inf in one coordinate of the origin, the direction or a vertex
+    (``allow_nonfinite=True``): the call must return, and a hit is a failure, but for the seed replays
+    (faithful copies of flawed code), whose hits are reported, not judged."""
 
 from __future__ import annotations
 
@@ -204,11 +144,6 @@ _PAIR_TESTS: dict[str, Callable[[np.random.Generator, Size, str], PairRays]] = {
 def build(dtype: str = "float64", quick: bool = False, seed: int = 0, tests=TESTS) -> RaySets:
     """The rays of ``tests`` at one precision, the same for every kernel.
 
-    Each test draws from its own stream (the seed and the test's name), so
-    a test's rays do not depend on which other tests are built.
-
-    Examples
-    --------
     >>> sets = build("float32", quick=True, tests=("nonfinite", "shared_edges"))
     >>> sets.tests, sets.meshes["shared_edges"][0].incident.shape
     (('shared_edges', 'nonfinite'), (64, 2))

@@ -1,9 +1,5 @@
-"""The robustness suite's exactly constructed pair tests: parallel and in-plane rays, degenerate triangles.
-
-Part of :mod:`tribench.workloads.robustness`, whose docstring describes the tests
-(``parallel_rays``, ``in_plane_rays``, ``degenerate_triangles``); each
-builder returns :class:`~.sets.PairRays`.
-"""
+"""The robustness suite's exactly constructed pair tests (:mod:`tribench.workloads.robustness` describes
+them): parallel and in-plane rays, degenerate triangles."""
 
 from __future__ import annotations
 
@@ -77,10 +73,9 @@ def exactly_collinear(tri: np.ndarray) -> bool:
 
 
 def _non_dyadic_flat(rng, g: int, per: int, dtype: str) -> PairRays:
-    """Repeated vertices (a, b, b) and exactly collinear vertices (a, b, a + k (b - a), kept only
-    where that is exact in ``dtype``) from random coordinates that are not dyadic, scaled by
-    2**-4 to 2**14 (exact), in any vertex order; rays aimed at points between a and b from
-    random directions."""
+    """Repeated vertices (a, b, b) and exactly collinear ones (a, b, a + k (b - a), kept where exact in ``dtype``)
+    from random non-dyadic coordinates scaled by 2**-4 to 2**14, in any vertex order; rays aimed between a
+    and b from random directions."""
     tris: Any = []  # a list, then the array of it
     ends: Any = []
     while len(tris) < g:

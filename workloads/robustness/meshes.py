@@ -1,9 +1,5 @@
-"""The robustness suite's closest-mode tests: exactly coplanar meshes and Embree's sphere.
-
-Part of :mod:`tribench.workloads.robustness`, whose docstring describes the tests
-(``shared_edges``, ``shared_edges_double``, ``shared_vertices``,
-``inside_sphere``); each builder returns :class:`~.sets.MeshRays`.
-"""
+"""The robustness suite's closest-mode tests (:mod:`tribench.workloads.robustness` describes them): exactly
+coplanar meshes and Embree's sphere."""
 
 from __future__ import annotations
 
@@ -22,15 +18,11 @@ _PLANE_NAMES = ("axis plane", "x+y+z=c", "dyadic plane")
 def grid_topology(n: int) -> tuple[np.ndarray, list, list]:
     """Faces, interior edges and interior vertices of an ``n x n`` grid split along one diagonal.
 
-    Vertex ``(i, j)`` is ``i (n + 1) + j``; cell ``(i, j)`` has corners
-    ``v00 v10 v11 v01`` and two triangles, lower ``(v00, v10, v11)`` =
-    ``2 (i n + j)`` and upper ``(v00, v11, v01)`` = lower + 1. Returns the
-    faces (vertex indices), the edges as ``(vertex, vertex, lower triangle,
-    upper triangle)`` (every interior edge joins one lower and one upper
-    triangle) and the interior vertices as ``(vertex, six incident triangles)``.
+    Vertex ``(i, j)`` is ``i (n + 1) + j``; cell ``(i, j)``, corners ``v00 v10 v11 v01``, has a lower
+    triangle ``(v00, v10, v11)``, number ``2 (i n + j)``, and an upper one ``(v00, v11, v01)``, the next.
+    Edges are ``(vertex, vertex, lower, upper)`` (every interior edge joins one of each), interior vertices
+    ``(vertex, six incident triangles)``.
 
-    Examples
-    --------
     >>> faces, edges, vertices = grid_topology(2)
     >>> faces[:2].tolist(), len(edges), vertices
     ([[0, 3, 4], [0, 4, 1]], 8, [(4, (6, 7, 0, 1, 2, 5))])
@@ -102,8 +94,8 @@ def _coplanar_mesh(rng: np.random.Generator, m: int, size: Size, dtype: str) -> 
 
 
 def sphere_triangles(dtype: str) -> np.ndarray:
-    """The closed sphere of ``inside_sphere``: a trimesh icosphere (subdivisions 5,
-    20480 triangles) of radius 2 centred at :data:`EMBREE_CENTRE`, rounded to ``dtype``."""
+    """The closed sphere of ``inside_sphere``: an icosphere (subdivisions 5, 20480 triangles) of radius 2 at
+    :data:`EMBREE_CENTRE`, rounded to ``dtype``."""
     import trimesh  # lazy: slow to import
 
     fine = trimesh.creation.icosphere(subdivisions=5, radius=EMBREE_RADIUS)

@@ -1,10 +1,5 @@
-"""The robustness suite's aimed pair tests: safe pairs at extreme scales, tiny and needle
-triangles, grazing rays, and non-finite input.
-
-Part of :mod:`tribench.workloads.robustness`, whose docstring describes the tests (``scales``,
-``tiny_triangles``, ``needle_triangles``, ``grazing_rays``, ``nonfinite``);
-each builder returns :class:`~.sets.PairRays`.
-"""
+"""The robustness suite's aimed pair tests (:mod:`tribench.workloads.robustness` describes them): safe pairs
+at extreme scales, tiny and needle triangles, grazing rays, and non-finite input."""
 
 from __future__ import annotations
 
@@ -49,12 +44,8 @@ def _equilateral(rng: np.random.Generator, g: int, radius: np.ndarray) -> np.nda
 
 
 def _aimed_pairs(rng, tris, per_triangle, dtype, label, slope=None) -> PairRays:
-    """Rays at deep points of each triangle, kept where the reference still sees a deep hit.
-
-    The triangles are rounded first and the rays built against them, then
-    rounded in turn; ``slope`` (one per triangle) makes the rays graze the
-    plane at that slope instead of meeting it at least MIN_COS off it.
-    """
+    """Rays at deep points of each triangle (rounded first, the rays built against them and rounded in turn),
+    kept where the reference still sees a deep hit; ``slope`` (one per triangle) makes them graze the plane."""
     tris = round_to(tris, dtype)
     owner = np.repeat(np.arange(len(tris)), per_triangle)
     mine = tris[owner]
@@ -112,12 +103,9 @@ def _grazing(rng, size: Size, dtype: str) -> PairRays:
 
 
 def _nonfinite(rng, size: Size, dtype: str) -> PairRays:
-    """Safe hits, each with one NaN, +Inf or -Inf in one coordinate of its origin, direction or a vertex.
-
-    Rays with a bad origin or direction share their (finite) triangles, as
-    the pair tests do; each bad vertex is its own triangle, every (vertex,
-    coordinate, value) combination ``nonfinite_repeats`` times.
-    """
+    """Safe hits, each with one NaN, +Inf or -Inf in one coordinate of its origin, direction or a vertex: a bad
+    ray shares its finite triangle, as the pair tests do; each bad vertex is its own triangle, every (vertex,
+    coordinate, value) ``nonfinite_repeats`` times."""
     values = (np.nan, np.inf, -np.inf)
     g = size.triangles
     rays = _aimed_pairs(rng, _equilateral(rng, g, np.full(g, 0.5)), size.rays_per_triangle, dtype, np.full(g, ""))

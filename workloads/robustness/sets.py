@@ -1,11 +1,5 @@
-"""The robustness suite's sizes and ray-set types, and the exact constructions its builders share.
-
-Part of :mod:`tribench.workloads.robustness` (which documents the tests and builds them): the
-builders of :mod:`.meshes`, :mod:`.pairs` and
-:mod:`.exact` return the :class:`MeshRays` and :class:`PairRays`
-defined here, and build dyadic geometry, exact in float32, with the helpers
-at the end.
-"""
+"""The robustness suite's sizes and ray-set types (:mod:`tribench.workloads.robustness` describes the tests),
+and the dyadic constructions, exact in float32, its builders share."""
 
 from __future__ import annotations
 
@@ -59,25 +53,12 @@ QUICK = Size(
 
 @dataclass(frozen=True)
 class MeshRays:
-    """Rays against one small mesh, answered in closest mode.
+    """Rays against one small mesh, answered in closest mode, all arrays in the set's dtype.
 
-    Attributes
-    ----------
-    triangles : ndarray (K, 3, 3)
-    origins, directions : ndarray (M, 3)
-        All three in the set's dtype.
-    label : str
-        What kind of mesh, for the ``detail`` breakdown.
-    incident : ndarray (M, J) or None
-        For aimed rays, the triangles whose closure holds the aim: an edge's
-        lower then upper triangle (J = 2), or a vertex's six triangles.
-    back : ndarray (M,) of bool
-        Whether the ray meets the back of the mesh (``d . n > 0``, ``n = (v1 -
-        v0) x (v2 - v0)``): culling kernels ask such rays about the mesh wound
-        the other way.
-    aims : ndarray (M, 3) or None
-        The aimed points, ``origins + directions`` exactly.
-    """
+    ``label``: the kind of mesh, for the ``detail`` breakdown. ``incident``: for aimed rays, the triangles
+    whose closure holds the aim (an edge's lower then upper triangle, or a vertex's six). ``back``: whether the
+    ray meets the back of the mesh (``d . n > 0``), which culling kernels ask of the mesh wound the other way.
+    ``aims``: the aimed points, ``origins + directions`` exactly."""
 
     triangles: np.ndarray
     origins: np.ndarray
@@ -90,12 +71,9 @@ class MeshRays:
 
 @dataclass(frozen=True)
 class PairRays:
-    """Rays each asked about one triangle: ray ``i`` against ``triangles[owner[i]]``.
-
-    ``expect_hit`` is the right answer of each ray, ``label`` its group in
-    the ``detail`` breakdown, ``dropped`` the rays left out because rounding
-    made them ambiguous.
-    """
+    """Rays each asked about one triangle, ray ``i`` against ``triangles[owner[i]]``: ``expect_hit`` is its
+    right answer, ``label`` its group in the ``detail`` breakdown; ``dropped`` counts the rays left out because
+    rounding made them ambiguous."""
 
     triangles: np.ndarray
     origins: np.ndarray
@@ -108,12 +86,9 @@ class PairRays:
 
 @dataclass(frozen=True)
 class RaySets:
-    """The rays of some tests at one precision (see :func:`build`).
-
-    ``meshes`` holds the closest-mode tests (``shared_edges``, which
-    ``shared_edges_double`` uses too, ``shared_vertices``,
-    ``inside_sphere``), ``pairs`` the others.
-    """
+    """The rays of some tests at one precision (:func:`build`): ``meshes`` holds the closest-mode tests
+    (``shared_edges``, which ``shared_edges_double`` uses too, ``shared_vertices``, ``inside_sphere``),
+    ``pairs`` the others."""
 
     dtype: str
     tests: tuple[str, ...]

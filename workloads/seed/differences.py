@@ -1,11 +1,6 @@
-"""Where two renders of the seed tracer differ, and how near an edge their rays pass.
-
-Part of :mod:`.trace`: :func:`difference_mask` compares two
-:class:`~.records.Trace` objects by image or by ray tree,
-:func:`save_mask_png` draws the mask, and :func:`edge_margins` and
-:func:`pixel_edge_margins` tell a difference near an edge (where two correct
-tests may disagree) from one elsewhere.
-"""
+"""Where two renders of the seed tracer differ (:func:`difference_mask`, drawn by :func:`save_mask_png`), and
+how near an edge their rays pass (:func:`edge_margins`): a difference near an edge is one two correct
+tests may make."""
 
 from __future__ import annotations
 
@@ -37,25 +32,13 @@ def _hit_codes(tr: Trace) -> np.ndarray:
 
 
 def difference_mask(a: Trace, b: Trace, by: str = "image") -> tuple[np.ndarray, int]:
-    """Pixels where two traces of the same scene and image size differ.
+    """Pixels where two traces of the same scene and size differ, and their count.
 
-    Parameters
-    ----------
-    by : {"image", "hits"}
-        ``"image"`` (default): the 8-bit pixels differ -- what the seed's
-        pictures show. ``"hits"``: the pixel's ray trees differ (an object hit
-        by a primary or reflected ray, a shadow ray's occlusion, or a ray
-        present in one trace only). Many more pixels differ by hits than by
-        image: a last-bit difference in a triangle's ``t`` moves the hit point,
-        and the seed's sphere test (``t >= 0``, no epsilon) then flips the
-        self-occlusion of shadow rays leaving a sphere toward a light behind
-        it, which changes no colour (such a light adds no diffuse term).
-
-    Returns
-    -------
-    mask : bool (height, width)
-    count : int
-    """
+    ``by="image"``: the 8-bit pixels differ, what the seed's pictures show. ``by="hits"``: the pixel's ray
+    trees differ (an object hit, a shadow ray's occlusion, a ray in one trace only). Far more pixels differ by
+    hits than by image: a last-bit change of a triangle's ``t`` moves the hit point, and the seed's sphere test
+    (``t >= 0``, no epsilon) then flips the self-occlusion of shadow rays leaving a sphere toward a light
+    behind it, which changes no colour (such a light adds no diffuse term)."""
     if (a.width, a.height) != (b.width, b.height):
         raise UserError(f"traces differ in size: {a.width}x{a.height} and {b.width}x{b.height}")
     if by == "image":
@@ -93,13 +76,9 @@ def save_mask_png(mask: np.ndarray, path: str | Path, background: np.ndarray | N
 
 
 def edge_margins(origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray, t_min: float = 0.0) -> np.ndarray:
-    """For each ray, how close it passes to the boundary of any triangle, in barycentric units.
-
-    The smallest ``|min(u, v, w)|`` over the triangles whose plane the ray
-    crosses at ``t > t_min`` (float64 reference barycentrics); ``inf`` if it
-    crosses none. Near 0 means the ray passes next to an edge or a vertex,
-    where two correct tests may disagree.
-    """
+    """How close each ray passes to the boundary of any triangle: the smallest ``|min(u, v, w)|`` over the
+    triangles whose plane it crosses at ``t > t_min`` (float64 reference barycentrics), ``inf`` if none. Near
+    0: next to an edge or a vertex, where two correct tests may disagree."""
     from ..reference import intersect_pairs
 
     o = np.asarray(origins, np.float64)

@@ -1,9 +1,5 @@
-"""What the seed tracer's rays meet: planes and spheres in NumPy, triangles through a kernel, in file order.
-
-Part of :mod:`.trace`, whose docstring gives the seed's tests these
-follow (``Plan.cpp``, ``Sphere.cpp``, ``Triangle.cpp``, ``Scene::intersecte``
-and ``Scene::coupe``).
-"""
+"""What the seed tracer's rays meet, in file order (the seed's tests: :mod:`.trace`): planes and spheres in
+NumPy, triangles through a kernel."""
 
 from __future__ import annotations
 

@@ -1,9 +1,5 @@
-"""The seed tracer's records: the rays of one kind (:class:`RaySet`) and one render (:class:`Trace`).
-
-Part of :mod:`.trace`, which renders a scene and returns a
-:class:`Trace`; the kinds of rays (:data:`KINDS`) and of hits (``MISS``,
-``PLANE``, ``SPHERE``, ``TRIANGLE``) every ray stores are defined here.
-"""
+"""The seed tracer's records: the rays of one kind (:class:`RaySet`) and one render (:class:`Trace`), and
+the kinds of rays (:data:`KINDS`) and of hits (``MISS``, ``PLANE``, ``SPHERE``, ``TRIANGLE``) they store."""
 
 from __future__ import annotations
 
@@ -24,32 +20,17 @@ MISS, PLANE, SPHERE, TRIANGLE = -1, Scene.PLANE, Scene.SPHERE, Scene.TRIANGLE
 
 @dataclass(frozen=True, eq=False)
 class RaySet:
-    """Rays of one kind, as the seed shot them, with what they hit. All arrays length N.
+    """Rays of one kind as the seed shot them, with what they hit; every array has length N.
 
-    Attributes
-    ----------
-    origins, directions : float64 (N, 3)
-        Exactly as shot: primary and reflected directions are unit vectors,
-        shadow directions are ``light - p`` (not normalised; ``t = 1`` at the light).
-    pixel : int64
-        Row-major pixel index ``j * width + i`` the ray contributes to.
-    depth : int8
-        Generation of the ray (primary 0, reflected 1 or 2); for a shadow ray,
-        the generation of the ray whose hit point it leaves.
-    light : int16
-        Light index for a shadow ray, -1 otherwise.
-    hit_kind, hit_index : int8, int64
-        Primary and reflected rays: the closest object (kind -1 none, 0 plane,
-        1 sphere, 2 triangle; index within its kind). Shadow rays: the
-        occluder: -1 when the light is visible; a sphere if one cuts the ray
-        and comes before the nearest cutting triangle in file order (the
-        seed stops at the first occluder in file order; this is exact when the
-        spheres precede the triangles, as in both built-in scenes); else the
-        nearest cutting triangle.
-    triangle, t_triangle : int64, float64
-        Closest triangle the kernel hit, whatever else is nearer (-1 and nan
-        for none): what the triangle tests of this ray answer.
-    """
+    ``origins``, ``directions``: float64, exactly as shot (shadow directions are ``light - p``, ``t = 1`` at
+    the light). ``pixel``: the row-major pixel ``j * width + i`` the ray adds to. ``depth``: its generation
+    (primary 0, reflected 1 or 2; a shadow ray's is that of the ray whose hit it leaves). ``light``: a shadow
+    ray's light, else -1. ``hit_kind``, ``hit_index``: the closest object (kind -1 none, 0 plane, 1 sphere, 2
+    triangle; index within its kind); for a shadow ray the occluder (-1: the light is visible), a sphere if one
+    cuts the ray before the nearest cutting triangle in file order (the seed stops at the first occluder in
+    file order; exact when the spheres precede the triangles, as in both built-in scenes), else that
+    triangle. ``triangle``, ``t_triangle``: the closest triangle the kernel hit, whatever else is nearer (-1
+    and nan for none): what this ray's triangle tests answer."""
 
     origins: np.ndarray
     directions: np.ndarray
@@ -94,22 +75,9 @@ class RaySet:
 
 @dataclass(frozen=True, eq=False)
 class Trace:
-    """One render of a scene with one triangle kernel: the image and the rays shot.
-
-    Attributes
-    ----------
-    scene : Scene
-    kernel : str or None
-        ``None``: the float64 reference.
-    dtype : str
-        Precision of the triangle tests.
-    width, height, depth : int
-    image : float64 (height, width, 3)
-        Colours as the seed computes them, not clamped (see :meth:`to_uint8`).
-    primary, reflected, shadow : RaySet
-    elapsed_s : float
-        Wall time of the whole render; ``triangle_s`` of it in triangle tests.
-    """
+    """One render of a scene with one triangle kernel (None: the float64 reference): the image, as the seed
+    computes it before clamping (:meth:`to_uint8`), and the rays shot; ``elapsed_s`` is the render's wall
+    time, ``triangle_s`` the part of it in triangle tests."""
 
     scene: Scene
     kernel: str | None
@@ -143,11 +111,8 @@ class Trace:
 
     @property
     def triangle_tests(self) -> dict[str, int]:
-        """Ray-triangle tests a brute-force replay runs per kind (every ray against every triangle).
-
-        The seed's shadow test stops at the first occluder in file order, so
-        it runs fewer (see :meth:`RaySet`); this is the closest-hit count.
-        """
+        """Ray-triangle tests a brute-force replay runs per kind, every ray against every triangle (the seed's
+        shadow test, stopping at the first occluder, runs fewer)."""
         k = len(self.scene.triangles)
         return {kind: len(getattr(self, kind)) * k for kind in KINDS}
 
@@ -169,14 +134,9 @@ class Trace:
         return path
 
     def seed_order(self) -> tuple[np.ndarray, np.ndarray]:
-        """The seed's shooting order: ``(kind, index)`` arrays over all rays.
-
-        The seed renders pixel by pixel, columns outer and rows inner, and
-        within a pixel depth first: the primary ray, the shadow rays of its
-        hit (lights in order), the reflected ray, its hit's shadow rays, the
-        next reflected ray, and so on. ``kind`` indexes :data:`KINDS`;
-        ``index`` is the row within that kind's :class:`RaySet`.
-        """
+        """The seed's shooting order, ``(kind, index)`` arrays over all rays (``kind`` indexes :data:`KINDS`,
+        ``index`` the row in its :class:`RaySet`): pixel by pixel, columns outer and rows inner, and within a
+        pixel depth first (the primary ray, its hit's shadow rays by light, the reflected ray, its shadow rays...)."""
         keys, kinds, idx = [], [], []
         for k, name in enumerate(KINDS):
             rs = getattr(self, name)

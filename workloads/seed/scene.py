@@ -1,8 +1,7 @@
 """The seed's scene files: reader, writer and the two built-in scenes.
 
-The seed (Vitse 2022, on C. Renaud's teaching ray tracer) describes a scene in
-a text file, one keyword per line followed by its numbers, ``#`` starting a
-comment::
+The seed (Vitse 2022, on C. Renaud's teaching ray tracer) describes a scene in a text file, one keyword per
+line followed by its numbers, ``#`` starting a comment::
 
     fond r g b                            background colour
     ambiant r g b                         ambient light
@@ -12,36 +11,17 @@ comment::
     sphere x y z radius
     tri x1 y1 z1 x2 y2 z2 x3 y3 z3        triangle; its normal is (v1-v0) x (v2-v0)
 
-What the seed's loader does (``Scene::charger`` in ``LR/Src/Scene.cpp``): it
-reads whitespace-separated words, silently skips words it does not know,
-reads numbers with ``>>`` (a bad number leaves garbage behind), and applies
-the current material -- ``Materiau()``'s default, colour 0.8 0.8 0.8,
-ka 0.05, kd 0.5, ks 0.1, shininess 10 (``Materiau.cpp``, ``Couleur.cpp``) --
-to every object, including objects before any ``materiau`` line. The scene's
-defaults are ambient 0.2 0.2 0.2 (``Scene::Scene``) and background
-0.8 0.8 0.8 (``Couleur``'s default). A later ``fond`` or ``ambiant`` replaces
-an earlier one.
-
-This reader keeps those semantics (including the default material: an object
-before any ``materiau`` gets :data:`DEFAULT_MATERIAL`, as in the seed) but is
-line-based and strict where the seed is silent: every line is blank, a
-comment, or one keyword with exactly its count of decimal numbers (no
-underscores, no inf or nan) within float32's range, the seed's storage (a
-trailing ``# comment`` is allowed). Keywords are matched case-insensitively; spaces,
-tabs, blank lines and Windows line ends are fine. Anything else raises
-:class:`SceneError` naming the file, the line and what was expected::
-
-    scene02.txt:14: 'sphere' expects 4 numbers (x y z radius), got 3
-
-Values are checked too: a sphere's radius must be positive, a plane's normal
-(a, b, c) non-zero, a triangle non-degenerate (the seed would divide by its
-zero normal), colours, intensities and coefficients non-negative. A scene
-holds at most :data:`MAX_TRIANGLES` triangles, counted before parsing.
-
-Built-in scenes (:data:`BUILTIN_SCENES`) live in ``workloads/data`` as text in
-this format; ``scene03.txt`` is generated from ``suzanne.obj`` by
-:func:`write_scene03`.
-"""
+The seed's loader (``Scene::charger``, ``LR/Src/Scene.cpp``) skips words it does not know, reads numbers
+with ``>>`` (a bad one leaves garbage) and applies the current material to every object, including those
+before any ``materiau`` line (:data:`DEFAULT_MATERIAL`, ``Materiau.cpp``); ambient and background default
+to :data:`DEFAULT_AMBIENT` and :data:`DEFAULT_BACKGROUND`, and a later ``fond`` or ``ambiant`` replaces an
+earlier one. This reader keeps those semantics but is strict where the seed is silent: every line is blank,
+a comment, or one keyword (any case) with exactly its count of decimal numbers (no underscores, inf or nan)
+within float32's range, the seed's storage. Values are checked too: a positive radius, a non-zero plane
+normal, a non-degenerate triangle (the seed would divide by its zero normal), non-negative colours and
+coefficients; and a scene holds at most :data:`MAX_TRIANGLES` triangles. Anything else raises
+:class:`SceneError` naming the file, the line and what was expected. The built-in scenes
+(:data:`BUILTIN_SCENES`) are text files of ``workloads/data``; :func:`write_scene03` makes ``scene03.txt``."""
 
 from __future__ import annotations
 
@@ -128,28 +108,13 @@ DEFAULT_BACKGROUND = (0.8, 0.8, 0.8)
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """A scene in the seed's model, with geometry as float64 arrays.
+    """A scene in the seed's model, its geometry read-only float64 arrays.
 
-    Attributes
-    ----------
-    name : str
-    background, ambient : (r, g, b)
-    lights : tuple of Light
-    materials : tuple of Material
-        Distinct materials in order of first use; objects refer to them by index.
-    planes : float64 (P, 4)
-        ``a b c d`` of ``a x + b y + c z + d = 0`` (as written, not normalised).
-    spheres : float64 (S, 4)
-        ``x y z radius``.
-    triangles : float64 (K, 3, 3)
-        ``triangles[k, j]`` is vertex j of triangle k.
-    plane_material, sphere_material, triangle_material : int64 (P,), (S,), (K,)
-        Index into ``materials``.
-    objects : int64 (P + S + K, 2)
-        File order of all objects as ``(kind, index)`` rows, kind 0 plane,
-        1 sphere, 2 triangle. The seed tests objects in this order (its shadow
-        test stops at the first occluder; ties in ``t`` go to the earlier).
-    """
+    ``materials`` are the distinct materials in order of first use, which ``*_material`` index. ``planes``
+    (P, 4) are ``a b c d`` as written (not normalised), ``spheres`` (S, 4) ``x y z radius``, ``triangles``
+    (K, 3, 3). ``objects`` (P + S + K, 2) lists ``(kind, index)`` in file order (kind 0 plane, 1 sphere, 2
+    triangle): the seed tests objects in this order (its shadow test stops at the first occluder; ties in
+    ``t`` go to the earlier)."""
 
     name: str
     background: tuple[float, float, float]
@@ -323,20 +288,8 @@ _TRIANGLE_LINE = re.compile(r"^[ \t]*tri[ \t]", re.MULTILINE | re.IGNORECASE)
 
 
 def parse_scene(text: str, name: str = "<string>") -> Scene:
-    """Read a scene from the text of a scene file.
+    """Read a scene from the text of a scene file; ``name`` names it and starts its errors (``name:line: ...``).
 
-    Parameters
-    ----------
-    text : str
-    name : str
-        Used in error messages (``name:line: ...``) and as the scene's name.
-
-    Raises
-    ------
-    SceneError
-
-    Examples
-    --------
     >>> s = parse_scene("materiau 1 0 0 0.1 0.5 0 10\\nsphere 0 0 -3 1  # red ball\\n")
     >>> s.spheres.tolist(), s.materials[0].colour
     ([[0.0, 0.0, -3.0, 1.0]], (1.0, 0.0, 0.0))
@@ -362,17 +315,8 @@ def parse_scene(text: str, name: str = "<string>") -> Scene:
 
 
 def read_scene(path_or_text: str | os.PathLike, name: str | None = None) -> Scene:
-    """Read a scene file (a path), or scene text (a ``str`` holding a newline).
-
-    A ``str`` without a newline is a path. The scene's name is ``name``, else
-    the file's stem (``"scene02"``), else ``"<string>"``; error messages name
-    the file as given.
-
-    Raises
-    ------
-    SceneError
-        Missing or unreadable file, or a line that cannot be understood.
-    """
+    """Read a scene file (a path), or scene text (a ``str`` holding a newline); :class:`SceneError` when the file
+    is missing or unreadable or a line cannot be understood. Its name is ``name``, else the file's stem."""
     if isinstance(path_or_text, str) and "\n" in path_or_text:
         return parse_scene(path_or_text, name or "<string>")
     path = Path(path_or_text)
@@ -418,10 +362,8 @@ def _line(keyword: str, values) -> str:
 
 
 def format_scene(scene: Scene, header: str = "") -> str:
-    """The scene as text in the seed's format; :func:`parse_scene` reads it back exactly.
-
-    Objects are written in ``scene.objects`` order, with a ``materiau`` line
-    wherever the material changes. ``header`` lines are written as comments.
+    """The scene as text in the seed's format, objects in ``scene.objects`` order with a ``materiau`` line where
+    the material changes, ``header`` as comments; :func:`parse_scene` reads it back exactly.
 
     >>> s = parse_scene("fond 1 1 1\\nsphere 0 0.1 -3 1\\n")
     >>> print(format_scene(s), end="")
@@ -489,10 +431,7 @@ def scene03_text(obj_path: str | os.PathLike | None = None) -> str:
 
 
 def write_scene03(path: str | os.PathLike | None = None, obj_path: str | os.PathLike | None = None) -> Path:
-    """Write ``scene03.txt`` (default: the committed ``workloads/data/scene03.txt``).
-
-    Reproducible: the same ``suzanne.obj`` gives the same bytes. Returns the path.
-    """
+    """Write ``scene03.txt`` (default: the committed one), the same bytes from the same ``suzanne.obj``."""
     out = Path(path) if path is not None else DATA_DIR / "scene03.txt"
     write_text(out, scene03_text(obj_path))
     return out

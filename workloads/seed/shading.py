@@ -1,10 +1,5 @@
-"""The seed tracer's camera and shading: primary rays, a hit's normal and material, the light it gets.
-
-Part of :mod:`.trace`, whose docstring gives the seed's camera
-(``Camera.cpp``), shading (``Objet::calculerDirect``) and reflection
-(``Objet::getReflechi``) these follow. The shadow rays are shot by the
-tracing loop; :func:`_direct` is told which hits their light reaches.
-"""
+"""The seed tracer's camera and shading (the seed's rules: :mod:`.trace`): primary rays, a hit's normal and
+material, the light it gets from the lights its shadow rays reach."""
 
 from __future__ import annotations
 
@@ -64,12 +59,8 @@ def _direct(
     lit: np.ndarray,
     material: np.ndarray,
 ) -> np.ndarray:
-    """One light's diffuse plus specular colour at each hit, before its intensity (0 where not ``lit``).
-
-    ``to_light`` is ``light - p``, ``view`` the unit vector toward the
-    observer and ``material`` the rows of :func:`_material_arrays`; the
-    mirrored light ``r`` is computed even when ``n.l <= 0``, as the seed does.
-    """
+    """One light's diffuse plus specular colour at each hit, before its intensity (0 where not ``lit``);
+    ``to_light`` is ``light - p``, ``view`` the unit vector toward the observer."""
     base, kd, ks, shine = material[:, :3], material[:, 4], material[:, 5], material[:, 6]
     inc = _normalise(to_light)
     ps = _dot(n, inc)

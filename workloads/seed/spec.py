@@ -1,7 +1,4 @@
-"""The seed's workloads' spec: a sample of one kind of ray from the seed's render of a scene.
-
-Re-exported by :mod:`.spec`, where every other spec lives.
-"""
+"""The seed's workloads' spec, re-exported by :mod:`.spec` with every other spec."""
 
 from __future__ import annotations
 
@@ -23,25 +20,13 @@ _MAX_SIDE = 4096  # a 4096 x 4096 trace is about 4 GB of ray records
 
 @dataclass(frozen=True)
 class SeedSpec:
-    """A sample of one kind of ray from the seed's render of a scene.
+    """A sample of one kind of ray from the seed's render of a scene (:mod:`tribench.workloads.seed.workload`).
 
-    Parameters
-    ----------
-    scene : str
-        ``"scene02"``, ``"scene03"`` or the path of a scene file in the seed's
-        format (stored absolute; a file that does not parse is refused here).
-    rays : {"primary", "reflected", "shadow"}
-        Primary and reflected rays ask for the closest hit; shadow rays for
-        any hit (mode ``any``).
-    sample : int
-        Rays drawn, as runs of consecutive rays spread over the render
-        (:func:`~tribench.workloads.seed.workload.sample_runs`; all of them if fewer).
-    width, height : int
-        Image size of the render (the seed: 512 x 512).
-    dtype : {"float32", "float64"}
-        The seed's ``Vecteur`` holds float: float32 is the faithful replay.
-    seed : int
-    """
+    ``scene``: ``"scene02"``, ``"scene03"`` or a scene file in the seed's format, stored absolute (refused
+    here if it does not parse). ``rays``: ``"primary"`` and ``"reflected"`` ask for the closest hit,
+    ``"shadow"`` for any hit. ``sample``: the rays drawn, in runs spread over the render (all if fewer).
+    ``width`` x ``height``: the render (the seed's is 512 x 512). ``dtype``: the seed's ``Vecteur`` holds
+    float, so float32 is the faithful replay."""
 
     scene: str = "scene02"
     rays: str = "primary"

@@ -1,75 +1,43 @@
 """The seed's Whitted ray tracer, vectorised, with the ray stream it shoots.
 
-:func:`trace` renders a :class:`~tribench.workloads.seed.scene.Scene` as the
-seed's renderer does (C. Renaud's teaching ray tracer with Vitse's triangle
-tests, ``LR/Src`` of github.com/Weamix/InitiationALaRecherche) and records
-every ray it shoots, by kind: ``primary``, ``reflected`` and ``shadow``.
-Planes and spheres are intersected here in NumPy float64; triangles through
-a C kernel, ``tribench.ext.intersect_closest(kernel, ...)``, at the chosen
-precision (or the float64 reference with ``kernel=None``). All rays of one
-generation are processed at once; no per-pixel Python loop.
+:func:`trace` renders a :class:`~tribench.workloads.seed.scene.Scene` as the seed's renderer does (C.
+Renaud's teaching ray tracer with Vitse's triangle tests, ``LR/Src`` of
+github.com/Weamix/InitiationALaRecherche) and records every ray it shoots, by kind: ``primary``,
+``reflected`` and ``shadow``. Planes and spheres are intersected in NumPy float64, triangles by a C kernel
+(``tribench.ext.intersect_closest``) at the chosen precision, or by the float64 reference; a whole
+generation of rays at once, no per-pixel Python loop.
 
-The seed's semantics, and where the seed's code says so
---------------------------------------------------------
-Camera (``Camera.cpp``, ``lr.cpp``)
-    Eye (0, 0, 2); the image plane z = 0 spans [-1, 1]^2; pixel (i, j), i the
-    column from the left and j the row from the top, is aimed at its centre
-    (-1 + (i + 1/2) 2/W, 1 - (j + 1/2) 2/H, 0). The direction is normalised.
-    512 x 512 (``Image im(512,512)``). The seed loops over columns then rows
-    (``for i ... for j``): see :meth:`Trace.seed_order`.
-Closest hit (``Scene::intersecte``)
-    Every object in file order, brute force; a hit replaces the current one
-    only if strictly nearer (ties go to the earlier object).
-Planes (``Plan.cpp``)
-    ``a x + b y + c z + d = 0``; parallel only when the denominator is exactly
-    0; a hit needs ``t >= 1e-4``. ``Plan::coupe`` returns false at once:
-    **planes cast no shadows**.
-Spheres (``Sphere.cpp``)
-    Quadratic with ``a = d.d``; a miss when the discriminant is ``< 1e-4``
-    (an absolute epsilon on the discriminant, not on t); ``t`` is the smaller
-    root and a hit needs ``t >= 0`` (so a ray starting inside a sphere misses
-    it). The shadow test (``coupe``) is the same test.
-Triangles (``Triangle.cpp``, final version)
-    The kernel: Curless (``t < 1e-4`` rejects, strict edges) or Moller
-    (``|det| < 1e-4`` rejects, ``t > 1e-4``), the same test for closest hits
-    and for shadows. The normal is ``normalise((v1 - v0) x (v2 - v0))``, never
-    flipped toward the viewer.
-Shading (``Intersection::getCouleur``, ``Objet::calculerDirect``, ``calculerAmbiant``)
-    colour = ambient + direct (+ reflected). Ambient: ``ka * colour * ambient``.
-    For each light, in order: **one shadow ray** from the hit point ``p``
-    (no offset) with direction ``light - p``, **not normalised** (so ``t = 1``
-    at the light), tested against every object in file order until the first
-    that cuts it (``Scene::coupe``), with **no upper bound on t**: an object
-    beyond the light still shadows. A shadowed light adds nothing. Otherwise,
-    with ``l = normalise(light - p)`` and ``n.l = ps``: diffuse
-    ``kd * colour * ps * I`` if ``ps > 0``; specular ``ks * (v.r)^shininess * I``
-    if ``v.r > 0``, where ``v = normalise(observer - p)`` and
-    ``r = normalise(2 ps n - l)`` (computed even when ``ps <= 0``, as the seed does).
-Reflection (``Intersection::getCouleur``, ``Objet::getReflechi``)
-    If the remaining depth is > 0 and ``ks != 0``: one reflected ray from ``p``
-    (no offset), direction ``normalise(2 (n.v) n - v)``; if it hits, the colour
-    computed there (with the observer at ``p``, depth - 1) is **added unweighted**
-    (not multiplied by ks); if it misses, nothing is added (not the background).
-Depth 2 (``#define PROF 2`` in ``lr.cpp``)
-    The primary hit is shaded with depth 2, so a pixel shoots at most two
-    reflected rays: primary, first bounce, second bounce (whose hit is shaded
-    but reflects no further).
-Pixels (``Couleur::getRougei``, ``Image::sauver``)
-    No clamping while shading; on output a channel ``> 1`` becomes 255, else
-    ``int(x * 255)`` (truncation). A primary miss takes the background colour.
+The seed's semantics, and the seed's code that says so:
 
-Deviations: the seed computes in single precision with non-inlined helpers
-(``Vecteur`` holds floats); here planes, spheres, shading and ray set-up are
-float64 and only the triangle tests run at the chosen precision. The sphere's
-``c`` is computed as ``|o - c|^2 - r^2`` (the seed expands it).
+* Camera (``Camera.cpp``, ``lr.cpp``): eye (0, 0, 2), image plane z = 0 spanning [-1, 1]^2, 512 x 512,
+  each pixel's normalised ray through its centre; the seed loops columns, then rows
+  (:meth:`Trace.seed_order`).
+* Closest hit (``Scene::intersecte``): every object in file order; a hit replaces the current one only if
+  strictly nearer.
+* Planes (``Plan.cpp``): parallel only when the denominator is exactly 0; a hit needs ``t >= 1e-4``.
+  ``Plan::coupe`` returns false at once: **planes cast no shadows**.
+* Spheres (``Sphere.cpp``): a miss when the discriminant is ``< 1e-4`` (an absolute epsilon); ``t`` is the
+  smaller root and a hit needs ``t >= 0`` (a ray starting inside misses); the shadow test is the same.
+* Triangles (``Triangle.cpp``): the kernel, for closest hits and shadows alike (Curless: ``t < 1e-4``
+  rejects, strict edges; Moller: ``|det| < 1e-4`` rejects, ``t > 1e-4``); the normal is
+  ``normalise((v1 - v0) x (v2 - v0))``, never flipped toward the viewer.
+* Shading (``Intersection::getCouleur``, ``Objet::calculerDirect``, ``calculerAmbiant``): ambient
+  ``ka * colour * ambient``, then for each light **one shadow ray** from the hit point ``p`` (no offset)
+  along ``light - p``, **not normalised** (``t = 1`` at the light), tested against every object in file
+  order until the first that cuts it, with **no upper bound on t** (an object beyond the light still
+  shadows). An unshadowed light adds diffuse ``kd * colour * ps * I`` if ``ps = n.l > 0`` and specular
+  ``ks * (v.r)^shininess * I`` if ``v.r > 0``, ``r = normalise(2 ps n - l)`` (computed even when
+  ``ps <= 0``, as the seed does).
+* Reflection (``Objet::getReflechi``): where depth remains and ``ks != 0``, one ray from ``p`` (no offset)
+  along ``normalise(2 (n.v) n - v)``; a hit's colour (the observer at ``p``) is **added unweighted**, a
+  miss adds nothing (not the background). Depth 2 (``#define PROF 2``): two reflected rays a pixel at most.
+* Pixels (``Couleur::getRougei``, ``Image::sauver``): no clamping while shading; on output a channel
+  ``> 1`` becomes 255, else ``int(x * 255)``; a primary miss takes the background colour.
 
-Modules: this one holds the tracing loop and the names the rest of tribench
-uses; the records are in :mod:`.records`, what rays meet in
-:mod:`.intersect`, the camera and shading in :mod:`.shading`, and
-the comparison of two renders in :mod:`.differences`.
+Deviations: the seed computes in single precision (``Vecteur`` holds floats), with non-inlined helpers;
+here only the triangle tests run at the chosen precision, the rest in float64, and the sphere's ``c`` is
+``|o - c|^2 - r^2`` (the seed expands it).
 
-Examples
---------
 >>> from tribench.workloads.seed.scene import parse_scene
 >>> s = parse_scene("source 0 5 0 1 1 1\\nmateriau 1 0 0 0.1 0.5 0 10\\n"
 ...                 "tri -1 -1 -1  1 -1 -1  0 1 -1\\n")
@@ -202,26 +170,9 @@ def trace(
     height: int = 512,
     depth: int = DEPTH,
 ) -> Trace:
-    """Render ``scene`` as the seed does, recording every ray shot.
-
-    Parameters
-    ----------
-    scene : Scene
-    kernel : str or None
-        A kernel of ``tribench.ext.kernel_names()`` for the triangle tests, or
-        ``None`` for the float64 reference (closed triangles, ``t > 1e-4``;
-        brute force, so only for small images).
-    dtype : {"float32", "float64"}
-        Precision of the triangle tests (ignored by the reference).
-    width, height : int
-        The seed renders 512 x 512.
-    depth : int
-        Reflection depth (the seed's ``PROF``, 2).
-
-    Returns
-    -------
-    Trace
-    """
+    """Render ``scene`` as the seed does, recording every ray shot. ``kernel`` tests the triangles at ``dtype``;
+    None is the float64 reference (closed triangles, ``t > 1e-4``; brute force, so small images only).
+    ``depth`` is the seed's ``PROF``."""
     dt = _check_arguments(kernel, dtype, width, height, depth)
     start = time.perf_counter()
     render = _Render(scene, kernel, dt, colour=np.zeros((width * height, 3)))

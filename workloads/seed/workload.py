@@ -1,62 +1,31 @@
 """The seed's ray stream as a workload: a sample of one kind of ray from a render.
 
-A whole replay of scene03 is about 10^9 ray-triangle tests, too long for one
-timed batch. A :class:`SeedSpec` names one kind of ray (``primary``,
-``reflected`` or ``shadow``) of one scene's render; its workload is a
-reproducible sample of those rays (runs of consecutive rays spread evenly
-over the render, :func:`sample_runs`) against every triangle of the
-scene, with float64 reference answers, and it records what is needed to
-scale a timing of the sample back to the whole render (``achieved``):
+A replay of scene03 is about 10^9 ray-triangle tests, too long for one timed batch. A :class:`SeedSpec`
+names one kind of ray (``primary``, ``reflected`` or ``shadow``) of one scene's render; its workload is a
+reproducible sample of those rays (:func:`sample_runs`) against every triangle of the scene, with float64
+reference answers, and ``achieved`` records what scales a timing of the sample back to the render.
+``stream_rays``, ``stream_tests``: the rays of this kind that test the triangles and the tests they run,
+rays x triangles in mode ``closest``; shadow rays (mode ``any``) stop at the first triangle that cuts them
+in file order, as ``Scene::coupe`` does, so theirs are counted exactly by one pass of a scalar any-hit
+kernel over the stream (one a sphere cuts never reaches the triangles: left out). ``sample_tests``: the
+same on the sample, so ``stream_tests / sample_tests`` scales a pass over it. ``test_hit_rate``,
+``miss_mix``: by the reference, each miss at the stage where Curless's early-exit test rejects it
+(``parallel``, ``behind_origin``, then the first edge it is outside of in Curless's order): unlike
+:func:`~tribench.workloads.pairs.classify_misses`, which calls most of a scene's misses ``other``, this
+says which test pays for each.
 
-``stream_rays``, ``stream_tests``
-    Rays of this kind in the render that test the triangles, and the
-    ray-triangle tests they run there. Primary and reflected rays (mode
-    ``closest``) test every triangle: rays x triangles. Shadow rays (mode
-    ``any``) stop at the first triangle that cuts them, in file order, as the
-    seed's ``Scene::coupe`` does: the count is exact, from one pass of a
-    scalar any-hit kernel over the whole stream. A shadow ray cut by a sphere
-    never reaches the triangles (the spheres come first in the file) and is
-    left out.
-``sample_tests``
-    The same count on the sample, so ``stream_tests / sample_tests`` scales
-    the time of one pass over the sample to the render.
-``test_hit_rate``, ``miss_mix``
-    Per-test hit rate and miss-stage mix of the tests the sample runs, by
-    the float64 reference. Each miss is put at the stage where Curless's
-    early-exit test rejects it: ``parallel``, ``behind_origin`` (t <= 0), then
-    the first edge it is outside of in Curless's order (v0v1, v1v2, v2v0:
-    ``outside_edge_1..3``). Unlike :func:`~tribench.workloads.pairs.classify_misses`,
-    which calls a point outside two edges ``other`` (most misses in a scene),
-    this says which test pays for each miss.
+The stream is traced once per scene (:func:`stream_trace`) with the seed's semantics in float64 with
+``curless_seed``: a clean kernel (``t > 0``) would hit the triangle a secondary ray leaves at ``t ~ 0``
+(shadow acne: another stream); in double precision Curless's other flaw, strict edges, touches a null set
+of rays; ``moller_seed``'s absolute determinant epsilon drops grazing hits. Secondary rays start on a
+surface, where the seed's kernels reject ``t < 1e-4``; the API has no ``t_min``, so their origins move
+:data:`ORIGIN_SHIFT` along the ray: every kernel, seed or clean, sees the surface it leaves behind it, and
+the reference answers are well posed. Shadow directions are ``light - p`` as the seed shoots them, with
+no ``t_max`` (an object beyond the light still shadows: ``occluded_beyond_light`` counts the sampled rays
+only such an object occludes). Rays keep the seed's shooting order. A ray is ambiguous
+(``ref_edge_margin`` near 0) when it passes near an edge, crosses an inside point at ``|t|`` under
+:data:`T_NEAR_ZERO`, or has two hits within :data:`TIE_RTOL` in t (surfaces that cross).
 
-The stream
-----------
-Each scene is traced once (:func:`stream_trace`, memoised) with the seed's
-semantics (:mod:`~tribench.workloads.seed.trace`) in float64 with
-``curless_seed``: a clean kernel (``t > 0``) would hit the triangle a
-secondary ray leaves at ``t ~ 0`` (shadow acne, a different stream), and in
-double precision Curless's only other flaw, strict edges, touches a null set
-of rays; ``moller_seed``'s absolute determinant epsilon drops grazing hits.
-
-Secondary rays (reflected, shadow) start where the seed starts them, on a
-surface; the seed's kernels then reject ``t < 1e-4``. The API has no
-``t_min``, so here their origins move ``1e-4`` along the ray
-(:data:`ORIGIN_SHIFT`, in units of the direction): ``t > 0`` from the new
-origin is ``t > 1e-4`` from the old one, every kernel -- seed or clean --
-sees the surface it leaves behind it, and the reference answers are well
-posed. Shadow directions are ``light - p`` as the seed shoots them (not unit:
-the light is at ``t = 1 - 1e-4``), and, as in the seed, there is **no upper
-bound on t** (no ``t_max``): an object beyond the light still shadows.
-``occluded_beyond_light`` counts the sampled shadow rays that only an object
-beyond the light occludes.
-
-Rays are kept in the seed's shooting order (columns, then rows, then the
-ray tree). A ray is ambiguous (``ref_edge_margin`` near 0) when it passes
-near an edge, crosses an inside point at ``|t| < 1e-5``, or has two hits
-within a relative ``1e-4`` in t (surfaces that cross).
-
-Examples
---------
 >>> s = SeedSpec("scene02", "shadow", sample=64, width=16, height=16)
 >>> s.mode, s.summary()
 ('any', 'seed scene02 shadow sample=64 of 16x16 float32 seed=0')
@@ -136,10 +105,8 @@ MAX_TRACE_S = 3600.0
 
 
 def trace_forecast(spec: SeedSpec) -> float:
-    """Seconds the render ``spec`` samples should take to trace, from timed small renders of its scene.
-
-    Raises UserError, stating the bound, when that is more than :data:`MAX_TRACE_S`.
-    """
+    """Seconds the render ``spec`` samples should take to trace, from timed small renders of its scene; a
+    UserError stating the bound when that is more than :data:`MAX_TRACE_S`."""
     from .trace import trace
 
     kernel, dtype = STREAM_KERNEL
@@ -283,12 +250,10 @@ kind (docs/decisions.md, "The seed replay's model")."""
 
 
 def sample_runs(n_stream: int, size: int, rng: np.random.Generator) -> np.ndarray:
-    """Sorted rows of ``size`` rays of a stream of ``n_stream``, as runs of :data:`RUN_LENGTH`.
-
-    The stream is cut into as many shares as there are runs, each a run's
-    length plus an equal part of the rows left out, and each run is placed at
-    random within its own share: runs never overlap and cover the render
-    evenly (a stratified cluster sample). All rows if ``size >= n_stream``.
+    """Sorted rows of ``size`` rays of a stream of ``n_stream`` (all if ``size >= n_stream``), as runs of
+    :data:`RUN_LENGTH`: a stratified cluster sample. The stream is cut into one share a run, a run's length
+    plus an equal part of the rows left out, and each run is placed at random in its share, so runs never
+    overlap and cover the render evenly.
 
     >>> rows = sample_runs(1000, 130, np.random.default_rng(0))
     >>> len(rows), len(set(rows)), bool(np.all(np.diff(rows) > 0))
@@ -310,8 +275,6 @@ def sample_runs(n_stream: int, size: int, rng: np.random.Generator) -> np.ndarra
 def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
     """Build the workload of ``spec`` (no caching: see :func:`tribench.workloads.make`).
 
-    Examples
-    --------
     >>> w = generate_seed_workload(SeedSpec("scene02", "primary", sample=50, width=12, height=12), "doc")
     >>> w.triangles.shape, len(w.origins), w.achieved["stream_rays"], w.mode
     ((12, 3, 3), 50, 144, 'closest')
