@@ -96,9 +96,12 @@ def _read(path: str | os.PathLike) -> tuple[Path, bytes]:
     if source.stat().st_size > MAX_KERNEL_FILE_BYTES:
         raise KernelFileError(f"{source}: over {MAX_KERNEL_FILE_BYTES >> 20} MB, too large for a kernel file")
     try:
-        return source, source.read_bytes()
+        text = source.read_bytes()
     except OSError as e:
         raise KernelFileError(f"{source}: cannot read it ({e.strerror})") from None
+    if b"\0" in text:  # a compiler would quote pages of it back
+        raise KernelFileError(f"{source}: not C source: it holds NUL bytes (a binary file?)")
+    return source, text
 
 
 def _build_key(text: bytes, toolchain: Toolchain) -> str:
@@ -133,5 +136,5 @@ def _own_lines(result: subprocess.CompletedProcess, source: Path, most: int = 60
             blocks.append([line])
     own = [b for b in blocks if b[0].startswith(f"{source}:")]
     errors = [b for b in blocks if ": error:" in b[0] or ": fatal error:" in b[0]]
-    lines = [line for b in (own or errors[:1] or blocks) for line in b]
+    lines = [line if len(line) <= 300 else f"{line[:300]}..." for b in (own or errors[:1] or blocks) for line in b]
     return "\n".join(lines[:most] + ([f"... ({len(lines) - most} more lines)"] if len(lines) > most else []))

@@ -17,6 +17,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -215,6 +216,8 @@ def test_a_flag_the_sweep_would_ignore_is_refused_in_one_line(extra, said, tmp_p
         (["calibrate", "--workload", "/etc"], "'/etc' is not a workload id"),
         (["cache", "prune", "--max-size", "9" * 400], "too large"),
         (["export", "run", "--out", "run/batches.csv"], "is a measured file of the run folder"),
+        (["workloads", "make", "garbage.stl"], "'garbage.stl': not a mesh file trimesh reads"),
+        (["info", "--kernel-file", "binary.c"], "binary.c: not C source: it holds NUL bytes"),
         (["workloads", "make", "pairs", "--n", "64", "--scale", "1e300"], "scale = 1e+300 is outside what float64"),
         (["workloads", "make", "pairs", "--n", "64", "--scale", "1e-320"], "scale = 1e-320 is outside what float64"),
         (["compare", "run", "run", "--out", "run/run.json"], "is a measured file of the run folder"),
@@ -226,6 +229,9 @@ def test_what_once_raised_a_traceback_is_one_line(argv, said, tmp_path, monkeypa
     (tmp_path / "run").mkdir()
     for name in ("run.json", "batches.csv"):
         (tmp_path / "run" / name).write_text("measured\n")
+    garbage = bytes(np.random.default_rng(0).integers(0, 256, 4000, dtype=np.uint8))
+    (tmp_path / "garbage.stl").write_bytes(garbage)
+    (tmp_path / "binary.c").write_bytes(garbage)
     assert said in _refused(argv, capsys)
     assert (tmp_path / "run" / "batches.csv").read_text() == "measured\n"
 

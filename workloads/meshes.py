@@ -92,6 +92,8 @@ def read_mesh_file(path: str | Path, dtype: str = "float64") -> tuple[np.ndarray
         assert isinstance(mesh, trimesh.Trimesh)  # force="mesh" gives one
         vertices = np.asarray(mesh.vertices, dtype=np.float64)
         faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+    except ImportError:  # trimesh guesses a garbled file's text encoding with an optional module
+        raise UserError(f"cannot read mesh file {str(path)!r}: not a mesh file trimesh reads") from None
     except Exception as e:  # trimesh raises many types for malformed files
         raise UserError(f"cannot read mesh file {str(path)!r}: {type(e).__name__}: {e}") from None
     if len(faces) == 0:
