@@ -355,6 +355,14 @@ def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequenc
     keys = plan(sweep)
     if _plan_digest(keys) != record["plan_sha256"]:
         raise UserError(f"{run_dir}: the plan of its sweep changed (another tribench version?); cannot resume")
+    usable = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
+    if record.get("cpu") is not None and usable is not None and record["cpu"] not in usable:
+        # a folder copied from a machine with more CPUs: its workers go on on this machine's choice
+        print(
+            f"tribench: CPU {record['cpu']} of the run is not usable here; workers run on CPU {usable[-1]}",
+            file=sys.stderr,
+        )
+        record = {**record, "cpu": usable[-1]}
     with runfolder.writer_lock(run_dir):
         for name in (runfolder.BATCHES, runfolder.PROCESSES, runfolder.CHECKS, runfolder.TRAVERSALS):
             try:

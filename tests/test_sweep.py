@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -303,3 +304,19 @@ def test_a_ctrl_c_in_the_analysis_says_every_batch_is_saved_and_how_to_make_the_
         f"make its tables with: tribench stats {out}"
     )
     assert len(keys_of(out)) == 3 * 3 * 2  # processes x (rounds + warm-up) x kernels: all of them
+
+
+@pytest.mark.slow
+def test_a_run_copied_from_a_machine_with_more_cpus_resumes_on_one_of_this_ones(tmp_path, env, capsys):
+    from tribench.cli.command import main
+
+    out = tmp_path / "run"
+    assert main(["sweep", *TINY, "--out", str(out)]) == 0
+    lines = (out / "batches.csv").read_text().splitlines(keepends=True)
+    (out / "batches.csv").write_text("".join(lines[: len(lines) // 2]))
+    record = json.loads((out / "run.json").read_text())
+    (out / "run.json").write_text(json.dumps({**record, "cpu": 4095}))  # a CPU this machine lacks
+    capsys.readouterr()
+    assert main(["sweep", "--resume", str(out)]) == 0
+    assert "CPU 4095 of the run is not usable here; workers run on CPU " in capsys.readouterr().err
+    assert len((out / "batches.csv").read_text().splitlines()) == len(lines)
