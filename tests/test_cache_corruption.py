@@ -199,3 +199,12 @@ def test_a_pipe_a_link_out_and_a_dangling_link_in_the_cache_are_listed_never_ope
         for name in ("pipe", "out", "gone"):
             assert name in done.stdout, (args, done.stdout)
         assert "3 unusable" in done.stdout or done.stdout.count("not a regular file") == 3
+
+
+def test_a_cache_path_that_is_a_file_stops_nothing(tmp_path, monkeypatch):
+    blocked = tmp_path / "afile"
+    blocked.write_text("not a folder")
+    monkeypatch.setenv("TRIBENCH_CACHE", str(blocked))
+    with pytest.warns(CacheWarning, match="is a file, not a folder: the workload is kept in memory"):
+        w = make(PairSpec(n=50, seed=7))
+    assert len(w.triangles) == 50 and blocked.read_text() == "not a folder"

@@ -182,7 +182,10 @@ def _build(spec: Spec, path: Path, invalid: Invalid | None = None) -> Workload:
     if invalid is not None:
         warnings.warn(f"cache file {path} is invalid ({invalid}); rebuilding it", CacheWarning, stacklevel=3)
     w = _generate(spec)
-    _write(w, path)
+    try:
+        _write(w, path)
+    except UserError as e:  # a cache that cannot be written stops nothing (docs/input.md)
+        warnings.warn(f"{e}: the workload is kept in memory", CacheWarning, stacklevel=3)
     return w
 
 
