@@ -57,7 +57,9 @@ def add_parser(sub) -> None:
         "any other mesh keeps its own)",
     )
     p.add_argument(
-        "--processes", type=flags.positive_int, help=f"worker processes, the replicates (default {full.processes})"
+        "--processes",
+        type=flags.int_in(2, flags.MAX_COUNT),
+        help=f"worker processes, the replicates: two at least, for an interval (default {full.processes})",
     )
     p.add_argument("--reps", type=flags.positive_int, help=f"repetitions per process (default {full.reps})")
     p.add_argument(

@@ -216,6 +216,7 @@ def test_a_flag_the_sweep_would_ignore_is_refused_in_one_line(extra, said, tmp_p
         (["calibrate", "--workload", "/etc"], "'/etc' is not a workload id"),
         (["cache", "prune", "--max-size", "9" * 400], "too large"),
         (["export", "run", "--out", "run/batches.csv"], "is a measured file of the run folder"),
+        (["peers", "--processes", "1"], "--processes: must be an integer from 2"),
         (["workloads", "make", "garbage.stl"], "'garbage.stl': not a mesh file trimesh reads"),
         (["info", "--kernel-file", "binary.c"], "binary.c: not C source: it holds NUL bytes"),
         (["workloads", "make", "pairs", "--n", "64", "--scale", "1e300"], "scale = 1e+300 is outside what float64"),
