@@ -221,11 +221,11 @@ def test_peers_rows_that_cannot_be_summarised_do_not_stop_the_report(run_copy):
     "flags, message",
     [
         (["--kernel", "frobnicate"], "not a kernel with a closest-hit mode"),
-        (["--processes", "0"], "--processes: must be an integer from 1"),
+        (["--processes", "1"], "--processes: must be an integer from 2"),
         (["--camera", "64by64"], "--camera: must be WIDTHxHEIGHT"),
         (["--cpu", "4096"], "is not one of this process's CPUs"),
         (["--processes", "1000000000000"], "processes x reps must be at most 10,000"),
-        (["--processes", "1", "--reps", "100000"], "processes x reps must be at most 10,000"),
+        (["--processes", "2", "--reps", "100000"], "processes x reps must be at most 10,000"),
     ],
 )
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, flags, message, capsys):
