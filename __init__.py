@@ -1,21 +1,9 @@
 """tribench from Python: run a sweep or the main job, or read a run, and get pandas frames.
 
 The ``tribench`` package itself, above its sub-packages (it may import them all;
-none imports it). A thin facade over :mod:`tribench.harness.jobs` and
-:mod:`tribench.reports`: each function makes or reads a run folder, exactly
-as the ``tribench`` command does, and returns its tables as :class:`Results`.
-Nothing is imported until a function is called, so ``import tribench.ext``
-stays as light as before.
-
-* :func:`sweep` — a timed sweep of kernels x workloads, then the analysis step;
-* :func:`run` — the main job (``tribench run``), then the analysis step;
-* :func:`load` — the tables of a run folder already analysed (``tribench stats``);
-* :func:`compare` — N runs side by side (``tribench compare``).
-
-Examples
---------
-The tables of a run folder made by ``tribench sweep`` or ``tribench run``
-(``run_dir``), and the fastest kernel of each workload with its interval:
+none imports it). Each function makes or reads a run folder exactly as the
+``tribench`` command does and returns its tables as :class:`Results`; nothing
+is imported until a function is called, so ``import tribench.ext`` stays light.
 
 >>> import tribench
 >>> r = tribench.load(run_dir)
@@ -25,9 +13,7 @@ The tables of a run folder made by ``tribench sweep`` or ``tribench run``
 >>> set(best["kernel"]) <= set(r.estimates["kernel"]), bool(best["ns_per_test_ci_low"].le(best["ns_per_test"]).all())
 (True, True)
 
-A sweep is ``tribench.sweep(["moller_trumbore", "curless"], [tribench.PairSpec(n=500,
-hit_rate=0.2)], out="runs/mine", processes=3, rounds=3)``; docs/notebook.md
-has a whole example, which a test runs.
+A whole example, sweep included, is docs/notebook.md's (a test runs it).
 """
 
 from __future__ import annotations
@@ -160,38 +146,14 @@ def sweep(
 ) -> Results:
     """Time ``kernels`` on ``workloads`` into the new folder ``out``, analyse it and return its tables.
 
-    ``tribench sweep`` then ``tribench stats``: fresh pinned worker processes,
-    every batch appended to ``out/batches.csv`` as it is measured, then every
-    derived table (:func:`tribench.reports.tables.write_all`). Like the
-    command, it first prints the expected duration on stderr.
-
-    Parameters
-    ----------
-    kernels : sequence of str
-        Kernel names (``tribench.ext.kernel_names()``).
-    workloads : sequence of PairSpec or MeshSpec
-        The workloads, e.g. ``PairSpec(n=500, hit_rate=0.2)``, ``MeshSpec("suzanne", triangles=968)``.
-    out : path, optional
-        A new or empty folder; default ``runs/<date-time>``.
-    processes, rounds, warmup, target_ms, seed
-        The design (defaults: :mod:`tribench.harness.plan`, as ``tribench sweep``).
-    baseline : str, optional
-        The speedups' baseline (default ``moller_seed`` if swept, else the first kernel).
-    progress : bool, optional
-        Progress lines (default: a bar on a terminal, plain lines elsewhere).
-    kernel_files : sequence of paths
-        Kernel files of your own (``--kernel-file``, docs/own-kernel.md): compiled, checked
-        against the float64 reference before anything is timed, then ``kernels`` may name theirs.
-    builds : sequence of str
-        Builds to compare (``--builds``, docs/builds.md), such as ``["gcc -O2", "clang -O3"]``:
-        each compiled and its kernels checked again; the processes take them in turn, and every
-        table has a ``build`` column.
-
-    Raises
-    ------
-    UserError
-        A bad kernel, workload or design value, or ``out`` is not a new folder; a kernel
-        file that does not compile, or whose kernels answer wrongly.
+    ``tribench sweep`` then ``tribench stats`` (docs/commands.md), the expected
+    duration printed on stderr first. The design's defaults are
+    :mod:`tribench.harness.plan`'s; ``baseline`` defaults to ``moller_seed`` if
+    swept, else the first kernel. ``kernel_files`` (docs/own-kernel.md) are checked
+    before anything is timed, and ``kernels`` may name theirs; ``builds``
+    (docs/builds.md) is a list of build specs or one string as ``--builds`` takes.
+    Raises UserError for a bad value, an ``out`` that is not a new folder, or a
+    kernel file that does not compile or answers wrongly.
     """
     from .harness import plan
     from .harness.jobs.kernel_check import load_checked
@@ -232,11 +194,9 @@ def run(
 ) -> Results:
     """The main job (``tribench run``) into the new folder ``out``: its tables.
 
-    The default sweep, the peers when installed, then the analysis step
-    (:mod:`tribench.harness.jobs.main`); ``quick=True`` takes seconds and
-    gives wide intervals. The HTML report is ``tribench report RUN_DIR`` (or
-    ``tribench.reports.write_report(run_dir)``). ``kernel_files``: as :func:`sweep`'s; their
-    kernels join the job in their roles. ``builds``: as :func:`sweep`'s.
+    :mod:`tribench.harness.jobs.main`; ``quick=True`` takes seconds and gives wide
+    intervals. ``kernel_files`` and ``builds``: as :func:`sweep`'s. The HTML report
+    is ``tribench report RUN_DIR``.
     """
     from .harness.jobs import main as main_job
     from .harness.jobs.kernel_check import load_checked

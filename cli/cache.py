@@ -1,13 +1,4 @@
-"""``tribench cache``: list every file of the cache, and prune what no installed build can use.
-
-Examples
---------
-::
-
-    tribench cache list
-    tribench cache prune                    # files no installed build can use
-    tribench cache prune --max-size 500MB   # then the oldest-used until 500 MB are left
-"""
+"""``tribench cache``: list every file of the cache, and prune what no installed build can use (docs/commands.md)."""
 
 from __future__ import annotations
 

@@ -1,10 +1,8 @@
 """The ``tribench`` command: one console script, one module per subcommand, heavy imports deferred.
 
-Each subcommand is a module of this package with ``add_parser(subparsers)``
-(its flags, beside its handler) and ``run(args)``; :data:`COMMANDS` lists them
-in the order ``tribench --help`` shows. A handler imports what it needs when
-it runs, so ``tribench --help`` stays fast, and returns an exit code; a user
-error prints one line to stderr and exits 2, without a traceback.
+Each subcommand module has ``add_parser(subparsers)`` and ``run(args)``, which
+imports what it needs when it runs, so ``tribench --help`` stays fast. What
+each command does is docs/commands.md's.
 """
 
 from __future__ import annotations
@@ -56,12 +54,9 @@ def build_parser() -> argparse.ArgumentParser:
 def _ctrl_c(signum: int, frame) -> None:
     """SIGINT and SIGTERM (and their retry, SIGALRM): KeyboardInterrupt, but never inside an import.
 
-    SIGTERM (a CI job stopped, ``kill``) takes Ctrl-C's way out, so every batch is kept and
-    what the command started (a compiler's process group, a worker) is stopped with it.
-
-    trimesh's imports catch BaseException around its optional dependencies,
-    so a Ctrl-C during ``import trimesh`` was swallowed and the command ran
-    on for seconds. An interrupt that lands in an import is retried 50 ms later.
+    SIGTERM (a stopped CI job) takes Ctrl-C's way out, so every batch is kept.
+    trimesh's imports catch BaseException, so a Ctrl-C during ``import trimesh``
+    was swallowed: one that lands in an import is retried 50 ms later.
     """
     while frame is not None:
         if frame.f_code.co_filename.startswith("<frozen importlib"):
@@ -74,20 +69,15 @@ def _ctrl_c(signum: int, frame) -> None:
 def console() -> None:
     """The ``tribench`` command: :func:`main`, then exit with its status.
 
-    A Ctrl-C once the command has finished, while Python tears down its
-    modules (a few hundred ms after a sweep), is ignored: the work is done and
-    saved, and the signal would only turn a finished command's status into a
-    signal death, or a traceback from a library's exit hook.
+    A Ctrl-C while Python tears down its modules is ignored: the work is saved, and
+    the signal would only turn a finished command into a signal death or a traceback.
     """
     sys.exit(main(leaving=True))
 
 
 def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
-    """Run one subcommand; map its failures to exit codes, one line on stderr.
-
-    See :func:`_run_command`; Ctrl-C is deferred past imports (:func:`_ctrl_c`).
-    ``leaving``: the process exits next (:func:`console`), so Ctrl-C is then
-    ignored instead of given back to its handler before the command.
+    """Run one subcommand (:func:`_run_command`); ``leaving``: the process exits next, so a Ctrl-C
+    is then ignored instead of given back to its handler.
     """
     if threading.current_thread() is not threading.main_thread():
         return _run_command(argv)
@@ -104,9 +94,9 @@ def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
 
 
 def _show_notice(shown, said: set[str], message, category, filename, lineno, file=None, line=None) -> None:
-    """tribench's own notices in one line, each once a command (a worker's notice may repeat the
-    command's own: the sweep's forecast reads the BVH cache its workers read); any other warning as
-    Python shows it (it may point at a bug)."""
+    """tribench's own notices in one line, each once a command (a worker's may repeat the command's);
+    any other warning as Python shows it (it may point at a bug).
+    """
     if issubclass(category, Notice):
         if str(message) not in said:
             said.add(str(message))
@@ -118,10 +108,8 @@ def _show_notice(shown, said: set[str], message, category, filename, lineno, fil
 def _run_command(argv: list[str] | None) -> int:
     """Run one subcommand; map its failures to exit codes, one line on stderr.
 
-    2: a user error (:class:`~tribench.common.UserError`) or an error of the
-    environment (an ``OSError``: a missing file, a full disk); 1: a
-    measurement failed (a kernel disagreed with the reference, a worker
-    died); 130: interrupted (Ctrl-C), every finished batch kept. Any other
+    2: a user error or an ``OSError`` (a missing file, a full disk); 1: a
+    measurement failed; 130: interrupted, every finished batch kept. Any other
     exception is a bug in tribench and keeps its traceback.
     """
     prog = "tribench"

@@ -1,14 +1,9 @@
 """One check per kind of command-line flag, shared by every command that has it.
 
-Each function here is an argparse ``type=`` callable: it turns the flag's text
-into its value or raises :class:`argparse.ArgumentTypeError` with a message
-that says what is wrong and what is wanted. argparse prefixes the message with
-the flag (``tribench sweep: error: argument --pairs: ...``) and exits 2, before
-the command does anything. A value is never replaced silently: an empty list,
-a zero count or a folder that is a file is refused, not defaulted.
-
-It lives in ``tribench.cli``, the one package that parses command lines, so
-that every command (``workloads``, ``sweep``, ``report``...) uses the same checks.
+Each function is an argparse ``type=`` callable: the value, or an
+:class:`argparse.ArgumentTypeError` saying what is wrong and what is wanted,
+before the command does anything. A value is never replaced silently: an empty
+list, a zero count or a folder that is a file is refused, not defaulted.
 
 >>> positive_int("12")
 12
@@ -64,10 +59,7 @@ MAX_SIDE = 65536
 
 
 class Parser(argparse.ArgumentParser):
-    """An ArgumentParser whose usage error is one line, like every other error of tribench.
-
-    Sub-parsers inherit the class. The line ends with where the usage is.
-    """
+    """An ArgumentParser whose usage error is one line ending with where the usage is; sub-parsers inherit it."""
 
     def error(self, message: str):  # argparse's hook; never returns
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")

@@ -1,9 +1,4 @@
-"""Flags that several commands share, added the same way everywhere.
-
-:mod:`.flags` checks one flag's text; this module adds whole flags (with
-their help) to a command's parser: ``--out`` of a new run folder, the
-sweep design (``--processes``, ``--rounds``...), ``--no-progress``.
-"""
+"""Flags that several commands share, added with their help the same way everywhere."""
 
 from __future__ import annotations
 
@@ -49,8 +44,7 @@ def _new_run_folder(text: str) -> str:
 
 
 def add_no_progress(parser: argparse.ArgumentParser) -> None:
-    """--no-progress, stored as the library's ``progress`` argument: False, or None (a bar on a terminal,
-    plain lines elsewhere)."""
+    """--no-progress, stored as the library's ``progress``: False, or None (a bar on a terminal, else plain lines)."""
     parser.add_argument(
         "--no-progress",
         dest="progress",

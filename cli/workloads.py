@@ -1,15 +1,7 @@
-"""``tribench workloads``: make, list and show cached workloads.
+"""``tribench workloads``: make, list and show cached workloads (docs/commands.md).
 
-The harness's command line calls :func:`add_parser` with its subparsers
-object; each leaf command stores its handler in ``func`` (``args.func(args)``
-returns the exit code). User errors -- an impossible spec, an unknown id, a
-mesh file that does not exist or does not parse -- print one line to stderr
-and return 2, without a traceback. Heavy modules (trimesh, matplotlib) are
-imported inside the handlers only, so ``tribench --help`` stays fast.
-
-Examples
---------
-::
+Each leaf command stores its handler in ``func``; heavy modules are imported
+inside the handlers only. Examples (tests/test_cli_examples.py runs them)::
 
     tribench workloads make pairs --n 10000 --hit-rate 0.3 --miss-mix uniform
     tribench workloads make suzanne --triangles 5000            # camera rays
@@ -43,8 +35,6 @@ _SHARED_OPTIONS = ("hit_rate", "dtype", "seed")
 def parse_miss_mix(text: str) -> str | dict[str, float]:
     """A preset name, or ``stage=fraction`` items separated by commas.
 
-    Examples
-    --------
     >>> parse_miss_mix("parallel=0.5,behind_origin=0.5")
     {'parallel': 0.5, 'behind_origin': 0.5}
     >>> parse_miss_mix("edges")

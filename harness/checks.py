@@ -34,8 +34,7 @@ class KernelCheckError(Exception):
 
 @dataclass(frozen=True)
 class Checksum:
-    """A kernel's one-pass checksum on a workload: hits, the sum of t, and
-    the sum of u + v (mode ``closest_uv`` only, else 0)."""
+    """A kernel's one-pass checksum on a workload: hits, the sum of t, the sum of u + v (``closest_uv``, else 0)."""
 
     hits: int
     t_sum: float
@@ -45,34 +44,22 @@ class Checksum:
 def replicates_a_flawed_original(kernel: str) -> bool:
     """True for the seed's kernels, faithful copies of code with known flaws.
 
-    Their absolute epsilons and strict edges make them answer some rays
-    differently from the reference by design (a small triangle vanishes for
-    ``moller_seed``); that difference is what the seed experiment is about,
-    so it is recorded in checks.csv rather than stopping the sweep. Every
-    other kernel must agree with the reference outside the ambiguous rays.
+    Their differences from the reference (a small triangle vanishes for
+    ``moller_seed``) are what the seed experiment is about, so checks.csv records
+    them rather than the sweep stopping. Every other kernel must agree outside the ambiguous rays.
     """
     return ext.kernel_info(kernel).seed_replay
 
 
 def one_pass_checksum(kernel: str, workload: Any, bvh: ext.BVH | None = None) -> tuple[Checksum, dict[str, int]]:
-    """Check ``kernel``'s per-ray answers on ``workload``; return its checksum.
+    """Check ``kernel``'s per-ray answers on ``workload``; return its checksum and the counts of disagreements.
 
-    Answers (hit or miss in pairs and any-hit modes, the closest triangle in
-    the closest modes) must equal the reference's on every ray outside
-    ``workload.ambiguous()``; the sum of t (closest modes also u + v) over the
-    rays where kernel and reference agree on a hit must match the
-    reference's within :data:`T_SUM_RTOL`. An any-hit answer may be any hit
-    triangle, so there it is its t that is checked, against the reference for
-    that triangle. A kernel that culls back faces is held to the reference
-    with back faces culled. With ``bvh`` (the kernel's, over the workload's
-    triangles) the answers are the BVH's. The counts of disagreements are
-    returned for checks.csv.
-
-    Raises
-    ------
-    KernelCheckError
-        Naming the kernel, the workload and the first ray that differs
-        (never for :func:`replicates_a_flawed_original` kernels' differences).
+    Answers must equal the reference's outside ``workload.ambiguous()``, the sum of
+    t (and u + v) within :data:`T_SUM_RTOL` where both hit; an any-hit answer may be
+    any hit triangle, so its t is checked against that triangle's. A culling kernel
+    is held to the front-face reference; with ``bvh`` the answers are the BVH's.
+    Raises KernelCheckError naming the first ray that differs (never for
+    :func:`replicates_a_flawed_original` kernels).
     """
     w = workload
     if bvh is None:

@@ -1,17 +1,10 @@
 """How long a sweep will take, said before it starts (``tribench seed``, ``run`` and ``sweep``).
 
-The runner's time is, per worker process: its start-up, then for every
-kernel-workload pair a check (one pass against the reference) and a
-calibration of the loop count, then the pair's batches. A batch lasts the
-target or one pass, whichever is longer (``loops`` is at least 1). So
-
-    seconds = processes x (start-up + sum over pairs of (check + calibration + batches x batch))
-
-with one pass measured here, in this process, on a strided slice of each
-workload (well under a second for the seed), and the rest assumed: the
-constants below, read off the run folders of the main job, a 27-kernel
-ranking sweep and the seed on 2 cores. It is a forecast, not a promise: a
-busy machine is slower. The progress lines correct it as batches finish.
+Per worker process: its start-up, then per kernel-workload pair a check, a
+calibration and its batches, each the target or one pass, whichever is longer.
+One pass is timed here on a strided slice of each workload; the rest are
+constants read off finished runs (docs/decisions.md, "The duration forecast").
+A forecast, not a promise: the progress lines correct it as batches finish.
 """
 
 from __future__ import annotations
@@ -70,8 +63,7 @@ class Estimate:
     batch_s: tuple[float, float]
 
     def line(self, what: str = "") -> str:
-        """One line for the log, e.g. ``expected: about 12 min (20 processes x ...)``; ``what``
-        goes after "expected" (``"for the sweep"``)."""
+        """One line for the log, e.g. ``expected: about 12 min (20 processes x ...)``; ``what`` follows "expected"."""
         lo, hi = (_ms(b) for b in self.batch_s)
         batch = f"{lo} ms" if lo == hi else f"{lo}-{hi} ms"
         head = f"expected {what}" if what else "expected"
@@ -93,10 +85,8 @@ def model(
     pass_s: Mapping[tuple[str, str], float],
     twin_s: Mapping[tuple[str, str], float] | None = None,
 ) -> Estimate:
-    """The expected duration of ``sweep`` from each workload's tests per pass
-    and each (kernel, workload id) pair's seconds per pass; ``twin_s``: a BVH
-    pair's seconds per pass of the null-leaf traversal each batch also runs
-    (with as many loops, untimed by the target).
+    """The expected duration of ``sweep`` from each workload's tests per pass and each (kernel,
+    workload id) pair's seconds per pass; ``twin_s``: a BVH pair's null-leaf traversal's.
 
     >>> from tribench.workloads.spec import PairSpec
     >>> s = Sweep(("moller_seed",), (PairSpec(n=4096),), processes=10, rounds=10, warmup=1, target_ms=8.0)
@@ -130,14 +120,11 @@ def model(
 def measure_passes(
     sweep: Sweep,
 ) -> tuple[dict[str, int], dict[tuple[str, str], float], dict[tuple[str, str], float]]:
-    """Tests per pass of every workload, one pass's seconds for every (kernel,
-    workload id) pair, and on BVH workloads the pass of its null-leaf twin,
-    timed here on a strided slice of the rays (and pairs) and scaled.
+    """Tests per pass of every workload and one pass's seconds per (kernel, workload id), BVH twins
+    included, timed on a strided slice and scaled.
 
-    Builds the workloads the workers would build, the front-face references
-    their culling kernels are checked against and the BVH trees they trace
-    (into the caches, so this is no extra work, and no worker computes one);
-    the timed passes take well under a second in all.
+    It builds into the caches what the workers would (workloads, front-face
+    references, BVH trees), so this is no extra work.
     """
     from .. import ext
     from ..workloads import cache
@@ -174,8 +161,7 @@ def measure_passes(
 
 
 def _bvh_passes(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, t_max: Any) -> tuple[float, float]:
-    """Seconds per pass of ``w``'s rays through ``kernel``'s tree, and of the null-leaf twin
-    the worker traces beside each batch."""
+    """Seconds per pass of ``w``'s rays through ``kernel``'s tree, and of its null-leaf twin."""
     from .. import ext
     from ..workloads import bvh_cache
     from .worker import null_leaf_t_max

@@ -1,14 +1,9 @@
 """What every timed process does before it times: pinned to one CPU, its memory layout varied at random.
 
-The parent pads the child's environment by a random number of bytes
-(:func:`padded_env`), which moves the child's initial stack; the child pins
-itself (:func:`pin`), makes a random number of small allocations
-(:func:`dummy_allocations`), then copies every array it times into a fresh
-buffer at a random offset of 0-15 elements (:func:`fresh_copy`), which moves
-the data within cache lines and pages. A layout that happens to suit one
-contender is then a random effect across processes, not a bias (Mytkowicz et
-al., "Producing wrong data without doing anything obviously wrong!", 2009).
-The sweep's workers and the peers' workers both use it.
+Padding the environment moves the stack, dummy allocations the heap, a random
+offset of 0-15 elements the data within cache lines and pages. A layout that
+suits one contender is then a random effect across processes, not a bias
+(Mytkowicz et al., "Producing wrong data without doing anything obviously wrong!", 2009).
 """
 
 from __future__ import annotations

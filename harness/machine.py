@@ -40,9 +40,8 @@ def _read(path: str) -> str | None:
 def cpu_model() -> str:
     """The CPU's name, with its family and model numbers where /proc/cpuinfo gives them.
 
-    A hypervisor may show only a brand ("AMD EPYC" for a Zen 3, a Zen 4 and a Zen 5 alike); the
-    family and model tell them apart, so that a figure names its machine and a calibration's
-    margin (harness.margin.latest_margin) is applied only on the CPU it was measured on.
+    A hypervisor may show only a brand ("AMD EPYC" for Zen 3, 4 and 5 alike), so
+    a calibration's margin is applied only on the CPU it was measured on.
     """
     info = _cpuinfo()
     name = info.get("model name") or info.get("Model") or platform.processor() or platform.machine()
@@ -51,8 +50,7 @@ def cpu_model() -> str:
 
 
 def describe() -> str:
-    """One line naming the machine and build a figure comes from, for bench/'s printouts: the CPU,
-    its widest vector ISA, tribench's version and compiler."""
+    """One line naming the CPU, its widest ISA, tribench's version and compiler, for bench/'s printouts."""
     from .. import ext
 
     simd = set(simd_features())

@@ -1,8 +1,7 @@
 """The equivalence margin a sweep uses: the latest A/A calibration's, or the default.
 
-Reading the margin is what the runner needs before a sweep; running a
-calibration (:mod:`.jobs.calibrate`) needs the runner. Keeping the two apart
-keeps the import order one-way: runner -> margin, calibration -> runner.
+Apart from the calibration (:mod:`.jobs.calibrate`), which needs the runner,
+so the imports stay one-way: runner -> margin, calibration -> runner.
 """
 
 from __future__ import annotations
@@ -30,11 +29,7 @@ _FIX = "run `tribench calibrate` again, or delete the file to use the default ma
 
 @dataclass(frozen=True)
 class Margin:
-    """An equivalence margin (relative, 0.01 = 1 %) and where it came from.
-
-    The value is checked here, so every margin a verdict uses -- a
-    calibration file's, one recorded in ``run.json``, ``--margin`` -- is a
-    finite number in ``[0, MAX_MARGIN]``."""
+    """An equivalence margin (relative, 0.01 = 1 %) and where it came from; checked to lie in ``[0, MAX_MARGIN]``."""
 
     value: float
     source: str
@@ -44,11 +39,7 @@ class Margin:
 
 
 def user_calibration_path() -> Path:
-    """The latest calibration of this user: next to the workload cache.
-
-    ``$TRIBENCH_CACHE/../calibration.json`` when ``TRIBENCH_CACHE`` is set,
-    else ``~/.cache/tribench/calibration.json``.
-    """
+    """The latest calibration of this user, next to the workload cache (``~/.cache/tribench/calibration.json``)."""
     cache = os.environ.get("TRIBENCH_CACHE")
     base = Path(cache).expanduser().parent if cache else Path("~/.cache/tribench").expanduser()
     return base / CALIBRATION
@@ -57,11 +48,8 @@ def user_calibration_path() -> Path:
 def latest_margin(cpu_model: str | None = None) -> Margin:
     """The latest calibration's margin, if it was measured on ``cpu_model``; else the default.
 
-    No calibration file: the default. A file that is there but unusable
-    (not JSON, no margin, a margin that is not a number in ``[0, MAX_MARGIN]``)
-    is a UserError naming the file and the key, raised before a sweep
-    measures anything: falling back silently would give verdicts the user
-    takes for calibrated ones, and the fix is one command.
+    An unusable calibration file is a UserError naming the file and the key,
+    before anything is measured: a silent fallback would pass for a calibrated margin.
 
     >>> m = latest_margin("no such cpu")
     >>> m.value == DEFAULTS.margin and m.source.startswith("default")

@@ -1,46 +1,12 @@
 """Each kernel's bound on the machine's measured pipes, and how near it runs.
 
-The rates. :func:`tribench.ext.op_throughput` probes, on the widest vector
-the core has (AVX-512, else AVX2 with FMA, else SSE2), the lane-operations
-per ns of each operation class: ``fma, mul, add, cmp, logic, div, load``,
-and two mixes, ``fma_add`` and ``fma_mul`` (an FMA and an add, or a
-multiply, 1:1). The counts.
-:attr:`tribench.ext.KernelInfo.mix`: a kernel's operations per test and lane
-by class (``tb_<name>_mix`` beside its code; a wide form's counted in its
-compiled loop).
-
-The port model: the bound is the largest of these lower bounds on time,
-each a count over a measured rate (lane-ops per ns, so ns per test):
-
-1. each class alone: ``n_c / r_c`` (no class runs faster than its probe);
-2. the pools of the mixes: for each mix ``a_b``, ``(n_a + n_b) / max(r_a,
-   r_b, r_a_b)``, and the FP arithmetic pool ``(n_fma + n_mul + n_add)``
-   over the fastest FP probe, alone or mixed. Whether two classes share
-   pipes is measured, not assumed: where they do, the 1:1 mix runs at the
-   rate of either alone and the pool is their sum over it; where they do
-   not, the mix runs faster and its rate caps the pool instead. Multiplies
-   share the FMA pipes on Intel and AMD alike (``fma_mul`` runs at ``fma``'s
-   rate). Adds share them on Intel's AVX-512 (ports 0 and 5) and have pipes
-   of their own on AMD Zen (FADD) and on Golden Cove's 256-bit adders (ports
-   1 and 5). Without the ``fma_mul`` pool a Zen core's bound let multiplies
-   and FMAs each use the adders' share of the FP pipes: up to twice too fast
-   for a kernel of multiplies and FMAs (docs/decisions.md, "How near the
-   bound");
-3. the vector-ALU pool: every class but loads issues on the same vector
-   pipes, so ``sum of those counts / the fastest rate of any ALU probe``
-   (valid where the fastest class uses every vector pipe, as bitwise logic
-   does on Intel and AMD);
-4. loads alone are rule 1's ``n_load / r_load`` (load ports are separate).
-
-It is the tightest bound the probes support for the kernel's operations as
-compiled, at the widest FMA-capable width: a form that runs narrower, or
-without FMA, or a scalar form on one lane, shows that as a small fraction.
-Not modelled: the front end's issue width, latency chains, branches and
-cache misses (the in-cache workload keeps misses out).
-
-``fraction = bound / measured ns per test``, 1 at the bound. A scalar
-early-exit kernel's counts are the path of a hit, while most tests exit
-earlier, so its fraction overstates how busy it keeps the lane.
+The bound is a port model (docs/kernels.md, "How near the machine's limit"):
+the largest lower bound on time that the probed rates
+(:func:`tribench.ext.op_throughput`, lane-ops per ns by class) and the
+kernel's counts (:attr:`tribench.ext.KernelInfo.mix`) support. Whether two
+classes share pipes is measured by a 1:1 mix, never assumed: without the
+``fma_mul`` pool a Zen core's bound was up to twice too fast (docs/decisions.md,
+"How near the bound"). ``fraction = bound / measured ns per test``, 1 at the bound.
 """
 
 from __future__ import annotations
@@ -61,10 +27,8 @@ FP_CLASSES = ("fma", "mul", "add")
 
 
 def bound_from_mix(mix: Mapping[str, float], rates: Mapping[str, float]) -> float:
-    """ns per test at the port model's bound (rules in the module's note).
-
-    ``mix``: operations per test by class; ``rates``: lane-ops per ns by class
-    (the ``float32`` or ``float64`` field of :class:`tribench.ext.OpThroughput`).
+    """ns per test at the port model's bound: ``mix`` is operations per test by class,
+    ``rates`` lane-ops per ns by class (a field of :class:`tribench.ext.OpThroughput`).
 
     >>> rates = {"fma": 2, "mul": 2, "add": 2, "cmp": 1, "logic": 2, "div": 0.25, "load": 2, "fma_add": 2}
     >>> bound_from_mix({"mul": 4, "add": 4}, rates)  # adds share the FMA pipes: (4 + 4) / 2
@@ -94,10 +58,11 @@ def measure_rates(repeats: int = 3, isa: str | None = None) -> ext.OpThroughput:
 
 
 def throughput_record() -> dict:
-    """The probes' rates and the 8-lane FMA peak of the same moment, as ``run.json``
-    keeps them (key ``throughput``): ``isa, peak_gflops, float32, float64``. The
-    analysis scales the rates to each process's own moment by the ratio of its FMA
-    peak to this one (a clock speed factor), so every process is held to its own bound."""
+    """The probes' rates and the FMA peak of the same moment, as ``run.json``'s ``throughput``.
+
+    The analysis scales the rates to each process's moment by the ratio of its FMA
+    peak to this one (a clock factor), so every process is held to its own bound.
+    """
     peak, rates = measure_peak(3), measure_rates()
     return {"isa": rates.isa, "peak_gflops": peak.gflops, "float32": rates.float32, "float64": rates.float64}
 
@@ -108,22 +73,13 @@ def measure_peak(repeats: int = 5) -> ext.Peak:
 
 
 def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int = 64, seed: int = 0, isa=None):
-    """Every public kernel on the in-cache camera workload, as a fraction of its bound.
+    """Every public kernel on the in-cache camera workload, as a fraction of its bound (``tribench info --peak``).
 
-    A quick look in this process (``tribench info --peak``), not the sweep's
-    protocol: Suzanne at 968 triangles (its records, 35-83 KiB in float32, fit in L2;
-    L1d holds some of them, and the port model counts no L2 traffic) seen by a
-    ``size`` x ``size`` pinhole camera, closest hit; ``rounds`` rounds run
-    every kernel once in a fresh random order, each batch timed in C and
-    about 5 ms long; the probe runs before and after (best of 3 each) and
-    their mean is the peak, and so do the throughput probes (their mean
-    the rates). Returns ``(gflops, isa, rate_isa, rates, table)``: the FMA
-    peak and its ISA, the probes' ISA and rates per dtype, and a DataFrame
-    with ``dtype, kernel, form, ops_per_test, records_bytes`` (the prepared
-    triangles a ray streams), ``bound_ns_per_test`` (the port
-    model's), ``ns_per_test`` (median over rounds) and ``fraction``. ``isa`` (a probe
-    ISA of :func:`tribench.ext.probe_isas`) holds every wide form to it and
-    probes the pipes on it, so that an AVX-512 core answers for AVX2 too.
+    A quick look in this process, not the sweep's protocol: Suzanne at 968
+    triangles (in L2; the port model counts no L2 traffic), every kernel once per
+    round in a fresh order, the probes' mean before and after as the peak and
+    rates. Returns ``(gflops, isa, rate_isa, rates, table)``. ``isa`` holds every
+    wide form to that ISA and probes the pipes on it, so an AVX-512 core answers for AVX2 too.
     """
     import pandas as pd
 

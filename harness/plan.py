@@ -1,25 +1,11 @@
 """What a sweep measures, and in which order: the sweep spec and its batch plan.
 
-A :class:`Sweep` is a grid of kernels x workload specs plus the design
-(processes, rounds, warm-up rounds, batch length, seed). :func:`plan` expands
-it into the exact list of batches to run, in execution order, as
-:class:`BatchKey` values. The plan is a pure function of the sweep, so a
-resumed run knows exactly which batches are missing (see
-:func:`tribench.harness.runner.resume`).
-
-Order inside one process (the replicate):
-
-* the workloads in a random order (one block of rounds per workload, so all
-  kernels share the same buffers while it lasts);
-* for each workload, ``warmup`` warm-up rounds (numbered ``-warmup .. -1``,
-  labelled ``warmup=True`` and kept), then ``rounds`` timed rounds
-  (``0 .. rounds-1``);
-* in every round each kernel runs once, in a fresh random order.
-
-Every random choice comes from :func:`process_seed`, derived from the sweep
-seed and the process index only, so the plan is reproducible.
-
-Sweep files (TOML) are read by :mod:`tribench.harness.sweep_file`.
+:func:`plan` expands a :class:`Sweep` into its batches in execution order, a
+pure function of the sweep, so a resumed run knows exactly which batches are
+missing. In each process the workloads come in a random order (a block of
+rounds each, so the kernels share its buffers), warm-up rounds
+(``-warmup .. -1``, kept and labelled) before the timed ones, every kernel
+once per round in a fresh order; every choice comes from :func:`process_seed`.
 """
 
 from __future__ import annotations
@@ -49,11 +35,7 @@ __all__ = [
     "process_seed",
 ]
 
-# Defaults of a sweep, in one place: 10 processes, the fewest whose t-interval is usable;
-# 10 rounds, what Kalibera & Jones's rule gives from a process's cost and the variance
-# between rounds and between processes; 8 ms batches, long enough that the harness's time
-# between batches is about 2% of one. The measurements and their commands are in
-# docs/decisions.md, "Defaults of a sweep".
+# Defaults of a sweep, in one place; why these: docs/decisions.md, "Defaults of a sweep".
 DEFAULT_PROCESSES = 10
 DEFAULT_ROUNDS = 10
 DEFAULT_WARMUP = 1
@@ -62,12 +44,9 @@ DEFAULT_TARGET_MS = 8.0
 #: historical baseline (the analysis's default, the main job's comparisons, the seed replay's ratio).
 DEFAULT_BASELINE = "moller_seed"
 
-# Bounds of a sweep, so a typo (--rounds 1000000000) is refused before anything
-# is allocated. The plan is a list of BatchKey (about 150 bytes each), and the
-# main job (`tribench run`) plans at most 18,864 batches (36 processes; its
-# stages run a part of them). A million batches is about 150 MB of plan and
-# 2.2 hours of timed batches alone at the default 8 ms per batch: past that,
-# a study is several sweeps.
+# Bounds of a sweep, so a typo (--rounds 1000000000) is refused before anything is allocated:
+# a million batches (the main job plans at most 18,864) is about 150 MB of plan and 2.2 hours
+# of timed batches; past that, a study is several sweeps.
 MAX_BATCHES = 1_000_000
 MAX_PROCESSES = 10_000  # each process costs about 5 s of start-up and checks: 14 hours
 MAX_ROUNDS = 100_000
@@ -103,10 +82,7 @@ def is_bvh(spec: Spec) -> bool:
 
 @dataclass(frozen=True, order=True)
 class BatchKey:
-    """The identity of one batch: unique within a run.
-
-    ``round < 0`` is a warm-up round.
-    """
+    """The identity of one batch, unique within a run; ``round < 0`` is a warm-up round."""
 
     process: int
     workload_id: str
@@ -125,17 +101,12 @@ class BatchKey:
 
 @dataclass(frozen=True)
 class Sequential:
-    """A sequential design: processes in stages, each comparison stopped once it is narrow.
+    """A sequential design: processes in stages, each comparison stopped once its 95% interval is narrow.
 
-    The sweep's ``processes`` is then the most it may run. They run
-    ``stage`` at a time; after each stage every comparison (a kernel against
-    its workload's reference kernel, :meth:`Sweep.reference_of`) whose 95%
-    interval is at most ``target`` wide (relative half-width,
-    :func:`tribench.harness.stats.narrow_comparisons`) stops, and the next stage runs
-    only the open ones (and their references). The sweep ends when none is
-    open, at ``processes``, or when the next stage would end past
-    ``budget_s`` seconds of sweep. Only the interval's width decides, so the
-    intervals keep their coverage (tests/test_stats.py simulates it).
+    ``target`` is a relative half-width; ``processes`` is then the most the sweep
+    may run, and it also ends when the next stage would end past ``budget_s``.
+    Only the width decides, so the intervals keep their coverage
+    (docs/methodology.md, "The main job's sequential design").
     """
 
     #: Processes per stage (the first stage included).
@@ -164,40 +135,14 @@ class Sequential:
 class Sweep:
     """A grid of kernels x workloads and the design that measures it.
 
-    Parameters
-    ----------
-    kernels : tuple of str
-        Kernel names (internal kernels allowed: the harness's own checks use them).
-    workloads : tuple of PairSpec or MeshSpec
-    processes : int
-        Replicates: fresh worker processes, run one at a time.
-    rounds : int
-        Timed rounds per workload per process.
-    warmup : int
-        Warm-up rounds per workload per process (kept, labelled).
-    target_ms : float
-        Wanted length of one batch; ``loops`` is calibrated to it once per
-        kernel, workload and process.
-    seed : int
-        Seed of every random choice of the plan and of the layout randomisation.
-    workload_kernels : tuple of tuple of str, optional
-        Per workload (in ``workloads`` order), the kernels that run it, a
-        subset of ``kernels``; empty (the default): every kernel runs every
-        workload it can (:meth:`kernels_for`).
-    sequential : Sequential, optional
-        Run the processes in stages and stop the comparisons that are narrow
-        (:class:`Sequential`); ``processes`` is then the most it may run.
-    kernel_files : tuple of str, optional
-        Kernel files (``--kernel-file``) whose kernels ``kernels`` may name:
-        loaded here (:func:`tribench.ext.load_kernels`), copied into the run
-        folder when the sweep starts, and loaded by every worker. Checking
-        their answers is the caller's (:mod:`tribench.harness.jobs.kernel_check`).
-    builds : tuple of str, optional
-        Builds of the extension to compare (:func:`tribench.ext.parse_builds`:
-        a compiler and its flags each, ``"installed"`` the pip build); empty
-        (the default): the installed build alone. The processes take them in
-        turn (process ``p`` runs :meth:`build_of`), so ``processes`` are
-        shared among them: 10 processes and 2 builds are 5 of each.
+    ``kernels`` may be internal (the harness's checks use them); ``target_ms`` is
+    a batch's wanted length, ``loops`` calibrated to it per kernel, workload and
+    process; ``seed`` drives every random choice, layout included.
+    ``workload_kernels``: per workload, the subset of kernels that run it (empty:
+    :meth:`kernels_for`). ``kernel_files`` are loaded here and by every worker;
+    checking their answers is :mod:`tribench.harness.jobs.kernel_check`'s.
+    ``builds`` (:func:`tribench.ext.parse_builds`; empty: the installed one) are
+    taken in turn by the processes, which they share: 10 processes and 2 builds are 5 of each.
     """
 
     kernels: tuple[str, ...]
@@ -322,10 +267,9 @@ class Sweep:
         object.__setattr__(self, "workload_kernels", tuple(lists))
 
     def kernels_for(self, spec: Spec) -> tuple[str, ...]:
-        """The sweep's kernels that run ``spec``: those of its ``workload_kernels``
-        list (every kernel without one) that run its mode (wide kernels have no
-        pairs mode) and, on a BVH workload, can be its leaf test
-        (``ext.bvh_kernel_names()``), in sweep order."""
+        """The sweep's kernels that run ``spec``, in sweep order: its ``workload_kernels``
+        (all without), that have its mode, and on a BVH workload can be its leaf test.
+        """
         from .. import ext
 
         chosen = self.workload_kernels[self.workloads.index(spec)] if self.workload_kernels else self.kernels
@@ -333,9 +277,9 @@ class Sweep:
         return tuple(k for k in self.kernels if k in chosen and spec.mode in ext.kernel_info(k).modes and k in leaf)
 
     def reference_of(self, spec: Spec, baseline: str) -> str:
-        """The kernel the other kernels of ``spec`` are compared with while a
-        sequential sweep runs: ``baseline`` where it runs the workload, else the
-        workload's first kernel (a BVH workload has no scalar baseline)."""
+        """The kernel the others of ``spec`` are compared with in a sequential sweep:
+        ``baseline`` where it runs, else the first kernel (a BVH workload has no scalar baseline).
+        """
         kernels = self.kernels_for(spec)
         return baseline if baseline in kernels else kernels[0]
 
@@ -410,12 +354,8 @@ def _kernel_file(recorded: Mapping[str, Any], run_dir: str | Path | None) -> str
     return str(source(path, sha, KERNELS_FOLDER))
 
 
-#: The main job's sequential design (``tribench run``): stages of this many
-#: processes, each comparison stopped once its 95% interval is within this
-#: relative half-width, and the seconds the sweep's stages may take. The budget
-#: leaves the rest of about 10 minutes on 2 cores to the peers, the robustness
-#: suite, the tables, the pictures and the report, and ``--quick`` aims at about a
-#: minute; what those took: docs/decisions.md, "The main job's design".
+#: The main job's sequential design (``tribench run``, ``--quick``); the budget leaves the rest of
+#: about 10 minutes on 2 cores to the other steps: docs/decisions.md, "The main job's design".
 MAIN_JOB_DESIGN = {
     False: Sequential(stage=2, target=0.02, budget_s=300.0),
     True: Sequential(stage=3, target=0.05, budget_s=15.0),
@@ -426,10 +366,9 @@ MAIN_JOB_BVH_TRIANGLES = {False: 250_000, True: 10_000}
 
 def main_job_kernels() -> dict[str, tuple[str, ...]]:
     """The main job's kernels by role, from the registry (never from their names):
-    ``seed`` the seed's replays (the historical baseline), ``scalar`` every clean
-    scalar form (the only ones with a pairs mode), ``native`` every native form
-    (wide at the CPU's width, no scalar form: each algorithm's fastest, and the
-    ones a BVH takes as its leaf test)."""
+    ``seed`` (the seed's replays), ``scalar`` (every clean scalar form, the only
+    ones with a pairs mode) and ``native`` (every native form, also the BVH leaf tests).
+    """
     from .. import ext
 
     info = {k: ext.kernel_info(k) for k in ext.kernel_names()}
@@ -443,37 +382,12 @@ def main_job_kernels() -> dict[str, tuple[str, ...]]:
 def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds: Sequence[str] = ()) -> Sweep:
     """The main job's sweep (``tribench run``): which intersector, on this machine.
 
-    Every algorithm in its best form, with the seed's two replays
-    (``curless_seed``, ``moller_seed``) as the historical baseline, in
-    float32 and float64 (:func:`main_job_kernels` picks them from the registry),
-    and the baseline's A/A twin (``moller_seed_aa``) wherever the baseline runs,
-    which gives the run its own equivalence margin (:mod:`tribench.reports.tables.margin`):
-
-    * pairs at per-test hit rates 0, 25, 50, 75 and 100% (4096 pairs: in L2 at
-      either precision, so they show the algorithms, not the memory), each
-      triangle wound to face its ray (``winding="facing"``: a culling kernel
-      does the same work as the others): the seed's two and every clean scalar
-      form (a pair is one test; wide forms have no pairs mode);
-    * Suzanne at 968 triangles (the seed's mesh), brute force, seen by the seed's
-      camera at 48 x 48 pixels: the seed's two and every native form;
-    * Suzanne at 250,000 triangles in a BVH, camera rays (64 x 64), float32: every
-      native form as the leaf test.
-
-    A sequential design (:class:`Sequential`, :data:`MAIN_JOB_DESIGN`): processes
-    run in stages of 2 (one process at a time), and after each stage every kernel
-    whose speedup over the baseline (``moller_seed``; on the BVH workload, its first
-    native kernel) is known within ±2% stops, so the processes go where the
-    intervals are wide, until every comparison is narrow, 36 processes, or 300 s of
-    sweep. 3 rounds per process, set from what a process costs in rounds and how
-    much the ratios vary between rounds (docs/decisions.md, "3 rounds per
-    process"); the sequential stages put the rest into processes, which carry the
-    between-layout variance. ``quick`` keeps every kernel on fewer workloads
-    (pairs at 0, 50 and 100% in float32, the small camera in both precisions, a
-    10,000-triangle BVH) with 1 ms batches, stopping at ±5% or 15 s.
-    ``kernel_files``' kernels (:func:`tribench.ext.load_kernels`) join in their roles.
-    ``builds`` (:attr:`Sweep.builds`): the processes take them in turn, each stage
-    and the bound on processes growing with their number, so a stage holds as many
-    processes of each build and the budget is shared among them.
+    Its workloads, kernels and sequential design are docs/methodology.md's ("The
+    main job's sequential design"); 3 rounds per process is docs/decisions.md's
+    ("3 rounds per process, stages of 2, at least 8 processes"). The baseline's A/A
+    twin gives the run its own margin (:mod:`tribench.reports.tables.margin`).
+    ``kernel_files``' kernels join in their roles; with ``builds``, each stage and
+    the bound on processes grow with their number, so the budget is shared among them.
     """
     from .. import ext
     from ..workloads.spec import MeshSpec, PairSpec
@@ -530,8 +444,9 @@ def recorded_builds(sweep: Mapping[str, Any]) -> list[str]:
 
 
 def rows_of_build(frame: Any, batches: Any, build: str) -> Any:
-    """The rows of a per-process table (a ``process`` column) measured by ``build``'s processes: those
-    whose batches carry ``build`` in their ``build`` column, the one place a row's build is recorded."""
+    """The rows of a per-process table measured by ``build``'s processes: those whose
+    batches carry ``build``, the one place a row's build is recorded.
+    """
     mine = frame["process"].isin(batches.loc[batches["build"] == build, "process"].unique())
     return frame.loc[mine].reset_index(drop=True)
 
@@ -548,8 +463,6 @@ def process_seed(seed: int, process: int) -> int:
 def plan(sweep: Sweep) -> list[BatchKey]:
     """Every batch of ``sweep``, in execution order.
 
-    Examples
-    --------
     >>> from tribench.workloads.spec import PairSpec
     >>> s = Sweep(("moller_trumbore", "curless"), (PairSpec(n=10),), processes=2, rounds=2)
     >>> keys = plan(s)

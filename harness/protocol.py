@@ -1,25 +1,15 @@
 """The one worker protocol: a fresh process per job, the job on stdin, typed JSON lines on a private channel.
 
-Every measurement runs in such workers: the sweeps' (:mod:`.worker`) and the
-peers' (:mod:`tribench.harness.jobs.peers`), each pinned to one CPU and with its
-memory layout randomised (:mod:`.layout`), and a kernel file's check before
-anything is timed (:mod:`tribench.harness.jobs.kernel_check`). The parent side
-is :func:`run_worker`: it starts the worker, sends the job, and hands each line
-to the handler of its ``type``, within an optional time limit. The worker side is
-:func:`serve`: it keeps the channel to itself (the process's stdout, moved to a
-descriptor of its own; file descriptor 1 then goes to stderr, so a ``printf`` in a
-user's kernel cannot break a line), passes tribench's notices to the parent and
-turns the errors a user can act on into one ``error`` line. Three types belong
-to the protocol itself:
-
-* ``{"type": "notice", "message": ...}``: a :class:`~tribench.common.Notice`
-  (a cache file rebuilt), printed once by the parent however many workers send it;
-* ``{"type": "error", "message": ...}``: the worker stops (exit code 3), and
-  the parent raises :class:`WorkerError` with the message;
-* ``{"type": "end"}``: the job is done. A worker that exits without it (a
-  kernel that called ``exit()``) failed, whatever its exit code.
-
-A worker's stderr is kept in a temporary file and shown only when it fails.
+Every measurement runs in such workers (the sweeps', the peers', a kernel
+file's check), pinned and with a randomised layout. :func:`run_worker` is the
+parent's side: each line goes to the handler of its ``type``, within an
+optional time limit. :func:`serve` is the worker's: the channel is stdout moved
+to a descriptor of its own, fd 1 going to stderr, so a ``printf`` in a user's
+kernel cannot break a line. The protocol's own types: ``notice`` (printed once
+by the parent however many workers send it), ``error`` (exit code 3; the parent
+raises :class:`WorkerError`) and ``end``: a worker that exits without it (a
+kernel that called ``exit()``) failed, whatever its exit code. A worker's
+stderr is shown only when it fails.
 """
 
 from __future__ import annotations
@@ -69,10 +59,9 @@ def run_worker(
 ) -> None:
     """Run one worker to its end: ``job`` to its stdin, each line to ``handlers[type]``.
 
-    Raises :class:`WorkerError` on the worker's error line, a line that is not the
-    protocol's, an exit before its ``end`` line or with a non-zero code, or a worker
-    still running after ``timeout`` seconds (it is killed; ``name`` says which worker).
-    An exception of a handler kills the worker and propagates.
+    Raises :class:`WorkerError` on an error line, a line not the protocol's, an exit
+    before ``end`` or with a non-zero code, or past ``timeout`` seconds (killed). A
+    handler's exception kills the worker and propagates.
     """
     error, ended = None, False
     with tempfile.TemporaryFile("w+") as err:
@@ -154,8 +143,7 @@ def emit(kind: str, record: Any) -> None:
 def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] = ()) -> int:
     """A worker's main: run ``work(job)`` on the job read from stdin; the exit code.
 
-    ``errors`` (and every ValueError, a UserError among them, and OSError: a
-    cache file) become the ``error`` line, exit code 3.
+    ``errors``, ValueError (UserError among them) and OSError (a cache file) become the ``error`` line, exit code 3.
     """
     global _CHANNEL
     _CHANNEL = _take_channel()
@@ -178,9 +166,9 @@ def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] =
 
 
 def _take_channel() -> TextIO | None:
-    """The process's stdout as the protocol's alone: moved to a descriptor of its own, while fd 1
-    (C's printf, Python's print) goes to stderr, which the parent keeps. None where stdout is no
-    file descriptor (a test's capture): :func:`emit` then writes to ``sys.stdout`` as it is."""
+    """The process's stdout as the protocol's alone, fd 1 going to stderr; None where stdout is no
+    file descriptor (a test's capture): :func:`emit` then writes to ``sys.stdout`` as it is.
+    """
     try:
         fd = sys.stdout.fileno()
     except (AttributeError, ValueError, io.UnsupportedOperation):

@@ -1,25 +1,14 @@
 """The runner: starts worker processes one at a time and keeps every batch they time.
 
-:func:`start` creates a run folder (``run.json`` first, see
-:mod:`tribench.harness.runfolder`) and runs the whole plan; :func:`resume`
-finishes an interrupted one. Batches stream from the worker as JSON lines and
-are appended to ``batches.csv`` one row at a time, so a Ctrl-C, a SIGKILL of
-the runner or of a worker, or a crash of the machine loses at most the batch
-in flight. A full disk stops the sweep with one line that says how to resume
-it, and leaves whole lines only (:class:`~tribench.harness.runfolder.RowWriter`).
-One writer per run folder: :func:`start` and :func:`resume` hold the
-folder's lock (:func:`~tribench.harness.runfolder.writer_lock`) while they run.
-
-Resume: the plan (:func:`tribench.harness.plan.plan`) is a pure function of
-the sweep stored in ``run.json``, so the missing batches are exactly the
-planned keys absent from ``batches.csv``. A process whose batches are all
-missing runs as planned. A process cut off half-way keeps its finished
-batches and its remaining ones run in a new worker process with the same
-``process`` index and ``attempt`` + 1 (recorded in both CSVs): its loops are
-calibrated again, and warm-up batches already done are not repeated, so the
-set of batch keys is exactly the plan's, none lost and none duplicated. The
-two halves of such a process had different memory layouts; ``attempt`` lets
-an analysis find them.
+:func:`start` makes a run folder and runs the whole plan; :func:`resume`
+finishes an interrupted one; both hold the folder's writer lock. Every batch is
+appended to ``batches.csv`` as it arrives, so a kill or a crash loses at most
+the batch in flight, and a full disk stops the sweep with one line saying how
+to resume. The plan is a pure function of the sweep in ``run.json``, so the
+missing batches are exactly the planned keys absent from ``batches.csv``. A
+process cut off half-way keeps its batches; the rest run in a new worker with
+the same ``process`` and ``attempt`` + 1 (its layout differs; ``attempt`` lets
+an analysis find the two halves), warm-ups done not repeated.
 """
 
 from __future__ import annotations
@@ -115,12 +104,10 @@ def progress_seconds() -> float:
 class Progress:
     """Progress with an estimate of the time left, on ``stream`` (default stderr).
 
-    On a terminal (or with ``force``) a one-line bar redrawn in place.
-    Elsewhere (a CI log, a pipe) a plain line now and then, once both
-    :func:`progress_seconds` and a tenth of the work (or the end) have come
-    since the last one, so a log shows life without filling up. The estimate uses the
-    rate of this invocation only, so a resume is not misled by the batches it
-    did not run.
+    On a terminal (or with ``force``) a bar redrawn in place; elsewhere (a CI
+    log) a plain line once both :func:`progress_seconds` and a tenth of the work
+    have passed, so a log shows life without filling up. The rate is this
+    invocation's only, so a resume is not misled by batches it did not run.
     """
 
     def __init__(
@@ -167,7 +154,7 @@ class Progress:
         return f"[{bar}] {100 * frac:5.1f}% {self.done}/{self.total} {self.unit}, {shown} left "
 
     def plain_line(self, elapsed: float) -> str:
-        """The plain line after ``elapsed`` seconds, e.g.
+        """The plain line after ``elapsed`` seconds.
 
         >>> p = Progress(5000, 0, unit="batches")
         >>> p.plain_line(1.0)
@@ -236,36 +223,14 @@ def start(
     extra: dict[str, Any] | None = None,
     build_checks: Mapping[str, Mapping[str, Sequence[str]]] | None = None,
 ) -> RunResult:
-    """Create ``run_dir`` and run every batch of ``sweep``.
+    """Create ``run_dir`` (new, or empty but for a failed start's lock file) and run every batch of ``sweep``.
 
-    Parameters
-    ----------
-    sweep : Sweep
-    run_dir : path
-        Must not exist, or be an empty directory (a lock file left by a
-        start that failed does not count).
-    margin : tribench.harness.margin.Margin, optional
-        Equivalence margin to record (default: the latest calibration's, or
-        ``stats.DEFAULTS.margin``).
-    cpu : int, optional
-        CPU to pin workers to (default :func:`default_cpu`).
-    progress : bool, optional
-        Force the progress bar on or off (default: on if stderr is a terminal).
-    worker : sequence of str
-        Command that runs a worker (tests substitute a faulty one).
-    extra : dict, optional
-        More fields for ``run.json`` (e.g. what a calibration run is for).
-    build_checks : mapping, optional
-        Per build of the sweep, what each kernel got wrong when checked again under it
-        (:func:`tribench.harness.jobs.kernel_check.check_builds`), recorded in ``run.json``'s
-        ``builds``; a build without it is recorded as not checked (``check: null``).
-
-    Raises
-    ------
-    SweepError, SweepInterrupted
-    UserError
-        ``run_dir`` is not empty, another process writes it, or a file
-        cannot be written (a full disk: the message says how to resume).
+    ``margin`` defaults to the latest calibration's, else ``stats.DEFAULTS.margin``;
+    ``worker`` is the command that runs a worker (tests substitute a faulty one);
+    ``extra`` adds fields to ``run.json``; ``build_checks`` are per build what each
+    kernel got wrong when checked again under it (a build without it is recorded
+    as not checked). Raises SweepError, SweepInterrupted, or UserError when
+    ``run_dir`` is not empty, is locked, or cannot be written.
     """
     from .machine import machine_record
     from .margin import latest_margin
@@ -337,17 +302,11 @@ def _start_locked(
 
 
 def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequence[str] = WORKER) -> RunResult:
-    """Run the batches of ``run_dir``'s plan that ``batches.csv`` lacks.
+    """Run the batches of ``run_dir``'s plan that ``batches.csv`` lacks (the module's note says how).
 
-    A partial last line of ``batches.csv``, ``processes.csv``, ``checks.csv``
-    or ``traversals.csv`` (a write cut by a kill) is removed first. See the module docstring for how a
-    half-finished process is completed.
-
-    Raises
-    ------
-    UserError
-        Another process writes ``run_dir`` (one writer per run folder), its
-        files are not valid, or a file cannot be written.
+    A partial last line of a measured file (a write cut by a kill) is removed
+    first. Raises UserError when another process writes ``run_dir``, its files
+    are not valid, or a file cannot be written.
     """
     run_dir = Path(run_dir)
     record = runfolder.read_run(run_dir)
@@ -400,9 +359,9 @@ def _execute_stages(
     progress: bool | None,
     worker: Sequence[str],
 ) -> RunResult:
-    """A sequential sweep (:mod:`tribench.harness.stages`): finish the stages
-    ``stages.json`` records (a resume), then decide and run one stage after
-    another until :func:`~tribench.harness.stages.decide` ends the sweep."""
+    """A sequential sweep (:mod:`tribench.harness.stages`): finish the stages ``stages.json`` records
+    (a resume), then decide and run one after another until :func:`~tribench.harness.stages.decide` ends it.
+    """
     from . import stages
 
     def say(text: str) -> None:

@@ -1,14 +1,9 @@
 """The stages of a sequential sweep (:class:`tribench.harness.plan.Sequential`): what each runs, and why it stopped.
 
-A sequential sweep's plan is the plan of its largest design
-(:func:`tribench.harness.plan.plan`, every process and kernel); a stage runs
-the plan's keys of its processes whose (workload, kernel) is still open, so
-every batch it writes is a key of that plan and ``batches.csv`` is checked
-as any sweep's. Which comparisons a stage runs is decided before it starts,
-from the batches of the stages before (:func:`tribench.harness.stats.narrow_comparisons`),
-and recorded in ``stages.json`` (:data:`tribench.harness.runfolder.STAGES`)
-before its first process: a resumed sweep finishes the recorded stages as
-they were decided, then decides the next ones the same way.
+A stage runs the keys of the largest design's plan whose comparison is still
+open, so ``batches.csv`` is checked as any sweep's. Each stage is decided from
+the stages before and recorded in ``stages.json`` before its first process, so
+a resumed sweep finishes the recorded stages as decided, then decides the rest the same way.
 """
 
 from __future__ import annotations
@@ -70,10 +65,9 @@ def _comparisons(sweep: Sweep) -> dict[str, list[str]]:
 
 
 def _block_seconds(batches: pd.DataFrame, processes: range) -> dict[str, float]:
-    """Per workload, the wall seconds one kernel of it cost a process of the last stage:
-    its block (from the end of the process's previous block to the end of its last
-    batch: checks, calibrations, BVH builds and batches) over its kernels, the mean
-    over the processes. The first block of a process is counted from its first batch."""
+    """Per workload, the wall seconds one kernel of it cost a process of the last stage (its block
+    over its kernels, the mean over processes; a process's first block counted from its first batch).
+    """
     b = batches.loc[batches["process"].isin(processes)].copy()
     if b.empty:
         return {}
@@ -95,13 +89,10 @@ def decide(
 ) -> tuple[StageRecord | None, str]:
     """The next stage of ``sweep``, or None and why the sweep ends.
 
-    ``done`` are the stages run so far (every batch of them in ``batches.csv``),
-    ``seconds`` the sweep's wall time so far, ``last_stage_s`` the last stage's.
-    The next stage runs every comparison not yet narrow under every build
-    (:func:`tribench.harness.stats.narrow_comparisons` against :meth:`Sweep.reference_of` the baseline),
-    with its workload's reference;
-    it is not started when it would end past the budget (its time foreseen from the
-    cost of each workload's kernels in the last stage), nor past ``sweep.processes``.
+    ``done`` are the stages run so far, ``seconds`` the sweep's wall time so far.
+    The next stage runs every comparison not yet narrow under every build, with
+    its reference; it is not started past the budget (foreseen from the last
+    stage's costs) nor past ``sweep.processes``.
     """
     design = sweep.sequential
     assert design is not None  # only sequential sweeps have stages

@@ -83,12 +83,10 @@ _TOP_LEVEL = (
 
 
 def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Sweep:
-    """Read a TOML sweep file (see the module docstring).
+    """Read a TOML sweep file (the module's example); every mistake is a UserError naming the file and the key.
 
-    ``overrides`` (e.g. from command-line flags) replace the file's top-level
-    values (``kernel_files`` join the file's); ``None`` values are ignored. Every mistake in the file is a
-    :class:`~tribench.common.UserError` naming the file and the key
-    (``sweep.toml: workloads[2]: hit_rate must be in [0, 1], got 2.0``).
+    ``overrides`` (the command line's) replace the file's top-level values;
+    ``kernel_files`` join the file's; ``None`` values are ignored.
     """
     path = Path(path)
     text = read_user_text(path, "sweep file")

@@ -1,54 +1,16 @@
 """The worker: one replicate of a sweep, in a fresh process.
 
-Run as ``python -m tribench.harness.worker`` by :mod:`tribench.harness.runner`,
-never by hand, in the one worker protocol (:mod:`.protocol`). It reads one
-JSON job from stdin (:class:`WorkerJob`) and writes JSON lines to stdout,
-the only thing it ever writes there:
-
-* ``{"type": "process", ...}``: a :class:`~tribench.harness.runfolder.ProcessRow`
-  (an FMA peak probe, at the start and at the end);
-* ``{"type": "check", ...}``: a :class:`~tribench.harness.runfolder.CheckRow`,
-  a kernel's answers on a workload against the reference, before its batches;
-* ``{"type": "batch", ...}``: a :class:`~tribench.harness.runfolder.BatchRow`,
-  sent as soon as the batch is timed and checked;
-* ``{"type": "traversal", ...}``: a :class:`~tribench.harness.runfolder.TraversalRow`,
-  after each batch on a BVH workload;
-* ``{"type": "notice", "message": ...}``: a :class:`~tribench.common.Notice` (a cache file rebuilt),
-  printed once by the parent;
-* ``{"type": "error", "message": ...}``: the worker stops (exit code 3).
-
-What it does, in order:
-
-1. pins itself to the CPU it is given (``os.sched_setaffinity``);
-2. varies its memory layout: the parent padded its environment by a random
-   number of bytes (which moves the stack); here a random number of dummy
-   allocations comes first, then every array is copied into a fresh buffer
-   at a random offset of 0-15 elements (which moves the data's alignment
-   within cache lines and pages). The seed is recorded. A BVH's nodes and
-   records are not moved: their start on a cache line is part of the tree,
-   as in any tracer (``ext/bvh.py``, ``LINE_BYTES``);
-3. runs the FMA peak probe;
-4. per workload, before its first batch: checks each kernel's per-ray answers
-   against the reference (differences allowed only on the workload's
-   ambiguous rays; a kernel that culls back faces against the front-face
-   reference, cached with the workload: :mod:`~tribench.workloads.front`),
-   then calibrates ``loops`` so that one batch takes about ``target_ms``
-   (kept for the whole process; calibration batches are not recorded).
-   On a BVH workload (``accel = "bvh"``) each kernel's BVH is read first
-   from the BVH cache (built there once per machine), outside any timed
-   batch; its answers are checked and
-   its batches timed through the BVH, and a batch's ``tests`` are the
-   triangle tests the traversal did (``ns/test`` stays a time per
-   ray-triangle test; ``rays x loops / elapsed`` is its rays/s);
-5. runs its batches in the order given; every batch's checksum must equal
-   ``loops`` times the kernel's verified one-pass checksum (hits exactly, the
-   sum of ``t`` within :data:`~tribench.harness.checks.T_SUM_RTOL`). A BVH batch also sends
-   ``{"type": "traversal", ...}``, a :class:`~tribench.harness.runfolder.TraversalRow`:
-   its traversal's counts, and the same rays and loops traced with a null
-   leaf test (each ray's ``t_max`` at the kernel's own hit), timed just
-   before or just after it, at random, so the leaf tests' share of the
-   trace time is measured batch by batch on the same machine state;
-6. runs the FMA peak probe again.
+Run as ``python -m tribench.harness.worker`` by :mod:`tribench.harness.runner`
+in the one worker protocol (:mod:`.protocol`): a :class:`WorkerJob` on stdin,
+a ``process``, ``check``, ``batch`` or ``traversal`` row per line out (the rows
+of :mod:`tribench.harness.runfolder`), each sent as soon as it is measured.
+Its steps are docs/methodology.md's ("A sweep", "In a BVH"): pin to a CPU,
+randomise the layout (dummy allocations, every array copied at a random offset
+of 0-15 elements), probe the FMA peak, check and calibrate each kernel on each
+workload, run the batches in the given order with every checksum verified
+(a kernel fast because it is wrong stops the sweep), probe the peak again.
+A BVH's nodes are not moved: their start on a cache line is part of the tree,
+as in any tracer (``ext/bvh.py``, ``LINE_BYTES``).
 """
 
 from __future__ import annotations
@@ -111,9 +73,8 @@ class WorkerJob:
 
 
 def kernel_isa(kernel: str) -> str:
-    """Form and instruction set a kernel runs with: ``scalar/<baseline>``
-    for scalar kernels (built for the architecture's baseline, no
-    ``-march``), ``x8/<isa>`` for wide ones (the ISA chosen at run time).
+    """Form and instruction set a kernel runs with: ``scalar/<baseline>`` (no ``-march``)
+    or ``x8/<isa>`` (the ISA chosen at run time).
 
     >>> kernel_isa("moller_trumbore").startswith("scalar/")
     True
@@ -136,11 +97,9 @@ def kernel_isa(kernel: str) -> str:
 
 @dataclass(frozen=True)
 class BvhJob:
-    """The inputs of a BVH workload's timed batches: one kernel's BVH (built
-    once per process, outside the timed batches), the rays, and each ray's
-    ``t_max`` for the null-leaf traversal (``null_t_max``: just above the
-    kernel's own answer's ``t``, the workload's ``t_max`` where it misses, as
-    :func:`_bvh_job` sets it; None: the workload's ``t_max`` for every ray)."""
+    """The inputs of a BVH workload's timed batches: one kernel's BVH, the rays, and ``null_t_max``,
+    each ray's limit for the null-leaf traversal (:func:`null_leaf_t_max`; None: the workload's ``t_max``).
+    """
 
     bvh: ext.BVH
     origins: np.ndarray
@@ -176,10 +135,8 @@ def time_job(job: ext.Job | BvhJob, loops: int) -> ext.Batch:
 
 
 def calibrate_loops(job: ext.Job | BvhJob, target_ns: float) -> int:
-    """``loops`` for which one batch of ``job`` takes about ``target_ns``.
-
-    Doubles ``loops`` until a batch takes a quarter of the target, then
-    scales by the median time of three batches at that size.
+    """``loops`` for which one batch of ``job`` takes about ``target_ns``: doubled until a batch
+    takes a quarter of the target, then scaled by the median of three batches at that size.
     """
     most = job.max_loops if isinstance(job, BvhJob) else 2**30
     loops = 1
@@ -195,9 +152,9 @@ def calibrate_loops(job: ext.Job | BvhJob, target_ns: float) -> int:
 class _StealClock:
     """The machine's steal time so far, in clock ticks (-1 where unreadable).
 
-    ``/proc/stat`` stays open and its first line is re-read with ``pread``:
-    about 12 us a reading, against 47 us to open and read it anew (it is read
-    once per batch)."""
+    ``/proc/stat`` stays open and is re-read with ``pread``: about 12 us a reading
+    against 47 us to open it anew, once per batch.
+    """
 
     def __init__(self) -> None:
         try:
@@ -278,8 +235,7 @@ class _Meter:
 def _timed(kjob: ext.Job | BvhJob, loops: int, rng: np.random.Generator, meter: _Meter):
     """One batch of a contender: ``(batch, switches, steal ticks, (trace, null, null_first) or None)``.
 
-    A BVH batch has a null-leaf twin, traced just before or just after it at
-    random (its time is not the batch's steal time); a brute-force batch has none.
+    A BVH batch's null-leaf twin runs just before or after it at random; its time is not the batch's steal.
     """
     if not isinstance(kjob, BvhJob):
         meter.start()
@@ -343,10 +299,7 @@ def _prepare(job: WorkerJob, process: int, kernel: str, w: Any, arrays: tuple, e
 def run_job(job: WorkerJob, emit) -> None:
     """Run one worker job; ``emit(type, record)`` receives every message.
 
-    Raises
-    ------
-    KernelCheckError
-        A kernel's answers or a batch's checksum disagree with the reference.
+    Raises KernelCheckError when a kernel's answers or a batch's checksum disagree with the reference.
     """
     layout.pin(job.cpu)
     cpu = job.cpu if job.cpu is not None else -1

@@ -1,17 +1,11 @@
 """A/A calibration: how large a speedup this machine shows between identical code.
 
-``tribench calibrate`` times a kernel against its ``_aa`` copy (the same
-source compiled under another name, see ``ext/kernels/moller_trumbore_aa.h``)
-in the normal protocol. Its processes are split into ``experiments`` disjoint
-groups of ``processes`` each; each group gives one A/A speedup with its
-interval, exactly as a sweep of that many processes would. From those,
-:func:`tribench.harness.stats.aa_summary` gives the coverage of 1, the
-distribution of the p-values (KS test against uniform) and the noise floor,
-whose relative form is the equivalence margin later verdicts use.
-
-The result goes to ``RUN_DIR/calibration.json`` and to a user-level file
-(:func:`user_calibration_path`); a sweep on the same CPU model takes its margin
-from there, else ``stats.DEFAULTS.margin``, and records which in ``run.json``.
+``tribench calibrate`` times a kernel against its ``_aa`` copy (the same source
+under another name) in the normal protocol, split into ``experiments`` groups of
+``processes``: each group gives one A/A speedup, exactly as a sweep of that many
+processes would, and :func:`tribench.harness.stats.aa_summary` their noise
+floor, the margin later verdicts on this CPU model use
+(:mod:`tribench.harness.margin`).
 """
 
 from __future__ import annotations
@@ -87,20 +81,10 @@ def calibrate(
 ) -> dict[str, Any]:
     """Run an A/A calibration into ``run_dir`` and return its record.
 
-    Parameters
-    ----------
-    kernel : str
-        A kernel of :data:`AA_COPIES`.
-    workloads : tuple of specs
-        Default: 10 000 pairs at hit rate 0.5, float64.
-    processes, rounds, warmup, target_ms
-        The design of each A/A comparison; the defaults are the sweeps'
-        (``plan.DEFAULT_*``), so the margin measured is that of the default
-        protocol. Use your sweeps' values if they differ.
-    experiments : int
-        Number of A/A comparisons (``processes * experiments`` processes run).
-    save : bool
-        Also write the user-level calibration file.
+    ``kernel`` is one of :data:`AA_COPIES`; ``workloads`` default to 10 000 pairs at
+    hit rate 0.5, float64. The design defaults are the sweeps', so the margin is
+    that of the default protocol: give your sweeps' values if they differ.
+    ``processes * experiments`` processes run; ``save`` also writes the user-level file.
     """
     from ...workloads.spec import PairSpec
     from .. import runfolder, runner

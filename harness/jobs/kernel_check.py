@@ -1,17 +1,11 @@
 """A kernel file's kernels, checked before anything times them.
 
-Each kernel a file declares (:func:`tribench.ext.load_kernels`) must give the
-float64 reference's answers, in both precisions and on every ISA it is
-compiled for, where the answer does not depend on rounding: random ray and
-triangle pairs whose crossing lies at least :data:`MARGIN` (barycentric)
-from every edge, and the closest and any hit of rays into a closed mesh, as
-safe. It must also keep the promises the robustness suite holds every kernel
-to (``tribench validate``, :func:`tribench.harness.jobs.validate.promise`): none
-of its hits for parallel rays, degenerate triangles and non-finite input,
-and no crack if it declares itself watertight. A kernel that fails is
-refused with what it got wrong, and one that crashes, exits or never returns is refused in one line:
-the check runs in a worker of its own (the one protocol, :mod:`tribench.harness.protocol`), stopped
-after :data:`CHECK_SECONDS`. :func:`load_checked` does both steps.
+Each kernel must give the float64 reference's answers, in both precisions and
+on every ISA, where rounding cannot decide them (crossings at least
+:data:`MARGIN` from every edge; rays into a closed mesh), and keep the promises
+of the robustness suite (:func:`tribench.harness.jobs.validate.promise`). The
+check runs in a worker of its own, stopped after :data:`CHECK_SECONDS`, so a
+kernel that crashes, exits or hangs is refused in one line.
 """
 
 from __future__ import annotations
@@ -53,8 +47,7 @@ class KernelRefused(UserError):
 def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
     """Load every kernel file of ``paths`` and check each kernel they declare; the names, in order.
 
-    Raises :class:`~tribench.ext.KernelFileError` for a file that does not
-    compile and :class:`KernelRefused` for a kernel with wrong answers.
+    Raises :class:`~tribench.ext.KernelFileError` (no compile) or :class:`KernelRefused` (wrong answers).
     """
     if isinstance(paths, (str, bytes, os.PathLike)) or not isinstance(paths, Sequence):
         raise UserTypeError(f"kernel files must be a list of paths, got {type(paths).__name__}: give [path, ...]")
@@ -77,9 +70,9 @@ def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
 
 
 def refuse_crashing(path: str | os.PathLike) -> None:
-    """Run the reference check of a kernel file's kernels in a process of its own, and refuse the file
-    (:class:`KernelRefused`, one line) only if they crash it: what ``tribench validate`` needs before
-    running them in its own process, where their wrong answers are the measurement."""
+    """Refuse a kernel file (:class:`KernelRefused`) only if its kernels crash a process of their own: what
+    ``tribench validate`` needs before running them in its process, where wrong answers are the measurement.
+    """
     _checked_elsewhere(path)
 
 
@@ -102,12 +95,11 @@ def _in_a_process(argv: list[str], what: str, kernels: int) -> dict[str, list[st
 
 
 def check_builds(sweep, log: TextIO | None = None) -> dict[str, dict[str, list[str]]]:
-    """Every kernel of ``sweep`` checked again under each of its builds but the installed one
-    (:func:`check_kernel`, in a process per build): build -> kernel -> what it gets wrong.
+    """Every kernel of ``sweep`` checked again under each build but the installed one: build -> kernel -> problems.
 
-    A build may change results (``-ffast-math``, ``-ffp-contract=fast``), so nothing is refused
-    here: what a kernel gets wrong is recorded in ``run.json`` and shown in the report. A build's
-    answers on the sweep's own workloads are still held to the reference by every worker."""
+    A build may change results (``-ffast-math``), so nothing is refused: ``run.json``
+    and the report show it. Every worker still holds a build's answers to the reference.
+    """
     checked = {}
     for build in sweep.build_names:
         if build == ext.INSTALLED:
@@ -221,8 +213,9 @@ def _check_mesh(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) 
 
 
 def _work(job: str) -> None:
-    """The check's worker: the job is [--build SPEC] [--kernel-file FILE]... [KERNEL...] as a JSON list;
-    one ``checked`` line of kernel -> problems. The kernels are those named, or else every kernel of the files."""
+    """The check's worker: the job is [--build SPEC] [--kernel-file FILE]... [KERNEL...] as a JSON list
+    (no kernel: every kernel of the files); one ``checked`` line of kernel -> problems.
+    """
     import argparse
 
     parser = argparse.ArgumentParser(prog="python -m tribench.harness.jobs.kernel_check")

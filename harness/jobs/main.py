@@ -1,8 +1,6 @@
 """The main job (``tribench run``): the default sweep, then its peers and the robustness suite.
 
-:func:`run` and :func:`resume` measure; the command line and the notebook's
-``tribench.run`` then make the tables (:func:`tribench.reports.tables.write_all`)
-and the report from the folder.
+It measures; the caller makes the tables and the report from the folder.
 """
 
 from __future__ import annotations
@@ -37,13 +35,10 @@ def run(
 ) -> str:
     """Measure the main job into the new folder ``out``; what the robustness suite's step said.
 
-    The default sweep (:func:`tribench.harness.plan.default_sweep`, ``quick``: the same
-    shape in seconds) through :func:`~.sweep.run_sweep`, then tribench's fastest kernel
-    against its peers when one is installed (their failure never stops the job), then the
-    robustness suite. ``kernel_files`` and ``builds`` are ``--kernel-file`` and ``--builds``:
-    a kernel file's kernels join the job in their roles. ``log`` takes the one-line notes
-    (default stderr). Ctrl-C raises :class:`~tribench.harness.runner.SweepInterrupted`
-    naming ``tribench run --resume``.
+    :func:`tribench.harness.plan.default_sweep` through :func:`~.sweep.run_sweep`,
+    then the peers when installed (their failure never stops the job), then the
+    robustness suite. ``log`` takes the one-line notes (default stderr). Ctrl-C
+    raises :class:`~tribench.harness.runner.SweepInterrupted` naming ``tribench run --resume``.
     """
     from ..plan import default_sweep
     from .kernel_check import load_checked
@@ -63,13 +58,9 @@ def run(
 
 
 def resume(out: str | Path, progress: bool | None = None, peers: bool = True, log: TextIO | None = None) -> str:
-    """Finish an interrupted main job in ``out``: the rest of its sweep, then its peers (unless
-    ``peers.csv`` is there), the robustness suite and the analysis step, as :func:`run` would have.
+    """Finish an interrupted main job in ``out`` as :func:`run` would have (peers unless ``peers.csv`` is complete).
 
-    Raises
-    ------
-    UserError
-        ``out`` is not a main job's run folder, or another process writes it.
+    Raises UserError when ``out`` is not a main job's folder, or another process writes it.
     """
     from ...common import UserError
 
@@ -154,8 +145,7 @@ def _seconds(seconds: float) -> str:
 
 
 def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO | None = None) -> None:
-    """The report's peers, when one is installed; their failure never stops the run (their figures
-    are the tables', after the job)."""
+    """The report's peers, when one is installed; their failure never stops the run."""
     from ..runner import SweepInterrupted
     from . import peers
 

@@ -1,57 +1,13 @@
 """Peers: tribench's fastest kernel, brute force or in its BVH, against trimesh and Embree, in rays/s.
 
-The workload is the seed's camera (Suzanne, 968 triangles, or any built-in
-mesh or mesh file trimesh reads, ``PeerDesign.mesh``; 512x512 pinhole
-camera rays in float32, closest hit), the same arrays for every contender.
-With ``accel="bvh"`` (``tribench peers --accel bvh``) tribench traces the
-rays through its BVH (``ext.build_bvh``, read from the BVH cache where it
-is built once per machine; the row's ``setup_ns`` is the build's time,
-recorded in the cache when it was built) with the fastest kernel that can be a BVH's
-leaf test, the implementation says ``bvh``, and the peer is Embree alone
-(trimesh's intersector is an rtree and NumPy: not a tracer's BVH; without
-Embree, tribench's own rows are still written):
-
-``tribench``
-    the fastest public two-sided closest-mode kernel (:func:`choose_kernel`), timed in C
-    around its loop (``ext.time_batch``), as the sweeps time it;
-``tribench_packets``
-    through the BVH only: the same tree and kernel walked by packets of 16
-    consecutive rays (``BVH.time(..., layout="packets")``), Embree's
-    ``rtcIntersect16``'s peer;
-``tribench_call``
-    the wall time of ``ext.intersect`` with that kernel: checks, the run and the
-    output arrays, the like of a peer's one call;
-``trimesh``
-    trimesh's own intersector (``trimesh.ray.ray_triangle``: NumPy after an rtree
-    broad phase, so it needs ``rtree``), on a fixed random subset of the rays
-    because it is slow; its rays/s is scaled from those;
-``embree``, ``embree_16``, ``embree_robust``, ``embree_robust_16``
-    native Embree through its C API (:mod:`tribench.ext.embree`: the system's
-    Embree 3), after its BVH is built (the build is ``setup_ns``, not timed):
-    ``rtcIntersect1`` ray by ray, or ``rtcIntersect16`` over packets of 16
-    consecutive rays, each plain or in Embree's robust (watertight) mode, the
-    loop timed in C as tribench's is; each at the ISA Embree is fastest at on
-    this machine (its own pick, or held to AVX2 where that is faster: the
-    label says which);
-``embreex``
-    Embree through ``embreex`` (``trimesh.ray.ray_pyembree``), called from
-    Python: a labelled secondary figure (float64 arrays, conversions and a
-    call's overhead included), never the headline.
-
-Replicates are fresh worker processes in the sweeps' own worker protocol
-(:mod:`tribench.harness.protocol`), with their pinning and layout
-randomisation (:mod:`tribench.harness.layout`: a padded environment, small
-allocations, the arrays at random offsets). Each runs
-with one BLAS thread: OpenBLAS starts its threads when NumPy
-is imported, before any pinning, and they spun on the other CPU during
-trimesh's NumPy work (an earlier bench saw 180% CPU). Each repetition runs
-every contender once in a random order, each call after a 0.1 s pause that
-lets the previous one's helper threads go idle. ``peers.csv`` keeps every
-call (:data:`COLUMNS`); :func:`summarise` makes the figures: per contender the
-geometric mean of rays/s over processes (each process's own geometric mean
-over its repetitions) with its t interval, and tribench's ratio over each
-peer paired by process. ``pip install 'tribench[peers]'`` installs trimesh's
-and embreex's peers; native Embree needs the system's (:data:`tribench.ext.embree.INSTALL`).
+The contenders, the workload and the design are docs/results.md's ("Against
+peers"); the columns of ``peers.csv`` are :data:`COLUMNS` (docs/run-folder.md).
+Every contender runs on the same arrays, in the sweeps' worker protocol with
+pinning and layout randomisation, each repetition in a random order with a
+0.1 s pause so the previous call's helper threads go idle. Each worker has one
+BLAS thread: OpenBLAS starts its threads at NumPy's import, before any pinning,
+and they spun on the other CPU during trimesh's work (180% CPU).
+:func:`summarise` makes the figures (geometric means over processes, t intervals, ratios paired by process).
 """
 
 from __future__ import annotations
@@ -219,11 +175,10 @@ def camera_spec(design: PeerDesign):
 
 
 def candidate_kernels(accel: str) -> list[str]:
-    """The kernels tribench's row may run: public closest-mode kernels that test
-    both faces, as every peer does (Embree's default build, trimesh), and in a
-    BVH only those that can be its leaf test. A culling kernel skips the back
-    faces' work the peers do: on a closed mesh seen from outside it gives the
-    same answers, but it does not do the same work."""
+    """The kernels tribench's row may run: public closest-mode kernels that test both faces, as every
+    peer does (a culling kernel gives the same answers on a closed mesh without the same work), and
+    in a BVH only those that can be its leaf test.
+    """
     from ... import ext
 
     kernels = [
@@ -235,12 +190,10 @@ def candidate_kernels(accel: str) -> list[str]:
 
 
 def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str:
-    """The fastest of :func:`candidate_kernels` on a random subset of the rays
-    (through each kernel's BVH on a BVH workload).
+    """The fastest of :func:`candidate_kernels` on a random subset of the rays (through its BVH on a BVH workload).
 
-    Kernels run interleaved in a random order each round and are judged by the
-    median of the thread's CPU time per ray: on a shared core, wall time also
-    counts other processes' time slices, which can reorder close kernels.
+    Judged by the median CPU time per ray, kernels interleaved: on a shared core, wall time
+    also counts other processes' slices, which can reorder close kernels.
     """
     from ... import ext
     from ...workloads import bvh_cache
@@ -273,14 +226,11 @@ def measure(
     cpu: int | None = None,
     progress: bool | None = None,
 ) -> pd.DataFrame:
-    """Run the peers' processes one after another; write ``peers.csv`` (``out``: see :func:`peers_path`).
+    """Run the peers' processes one after another into ``peers.csv`` (:func:`peers_path`), rewritten after each.
 
-    The file is rewritten after every finished process, so an interruption
-    keeps them. Raises ``RuntimeError`` when no peer is installed or a worker
-    fails (its last lines of stderr say why). With ``design.accel == "bvh"``
-    the peer is Embree alone, and without it tribench's own rows are still
-    measured (with a :class:`~tribench.common.Notice`); ``kernel`` must then
-    be one of ``ext.bvh_kernel_names()``.
+    Raises RuntimeError when no peer is installed or a worker fails. With a BVH
+    design the peer is Embree alone; without it tribench's rows are still measured
+    (with a Notice), and ``kernel`` must be one of ``ext.bvh_kernel_names()``.
     """
     import pandas as pd
 
@@ -437,9 +387,9 @@ def _worker(text: str) -> None:
 
 
 def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:
-    """tribench's contenders (its C-timed loop, its Python call and, through the BVH, the loop walking the
-    tree by packets of 16 rays) and each one's closest triangle per ray. Through the BVH, the build is the
-    set-up, as Embree's is: its time when it was built."""
+    """tribench's contenders (C-timed loop, Python call and, through the BVH, packets of 16 rays) and each
+    one's closest triangle per ray; a BVH's build time is the set-up, as Embree's is.
+    """
     from ... import ext
     from ...workloads import bvh_cache
     from ..machine import version
@@ -475,9 +425,9 @@ def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Co
 
 
 def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:
-    """Native Embree's four contenders (plain and robust; rtcIntersect1 and rtcIntersect16), each scene
-    built once (its set-up), and each contender's closest hits. Each call runs at the ISA Embree is
-    fastest at here (:func:`_fastest_isa`): on a Zen 5 its AVX2 rtcIntersect1 beats its AVX-512 one by 3-7%."""
+    """Native Embree's four contenders, each scene built once (its set-up), with their closest hits; each at
+    the ISA Embree is fastest at here (:func:`_fastest_isa`).
+    """
     from ...ext import embree
 
     if "embree" not in peers:
@@ -506,8 +456,9 @@ def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contend
 
 
 def _fastest_isa(scenes: dict[str | None, Any], o: np.ndarray, d: np.ndarray, width: int) -> str | None:
-    """The ISA whose scene traces the rays fastest at ``width``: the least of three alternating passes each.
-    The peer is Embree at its best on this machine, never a slower path of it."""
+    """The ISA whose scene traces the rays fastest at ``width`` (least of three alternating passes each):
+    the peer is Embree at its best here (on a Zen 5 AVX2's rtcIntersect1 beats AVX-512's by 3-7%).
+    """
     best: dict[str | None, float] = {isa: math.inf for isa in scenes}
     for _ in range(3):
         for isa, scene in scenes.items():
@@ -557,8 +508,7 @@ def _peer_contenders(peers: Sequence[str], design: PeerDesign, w: Any) -> dict[s
 
 
 def main() -> int:
-    """The worker's entry point: ``python -m tribench.harness.jobs.peers``, its job on stdin (started by
-    :func:`measure`)."""
+    """The worker's entry point: ``python -m tribench.harness.jobs.peers``, its job on stdin."""
     return protocol.serve(_worker)
 
 

@@ -1,31 +1,17 @@
 """``tribench seed``: the seed's two renders replayed through the harness, beside the paper's table.
 
-The seed (Vitse 2022) timed whole 512 x 512 renders of scene02 and scene03
-with Unix ``time``, once per algorithm. Here each render's ray stream is cut
-into its three kinds of ray (primary, reflected, shadow), each kind is a
-workload (:class:`~tribench.workloads.seed.workload.SeedSpec`: runs of
-consecutive rays spread over the render, against every triangle), and
-every kernel is timed on every workload by the ordinary runner (fresh
-pinned processes, interleaved rounds, checked checksums). Per process,
-one render's time is then
+The seed (Vitse 2022) timed whole renders with Unix ``time``. Here each
+render's ray stream is cut into its kinds (primary, reflected, shadow), each a
+workload (:class:`~tribench.workloads.seed.workload.SeedSpec`) timed by the
+ordinary runner, and per process
 
     render_s = sum over ray kinds of  ns_per_test x tests_per_pass x stream_tests / sample_tests
 
-i.e. the time of one pass over the sample scaled by the ratio of the
-render's ray-triangle tests of that kind to the sample's (exact counts, see
-the workload). Each process gives one render time; the estimate is their
-mean with a Student-t interval, and a ratio to ``moller_seed`` is paired
-per process (log scale, t-interval): :mod:`tribench.harness.stats`.
-
-What the replay covers: the ray-triangle tests of the render, and only
-them. The seed's times also cover spheres, the floor, shading, writing the
-image and starting the program (scene02's 12 triangles are a small part of
-its time; scene03's 968 dominate). So the replay's seconds are smaller than
-the paper's, and its ratio is the kernels' own, undiluted.
-
-Files written into the run folder, besides the runner's (run.json,
-batches.csv, processes.csv, checks.csv) and the analysis's (estimates.csv,
-speedups.csv): :data:`COLUMNS` documents each one's columns.
+with a Student-t interval over processes and a ratio to ``moller_seed`` paired
+per process. Only the triangle tests are replayed, not the seed's spheres,
+shading or start-up, so the seconds are smaller than the paper's and the ratio
+is the kernels' own (docs/decisions.md, "The seed replay's model"). The
+files' columns: :data:`COLUMNS`.
 """
 
 from __future__ import annotations
@@ -133,15 +119,12 @@ QUICK = Design(processes=5, rounds=2, warmup=1, target_ms=1.0, sample=256, size=
 
 
 def seed_kernels(all_kernels: bool = False) -> tuple[str, ...]:
-    """The kernels ``tribench seed`` times: :data:`FIRST_KERNELS`, then the best form of every algorithm
-    that answers the seed's renders; with ``all_kernels`` every public kernel instead of the best forms.
+    """The kernels ``tribench seed`` times: :data:`FIRST_KERNELS`, then the native form of every algorithm
+    that answers the seed's renders (``all_kernels``: every public kernel).
 
-    The best form of an algorithm is its widest, the native one (``kernel_info(k).lanes``: the most
-    triangles per block; Moller-Trumbore has two, with and without the early exit). Every native form was
-    faster than its 8-lane and scalar forms in the 27-kernel ranking of session 8 (Suzanne, both
-    precisions). Kernels that cull back faces are left out: the seed's renderer tests both faces (its
-    shadow rays meet the back of the monkey), so they would time another render. Only built-in
-    kernels: the replay takes no kernel file, so one this process loaded would not reach its workers.
+    The native form was each algorithm's fastest in the 27-kernel ranking. Culling
+    kernels are left out: the seed's renderer tests both faces (its shadow rays
+    meet the monkey's back). Built-in only: the replay's workers load no kernel file.
 
     >>> seed_kernels()[:6] == FIRST_KERNELS and len(seed_kernels()) < len(seed_kernels(all_kernels=True))
     True
@@ -188,15 +171,11 @@ def run_seed(
     log: TextIO | None = None,
 ) -> float:
     """Make the workloads, run the sweep into ``out`` and draw the pictures; the seconds it took.
-    The tables are :func:`tribench.reports.tables.seed.write_seed_tables`'.
 
-    Parameters
-    ----------
-    scenes : built-in names or scene files (default scene02 and scene03)
-    quick : the same shape in well under a minute (:data:`QUICK`; wide intervals)
-    size, sample : override the image side and the rays sampled per kind
-    all_kernels : every public kernel, not only the seed's and the best forms (:func:`seed_kernels`)
-    log : where one-line notes go (default: ``sys.stderr`` when called, so a redirection holds)
+    ``scenes``: built-in names or scene files (default scene02 and scene03);
+    ``size``, ``sample`` override the image side and the rays per kind; ``log``
+    defaults to ``sys.stderr`` when called. The tables are
+    :func:`tribench.reports.tables.seed.write_seed_tables`'.
     """
     from ...workloads.seed.workload import SeedSpec
     from ..plan import Sweep
@@ -298,8 +277,7 @@ TABLES_S = 10.0
 
 
 def _expected(sweep: Any, info: Mapping[str, Mapping[str, Any]], size: int) -> str:
-    """The line said before the sweep starts: the sweep's forecast (:mod:`..duration`), then the pictures'
-    (``info``: each workload's ``stream_tests`` and ``sample_tests``)."""
+    """The line said before the sweep: its forecast (:mod:`..duration`), then the pictures'."""
     from .. import duration
     from ..duration import format_duration
 

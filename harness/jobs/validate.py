@@ -1,30 +1,13 @@
 """``tribench validate``: the robustness suite, every kernel at both precisions.
 
-The cases (what each test asks, how its rays are built and why they are
-exact) are workload generation and live in :mod:`tribench.workloads.robustness`;
-this module asks every kernel the same questions on them, once per precision,
-and judges the answers: :func:`run` returns one tidy row per (kernel, dtype,
-test), with the columns of :data:`COLUMNS`. Wide kernels run with their
-default ISA (``ext.kernel_info(k).isa``). Kernels come from
-``ext.kernel_names()``, so a kernel added to the extension is validated
-without a change here. The cases' names (:data:`TESTS`, :data:`DTYPES`,
-:func:`build`, :class:`RaySets`...) are importable from here too.
-
-A kernel that culls back faces (:func:`culls`, declared in the registry) is asked about every
-triangle wound to face the ray, so its rates measure robustness, not
-culling.
-
-What the papers promise, the ``expected`` column: zero cracks on shared
-edges and vertices for a kernel the registry declares watertight
-(``ext.kernel_info(k).watertight``: Woop, Benthin & Wald's test, ``woop`` and
-``woop_x8``) and Embree's threshold on the sphere for it; zero
-hits for parallel rays above the triangle, for degenerate triangles and
-for non-finite input (clean kernels). Rays exactly in a triangle's plane are
-measured for every kernel (``in_plane_rays``: their answer is rounding's). Everything else is
-``measured``: reported, never judged.
-
-Sizes: :data:`FULL` (``tribench validate``; about 0.3 s per kernel and
-precision on one core) and :data:`QUICK` (``--quick``, the tests).
+The cases live in :mod:`tribench.workloads.robustness` (re-exported here);
+this module asks every kernel of ``ext.kernel_names()`` the same questions,
+wide kernels at their default ISA, and judges the answers into rows of
+:data:`COLUMNS`. The ``expected`` column is what the papers promise
+(:func:`promise`): no crack on shared edges and vertices for a kernel declared
+watertight, and no hit for parallel rays, degenerate triangles or non-finite
+input (clean kernels); everything else is ``measured``, never judged.
+:data:`FULL` takes about 0.3 s per kernel and precision.
 """
 
 from __future__ import annotations
@@ -133,11 +116,8 @@ def promise(kernel: str, test: str) -> tuple[str, float | None]:
 
 
 def culls(kernel: str) -> bool:
-    """Whether ``kernel`` culls back faces, as its registration declares.
-
-    The suite asks such a kernel about every triangle wound to face the ray
-    (v1 and v2 swapped for rays from behind), so its rates measure its
-    robustness, not its culling.
+    """Whether ``kernel`` culls back faces, as declared: it is then asked about triangles wound
+    to face the ray, so its rates measure robustness, not culling.
     """
     return ext.kernel_info(kernel).culls_back_faces
 
@@ -261,26 +241,10 @@ def measure(kernel: str, sets: RaySets) -> list[dict]:
 
 
 def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=TESTS, progress: bool | None = None):
-    """The whole suite: a tidy ``pandas.DataFrame`` with the columns of :data:`COLUMNS`.
+    """The whole suite as a tidy DataFrame (:data:`COLUMNS`), ordered by kernel, dtype and test.
 
-    Parameters
-    ----------
-    kernels : sequence of str, optional
-        Default: every kernel of ``ext.kernel_names()``.
-    dtypes : sequence of str
-        ``float32`` and/or ``float64``.
-    quick : bool
-        The ``QUICK`` sizes (seconds), for tests; default ``FULL``.
-    seed : int
-        Seed of every test's rays.
-    tests : sequence of str
-        Some of ``TESTS`` (default all).
-    progress : bool, optional
-        Progress per kernel: a bar on a terminal, plain lines elsewhere
-        (:class:`~tribench.harness.runner.Progress`); False for none.
-
-    Rows are ordered by kernel, then dtype, then test (``TESTS``); the
-    frame's ``attrs`` record the seed, the size and the seconds taken.
+    ``kernels`` default to ``ext.kernel_names()``; ``quick``: the ``QUICK`` sizes;
+    ``progress`` False for none. The frame's ``attrs`` record the seed, size and seconds.
     """
     import pandas as pd
 

@@ -1,9 +1,7 @@
 """The run folder: the only thing measuring hands to analysis and reporting.
 
-:mod:`.schema` names every file and every CSV's columns, once; :mod:`.io`
-builds the measured files' rows from that schema, appends them, reads and
-validates them, and holds the one writer's lock. Both are re-exported here,
-so a caller writes ``runfolder.BATCHES`` and ``runfolder.read_batches``.
+:mod:`.schema` names every file and column once; :mod:`.io` writes, reads and
+validates the measured files. Both are re-exported (``runfolder.BATCHES``).
 """
 
 from . import io as io

@@ -1,44 +1,14 @@
-"""The run folder: what a sweep writes and every later stage reads.
+"""The run folder's measured files: written row by row, read back validated.
 
-::
-
-    RUN_DIR/run.json        written once at the start: sweep, plan seeds, machine,
-                            build, versions, git revision, equivalence margin used
-    RUN_DIR/batches.csv     one row per batch (:data:`BATCH_COLUMNS`), appended and
-                            flushed as each batch finishes
-    RUN_DIR/processes.csv   one row per FMA peak probe of a worker process
-                            (:data:`PROCESS_COLUMNS`): at its start and its end
-    RUN_DIR/checks.csv      one row per kernel, workload and process: its answers
-                            against the reference (:data:`CHECK_COLUMNS`)
-    RUN_DIR/traversals.csv  one row per batch on a BVH workload: its traversal's counts
-                            and its null-leaf twin's time (:data:`TRAVERSAL_COLUMNS`)
-    RUN_DIR/estimates.csv ... analysis.json   derived by the analysis step
-                            (:mod:`tribench.reports.tables.pipeline`)
-    RUN_DIR/.lock           held by the one process writing the folder (:func:`writer_lock`)
-
-One writer per run folder: a sweep or a resume holds an exclusive ``flock``
-on ``.lock`` for as long as it appends, so a second one is refused with the
-first one's pid; the kernel releases the lock of a killed process, and the
-next writer says it takes it over. Readers (``stats``, ``report``) take no
-lock: they may read a folder a live sweep is writing.
-
-Rows are appended with one ``write`` each on a file opened in append mode,
-so a process killed at any moment leaves at most one partial last line; the
-readers here drop such a line (:func:`repair_csv` cuts it off the file before
-a resume appends to it). A write that fails (a full disk) is undone before
-the error is raised, so it leaves no partial line.
-
-Every reader validates what it reads, in one place (:func:`_read_table`):
-the header, every field's type, the run id of every row against
-``run.json``, kernels and workloads of the run's sweep, positive counts and
-times, and no batch twice or outside the plan. A failure is a
-:class:`~tribench.common.UserError` naming ``file:line`` and what is wrong.
-A UTF-8 byte-order mark and CRLF line ends (an editor's) change no value
-and are accepted.
-
-Every file name and column list is defined in :mod:`tribench.harness.runfolder`;
-the measured files' rows and their types are the dataclasses of
-:mod:`tribench.harness.runfolder.rows`, which the schema's columns are made from.
+The files and their columns are :mod:`tribench.harness.runfolder`'s
+(docs/run-folder.md); the one-writer lock is :mod:`.lock`'s. Each row is one
+``write`` in append mode, so a process killed at any moment leaves at most one
+partial last line, which the readers drop (:func:`repair_csv` cuts it before a
+resume appends); a failed write (a full disk) is undone, so no partial line.
+Every reader validates in one place (:func:`_read_table`): header, types, run
+id, the sweep's kernels and workloads, positive counts and times, no batch
+twice or outside the plan; a failure is a UserError naming ``file:line``. A
+byte-order mark and CRLF line ends (an editor's) are accepted.
 """
 
 from __future__ import annotations
@@ -93,8 +63,7 @@ def default_run_dir(kind: str = "") -> str:
 
 
 def check_new_run_dir(run_dir: str | Path) -> None:
-    """A new run may go into ``run_dir``: it does not exist, or is a folder
-    holding nothing but a lock file; else a UserError."""
+    """A new run may go into ``run_dir``: it does not exist, or holds nothing but a lock file; else a UserError."""
     run_dir = Path(run_dir)
     if run_dir.exists() and not run_dir.is_dir():
         raise UserError(f"{run_dir} is a file, not a folder: a new run needs a new or empty folder")
@@ -126,13 +95,11 @@ def _csv_line(values: Sequence[Any]) -> str:
 
 
 class RowWriter:
-    """Appends rows of one dataclass type to a CSV file, one ``write`` per row.
+    """Appends rows of one dataclass type to a CSV file, one unbuffered ``write`` per row.
 
-    The header is written when the file is new or empty. Each row goes to
-    the OS at once (unbuffered), so a killed process loses no finished row.
-    A row that cannot be written whole (a full disk) is cut off again before
-    the ``OSError`` is raised, so the file keeps whole lines only. The file
-    must not be a symbolic link (a run folder's files are tribench's own).
+    A row that cannot be written whole is cut off again before the ``OSError``
+    is raised, so the file keeps whole lines only. The file must not be a
+    symbolic link (a run folder's files are tribench's own).
     """
 
     def __init__(self, path: str | Path, columns: Sequence[str]) -> None:
@@ -237,9 +204,7 @@ Rule = tuple[Callable[..., Any], Callable[..., str]]  # ...: the lambdas bind na
 def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | None):
     """``path`` as a DataFrame of ``cls``'s columns and types, every row checked; a partial last line dropped.
 
-    Raises a UserError naming ``path:line`` for the first thing wrong: the
-    header, a field count, a field that is not of its column's type, or a
-    row that breaks one of ``rules``.
+    Raises a UserError naming ``path:line`` for the first thing wrong.
     """
     import pandas as pd
 
@@ -274,8 +239,7 @@ def _text(path: Path, max_bytes: int | None) -> str:
 
 
 def _fields(path: Path, text: str, columns: list[str]):
-    """The rows as text fields (a frame of strings) and each row's line number; the header and every field
-    count checked."""
+    """The rows as text fields and each row's line number; the header and every field count checked."""
     import pandas as pd
 
     reader = csv.reader(io.StringIO(text))
@@ -408,10 +372,9 @@ def _run_or_none(run_dir: Path, run: Mapping[str, Any] | None) -> Mapping[str, A
 def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
     """``batches.csv`` of a run as a DataFrame, validated (a partial last line is ignored).
 
-    ``run`` is the run's ``run.json`` record (read when not given, if the
-    folder has one): every row must carry its run id, a kernel and workload
-    of its sweep and a key of its plan, at most once. Without a record only
-    the file's own consistency is checked.
+    With ``run`` (``run.json``'s record, read when not given if there), every row
+    must carry its run id, a kernel and workload of its sweep and a key of its
+    plan, at most once; without one only the file's consistency is checked.
     """
     run_dir = Path(run_dir)
     path = run_dir / BATCHES
@@ -502,8 +465,7 @@ def read_processes(run_dir: str | Path, run: Mapping[str, Any] | None = None):
 
 
 def read_traversals(run_dir: str | Path, run: Mapping[str, Any] | None = None):
-    """``traversals.csv`` of a run, validated (empty frame if the run has none: no BVH
-    workload, or a run made before the file existed)."""
+    """``traversals.csv`` of a run, validated (empty if the run has none)."""
     import pandas as pd
 
     run_dir = Path(run_dir)

@@ -1,10 +1,9 @@
 """The measured files' rows: one dataclass per file, each field a column with its meaning.
 
-This is the one schema the measured files are written from and read back
-with: a field's type is the column's type (the readers check every value
-against it), its ``doc`` the column's meaning (``runfolder.FILES`` and
-``docs/run-folder.md`` are made from it), and the order of the fields the
-order of the columns. Rows are built with keywords.
+The one schema the measured files are written from and read back with: a
+field's type is the column's (the readers check every value), its ``doc`` the
+column's meaning (docs/run-folder.md is made from it), the fields' order the
+columns'. Rows are built with keywords.
 """
 
 from __future__ import annotations
@@ -61,10 +60,7 @@ class BatchRow:
 
 @dataclass(frozen=True)
 class ProcessRow:
-    """One FMA peak probe of one worker process, at its start and its end: a row of ``processes.csv``.
-
-    The layout fields record how the process's memory layout was varied.
-    """
+    """One FMA peak probe of a worker process, at its start and its end, with its layout: a row of ``processes.csv``."""
 
     run_id: str = _col(_RUN_ID)
     process: int = _col(_PROCESS)
@@ -84,8 +80,9 @@ class ProcessRow:
 
 @dataclass(frozen=True)
 class CheckRow:
-    """One kernel's answers on one workload against the float64 reference, written once per kernel,
-    workload and worker process before any batch: a row of ``checks.csv``."""
+    """One kernel's answers on one workload against the float64 reference, per worker process before
+    any batch: a row of ``checks.csv``.
+    """
 
     run_id: str = _col(_RUN_ID)
     process: int = _col(_PROCESS)
@@ -107,8 +104,7 @@ class CheckRow:
 class TraversalRow:
     """What one batch on a BVH workload did inside the tree, and its null-leaf twin: a row of ``traversals.csv``.
 
-    The key (process, workload_id, round, position, kernel) is its batch's in
-    ``batches.csv``; the counts are summed over every ray of every loop, so
+    Its key is its batch's; the counts are summed over every ray and loop, so
     ``1 - null_elapsed_ns / elapsed_ns`` is the leaf tests' share.
     """
 

@@ -1,33 +1,10 @@
 """The run folder's contract: every file name, and every CSV's columns in file order with their meaning.
 
-The run folder is the only thing measuring hands to reporting. This module
-is where its names and columns are written, once (the derived tables'
-columns in :mod:`.derived_columns`); it imports nothing else, so
-every stage reads it (:mod:`tribench.harness.runfolder` writes and checks the
-measured files, :mod:`tribench.reports.tables.pipeline` writes the derived ones,
-:mod:`tribench.reports` reads both and renders :data:`FILES` as column docs).
-
-Every CSV is tidy: one row per observation, snake_case names, raw units
-(nanoseconds, counts, fractions; never scaled for printing). The order of
-each column dict is the order in the file; tests check the files a run
-writes against these lists exactly, so a change here is a change of the
-format and must be deliberate.
-
-Who writes what:
-
-* measured, while the sweep runs (:mod:`~tribench.harness.runner`):
-  :data:`RUN`, :data:`BATCHES`, :data:`PROCESSES`, :data:`CHECKS`, :data:`TRAVERSALS`
-  (a header only when the run has no BVH workload), and :data:`STAGES` for a
-  sequential sweep;
-  ``peers.csv`` by ``tribench peers --out RUN_DIR`` (or ``tribench run``);
-* derived, by the analysis step at the end of ``tribench run`` and by
-  ``tribench stats RUN_DIR`` on demand (:func:`tribench.reports.tables.pipeline.write_all`):
-  every name in :data:`DERIVED`, the pictures in :data:`PICTURES_DIR`,
-  :data:`GOOGLE_BENCHMARK` (the estimates and speedups with their intervals and
-  the machine record, in Google Benchmark's JSON format: :mod:`~tribench.reports.tables.export`)
-  and :data:`ANALYSIS`, the record of what the tables were made from;
-* rendered, by ``tribench report`` (:data:`REPORT`, :data:`SWEEP_FILE`),
-  which reads everything above and changes none of it.
+Written once here (the derived tables' columns in :mod:`.derived_columns`),
+importing nothing else, so every stage reads it; who writes which file is
+docs/run-folder.md's, made from it. Every CSV is tidy, in raw units
+(nanoseconds, counts, fractions). Tests check a run's files against these
+lists exactly, so a change here is a change of the format and must be deliberate.
 """
 
 from __future__ import annotations
@@ -265,8 +242,6 @@ OPTIONAL = frozenset({PEERS, PEER_RATES, PEER_RATIOS})
 def describe(name: str) -> str:
     """The column documentation of one CSV as plain text.
 
-    Examples
-    --------
     >>> print(describe("speedups.csv").splitlines()[0])
     speedups.csv
     >>> "elapsed_ns" in describe("batches.csv")

@@ -1,11 +1,9 @@
 """Across the builds of one run (``--builds``): does the ranking hold under every build?
 
-Each build's part of a run (its own processes: they take the builds in turn)
-is a run of its own to a comparison, so the builds are compared by the very
-code that compares runs of several machines (:func:`tribench.reports.tables.compare.compare_many`):
-every order of two kernels on a workload is tested under each build, paired
-by process, and *holds* when every build finds the same kernel faster.
-``builds.csv`` has that test in long form, a row per pair and build.
+Each build's processes are a run of their own to a comparison, so builds are
+compared by the code that compares machines
+(:func:`tribench.reports.tables.compare.compare_many`); ``builds.csv`` has each
+order's test in long form, a row per pair and build.
 """
 
 from __future__ import annotations

@@ -21,11 +21,8 @@ _KEY = ["process", "workload_id", "round", "position", "kernel"]
 
 
 def bvh_baseline(kernels: Sequence[str], baseline: str) -> str:
-    """The kernel the speedups on a BVH workload are against, from those that ran it (sweep order).
-
-    The run's baseline if it ran there; else its algorithm's first form that
-    did (``ext.kernel_info(k).algorithm``); else :data:`BVH_FALLBACK_ALGORITHM`'s;
-    else the first kernel.
+    """The kernel the speedups on a BVH workload are against, from those that ran it: the run's baseline,
+    else its algorithm's first form there, else :data:`BVH_FALLBACK_ALGORITHM`'s, else the first kernel.
 
     >>> bvh_baseline(["woop_fma", "moller_trumbore_fma"], "moller_seed")
     'moller_trumbore_fma'
@@ -57,21 +54,12 @@ def bvh_table(
     baseline: str,
     margin: float,
 ) -> pd.DataFrame:
-    """Per BVH workload and kernel: end-to-end rays/s, the work per ray, the leaf tests' share of trace
-    time, and the speedup over a baseline beside the same speedup in brute force (``bvh.csv``).
+    """Per BVH workload and kernel: rays/s, the work per ray, the leaf tests' share of trace time, and the
+    speedup over a baseline beside the same in brute force (``bvh.csv``; empty without a BVH workload).
 
-    ``batches`` and ``traversals`` as :mod:`~tribench.harness.runfolder` reads them,
-    ``wl`` the workload table, ``pp`` the per-process values (``per_process.csv``),
-    ``kernels`` in sweep order, ``baseline`` the run's.
-    Rays/s: per process the median over its timed batches of ``loops x rays /
-    elapsed``, geometric mean over processes (``stats.geometric_mean``). The
-    leaf share is ``1 - null / real`` with ``null / real`` per process the
-    median of each batch's ratio to its null-leaf twin (``traversals.csv``),
-    geometric mean over processes. Speedups are paired per-process ratios
-    (``stats.speedup``) with Bonferroni-simultaneous intervals over the
-    workload's kernels: of ns per ray in the BVH, of ns per test in brute force
-    on the brute-force twin (:func:`bvh_baseline` on both). A run without a
-    BVH workload gives an empty table.
+    Rates and the ``null / real`` ratio are per-process medians, geometric means
+    over processes; speedups are paired per-process ratios, Bonferroni over the
+    workload's kernels, of ns per ray in the BVH and ns per test on the brute-force twin.
     """
     rows: list[dict[str, Any]] = []
     bvh_wids = [wid for wid in wl["workload_id"] if specs[wid].get("accel") == "bvh"]
@@ -146,8 +134,7 @@ def _leaf_share(shares: pd.DataFrame, kernel: str) -> dict[str, float]:
 
 
 class _Speeds:
-    """One BVH workload's speedups over its baseline: of ns per ray in the BVH, and of ns per test in brute
-    force on its brute-force twin, paired by process, with Bonferroni-simultaneous intervals over its kernels."""
+    """One BVH workload's speedups over its baseline, in the BVH and in brute force on its twin."""
 
     def __init__(self, ran: list[str], baseline: str, batches: pd.DataFrame, pp: pd.DataFrame, spec: Mapping) -> None:
         from ...workloads.kinds import spec_from_dict

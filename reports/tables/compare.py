@@ -1,24 +1,12 @@
 """The same kernels on N runs (N machines, N builds): what ``tribench compare`` shows, as tables.
 
-For N >= 2 runs (:func:`compare_many`): per workload in every run, each run's
-speedups over the common baseline with its intervals, and which orders of
-two kernels hold on every run. For two runs, also (:func:`compare_runs`), for
-every workload and kernel both have (matched by workload id, a hash of the
-spec, so the workloads are byte-identical), with the same baseline:
-
-* **ratio of speedups** ``speedup_B / speedup_A``: above 1, the kernel's
-  advantage over the baseline is larger on run B;
-* **time ratio** ``time_B / time_A`` of each kernel: above 1, run B is slower.
-
-The runs are independent, so each of those is a two-sample (Welch) interval
-on the log scale from the runs' per-process values
-(:func:`tribench.harness.stats.unpaired_ratio`), not a paired one. Intervals are
-simultaneous over the kernels of one workload (Bonferroni, as in
-``stats.speedup_table``); verdicts come from ``stats.verdict`` with the larger
-of the two runs' equivalence margins. As in a run's own rankings, a kernel on a
-workload where its answers differ from the reference (its ``correctness.csv``)
-did other work there and is compared nowhere on it. A run is any object with the fields of
-:class:`RunTables` (the report's :class:`~tribench.reports.rundata.RunData` has them).
+What it shows is docs/results.md's ("Compare runs"). Workloads match by id (a
+hash of the spec, so byte-identical). The runs are independent, so two runs'
+ratios are Welch intervals on the log scale (:func:`tribench.harness.stats.unpaired_ratio`),
+simultaneous over a workload's kernels, judged with the larger margin. As in a
+run's rankings, a kernel whose answers differ from the reference on a workload
+did other work there and is compared nowhere on it. A run is any object with
+the fields of :class:`RunTables`.
 """
 
 from __future__ import annotations
@@ -87,9 +75,9 @@ class Comparison:
 
 
 def _per_process(data: RunTables) -> pd.DataFrame:
-    """The run's per-process values (``per_process.csv``, as the analysis step wrote it) a comparison
-    may compare: none of a kernel on a workload where its answers differ from the reference (the run's
-    ``correctness.csv``), since its time there is of other work, as the run's own rankings have it."""
+    """The run's per-process values a comparison may compare: none of a kernel where its answers differ
+    from the reference (its time there is of other work).
+    """
     return compared(data.tables[runfolder.PER_PROCESS], data.tables.get(runfolder.CORRECTNESS))
 
 
@@ -114,12 +102,8 @@ def _ratio_fields(r: stats.LogRatio, confidence: float, margin: float) -> dict[s
 
 
 def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Comparison:
-    """Ratio of speedups and time ratios of the kernels and workloads two runs share.
-
-    Raises
-    ------
-    ValueError
-        The runs share no workload, or their baselines differ.
+    """Ratio of speedups (``speedup_B / speedup_A``) and time ratios (``time_B / time_A``) of the kernels
+    and workloads two runs share; ValueError when they share none or their baselines differ.
     """
     if a.baseline != b.baseline:
         raise UserError(
@@ -191,15 +175,10 @@ MAX_RUNS = 26
 class MultiComparison:
     """N runs side by side: each run's speedups, and the orders of kernels every run agrees on.
 
-    ``speedups`` has one row per run, workload and kernel: the run's own
-    ``speedups.csv`` figures (``ratio``, ``ratio_ci_low``, ``ratio_ci_high``,
-    ``verdict``; the baseline itself 1). ``orders`` has one row per workload
-    and pair of kernels: ``kernel`` the faster on the first run by point
-    estimate, ``other_kernel`` the other; per run tag ``T``, ``ratio_T``,
-    ``ratio_T_ci_low``, ``ratio_T_ci_high`` (time_other / time_kernel) and
-    ``verdict_T``; then ``order``: ``holds`` (faster on every run),
-    ``differs`` (significantly faster on one run and slower on another) or
-    ``undecided`` (neither).
+    ``orders``: per workload and pair, ``kernel`` the faster on the first run,
+    per run tag ``T`` its ``ratio_T`` (time_other / time_kernel) with interval and
+    ``verdict_T``, then ``order``: ``holds`` (faster on every run), ``differs``
+    (significantly faster on one and slower on another) or ``undecided``.
     """
 
     tags: list[str]
@@ -222,8 +201,9 @@ def run_tags(n: int) -> list[str]:
 
 
 def order_summary(m: MultiComparison) -> pd.DataFrame:
-    """Per pair of kernels, over the workloads: on how many each kernel is faster on every machine,
-    on how many the machines differ, and on how many some machine cannot tell (``undecided``)."""
+    """Per pair of kernels, over the workloads: how often each is faster on every machine, the
+    machines differ, or some machine cannot tell.
+    """
     rank = {k: i for i, k in enumerate(m.kernels)}
     counts: dict[tuple[str, str], dict[str, int]] = {}
     for r in m.orders.itertuples(index=False):
@@ -242,21 +222,12 @@ def order_summary(m: MultiComparison) -> pd.DataFrame:
 def compare_many(runs: Sequence[RunTables], confidence: float = 0.95, same_run: bool = False) -> MultiComparison:
     """Speedups of every run, and which orders of two kernels hold on every run.
 
-    Workloads match by id (a hash of the spec) and must be in every run; the
-    kernels compared are those every run has on the workload. An order of two
-    kernels on one workload is tested in each run as ``algorithms.csv`` tests
-    one: a paired ratio of the per-process values (``stats.speedup``) with a
-    Bonferroni-simultaneous interval over the workload's pairs and the run's
-    equivalence margin (``stats.verdict``). It *holds* when every run finds
-    the same kernel significantly faster: an intersection of tests, each at
-    its level, so the whole claim keeps that level without a further correction.
-
-    ``same_run``: the runs are the builds of one run folder (:mod:`.builds`), so they share it.
-
-    Raises
-    ------
-    UserError
-        Fewer than two or more than 26 runs, different baselines, or no workload in every run.
+    Each order is tested in each run as ``algorithms.csv`` tests one (paired,
+    Bonferroni over the workload's pairs, the run's margin). It *holds* when every
+    run finds the same kernel significantly faster: an intersection of tests, so
+    the claim keeps their level without a further correction. ``same_run``: the
+    runs are one folder's builds. Raises UserError for fewer than two or more than
+    26 runs, different baselines, or no workload in every run.
     """
     tags = run_tags(len(runs))
     folders = [Path(d.run_dir).resolve() for d in runs]

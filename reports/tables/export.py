@@ -1,36 +1,10 @@
 """A run's estimates and speedups in Google Benchmark's JSON format (``google_benchmark.json``).
 
-Why this format: Google Benchmark's JSON (a ``context`` object, then a
-``benchmarks`` list) has a place for the machine record (``context``) and
-tools that already read it (its ``tools/compare.py``, dashboards fed by
-``--benchmark_format=json``); Bencher's BMF carries an interval per figure
-natively but has no place for the machine, and its one consumer is a hosted
-service. Google Benchmark has no interval field, so each interval travels as
-extra numeric fields, the way Google Benchmark writes user counters.
-
-How a run maps onto it (one "benchmark" per kernel and workload, named
-``KERNEL/WORKLOAD_ID``; ``label`` is the workload in one line):
-
-* one ``iteration`` entry per worker process, as Google Benchmark writes one
-  per repetition: ``real_time`` is the process's median ns per ray-triangle
-  test (``per_process.csv``), ``iterations`` its timed batches. So
-  ``compare.py`` can run its U test on two exports;
-* the ``_mean`` aggregate: ``real_time`` is ``ns_per_test`` of
-  ``estimates.csv`` with ``ci_low``, ``ci_high`` (Student t),
-  ``bootstrap_low``, ``bootstrap_high`` and ``confidence`` beside it;
-* the ``_stddev`` aggregate: the standard deviation of the per-process values;
-* the ``_speedup`` aggregate (unit ``percentage``, Google Benchmark's unit of
-  a unitless statistic, written as a fraction): ``speedups.csv``'s ratio
-  ``time_baseline / time_kernel`` with its simultaneous interval, ``p_holm``
-  and ``confidence``; the verdict in ``label``.
-
-``time_unit`` is ``ns`` and the time is per test, not per loop; tribench
-times wall-clock inside C on a pinned process and measures no CPU time
-apart, so ``cpu_time`` repeats ``real_time``. ``context`` has Google
-Benchmark's fields, filled from ``run.json``'s machine record, then every
-field of that record as a string (``machine.<key>``, JSON text for the
-non-strings), as Google Benchmark writes custom context. No number is NaN or
-infinite (the file is strict JSON): an undefined interval is left out.
+Why this format and how a run maps onto it: docs/results.md, "Export: Google
+Benchmark JSON". Google Benchmark has no interval field, so each interval
+travels as extra numeric fields, as its user counters do; a process is one
+``iteration`` entry, so ``compare.py`` can run its U test on two exports. No
+number is NaN or infinite (strict JSON): an undefined interval is left out.
 """
 
 from __future__ import annotations
@@ -123,24 +97,10 @@ def _entry(name: str, run_name: str, family: int, instance: int, label: str, **f
 def google_benchmark(
     run: Mapping[str, Any], tables: Mapping[str, pd.DataFrame], baseline: str, margin: Mapping[str, Any]
 ) -> dict[str, Any]:
-    """A run's estimates, speedups and machine record as one Google Benchmark JSON object.
+    """A run's estimates, speedups and machine record as ``{"context": ..., "benchmarks": [...]}``.
 
-    Parameters
-    ----------
-    run : mapping
-        ``run.json``.
-    tables : mapping
-        The derived tables by file name; ``estimates.csv``, ``speedups.csv`` and
-        ``per_process.csv`` are read.
-    baseline : str
-        The speedups' baseline.
-    margin : mapping
-        ``{"value": ..., "source": ...}``, the equivalence margin of the verdicts.
-
-    Returns
-    -------
-    dict
-        ``{"context": {...}, "benchmarks": [...]}``, ready for ``json.dumps(..., allow_nan=False)``.
+    ``tables`` are the derived tables by file name; ``margin`` is ``{"value", "source"}``
+    of the verdicts. Ready for ``json.dumps(..., allow_nan=False)``.
     """
     keys = ["build", "kernel", "workload_id"]
     est = tables[runfolder.ESTIMATES]

@@ -1,14 +1,11 @@
 """A run's own equivalence margin, from the A/A twin of its baseline timed beside it.
 
-The main job (``tribench run``) times ``moller_seed_aa``, the same source as its
-baseline compiled again under another name, on every workload the baseline
-runs. Each workload then gives one A/A speedup, a figure whose true value is 1:
-how far from 1 those land is what this machine, this build and this run's
-load do to identical code (layout, alignment, drift). Their noise floor, the
-97.5% quantile of ``|log ratio|`` (:func:`tribench.harness.stats.aa_noise_floor`, as
-``tribench calibrate`` computes it over its experiments), is the margin the
-run's verdicts use, unless ``--margin`` is given. The twin is a measuring
-instrument, not a contender: :func:`contenders` leaves it out of every ranking.
+The twin (``moller_seed_aa``) is the baseline's source compiled again under
+another name, so each workload gives an A/A speedup whose true value is 1; its
+noise floor (:func:`tribench.harness.stats.aa_noise_floor`) is what this
+machine, build and load do to identical code, and the margin the run's
+verdicts use unless ``--margin`` is given. The twin is an instrument, not a
+contender: :func:`contenders` leaves it out of every ranking.
 """
 
 from __future__ import annotations
@@ -54,8 +51,7 @@ def twin_margin(per_process: pd.DataFrame, baseline: str) -> Margin | None:
     >>> 0 < m.value < 0.05, m.source.startswith("A/A twin in this run")
     (True, True)
 
-    A twin further off than :data:`~tribench.harness.stats.defaults.MAX_MARGIN` (a loaded machine) gives
-    that bound, and the source says so, rather than a margin the verdicts cannot take:
+    A twin past :data:`~tribench.harness.stats.defaults.MAX_MARGIN` (a loaded machine) gives that bound, saying so:
 
     >>> rows = [dict(kernel=k, workload_id=f"w{w}", process=p, ns_per_test=rng.lognormal(0, 1.0))
     ...         for k in ("moller_seed", "moller_seed_aa") for w in range(5) for p in range(6)]

@@ -1,10 +1,4 @@
-"""A run folder's measured files, read once: what every derived table is a pure function of.
-
-:func:`load` reads and validates ``run.json``, ``batches.csv``,
-``processes.csv`` and ``traversals.csv`` (:mod:`tribench.harness.runfolder`),
-and the two measurements a study may have added, ``validate.csv`` (the
-robustness suite) and ``peers.csv``; nothing after it reads the folder again.
-"""
+"""A run folder's measured files, read once and validated: what every derived table is a pure function of."""
 
 from __future__ import annotations
 
@@ -25,8 +19,9 @@ __all__ = ["Measured", "file_digest", "load"]
 
 
 def file_digest(path: str | Path) -> str | None:
-    """SHA-256 of a file's bytes: how the report knows a table is stale. None where there is no such regular
-    file (a FIFO or a device in its place would block or never end; the readers refuse it, naming it)."""
+    """SHA-256 of a file's bytes: how the report knows a table is stale. None where there is no regular
+    file (a FIFO in its place would block; the readers refuse it, naming it).
+    """
     try:
         if not stat.S_ISREG(os.lstat(path).st_mode):
             return None

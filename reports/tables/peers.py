@@ -1,9 +1,4 @@
-"""The peers' figures: rays/s per contender and tribench's ratios over each peer, from ``peers.csv``.
-
-The peers are timed by :mod:`tribench.harness.jobs.peers`; this module only
-summarises what they wrote (the analysis step's peer tables, and the study's
-printout).
-"""
+"""The peers' figures: rays/s per contender and tribench's ratios over each peer, from ``peers.csv``."""
 
 from __future__ import annotations
 
@@ -18,16 +13,11 @@ __all__ = ["format_summary", "summarise"]
 
 
 def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """``(rates, ratios)`` of a ``peers.csv``.
+    """``(rates, ratios)`` of a ``peers.csv`` (``peer_rates.csv``, ``peer_ratios.csv``: docs/run-folder.md).
 
-    ``rates``: per contender the geometric mean of rays/s over processes (each
-    process's own geometric mean over its repetitions), its t interval, the
-    processes behind it, the median CPU share (process CPU time / wall time:
-    1 on one core; below 1, other processes took the core), the median setup
-    time and the disagreements with the float64 reference. ``ratios``:
-    tribench's rays/s over each peer's (and tribench's C loop over its own
-    call, and Embree's robust mode over its plain one: what watertightness
-    costs there), paired by process (:func:`tribench.harness.stats.speedup`).
+    Rates are geometric means over processes of each process's geometric mean,
+    with t intervals; ratios are paired by process, tribench over each peer (and
+    its C loop over its call, Embree robust over plain: what watertightness costs).
     """
     rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
     if peers.empty or not rates_ok.all():

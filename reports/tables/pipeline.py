@@ -1,38 +1,14 @@
 """The analysis step: every derived table of a run, from its files alone.
 
-:func:`analyse` makes estimates and speedups from ``batches.csv``,
-``processes.csv`` and ``run.json``; never measures. :func:`write_all`, run at
-the end of ``tribench run`` and by ``tribench stats RUN_DIR``, writes every
-table the report reads (:data:`tribench.harness.runfolder.DERIVED`), the
-workload pictures and ``analysis.json``, so the report computes nothing.
-All statistics come from :mod:`tribench.harness.stats`.
-
-Each table made from the batches starts with a ``build`` column
-(:data:`~tribench.harness.runfolder.BY_BUILD`): a run of several builds
-(``--builds``) is analysed build by build, each from its own processes
-(:func:`estimate_builds`), and ``builds.csv`` compares them.
-
-``estimates.csv``: after ``build``, the fields of :func:`~tribench.harness.stats.estimate_table`
-renamed by :data:`ESTIMATE_COLUMNS` so each name carries its unit
-(``kernel, workload_id, ns_per_test, ns_per_test_ci_low, ns_per_test_ci_high,
-ns_per_test_bootstrap_low, ns_per_test_bootstrap_high, ns_per_test_min,
-ns_per_test_sd, n_processes, confidence``), then ``workload`` (the spec's
-one-line summary), ``peak_gflops`` (mean FMA peak of the processes),
-``ops_per_test`` (the kernel's documented arithmetic), ``bound_ns_per_test``
-(the port model's bound over the kernel's operation mix at the throughput
-rates run.json recorded) and ``peak_fraction, peak_fraction_ci_low,
-peak_fraction_ci_high``: bound over measured time, each process against its
-own clock of that moment, a machine-normalised figure steadier than raw time
-(:mod:`tribench.harness.peak`).
-
-``speedups.csv``: after ``build``, the columns of :func:`~tribench.harness.stats.speedup_table`
-renamed by :data:`SPEEDUP_COLUMNS` (``workload_id, kernel, baseline, ratio,
-ratio_ci_low, ratio_ci_high, p_value, p_holm, n_processes, confidence,
-margin, verdict``), then ``workload`` and ``margin_source``.
-
-The renaming happens here and only here: :mod:`~tribench.harness.stats`
-keeps its generic names (``mean``, ``ci_low``...), which fit any quantity,
-and :class:`Analysis` holds the tables exactly as the files have them.
+:func:`analyse` makes estimates and speedups; :func:`write_all` (``tribench
+run``'s end, ``tribench stats``) writes every table of
+:data:`tribench.harness.runfolder.DERIVED` (columns: docs/run-folder.md), the
+pictures and ``analysis.json``, so the report computes nothing. All statistics
+are :mod:`tribench.harness.stats`'s. A run of several builds is analysed build
+by build, each from its own processes, every table led by a ``build`` column.
+The columns are renamed to carry their units (:data:`ESTIMATE_COLUMNS`,
+:data:`SPEEDUP_COLUMNS`) here and only here: the statistics keep generic names
+that fit any quantity, and :class:`Analysis` holds the tables as the files have them.
 """
 
 from __future__ import annotations
@@ -100,11 +76,7 @@ SPEEDUP_COLUMNS = {"ci_low": "ratio_ci_low", "ci_high": "ratio_ci_high", "n": "n
 
 @dataclass(frozen=True)
 class Analysis:
-    """Tables of one run and the choices behind them.
-
-    ``estimates`` and ``speedups`` have the columns of estimates.csv and
-    speedups.csv (documented in :mod:`tribench.reports.columns`).
-    """
+    """Tables of one run and the choices behind them (``estimates``, ``speedups``: as their files)."""
 
     estimates: pd.DataFrame
     speedups: pd.DataFrame
@@ -117,22 +89,16 @@ class Analysis:
 
 
 def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | None = None) -> Analysis:
-    """Estimates and speedups of ``run_dir`` (:func:`estimate` of its measured files).
-
-    Parameters
-    ----------
-    baseline : str, optional
-        Default ``moller_seed`` if the run has it, else the sweep's first kernel.
-    margin : float, optional
-        Equivalence margin; default the one recorded in ``run.json``.
+    """Estimates and speedups of ``run_dir``; ``baseline`` defaults to ``moller_seed`` if the run has it,
+    else the first kernel, ``margin`` to the one ``run.json`` recorded.
     """
     return estimate(measured.load(run_dir), baseline, margin)
 
 
 def estimate(m: Measured, baseline: str | None = None, margin: float | None = None) -> Analysis:
-    """Estimates and speedups of a run's measured files (``baseline`` and ``margin`` as for :func:`analyse`),
-    each build's from its own processes (:func:`estimate_builds`), its rows first in the ``build`` column.
-    The margin and baseline are the first build's (each speedup row carries its own build's margin)."""
+    """Estimates and speedups of a run's measured files (``baseline`` and ``margin`` as :func:`analyse`'s),
+    each build's from its own processes, stacked; the margin and baseline are the first build's.
+    """
     return combined(estimate_builds(m, baseline, margin))
 
 
@@ -212,13 +178,10 @@ def _peak_columns(
 ) -> pd.DataFrame:
     """Per kernel and workload: mean peak, operations per test, the bound and the fraction of it.
 
-    The bound is the port model's (:func:`tribench.harness.peak.bound_from_mix`) at
-    the rates ``run.json`` recorded (``throughput``, with the FMA peak of that
-    moment). Per process, one test's time is scaled by the ratio of the process's
-    FMA peak to that one (its clock against the probes'); the t-interval of the
-    mean scaled time maps to the fraction ``bound / time`` (a monotone map, so
-    the interval carries over, ends swapped). A run without recorded rates (made
-    before they were) has no such bound: NaN."""
+    Each process's time is scaled by its FMA peak over the one recorded with the
+    rates (its clock against the probes'); the t-interval of the mean carries over
+    to ``bound / time``, a monotone map (ends swapped). No recorded rates: NaN.
+    """
     from ... import ext
     from ...harness.peak import bound_from_mix
 
@@ -270,10 +233,8 @@ def _peak_columns(
 
 
 def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
-    """Write ``estimates.csv`` and ``speedups.csv`` into ``run_dir``, each atomically.
-
-    A failed write (a full disk) raises a UserError naming the file and
-    leaves that file as it was, never empty or cut.
+    """Write ``estimates.csv`` and ``speedups.csv`` into ``run_dir``, each atomically (a failed write: a
+    UserError naming the file, which stays as it was).
     """
     run_dir = Path(run_dir)
     paths = run_dir / ESTIMATES, run_dir / SPEEDUPS
@@ -303,11 +264,8 @@ class Derived:
 
 
 def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], dict[str, str]]:
-    """The run's workloads from the cache, made from their spec where the cache lacks them.
-
-    Workloads are pure functions of their spec, so a rebuilt one has the same
-    bytes; if the spec now gives another id (another generator version or
-    mesh file) it is not used, and its source says why.
+    """The run's workloads from the cache, made from their spec where the cache lacks them; one whose spec
+    now gives another id (another generator or mesh file) is not used, and its source says why.
     """
     import warnings
 
@@ -343,8 +301,8 @@ def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], di
 
 def _pictures(run_dir: Path, wids: list[str], workloads: dict[str, Any]) -> dict[str, str]:
     """Draw the first :data:`MAX_PICTURES` workloads into ``pictures/``; workload id -> file name or why not.
-
-    A picture already there is kept (it is a pure function of the workload, whose id is its spec's hash)."""
+    A picture already there is kept (its workload's id is its spec's hash).
+    """
     from ...workloads import picture
 
     folder = run_dir / runfolder.PICTURES_DIR
@@ -386,10 +344,9 @@ def _peer_tables(m: Measured) -> tuple[dict[str, pd.DataFrame], str]:
 def derive(
     m: Measured, parts: dict[str, Analysis], workloads: dict[str, Any], sources: dict[str, str]
 ) -> dict[str, pd.DataFrame]:
-    """Every derived table of the run, by file name, in the order of :data:`runfolder.DERIVED`:
-    a pure function of the measured files, each build's estimates and speedups (:func:`estimate_builds`),
-    and the workloads. A table of :data:`runfolder.BY_BUILD` stacks one part per build, each made from
-    that build's processes alone; ``builds.csv`` tests every order of two kernels under each build."""
+    """Every derived table of the run by file name, in :data:`runfolder.DERIVED`'s order: a pure
+    function of the measured files and the workloads, each build's parts from its processes alone.
+    """
     from .builds import builds_table
 
     one = {b: _derive_one(m.of_build(b) if len(m.builds) > 1 else m, a, workloads, sources) for b, a in parts.items()}
@@ -453,32 +410,11 @@ def write_all(
 ) -> Derived:
     """Write every derived table of ``run_dir``, its workload pictures and ``analysis.json``.
 
-    The analysis step of ``tribench run`` and ``tribench stats``: estimates
-    and speedups (:func:`analyse`), then from them, the batches and the
-    workloads every table of :data:`~tribench.harness.runfolder.DERIVED`
-    (columns: :data:`~tribench.harness.runfolder.FILES`). Workloads come from
-    the cache, or are made from their spec if it lacks them; ``validate.csv``
-    (a measurement: :mod:`tribench.harness.jobs.validate`) is read when present; the peer
-    tables only when it has ``peers.csv``. ``analysis.json`` is written last:
-    it records the SHA-256 of ``batches.csv`` and ``peers.csv`` the tables were
-    made from, so a reader can tell stale tables from current ones. Before it,
-    ``google_benchmark.json``: the estimates and speedups in Google Benchmark's
-    JSON format (:mod:`~tribench.reports.tables.export`).
-
-    Parameters
-    ----------
-    run_dir : path
-        A run folder (``run.json``, ``batches.csv``).
-    baseline, margin
-        As for :func:`analyse`.
-    validate_note : str, optional
-        Where ``validate.csv`` came from, as the robustness suite's study said
-        (:func:`tribench.harness.jobs.sweep.measure_robustness`); by default, whether the folder has it.
-
-    Raises
-    ------
-    UserError
-        The folder cannot be read (``file:line``), has no timed batch, or cannot be written.
+    ``validate.csv`` is read when present, the peer tables made when ``peers.csv``
+    is. ``analysis.json`` goes last with the SHA-256 of the files the tables were
+    made from, so a reader can tell stale tables. ``validate_note`` says where
+    ``validate.csv`` came from (default: whether the folder has it). Raises
+    UserError when the folder cannot be read or written or has no timed batch.
     """
     m = measured.load(run_dir)
     parts = estimate_builds(m, baseline, margin)
@@ -515,13 +451,8 @@ def write_all(
 
 
 def reanalyse(run_dir: str | Path) -> Derived:
-    """Redo the analysis step of an analysed run folder with the choices its last one recorded.
-
-    After ``tribench peers --out RUN_DIR``: the peer tables (and the peers.csv
-    digest in ``analysis.json``) then match the new ``peers.csv``. The
-    baseline of the last ``tribench stats`` is kept, and its margin where it
-    was given with ``--margin``; an unreadable ``analysis.json`` means the
-    analysis step's defaults, as ``tribench stats`` would use.
+    """Redo the analysis of an analysed run folder with the choices its last one recorded (after
+    ``tribench peers --out RUN_DIR``): its baseline, and its margin where ``--margin`` gave it.
     """
     run_dir = Path(run_dir)
     try:

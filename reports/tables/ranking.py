@@ -48,14 +48,10 @@ def kernel_table(
     spd: pd.DataFrame,
     baseline: str,
 ) -> pd.DataFrame:
-    """Per kernel and workload family: how the kernel stores a triangle, beside how fast it ran there.
+    """Per kernel and workload family: how the kernel stores a triangle, beside how fast it ran there (``kernels.csv``).
 
-    ``est`` and ``spd`` are the estimates and speedups joined with the
-    workload table (:func:`estimates_with_workloads`). The times summarise the
-    estimates of the family's workloads and the ratios their speedups over the
-    baseline (median, lowest, highest; nan for the baseline); ``verdicts``
-    counts those workloads by verdict. Families where the kernel has no
-    estimate (a wide kernel has no pairs mode) have no row (``kernels.csv``).
+    ``est`` and ``spd``: joined with the workload table (:func:`estimates_with_workloads`).
+    A family where the kernel has no estimate (a wide kernel on pairs) has no row.
     """
     rows = []
     for kernel in kernels:
@@ -103,17 +99,10 @@ def ranking_table(
 ) -> pd.DataFrame:
     """Per workload, every kernel from the fastest down, each against the fastest (``ranking.csv``).
 
-    ``est`` and ``spd`` are the estimates and speedups joined with the
-    workload table (:func:`estimates_with_workloads`). The fastest is the
-    kernel with the lowest mean ns/test; every other kernel's time over the
-    fastest's is a paired ratio (``stats.speedup`` of the per-process
-    values), with simultaneous intervals: Bonferroni over the workload's
-    other kernels, as the speedups over the baseline. A kernel is tied with
-    the fastest when its interval reaches down to ``1 + margin``: choosing
-    the fastest by its point estimate is not evidence that it beats those.
-    ``val`` is the robustness table (``validate.csv``) if there is one: each
-    row carries the kernel's measured failures at the workload's precision
-    (:func:`measured_robustness`).
+    Paired ratios with Bonferroni intervals over the workload's other kernels. A
+    kernel is tied with the fastest when its interval reaches down to
+    ``1 + margin``: the fastest by point estimate is no evidence it beats those.
+    ``val`` (``validate.csv``, optional) adds each kernel's measured failures.
     """
     rows = []
     for wid, g in est.groupby("workload_id", sort=False):
@@ -162,12 +151,8 @@ def ranking_table(
 def algorithm_table(rank: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.DataFrame:
     """Per workload, every pair of algorithms, each in its fastest form there (``algorithms.csv``).
 
-    ``rank`` is :func:`ranking_table`'s frame. An algorithm's fastest form is
-    its kernel of best rank on the workload (chosen by point estimate, as the
-    ranking's fastest). Each pair is a paired ratio (``stats.speedup`` of the
-    per-process values) with simultaneous intervals, Bonferroni over the
-    workload's pairs, and the verdict of ``stats.verdict``; the faster of the
-    pair by point estimate comes first, so the ratio is at least 1.
+    A form is chosen by ``rank``'s point estimate; each pair is a paired ratio,
+    Bonferroni over the workload's pairs, the faster first so the ratio is at least 1.
     """
     rows = []
     for wid, g in rank.groupby("workload_id", sort=False):
@@ -206,8 +191,6 @@ BAND_EDGES = (0.35, 0.65)
 def band_of(kind: str, test_hit_rate: float, accel: str | None = None) -> str:
     """The band of a workload in the report's first table: pairs by per-test hit rate, meshes by accel.
 
-    Examples
-    --------
     >>> band_of("pairs", 0.3), band_of("pairs", 0.5), band_of("pairs", 1.0)
     ('pairs, hit rate 0–35%', 'pairs, hit rate 35–65%', 'pairs, hit rate 65–100%')
     >>> band_of("mesh", float("nan")), band_of("mesh", 0.01, "bvh")
@@ -241,7 +224,7 @@ def _validated(val: pd.DataFrame | None, kernel: str, dtype: str) -> pd.DataFram
 
 def measured_robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
     """The failures users compare, from validate.csv: per test of :data:`ROBUSTNESS_TESTS`, per million rays
-    and the rays they come from (NaN without the table or the test's row).
+    and the rays they come from (NaN without the table or the row).
 
     >>> val = pd.DataFrame({"kernel": ["a", "a"], "dtype": ["float32", "float64"], "test": ["shared_edges"] * 2,
     ...     "rays": [200, 200], "rate": [0.005, 0.0]})
@@ -259,8 +242,9 @@ def measured_robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> di
 
 
 def _robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
-    """validate.csv's figures of one kernel at one precision for bands.csv (NaN without the table or its
-    rows): its promises (shown under Robustness, not on the first screen), then the measured failures."""
+    """validate.csv's figures of one kernel at one precision for bands.csv (NaN without them): its
+    promises, then the measured failures.
+    """
     rows = _validated(val, kernel, dtype)
     out: dict[str, Any] = {"promises_checked": math.nan, "broken_promises": math.nan}
     if len(rows):
@@ -279,17 +263,10 @@ def band_table(
 ) -> pd.DataFrame:
     """Per precision and hit-rate band (:func:`band_of`), every kernel from the fastest down (``bands.csv``).
 
-    ``est`` is the estimates joined with the workload table
-    (:func:`estimates_with_workloads`), ``pp`` the per-process values,
-    ``specs`` each workload's spec, ``val`` the robustness table
-    (``validate.csv``) if there is one. A band holds the kernels timed on
-    every one of its workloads; a kernel's value in a process is the geometric
-    mean of its per-process medians over the band's workloads, so each workload
-    weighs the same whatever its ns/test. On those values: the mean over
-    processes with its t interval (``stats.estimate``), and paired ratios
-    (``stats.speedup``) to the fastest and from the baseline, each with
-    simultaneous intervals over the band's other kernels (Bonferroni), as in
-    :func:`ranking_table`.
+    A band holds the kernels timed on all its workloads; a kernel's value in a
+    process is the geometric mean of its medians over them, so each workload
+    weighs the same whatever its ns/test. Then as :func:`ranking_table`: a mean
+    with its t interval, paired ratios to the fastest and from the baseline.
     """
     frame = est.assign(
         band=[
@@ -309,9 +286,9 @@ def band_table(
 
 
 def _band_values(g: pd.DataFrame, pp: pd.DataFrame) -> tuple[int, pd.DataFrame]:
-    """A band's workload count, and per process (rows) and kernel (columns) the geometric mean of the
-    kernel's per-process medians over the band's workloads: only kernels timed on every workload of the
-    band, only processes that ran them all."""
+    """A band's workload count, and per process and kernel the geometric mean of the kernel's medians
+    over the band's workloads (kernels timed on all, processes that ran them all).
+    """
     wids = list(dict.fromkeys(g["workload_id"]))
     kernels = [k for k, n in g.groupby("kernel", sort=False)["workload_id"].nunique().items() if n == len(wids)]
     sub = pp.loc[pp["workload_id"].isin(wids) & pp["kernel"].isin(kernels)]

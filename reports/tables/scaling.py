@@ -20,10 +20,8 @@ def _wide(pp: pd.DataFrame, kernel: str, wids: list[str]) -> pd.DataFrame:
 def crossovers(kernels: Sequence[str], wl: pd.DataFrame, pp: pd.DataFrame) -> pd.DataFrame:
     """Per pair family and pair of kernels: where their ranking flips along the per-test hit rate.
 
-    ``stats.crossover`` of ``log(time_b / time_a)`` against the achieved
-    per-test hit rate, processes paired across the family's workloads. Only
-    families with two or more hit rates; ``hit_rate`` is nan when the lines
-    do not cross inside the measured range.
+    ``stats.crossover`` on processes paired across the family's workloads (two
+    hit rates at least); ``hit_rate`` is nan when the lines do not cross in range.
     """
     rows = []
     for family, group in wl.loc[wl["kind"] == "pairs"].groupby("family", sort=False):
@@ -54,9 +52,7 @@ def crossovers(kernels: Sequence[str], wl: pd.DataFrame, pp: pd.DataFrame) -> pd
 
 
 def scaling_slopes(est: pd.DataFrame, pp: pd.DataFrame) -> pd.DataFrame:
-    """Log-log slope of ns/test against triangle count, per mesh family and kernel (``slopes.csv``).
-
-    ``est`` is :func:`estimates_with_workloads`; ``stats.scaling_slope``,
+    """Log-log slope of ns/test against triangle count, per mesh family and kernel (``slopes.csv``),
     processes paired across triangle counts.
     """
     rows = []

@@ -24,10 +24,8 @@ def workload_table(
 ) -> pd.DataFrame:
     """One row per workload: family, label and the achieved figures (``workloads.csv``).
 
-    ``workloads`` maps an id to its :class:`~tribench.workloads.Workload` (or
-    None when it could not be had); without it the spec's targets stand in.
-    Hit rates are achieved values (per-test: fraction of ray-triangle tests
-    that hit; per-ray: fraction of rays that hit anything); nan where not defined.
+    ``workloads`` maps an id to its :class:`~tribench.workloads.Workload`, or None
+    when it could not be had: the spec's targets then stand in.
     """
     rows = []
     for wid in workload_ids:
@@ -86,11 +84,8 @@ def workload_figures(workload_ids: Sequence[str], workloads: Mapping[str, Any]) 
 
 
 def correctness_table(batches: pd.DataFrame, kernels: Sequence[str], workloads: Mapping[str, Any]) -> pd.DataFrame:
-    """Each kernel's checksums against the float64 reference, per workload (``correctness.csv``).
-
-    ``hits_per_pass`` is a batch's hit count over its loops; the difference
-    to the reference may only come from ambiguous rays (rays within 1e-5
-    barycentric or the precision's rounding of an edge, whose answer legitimately depends on rounding).
+    """Each kernel's checksums against the float64 reference, per workload (``correctness.csv``); a
+    difference may only come from ambiguous rays, whose answer is rounding's.
     """
     rows = []
     for (wid, kernel), g in batches.groupby(["workload_id", "kernel"], sort=False):
@@ -124,9 +119,8 @@ def correctness_table(batches: pd.DataFrame, kernels: Sequence[str], workloads: 
 def agreeing(frame: pd.DataFrame, correct: pd.DataFrame) -> pd.DataFrame:
     """``frame`` without the rows of a kernel on a workload where its answers differ from the reference.
 
-    What a ranking compares is the same work with the same answers: a culling kernel on randomly
-    wound pairs skips half the tests and returns half the hits, so its time is of other work.
-    Rows whose agreement is unknown (the workload could not be loaded) stay.
+    A ranking compares the same work: a culling kernel on randomly wound pairs
+    skips half the tests. Rows of unknown agreement (workload not loaded) stay.
     """
     differs = correct.loc[correct["agrees"].eq(False), ["workload_id", "kernel"]]
     if differs.empty:
