@@ -1,12 +1,10 @@
 """Reports: from a run folder's files to answers. Never measures.
 
 :mod:`.tables` derives every table from the measured files (``tribench stats``);
-the rest reads those tables and writes: :func:`write_report` the
-self-contained ``report.html`` (built with the kit :mod:`.page` by :mod:`.html`
-from its sections), :func:`write_compare` N runs side by side, and
-:func:`format_tables` the terminal tables. Missing or stale tables are refused
-with the command that makes them. It may import ``common``, ``ext``,
-``workloads`` and ``harness``; never ``cli``.
+the rest reads those tables and writes pages (:mod:`.html`, :mod:`.compare`) and
+terminal tables. Missing or stale tables are refused with the command that
+makes them. It may import ``common``, ``ext``, ``workloads`` and ``harness``;
+never ``cli``.
 """
 
 from __future__ import annotations
@@ -39,22 +37,10 @@ def load(run_dir: str | Path, baseline: str | None = None) -> RunData:
 
 
 def write_report(run_dir: str | Path | RunData, baseline: str | None = None) -> Path:
-    """Write ``RUN_DIR/report.html`` and return its path.
+    """Write ``RUN_DIR/report.html`` and return its path; ``run_dir`` may be :func:`load`'s result.
 
-    Parameters
-    ----------
-    run_dir : path or RunData
-        A run folder written by ``tribench sweep`` (``run.json``, ``batches.csv``),
-        or its tables as :func:`load` read them.
-    baseline : str, optional
-        The baseline the tables must compare against (``tribench stats --baseline``
-        makes them); default: the tables' own.
-
-    Raises
-    ------
-    RunError
-        The folder is missing, incomplete or unreadable, or its tables are
-        missing or stale (a one-line reason naming ``tribench stats``).
+    ``baseline``: the one the tables must compare against (default: theirs). Raises RunError,
+    one line naming ``tribench stats``, when the folder or its tables are missing, unreadable or stale.
     """
     from ..common import write_text
     from .html import render, sweep_toml

@@ -1,8 +1,4 @@
-"""The report's closing sections: the workloads (pictures and achieved figures), machine and build, reproduce.
-
-Part of ``report.html`` (:mod:`.html` puts the sections together); every
-function returns a section's body, made from the run folder's files.
-"""
+"""The report's closing sections: the workloads (pictures and achieved figures), machine and build, reproduce."""
 
 from __future__ import annotations
 
@@ -115,12 +111,9 @@ def _toml_value(v: Any) -> str:
 
 
 def sweep_toml(sweep: dict[str, Any]) -> str:
-    """The run's sweep (run.json's, the plan's own record) as a sweep file that ``tribench sweep --file``
-    reads back into the same plan: its design, builds and sequential rule, which kernels run which
-    workload, and its kernel files as the run folder's copies (the file sits in the run folder).
+    """The run's sweep (run.json's) as a file ``tribench sweep --file`` reads back into the same plan;
+    its kernel files are the run folder's copies, since the file sits in the run folder.
 
-    Examples
-    --------
     >>> print(sweep_toml({"kernels": ["a"], "processes": 2, "rounds": 3, "warmup": 1,
     ...     "target_ms": 2.0, "seed": 0, "workloads": [{"kind": "pairs", "n": 10}]}))
     # tribench sweep file, written by tribench report

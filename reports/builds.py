@@ -1,12 +1,8 @@
 """The report's section on a run of several builds (``--builds``): do the answers hold under every build?
 
 Each build's processes are read as a run of their own (``load_run(build=)``)
-and compared by the code that compares the runs of several machines
-(:func:`tribench.reports.tables.compare.compare_many`, which also made
-``builds.csv``): every kernel's speedup under each build, and every order of
-two kernels tested under each. Above them, what each build is (compiler,
-flags) and what it broke when its kernels were checked against the
-reference again before anything was timed.
+and compared by the code that compares machines
+(:func:`tribench.reports.tables.compare.compare_many`).
 """
 
 from __future__ import annotations

@@ -1,10 +1,7 @@
 """The report's "In a BVH" section: every kernel as the leaf test of a tracer's BVH.
 
-Part of ``report.html`` (:mod:`.html` puts the sections together). Every number
-is read from ``bvh.csv`` (:func:`tribench.reports.tables.bvh.bvh_table`) and, for
-Embree, from ``peer_rates.csv`` and ``peer_ratios.csv`` when the run's peers
-were timed through tribench's BVH (``tribench peers --accel bvh``). A run
-without a BVH workload has no such section.
+Every number is read from ``bvh.csv`` (:func:`tribench.reports.tables.bvh.bvh_table`)
+and, for Embree, the peers' tables when they were timed with ``--accel bvh``.
 """
 
 from __future__ import annotations
@@ -59,8 +56,7 @@ def claim_answer(low: float, high: float) -> str:
 
 
 def claim_sentences(bvh: pd.DataFrame) -> list[str]:
-    """Baldwin & Weber's end-to-end claim answered on every BVH workload where the run has a form of
-    their algorithm and Moller-Trumbore's as the speedups' baseline (``bvh.csv``)."""
+    """The claim answered on every BVH workload of ``bvh.csv`` where a claimant ran against Moller-Trumbore."""
     out = []
     for _, g in bvh.groupby("workload_id", sort=False):
         base = g.loc[g["kernel"] == g["baseline"]]
@@ -120,10 +116,7 @@ def bvh_rows(bvh: pd.DataFrame) -> pd.DataFrame:
 
 
 def bvh_figure(bvh: pd.DataFrame, colours: dict[str, str]) -> str:
-    """Rays/s of every kernel in a BVH against the mesh's triangle count, with 95% CIs, as a page figure.
-
-    The one figure of the section, kept in one function so it can be drawn another way.
-    """
+    """Rays/s of every kernel in a BVH against the mesh's triangle count, with 95% CIs, as a page figure."""
     import numpy as np
 
     fig = figures._figure(7.0, 3.2)

@@ -1,21 +1,9 @@
 """The report's interactive charts: Vega-Lite specs made with Altair, drawn in the page by Vega-Embed.
 
-A chart shows its values on hover (tooltips with the intervals) and lets the
-reader toggle kernels: click one in the legend to show it alone, shift-click to
-add others, double-click the plot to show them all again. The page carries the
-library once, in its head (:func:`library`: Vega, Vega-Lite and Vega-Embed
-bundled by ``vl-convert``, about 0.9 MB), and each chart is its spec, a few
-kilobytes of JSON, with the data inline: the file still opens offline and
-fetches nothing.
-
-Why Vega-Lite and not Plotly: the inlined library is about 0.9 MB against
-plotly.js's 4.8 MB, for the same hover, legend toggles, log axes and facets.
-Dense diagnostics (every batch of the drift and rounds panels, the per-process
-dots) stay static SVG figures (:mod:`.figures`): thousands of points would be
-megabytes of JSON for little gain.
-
-No chart computes a statistic: intervals, ranks and verdicts arrive in the
-frames, read from the run folder.
+The page carries the library once, in its head (:func:`library`), and each chart
+is its spec with the data inline, so the file opens offline; why Vega-Lite, and
+why the dense diagnostics stay static (:mod:`.figures`), is docs/results.md's.
+No chart computes a statistic: intervals, ranks and verdicts arrive in the frames.
 """
 
 from __future__ import annotations
@@ -142,8 +130,7 @@ def _answer_data(bands: pd.DataFrame) -> pd.DataFrame:
 
 
 def _answer_axes(bands: pd.DataFrame) -> tuple[alt.Scale, alt.X, alt.Y]:
-    """x: ns/test, on a log scale when the intervals allow it; y: the measured failures per million rays,
-    on a symlog scale (0 for the watertight kernels, tens of thousands for others)."""
+    """x: ns/test, log when the intervals allow; y: failures per million rays, symlog (0 to tens of thousands)."""
     # a t interval over few processes may reach below 0, which a log axis cannot show
     log = bool((bands["ns_per_test_ci_low"].dropna() > 0).all())
     x_scale = alt.Scale(type="log") if log else alt.Scale(type="linear")
@@ -180,14 +167,7 @@ def _answer_points(base: alt.Chart, x: alt.X, y: alt.Y, shown: Any, colours: dic
 
 
 def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart:
-    """Speed against robustness against memory: one point per kernel in the band chosen in the menu.
-
-    ``bands`` is ``bands.csv``. x: ns/test with its 95% CI (log axis); y: the
-    kernel's measured robustness failures in ``tribench validate`` at the band's
-    precision, cracks at shared edges plus misses inside Embree's far sphere per
-    million rays (symlog axis); size: bytes per prepared triangle; shape:
-    watertight by its paper.
-    """
+    """Speed against robustness against memory (``bands.csv``): one point per kernel in the band chosen in the menu."""
     data = _answer_data(bands)
     # the legend names only the kernels some band ranks (not one whose answers differ everywhere it ran),
     # each in the colour it has in every other figure
@@ -237,10 +217,8 @@ def _hit_rate_rows(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def hit_rate_chart(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, str]) -> alt.VConcatChart | None:
-    """ns/test against the per-test hit rate, a line per kernel with its 95% CI band, a panel per family.
-
-    ``cross``: ``crossovers.csv``; a crossover inside the measured hit rates is a dashed rule with its
-    interval on hover. None when no pair family has two or more hit rates.
+    """ns/test against the per-test hit rate, a line per kernel with its 95% CI band, a panel per family,
+    crossovers (``crossovers.csv``) as dashed rules. None when no pair family has two or more hit rates.
     """
     rows = _hit_rate_rows(est)
     if rows.empty:
@@ -375,10 +353,8 @@ def speedup_hit_rate_chart(
 
 
 def forest_chart(spd: pd.DataFrame, baseline: str, verdict_colours: dict[str, str]) -> alt.VConcatChart | None:
-    """Every speedup over the baseline with its simultaneous 95% CI, a row per kernel and workload, per family.
-
-    The colour is the verdict; the legend toggles verdicts and the menu picks a kernel. None without a speedup.
-    """
+    """Every speedup over the baseline with its simultaneous 95% CI, a row per kernel and workload, per family,
+    coloured by verdict. None without a speedup."""
     if spd.empty:
         return None
     frame = spd.assign(
@@ -447,7 +423,7 @@ def forest_chart(spd: pd.DataFrame, baseline: str, verdict_colours: dict[str, st
 
 
 def _axis_scale(*columns: pd.Series) -> tuple[alt.Scale, str]:
-    """A log scale when every value is above 0 (a t interval over few processes may reach below), else linear."""
+    """A log scale when every value is above 0, else linear."""
     values = pd.concat([c.dropna() for c in columns])
     return (alt.Scale(type="log"), " (log)") if bool((values > 0).all()) else (alt.Scale(type="linear"), "")
 
@@ -550,8 +526,7 @@ def _working_set_panel(cost: _CostLayers, sized: pd.DataFrame, caches: dict[str,
 def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) -> alt.VConcatChart | None:
     """ns/test against the mesh's triangle count, and against the working set with the data caches marked.
 
-    ``est``: the estimates joined with the workloads and the working-set size (:func:`.content.estimates_table`).
-    A line joins the workloads of one family (dashes tell families apart). None without an estimate.
+    ``est``: :func:`.content.estimates_table`'s frame. None without an estimate.
     """
     if est.empty:
         return None

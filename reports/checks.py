@@ -1,8 +1,4 @@
-"""The report's checking sections: drift, diagnostics (with the margin's calibration), correctness, robustness.
-
-Part of ``report.html`` (:mod:`.html` puts the sections together); every
-function returns a section's body, made from the run folder's files.
-"""
+"""The report's checking sections: drift, diagnostics (with the margin's calibration), correctness, robustness."""
 
 from __future__ import annotations
 
@@ -58,8 +54,8 @@ def drift_section(data: RunData, batches: pd.DataFrame, drift: pd.DataFrame, col
 def calibration(data: RunData) -> str:
     """The margin the verdicts used and where it came from, as run.json and the analysis record say.
 
-    Only the run folder is read: a calibration file elsewhere (the one the margin's source names) may have
-    changed since, or not exist on this machine. A calibration run's own record is in its folder.
+    Only the run folder is read: the calibration file the margin's source names may have changed since,
+    or not exist on this machine.
     """
     recorded = data.run.get("margin") or {}
     body = [page.p(f"Equivalence margin of the verdicts: ±{100 * data.margin:.3g}% — {data.margin_source}.")]
@@ -371,10 +367,8 @@ def _test_legend(val: pd.DataFrame, tests: list[str]) -> list[str]:
 
 
 def promises_kept(val: pd.DataFrame) -> pd.DataFrame:
-    """Per kernel and precision of validate.csv, its promises as a cell: judged tests and how many broke.
-
-    The first screen shows what was measured instead: promises are kept by design, so this column reads
-    alike for nearly every kernel, and a broken one is news for this section.
+    """Per kernel and precision of validate.csv, its promises as a cell: judged tests and how many broke
+    (here, not on the first screen: docs/results.md).
 
     >>> val = pd.DataFrame({"kernel": ["a", "a", "a", "b"], "dtype": ["float32"] * 3 + ["float64"],
     ...     "verdict": ["pass", "fail", "measured", "measured"]})

@@ -1,10 +1,4 @@
-"""The documented columns of a run folder's CSVs, for the report and for readers.
-
-The names and columns are defined once, in :mod:`tribench.harness.runfolder`
-(file names, column lists in file order, what each column means, who writes
-each file); this module only gives the report short names for them and
-renders them (:func:`describe`). The report never changes a file it reads.
-"""
+"""Short names for the run folder's documented columns, which :mod:`tribench.harness.runfolder` defines."""
 
 from __future__ import annotations
 

@@ -1,9 +1,6 @@
 """``tribench compare RUN...``: the comparison of N runs as text and as an HTML page.
 
-The tables themselves (each run's speedups, the orders that hold on every
-run, and for two runs the ratio of speedups and the time ratios, with their
-Welch intervals) are computed by :mod:`tribench.reports.tables.compare`; this
-module only words and renders them.
+:mod:`tribench.reports.tables.compare` computes the tables; this module only words and renders them.
 """
 
 from __future__ import annotations
@@ -197,8 +194,7 @@ def _machines_part(runs: list[RunData], tags: list[str]) -> str:
 
 
 def render_compare(runs: list[RunData], m: MultiComparison, pair: Comparison | None = None) -> str:
-    """The comparison as one self-contained HTML page: every run's speedups and the orders that hold,
-    then for two runs (``pair``, :func:`compare_runs`) the ratio of their speedups and their time ratios."""
+    """The comparison as one self-contained HTML page; ``pair`` (:func:`compare_runs`) adds the two-run sections."""
     ids = [escape(str(d.run.get("run_id", t))) for t, d in zip(m.tags, runs, strict=True)]
     parts = [f"<h1>{' vs '.join(ids)}</h1>", f"<p>{'<br>'.join(escape(x) for x in _run_lines(runs, m.tags))}</p>"]
     parts += _many_parts(runs, m)
@@ -305,7 +301,7 @@ def _many_parts(
     runs: list[RunData], m: MultiComparison, unit: str = "machine", ids: tuple[str, str] = ("speedups", "orders")
 ) -> list[str]:
     """The N-run sections: machine x kernel speedup tables per workload, and the orders that hold.
-    ``unit`` names what the runs are (``build``: the builds of one run, :mod:`.builds`); ``ids`` the sections'."""
+    ``unit`` names what the runs are (``build`` for :mod:`.builds`); ``ids`` the sections'."""
     speed = []
     for wid in m.workload_ids:
         label, family = m.labels[wid]

@@ -1,10 +1,7 @@
 """The tables behind the report's figures, as the analysis step wrote them into the run folder.
 
-Nothing here computes a statistic: every interval, slope, crossover, drift
-test, outlier label and variance component was computed by
-:func:`tribench.reports.tables.pipeline.write_all` (through :mod:`tribench.harness.stats`)
-and read by :func:`~tribench.reports.rundata.load_run`. This module only
-joins those tables for display and reads the workload pictures.
+Nothing here computes a statistic (:func:`tribench.reports.tables.pipeline.write_all` did);
+this module only joins those tables for display and reads the workload pictures.
 """
 
 from __future__ import annotations
@@ -58,10 +55,8 @@ def working_set_bytes(bytes_per_triangle: float, dtype: str, triangles: float, r
 
 
 def estimates_table(data: RunData, wl: pd.DataFrame) -> pd.DataFrame:
-    """``estimates.csv`` joined with the workload table and the working-set size.
-
-    The bytes per triangle are the ones ``kernels.csv`` recorded for the
-    kernel and the workload's family (the build that measured the run)."""
+    """``estimates.csv`` joined with the workload table and the working-set size, from the bytes per
+    triangle ``kernels.csv`` recorded for the kernel and family (the build that measured the run)."""
     est = data.estimates.merge(wl, on="workload_id", how="left", suffixes=("", "_wl"))
     kern = data.tables[runfolder.KERNELS]
     per = dict(zip(zip(kern["kernel"], kern["family"], strict=True), kern["bytes_per_triangle"], strict=True))

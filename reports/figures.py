@@ -1,16 +1,6 @@
-"""The report's static figures: each a function from tidy DataFrames to a matplotlib Figure.
-
-The main charts are interactive (:mod:`.charts`); these are the dense diagnostics
-(every batch, every process) and the compare page's forest plot.
-
-matplotlib runs with the Agg backend and is imported here only. Figures are
-embedded in the page as ``data:`` URIs (:func:`svg_data_uri`,
-:func:`png_data_uri`): SVG with text drawn as paths, so the page needs no
-font and references nothing outside itself; dense scatters are rasterised
-inside the SVG to keep the file small.
-
-No figure computes a statistic: intervals, crossovers and labels arrive in
-the frames, computed by :mod:`tribench.harness.stats`.
+"""The report's static figures (the dense diagnostics and the compare page's forest plot): tidy DataFrames in,
+a matplotlib Figure out, embedded as a ``data:`` URI. matplotlib (Agg) is imported here only; dense scatters
+are rasterised inside the SVG to keep the file small. No figure computes a statistic.
 """
 
 from __future__ import annotations
@@ -119,11 +109,8 @@ def png_data_uri(data: bytes) -> str:
 
 
 def palette_png(data: bytes) -> bytes:
-    """PNG bytes re-encoded with a palette of 256 colours.
-
-    A plot is a few flat colours and their anti-aliased edges, so the palette
-    leaves it looking the same at about a third of the bytes.
-    """
+    """PNG bytes re-encoded with a palette of 256 colours: a plot is a few flat colours and their
+    anti-aliased edges, so it looks the same at about a third of the bytes."""
     from PIL import Image  # a dependency of matplotlib
 
     out = io.BytesIO()
@@ -236,18 +223,8 @@ def forest(
 ) -> Figure:
     """Forest plot: every kernel's speedup over the baseline, per workload family.
 
-    Parameters
-    ----------
-    speedups : DataFrame
-        ``speedups.csv`` rows with ``family`` and ``label`` columns added
-        (``ratio, ratio_ci_low, ratio_ci_high, verdict, kernel, confidence``).
-    baseline : str
-    margin : float
-        Relative equivalence margin, drawn as a band around 1.
-    xlabel : str, optional
-        Axis label (default: speedup over the baseline).
-    verdict_words : dict, optional
-        How to print each verdict (e.g. for a ratio of ratios).
+    ``speedups``: ``speedups.csv`` rows with ``family`` and ``label`` added; ``margin`` (relative) is drawn
+    as a band around 1; ``verdict_words``: how to print each verdict (e.g. for a ratio of ratios).
     """
     words = verdict_words or {}
     if speedups.empty:
@@ -335,12 +312,8 @@ def _robust_ylim(ax, values: np.ndarray) -> None:
 
 
 def drift_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
-    """Each timed batch's ns/test relative to its process median, against time in the process.
-
-    A flat cloud around 1 means no drift; a slope shared by every kernel is
-    harmless when rounds interleave them; kernels drifting apart is what
-    ``stats.drift`` flags. Lines: binned medians per kernel.
-    """
+    """Each timed batch's ns/test relative to its process median, against time in the process;
+    lines: binned medians per kernel."""
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
         return _empty("no timed batches")
@@ -364,11 +337,8 @@ def drift_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
 
 
 def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
-    """Every batch (warm-up included) against its round, Tukey outliers circled.
-
-    Values are ns/test relative to the process's timed median for that kernel
-    and workload; warm-up rounds (negative) are shaded.
-    """
+    """Every batch (warm-up included, shaded) against its round, relative to its process's timed median,
+    Tukey outliers circled."""
     if batches.empty:
         return _empty("no batches")
     fig = _figure(9.5, 3.2)
@@ -417,9 +387,7 @@ def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
 
 def peers_rates(rates: pd.DataFrame) -> Figure:
     """Rays/s of every contender on one log axis with their 95% intervals (rows of peers.summarise).
-
-    Dots, not bars: on a log axis a bar's length means nothing.
-    """
+    Dots, not bars: on a log axis a bar's length means nothing."""
     if rates.empty:
         return _empty("no peers measured")
     fig = _figure(7.0, 0.42 * len(rates) + 0.9)

@@ -1,8 +1,4 @@
-"""The report's title, the run's warnings, and one sentence per kernel and workload family against the baseline.
-
-Part of ``report.html`` (:mod:`.html` puts the sections together); every number
-is read from the run folder's tables.
-"""
+"""The report's title, the run's warnings, and one sentence per kernel and workload family against the baseline."""
 
 from __future__ import annotations
 
@@ -19,15 +15,9 @@ __all__ = ["title", "headline_sentences", "headline_section", "run_warnings", "p
 
 
 def headline_sentences(spd: pd.DataFrame) -> dict[str, list[tuple[str, str]]]:
-    """One sentence per kernel against the baseline, per workload family.
+    """``{family: [(verdict, sentence), ...]}``: one sentence per kernel against the baseline, per workload
+    family, from ``speedups.csv`` with ``family`` and ``label`` added; verdicts are the table's.
 
-    ``spd`` is ``speedups.csv`` with ``family`` and ``label`` columns (and
-    ``test_hit_rate``); returns ``{family: [(verdict, sentence), ...]}``.
-    Verdicts are the ones in the table (``stats.verdict``); nothing is
-    recomputed here.
-
-    Examples
-    --------
     >>> spd = pd.DataFrame({"family": ["pairs n=10"], "label": ["per-test hit rate 50%"],
     ...     "kernel": ["mt"], "baseline": ["seed"], "ratio": [1.18], "ratio_ci_low": [1.15],
     ...     "ratio_ci_high": [1.21], "n_processes": [10], "verdict": ["faster"], "confidence": [0.975]})

@@ -1,16 +1,7 @@
 """``report.html``: one self-contained page per run, put together from its sections.
 
-The page opens on the answer (:mod:`.ranking`: the ranking per precision and
-hit-rate band, one sentence per question, the chart of speed against
-robustness against memory, and the run's warnings); every other section is
-collapsed under its title, linked from the bar at the top. The page kit
-(shell, CSS, tables, figures, escaping) is :mod:`.page`; interactive charts are
-:mod:`.charts` (their library inlined once in the head), static figures
-:mod:`.figures`; the sections are made by :mod:`.headline`, :mod:`.ranking`,
-:mod:`.results` (kernels, speedups, hit rate, size and working set, peers,
-processes), :mod:`.bvh` (in a BVH), :mod:`.checks` (drift, diagnostics, correctness, robustness) and
-:mod:`.about` (workloads, machine, reproduce). Every number comes from the run
-folder's files.
+What each section shows is docs/results.md's. The page kit is :mod:`.page`; the bodies come from
+:mod:`.ranking`, :mod:`.headline`, :mod:`.results`, :mod:`.bvh`, :mod:`.builds`, :mod:`.checks` and :mod:`.about`.
 
 Sections, by id, in page order (a new section: its title here and its body in :func:`render`):
 

@@ -1,12 +1,7 @@
 """The page kit of every HTML page tribench writes (report, compare, seed): the shell, the CSS once, and the parts.
 
-A page is plain HTML with a small inline stylesheet; figures are ``data:``
-URIs, and a page with interactive charts carries their library once, inline in
-its head (:func:`document`'s ``script``), so a file opens offline and
-references nothing outside itself. A section may be collapsed (``<details>``):
-the bar at the top links every section, and following a link opens it.
-Every helper here escapes the text it is given (:func:`html.escape`); a
-helper's ``body`` argument is HTML already made by these helpers.
+A page references nothing outside itself (figures are ``data:`` URIs, scripts inline), so it opens offline.
+Every helper escapes the text it is given; a ``body`` argument is HTML these helpers already made.
 """
 
 from __future__ import annotations
@@ -67,8 +62,6 @@ _OPEN_TARGET = (
 def num(x: Any, digits: int = 3) -> str:
     """A table cell's number: thousands separated, ``digits`` significant digits, ``–`` for none.
 
-    Examples
-    --------
     >>> num(1234567), num(0.000123456), num(float("nan")), num(True), num(2.5e6, 2)
     ('1,234,567', '0.000123', '–', 'yes', '2.50e+06')
     """
@@ -122,9 +115,8 @@ def table(
 ) -> str:
     """An HTML table of ``frame``; ``cols`` pairs a column with its header (units in it).
 
-    Numbers go through :func:`num` and are right-aligned; a ``verdict`` cell takes its verdict as
-    CSS class; ``classes`` maps a column to a function giving each of its cells' CSS class from the value;
-    ``titles`` maps a column to its header's tooltip, for what a short header cannot say.
+    A ``verdict`` cell takes its verdict as CSS class; ``classes`` maps a column to a function from a
+    cell's value to its CSS class; ``titles`` maps a column to its header's tooltip.
     """
     if frame.empty:
         return '<p class="note">(none)</p>'
@@ -164,9 +156,8 @@ def figure(uri: str, alt: str, caption: str, img_class: str = "") -> str:
 
 
 def section(sid: str, title: str | None, body: str, collapsed: bool = False) -> str:
-    """``<section id=sid>`` with ``title`` as its heading (none if None) above ``body``.
-
-    ``collapsed``: the body is hidden under its title until the reader opens it.
+    """``<section id=sid>`` with ``title`` as its heading (none if None) above ``body``, hidden under
+    the title until opened when ``collapsed``.
 
     >>> section("x", "X", "<p>b</p>", collapsed=True)
     '<section id="x"><details><summary><h2>X</h2></summary><p>b</p></details></section>'
@@ -183,12 +174,9 @@ def now() -> str:
 
 
 def document(title: str, body: str, nav: Mapping[str, str] | None = None, footer: str = "", script: str = "") -> str:
-    """A whole page: ``nav`` maps section ids to the titles linked from the bar at the top.
+    """A whole page: ``nav`` maps section ids to the titles linked from the bar at the top; ``script``
+    (the charts' library) is inlined once in the head.
 
-    ``script``: JavaScript the page's charts need (their library), inlined once in the head.
-
-    Examples
-    --------
     >>> page = document("a <b>", section("x", "X", p("text")), nav={"x": "X"})
     >>> page.startswith("<!DOCTYPE html>") and "<title>a &lt;b&gt;</title>" in page
     True

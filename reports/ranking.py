@@ -1,9 +1,7 @@
 """The report's ranking: the answer it opens on, per band, and the ranking per workload.
 
-Part of ``report.html`` (:mod:`.html` puts the sections together); every number
-is read from ``bands.csv``, ``ranking.csv`` and ``algorithms.csv``, which the
-analysis step wrote (:func:`tribench.reports.tables.ranking.band_table`,
-:func:`~tribench.reports.tables.ranking.ranking_table`, :func:`~tribench.reports.tables.ranking.algorithm_table`).
+Every number is read from ``bands.csv``, ``ranking.csv`` and ``algorithms.csv``
+(:mod:`tribench.reports.tables.ranking` wrote them).
 """
 
 from __future__ import annotations
@@ -50,8 +48,6 @@ def _named(kernel: str, rows: pd.DataFrame) -> str:
 def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
     """One display row per workload of ``ranking.csv`` (its rows in file order).
 
-    Examples
-    --------
     >>> rank = pd.DataFrame({"workload_id": ["w", "w"], "family": ["f", "f"], "label": ["l", "l"],
     ...     "dtype": ["float32"] * 2, "rank": [1, 2], "kernel": ["a", "b"], "ns_per_test": [1.0, 2.0],
     ...     "ns_per_test_ci_low": [0.9, 1.9], "ns_per_test_ci_high": [1.1, 2.1], "vs_fastest": [1.0, 2.0],
@@ -108,8 +104,6 @@ def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
 def algorithm_order(rank: pd.DataFrame) -> pd.DataFrame:
     """Per workload, the algorithms from the fastest down, each by its fastest form, in one line.
 
-    Examples
-    --------
     >>> rank = pd.DataFrame({"workload_id": ["w"] * 3, "family": ["f"] * 3, "label": ["l"] * 3,
     ...     "dtype": ["float32"] * 3, "rank": [1, 2, 3], "kernel": ["a_fast", "b", "a"],
     ...     "algorithm": ["a", "b", "a"], "vs_fastest": [1.0, 1.5, 2.0], "vs_fastest_ci_low": [1.0, 1.4, 1.9],
@@ -139,8 +133,6 @@ def algorithm_order(rank: pd.DataFrame) -> pd.DataFrame:
 def question_rows(alg: pd.DataFrame) -> pd.DataFrame:
     """Per workload, the answer to each of :data:`QUESTIONS` the run can answer (``algorithms.csv``).
 
-    Examples
-    --------
     >>> alg = pd.DataFrame({"workload_id": ["w"], "family": ["f"], "label": ["l"], "dtype": ["float64"],
     ...     "algorithm": ["moller_trumbore"], "kernel": ["mt"], "other_algorithm": ["curless"],
     ...     "other_kernel": ["c"], "ratio": [1.5], "ratio_ci_low": [1.4], "ratio_ci_high": [1.6],
@@ -239,8 +231,6 @@ def _place(dtype: str, band: str) -> str:
 def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
     """One display row per precision and band of ``bands.csv``: the fastest, its figures, the runners-up.
 
-    Examples
-    --------
     >>> bands = pd.DataFrame({"dtype": ["float32"] * 3, "band": ["meshes, brute force"] * 3, "workloads": [2] * 3,
     ...     "rank": [1, 2, 3], "kernel": ["a", "b", "c"], "ns_per_test": [1.0, 1.1, 2.0],
     ...     "ns_per_test_ci_low": [0.9, 1.0, 1.9], "ns_per_test_ci_high": [1.1, 1.2, 2.1],
@@ -318,13 +308,8 @@ def _span(values: list[float], unit: str = "×") -> str:
 
 
 def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]:
-    """One sentence per question a user asks, from ``bands.csv`` and ``algorithms.csv``.
+    """One sentence per question a user asks (docs/results.md), from ``bands.csv`` and ``algorithms.csv``.
 
-    Which kernel is fastest, by how much it beats the baseline, what watertightness costs, then each of
-    :data:`QUESTIONS` the run can answer (counts of workloads by verdict, and the range of the ratios).
-
-    Examples
-    --------
     >>> bands = pd.DataFrame({"dtype": ["float32"] * 2, "band": ["meshes"] * 2, "rank": [1, 2],
     ...     "kernel": ["a", "b"], "vs_fastest": [1.0, 1.5], "speedup": [1.5, 1.0], "baseline": ["b"] * 2,
     ...     "watertight": [False, True]})
@@ -387,8 +372,7 @@ def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]
 
 
 def answer_section(data: RunData, bands: pd.DataFrame | None, alg: pd.DataFrame | None, colours: dict[str, str]) -> str:
-    """The ranking per precision and band (``bands.csv``), one sentence per question, and the chart of speed
-    against robustness against memory (kernels in ``colours``)."""
+    """The answer section (docs/results.md); ``colours``: the chart's kernels."""
     if bands is None:
         return page.p(
             f"No ranking by band: these tables were made by an older tribench. Run `tribench stats {data.run_dir}`."

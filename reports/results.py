@@ -1,8 +1,4 @@
-"""The report's measurement sections: kernels, speedups, hit rate, size and working set, peers, processes.
-
-Part of ``report.html`` (:mod:`.html` puts the sections together); every
-function returns a section's body, made from the run folder's tables.
-"""
+"""The report's measurement sections: kernels, speedups, hit rate, size and working set, peers, processes."""
 
 from __future__ import annotations
 

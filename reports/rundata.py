@@ -1,17 +1,9 @@
 """Everything the report needs from one run folder, read once; nothing is computed or written here.
 
-The report reads files only: ``run.json``, ``batches.csv``, ``processes.csv``
-(validated by :mod:`tribench.harness.runfolder`), and the tables the analysis
-step derived from them (:data:`tribench.harness.runfolder.DERIVED`, listed in
-``analysis.json``). It never measures, never generates a workload, never runs
-the robustness suite and never writes a table. When the tables are missing,
-in other columns (an older tribench), or were made from another
-``batches.csv`` than the folder holds (``analysis.json`` records its SHA-256,
-so a copied folder with new file times is still current), :func:`load_run`
-refuses with one line that says to run ``tribench stats RUN_DIR``: a report
-with half its sections silently empty would be worse than that one command.
-``peers.csv`` is optional (:func:`load_peers`), and so is a robustness table
-the suite could not make (:func:`load_validation`): their sections then say why.
+Stale tables (made from another ``batches.csv``, by its SHA-256, not file times, so a copied folder
+stays current), missing ones or ones in other columns are refused with one line that says to run
+``tribench stats RUN_DIR``: a report with half its sections silently empty would be worse.
+Peers and robustness are optional (:func:`load_peers`, :func:`load_validation`): their sections say why.
 """
 
 from __future__ import annotations
@@ -165,20 +157,11 @@ def _read_measured(run_dir: Path) -> tuple[dict, pd.DataFrame, pd.DataFrame]:
 
 
 def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None = None) -> RunData:
-    """Read a run folder and its derived tables, as one build measured them (default: its first build).
+    """Read a run folder and its derived tables, as one build measured them (default: its first build):
+    its batches, processes and rows of every :data:`~tribench.harness.runfolder.BY_BUILD` table.
 
-    A run of several builds (``--builds``) is shown one build at a time: the
-    batches and processes are that build's, and so are the rows of every table
-    of :data:`~tribench.harness.runfolder.BY_BUILD` (the ``build`` column stays).
-
-    Raises
-    ------
-    RunError
-        The folder does not exist, or lacks ``run.json``/``batches.csv``, or
-        they cannot be read, or there is nothing timed in it yet; or its
-        derived tables are missing, in other columns, made from another
-        ``batches.csv``, or against another ``baseline`` than asked (each
-        message says to run ``tribench stats``).
+    Raises RunError when the folder is unusable or has nothing timed, or its tables are not
+    current or compare against another ``baseline`` than asked.
     """
     from ..harness import runfolder
     from . import tables as analysis
@@ -238,12 +221,8 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
 
 
 def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
-    """The robustness table of the run's kernels and precisions, and a sentence saying where it came from.
-
-    ``RUN_DIR/validate.csv`` as the job that measured the run left it. Rows of other kernels or precisions are left
-    out, rows are in the run's kernel order. A missing or unusable table gives
-    an empty frame and a sentence saying why and what to run.
-    """
+    """``validate.csv``'s rows of the run's kernels (in its order) and precisions, and a sentence saying
+    where they came from; missing or unusable: an empty frame and a sentence saying what to run."""
     path = data.run_dir / VALIDATE
     columns = runfolder.FILES[VALIDATE]
     empty = pd.DataFrame(columns=list(columns))
@@ -288,19 +267,14 @@ class PeerTables:
 
     @property
     def in_bvh(self) -> bool:
-        """Whether tribench was timed through its BVH (``tribench peers --accel bvh``: its row's
-        implementation says ``bvh``)."""
+        """Whether tribench was timed through its BVH (``--accel bvh``: its implementation says ``bvh``)."""
         ours = self.rates.loc[self.rates["contender"] == "tribench", "implementation"]
         return not ours.empty and " bvh " in f" {ours.iloc[0]} "
 
 
 def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
-    """The run's peers (rows and figures) and a sentence on where they came from.
-
-    None, with the reason, when ``peers.csv`` is absent, unreadable, in other
-    columns, or not yet summarised by the analysis step: the report then says
-    what to run.
-    """
+    """The run's peers (rows and figures) and a sentence on where they came from; None, and what to run,
+    when ``peers.csv`` is absent, unusable or not yet summarised by the analysis step."""
     from ..harness.jobs.peers import INSTALL
     from . import tables as analysis
 

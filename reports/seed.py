@@ -1,13 +1,7 @@
 """``seed.html``: the page of a ``tribench seed`` run, one self-contained file.
 
 Reads only the run folder: ``run.json``, the tables :mod:`tribench.harness.jobs.seed`
-wrote (``seed.csv``, ``seed_kinds.csv``, ``seed_workloads.csv``,
-``seed_pictures.csv``) and the pictures, which are inlined as base64 PNG.
-No script, no network; all text goes through :func:`html.escape`.
-
-Sections: the table beside the paper, ratios, ns/test per kernel and ray
-kind, the workload (per-test hit rate, miss-stage mix), pictures, machine,
-reproduce.
+wrote, and the pictures, inlined as base64 PNG.
 """
 
 from __future__ import annotations

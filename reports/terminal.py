@@ -11,11 +11,7 @@ __all__ = ["format_answer", "format_run"]
 
 
 def format_run(data: RunData, width: int = 24) -> str:
-    """Per workload: each kernel's ns/test with its 95% CI, then its speedup and verdict.
-
-    One block per workload, workloads in sweep order, kernels in sweep order;
-    hit rates are named per-test (pairs) or per-ray (meshes).
-    """
+    """Per workload (sweep order): each kernel's ns/test with its 95% CI, then its speedup and verdict."""
     est, spd = data.estimates, data.speedups
     sweep = data.run["sweep"]
     lines = [
@@ -55,8 +51,8 @@ def format_run(data: RunData, width: int = 24) -> str:
 
 
 def format_answer(data: RunData) -> str:
-    """The report's first screen in words: per precision and band the fastest kernel, its speedup over the
-    baseline and the kernels tied with it, then the answers to the questions (the seed's among them)."""
+    """The report's first screen in words: per precision and band the fastest kernel, its speedup and
+    the kernels tied with it, then the answers to the questions."""
     from .ranking import answer_sentences, band_rows
 
     bands = data.tables.get(runfolder.BANDS)
