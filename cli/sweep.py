@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 
 from ..common import UserError
@@ -245,11 +246,14 @@ def _sweep_from_args(args: argparse.Namespace):
         "seed": 0,
     }
     design = {k: defaults[k] if v is None else v for k, v in design.items()}
-    kernels = tuple(args.kernels or ext.kernel_names())
-    return Sweep(
-        kernels,
+    sweep = Sweep(
+        tuple(args.kernels or ext.kernel_names()),
         tuple(_workloads_from_flags(args)),
         **design,
         kernel_files=tuple(args.kernel_files or ()),
         builds=tuple(args.builds or ()),
     )
+    if args.kernels:  # named: each must run some workload (the one sweep path refuses one that runs none)
+        return sweep
+    ran = tuple(k for k in sweep.kernels if any(k in sweep.kernels_for(w) for w in sweep.workloads))
+    return dataclasses.replace(sweep, kernels=ran)  # every kernel: those that run these workloads

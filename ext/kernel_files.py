@@ -1,12 +1,18 @@
 """Kernels of the user's own (docs/own-kernel.md): a C file written against the kernel contract, compiled with
 every C file of the extension by the process's toolchain (:func:`tribench.ext.toolchain.current`), its
 kernels in place of the built-in list, cached under ``cache_dir()/kernel_builds`` by the hash of the file,
-the sources, the compiler and the flags, and joined to the registry."""
+the sources, the compiler and the flags, and joined to the registry.
+
+A kernel file's content is the file with every local header it includes (``#include "x.h"`` found beside
+the file that includes it) written in place, ``#line`` marks keeping the compiler's messages on the right
+file and line: an edit to such a header compiles the kernels again, and a run folder's copy of the file
+(this text) compiles on its own elsewhere."""
 
 from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shlex
 import subprocess
 import sysconfig
@@ -31,13 +37,15 @@ class KernelFileError(UserError):
 @dataclass(frozen=True)
 class KernelFile:
     """A kernel file loaded into this process: its resolved ``path``, the ``sha256`` of what was compiled, the
-    ``kernels`` it declares (in its order), its ``citation`` and its compiled ``module`` file (in the cache)."""
+    ``kernels`` it declares (in its order), its ``citation``, its compiled ``module`` file (in the cache) and the
+    ``text`` file that holds what was compiled (``path`` itself unless it includes local headers)."""
 
     path: str
     sha256: str
     kernels: tuple[str, ...]
     citation: str
     module: str
+    text: str
 
 
 _LOADED: dict[str, KernelFile] = {}  # kernel name -> the file that declared it
@@ -61,26 +69,38 @@ def load_kernels(path: str | os.PathLike) -> tuple[str, ...]:
     names. Raises :class:`KernelFileError` when the file cannot be read, does not compile (with the compiler's
     ``file:line`` messages) or declares a built-in kernel's name. No answer is checked here: the command line
     and ``tribench.sweep`` check a file's kernels against the float64 reference before timing them."""
-    source, text = _read(path)
+    source, raw = _read(path)
+    text = _with_local_headers(source, raw)
     sha = hashlib.sha256(text).hexdigest()
     toolchain = current()
     key = _build_key(text, toolchain)
     name = f"_kf_{key[:20]}"
     module_path = cache_dir() / "kernel_builds" / key[:20] / f"{name}{sysconfig.get_config_var('EXT_SUFFIX')}"
+    compiled = source if text == raw else module_path.with_name(f"{source.stem}.c")
+    if compiled != source and not (compiled.is_file() and compiled.read_bytes() == text):
+        compiled.parent.mkdir(parents=True, exist_ok=True)
+        compiled.write_bytes(text)
     same = next((f for f in loaded_kernel_files() if f.path == str(source) and f.module == str(module_path)), None)
     if same is not None and all(kernel_file_of(k) is same for k in same.kernels):
         return same.kernels
     module = import_module(name, module_path) if module_path.is_file() else None
     if module is None:
-        _compile(source, name, module_path, toolchain)
+        _compile(compiled, name, module_path, toolchain, source)
         module = import_module(name, module_path)
         if module is None:
             raise KernelFileError(f"{source}: compiled, but its module {module_path} does not import")
+    taken = [
+        f"{k} (declared by {f.path})"
+        for k in module.kernel_names(True)
+        if (f := _LOADED.get(k)) is not None and f.path != str(source) and f.sha256 != sha
+    ]
+    if taken:  # the same text elsewhere (a run folder's copy) may take over; other code may not
+        raise KernelFileError(f"{', '.join(taken)}: the name of another kernel file's kernel; give it another name")
     try:
         names = adopt(module, str(source))
     except UserError as e:
         raise KernelFileError(f"{source} declares {e}") from None
-    loaded = KernelFile(str(source), sha, names, module.FILE_CITATION, str(module_path))
+    loaded = KernelFile(str(source), sha, names, module.FILE_CITATION, str(module_path), str(compiled))
     _LOADED.update(dict.fromkeys(names, loaded))
     return names
 
@@ -104,19 +124,46 @@ def _read(path: str | os.PathLike) -> tuple[Path, bytes]:
     return source, text
 
 
+_LOCAL_INCLUDE = re.compile(rb'^[ \t]*#[ \t]*include[ \t]*"([^"\n]+)"[^\n]*$', re.M)
+#: How deep local headers may include each other (a header that includes itself would never end).
+MAX_INCLUDE_DEPTH = 16
+
+
+def _with_local_headers(path: Path, text: bytes, depth: int = 0) -> bytes:
+    """``text`` (of the file ``path``) with each local header it includes in place, recursively, each between
+    ``#line`` marks; the same bytes when it includes none (tribench's own headers and the system's are left
+    to the compiler's include path)."""
+    parts, at = [], 0
+    for m in _LOCAL_INCLUDE.finditer(text):
+        header = (path.parent / m.group(1).decode(errors="replace")).resolve()
+        if not header.is_file():
+            continue
+        if depth >= MAX_INCLUDE_DEPTH:
+            raise KernelFileError(f"{path}: its local headers include each other over {MAX_INCLUDE_DEPTH} deep")
+        after = text.count(b"\n", 0, m.end()) + 2  # the line after the include, as the compiler counts
+        inner = _with_local_headers(header, header.read_bytes(), depth + 1)
+        parts += [text[at : m.start()], b'#line 1 "%s"\n' % str(header).encode(), inner]
+        parts.append(b'\n#line %d "%s"\n' % (after, str(path).encode()))
+        at = m.end() + 1 if text[m.end() : m.end() + 1] == b"\n" else m.end()
+    if not parts:
+        return text
+    return b"".join([b'#line 1 "%s"\n' % str(path).encode(), *parts, text[at:]])
+
+
 def _build_key(text: bytes, toolchain: Toolchain) -> str:
     """The hash that names a kernel file's build: the file and everything else the module depends on."""
     return hashlib.sha256(text + toolchain.key.encode()).hexdigest()
 
 
-def _compile(source: Path, name: str, module_path: Path, toolchain: Toolchain) -> None:
-    """Compile every C file of the extension with ``source``'s kernels, into ``module_path`` (atomically)."""
+def _compile(compiled: Path, name: str, module_path: Path, toolchain: Toolchain, source: Path) -> None:
+    """Compile every C file of the extension with the kernels of ``compiled`` (``source``'s text), into
+    ``module_path`` (atomically)."""
 
     def failed(result: subprocess.CompletedProcess) -> KernelFileError:  # every file includes the kernel file
         return KernelFileError(f"{source} does not compile ({shlex.join(toolchain.cc)}):\n{_own_lines(result, source)}")
 
     try:
-        compile_module(toolchain, name, module_path, [f'-DTB_KERNEL_FILE="{source}"'], failed)
+        compile_module(toolchain, name, module_path, [f'-DTB_KERNEL_FILE="{compiled}"'], failed)
     except KernelFileError:
         raise
     except UserError as e:

@@ -186,16 +186,13 @@ def kernel_modules() -> tuple[ModuleType, ...]:
 
 def adopt(module: ModuleType, source: str) -> tuple[str, ...]:
     """Join a kernel file's compiled module to the registry: its kernels, public, after the others. A built-in
-    kernel's name, or another file's kernel's, is refused; one the same file declared before is taken over
-    (the file compiled again after an edit)."""
+    kernel's name is refused; one adopted before is taken over (the same file compiled again after an edit, or
+    its copy in a run folder; ext.load_kernels refuses another file's)."""
     global _PUBLIC, _KERNELS
     names = tuple(module.kernel_names(True))
     clashes = [k for k in names if k in BUILT_IN]
     if clashes:
         raise UserError(f"{', '.join(clashes)}: the name of a built-in kernel; give the kernel another name")
-    taken = [f"{k} (declared by {_FILES[k]})" for k in names if _FILES.get(k, source) != source]
-    if taken:
-        raise UserError(f"{', '.join(taken)}: the name of another kernel file's kernel; give the kernel another name")
     for k in names:
         _MODULES[k] = module
         _FILES[k] = source

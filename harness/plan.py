@@ -317,7 +317,7 @@ class Sweep:
             **({"workload_kernels": [list(k) for k in self.workload_kernels]} if self.workload_kernels else {}),
             **({"sequential": self.sequential.to_dict()} if self.sequential is not None else {}),
             **(
-                {"kernel_files": [{"path": f, "sha256": file_sha256(f)} for f in self.kernel_files]}
+                {"kernel_files": [{"path": f, "sha256": _loaded_file(f).sha256} for f in self.kernel_files]}
                 if self.kernel_files
                 else {}
             ),
@@ -341,6 +341,13 @@ class Sweep:
             kernel_files=tuple(_kernel_file(f, run_dir) for f in d.get("kernel_files", ())),
             builds=tuple(d.get("builds", ())),
         )
+
+
+def _loaded_file(path: str) -> Any:
+    """The record of a loaded kernel file: the sha256 of what was compiled (with its local headers)."""
+    from .. import ext
+
+    return next(f for f in ext.loaded_kernel_files() if f.path == path)
 
 
 def _kernel_file(recorded: Mapping[str, Any], run_dir: str | Path | None) -> str:

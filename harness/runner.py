@@ -294,8 +294,9 @@ def _start_locked(
             mesh_files.copy_into_run(run_dir, spec.mesh, spec.mesh_sha256)
         if isinstance(spec, MeshSpec) and spec.rays_sha256 is not None:
             mesh_files.copy_into_run(run_dir, spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
-    for f in record["sweep"].get("kernel_files", ()):  # the C its kernels were compiled from
-        mesh_files.copy_into_run(run_dir, f["path"], f["sha256"], mesh_files.KERNELS_FOLDER)
+    texts = {f.path: f.text for f in ext.loaded_kernel_files()}
+    for f in record["sweep"].get("kernel_files", ()):  # the C its kernels were compiled from, headers and all
+        mesh_files.copy_into_run(run_dir, texts[f["path"]], f["sha256"], mesh_files.KERNELS_FOLDER)
     if sweep.sequential is not None:
         return _execute_stages(run_dir, record, sweep, keys, progress, worker)
     return _execute(run_dir, record, sweep, keys, 0, progress, worker)

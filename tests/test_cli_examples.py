@@ -94,7 +94,7 @@ CONCRETE = {
         "peers --quick --camera 8x8 --processes 2 --reps 1 --no-progress --out {run}",
         "peers --quick --accel bvh --triangles 200 --camera 8x8 --processes 2 --reps 1 --no-progress "
         "--out {tmp}/peers.csv",
-        "peers --quick --mesh icosphere --accel bvh --camera 8x8 --processes 1 --reps 1 --no-progress "
+        "peers --quick --mesh icosphere --accel bvh --camera 8x8 --processes 2 --reps 1 --no-progress "
         "--out {tmp}/peers-icosphere.csv",
     ],
     "tribench stats RUN_DIR [--baseline NAME]": ["stats {run}", "stats {run} --baseline curless"],

@@ -6,6 +6,7 @@ kernels join the registry of the process that loads them, and must not leak into
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
@@ -204,9 +205,17 @@ def test_the_first_compile_to_fail_stops_the_others(tmp_path):
 
 def test_a_kernel_file_of_bytes_that_are_not_utf8_is_refused_without_a_traceback(tmp_path, builds):
     junk = tmp_path / "junk.c"
-    junk.write_bytes(b"\x00\x01 not C at all \xff\xfe")  # the compiler quotes them back
+    junk.write_bytes(b"\x00\x01 not C at all \xff\xfe")  # the compiler would quote them back
     done = tribench("info", "--kernel-file", junk, cwd=tmp_path, cache=builds)
-    assert done.returncode == 2 and done.stderr.startswith(f"tribench info: error: {junk} does not compile (")
+    assert (
+        done.returncode == 2
+        and done.stderr == f"tribench info: error: {junk}: not C source: it holds NUL bytes (a binary file?)\n"
+    )
+    (tmp_path / "latin.c").write_bytes(b"int x = \xff\xfe;\n")  # text, not UTF-8: the compiler's own words
+    done = tribench("info", "--kernel-file", tmp_path / "latin.c", cwd=tmp_path, cache=builds)
+    assert done.returncode == 2 and done.stderr.startswith(
+        f"tribench info: error: {tmp_path / 'latin.c'} does not compile ("
+    )
     assert "Traceback" not in done.stderr
 
 
@@ -233,13 +242,11 @@ def test_a_kernel_that_crashes_is_refused_in_one_line(tmp_path, builds):
     )
     done = tribench("sweep", "--kernel-file", crashy, "--pairs", "100", "--out", "run", cwd=tmp_path, cache=builds)
     assert done.returncode == 2
-    assert done.stderr.splitlines() == [
-        f"tribench sweep: error: {crashy}: its kernels crashed the reference check (SIGSEGV)"
-    ]
+    assert done.stderr.splitlines() == [f"tribench sweep: error: the reference check of {crashy} was killed by SIGSEGV"]
     assert not (tmp_path / "run").exists()
     # validate runs kernels in its own process: a crashing one is refused first, the same way
     done = tribench("validate", "--kernel-file", crashy, "--quick", "--out", "v.csv", cwd=tmp_path, cache=builds)
-    assert done.returncode == 2 and "crashed the reference check (SIGSEGV)" in done.stderr, done.stderr
+    assert done.returncode == 2 and "reference check of" in done.stderr and "was killed by SIGSEGV" in done.stderr
     assert "Traceback" not in done.stderr and not (tmp_path / "v.csv").exists()
 
 
@@ -250,6 +257,29 @@ def test_a_kernel_file_may_not_take_a_built_in_name(tmp_path, builds):
     done = tribench("info", "--kernel-file", clash, cwd=tmp_path, cache=builds)
     assert done.returncode == 2
     assert "moller_trumbore: the name of a built-in kernel" in done.stderr and "Traceback" not in done.stderr
+
+
+@pytest.mark.slow
+def test_a_local_header_is_part_of_the_kernel_file_and_of_its_copy(tmp_path, builds):
+    """An edit to a header the file includes compiles it again, and what was compiled (the file with its
+    headers in place) is one self-contained file that compiles without them."""
+    path = variant(tmp_path, "k_hdr", "    if (det == 0)", "    if (det == K_ZERO)")
+    path.write_text('#include "k_hdr.h"\n' + path.read_text())
+    (tmp_path / "k_hdr.h").write_text("#define K_ZERO 0\n")
+    load = f"from tribench import ext; ext.load_kernels({str(path)!r}); f = ext.kernel_file_of('k_hdr')"
+    first = python(f"{load}; print(f.sha256, f.text)", builds)
+    assert first.returncode == 0, first.stderr
+    sha, text = first.stdout.split()
+    copy = Path(text).read_text()
+    assert "K_ZERO 0" in copy and '#include "k_hdr.h"' not in copy and hashlib.sha256(copy.encode()).hexdigest() == sha
+    (tmp_path / "k_hdr.h").write_text("#define K_ZERO 0 /* edited */\n")
+    again = python(f"{load}; print(f.sha256)", builds)
+    assert again.returncode == 0 and again.stdout.split()[0] != sha, again.stderr  # compiled again
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / f"{sha}.c").write_text(copy)  # as a run folder carries it: no header beside it
+    alone = python(f"from tribench import ext; print(ext.load_kernels({str(elsewhere / f'{sha}.c')!r}))", builds)
+    assert alone.returncode == 0 and "k_hdr" in alone.stdout, alone.stderr
 
 
 @pytest.mark.slow

@@ -40,10 +40,10 @@ def check_int(name: str, value: Any, lo: int, hi: int) -> int:
         or (not isinstance(value, numbers.Integral) and not float(value).is_integer())
     ):
         raise UserError(f"{name} must be an integer, got {value!r}")
-    value = int(value)
-    if not lo <= value <= hi:
-        raise UserError(f"{name} must be between {lo} and {hi}, got {value}")
-    return value
+    number = int(value) if isinstance(value, numbers.Integral) else int(float(value))
+    if not lo <= number <= hi:
+        raise UserError(f"{name} must be between {lo} and {hi}, got {number}")
+    return number
 
 
 def check_float(name: str, value: Any) -> float:

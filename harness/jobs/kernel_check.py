@@ -79,7 +79,7 @@ def refuse_crashing(path: str | os.PathLike) -> None:
 def _checked_elsewhere(path: str | os.PathLike) -> dict[str, list[str]]:
     """:func:`check_kernel` of each kernel of the file, in a process of its own: a kernel that crashes
     (a stray pointer is likely in code being written) is refused in one line, and takes nothing down."""
-    return _in_a_process(["--kernel-file", str(path)], f"{path}: its kernels", len(ext.load_kernels(path)))
+    return _in_a_process(["--kernel-file", str(path)], f"the reference check of {path}", len(ext.load_kernels(path)))
 
 
 def _in_a_process(argv: list[str], what: str, kernels: int) -> dict[str, list[str]]:
@@ -90,7 +90,7 @@ def _in_a_process(argv: list[str], what: str, kernels: int) -> dict[str, list[st
         run_worker(command, json.dumps(argv), os.environ, {"checked": checked.update}, what, timeout=timeout)
     except WorkerError as exc:
         # its own message (a kernel file that does not compile under a build), or how it died
-        raise KernelRefused(str(exc) if exc.said else f"the reference check failed: {exc}") from None
+        raise KernelRefused(str(exc)) from None  # its own message, or how the check ended
     return checked
 
 
@@ -107,7 +107,7 @@ def check_builds(sweep, log: TextIO | None = None) -> dict[str, dict[str, list[s
         t0 = time.monotonic()
         ext.load_build(build)  # compiled here, so a compile error is one message (and the check's process imports it)
         argv = ["--build", build, *(a for f in sweep.kernel_files for a in ("--kernel-file", f)), *sweep.kernels]
-        checked[build] = _in_a_process(argv, f"the kernels of build {build!r}", len(sweep.kernels))
+        checked[build] = _in_a_process(argv, f"the reference check of build {build!r}", len(sweep.kernels))
         wrong = sum(1 for problems in checked[build].values() if problems)
         verdict = f"{wrong} broke a promise (shown in the report)" if wrong else "all right"
         print(
