@@ -270,7 +270,7 @@ def test_peers_take_a_mesh_file_through_the_bvh(tmp_path, env):
     # the command line: a relative path, the file's own triangle count; a missing file is one line
     done = subprocess.run(
         [sys.executable, "-m", "tribench.cli", "peers", "--mesh", "octahedron.obj", "--accel", "bvh"]
-        + ["--camera", "16x16", "--processes", "1", "--reps", "1", "--no-progress", "--out", "run"],
+        + ["--camera", "16x16", "--processes", "2", "--reps", "1", "--no-progress", "--out", "run"],
         capture_output=True,
         text=True,
         timeout=120,
