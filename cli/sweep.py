@@ -255,5 +255,5 @@ def _sweep_from_args(args: argparse.Namespace):
     )
     if args.kernels:  # named: each must run some workload (the one sweep path refuses one that runs none)
         return sweep
-    ran = tuple(k for k in sweep.kernels if any(k in sweep.kernels_for(w) for w in sweep.workloads))
-    return dataclasses.replace(sweep, kernels=ran)  # every kernel: those that run these workloads
+    idle = sweep.idle_kernels()  # every kernel: those that run these workloads
+    return dataclasses.replace(sweep, kernels=tuple(k for k in sweep.kernels if k not in idle))

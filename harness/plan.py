@@ -276,6 +276,10 @@ class Sweep:
         leaf = ext.bvh_kernel_names() if is_bvh(spec) else self.kernels
         return tuple(k for k in self.kernels if k in chosen and spec.mode in ext.kernel_info(k).modes and k in leaf)
 
+    def idle_kernels(self) -> tuple[str, ...]:
+        """The kernels that run none of the workloads (:meth:`kernels_for`), in sweep order."""
+        return tuple(k for k in self.kernels if not any(k in self.kernels_for(w) for w in self.workloads))
+
     def reference_of(self, spec: Spec, baseline: str) -> str:
         """The kernel the others of ``spec`` are compared with in a sequential sweep:
         ``baseline`` where it runs, else the first kernel (a BVH workload has no scalar baseline).

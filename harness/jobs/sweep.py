@@ -47,7 +47,7 @@ def run_sweep(
 
 def _refuse_idle_kernels(sweep: Sweep) -> None:
     """A kernel that runs none of the sweep's workloads would be dropped without a word: refused."""
-    idle = [k for k in sweep.kernels if not any(k in sweep.kernels_for(w) for w in sweep.workloads)]
+    idle = sweep.idle_kernels()
     if idle:
         why = "; ".join(_why_idle(k) for k in idle)
         raise UserError(f"{', '.join(idle)} would run none of the sweep's workloads ({why}): drop or give them some")
