@@ -33,11 +33,9 @@ def run(args: argparse.Namespace) -> int:
 
     derived = tables.write_all(args.run_dir, baseline=args.baseline, margin=args.margin)
     if not (Path(args.run_dir) / runfolder.VALIDATE).is_file():
-        sweep = runfolder.read_run(args.run_dir)["sweep"]
-        dtypes = sorted({w["dtype"] for w in sweep["workloads"] if "dtype" in w})
         print(
             f"no {runfolder.VALIDATE}: the robustness suite has not run on this folder, so its tables have no "
-            f"robustness; measure it with: {robustness_command(args.run_dir, sweep['kernels'], dtypes)}",
+            f"robustness; measure it with: {robustness_command(args.run_dir)}",
             file=sys.stderr,
         )
     print(format_tables(args.run_dir))

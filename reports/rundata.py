@@ -230,7 +230,7 @@ def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
         why = data.record.get("validate") or f"No {VALIDATE} in the run folder."
         from ..harness.jobs.sweep import robustness_command
 
-        command = robustness_command(data.run_dir, data.kernels, data.dtypes)
+        command = robustness_command(data.run_dir)
         return empty, f"{why} `{command}` measures it; then `tribench stats {data.run_dir}`."
     if not _has_columns(path, columns):
         return empty, (

@@ -81,9 +81,8 @@ def measure_robustness(run_dir: str | Path, quick: bool = False) -> str:
     path = run_dir / runfolder.VALIDATE
     if path.is_file():
         return f"Read from {runfolder.VALIDATE} in the run folder."
-    sweep = runfolder.read_run(run_dir)["sweep"]
-    dtypes = sorted({w["dtype"] for w in sweep["workloads"] if "dtype" in w})
-    known = [k for k in sweep["kernels"] if k in ext.kernel_names(internal=True)]
+    kernels, dtypes = _kernels_and_dtypes(run_dir)
+    known = [k for k in kernels if k in ext.kernel_names(internal=True)]
     try:
         if not known:
             raise UserError("none of the run's kernels is in this build of the extension")
@@ -97,7 +96,14 @@ def measure_robustness(run_dir: str | Path, quick: bool = False) -> str:
     )
 
 
-def robustness_command(run_dir: str | Path, kernels: Sequence[str], dtypes: Sequence[str]) -> str:
+def robustness_command(run_dir: str | Path) -> str:
     """The command that measures a run folder's missing ``validate.csv`` (the analysis never does)."""
+    kernels, dtypes = _kernels_and_dtypes(run_dir)
     out = Path(run_dir) / runfolder.VALIDATE
     return f"tribench validate --kernels {','.join(kernels)} --dtype {','.join(dtypes)} --out {out}"
+
+
+def _kernels_and_dtypes(run_dir: str | Path) -> tuple[list[str], list[str]]:
+    """The run's kernels and the precisions of its workloads, which its robustness suite covers."""
+    sweep = runfolder.read_run(run_dir)["sweep"]
+    return list(sweep["kernels"]), sorted({w["dtype"] for w in sweep["workloads"] if "dtype" in w})
