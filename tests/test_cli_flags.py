@@ -102,6 +102,7 @@ HOSTILE = [
     (["calibrate", "--out", "afile"], "--out"),
     (["calibrate", "--experiments", "0"], "--experiments"),
     (["calibrate", "--processes", "0"], "--processes"),
+    (["calibrate", "--experiments", "1000000000"], "use fewer experiments"),
     (["stats", "nowhere"], "RUN_DIR"),
     (["stats", "afile"], "RUN_DIR"),
     (["stats", ""], "RUN_DIR"),

@@ -88,12 +88,18 @@ def calibrate(
     """
     from ...workloads.spec import PairSpec
     from .. import runfolder, runner
-    from ..plan import Sweep
+    from ..plan import MAX_PROCESSES, Sweep
 
     if kernel not in AA_COPIES:
         raise UserError(f"no A/A copy of {kernel!r}; kernels with one: {', '.join(AA_COPIES)}")
     if processes < 2 or experiments < 1:
         raise UserError("an A/A calibration needs processes >= 2 and experiments >= 1")
+    if processes * experiments > MAX_PROCESSES:
+        # checked here: the sweep would blame its process count, a flag the user did not give
+        raise UserError(
+            f"{experiments:,} experiments of {processes:,} processes make {processes * experiments:,} "
+            f"processes; a calibration runs at most {MAX_PROCESSES:,}: use fewer experiments"
+        )
     copy = AA_COPIES[kernel]
     sweep = Sweep(
         (kernel, copy),
