@@ -168,7 +168,7 @@ def test_format_round_trips_exactly(name):
         ("sphere 0 0 \u0661 1", "'sphere' expects a number for z"),  # an Arabic-Indic digit: float() reads 1
         ("sphere 0 0 -inf 1", "'sphere' expects a finite number for z, got '-inf'"),
         ("sphere 0 0 Infinity 1", "'sphere' expects a finite number for z, got 'Infinity'"),
-        ("tri 0 0 0 1e-30 0 0 0 1e-30 0", "'tri' is degenerate"),  # its normal is 0 in float32
+        ("tri 0 0 0 1e-30 0 0 0 1e-30 0", "'tri' is too small for the seed's float32"),  # its normal underflows
     ],
 )
 def test_values_the_seed_cannot_store_name_file_and_line(tmp_path, line, message):

@@ -192,6 +192,12 @@ def _check_values(keyword: str, v: list[float], where: str) -> None:
         p = np.array(v, dtype=np.float32).reshape(3, 3)  # the seed's float normal
         n = np.cross(p[1] - p[0], p[2] - p[0])
         if not np.any(n != 0):
+            q = np.array(v, dtype=np.float64).reshape(3, 3)
+            if np.any(np.cross(q[1] - q[0], q[2] - q[0]) != 0):
+                raise SceneError(
+                    f"{where}: 'tri' is too small for the seed's float32: its normal underflows to 0 "
+                    f"(scale the scene up)"
+                )
             raise SceneError(f"{where}: 'tri' is degenerate (its three vertices are collinear)")
 
 
