@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "MAX_COORDINATE",
     "dot",
     "norm",
     "normalise",
@@ -19,6 +20,11 @@ __all__ = [
     "aspect_ratios",
     "round_to",
 ]
+
+#: The largest coordinate a workload may have per precision: squares and cross products of coordinates above it
+#: overflow (a mesh at 1e300 became a point of radius 0 in float64, and every ray missed; one at 5e38 is infinite
+#: in float32), with a margin of about 1e4 below the square root of the precision's largest number.
+MAX_COORDINATE = {"float64": 1e150, "float32": 1e15}
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:

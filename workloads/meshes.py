@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..common import UserError
-from .geometry import norm, random_unit_vectors, triangle_areas
+from .geometry import MAX_COORDINATE, norm, random_unit_vectors, triangle_areas
 
 __all__ = [
     "SUZANNE_PATH",
@@ -74,12 +74,6 @@ def _compact(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nd
     remap = np.full(len(vertices), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
     return np.ascontiguousarray(vertices[used], dtype=np.float64), remap[faces]
-
-
-#: The largest coordinate of a mesh file per precision: squares and cross products of coordinates above it
-#: overflow (a mesh at 1e300 became a point of radius 0 in float64, and every ray missed; one at 5e38 is infinite
-#: in float32), with a margin of about 1e4 below the square root of the precision's largest number.
-MAX_COORDINATE = {"float64": 1e150, "float32": 1e15}
 
 
 def read_mesh_file(path: str | Path, dtype: str = "float64") -> tuple[np.ndarray, np.ndarray]:

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..common import UserError
 from .geometry import (
+    MAX_COORDINATE,
     aspect_ratios,
     dot,
     normalise,
@@ -343,6 +344,11 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
     rng = np.random.default_rng(spec.seed)
     kinds = _kinds(spec, rng)
     n, dtype, scale = spec.n, spec.dtype, spec.scale
+    if scale + abs(spec.offset) > MAX_COORDINATE[dtype]:  # refused now, not after every redraw has failed
+        raise UserError(
+            f"scale = {scale:.3g} is outside what {dtype} holds with its products (they overflow): "
+            f"scale and offset may reach {MAX_COORDINATE[dtype]:.0e} together"
+        )
     shift = spec.offset * _OFFSET_AXIS
     tri, o, d = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3))
     t_max = np.full(n, np.inf)
