@@ -13,21 +13,52 @@ from pathlib import Path
 SIMD_FLAGS = ("sse2", "sse4_1", "sse4_2", "avx", "avx2", "fma", "avx512f", "avx512vl", "asimd", "sve")
 
 
+# /proc/cpuinfo's "CPU implementer" and "CPU part" numbers of aarch64 cores, the names their makers give
+ARM_IMPLEMENTERS = {"0x41": "ARM", "0x46": "Fujitsu", "0x48": "HiSilicon", "0x4e": "NVIDIA", "0x51": "Qualcomm",
+                    "0x61": "Apple", "0xc0": "Ampere"}  # fmt: skip
+ARM_PARTS = {
+    ("0x41", "0xd08"): "Cortex-A72", ("0x41", "0xd0b"): "Cortex-A76", ("0x41", "0xd0c"): "Neoverse-N1",
+    ("0x41", "0xd40"): "Neoverse-V1", ("0x41", "0xd41"): "Cortex-A78", ("0x41", "0xd49"): "Neoverse-N2",
+    ("0x41", "0xd4f"): "Neoverse-V2", ("0x41", "0xd84"): "Neoverse-V3", ("0x41", "0xd8e"): "Neoverse-N3",
+    ("0x46", "0x001"): "A64FX", ("0xc0", "0xac3"): "Ampere-1", ("0xc0", "0xac4"): "Ampere-1a",
+}  # fmt: skip
+# macOS names its CPU features in `sysctl hw.optional`; these are the ones SIMD_FLAGS knows
+_MACOS_FLAGS = {"hw.optional.neon": "asimd", "hw.optional.AdvSIMD": "asimd", "hw.optional.arm.FEAT_SVE": "sve",
+                "hw.optional.sse2": "sse2", "hw.optional.sse4_1": "sse4_1", "hw.optional.sse4_2": "sse4_2",
+                "hw.optional.avx1_0": "avx", "hw.optional.avx2_0": "avx2", "hw.optional.fma": "fma",
+                "hw.optional.avx512f": "avx512f", "hw.optional.avx512vl": "avx512vl"}  # fmt: skip
+
+
 def _cpuinfo() -> dict[str, str]:
-    """First processor's fields from /proc/cpuinfo (empty off Linux)."""
+    """The CPU's fields as /proc/cpuinfo names them: the first processor's, then those only later blocks
+    give (a Raspberry Pi's "Model"). On macOS the same keys are made from sysctl; elsewhere empty."""
+    if sys.platform == "darwin":
+        return _macos_cpuinfo()
     fields: dict[str, str] = {}
     try:
         text = Path("/proc/cpuinfo").read_text()
     except OSError:
         return fields
     for line in text.splitlines():
-        if not line.strip():
-            if fields:
-                break
-            continue
         key, _, value = line.partition(":")
-        fields.setdefault(key.strip(), value.strip())
+        if key.strip():
+            fields.setdefault(key.strip(), value.strip())
     return fields
+
+
+def _sysctl(*names: str) -> dict[str, str]:
+    """sysctl's values by name (empty where there is no sysctl)."""
+    try:
+        out = subprocess.run(["sysctl", *names], capture_output=True, text=True, timeout=5)
+    except (OSError, subprocess.SubprocessError):
+        return {}
+    return {k.strip(): v.strip() for k, _, v in (line.partition(":") for line in out.stdout.splitlines()) if v}
+
+
+def _macos_cpuinfo() -> dict[str, str]:
+    values = _sysctl("machdep.cpu.brand_string", "hw.optional")
+    flags = {flag for key, flag in _MACOS_FLAGS.items() if values.get(key) == "1"}
+    return {"model name": values.get("machdep.cpu.brand_string", ""), "flags": " ".join(sorted(flags))}
 
 
 def _read(path: str) -> str | None:
@@ -44,6 +75,11 @@ def cpu_model() -> str:
     a calibration's margin is applied only on the CPU it was measured on.
     """
     info = _cpuinfo()
+    implementer, part = info.get("CPU implementer", "").lower(), info.get("CPU part", "").lower()
+    if implementer and part and not info.get("model name"):  # aarch64 Linux: numbers, no name
+        maker = ARM_IMPLEMENTERS.get(implementer, "CPU")
+        name = f"{maker} {ARM_PARTS.get((implementer, part), 'part ' + part)}"
+        return f"{name} (implementer {implementer}, part {part})"
     name = info.get("model name") or info.get("Model") or platform.processor() or platform.machine()
     family, model = info.get("cpu family"), info.get("model")
     return f"{name} (family {family}, model {model})" if family and model else name
@@ -113,6 +149,7 @@ def machine_record() -> dict:
         "simd_features": simd_features(),
         "logical_cpus": os.cpu_count(),
         "usable_cpus": sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
+        "can_pin": hasattr(os, "sched_setaffinity"),  # macOS cannot pin a process to a CPU
         "caches": cache_sizes(),
         "governor": _read("/sys/devices/system/cpu/cpu0/cpufreq/scaling_governor"),
         "cpu_mhz": _cpuinfo().get("cpu MHz"),

@@ -49,6 +49,16 @@ def pictures_section(data: RunData, wl: pd.DataFrame) -> str:
     return "".join(body)
 
 
+def pinning(run: dict) -> str:
+    """Where the workers ran, in words: a CPU, or why they were not pinned."""
+    cpu = run.get("cpu")
+    if isinstance(cpu, int) and cpu >= 0:
+        return f"pinned to CPU {cpu}"
+    if run.get("machine", {}).get("can_pin") is False:
+        return "not pinned: this system cannot pin a process to a CPU, so the OS may move a worker mid-batch"
+    return "not pinned (the sweep asked for no pinning)"
+
+
 def machine_rows(run: dict) -> list[tuple[str, object]]:
     """The machine and software a run's ``run.json`` records, as (label, value) rows."""
     m = run.get("machine", {})
@@ -56,7 +66,7 @@ def machine_rows(run: dict) -> list[tuple[str, object]]:
         ("CPU", m.get("cpu_model")),
         ("logical CPUs", m.get("logical_cpus")),
         ("usable CPUs", m.get("usable_cpus")),
-        ("workers pinned to CPU", run.get("cpu")),
+        ("workers", pinning(run)),
         ("SIMD features", m.get("simd_features")),
         ("caches", m.get("caches")),
         ("governor", m.get("governor")),

@@ -10,7 +10,7 @@ import pandas as pd
 
 from ..harness import runfolder, stats
 from ..harness.jobs import validate
-from . import content, figures, page
+from . import about, content, figures, page
 from .rundata import VALIDATE, RunData
 
 __all__ = ["drift_section", "diagnostics_section", "calibration", "correctness_section", "robustness_section"]
@@ -180,7 +180,7 @@ def diagnostics_section(data: RunData, batches: pd.DataFrame, wl: pd.DataFrame) 
         page.p(
             f"{ctx:,} involuntary context switches over {len(timed):,} timed batches; steal time "
             f"{'not readable' if (timed['steal_ticks'] < 0).all() else f'{int(steal)} ticks'}; "
-            f"workers pinned to CPU {data.run.get('cpu', '?')}."
+            f"workers {about.pinning(data.run)}."
         ),
     ]
     if not data.processes.empty:

@@ -379,6 +379,45 @@ def test_two_cpus_behind_one_brand_name_are_two_machines(tmp_path, monkeypatch):
     assert machine.cpu_model() == "Raspberry Pi 4 Model B Rev 1.4"  # no numbers given: the name alone
 
 
+NEOVERSE_V1 = """processor\t: 0
+BogoMIPS\t: 2100.00
+Features\t: fp asimd evtstrm aes pmull sha1 sha2 crc32 atomics fphp asimdhp cpuid sve
+CPU implementer\t: 0x41
+CPU architecture: 8
+CPU part\t: 0xd40
+
+processor\t: 1
+CPU part\t: 0xd0c
+"""
+
+
+def test_an_aarch64_cpu_is_named_from_its_implementer_and_part(monkeypatch, tmp_path):
+    fake = tmp_path / "cpuinfo"
+    fake.write_text(NEOVERSE_V1)
+    real_path = machine.Path
+    monkeypatch.setattr(machine, "Path", lambda p: real_path(fake) if p == "/proc/cpuinfo" else real_path(p))
+    assert machine.cpu_model() == "ARM Neoverse-V1 (implementer 0x41, part 0xd40)"  # the first CPU's part
+    assert machine.simd_features() == ["asimd", "sve"]
+    assert ", NEON; " in machine.describe()
+    fake.write_text(NEOVERSE_V1.replace("0x41", "0x99"))
+    assert machine.cpu_model() == "CPU part 0xd40 (implementer 0x99, part 0xd40)"  # unknown: the numbers
+
+
+def test_macos_facts_come_from_sysctl(monkeypatch):
+    out = "machdep.cpu.brand_string: Apple M2\nhw.optional.AdvSIMD: 1\nhw.optional.arm.FEAT_SVE: 0\n"
+    monkeypatch.setattr(machine.sys, "platform", "darwin")
+    monkeypatch.setattr(machine.subprocess, "run", lambda *a, **k: subprocess.CompletedProcess(a, 0, out, ""))
+    assert machine.cpu_model() == "Apple M2" and machine.simd_features() == ["asimd"]
+
+
+def test_a_run_that_could_not_pin_says_so_in_one_line():
+    from tribench.reports import about
+
+    assert about.pinning({"cpu": 3}) == "pinned to CPU 3"
+    assert "cannot pin" in about.pinning({"cpu": None, "machine": {"can_pin": False}})
+    assert "asked for no pinning" in about.pinning({"cpu": -1, "machine": {"can_pin": True}})
+
+
 def test_a_bench_figure_names_its_cpu_widest_isa_and_compiler(monkeypatch):
     zen5 = {"model name": "AMD EPYC", "cpu family": "26", "model": "2", "flags": "sse2 avx2 fma avx512f"}
     monkeypatch.setattr(machine, "_cpuinfo", lambda: zen5)
