@@ -19,7 +19,9 @@ from .checks import check_dtype_name
 Mode = Literal["pairs", "any", "closest", "closest_uv"]
 MODES: tuple[str, ...] = ("pairs", "any", "closest", "closest_uv")  # the C enum's order
 _PUBLIC: tuple[str, ...] = _core.kernel_names(False)
-_KERNELS: tuple[str, ...] = _core.kernel_names(True)  # every name a call accepts
+_COMPILED: tuple[str, ...] = _core.kernel_names(True)
+# every name a call accepts: a kernel this CPU runs in none of its ISAs (the AVX2 yardstick on aarch64) is left out
+_KERNELS: tuple[str, ...] = tuple(k for k in _COMPILED if any(ok for _, ok in _core.kernel_info(k)["isas"]))
 BUILT_IN: frozenset[str] = frozenset(_KERNELS)
 # The compiled module that holds each kernel: _core, or a kernel file's own
 # build (kernel_files.py), which joins its kernels with adopt().
@@ -208,6 +210,9 @@ def check_kernel(kernel: object) -> str:
     """A registered kernel's name (internal kernels too); an unknown one lists the public kernels."""
     if not isinstance(kernel, str):
         raise UserTypeError(f"kernel must be a str, got {type(kernel).__name__}")
+    if kernel in _COMPILED and kernel not in _KERNELS:
+        isas = ", ".join(i for i, _ in _core.kernel_info(kernel)["isas"])
+        raise UserError(f"kernel {kernel!r} is compiled only for {isas}, which this CPU does not run")
     if kernel not in _KERNELS:
         raise UserError(f"unknown kernel {kernel!r}; known kernels: {', '.join(_PUBLIC)}")
     return kernel
