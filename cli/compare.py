@@ -26,6 +26,12 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--out", metavar="FILE", type=flags.output_file, help="HTML file to write (default LAST_RUN/compare.html)"
     )
+    p.add_argument(
+        "--fail-if-slower",
+        action="store_true",
+        help="for a CI gate, with two runs OLD NEW: exit 1 when a kernel is slower in NEW on a shared workload "
+        "by more than the runs' margin, with an interval that excludes no change (one line names each)",
+    )
     p.set_defaults(func=run)
 
 
@@ -33,8 +39,10 @@ def run(args: argparse.Namespace) -> int:
     """Print the comparison of N runs and write it as an HTML page."""
     from ..reports.compare import format_compare_text, render_compare
     from ..reports.rundata import load_run
-    from ..reports.tables.compare import compare, run_tags
+    from ..reports.tables.compare import compare, run_tags, slower
 
+    if args.fail_if_slower and len(args.runs) != 2:
+        raise UserError(f"--fail-if-slower compares two runs, OLD NEW; got {len(args.runs)}")
     try:
         run_tags(len(args.runs))  # the count first, before reading any folder
         runs = [load_run(r) for r in args.runs]
@@ -45,4 +53,13 @@ def run(args: argparse.Namespace) -> int:
     print(format_compare_text(runs, many, pair))
     write_text(out, render_compare(runs, many, pair))
     print(f"wrote {out}", file=sys.stderr)
+    if args.fail_if_slower and pair is not None:
+        regressed = slower(pair)
+        for r in regressed.itertuples(index=False):
+            print(
+                f"slower in {args.runs[1]}: {r.kernel} on {r.label} takes {r.ratio:.3f}x the time "
+                f"[{r.ratio_ci_low:.3f}, {r.ratio_ci_high:.3f}], past the margin of {pair.margin:.1%}",
+                file=sys.stderr,
+            )
+        return 1 if len(regressed) else 0
     return 0

@@ -73,6 +73,22 @@ def test_compare_cli_prints_a_table_and_writes_html(two_runs, tmp_path):
     assert "http://" not in text and "https://" not in text and "<script" not in text
 
 
+def _gate(*runs):
+    argv = [sys.executable, "-m", "tribench.cli", "compare", *map(str, runs), "--fail-if-slower"]
+    return subprocess.run(argv, capture_output=True, text=True, timeout=120)
+
+
+def test_fail_if_slower_names_the_kernel_that_became_slower(two_runs, tmp_path):
+    a, b = two_runs  # b: moller_trumbore 1.25x faster, every other kernel's times the same to the bit
+    assert _gate(a, b).returncode == 0  # faster, or no change (an A/A pair): the gate passes
+    back = _gate(b, a)  # from b to a: moller_trumbore takes 1.25x the time
+    assert back.returncode == 1, back.stderr
+    lines = [line for line in back.stderr.splitlines() if line.startswith("slower in ")]
+    assert lines and all(" moller_trumbore on " in line and "1.250x the time" in line for line in lines)
+    refused = _gate(a, b, a)
+    assert refused.returncode == 2 and "--fail-if-slower compares two runs" in refused.stderr
+
+
 def test_write_compare_default_path(two_runs):
     path = reports.write_compare(*two_runs, out=None)
     assert path == two_runs[1] / "compare.html" and path.stat().st_size > 1000

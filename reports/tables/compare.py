@@ -35,6 +35,7 @@ __all__ = [
     "compare_runs",
     "order_summary",
     "run_tags",
+    "slower",
 ]
 
 
@@ -359,6 +360,13 @@ def _orders(
         row["confidence"] = level
         rows.append(row)
     return rows
+
+
+def slower(c: Comparison) -> pd.DataFrame:
+    """The time rows where run B is slower than run A beyond the margin: a time ratio past ``1 + margin``
+    whose interval excludes no change (``ratio_ci_low > 1``), the gate of ``compare --fail-if-slower``."""
+    t = c.times
+    return t.loc[(t["ratio"] > 1 + c.margin) & (t["ratio_ci_low"] > 1)]
 
 
 def compare(runs: Sequence[RunTables]) -> tuple[MultiComparison, Comparison | None]:
