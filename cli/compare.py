@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
         regressed = slower(pair)
         for r in regressed.itertuples(index=False):
             print(
-                f"slower in {args.runs[1]}: {r.kernel} on {r.label} takes {r.ratio:.3f}x the time "
+                f"slower in {args.runs[1]}: {r.kernel} on {r.family}, {r.label}, takes {r.ratio:.3f}x the time "
                 f"[{r.ratio_ci_low:.3f}, {r.ratio_ci_high:.3f}], past the margin of {pair.margin:.1%}",
                 file=sys.stderr,
             )
