@@ -107,11 +107,18 @@ CONCRETE = {
         "calibrate --processes 4 --experiments 1 --rounds 3 --warmup 0 --target-ms 0.5 --no-progress --out {tmp}/cal"
     ],
     "tribench report RUN_DIR": ["report {run}"],
-    "tribench compare RUN RUN [RUN …] [--out FILE]": [
+    "tribench compare RUN RUN [RUN …] [--out FILE] [--fail-if-slower]": [
         "compare {run} {run_b} --out {tmp}/compare.html",
+        "compare {run} {run_b} --fail-if-slower",  # a copy: no kernel is slower, the gate passes
         "compare {run} {run_b} {run_c} --out {tmp}/compare3.html",
     ],
-    "tribench export RUN_DIR [--out FILE]": ["export {run}", "export {run} --out {tmp}/gbench.json"],
+    "tribench export RUN_DIR [--format FORMAT] [--out FILE]": [
+        "export {run}",
+        "export {run} --out {tmp}/gbench.json",
+        "export {run} --format latex --out {tmp}/ranking.tex",
+        "export {run} --format methods",
+        "export {run} --format bmf",
+    ],
 }
 
 

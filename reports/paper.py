@@ -1,0 +1,167 @@
+"""A run in the forms a paper takes: booktabs tables of the first screen's ranking, a methods paragraph
+(Markdown or LaTeX) and Bencher's Metric Format. Every number comes from the run's ``run.json`` and tables.
+
+The tables are ``bands.csv``'s: per build, precision and band of hit rates, every kernel from the fastest
+down. Bencher's Metric Format (https://bencher.dev/docs/reference/bencher-metric-format/) maps a benchmark
+name to measures, each a value with an optional lower and upper bound.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import pandas as pd
+
+from ..harness import runfolder, stats
+from .about import pinning
+from .rundata import RunData
+
+__all__ = ["bencher", "latex_tables", "methods"]
+
+_TEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
+                "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}",
+                "–": "--", "×": r"$\times$", "±": r"$\pm$"}  # fmt: skip
+
+
+def tex(text: object) -> str:
+    """``text`` with LaTeX's special characters escaped (and the few non-ASCII ones tribench writes spelled)."""
+    return "".join(_TEX_SPECIAL.get(c, c) for c in str(text))
+
+
+def _interval(value: float, low: float, high: float, digits: int = 2) -> str:
+    if not math.isfinite(value):
+        return "--"
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return f"{value:.{digits}f}"
+    return f"{value:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
+
+
+def _verdict(r: Any, margin: float) -> str:
+    if r.kernel == r.baseline:
+        return "baseline"
+    return stats.verdict(r.speedup_ci_low, r.speedup_ci_high, margin)
+
+
+def latex_tables(data: RunData) -> str:
+    """One booktabs table per build, precision and band (``bands.csv``), with intervals and verdicts."""
+    bands = data.tables[runfolder.BANDS]
+    confidence = float(data.estimates["confidence"].iloc[0]) if len(data.estimates) else 0.95
+    several = bands["build"].nunique() > 1
+    out = []
+    for (build, dtype, band), g in bands.groupby(["build", "dtype", "band"], sort=False):
+        where = f"{dtype}, {band}" + (f", build {build}" if several else "")
+        rows = [
+            " & ".join(
+                [
+                    str(r.rank),
+                    tex(r.kernel),
+                    _interval(r.ns_per_test, r.ns_per_test_ci_low, r.ns_per_test_ci_high),
+                    "1.00"
+                    if r.rank == 1
+                    else _interval(r.vs_fastest, r.vs_fastest_ci_low, r.vs_fastest_ci_high)
+                    + (" (tied)" if r.tied_with_fastest else ""),
+                    _interval(r.speedup, r.speedup_ci_low, r.speedup_ci_high),
+                    _verdict(r, data.margin),
+                ]
+            )
+            + r" \\"
+            for r in g.sort_values("rank").itertuples(index=False)
+        ]
+        processes = f"{g['n_processes'].min()}" + (
+            f"--{g['n_processes'].max()}" if g["n_processes"].nunique() > 1 else ""
+        )
+        caption = (
+            f"Ranking, {where} ({_count(int(g['workloads'].iloc[0]), 'workload')}, {processes} processes). "
+            f"Times in ns per ray–triangle test, mean over processes with a {confidence:.0%} interval; "
+            f"speedups against {g['baseline'].iloc[0]}, simultaneous intervals, and their verdicts against "
+            f"a margin of {data.margin:.1%}."
+        )
+        out.append(
+            "\n".join(
+                [
+                    r"\begin{table}[ht]",
+                    r"\centering",
+                    rf"\caption{{{tex(caption)}}}",
+                    r"\begin{tabular}{rlllll}",
+                    r"\toprule",
+                    r"Rank & Kernel & ns/test & vs fastest & Speedup & Verdict \\",
+                    r"\midrule",
+                    *rows,
+                    r"\bottomrule",
+                    r"\end{tabular}",
+                    r"\end{table}",
+                ]
+            )
+        )
+    return "\n\n".join(out) + "\n"
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
+def _spread(values: pd.Series) -> str:
+    low, high = int(values.min()), int(values.max())
+    return f"{low}" if low == high else f"{low}–{high}"
+
+
+def methods(data: RunData, latex: bool = False) -> str:
+    """The run's methods as one paragraph: machine and build, design, statistics, workloads."""
+    m, sweep, build = data.run.get("machine", {}), data.run["sweep"], data.run.get("machine", {}).get("build", {})
+    est = data.estimates
+    confidence = float(est["confidence"].iloc[0]) if len(est) else 0.95
+    workloads = list(dict.fromkeys(est["workload"])) if "workload" in est else []
+    sequential = sweep.get("sequential")
+    design = (
+        f"processes ran in stages of {sequential['stage']} until each kernel's paired interval against its "
+        f"workload's reference was within ±{sequential['target']:.0%} (at most {sweep['processes']} processes "
+        f"and {sequential['budget_s']:g} s), "
+        if isinstance(sequential, dict) and {"stage", "target", "budget_s"} <= sequential.keys()
+        else f"{sweep['processes']} processes were planned, "
+    )
+    text = (
+        f"Measurements were taken with tribench {m.get('tribench', '?')} on {m.get('cpu_model', '?')} "
+        f"({', '.join(m.get('simd_features') or []) or 'no SIMD features recorded'}; {m.get('platform', '?')}), "
+        f"with the kernels compiled by {build.get('compiler', '?')} (flags {build.get('flags', '?')}), "
+        f"Python {m.get('python', '?')} and numpy {m.get('numpy', '?')}. "
+        f"Each worker process was a fresh interpreter, {pinning(data.run)}, with its memory layout randomised; "
+        f"{design}each of {sweep['warmup']} warm-up and {sweep['rounds']} timed rounds ran every kernel once "
+        f"in a random order, with batches of about {sweep['target_ms']:g} ms; "
+        f"the estimates rest on {_spread(est['n_processes'])} processes per kernel and workload. "
+        f"A time is the mean over processes of each process's median ns per test, with a {confidence:.0%} "
+        f"Student-t interval on the log scale; a speedup over {data.baseline} is the geometric mean of the "
+        f"paired per-process time ratios, with Bonferroni-simultaneous intervals over a workload's kernels "
+        f"and Holm-adjusted p-values. Two kernels are called equivalent where the interval lies within a "
+        f"margin of {data.margin:.1%} (its source: {data.margin_source}). "
+        f"The {_count(len(workloads), 'workload')}: {'; '.join(workloads)}. Every kernel's answers were checked "
+        f"against float64 reference answers, and a kernel is ranked only where they agree."
+    )
+    return tex(text) + "\n" if latex else text + "\n"
+
+
+def bencher(data: RunData) -> dict[str, Any]:
+    """Bencher's Metric Format: per kernel, workload (and build, if several), its ns per test and, where it
+    has one, its speedup over the baseline, each with its interval as lower and upper values."""
+    several = data.estimates["build"].nunique() > 1 if "build" in data.estimates else False
+    doc: dict[str, Any] = {}
+    speedups = data.speedups.set_index(["build", "kernel", "workload_id"]) if len(data.speedups) else None
+    for r in data.estimates.itertuples(index=False):
+        name = f"{r.kernel}/{r.workload}" + (f"/{r.build}" if several else "")
+        measures = {"ns-per-test": _bounds(r.ns_per_test, r.ns_per_test_ci_low, r.ns_per_test_ci_high)}
+        key = (r.build, r.kernel, r.workload_id)
+        if speedups is not None and key in speedups.index:
+            s = speedups.loc[key]
+            measures[f"speedup-over-{data.baseline}"] = _bounds(s["ratio"], s["ratio_ci_low"], s["ratio_ci_high"])
+        doc[name] = {k: v for k, v in measures.items() if v}
+    return doc
+
+
+def _bounds(value: float, low: float, high: float) -> dict[str, float]:
+    """A measure: its value, with bounds where they are finite (JSON has no NaN)."""
+    if not math.isfinite(value):
+        return {}
+    out = {"value": float(value)}
+    if math.isfinite(low) and math.isfinite(high):
+        out |= {"lower_value": float(low), "upper_value": float(high)}
+    return out
