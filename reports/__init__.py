@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 __all__ = ["load", "write_report", "write_compare", "format_tables", "format_compare", "RunError", "REPORT"]
 
-from ..harness.runfolder import REPORT, SWEEP_FILE
+from ..harness.runfolder import FIGURES_DIR, REPORT, SWEEP_FILE
 
 if TYPE_CHECKING:
     from .rundata import RunData
@@ -37,16 +37,21 @@ def load(run_dir: str | Path, baseline: str | None = None) -> RunData:
 
 
 def write_report(run_dir: str | Path | RunData, baseline: str | None = None) -> Path:
-    """Write ``RUN_DIR/report.html`` and return its path; ``run_dir`` may be :func:`load`'s result.
+    """Write ``RUN_DIR/report.html`` and its main charts as SVG and PDF in ``figures/``; return the page's path.
+
+    ``run_dir`` may be :func:`load`'s result.
 
     ``baseline``: the one the tables must compare against (default: theirs). Raises RunError,
     one line naming ``tribench stats``, when the folder or its tables are missing, unreadable or stale.
     """
     from ..common import write_text
+    from .charts import collecting, write_figures
     from .html import render, sweep_toml
 
     data = _load(run_dir, baseline)
-    page = render(data, SWEEP_FILE)
+    with collecting() as specs:
+        page = render(data, SWEEP_FILE)
+    write_figures(specs, data.run_dir / FIGURES_DIR)
     write_text(data.run_dir / SWEEP_FILE, sweep_toml(data.run["sweep"]))
     out = data.run_dir / REPORT
     write_text(out, page)

@@ -8,17 +8,21 @@ No chart computes a statistic: intervals, ranks and verdicts arrive in the frame
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import functools
 import json
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from html import escape
+from pathlib import Path
 from typing import Any
 
 import altair as alt
 import pandas as pd
 
-__all__ = ["USED", "library", "embed", "answer_chart", "hit_rate_chart", "speedup_hit_rate_chart", "forest_chart"]
+__all__ = ["USED", "FIGURES", "library", "embed", "collecting", "write_figures", "answer_chart", "hit_rate_chart", "speedup_hit_rate_chart", "forest_chart"]
 
 #: What every chart's script calls: a page that has it needs :func:`library` in its head.
 USED = "vegaEmbed("
@@ -26,6 +30,33 @@ USED = "vegaEmbed("
 #: Pixels: a chart's plotting area is this wide (the page's column is 1180 px; the legend goes beside it).
 WIDTH = 760
 _RATIO_FORMAT = ".3~g"
+#: How a legend says it filters the page's chart; a printed figure has no clicks, so it loses this.
+_CLICK = " (click to show alone)"
+
+
+#: The main charts' vector files in a run folder's ``figures/`` (:func:`write_figures`): chart id -> file
+#: name, named by what the chart shows.
+FIGURES = {
+    "chart-answer": "fastest-kernels-per-band",
+    "chart-forest": "speedups-over-baseline",
+    "chart-hit-rate": "ns-per-test-by-hit-rate",
+    "chart-speedup-hit-rate": "speedup-by-hit-rate",
+    "chart-scaling": "ns-per-test-by-size",
+}
+
+# The specs embedded while a report is rendered, for its vector figures (:func:`collecting`).
+_collected: contextvars.ContextVar[dict[str, dict[str, Any]] | None] = contextvars.ContextVar(
+    "collected", default=None
+)
+
+
+@functools.cache
+def _vl_options() -> dict[str, str]:
+    """vl-convert's Vega-Lite version: the one Altair writes, where vl-convert has it."""
+    import vl_convert
+
+    version = alt.SCHEMA_VERSION.lstrip("v").rsplit(".", 1)[0]
+    return {"vl_version": version} if version in vl_convert.get_vegalite_versions() else {}
 
 
 @functools.cache
@@ -33,15 +64,52 @@ def library() -> str:
     """Vega, Vega-Lite (the version Altair writes) and Vega-Embed as one script, made once per process."""
     import vl_convert
 
-    version = alt.SCHEMA_VERSION.lstrip("v").rsplit(".", 1)[0]
-    options = {"vl_version": version} if version in vl_convert.get_vegalite_versions() else {}
-    return vl_convert.javascript_bundle(**options)
+    return vl_convert.javascript_bundle(**_vl_options())
+
+
+@contextlib.contextmanager
+def collecting() -> Iterator[dict[str, dict[str, Any]]]:
+    """Within it, every :func:`embed`-ed chart's spec lands in the dict it yields, by chart id."""
+    specs: dict[str, dict[str, Any]] = {}
+    token = _collected.set(specs)
+    try:
+        yield specs
+    finally:
+        _collected.reset(token)
+
+
+def write_figures(specs: dict[str, dict[str, Any]], folder: Path) -> list[Path]:
+    """Each main chart of ``specs`` as SVG and PDF in ``folder`` (:data:`FIGURES` names them), for a paper.
+
+    Drawn by vl-convert from the same spec as the page's chart, so the two cannot disagree;
+    the files of charts this report no longer has are removed, so the folder matches the page.
+    """
+    import vl_convert
+
+    from ..common import write_bytes, write_text
+
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for chart_id, stem in FIGURES.items():
+        svg, pdf = folder / f"{stem}.svg", folder / f"{stem}.pdf"
+        if chart_id not in specs:
+            svg.unlink(missing_ok=True)
+            pdf.unlink(missing_ok=True)
+            continue
+        spec = {**json.loads(json.dumps(specs[chart_id]).replace(_CLICK, "")), "background": "white"}
+        write_text(svg, vl_convert.vegalite_to_svg(spec, **_vl_options()))
+        write_bytes(pdf, vl_convert.vegalite_to_pdf(spec, **_vl_options()))
+        written += [svg, pdf]
+    return written
 
 
 def embed(chart: alt.TopLevelMixin, chart_id: str, description: str, caption: str) -> str:
     """A figure that draws ``chart`` when the page loads (the page's head must carry :func:`library`)."""
     spec = chart.to_dict()  # validated against Vega-Lite's schema
     spec.pop("$schema", None)  # a URL nothing needs: the library in the page is that version
+    sink = _collected.get()
+    if sink is not None:
+        sink[chart_id] = spec
     data = json.dumps(spec, separators=(",", ":"), allow_nan=False).replace("<", "\\u003c")
     return (
         f'<figure class="chart"><div id="{escape(chart_id)}" role="img" aria-label="{escape(description)}"></div>'
@@ -71,7 +139,7 @@ def _kernel_colour(colours: dict[str, str]) -> alt.Color:
     """Kernels in the colours of the static figures; every layer the same (layers that disagree drop the legend)."""
     return alt.Color(
         "kernel:N",
-        title="kernel (click to show alone)",
+        title="kernel" + _CLICK,
         scale=alt.Scale(domain=list(colours), range=list(colours.values())),
         legend=alt.Legend(symbolOpacity=1),
     )
@@ -377,7 +445,7 @@ def forest_chart(spd: pd.DataFrame, baseline: str, verdict_colours: dict[str, st
     colour = alt.Color(
         "verdict:N",
         scale=alt.Scale(domain=list(verdict_colours), range=list(verdict_colours.values())),
-        title="verdict (click to show alone)",
+        title="verdict" + _CLICK,
     )
     y = alt.Y("row:N", title=None, sort=None)
     rule = (

@@ -9,6 +9,7 @@ import re
 import shutil
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from html.parser import HTMLParser
 
 import pandas as pd
@@ -503,6 +504,28 @@ def test_the_charts_show_values_on_hover_and_toggle_kernels(rendered):
     assert heights["curless"] == 88_250.0 and heights["moller_trumbore"] == 0.0
     menu = next(p for p in answer["params"] if p["name"] == "band")
     assert menu["bind"]["options"] == list(dict.fromkeys(w for w, _ in want))
+
+
+def test_each_chart_of_the_page_is_also_a_vector_figure_named_by_what_it_shows(rendered, tmp_path):
+    run_dir, _, text = rendered
+    folder = run_dir / "figures"
+    shown = _specs(text)
+    assert sorted(p.name for p in folder.iterdir()) == sorted(
+        f"{charts.FIGURES[c]}.{ext}" for c in shown for ext in ("svg", "pdf")
+    )
+    kernels = {k for spec in shown.values() for k in re.findall(r"\"kernel\": \"(\w+)\"", json.dumps(spec))}
+    for chart_id in shown:
+        svg = (folder / f"{charts.FIGURES[chart_id]}.svg").read_text(encoding="utf-8")
+        assert ET.fromstring(svg).tag.endswith("svg") and "click" not in svg  # a printed legend has no clicks
+        assert (folder / f"{charts.FIGURES[chart_id]}.pdf").read_bytes().startswith(b"%PDF-")
+    legend = (folder / f"{charts.FIGURES['chart-hit-rate']}.svg").read_text(encoding="utf-8")
+    assert kernels and all(k in legend for k in kernels)
+    # a chart the page no longer draws loses its files, so the folder matches the page
+    charts.write_figures({"chart-answer": shown["chart-answer"]}, tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fastest-kernels-per-band.pdf", "fastest-kernels-per-band.svg"]
+    (tmp_path / "speedup-by-hit-rate.svg").write_text("stale")
+    charts.write_figures({}, tmp_path)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_the_answer_chart_draws_an_interval_below_zero_on_a_linear_axis(rendered):

@@ -74,6 +74,7 @@ _ABOUT = {
     rf.GOOGLE_BENCHMARK: "estimates, speedups and the machine record as Google Benchmark JSON (docs/results.md)",
     rf.ANALYSIS: "written last: the SHA-256 of `batches.csv` and `peers.csv`, baseline, margin, tables, pictures",
     rf.REPORT: "the HTML report (`tribench report RUN_DIR`)",
+    rf.FIGURES_DIR + "/": "the report's main charts as SVG and PDF, named by what they show, ready for a paper",
     rf.SWEEP_FILE: "the run's sweep as a file `tribench sweep --file` reads back (`tribench report`)",
     rf.SEED: "`tribench seed`: per scene and kernel, one render's replayed time beside the paper's",
     rf.SEED_KINDS: "`tribench seed`: per scene, ray kind and kernel, ns per test and its share of the render",
@@ -94,7 +95,7 @@ _MEASURED = [
     rf.RAYS_DIR + "/",
 ]
 _DERIVED = [*rf.DERIVED, rf.PICTURES_DIR + "/", rf.GOOGLE_BENCHMARK, rf.ANALYSIS]
-_RENDERED = [rf.REPORT, rf.SWEEP_FILE]
+_RENDERED = [rf.REPORT, rf.FIGURES_DIR + "/", rf.SWEEP_FILE]
 
 _INTRO = f"""\
 # The run folder

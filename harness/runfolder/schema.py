@@ -70,6 +70,7 @@ __all__ = [
     "PROCESSES",
     "RANKING",
     "REPORT",
+    "FIGURES_DIR",
     "RUN",
     "SEED",
     "SEED_KINDS",
@@ -148,6 +149,8 @@ MESHES_DIR = "meshes"  # the copies of tribench.workloads.mesh_files (its RUN_FO
 RAYS_DIR = "rays"  # the ray file copies of tribench.workloads.mesh_files (its RAYS_FOLDER)
 
 REPORT = "report.html"
+#: The report's main charts as SVG and PDF, for a paper (:func:`tribench.reports.charts.write_figures`).
+FIGURES_DIR = "figures"
 SWEEP_FILE = "sweep.toml"
 
 
