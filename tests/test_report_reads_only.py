@@ -73,7 +73,7 @@ def copied(tmp_path_factory):
         mp.setenv("TRIBENCH_CACHE", str(cache_dir))
         original = reports.write_report(run_dir).read_text(encoding="utf-8")
     copy = tmp_path_factory.mktemp("elsewhere") / "run"
-    shutil.copytree(run_dir, copy, ignore=shutil.ignore_patterns("report.html", "sweep.toml", ".lock"))
+    shutil.copytree(run_dir, copy, ignore=shutil.ignore_patterns("report.html", "sweep.toml", "figures", ".lock"))
     return run_dir, original, copy
 
 
@@ -88,7 +88,10 @@ def test_a_copied_run_renders_the_same_report_with_an_empty_cache_and_nothing_co
     assert _comparable(page, copy) == _comparable(original, run_dir)
     assert _files(empty) == []  # no workload generated
     after = _files(copy)
-    assert sorted(set(after) - set(before)) == [copy / "report.html", copy / "sweep.toml"]
+    figures = _files(copy / "figures")
+    assert sorted(set(after) - set(before)) == sorted([copy / "report.html", copy / "sweep.toml", *figures])
+    for svg in (f for f in figures if f.suffix == ".svg"):  # drawn the same (a PDF carries its creation time)
+        assert svg.read_bytes() == (run_dir / "figures" / svg.name).read_bytes()
     assert all(p.read_bytes() == data for p, data in before.items())  # no table rewritten
     assert reports.format_tables(copy) == reports.format_tables(run_dir).replace(str(run_dir), str(copy))
 
