@@ -198,6 +198,7 @@ def test_tribench_export_prints_what_the_analysis_wrote(run_dir, tmp_path):
     assert VALIDATOR.is_valid(json.loads(out.read_text()))
 
 
+@pytest.mark.slow
 def test_tribench_export_refuses_stale_tables_in_one_line(run_dir, tmp_path):
     stale = tmp_path / "stale"
     shutil.copytree(run_dir, stale)

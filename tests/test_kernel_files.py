@@ -203,6 +203,7 @@ def test_the_first_compile_to_fail_stops_the_others(tmp_path):
     assert _first_failure([["true"], ["true"]]) is None
 
 
+@pytest.mark.slow
 def test_a_kernel_file_of_bytes_that_are_not_utf8_is_refused_without_a_traceback(tmp_path, builds):
     junk = tmp_path / "junk.c"
     junk.write_bytes(b"\x00\x01 not C at all \xff\xfe")  # the compiler would quote them back

@@ -189,6 +189,7 @@ def test_run_resume_is_refused_in_one_line_where_it_cannot_apply(tmp_path):
         assert done.returncode == 2 and said in done.stderr and "Traceback" not in done.stderr, done.stderr
 
 
+@pytest.mark.slow
 def test_the_baselines_a_a_twin_sets_the_margin_and_is_ranked_nowhere(tmp_path, monkeypatch):
     from tribench import reports
     from tribench.reports.tables import margin as twin

@@ -90,12 +90,13 @@ def test_a_copied_run_renders_the_same_report_with_an_empty_cache_and_nothing_co
     after = _files(copy)
     figures = _files(copy / "figures")
     assert sorted(set(after) - set(before)) == sorted([copy / "report.html", copy / "sweep.toml", *figures])
-    for svg in (f for f in figures if f.suffix == ".svg"):  # drawn the same (a PDF carries its creation time)
-        assert svg.read_bytes() == (run_dir / "figures" / svg.name).read_bytes()
+    svgs = [f for f in figures if f.suffix == ".svg"]  # the PDF writer orders its objects differently per process
+    assert svgs and all(f.read_bytes() == (run_dir / "figures" / f.name).read_bytes() for f in svgs)
     assert all(p.read_bytes() == data for p, data in before.items())  # no table rewritten
     assert reports.format_tables(copy) == reports.format_tables(run_dir).replace(str(run_dir), str(copy))
 
 
+@pytest.mark.slow
 def test_the_report_command_on_a_copied_run_creates_no_cache_file(copied, tmp_path):
     run_dir, _, copy = copied
     empty = tmp_path / "cache"

@@ -219,6 +219,7 @@ def test_the_object_forms_are_set_beside_the_seeds_program_with_the_models_error
     assert math.isnan(base["predicted_s_low"]) and math.isnan(base["predicted_ratio_high"])  # arithmetic only
 
 
+@pytest.mark.slow
 def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, capsys):
     scene = tmp_path / "tiny.txt"
     scene.write_text(TINY)
