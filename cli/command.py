@@ -33,6 +33,7 @@ COMMANDS = (
     "cache",
     "report",
     "compare",
+    "replicate",
     "export",
 )
 

@@ -22,7 +22,18 @@ from typing import Any
 import altair as alt
 import pandas as pd
 
-__all__ = ["USED", "FIGURES", "library", "embed", "collecting", "write_figures", "answer_chart", "hit_rate_chart", "speedup_hit_rate_chart", "forest_chart"]
+__all__ = [
+    "USED",
+    "FIGURES",
+    "library",
+    "embed",
+    "collecting",
+    "write_figures",
+    "answer_chart",
+    "hit_rate_chart",
+    "speedup_hit_rate_chart",
+    "forest_chart",
+]
 
 #: What every chart's script calls: a page that has it needs :func:`library` in its head.
 USED = "vegaEmbed("
@@ -45,18 +56,16 @@ FIGURES = {
 }
 
 # The specs embedded while a report is rendered, for its vector figures (:func:`collecting`).
-_collected: contextvars.ContextVar[dict[str, dict[str, Any]] | None] = contextvars.ContextVar(
-    "collected", default=None
-)
+_collected: contextvars.ContextVar[dict[str, dict[str, Any]] | None] = contextvars.ContextVar("collected", default=None)
 
 
 @functools.cache
-def _vl_options() -> dict[str, str]:
-    """vl-convert's Vega-Lite version: the one Altair writes, where vl-convert has it."""
+def _vl_version() -> str | None:
+    """vl-convert's Vega-Lite version: the one Altair writes, where vl-convert has it (None: its default)."""
     import vl_convert
 
     version = alt.SCHEMA_VERSION.lstrip("v").rsplit(".", 1)[0]
-    return {"vl_version": version} if version in vl_convert.get_vegalite_versions() else {}
+    return version if version in vl_convert.get_vegalite_versions() else None
 
 
 @functools.cache
@@ -64,7 +73,8 @@ def library() -> str:
     """Vega, Vega-Lite (the version Altair writes) and Vega-Embed as one script, made once per process."""
     import vl_convert
 
-    return vl_convert.javascript_bundle(**_vl_options())
+    version = _vl_version()
+    return vl_convert.javascript_bundle(**({"vl_version": version} if version else {}))
 
 
 @contextlib.contextmanager
@@ -97,7 +107,7 @@ def write_figures(specs: dict[str, dict[str, Any]], folder: Path) -> list[Path]:
             pdf.unlink(missing_ok=True)
             continue
         spec = {**json.loads(json.dumps(specs[chart_id]).replace(_CLICK, "")), "background": "white"}
-        drawn = vl_convert.vegalite_to_svg(spec, **_vl_options())
+        drawn = vl_convert.vegalite_to_svg(spec, vl_version=_vl_version())
         write_text(svg, drawn)
         write_bytes(pdf, vl_convert.svg_to_pdf(drawn))  # the same drawing: a fifth of drawing the spec again
         written += [svg, pdf]

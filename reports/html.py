@@ -20,7 +20,7 @@ from __future__ import annotations
 import pandas as pd
 
 from ..harness import runfolder
-from . import about, builds, bvh, charts, checks, content, figures, headline, page, ranking, results
+from . import about, builds, bvh, charts, checks, content, figures, headline, page, ranking, replication, results
 from . import tables as analysis
 from .about import sweep_toml
 from .headline import headline_sentences
@@ -49,10 +49,14 @@ SECTIONS = {
 }
 
 #: Sections shown open; every other one is collapsed under its title.
-OPEN = frozenset({"answer"})
+OPEN = frozenset({"answer", "replication"})  # a replication is why its report is read
 
 #: Sections a run has only sometimes: id -> (title, id of the section it follows).
-OPTIONAL_SECTIONS = {"builds": ("Across builds", "ranking"), "bvh": ("In a BVH", "scaling")}
+OPTIONAL_SECTIONS = {
+    "replication": ("Replication", "answer"),
+    "builds": ("Across builds", "ranking"),
+    "bvh": ("In a BVH", "scaling"),
+}
 
 #: At most this many workload pictures are drawn, at this resolution, by the analysis step
 #: (:mod:`tribench.reports.tables.pipeline`; 60 dpi: 840 to 1080 px wide, 1.5 to 2 times the ~550 px shown).
@@ -102,7 +106,11 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     }
     # an analysis made before bvh.csv existed has none: no section, as for a run without a BVH workload
     in_bvh = data.tables.get(runfolder.BVH, pd.DataFrame())
-    optional = {"builds": builds.builds_section(data), "bvh": bvh.bvh_section(in_bvh, peers, colours)}
+    optional = {
+        "replication": replication.replication_section(data),
+        "builds": builds.builds_section(data),
+        "bvh": bvh.bvh_section(in_bvh, peers, colours),
+    }
     titles: dict[str, str] = {}
     for sid, title in SECTIONS.items():
         titles[sid] = title

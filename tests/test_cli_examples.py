@@ -70,7 +70,8 @@ def docstring_examples() -> list[str]:
 # `run` and `info --peak` take minutes and seconds: test_cli runs `run --quick` end to end, test_main_job
 # resumes an interrupted main job, and
 # test_cli_flags interrupts `info --peak` once it has started; here they are only parsed.
-SLOW = {"run --quick", "run", "run --resume {run}", "info --peak"}
+# run, or resumed with a run of their own elsewhere (test_replicate.py resumes a replication)
+SLOW = {"run --quick", "run", "run --resume {run}", "info --peak", "replicate {run} --resume {run_b}"}
 CONCRETE = {
     "tribench info [--peak]": ["info", "info --peak"],
     "tribench run [--quick] [--resume RUN_DIR]": ["run", "run --quick", "run --resume {run}"],
@@ -111,6 +112,10 @@ CONCRETE = {
         "compare {run} {run_b} --out {tmp}/compare.html",
         "compare {run} {run_b} --fail-if-slower",  # a copy: no kernel is slower, the gate passes
         "compare {run} {run_b} {run_c} --out {tmp}/compare3.html",
+    ],
+    "tribench replicate RUN_DIR [--out NEW_DIR] [--resume NEW_DIR]": [
+        "replicate {run} --out {tmp}/rep --no-progress",
+        "replicate {run} --resume {run_b}",
     ],
     "tribench export RUN_DIR [--format FORMAT] [--out FILE]": [
         "export {run}",

@@ -522,7 +522,8 @@ def test_each_chart_of_the_page_is_also_a_vector_figure_named_by_what_it_shows(r
     assert kernels and all(k in legend for k in kernels)
     # a chart the page no longer draws loses its files, so the folder matches the page
     charts.write_figures({"chart-answer": shown["chart-answer"]}, tmp_path)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["fastest-kernels-per-band.pdf", "fastest-kernels-per-band.svg"]
+    stem = charts.FIGURES["chart-answer"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"{stem}.pdf", f"{stem}.svg"]
     (tmp_path / "speedup-by-hit-rate.svg").write_text("stale")
     charts.write_figures({}, tmp_path)
     assert list(tmp_path.iterdir()) == []

@@ -366,3 +366,21 @@ PEER_RATIOS_COLUMNS: dict[str, str] = {
     "ci_high": "upper end of that interval",
     "n_processes": "paired processes (count)",
 }
+
+REPLICATION_COLUMNS: dict[str, str] = {
+    "conclusion": "against the baseline (speedups.csv), order of two (two kernels on a workload) or place in its band",
+    "where": "the workload (family: label), or the band (precision, band)",
+    "workload_id": "the workload's id (empty for a band)",
+    "kernel": "the kernel the conclusion is about",
+    "other_kernel": "the kernel it is measured against: the baseline, the other of the two, or the band's fastest",
+    "original_ratio": "in the original run: the speedup, time_other / time_kernel, or time over the band's fastest",
+    "original_ci_low": "lower end of its interval, as the original run's table gives it",
+    "original_ci_high": "upper end of that interval",
+    "original_verdict": "the original run's verdict (faster, slower, equivalent, fastest, behind the fastest, "
+    "inconclusive)",
+    "replicated_ratio": "the same ratio measured here",
+    "replicated_ci_low": "lower end of its interval",
+    "replicated_ci_high": "upper end of that interval",
+    "replicated_verdict": "the verdict here",
+    "word": "holds, reversed (another decided verdict), now inconclusive, now decided or still inconclusive",
+}

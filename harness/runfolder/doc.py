@@ -76,6 +76,8 @@ _ABOUT = {
     rf.REPORT: "the HTML report (`tribench report RUN_DIR`)",
     rf.FIGURES_DIR + "/": "the report's main charts as SVG and PDF, named by what they show, ready for a paper",
     rf.SWEEP_FILE: "the run's sweep as a file `tribench sweep --file` reads back (`tribench report`)",
+    rf.REPLICATION: "`tribench replicate`: each conclusion of the original run beside the same measured here, "
+    "with both intervals and a word: holds, reversed, now inconclusive, now decided or still inconclusive",
     rf.SEED: "`tribench seed`: per scene and kernel, one render's replayed time beside the paper's",
     rf.SEED_KINDS: "`tribench seed`: per scene, ray kind and kernel, ns per test and its share of the render",
     rf.SEED_WORKLOADS: "`tribench seed`: the sampled ray streams of each render, with their hit rates",
@@ -149,10 +151,12 @@ def render() -> str:
     lines += [*_files(_MEASURED), f"Also `{rf.CALIBRATION}`: {_ABOUT[rf.CALIBRATION]}.", ""]
     lines += ["Derived, by the analysis step, in this order:", "", *_files(_DERIVED)]
     lines += ["Rendered, by `tribench report`, which changes nothing above:", "", *_files(_RENDERED)]
-    lines += [f"Only sometimes there: {optional} (the peers need an installed peer).", ""]
+    lines += ["Compared, by `tribench replicate` in the new run folder:", "", *_files([rf.REPLICATION])]
+    lines += [f"Only sometimes there: {optional} (the peers need an installed peer; a replication has its table).", ""]
     sections = [
-        ("The measured files' columns", [n for n in rf.FILES if n not in rf.DERIVED], rf.FILES),
+        ("The measured files' columns", [n for n in rf.FILES if n not in (*rf.DERIVED, rf.REPLICATION)], rf.FILES),
         ("The derived tables' columns", list(rf.DERIVED), rf.FILES),
+        ("`tribench replicate`'s table", [rf.REPLICATION], rf.FILES),
         ("`tribench seed`'s tables, beside the files above", list(rf.SEED_FILES), rf.SEED_FILES),
     ]
     for title, names, schema in sections:

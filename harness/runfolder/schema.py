@@ -25,6 +25,7 @@ from .derived_columns import (
     PEER_RATIOS_COLUMNS,
     PER_PROCESS_COLUMNS,
     RANKING_COLUMNS,
+    REPLICATION_COLUMNS,
     SLOPES_COLUMNS,
     SPEEDUPS_COLUMNS,
     VALIDATE_COLUMNS,
@@ -62,6 +63,7 @@ __all__ = [
     "OUTLIERS",
     "PEERS",
     "PEER_RATES",
+    "REPLICATION",
     "PEER_RATIOS",
     "PER_PROCESS",
     "PICTURES_DIR",
@@ -135,6 +137,8 @@ ALGORITHMS = "algorithms.csv"
 BANDS = "bands.csv"
 BVH = "bvh.csv"
 PEER_RATES = "peer_rates.csv"
+#: ``tribench replicate``: each conclusion of the original run beside the same measured here.
+REPLICATION = "replication.csv"
 PEER_RATIOS = "peer_ratios.csv"
 #: Across the builds of a ``--builds`` run: which order of two kernels holds under every build.
 BUILDS = "builds.csv"
@@ -195,6 +199,7 @@ FILES: dict[str, dict[str, str]] = {
     PEER_RATES: PEER_RATES_COLUMNS,
     PEER_RATIOS: PEER_RATIOS_COLUMNS,
     BUILDS: BUILDS_COLUMNS,
+    REPLICATION: REPLICATION_COLUMNS,
 }
 #: The derived tables made from the batches, one part per build: each starts with a ``build`` column,
 #: and a build's rows are made from its own processes alone (the processes take the builds in turn).
@@ -238,8 +243,8 @@ DERIVED: tuple[str, ...] = (
     PEER_RATIOS,
 )
 
-#: Files a run folder has only sometimes (the peers need an installed peer).
-OPTIONAL = frozenset({PEERS, PEER_RATES, PEER_RATIOS})
+#: Files a run folder has only sometimes (the peers need an installed peer; a replication has its table).
+OPTIONAL = frozenset({PEERS, PEER_RATES, PEER_RATIOS, REPLICATION})
 
 
 def describe(name: str) -> str:

@@ -1,0 +1,72 @@
+"""``tribench replicate``'s measuring half: a run folder's plan, measured again on this machine.
+
+The same workloads (by spec and RNG seed, so the same ids; mesh and ray files from the
+folder's copies), the same kernels (kernel files from the folder's copies), the same
+design; of its builds, those whose compiler is here. What this machine cannot run is
+left out and said. Comparing the two runs is :mod:`tribench.reports.tables.replication`'s.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from pathlib import Path
+
+from ... import ext
+from ...common import UserError
+from ...ext.builds import toolchain_of
+from ...workloads import mesh_files
+from .. import runfolder, runner
+from ..plan import Sweep
+from .sweep import run_sweep
+
+__all__ = ["replication_plan", "measure"]
+
+
+def replication_plan(run_dir: str | Path) -> tuple[Sweep, list[str]]:
+    """The sweep of ``run_dir`` as this machine can run it, and one line per thing it leaves out."""
+    run_dir = Path(run_dir)
+    record = runfolder.read_run(run_dir)
+    mesh_files.adopt(run_dir)  # the folder's mesh and ray copies: its workloads rebuild without the originals
+    sweep = Sweep.from_dict(record["sweep"], run_dir)
+    for path in sweep.kernel_files:
+        ext.load_kernels(path)  # their kernels join the registry (run_sweep checks their answers)
+    notes = []
+    builds = []
+    for build in sweep.builds:
+        try:
+            toolchain_of(build)
+            builds.append(build)
+        except ext.BuildError as e:
+            notes.append(f"left out: {e}")
+    known = set(ext.kernel_names(internal=True))
+    gone = [k for k in sweep.kernels if k not in known]
+    if gone:
+        notes.append(f"left out: {', '.join(gone)}, which this machine's build cannot run")
+    kernels = tuple(k for k in sweep.kernels if k in known)
+    if not kernels:
+        raise UserError(f"none of {run_dir}'s kernels runs on this machine: nothing to replicate")
+    per_workload = tuple(tuple(k for k in ks if k in known) for ks in sweep.workload_kernels)
+    return dataclasses.replace(sweep, kernels=kernels, workload_kernels=per_workload, builds=tuple(builds)), notes
+
+
+def measure(
+    run_dir: str | Path,
+    out: str | Path,
+    *,
+    say: Callable[[str], None],
+    cpu: int | None = None,
+    progress: bool | None = None,
+) -> runner.RunResult:
+    """Measure ``run_dir``'s plan into the new folder ``out``; its ``run.json`` names the original."""
+    sweep, notes = replication_plan(run_dir)
+    for line in notes:
+        say(line)
+    original = runfolder.read_run(run_dir)
+    replicates = {
+        "run_dir": str(Path(run_dir).resolve()),
+        "run_id": original.get("run_id"),
+        "machine": original.get("machine", {}),
+        "left_out": notes,
+    }
+    return run_sweep(sweep, out, say=say, cpu=cpu, progress=progress, extra={"replicates": replicates})
