@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import math
@@ -37,15 +38,17 @@ def _steadied(batches: pd.DataFrame) -> pd.DataFrame:
     return batches.assign(elapsed_ns=(median * batches["tests"] * jitter).round().astype("int64"))
 
 
-@pytest.fixture(scope="module")
-def two_runs(tmp_path_factory):
+@contextlib.contextmanager
+def steadied_pair(tmp_path_factory, kernel: str, factor: float):
+    """Two analysed copies of the session's run, steadied (:func:`_steadied`), ``kernel`` made exactly
+    ``factor`` times faster in the second; ``TRIBENCH_CACHE`` is the run's cache while they are used."""
     measured, cache = run_fixture_dir(tmp_path_factory)
-    folder = tmp_path_factory.mktemp("compare")
+    folder = tmp_path_factory.mktemp("pair")
     run_a, run_b = folder / "run_a", folder / "run_b"
     a = _steadied(pd.read_csv(measured / "batches.csv"))
     b = a.copy()
-    faster = b["kernel"] == "moller_trumbore"
-    b.loc[faster, "elapsed_ns"] = (b.loc[faster, "elapsed_ns"] / FACTOR).round().astype("int64")
+    faster = b["kernel"] == kernel
+    b.loc[faster, "elapsed_ns"] = (b.loc[faster, "elapsed_ns"] / factor).round().astype("int64")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("TRIBENCH_CACHE", str(cache))
         for run, batches in ((run_a, a), (run_b, b)):
@@ -53,6 +56,12 @@ def two_runs(tmp_path_factory):
             batches.to_csv(run / "batches.csv", index=False)
             analysed(run)  # `tribench stats`: compare reads the tables, as the report does
         yield run_a, run_b
+
+
+@pytest.fixture(scope="module")
+def two_runs(tmp_path_factory):
+    with steadied_pair(tmp_path_factory, "moller_trumbore", FACTOR) as runs:
+        yield runs
 
 
 def test_ratio_of_speedups_recovers_a_known_factor(two_runs):

@@ -10,9 +10,8 @@ import sys
 
 import pandas as pd
 import pytest
-from conftest import analysed
-from test_compare import _steadied
-from test_report_run import copy_run_inputs, run_fixture_dir
+from test_compare import steadied_pair
+from test_report_run import run_fixture_dir
 
 from tribench import reports
 from tribench.harness import runfolder
@@ -46,20 +45,8 @@ def test_each_pair_of_verdicts_gets_its_word(original, replicated, expected):
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """The session's run, steadied (the original), and the same with curless made 4x faster (the replication)."""
-    measured, cache = run_fixture_dir(tmp_path_factory)
-    folder = tmp_path_factory.mktemp("replicate")
-    original, replicated = folder / "original", folder / "replicated"
-    a = _steadied(pd.read_csv(measured / "batches.csv"))
-    b = a.copy()
-    faster = b["kernel"] == "curless"
-    b.loc[faster, "elapsed_ns"] = (b.loc[faster, "elapsed_ns"] / SPEEDUP).round().astype("int64")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("TRIBENCH_CACHE", str(cache))
-        for run, batches in ((original, a), (replicated, b)):
-            copy_run_inputs(measured, run)
-            batches.to_csv(run / "batches.csv", index=False)
-            analysed(run)
-        yield original, replicated
+    with steadied_pair(tmp_path_factory, "curless", SPEEDUP) as pair:
+        yield pair
 
 
 def test_a_kernel_made_faster_reverses_its_conclusions_and_the_rest_keep_theirs(runs):
