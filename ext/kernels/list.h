@@ -85,10 +85,16 @@
     X(moller_trumbore_yardstick, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_NATIVE_AVX2)
 #endif /* TB_KERNEL_FILE */
 
-/* The values of the columns. */
+/* The values of the columns. The wide column is pasted into macro names
+ * (below), where an unknown value (a removed form's) would fail far from its
+ * line; read once as a value here, it is an undeclared name at its line. */
 enum { TB_BOTH_FACES, TB_FRONT_FACES };
 enum { TB_OPEN, TB_WATERTIGHT };
 enum { TB_CLEAN, TB_SEED_REPLAY };
+enum { TB_SCALAR_ONLY, TB_NATIVE, TB_NATIVE_AVX2 };
+#define TB_CHECK_WIDE(name, faces, watertight, promised_by, origin, wide) tb_##name##_wide_column = wide,
+enum { TB_KERNEL_LIST(TB_CHECK_WIDE) TB_INTERNAL_KERNEL_LIST(TB_CHECK_WIDE) tb_wide_columns_checked };
+#undef TB_CHECK_WIDE
 /* TB_IF_SCALAR(wide, ...): the rest of the arguments for a scalar kernel,
  * nothing for a native one (the wide column is pasted, not evaluated: any
  * other value stops the build) */
