@@ -42,10 +42,9 @@
  * A native kernel's file defines the same names, its test over a vector of
  * triangles (native.h). The loops are instantiated once per kernel, mode and
  * ISA, so tests inline into them and dispatch happens once per batch. The
- * loops pass the best t so far as
- * t_max, as a ray tracer shrinks its interval; a kernel that reads u and v
- * only for the closest_uv mode has their arithmetic removed elsewhere as
- * dead code.
+ * loops pass the best t so far as t_max, as a ray tracer shrinks its
+ * interval; a kernel that reads u and v only for the closest_uv mode has
+ * their arithmetic removed elsewhere as dead code.
  *
  * Operation counts (the work behind `tribench info --peak`'s bound): every
  * floating-point add, subtract, multiply, divide, square root, comparison

@@ -21,10 +21,11 @@
  *   origin       TB_CLEAN, or TB_SEED_REPLAY: a faithful copy of the seed's
  *                code, flaws included, whose differences from the reference are
  *                measured and recorded, never judged
- *   wide         TB_SCALAR_ONLY, or TB_NATIVE: the kernel itself is wide, at the CPU's native
- *                width (native.h: blocks of 16 triangles, one vector per 16
- *                float lanes), with no scalar form; TB_NATIVE_AVX2: the same,
- *                compiled for AVX2 only (the yardstick)
+ *   wide         TB_SCALAR_ONLY, or TB_NATIVE: the kernel itself is wide, at
+ *                the CPU's native width (native.h: blocks of 16 triangles, one
+ *                vector per 16 float lanes), with no scalar form;
+ *                TB_NATIVE_AVX2: the same, compiled for AVX2 only (the
+ *                yardstick)
  * Every kernel is compiled for float32 and float64. Bytes per prepared
  * triangle (tb_<name>_stride), operations per test (tb_<name>_ops) and
  * what becomes of an exactly flat triangle
@@ -96,8 +97,7 @@ enum { TB_SCALAR_ONLY, TB_NATIVE, TB_NATIVE_AVX2 };
 enum { TB_KERNEL_LIST(TB_CHECK_WIDE) TB_INTERNAL_KERNEL_LIST(TB_CHECK_WIDE) tb_wide_columns_checked };
 #undef TB_CHECK_WIDE
 /* TB_IF_SCALAR(wide, ...): the rest of the arguments for a scalar kernel,
- * nothing for a native one (the wide column is pasted, not evaluated: any
- * other value stops the build) */
+ * nothing for a native one */
 #define TB_IF_SCALAR(wide, ...) TB_IF_SCALAR_##wide(__VA_ARGS__)
 #define TB_IF_SCALAR_TB_SCALAR_ONLY(...) __VA_ARGS__
 #define TB_IF_SCALAR_TB_NATIVE(...)
