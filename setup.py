@@ -21,7 +21,7 @@ from setuptools.command.build_py import build_py
 # -ffp-contract=off: no silent FMA contraction (it changes results, and breaks
 # watertight kernels); never -ffast-math (it removes the NaN/Inf handling the
 # suite measures). No -march: one build runs on any CPU of its architecture.
-# -Wno-psabi: the 8-lane vector helpers are always inlined, so the ABI note
+# -Wno-psabi: the wide loops' vector helpers are always inlined, so the ABI note
 # GCC gives for vector arguments in the SSE2 baseline build never applies.
 KERNEL_FLAGS = ["-std=c11", "-O3", "-ffp-contract=off", "-fno-math-errno", "-Wall", "-Wextra", "-Wno-psabi"]
 SANITIZE_FLAGS = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", "-O1", "-g"]

@@ -1,6 +1,6 @@
 """Each native form's bound from the loop its ISA compiled, beside the declared one.
 
-`tribench info --peak --isa avx2` holds every wide form to AVX2 but bounds it by its
+`tribench info --peak --isa avx2` holds every native kernel to AVX2 but bounds it by its
 declared mix (``tb_<name>_mix``), counted in the AVX-512 loop. AVX2 has no mask
 registers: a compare yields a vector, and combining or selecting by it costs logic
 instructions on the vector pipes that AVX-512's mask registers do not. This reads

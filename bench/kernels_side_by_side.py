@@ -27,7 +27,7 @@ def main() -> None:
     args = ap.parse_args()
     print(describe())
     rng = np.random.default_rng(0)
-    kernels = [k for k in ext.kernel_names() if "pairs" in ext.kernel_info(k).modes]  # wide forms have no pairs
+    kernels = [k for k in ext.kernel_names() if "pairs" in ext.kernel_info(k).modes]  # native kernels have no pairs
     print(f"{'dtype':<8}{'hit':>5}  " + "".join(f"{k:>17}" for k in kernels) + "   (ns/test, x = speed vs moller_seed)")
     for dtype in (np.float32, np.float64):
         for h in map(float, args.hit_rates.split(",")):

@@ -6,11 +6,11 @@ the order of all algorithms. A real sweep through the harness (fresh pinned
 processes, interleaved rounds, checked answers), then its analysis and report:
 
 * pairs at per-test hit rates 0, 25, 50, 75, 100% (4096 pairs: in L2): the
-  scalar forms only (wide and native forms have no pairs mode), so this is
+  scalar forms only (native forms have no pairs mode), so this is
   the algorithms' scalar cores, test by test;
 * Suzanne at 1,280 triangles, brute force: the seed's camera (32 x 32 rays)
   and rays hitting the mesh at per-ray rates 0, 50 and 100% (1,024 rays): every
-  form, scalar, 8-lane and native.
+  form, scalar and native.
 
 Printed: per workload, the algorithms from the fastest down (each by its
 fastest form; its time over the fastest's with a simultaneous 95% CI), and the
@@ -40,7 +40,7 @@ DTYPES = ("float32", "float64")
 
 
 def kernels() -> tuple[str, ...]:
-    """Every public kernel this build has: the seed's two, the clean scalar forms, the 8-lane and native ones."""
+    """Every public kernel this build has: the seed's two, the clean scalar forms, the native ones."""
     return tuple(ext.kernel_names())
 
 

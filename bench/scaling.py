@@ -43,7 +43,7 @@ from tribench import ext
 from tribench.harness import layout
 from tribench.harness.machine import cache_bytes, describe
 
-DEFAULT_KERNELS = ("moller_trumbore", "moller_trumbore_x8")
+DEFAULT_KERNELS = ("moller_trumbore", "moller_trumbore_fma")
 
 
 def level(nbytes: int, caches: dict[str, int]) -> str:

@@ -7,10 +7,8 @@ process, on the same rays. Rounds interleave every (kernel, ISA) in a fresh
 random order; each batch is timed in C (about 2 ms). Printed per workload:
 the median and the best (least disturbed: the machine is shared) ns/test,
 the median over rounds of each one's ratio to the yardstick (>1: slower than
-the yardstick) with the 10-90% range of those per-round ratios, and the
-issue's target figure, today's moller_trumbore_x8 over the fastest kernel
-(from the best and from the median ns/test). One process, so this is a
-quick look, not the harness's protocol (no CI across processes).
+the yardstick) with the 10-90% range of those per-round ratios. One process,
+so this is a quick look, not the harness's protocol (no CI across processes).
 
 Workloads (float32 unless --dtype):
   camera   Suzanne subdivided to 1,280 triangles, 128 x 128 camera rays,
@@ -34,31 +32,22 @@ from tribench.harness.machine import describe
 from tribench.workloads.spec import MeshSpec
 
 YARDSTICK = "moller_trumbore_yardstick"
-TODAY = "moller_trumbore_x8"
-# (kernel, ISA or None for its default): the Moller forms, the fastest _x8 form of
-# each algorithm and its native form, and the native Moller forms held to AVX2
-# as well (what an AVX2-only machine would run)
+# (kernel, ISA or None for its default): the Moller forms, each algorithm's native
+# form, and the native Moller forms held to AVX2 as well (what an AVX2-only
+# machine would run)
 FORMS = [
     (YARDSTICK, "avx2"),
     ("moller_trumbore", None),
-    (TODAY, None),
-    (TODAY, "avx2"),
     ("moller_trumbore_fma", None),
     ("moller_trumbore_fma_exit", None),
     ("moller_trumbore_fma", "avx2"),
     ("moller_trumbore_fma_exit", "avx2"),
-    ("moller_trumbore_cull_x8", None),
     ("moller_trumbore_cull_fma", None),
-    ("baldwin_weber_12_x8", None),
     ("baldwin_weber_12_fma", None),
     ("baldwin_weber_9_fma", None),
-    ("havel_herout_x8", None),
     ("havel_herout_fma", None),
-    ("woop_x8", None),
     ("woop_fma", None),
-    ("plucker_x8", None),
     ("plucker_fma", None),
-    ("curless_x8", None),
     ("curless_fma", None),
 ]
 
@@ -100,18 +89,6 @@ def bench(name: str, o: np.ndarray, d: np.ndarray, tris: np.ndarray, rounds: int
         isa = f[1] or ext.kernel_info(f[0]).isa
         ns = f"{np.median(times[f]):>8.3f}{min(times[f]):>8.3f}"
         print(f"  {f[0]:<26}{isa:<9}{ns}{np.median(ratio):>13.3f}  [{lo:.3f}, {hi:.3f}]")
-    # the target asks for the fastest kernel that answers the same question: both faces
-    candidates = [f for f in forms if f[0] != YARDSTICK and not ext.kernel_info(f[0]).culls_back_faces]
-    avx2 = [f for f in candidates if (f[1] or ext.kernel_info(f[0]).isa) == "avx2"]
-    for label, stat in (("best", min), ("median", np.median)):
-        ns = {f: float(stat(v)) for f, v in times.items()}
-        fastest = min(candidates, key=ns.__getitem__)
-        ratio = ns[(TODAY, None)] / ns[fastest]
-        line = f"  target, {label} ns: {TODAY} / {fastest[0]} ({fastest[1] or 'default'}) = {ratio:.2f}x"
-        if (TODAY, "avx2") in ns and avx2:
-            best2 = min(avx2, key=ns.__getitem__)
-            line += f"; both held to AVX2: {ns[(TODAY, 'avx2')] / ns[best2]:.2f}x ({best2[0]})"
-        print(line)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -22,7 +22,7 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--isa",
         choices=("avx512", "avx2", "baseline"),
-        help="with --peak: hold every wide form to this instruction set and probe the pipes on it "
+        help="with --peak: hold every native kernel to this instruction set and probe the pipes on it "
         "(default: the widest this CPU runs)",
     )
     add_kernel_files(p)
@@ -100,7 +100,7 @@ def _print_peak(width: int, isa: str | None) -> None:
         file=sys.stderr,
     )
     gflops, peak_isa, rate_isa, rates, table = camera_fractions(isa=isa)
-    held = "every wide form held to it" if isa else "widest vector"
+    held = "every native kernel held to it" if isa else "widest vector"
     print(f"\nthroughput probes ({rate_isa}, {held}), lane-ops per ns:")
     for dtype, r in rates.items():
         print(f"  {dtype:<8}" + "  ".join(f"{c} {v:.1f}" for c, v in r.items()))

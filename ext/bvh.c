@@ -33,7 +33,6 @@ typedef struct {
 #define TB_BVH_FNS_F64(name, isa) TB_BVH_FNS(name, isa, _f64)
 #define TB_BVH_KERNEL(name, faces, watertight, promised_by, origin, wide) TB_BVH_KERNEL_##wide(name)
 #define TB_BVH_KERNEL_TB_SCALAR_ONLY(name)
-#define TB_BVH_KERNEL_TB_X8(name)
 #define TB_BVH_KERNEL_TB_NATIVE_AVX2(name)
 #define TB_BVH_KERNEL_TB_NATIVE(name) \
     {#name, {TB_NATIVE_ISA_LIST(TB_BVH_FNS_F32, name)}, {TB_NATIVE_ISA_LIST(TB_BVH_FNS_F64, name)}},

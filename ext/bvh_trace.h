@@ -513,7 +513,6 @@ stop:
 #define TB_BVH_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
     TB_BVH_IF_##wide(TB_BVH_ENTRIES(name))
 #define TB_BVH_IF_TB_SCALAR_ONLY(...)
-#define TB_BVH_IF_TB_X8(...)
 #define TB_BVH_IF_TB_NATIVE(...) __VA_ARGS__
 #define TB_BVH_IF_TB_NATIVE_AVX2(...)
 #if TB_CAT(TB_EMIT_, TB_NISA) /* as native.h's entry points */
@@ -521,7 +520,6 @@ TB_KERNEL_LIST(TB_BVH_INSTANTIATE)
 #endif
 #undef TB_BVH_IF_TB_NATIVE_AVX2
 #undef TB_BVH_IF_TB_NATIVE
-#undef TB_BVH_IF_TB_X8
 #undef TB_BVH_IF_TB_SCALAR_ONLY
 #undef TB_BVH_INSTANTIATE
 #undef TB_BVH_ENTRIES

@@ -5,9 +5,9 @@
  * parallel (setup.py): _core.c (the module and its method table), registry.c
  * (the kernel registry, prepare, run and time), bvh.c (the BVH's build and
  * glue), probes.c (the FMA peak and the throughput probes), and one file of
- * loops per ISA and precision, isa_<isa>_<f32|f64>.c (the _x8 forms, the
- * native kernels and their BVH traversal compiled for that ISA, and with the
- * baseline the scalar kernels: about 95% of the build's work). A file
+ * loops per ISA and precision, isa_<isa>_<f32|f64>.c (the native kernels
+ * and their BVH traversal compiled for that ISA, and with the baseline the
+ * scalar kernels: about 95% of the build's work). A file
  * that compiles loops includes kernels.h once per precision, after saying
  * which parts it compiles (TB_EMIT_*, see kernels.h); the registry finds
  * their entry points through the declarations below, made from the same
@@ -161,25 +161,16 @@ TB_INTERNAL_KERNEL_LIST(TB_DECLARE_SCALAR)
 #undef TB_DECLARE_SCALAR
 #undef TB_DECLARE_SCALAR_
 
-/* a wide loop's five (an _x8 form's or a native kernel's), per ISA and precision */
-#define TB_DECLARE_WIDE_(fn, isa, sfx)                                                             \
-    TB_HIDDEN void fn##_run_any_##isa##sfx(tb_job *);                                              \
-    TB_HIDDEN void fn##_run_closest_##isa##sfx(tb_job *);                                          \
-    TB_HIDDEN void fn##_time_any_##isa##sfx(tb_job *);                                             \
-    TB_HIDDEN void fn##_time_closest_##isa##sfx(tb_job *);                                         \
-    TB_HIDDEN void fn##_time_closest_uv_##isa##sfx(tb_job *);
-#define TB_DECLARE_X8_ISA(name, isa, target)                                                       \
-    TB_DECLARE_WIDE_(tb_##name##_x8, isa, _f32) TB_DECLARE_WIDE_(tb_##name##_x8, isa, _f64)
-#define TB_DECLARE_X8(name, faces, watertight, promised_by, origin, wide)                          \
-    TB_IF_X8(wide, TB_ISA_LIST(TB_DECLARE_X8_ISA, name))
-TB_KERNEL_LIST(TB_DECLARE_X8)
-#undef TB_DECLARE_X8
-#undef TB_DECLARE_X8_ISA
-
-/* a native kernel's, and (public TB_NATIVE kernels) its BVH traversals' six
- * per tree (wide, binary_; bvh.py's "packets" is the wide one's with job->packets) */
-#define TB_DECLARE_NATIVE_ISA(name, isa)                                                           \
-    TB_DECLARE_WIDE_(tb_##name, isa, _f32) TB_DECLARE_WIDE_(tb_##name, isa, _f64)
+/* a native kernel's five, per ISA and precision, and (public TB_NATIVE
+ * kernels) its BVH traversals' six per tree (wide, binary_; bvh.py's
+ * "packets" is the wide one's with job->packets) */
+#define TB_DECLARE_NATIVE_(name, isa, sfx)                                                         \
+    TB_HIDDEN void tb_##name##_run_any_##isa##sfx(tb_job *);                                       \
+    TB_HIDDEN void tb_##name##_run_closest_##isa##sfx(tb_job *);                                   \
+    TB_HIDDEN void tb_##name##_time_any_##isa##sfx(tb_job *);                                      \
+    TB_HIDDEN void tb_##name##_time_closest_##isa##sfx(tb_job *);                                  \
+    TB_HIDDEN void tb_##name##_time_closest_uv_##isa##sfx(tb_job *);
+#define TB_DECLARE_NATIVE_ISA(name, isa) TB_DECLARE_NATIVE_(name, isa, _f32) TB_DECLARE_NATIVE_(name, isa, _f64)
 #define TB_DECLARE_BVH_TREE(name, tree, isa, sfx)                                                  \
     TB_HIDDEN void tb_##name##_bvh_##tree##run_any_##isa##sfx(tb_bvh_job *);                       \
     TB_HIDDEN void tb_##name##_bvh_##tree##run_closest_##isa##sfx(tb_bvh_job *);                   \
@@ -192,7 +183,6 @@ TB_KERNEL_LIST(TB_DECLARE_X8)
 #define TB_DECLARE_BVH_ISA(name, isa) TB_DECLARE_BVH_(name, isa, _f32) TB_DECLARE_BVH_(name, isa, _f64)
 #define TB_DECLARE_NATIVE(name, faces, watertight, promised_by, origin, wide) TB_DECLARE_NATIVE_##wide(name)
 #define TB_DECLARE_NATIVE_TB_SCALAR_ONLY(name)
-#define TB_DECLARE_NATIVE_TB_X8(name)
 #define TB_DECLARE_NATIVE_TB_NATIVE(name)                                                          \
     TB_NATIVE_ISA_LIST(TB_DECLARE_NATIVE_ISA, name) TB_NATIVE_ISA_LIST(TB_DECLARE_BVH_ISA, name)
 #define TB_DECLARE_NATIVE_TB_NATIVE_AVX2(name) TB_NATIVE_AVX2_ISA_LIST(TB_DECLARE_NATIVE_ISA, name)
@@ -203,13 +193,12 @@ TB_KERNEL_LIST(TB_DECLARE_NATIVE)
 TB_INTERNAL_KERNEL_LIST(TB_DECLARE_NATIVE)
 #undef TB_DECLARE_NATIVE_TB_NATIVE_AVX2
 #undef TB_DECLARE_NATIVE_TB_NATIVE
-#undef TB_DECLARE_NATIVE_TB_X8
 #undef TB_DECLARE_NATIVE_TB_SCALAR_ONLY
 #undef TB_DECLARE_NATIVE
 #undef TB_DECLARE_BVH_ISA
 #undef TB_DECLARE_BVH_
 #undef TB_DECLARE_NATIVE_ISA
-#undef TB_DECLARE_WIDE_
+#undef TB_DECLARE_NATIVE_
 
 /* ------------------------------------------------------ the glue's helpers */
 

@@ -143,7 +143,7 @@ def intersect(
 
     >>> import numpy as np
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
-    >>> r = intersect("moller_trumbore_x8", np.array([[0.25, 0.5, 1.0]]),
+    >>> r = intersect("moller_trumbore_fma", np.array([[0.25, 0.5, 1.0]]),
     ...               np.array([[0.0, 0, -1]]), tri)
     >>> int(r.index[0]), float(r.t[0]), float(r.u[0]), float(r.v[0])
     (0, 1.0, 0.25, 0.5)

@@ -1,8 +1,7 @@
-/* The wide loops compiled for AVX2 (with FMA for the native kernels and the
- * yardstick), in float32: the _x8 forms (kernels.h), the native kernels
- * (native.h) and their BVH traversals (bvh_trace.h). One file per ISA and precision:
- * the largest files of the build, of about one size, so a parallel build keeps
- * every core busy. */
+/* The wide loops compiled for AVX2 with FMA (the yardstick's too), in
+ * float32: the native kernels (native.h) and their BVH traversals
+ * (bvh_trace.h). One file per ISA and precision: the largest files of the
+ * build, of about one size, so a parallel build keeps every core busy. */
 
 #include "core.h"
 

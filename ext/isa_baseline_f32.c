@@ -1,7 +1,7 @@
 /* The loops compiled for the build's own ISA (SSE2 on x86-64: no -march), in
  * float32: every scalar kernel's (kernels.h) and the baseline form of the wide
- * ones: the _x8 forms (kernels.h), the native kernels (native.h) and their BVH
- * traversals (bvh_trace.h). One file per ISA and precision: the largest files of the
+ * ones: the native kernels (native.h) and their BVH traversals
+ * (bvh_trace.h). One file per ISA and precision: the largest files of the
  * build, of about one size, so a parallel build keeps every core busy. The
  * scalar loops are here rather than in a file of their own for GCC's
  * inliner: it stops inlining once a file has grown by --param

@@ -7,14 +7,13 @@
  * or 0 (the baseline: SSE2 on x86-64). Every symbol gets the ISA and the
  * precision as suffixes.
  *
- * Why a second wide loop: the _x8 forms (kernels.h) use one 32-byte vector
- * type for every ISA, so they run half the width of an AVX-512 core, and
- * vector-extension comparisons wider than that lower badly (kernels.h). Here
- * the vector is the ISA's own register (__m512 / __m256 / __m128 and their
- * double forms), comparisons give the ISA's own masks (__mmask16 or a vector),
- * and fused multiply-adds are explicit: 16 float / 8 double lanes with
- * AVX-512, 8 / 4 with AVX2, 4 / 2 on the baseline (whose "fused" operations
- * are a multiply and an add, rounded twice).
+ * The vector is the ISA's own register (__m512 / __m256 / __m128 and their
+ * double forms), not one generic vector type for every ISA (which would run
+ * half an AVX-512 core's width, or lower wider comparisons to scalar compares
+ * without AVX-512); comparisons give the ISA's own masks (__mmask16 or a
+ * vector), and fused multiply-adds are explicit: 16 float / 8 double lanes
+ * with AVX-512, 8 / 4 with AVX2, 4 / 2 on the baseline (whose "fused"
+ * operations are a multiply and an add, rounded twice).
  *
  * Records come in blocks of TB_NBLOCK = 16 triangles, structure of arrays
  * (field f of triangle l of a block at block[16 f + l]), whatever the ISA, so
@@ -45,7 +44,7 @@
 #define tb_nhit TB_NFN(tb_nhit)
 #define TB_NBLOCK 16
 /* helpers and kernels: inlined into the entries, compiled for this ISA */
-#define TB_NWIDE TB_WIDE TB_NTARGET
+#define TB_NWIDE static inline __attribute__((always_inline)) TB_NTARGET
 
 /* The ISA's vector (nreal), mask (nmask), and the few operations that
  * differ between ISAs; everything else is written with vector-extension
@@ -239,9 +238,12 @@ typedef nmask (*TB_NFN(tb_native_fn))(const tb_nray *restrict, const real *restr
                                       tb_nhit *restrict);
 
 /* One batch of a native kernel: each ray against blocks of 16 triangles, one
- * vector at a time. As the _x8 loop (kernels.h), each lane keeps its own
- * closest hit, and one reduction per ray picks the closest lane, ties to the
- * lowest index. The per-vector bookkeeping, behind one branch taken only
+ * vector at a time. Each lane keeps its own closest hit (its t is that lane's
+ * t_max for the next block), so lanes never talk to each other inside the
+ * triangle loop; one reduction per ray picks the closest lane, ties to the
+ * lowest index. Lanes past the last triangle are masked off. Pairs are not a
+ * wide mode (one ray against one triangle has no triangles to spread over
+ * lanes). The per-vector bookkeeping, behind one branch taken only
  * when a lane is a candidate: one division, 0 < t < t_max, and the selects
  * of t (u and v when asked) and of the block number (the lane gives the rest
  * of the index). */
@@ -344,7 +346,7 @@ stop:
     job->uv_sum = uv_sum;
 }
 
-/* Entry points of one native kernel for this ISA (modes as the _x8 forms). */
+/* Entry points of one native kernel for this ISA: every mode but pairs. */
 #define TB_NATIVE_ENTRY(name, fn_mode, mode, timed)                                           \
     TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_##fn_mode)(tb_job *job)                      \
     {                                                                                         \

@@ -6,7 +6,7 @@
  * double lanes; AVX2 with FMA: 8 / 4; the baseline SSE2: 4 / 2), timed in C by
  * the caller. The bodies are probe_body.h, included once per ISA and
  * precision, compiled for the ISA by a target attribute and chosen at run time
- * by CPU features, as the wide kernels are (kernels/list.h: TB_ISA_LIST).
+ * by CPU features, as the native kernels are (kernels/list.h: TB_NATIVE_ISA_LIST).
  *
  * The classes (tribench.harness.peak explains the port model that uses them):
  *   fma      a fused multiply-add (SSE2 has none: a multiply then an add,

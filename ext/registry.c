@@ -16,7 +16,6 @@ static const char *const tb_mode_names[TB_N_MODES] = {"pairs", "any", "closest",
 
 typedef void (*tb_prepare_fn)(const void *, size_t, void *);
 
-static const char *const tb_isa_names[] = TB_ISA_NAMES;
 static const char *const tb_scalar_isa_names[] = {"scalar"};
 
 /* A kernel's loops for one ISA: untimed (run) and timed (time) per mode;
@@ -26,7 +25,7 @@ typedef struct {
 } tb_loops;
 
 typedef struct {
-    tb_prepare_fn prepare; /* the scalar record layout; wide kernels transpose it */
+    tb_prepare_fn prepare; /* the scalar record layout; native kernels transpose it */
     tb_loops isa[TB_MAX_ISAS];
 } tb_variant;
 
@@ -34,7 +33,6 @@ typedef struct {
  * declares, what its file defines (stride, ops, flat), and its loops. */
 typedef struct {
     const char *name;
-    const char *scalar_form; /* a wide form: the kernel it is the wide form of; else NULL */
     const char *algorithm;   /* the clean scalar kernel whose algorithm this is a form of (itself
                                 for a scalar kernel; a native kernel declares tb_<name>_algorithm) */
     int internal;            /* from TB_INTERNAL_KERNEL_LIST: hidden from the user's list */
@@ -43,9 +41,8 @@ typedef struct {
     const char *promised_by; /* the paper that promises watertightness ("" if none) */
     int origin;              /* TB_CLEAN or TB_SEED_REPLAY */
     int flat;     /* TB_FLAT_MISS or TB_FLAT_AS_IS (kernels.h: tb_<name>_flat) */
-    int lanes;    /* triangles per record block: 1 scalar early-exit form; 8 an _x8 form;
-                     16 a native form (native.h; one vector's worth per ISA) */
-    int fma;      /* its AVX2 loops use FMA too (native forms) */
+    int lanes;    /* triangles per record block: 1 scalar early-exit form; 16 a native
+                     form (native.h; one vector's worth per ISA) */
     size_t stride; /* reals per prepared triangle */
     int ops;       /* arithmetic operations per test (and lane), see kernels.h */
     int n_isas;
@@ -59,38 +56,14 @@ typedef struct {
       {TB_CAT(tb_##name##_time_pairs, sfx), TB_CAT(tb_##name##_time_any, sfx),               \
        TB_CAT(tb_##name##_time_closest, sfx), TB_CAT(tb_##name##_time_closest_uv, sfx)}}}
 #define TB_SCALAR_ENTRY_(name, internal, faces, watertight, promised_by, origin)             \
-    {#name, NULL, #name, internal, faces, watertight, promised_by, origin, tb_##name##_flat, 1, 0, \
+    {#name, #name, internal, faces, watertight, promised_by, origin, tb_##name##_flat, 1,       \
      tb_##name##_stride, tb_##name##_ops, 1, tb_scalar_isa_names,                            \
      {(tb_prepare_fn)tb_##name##_prepare_f32, TB_SCALAR_LOOPS(name, _f32)},                  \
      {(tb_prepare_fn)tb_##name##_prepare_f64, TB_SCALAR_LOOPS(name, _f64)}},
 #define TB_ENTRY(name, faces, watertight, promised_by, origin, wide)                         \
     TB_IF_SCALAR(wide, TB_SCALAR_ENTRY_(name, 0, faces, watertight, promised_by, origin))
-/* an internal kernel has no _x8 form: TB_X8 in its line does not compile */
 #define TB_INTERNAL_ENTRY(name, faces, watertight, promised_by, origin, wide)                \
-    TB_NO_X8_##wide TB_IF_SCALAR(wide, TB_SCALAR_ENTRY_(name, 1, faces, watertight, promised_by, origin))
-#define TB_NO_X8_TB_SCALAR_ONLY
-#define TB_NO_X8_TB_NATIVE
-#define TB_NO_X8_TB_NATIVE_AVX2
-
-#define TB_WIDE_LOOPS(name, isa, target, sfx)                                                \
-    {{NULL, TB_CAT(tb_##name##_x8_run_any_##isa, sfx), TB_CAT(tb_##name##_x8_run_closest_##isa, sfx), \
-      TB_CAT(tb_##name##_x8_run_closest_##isa, sfx)},                                        \
-     {NULL, TB_CAT(tb_##name##_x8_time_any_##isa, sfx),                                      \
-      TB_CAT(tb_##name##_x8_time_closest_##isa, sfx),                                        \
-      TB_CAT(tb_##name##_x8_time_closest_uv_##isa, sfx)}},
-#define TB_WIDE_LOOPS_F32(name, isa, target) TB_WIDE_LOOPS(name, isa, target, _f32)
-#define TB_WIDE_LOOPS_F64(name, isa, target) TB_WIDE_LOOPS(name, isa, target, _f64)
-/* The wide form <name>_x8 of a line with TB_X8: its kernel's declared
- * properties, stride, flat and prepare; its own ops and loops. */
-#define TB_WIDE_FORM_ENTRY_(name, faces, watertight, promised_by, origin)                         \
-    {#name "_x8", #name, #name, 0, faces, watertight, promised_by, origin, tb_##name##_flat, 8, 0, \
-     tb_##name##_stride, tb_##name##_x8_ops,                                                 \
-     (int)(sizeof tb_isa_names / sizeof *tb_isa_names), tb_isa_names,                        \
-     {(tb_prepare_fn)tb_##name##_prepare_f32, {TB_ISA_LIST(TB_WIDE_LOOPS_F32, name)}},        \
-     {(tb_prepare_fn)tb_##name##_prepare_f64, {TB_ISA_LIST(TB_WIDE_LOOPS_F64, name)}}},
-#define TB_WIDE_FORM_ENTRY(name, faces, watertight, promised_by, origin, wide)                    \
-    TB_IF_X8(wide, TB_WIDE_FORM_ENTRY_(name, faces, watertight, promised_by, origin))
-
+    TB_IF_SCALAR(wide, TB_SCALAR_ENTRY_(name, 1, faces, watertight, promised_by, origin))
 
 /* A native kernel (wide column TB_NATIVE or TB_NATIVE_AVX2): its own stride,
  * ops, flat, prepare and loops, one set per ISA of its list. */
@@ -106,47 +79,37 @@ typedef struct {
 static const char *const tb_native_isa_names[] = {TB_NATIVE_ISA_LIST(TB_NATIVE_ISA_NAME, )};
 static const char *const tb_native_avx2_isa_names[] = {TB_NATIVE_AVX2_ISA_LIST(TB_NATIVE_ISA_NAME, )};
 #define TB_NATIVE_FORM_(name, internal, faces, watertight, promised_by, origin, list, names)   \
-    {#name, NULL, tb_##name##_algorithm, internal, faces, watertight, promised_by, origin,      \
-     tb_##name##_flat, 16, 1,                                                                  \
+    {#name, tb_##name##_algorithm, internal, faces, watertight, promised_by, origin,            \
+     tb_##name##_flat, 16,                                                                     \
      tb_##name##_stride, tb_##name##_ops, (int)(sizeof names / sizeof *names), names,          \
      {(tb_prepare_fn)tb_##name##_prepare_f32, {list(TB_NATIVE_LOOPS_F32, name)}},              \
      {(tb_prepare_fn)tb_##name##_prepare_f64, {list(TB_NATIVE_LOOPS_F64, name)}}},
 #define TB_NATIVE_FORM(internal, name, faces, watertight, promised_by, origin, wide)          \
     TB_NATIVE_FORM_##wide(name, internal, faces, watertight, promised_by, origin)
 #define TB_NATIVE_FORM_TB_SCALAR_ONLY(...)
-#define TB_NATIVE_FORM_TB_X8(...)
 #define TB_NATIVE_FORM_TB_NATIVE(...) TB_NATIVE_FORM_(__VA_ARGS__, TB_NATIVE_ISA_LIST, tb_native_isa_names)
 #define TB_NATIVE_FORM_TB_NATIVE_AVX2(...)                                                       \
     TB_NATIVE_FORM_(__VA_ARGS__, TB_NATIVE_AVX2_ISA_LIST, tb_native_avx2_isa_names)
 #define TB_NATIVE_PUBLIC(...) TB_NATIVE_FORM(0, __VA_ARGS__)
 #define TB_NATIVE_INTERNAL(...) TB_NATIVE_FORM(1, __VA_ARGS__)
 
-static const tb_kernel tb_kernels[] = {TB_KERNEL_LIST(TB_ENTRY) TB_KERNEL_LIST(TB_WIDE_FORM_ENTRY)
-                                           TB_KERNEL_LIST(TB_NATIVE_PUBLIC)
+static const tb_kernel tb_kernels[] = {TB_KERNEL_LIST(TB_ENTRY) TB_KERNEL_LIST(TB_NATIVE_PUBLIC)
                                            TB_INTERNAL_KERNEL_LIST(TB_INTERNAL_ENTRY)
                                            TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INTERNAL)};
 static const size_t tb_n_kernels = sizeof tb_kernels / sizeof tb_kernels[0];
 
-/* Whether this CPU can run ISA `i` of a wide kernel (scalar kernels: always). */
-static int tb_isa_runnable(const tb_kernel *k, int i)
+/* Whether this CPU can run a kernel's ISA of that name (the baseline and scalar: always). */
+static int tb_isa_runnable(const char *isa)
 {
-    if (k->lanes == 1)
-        return 1;
 #if defined(__x86_64__) || defined(__i386__)
     __builtin_cpu_init();
+    if (strcmp(isa, "avx512") == 0)
+        return __builtin_cpu_supports("avx512f");
+    if (strcmp(isa, "avx2") == 0) /* with FMA (kernels/list.h) */
+        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 #endif
-    /* by name: a native kernel's list is not the _x8 forms' */
-    const char *const names[] = TB_ISA_NAMES;
-    const int runnable[] = TB_ISA_RUNNABLE;
-    for (size_t j = 0; j < sizeof names / sizeof *names; ++j)
-        if (strcmp(names[j], k->isa_names[i]) == 0) {
-#if defined(__x86_64__) || defined(__i386__)
-            if (k->fma && strcmp(names[j], "avx2") == 0)
-                return runnable[j] && __builtin_cpu_supports("fma");
-#endif
-            return runnable[j];
-        }
-    return 0;
+    (void)isa;
+    return 1;
 }
 
 /* The kernel for a name, or NULL with a Python exception set. */
@@ -176,7 +139,7 @@ static const tb_loops *tb_lookup(const tb_kernel *k, Py_ssize_t itemsize, const 
     const tb_variant *v = itemsize == 4 ? &k->f32 : &k->f64;
     for (int i = 0; i < k->n_isas; ++i)
         if (strcmp(k->isa_names[i], isa) == 0) {
-            if (!tb_isa_runnable(k, i)) {
+            if (!tb_isa_runnable(k->isa_names[i])) {
                 PyErr_Format(PyExc_ValueError, "kernel '%s': ISA '%s' is not available on this CPU",
                              k->name, isa);
                 return NULL;
@@ -330,7 +293,7 @@ TB_HIDDEN PyObject *py_kernel_info(PyObject *Py_UNUSED(self), PyObject *args)
         return NULL;
     for (int i = 0; i < k->n_isas; ++i) {
         PyObject *item = Py_BuildValue("(sO)", k->isa_names[i],
-                                       tb_isa_runnable(k, i) ? Py_True : Py_False);
+                                       tb_isa_runnable(k->isa_names[i]) ? Py_True : Py_False);
         if (!item) {
             Py_DECREF(isas);
             return NULL;
@@ -356,8 +319,8 @@ TB_HIDDEN PyObject *py_kernel_info(PyObject *Py_UNUSED(self), PyObject *args)
         return NULL;
     }
     return Py_BuildValue(
-        "{s:i,s:z,s:s,s:n,s:i,s:O,s:N,s:O,s:s,s:s,s:O,s:s,s:N}",
-        "lanes", k->lanes, "scalar_form", k->scalar_form, "algorithm", k->algorithm,
+        "{s:i,s:s,s:n,s:i,s:O,s:N,s:O,s:s,s:s,s:O,s:s,s:N}",
+        "lanes", k->lanes, "algorithm", k->algorithm,
         "stride", (Py_ssize_t)k->stride,
         "ops", k->ops, "internal", k->internal ? Py_True : Py_False, "isas", isas,
         "culls_back_faces", k->faces == TB_FRONT_FACES ? Py_True : Py_False,
@@ -546,10 +509,7 @@ typedef struct {
     int mix[6];
 } tb_mix_entry;
 #define TB_MIX_ENTRY(name, ...) {#name, tb_##name##_mix},
-#define TB_MIX_WIDE_ENTRY(name, faces, watertight, promised_by, origin, wide) \
-    TB_IF_X8(wide, {#name "_x8", tb_##name##_x8_mix},)
-static const tb_mix_entry tb_mixes[] = {TB_KERNEL_LIST(TB_MIX_ENTRY) TB_KERNEL_LIST(TB_MIX_WIDE_ENTRY)
-                                            TB_INTERNAL_KERNEL_LIST(TB_MIX_ENTRY)};
+static const tb_mix_entry tb_mixes[] = {TB_KERNEL_LIST(TB_MIX_ENTRY) TB_INTERNAL_KERNEL_LIST(TB_MIX_ENTRY)};
 
 /* kernel_mix(name) -> (fma, mul, add, cmp, div, logic) per test (and lane) */
 TB_HIDDEN PyObject *py_kernel_mix(PyObject *Py_UNUSED(self), PyObject *args)

@@ -46,12 +46,12 @@ class KernelInfo:
     """What the registry says of one kernel: each property is declared once (docs/kernels.md, "Where a kernel's
     properties live") and read here from the extension.
 
-    ``lanes``: triangles per record block (1 scalar, 8 an ``_x8`` form, 16 a native kernel). ``stride``: reals
+    ``lanes``: triangles per record block (1 scalar, 16 a native kernel). ``stride``: reals
     of prepared data per triangle. ``ops``: arithmetic operations per test (per lane; a scalar kernel's hit
     path), by ``ext/kernels.h``'s counting rules. ``isas``: the ISAs it is compiled for, best first, and
     whether this CPU runs each (``"scalar"`` alone for a scalar kernel); ``isa``: the one calls use,
     ``TRIBENCH_ISA`` if set and runnable, else the best runnable. ``algorithm``: the clean scalar kernel whose
-    algorithm this is a form of (itself, its scalar form, or a native kernel's ``tb_<name>_algorithm``), which
+    algorithm this is a form of (itself, or a native kernel's ``tb_<name>_algorithm``), which
     rankings by algorithm group by. ``flat``: ``"miss"``, or ``"as_is"`` (the kernel's own test decides, as the
     seed's code did). ``source``: ``"built-in"`` or the kernel file that declared it, whose paper is
     ``citation``."""
@@ -63,8 +63,6 @@ class KernelInfo:
     internal: bool
     isas: dict
     isa: str
-    scalar_form: str | None
-    wide_form: str | None
     algorithm: str
     culls_back_faces: bool
     watertight: str
@@ -79,7 +77,7 @@ class KernelInfo:
     def mix(self) -> dict[str, int]:
         """Operations per test (and lane) by class: ``fma, mul, add, cmp, div`` (summing to :attr:`ops`), ``logic``
         (mask and select work, outside ``ops``) and ``load`` (the stride); declared as ``tb_<name>_mix``, and a
-        wide form's is its compiled loop's (tests/test_ext_build.py)."""
+        native kernel's is its compiled loop's (tests/test_ext_build.py)."""
         counts = dict(
             zip(("fma", "mul", "add", "cmp", "div", "logic"), core_of(self.name).kernel_mix(self.name), strict=True)
         )
@@ -87,7 +85,7 @@ class KernelInfo:
 
     @property
     def modes(self) -> tuple[str, ...]:
-        """Modes the kernel runs (wide forms have no pairs mode)."""
+        """Modes the kernel runs (native kernels have no pairs mode)."""
         return MODES if self.lanes == 1 else MODES[1:]
 
     @property
@@ -96,20 +94,14 @@ class KernelInfo:
         return {p: self.stride * np.dtype(p).itemsize for p in self.precisions}
 
 
-# Scalar kernel -> its wide form, from each wide form's declared scalar form.
-_WIDE_FORMS: dict[str, str] = {
-    scalar: k for k in _KERNELS for scalar in [_core.kernel_info(k)["scalar_form"]] if scalar is not None
-}
-
-
 def kernel_info(kernel: str) -> KernelInfo:
     """Lanes, storage, instruction sets and declared properties of ``kernel``.
 
     >>> kernel_info("moller_trumbore").isa
     'scalar'
-    >>> info = kernel_info("moller_trumbore_x8")
-    >>> info.lanes, info.isas["baseline"], info.scalar_form
-    (8, True, 'moller_trumbore')
+    >>> info = kernel_info("moller_trumbore_fma")
+    >>> info.lanes, info.isas["baseline"], info.algorithm
+    (16, True, 'moller_trumbore')
     >>> kernel_info("woop").watertight, kernel_info("moller_trumbore_cull").culls_back_faces
     ('edges_and_vertices', True)
     """
@@ -131,7 +123,6 @@ def kernel_info(kernel: str) -> KernelInfo:
         name=kernel,
         isas=runnable,
         isa=isa,
-        wide_form=_WIDE_FORMS.get(kernel),
         source=_FILES.get(kernel, "built-in"),
         citation=module.FILE_CITATION,
         **declared,
@@ -198,9 +189,6 @@ def adopt(module: ModuleType, source: str) -> tuple[str, ...]:
     for k in names:
         _MODULES[k] = module
         _FILES[k] = source
-        scalar = module.kernel_info(k)["scalar_form"]
-        if scalar is not None:
-            _WIDE_FORMS[scalar] = k
     _PUBLIC = (*_PUBLIC, *(k for k in names if k not in _PUBLIC))
     _KERNELS = (*_KERNELS, *(k for k in names if k not in _KERNELS))
     return names

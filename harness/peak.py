@@ -79,7 +79,7 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     triangles (in L2; the port model counts no L2 traffic), every kernel once per
     round in a fresh order, the probes' mean before and after as the peak and
     rates. Returns ``(gflops, isa, rate_isa, rates, table)``. ``isa`` holds every
-    wide form to that ISA and probes the pipes on it, so an AVX-512 core answers for AVX2 too.
+    native kernel to that ISA and probes the pipes on it, so an AVX-512 core answers for AVX2 too.
     """
     import pandas as pd
 

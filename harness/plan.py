@@ -225,7 +225,7 @@ class Sweep:
                     )
                 raise UserError(
                     f"no kernel of the sweep runs mode {spec.mode!r} ({spec.summary()}): "
-                    f"wide kernels (*_x8) have no pairs mode"
+                    f"native kernels have no pairs mode"
                 )
         per_round = self.n_batches // (self.processes * (self.warmup + self.rounds))
         if self.n_batches > MAX_BATCHES:
@@ -386,7 +386,7 @@ def main_job_kernels() -> dict[str, tuple[str, ...]]:
     return {
         "seed": tuple(k for k, i in info.items() if i.seed_replay),
         "scalar": tuple(k for k, i in info.items() if i.lanes == 1 and not i.seed_replay),
-        "native": tuple(k for k, i in info.items() if i.lanes > 1 and i.scalar_form is None),
+        "native": tuple(k for k, i in info.items() if i.lanes > 1),
     }
 
 

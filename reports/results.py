@@ -109,8 +109,8 @@ def kernels_section(data: RunData, kern: pd.DataFrame) -> str:
     )
     note = (
         "Each kernel's storage beside its speed, per workload family (a family has one precision). "
-        "Form: scalar (one triangle per test, early exit) or 8 lanes (eight triangles per step in SIMD "
-        "registers); ISA: the instruction set its batches ran with. Bytes per triangle: its prepared data "
+        "Form: scalar (one triangle per test, early exit) or 16 lanes (sixteen triangles per step in "
+        "SIMD registers); ISA: the instruction set its batches ran with. Bytes per triangle: its prepared data "
         "for one triangle at the family's precision, which the working set (section "
     )
     tail = (

@@ -304,7 +304,7 @@ def test_issue_examples_that_are_answers():
     r = ext.intersect("moller_trumbore", _O, _D, _TRI, "closest", t_max=10**400)
     assert r.index.tolist() == [3, 2, -1, -1]
     with pytest.raises(UserError, match="isa must be a str"):
-        ext.intersect("moller_trumbore_x8", _O, _D, _TRI, "closest", isa=["avx2"])
+        ext.intersect("moller_trumbore_fma", _O, _D, _TRI, "closest", isa=["avx2"])
     masked = np.ma.masked_array(_O.copy(), mask=np.zeros(_O.shape, bool))
     masked[0, 0] = np.ma.masked
     masked.data[0, 0] = np.nan

@@ -25,11 +25,8 @@ from tribench import ext
 
 EPS = 2.0**-53
 KERNELS = ["baldwin_weber_12", "baldwin_weber_9"]
-# every form of each: scalar, _x8 and the native FMA form (the same map, prepared by the same code)
-FORMS = {
-    k: [k, ext.kernel_info(k).wide_form, f]
-    for k, f in zip(KERNELS, ["baldwin_weber_12_fma", "baldwin_weber_9_fma"], strict=True)
-}
+# every form of each: scalar and the native FMA form (the same map, prepared by the same code)
+FORMS = {k: [k, f] for k, f in zip(KERNELS, ["baldwin_weber_12_fma", "baldwin_weber_9_fma"], strict=True)}
 
 
 def _triangle(size: float, distance: float, seed: int = 0) -> np.ndarray:

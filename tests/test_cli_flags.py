@@ -192,7 +192,10 @@ def test_the_issues_values_are_refused_by_the_installed_command(tmp_path):
         (["--file", "s.toml", "--mesh", "suzanne", "--camera", "8x8"], "--mesh, --camera describe workloads"),
         (["--kernels", "moller_trumbore", "--triangles", "100"], "--triangles applies to mesh workloads"),
         (["--kernels", "moller_trumbore", "--camera", "8x8"], "--camera applies to mesh workloads"),
-        (["--kernels", "moller_trumbore_x8,moller_trumbore", "--pairs", "50"], "moller_trumbore_x8 has no pairs mode"),
+        (
+            ["--kernels", "moller_trumbore_fma,moller_trumbore", "--pairs", "50"],
+            "moller_trumbore_fma has no pairs mode",
+        ),
     ],
 )
 def test_a_flag_the_sweep_would_ignore_is_refused_in_one_line(extra, said, tmp_path, monkeypatch, capsys):

@@ -105,11 +105,11 @@ def test_private_module_checks_buffer_sizes_itself():
     with pytest.raises(ValueError, match="no ISA"):
         _core.time("moller_trumbore", 8, 2, "avx2", ORIGIN, D, 1, t_max, records, 1, 10)
     with pytest.raises(ValueError, match="no 'pairs' mode"):
-        wide = ext.prepare("moller_trumbore_x8", TRI).records
-        _core.time("moller_trumbore_x8", 8, 0, "baseline", ORIGIN, D, 1, t_max, wide, 1, 10)
+        wide = ext.prepare("moller_trumbore_fma", TRI).records
+        _core.time("moller_trumbore_fma", 8, 0, "baseline", ORIGIN, D, 1, t_max, wide, 1, 10)
     with pytest.raises(ValueError, match="records: buffer has"):
-        # a wide kernel's records are whole blocks of 8
-        _core.time("moller_trumbore_x8", 8, 2, "baseline", ORIGIN, D, 1, t_max, records, 1, 10)
+        # a native kernel's records are whole blocks of 16
+        _core.time("moller_trumbore_fma", 8, 2, "baseline", ORIGIN, D, 1, t_max, records, 1, 10)
     with pytest.raises(ValueError, match="unknown kernel"):
         _core.kernel_info("nope")
     with pytest.raises(ValueError, match="at least 1"):
@@ -206,7 +206,7 @@ def test_a_batch_is_bounded_up_front_with_the_bound_and_why():
     ):
         ext.time_batch(job, 2**40)
     many = ext.make_job(
-        "moller_trumbore_x8", np.repeat(ORIGIN, 100, 0), np.repeat(D, 100, 0), np.repeat(TRI, 10, 0), "closest"
+        "moller_trumbore_fma", np.repeat(ORIGIN, 100, 0), np.repeat(D, 100, 0), np.repeat(TRI, 10, 0), "closest"
     )
     assert many.tests_per_pass == 1000
     with pytest.raises(ext.UserError, match="use at most 600000000 loops"):
@@ -224,7 +224,7 @@ LONG_CALLS = {
     # one ray, one triangle, as many loops as the bound allows: hours of work
     "time_batch": "job = ext.make_job('moller_trumbore', ORIGIN, D, T, 'pairs')\n"
     "go(); ext.time_batch(job, ext.MAX_BATCH_TESTS)",
-    "time_batch_x8": "job = ext.make_job('moller_trumbore_x8', ORIGIN, D, np.repeat(T, 64, 0), 'closest')\n"
+    "time_batch_native": "job = ext.make_job('moller_trumbore_fma', ORIGIN, D, np.repeat(T, 64, 0), 'closest')\n"
     "go(); ext.time_batch(job, ext.MAX_BATCH_TESTS // 64)",
     # an untimed call of 10**10 tests (about a minute)
     "intersect": "o = np.repeat(ORIGIN, 200_000, 0); d = np.repeat(D, 200_000, 0); t = np.repeat(T, 50_000, 0)\n"

@@ -1,9 +1,9 @@
 """The built module is what it claims: wide kernels really run on their ISA's registers.
 
-The wide forms are written with vector extensions and compiled once per ISA
-by a target attribute; this reads the machine code back (objdump) and checks
-that each ISA's timed loop uses that ISA's vector registers, and the
-baseline's does not, so "avx2" in a result means 256-bit instructions ran.
+The native kernels are compiled once per ISA by a target attribute; this
+reads the machine code back (objdump) and checks that each ISA's timed loop
+uses that ISA's vector registers, and the baseline's does not, so "avx2" in a
+result means 256-bit instructions ran.
 """
 
 from __future__ import annotations
@@ -78,11 +78,9 @@ def test_loops_inline_their_kernel(disassembly):
 def test_documented_ops_are_the_compiled_arithmetic(disassembly, kernel):
     """A wide kernel's documented operation count (the bound of `tribench info
     --peak`) is the arithmetic its compiled block loop does: one float vector
-    per block (of 8 with AVX2 for an _x8 form, of 16 with AVX-512 for a native
-    one), so the count per lane. A kernel edited without its count, or
-    arithmetic the compiler fused or dropped, fails here."""
-    isa = {8: "avx2", 16: "avx512"}[ext.kernel_info(kernel).lanes]
-    code = disassembly[f"tb_{kernel}_time_closest_{isa}_f32"]
+    per block of 16 with AVX-512, so the count per lane. A kernel edited without
+    its count, or arithmetic the compiler fused or dropped, fails here."""
+    code = disassembly[f"tb_{kernel}_time_closest_avx512_f32"]
     assert loop_arithmetic(code) == ext.kernel_info(kernel).ops
 
 
@@ -91,6 +89,5 @@ def test_declared_mix_is_the_compiled_loop(disassembly, kernel):
     """A wide kernel's per-class counts (the port model's input, ext.kernel_info(k).mix)
     are its compiled block loop's instructions of each class."""
     mix = ext.kernel_info(kernel).mix
-    isa = {8: "avx2", 16: "avx512"}[ext.kernel_info(kernel).lanes]  # as for the total, above
-    compiled = loop_mix(disassembly[f"tb_{kernel}_time_closest_{isa}_f32"])
+    compiled = loop_mix(disassembly[f"tb_{kernel}_time_closest_avx512_f32"])  # as for the total, above
     assert compiled == {c: mix[c] for c in CLASSES}

@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -189,6 +190,13 @@ def test_a_kernel_file_that_does_not_compile_is_one_message_with_file_and_line(t
     assert done.stderr.startswith(f"tribench sweep: error: {broken} does not compile (")
     assert f"{broken}:" in done.stderr and "dett" in done.stderr and "error:" in done.stderr
     assert "Traceback" not in done.stderr and not (tmp_path / "run").exists()  # nothing timed
+
+
+def test_a_wide_column_the_registry_does_not_know_is_an_error_at_its_line(tmp_path, builds):
+    own = variant(tmp_path, "eight_lanes", "TB_CLEAN, TB_SCALAR_ONLY)", "TB_CLEAN, TB_EIGHT_LANES)")
+    done = tribench("info", "--kernel-file", own, cwd=tmp_path, cache=builds)
+    assert done.returncode == 2 and f"{own}:" in done.stderr
+    assert re.search(r"error: .TB_EIGHT_LANES. undeclared", done.stderr), done.stderr
 
 
 def test_the_first_compile_to_fail_stops_the_others(tmp_path):

@@ -115,7 +115,7 @@ def test_prepare_poisons_flat_records_of_clean_kernels_only(dtype):
     both = np.ascontiguousarray(np.concatenate([tris, [[[0, 0, 0], [1, 0, 0], [0, 1, 0]]]]), dtype=dtype)
     for kernel in ext.kernel_names(internal=True):
         records = ext.prepare(kernel, both).records
-        if ext.kernel_info(kernel).lanes > 1:  # blocks of 8, structure of arrays: back to one row per triangle
+        if ext.kernel_info(kernel).lanes > 1:  # blocks of 16, structure of arrays: back to one row per triangle
             records = records.transpose(0, 2, 1).reshape(-1, records.shape[1])[: len(both)]
         poisoned = np.isnan(records).all(axis=1)
         assert poisoned.tolist() == ([not ext.kernel_info(kernel).seed_replay] * len(tris) + [False]), kernel
@@ -130,7 +130,7 @@ def test_a_blocks_lanes_past_the_last_triangle_hold_the_flat_record(dtype):
         lanes = ext.kernel_info(kernel).lanes
         if lanes == 1:
             continue
-        records = ext.prepare(kernel, tris).records  # blocks of 8 or 16: 12 triangles, then padding
+        records = ext.prepare(kernel, tris).records  # a block of 16: 12 triangles, then padding
         rows = records.transpose(0, 2, 1).reshape(-1, records.shape[1])  # one row per lane
         assert len(rows) == 16 and np.isfinite(rows[:12]).all() and np.isnan(rows[12:]).all(), kernel
     o, d = np.zeros((1, 3), dtype), np.array([[0, 0, 1]], dtype)  # through the origin, where zeros lay

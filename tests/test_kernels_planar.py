@@ -1,7 +1,6 @@
 """Moller-Trumbore with culling, Baldwin-Weber (12 and 9+k reals) and Havel-Herout
-against the float64 reference, in every precision and form (scalar, _x8 on each
-ISA, and the native form where there is one, on each ISA), and the _x8 forms
-against their scalar forms bit for bit."""
+against the float64 reference, in every precision and form (scalar, and the native
+form on each ISA)."""
 
 from __future__ import annotations
 
@@ -28,11 +27,10 @@ NATIVE_FORM = {
 DTYPES = [np.float32, np.float64]
 T_RTOL = {np.float32: 1e-4, np.float64: 1e-10}
 UV_ATOL = {np.float32: 1e-4, np.float64: 1e-9}
-# (form, isa): the scalar form, and the wide form (the registry's wide_form) on each ISA
-FORMS = [("scalar", None), ("wide", "avx2"), ("wide", "baseline")]
-FORM_IDS = ["scalar", "x8-avx2", "x8-baseline"]
-# and the native forms, held here to their scalar kernel's promises, on each ISA of their list
-KERNEL_FORMS = [pytest.param(k, f, id=f"{k}-{i}") for k in KERNELS for f, i in zip(FORMS, FORM_IDS, strict=True)]
+# (form, isa): the scalar form, and the native form, held here to its scalar kernel's promises,
+# on each ISA of its list
+SCALAR = ("scalar", None)
+KERNEL_FORMS = [pytest.param(k, SCALAR, id=f"{k}-scalar") for k in KERNELS]
 KERNEL_FORMS += [
     pytest.param(k, ("native", isa), id=f"{n}-{isa}") for k, n in NATIVE_FORM.items() for isa in ext.kernel_info(n).isas
 ]
@@ -44,12 +42,7 @@ kernel_form_param = pytest.mark.parametrize(("kernel", "form"), KERNEL_FORMS)
 
 def _run(kernel, form, o, d, tris, mode, **options):
     which, isa = form
-    if which == "scalar":
-        name = kernel
-    elif which == "native":
-        name = NATIVE_FORM[kernel]
-    else:
-        name = ext.kernel_info(kernel).wide_form
+    name = kernel if which == "scalar" else NATIVE_FORM[kernel]
     if isa is not None and not ext.kernel_info(name).isas[isa]:
         pytest.skip(f"{isa} is not available on this CPU")
     return ext.intersect(name, o, d, tris, mode, isa=isa, **options)
@@ -73,7 +66,7 @@ def _expected_pairs(kernel, o, d, tris):
 @kernel_param
 def test_bytes_per_triangle(kernel):
     native = [NATIVE_FORM[kernel]] if kernel in NATIVE_FORM else []
-    for name in [kernel, ext.kernel_info(kernel).wide_form] + native:
+    for name in [kernel, *native]:
         assert ext.kernel_info(name).stride == STRIDE[kernel]
         assert ext.kernel_info(name).culls_back_faces == (kernel in CULLS)
         assert ext.bytes_per_triangle(name, np.float32) == 4 * STRIDE[kernel]
@@ -256,17 +249,6 @@ def test_t_max_on_a_mesh(kernel, dtype, form):
     r = _run(kernel, form, o, d, tris, "closest", t_max=above)
     np.testing.assert_array_equal(r.index, first.index)
     np.testing.assert_array_equal(r.t, first.t)
-
-
-@pytest.mark.parametrize("isa", ["avx2", "baseline"])
-@dtype_param
-@kernel_param
-def test_wide_form_equals_scalar_bit_for_bit(kernel, dtype, isa):
-    o, d, tris = as_dtype(_mesh_workload()[:3], dtype)
-    scalar = _run(kernel, FORMS[0], o, d, tris, "closest_uv")
-    wide = _run(kernel, ("wide", isa), o, d, tris, "closest_uv")
-    for a, b in zip(scalar, wide, strict=True):
-        np.testing.assert_array_equal(a, b)
 
 
 # ------------------------------------------------------------- degenerate
@@ -465,10 +447,9 @@ def test_baldwin_weber_float32_far_from_the_origin(kernel, native, offset):
     np.testing.assert_allclose(r.u, ref.u, atol=atol, rtol=0)
     np.testing.assert_allclose(r.v, ref.v, atol=atol, rtol=0)
     index_ref, t_ref = reference.intersect_closest(o, d, tris)
-    for isa in ("avx2", "baseline"):
-        wide = _run(kernel, ("wide", isa), o, d, tris, "closest_uv")
-        np.testing.assert_array_equal(wide.index, index_ref)
-        np.testing.assert_allclose(wide.t, t_ref, atol=atol, rtol=0)
+    closest = ext.intersect(kernel, o, d, tris, "closest_uv")
+    np.testing.assert_array_equal(closest.index, index_ref)
+    np.testing.assert_allclose(closest.t, t_ref, atol=atol, rtol=0)
     # the native FMA form (u, v from the transformed ray, not the hit point): the same resolution
     for isa, runnable in ext.kernel_info(native).isas.items():
         if runnable:

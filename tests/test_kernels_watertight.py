@@ -1,7 +1,6 @@
 """woop and plucker: agreement with the reference, and the watertight promise.
 
-Every check runs both kernels in float32 and float64, in the scalar form and in
-the wide form on each instruction set this CPU runs (avx2, baseline), and
+Every check runs both kernels in float32 and float64, in the scalar form and
 their native forms woop_fma and plucker_fma on each of their instruction sets. The
 watertight checks shoot rays at the shared edges and vertices of exactly
 representable, exactly coplanar meshes: a ray through the interior of such a
@@ -26,11 +25,10 @@ from tribench.workloads import reference
 KERNELS = ["woop", "plucker"]
 DTYPES = [np.float32, np.float64]
 DTYPE_IDS = ["f32", "f64"]
-FORMS = ["scalar"] + [isa for isa in ("avx2", "baseline") if ext.kernel_info("woop_x8").isas.get(isa)]
 # the native forms held to their algorithm's promises here, and their runnable ISAs
 NATIVE = {"woop_fma": "woop", "plucker_fma": "plucker"}
 # (kernel, form) of every check below that runs a form
-CASES = [(k, f) for k in KERNELS for f in FORMS] + [
+CASES = [(k, "scalar") for k in KERNELS] + [
     (k, isa) for k in NATIVE for isa, ok in ext.kernel_info(k).isas.items() if ok
 ]
 PLUCKER_CASES = [(k, f) for k, f in CASES if k == "plucker" or NATIVE.get(k) == "plucker"]
@@ -40,23 +38,19 @@ UV_ATOL = {np.float32: 1e-4, np.float64: 1e-9}
 
 
 def _intersect(kernel, form, o, d, tris, mode="closest_uv", **options):
-    """One call of `kernel` in `form`: "scalar", or the wide form on that ISA
-    (a native kernel: itself on that ISA)."""
-    if ext.kernel_info(kernel).lanes == 16:
-        return ext.intersect(kernel, o, d, tris, mode, isa=form, **options)
-    if form == "scalar":
-        return ext.intersect(kernel, o, d, tris, mode, **options)
-    wide = ext.kernel_info(kernel).wide_form or kernel
-    return ext.intersect(wide, o, d, tris, mode, isa=form, **options)
+    """One call of `kernel` in `form`: "scalar", or a native kernel on that ISA."""
+    isa = None if form == "scalar" else form
+    return ext.intersect(kernel, o, d, tris, mode, isa=isa, **options)
 
 
-def test_registered_with_raw_vertices_and_a_wide_form():
+def test_registered_with_raw_vertices_and_a_native_form():
     for kernel in KERNELS:
-        wide = ext.kernel_info(kernel).wide_form
-        assert kernel in ext.kernel_names() and wide in ext.kernel_names()
+        assert kernel in ext.kernel_names()
         assert ext.kernel_info(kernel).stride == 9
-        assert ext.kernel_info(wide).lanes == 8 and ext.kernel_info(wide).scalar_form == kernel
         assert ext.bytes_per_triangle(kernel, "float32") == 36
+    for native, kernel in NATIVE.items():
+        assert native in ext.kernel_names()
+        assert ext.kernel_info(native).lanes == 16 and ext.kernel_info(native).algorithm == kernel
 
 
 # ------------------------------------------------------- agreement with the reference
@@ -513,32 +507,3 @@ def test_plucker_is_watertight_at_vertices_of_far_fans(kernel, isa, dtype):
     far = _fan_cracks(kernel, dtype, _fan_rays(9, 40, 1500, far=True), isa)
     print(f"\n{kernel} {isa} {np.dtype(dtype)} fans: near cracks {near[0]}/{near[1]}, far cracks {far[0]}/{far[1]}")
     assert far[0] == 0
-
-
-# ----------------------------------------------------------- wide form = scalar form
-
-
-@pytest.mark.parametrize("form", [f for f in FORMS if f != "scalar"])
-@pytest.mark.parametrize("dtype", DTYPES, ids=DTYPE_IDS)
-@pytest.mark.parametrize("kernel", KERNELS)
-def test_wide_form_is_the_scalar_form_bit_for_bit(kernel, dtype, form):
-    # every lane of full blocks, on a mesh
-    o, d, tris, *_ = _icosphere_rays()
-    o, d, tris = as_dtype((o, d, tris), dtype)
-    _assert_same(*(_intersect(kernel, f, o, d, tris) for f in ("scalar", form)))
-    # ray by triangle on a grid, rays exactly through edges and vertices (the
-    # fallback for 0 edge functions): triangle j in lane j % 8 behind far
-    # copies of it, so each answer is one kernel call on that lane
-    tris, o, d, *_ = _grid_rays(0, dtype)
-    away = np.zeros(3, dtype)
-    away[MESHES[0][0][0]] = 100
-    for j in range(len(tris)):
-        far_copies = np.repeat(tris[j : j + 1] + away, j % 8, 0)
-        block = np.ascontiguousarray(np.concatenate([far_copies, tris[j : j + 1]]))
-        _assert_same(*(_intersect(kernel, f, o, d, block) for f in ("scalar", form)))
-
-
-def _assert_same(a, b):
-    np.testing.assert_array_equal(a.index, b.index)
-    for x, y in ((a.t, b.t), (a.u, b.u), (a.v, b.v)):
-        assert x.tobytes() == y.tobytes()

@@ -105,7 +105,7 @@ def test_the_default_sweep_ranks_every_algorithm_in_its_best_form_against_the_se
     s = plan.default_sweep(quick=quick)
     info = {k: ext.kernel_info(k) for k in ext.kernel_names()}
     seed = {k for k, i in info.items() if i.seed_replay}
-    native = {k for k, i in info.items() if i.lanes > 1 and i.scalar_form is None}
+    native = {k for k, i in info.items() if i.lanes > 1}
     assert seed == {"curless_seed", "moller_seed"}
     by_kind = {}
     for spec in s.workloads:
@@ -130,8 +130,8 @@ def test_the_default_sweep_ranks_every_algorithm_in_its_best_form_against_the_se
     assert kernels == native and (bvh.rays, bvh.dtype) == ("camera", "float32")
     assert bvh.triangles >= (10_000 if quick else 250_000)
     assert s.sequential is not None and s.sequential.budget_s <= (15 if quick else 300)
-    # every public kernel but the 8-lane forms (between an algorithm's scalar and native forms, never its best)
-    assert set(s.kernels) == {k for k, i in info.items() if i.scalar_form is None} | {"moller_seed_aa"}
+    # every public kernel
+    assert set(s.kernels) == set(info) | {"moller_seed_aa"}
 
 
 @pytest.mark.slow

@@ -21,7 +21,6 @@ from tribench.harness.jobs import validate
 ROOT = Path(__file__).resolve().parents[1]
 KERNELS = ext.kernel_names(internal=True)
 INFO = {k: ext.kernel_info(k) for k in KERNELS}
-WIDE = [k for k in KERNELS if INFO[k].scalar_form is not None]
 
 # ----------------------------------------------------------- the declarations
 
@@ -33,8 +32,6 @@ def test_every_property_is_a_field_read_from_the_extension():
         "stride",
         "ops",
         "internal",
-        "scalar_form",
-        "wide_form",
         "algorithm",
         "culls_back_faces",
         "watertight",
@@ -44,7 +41,7 @@ def test_every_property_is_a_field_read_from_the_extension():
         "precisions",
     } <= fields
     for k, info in INFO.items():
-        assert info.name == k and info.lanes in (1, 8, 16) and info.stride > 0 and info.ops > 0
+        assert info.name == k and info.lanes in (1, 16) and info.stride > 0 and info.ops > 0
         assert isinstance(info.culls_back_faces, bool) and isinstance(info.seed_replay, bool)
         assert info.watertight in ("none", "edges_and_vertices")
         assert bool(info.watertight_source) == (info.watertight != "none"), k  # a promise names its paper
@@ -62,28 +59,10 @@ def test_bytes_per_triangle_is_stride_times_itemsize():
             assert info.bytes_per_triangle[p] == want == ext.bytes_per_triangle(k, p), (k, p)
 
 
-def test_a_wide_form_has_its_scalar_forms_properties():
-    assert WIDE, "no wide form registered"
-    for k in WIDE:
-        wide, scalar = INFO[k], INFO[INFO[k].scalar_form]
-        assert wide.lanes == 8 and scalar.lanes == 1 and scalar.wide_form == k and wide.wide_form is None
-        for prop in (
-            "culls_back_faces",
-            "watertight",
-            "watertight_source",
-            "seed_replay",
-            "flat",
-            "precisions",
-            "stride",
-            "internal",
-        ):
-            assert getattr(wide, prop) == getattr(scalar, prop), (k, prop)
-    # and each scalar kernel's wide form points back to it
-    assert {i.wide_form for i in INFO.values() if i.wide_form} == set(WIDE)
-    # the rest are scalar, but for the native wide kernels (native.h), which have no scalar form
+def test_a_native_kernel_is_wide_and_every_other_scalar():
     native = {cols[0] for rows in _registration_lines().values() for cols in rows if cols[5].startswith("TB_NATIVE")}
-    assert native and all(INFO[k].lanes == 16 and INFO[k].wide_form is None for k in native)
-    assert all(INFO[k].lanes == 1 for k in KERNELS if k not in WIDE and k not in native)
+    assert native and all(INFO[k].lanes == 16 for k in native)
+    assert all(INFO[k].lanes == 1 for k in KERNELS if k not in native)
 
 
 def test_every_kernel_is_a_form_of_a_scalar_kernel_with_its_promises():
@@ -92,8 +71,6 @@ def test_every_kernel_is_a_form_of_a_scalar_kernel_with_its_promises():
         alg = INFO[info.algorithm]
         assert alg.lanes == 1 and alg.algorithm == info.algorithm, k  # a scalar kernel, its own algorithm
         assert (info.algorithm == k) == (info.lanes == 1), k
-        if info.scalar_form:
-            assert info.algorithm == info.scalar_form
         for prop in ("culls_back_faces", "watertight", "seed_replay"):
             assert getattr(info, prop) == getattr(alg, prop), (k, prop)
         assert alg.internal <= info.internal, k  # a public kernel is a form of a public algorithm
@@ -119,10 +96,9 @@ def test_the_declarations_say_what_the_readme_and_the_papers_say():
     # the kernels whose documentation makes these claims (docs/kernels.md's table, each header)
     assert {k for k, i in INFO.items() if i.culls_back_faces} == {
         "moller_trumbore_cull",
-        "moller_trumbore_cull_x8",
         "moller_trumbore_cull_fma",
     }
-    assert {k for k, i in INFO.items() if i.watertight != "none"} == {"woop", "woop_x8", "woop_fma"}
+    assert {k for k, i in INFO.items() if i.watertight != "none"} == {"woop", "woop_fma"}
     assert {k for k, i in INFO.items() if i.seed_replay} == {
         "curless_seed",
         "moller_seed",
@@ -145,8 +121,8 @@ def test_the_declarations_say_what_the_readme_and_the_papers_say():
 
 
 def _pieces() -> tuple[set[str], set[str]]:
-    """Pieces of the registered names: fragments that carry their underscore ("_x8",
-    "_cull_x8", "moller_"), and runs of whole parts ("x8", "cull", "moller_trumbore")."""
+    """Pieces of the registered names: fragments that carry their underscore ("_fma",
+    "_cull_fma", "moller_"), and runs of whole parts ("fma", "cull", "moller_trumbore")."""
     fragments, runs = set(), set()
     for k in KERNELS:
         parts = k.split("_")
@@ -183,7 +159,7 @@ ALLOWED: dict[str, str] = {}
 
 def _name_inferences(path: Path, root: Path = ROOT) -> list[str]:
     """Lines of ``path`` that take a kernel name apart: a string literal that is a piece of
-    a kernel name (``"_x8"``, ``"moller_"``), or a string test against any prefix, suffix
+    a kernel name (``"_fma"``, ``"moller_"``), or a string test against any prefix, suffix
     or part of one (``name.startswith("woop")``, ``"cull" in name``)."""
     tree = ast.parse(path.read_text(), str(path))
     found = []
@@ -222,7 +198,7 @@ def test_the_detector_finds_the_old_tricks(tmp_path):
     old = tmp_path / "old.py"
     old.write_text(
         'def f(kernel):\n    a = "_cull" in kernel\n    b = kernel.endswith("_seed")\n'
-        '    c = kernel.removesuffix("_x8")\n    d = kernel + "_x8"\n    e = kernel.startswith("woop")\n'
+        '    c = kernel.removesuffix("_fma")\n    d = kernel + "_fma"\n    e = kernel.startswith("woop")\n'
         '    return "moller_trumbore" == kernel\n'
     )
     found = _name_inferences(old, tmp_path)
@@ -256,26 +232,22 @@ def test_every_kernel_file_is_included_and_registered_once_and_has_a_row_in_the_
     assert set(lines) == {"TB_KERNEL_LIST", "TB_INTERNAL_KERNEL_LIST"}
     registered = [cols[0] for rows in lines.values() for cols in rows]
     assert len(registered) == len(set(registered)), "a kernel is registered twice"
-    # one registration line per scalar kernel, and the wide forms its TB_X8 column asks for
-    assert sorted(registered) == sorted(k for k in KERNELS if k not in WIDE)
-    assert sorted(
-        ext.kernel_info(c[0]).wide_form for rows in lines.values() for c in rows if c[5] == "TB_X8"
-    ) == sorted(WIDE)
+    assert sorted(registered) == sorted(KERNELS)
 
-    # one file per registered kernel, wide forms included, and no file that is not one
+    # one file per registered kernel, and no file that is not one
     helpers = {"vec", "list", "seed_objects"}
     files = {p.stem for p in (ROOT / "ext" / "kernels").glob("*.h")} - helpers
     assert files == set(KERNELS), f"unregistered files {files - set(KERNELS)}, missing {set(KERNELS) - files}"
-    # kernels.h includes the scalar and _x8 files, native.h (included once per ISA) the native ones
+    # kernels.h includes the scalar files, native.h (included once per ISA) the native ones
     includes = re.findall(
         r'#include "kernels/(\w+)\.h"', "".join((ROOT / "ext" / f).read_text() for f in ("kernels.h", "native.h"))
     )
     assert sorted(set(includes) - helpers) == sorted(files) and len(includes) == len(set(includes))
 
-    # a row of docs/kernels.md's table for each: in the name or wide-form column, once
+    # a row of docs/kernels.md's table for each: in the name or native-form column, once
     doc = (ROOT / "docs" / "kernels.md").read_text(encoding="utf-8")
     table = doc.split("\n## The kernels\n\n", 1)[1].split("\n\n", 1)[0]
-    assert table.startswith("| name | wide form |"), "docs/kernels.md: the table follows '## The kernels'"
+    assert table.startswith("| name | native form |"), "docs/kernels.md: the table follows '## The kernels'"
     named = [n for row in table.splitlines()[2:] for cell in row.split("|")[1:3] for n in re.findall(r"`(\w+)`", cell)]
     assert sorted(named) == sorted(KERNELS), "docs/kernels.md's table: one mention per registered kernel"
 
@@ -288,7 +260,7 @@ def test_the_registration_lines_are_what_python_reads():
             assert (info.watertight != "none") == (watertight == "TB_WATERTIGHT"), name
             assert info.watertight_source == promised_by.strip('"'), name
             assert info.seed_replay == (origin == "TB_SEED_REPLAY"), name
-            assert (info.wide_form is not None) == (wide == "TB_X8"), name
+            assert (info.lanes == 16) == wide.startswith("TB_NATIVE"), name
 
 
 def test_info_shows_the_declared_properties():

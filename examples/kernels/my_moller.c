@@ -17,7 +17,7 @@
 
 #define TB_FILE_CITATION "Moller & Trumbore, Fast, Minimum Storage Ray-Triangle Intersection, JGT 2(1), 1997"
 /* one registration line per kernel: name, faces, watertight promise, the
- * paper that promises it, origin, wide forms (the columns of ext/kernels/list.h) */
+ * paper that promises it, origin, form (the columns of ext/kernels/list.h) */
 #define TB_FILE_KERNELS(X) X(my_moller, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_SCALAR_ONLY)
 
 #ifdef TB_SCALAR_PART

@@ -17,11 +17,11 @@
  * The shared test below serves baldwin_weber_9_fma too (layout = 9: the
  * ray permuted per lane to the record's axis order; see that file).
  *
- * How it differs from baldwin_weber_12_x8 (and why):
+ * How it differs from baldwin_weber_12's arithmetic on every lane (and why):
  *  - the plane and the barycentrics are fused (each row on o: three fused
  *    multiply-adds; on d: a multiply and two; u' and v': a multiply and a
  *    fused multiply-subtract each): 22 FMA-pipe operations for t', u', v'
- *    against the _x8 form's 30 (its divide, hit point and dots unfused);
+ *    against baldwin_weber_12's 30 (its divide, hit point and dots unfused);
  *  - no hit point p = o + t d and no division in the kernel: u and v come
  *    from the transformed ray (the 2 x 2 determinants above), which needs
  *    U(o) and U(d) (6 operations) where the paper's homogeneous hit point

@@ -17,15 +17,14 @@
  * and a triangle's index is its position: baldwin_weber_9.h), so each lane
  * gets the ray in its own axis order k, k1, k2 from two masks (k == 1,
  * k == 2; anything else reads as 0, as in the scalar form) and two selects
- * per component of o and d: 2 compares and 12 selects per vector, as
- * baldwin_weber_9_x8. A gather (of o and d by a per-lane index) would replace
+ * per component of o and d: 2 compares and 12 selects per vector. A gather (of o and d by a per-lane index) would replace
  * 12 selects, which run on two ports, by 6 gathers of 16 loads each; an
  * AVX-512 permute (vpermps by k + j) by 6 permutes on one port plus the index
  * arithmetic, for this ISA only. The selects are the cheapest portable choice.
  *
- * How it differs from baldwin_weber_9_x8: as baldwin_weber_12_fma differs
- * from baldwin_weber_12_x8 (fused, no division and no hit point in the
- * kernel, u and v from the transformed ray, no early exit).
+ * How it differs from baldwin_weber_9's arithmetic on every lane: as
+ * baldwin_weber_12_fma from baldwin_weber_12's (fused, no division and no hit
+ * point in the kernel, u and v from the transformed ray, no early exit).
  * Not bit for bit baldwin_weber_9. Error bound: baldwin_weber_12_fma's, with
  * the same K (the map is the same numbers), held by tests/test_kernels_fma.py
  * on every ISA; measured there at 0.81 eps K at most (the plain

@@ -40,13 +40,13 @@
  * all-zero record: den = 0, t' = 0, a miss. Exactly flat triangles: NaN
  * records (misses), as curless.
  *
- * How it differs from curless_x8 (and why):
+ * How it differs from curless's arithmetic on every lane (and why):
  *  - no division in the test: t, u, v are scaled by den, the loop divides
- *    once per vector with a candidate (curless_x8 divides t on every lane,
+ *    once per vector with a candidate (curless divides t on every test,
  *    and u, v by the sides' sum);
  *  - the edge lines M_i, C_i are stored (12 reals for the three edges,
  *    against curless's 9 vertex coordinates): each edge test is one
- *    multiply and three fused multiply-adds, where curless_x8 spends 20
+ *    multiply and three fused multiply-adds, where curless spends 20
  *    operations (two differences, a cross and a dot product) on it;
  *  - fused multiply-adds everywhere: N . d, N . v0 - N . o, Q and the sides;
  *  - N . d != 0 is not tested: den = 0 makes 0 < t' < t_max den fail (and

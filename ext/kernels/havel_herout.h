@@ -31,7 +31,7 @@
  *    inside), as the float64 reference, t' > 0 is strict, det == 0 misses,
  *    and every rejection is !(accept), so a NaN is a miss;
  *  - the scalar form exits early: after t', after u', then the rest (the
- *    paper tests all four signs at once; the wide form does);
+ *    paper tests all four signs at once; havel_herout_fma does);
  *  - 0 < t < t_max: t' is compared with t_max |det| before the division,
  *    t itself after it (t rounded to t_max, or to 0 by underflow or an
  *    infinite det, is a miss);

@@ -12,10 +12,10 @@
  * precomputed layout of this algorithm (the paper's own): nothing per
  * triangle is left to compute, so its prepare is reused.
  *
- * How it differs from havel_herout_x8 (and why):
+ * How it differs from havel_herout's arithmetic on every lane (and why):
  *  - det, t' and P' are fused (one multiply, then fused multiply-adds);
  *    u' and v' are not (see below): 38 operations per test and lane, the
- *    loop's division path included, where havel_herout_x8 does 52
+ *    loop's division path included, where havel_herout does 52
  *    (moller_trumbore_fma: 38);
  *  - written on negated quantities so that every fused step is one fmadd or
  *    fmsub: T = N.o - N_c = -t', Q = T d - det o = -P', -u' = N1.Q - det N1_c,

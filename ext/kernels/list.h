@@ -5,9 +5,9 @@
  * Adding a kernel = one file kernels/<name>.h (tb_<name>_stride, _ops, _flat,
  * _prepare, _ray and _test, see kernels.h; its #include in kernels.h), one
  * registration line below and one row in the README's Kernels table
- * (tests/test_registry.py checks all three). A wide form is one file
- * kernels/<name>_x8.h, its #include, and TB_X8 in its kernel's line. Order is
- * the order `tribench info` prints: the scalar kernels, then the wide forms.
+ * (tests/test_registry.py checks all three). A native form is a kernel of
+ * its own (native.h). Order is the order `tribench info` prints: the scalar
+ * kernels, then the native ones.
  *
  * The columns of a registration line X(name, faces, watertight, promised_by,
  * origin, wide):
@@ -21,16 +21,14 @@
  *   origin       TB_CLEAN, or TB_SEED_REPLAY: a faithful copy of the seed's
  *                code, flaws included, whose differences from the reference are
  *                measured and recorded, never judged
- *   wide         TB_SCALAR_ONLY, or TB_X8: also registered as <name>_x8,
- *                branchless, one ray against blocks of 8 triangles stored
- *                structure of arrays; the same properties as <name>;
- *                or TB_NATIVE: the kernel itself is wide, at the CPU's native
- *                width (native.h: blocks of 16 triangles, one vector per 16
- *                float lanes), with no scalar form; TB_NATIVE_AVX2: the same,
- *                compiled for AVX2 only (the yardstick)
+ *   wide         TB_SCALAR_ONLY, or TB_NATIVE: the kernel itself is wide, at
+ *                the CPU's native width (native.h: blocks of 16 triangles, one
+ *                vector per 16 float lanes), with no scalar form;
+ *                TB_NATIVE_AVX2: the same, compiled for AVX2 only (the
+ *                yardstick)
  * Every kernel is compiled for float32 and float64. Bytes per prepared
- * triangle (tb_<name>_stride), operations per test (tb_<name>_ops, and
- * tb_<name>_x8_ops) and what becomes of an exactly flat triangle
+ * triangle (tb_<name>_stride), operations per test (tb_<name>_ops) and
+ * what becomes of an exactly flat triangle
  * (tb_<name>_flat) sit beside the code they describe, in the kernel's file. */
 #ifdef TB_KERNEL_FILE
 /* A build of a user's kernel file (tribench.ext.load_kernels,
@@ -48,14 +46,14 @@
 #define TB_KERNEL_LIST(X)                                                                    \
     X(curless_seed,         TB_BOTH_FACES,  TB_OPEN,       "",                          TB_SEED_REPLAY, TB_SCALAR_ONLY) \
     X(moller_seed,          TB_BOTH_FACES,  TB_OPEN,       "",                          TB_SEED_REPLAY, TB_SCALAR_ONLY) \
-    X(curless,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
-    X(moller_trumbore,      TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
-    X(moller_trumbore_cull, TB_FRONT_FACES, TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
-    X(baldwin_weber_12,     TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
-    X(baldwin_weber_9,      TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
-    X(havel_herout,         TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
-    X(woop,                 TB_BOTH_FACES,  TB_WATERTIGHT, "Woop, Benthin & Wald 2013", TB_CLEAN,       TB_X8)          \
-    X(plucker,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_X8)          \
+    X(curless,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
+    X(moller_trumbore,      TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
+    X(moller_trumbore_cull, TB_FRONT_FACES, TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
+    X(baldwin_weber_12,     TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
+    X(baldwin_weber_9,      TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
+    X(havel_herout,         TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
+    X(woop,                 TB_BOTH_FACES,  TB_WATERTIGHT, "Woop, Benthin & Wald 2013", TB_CLEAN,       TB_SCALAR_ONLY) \
+    X(plucker,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
     X(moller_trumbore_fma,  TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
     X(moller_trumbore_fma_exit, TB_BOTH_FACES, TB_OPEN,    "",                          TB_CLEAN,       TB_NATIVE)      \
     X(woop_fma,             TB_BOTH_FACES,  TB_WATERTIGHT, "Woop, Benthin & Wald 2013", TB_CLEAN,       TB_NATIVE)      \
@@ -67,9 +65,9 @@
     X(moller_trumbore_cull_fma, TB_FRONT_FACES, TB_OPEN,   "",                          TB_CLEAN,       TB_NATIVE)
 
 /* Internal kernels: honesty checks of the harness, not algorithms to compare,
- * with the same columns (none has a wide form). They are compiled and callable
- * like any kernel but kept out of the user's list (tribench.ext.kernel_names()
- * leaves them out; kernel_names(internal=True) includes them).
+ * with the same columns. They are compiled and callable like any kernel but
+ * kept out of the user's list (tribench.ext.kernel_names() leaves them out;
+ * kernel_names(internal=True) includes them).
  * moller_trumbore_aa is an A/A copy of moller_trumbore (tribench calibrate),
  * moller_seed_aa one of moller_seed (the main job's own A/A margin),
  * moller_trumbore_same calls moller_trumbore's own code (a ratio of exactly 1),
@@ -88,21 +86,20 @@
     X(moller_trumbore_yardstick, TB_BOTH_FACES, TB_OPEN, "", TB_CLEAN, TB_NATIVE_AVX2)
 #endif /* TB_KERNEL_FILE */
 
-/* The values of the columns. */
+/* The values of the columns. The wide column is pasted into macro names
+ * (below), where an unknown value (a removed form's) would fail far from its
+ * line; read once as a value here, it is an undeclared name at its line. */
 enum { TB_BOTH_FACES, TB_FRONT_FACES };
 enum { TB_OPEN, TB_WATERTIGHT };
 enum { TB_CLEAN, TB_SEED_REPLAY };
-/* TB_IF_X8(wide, ...): the rest of the arguments for a kernel with a wide form,
- * nothing for one without (the wide column is pasted, not evaluated). */
-#define TB_IF_X8(wide, ...) TB_IF_X8_##wide(__VA_ARGS__)
-#define TB_IF_X8_TB_X8(...) __VA_ARGS__
-#define TB_IF_X8_TB_SCALAR_ONLY(...)
-#define TB_IF_X8_TB_NATIVE(...)
-#define TB_IF_X8_TB_NATIVE_AVX2(...)
-/* TB_IF_SCALAR(wide, ...): for a kernel with a scalar form (not a native one) */
+enum { TB_SCALAR_ONLY, TB_NATIVE, TB_NATIVE_AVX2 };
+#define TB_CHECK_WIDE(name, faces, watertight, promised_by, origin, wide) tb_##name##_wide_column = wide,
+enum { TB_KERNEL_LIST(TB_CHECK_WIDE) TB_INTERNAL_KERNEL_LIST(TB_CHECK_WIDE) tb_wide_columns_checked };
+#undef TB_CHECK_WIDE
+/* TB_IF_SCALAR(wide, ...): the rest of the arguments for a scalar kernel,
+ * nothing for a native one */
 #define TB_IF_SCALAR(wide, ...) TB_IF_SCALAR_##wide(__VA_ARGS__)
 #define TB_IF_SCALAR_TB_SCALAR_ONLY(...) __VA_ARGS__
-#define TB_IF_SCALAR_TB_X8(...) __VA_ARGS__
 #define TB_IF_SCALAR_TB_NATIVE(...)
 #define TB_IF_SCALAR_TB_NATIVE_AVX2(...)
 /* TB_IF_NATIVE_ON(wide, isa_id, ...): for a native kernel compiled for the
@@ -112,9 +109,6 @@ enum { TB_CLEAN, TB_SEED_REPLAY };
 #define TB_IF_NATIVE_TB_SCALAR_ONLY_0(...)
 #define TB_IF_NATIVE_TB_SCALAR_ONLY_1(...)
 #define TB_IF_NATIVE_TB_SCALAR_ONLY_2(...)
-#define TB_IF_NATIVE_TB_X8_0(...)
-#define TB_IF_NATIVE_TB_X8_1(...)
-#define TB_IF_NATIVE_TB_X8_2(...)
 #define TB_IF_NATIVE_TB_NATIVE_0(...) __VA_ARGS__
 #define TB_IF_NATIVE_TB_NATIVE_1(...) __VA_ARGS__
 #define TB_IF_NATIVE_TB_NATIVE_2(...) __VA_ARGS__
@@ -122,27 +116,18 @@ enum { TB_CLEAN, TB_SEED_REPLAY };
 #define TB_IF_NATIVE_TB_NATIVE_AVX2_1(...) __VA_ARGS__
 #define TB_IF_NATIVE_TB_NATIVE_AVX2_2(...)
 
-/* The instruction sets each wide kernel is compiled for, best first: name,
- * function attribute, and the run-time test that the CPU can run it. The
- * baseline is the build's own ISA (SSE2 on x86-64, no -march), always
- * runnable. On other architectures only the baseline exists. */
+/* The instruction sets the native kernels are compiled for (native.h, one
+ * pass each, instantiated in kernels.h with these attributes), best first,
+ * and the yardstick's. The baseline is the build's own ISA (SSE2 on x86-64,
+ * no -march), always runnable; the AVX2 pass uses FMA too, so it runs where
+ * the CPU has both (tb_isa_runnable). On other architectures only the
+ * baseline exists. */
 #if defined(__x86_64__) || defined(__i386__)
-#define TB_ISA_LIST(X, name)                                                       \
-    X(name, avx512, __attribute__((target("avx512f"))))                            \
-    X(name, avx2, __attribute__((target("avx2"))))                                 \
-    X(name, baseline, )
-#define TB_ISA_NAMES {"avx512", "avx2", "baseline"}
-#define TB_ISA_RUNNABLE {__builtin_cpu_supports("avx512f"), __builtin_cpu_supports("avx2"), 1}
-/* The native kernels' passes (native.h, instantiated in kernels.h with these
- * attributes), best first, and the yardstick's. Their AVX2 pass uses FMA too, so it runs where the CPU has both (tb_isa_runnable). */
 #define TB_TARGET_AVX512_FMA __attribute__((target("avx512f,fma")))
 #define TB_TARGET_AVX2_FMA __attribute__((target("avx2,fma")))
 #define TB_NATIVE_ISA_LIST(X, arg) X(arg, avx512) X(arg, avx2) X(arg, baseline)
 #define TB_NATIVE_AVX2_ISA_LIST(X, arg) X(arg, avx2)
 #else
-#define TB_ISA_LIST(X, name) X(name, baseline, )
-#define TB_ISA_NAMES {"baseline"}
-#define TB_ISA_RUNNABLE {1}
 #define TB_NATIVE_ISA_LIST(X, arg) X(arg, baseline)
 #define TB_NATIVE_AVX2_ISA_LIST(X, arg) /* x86-64 only: the yardstick does not build here */
 #endif

@@ -9,9 +9,9 @@
  * (its test, tb_mt_fma, with the cull parameter: moller_trumbore_fma.h),
  * with the early exit of moller_trumbore_fma_exit (after u).
  *
- * How it differs from moller_trumbore_cull_x8 (and why): as
- * moller_trumbore_fma from moller_trumbore_x8 (fused products, stored edges,
- * no division in the test), and:
+ * How it differs from moller_trumbore_cull's arithmetic on every lane (and
+ * why): as moller_trumbore_fma from moller_trumbore's (fused products, stored
+ * edges, no division in the test), and:
  *  - det's sign is not folded in (the paper's culling branch compares the
  *    scaled barycentrics with det itself): 0 <= u <= det, v >= 0,
  *    u + v <= det, 0 < t < t_max det;

@@ -5,12 +5,12 @@
  * the stored-edge layout is Embree's (v0, e1 = v1 - v0, e2 = v2 - v0).
  * A native wide kernel (native.h): 16 float / 8 double lanes with AVX-512,
  * 8 / 4 with AVX2 + FMA, 4 / 2 on the baseline, chosen at run time; the ISA
- * that ran is recorded as for the _x8 forms. One name for every width: the
+ * that ran is recorded with its results. One name for every width: the
  * width is the machine's, not the algorithm's, so results from an AVX-512
  * and an AVX2 machine stay comparable under one name (a _x16 name would be
  * false on AVX2, where the same records run as two 8-lane vectors).
  *
- * How it differs from moller_trumbore_x8 (and why):
+ * How it differs from moller_trumbore's arithmetic on every lane (and why):
  *  - p = d x e2, q = s x e1 and the four dot products are fused
  *    (one multiply, then fused multiply-adds/-subtracts): 27 FMA-pipe
  *    operations instead of 45, the minimal arithmetic;

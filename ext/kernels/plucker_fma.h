@@ -39,10 +39,10 @@
  * gives 167 and 164. Near fans and the grid's vertices: 0 either way. The
  * plain dot product costs 6 operations per test more.
  *
- * How it differs from plucker_x8 (and why):
+ * How it differs from plucker's arithmetic on every lane (and why):
  *  - stored edges (9 subtractions fewer per test) and normal (6 operations,
  *    and only for vectors that pass the exit); fused cross products: 60
- *    operations before the exit, 74 in all, where plucker_x8 does 110;
+ *    operations before the exit, 74 in all, where plucker does 107;
  *  - the tolerance rule is plucker's: a product may stray to the other sign by
  *    TB_PLUCKER_TOLERANCE machine epsilons of |sum| (sum of the three
  *    products), zeros either way; written as min(products) >= -tolerance or

@@ -39,8 +39,8 @@
  * is taken only when such a lane has a 0; the recomputation is an out-of-line
  * cold function.
  *
- * How else it differs from woop_x8 (and why):
- *  - native width, and 43 operations per lane instead of 60: the shear and
+ * How else it differs from woop's arithmetic on every lane (and why):
+ *  - 43 operations per lane instead of woop's 57: the shear and
  *    the scaled t fused (6 + 2 FMAs), sz applied once to the scaled t instead
  *    of to each vertex's z, no division in the kernel (the loop divides once
  *    per vector with a candidate);

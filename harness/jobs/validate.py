@@ -96,7 +96,7 @@ WATERTIGHT: dict[str, str] = {
 def promise(kernel: str, test: str) -> tuple[str, float | None]:
     """What the papers promise ``kernel`` on ``test``: (text, largest rate allowed), or ('measured', None).
 
-    >>> promise("woop_x8", "shared_edges")
+    >>> promise("woop_fma", "shared_edges")
     ('0 (watertight: Woop, Benthin & Wald 2013)', 0.0)
     >>> promise("curless", "parallel_rays")
     ('0 (must miss)', 0.0)

@@ -52,7 +52,7 @@ _SEED_KINDS: dict[str, str] = {
     "ns_per_test_ci_low": "lower end of its 95% Student-t interval",
     "ns_per_test_ci_high": "upper end of that interval",
     "tests_per_pass": "tests the kernel runs in one pass over the sample (any mode: up to each ray's first "
-    "hit, in blocks of 8 for wide kernels)",
+    "hit, in blocks of 16 for native kernels)",
     "sample_tests": "tests a scalar kernel runs in one pass over the sample",
     "stream_tests": "tests a scalar kernel runs on all of the render's rays of this kind",
     "render_s": "this kind's share of render_s, seconds (mean over processes)",
