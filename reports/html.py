@@ -1,7 +1,8 @@
 """``report.html``: one self-contained page per run, put together from its sections.
 
 What each section shows is docs/results.md's. The page kit is :mod:`.page`; the bodies come from
-:mod:`.ranking`, :mod:`.headline`, :mod:`.results`, :mod:`.bvh`, :mod:`.builds`, :mod:`.checks` and :mod:`.about`.
+:mod:`.ranking`, :mod:`.headline`, :mod:`.results`, :mod:`.bvh`, :mod:`.builds`, :mod:`.replication`,
+:mod:`.checks` and :mod:`.about`.
 
 Sections, by id, in page order (a new section: its title here and its body in :func:`render`):
 
@@ -11,8 +12,9 @@ Sections, by id, in page order (a new section: its title here and its body in :f
 
 and, only in a run that has one, after the section named:
 
->>> OPTIONAL_SECTIONS
-{'builds': ('Across builds', 'ranking'), 'bvh': ('In a BVH', 'scaling')}
+>>> OPTIONAL_SECTIONS  # doctest: +NORMALIZE_WHITESPACE
+{'replication': ('Replication', 'answer'), 'builds': ('Across builds', 'ranking'),
+ 'bvh': ('In a BVH', 'scaling')}
 """
 
 from __future__ import annotations
