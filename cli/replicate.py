@@ -52,7 +52,8 @@ def run(args: argparse.Namespace) -> int:
         out = args.resume
         if runfolder.read_run(out).get("replicates", {}).get("run_id") != original.run.get("run_id"):
             raise UserError(f"{out} is no replication of {args.run_dir}")
-        result = runner.resume(out, progress=args.progress)
+        with runner.resumed_with(out, f"tribench replicate {args.run_dir} --resume {out}"):
+            result = runner.resume(out, progress=args.progress)
     else:
         out = args.out or default_run_dir("replicate")
         result = replicate.measure(

@@ -21,7 +21,8 @@ import os
 import secrets
 import sys
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -69,6 +70,16 @@ class SweepError(Exception):
 
 class SweepInterrupted(Exception):
     """Ctrl-C: the sweep stopped cleanly; every finished batch is on disk."""
+
+
+@contextmanager
+def resumed_with(out: str | Path, command: str) -> Iterator[None]:
+    """Ctrl-C in a sweep a job runs: its message names ``command``, the job's own way to finish, not
+    ``tribench sweep --resume``, which would finish the sweep alone."""
+    try:
+        yield
+    except SweepInterrupted as exc:
+        raise SweepInterrupted(str(exc).replace(f"tribench sweep --resume {out}", command)) from None
 
 
 @dataclass(frozen=True)

@@ -160,14 +160,18 @@ def test_resume_refuses_a_folder_that_is_not_a_main_job(tmp_path, monkeypatch):
         main_job.resume(tmp_path / "sweep", progress=False, peers=False)
 
 
-def test_an_interrupt_inside_the_main_job_names_run_resume(tmp_path):
+def test_an_interrupt_inside_the_main_job_names_run_resume(tmp_path, monkeypatch):
     from tribench.harness.runner import SweepInterrupted
 
+    def interrupted(sweep, out, **_):
+        raise SweepInterrupted(
+            f"interrupted: 3 of 9 batches saved in {out}; finish with: tribench sweep --resume {out}"
+        )
+
+    monkeypatch.setattr(main_job, "run_sweep", interrupted)
+    monkeypatch.setattr(plan, "default_sweep", lambda quick=False, kernel_files=(), builds=(): TINY)
     with pytest.raises(SweepInterrupted, match=f"finish with: tribench run --resume {tmp_path}$"):
-        with main_job._resumable(tmp_path):
-            raise SweepInterrupted(
-                f"interrupted: 3 of 9 batches saved in {tmp_path}; finish with: tribench sweep --resume {tmp_path}"
-            )
+        main_job.run(tmp_path, quick=True, progress=False, peers=False, log=io.StringIO())
 
 
 def test_run_resume_is_refused_in_one_line_where_it_cannot_apply(tmp_path):

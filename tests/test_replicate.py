@@ -13,7 +13,7 @@ import pytest
 from test_compare import steadied_pair
 from test_report_run import run_fixture_dir
 
-from tribench.harness import runfolder
+from tribench.harness import runfolder, runner
 from tribench.harness.jobs.replicate import replication_plan
 from tribench.reports import html as report_html
 from tribench.reports.replication import replication_section, summary
@@ -132,3 +132,13 @@ def test_tribench_replicate_reruns_a_copied_run_with_an_empty_cache(tmp_path_fac
         [sys.executable, "-m", "tribench.cli", "replicate", str(copy), "--resume", str(copy)], **kwargs
     )
     assert refused.returncode == 2 and refused.stderr.endswith(f"{copy} is no replication of {copy}\n")
+
+
+def test_an_interrupted_replication_names_its_own_way_to_finish(tmp_path):
+    out = tmp_path / "rep"
+    with pytest.raises(runner.SweepInterrupted) as caught:
+        with runner.resumed_with(out, f"tribench replicate RUN --resume {out}"):
+            raise runner.SweepInterrupted(
+                f"interrupted: 3 of 9 batches saved; finish with: tribench sweep --resume {out}"
+            )
+    assert str(caught.value) == f"interrupted: 3 of 9 batches saved; finish with: tribench replicate RUN --resume {out}"

@@ -6,8 +6,7 @@ It measures; the caller makes the tables and the report from the folder.
 from __future__ import annotations
 
 import sys
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
@@ -45,7 +44,7 @@ def run(
 
     load_checked(kernel_files)  # first: the default sweep gives their kernels roles
     sweep = default_sweep(quick=quick, kernel_files=kernel_files, builds=builds)
-    with _resumable(out):
+    with runner.resumed_with(out, f"tribench run --resume {out}"):
         done = run_sweep(
             sweep,
             out,
@@ -72,7 +71,7 @@ def resume(out: str | Path, progress: bool | None = None, peers: bool = True, lo
         )
     quick = bool(record["main_job"].get("quick"))
     _say(log, f"tribench run --resume: finishing the main job in {out}")
-    with _resumable(out):
+    with runner.resumed_with(out, f"tribench run --resume {out}"):
         done = runner.resume(out, progress=progress)
     return _complete(out, done, quick, progress, peers and not _peers_done(out, quick), log)
 
@@ -87,16 +86,6 @@ def _peers_done(out: Path, quick: bool) -> bool:
     except (OSError, ValueError, pd.errors.ParserError):
         return False
     return bool(done >= design.processes)
-
-
-@contextmanager
-def _resumable(out: str | Path) -> Iterator[None]:
-    """Ctrl-C in the sweep: its message names ``tribench run --resume``, which finishes the whole job."""
-    try:
-        yield
-    except runner.SweepInterrupted as exc:
-        text = str(exc).replace(f"tribench sweep --resume {out}", f"tribench run --resume {out}")
-        raise runner.SweepInterrupted(text) from None
 
 
 def _complete(

@@ -69,4 +69,5 @@ def measure(
         "machine": original.get("machine", {}),
         "left_out": notes,
     }
-    return run_sweep(sweep, out, say=say, cpu=cpu, progress=progress, extra={"replicates": replicates})
+    with runner.resumed_with(out, f"tribench replicate {run_dir} --resume {out}"):
+        return run_sweep(sweep, out, say=say, cpu=cpu, progress=progress, extra={"replicates": replicates})
