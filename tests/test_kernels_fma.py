@@ -22,7 +22,10 @@ constants can move it, below), the hit/miss decision is the reference's, and
     larger than eps K_c t_ref |d| max|e| / |n|;
   Havel-Herout (havel_herout_fma.h): B = 2, K = (|v0| + |o| + |d| t_ref) / (|N . d| t_ref)
     (its plane constants are of the size of the coordinates); decisions held where
-    the margin is larger than 64 eps (|v0| + |o| + |d| t_ref) / (the smallest height).
+    the margin is larger than 64 eps (|v0| + |o| + |d| t_ref) / (the smallest height);
+  Badouel (badouel_fma.h): Havel-Herout's (the same rounded unit plane, and a hit point
+    whose error is of the size of the coordinates);
+  Wald (wald_fma.h): Baldwin-Weber's (the same plane and line equations as baldwin_weber_9).
 A culling kernel is held to the reference's front faces.
 The plain scalar form of each algorithm meets the same bound (checked here too, so
 the bound is no weaker for the FMA forms than for the forms they stand beside).
@@ -56,6 +59,8 @@ SCALAR = [
     "woop",
     "havel_herout",
     "plucker",
+    "badouel",
+    "wald",
 ]
 # reals per triangle of each native kernel's records
 STRIDE = {
@@ -69,6 +74,8 @@ STRIDE = {
     "plucker_fma": 21,  # v0 v1 v2, three edges, n
     "moller_trumbore_cull_fma": 9,  # v0, e1, e2
     "curless_fma": 17,  # normal and plane offset; per edge its in-plane normal and offset; the uv scale
+    "badouel_fma": 11,  # unit normal and plane offset, the dropped axis, the vertices' two kept coordinates
+    "wald_fma": 10,  # plane scaled to n_k = 1, the dropped axis, two 2-D line equations
 }
 
 
@@ -175,6 +182,10 @@ BOUNDS = {
     "moller_trumbore_cull_fma": MOLLER,
     "curless": CURLESS,
     "curless_fma": CURLESS,
+    "badouel": HAVEL_HEROUT,
+    "badouel_fma": HAVEL_HEROUT,
+    "wald": BALDWIN_WEBER,
+    "wald_fma": BALDWIN_WEBER,
 }
 
 
@@ -225,6 +236,8 @@ def test_the_native_kernels_are_registered_as_such():
         "plucker_fma",
         "moller_trumbore_cull_fma",
         "curless_fma",
+        "badouel_fma",
+        "wald_fma",
     }
     assert set(NATIVE) == set(STRIDE) and set(NATIVE) <= set(BOUNDS)
     for k in NATIVE:
