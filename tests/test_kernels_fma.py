@@ -157,7 +157,8 @@ class Bound:
 # (1.27 float64, both), Baldwin-Weber 0.82 / 0.81, Plucker 1.05 / 0.78, Havel-Herout 0.81 / 0.89; Havel-Herout's
 # decisions went wrong up to a margin of 7.2 (scalar) and 23.7 (native) eps times _margin_hh (float32, 1e-3
 # triangles at 1e3: both forms alike); Moller with culling 0.64 / 0.76 (0.92 float64), Curless 0.64 / 0.79
-# (0.84 / 0.86 float64), its wrong decisions within 0.27 of _margin_curless
+# (0.84 / 0.86 float64), its wrong decisions within 0.27 of _margin_curless; Badouel 0.60 / 0.52 (0.98 / 1.08
+# float64), Wald 0.55 / 0.55 (1.18 / 1.18 float64)
 MOLLER = Bound(4.0, _condition_mt)
 BALDWIN_WEBER = Bound(2.0, _condition_bw, lambda o, d, tris, t: 4 * _condition_bw_uv(o, d, tris))
 PLUCKER = Bound(2.0, _condition_mt)
