@@ -441,7 +441,14 @@ def test_float32_precomputation_would_break_far_from_the_origin():
 
 
 @pytest.mark.parametrize(
-    ("kernel", "native"), [("baldwin_weber_12", "baldwin_weber_12_fma"), ("baldwin_weber_9", "baldwin_weber_9_fma")]
+    ("kernel", "native"),
+    [
+        ("baldwin_weber_12", "baldwin_weber_12_fma"),
+        ("baldwin_weber_9", "baldwin_weber_9_fma"),
+        # the projection tests: plane constants (and Wald's line constants) of the same kind, made in double
+        ("badouel", "badouel_fma"),
+        ("wald", "wald_fma"),
+    ],
 )
 @pytest.mark.parametrize("offset", [1e3, 1e4])
 def test_baldwin_weber_float32_far_from_the_origin(kernel, native, offset):
