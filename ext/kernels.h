@@ -122,6 +122,8 @@ typedef mask_elem vmask __attribute__((vector_size(32)));
 #include "kernels/havel_herout.h"
 #include "kernels/woop.h"
 #include "kernels/plucker.h"
+#include "kernels/badouel.h"
+#include "kernels/wald.h"
 #endif
 
 typedef int (*TB_FN(tb_test_fn))(const tb_ray *restrict, const real *restrict, real,

@@ -232,6 +232,8 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #include "kernels/plucker_fma.h"
 #include "kernels/curless_fma.h"
 #include "kernels/moller_trumbore_cull_fma.h"
+#include "kernels/badouel_fma.h"
+#include "kernels/wald_fma.h"
 #endif
 
 typedef nmask (*TB_NFN(tb_native_fn))(const tb_nray *restrict, const real *restrict, nreal,

@@ -22,7 +22,10 @@ constants can move it, below), the hit/miss decision is the reference's, and
     larger than eps K_c t_ref |d| max|e| / |n|;
   Havel-Herout (havel_herout_fma.h): B = 2, K = (|v0| + |o| + |d| t_ref) / (|N . d| t_ref)
     (its plane constants are of the size of the coordinates); decisions held where
-    the margin is larger than 64 eps (|v0| + |o| + |d| t_ref) / (the smallest height).
+    the margin is larger than 64 eps (|v0| + |o| + |d| t_ref) / (the smallest height);
+  Badouel (badouel_fma.h): Havel-Herout's (the same rounded unit plane, and a hit point
+    whose error is of the size of the coordinates);
+  Wald (wald_fma.h): Baldwin-Weber's (the same plane and line equations as baldwin_weber_9).
 A culling kernel is held to the reference's front faces.
 The plain scalar form of each algorithm meets the same bound (checked here too, so
 the bound is no weaker for the FMA forms than for the forms they stand beside).
@@ -56,6 +59,8 @@ SCALAR = [
     "woop",
     "havel_herout",
     "plucker",
+    "badouel",
+    "wald",
 ]
 # reals per triangle of each native kernel's records
 STRIDE = {
@@ -69,6 +74,8 @@ STRIDE = {
     "plucker_fma": 21,  # v0 v1 v2, three edges, n
     "moller_trumbore_cull_fma": 9,  # v0, e1, e2
     "curless_fma": 17,  # normal and plane offset; per edge its in-plane normal and offset; the uv scale
+    "badouel_fma": 11,  # unit normal and plane offset, the dropped axis, the vertices' two kept coordinates
+    "wald_fma": 10,  # plane scaled to n_k = 1, the dropped axis, two 2-D line equations
 }
 
 
@@ -150,7 +157,8 @@ class Bound:
 # (1.27 float64, both), Baldwin-Weber 0.82 / 0.81, Plucker 1.05 / 0.78, Havel-Herout 0.81 / 0.89; Havel-Herout's
 # decisions went wrong up to a margin of 7.2 (scalar) and 23.7 (native) eps times _margin_hh (float32, 1e-3
 # triangles at 1e3: both forms alike); Moller with culling 0.64 / 0.76 (0.92 float64), Curless 0.64 / 0.79
-# (0.84 / 0.86 float64), its wrong decisions within 0.27 of _margin_curless
+# (0.84 / 0.86 float64), its wrong decisions within 0.27 of _margin_curless; Badouel 0.60 / 0.52 (0.98 / 1.08
+# float64), Wald 0.55 / 0.55 (1.18 / 1.18 float64)
 MOLLER = Bound(4.0, _condition_mt)
 BALDWIN_WEBER = Bound(2.0, _condition_bw, lambda o, d, tris, t: 4 * _condition_bw_uv(o, d, tris))
 PLUCKER = Bound(2.0, _condition_mt)
@@ -175,6 +183,10 @@ BOUNDS = {
     "moller_trumbore_cull_fma": MOLLER,
     "curless": CURLESS,
     "curless_fma": CURLESS,
+    "badouel": HAVEL_HEROUT,
+    "badouel_fma": HAVEL_HEROUT,
+    "wald": BALDWIN_WEBER,
+    "wald_fma": BALDWIN_WEBER,
 }
 
 
@@ -225,6 +237,8 @@ def test_the_native_kernels_are_registered_as_such():
         "plucker_fma",
         "moller_trumbore_cull_fma",
         "curless_fma",
+        "badouel_fma",
+        "wald_fma",
     }
     assert set(NATIVE) == set(STRIDE) and set(NATIVE) <= set(BOUNDS)
     for k in NATIVE:

@@ -1,5 +1,5 @@
-"""Moller-Trumbore with culling, Baldwin-Weber (12 and 9+k reals) and Havel-Herout
-against the float64 reference, in every precision and form (scalar, and the native
+"""Moller-Trumbore with culling, Baldwin-Weber (12 and 9+k reals), Havel-Herout,
+Badouel and Wald against the float64 reference, in every precision and form (scalar, and the native
 form on each ISA)."""
 
 from __future__ import annotations
@@ -14,8 +14,16 @@ from conftest import as_dtype, reference_answers, safe_pairs
 from tribench import ext
 from tribench.workloads import reference
 
-KERNELS = ["moller_trumbore_cull", "baldwin_weber_12", "baldwin_weber_9", "havel_herout"]
-STRIDE = {"moller_trumbore_cull": 9, "baldwin_weber_12": 12, "baldwin_weber_9": 10, "havel_herout": 12}
+KERNELS = ["moller_trumbore_cull", "baldwin_weber_12", "baldwin_weber_9", "havel_herout", "badouel", "wald"]
+STRIDE = {
+    "moller_trumbore_cull": 9,
+    "baldwin_weber_12": 12,
+    "baldwin_weber_9": 10,
+    "havel_herout": 12,
+    "badouel": 11,
+    "wald": 12,  # the thesis's 48 bytes (float32), two pads included
+    "wald_fma": 10,  # without the pads (wald_fma.h): a native form whose stride is its own
+}
 CULLS = {"moller_trumbore_cull"}
 # the native form (native.h) of an algorithm that has one: held to the reference, not bit for bit
 NATIVE_FORM = {
@@ -23,6 +31,8 @@ NATIVE_FORM = {
     "havel_herout": "havel_herout_fma",
     "baldwin_weber_12": "baldwin_weber_12_fma",
     "baldwin_weber_9": "baldwin_weber_9_fma",
+    "badouel": "badouel_fma",
+    "wald": "wald_fma",
 }
 DTYPES = [np.float32, np.float64]
 T_RTOL = {np.float32: 1e-4, np.float64: 1e-10}
@@ -67,10 +77,11 @@ def _expected_pairs(kernel, o, d, tris):
 def test_bytes_per_triangle(kernel):
     native = [NATIVE_FORM[kernel]] if kernel in NATIVE_FORM else []
     for name in [kernel, *native]:
-        assert ext.kernel_info(name).stride == STRIDE[kernel]
+        stride = STRIDE.get(name, STRIDE[kernel])
+        assert ext.kernel_info(name).stride == stride
         assert ext.kernel_info(name).culls_back_faces == (kernel in CULLS)
-        assert ext.bytes_per_triangle(name, np.float32) == 4 * STRIDE[kernel]
-        assert ext.bytes_per_triangle(name, np.float64) == 8 * STRIDE[kernel]
+        assert ext.bytes_per_triangle(name, np.float32) == 4 * stride
+        assert ext.bytes_per_triangle(name, np.float64) == 8 * stride
 
 
 # -------------------------------------------------------------------- pairs
@@ -430,7 +441,14 @@ def test_float32_precomputation_would_break_far_from_the_origin():
 
 
 @pytest.mark.parametrize(
-    ("kernel", "native"), [("baldwin_weber_12", "baldwin_weber_12_fma"), ("baldwin_weber_9", "baldwin_weber_9_fma")]
+    ("kernel", "native"),
+    [
+        ("baldwin_weber_12", "baldwin_weber_12_fma"),
+        ("baldwin_weber_9", "baldwin_weber_9_fma"),
+        # the projection tests: plane constants (and Wald's line constants) of the same kind, made in double
+        ("badouel", "badouel_fma"),
+        ("wald", "wald_fma"),
+    ],
 )
 @pytest.mark.parametrize("offset", [1e3, 1e4])
 def test_baldwin_weber_float32_far_from_the_origin(kernel, native, offset):
