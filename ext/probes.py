@@ -14,8 +14,8 @@ from . import _core
 
 @dataclass(frozen=True)
 class Peak:
-    """One run of the FMA peak probe: ``flops`` (an FMA counts two) on ``isa``, ``"avx2+fma"`` or ``"scalar"``
-    (the portable fallback: a separate multiply and add on one lane)."""
+    """One run of the FMA peak probe: ``flops`` (an FMA counts two) on ``isa``, ``"avx2+fma"``, ``"neon+fma"``
+    (aarch64) or ``"scalar"`` (the portable fallback: a separate multiply and add on one lane)."""
 
     flops: float
     elapsed_ns: int
