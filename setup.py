@@ -32,10 +32,11 @@ recorded = " ".join([sysconfig.get_config_var("CFLAGS") or ""] + compile_flags).
 
 # The module's translation units (ext/core.h says what each holds), largest
 # first: the pool below starts them in this order (setuptools hands them over
-# sorted by name), so the six files of loops (about 95% of the work, of about
-# one size) spread over the cores and the small ones fill in at the end.
+# sorted by name), so the files of loops (about 95% of the work, of about one
+# size: six on x86-64, four on aarch64, where the others are empty) spread
+# over the cores and the small ones fill in at the end.
 SOURCES = [
-    *(f"ext/isa_{isa}_{p}.c" for isa in ("avx512", "avx2", "baseline") for p in ("f32", "f64")),
+    *(f"ext/isa_{isa}_{p}.c" for isa in ("avx512", "avx2", "neon", "baseline") for p in ("f32", "f64")),
     "ext/registry.c",
     "ext/probes.c",
     "ext/bvh.c",

@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--isa",
-        choices=("avx512", "avx2", "baseline"),
+        choices=("avx512", "avx2", "neon", "baseline"),
         help="with --peak: hold every native kernel to this instruction set and probe the pipes on it "
         "(default: the widest this CPU runs)",
     )

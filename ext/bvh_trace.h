@@ -59,14 +59,39 @@ TB_NWIDE int TB_NFN(tb_bvh_child_sound)(const tb_bvh_wide *w, int i, uint32_t at
  * (o - b) * -inv, which is (b - o) * inv bit for bit (negation is exact), so
  * that each plane's load folds into the subtraction. Returns the bits of the
  * children met, and their entry distances in *t_in. */
-#if TB_NISA_ID >= 1 && !TB_REAL_IS_DOUBLE
+#if (TB_NISA_ID == 1 || TB_NISA_ID == 2) && !TB_REAL_IS_DOUBLE
 #define tb_wv_max(a, b) _mm256_max_ps(a, b)
 #define tb_wv_min(a, b) _mm256_min_ps(a, b)
 #define tb_wv_le_bits(a, b) ((unsigned)_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ)))
-#elif TB_NISA_ID >= 1
+#elif TB_NISA_ID == 1 || TB_NISA_ID == 2
 #define tb_wv_max(a, b) _mm256_max_pd(a, b)
 #define tb_wv_min(a, b) _mm256_min_pd(a, b)
 #define tb_wv_le_bits(a, b) ((unsigned)_mm256_movemask_pd(_mm256_cmp_pd(a, b, _CMP_LE_OQ)))
+#elif TB_NISA_ID == 3
+/* NEON: the 32 bytes as two registers. vmaxnmq and vminnmq return the
+ * number when one operand is NaN, so the running value (never NaN) is kept
+ * as AVX keeps it; they differ from AVX only on -0 against +0, which
+ * compare equal in the test and in the children's order. */
+#define tb_wv_max(a, b) TB_NFN(tb_wv_pair)(a, b, 1)
+#define tb_wv_min(a, b) TB_NFN(tb_wv_pair)(a, b, 0)
+#define tb_wv_le_bits(a, b) TB_NFN(tb_wv_le)(a, b)
+TB_NWIDE vreal TB_NFN(tb_wv_pair)(vreal a, vreal b, const int max)
+{
+    nreal x[2], y[2];
+    memcpy(x, &a, sizeof x);
+    memcpy(y, &b, sizeof y);
+    for (int h = 0; h < 2; ++h)
+        x[h] = max ? TB_NV(vmaxnmq)(x[h], y[h]) : TB_NV(vminnmq)(x[h], y[h]);
+    memcpy(&a, x, sizeof a);
+    return a;
+}
+TB_NWIDE unsigned TB_NFN(tb_wv_le)(vreal a, vreal b)
+{
+    nreal x[2], y[2];
+    memcpy(x, &a, sizeof x);
+    memcpy(y, &b, sizeof y);
+    return nm_bits(nv_le(x[0], y[0])) | nm_bits(nv_le(x[1], y[1])) << TB_NL;
+}
 #else
 #define tb_wv_max(a, b) TB_NFN(tb_wv_pick)(a, b, (a) > (b))
 #define tb_wv_min(a, b) TB_NFN(tb_wv_pick)(a, b, (a) < (b))

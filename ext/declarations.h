@@ -5,6 +5,7 @@
 #define TB_EMIT_SCALAR 0
 #define TB_EMIT_avx512 0
 #define TB_EMIT_avx2 0
+#define TB_EMIT_neon 0
 #define TB_EMIT_baseline 0
 
 #define TB_REAL float

@@ -5,13 +5,17 @@
  * a target attribute, so the rest of the build keeps its baseline ISA) one
  * _mm256_fmadd_ps is 16 flops; TB_PEAK_CHAINS independent accumulators cover
  * the FMA latency (4-5 cycles) times the FMA ports (2) of current x86 cores,
- * so the loop is bound by throughput, not latency. Elsewhere a portable
+ * so the loop is bound by throughput, not latency. On aarch64 NEON's
+ * vfmaq_f32 (8 flops, always there) runs 16 chains: Neoverse V1/V2
+ * (Graviton 3/4) have 4 FMA pipes of latency 4. Elsewhere a portable
  * scalar loop of separate multiplies and adds (no contraction: the build has
  * -ffp-contract=off) gives the scalar peak, and says so.
  *
  * Each accumulator follows acc = acc * m + c with 0 < m < 1: it converges to
  * c / (1 - m), so no value overflows or becomes subnormal (subnormals would
- * slow some cores down). The sum of the accumulators is returned so the
+ * slow some cores down); NEON's chains add m c each pass instead (fmla's
+ * accumulator is its addend), growing by at most 2^28 x 1e-3, far from
+ * overflow. The sum of the accumulators is returned so the
  * compiler cannot delete the loop.
  *
  * The harness's worker runs the probe at the start and end of each process,
@@ -25,7 +29,7 @@ typedef struct {
     double flops;    /* floating-point operations done (an FMA counts 2) */
     int64_t elapsed_ns;
     double sink;     /* sum of the accumulators (keeps the work alive) */
-    const char *isa; /* "avx2+fma" or "scalar" */
+    const char *isa; /* "avx2+fma", "neon+fma" or "scalar" */
 } tb_peak;
 
 #if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
@@ -50,6 +54,33 @@ __attribute__((target("avx2,fma"))) static double tb_peak_avx2(uint64_t iteratio
     for (int j = 0; j < 8; ++j)
         sum += lanes[j];
     return sum;
+}
+#endif
+
+#if defined(__aarch64__)
+#include <arm_neon.h>
+#define TB_PEAK_NEON 1
+/* 4 pipes x latency 4: 16 chains in flight, named, not an array, which GCC
+ * keeps in memory at this size (a store per chain and pass) */
+#define TB_PEAK_NEON_CHAINS 16
+#define TB_PEAK_NEON_EACH(X) X(0) X(1) X(2) X(3) X(4) X(5) X(6) X(7) X(8) X(9) X(10) X(11) X(12) X(13) X(14) X(15)
+
+static double tb_peak_neon(uint64_t iterations)
+{
+    const float32x4_t m = vdupq_n_f32(0.999f), c = vdupq_n_f32(1e-3f);
+#define TB_PEAK_NEON_INIT(k) float32x4_t acc##k = vdupq_n_f32((float)k);
+#define TB_PEAK_NEON_STEP(k) acc##k = vfmaq_f32(acc##k, m, c); /* fmla adds into its destination: acc as the addend */
+#define TB_PEAK_NEON_SUM(k) total = vaddq_f32(total, acc##k);
+    TB_PEAK_NEON_EACH(TB_PEAK_NEON_INIT)
+    for (uint64_t i = 0; i < iterations; ++i) {
+        TB_PEAK_NEON_EACH(TB_PEAK_NEON_STEP)
+    }
+    float32x4_t total = vdupq_n_f32(0);
+    TB_PEAK_NEON_EACH(TB_PEAK_NEON_SUM)
+#undef TB_PEAK_NEON_SUM
+#undef TB_PEAK_NEON_STEP
+#undef TB_PEAK_NEON_INIT
+    return vaddvq_f32(total);
 }
 #endif
 
@@ -83,6 +114,17 @@ static tb_peak tb_fma_peak(uint64_t iterations, int force_scalar)
         r.flops = 2.0 * 8 * TB_PEAK_CHAINS * (double)iterations;
         r.elapsed_ns = stop - start;
         r.isa = "avx2+fma";
+        return r;
+    }
+#endif
+#ifdef TB_PEAK_NEON
+    if (!force_scalar) {
+        start = tb_now_ns();
+        r.sink = tb_peak_neon(iterations);
+        stop = tb_now_ns();
+        r.flops = 2.0 * 4 * TB_PEAK_NEON_CHAINS * (double)iterations;
+        r.elapsed_ns = stop - start;
+        r.isa = "neon+fma";
         return r;
     }
 #endif

@@ -5,10 +5,11 @@
 
 #include "core.h"
 
-#if defined(__x86_64__) || defined(__i386__) /* elsewhere only the baseline exists (kernels/list.h) */
+#if defined(__x86_64__) || defined(__i386__) /* x86 only (kernels/list.h) */
 #define TB_EMIT_SCALAR 0
 #define TB_EMIT_avx512 1
 #define TB_EMIT_avx2 0
+#define TB_EMIT_neon 0
 #define TB_EMIT_baseline 0
 #define TB_REAL float
 #define TB_REAL_IS_DOUBLE 0

@@ -14,7 +14,12 @@
 #define TB_EMIT_SCALAR 1
 #define TB_EMIT_avx512 0
 #define TB_EMIT_avx2 0
+#define TB_EMIT_neon 0
+#if defined(__aarch64__) /* NEON replaces the baseline there (kernels/list.h) */
+#define TB_EMIT_baseline 0
+#else
 #define TB_EMIT_baseline 1
+#endif
 #define TB_REAL float
 #define TB_REAL_IS_DOUBLE 0
 #define TB_SUFFIX _f32

@@ -6,9 +6,9 @@
  * over `real` (one typedef for the precision, as pbrt does) and every symbol
  * gets the precision as a suffix.
  *
- * Which loops the including file compiles, each 0 or 1, all four defined:
+ * Which loops the including file compiles, each 0 or 1, all five defined:
  *   TB_EMIT_SCALAR    the scalar kernels' entry points (isa_baseline_<p>.c)
- *   TB_EMIT_avx512, TB_EMIT_avx2, TB_EMIT_baseline
+ *   TB_EMIT_avx512, TB_EMIT_avx2, TB_EMIT_neon, TB_EMIT_baseline
  *                     the native kernels' and the BVH traversal's entry
  *                     points for that ISA (isa_<isa>.c)
  * The declarations (types, every kernel's stride, ops, flat, mix and
@@ -61,8 +61,9 @@
  * blends and selects: AVX2's and/or/xor/blendv, AVX-512's mask-register
  * operations, ternary logic, mask blends and masked register moves. */
 
-#if !defined(TB_EMIT_SCALAR) || !defined(TB_EMIT_avx512) || !defined(TB_EMIT_avx2) || !defined(TB_EMIT_baseline)
-#error "define TB_EMIT_SCALAR, TB_EMIT_avx512, TB_EMIT_avx2 and TB_EMIT_baseline (0 or 1) before kernels.h"
+#if !defined(TB_EMIT_SCALAR) || !defined(TB_EMIT_avx512) || !defined(TB_EMIT_avx2) || !defined(TB_EMIT_neon) || \
+    !defined(TB_EMIT_baseline)
+#error "define TB_EMIT_SCALAR, TB_EMIT_avx512, TB_EMIT_avx2, TB_EMIT_neon and TB_EMIT_baseline (0 or 1) before kernels.h"
 #endif
 
 /* Each file compiles only some of the static functions below (a kernel's
@@ -257,6 +258,17 @@ TB_INSTANTIATE_(moller_seed_aa)
 #define TB_NISA avx2
 #define TB_NISA_ID 1
 #define TB_NTARGET TB_TARGET_AVX2_FMA
+#include "native.h"
+#undef TB_NTARGET
+#undef TB_NISA_ID
+#undef TB_NISA
+#undef TB_NFIRST
+#define TB_NFIRST 0
+#endif
+#if defined(__aarch64__) && TB_EMIT_neon
+#define TB_NISA neon
+#define TB_NISA_ID 3
+#define TB_NTARGET /* AdvSIMD: in every aarch64 build, no attribute needed */
 #include "native.h"
 #undef TB_NTARGET
 #undef TB_NISA_ID

@@ -3,22 +3,23 @@
  * No include guard: kernels.h includes this file once per ISA of
  * TB_NATIVE_ISA_LIST whose loops its includer compiles, for each precision
  * (and once, for the declarations alone, in a file that compiles none), with
- * TB_NISA set to the ISA's name and TB_NISA_ID to 2 (AVX-512), 1 (AVX2 + FMA)
- * or 0 (the baseline: SSE2 on x86-64). Every symbol gets the ISA and the
- * precision as suffixes.
+ * TB_NISA set to the ISA's name and TB_NISA_ID to 2 (AVX-512), 1 (AVX2 + FMA),
+ * 3 (NEON, aarch64) or 0 (the baseline: SSE2 on x86-64). Every symbol gets
+ * the ISA and the precision as suffixes.
  *
- * The vector is the ISA's own register (__m512 / __m256 / __m128 and their
- * double forms), not one generic vector type for every ISA (which would run
+ * The vector is the ISA's own register (__m512 / __m256 / float32x4_t /
+ * __m128 and their double forms), not one generic vector type for every ISA (which would run
  * half an AVX-512 core's width, or lower wider comparisons to scalar compares
  * without AVX-512); comparisons give the ISA's own masks (__mmask16 or a
  * vector), and fused multiply-adds are explicit: 16 float / 8 double lanes
- * with AVX-512, 8 / 4 with AVX2, 4 / 2 on the baseline (whose "fused"
- * operations are a multiply and an add, rounded twice).
+ * with AVX-512, 8 / 4 with AVX2, 4 / 2 with NEON and on the baseline (whose
+ * "fused" operations are a multiply and an add, rounded twice).
  *
  * Records come in blocks of TB_NBLOCK = 16 triangles, structure of arrays
  * (field f of triangle l of a block at block[16 f + l]), whatever the ISA, so
  * one prepared layout serves every ISA: a block is one float vector with
- * AVX-512, two with AVX2, four on the baseline (and twice as many for double).
+ * AVX-512, two with AVX2, four with NEON and on the baseline (and twice as
+ * many for double).
  *
  * A native kernel file kernels/<name>.h (wide column TB_NATIVE in list.h)
  * defines, like a scalar kernel, tb_<name>_stride, _ops, _flat, _prepare and
@@ -114,6 +115,55 @@ typedef __m256d nmask;
 #define nm_bits(m) ((unsigned)_mm256_movemask_pd(m))
 #define nv_min _mm256_min_pd
 #define nv_max _mm256_max_pd
+#elif TB_NISA_ID == 3 /* NEON (AdvSIMD, aarch64): 16 bytes, with fused multiply-adds */
+#if TB_REAL_IS_DOUBLE
+typedef float64x2_t nreal;
+typedef uint64x2_t nmask;
+#define TB_NL 2
+#define TB_NV(op) op##_f64
+#define TB_NM(op) op##_u64
+/* no vmaxvq_u64: the largest 32-bit half of either lane */
+#define nm_any(m) (vmaxvq_u32(vreinterpretq_u32_u64(m)) != 0)
+#else
+typedef float32x4_t nreal;
+typedef uint32x4_t nmask;
+#define TB_NL 4
+#define TB_NV(op) op##_f32
+#define TB_NM(op) op##_u32
+#define nm_any(m) (vmaxvq_u32(m) != 0)
+#endif
+#define nv_set1 TB_NV(vdupq_n)
+/* vfmaq(c, a, b) = c + a b and vfmsq(c, a, b) = c - a b, each rounded
+ * once; a b - c is a b plus c negated (exact), so it is rounded once too */
+#define nv_fmadd(a, b, c) TB_NV(vfmaq)(c, a, b)
+#define nv_fmsub(a, b, c) TB_NV(vfmaq)(TB_NV(vnegq)(c), a, b)
+#define nv_fnmadd(a, b, c) TB_NV(vfmsq)(c, a, b)
+#define nv_cmp(a, b, op) TB_NCMP_##op(a, b)
+#define TB_NCMP__CMP_GE_OQ TB_NV(vcgeq)
+#define TB_NCMP__CMP_GT_OQ TB_NV(vcgtq)
+#define TB_NCMP__CMP_LE_OQ TB_NV(vcleq)
+#define TB_NCMP__CMP_LT_OQ TB_NV(vcltq)
+#define TB_NCMP__CMP_EQ_OQ TB_NV(vceqq)
+#define nv_select(m, a, b) TB_NV(vbslq)(m, a, b)
+#define nm_and TB_NM(vandq)
+#define nm_or TB_NM(vorrq)
+#define nm_bits(m) TB_NFN(tb_nbits_of)(m)
+/* the x86 forms' min and max (the second operand on a NaN or a tie), not
+ * vminq's or vminnmq's, whose NaN rules differ */
+#define nv_min(a, b) nv_select(nv_lt(a, b), a, b)
+#define nv_max(a, b) nv_select(nv_gt(a, b), a, b)
+/* no movemask on NEON: lane l keeps bit l alone, and an add across the
+ * lanes gathers them */
+TB_NWIDE unsigned TB_NFN(tb_nbits_of)(nmask m)
+{
+#if TB_REAL_IS_DOUBLE
+    const uint64x2_t bit = {1, 2};
+    return (unsigned)vaddvq_u64(vandq_u64(m, bit));
+#else
+    const uint32x4_t bit = {1, 2, 4, 8};
+    return vaddvq_u32(vandq_u32(m, bit));
+#endif
+}
 #else /* the baseline: plain vector extensions, 16 bytes (SSE2 on x86-64) */
 typedef real nreal __attribute__((vector_size(16)));
 typedef mask_elem nmask __attribute__((vector_size(16)));
@@ -394,6 +444,13 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef nv_fmadd
 #undef nv_set1
 #undef TB_NL
+#undef TB_NV
+#undef TB_NM
+#undef TB_NCMP__CMP_GE_OQ
+#undef TB_NCMP__CMP_GT_OQ
+#undef TB_NCMP__CMP_LE_OQ
+#undef TB_NCMP__CMP_LT_OQ
+#undef TB_NCMP__CMP_EQ_OQ
 #undef TB_NBLOCK
 #undef TB_NWIDE
 #undef tb_nhit

@@ -3,10 +3,11 @@
  *
  * One probe = one class on one ISA in one precision: TB_P_CHAINS independent
  * chains of that operation on the ISA's widest vector (AVX-512: 16 float / 8
- * double lanes; AVX2 with FMA: 8 / 4; the baseline SSE2: 4 / 2), timed in C by
- * the caller. The bodies are probe_body.h, included once per ISA and
- * precision, compiled for the ISA by a target attribute and chosen at run time
- * by CPU features, as the native kernels are (kernels/list.h: TB_NATIVE_ISA_LIST).
+ * double lanes; AVX2 with FMA: 8 / 4; NEON with FMA on aarch64 and the
+ * baseline SSE2: 4 / 2), timed in C by the caller. The bodies are
+ * probe_body.h, included once per ISA and precision, compiled for the ISA by
+ * a target attribute and chosen at run time by CPU features, as the native
+ * kernels are (kernels/list.h: TB_NATIVE_ISA_LIST).
  *
  * The classes (tribench.harness.peak explains the port model that uses them):
  *   fma      a fused multiply-add (SSE2 has none: a multiply then an add,
@@ -181,6 +182,37 @@ typedef int64_t tb_p_v8i64 __attribute__((vector_size(64)));
 #define TB_PROBE_FNS                                                                               \
     {{(tb_probe_fn)tb_probe_avx512_f32, (tb_probe_fn)tb_probe_avx512_f64},                         \
      {(tb_probe_fn)tb_probe_avx2_f32, (tb_probe_fn)tb_probe_avx2_f64},                             \
+     {(tb_probe_fn)tb_probe_baseline_f32, (tb_probe_fn)tb_probe_baseline_f64}}
+#elif defined(__aarch64__)
+#include <arm_neon.h>
+
+/* ---- NEON: the baseline's 128-bit vectors with a fused multiply-add, as
+ * the native kernels' NEON form has (native.h); every aarch64 CPU runs it */
+#define TB_P_TARGET
+#define TB_P_SET1(x) ((TB_P_V){0} + (x))
+#define TB_P_LOAD(p) (*(const TB_P_V *)__builtin_assume_aligned((p), 16))
+#define TB_P_FN tb_probe_neon_f32
+#define TB_P_REAL float
+#define TB_P_V tb_p_v4f
+#define TB_P_IV tb_p_v4i32
+#define TB_P_FMA(a, b, c) ((TB_P_V)vfmaq_f32((float32x4_t)(c), (float32x4_t)(a), (float32x4_t)(b)))
+#include "probe_body.h"
+#undef TB_P_FN
+#undef TB_P_REAL
+#undef TB_P_V
+#undef TB_P_IV
+#undef TB_P_FMA
+#define TB_P_FN tb_probe_neon_f64
+#define TB_P_REAL double
+#define TB_P_V tb_p_v2d
+#define TB_P_IV tb_p_v2i64
+#define TB_P_FMA(a, b, c) ((TB_P_V)vfmaq_f64((float64x2_t)(c), (float64x2_t)(a), (float64x2_t)(b)))
+#include "probe_body.h"
+
+#define TB_PROBE_ISAS {"neon", "baseline"}
+#define TB_PROBE_RUNNABLE {1, 1}
+#define TB_PROBE_FNS                                                                               \
+    {{(tb_probe_fn)tb_probe_neon_f32, (tb_probe_fn)tb_probe_neon_f64},                             \
      {(tb_probe_fn)tb_probe_baseline_f32, (tb_probe_fn)tb_probe_baseline_f64}}
 #else
 #define TB_PROBE_ISAS {"baseline"}

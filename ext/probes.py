@@ -14,8 +14,8 @@ from . import _core
 
 @dataclass(frozen=True)
 class Peak:
-    """One run of the FMA peak probe: ``flops`` (an FMA counts two) on ``isa``, ``"avx2+fma"`` or ``"scalar"``
-    (the portable fallback: a separate multiply and add on one lane)."""
+    """One run of the FMA peak probe: ``flops`` (an FMA counts two) on ``isa``, ``"avx2+fma"``, ``"neon+fma"``
+    (aarch64) or ``"scalar"`` (the portable fallback: a separate multiply and add on one lane)."""
 
     flops: float
     elapsed_ns: int
@@ -38,7 +38,7 @@ OP_CLASSES: tuple[str, ...] = _core.op_classes()
 @dataclass(frozen=True)
 class OpThroughput:
     """Lane-operations per ns of each class of :data:`OP_CLASSES` on one ISA's widest vector (``"avx512"``,
-    ``"avx2"`` with FMA, or ``"baseline"``), per precision: the best of the probe's repeats."""
+    ``"avx2"`` with FMA, ``"neon"`` (aarch64), or ``"baseline"``), per precision: the best of the probe's repeats."""
 
     isa: str
     float32: dict[str, float]

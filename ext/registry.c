@@ -98,7 +98,8 @@ static const tb_kernel tb_kernels[] = {TB_KERNEL_LIST(TB_ENTRY) TB_KERNEL_LIST(T
                                            TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INTERNAL)};
 static const size_t tb_n_kernels = sizeof tb_kernels / sizeof tb_kernels[0];
 
-/* Whether this CPU can run a kernel's ISA of that name (the baseline and scalar: always). */
+/* Whether this CPU can run a kernel's ISA of that name (the baseline, scalar
+ * and NEON, which every aarch64 CPU has: always). */
 static int tb_isa_runnable(const char *isa)
 {
 #if defined(__x86_64__) || defined(__i386__)

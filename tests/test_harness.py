@@ -316,7 +316,7 @@ def test_fma_peak_is_positive_and_finite(force_scalar):
     p = ext.fma_peak(20_000, force_scalar=force_scalar)
     assert p.flops > 0 and p.elapsed_ns > 0
     assert math.isfinite(p.gflops) and p.gflops > 0
-    assert p.isa in ("avx2+fma", "scalar")
+    assert p.isa in ("avx2+fma", "neon+fma", "scalar")
     if force_scalar:
         assert p.isa == "scalar"
     with pytest.raises(ValueError):

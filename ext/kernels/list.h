@@ -113,24 +113,31 @@ enum { TB_KERNEL_LIST(TB_CHECK_WIDE) TB_INTERNAL_KERNEL_LIST(TB_CHECK_WIDE) tb_w
 #define TB_IF_NATIVE_TB_SCALAR_ONLY_0(...)
 #define TB_IF_NATIVE_TB_SCALAR_ONLY_1(...)
 #define TB_IF_NATIVE_TB_SCALAR_ONLY_2(...)
+#define TB_IF_NATIVE_TB_SCALAR_ONLY_3(...)
 #define TB_IF_NATIVE_TB_NATIVE_0(...) __VA_ARGS__
 #define TB_IF_NATIVE_TB_NATIVE_1(...) __VA_ARGS__
 #define TB_IF_NATIVE_TB_NATIVE_2(...) __VA_ARGS__
+#define TB_IF_NATIVE_TB_NATIVE_3(...) __VA_ARGS__
 #define TB_IF_NATIVE_TB_NATIVE_AVX2_0(...)
 #define TB_IF_NATIVE_TB_NATIVE_AVX2_1(...) __VA_ARGS__
 #define TB_IF_NATIVE_TB_NATIVE_AVX2_2(...)
+#define TB_IF_NATIVE_TB_NATIVE_AVX2_3(...)
 
 /* The instruction sets the native kernels are compiled for (native.h, one
  * pass each, instantiated in kernels.h with these attributes), best first,
  * and the yardstick's. The baseline is the build's own ISA (SSE2 on x86-64,
  * no -march), always runnable; the AVX2 pass uses FMA too, so it runs where
- * the CPU has both (tb_isa_runnable). On other architectures only the
- * baseline exists. */
+ * the CPU has both (tb_isa_runnable). On aarch64 NEON (AdvSIMD, part of
+ * its base ISA, so always runnable) replaces the baseline: the same 16
+ * bytes, with fused multiply-adds. Elsewhere only the baseline exists. */
 #if defined(__x86_64__) || defined(__i386__)
 #define TB_TARGET_AVX512_FMA __attribute__((target("avx512f,fma")))
 #define TB_TARGET_AVX2_FMA __attribute__((target("avx2,fma")))
 #define TB_NATIVE_ISA_LIST(X, arg) X(arg, avx512) X(arg, avx2) X(arg, baseline)
 #define TB_NATIVE_AVX2_ISA_LIST(X, arg) X(arg, avx2)
+#elif defined(__aarch64__)
+#define TB_NATIVE_ISA_LIST(X, arg) X(arg, neon)
+#define TB_NATIVE_AVX2_ISA_LIST(X, arg) /* x86-64 only: the yardstick does not build here */
 #else
 #define TB_NATIVE_ISA_LIST(X, arg) X(arg, baseline)
 #define TB_NATIVE_AVX2_ISA_LIST(X, arg) /* x86-64 only: the yardstick does not build here */
