@@ -60,20 +60,9 @@
  * or -1 when the triangle has no usable map (m then holds the miss record). */
 static int TB_FN(tb_baldwin_weber_map)(const real *vertices, real m[12])
 {
-    double v0[3], v1[3], v2[3], e1[3], e2[3];
-    for (int i = 0; i < 3; ++i) {
-        v0[i] = vertices[i];
-        v1[i] = vertices[3 + i];
-        v2[i] = vertices[6 + i];
-        e1[i] = v1[i] - v0[i];
-        e2[i] = v2[i] - v0[i];
-    }
-    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1],
-                   e1[2] * e2[0] - e1[0] * e2[2],
-                   e1[0] * e2[1] - e1[1] * e2[0]};
-    int k = fabs(n[1]) > fabs(n[0]) ? 1 : 0;
-    if (fabs(n[2]) > fabs(n[k]))
-        k = 2;
+    const tb_frame f = TB_FN(tb_frame_of)(vertices);
+    const double *v0 = f.v0, *e1 = f.e1, *e2 = f.e2, *n = f.n;
+    const int k = f.k;
     const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
     const double nk = n[k];
 

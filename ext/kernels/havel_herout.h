@@ -53,15 +53,8 @@ static void TB_FN(tb_havel_herout_prepare)(const real *vertices, size_t n_tris, 
     for (size_t i = 0; i < n_tris; ++i) {
         const real *vtx = vertices + 9 * i;
         real *rec = out + 12 * i;
-        double v0[3], e1[3], e2[3];
-        for (int k = 0; k < 3; ++k) {
-            v0[k] = vtx[k];
-            e1[k] = (double)vtx[3 + k] - v0[k];
-            e2[k] = (double)vtx[6 + k] - v0[k];
-        }
-        double n[3] = {e1[1] * e2[2] - e1[2] * e2[1],
-                       e1[2] * e2[0] - e1[0] * e2[2],
-                       e1[0] * e2[1] - e1[1] * e2[0]};
+        const tb_frame f = TB_FN(tb_frame_of)(vtx);
+        const double *v0 = f.v0, *e1 = f.e1, *e2 = f.e2, *n = f.n;
         /* |n| and the unit normal through n / max|n_k|, and N1, N2 as (e2 x unit) / |n|, (unit x e1) / |n|:
          * |n|^2 itself overflows double for coordinates past about 1e77 */
         double big = fmax(fabs(n[0]), fmax(fabs(n[1]), fabs(n[2])));

@@ -48,6 +48,33 @@ static inline int TB_FN(tb_divide_hit)(real scaled_t, real scaled_u, real scaled
     return 1;
 }
 
+/* What the plane-based tests precompute from, in double (a small triangle far from the origin
+ * loses its normal in float): the first vertex v0, the edges e1 = v1 - v0 and e2 = v2 - v0, the
+ * normal n = e1 x e2 and k, the axis of n's largest component (ties to the lower axis). */
+#ifndef TB_FRAME_DEFINED
+#define TB_FRAME_DEFINED
+typedef struct tb_frame {
+    double v0[3], e1[3], e2[3], n[3];
+    int k;
+} tb_frame;
+#endif
+static inline tb_frame TB_FN(tb_frame_of)(const real *vtx)
+{
+    tb_frame f;
+    for (int j = 0; j < 3; ++j) {
+        f.v0[j] = vtx[j];
+        f.e1[j] = (double)vtx[3 + j] - f.v0[j];
+        f.e2[j] = (double)vtx[6 + j] - f.v0[j];
+    }
+    f.n[0] = f.e1[1] * f.e2[2] - f.e1[2] * f.e2[1];
+    f.n[1] = f.e1[2] * f.e2[0] - f.e1[0] * f.e2[2];
+    f.n[2] = f.e1[0] * f.e2[1] - f.e1[1] * f.e2[0];
+    f.k = fabs(f.n[1]) > fabs(f.n[0]) ? 1 : 0;
+    if (fabs(f.n[2]) > fabs(f.n[f.k]))
+        f.k = 2;
+    return f;
+}
+
 /* Prepared data of the kernels that test raw vertices: the 9 coordinates. */
 static void TB_FN(tb_prepare_vertices)(const real *vertices, size_t n, real *out)
 {
