@@ -29,7 +29,9 @@ constants can move it, below), the hit/miss decision is the reference's, and
   Segura-Feito (segura_feito_fma.h): Plucker's (the same shifted triple products, and t as
     n . (v0 - o) / n . d);
   Kensler-Shirley (kensler_shirley_fma.h): Moller-Trumbore's (the same edges, determinant and
-    triple products, grouped otherwise).
+    triple products, grouped otherwise);
+  Shevtsov (shevtsov_fma.h): Baldwin-Weber's (the same plane scaled to n_k = 1, and the
+    edge equations of wald without their constants).
 A culling kernel is held to the reference's front faces.
 The plain scalar form of each algorithm meets the same bound (checked here too, so
 the bound is no weaker for the FMA forms than for the forms they stand beside).
@@ -67,6 +69,7 @@ SCALAR = [
     "wald",
     "segura_feito",
     "kensler_shirley",
+    "shevtsov",
 ]
 # reals per triangle of each native kernel's records
 STRIDE = {
@@ -84,6 +87,7 @@ STRIDE = {
     "wald_fma": 10,  # plane scaled to n_k = 1, the dropped axis, two 2-D line equations
     "segura_feito_fma": 9,  # the raw vertices
     "kensler_shirley_fma": 9,  # the raw vertices
+    "shevtsov_fma": 10,  # plane scaled to n_k = 1, the dropped axis, v0's kept coordinates, two edge equations
 }
 
 
@@ -199,6 +203,8 @@ BOUNDS = {
     "segura_feito_fma": PLUCKER,
     "kensler_shirley": MOLLER,
     "kensler_shirley_fma": MOLLER,
+    "shevtsov": BALDWIN_WEBER,
+    "shevtsov_fma": BALDWIN_WEBER,
 }
 
 
@@ -253,6 +259,7 @@ def test_the_native_kernels_are_registered_as_such():
         "wald_fma",
         "segura_feito_fma",
         "kensler_shirley_fma",
+        "shevtsov_fma",
     }
     assert set(NATIVE) == set(STRIDE) and set(NATIVE) <= set(BOUNDS)
     for k in NATIVE:

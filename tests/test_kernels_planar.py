@@ -1,6 +1,6 @@
 """Moller-Trumbore with culling, Baldwin-Weber (12 and 9+k reals), Havel-Herout,
-Badouel, Wald, Segura-Feito and Kensler-Shirley against the float64 reference, in
-every precision and form (scalar, and the native form on each ISA)."""
+Badouel, Wald, Segura-Feito, Kensler-Shirley and Shevtsov against the float64
+reference, in every precision and form (scalar, and the native form on each ISA)."""
 
 from __future__ import annotations
 
@@ -23,6 +23,7 @@ KERNELS = [
     "wald",
     "segura_feito",
     "kensler_shirley",
+    "shevtsov",
 ]
 STRIDE = {
     "moller_trumbore_cull": 9,
@@ -34,6 +35,7 @@ STRIDE = {
     "wald_fma": 10,  # without the pads (wald_fma.h): a native form whose stride is its own
     "segura_feito": 9,  # the raw vertices (its native form's too)
     "kensler_shirley": 9,  # the raw vertices (its native form's too)
+    "shevtsov": 10,  # its native form's too
 }
 CULLS = {"moller_trumbore_cull"}
 # the native form (native.h) of an algorithm that has one: held to the reference, not bit for bit
@@ -46,6 +48,7 @@ NATIVE_FORM = {
     "wald": "wald_fma",
     "segura_feito": "segura_feito_fma",
     "kensler_shirley": "kensler_shirley_fma",
+    "shevtsov": "shevtsov_fma",
 }
 DTYPES = [np.float32, np.float64]
 T_RTOL = {np.float32: 1e-4, np.float64: 1e-10}
@@ -461,6 +464,7 @@ def test_float32_precomputation_would_break_far_from_the_origin():
         # the projection tests: plane constants (and Wald's line constants) of the same kind, made in double
         ("badouel", "badouel_fma"),
         ("wald", "wald_fma"),
+        ("shevtsov", "shevtsov_fma"),
     ],
 )
 @pytest.mark.parametrize("offset", [1e3, 1e4])
