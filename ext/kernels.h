@@ -125,6 +125,9 @@ typedef mask_elem vmask __attribute__((vector_size(32)));
 #include "kernels/plucker.h"
 #include "kernels/badouel.h"
 #include "kernels/wald.h"
+#include "kernels/segura_feito.h"
+#include "kernels/kensler_shirley.h"
+#include "kernels/shevtsov.h"
 #endif
 
 typedef int (*TB_FN(tb_test_fn))(const tb_ray *restrict, const real *restrict, real,

@@ -284,6 +284,9 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #include "kernels/moller_trumbore_cull_fma.h"
 #include "kernels/badouel_fma.h"
 #include "kernels/wald_fma.h"
+#include "kernels/segura_feito_fma.h"
+#include "kernels/kensler_shirley_fma.h"
+#include "kernels/shevtsov_fma.h"
 #endif
 
 typedef nmask (*TB_NFN(tb_native_fn))(const tb_nray *restrict, const real *restrict, nreal,

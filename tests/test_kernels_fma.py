@@ -25,7 +25,13 @@ constants can move it, below), the hit/miss decision is the reference's, and
     the margin is larger than 64 eps (|v0| + |o| + |d| t_ref) / (the smallest height);
   Badouel (badouel_fma.h): Havel-Herout's (the same rounded unit plane, and a hit point
     whose error is of the size of the coordinates);
-  Wald (wald_fma.h): Baldwin-Weber's (the same plane and line equations as baldwin_weber_9).
+  Wald (wald_fma.h): Baldwin-Weber's (the same plane and line equations as baldwin_weber_9);
+  Segura-Feito (segura_feito_fma.h): Plucker's (the same shifted triple products, and t as
+    n . (v0 - o) / n . d);
+  Kensler-Shirley (kensler_shirley_fma.h): Moller-Trumbore's (the same edges, determinant and
+    triple products, grouped otherwise);
+  Shevtsov (shevtsov_fma.h): Baldwin-Weber's (the same plane scaled to n_k = 1, and the
+    edge equations of wald without their constants).
 A culling kernel is held to the reference's front faces.
 The plain scalar form of each algorithm meets the same bound (checked here too, so
 the bound is no weaker for the FMA forms than for the forms they stand beside).
@@ -61,6 +67,9 @@ SCALAR = [
     "plucker",
     "badouel",
     "wald",
+    "segura_feito",
+    "kensler_shirley",
+    "shevtsov",
 ]
 # reals per triangle of each native kernel's records
 STRIDE = {
@@ -76,6 +85,9 @@ STRIDE = {
     "curless_fma": 17,  # normal and plane offset; per edge its in-plane normal and offset; the uv scale
     "badouel_fma": 11,  # unit normal and plane offset, the dropped axis, the vertices' two kept coordinates
     "wald_fma": 10,  # plane scaled to n_k = 1, the dropped axis, two 2-D line equations
+    "segura_feito_fma": 9,  # the raw vertices
+    "kensler_shirley_fma": 9,  # the raw vertices
+    "shevtsov_fma": 10,  # plane scaled to n_k = 1, the dropped axis, v0's kept coordinates, two edge equations
 }
 
 
@@ -187,6 +199,12 @@ BOUNDS = {
     "badouel_fma": HAVEL_HEROUT,
     "wald": BALDWIN_WEBER,
     "wald_fma": BALDWIN_WEBER,
+    "segura_feito": PLUCKER,
+    "segura_feito_fma": PLUCKER,
+    "kensler_shirley": MOLLER,
+    "kensler_shirley_fma": MOLLER,
+    "shevtsov": BALDWIN_WEBER,
+    "shevtsov_fma": BALDWIN_WEBER,
 }
 
 
@@ -239,6 +257,9 @@ def test_the_native_kernels_are_registered_as_such():
         "curless_fma",
         "badouel_fma",
         "wald_fma",
+        "segura_feito_fma",
+        "kensler_shirley_fma",
+        "shevtsov_fma",
     }
     assert set(NATIVE) == set(STRIDE) and set(NATIVE) <= set(BOUNDS)
     for k in NATIVE:

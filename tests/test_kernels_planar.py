@@ -1,6 +1,6 @@
 """Moller-Trumbore with culling, Baldwin-Weber (12 and 9+k reals), Havel-Herout,
-Badouel and Wald against the float64 reference, in every precision and form (scalar, and the native
-form on each ISA)."""
+Badouel, Wald, Segura-Feito, Kensler-Shirley and Shevtsov against the float64
+reference, in every precision and form (scalar, and the native form on each ISA)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,17 @@ from conftest import as_dtype, reference_answers, safe_pairs
 from tribench import ext
 from tribench.workloads import reference
 
-KERNELS = ["moller_trumbore_cull", "baldwin_weber_12", "baldwin_weber_9", "havel_herout", "badouel", "wald"]
+KERNELS = [
+    "moller_trumbore_cull",
+    "baldwin_weber_12",
+    "baldwin_weber_9",
+    "havel_herout",
+    "badouel",
+    "wald",
+    "segura_feito",
+    "kensler_shirley",
+    "shevtsov",
+]
 STRIDE = {
     "moller_trumbore_cull": 9,
     "baldwin_weber_12": 12,
@@ -23,6 +33,9 @@ STRIDE = {
     "badouel": 11,
     "wald": 12,  # the thesis's 48 bytes (float32), two pads included
     "wald_fma": 10,  # without the pads (wald_fma.h): a native form whose stride is its own
+    "segura_feito": 9,  # the raw vertices (its native form's too)
+    "kensler_shirley": 9,  # the raw vertices (its native form's too)
+    "shevtsov": 10,  # its native form's too
 }
 CULLS = {"moller_trumbore_cull"}
 # the native form (native.h) of an algorithm that has one: held to the reference, not bit for bit
@@ -33,6 +46,9 @@ NATIVE_FORM = {
     "baldwin_weber_9": "baldwin_weber_9_fma",
     "badouel": "badouel_fma",
     "wald": "wald_fma",
+    "segura_feito": "segura_feito_fma",
+    "kensler_shirley": "kensler_shirley_fma",
+    "shevtsov": "shevtsov_fma",
 }
 DTYPES = [np.float32, np.float64]
 T_RTOL = {np.float32: 1e-4, np.float64: 1e-10}
@@ -448,6 +464,7 @@ def test_float32_precomputation_would_break_far_from_the_origin():
         # the projection tests: plane constants (and Wald's line constants) of the same kind, made in double
         ("badouel", "badouel_fma"),
         ("wald", "wald_fma"),
+        ("shevtsov", "shevtsov_fma"),
     ],
 )
 @pytest.mark.parametrize("offset", [1e3, 1e4])

@@ -56,6 +56,9 @@
     X(plucker,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
     X(badouel,              TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
     X(wald,                 TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
+    X(segura_feito,         TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
+    X(kensler_shirley,      TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
+    X(shevtsov,             TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_SCALAR_ONLY) \
     X(moller_trumbore_fma,  TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
     X(moller_trumbore_fma_exit, TB_BOTH_FACES, TB_OPEN,    "",                          TB_CLEAN,       TB_NATIVE)      \
     X(woop_fma,             TB_BOTH_FACES,  TB_WATERTIGHT, "Woop, Benthin & Wald 2013", TB_CLEAN,       TB_NATIVE)      \
@@ -66,7 +69,10 @@
     X(curless_fma,          TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
     X(moller_trumbore_cull_fma, TB_FRONT_FACES, TB_OPEN,   "",                          TB_CLEAN,       TB_NATIVE)      \
     X(badouel_fma,          TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
-    X(wald_fma,             TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)
+    X(wald_fma,             TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
+    X(segura_feito_fma,     TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
+    X(kensler_shirley_fma,  TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)      \
+    X(shevtsov_fma,         TB_BOTH_FACES,  TB_OPEN,       "",                          TB_CLEAN,       TB_NATIVE)
 
 /* Internal kernels: honesty checks of the harness, not algorithms to compare,
  * with the same columns. They are compiled and callable like any kernel but
