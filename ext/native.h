@@ -267,6 +267,17 @@ TB_NWIDE nreal TB_NFN(nv_load)(const real *p)
 #define nv_lt(a, b) nv_cmp(a, b, _CMP_LT_OQ)
 #define nv_eq(a, b) nv_cmp(a, b, _CMP_EQ_OQ)
 
+/* the ray in each lane's axis order k, k + 1, k + 2 (mod 3), with k (0, 1 or 2) read per lane from
+ * a record field: the projection tests drop axis k; two selects per component */
+TB_NWIDE void TB_NFN(tb_nray_by_axis)(const tb_nray *r, nreal axis, nreal o[3], nreal d[3])
+{
+    const nmask is1 = nv_eq(axis, nv_set1(1)), is2 = nv_eq(axis, nv_set1(2));
+    for (int j = 0; j < 3; ++j) {
+        o[j] = nv_select(is1, r->o[(j + 1) % 3], nv_select(is2, r->o[(j + 2) % 3], r->o[j]));
+        d[j] = nv_select(is1, r->d[(j + 1) % 3], nv_select(is2, r->d[(j + 2) % 3], r->d[j]));
+    }
+}
+
 #ifdef TB_KERNEL_FILE /* a build of a user's kernel file (kernels/list.h): its native part */
 #define TB_NATIVE_PART 1
 #include TB_KERNEL_FILE

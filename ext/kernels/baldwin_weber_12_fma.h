@@ -126,14 +126,8 @@ TB_NWIDE nmask TB_NFN(tb_bw_fma)(const tb_nray *restrict r, const real *restrict
 {
     nreal o[3], d[3];
     if (layout == 9) {
-        /* the ray in each lane's axis order k, k1, k2: two selects per
-         * component (k is 1 or 2 where the record says so, else 0) */
-        const nreal axis = nv_load(lanes + TB_NBLOCK * 9);
-        const nmask is1 = nv_eq(axis, nv_set1(1)), is2 = nv_eq(axis, nv_set1(2));
-        for (int j = 0; j < 3; ++j) {
-            o[j] = nv_select(is1, r->o[(j + 1) % 3], nv_select(is2, r->o[(j + 2) % 3], r->o[j]));
-            d[j] = nv_select(is1, r->d[(j + 1) % 3], nv_select(is2, r->d[(j + 2) % 3], r->d[j]));
-        }
+        /* the ray in each lane's axis order k, k1, k2 (k is 1 or 2 where the record says so, else 0) */
+        TB_NFN(tb_nray_by_axis)(r, nv_load(lanes + TB_NBLOCK * 9), o, d);
     } else {
         for (int j = 0; j < 3; ++j) {
             o[j] = r->o[j];

@@ -54,18 +54,9 @@ static void TB_FN(tb_shevtsov_prepare)(const real *vertices, size_t n_tris, real
     for (size_t i = 0; i < n_tris; ++i) {
         const real *vtx = vertices + 9 * i;
         real *rec = out + 10 * i;
-        double v0[3], e1[3], e2[3];
-        for (int j = 0; j < 3; ++j) {
-            v0[j] = vtx[j];
-            e1[j] = (double)vtx[3 + j] - v0[j];
-            e2[j] = (double)vtx[6 + j] - v0[j];
-        }
-        double n[3] = {e1[1] * e2[2] - e1[2] * e2[1],
-                       e1[2] * e2[0] - e1[0] * e2[2],
-                       e1[0] * e2[1] - e1[1] * e2[0]};
-        int k = fabs(n[1]) > fabs(n[0]) ? 1 : 0;
-        if (fabs(n[2]) > fabs(n[k]))
-            k = 2;
+        const tb_frame f = TB_FN(tb_frame_of)(vtx);
+        const double *v0 = f.v0, *e1 = f.e1, *e2 = f.e2, *n = f.n;
+        const int k = f.k;
         const int u = (k + 1) % 3, v = (k + 2) % 3;
         const double nk = n[k];
         double m[10];

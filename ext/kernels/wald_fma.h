@@ -89,13 +89,8 @@ TB_NWIDE nmask TB_NFN(tb_wald_fma_test)(const tb_nray *restrict r, const real *r
                                         tb_nhit *restrict h)
 {
     /* the ray in each lane's axis order k, u, v */
-    const nreal axis = nv_load(lanes + TB_NBLOCK * 3);
-    const nmask is1 = nv_eq(axis, nv_set1(1)), is2 = nv_eq(axis, nv_set1(2));
     nreal o[3], d[3];
-    for (int j = 0; j < 3; ++j) {
-        o[j] = nv_select(is1, r->o[(j + 1) % 3], nv_select(is2, r->o[(j + 2) % 3], r->o[j]));
-        d[j] = nv_select(is1, r->d[(j + 1) % 3], nv_select(is2, r->d[(j + 2) % 3], r->d[j]));
-    }
+    TB_NFN(tb_nray_by_axis)(r, nv_load(lanes + TB_NBLOCK * 3), o, d);
     const nreal zero = nv_set1(0);
     const nbits sign_bit = (nbits)nv_set1((real)-0.0);
     const nreal n_u = nv_load(lanes), n_v = nv_load(lanes + TB_NBLOCK), n_d = nv_load(lanes + TB_NBLOCK * 2);
