@@ -367,6 +367,46 @@ def build_cases(s: Scratch) -> list[Outcome]:
     return out
 
 
+def replicate_cases(s: Scratch) -> list[Outcome]:
+    """``tribench replicate`` and the paper exports: a run whose mesh file moved, folders that are no run or
+    no replication, outputs over a measured file."""
+    import trimesh
+
+    trimesh.creation.icosphere(subdivisions=2).export(s.root / "one.obj")
+    made = s.tribench(
+        "sweep", "--kernels", "moller_seed,curless", "--mesh", "one.obj", "--camera", "8x8", "--out", "m", *SMALL
+    )
+    (s.root / "one.obj").rename(s.root / "moved.obj")  # as on another machine: only the run folder's copy
+    return [
+        judge("sweep on a mesh file", made, refused=False),
+        judge(
+            "replicate after the mesh moved", s.tribench("replicate", "m", "--out", "r", "--no-progress"), refused=False
+        ),
+        judge("the replication's report", s.tribench("report", "r"), refused=False),
+        judge("replicate into the run", s.tribench("replicate", "m", "--out", "m"), refused=True, words=("not empty",)),
+        judge("replicate a folder that is no run", s.tribench("replicate", "."), refused=True, words=("run.json",)),
+        judge(
+            "resume what is no replication",
+            s.tribench("replicate", "m", "--resume", "m"),
+            refused=True,
+            words=("no replication",),
+        ),
+        judge(
+            "resume with --out",
+            s.tribench("replicate", "m", "--resume", "r", "--out", "x"),
+            refused=True,
+            words=("--out",),
+        ),
+        judge(
+            "latex over run.json",
+            s.tribench("export", "m", "--format", "latex", "--out", "m/run.json"),
+            refused=True,
+            words=("measured file",),
+        ),
+        judge("methods of the replication", s.tribench("export", "r", "--format", "methods"), refused=False),
+    ]
+
+
 CLASSES: dict[str, Callable[[Scratch], list[Outcome]]] = {
     "1 compare": compare_cases,
     "2 moved mesh file": moved_mesh_cases,
@@ -380,6 +420,7 @@ CLASSES: dict[str, Callable[[Scratch], list[Outcome]]] = {
     "new: native Embree peer": embree_cases,
     "new: kernel files": kernel_file_cases,
     "new: builds": build_cases,
+    "new: replicate and exports": replicate_cases,
 }
 
 
