@@ -142,3 +142,28 @@ def test_an_interrupted_replication_names_its_own_way_to_finish(tmp_path):
                 f"interrupted: 3 of 9 batches saved; finish with: tribench sweep --resume {out}"
             )
     assert str(caught.value) == f"interrupted: 3 of 9 batches saved; finish with: tribench replicate RUN --resume {out}"
+
+
+@pytest.mark.slow
+def test_a_known_truth_replicates_twice_the_work_stays_slower_and_an_aa_pair_never_reverses(tmp_path, monkeypatch):
+    from tribench.harness.jobs import replicate
+    from tribench.harness.jobs.sweep import run_sweep
+    from tribench.harness.plan import Sweep
+    from tribench.reports import tables
+    from tribench.workloads.spec import PairSpec
+
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    # the baseline, an A/A pair (the same code under two names) and a kernel that does twice the work
+    kernels = ("moller_seed", "moller_trumbore", "moller_trumbore_same", "moller_trumbore_twice")
+    sweep = Sweep(kernels, (PairSpec(n=2000, hit_rate=0.5),), processes=4, rounds=3, warmup=1, target_ms=2)
+    original, replicated = tmp_path / "a", tmp_path / "b"
+    run_sweep(sweep, original, say=lambda line: None, progress=False)
+    tables.write_all(original, baseline="moller_seed")
+    replicate.measure(original, replicated, say=lambda line: None, progress=False)
+    tables.write_all(replicated, baseline="moller_seed")
+    table = conclusions(load_run(original), load_run(replicated))
+    twice = table.loc[(table["kernel"] == "moller_trumbore_twice") & (table["conclusion"] == "against the baseline")]
+    assert len(twice) == 1 and (twice["original_verdict"] == "slower").all() and (twice["word"] == "holds").all()
+    pair = {"moller_trumbore", "moller_trumbore_same"}
+    twin = table.loc[[{k, o} == pair for k, o in zip(table["kernel"], table["other_kernel"], strict=True)]]
+    assert not twin.empty and "reversed" not in set(twin["word"])
