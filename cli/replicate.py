@@ -63,8 +63,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"next: tribench replicate {args.run_dir} --resume {out}", file=sys.stderr)
         return 1
     tables.write_all(out, baseline=original.baseline, validate_note=measure_robustness(out))
-    table = conclusions(original, load(out))
+    new = load(out)  # read once, for the conclusions and the page
+    table = conclusions(original, new)
     runfolder.write_csv(table, Path(out) / runfolder.REPLICATION)
-    report = write_report(out)
+    report = write_report(new)
     print(f"{summary(table)}\nreplication.csv and report: {report}")
     return 0

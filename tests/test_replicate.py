@@ -93,7 +93,7 @@ def test_the_plan_leaves_out_a_missing_compiler_and_says_so(tmp_path_factory, tm
     shutil.copytree(measured, copy)
     monkeypatch.setenv("TRIBENCH_CACHE", str(cache))
     record = json.loads((copy / runfolder.RUN).read_text())
-    sweep, notes = replication_plan(copy)
+    sweep, notes, _ = replication_plan(copy)
     assert sweep.kernels == tuple(record["sweep"]["kernels"]) and notes == []
     assert [s.to_dict() for s in sweep.workloads] == record["sweep"]["workloads"]
     assert (sweep.processes, sweep.rounds, sweep.seed) == tuple(
@@ -102,7 +102,7 @@ def test_the_plan_leaves_out_a_missing_compiler_and_says_so(tmp_path_factory, tm
     record["sweep"] |= {"builds": ["installed", "no-such-cc -O2"], "processes": 4}  # a build needs two processes
     record["process_seeds"] = [*record["process_seeds"], 12345]
     (copy / runfolder.RUN).write_text(json.dumps(record))
-    sweep, notes = replication_plan(copy)
+    sweep, notes, _ = replication_plan(copy)
     assert sweep.builds == ("installed",) and len(notes) == 1 and "no compiler 'no-such-cc'" in notes[0]
 
 

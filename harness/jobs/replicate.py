@@ -23,8 +23,8 @@ from .sweep import run_sweep
 __all__ = ["replication_plan", "measure"]
 
 
-def replication_plan(run_dir: str | Path) -> tuple[Sweep, list[str]]:
-    """The sweep of ``run_dir`` as this machine can run it, and one line per thing it leaves out."""
+def replication_plan(run_dir: str | Path) -> tuple[Sweep, list[str], dict]:
+    """The sweep of ``run_dir`` as this machine can run it, one line per thing it leaves out, and its ``run.json``."""
     run_dir = Path(run_dir)
     record = runfolder.read_run(run_dir)
     mesh_files.adopt(run_dir)  # the folder's mesh and ray copies: its workloads rebuild without the originals
@@ -47,7 +47,11 @@ def replication_plan(run_dir: str | Path) -> tuple[Sweep, list[str]]:
     if not kernels:
         raise UserError(f"none of {run_dir}'s kernels runs on this machine: nothing to replicate")
     per_workload = tuple(tuple(k for k in ks if k in known) for ks in sweep.workload_kernels)
-    return dataclasses.replace(sweep, kernels=kernels, workload_kernels=per_workload, builds=tuple(builds)), notes
+    return (
+        dataclasses.replace(sweep, kernels=kernels, workload_kernels=per_workload, builds=tuple(builds)),
+        notes,
+        record,
+    )
 
 
 def measure(
@@ -59,10 +63,9 @@ def measure(
     progress: bool | None = None,
 ) -> runner.RunResult:
     """Measure ``run_dir``'s plan into the new folder ``out``; its ``run.json`` names the original."""
-    sweep, notes = replication_plan(run_dir)
+    sweep, notes, original = replication_plan(run_dir)
     for line in notes:
         say(line)
-    original = runfolder.read_run(run_dir)
     replicates = {
         "run_dir": str(Path(run_dir).resolve()),
         "run_id": original.get("run_id"),
