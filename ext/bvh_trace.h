@@ -511,15 +511,9 @@ stop:
  * (one line each, from list.h). The walks that are timed (the wide tree's
  * four, which the harness times, and the binary tree's closest hit, which
  * bench/embree_native.py sets beside the wide tree's) are each compiled with
- * their mode and flags as constants; the other seven share one out-of-line
- * walk that takes them as arguments (noclone: GCC would otherwise specialize
- * it seven times again), as the packets share theirs (docs/decisions.md,
- * "The extension's compile time"). */
-#if defined(__GNUC__) && !defined(__clang__)
-#define TB_BVH_SHARED_ATTR __attribute__((noinline, noclone))
-#else
-#define TB_BVH_SHARED_ATTR __attribute__((noinline))
-#endif
+ * their mode and flags as constants; the other seven share one walk that
+ * takes them as arguments (TB_SHARED_LOOP), as the packets share theirs
+ * (docs/decisions.md, "The extension's compile time"). */
 #define TB_BVH_ENTRY(name, fn_mode, mode, timed, null, wide)                                        \
     TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_bvh_##fn_mode)(tb_bvh_job *job)                    \
     {                                                                                               \
@@ -538,7 +532,7 @@ stop:
         return TB_NFN(tb_bvh_packet_batch)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, \
                                            job, i, n, mode, timed, null, iota, sum);                \
     }                                                                                               \
-    static TB_BVH_SHARED_ATTR TB_NTARGET void TB_NFN(tb_##name##_bvh_walk)(tb_bvh_job *job, int mode, int timed, \
+    static TB_SHARED_LOOP TB_NTARGET void TB_NFN(tb_##name##_bvh_walk)(tb_bvh_job *job, int mode, int timed, \
                                                                           int null, int wide)      \
     {                                                                                               \
         TB_NFN(tb_bvh_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, job, \
@@ -571,4 +565,3 @@ TB_KERNEL_LIST(TB_BVH_INSTANTIATE)
 #undef TB_BVH_ENTRIES
 #undef TB_BVH_ENTRY
 #undef TB_BVH_SHARED_ENTRY
-#undef TB_BVH_SHARED_ATTR

@@ -47,6 +47,14 @@
 #else
 #define TB_NO_ICF
 #endif
+/* A loop shared by a kernel's untimed entry points, which pass their mode to
+ * it: out of line and, in GCC, not cloned per constant argument (which would
+ * compile one copy per mode again). */
+#if defined(__GNUC__) && !defined(__clang__)
+#define TB_SHARED_LOOP __attribute__((noinline, noclone))
+#else
+#define TB_SHARED_LOOP __attribute__((noinline))
+#endif
 
 /* What a loop answers per ray: pairs (ray i against triangle i), any hit,
  * the closest hit's t, or the closest hit's t, u and v. */

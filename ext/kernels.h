@@ -202,21 +202,32 @@ stop:
 }
 
 /* Entry points of one scalar kernel: the only place loops meet kernels.
- * run_<kernel> handles every mode (untimed: speed does not matter);
- * time_<kernel>_<mode> is one function per mode. */
+ * time_<kernel>_<mode> is one function per mode, with the mode compiled in;
+ * the untimed run_<kernel>_<mode> share one loop that takes it (speed does
+ * not matter there, compile time does). */
 #define TB_SCALAR_ENTRY(name, fn_mode, mode, timed)                                         \
     TB_HIDDEN TB_ENTRY_ATTR void TB_FN(tb_##name##_##fn_mode)(tb_job *job)                  \
     {                                                                                       \
         TB_FN(tb_scalar_loop)(TB_FN(tb_##name##_test), TB_FN(tb_##name##_ray),              \
                               tb_##name##_stride, job, mode, timed);                        \
     }
-#define TB_INSTANTIATE_(name)                                        \
-    TB_SCALAR_ENTRY(name, run_pairs, TB_PAIRS, 0)                    \
-    TB_SCALAR_ENTRY(name, run_any, TB_ANY, 0)                        \
-    TB_SCALAR_ENTRY(name, run_closest, TB_CLOSEST_UV, 0)             \
-    TB_SCALAR_ENTRY(name, time_pairs, TB_PAIRS, 1)                   \
-    TB_SCALAR_ENTRY(name, time_any, TB_ANY, 1)                       \
-    TB_SCALAR_ENTRY(name, time_closest, TB_CLOSEST, 1)               \
+#define TB_SCALAR_RUN(name, fn_mode, mode)                                                  \
+    TB_HIDDEN TB_ENTRY_ATTR void TB_FN(tb_##name##_##fn_mode)(tb_job *job)                  \
+    {                                                                                       \
+        TB_FN(tb_##name##_run)(job, mode);                                                  \
+    }
+#define TB_INSTANTIATE_(name)                                                               \
+    static TB_SHARED_LOOP void TB_FN(tb_##name##_run)(tb_job *job, int mode)                \
+    {                                                                                       \
+        TB_FN(tb_scalar_loop)(TB_FN(tb_##name##_test), TB_FN(tb_##name##_ray),              \
+                              tb_##name##_stride, job, mode, 0);                            \
+    }                                                                                       \
+    TB_SCALAR_RUN(name, run_pairs, TB_PAIRS)                                                \
+    TB_SCALAR_RUN(name, run_any, TB_ANY)                                                    \
+    TB_SCALAR_RUN(name, run_closest, TB_CLOSEST_UV)                                         \
+    TB_SCALAR_ENTRY(name, time_pairs, TB_PAIRS, 1)                                          \
+    TB_SCALAR_ENTRY(name, time_any, TB_ANY, 1)                                              \
+    TB_SCALAR_ENTRY(name, time_closest, TB_CLOSEST, 1)                                      \
     TB_SCALAR_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1)
 #define TB_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
     TB_IF_SCALAR(wide, TB_INSTANTIATE_(name)) /* a registration line (list.h) */
@@ -233,6 +244,8 @@ TB_INSTANTIATE_(moller_seed_aa)
 #endif
 #undef TB_INSTANTIATE
 #undef TB_INSTANTIATE_
+#undef TB_SCALAR_RUN
+#undef TB_SCALAR_ENTRY
 #ifndef TB_KERNEL_FILE
 #include "kernels/moller_trumbore_twice.h" /* its own entry points, from moller_trumbore's */
 #include "kernels/moller_trumbore_same.h"  /* the same */

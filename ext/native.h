@@ -412,18 +412,30 @@ stop:
     job->uv_sum = uv_sum;
 }
 
-/* Entry points of one native kernel for this ISA: every mode but pairs. */
+/* Entry points of one native kernel for this ISA: every mode but pairs; as
+ * the scalar kernels', the timed ones with their mode compiled in, the
+ * untimed ones through one loop that takes it. */
 #define TB_NATIVE_ENTRY(name, fn_mode, mode, timed)                                           \
     TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_##fn_mode)(tb_job *job)                      \
     {                                                                                         \
         TB_NFN(tb_native_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray),              \
                                tb_##name##_stride, job, mode, timed);                         \
     }
-#define TB_NATIVE_ENTRIES(name)                              \
-    TB_NATIVE_ENTRY(name, run_any, TB_ANY, 0)                \
-    TB_NATIVE_ENTRY(name, run_closest, TB_CLOSEST_UV, 0)     \
-    TB_NATIVE_ENTRY(name, time_any, TB_ANY, 1)               \
-    TB_NATIVE_ENTRY(name, time_closest, TB_CLOSEST, 1)       \
+#define TB_NATIVE_RUN(name, fn_mode, mode)                                                    \
+    TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_##fn_mode)(tb_job *job)                      \
+    {                                                                                         \
+        TB_NFN(tb_##name##_run)(job, mode);                                                   \
+    }
+#define TB_NATIVE_ENTRIES(name)                                                               \
+    static TB_SHARED_LOOP TB_NTARGET void TB_NFN(tb_##name##_run)(tb_job *job, int mode)      \
+    {                                                                                         \
+        TB_NFN(tb_native_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray),              \
+                               tb_##name##_stride, job, mode, 0);                             \
+    }                                                                                         \
+    TB_NATIVE_RUN(name, run_any, TB_ANY)                                                      \
+    TB_NATIVE_RUN(name, run_closest, TB_CLOSEST_UV)                                           \
+    TB_NATIVE_ENTRY(name, time_any, TB_ANY, 1)                                                \
+    TB_NATIVE_ENTRY(name, time_closest, TB_CLOSEST, 1)                                        \
     TB_NATIVE_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1)
 #define TB_NATIVE_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
     TB_IF_NATIVE_ON(wide, TB_NISA_ID, TB_NATIVE_ENTRIES(name))
@@ -434,6 +446,7 @@ TB_INTERNAL_KERNEL_LIST(TB_NATIVE_INSTANTIATE)
 #undef TB_NATIVE_INSTANTIATE
 #undef TB_NATIVE_ENTRIES
 #undef TB_NATIVE_ENTRY
+#undef TB_NATIVE_RUN
 
 #include "bvh.h"       /* the BVH build and check (first pass) */
 #include "bvh_trace.h" /* its traversals, with these kernels' block tests at the leaves */

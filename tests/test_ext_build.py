@@ -47,12 +47,13 @@ def test_each_isa_uses_its_registers(disassembly, kernel, suffix):
 
 
 LOOPS = re.compile(
-    r"^tb_\w+_((run|time)_(pairs|any|closest|closest_uv|null)|bvh_packet)(_(avx512|avx2|baseline))?_f(32|64)$"
+    r"^tb_\w+_((run|time)_(pairs|any|closest|closest_uv|null)|run|bvh_walk|bvh_packet)(_(avx512|avx2|baseline))?_f(32|64)$"
 )
 # the calls a loop makes by design: moller_trumbore_twice's and moller_trumbore_same's loops
 # are moller_trumbore's, called twice over or once; woop_fma's exact fallback for a 0 edge
 # function is out of line (cold); the seed's object path (seed_objects.h) is calls by its nature;
-# the wide BVH entry points trace packets out of line (bvh_trace.h: one tb_<kernel>_bvh_packet each)
+# the wide BVH entry points trace packets out of line (bvh_trace.h: one tb_<kernel>_bvh_packet each);
+# the untimed entry points jump to their kernel's shared loop (core.h's TB_SHARED_LOOP), which is a loop here
 CALLED_BY_DESIGN = re.compile(
     r"^tb_(moller_trumbore_(run|time)_\w+|woop_fma_exact_f(32|64)|so_\w+_f(32|64)|\w+_bvh_packet_(avx512|avx2|baseline)_f(32|64)(\.\w+)*)$"
 )
