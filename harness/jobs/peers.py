@@ -1,14 +1,10 @@
 """Peers: tribench's fastest kernel, brute force or in its BVH, against trimesh and Embree, in rays/s.
 
-The contenders, the workload and the design are docs/results.md's ("Against
-peers"); the columns of ``peers.csv`` are :data:`COLUMNS` (docs/run-folder.md).
-Every contender runs on the same arrays, in the sweeps' worker protocol with
-pinning and layout randomisation, each repetition in a random order with a
-0.1 s pause so the previous call's helper threads go idle. Each worker has one
-BLAS thread: OpenBLAS starts its threads at NumPy's import, before any pinning,
-and they spun on the other CPU during trimesh's work (180% CPU).
-:func:`summarise` makes the figures (geometric means over processes, t intervals, ratios paired by process).
-"""
+The contenders, workload and design: docs/results.md, "Against peers"; ``peers.csv``'s columns:
+:data:`COLUMNS`. Every contender runs on the same arrays in the one worker protocol, each repetition in a
+random order after a 0.1 s pause (the previous call's helper threads go idle). Each worker has one BLAS
+thread: OpenBLAS starts its threads at NumPy's import, before pinning, and they spun on the other CPU during
+trimesh's work. :func:`summarise` makes the figures (geometric means, t intervals, ratios paired by process)."""
 
 from __future__ import annotations
 
@@ -227,11 +223,8 @@ def measure(
     progress: bool | None = None,
 ) -> pd.DataFrame:
     """Run the peers' processes one after another into ``peers.csv`` (:func:`peers_path`), rewritten after each.
-
-    Raises RuntimeError when no peer is installed or a worker fails. With a BVH
-    design the peer is Embree alone; without it tribench's rows are still measured
-    (with a Notice), and ``kernel`` must be one of ``ext.bvh_kernel_names()``.
-    """
+    Raises RuntimeError when no peer is installed or a worker fails. With a BVH the peer is Embree alone (without it,
+    tribench's rows are still measured, with a Notice), and ``kernel`` must be one of ``ext.bvh_kernel_names()``."""
     import pandas as pd
 
     from ...workloads import cache

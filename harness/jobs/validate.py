@@ -1,14 +1,9 @@
 """``tribench validate``: the robustness suite, every kernel at both precisions.
 
-The cases live in :mod:`tribench.workloads.robustness` (re-exported here);
-this module asks every kernel of ``ext.kernel_names()`` the same questions,
-wide kernels at their default ISA, and judges the answers into rows of
-:data:`COLUMNS`. The ``expected`` column is what the papers promise
-(:func:`promise`): no crack on shared edges and vertices for a kernel declared
-watertight, and no hit for parallel rays, degenerate triangles or non-finite
-input (clean kernels); everything else is ``measured``, never judged.
-:data:`FULL` takes about 0.3 s per kernel and precision.
-"""
+The cases are :mod:`tribench.workloads.robustness`'s (re-exported here; docs/methodology.md, "The robustness
+suite"); this module asks every kernel, wide ones at their default ISA, and judges the answers into rows of
+:data:`COLUMNS` against :func:`promise`, the papers' promise; the rest is ``measured``, never judged.
+:data:`FULL` takes about 0.3 s per kernel and precision."""
 
 from __future__ import annotations
 

@@ -1,15 +1,10 @@
 """The analysis step: every derived table of a run, from its files alone.
 
-:func:`analyse` makes estimates and speedups; :func:`write_all` (``tribench
-run``'s end, ``tribench stats``) writes every table of
-:data:`tribench.harness.runfolder.DERIVED` (columns: docs/run-folder.md), the
-pictures and ``analysis.json``, so the report computes nothing. All statistics
-are :mod:`tribench.harness.stats`'s. A run of several builds is analysed build
-by build, each from its own processes, every table led by a ``build`` column.
-The columns are renamed to carry their units (:data:`ESTIMATE_COLUMNS`,
-:data:`SPEEDUP_COLUMNS`) here and only here: the statistics keep generic names
-that fit any quantity, and :class:`Analysis` holds the tables as the files have them.
-"""
+:func:`analyse` makes estimates and speedups; :func:`write_all` (the end of ``tribench run``, ``tribench
+stats``) writes every table of :data:`tribench.harness.runfolder.DERIVED`, the pictures and
+``analysis.json``, so the report computes nothing. A run of several builds is analysed build by build, every
+table led by a ``build`` column. The statistics (:mod:`tribench.harness.stats`) keep generic names; the
+columns get their units here only (:data:`ESTIMATE_COLUMNS`, :data:`SPEEDUP_COLUMNS`)."""
 
 from __future__ import annotations
 
@@ -176,12 +171,9 @@ def _summary(spec: dict) -> str:
 def _peak_columns(
     table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str, str], throughput: dict | None
 ) -> pd.DataFrame:
-    """Per kernel and workload: mean peak, operations per test, the bound and the fraction of it.
-
-    Each process's time is scaled by its FMA peak over the one recorded with the
-    rates (its clock against the probes'); the t-interval of the mean carries over
-    to ``bound / time``, a monotone map (ends swapped). No recorded rates: NaN.
-    """
+    """Per kernel and workload: mean peak, operations per test, the bound and the fraction of it. Each process's
+    time is scaled by its FMA peak over the one recorded with the rates; the t-interval of the mean maps to
+    ``bound / time`` (ends swapped). No recorded rates: NaN."""
     from ... import ext
     from ...harness.peak import bound_from_mix
 
@@ -410,12 +402,9 @@ def write_all(
 ) -> Derived:
     """Write every derived table of ``run_dir``, its workload pictures and ``analysis.json``.
 
-    ``validate.csv`` is read when present, the peer tables made when ``peers.csv``
-    is. ``analysis.json`` goes last with the SHA-256 of the files the tables were
-    made from, so a reader can tell stale tables. ``validate_note`` says where
-    ``validate.csv`` came from (default: whether the folder has it). Raises
-    UserError when the folder cannot be read or written or has no timed batch.
-    """
+    ``validate.csv`` is read and the peer tables made when their files exist (``validate_note``: where
+    ``validate.csv`` came from). ``analysis.json`` goes last, with the SHA-256 of the files read, so a reader
+    can tell stale tables. Raises UserError when the folder cannot be read or written or has no timed batch."""
     m = measured.load(run_dir)
     parts = estimate_builds(m, baseline, margin)
     result = combined(parts)
