@@ -1,8 +1,7 @@
 """The ``tribench`` command: one console script, one module per subcommand, heavy imports deferred.
 
-Each subcommand module has ``add_parser(subparsers)`` and ``run(args)``, which
-imports what it needs when it runs, so ``tribench --help`` stays fast. What
-each command does is docs/commands.md's.
+Each subcommand module has ``add_parser(subparsers)`` and ``run(args)``, which imports what it needs when it runs,
+so ``tribench --help`` stays fast. What each command does is docs/commands.md's.
 """
 
 from __future__ import annotations
@@ -109,9 +108,8 @@ def _show_notice(shown, said: set[str], message, category, filename, lineno, fil
 def _run_command(argv: list[str] | None) -> int:
     """Run one subcommand; map its failures to exit codes, one line on stderr.
 
-    2: a user error or an ``OSError`` (a missing file, a full disk); 1: a
-    measurement failed; 130: interrupted, every finished batch kept. Any other
-    exception is a bug in tribench and keeps its traceback.
+    2: a user error or an ``OSError`` (a missing file, a full disk); 1: a measurement failed; 130: interrupted,
+    every finished batch kept. Any other exception is a bug in tribench and keeps its traceback.
     """
     prog = "tribench"
     try:

@@ -1,6 +1,5 @@
 """Brute force: a kernel's prepared records (:func:`prepare`) and every ray against every triangle
-(:func:`intersect`); :func:`check_workload` is every check of a call, shared with the timed batches and
-the BVH."""
+(:func:`intersect`); :func:`check_workload` is every check of a call, shared with the timed batches and the BVH."""
 
 from __future__ import annotations
 

@@ -58,8 +58,7 @@ def make_job(
 @dataclass(frozen=True)
 class Batch:
     """One timed batch: ``loops`` passes of a job, timed inside C; ``hits`` and ``t_sum`` (and ``uv_sum``, of
-    ``u + v`` in mode ``closest_uv``) are summed over the passes, to compare with ``loops`` times the
-    reference's."""
+    ``u + v`` in mode ``closest_uv``) are summed over the passes, to compare with ``loops`` times the reference's."""
 
     elapsed_ns: int
     loops: int

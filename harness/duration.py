@@ -1,10 +1,9 @@
 """How long a sweep will take, said before it starts (``tribench seed``, ``run`` and ``sweep``).
 
-Per worker process: its start-up, then per kernel-workload pair a check, a
-calibration and its batches, each the target or one pass, whichever is longer.
-One pass is timed here on a strided slice of each workload; the rest are
-constants read off finished runs (docs/decisions.md, "The duration forecast").
-A forecast, not a promise: the progress lines correct it as batches finish.
+Per worker process: its start-up, then per kernel-workload pair a check, a calibration and its batches, each the
+target or one pass, whichever is longer. One pass is timed here on a strided slice of each workload; the rest are
+constants read off finished runs (docs/decisions.md, "The duration forecast"). A forecast, not a promise: the
+progress lines correct it as batches finish.
 """
 
 from __future__ import annotations

@@ -1,8 +1,7 @@
 """What every timed process does before it times: pinned to one CPU, its memory layout varied at random.
 
-Padding the environment moves the stack, dummy allocations the heap, a random
-offset of 0-15 elements the data within cache lines and pages. A layout that
-suits one contender is then a random effect across processes, not a bias
+Padding the environment moves the stack, dummy allocations the heap, a random offset of 0-15 elements the data
+within cache lines and pages. A layout that suits one contender is then a random effect across processes, not a bias
 (Mytkowicz et al., "Producing wrong data without doing anything obviously wrong!", 2009).
 """
 

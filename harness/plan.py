@@ -1,11 +1,9 @@
 """What a sweep measures, and in which order: the sweep spec and its batch plan.
 
-:func:`plan` expands a :class:`Sweep` into its batches in execution order, a
-pure function of the sweep, so a resumed run knows exactly which batches are
-missing. In each process the workloads come in a random order (a block of
-rounds each, so the kernels share its buffers), warm-up rounds
-(``-warmup .. -1``, kept and labelled) before the timed ones, every kernel
-once per round in a fresh order; every choice comes from :func:`process_seed`.
+:func:`plan` expands a :class:`Sweep` into its batches in execution order, a pure function of the sweep, so a
+resumed run knows exactly which batches are missing. In each process the workloads come in a random order (a block
+of rounds each, so the kernels share its buffers), warm-up rounds (``-warmup .. -1``, kept and labelled) before the
+timed ones, every kernel once per round in a fresh order; every choice comes from :func:`process_seed`.
 """
 
 from __future__ import annotations
@@ -103,9 +101,8 @@ class BatchKey:
 class Sequential:
     """A sequential design: processes in stages, each comparison stopped once its 95% interval is narrow.
 
-    ``target`` is a relative half-width; ``processes`` is then the most the sweep
-    may run, and it also ends when the next stage would end past ``budget_s``.
-    Only the width decides, so the intervals keep their coverage
+    ``target`` is a relative half-width; ``processes`` is then the most the sweep may run, and it also ends when the
+    next stage would end past ``budget_s``. Only the width decides, so the intervals keep their coverage
     (docs/methodology.md, "The main job's sequential design").
     """
 
@@ -135,14 +132,12 @@ class Sequential:
 class Sweep:
     """A grid of kernels x workloads and the design that measures it.
 
-    ``kernels`` may be internal (the harness's checks use them); ``target_ms`` is
-    a batch's wanted length, ``loops`` calibrated to it per kernel, workload and
-    process; ``seed`` drives every random choice, layout included.
-    ``workload_kernels``: per workload, the subset of kernels that run it (empty:
-    :meth:`kernels_for`). ``kernel_files`` are loaded here and by every worker;
-    checking their answers is :mod:`tribench.harness.jobs.kernel_check`'s.
-    ``builds`` (:func:`tribench.ext.parse_builds`; empty: the installed one) are
-    taken in turn by the processes, which they share: 10 processes and 2 builds are 5 of each.
+    ``kernels`` may be internal (the harness's checks use them); ``target_ms`` is a batch's wanted length, ``loops``
+    calibrated to it per kernel, workload and process; ``seed`` drives every random choice, layout included.
+    ``workload_kernels``: per workload, the subset of kernels that run it (empty: :meth:`kernels_for`).
+    ``kernel_files`` are loaded here and by every worker; checking their answers is
+    :mod:`tribench.harness.jobs.kernel_check`'s. ``builds`` (:func:`tribench.ext.parse_builds`; empty: the installed
+    one) are taken in turn by the processes, which they share: 10 processes and 2 builds are 5 of each.
     """
 
     kernels: tuple[str, ...]
@@ -393,12 +388,11 @@ def main_job_kernels() -> dict[str, tuple[str, ...]]:
 def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds: Sequence[str] = ()) -> Sweep:
     """The main job's sweep (``tribench run``): which intersector, on this machine.
 
-    Its workloads, kernels and sequential design are docs/methodology.md's ("The
-    main job's sequential design"); 3 rounds per process is docs/decisions.md's
-    ("3 rounds per process, stages of 2, at least 8 processes"). The baseline's A/A
-    twin gives the run its own margin (:mod:`tribench.reports.tables.margin`).
-    ``kernel_files``' kernels join in their roles; with ``builds``, each stage and
-    the bound on processes grow with their number, so the budget is shared among them.
+    Its workloads, kernels and sequential design are docs/methodology.md's ("The main job's sequential design"); 3
+    rounds per process is docs/decisions.md's ("3 rounds per process, stages of 2, at least 8 processes"). The
+    baseline's A/A twin gives the run its own margin (:mod:`tribench.reports.tables.margin`). ``kernel_files``'
+    kernels join in their roles; with ``builds``, each stage and the bound on processes grow with their number, so
+    the budget is shared among them.
     """
     from .. import ext
     from ..workloads.spec import MeshSpec, PairSpec

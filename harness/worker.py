@@ -1,16 +1,13 @@
 """The worker: one replicate of a sweep, in a fresh process.
 
-Run as ``python -m tribench.harness.worker`` by :mod:`tribench.harness.runner`
-in the one worker protocol (:mod:`.protocol`): a :class:`WorkerJob` on stdin,
-a ``process``, ``check``, ``batch`` or ``traversal`` row per line out (the rows
-of :mod:`tribench.harness.runfolder`), each sent as soon as it is measured.
-Its steps are docs/methodology.md's ("A sweep", "In a BVH"): pin to a CPU,
-randomise the layout (dummy allocations, every array copied at a random offset
-of 0-15 elements), probe the FMA peak, check and calibrate each kernel on each
-workload, run the batches in the given order with every checksum verified
-(a kernel fast because it is wrong stops the sweep), probe the peak again.
-A BVH's nodes are not moved: their start on a cache line is part of the tree,
-as in any tracer (``ext/bvh.py``, ``LINE_BYTES``).
+Run as ``python -m tribench.harness.worker`` by :mod:`tribench.harness.runner` in the one worker protocol
+(:mod:`.protocol`): a :class:`WorkerJob` on stdin, a ``process``, ``check``, ``batch`` or ``traversal`` row per line
+out (the rows of :mod:`tribench.harness.runfolder`), each sent as soon as it is measured. Its steps are
+docs/methodology.md's ("A sweep", "In a BVH"): pin to a CPU, randomise the layout (dummy allocations, every array
+copied at a random offset of 0-15 elements), probe the FMA peak, check and calibrate each kernel on each workload,
+run the batches in the given order with every checksum verified (a kernel fast because it is wrong stops the sweep),
+probe the peak again. A BVH's nodes are not moved: their start on a cache line is part of the tree, as in any tracer
+(``ext/bvh.py``, ``LINE_BYTES``).
 """
 
 from __future__ import annotations

@@ -1,10 +1,8 @@
 """Reports: from a run folder's files to answers. Never measures.
 
-:mod:`.tables` derives every table from the measured files (``tribench stats``);
-the rest reads those tables and writes pages (:mod:`.html`, :mod:`.compare`) and
-terminal tables. Missing or stale tables are refused with the command that
-makes them. It may import ``common``, ``ext``, ``workloads`` and ``harness``;
-never ``cli``.
+:mod:`.tables` derives every table from the measured files (``tribench stats``); the rest reads those tables and
+writes pages (:mod:`.html`, :mod:`.compare`) and terminal tables. Missing or stale tables are refused with the
+command that makes them. It may import ``common``, ``ext``, ``workloads`` and ``harness``; never ``cli``.
 """
 
 from __future__ import annotations

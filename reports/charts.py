@@ -1,9 +1,8 @@
 """The report's interactive charts: Vega-Lite specs made with Altair, drawn in the page by Vega-Embed.
 
-The page carries the library once, in its head (:func:`library`), and each chart
-is its spec with the data inline, so the file opens offline; why Vega-Lite, and
-why the dense diagnostics stay static (:mod:`.figures`), is docs/results.md's.
-No chart computes a statistic: intervals, ranks and verdicts arrive in the frames.
+The page carries the library once, in its head (:func:`library`), and each chart is its spec with the data inline,
+so the file opens offline; why Vega-Lite, and why the dense diagnostics stay static (:mod:`.figures`), is
+docs/results.md's. No chart computes a statistic: intervals, ranks and verdicts arrive in the frames.
 """
 
 from __future__ import annotations

@@ -205,11 +205,10 @@ def _drop_smallest(vertices: np.ndarray, faces: np.ndarray, k: int) -> tuple[np.
 def with_triangle_count(vertices: np.ndarray, faces: np.ndarray, n: int) -> Mesh:
     """The mesh with exactly ``n`` triangles; ``Mesh.method`` says how it was reached.
 
-    Fewer than ``n``: loop subdivision to at least ``n``. More: fast-simplification, trying several
-    aggressiveness values for an exact result, the closest below ``n`` topped up by
-    :func:`_split_longest_edges` (an edge collapse removes two triangles, so the parity can miss by one);
-    if none works (a count too small for the topology), the smallest triangles are dropped: exact, no longer
-    closed.
+    Fewer than ``n``: loop subdivision to at least ``n``. More: fast-simplification, trying several aggressiveness
+    values for an exact result, the closest below ``n`` topped up by :func:`_split_longest_edges` (an edge collapse
+    removes two triangles, so the parity can miss by one); if none works (a count too small for the topology), the
+    smallest triangles are dropped: exact, no longer closed.
 
     >>> v, f = base_mesh("icosphere")
     >>> m = with_triangle_count(v, f, 501)

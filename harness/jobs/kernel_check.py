@@ -1,11 +1,9 @@
 """A kernel file's kernels, checked before anything times them.
 
-Each kernel must give the float64 reference's answers, in both precisions and
-on every ISA, where rounding cannot decide them (crossings at least
-:data:`MARGIN` from every edge; rays into a closed mesh), and keep the promises
-of the robustness suite (:func:`tribench.harness.jobs.validate.promise`). The
-check runs in a worker of its own, stopped after :data:`CHECK_SECONDS`, so a
-kernel that crashes, exits or hangs is refused in one line.
+Each kernel must give the float64 reference's answers, in both precisions and on every ISA, where rounding cannot
+decide them (crossings at least :data:`MARGIN` from every edge; rays into a closed mesh), and keep the promises of
+the robustness suite (:func:`tribench.harness.jobs.validate.promise`). The check runs in a worker of its own,
+stopped after :data:`CHECK_SECONDS`, so a kernel that crashes, exits or hangs is refused in one line.
 """
 
 from __future__ import annotations

@@ -34,10 +34,9 @@ def run(
 ) -> str:
     """Measure the main job into the new folder ``out``; what the robustness suite's step said.
 
-    :func:`tribench.harness.plan.default_sweep` through :func:`~.sweep.run_sweep`,
-    then the peers when installed (their failure never stops the job), then the
-    robustness suite. ``log`` takes the one-line notes (default stderr). Ctrl-C
-    raises :class:`~tribench.harness.runner.SweepInterrupted` naming ``tribench run --resume``.
+    :func:`tribench.harness.plan.default_sweep` through :func:`~.sweep.run_sweep`, then the peers when installed
+    (their failure never stops the job), then the robustness suite. ``log`` takes the one-line notes (default
+    stderr). Ctrl-C raises :class:`~tribench.harness.runner.SweepInterrupted` naming ``tribench run --resume``.
     """
     from ..plan import default_sweep
     from .kernel_check import load_checked

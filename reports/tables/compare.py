@@ -1,12 +1,10 @@
 """The same kernels on N runs (N machines, N builds): what ``tribench compare`` shows, as tables.
 
-What it shows is docs/results.md's ("Compare runs"). Workloads match by id (a
-hash of the spec, so byte-identical). The runs are independent, so two runs'
-ratios are Welch intervals on the log scale (:func:`tribench.harness.stats.unpaired_ratio`),
-simultaneous over a workload's kernels, judged with the larger margin. As in a
-run's rankings, a kernel whose answers differ from the reference on a workload
-did other work there and is compared nowhere on it. A run is any object with
-the fields of :class:`RunTables`.
+What it shows is docs/results.md's ("Compare runs"). Workloads match by id (a hash of the spec, so byte-identical).
+The runs are independent, so two runs' ratios are Welch intervals on the log scale
+(:func:`tribench.harness.stats.unpaired_ratio`), simultaneous over a workload's kernels, judged with the larger
+margin. As in a run's rankings, a kernel whose answers differ from the reference on a workload did other work there
+and is compared nowhere on it. A run is any object with the fields of :class:`RunTables`.
 """
 
 from __future__ import annotations
@@ -176,10 +174,9 @@ MAX_RUNS = 26
 class MultiComparison:
     """N runs side by side: each run's speedups, and the orders of kernels every run agrees on.
 
-    ``orders``: per workload and pair, ``kernel`` the faster on the first run,
-    per run tag ``T`` its ``ratio_T`` (time_other / time_kernel) with interval and
-    ``verdict_T``, then ``order``: ``holds`` (faster on every run), ``differs``
-    (significantly faster on one and slower on another) or ``undecided``.
+    ``orders``: per workload and pair, ``kernel`` the faster on the first run, per run tag ``T`` its ``ratio_T``
+    (time_other / time_kernel) with interval and ``verdict_T``, then ``order``: ``holds`` (faster on every run),
+    ``differs`` (significantly faster on one and slower on another) or ``undecided``.
     """
 
     tags: list[str]
@@ -223,12 +220,11 @@ def order_summary(m: MultiComparison) -> pd.DataFrame:
 def compare_many(runs: Sequence[RunTables], confidence: float = 0.95, same_run: bool = False) -> MultiComparison:
     """Speedups of every run, and which orders of two kernels hold on every run.
 
-    Each order is tested in each run as ``algorithms.csv`` tests one (paired,
-    Bonferroni over the workload's pairs, the run's margin). It *holds* when every
-    run finds the same kernel significantly faster: an intersection of tests, so
-    the claim keeps their level without a further correction. ``same_run``: the
-    runs are one folder's builds. Raises UserError for fewer than two or more than
-    26 runs, different baselines, or no workload in every run.
+    Each order is tested in each run as ``algorithms.csv`` tests one (paired, Bonferroni over the workload's pairs,
+    the run's margin). It *holds* when every run finds the same kernel significantly faster: an intersection of
+    tests, so the claim keeps their level without a further correction. ``same_run``: the runs are one folder's
+    builds. Raises UserError for fewer than two or more than 26 runs, different baselines, or no workload in every
+    run.
     """
     tags = run_tags(len(runs))
     folders = [Path(d.run_dir).resolve() for d in runs]

@@ -99,9 +99,8 @@ def ranking_table(
 ) -> pd.DataFrame:
     """Per workload, every kernel from the fastest down, each against the fastest (``ranking.csv``).
 
-    Paired ratios with Bonferroni intervals over the workload's other kernels. A
-    kernel is tied with the fastest when its interval reaches down to
-    ``1 + margin``: the fastest by point estimate is no evidence it beats those.
+    Paired ratios with Bonferroni intervals over the workload's other kernels. A kernel is tied with the fastest
+    when its interval reaches down to ``1 + margin``: the fastest by point estimate is no evidence it beats those.
     ``val`` (``validate.csv``, optional) adds each kernel's measured failures.
     """
     rows = []
@@ -263,9 +262,8 @@ def band_table(
 ) -> pd.DataFrame:
     """Per precision and hit-rate band (:func:`band_of`), every kernel from the fastest down (``bands.csv``).
 
-    A band holds the kernels timed on all its workloads; a kernel's value in a
-    process is the geometric mean of its medians over them, so each workload
-    weighs the same whatever its ns/test. Then as :func:`ranking_table`: a mean
+    A band holds the kernels timed on all its workloads; a kernel's value in a process is the geometric mean of its
+    medians over them, so each workload weighs the same whatever its ns/test. Then as :func:`ranking_table`: a mean
     with its t interval, paired ratios to the fastest and from the baseline.
     """
     frame = est.assign(

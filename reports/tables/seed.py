@@ -44,9 +44,8 @@ def write_seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
 def render_per_process(pp: pd.DataFrame, workloads: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
     """One render's time per scene, kernel and process: ``scene, kernel, process, render_s``.
 
-    ``pp``: per-process ``ns_per_test`` and ``tests_per_pass``; ``workloads``: id ->
-    ``scene``, ``stream_tests``, ``sample_tests``. A process lacking one of the
-    scene's ray kinds is left out (its sum would be short).
+    ``pp``: per-process ``ns_per_test`` and ``tests_per_pass``; ``workloads``: id -> ``scene``, ``stream_tests``,
+    ``sample_tests``. A process lacking one of the scene's ray kinds is left out (its sum would be short).
 
     >>> pp = pd.DataFrame({"kernel": ["k"] * 2, "workload_id": ["a", "b"], "process": [0, 0],
     ...                    "ns_per_test": [2.0, 4.0], "tests_per_pass": [100, 50]})
@@ -103,9 +102,8 @@ def _widened(low: float, high: float, kernel: str) -> tuple[float, float]:
 def render_table(per: pd.DataFrame, scenes: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
     """The table beside the paper: one row per scene and kernel (``seed.csv``).
 
-    ``scenes`` maps a scene to ``triangles``, ``render_tests``, ``paper`` (a key of
-    :data:`PAPER` or None) and optionally ``paper_size`` (False: the image is not
-    the paper's 512 x 512, so the paper's bound is left empty).
+    ``scenes`` maps a scene to ``triangles``, ``render_tests``, ``paper`` (a key of :data:`PAPER` or None) and
+    optionally ``paper_size`` (False: the image is not the paper's 512 x 512, so the paper's bound is left empty).
     """
     rows = []
     for (scene, kernel), g in per.groupby(["scene", "kernel"], sort=False):

@@ -93,11 +93,10 @@ DEFAULT_BACKGROUND = (0.8, 0.8, 0.8)
 class Scene:
     """A scene in the seed's model, its geometry read-only float64 arrays.
 
-    ``materials`` are the distinct materials in order of first use, which ``*_material`` index. ``planes``
-    (P, 4) are ``a b c d`` as written (not normalised), ``spheres`` (S, 4) ``x y z radius``, ``triangles``
-    (K, 3, 3). ``objects`` (P + S + K, 2) lists ``(kind, index)`` in file order (kind 0 plane, 1 sphere, 2
-    triangle): the seed tests objects in this order (its shadow test stops at the first occluder; ties in
-    ``t`` go to the earlier)."""
+    ``materials`` are the distinct materials in order of first use, which ``*_material`` index. ``planes`` (P, 4)
+    are ``a b c d`` as written (not normalised), ``spheres`` (S, 4) ``x y z radius``, ``triangles`` (K, 3, 3).
+    ``objects`` (P + S + K, 2) lists ``(kind, index)`` in file order (kind 0 plane, 1 sphere, 2 triangle): the seed
+    tests objects in this order (its shadow test stops at the first occluder; ties in ``t`` go to the earlier)."""
 
     name: str
     background: tuple[float, float, float]
