@@ -54,11 +54,9 @@ _FILTER_ABSOLUTE = 2.0**-1000
 
 
 def flat(triangles: np.ndarray) -> np.ndarray:
-    """Which triangles have exactly zero area (a point, a repeated vertex, three vertices on a line), in exact
-    arithmetic on the stored values; a triangle with a non-finite vertex is not flat.
-
-    The float64 cross product with an error bound settles every triangle it is clearly not zero for; the few
-    others are decided in rational arithmetic (``fractions.Fraction`` holds a float exactly).
+    """Which triangles have exactly zero area (a point, a repeated vertex, three vertices on a line) in exact
+    arithmetic on the stored values (a non-finite vertex: not flat); a float64 cross product with an error bound
+    settles most, ``fractions.Fraction`` the rest.
 
     >>> import numpy as np
     >>> a = np.array([0.1, 0.2, 0.3])  # not dyadic
