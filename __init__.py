@@ -150,8 +150,7 @@ def sweep(
     else the first kernel. ``kernel_files`` (docs/own-kernel.md) are checked before anything is timed, and
     ``kernels`` may name theirs; ``builds`` (docs/builds.md) is a list of build specs or one string as ``--builds``
     takes. Raises UserError for a bad value, an ``out`` that is not a new folder, or a kernel file that does not
-    compile or answers wrongly.
-    """
+    compile or answers wrongly."""
     from .harness import plan
     from .harness.jobs.kernel_check import load_checked
     from .harness.jobs.sweep import measure_robustness, run_sweep
@@ -192,8 +191,7 @@ def run(
     """The main job (``tribench run``) into the new folder ``out``: its tables.
 
     :mod:`tribench.harness.jobs.main`; ``quick=True`` takes seconds and gives wide intervals. ``kernel_files`` and
-    ``builds``: as :func:`sweep`'s. The HTML report is ``tribench report RUN_DIR``.
-    """
+    ``builds``: as :func:`sweep`'s. The HTML report is ``tribench report RUN_DIR``."""
     from .harness.jobs import main as main_job
     from .harness.jobs.kernel_check import load_checked
     from .reports import tables

@@ -3,8 +3,7 @@
 Per worker process: its start-up, then per kernel-workload pair a check, a calibration and its batches, each the
 target or one pass, whichever is longer. One pass is timed here on a strided slice of each workload; the rest are
 constants read off finished runs (docs/decisions.md, "The duration forecast"). A forecast, not a promise: the
-progress lines correct it as batches finish.
-"""
+progress lines correct it as batches finish."""
 
 from __future__ import annotations
 
@@ -123,8 +122,7 @@ def measure_passes(
     included, timed on a strided slice and scaled.
 
     It builds into the caches what the workers would (workloads, front-face
-    references, BVH trees), so this is no extra work.
-    """
+    references, BVH trees), so this is no extra work."""
     from .. import ext
     from ..workloads import cache
     from ..workloads.front import front_reference

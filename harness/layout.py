@@ -2,8 +2,7 @@
 
 Padding the environment moves the stack, dummy allocations the heap, a random offset of 0-15 elements the data
 within cache lines and pages. A layout that suits one contender is then a random effect across processes, not a bias
-(Mytkowicz et al., "Producing wrong data without doing anything obviously wrong!", 2009).
-"""
+(Mytkowicz et al., "Producing wrong data without doing anything obviously wrong!", 2009)."""
 
 from __future__ import annotations
 

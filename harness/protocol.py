@@ -135,8 +135,7 @@ def emit(kind: str, record: Any) -> None:
 def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] = ()) -> int:
     """A worker's main: run ``work(job)`` on the job read from stdin; the exit code.
 
-    ``errors``, ValueError (UserError among them) and OSError (a cache file) become the ``error`` line, exit code 3.
-    """
+    ``errors``, ValueError (UserError among them) and OSError (a cache file) become the ``error`` line, exit code 3."""
     global _CHANNEL
     _CHANNEL = _take_channel()
     warnings.showwarning = _pass_notices(warnings.showwarning)
@@ -159,8 +158,7 @@ def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] =
 
 def _take_channel() -> TextIO | None:
     """The process's stdout as the protocol's alone, fd 1 going to stderr; None where stdout is no
-    file descriptor (a test's capture): :func:`emit` then writes to ``sys.stdout`` as it is.
-    """
+    file descriptor (a test's capture): :func:`emit` then writes to ``sys.stdout`` as it is."""
     try:
         fd = sys.stdout.fileno()
     except (AttributeError, ValueError, io.UnsupportedOperation):

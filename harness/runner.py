@@ -358,8 +358,7 @@ def _execute_stages(
     worker: Sequence[str],
 ) -> RunResult:
     """A sequential sweep (:mod:`tribench.harness.stages`): finish the stages ``stages.json`` records
-    (a resume), then decide and run one after another until :func:`~tribench.harness.stages.decide` ends it.
-    """
+    (a resume), then decide and run one after another until :func:`~tribench.harness.stages.decide` ends it."""
     from . import stages
 
     def say(text: str) -> None:

@@ -1,8 +1,7 @@
 """Sweep files: a :class:`~tribench.harness.plan.Sweep` written as TOML (``tribench sweep --file``).
 
 A sweep file is TOML (read with :mod:`tomllib`); its keys, with an example: docs/commands.md,
-"``tribench sweep``". A list in a ``[[workloads]]`` table expands to every combination.
-"""
+"``tribench sweep``". A list in a ``[[workloads]]`` table expands to every combination."""
 
 from __future__ import annotations
 
@@ -59,8 +58,7 @@ def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None
     """Read a TOML sweep file (the module's example); every mistake is a UserError naming the file and the key.
 
     ``overrides`` (the command line's) replace the file's top-level values;
-    ``kernel_files`` join the file's; ``None`` values are ignored.
-    """
+    ``kernel_files`` join the file's; ``None`` values are ignored."""
     path = Path(path)
     text = read_user_text(path, "sweep file")
     try:

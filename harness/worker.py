@@ -93,8 +93,7 @@ def kernel_isa(kernel: str) -> str:
 @dataclass(frozen=True)
 class BvhJob:
     """The inputs of a BVH workload's timed batches: one kernel's BVH, the rays, and ``null_t_max``,
-    each ray's limit for the null-leaf traversal (:func:`null_leaf_t_max`; None: the workload's ``t_max``).
-    """
+    each ray's limit for the null-leaf traversal (:func:`null_leaf_t_max`; None: the workload's ``t_max``)."""
 
     bvh: ext.BVH
     origins: np.ndarray
@@ -131,8 +130,7 @@ def time_job(job: ext.Job | BvhJob, loops: int) -> ext.Batch:
 
 def calibrate_loops(job: ext.Job | BvhJob, target_ns: float) -> int:
     """``loops`` for which one batch of ``job`` takes about ``target_ns``: doubled until a batch
-    takes a quarter of the target, then scaled by the median of three batches at that size.
-    """
+    takes a quarter of the target, then scaled by the median of three batches at that size."""
     most = job.max_loops if isinstance(job, BvhJob) else 2**30
     loops = 1
     while time_job(job, loops).elapsed_ns < target_ns / 4 and loops < most:

@@ -1,7 +1,6 @@
 """The report's static figures (the dense diagnostics and the compare page's forest plot): tidy DataFrames in,
 a matplotlib Figure out, embedded as a ``data:`` URI. matplotlib (Agg) is imported here only; dense scatters
-are rasterised inside the SVG to keep the file small. No figure computes a statistic.
-"""
+are rasterised inside the SVG to keep the file small. No figure computes a statistic."""
 
 from __future__ import annotations
 
@@ -224,8 +223,7 @@ def forest(
     """Forest plot: every kernel's speedup over the baseline, per workload family.
 
     ``speedups``: ``speedups.csv`` rows with ``family`` and ``label`` added; ``margin`` (relative) is drawn
-    as a band around 1; ``verdict_words``: how to print each verdict (e.g. for a ratio of ratios).
-    """
+    as a band around 1; ``verdict_words``: how to print each verdict (e.g. for a ratio of ratios)."""
     words = verdict_words or {}
     if speedups.empty:
         return _empty(f"no speedups: the run has no kernel other than the baseline {baseline}")

@@ -3,8 +3,7 @@
 
 The tables are ``bands.csv``'s: per build, precision and band of hit rates, every kernel from the fastest
 down. Bencher's Metric Format (https://bencher.dev/docs/reference/bencher-metric-format/) maps a benchmark
-name to measures, each a value with an optional lower and upper bound.
-"""
+name to measures, each a value with an optional lower and upper bound."""
 
 from __future__ import annotations
 

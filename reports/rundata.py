@@ -3,8 +3,7 @@
 Stale tables (made from another ``batches.csv``, by its SHA-256, not file times, so a copied folder
 stays current), missing ones or ones in other columns are refused with one line that says to run
 ``tribench stats RUN_DIR``: a report with half its sections silently empty would be worse.
-Peers and robustness are optional (:func:`load_peers`, :func:`load_validation`): their sections say why.
-"""
+Peers and robustness are optional (:func:`load_peers`, :func:`load_validation`): their sections say why."""
 
 from __future__ import annotations
 
@@ -161,8 +160,7 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
     its batches, processes and rows of every :data:`~tribench.harness.runfolder.BY_BUILD` table.
 
     Raises RunError when the folder is unusable or has nothing timed, or its tables are not
-    current or compare against another ``baseline`` than asked.
-    """
+    current or compare against another ``baseline`` than asked."""
     from ..harness import runfolder
     from . import tables as analysis
 

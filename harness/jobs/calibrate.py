@@ -3,8 +3,7 @@
 ``tribench calibrate`` times a kernel against its ``_aa`` copy (the same source under another name) in the normal
 protocol, split into ``experiments`` groups of ``processes``: each group gives one A/A speedup, exactly as a sweep
 of that many processes would, and :func:`tribench.harness.stats.aa_summary` their noise floor, the margin later
-verdicts on this CPU model use (:mod:`tribench.harness.margin`).
-"""
+verdicts on this CPU model use (:mod:`tribench.harness.margin`)."""
 
 from __future__ import annotations
 
@@ -81,8 +80,7 @@ def calibrate(
 
     ``kernel`` is one of :data:`AA_COPIES`; ``workloads`` default to 10 000 pairs at hit rate 0.5, float64. The
     design defaults are the sweeps', so the margin is that of the default protocol: give your sweeps' values if they
-    differ. ``processes * experiments`` processes run; ``save`` also writes the user-level file.
-    """
+    differ. ``processes * experiments`` processes run; ``save`` also writes the user-level file."""
     from ...workloads.spec import PairSpec
     from .. import runfolder, runner
     from ..plan import MAX_PROCESSES, Sweep

@@ -173,8 +173,7 @@ def camera_spec(design: PeerDesign):
 def candidate_kernels(accel: str) -> list[str]:
     """The kernels tribench's row may run: public closest-mode kernels that test both faces, as every
     peer does (a culling kernel gives the same answers on a closed mesh without the same work), and
-    in a BVH only those that can be its leaf test.
-    """
+    in a BVH only those that can be its leaf test."""
     from ... import ext
 
     kernels = [
@@ -189,8 +188,7 @@ def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str
     """The fastest of :func:`candidate_kernels` on a random subset of the rays (through its BVH on a BVH workload).
 
     Judged by the median CPU time per ray, kernels interleaved: on a shared core, wall time
-    also counts other processes' slices, which can reorder close kernels.
-    """
+    also counts other processes' slices, which can reorder close kernels."""
     from ... import ext
     from ...workloads import bvh_cache
 
@@ -381,8 +379,7 @@ def _worker(text: str) -> None:
 
 def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:
     """tribench's contenders (C-timed loop, Python call and, through the BVH, packets of 16 rays) and each
-    one's closest triangle per ray; a BVH's build time is the set-up, as Embree's is.
-    """
+    one's closest triangle per ray; a BVH's build time is the set-up, as Embree's is."""
     from ... import ext
     from ...workloads import bvh_cache
     from ..machine import version
@@ -419,8 +416,7 @@ def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Co
 
 def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:
     """Native Embree's four contenders, each scene built once (its set-up), with their closest hits; each at
-    the ISA Embree is fastest at here (:func:`_fastest_isa`).
-    """
+    the ISA Embree is fastest at here (:func:`_fastest_isa`)."""
     from ...ext import embree
 
     if "embree" not in peers:
@@ -450,8 +446,7 @@ def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contend
 
 def _fastest_isa(scenes: dict[str | None, Any], o: np.ndarray, d: np.ndarray, width: int) -> str | None:
     """The ISA whose scene traces the rays fastest at ``width`` (least of three alternating passes each):
-    the peer is Embree at its best here (on a Zen 5 AVX2's rtcIntersect1 beats AVX-512's by 3-7%).
-    """
+    the peer is Embree at its best here (on a Zen 5 AVX2's rtcIntersect1 beats AVX-512's by 3-7%)."""
     best: dict[str | None, float] = {isa: math.inf for isa in scenes}
     for _ in range(3):
         for isa, scene in scenes.items():

@@ -3,8 +3,7 @@
 The same workloads (by spec and RNG seed, so the same ids; mesh and ray files from the
 folder's copies), the same kernels (kernel files from the folder's copies), the same
 design; of its builds, those whose compiler is here. What this machine cannot run is
-left out and said. Comparing the two runs is :mod:`tribench.reports.tables.replication`'s.
-"""
+left out and said. Comparing the two runs is :mod:`tribench.reports.tables.replication`'s."""
 
 from __future__ import annotations
 

@@ -112,8 +112,7 @@ def promise(kernel: str, test: str) -> tuple[str, float | None]:
 
 def culls(kernel: str) -> bool:
     """Whether ``kernel`` culls back faces, as declared: it is then asked about triangles wound
-    to face the ray, so its rates measure robustness, not culling.
-    """
+    to face the ray, so its rates measure robustness, not culling."""
     return ext.kernel_info(kernel).culls_back_faces
 
 
@@ -239,8 +238,7 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=T
     """The whole suite as a tidy DataFrame (:data:`COLUMNS`), ordered by kernel, dtype and test.
 
     ``kernels`` default to ``ext.kernel_names()``; ``quick``: the ``QUICK`` sizes;
-    ``progress`` False for none. The frame's ``attrs`` record the seed, size and seconds.
-    """
+    ``progress`` False for none. The frame's ``attrs`` record the seed, size and seconds."""
     import pandas as pd
 
     from ..runner import Progress

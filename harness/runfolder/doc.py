@@ -2,8 +2,7 @@
 
 :func:`render`, a pure function, writes the page from the schema and the row dataclasses; only the sentence about
 each file is written here. ``python -m tribench.harness.runfolder.doc [PATH]`` writes it, and tests/test_docs.py
-fails when the page and :func:`render` differ.
-"""
+fails when the page and :func:`render` differ."""
 
 from __future__ import annotations
 

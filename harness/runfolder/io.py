@@ -196,8 +196,7 @@ Rule = tuple[Callable[..., Any], Callable[..., str]]  # ...: the lambdas bind na
 def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | None):
     """``path`` as a DataFrame of ``cls``'s columns and types, every row checked; a partial last line dropped.
 
-    Raises a UserError naming ``path:line`` for the first thing wrong.
-    """
+    Raises a UserError naming ``path:line`` for the first thing wrong."""
     import pandas as pd
 
     columns = [f.name for f in fields(cls)]

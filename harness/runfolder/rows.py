@@ -2,8 +2,7 @@
 
 The one schema the measured files are written from and read back with: a field's type is the column's (the readers
 check every value), its ``doc`` the column's meaning (docs/run-folder.md is made from it), the fields' order the
-columns'. Rows are built with keywords.
-"""
+columns'. Rows are built with keywords."""
 
 from __future__ import annotations
 
@@ -80,8 +79,7 @@ class ProcessRow:
 @dataclass(frozen=True)
 class CheckRow:
     """One kernel's answers on one workload against the float64 reference, per worker process before
-    any batch: a row of ``checks.csv``.
-    """
+    any batch: a row of ``checks.csv``."""
 
     run_id: str = _col(_RUN_ID)
     process: int = _col(_PROCESS)
@@ -104,8 +102,7 @@ class TraversalRow:
     """What one batch on a BVH workload did inside the tree, and its null-leaf twin: a row of ``traversals.csv``.
 
     Its key is its batch's; the counts are summed over every ray and loop, so
-    ``1 - null_elapsed_ns / elapsed_ns`` is the leaf tests' share.
-    """
+    ``1 - null_elapsed_ns / elapsed_ns`` is the leaf tests' share."""
 
     run_id: str = _col(_RUN_ID)
     process: int = _col("index of the worker process (with workload_id, round, position and kernel, a batch's key)")

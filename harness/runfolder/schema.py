@@ -3,8 +3,7 @@
 Written once here (the derived tables' columns in :mod:`.derived_columns`), importing nothing else, so every stage
 reads it; who writes which file is docs/run-folder.md's, made from it. Every CSV is tidy, in raw units (nanoseconds,
 counts, fractions). Tests check a run's files against these lists exactly, so a change here is a change of the
-format and must be deliberate.
-"""
+format and must be deliberate."""
 
 from __future__ import annotations
 

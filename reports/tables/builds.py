@@ -2,8 +2,7 @@
 
 Each build's processes are a run of their own to a comparison, so builds are compared by the code that compares
 machines (:func:`tribench.reports.tables.compare.compare_many`); ``builds.csv`` has each order's test in long form,
-a row per pair and build.
-"""
+a row per pair and build."""
 
 from __future__ import annotations
 

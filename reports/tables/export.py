@@ -3,8 +3,7 @@
 Why this format and how a run maps onto it: docs/results.md, "Export: Google Benchmark JSON". Google Benchmark has
 no interval field, so each interval travels as extra numeric fields, as its user counters do; a process is one
 ``iteration`` entry, so ``compare.py`` can run its U test on two exports. No number is NaN or infinite (strict
-JSON): an undefined interval is left out.
-"""
+JSON): an undefined interval is left out."""
 
 from __future__ import annotations
 
@@ -99,8 +98,7 @@ def google_benchmark(
     """A run's estimates, speedups and machine record as ``{"context": ..., "benchmarks": [...]}``.
 
     ``tables`` are the derived tables by file name; ``margin`` is ``{"value", "source"}``
-    of the verdicts. Ready for ``json.dumps(..., allow_nan=False)``.
-    """
+    of the verdicts. Ready for ``json.dumps(..., allow_nan=False)``."""
     keys = ["build", "kernel", "workload_id"]
     est = tables[runfolder.ESTIMATES]
     spd = tables[runfolder.SPEEDUPS].set_index(keys)

@@ -85,15 +85,13 @@ class Analysis:
 
 def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | None = None) -> Analysis:
     """Estimates and speedups of ``run_dir``; ``baseline`` defaults to ``moller_seed`` if the run has it,
-    else the first kernel, ``margin`` to the one ``run.json`` recorded.
-    """
+    else the first kernel, ``margin`` to the one ``run.json`` recorded."""
     return estimate(measured.load(run_dir), baseline, margin)
 
 
 def estimate(m: Measured, baseline: str | None = None, margin: float | None = None) -> Analysis:
     """Estimates and speedups of a run's measured files (``baseline`` and ``margin`` as :func:`analyse`'s),
-    each build's from its own processes, stacked; the margin and baseline are the first build's.
-    """
+    each build's from its own processes, stacked; the margin and baseline are the first build's."""
     return combined(estimate_builds(m, baseline, margin))
 
 
@@ -226,8 +224,7 @@ def _peak_columns(
 
 def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
     """Write ``estimates.csv`` and ``speedups.csv`` into ``run_dir``, each atomically (a failed write: a
-    UserError naming the file, which stays as it was).
-    """
+    UserError naming the file, which stays as it was)."""
     run_dir = Path(run_dir)
     paths = run_dir / ESTIMATES, run_dir / SPEEDUPS
     runfolder.write_csv(analysis.estimates, paths[0])
@@ -257,8 +254,7 @@ class Derived:
 
 def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], dict[str, str]]:
     """The run's workloads from the cache, made from their spec where the cache lacks them; one whose spec
-    now gives another id (another generator or mesh file) is not used, and its source says why.
-    """
+    now gives another id (another generator or mesh file) is not used, and its source says why."""
     import warnings
 
     from ...workloads import cache
@@ -293,8 +289,7 @@ def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], di
 
 def _pictures(run_dir: Path, wids: list[str], workloads: dict[str, Any]) -> dict[str, str]:
     """Draw the first :data:`MAX_PICTURES` workloads into ``pictures/``; workload id -> file name or why not.
-    A picture already there is kept (its workload's id is its spec's hash).
-    """
+    A picture already there is kept (its workload's id is its spec's hash)."""
     from ...workloads import picture
 
     folder = run_dir / runfolder.PICTURES_DIR
@@ -337,8 +332,7 @@ def derive(
     m: Measured, parts: dict[str, Analysis], workloads: dict[str, Any], sources: dict[str, str]
 ) -> dict[str, pd.DataFrame]:
     """Every derived table of the run by file name, in :data:`runfolder.DERIVED`'s order: a pure
-    function of the measured files and the workloads, each build's parts from its processes alone.
-    """
+    function of the measured files and the workloads, each build's parts from its processes alone."""
     from .builds import builds_table
 
     one = {b: _derive_one(m.of_build(b) if len(m.builds) > 1 else m, a, workloads, sources) for b, a in parts.items()}
@@ -441,8 +435,7 @@ def write_all(
 
 def reanalyse(run_dir: str | Path) -> Derived:
     """Redo the analysis of an analysed run folder with the choices its last one recorded (after
-    ``tribench peers --out RUN_DIR``): its baseline, and its margin where ``--margin`` gave it.
-    """
+    ``tribench peers --out RUN_DIR``): its baseline, and its margin where ``--margin`` gave it."""
     run_dir = Path(run_dir)
     try:
         record = json.loads((run_dir / runfolder.ANALYSIS).read_text(encoding="utf-8"))

@@ -51,8 +51,7 @@ def kernel_table(
     """Per kernel and workload family: how the kernel stores a triangle, beside how fast it ran there (``kernels.csv``).
 
     ``est`` and ``spd``: joined with the workload table (:func:`estimates_with_workloads`).
-    A family where the kernel has no estimate (a wide kernel on pairs) has no row.
-    """
+    A family where the kernel has no estimate (a wide kernel on pairs) has no row."""
     rows = []
     for kernel in kernels:
         form, isa = _form(kernel), _isas(batches, run, kernel)
@@ -101,8 +100,7 @@ def ranking_table(
 
     Paired ratios with Bonferroni intervals over the workload's other kernels. A kernel is tied with the fastest
     when its interval reaches down to ``1 + margin``: the fastest by point estimate is no evidence it beats those.
-    ``val`` (``validate.csv``, optional) adds each kernel's measured failures.
-    """
+    ``val`` (``validate.csv``, optional) adds each kernel's measured failures."""
     rows = []
     for wid, g in est.groupby("workload_id", sort=False):
         g = g.sort_values(["ns_per_test", "kernel"]).reset_index(drop=True)
@@ -151,8 +149,7 @@ def algorithm_table(rank: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.D
     """Per workload, every pair of algorithms, each in its fastest form there (``algorithms.csv``).
 
     A form is chosen by ``rank``'s point estimate; each pair is a paired ratio,
-    Bonferroni over the workload's pairs, the faster first so the ratio is at least 1.
-    """
+    Bonferroni over the workload's pairs, the faster first so the ratio is at least 1."""
     rows = []
     for wid, g in rank.groupby("workload_id", sort=False):
         best = g.sort_values("rank").drop_duplicates("algorithm")
@@ -242,8 +239,7 @@ def measured_robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> di
 
 def _robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
     """validate.csv's figures of one kernel at one precision for bands.csv (NaN without them): its
-    promises, then the measured failures.
-    """
+    promises, then the measured failures."""
     rows = _validated(val, kernel, dtype)
     out: dict[str, Any] = {"promises_checked": math.nan, "broken_promises": math.nan}
     if len(rows):
@@ -264,8 +260,7 @@ def band_table(
 
     A band holds the kernels timed on all its workloads; a kernel's value in a process is the geometric mean of its
     medians over them, so each workload weighs the same whatever its ns/test. Then as :func:`ranking_table`: a mean
-    with its t interval, paired ratios to the fastest and from the baseline.
-    """
+    with its t interval, paired ratios to the fastest and from the baseline."""
     frame = est.assign(
         band=[
             band_of(str(r.kind), float(r.test_hit_rate), specs.get(r.workload_id, {}).get("accel"))
@@ -285,8 +280,7 @@ def band_table(
 
 def _band_values(g: pd.DataFrame, pp: pd.DataFrame) -> tuple[int, pd.DataFrame]:
     """A band's workload count, and per process and kernel the geometric mean of the kernel's medians
-    over the band's workloads (kernels timed on all, processes that ran them all).
-    """
+    over the band's workloads (kernels timed on all, processes that ran them all)."""
     wids = list(dict.fromkeys(g["workload_id"]))
     kernels = [k for k, n in g.groupby("kernel", sort=False)["workload_id"].nunique().items() if n == len(wids)]
     sub = pp.loc[pp["workload_id"].isin(wids) & pp["kernel"].isin(kernels)]

@@ -1,8 +1,7 @@
 """The seed replay's tables, from its run folder alone: render times beside the paper's, per ray kind.
 
 ``tribench seed`` measures (:mod:`tribench.harness.jobs.seed`); these turn its
-batches into ``seed.csv``, ``seed_kinds.csv`` and ``seed_workloads.csv``.
-"""
+batches into ``seed.csv``, ``seed_kinds.csv`` and ``seed_workloads.csv``."""
 
 from __future__ import annotations
 
@@ -103,8 +102,7 @@ def render_table(per: pd.DataFrame, scenes: Mapping[str, Mapping[str, Any]]) -> 
     """The table beside the paper: one row per scene and kernel (``seed.csv``).
 
     ``scenes`` maps a scene to ``triangles``, ``render_tests``, ``paper`` (a key of :data:`PAPER` or None) and
-    optionally ``paper_size`` (False: the image is not the paper's 512 x 512, so the paper's bound is left empty).
-    """
+    optionally ``paper_size`` (False: the image is not the paper's 512 x 512, so the paper's bound is left empty)."""
     rows = []
     for (scene, kernel), g in per.groupby(["scene", "kernel"], sort=False):
         e = stats.estimate(g["render_s"].to_numpy())
