@@ -118,11 +118,8 @@ def model(
 def measure_passes(
     sweep: Sweep,
 ) -> tuple[dict[str, int], dict[tuple[str, str], float], dict[tuple[str, str], float]]:
-    """Tests per pass of every workload and one pass's seconds per (kernel, workload id), BVH twins
-    included, timed on a strided slice and scaled.
-
-    It builds into the caches what the workers would (workloads, front-face
-    references, BVH trees), so this is no extra work."""
+    """Tests per pass of every workload and one pass's seconds per (kernel, workload id), BVH twins included, timed
+    on a strided slice and scaled; what it builds into the caches the workers would build anyway."""
     from .. import ext
     from ..workloads import cache
     from ..workloads.front import front_reference

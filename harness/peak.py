@@ -71,10 +71,10 @@ def measure_peak(repeats: int = 5) -> ext.Peak:
 def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int = 64, seed: int = 0, isa=None):
     """Every public kernel on the in-cache camera workload, as a fraction of its bound (``tribench info --peak``).
 
-    A quick look in this process, not the sweep's protocol: Suzanne at 968 triangles (in L2; the port model counts
-    no L2 traffic), every kernel once per round in a fresh order, the probes' mean before and after as the peak and
-    rates. Returns ``(gflops, isa, rate_isa, rates, table)``. ``isa`` holds every native kernel to that ISA and
-    probes the pipes on it, so an AVX-512 core answers for AVX2 too."""
+    A quick look in this process, not the sweep's protocol: Suzanne at 968 triangles (in L2, which the port model
+    does not count), every kernel once per round in a fresh order, the probes' mean before and after as the peak
+    and rates. Returns ``(gflops, isa, rate_isa, rates, table)``; ``isa`` holds every native kernel and the
+    probes to that ISA, so an AVX-512 core answers for AVX2 too."""
     import pandas as pd
 
     from ..workloads import cache

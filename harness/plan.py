@@ -130,12 +130,11 @@ class Sequential:
 class Sweep:
     """A grid of kernels x workloads and the design that measures it.
 
-    ``kernels`` may be internal (the harness's checks use them); ``target_ms`` is a batch's wanted length, ``loops``
-    calibrated to it per kernel, workload and process; ``seed`` drives every random choice, layout included.
-    ``workload_kernels``: per workload, the subset of kernels that run it (empty: :meth:`kernels_for`).
-    ``kernel_files`` are loaded here and by every worker; checking their answers is
-    :mod:`tribench.harness.jobs.kernel_check`'s. ``builds`` (:func:`tribench.ext.parse_builds`; empty: the installed
-    one) are taken in turn by the processes, which they share: 10 processes and 2 builds are 5 of each."""
+    ``kernels`` may be internal (the harness's checks use them); ``loops`` is calibrated per kernel, workload and
+    process to ``target_ms``; ``seed`` drives every random choice, layout included. ``workload_kernels``: per
+    workload, the kernels that run it (empty: :meth:`kernels_for`). ``kernel_files`` are loaded here and by every
+    worker (checked by :mod:`tribench.harness.jobs.kernel_check`). ``builds`` (:func:`tribench.ext.parse_builds`;
+    empty: the installed one) are taken in turn by the processes: 10 processes and 2 builds are 5 of each."""
 
     kernels: tuple[str, ...]
     workloads: tuple[Spec, ...]
@@ -382,11 +381,10 @@ def main_job_kernels() -> dict[str, tuple[str, ...]]:
 def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds: Sequence[str] = ()) -> Sweep:
     """The main job's sweep (``tribench run``): which intersector, on this machine.
 
-    Its workloads, kernels and sequential design are docs/methodology.md's ("The main job's sequential design"); 3
-    rounds per process is docs/decisions.md's ("3 rounds per process, stages of 2, at least 8 processes"). The
-    baseline's A/A twin gives the run its own margin (:mod:`tribench.reports.tables.margin`). ``kernel_files``'
-    kernels join in their roles; with ``builds``, each stage and the bound on processes grow with their number, so
-    the budget is shared among them."""
+    Its workloads, kernels and sequential design: docs/methodology.md, "The main job's sequential design"; why 3
+    rounds per process: docs/decisions.md. The baseline's A/A twin gives the run its own margin
+    (:mod:`tribench.reports.tables.margin`). ``kernel_files``' kernels join in their roles; with ``builds``, each
+    stage and the bound on processes grow with their number, so the budget is shared among them."""
     from .. import ext
     from ..workloads.spec import MeshSpec, PairSpec
 

@@ -1,11 +1,10 @@
 """The workload cache: one ``.npz`` file per workload, named by its id, under ``$TRIBENCH_CACHE``.
 
-A file holds the arrays and one JSON member, ``meta`` (the cache format, the id, the spec, its identity,
-the achieved figures and the library versions), and its zip comment, its last bytes, seals everything
-before it: ``tribench-sha256:`` and the sha256 of the rest of the file. So any change to a file (a flipped
-bit, a cut, an edited figure, swapped arrays) is detected. A file that fails the seal, or whose format,
-identity, version or id does not match, is never used: :func:`make` and :func:`load` rebuild it with a
-:class:`CacheWarning`, :func:`list_cached` marks it. Files are written atomically."""
+A file holds the arrays and a JSON ``meta`` member (format, id, spec, identity, achieved figures, library
+versions); its zip comment seals everything before it (``tribench-sha256:`` and the rest's sha256), so any
+change is detected. A file that fails the seal or whose format, identity, version or id does not match is
+never used: :func:`make` and :func:`load` rebuild it with a :class:`CacheWarning`, :func:`list_cached` marks
+it. Files are written atomically."""
 
 from __future__ import annotations
 

@@ -54,12 +54,10 @@ def simultaneous_confidence(confidence: float, m: int) -> float:
 
 
 def verdict(ci_low: float, ci_high: float, margin: float = DEFAULTS.margin) -> str:
-    """Classify a speedup interval against a relative equivalence ``margin``.
-
-    ``"equivalent"`` where it lies inside ``[1/(1+margin), 1+margin]`` (interval inclusion: at 95 %, TOST at
-    the 2.5 % level on the symmetric log scale), significant or not: the margin is what counts as a difference
-    worth reporting. Else ``"faster"`` (``ci_low > 1``), ``"slower"`` (``ci_high < 1``) or ``"inconclusive"``
-    (a nan interval too).
+    """Classify a speedup interval against a relative equivalence ``margin``: ``"equivalent"`` inside
+    ``[1/(1+margin), 1+margin]`` (at 95 %, TOST at 2.5 % on the log scale), significant or not, as the margin is
+    what counts as a difference worth reporting; else ``"faster"`` (``ci_low > 1``), ``"slower"``
+    (``ci_high < 1``) or ``"inconclusive"`` (a nan interval too).
 
     >>> verdict(1.10, 1.30, margin=0.01), verdict(0.80, 0.95, margin=0.01)
     ('faster', 'slower')

@@ -17,13 +17,12 @@ from .defaults import DEFAULTS
 class Drift:
     """Trends against wall time inside processes, and whether to warn (:func:`drift`).
 
-    Slopes are per second on the log scale (0.001 is about 0.1 % a second), means of per-process Theil–Sen
-    slopes t-tested across processes. ``baseline_*``: the log baseline time's trend, harmless when kernels are
-    interleaved, so it never raises the flag. ``ratio_*``: the log speedup's (the kernels drift differently);
-    ``ratio_change`` is its slope times the median process duration. ``confound_bias``: per process, the
-    common drift rate times the gap between the kernels' mean start times (near 0 when rounds interleave in
-    random order). ``flagged``: a ratio trend or a confound both significant (``p < 1 - confidence``) and above
-    the threshold; ``reason`` says which ("" when not flagged)."""
+    Slopes are per second on the log scale, means of per-process Theil–Sen slopes t-tested across processes.
+    ``baseline_*``: the baseline time's trend, harmless when kernels interleave, so it never raises the flag;
+    ``ratio_*``: the log speedup's, ``ratio_change`` its slope times the median process duration;
+    ``confound_bias``: per process, the common drift rate times the gap between the kernels' mean start times.
+    ``flagged``: a ratio trend or a confound both significant (``p < 1 - confidence``) and above the threshold;
+    ``reason`` says which."""
 
     baseline_slope: float
     baseline_p: float
