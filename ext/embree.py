@@ -61,8 +61,7 @@ class EmbreeMissing(UserError):
 
 
 def _flags() -> tuple[list[str], list[str]]:
-    """Compile and link flags of the system's Embree 3: pkg-config's where it knows Embree, else the
-    default paths (Debian installs no .pc file)."""
+    """Embree 3's compile and link flags: pkg-config's, else the default paths (Debian installs no .pc file)."""
     try:
         found = subprocess.run(["pkg-config", "--cflags", "--libs", "embree3"], capture_output=True, text=True)
     except OSError:  # no pkg-config

@@ -152,8 +152,7 @@ def _build_key(text: bytes, toolchain: Toolchain) -> str:
 
 
 def _compile(compiled: Path, name: str, module_path: Path, toolchain: Toolchain, source: Path) -> None:
-    """Compile every C file of the extension with the kernels of ``compiled`` (``source``'s text), into
-    ``module_path`` (atomically)."""
+    """Compile every C file of the extension with ``compiled``'s kernels into ``module_path``, atomically."""
 
     def failed(result: subprocess.CompletedProcess) -> KernelFileError:  # every file includes the kernel file
         return KernelFileError(f"{source} does not compile ({shlex.join(toolchain.cc)}):\n{_own_lines(result, source)}")

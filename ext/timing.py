@@ -27,8 +27,7 @@ class Job:
 
     @property
     def tests_per_pass(self) -> int:
-        """Ray-triangle tests in one pass over the workload; for ``any`` the most there can be (a batch counts the
-        tests it did, up to each ray's first hit)."""
+        """Tests in one pass over the workload; for ``any`` the most there can be (a batch counts those it did)."""
         if self.mode == "pairs":
             return len(self.origins)
         return len(self.origins) * self.prepared.n_triangles

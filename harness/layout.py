@@ -18,8 +18,7 @@ PAD_VARIABLE = "TRIBENCH_LAYOUT_PAD"
 
 
 def padded_env(seed: int, attempt: int, base: Mapping[str, str] | None = None) -> dict[str, str]:
-    """The child's environment: ``base`` (default ``os.environ``) with 0-4095 bytes of padding drawn from the
-    process's seed and attempt."""
+    """``base`` (default ``os.environ``) padded by 0-4095 bytes drawn from the process's seed and attempt."""
     pad = int(np.random.default_rng([seed, attempt, 1]).integers(0, 4096))
     return {**(os.environ if base is None else base), PAD_VARIABLE: "x" * pad}
 

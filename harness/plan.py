@@ -440,8 +440,7 @@ def recorded_builds(sweep: Mapping[str, Any]) -> list[str]:
 
 
 def rows_of_build(frame: Any, batches: Any, build: str) -> Any:
-    """The rows of a per-process table measured by ``build``'s processes: those whose
-    batches carry ``build``, the one place a row's build is recorded."""
+    """The rows of a per-process table measured by ``build``: those whose batches carry it (its one record)."""
     mine = frame["process"].isin(batches.loc[batches["build"] == build, "process"].unique())
     return frame.loc[mine].reset_index(drop=True)
 

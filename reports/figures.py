@@ -310,8 +310,7 @@ def _robust_ylim(ax, values: np.ndarray) -> None:
 
 
 def drift_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
-    """Each timed batch's ns/test relative to its process median, against time in the process;
-    lines: binned medians per kernel."""
+    """Each timed batch's ns/test over its process median, against time in the process; lines: binned medians."""
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
         return _empty("no timed batches")
@@ -335,8 +334,7 @@ def drift_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
 
 
 def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
-    """Every batch (warm-up included, shaded) against its round, relative to its process's timed median,
-    Tukey outliers circled."""
+    """Every batch (warm-ups shaded) against its round, over its process's timed median, Tukey outliers circled."""
     if batches.empty:
         return _empty("no batches")
     fig = _figure(9.5, 3.2)
@@ -384,8 +382,7 @@ def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
 
 
 def peers_rates(rates: pd.DataFrame) -> Figure:
-    """Rays/s of every contender on one log axis with their 95% intervals (rows of peers.summarise).
-    Dots, not bars: on a log axis a bar's length means nothing."""
+    """Rays/s of every contender on a log axis with 95% intervals: dots, as a bar's length means nothing there."""
     if rates.empty:
         return _empty("no peers measured")
     fig = _figure(7.0, 0.42 * len(rates) + 0.9)

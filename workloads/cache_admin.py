@@ -147,8 +147,7 @@ def _problem(kind: str, path: Path, workload_problems: dict[Path, str]) -> str |
 
 
 def entries() -> list[Entry]:
-    """Every file under the cache folder, sorted by path (a folder or link in a cache file's place is listed
-    as a problem, never followed)."""
+    """Every file under the cache folder by path (a folder or link in a cache file's place: a problem, not followed)."""
     from .cache import list_cached
 
     root = cache_dir()

@@ -136,7 +136,7 @@ def heightfield(cells: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def base_mesh(name: str, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices and faces of a base mesh by name (see the module table) or file path.
+    """Vertices and faces of a base mesh by name (see the module docstring) or file path.
 
     >>> v, f = base_mesh("suzanne")
     >>> v.shape, f.shape

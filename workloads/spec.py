@@ -387,8 +387,7 @@ Spec = PairSpec | MeshSpec | SeedSpec
 
 
 def identity(spec: Spec) -> dict[str, Any]:
-    """What names a workload: the spec, its generator version, and a mesh or ray file by its sha256 and suffix
-    (which picks the parser), never its path."""
+    """What names a workload: the spec, its generator version, and a file by its sha256 and suffix, never its path."""
     d = {**spec.to_dict(), "version": spec.version}
     if isinstance(spec, SeedSpec):
         d.update(spec.scene_identity())

@@ -147,8 +147,7 @@ class Workload:
 
     @property
     def mode(self) -> str:
-        """``"pairs"`` (ray i vs triangle i), or what is asked of every ray
-        against every triangle: ``"closest"``, ``"closest_uv"`` or ``"any"``."""
+        """``"pairs"`` (ray i vs triangle i), else ``"closest"``, ``"closest_uv"`` or ``"any"`` (rays x triangles)."""
         return self.spec.mode
 
     @property
@@ -173,8 +172,7 @@ class Workload:
         return int(hits.sum()), math.fsum(self.ref_t[hits].tolist())
 
     def ambiguous(self, margin: float = AMBIGUOUS_MARGIN) -> np.ndarray:
-        """Mask of the rays within ``margin`` (barycentric) of changing answer, or
-        within the rounding of the workload's precision (see :func:`ambiguous_rays`)."""
+        """Rays within ``margin`` (barycentric) or the dtype's rounding of changing answer (:func:`ambiguous_rays`)."""
         return ambiguous_rays(self.ref_edge_margin, self.ref_edge_clearance, self.spec.dtype, margin)
 
     def targets(self) -> dict[str, Any]:

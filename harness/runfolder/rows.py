@@ -78,8 +78,7 @@ class ProcessRow:
 
 @dataclass(frozen=True)
 class CheckRow:
-    """One kernel's answers on one workload against the float64 reference, per worker process before
-    any batch: a row of ``checks.csv``."""
+    """A row of ``checks.csv``: one kernel's answers on one workload against the reference, per process."""
 
     run_id: str = _col(_RUN_ID)
     process: int = _col(_PROCESS)

@@ -62,8 +62,7 @@ def _timed_pair(batches: pd.DataFrame, kernel: str, baseline: str, workload_id: 
 
 
 def _paired_rounds(timed: pd.DataFrame, kernel: str, baseline: str) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """The rounds pairing the two kernels (same process and round) in processes with 3 or more, and those
-    processes' batches."""
+    """The rounds pairing the two kernels (same process and round) in processes with 3 or more, and their batches."""
     wide = timed.pivot(index=["process", "round"], columns="kernel", values=["log_ns", "t_s"]).dropna()
     rounds = pd.DataFrame(
         {

@@ -73,8 +73,7 @@ class Comparison:
 
 
 def _per_process(data: RunTables) -> pd.DataFrame:
-    """The run's per-process values a comparison may compare: none of a kernel where its answers differ
-    from the reference (its time there is of other work)."""
+    """The run's per-process values, none of a kernel where its answers differ from the reference (other work)."""
     return compared(data.tables[runfolder.PER_PROCESS], data.tables.get(runfolder.CORRECTNESS))
 
 
@@ -195,8 +194,7 @@ def run_tags(n: int) -> list[str]:
 
 
 def order_summary(m: MultiComparison) -> pd.DataFrame:
-    """Per pair of kernels, over the workloads: how often each is faster on every machine, the
-    machines differ, or some machine cannot tell."""
+    """Per pair of kernels, over the workloads: faster everywhere, machines differ, or one cannot tell."""
     rank = {k: i for i, k in enumerate(m.kernels)}
     counts: dict[tuple[str, str], dict[str, int]] = {}
     for r in m.orders.itertuples(index=False):

@@ -1,5 +1,5 @@
-"""What every table builder shares: a table's rows as a frame with exactly its documented columns, and the
-paired time ratio of two kernels from per-process values."""
+"""What every table builder shares: rows as a frame of exactly the documented columns, and the paired time
+ratio of two kernels."""
 
 from __future__ import annotations
 

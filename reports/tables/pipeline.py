@@ -223,8 +223,7 @@ def _peak_columns(
 
 
 def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
-    """Write ``estimates.csv`` and ``speedups.csv`` into ``run_dir``, each atomically (a failed write: a
-    UserError naming the file, which stays as it was)."""
+    """Write ``estimates.csv`` and ``speedups.csv`` atomically (a failed write: a UserError; the file unchanged)."""
     run_dir = Path(run_dir)
     paths = run_dir / ESTIMATES, run_dir / SPEEDUPS
     runfolder.write_csv(analysis.estimates, paths[0])

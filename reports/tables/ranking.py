@@ -238,8 +238,7 @@ def measured_robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> di
 
 
 def _robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
-    """validate.csv's figures of one kernel at one precision for bands.csv (NaN without them): its
-    promises, then the measured failures."""
+    """validate.csv's figures of one kernel and precision for bands.csv (NaN without): promises, then failures."""
     rows = _validated(val, kernel, dtype)
     out: dict[str, Any] = {"promises_checked": math.nan, "broken_promises": math.nan}
     if len(rows):

@@ -51,8 +51,7 @@ def crossovers(kernels: Sequence[str], wl: pd.DataFrame, pp: pd.DataFrame) -> pd
 
 
 def scaling_slopes(est: pd.DataFrame, pp: pd.DataFrame) -> pd.DataFrame:
-    """Log-log slope of ns/test against triangle count, per mesh family and kernel (``slopes.csv``),
-    processes paired across triangle counts."""
+    """``slopes.csv``: log-log slope of ns/test against triangle count per mesh family and kernel, paired by process."""
     rows = []
     mesh = est.loc[est["kind"] == "mesh"]
     for (family, kernel), group in mesh.groupby(["family", "kernel"], sort=False):

@@ -52,7 +52,7 @@ __all__ = [
     "trace_forecast",
 ]
 
-#: Kernel and precision that trace the stream (see the module docstring).
+#: Kernel and precision that trace the stream (why: docs/methodology.md, "The seed's replay").
 STREAM_KERNEL = ("curless_seed", "float64")
 #: Secondary rays start this far along their direction: the seed's 1e-4 on t.
 ORIGIN_SHIFT = 1e-4
