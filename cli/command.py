@@ -73,8 +73,7 @@ def console() -> None:
 
 
 def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
-    """Run one subcommand (:func:`_run_command`); ``leaving``: the process exits next, so a Ctrl-C
-    is then ignored instead of given back to its handler."""
+    """Run one subcommand (:func:`_run_command`); ``leaving``: the process exits next, so a Ctrl-C is then ignored."""
     if threading.current_thread() is not threading.main_thread():
         return _run_command(argv)
     before = {sig: signal.signal(sig, _ctrl_c) for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGALRM)}
@@ -90,8 +89,7 @@ def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
 
 
 def _show_notice(shown, said: set[str], message, category, filename, lineno, file=None, line=None) -> None:
-    """tribench's own notices in one line, each once a command (a worker's may repeat the command's);
-    any other warning as Python shows it (it may point at a bug)."""
+    """tribench's notices in one line, once a command; other warnings as Python shows them (they may be bugs)."""
     if issubclass(category, Notice):
         if str(message) not in said:
             said.add(str(message))

@@ -432,8 +432,7 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds:
 
 
 def recorded_builds(sweep: Mapping[str, Any]) -> list[str]:
-    """The builds a run's processes took in turn, from its recorded sweep (``run.json``'s ``sweep``),
-    without making the :class:`Sweep` (which would compile its kernel files)."""
+    """The builds a run's processes took in turn, from ``run.json``'s sweep, without compiling its kernel files."""
     from ..ext import INSTALLED
 
     return list(sweep.get("builds") or [INSTALLED])

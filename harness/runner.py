@@ -70,8 +70,7 @@ class SweepInterrupted(Exception):
 
 @contextmanager
 def resumed_with(out: str | Path, command: str) -> Iterator[None]:
-    """Ctrl-C in a sweep a job runs: its message names ``command``, the job's own way to finish, not
-    ``tribench sweep --resume``, which would finish the sweep alone."""
+    """Ctrl-C in a job's sweep: the message names ``command``, the job's way to finish, not ``sweep --resume``."""
     try:
         yield
     except SweepInterrupted as exc:

@@ -243,8 +243,7 @@ def _timed(kjob: ext.Job | BvhJob, loops: int, rng: np.random.Generator, meter: 
 
 
 def _load_workloads(job: WorkerJob, rng: np.random.Generator) -> tuple[dict[str, Any], dict[str, tuple]]:
-    """The job's workloads from the cache (each checked against its id), and this process's fresh copies
-    of their arrays, at random offsets (the layout randomisation)."""
+    """The job's workloads from the cache (each checked against its id), copied for this process at random offsets."""
     from ..workloads import cache
     from ..workloads.kinds import spec_from_dict
     from ..workloads.spec import workload_id
@@ -375,8 +374,7 @@ def null_leaf_t_max(bvh: ext.BVH, o: np.ndarray, d: np.ndarray, mode: ext.Mode, 
 
 
 def _bvh_job(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, tris: np.ndarray) -> BvhJob:
-    """``kernel``'s BVH over the workload's triangles (this process's copy) and
-    its rays; from the BVH cache, so a big mesh's tree is built once per machine."""
+    """``kernel``'s BVH over this process's copy of the triangles, and its rays, from the BVH cache."""
     max_leaf = w.spec.max_leaf or ext.DEFAULT_MAX_LEAF
     bvh, _ = bvh_cache.cached_bvh(kernel, tris, max_leaf)
     mode = cast(ext.Mode, w.mode)

@@ -427,8 +427,7 @@ def speedup_hit_rate_chart(
 
 
 def forest_chart(spd: pd.DataFrame, baseline: str, verdict_colours: dict[str, str]) -> alt.VConcatChart | None:
-    """Every speedup over the baseline with its simultaneous 95% CI, a row per kernel and workload, per family,
-    coloured by verdict. None without a speedup."""
+    """Every speedup with its simultaneous 95% CI, a row per kernel and workload, by verdict; None without one."""
     if spd.empty:
         return None
     frame = spd.assign(

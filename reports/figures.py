@@ -108,8 +108,7 @@ def png_data_uri(data: bytes) -> str:
 
 
 def palette_png(data: bytes) -> bytes:
-    """PNG bytes re-encoded with a palette of 256 colours: a plot is a few flat colours and their
-    anti-aliased edges, so it looks the same at about a third of the bytes."""
+    """PNG bytes re-encoded with a 256-colour palette: a plot's flat colours look the same at a third of the bytes."""
     from PIL import Image  # a dependency of matplotlib
 
     out = io.BytesIO()

@@ -47,8 +47,7 @@ def _nan_to_none(value: Any) -> Any:
 
 
 def aa_speedups(batches: Any, kernel: str, copy: str, processes: int) -> list:
-    """One A/A :class:`~tribench.harness.stats.Speedup` per group of ``processes``
-    consecutive process indices and per workload (incomplete groups are left out)."""
+    """One A/A :class:`~tribench.harness.stats.Speedup` per full group of ``processes`` processes and workload."""
     from .. import stats
 
     table = stats.per_process(batches)

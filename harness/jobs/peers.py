@@ -415,8 +415,7 @@ def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Co
 
 
 def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:
-    """Native Embree's four contenders, each scene built once (its set-up), with their closest hits; each at
-    the ISA Embree is fastest at here (:func:`_fastest_isa`)."""
+    """Native Embree's four contenders, each scene built once, with their closest hits, each at its fastest ISA here."""
     from ...ext import embree
 
     if "embree" not in peers:

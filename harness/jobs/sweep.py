@@ -60,8 +60,7 @@ def _why_idle(kernel: str) -> str:
 
 
 def with_file_kernels(sweep: Sweep, file_kernels: Sequence[str], say: Callable[[str], None]) -> Sweep:
-    """``sweep`` with its kernel files' kernels among its kernels (unless workloads name their own:
-    the main job places them itself), saying which joined."""
+    """``sweep`` with its kernel files' kernels joined (unless workloads name their own), saying which joined."""
     missing = tuple(k for k in file_kernels if k not in sweep.kernels)
     if not missing or sweep.workload_kernels:
         return sweep

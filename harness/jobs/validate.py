@@ -111,14 +111,12 @@ def promise(kernel: str, test: str) -> tuple[str, float | None]:
 
 
 def culls(kernel: str) -> bool:
-    """Whether ``kernel`` culls back faces, as declared: it is then asked about triangles wound
-    to face the ray, so its rates measure robustness, not culling."""
+    """Whether ``kernel`` culls back faces: it is then asked about front faces only, so its rates measure robustness."""
     return ext.kernel_info(kernel).culls_back_faces
 
 
 def _closest(kernel: str, isa: str, rays: MeshRays, triangles: np.ndarray | None = None) -> np.ndarray:
-    """Closest hit of each ray on ``triangles`` (default the mesh's), each wound to face
-    the ray for a culling kernel."""
+    """Closest hit of each ray on ``triangles`` (default the mesh's), wound to face the ray for a culling kernel."""
     tris = rays.triangles if triangles is None else triangles
     back = rays.back if culls(kernel) else np.zeros(len(rays.origins), bool)
     index = np.full(len(rays.origins), -1)
@@ -133,8 +131,7 @@ def _closest(kernel: str, isa: str, rays: MeshRays, triangles: np.ndarray | None
 
 
 def _own_hits(kernel: str, isa: str, p: PairRays, allow_nonfinite: bool = False) -> np.ndarray:
-    """Whether ray i hits ``triangles[owner[i]]``: pairs mode, or for a wide kernel
-    (which has none) one closest call per triangle and side on its rays."""
+    """Whether ray i hits ``triangles[owner[i]]``: in pairs mode, or by one closest call per triangle and side."""
     options: dict[str, Any] = {"isa": isa, "allow_nonfinite": allow_nonfinite}
     tris = p.triangles[p.owner]
     back = np.zeros(len(p.owner), bool)

@@ -215,8 +215,7 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
 
 
 def _text(path: Path, max_bytes: int | None) -> str:
-    """A measured file's text: a plain file of a plausible size, UTF-8 (a byte-order mark dropped), its
-    partial last line cut off (a batch that did not finish)."""
+    """A measured file's text: a plain file of a plausible size, UTF-8 (BOM dropped), its partial last line cut off."""
     _check_plain_file(path, max_bytes)
     data = path.read_bytes()
     if data.startswith(b"\xef\xbb\xbf"):

@@ -90,8 +90,7 @@ def drift_table(
 def variance_table(
     batches: pd.DataFrame, kernels: Sequence[str], workload_ids: Sequence[str], wl: pd.DataFrame
 ) -> pd.DataFrame:
-    """Kalibera-Jones variance components per kernel and workload (``variance.csv``): square roots of
-    ``stats.variance_components`` relative to the mean, in percent."""
+    """``variance.csv``: the roots of ``stats.variance_components`` in percent of the mean, per kernel and workload."""
     rows = []
     labels = dict(zip(wl["workload_id"], wl["label"], strict=True))
     for wid in workload_ids:

@@ -1,5 +1,4 @@
-"""What every table builder shares: rows as a frame of exactly the documented columns, and the paired time
-ratio of two kernels."""
+"""What every table builder shares: rows as a frame of exactly its columns, and two kernels' paired time ratio."""
 
 from __future__ import annotations
 

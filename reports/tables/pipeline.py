@@ -84,8 +84,7 @@ class Analysis:
 
 
 def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | None = None) -> Analysis:
-    """Estimates and speedups of ``run_dir``; ``baseline`` defaults to ``moller_seed`` if the run has it,
-    else the first kernel, ``margin`` to the one ``run.json`` recorded."""
+    """Estimates and speedups; ``baseline`` defaults to ``moller_seed`` else the first, ``margin`` to run.json's."""
     return estimate(measured.load(run_dir), baseline, margin)
 
 

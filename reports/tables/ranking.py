@@ -211,8 +211,7 @@ ROBUSTNESS_TESTS = {
 
 
 def _validated(val: pd.DataFrame | None, kernel: str, dtype: str) -> pd.DataFrame:
-    """validate.csv's rows of one kernel at one precision (none without the table): a kernel's figures at
-    float32 say nothing of it at float64, so the join is on both."""
+    """validate.csv's rows of one kernel at one precision (none without it): float32 says nothing of float64."""
     if val is None or val.empty:
         return pd.DataFrame()
     return val.loc[(val["kernel"] == kernel) & (val["dtype"] == dtype)]

@@ -66,8 +66,7 @@ def render_per_process(pp: pd.DataFrame, workloads: Mapping[str, Mapping[str, An
 
 
 def ratio_baseline(kernel: str) -> str:
-    """The kernel a render time is divided by: ``moller_seed_object`` for the object forms (the seed's
-    program over itself), ``moller_seed`` for every other kernel."""
+    """A render time's divisor: ``moller_seed_object`` for the object forms, else ``moller_seed``."""
     return PROGRAM[1] if kernel in PROGRAM else BASELINE
 
 

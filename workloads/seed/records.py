@@ -108,8 +108,7 @@ class Trace:
 
     @property
     def triangle_tests(self) -> dict[str, int]:
-        """Ray-triangle tests a brute-force replay runs per kind, every ray against every triangle (the seed's
-        shadow test, stopping at the first occluder, runs fewer)."""
+        """Tests a brute-force replay runs per kind, every ray against every triangle (the seed's shadows run fewer)."""
         k = len(self.scene.triangles)
         return {kind: len(getattr(self, kind)) * k for kind in KINDS}
 
