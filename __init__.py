@@ -145,12 +145,11 @@ def sweep(
 ) -> Results:
     """Time ``kernels`` on ``workloads`` into the new folder ``out``, analyse it and return its tables.
 
-    ``tribench sweep`` then ``tribench stats`` (docs/commands.md), the expected duration printed on stderr first.
-    The design's defaults are :mod:`tribench.harness.plan`'s; ``baseline`` defaults to ``moller_seed`` if swept,
-    else the first kernel. ``kernel_files`` (docs/own-kernel.md) are checked before anything is timed, and
-    ``kernels`` may name theirs; ``builds`` (docs/builds.md) is a list of build specs or one string as ``--builds``
-    takes. Raises UserError for a bad value, an ``out`` that is not a new folder, or a kernel file that does not
-    compile or answers wrongly."""
+    ``tribench sweep`` then ``tribench stats`` (docs/commands.md); the design's defaults are
+    :mod:`tribench.harness.plan`'s, ``baseline``'s ``moller_seed`` if swept, else the first kernel.
+    ``kernel_files`` (docs/own-kernel.md) are checked before anything is timed; ``builds`` (docs/builds.md): specs,
+    or one string as ``--builds`` takes. Raises UserError for a bad value, an ``out`` that is not a new folder,
+    or a kernel file that does not compile or answers wrongly."""
     from .harness import plan
     from .harness.jobs.kernel_check import load_checked
     from .harness.jobs.sweep import measure_robustness, run_sweep

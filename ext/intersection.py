@@ -132,11 +132,10 @@ def intersect(
 ) -> Hits:
     """Run ``kernel`` on a workload (untimed) and return every ray's answer.
 
-    ``origins``, ``directions`` (N, 3) and ``triangles`` (K, 3, 3) are all float32 or all float64, the
-    kernel's precision (``pairs``: K == N). ``closest`` and ``closest_uv`` both return u and v here (they
-    differ when timed). ``t_max``: None (+inf), a number, or one per ray. ``isa`` defaults to
-    ``kernel_info(kernel).isa``. NaN or Inf is an error unless ``allow_nonfinite``: then it reaches the kernel,
-    whose header says what it does (the clean kernels report a miss).
+    All arrays float32 or all float64, the kernel's precision (``pairs``: K == N); ``closest`` and
+    ``closest_uv`` both return u and v here (they differ when timed); ``t_max``: None (+inf), a number, or one
+    per ray; ``isa``: ``kernel_info(kernel).isa`` by default. NaN or Inf is an error unless ``allow_nonfinite``:
+    then the kernel's header says what it does (the clean kernels report a miss).
 
     >>> import numpy as np
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])

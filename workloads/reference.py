@@ -89,9 +89,8 @@ def intersect_pairs(
 ) -> PairAnswers:
     """Test ray ``i`` against triangle ``i`` (``triangles[i, j]`` its vertex ``j``) in float64.
 
-    A crossing counts where ``t_min < t < t_max`` (pair ``i``'s own limit: a crossing past it is a miss that
-    keeps its ``t``) and, with ``front_only`` (back-face culling), where the ray meets the front face,
-    ``d . ((v1 - v0) x (v2 - v0)) < 0`` (vertices counter-clockwise seen from the origin).
+    A crossing counts where ``t_min < t < t_max`` (past ``t_max``: a miss keeping its ``t``) and, with
+    ``front_only``, on the front face, ``d . ((v1 - v0) x (v2 - v0)) < 0`` (counter-clockwise from the origin).
 
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
     >>> r = intersect_pairs([[0.25, 0.25, 1]], [[0., 0, -1]], tri)

@@ -148,11 +148,9 @@ def speedup_table(
 ) -> pd.DataFrame:
     """Every kernel of a :func:`per_process` table against ``baseline``, workload by workload, with multiplicity.
 
-    A workload's family is its kernels compared with ``baseline``: each interval is a Bonferroni simultaneous
-    one (:func:`simultaneous_confidence`; the ``confidence`` column is the per-comparison level used), its
-    verdict is taken from it, and ``p_holm`` is Holm-adjusted. Processes pair by their id; one missing either
-    kernel is left out of that comparison. speedups.csv renames some columns
-    (``tribench.reports.tables.pipeline.SPEEDUP_COLUMNS``).
+    A workload's kernels against ``baseline`` are one family: Bonferroni simultaneous intervals (``confidence``:
+    the per-comparison level), verdicts from them, Holm-adjusted ``p_holm``. Processes pair by id (one missing
+    either kernel is left out); speedups.csv renames columns (``tribench.reports.tables.pipeline.SPEEDUP_COLUMNS``).
 
     >>> import pandas as pd
     >>> table = pd.DataFrame({

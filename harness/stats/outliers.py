@@ -133,9 +133,8 @@ def drift(
 ) -> Drift:
     """Trend tests against wall time, and a time/order confound check, of two kernels (see :class:`Drift`).
 
-    Rounds pair the two kernels (same process and round). The confound check catches a bias that no per-round
-    ratio trend shows: one kernel running later than the other on a drifting machine. ``threshold``: the
-    practical size (log scale, about relative) of a drift worth a warning.
+    Rounds pair the two kernels. The confound check catches one kernel running later than the other on a
+    drifting machine, which no ratio trend shows; ``threshold``: the log-scale size of a drift worth a warning.
 
     >>> import numpy as np, pandas as pd
     >>> rng = np.random.default_rng(0)
