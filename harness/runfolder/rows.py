@@ -98,10 +98,8 @@ class CheckRow:
 
 @dataclass(frozen=True)
 class TraversalRow:
-    """What one batch on a BVH workload did inside the tree, and its null-leaf twin: a row of ``traversals.csv``.
-
-    Its key is its batch's; the counts are summed over every ray and loop, so
-    ``1 - null_elapsed_ns / elapsed_ns`` is the leaf tests' share."""
+    """A row of ``traversals.csv``: what one BVH batch and its null-leaf twin did inside the tree, keyed as its
+    batch, summed over every ray and loop (``1 - null_elapsed_ns / elapsed_ns`` is the leaf tests' share)."""
 
     run_id: str = _col(_RUN_ID)
     process: int = _col("index of the worker process (with workload_id, round, position and kernel, a batch's key)")

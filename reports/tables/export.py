@@ -95,10 +95,8 @@ def _entry(name: str, run_name: str, family: int, instance: int, label: str, **f
 def google_benchmark(
     run: Mapping[str, Any], tables: Mapping[str, pd.DataFrame], baseline: str, margin: Mapping[str, Any]
 ) -> dict[str, Any]:
-    """A run's estimates, speedups and machine record as ``{"context": ..., "benchmarks": [...]}``.
-
-    ``tables`` are the derived tables by file name; ``margin`` is ``{"value", "source"}``
-    of the verdicts. Ready for ``json.dumps(..., allow_nan=False)``."""
+    """A run's estimates, speedups and machine record as ``{"context": ..., "benchmarks": [...]}`` from ``tables``
+    (by file name) and the verdicts' ``margin`` (``{"value", "source"}``), ready for ``allow_nan=False``."""
     keys = ["build", "kernel", "workload_id"]
     est = tables[runfolder.ESTIMATES]
     spd = tables[runfolder.SPEEDUPS].set_index(keys)
