@@ -1,8 +1,6 @@
-"""The measured files' rows: one dataclass per file, each field a column with its meaning.
-
-The one schema the measured files are written from and read back with: a field's type is the column's (the readers
-check every value), its ``doc`` the column's meaning (docs/run-folder.md is made from it), the fields' order the
-columns'. Rows are built with keywords."""
+"""The measured files' rows: one dataclass per file, each field a column, the one schema they are written from
+and read back with: a field's type is the column's (readers check every value), its ``doc`` the column's
+meaning (docs/run-folder.md is made from it), the fields' order the columns'. Rows are built with keywords."""
 
 from __future__ import annotations
 

@@ -1,9 +1,7 @@
-"""A run's estimates and speedups in Google Benchmark's JSON format (``google_benchmark.json``).
-
-Why this format and how a run maps onto it: docs/results.md, "Export: Google Benchmark JSON". Google Benchmark has
-no interval field, so each interval travels as extra numeric fields, as its user counters do; a process is one
-``iteration`` entry, so ``compare.py`` can run its U test on two exports. No number is NaN or infinite (strict
-JSON): an undefined interval is left out."""
+"""A run's estimates and speedups in Google Benchmark's JSON format (``google_benchmark.json``; why and how:
+docs/results.md, "Export: Google Benchmark JSON"). Each interval travels as extra numeric fields, as its user
+counters do, and each process is one ``iteration`` entry, so ``compare.py`` can run its U test on two
+exports. Strict JSON: an undefined interval is left out, never NaN."""
 
 from __future__ import annotations
 
