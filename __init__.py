@@ -1,9 +1,8 @@
 """tribench from Python: run a sweep or the main job, or read a run, and get pandas frames.
 
-The ``tribench`` package itself, above its sub-packages (it may import them all;
-none imports it). Each function makes or reads a run folder exactly as the
-``tribench`` command does and returns its tables as :class:`Results`; nothing
-is imported until a function is called, so ``import tribench.ext`` stays light.
+The ``tribench`` package itself, above its sub-packages (it may import them all; none imports it). Each function
+makes or reads a run folder exactly as the ``tribench`` command does and returns its tables as :class:`Results`;
+nothing is imported until a function is called, so ``import tribench.ext`` stays light.
 
 >>> import tribench
 >>> r = tribench.load(run_dir)
@@ -146,15 +145,11 @@ def sweep(
 ) -> Results:
     """Time ``kernels`` on ``workloads`` into the new folder ``out``, analyse it and return its tables.
 
-    ``tribench sweep`` then ``tribench stats`` (docs/commands.md), the expected
-    duration printed on stderr first. The design's defaults are
-    :mod:`tribench.harness.plan`'s; ``baseline`` defaults to ``moller_seed`` if
-    swept, else the first kernel. ``kernel_files`` (docs/own-kernel.md) are checked
-    before anything is timed, and ``kernels`` may name theirs; ``builds``
-    (docs/builds.md) is a list of build specs or one string as ``--builds`` takes.
-    Raises UserError for a bad value, an ``out`` that is not a new folder, or a
-    kernel file that does not compile or answers wrongly.
-    """
+    ``tribench sweep`` then ``tribench stats`` (docs/commands.md); the design's defaults are
+    :mod:`tribench.harness.plan`'s, ``baseline``'s ``moller_seed`` if swept, else the first kernel.
+    ``kernel_files`` (docs/own-kernel.md) are checked before anything is timed; ``builds`` (docs/builds.md): specs,
+    or one string as ``--builds`` takes. Raises UserError for a bad value, an ``out`` that is not a new folder,
+    or a kernel file that does not compile or answers wrongly."""
     from .harness import plan
     from .harness.jobs.kernel_check import load_checked
     from .harness.jobs.sweep import measure_robustness, run_sweep
@@ -194,10 +189,8 @@ def run(
 ) -> Results:
     """The main job (``tribench run``) into the new folder ``out``: its tables.
 
-    :mod:`tribench.harness.jobs.main`; ``quick=True`` takes seconds and gives wide
-    intervals. ``kernel_files`` and ``builds``: as :func:`sweep`'s. The HTML report
-    is ``tribench report RUN_DIR``.
-    """
+    :mod:`tribench.harness.jobs.main`; ``quick=True`` takes seconds and gives wide intervals. ``kernel_files`` and
+    ``builds``: as :func:`sweep`'s. The HTML report is ``tribench report RUN_DIR``."""
     from .harness.jobs import main as main_job
     from .harness.jobs.kernel_check import load_checked
     from .reports import tables

@@ -1,9 +1,7 @@
 """The ``tribench`` command: one console script, one module per subcommand, heavy imports deferred.
 
-Each subcommand module has ``add_parser(subparsers)`` and ``run(args)``, which
-imports what it needs when it runs, so ``tribench --help`` stays fast. What
-each command does is docs/commands.md's.
-"""
+Each subcommand module has ``add_parser(subparsers)`` and ``run(args)``, which imports what it needs when it runs,
+so ``tribench --help`` stays fast. What each command does is docs/commands.md's."""
 
 from __future__ import annotations
 
@@ -57,8 +55,7 @@ def _ctrl_c(signum: int, frame) -> None:
 
     SIGTERM (a stopped CI job) takes Ctrl-C's way out, so every batch is kept.
     trimesh's imports catch BaseException, so a Ctrl-C during ``import trimesh``
-    was swallowed: one that lands in an import is retried 50 ms later.
-    """
+    was swallowed: one that lands in an import is retried 50 ms later."""
     while frame is not None:
         if frame.f_code.co_filename.startswith("<frozen importlib"):
             signal.setitimer(signal.ITIMER_REAL, 0.05)
@@ -71,15 +68,12 @@ def console() -> None:
     """The ``tribench`` command: :func:`main`, then exit with its status.
 
     A Ctrl-C while Python tears down its modules is ignored: the work is saved, and
-    the signal would only turn a finished command into a signal death or a traceback.
-    """
+    the signal would only turn a finished command into a signal death or a traceback."""
     sys.exit(main(leaving=True))
 
 
 def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
-    """Run one subcommand (:func:`_run_command`); ``leaving``: the process exits next, so a Ctrl-C
-    is then ignored instead of given back to its handler.
-    """
+    """Run one subcommand (:func:`_run_command`); ``leaving``: the process exits next, so a Ctrl-C is then ignored."""
     if threading.current_thread() is not threading.main_thread():
         return _run_command(argv)
     before = {sig: signal.signal(sig, _ctrl_c) for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGALRM)}
@@ -95,9 +89,7 @@ def main(argv: list[str] | None = None, *, leaving: bool = False) -> int:
 
 
 def _show_notice(shown, said: set[str], message, category, filename, lineno, file=None, line=None) -> None:
-    """tribench's own notices in one line, each once a command (a worker's may repeat the command's);
-    any other warning as Python shows it (it may point at a bug).
-    """
+    """tribench's notices in one line, once a command; other warnings as Python shows them (they may be bugs)."""
     if issubclass(category, Notice):
         if str(message) not in said:
             said.add(str(message))
@@ -109,10 +101,8 @@ def _show_notice(shown, said: set[str], message, category, filename, lineno, fil
 def _run_command(argv: list[str] | None) -> int:
     """Run one subcommand; map its failures to exit codes, one line on stderr.
 
-    2: a user error or an ``OSError`` (a missing file, a full disk); 1: a
-    measurement failed; 130: interrupted, every finished batch kept. Any other
-    exception is a bug in tribench and keeps its traceback.
-    """
+    2: a user error or an ``OSError`` (a missing file, a full disk); 1: a measurement failed; 130: interrupted,
+    every finished batch kept. Any other exception is a bug in tribench and keeps its traceback."""
     prog = "tribench"
     try:
         args = build_parser().parse_args(argv)

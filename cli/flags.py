@@ -1,9 +1,8 @@
 """One check per kind of command-line flag, shared by every command that has it.
 
-Each function is an argparse ``type=`` callable: the value, or an
-:class:`argparse.ArgumentTypeError` saying what is wrong and what is wanted,
-before the command does anything. A value is never replaced silently: an empty
-list, a zero count or a folder that is a file is refused, not defaulted.
+Each function is an argparse ``type=`` callable: the value, or an :class:`argparse.ArgumentTypeError` saying what is
+wrong and what is wanted, before the command does anything. A value is never replaced silently: an empty list, a
+zero count or a folder that is a file is refused, not defaulted.
 
 >>> positive_int("12")
 12

@@ -67,8 +67,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _print_kernels(ext, width: int) -> None:
-    """The registry's declarations (ext/kernels/list.h): faces tested, watertight promise, and whether the
-    code is a seed replay, clean, or from a kernel file."""
+    """The registry's declarations (ext/kernels/list.h): faces tested, watertight promise, the code's origin."""
     print(
         f"{'kernel':<{width}}{'form':<10}{'bytes/tri f32':>14}{'bytes/tri f64':>14}  {'faces':<6}{'watertight':<11}"
         f"{'code':<6} ISA (* = runs here, > = chosen)"

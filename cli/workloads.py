@@ -10,8 +10,7 @@ inside the handlers only. Examples (tests/test_cli_examples.py runs them)::
     tribench workloads make ~/meshes/bunny.ply --triangles 20000
     tribench workloads make suzanne --rays my_rays.npz            # your own rays
     tribench workloads list
-    tribench workloads show mesh-3f2a --png suzanne.png
-"""
+    tribench workloads show mesh-3f2a --png suzanne.png"""
 
 from __future__ import annotations
 

@@ -1,14 +1,12 @@
 """Ray-triangle intersection kernels in C, behind a validated Python API: every input is checked before C
-sees it, so none can crash the process (the checks, precision and modes: docs/architecture.md, "The C
-extension from Python").
+sees it, so none can crash the process (docs/architecture.md, "The C extension from Python").
 
-A kernel is named in one place, its registration line in ``ext/kernels/list.h`` (``kernel_names()``; what
-each is: docs/kernels.md); the internal ones, the harness's honesty checks, are listed only by
-``kernel_names(internal=True)`` and accepted wherever a name is. Only hits with ``0 < t < t_max`` count, and
-the clean kernels' conventions are ``tribench.workloads.reference``'s. This package owns the kernels, their
-registration and the checked C boundary, and may import ``tribench.common`` only; it re-exports its modules'
-public names, and each module imports only those before it in ``checks``, ``registry``, ``intersection``,
-``timing``, ``probes``, ``bvh``, ``toolchain``, ``kernel_files``, ``builds``, over ``_core`` (the C module).
+A kernel is named in one place, ``ext/kernels/list.h`` (what each is: docs/kernels.md); the internal ones,
+the harness's honesty checks, are listed only by ``kernel_names(internal=True)``. Only hits with
+``0 < t < t_max`` count; the clean kernels' conventions are ``tribench.workloads.reference``'s. This package
+may import ``tribench.common`` only and re-exports its modules' public names; each module imports only those
+before it in ``checks``, ``registry``, ``intersection``, ``timing``, ``probes``, ``bvh``, ``toolchain``,
+``kernel_files``, ``builds``, over ``_core`` (the C module).
 
 >>> import numpy as np
 >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])

@@ -150,8 +150,7 @@ def use_build(spec: str) -> None:
 
 
 def build_record(spec: str) -> dict:
-    """What a run records of a build: the spec, the compiler's first ``--version`` line, the exact
-    compile flags, and the sha256 of the compiled module."""
+    """A build as a run records it: spec, the compiler's ``--version`` line, exact flags, and the module's sha256."""
     module, toolchain = load_build(spec), toolchain_of(spec)
     info = module.build_info()
     return {

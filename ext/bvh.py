@@ -87,13 +87,12 @@ class TraceBatch:
 class BVH:
     """A BVH over a triangle array with one native kernel's records at its leaves (:func:`build_bvh`).
 
-    ``ext/bvh.h``'s tree: binned SAH, deterministic, nodes depth first (left child next), leaves of at most
-    ``max_leaf`` triangles on whole blocks of 16 slots. ``nodes`` (n, 8), the triangles' precision: box corners
-    (6 reals), then two uint32 (``nodes.view(np.uint32)`` columns 6-7 in float32, the first two of column 6 in
-    float64), inner ``(right child, 0)``, leaf ``(first slot, triangles)``. ``perm``: slot -> the caller's
-    triangle index, ``-1`` for a leaf's padding. ``prepared``: the records in slot order. ``wide``: the same
-    tree in ``tb_bvh_wide`` nodes, which ``layout="wide"`` traverses. Every array is read-only, and answers
-    are in the caller's indices: a traversal never sees the caller's array again."""
+    ``ext/bvh.h``'s tree (binned SAH, deterministic, depth first, leaves of at most ``max_leaf`` triangles on
+    whole blocks of 16 slots): ``nodes`` (n, 8) in the triangles' precision, box corners then two uint32
+    (``nodes.view(np.uint32)``'s columns 6-7 in float32, 12-13 in float64; inner ``(right child, 0)``, leaf
+    ``(first slot, triangles)``); ``perm``: slot -> the caller's triangle index (-1: padding); ``prepared``: the
+    records in slot order; ``wide``: the same tree as ``tb_bvh_wide`` nodes (``layout="wide"``). Every array is
+    read-only; answers are in the caller's indices."""
 
     kernel: str
     triangles: np.ndarray

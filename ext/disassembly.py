@@ -52,8 +52,7 @@ def _loops(code: str) -> list[list[tuple[str, str]]]:
 
 
 def loop_arithmetic(code: str) -> int:
-    """Packed arithmetic instructions (add, sub, mul, div, sqrt, compare, min, max, FMA)
-    in the largest loop of a function: the block loop of a wide kernel."""
+    """Packed arithmetic instructions in a function's largest loop (a wide kernel's block loop), by kind."""
     return max((sum(1 for o, _ in body if _ARITHMETIC.match(o)) for body in _loops(code)), default=0)
 
 

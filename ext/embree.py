@@ -43,8 +43,7 @@ ISAS = (None, "avx2")
 
 
 def isas_here() -> tuple[str | None, ...]:
-    """The :data:`ISAS` that give Embree a path of its own on this CPU: its own pick, and AVX2 where
-    its pick is AVX-512 (elsewhere it is AVX2 or less already)."""
+    """The :data:`ISAS` that give Embree a path of its own on this CPU: its pick, and AVX2 where it picks AVX-512."""
     from .probes import probe_isas
 
     return ISAS if "avx512" in probe_isas() else (None,)
@@ -61,8 +60,7 @@ class EmbreeMissing(UserError):
 
 
 def _flags() -> tuple[list[str], list[str]]:
-    """Compile and link flags of the system's Embree 3: pkg-config's where it knows Embree, else the
-    default paths (Debian installs no .pc file)."""
+    """Embree 3's compile and link flags: pkg-config's, else the default paths (Debian installs no .pc file)."""
     try:
         found = subprocess.run(["pkg-config", "--cflags", "--libs", "embree3"], capture_output=True, text=True)
     except OSError:  # no pkg-config
@@ -165,8 +163,7 @@ class EmbreeScene:
         return index, t
 
     def trace(self, origins, directions, t_max=None, width: int = 1, loops: int = 1) -> Trace:
-        """``loops`` closest-hit passes over the rays, timed in C: rtcIntersect1 (``width`` 1) or
-        rtcIntersect16 over packets of 16 consecutive rays (``width`` 16)."""
+        """``loops`` closest-hit passes timed in C: rtcIntersect1 (``width`` 1) or rtcIntersect16 (``width`` 16)."""
         o, d, tm = self._rays(origins, directions, t_max)
         if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)) or loops < 1:
             raise UserError(f"loops must be a positive integer, got {loops!r:.40}")

@@ -1,6 +1,5 @@
 """Brute force: a kernel's prepared records (:func:`prepare`) and every ray against every triangle
-(:func:`intersect`); :func:`check_workload` is every check of a call, shared with the timed batches and
-the BVH."""
+(:func:`intersect`); :func:`check_workload` is every check of a call, shared with the timed batches and the BVH."""
 
 from __future__ import annotations
 
@@ -55,11 +54,9 @@ _FILTER_ABSOLUTE = 2.0**-1000
 
 
 def flat(triangles: np.ndarray) -> np.ndarray:
-    """Which triangles have exactly zero area (a point, a repeated vertex, three vertices on a line), in exact
-    arithmetic on the stored values; a triangle with a non-finite vertex is not flat.
-
-    The float64 cross product with an error bound settles every triangle it is clearly not zero for; the few
-    others are decided in rational arithmetic (``fractions.Fraction`` holds a float exactly).
+    """Which triangles have exactly zero area (a point, a repeated vertex, three vertices on a line) in exact
+    arithmetic on the stored values (a non-finite vertex: not flat); a float64 cross product with an error bound
+    settles most, ``fractions.Fraction`` the rest.
 
     >>> import numpy as np
     >>> a = np.array([0.1, 0.2, 0.3])  # not dyadic
@@ -135,11 +132,10 @@ def intersect(
 ) -> Hits:
     """Run ``kernel`` on a workload (untimed) and return every ray's answer.
 
-    ``origins``, ``directions`` (N, 3) and ``triangles`` (K, 3, 3) are all float32 or all float64, the
-    kernel's precision (``pairs``: K == N). ``closest`` and ``closest_uv`` both return u and v here (they
-    differ when timed). ``t_max``: None (+inf), a number, or one per ray. ``isa`` defaults to
-    ``kernel_info(kernel).isa``. NaN or Inf is an error unless ``allow_nonfinite``: then it reaches the kernel,
-    whose header says what it does (the clean kernels report a miss).
+    All arrays float32 or all float64, the kernel's precision (``pairs``: K == N); ``closest`` and
+    ``closest_uv`` both return u and v here (they differ when timed); ``t_max``: None (+inf), a number, or one
+    per ray; ``isa``: ``kernel_info(kernel).isa`` by default. NaN or Inf is an error unless ``allow_nonfinite``:
+    then the kernel's header says what it does (the clean kernels report a miss).
 
     >>> import numpy as np
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])

@@ -1,12 +1,9 @@
 """Kernels of the user's own (docs/own-kernel.md): a C file written against the kernel contract, compiled with
-every C file of the extension by the process's toolchain (:func:`tribench.ext.toolchain.current`), its
-kernels in place of the built-in list, cached under ``cache_dir()/kernel_builds`` by the hash of the file,
-the sources, the compiler and the flags, and joined to the registry.
-
-A kernel file's content is the file with every local header it includes (``#include "x.h"`` found beside
-the file that includes it) written in place, ``#line`` marks keeping the compiler's messages on the right
-file and line: an edit to such a header compiles the kernels again, and a run folder's copy of the file
-(this text) compiles on its own elsewhere."""
+every C file of the extension by the process's toolchain (:func:`tribench.ext.toolchain.current`), cached
+under ``cache_dir()/kernel_builds`` by the hash of the file, sources, compiler and flags, and joined to the
+registry. A kernel file's content is the file with every local header it includes (``#include "x.h"``
+beside the includer) written in place under ``#line`` marks, so an edit to a header compiles it again and a
+run folder's copy compiles on its own elsewhere."""
 
 from __future__ import annotations
 
@@ -63,12 +60,11 @@ def kernel_file_of(kernel: str) -> KernelFile | None:
 
 def load_kernels(path: str | os.PathLike) -> tuple[str, ...]:
     """Compile (or take from the cache) the kernel file at ``path``, join its kernels to the registry and return
-    their names.
+    their names; after an edit the new code takes over its names.
 
-    Loading the same file again is free; after an edit it is compiled again and the new code takes over its
-    names. Raises :class:`KernelFileError` when the file cannot be read, does not compile (with the compiler's
-    ``file:line`` messages) or declares a built-in kernel's name. No answer is checked here: the command line
-    and ``tribench.sweep`` check a file's kernels against the float64 reference before timing them."""
+    Raises :class:`KernelFileError` when the file cannot be read, does not compile (with the compiler's
+    ``file:line`` messages) or declares a built-in kernel's name. No answer is checked here: callers check a
+    file's kernels against the reference before timing them."""
     source, raw = _read(path)
     text = _with_local_headers(source, raw)
     sha = hashlib.sha256(text).hexdigest()
@@ -156,8 +152,7 @@ def _build_key(text: bytes, toolchain: Toolchain) -> str:
 
 
 def _compile(compiled: Path, name: str, module_path: Path, toolchain: Toolchain, source: Path) -> None:
-    """Compile every C file of the extension with the kernels of ``compiled`` (``source``'s text), into
-    ``module_path`` (atomically)."""
+    """Compile every C file of the extension with ``compiled``'s kernels into ``module_path``, atomically."""
 
     def failed(result: subprocess.CompletedProcess) -> KernelFileError:  # every file includes the kernel file
         return KernelFileError(f"{source} does not compile ({shlex.join(toolchain.cc)}):\n{_own_lines(result, source)}")

@@ -43,18 +43,15 @@ def kernel_names(internal: bool = False) -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class KernelInfo:
-    """What the registry says of one kernel: each property is declared once (docs/kernels.md, "Where a kernel's
+    """What the registry says of one kernel, each property declared once (docs/kernels.md, "Where a kernel's
     properties live") and read here from the extension.
 
-    ``lanes``: triangles per record block (1 scalar, 16 a native kernel). ``stride``: reals
-    of prepared data per triangle. ``ops``: arithmetic operations per test (per lane; a scalar kernel's hit
-    path), by ``ext/kernels.h``'s counting rules. ``isas``: the ISAs it is compiled for, best first, and
-    whether this CPU runs each (``"scalar"`` alone for a scalar kernel); ``isa``: the one calls use,
-    ``TRIBENCH_ISA`` if set and runnable, else the best runnable. ``algorithm``: the clean scalar kernel whose
-    algorithm this is a form of (itself, or a native kernel's ``tb_<name>_algorithm``), which
-    rankings by algorithm group by. ``flat``: ``"miss"``, or ``"as_is"`` (the kernel's own test decides, as the
-    seed's code did). ``source``: ``"built-in"`` or the kernel file that declared it, whose paper is
-    ``citation``."""
+    ``lanes``: triangles per record block (1 scalar, 16 native); ``stride``: reals prepared per triangle;
+    ``ops``: arithmetic operations per test by ``ext/kernels.h``'s counting rules. ``isas``: the ISAs compiled,
+    best first, each with whether this CPU runs it; ``isa``: the one calls use (``TRIBENCH_ISA`` if runnable,
+    else the best). ``algorithm``: the clean scalar kernel this is a form of, which rankings group by.
+    ``flat``: ``"miss"`` or ``"as_is"`` (the kernel's own test decides). ``source``: ``"built-in"`` or the
+    kernel file that declared it, whose paper is ``citation``."""
 
     name: str
     lanes: int

@@ -27,8 +27,7 @@ class Job:
 
     @property
     def tests_per_pass(self) -> int:
-        """Ray-triangle tests in one pass over the workload; for ``any`` the most there can be (a batch counts the
-        tests it did, up to each ray's first hit)."""
+        """Tests in one pass over the workload; for ``any`` the most there can be (a batch counts those it did)."""
         if self.mode == "pairs":
             return len(self.origins)
         return len(self.origins) * self.prepared.n_triangles
@@ -58,8 +57,7 @@ def make_job(
 @dataclass(frozen=True)
 class Batch:
     """One timed batch: ``loops`` passes of a job, timed inside C; ``hits`` and ``t_sum`` (and ``uv_sum``, of
-    ``u + v`` in mode ``closest_uv``) are summed over the passes, to compare with ``loops`` times the
-    reference's."""
+    ``u + v`` in mode ``closest_uv``) are summed over the passes, to compare with ``loops`` times the reference's."""
 
     elapsed_ns: int
     loops: int

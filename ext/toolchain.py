@@ -173,8 +173,7 @@ def _kill(proc: subprocess.Popen) -> None:
 
 
 def _finish(proc: subprocess.Popen, argv: list[str]) -> subprocess.CompletedProcess:
-    """A started compiler's run (``argv``), waited for; one over 10 minutes is stopped, a UserError, and so is one
-    waited for when an exception (Ctrl-C) comes."""
+    """Wait for a started compiler: one over 10 minutes, or interrupted (Ctrl-C), is stopped with a UserError."""
     try:
         out, err = proc.communicate(timeout=600)
     except BaseException as e:

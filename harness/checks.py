@@ -46,21 +46,17 @@ def replicates_a_flawed_original(kernel: str) -> bool:
 
     Their differences from the reference (a small triangle vanishes for
     ``moller_seed``) are what the seed experiment is about, so checks.csv records
-    them rather than the sweep stopping. Every other kernel must agree outside the ambiguous rays.
-    """
+    them rather than the sweep stopping. Every other kernel must agree outside the ambiguous rays."""
     return ext.kernel_info(kernel).seed_replay
 
 
 def one_pass_checksum(kernel: str, workload: Any, bvh: ext.BVH | None = None) -> tuple[Checksum, dict[str, int]]:
     """Check ``kernel``'s per-ray answers on ``workload``; return its checksum and the counts of disagreements.
 
-    Answers must equal the reference's outside ``workload.ambiguous()``, the sum of
-    t (and u + v) within :data:`T_SUM_RTOL` where both hit; an any-hit answer may be
-    any hit triangle, so its t is checked against that triangle's. A culling kernel
-    is held to the front-face reference; with ``bvh`` the answers are the BVH's.
-    Raises KernelCheckError naming the first ray that differs (never for
-    :func:`replicates_a_flawed_original` kernels).
-    """
+    Answers must equal the reference's outside ``workload.ambiguous()``, the sum of t (and u + v) within
+    :data:`T_SUM_RTOL` where both hit; an any-hit answer may be any hit triangle, so its t is checked against that
+    triangle's. A culling kernel is held to the front-face reference; with ``bvh`` the answers are the BVH's. Raises
+    KernelCheckError naming the first ray that differs (never for :func:`replicates_a_flawed_original` kernels)."""
     w = workload
     if bvh is None:
         r = ext.intersect(kernel, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max)

@@ -1,11 +1,7 @@
-"""How long a sweep will take, said before it starts (``tribench seed``, ``run`` and ``sweep``).
-
-Per worker process: its start-up, then per kernel-workload pair a check, a
-calibration and its batches, each the target or one pass, whichever is longer.
-One pass is timed here on a strided slice of each workload; the rest are
-constants read off finished runs (docs/decisions.md, "The duration forecast").
-A forecast, not a promise: the progress lines correct it as batches finish.
-"""
+"""How long a sweep will take, said before it starts (``tribench seed``, ``run`` and ``sweep``): per process its
+start-up, then per kernel and workload a check, a calibration and its batches, each the target or one pass
+(timed here on a strided slice), whichever is longer; the other constants come from finished runs
+(docs/decisions.md, "The duration forecast"). The progress lines correct it as batches finish."""
 
 from __future__ import annotations
 
@@ -120,12 +116,8 @@ def model(
 def measure_passes(
     sweep: Sweep,
 ) -> tuple[dict[str, int], dict[tuple[str, str], float], dict[tuple[str, str], float]]:
-    """Tests per pass of every workload and one pass's seconds per (kernel, workload id), BVH twins
-    included, timed on a strided slice and scaled.
-
-    It builds into the caches what the workers would (workloads, front-face
-    references, BVH trees), so this is no extra work.
-    """
+    """Tests per pass of every workload and one pass's seconds per (kernel, workload id), BVH twins included, timed
+    on a strided slice and scaled; what it builds into the caches the workers would build anyway."""
     from .. import ext
     from ..workloads import cache
     from ..workloads.front import front_reference

@@ -1,10 +1,8 @@
 """What every timed process does before it times: pinned to one CPU, its memory layout varied at random.
 
-Padding the environment moves the stack, dummy allocations the heap, a random
-offset of 0-15 elements the data within cache lines and pages. A layout that
-suits one contender is then a random effect across processes, not a bias
-(Mytkowicz et al., "Producing wrong data without doing anything obviously wrong!", 2009).
-"""
+Padding the environment moves the stack, dummy allocations the heap, a random offset of 0-15 elements the data
+within cache lines and pages. A layout that suits one contender is then a random effect across processes, not a bias
+(Mytkowicz et al., "Producing wrong data without doing anything obviously wrong!", 2009)."""
 
 from __future__ import annotations
 
@@ -20,8 +18,7 @@ PAD_VARIABLE = "TRIBENCH_LAYOUT_PAD"
 
 
 def padded_env(seed: int, attempt: int, base: Mapping[str, str] | None = None) -> dict[str, str]:
-    """The child's environment: ``base`` (default ``os.environ``) with 0-4095 bytes of padding drawn from the
-    process's seed and attempt."""
+    """``base`` (default ``os.environ``) padded by 0-4095 bytes drawn from the process's seed and attempt."""
     pad = int(np.random.default_rng([seed, attempt, 1]).integers(0, 4096))
     return {**(os.environ if base is None else base), PAD_VARIABLE: "x" * pad}
 

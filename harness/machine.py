@@ -72,8 +72,7 @@ def cpu_model() -> str:
     """The CPU's name, with its family and model numbers where /proc/cpuinfo gives them.
 
     A hypervisor may show only a brand ("AMD EPYC" for Zen 3, 4 and 5 alike), so
-    a calibration's margin is applied only on the CPU it was measured on.
-    """
+    a calibration's margin is applied only on the CPU it was measured on."""
     info = _cpuinfo()
     implementer, part = info.get("CPU implementer", "").lower(), info.get("CPU part", "").lower()
     if implementer and part and not info.get("model name"):  # aarch64 Linux: numbers, no name

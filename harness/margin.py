@@ -1,8 +1,7 @@
 """The equivalence margin a sweep uses: the latest A/A calibration's, or the default.
 
 Apart from the calibration (:mod:`.jobs.calibrate`), which needs the runner,
-so the imports stay one-way: runner -> margin, calibration -> runner.
-"""
+so the imports stay one-way: runner -> margin, calibration -> runner."""
 
 from __future__ import annotations
 

@@ -1,13 +1,10 @@
 """Each kernel's bound on the machine's measured pipes, and how near it runs.
 
-The bound is a port model (docs/kernels.md, "How near the machine's limit"):
-the largest lower bound on time that the probed rates
-(:func:`tribench.ext.op_throughput`, lane-ops per ns by class) and the
-kernel's counts (:attr:`tribench.ext.KernelInfo.mix`) support. Whether two
-classes share pipes is measured by a 1:1 mix, never assumed: without the
-``fma_mul`` pool a Zen core's bound was up to twice too fast (docs/decisions.md,
-"How near the bound"). ``fraction = bound / measured ns per test``, 1 at the bound.
-"""
+The bound is a port model (docs/kernels.md, "How near the machine's limit"): the largest lower bound on time that
+the probed rates (:func:`tribench.ext.op_throughput`, lane-ops per ns by class) and the kernel's counts
+(:attr:`tribench.ext.KernelInfo.mix`) support. Whether two classes share pipes is measured by a 1:1 mix, never
+assumed: without the ``fma_mul`` pool a Zen core's bound was up to twice too fast (docs/decisions.md, "How near the
+bound"). ``fraction = bound / measured ns per test``, 1 at the bound."""
 
 from __future__ import annotations
 
@@ -61,8 +58,7 @@ def throughput_record() -> dict:
     """The probes' rates and the FMA peak of the same moment, as ``run.json``'s ``throughput``.
 
     The analysis scales the rates to each process's moment by the ratio of its FMA
-    peak to this one (a clock factor), so every process is held to its own bound.
-    """
+    peak to this one (a clock factor), so every process is held to its own bound."""
     peak, rates = measure_peak(3), measure_rates()
     return {"isa": rates.isa, "peak_gflops": peak.gflops, "float32": rates.float32, "float64": rates.float64}
 
@@ -75,12 +71,10 @@ def measure_peak(repeats: int = 5) -> ext.Peak:
 def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int = 64, seed: int = 0, isa=None):
     """Every public kernel on the in-cache camera workload, as a fraction of its bound (``tribench info --peak``).
 
-    A quick look in this process, not the sweep's protocol: Suzanne at 968
-    triangles (in L2; the port model counts no L2 traffic), every kernel once per
-    round in a fresh order, the probes' mean before and after as the peak and
-    rates. Returns ``(gflops, isa, rate_isa, rates, table)``. ``isa`` holds every
-    native kernel to that ISA and probes the pipes on it, so an AVX-512 core answers for AVX2 too.
-    """
+    A quick look in this process, not the sweep's protocol: Suzanne at 968 triangles (in L2, which the port model
+    does not count), every kernel once per round in a fresh order, the probes' mean before and after as the peak
+    and rates. Returns ``(gflops, isa, rate_isa, rates, table)``; ``isa`` holds every native kernel and the
+    probes to that ISA, so an AVX-512 core answers for AVX2 too."""
     import pandas as pd
 
     from ..workloads import cache

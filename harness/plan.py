@@ -1,12 +1,9 @@
 """What a sweep measures, and in which order: the sweep spec and its batch plan.
 
-:func:`plan` expands a :class:`Sweep` into its batches in execution order, a
-pure function of the sweep, so a resumed run knows exactly which batches are
-missing. In each process the workloads come in a random order (a block of
-rounds each, so the kernels share its buffers), warm-up rounds
-(``-warmup .. -1``, kept and labelled) before the timed ones, every kernel
-once per round in a fresh order; every choice comes from :func:`process_seed`.
-"""
+:func:`plan` expands a :class:`Sweep` into its batches in execution order, a pure function of the sweep, so a
+resumed run knows exactly which batches are missing. In each process the workloads come in a random order (a block
+of rounds each, so the kernels share its buffers), warm-up rounds (``-warmup .. -1``, kept and labelled) before the
+timed ones, every kernel once per round in a fresh order; every choice comes from :func:`process_seed`."""
 
 from __future__ import annotations
 
@@ -103,11 +100,9 @@ class BatchKey:
 class Sequential:
     """A sequential design: processes in stages, each comparison stopped once its 95% interval is narrow.
 
-    ``target`` is a relative half-width; ``processes`` is then the most the sweep
-    may run, and it also ends when the next stage would end past ``budget_s``.
-    Only the width decides, so the intervals keep their coverage
-    (docs/methodology.md, "The main job's sequential design").
-    """
+    ``target`` is a relative half-width; ``processes`` is then the most the sweep may run, and it also ends when the
+    next stage would end past ``budget_s``. Only the width decides, so the intervals keep their coverage
+    (docs/methodology.md, "The main job's sequential design")."""
 
     #: Processes per stage (the first stage included).
     stage: int
@@ -135,15 +130,11 @@ class Sequential:
 class Sweep:
     """A grid of kernels x workloads and the design that measures it.
 
-    ``kernels`` may be internal (the harness's checks use them); ``target_ms`` is
-    a batch's wanted length, ``loops`` calibrated to it per kernel, workload and
-    process; ``seed`` drives every random choice, layout included.
-    ``workload_kernels``: per workload, the subset of kernels that run it (empty:
-    :meth:`kernels_for`). ``kernel_files`` are loaded here and by every worker;
-    checking their answers is :mod:`tribench.harness.jobs.kernel_check`'s.
-    ``builds`` (:func:`tribench.ext.parse_builds`; empty: the installed one) are
-    taken in turn by the processes, which they share: 10 processes and 2 builds are 5 of each.
-    """
+    ``kernels`` may be internal (the harness's checks use them); ``loops`` is calibrated per kernel, workload and
+    process to ``target_ms``; ``seed`` drives every random choice, layout included. ``workload_kernels``: per
+    workload, the kernels that run it (empty: :meth:`kernels_for`). ``kernel_files`` are loaded here and by every
+    worker (checked by :mod:`tribench.harness.jobs.kernel_check`). ``builds`` (:func:`tribench.ext.parse_builds`;
+    empty: the installed one) are taken in turn by the processes: 10 processes and 2 builds are 5 of each."""
 
     kernels: tuple[str, ...]
     workloads: tuple[Spec, ...]
@@ -268,8 +259,7 @@ class Sweep:
 
     def kernels_for(self, spec: Spec) -> tuple[str, ...]:
         """The sweep's kernels that run ``spec``, in sweep order: its ``workload_kernels``
-        (all without), that have its mode, and on a BVH workload can be its leaf test.
-        """
+        (all without), that have its mode, and on a BVH workload can be its leaf test."""
         from .. import ext
 
         chosen = self.workload_kernels[self.workloads.index(spec)] if self.workload_kernels else self.kernels
@@ -282,8 +272,7 @@ class Sweep:
 
     def reference_of(self, spec: Spec, baseline: str) -> str:
         """The kernel the others of ``spec`` are compared with in a sequential sweep:
-        ``baseline`` where it runs, else the first kernel (a BVH workload has no scalar baseline).
-        """
+        ``baseline`` where it runs, else the first kernel (a BVH workload has no scalar baseline)."""
         kernels = self.kernels_for(spec)
         return baseline if baseline in kernels else kernels[0]
 
@@ -378,8 +367,7 @@ MAIN_JOB_BVH_TRIANGLES = {False: 250_000, True: 10_000}
 def main_job_kernels() -> dict[str, tuple[str, ...]]:
     """The main job's kernels by role, from the registry (never from their names):
     ``seed`` (the seed's replays), ``scalar`` (every clean scalar form, the only
-    ones with a pairs mode) and ``native`` (every native form, also the BVH leaf tests).
-    """
+    ones with a pairs mode) and ``native`` (every native form, also the BVH leaf tests)."""
     from .. import ext
 
     info = {k: ext.kernel_info(k) for k in ext.kernel_names()}
@@ -393,13 +381,10 @@ def main_job_kernels() -> dict[str, tuple[str, ...]]:
 def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds: Sequence[str] = ()) -> Sweep:
     """The main job's sweep (``tribench run``): which intersector, on this machine.
 
-    Its workloads, kernels and sequential design are docs/methodology.md's ("The
-    main job's sequential design"); 3 rounds per process is docs/decisions.md's
-    ("3 rounds per process, stages of 2, at least 8 processes"). The baseline's A/A
-    twin gives the run its own margin (:mod:`tribench.reports.tables.margin`).
-    ``kernel_files``' kernels join in their roles; with ``builds``, each stage and
-    the bound on processes grow with their number, so the budget is shared among them.
-    """
+    Its workloads, kernels and sequential design: docs/methodology.md, "The main job's sequential design"; why 3
+    rounds per process: docs/decisions.md. The baseline's A/A twin gives the run its own margin
+    (:mod:`tribench.reports.tables.margin`). ``kernel_files``' kernels join in their roles; with ``builds``, each
+    stage and the bound on processes grow with their number, so the budget is shared among them."""
     from .. import ext
     from ..workloads.spec import MeshSpec, PairSpec
 
@@ -447,17 +432,14 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds:
 
 
 def recorded_builds(sweep: Mapping[str, Any]) -> list[str]:
-    """The builds a run's processes took in turn, from its recorded sweep (``run.json``'s ``sweep``),
-    without making the :class:`Sweep` (which would compile its kernel files)."""
+    """The builds a run's processes took in turn, from ``run.json``'s sweep, without compiling its kernel files."""
     from ..ext import INSTALLED
 
     return list(sweep.get("builds") or [INSTALLED])
 
 
 def rows_of_build(frame: Any, batches: Any, build: str) -> Any:
-    """The rows of a per-process table measured by ``build``'s processes: those whose
-    batches carry ``build``, the one place a row's build is recorded.
-    """
+    """The rows of a per-process table measured by ``build``: those whose batches carry it (its one record)."""
     mine = frame["process"].isin(batches.loc[batches["build"] == build, "process"].unique())
     return frame.loc[mine].reset_index(drop=True)
 

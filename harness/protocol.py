@@ -1,16 +1,10 @@
 """The one worker protocol: a fresh process per job, the job on stdin, typed JSON lines on a private channel.
 
-Every measurement runs in such workers (the sweeps', the peers', a kernel
-file's check), pinned and with a randomised layout. :func:`run_worker` is the
-parent's side: each line goes to the handler of its ``type``, within an
-optional time limit. :func:`serve` is the worker's: the channel is stdout moved
-to a descriptor of its own, fd 1 going to stderr, so a ``printf`` in a user's
-kernel cannot break a line. The protocol's own types: ``notice`` (printed once
-by the parent however many workers send it), ``error`` (exit code 3; the parent
-raises :class:`WorkerError`) and ``end``: a worker that exits without it (a
-kernel that called ``exit()``) failed, whatever its exit code. A worker's
-stderr is shown only when it fails.
-"""
+Every measurement (the sweeps', the peers', a kernel file's check) runs in such a worker. :func:`run_worker`
+is the parent's side, :func:`serve` the worker's: the channel is stdout moved to a descriptor of its own,
+fd 1 going to stderr, so a ``printf`` in a user's kernel cannot break a line. The protocol's own types:
+``notice`` (printed once however many workers send it), ``error`` (exit code 3: :class:`WorkerError`) and
+``end``, without which a worker failed (a kernel that called ``exit()``). Its stderr shows only on failure."""
 
 from __future__ import annotations
 
@@ -59,10 +53,8 @@ def run_worker(
 ) -> None:
     """Run one worker to its end: ``job`` to its stdin, each line to ``handlers[type]``.
 
-    Raises :class:`WorkerError` on an error line, a line not the protocol's, an exit
-    before ``end`` or with a non-zero code, or past ``timeout`` seconds (killed). A
-    handler's exception kills the worker and propagates.
-    """
+    Raises :class:`WorkerError` on an error line, a line not the protocol's, an exit before ``end`` or with a
+    non-zero code, or past ``timeout`` seconds (killed); a handler's exception kills the worker and propagates."""
     error, ended = None, False
     with tempfile.TemporaryFile("w+") as err:
         proc = subprocess.Popen(
@@ -143,8 +135,7 @@ def emit(kind: str, record: Any) -> None:
 def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] = ()) -> int:
     """A worker's main: run ``work(job)`` on the job read from stdin; the exit code.
 
-    ``errors``, ValueError (UserError among them) and OSError (a cache file) become the ``error`` line, exit code 3.
-    """
+    ``errors``, ValueError (UserError among them) and OSError (a cache file) become the ``error`` line, exit code 3."""
     global _CHANNEL
     _CHANNEL = _take_channel()
     warnings.showwarning = _pass_notices(warnings.showwarning)
@@ -167,8 +158,7 @@ def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] =
 
 def _take_channel() -> TextIO | None:
     """The process's stdout as the protocol's alone, fd 1 going to stderr; None where stdout is no
-    file descriptor (a test's capture): :func:`emit` then writes to ``sys.stdout`` as it is.
-    """
+    file descriptor (a test's capture): :func:`emit` then writes to ``sys.stdout`` as it is."""
     try:
         fd = sys.stdout.fileno()
     except (AttributeError, ValueError, io.UnsupportedOperation):

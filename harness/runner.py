@@ -1,15 +1,11 @@
 """The runner: starts worker processes one at a time and keeps every batch they time.
 
-:func:`start` makes a run folder and runs the whole plan; :func:`resume`
-finishes an interrupted one; both hold the folder's writer lock. Every batch is
-appended to ``batches.csv`` as it arrives, so a kill or a crash loses at most
-the batch in flight, and a full disk stops the sweep with one line saying how
-to resume. The plan is a pure function of the sweep in ``run.json``, so the
-missing batches are exactly the planned keys absent from ``batches.csv``. A
-process cut off half-way keeps its batches; the rest run in a new worker with
-the same ``process`` and ``attempt`` + 1 (its layout differs; ``attempt`` lets
-an analysis find the two halves), warm-ups done not repeated.
-"""
+:func:`start` makes a run folder and runs the whole plan, :func:`resume` finishes an interrupted one; both
+hold the folder's writer lock. Every batch is appended to ``batches.csv`` as it arrives, so a kill loses at
+most the batch in flight, and a full disk stops the sweep with one line saying how to resume. The plan is a
+pure function of ``run.json``'s sweep, so the missing batches are the planned keys absent from
+``batches.csv``. A process cut off half-way keeps its batches; the rest run in a new worker with the same
+``process`` and ``attempt`` + 1 (which lets an analysis find the two halves), warm-ups not repeated."""
 
 from __future__ import annotations
 
@@ -74,8 +70,7 @@ class SweepInterrupted(Exception):
 
 @contextmanager
 def resumed_with(out: str | Path, command: str) -> Iterator[None]:
-    """Ctrl-C in a sweep a job runs: its message names ``command``, the job's own way to finish, not
-    ``tribench sweep --resume``, which would finish the sweep alone."""
+    """Ctrl-C in a job's sweep: the message names ``command``, the job's way to finish, not ``sweep --resume``."""
     try:
         yield
     except SweepInterrupted as exc:
@@ -113,13 +108,9 @@ def progress_seconds() -> float:
 
 
 class Progress:
-    """Progress with an estimate of the time left, on ``stream`` (default stderr).
-
-    On a terminal (or with ``force``) a bar redrawn in place; elsewhere (a CI
-    log) a plain line once both :func:`progress_seconds` and a tenth of the work
-    have passed, so a log shows life without filling up. The rate is this
-    invocation's only, so a resume is not misled by batches it did not run.
-    """
+    """Progress with an estimate of the time left, on ``stream`` (default stderr): on a terminal (or with
+    ``force``) a bar redrawn in place, elsewhere a plain line once both :func:`progress_seconds` and a tenth of
+    the work have passed. The rate is this invocation's only, so a resume is not misled by batches it did not run."""
 
     def __init__(
         self,
@@ -236,13 +227,10 @@ def start(
 ) -> RunResult:
     """Create ``run_dir`` (new, or empty but for a failed start's lock file) and run every batch of ``sweep``.
 
-    ``margin`` defaults to the latest calibration's, else ``stats.DEFAULTS.margin``;
-    ``worker`` is the command that runs a worker (tests substitute a faulty one);
-    ``extra`` adds fields to ``run.json``; ``build_checks`` are per build what each
-    kernel got wrong when checked again under it (a build without it is recorded
-    as not checked). Raises SweepError, SweepInterrupted, or UserError when
-    ``run_dir`` is not empty, is locked, or cannot be written.
-    """
+    ``margin`` defaults to the latest calibration's, else ``stats.DEFAULTS.margin``; ``worker`` runs a worker
+    (tests substitute a faulty one); ``build_checks``: per build, what each kernel got wrong when checked again
+    under it (a build without it is recorded as not checked). Raises SweepError, SweepInterrupted, or UserError
+    when ``run_dir`` is not empty, is locked, or cannot be written."""
     from .machine import machine_record
     from .margin import latest_margin
 
@@ -314,12 +302,9 @@ def _start_locked(
 
 
 def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequence[str] = WORKER) -> RunResult:
-    """Run the batches of ``run_dir``'s plan that ``batches.csv`` lacks (the module's note says how).
-
-    A partial last line of a measured file (a write cut by a kill) is removed
-    first. Raises UserError when another process writes ``run_dir``, its files
-    are not valid, or a file cannot be written.
-    """
+    """Run the batches of ``run_dir``'s plan that ``batches.csv`` lacks, after cutting a measured file's partial
+    last line. Raises UserError when another process writes ``run_dir``, its files are not valid, or a file
+    cannot be written."""
     run_dir = Path(run_dir)
     record = runfolder.read_run(run_dir)
     sweep = Sweep.from_dict(record["sweep"], run_dir)
@@ -372,8 +357,7 @@ def _execute_stages(
     worker: Sequence[str],
 ) -> RunResult:
     """A sequential sweep (:mod:`tribench.harness.stages`): finish the stages ``stages.json`` records
-    (a resume), then decide and run one after another until :func:`~tribench.harness.stages.decide` ends it.
-    """
+    (a resume), then decide and run one after another until :func:`~tribench.harness.stages.decide` ends it."""
     from . import stages
 
     def say(text: str) -> None:

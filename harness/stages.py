@@ -1,10 +1,8 @@
 """The stages of a sequential sweep (:class:`tribench.harness.plan.Sequential`): what each runs, and why it stopped.
 
-A stage runs the keys of the largest design's plan whose comparison is still
-open, so ``batches.csv`` is checked as any sweep's. Each stage is decided from
-the stages before and recorded in ``stages.json`` before its first process, so
-a resumed sweep finishes the recorded stages as decided, then decides the rest the same way.
-"""
+A stage runs the keys of the largest design's plan whose comparison is still open, so ``batches.csv`` is checked as
+any sweep's. Each stage is decided from the stages before and recorded in ``stages.json`` before its first process,
+so a resumed sweep finishes the recorded stages as decided, then decides the rest the same way."""
 
 from __future__ import annotations
 
@@ -66,8 +64,7 @@ def _comparisons(sweep: Sweep) -> dict[str, list[str]]:
 
 def _block_seconds(batches: pd.DataFrame, processes: range) -> dict[str, float]:
     """Per workload, the wall seconds one kernel of it cost a process of the last stage (its block
-    over its kernels, the mean over processes; a process's first block counted from its first batch).
-    """
+    over its kernels, the mean over processes; a process's first block counted from its first batch)."""
     b = batches.loc[batches["process"].isin(processes)].copy()
     if b.empty:
         return {}
@@ -89,11 +86,9 @@ def decide(
 ) -> tuple[StageRecord | None, str]:
     """The next stage of ``sweep``, or None and why the sweep ends.
 
-    ``done`` are the stages run so far, ``seconds`` the sweep's wall time so far.
-    The next stage runs every comparison not yet narrow under every build, with
-    its reference; it is not started past the budget (foreseen from the last
-    stage's costs) nor past ``sweep.processes``.
-    """
+    ``done`` are the stages run so far, ``seconds`` the sweep's wall time so far. The next stage runs every
+    comparison not yet narrow under every build, with its reference; it is not started past the budget (foreseen
+    from the last stage's costs) nor past ``sweep.processes``."""
     design = sweep.sequential
     assert design is not None  # only sequential sweeps have stages
     first = 0 if not done else done[-1]["last_process"] + 1

@@ -1,35 +1,7 @@
 """Sweep files: a :class:`~tribench.harness.plan.Sweep` written as TOML (``tribench sweep --file``).
 
-A sweep file is TOML (read with :mod:`tomllib`)::
-
-    kernels = ["moller_trumbore", "curless"]
-    processes = 10
-    rounds = 5
-    warmup = 1
-    target_ms = 2.0
-    seed = 1
-    kernel_files = ["my_kernel.c"]   # optional: kernels of your own (docs/own-kernel.md),
-                                     # paths relative to this file
-    builds = ["gcc -O2", "clang -O3"]  # optional: compilers and flags (docs/builds.md);
-                                       # the processes take them in turn
-    # optional, as a run folder's sweep.toml writes them: which kernels run each workload
-    # (in the workloads' order), and a sequential design (docs/methodology.md)
-    workload_kernels = [["moller_trumbore"], ["moller_trumbore", "curless"]]
-    sequential = {stage = 2, target = 0.02, budget_s = 300.0}
-
-    [[workloads]]            # lists expand to every combination
-    kind = "pairs"
-    n = 10000
-    hit_rate = [0.1, 0.5, 0.9]
-    dtype = ["float32", "float64"]
-
-    [[workloads]]
-    kind = "mesh"
-    mesh = "suzanne"
-    triangles = [100, 968]
-    width = 64
-    height = 64
-"""
+A sweep file is TOML (read with :mod:`tomllib`); its keys, with an example: docs/commands.md,
+"``tribench sweep``". A list in a ``[[workloads]]`` table expands to every combination."""
 
 from __future__ import annotations
 
@@ -86,8 +58,7 @@ def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None
     """Read a TOML sweep file (the module's example); every mistake is a UserError naming the file and the key.
 
     ``overrides`` (the command line's) replace the file's top-level values;
-    ``kernel_files`` join the file's; ``None`` values are ignored.
-    """
+    ``kernel_files`` join the file's; ``None`` values are ignored."""
     path = Path(path)
     text = read_user_text(path, "sweep file")
     try:

@@ -1,17 +1,12 @@
 """The worker: one replicate of a sweep, in a fresh process.
 
-Run as ``python -m tribench.harness.worker`` by :mod:`tribench.harness.runner`
-in the one worker protocol (:mod:`.protocol`): a :class:`WorkerJob` on stdin,
-a ``process``, ``check``, ``batch`` or ``traversal`` row per line out (the rows
-of :mod:`tribench.harness.runfolder`), each sent as soon as it is measured.
-Its steps are docs/methodology.md's ("A sweep", "In a BVH"): pin to a CPU,
-randomise the layout (dummy allocations, every array copied at a random offset
-of 0-15 elements), probe the FMA peak, check and calibrate each kernel on each
-workload, run the batches in the given order with every checksum verified
-(a kernel fast because it is wrong stops the sweep), probe the peak again.
-A BVH's nodes are not moved: their start on a cache line is part of the tree,
-as in any tracer (``ext/bvh.py``, ``LINE_BYTES``).
-"""
+Run as ``python -m tribench.harness.worker`` by :mod:`tribench.harness.runner` in the one worker protocol
+(:mod:`.protocol`): a :class:`WorkerJob` on stdin, a ``process``, ``check``, ``batch`` or ``traversal`` row
+(:mod:`tribench.harness.runfolder`) out as soon as it is measured. It pins itself, randomises the layout,
+probes the FMA peak, checks and calibrates each kernel on each workload, runs the batches with every checksum
+verified and probes the peak again (docs/methodology.md, "A sweep", "In a BVH"). A BVH's nodes are not moved
+by the layout's random offsets: their start on a cache line is part of the tree, as in any tracer
+(``ext/bvh.py``, ``LINE_BYTES``)."""
 
 from __future__ import annotations
 
@@ -98,8 +93,7 @@ def kernel_isa(kernel: str) -> str:
 @dataclass(frozen=True)
 class BvhJob:
     """The inputs of a BVH workload's timed batches: one kernel's BVH, the rays, and ``null_t_max``,
-    each ray's limit for the null-leaf traversal (:func:`null_leaf_t_max`; None: the workload's ``t_max``).
-    """
+    each ray's limit for the null-leaf traversal (:func:`null_leaf_t_max`; None: the workload's ``t_max``)."""
 
     bvh: ext.BVH
     origins: np.ndarray
@@ -136,8 +130,7 @@ def time_job(job: ext.Job | BvhJob, loops: int) -> ext.Batch:
 
 def calibrate_loops(job: ext.Job | BvhJob, target_ns: float) -> int:
     """``loops`` for which one batch of ``job`` takes about ``target_ns``: doubled until a batch
-    takes a quarter of the target, then scaled by the median of three batches at that size.
-    """
+    takes a quarter of the target, then scaled by the median of three batches at that size."""
     most = job.max_loops if isinstance(job, BvhJob) else 2**30
     loops = 1
     while time_job(job, loops).elapsed_ns < target_ns / 4 and loops < most:
@@ -150,11 +143,8 @@ def calibrate_loops(job: ext.Job | BvhJob, target_ns: float) -> int:
 
 
 class _StealClock:
-    """The machine's steal time so far, in clock ticks (-1 where unreadable).
-
-    ``/proc/stat`` stays open and is re-read with ``pread``: about 12 us a reading
-    against 47 us to open it anew, once per batch.
-    """
+    """The machine's steal time so far, in clock ticks (-1 where unreadable); ``/proc/stat`` stays open and is
+    re-read with ``pread``, a quarter of the cost of opening it anew, once per batch."""
 
     def __init__(self) -> None:
         try:
@@ -233,10 +223,8 @@ class _Meter:
 
 
 def _timed(kjob: ext.Job | BvhJob, loops: int, rng: np.random.Generator, meter: _Meter):
-    """One batch of a contender: ``(batch, switches, steal ticks, (trace, null, null_first) or None)``.
-
-    A BVH batch's null-leaf twin runs just before or after it at random; its time is not the batch's steal.
-    """
+    """One batch of a contender: ``(batch, switches, steal ticks, (trace, null, null_first) or None)``. A BVH
+    batch's null-leaf twin runs just before or after it at random; its time is not the batch's steal."""
     if not isinstance(kjob, BvhJob):
         meter.start()
         batch = ext.time_batch(kjob, loops)
@@ -255,8 +243,7 @@ def _timed(kjob: ext.Job | BvhJob, loops: int, rng: np.random.Generator, meter: 
 
 
 def _load_workloads(job: WorkerJob, rng: np.random.Generator) -> tuple[dict[str, Any], dict[str, tuple]]:
-    """The job's workloads from the cache (each checked against its id), and this process's fresh copies
-    of their arrays, at random offsets (the layout randomisation)."""
+    """The job's workloads from the cache (each checked against its id), copied for this process at random offsets."""
     from ..workloads import cache
     from ..workloads.kinds import spec_from_dict
     from ..workloads.spec import workload_id
@@ -297,10 +284,8 @@ def _prepare(job: WorkerJob, process: int, kernel: str, w: Any, arrays: tuple, e
 
 
 def run_job(job: WorkerJob, emit) -> None:
-    """Run one worker job; ``emit(type, record)`` receives every message.
-
-    Raises KernelCheckError when a kernel's answers or a batch's checksum disagree with the reference.
-    """
+    """Run one worker job, ``emit(type, record)`` receiving every message; raises KernelCheckError when a kernel's
+    answers or a batch's checksum disagree with the reference."""
     layout.pin(job.cpu)
     cpu = job.cpu if job.cpu is not None else -1
     rng = np.random.default_rng([job.seed, job.attempt])
@@ -389,8 +374,7 @@ def null_leaf_t_max(bvh: ext.BVH, o: np.ndarray, d: np.ndarray, mode: ext.Mode, 
 
 
 def _bvh_job(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, tris: np.ndarray) -> BvhJob:
-    """``kernel``'s BVH over the workload's triangles (this process's copy) and
-    its rays; from the BVH cache, so a big mesh's tree is built once per machine."""
+    """``kernel``'s BVH over this process's copy of the triangles, and its rays, from the BVH cache."""
     max_leaf = w.spec.max_leaf or ext.DEFAULT_MAX_LEAF
     bvh, _ = bvh_cache.cached_bvh(kernel, tris, max_leaf)
     mode = cast(ext.Mode, w.mode)

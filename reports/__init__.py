@@ -1,11 +1,8 @@
 """Reports: from a run folder's files to answers. Never measures.
 
-:mod:`.tables` derives every table from the measured files (``tribench stats``);
-the rest reads those tables and writes pages (:mod:`.html`, :mod:`.compare`) and
-terminal tables. Missing or stale tables are refused with the command that
-makes them. It may import ``common``, ``ext``, ``workloads`` and ``harness``;
-never ``cli``.
-"""
+:mod:`.tables` derives every table from the measured files (``tribench stats``); the rest reads those tables and
+writes pages (:mod:`.html`, :mod:`.compare`) and terminal tables. Missing or stale tables are refused with the
+command that makes them. It may import ``common``, ``ext``, ``workloads`` and ``harness``; never ``cli``."""
 
 from __future__ import annotations
 
@@ -42,8 +39,7 @@ def write_report(run_dir: str | Path | RunData, baseline: str | None = None) -> 
     ``run_dir`` may be :func:`load`'s result.
 
     ``baseline``: the one the tables must compare against (default: theirs). Raises RunError,
-    one line naming ``tribench stats``, when the folder or its tables are missing, unreadable or stale.
-    """
+    one line naming ``tribench stats``, when the folder or its tables are missing, unreadable or stale."""
     from ..common import write_text
     from .charts import collecting, write_figures
     from .html import render, sweep_toml

@@ -1,8 +1,7 @@
 """The report's "In a BVH" section: every kernel as the leaf test of a tracer's BVH.
 
 Every number is read from ``bvh.csv`` (:func:`tribench.reports.tables.bvh.bvh_table`)
-and, for Embree, the peers' tables when they were timed with ``--accel bvh``.
-"""
+and, for Embree, the peers' tables when they were timed with ``--accel bvh``."""
 
 from __future__ import annotations
 

@@ -1,10 +1,8 @@
 """The report's interactive charts: Vega-Lite specs made with Altair, drawn in the page by Vega-Embed.
 
-The page carries the library once, in its head (:func:`library`), and each chart
-is its spec with the data inline, so the file opens offline; why Vega-Lite, and
-why the dense diagnostics stay static (:mod:`.figures`), is docs/results.md's.
-No chart computes a statistic: intervals, ranks and verdicts arrive in the frames.
-"""
+The page carries the library once, in its head (:func:`library`), and each chart is its spec with the data inline,
+so the file opens offline; why Vega-Lite, and why the dense diagnostics stay static (:mod:`.figures`), is
+docs/results.md's. No chart computes a statistic: intervals, ranks and verdicts arrive in the frames."""
 
 from __future__ import annotations
 
@@ -92,8 +90,7 @@ def write_figures(specs: dict[str, dict[str, Any]], folder: Path) -> list[Path]:
     """Each main chart of ``specs`` as SVG and PDF in ``folder`` (:data:`FIGURES` names them), for a paper.
 
     Drawn by vl-convert from the same spec as the page's chart, so the two cannot disagree;
-    the files of charts this report no longer has are removed, so the folder matches the page.
-    """
+    the files of charts this report no longer has are removed, so the folder matches the page."""
     import vl_convert
 
     from ..common import write_bytes, write_text
@@ -278,8 +275,7 @@ def _per_family(data: pd.DataFrame, panel: Any, marks: alt.Chart, legend: alt.Pa
     """One panel per workload family, stacked, each with its own y scale and the colours of all.
 
     ``panel(rows, marks)`` draws a family; the first panel's ``marks`` carry the ``legend`` selection,
-    which the others' conditions read by name (a selection is defined in one view only).
-    """
+    which the others' conditions read by name (a selection is defined in one view only)."""
     panels = [
         panel(rows, marks.add_params(legend) if i == 0 else marks).properties(
             title=alt.TitleParams(str(family), anchor="start", fontSize=12)
@@ -297,8 +293,7 @@ def _hit_rate_rows(frame: pd.DataFrame) -> pd.DataFrame:
 
 def hit_rate_chart(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, str]) -> alt.VConcatChart | None:
     """ns/test against the per-test hit rate, a line per kernel with its 95% CI band, a panel per family,
-    crossovers (``crossovers.csv``) as dashed rules. None when no pair family has two or more hit rates.
-    """
+    crossovers (``crossovers.csv``) as dashed rules. None when no pair family has two or more hit rates."""
     rows = _hit_rate_rows(est)
     if rows.empty:
         return None
@@ -432,8 +427,7 @@ def speedup_hit_rate_chart(
 
 
 def forest_chart(spd: pd.DataFrame, baseline: str, verdict_colours: dict[str, str]) -> alt.VConcatChart | None:
-    """Every speedup over the baseline with its simultaneous 95% CI, a row per kernel and workload, per family,
-    coloured by verdict. None without a speedup."""
+    """Every speedup with its simultaneous 95% CI, a row per kernel and workload, by verdict; None without one."""
     if spd.empty:
         return None
     frame = spd.assign(
@@ -605,8 +599,7 @@ def _working_set_panel(cost: _CostLayers, sized: pd.DataFrame, caches: dict[str,
 def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) -> alt.VConcatChart | None:
     """ns/test against the mesh's triangle count, and against the working set with the data caches marked.
 
-    ``est``: :func:`.content.estimates_table`'s frame. None without an estimate.
-    """
+    ``est``: :func:`.content.estimates_table`'s frame. None without an estimate."""
     if est.empty:
         return None
     frame = est.assign(ns=_intervals(est, "ns_per_test", " ns"))

@@ -55,8 +55,7 @@ def calibration(data: RunData) -> str:
     """The margin the verdicts used and where it came from, as run.json and the analysis record say.
 
     Only the run folder is read: the calibration file the margin's source names may have changed since,
-    or not exist on this machine.
-    """
+    or not exist on this machine."""
     recorded = data.run.get("margin") or {}
     body = [page.p(f"Equivalence margin of the verdicts: ±{100 * data.margin:.3g}% — {data.margin_source}.")]
     value, source = recorded.get("value"), recorded.get("source")

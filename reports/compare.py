@@ -1,7 +1,6 @@
 """``tribench compare RUN...``: the comparison of N runs as text and as an HTML page.
 
-:mod:`tribench.reports.tables.compare` computes the tables; this module only words and renders them.
-"""
+:mod:`tribench.reports.tables.compare` computes the tables; this module only words and renders them."""
 
 from __future__ import annotations
 

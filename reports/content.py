@@ -1,8 +1,7 @@
 """The tables behind the report's figures, as the analysis step wrote them into the run folder.
 
 Nothing here computes a statistic (:func:`tribench.reports.tables.pipeline.write_all` did);
-this module only joins those tables for display and reads the workload pictures.
-"""
+this module only joins those tables for display and reads the workload pictures."""
 
 from __future__ import annotations
 

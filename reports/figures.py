@@ -1,7 +1,6 @@
 """The report's static figures (the dense diagnostics and the compare page's forest plot): tidy DataFrames in,
 a matplotlib Figure out, embedded as a ``data:`` URI. matplotlib (Agg) is imported here only; dense scatters
-are rasterised inside the SVG to keep the file small. No figure computes a statistic.
-"""
+are rasterised inside the SVG to keep the file small. No figure computes a statistic."""
 
 from __future__ import annotations
 
@@ -109,8 +108,7 @@ def png_data_uri(data: bytes) -> str:
 
 
 def palette_png(data: bytes) -> bytes:
-    """PNG bytes re-encoded with a palette of 256 colours: a plot is a few flat colours and their
-    anti-aliased edges, so it looks the same at about a third of the bytes."""
+    """PNG bytes re-encoded with a 256-colour palette: a plot's flat colours look the same at a third of the bytes."""
     from PIL import Image  # a dependency of matplotlib
 
     out = io.BytesIO()
@@ -224,8 +222,7 @@ def forest(
     """Forest plot: every kernel's speedup over the baseline, per workload family.
 
     ``speedups``: ``speedups.csv`` rows with ``family`` and ``label`` added; ``margin`` (relative) is drawn
-    as a band around 1; ``verdict_words``: how to print each verdict (e.g. for a ratio of ratios).
-    """
+    as a band around 1; ``verdict_words``: how to print each verdict (e.g. for a ratio of ratios)."""
     words = verdict_words or {}
     if speedups.empty:
         return _empty(f"no speedups: the run has no kernel other than the baseline {baseline}")
@@ -312,8 +309,7 @@ def _robust_ylim(ax, values: np.ndarray) -> None:
 
 
 def drift_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
-    """Each timed batch's ns/test relative to its process median, against time in the process;
-    lines: binned medians per kernel."""
+    """Each timed batch's ns/test over its process median, against time in the process; lines: binned medians."""
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
         return _empty("no timed batches")
@@ -337,8 +333,7 @@ def drift_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
 
 
 def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
-    """Every batch (warm-up included, shaded) against its round, relative to its process's timed median,
-    Tukey outliers circled."""
+    """Every batch (warm-ups shaded) against its round, over its process's timed median, Tukey outliers circled."""
     if batches.empty:
         return _empty("no batches")
     fig = _figure(9.5, 3.2)
@@ -386,8 +381,7 @@ def rounds_panel(batches: pd.DataFrame, colours: dict[str, str]) -> Figure:
 
 
 def peers_rates(rates: pd.DataFrame) -> Figure:
-    """Rays/s of every contender on one log axis with their 95% intervals (rows of peers.summarise).
-    Dots, not bars: on a log axis a bar's length means nothing."""
+    """Rays/s of every contender on a log axis with 95% intervals: dots, as a bar's length means nothing there."""
     if rates.empty:
         return _empty("no peers measured")
     fig = _figure(7.0, 0.42 * len(rates) + 0.9)

@@ -1,8 +1,7 @@
 """The page kit of every HTML page tribench writes (report, compare, seed): the shell, the CSS once, and the parts.
 
 A page references nothing outside itself (figures are ``data:`` URIs, scripts inline), so it opens offline.
-Every helper escapes the text it is given; a ``body`` argument is HTML these helpers already made.
-"""
+Every helper escapes the text it is given; a ``body`` argument is HTML these helpers already made."""
 
 from __future__ import annotations
 
@@ -116,8 +115,7 @@ def table(
     """An HTML table of ``frame``; ``cols`` pairs a column with its header (units in it).
 
     A ``verdict`` cell takes its verdict as CSS class; ``classes`` maps a column to a function from a
-    cell's value to its CSS class; ``titles`` maps a column to its header's tooltip.
-    """
+    cell's value to its CSS class; ``titles`` maps a column to its header's tooltip."""
     if frame.empty:
         return '<p class="note">(none)</p>'
     tips = titles or {}

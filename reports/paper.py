@@ -1,10 +1,6 @@
-"""A run in the forms a paper takes: booktabs tables of the first screen's ranking, a methods paragraph
-(Markdown or LaTeX) and Bencher's Metric Format. Every number comes from the run's ``run.json`` and tables.
-
-The tables are ``bands.csv``'s: per build, precision and band of hit rates, every kernel from the fastest
-down. Bencher's Metric Format (https://bencher.dev/docs/reference/bencher-metric-format/) maps a benchmark
-name to measures, each a value with an optional lower and upper bound.
-"""
+"""A run in the forms a paper takes, every number from its ``run.json`` and tables: booktabs tables of
+``bands.csv`` (per build, precision and band, every kernel from the fastest down), a methods paragraph
+(Markdown or LaTeX) and Bencher's Metric Format (https://bencher.dev/docs/reference/bencher-metric-format/)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
 """The report's ranking: the answer it opens on, per band, and the ranking per workload.
 
 Every number is read from ``bands.csv``, ``ranking.csv`` and ``algorithms.csv``
-(:mod:`tribench.reports.tables.ranking` wrote them).
-"""
+(:mod:`tribench.reports.tables.ranking` wrote them)."""
 
 from __future__ import annotations
 

@@ -1,9 +1,7 @@
 """The report's section on a replication (``tribench replicate``): did the original run's conclusions hold here?
 
-It opens on the count of each word, names what differs between the two machines,
-then lists the conclusions that did not hold, worst first. Every row is
-``replication.csv``'s (:mod:`tribench.reports.tables.replication`).
-"""
+It opens on the count of each word, names what differs between the two machines, then lists the conclusions that did
+not hold, worst first. Every row is ``replication.csv``'s (:mod:`tribench.reports.tables.replication`)."""
 
 from __future__ import annotations
 

@@ -1,10 +1,8 @@
 """Everything the report needs from one run folder, read once; nothing is computed or written here.
 
-Stale tables (made from another ``batches.csv``, by its SHA-256, not file times, so a copied folder
-stays current), missing ones or ones in other columns are refused with one line that says to run
-``tribench stats RUN_DIR``: a report with half its sections silently empty would be worse.
-Peers and robustness are optional (:func:`load_peers`, :func:`load_validation`): their sections say why.
-"""
+Stale tables (made from another ``batches.csv``, by its SHA-256), missing ones or ones in other columns are
+refused in one line that says to run ``tribench stats RUN_DIR``, rather than a report with sections silently
+empty. Peers and robustness are optional (:func:`load_peers`, :func:`load_validation`): their sections say why."""
 
 from __future__ import annotations
 
@@ -157,12 +155,9 @@ def _read_measured(run_dir: Path) -> tuple[dict, pd.DataFrame, pd.DataFrame]:
 
 
 def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None = None) -> RunData:
-    """Read a run folder and its derived tables, as one build measured them (default: its first build):
-    its batches, processes and rows of every :data:`~tribench.harness.runfolder.BY_BUILD` table.
-
-    Raises RunError when the folder is unusable or has nothing timed, or its tables are not
-    current or compare against another ``baseline`` than asked.
-    """
+    """Read a run folder and its derived tables, as one build measured them (default: its first): its batches,
+    processes and rows of every :data:`~tribench.harness.runfolder.BY_BUILD` table. Raises RunError when the
+    folder is unusable, has nothing timed, or its tables are stale or against another ``baseline`` than asked."""
     from ..harness import runfolder
     from . import tables as analysis
 

@@ -1,8 +1,7 @@
 """``seed.html``: the page of a ``tribench seed`` run, one self-contained file.
 
 Reads only the run folder: ``run.json``, the tables :mod:`tribench.harness.jobs.seed`
-wrote, and the pictures, inlined as base64 PNG.
-"""
+wrote, and the pictures, inlined as base64 PNG."""
 
 from __future__ import annotations
 

@@ -51,8 +51,7 @@ def format_run(data: RunData, width: int = 24) -> str:
 
 
 def format_answer(data: RunData) -> str:
-    """The report's first screen in words: per precision and band the fastest kernel, its speedup and
-    the kernels tied with it, then the answers to the questions."""
+    """The first screen in words: per precision and band the fastest kernel, its speedup and ties, then the answers."""
     from .ranking import answer_sentences, band_rows
 
     bands = data.tables.get(runfolder.BANDS)

@@ -12,7 +12,8 @@ Every import counts: at module level, inside a function, under
 ``if TYPE_CHECKING``. Between modules there is no cycle, function-level
 imports included, so each module can be read (and imported) knowing only what
 is below it. Inside the package every import is relative, so that it resolves
-from the files alone.
+from the files alone. And the docstrings stay at most 12% of the package's
+Python lines (#52).
 """
 
 from __future__ import annotations
@@ -218,6 +219,35 @@ def test_each_package_says_what_it_owns_and_may_import(package):
     doc = ast.get_docstring(ast.parse((ROOT / package / "__init__.py").read_text(encoding="utf-8")))
     assert doc, f"{package}/__init__.py has no docstring"
     assert "may import" in doc, f"{package}/__init__.py: the docstring should say what the package may import"
+
+
+MAX_DOCSTRING_SHARE = 0.12  # #52: docstrings give the contract and the reason; derivations live in docs/
+
+
+def _docstring_lines(path: Path) -> tuple[int, int]:
+    """(module, class and function docstring lines, all lines) of one file."""
+    text = path.read_text(encoding="utf-8")
+    doc = 0
+    for node in ast.walk(ast.parse(text, filename=str(path))):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
+                if isinstance(first.value.value, str):
+                    doc += (first.end_lineno or first.lineno) - first.lineno + 1
+    return doc, len(text.splitlines())
+
+
+def test_docstrings_are_a_small_share_of_the_package():
+    counts = {str(path.relative_to(ROOT)): _docstring_lines(path) for path in MODULES.values() if path.suffix == ".py"}
+    doc, total = sum(d for d, _ in counts.values()), sum(n for _, n in counts.values())
+    assert total > 10_000  # the scan saw the package
+    largest = sorted(counts.items(), key=lambda item: item[1][0], reverse=True)[:5]
+    assert doc <= MAX_DOCSTRING_SHARE * total, (
+        f"docstrings are {doc} of the package's {total} Python lines ({doc / total:.1%}, at most "
+        f"{MAX_DOCSTRING_SHARE:.0%}): say the contract and the reason in a few lines, and move derivations and "
+        "measurements to docs/. The most docstring lines: "
+        + ", ".join(f"{name} ({d} of {n})" for name, (d, n) in largest)
+    )
 
 
 def test_the_facade_imports_under_any_name():

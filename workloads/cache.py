@@ -1,11 +1,10 @@
 """The workload cache: one ``.npz`` file per workload, named by its id, under ``$TRIBENCH_CACHE``.
 
-A file holds the arrays and one JSON member, ``meta`` (the cache format, the id, the spec, its identity,
-the achieved figures and the library versions), and its zip comment, its last bytes, seals everything
-before it: ``tribench-sha256:`` and the sha256 of the rest of the file. So any change to a file (a flipped
-bit, a cut, an edited figure, swapped arrays) is detected. A file that fails the seal, or whose format,
-identity, version or id does not match, is never used: :func:`make` and :func:`load` rebuild it with a
-:class:`CacheWarning`, :func:`list_cached` marks it. Files are written atomically."""
+A file holds the arrays and a JSON ``meta`` member (format, id, spec, identity, achieved figures, library
+versions); its zip comment seals everything before it (``tribench-sha256:`` and the rest's sha256), so any
+change is detected. A file that fails the seal or whose format, identity, version or id does not match is
+never used: :func:`make` and :func:`load` rebuild it with a :class:`CacheWarning`, :func:`list_cached` marks
+it. Files are written atomically."""
 
 from __future__ import annotations
 
@@ -199,8 +198,7 @@ def _generate(spec: Spec) -> Workload:
 
 
 def make(spec: Spec) -> Workload:
-    """The workload of ``spec``: from the cache if a valid file is there, else built and cached (an invalid file
-    rebuilt with a :class:`CacheWarning`)."""
+    """The workload of ``spec``: cached if valid, else built and cached (an invalid file: a :class:`CacheWarning`)."""
     path = _path(workload_id(spec))
     in_the_way = not_a_file(path)
     if in_the_way:  # never followed nor replaced
@@ -239,8 +237,7 @@ def load(wid: str) -> Workload:
 
 
 def _stored_spec(path: Path) -> Spec | None:
-    """The spec of an invalid file, if it can still be read (used only when it gives the file's own id, the hash
-    of the spec)."""
+    """The spec of an invalid file if still readable (used only when it hashes to the file's own id)."""
     try:
         with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
             return spec_from_dict(json.loads(str(npz["meta"][()]))["spec"])
@@ -249,8 +246,7 @@ def _stored_spec(path: Path) -> Spec | None:
 
 
 def resolve_id(prefix: str) -> str:
-    """The one cached workload id that starts with ``prefix`` (like a short git hash); ``FileNotFoundError`` if
-    none does, ``ValueError`` if several do."""
+    """The one cached id starting with ``prefix``; ``FileNotFoundError`` if none does, ``ValueError`` if several do."""
     if not prefix or not all(c.isalnum() or c in "-_" for c in prefix):  # an id, never a path or a pattern
         raise UserError(f"{prefix!r:.80} is not a workload id (see `tribench workloads list`)")
     if _path(prefix).is_file():

@@ -1,11 +1,10 @@
 """What the cache holds, and pruning what no installed build can use.
 
-:func:`entries` lists every file under :func:`~tribench.common.location.cache_dir` (workloads, ``bvh/``,
-``front/``, the copies in ``meshes/``, ``rays/`` and ``kernel_files/``, ``kernel_builds/``, a killed
-write's ``.*.tmp`` and anything else) with its size, when it was last used and why it cannot be used, if
-so. :func:`prune` removes what cannot be used (a tree of another build of the extension, a file that fails
-its seal, a stale version, a temporary file whose writer is gone), then, under a size bound, the
-regenerable files used longest ago."""
+:func:`entries` lists every file under :func:`~tribench.common.location.cache_dir` (workloads, ``bvh/``, ``front/``,
+the copies in ``meshes/``, ``rays/`` and ``kernel_files/``, ``kernel_builds/``, a killed write's ``.*.tmp`` and
+anything else) with its size, when it was last used and why it cannot be used, if so. :func:`prune` removes what
+cannot be used (a tree of another build of the extension, a file that fails its seal, a stale version, a temporary
+file whose writer is gone), then, under a size bound, the regenerable files used longest ago."""
 
 from __future__ import annotations
 
@@ -148,8 +147,7 @@ def _problem(kind: str, path: Path, workload_problems: dict[Path, str]) -> str |
 
 
 def entries() -> list[Entry]:
-    """Every file under the cache folder, sorted by path (a folder or link in a cache file's place is listed
-    as a problem, never followed)."""
+    """Every file under the cache folder by path (a folder or link in a cache file's place: a problem, not followed)."""
     from .cache import list_cached
 
     root = cache_dir()

@@ -51,8 +51,7 @@ def normalise(a: np.ndarray) -> np.ndarray:
 
 
 def random_in_ball(rng: np.random.Generator, n: int, min_radius: float = 0.0) -> np.ndarray:
-    """``n`` points uniform in the unit ball (outside ``min_radius``), by rejection from the cube: a pure function
-    of the generator's state."""
+    """``n`` points uniform in the unit ball outside ``min_radius``, by rejection: a pure function of the generator."""
     out = np.empty((n, 3))
     have = 0
     while have < n:

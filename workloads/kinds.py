@@ -1,8 +1,7 @@
 """The workload kinds, in one registry: each ``kind`` names its spec class and its generator.
 
-A spec's ``kind`` (in a cache file, a run folder's ``run.json`` or a sweep file) is looked up here and
-nowhere else. A new kind is one spec class in :mod:`.spec`, one generator module and one line in
-:data:`KINDS`.
+A spec's ``kind`` (in a cache file, a run folder's ``run.json`` or a sweep file) is looked up here and nowhere else.
+A new kind is one spec class in :mod:`.spec`, one generator module and one line in :data:`KINDS`.
 
 >>> sorted(KINDS)
 ['mesh', 'pairs', 'seed']

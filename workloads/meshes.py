@@ -1,22 +1,11 @@
 """Meshes at controlled triangle counts.
 
-Base meshes (``triangles=None`` in a :class:`~tribench.workloads.spec.MeshSpec`):
-
-========== ======= ===========================================================
-name       count   what
-========== ======= ===========================================================
-suzanne    968     Blender's monkey, ``data/suzanne.obj`` read as generated
-icosphere  1280    trimesh icosphere, 3 subdivisions
-uvsphere   896     trimesh UV sphere, 16 x 16
-heightfield 1152   24 x 24 grid over [-1, 1]^2, six smooth random bumps (seeded)
-soup       1000    random triangles in a box (seeded); any count directly
-file       --      any mesh file trimesh reads, loaded with ``process=False``
-========== ======= ===========================================================
-
-Every count of a mesh sits in the same place, where the seed's camera sees it (placed before the count
-changes): Suzanne as in the seed's scene03 (Y-up facing +z, Blender ``(x, y, z)`` -> ``(x, z, -y)``, moved
-by (0, 0.5, -2)); every other mesh scaled and moved so that its bounding sphere has radius 1.5 (about
-Suzanne's) and centre (0, 0, -2). :func:`with_triangle_count` reaches the exact count."""
+Base meshes (``triangles=None``): ``suzanne`` (968, Blender's monkey, ``data/suzanne.obj``), ``icosphere``
+(1280, 3 subdivisions), ``uvsphere`` (896, 16 x 16), ``heightfield`` (1152, a 24 x 24 grid with six seeded
+bumps), ``soup`` (1000 seeded random triangles; any count directly), or any mesh file trimesh reads
+(``process=False``). Every count of a mesh sits where the seed's camera sees it (:func:`place`): Suzanne as
+in scene03 (Blender ``(x, y, z)`` -> ``(x, z, -y)``, moved by (0, 0.5, -2)), any other mesh with its
+bounding sphere of radius 1.5 at (0, 0, -2). :func:`with_triangle_count` reaches the exact count."""
 
 from __future__ import annotations
 
@@ -147,7 +136,7 @@ def heightfield(cells: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def base_mesh(name: str, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices and faces of a base mesh by name (see the module table) or file path.
+    """Vertices and faces of a base mesh by name (see the module docstring) or file path.
 
     >>> v, f = base_mesh("suzanne")
     >>> v.shape, f.shape
@@ -178,7 +167,7 @@ def bounding_sphere(vertices: np.ndarray) -> tuple[np.ndarray, float]:
 
 def place(name: str, vertices: np.ndarray, like: np.ndarray | None = None) -> np.ndarray:
     """Vertices moved where the seed's camera sees them (see the module docstring); ``like`` (default
-    ``vertices``) sets the move, so finer versions of a mesh are placed exactly as the base mesh.
+    ``vertices``) sets the move, so a finer version of a mesh is placed exactly as the base mesh.
 
     >>> place("suzanne", np.array([[1.0, 2.0, 3.0]]))
     array([[ 1. ,  3.5, -4. ]])
@@ -216,12 +205,10 @@ def _drop_smallest(vertices: np.ndarray, faces: np.ndarray, k: int) -> tuple[np.
 def with_triangle_count(vertices: np.ndarray, faces: np.ndarray, n: int) -> Mesh:
     """The mesh with exactly ``n`` triangles; ``Mesh.method`` says how it was reached.
 
-    Fewer than ``n``: trimesh loop subdivision (x4 a step) to at least ``n``. More: fast-simplification to
-    ``n``, trying aggressiveness 7 (its default), 8, 9, 10, 6, 5 for an exact result. It collapses edges, two
-    triangles each inside the surface, so it lands one short when the parity is wrong (a closed mesh's count
-    is even): the closest result below ``n`` is topped up by :func:`_split_longest_edges`. If every result is
-    above ``n`` or empty (a count too small for the mesh's topology, e.g. under 12 for Suzanne), the smallest
-    triangles are dropped: exact, but no longer a closed surface.
+    Fewer than ``n``: loop subdivision to at least ``n``. More: fast-simplification, trying several aggressiveness
+    values for an exact result, the closest below ``n`` topped up by :func:`_split_longest_edges` (an edge collapse
+    removes two triangles, so the parity can miss by one); if none works (a count too small for the topology), the
+    smallest triangles are dropped: exact, no longer closed.
 
     >>> v, f = base_mesh("icosphere")
     >>> m = with_triangle_count(v, f, 501)

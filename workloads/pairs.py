@@ -1,33 +1,17 @@
 """Pair workloads: N (ray, triangle) pairs with an exact per-test hit rate and miss-stage mix.
 
-Every pair is built for one outcome, its *kind*, decided before any geometry: ``round(h * N)`` hits, the
-misses shared among :data:`~tribench.workloads.spec.MISS_STAGES` by largest-remainder rounding. The triangle
-comes first, then a point of its plane by barycentric weights ``(w, u, v)`` (of v0, v1, v2):
-
-* **hit**: a point uniform in area over the triangle (never by rejection, so no bias toward large
-  triangles), reached from an origin 1 to 3 units away (times ``scale``); **behind_origin**: the same, the
-  ray starting past the point and pointing away (``t < 0``); **beyond_t_max**: a hit whose ``t_max`` is
-  0.2 to 0.8 of the distance. Only a mix with it gives the workload a ``t_max`` array (``+inf`` elsewhere);
-* **outside_edge_e**: outside edge ``e`` only (1 = v0->v1, ``v < 0``; 2 = v1->v2, ``w < 0``; 3 = v2->v0,
-  ``u < 0``), the negative weight in ``[-1, -margin]``, the other two positive;
-* **parallel**: a direction in the plane of the triangle *as rounded*, the origin 0.1 to 1 unit off it.
-
-Other rays meet the plane at least ~5.7 degrees off it (``|cos| >= 0.1``), otherwise uniform, so a
-randomly wound triangle is hit on both faces; ``winding="facing"`` swaps two vertices of each triangle
-whose ray would meet its back face, before the point is placed, so every pair keeps its kind.
-
-Every pair keeps a safe margin, so that all kernels agree: barycentrics at least :data:`BARY_MARGIN`
-inside (an edge miss's negative weight at most ``-BARY_MARGIN``), ``|t|`` and a beyond_t_max crossing's
-distance past ``t_max`` at least :data:`T_MARGIN` times ``scale``, a parallel ray's origin
-:data:`PLANE_MARGIN` times ``scale`` off the plane and its direction within :data:`PARALLEL_COS` of it. The
-margins are checked on the arrays *after* rounding to the spec's dtype, and a pair that lost one is drawn
-again. ``scale`` and ``offset`` (along (1, 1, 1)) move whole pairs, so an extreme ``offset / scale`` in
-float32 costs margins and at last raises: the precision experiment the robustness suite is for.
-
-Shapes: ``sphere``, three vertices uniform on the unit sphere (Loefstedt & Akenine-Moeller 2005);
-``equilateral``, circumradius 0.5, each vertex jittered by up to 5% of it; ``sliver``, base 1 and altitude
-1/aspect, aspect uniform in [10, 100) or [100, 1000), the long edge any of the three; every shape at most
-:data:`MAX_ASPECT`."""
+Each pair is built for one outcome, its *kind*, before any geometry: ``round(h * N)`` hits, the misses shared among
+:data:`~tribench.workloads.spec.MISS_STAGES` by :func:`apportion`. The triangle comes first, then a point of its
+plane by barycentric weights ``(w, u, v)``: uniform in area inside it for a **hit** (**behind_origin**: the ray
+starts past the point, ``t < 0``; **beyond_t_max**: ``t_max`` 0.2 to 0.8 of the distance, the only kind that gives
+the workload a ``t_max`` array), negative only opposite edge ``e`` for **outside_edge_e** (1 = v0->v1, 2 = v1->v2, 3
+= v2->v0), and a direction in the rounded plane for **parallel**. Other rays meet the plane at least ~5.7 degrees
+off it; ``winding="facing"`` swaps two vertices where a ray would meet the back face. Every pair keeps the safe
+margins :data:`BARY_MARGIN`, :data:`T_MARGIN`, :data:`PLANE_MARGIN` and :data:`PARALLEL_COS` (lengths times
+``scale``), checked after rounding to the dtype, so that all kernels agree; a pair that lost one is drawn again, and
+an extreme ``offset / scale`` in float32 at last raises. Shapes: ``sphere`` (vertices uniform on the unit sphere,
+Loefstedt & Akenine-Moeller 2005), ``equilateral`` (circumradius 0.5, 5% jitter), ``sliver`` (aspect in [10, 100) or
+[100, 1000)), all at most :data:`MAX_ASPECT`."""
 
 from __future__ import annotations
 
@@ -135,10 +119,9 @@ def _classify(ans: PairAnswers, directions: np.ndarray, triangles: np.ndarray, t
 def classify_misses(
     origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray, t_max: np.ndarray | None = None
 ) -> np.ndarray:
-    """Which stage rejects each (ray, triangle) pair, by the float64 reference, as int8 codes: :data:`HIT`, a
-    stage's index in ``MISS_STAGES``, or :data:`OTHER` (outside two edges, or outside an edge behind the origin
-    or past ``t_max``). Parallel: a singular system, or a direction within :data:`PARALLEL_COS` of the plane.
-    ``t_max`` is the workload's: without it a beyond_t_max pair is a hit.
+    """Which stage rejects each (ray, triangle) pair by the float64 reference, as int8 codes: :data:`HIT`, a
+    stage's index in ``MISS_STAGES``, or :data:`OTHER` (outside two edges, or outside an edge and behind the
+    origin or past ``t_max``); without the workload's ``t_max``, a beyond_t_max pair is a hit.
 
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]] * 3)
     >>> o = np.array([[0.2, 0.2, 1], [0.2, -0.5, 1], [0.2, 0.2, -1]])

@@ -1,19 +1,13 @@
 """Ray sets for meshes, and their closest-hit reference answers computed with exact culling.
 
-Brute force is far too slow for a 512 x 512 camera against 20 000 triangles, so the reference tests only
-*candidate* (ray, triangle) pairs (:func:`closest_hits`); every pair that hits is one, so the answers equal
-brute force's. Camera rays (:func:`camera_candidates`): a triangle wholly in front of the eye can be hit
-only by the pixels of its projection's bounding box, grown by one pixel so rounding loses no hit (one
-straddling the eye's plane meets every ray). Other rays (:func:`sphere_candidates`): a ray can hit a
-triangle only if its line passes through the triangle's bounding sphere, grown by 1e-6 of the distance;
-triangles are grouped by the cell of a coarse grid, so a ray meets only the groups it passes near.
-
-Rays at a hit rate (:func:`hit_rate_rays`): exactly ``round(h * n)`` hit, by the reference on the rounded
-arrays. A hit ray starts on the sphere of twice the mesh's bounding radius and aims at an area-weighted
-point of the surface; a miss ray aims at a random point of the bounding ball and is kept if it misses;
-after :data:`NEAR_MISS_ROUNDS` tries the remaining misses pass outside the ball (on a closed mesh, rays
-through it nearly always hit). Every ray clears every triangle it crosses by
-:data:`~tribench.workloads.pairs.BARY_MARGIN` (else it is drawn again), so all kernels agree on it."""
+The reference tests only *candidate* (ray, triangle) pairs (:func:`closest_hits`), a superset of those that
+hit, so its answers are brute force's at a fraction of the cost: for the camera, the pixels of a triangle's
+projected bounding box grown by one pixel (:func:`camera_candidates`); for other rays, the triangles whose
+bounding sphere, grown by 1e-6 of the distance, their line passes, grouped on a coarse grid
+(:func:`sphere_candidates`). :func:`hit_rate_rays`: exactly ``round(h * n)`` hit by the reference on the
+rounded arrays, hits aimed from twice the bounding radius at area-weighted surface points, misses at the
+bounding ball (outside it after :data:`NEAR_MISS_ROUNDS` tries); every ray clears every triangle it crosses
+by :data:`~tribench.workloads.pairs.BARY_MARGIN`, so all kernels agree on it."""
 
 from __future__ import annotations
 
@@ -285,14 +279,11 @@ def hit_rate_rays(triangles: np.ndarray, n: int, hit_rate: float, dtype: str, rn
 
 
 def bounce_rays(triangles: np.ndarray, width: int, height: int, dtype: str, rng: np.random.Generator):
-    """One cosine-distributed bounce from each camera ray's reference hit: origins and directions float64 (hits,
-    3), rounded to ``dtype``, their :class:`ClosestAnswers`, and the figures ``primary_rays``,
-    ``primary_hits`` and ``bounce_offset``.
-
-    Each hit point moves off its triangle along the normal on the camera's side by :data:`BOUNCE_OFFSET` times
-    the mesh's scale (bounding radius plus the centre's distance from the origin: a vertex's rounding grows
-    with both), and leaves along ``sqrt(u)`` a random tangent plus ``sqrt(1 - u)`` the normal, ``u`` uniform
-    in [0, 1): density cos(angle to the normal)."""
+    """One cosine-distributed bounce from each camera ray's reference hit: origins and directions float64 (hits, 3)
+    rounded to ``dtype``, their :class:`ClosestAnswers`, and the figures ``primary_rays``, ``primary_hits`` and
+    ``bounce_offset``. Each hit point moves off its triangle, on the camera's side, by :data:`BOUNCE_OFFSET`
+    times the mesh's scale (bounding radius plus the centre's distance from the origin: a vertex's rounding
+    grows with both), and leaves along ``sqrt(u)`` a random tangent plus ``sqrt(1 - u)`` the normal."""
     tri = np.asarray(triangles, dtype=np.float64)
     o, d = (round_to(a, dtype) for a in camera_rays(width, height))
     primary = closest_hits(o, d, tri, *camera_candidates(tri, width, height))

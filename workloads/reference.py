@@ -1,11 +1,10 @@
-"""Float64 reference answers for ray-triangle tests: the ground truth every kernel and every generator is
-checked against, written from the geometry, not from any kernel.
+"""Float64 reference answers for ray-triangle tests: the ground truth every kernel and generator is checked
+against, written from the geometry, not from any kernel.
 
-A ray ``o + t d`` meets the plane of ``v0 + u e1 + v e2`` where ``[-d e1 e2] @ [t, u, v] = o - v0``, solved
-with ``numpy.linalg.solve`` (LU with partial pivoting), never with the C kernels' scalar triple products,
-so a shared algebra slip cannot hide in both. Conventions, shared with the clean kernels: the triangle is
-closed (a point on an edge or a vertex is inside); a singular system (a parallel ray, a degenerate
-triangle) is a miss; a hit needs ``t_min < t < t_max``, ``t_max`` per ray (None: no limit); a miss has
+``o + t d = v0 + u e1 + v e2`` is solved with ``numpy.linalg.solve`` (LU), never with the kernels'
+scalar triple products, so a shared algebra slip cannot hide in both. Conventions, shared with the clean
+kernels: the triangle is closed (an edge or a vertex is inside); a singular system (parallel ray, degenerate
+triangle) is a miss; a hit needs ``t_min < t < t_max`` (``t_max`` per ray; None: no limit); a miss has
 ``t = nan`` in :func:`intersect_closest` (:func:`intersect_pairs` keeps its plane crossing's ``t``)."""
 
 from __future__ import annotations
@@ -90,9 +89,8 @@ def intersect_pairs(
 ) -> PairAnswers:
     """Test ray ``i`` against triangle ``i`` (``triangles[i, j]`` its vertex ``j``) in float64.
 
-    A crossing counts where ``t_min < t < t_max`` (pair ``i``'s own limit: a crossing past it is a miss that
-    keeps its ``t``) and, with ``front_only`` (back-face culling), where the ray meets the front face,
-    ``d . ((v1 - v0) x (v2 - v0)) < 0`` (vertices counter-clockwise seen from the origin).
+    A crossing counts where ``t_min < t < t_max`` (past ``t_max``: a miss keeping its ``t``) and, with
+    ``front_only``, on the front face, ``d . ((v1 - v0) x (v2 - v0)) < 0`` (counter-clockwise from the origin).
 
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
     >>> r = intersect_pairs([[0.25, 0.25, 1]], [[0., 0, -1]], tri)

@@ -1,14 +1,11 @@
 """Workload specs: frozen, validated descriptions from which a workload is a pure function.
 
-Three kinds (:mod:`~tribench.workloads.kinds` maps each ``kind`` to its class and generator):
-:class:`PairSpec`, :class:`MeshSpec` and :class:`SeedSpec`. A spec's identity is its canonical JSON plus
-its generator version (and a mesh or ray file's sha256): :func:`workload_id` hashes it into the cached
-workload's name, so a field that does not apply to a spec's variant must stay ``None`` (one workload, one
-id). Generators draw from ``numpy.random.default_rng(seed)`` and build pair geometry with correctly rounded
-operations only (:mod:`~tribench.workloads.geometry`), so a pair workload is the same bytes on any machine
-with the same numpy; meshes also go through trimesh, fast-simplification and LAPACK, the same with the same
-library builds (recorded in ``achieved["generated_with"]``). A deliberate change to a generator's output
-must bump its version constant, which changes every id it makes."""
+Three kinds, :class:`PairSpec`, :class:`MeshSpec` and :class:`SeedSpec` (:mod:`~tribench.workloads.kinds` maps each
+``kind`` to its class and generator). :func:`workload_id` hashes a spec's canonical JSON, its generator's version
+and any file's sha256 into the cached workload's name, so a field that does not apply must stay ``None`` (one
+workload, one id), and a deliberate change to a generator's output must bump its version. Pair geometry uses
+correctly rounded operations only (:mod:`~tribench.workloads.geometry`): the same bytes on any machine with the same
+numpy; meshes are the same with the same library builds (``achieved["generated_with"]``)."""
 
 from __future__ import annotations
 
@@ -127,16 +124,14 @@ def _miss_mix(value: Any) -> tuple[tuple[str, float], ...]:
 
 @dataclass(frozen=True)
 class PairSpec:
-    """N (ray, triangle) pairs at an exact per-test hit rate: ``round(hit_rate * n)`` pairs hit (Python's round).
+    """N (ray, triangle) pairs at an exact per-test hit rate: ``round(hit_rate * n)`` pairs hit.
 
-    ``order``: ``"shuffled"`` interleaves hits and misses at random, ``"sorted"`` puts the hits first, then
-    the misses by stage. ``miss_mix``: the fraction of the misses each stage of :data:`MISS_STAGES` rejects, or
-    a preset of :data:`MISS_MIX_PRESETS`. The default, ``"edges"``, spreads them evenly over the three edges:
-    in a scene nearly every rejected test is a ray passing beside a triangle in front of it, and an even spread
-    favours no kernel's order of edge tests. A mix with ``beyond_t_max`` gives the workload a ``t_max`` array.
-    ``shape``, ``scale`` and ``offset``: :mod:`~tribench.workloads.pairs`. ``winding="facing"`` rewinds each
-    triangle so that every non-parallel ray meets its front face, as in Loefstedt & Akenine-Moeller's
-    framework (a culling kernel then does every other kernel's work); ``"random"`` leaves it as drawn.
+    ``order``: ``"shuffled"`` (hits and misses at random) or ``"sorted"`` (hits first, then misses by stage).
+    ``miss_mix``: the fraction of the misses each stage of :data:`MISS_STAGES` rejects, or a preset of
+    :data:`MISS_MIX_PRESETS`; the default, ``"edges"``, spreads them evenly over the three edges, as a scene's
+    rejected tests nearly all pass beside a triangle, favouring no kernel's order of edge tests.
+    ``winding="facing"`` rewinds each triangle to face its ray (a culling kernel then does every test the others
+    do); ``shape``, ``scale``, ``offset``: :mod:`~tribench.workloads.pairs`.
 
     >>> PairSpec(n=100, hit_rate=0.3).miss_fractions()["outside_edge_2"]
     0.3333333333333333
@@ -216,18 +211,13 @@ class PairSpec:
 class MeshSpec:
     """A mesh at a target triangle count with rays against it (the ray sets: docs/methodology.md, "What is timed").
 
-    ``mesh``: one of :data:`MESH_NAMES` or a mesh file trimesh reads, stored absolute, refused here if it does
-    not parse or has no triangle of non-zero area. ``triangles``: the exact count (None: the base mesh).
-    ``rays``: ``"camera"`` (``width`` x ``height``, default 512 x 512), ``"hit_rate"`` (``n_rays``, default
-    4096, of which ``round(hit_rate * n_rays)`` hit, default 0.5), ``"bounce"`` (camera-sized) or a ray file's
-    path (:mod:`~tribench.workloads.ray_files`; ``n_rays`` is set to its count). ``result``: the kernels'
-    mode; the geometry and reference answers do not depend on it. ``accel="bvh"``: each kernel runs through a
-    BVH with itself as the leaf test (native kernels only), on the brute-force workload's rays and answers,
-    leaves of at most ``max_leaf`` (None: ``ext.DEFAULT_MAX_LEAF``). ``mesh_sha256``, ``rays_sha256``: the
-    files' content hashes, set here from the files; given (a spec read back from a run folder), they are
-    trusted and the files not read, so a run folder renders after they moved
-    (:mod:`tribench.workloads.mesh_files`). ``accel="brute"`` and None fields are left out of :meth:`to_dict`,
-    so a workload keeps the id it had before those fields existed.
+    ``mesh``: one of :data:`MESH_NAMES` or a mesh file (refused here if it does not parse); ``triangles``: the
+    exact count (None: the base mesh); ``rays``: ``"camera"``, ``"hit_rate"``, ``"bounce"`` or a ray file's path
+    (:mod:`~tribench.workloads.ray_files`). ``result`` is the kernels' mode only. ``accel="bvh"`` runs each
+    native kernel as the leaf test of a BVH (leaves of at most ``max_leaf``) on the brute-force twin's rays and
+    answers. ``mesh_sha256`` and ``rays_sha256``, when given (a spec read back from a run folder), are trusted
+    without reading the files, so a run folder renders after they moved. :meth:`to_dict` leaves out
+    ``accel="brute"`` and None fields, so older workloads keep their ids.
 
     >>> MeshSpec("icosphere", rays="hit_rate").n_rays
     4096
@@ -354,8 +344,7 @@ class MeshSpec:
         return self.n_rays
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON- and TOML-friendly fields (``None`` fields and ``accel="brute"``
-        left out: the ids of workloads made before ``accel`` existed), with ``kind``."""
+        """JSON- and TOML-friendly fields with ``kind`` (None fields and ``accel="brute"`` left out: see the class)."""
         d = {f.name: getattr(self, f.name) for f in fields(self)}
         if d["accel"] == "brute":
             del d["accel"]
@@ -398,8 +387,7 @@ Spec = PairSpec | MeshSpec | SeedSpec
 
 
 def identity(spec: Spec) -> dict[str, Any]:
-    """What names a workload: the spec, its generator version, and a mesh or ray file by its sha256 (a mesh's
-    suffix too, which picks the parser), not by its path: the same file anywhere gives the same id."""
+    """What names a workload: the spec, its generator version, and a file by its sha256 and suffix, never its path."""
     d = {**spec.to_dict(), "version": spec.version}
     if isinstance(spec, SeedSpec):
         d.update(spec.scene_identity())

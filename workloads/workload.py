@@ -1,18 +1,14 @@
 """The workload record: arrays for the kernels plus float64 reference answers.
 
 A :class:`Workload` is what a spec generates and the cache stores, its arrays read-only and C-contiguous:
-``origins``, ``directions`` (M, 3; unit length, but a ray file's as the file gives them) and ``triangles``
-(K, 3, 3) in the spec's dtype, and an optional ``t_max`` (M,): hits at ``t >= t_max`` do not count. The
-reference answers are those of the arrays as stored, in float64 (:mod:`tribench.workloads.reference`),
-``t_max`` applied. Mode ``"pairs"`` (M == K): ``ref_hit`` and ``ref_t`` (nan for a miss). The other modes
-(every ray against every triangle; the mode is what is asked, the reference the same): ``ref_index`` (-1
-for a miss, ties to the lowest index) and ``ref_t``. ``ref_edge_margin``: a pair's ``min(u, v, w)``
-(negative outside, nan when parallel); otherwise, for a hit the smallest ``|min(u, v, w)|`` over its
-closest hit and any nearer near-miss, for a miss minus the smallest over the forward crossings tested
-(``-inf`` when none came near). ``ref_edge_clearance``: the same crossings' distance from the nearest edge
-line in units of a kernel's rounding (:func:`tribench.workloads.reference.edge_clearance`), signed alike.
-A ray is ambiguous (:meth:`Workload.ambiguous`) when either is small: a finite-precision kernel may
-rightly answer it otherwise (docs/decisions.md, "Ambiguous rays")."""
+``origins``, ``directions`` (M, 3; unit length, but a ray file's as given) and ``triangles`` (K, 3, 3) in
+the spec's dtype, an optional ``t_max`` (M,) (hits at ``t >= t_max`` do not count), and the float64
+answers for the arrays as stored (:mod:`tribench.workloads.reference`): ``ref_hit`` and ``ref_t`` (nan: a
+miss) in mode ``"pairs"`` (M == K), else ``ref_index`` (-1: a miss; ties to the lowest index) and ``ref_t``.
+``ref_edge_margin`` (barycentric, the smallest ``|min(u, v, w)|`` over the crossings that decide the
+answer, negative for a miss, nan when parallel) and ``ref_edge_clearance`` (the same in units of a kernel's
+rounding: :func:`tribench.workloads.reference.edge_clearance`) say how near an edge the answer is; a ray is
+ambiguous (:meth:`Workload.ambiguous`) when either is small (docs/decisions.md, "Ambiguous rays")."""
 
 from __future__ import annotations
 
@@ -151,8 +147,7 @@ class Workload:
 
     @property
     def mode(self) -> str:
-        """``"pairs"`` (ray i vs triangle i), or what is asked of every ray
-        against every triangle: ``"closest"``, ``"closest_uv"`` or ``"any"``."""
+        """``"pairs"`` (ray i vs triangle i), else ``"closest"``, ``"closest_uv"`` or ``"any"`` (rays x triangles)."""
         return self.spec.mode
 
     @property
@@ -177,8 +172,7 @@ class Workload:
         return int(hits.sum()), math.fsum(self.ref_t[hits].tolist())
 
     def ambiguous(self, margin: float = AMBIGUOUS_MARGIN) -> np.ndarray:
-        """Mask of the rays within ``margin`` (barycentric) of changing answer, or
-        within the rounding of the workload's precision (see :func:`ambiguous_rays`)."""
+        """Rays within ``margin`` (barycentric) or the dtype's rounding of changing answer (:func:`ambiguous_rays`)."""
         return ambiguous_rays(self.ref_edge_margin, self.ref_edge_clearance, self.spec.dtype, margin)
 
     def targets(self) -> dict[str, Any]:

@@ -1,12 +1,9 @@
 """A/A calibration: how large a speedup this machine shows between identical code.
 
-``tribench calibrate`` times a kernel against its ``_aa`` copy (the same source
-under another name) in the normal protocol, split into ``experiments`` groups of
-``processes``: each group gives one A/A speedup, exactly as a sweep of that many
-processes would, and :func:`tribench.harness.stats.aa_summary` their noise
-floor, the margin later verdicts on this CPU model use
-(:mod:`tribench.harness.margin`).
-"""
+``tribench calibrate`` times a kernel against its ``_aa`` copy (the same source under another name) in the normal
+protocol, split into ``experiments`` groups of ``processes``: each group gives one A/A speedup, exactly as a sweep
+of that many processes would, and :func:`tribench.harness.stats.aa_summary` their noise floor, the margin later
+verdicts on this CPU model use (:mod:`tribench.harness.margin`)."""
 
 from __future__ import annotations
 
@@ -50,8 +47,7 @@ def _nan_to_none(value: Any) -> Any:
 
 
 def aa_speedups(batches: Any, kernel: str, copy: str, processes: int) -> list:
-    """One A/A :class:`~tribench.harness.stats.Speedup` per group of ``processes``
-    consecutive process indices and per workload (incomplete groups are left out)."""
+    """One A/A :class:`~tribench.harness.stats.Speedup` per full group of ``processes`` processes and workload."""
     from .. import stats
 
     table = stats.per_process(batches)
@@ -81,11 +77,9 @@ def calibrate(
 ) -> dict[str, Any]:
     """Run an A/A calibration into ``run_dir`` and return its record.
 
-    ``kernel`` is one of :data:`AA_COPIES`; ``workloads`` default to 10 000 pairs at
-    hit rate 0.5, float64. The design defaults are the sweeps', so the margin is
-    that of the default protocol: give your sweeps' values if they differ.
-    ``processes * experiments`` processes run; ``save`` also writes the user-level file.
-    """
+    ``kernel`` is one of :data:`AA_COPIES`; ``workloads`` default to 10 000 pairs at hit rate 0.5, float64. The
+    design defaults are the sweeps', so the margin is that of the default protocol: give your sweeps' values if they
+    differ. ``processes * experiments`` processes run; ``save`` also writes the user-level file."""
     from ...workloads.spec import PairSpec
     from .. import runfolder, runner
     from ..plan import MAX_PROCESSES, Sweep

@@ -1,12 +1,9 @@
 """A kernel file's kernels, checked before anything times them.
 
-Each kernel must give the float64 reference's answers, in both precisions and
-on every ISA, where rounding cannot decide them (crossings at least
-:data:`MARGIN` from every edge; rays into a closed mesh), and keep the promises
-of the robustness suite (:func:`tribench.harness.jobs.validate.promise`). The
-check runs in a worker of its own, stopped after :data:`CHECK_SECONDS`, so a
-kernel that crashes, exits or hangs is refused in one line.
-"""
+Each kernel must give the float64 reference's answers, in both precisions and on every ISA, where rounding cannot
+decide them (crossings at least :data:`MARGIN` from every edge; rays into a closed mesh), and keep the promises of
+the robustness suite (:func:`tribench.harness.jobs.validate.promise`). The check runs in a worker of its own,
+stopped after :data:`CHECK_SECONDS`, so a kernel that crashes, exits or hangs is refused in one line."""
 
 from __future__ import annotations
 
@@ -47,8 +44,7 @@ class KernelRefused(UserError):
 def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
     """Load every kernel file of ``paths`` and check each kernel they declare; the names, in order.
 
-    Raises :class:`~tribench.ext.KernelFileError` (no compile) or :class:`KernelRefused` (wrong answers).
-    """
+    Raises :class:`~tribench.ext.KernelFileError` (no compile) or :class:`KernelRefused` (wrong answers)."""
     if isinstance(paths, (str, bytes, os.PathLike)) or not isinstance(paths, Sequence):
         raise UserTypeError(f"kernel files must be a list of paths, got {type(paths).__name__}: give [path, ...]")
     if not all(isinstance(p, (str, os.PathLike)) for p in paths):
@@ -71,8 +67,7 @@ def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
 
 def refuse_crashing(path: str | os.PathLike) -> None:
     """Refuse a kernel file (:class:`KernelRefused`) only if its kernels crash a process of their own: what
-    ``tribench validate`` needs before running them in its process, where wrong answers are the measurement.
-    """
+    ``tribench validate`` needs before running them in its process, where wrong answers are the measurement."""
     _checked_elsewhere(path)
 
 
@@ -98,8 +93,7 @@ def check_builds(sweep, log: TextIO | None = None) -> dict[str, dict[str, list[s
     """Every kernel of ``sweep`` checked again under each build but the installed one: build -> kernel -> problems.
 
     A build may change results (``-ffast-math``), so nothing is refused: ``run.json``
-    and the report show it. Every worker still holds a build's answers to the reference.
-    """
+    and the report show it. Every worker still holds a build's answers to the reference."""
     checked = {}
     for build in sweep.build_names:
         if build == ext.INSTALLED:
@@ -214,8 +208,7 @@ def _check_mesh(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) 
 
 def _work(job: str) -> None:
     """The check's worker: the job is [--build SPEC] [--kernel-file FILE]... [KERNEL...] as a JSON list
-    (no kernel: every kernel of the files); one ``checked`` line of kernel -> problems.
-    """
+    (no kernel: every kernel of the files); one ``checked`` line of kernel -> problems."""
     import argparse
 
     parser = argparse.ArgumentParser(prog="python -m tribench.harness.jobs.kernel_check")

@@ -1,7 +1,6 @@
 """The main job (``tribench run``): the default sweep, then its peers and the robustness suite.
 
-It measures; the caller makes the tables and the report from the folder.
-"""
+It measures; the caller makes the tables and the report from the folder."""
 
 from __future__ import annotations
 
@@ -34,11 +33,9 @@ def run(
 ) -> str:
     """Measure the main job into the new folder ``out``; what the robustness suite's step said.
 
-    :func:`tribench.harness.plan.default_sweep` through :func:`~.sweep.run_sweep`,
-    then the peers when installed (their failure never stops the job), then the
-    robustness suite. ``log`` takes the one-line notes (default stderr). Ctrl-C
-    raises :class:`~tribench.harness.runner.SweepInterrupted` naming ``tribench run --resume``.
-    """
+    :func:`tribench.harness.plan.default_sweep` through :func:`~.sweep.run_sweep`, then the peers when installed
+    (their failure never stops the job), then the robustness suite. ``log`` takes the one-line notes (default
+    stderr). Ctrl-C raises :class:`~tribench.harness.runner.SweepInterrupted` naming ``tribench run --resume``."""
     from ..plan import default_sweep
     from .kernel_check import load_checked
 
@@ -59,8 +56,7 @@ def run(
 def resume(out: str | Path, progress: bool | None = None, peers: bool = True, log: TextIO | None = None) -> str:
     """Finish an interrupted main job in ``out`` as :func:`run` would have (peers unless ``peers.csv`` is complete).
 
-    Raises UserError when ``out`` is not a main job's folder, or another process writes it.
-    """
+    Raises UserError when ``out`` is not a main job's folder, or another process writes it."""
     from ...common import UserError
 
     out = Path(out)

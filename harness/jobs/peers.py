@@ -1,14 +1,10 @@
 """Peers: tribench's fastest kernel, brute force or in its BVH, against trimesh and Embree, in rays/s.
 
-The contenders, the workload and the design are docs/results.md's ("Against
-peers"); the columns of ``peers.csv`` are :data:`COLUMNS` (docs/run-folder.md).
-Every contender runs on the same arrays, in the sweeps' worker protocol with
-pinning and layout randomisation, each repetition in a random order with a
-0.1 s pause so the previous call's helper threads go idle. Each worker has one
-BLAS thread: OpenBLAS starts its threads at NumPy's import, before any pinning,
-and they spun on the other CPU during trimesh's work (180% CPU).
-:func:`summarise` makes the figures (geometric means over processes, t intervals, ratios paired by process).
-"""
+The contenders, workload and design: docs/results.md, "Against peers"; ``peers.csv``'s columns:
+:data:`COLUMNS`. Every contender runs on the same arrays in the one worker protocol, each repetition in a
+random order after a 0.1 s pause (the previous call's helper threads go idle). Each worker has one BLAS
+thread: OpenBLAS starts its threads at NumPy's import, before pinning, and they spun on the other CPU during
+trimesh's work. :func:`summarise` makes the figures (geometric means, t intervals, ratios paired by process)."""
 
 from __future__ import annotations
 
@@ -177,8 +173,7 @@ def camera_spec(design: PeerDesign):
 def candidate_kernels(accel: str) -> list[str]:
     """The kernels tribench's row may run: public closest-mode kernels that test both faces, as every
     peer does (a culling kernel gives the same answers on a closed mesh without the same work), and
-    in a BVH only those that can be its leaf test.
-    """
+    in a BVH only those that can be its leaf test."""
     from ... import ext
 
     kernels = [
@@ -193,8 +188,7 @@ def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str
     """The fastest of :func:`candidate_kernels` on a random subset of the rays (through its BVH on a BVH workload).
 
     Judged by the median CPU time per ray, kernels interleaved: on a shared core, wall time
-    also counts other processes' slices, which can reorder close kernels.
-    """
+    also counts other processes' slices, which can reorder close kernels."""
     from ... import ext
     from ...workloads import bvh_cache
 
@@ -227,11 +221,8 @@ def measure(
     progress: bool | None = None,
 ) -> pd.DataFrame:
     """Run the peers' processes one after another into ``peers.csv`` (:func:`peers_path`), rewritten after each.
-
-    Raises RuntimeError when no peer is installed or a worker fails. With a BVH
-    design the peer is Embree alone; without it tribench's rows are still measured
-    (with a Notice), and ``kernel`` must be one of ``ext.bvh_kernel_names()``.
-    """
+    Raises RuntimeError when no peer is installed or a worker fails. With a BVH the peer is Embree alone (without it,
+    tribench's rows are still measured, with a Notice), and ``kernel`` must be one of ``ext.bvh_kernel_names()``."""
     import pandas as pd
 
     from ...workloads import cache
@@ -388,8 +379,7 @@ def _worker(text: str) -> None:
 
 def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:
     """tribench's contenders (C-timed loop, Python call and, through the BVH, packets of 16 rays) and each
-    one's closest triangle per ray; a BVH's build time is the set-up, as Embree's is.
-    """
+    one's closest triangle per ray; a BVH's build time is the set-up, as Embree's is."""
     from ... import ext
     from ...workloads import bvh_cache
     from ..machine import version
@@ -425,9 +415,7 @@ def _tribench_contenders(kernel: str, accel: str, w: Any) -> tuple[dict[str, _Co
 
 
 def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contender], dict[str, np.ndarray]]:
-    """Native Embree's four contenders, each scene built once (its set-up), with their closest hits; each at
-    the ISA Embree is fastest at here (:func:`_fastest_isa`).
-    """
+    """Native Embree's four contenders, each scene built once, with their closest hits, each at its fastest ISA here."""
     from ...ext import embree
 
     if "embree" not in peers:
@@ -457,8 +445,7 @@ def _embree_contenders(peers: Sequence[str], w: Any) -> tuple[dict[str, _Contend
 
 def _fastest_isa(scenes: dict[str | None, Any], o: np.ndarray, d: np.ndarray, width: int) -> str | None:
     """The ISA whose scene traces the rays fastest at ``width`` (least of three alternating passes each):
-    the peer is Embree at its best here (on a Zen 5 AVX2's rtcIntersect1 beats AVX-512's by 3-7%).
-    """
+    the peer is Embree at its best here (on a Zen 5 AVX2's rtcIntersect1 beats AVX-512's by 3-7%)."""
     best: dict[str | None, float] = {isa: math.inf for isa in scenes}
     for _ in range(3):
         for isa, scene in scenes.items():

@@ -1,10 +1,7 @@
-"""``tribench replicate``'s measuring half: a run folder's plan, measured again on this machine.
-
-The same workloads (by spec and RNG seed, so the same ids; mesh and ray files from the
-folder's copies), the same kernels (kernel files from the folder's copies), the same
-design; of its builds, those whose compiler is here. What this machine cannot run is
-left out and said. Comparing the two runs is :mod:`tribench.reports.tables.replication`'s.
-"""
+"""``tribench replicate``'s measuring half: a run folder's plan, measured again on this machine: the same
+workloads (by spec and RNG seed; files from the folder's copies), kernels (kernel files from its copies) and
+design, with the builds whose compiler is here; what this machine cannot run is left out and said. Comparing
+the runs is :mod:`tribench.reports.tables.replication`'s."""
 
 from __future__ import annotations
 

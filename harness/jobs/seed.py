@@ -1,18 +1,13 @@
 """``tribench seed``: the seed's two renders replayed through the harness, beside the paper's table.
 
-The seed (Vitse 2022) timed whole renders with Unix ``time``. Here each
-render's ray stream is cut into its kinds (primary, reflected, shadow), each a
-workload (:class:`~tribench.workloads.seed.workload.SeedSpec`) timed by the
-ordinary runner, and per process
+Each render's ray stream is cut into its kinds, each a workload
+(:class:`~tribench.workloads.seed.workload.SeedSpec`) timed by the ordinary runner, and per process
 
     render_s = sum over ray kinds of  ns_per_test x tests_per_pass x stream_tests / sample_tests
 
-with a Student-t interval over processes and a ratio to ``moller_seed`` paired
-per process. Only the triangle tests are replayed, not the seed's spheres,
-shading or start-up, so the seconds are smaller than the paper's and the ratio
-is the kernels' own (docs/decisions.md, "The seed replay's model"). The
-files' columns: :data:`COLUMNS`.
-"""
+with a Student-t interval over processes and a ratio to ``moller_seed`` paired per process. Only the
+triangle tests are replayed, so the seconds are smaller than the paper's and the ratio is the kernels' own
+(docs/decisions.md, "The seed replay's model"). The files' columns: :data:`COLUMNS`."""
 
 from __future__ import annotations
 
@@ -119,12 +114,9 @@ QUICK = Design(processes=5, rounds=2, warmup=1, target_ms=1.0, sample=256, size=
 
 
 def seed_kernels(all_kernels: bool = False) -> tuple[str, ...]:
-    """The kernels ``tribench seed`` times: :data:`FIRST_KERNELS`, then the native form of every algorithm
-    that answers the seed's renders (``all_kernels``: every public kernel).
-
-    The native form was each algorithm's fastest in the 27-kernel ranking. Culling
-    kernels are left out: the seed's renderer tests both faces (its shadow rays
-    meet the monkey's back). Built-in only: the replay's workers load no kernel file.
+    """The kernels ``tribench seed`` times: :data:`FIRST_KERNELS`, then the native form (each algorithm's fastest)
+    of every algorithm that tests both faces, as the seed's renderer needs (``all_kernels``: every public
+    kernel); built-in only, as the replay's workers load no kernel file.
 
     >>> seed_kernels()[:6] == FIRST_KERNELS and len(seed_kernels()) < len(seed_kernels(all_kernels=True))
     True
@@ -172,11 +164,8 @@ def run_seed(
 ) -> float:
     """Make the workloads, run the sweep into ``out`` and draw the pictures; the seconds it took.
 
-    ``scenes``: built-in names or scene files (default scene02 and scene03);
-    ``size``, ``sample`` override the image side and the rays per kind; ``log``
-    defaults to ``sys.stderr`` when called. The tables are
-    :func:`tribench.reports.tables.seed.write_seed_tables`'.
-    """
+    ``scenes``: built-in names or scene files (default scene02 and scene03); ``size`` and ``sample`` override
+    the image side and the rays per kind. The tables are :func:`tribench.reports.tables.seed.write_seed_tables`'."""
     from ...workloads.seed.workload import SeedSpec
     from ..plan import Sweep
     from .sweep import run_sweep

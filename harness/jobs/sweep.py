@@ -1,7 +1,6 @@
 """The one way a sweep is measured: ``tribench sweep``, the notebook's ``tribench.sweep`` and the main job.
 
-Nothing here analyses: the tables are :mod:`tribench.reports.tables`'s, made from the folder afterwards.
-"""
+Nothing here analyses: the tables are :mod:`tribench.reports.tables`'s, made from the folder afterwards."""
 
 from __future__ import annotations
 
@@ -32,8 +31,7 @@ def run_sweep(
 ) -> runner.RunResult:
     """Measure ``sweep`` into the new folder ``out``: kernel files checked (their kernels join: a user
     who brings a kernel wants it ranked), the folder claimed, each build checked, then the workers.
-    ``say`` gets one line on what runs before the first batch (default: the expected duration).
-    """
+    ``say`` gets one line on what runs before the first batch (default: the expected duration)."""
     sweep = with_file_kernels(sweep, load_checked(sweep.kernel_files), say)
     _refuse_idle_kernels(sweep)
     out = Path(out)
@@ -62,9 +60,7 @@ def _why_idle(kernel: str) -> str:
 
 
 def with_file_kernels(sweep: Sweep, file_kernels: Sequence[str], say: Callable[[str], None]) -> Sweep:
-    """``sweep`` with its kernel files' kernels among its kernels (unless workloads name their own:
-    the main job places them itself), saying which joined.
-    """
+    """``sweep`` with its kernel files' kernels joined (unless workloads name their own), saying which joined."""
     missing = tuple(k for k in file_kernels if k not in sweep.kernels)
     if not missing or sweep.workload_kernels:
         return sweep
@@ -75,8 +71,7 @@ def with_file_kernels(sweep: Sweep, file_kernels: Sequence[str], say: Callable[[
 def measure_robustness(run_dir: str | Path, quick: bool = False) -> str:
     """``validate.csv`` for the run's kernels and precisions, made if missing; a sentence on where it came from.
 
-    A failure of the suite never stops the job: the sentence says why.
-    """
+    A failure of the suite never stops the job: the sentence says why."""
     run_dir = Path(run_dir)
     path = run_dir / runfolder.VALIDATE
     if path.is_file():

@@ -1,14 +1,9 @@
 """``tribench validate``: the robustness suite, every kernel at both precisions.
 
-The cases live in :mod:`tribench.workloads.robustness` (re-exported here);
-this module asks every kernel of ``ext.kernel_names()`` the same questions,
-wide kernels at their default ISA, and judges the answers into rows of
-:data:`COLUMNS`. The ``expected`` column is what the papers promise
-(:func:`promise`): no crack on shared edges and vertices for a kernel declared
-watertight, and no hit for parallel rays, degenerate triangles or non-finite
-input (clean kernels); everything else is ``measured``, never judged.
-:data:`FULL` takes about 0.3 s per kernel and precision.
-"""
+The cases are :mod:`tribench.workloads.robustness`'s (re-exported here; docs/methodology.md, "The robustness
+suite"); this module asks every kernel, wide ones at their default ISA, and judges the answers into rows of
+:data:`COLUMNS` against :func:`promise`, the papers' promise; the rest is ``measured``, never judged.
+:data:`FULL` takes about 0.3 s per kernel and precision."""
 
 from __future__ import annotations
 
@@ -116,15 +111,12 @@ def promise(kernel: str, test: str) -> tuple[str, float | None]:
 
 
 def culls(kernel: str) -> bool:
-    """Whether ``kernel`` culls back faces, as declared: it is then asked about triangles wound
-    to face the ray, so its rates measure robustness, not culling.
-    """
+    """Whether ``kernel`` culls back faces: it is then asked about front faces only, so its rates measure robustness."""
     return ext.kernel_info(kernel).culls_back_faces
 
 
 def _closest(kernel: str, isa: str, rays: MeshRays, triangles: np.ndarray | None = None) -> np.ndarray:
-    """Closest hit of each ray on ``triangles`` (default the mesh's), each wound to face
-    the ray for a culling kernel."""
+    """Closest hit of each ray on ``triangles`` (default the mesh's), wound to face the ray for a culling kernel."""
     tris = rays.triangles if triangles is None else triangles
     back = rays.back if culls(kernel) else np.zeros(len(rays.origins), bool)
     index = np.full(len(rays.origins), -1)
@@ -139,8 +131,7 @@ def _closest(kernel: str, isa: str, rays: MeshRays, triangles: np.ndarray | None
 
 
 def _own_hits(kernel: str, isa: str, p: PairRays, allow_nonfinite: bool = False) -> np.ndarray:
-    """Whether ray i hits ``triangles[owner[i]]``: pairs mode, or for a wide kernel
-    (which has none) one closest call per triangle and side on its rays."""
+    """Whether ray i hits ``triangles[owner[i]]``: in pairs mode, or by one closest call per triangle and side."""
     options: dict[str, Any] = {"isa": isa, "allow_nonfinite": allow_nonfinite}
     tris = p.triangles[p.owner]
     back = np.zeros(len(p.owner), bool)
@@ -244,8 +235,7 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=T
     """The whole suite as a tidy DataFrame (:data:`COLUMNS`), ordered by kernel, dtype and test.
 
     ``kernels`` default to ``ext.kernel_names()``; ``quick``: the ``QUICK`` sizes;
-    ``progress`` False for none. The frame's ``attrs`` record the seed, size and seconds.
-    """
+    ``progress`` False for none. The frame's ``attrs`` record the seed, size and seconds."""
     import pandas as pd
 
     from ..runner import Progress

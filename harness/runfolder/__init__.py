@@ -1,8 +1,7 @@
 """The run folder: the only thing measuring hands to analysis and reporting.
 
 :mod:`.schema` names every file and column once; :mod:`.io` writes, reads and
-validates the measured files. Both are re-exported (``runfolder.BATCHES``).
-"""
+validates the measured files. Both are re-exported (``runfolder.BATCHES``)."""
 
 from . import io as io
 from . import schema as schema

@@ -1,7 +1,6 @@
 """The derived tables' columns, in file order with their meaning: the analysis step writes them.
 
-Part of the run folder's contract (:mod:`.schema` assembles :data:`~.schema.FILES`); it imports nothing.
-"""
+Part of the run folder's contract (:mod:`.schema` assembles :data:`~.schema.FILES`); it imports nothing."""
 
 from __future__ import annotations
 

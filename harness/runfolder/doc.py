@@ -1,10 +1,8 @@
 """docs/run-folder.md, made from the run folder's contract (:mod:`tribench.harness.runfolder`).
 
-:func:`render`, a pure function, writes the page from the schema and the row
-dataclasses; only the sentence about each file is written here.
-``python -m tribench.harness.runfolder.doc [PATH]`` writes it, and
-tests/test_docs.py fails when the page and :func:`render` differ.
-"""
+:func:`render`, a pure function, writes the page from the schema and the row dataclasses; only the sentence about
+each file is written here. ``python -m tribench.harness.runfolder.doc [PATH]`` writes it, and tests/test_docs.py
+fails when the page and :func:`render` differ."""
 
 from __future__ import annotations
 

@@ -1,15 +1,11 @@
 """The run folder's measured files: written row by row, read back validated.
 
-The files and their columns are :mod:`tribench.harness.runfolder`'s
-(docs/run-folder.md); the one-writer lock is :mod:`.lock`'s. Each row is one
-``write`` in append mode, so a process killed at any moment leaves at most one
-partial last line, which the readers drop (:func:`repair_csv` cuts it before a
-resume appends); a failed write (a full disk) is undone, so no partial line.
-Every reader validates in one place (:func:`_read_table`): header, types, run
-id, the sweep's kernels and workloads, positive counts and times, no batch
-twice or outside the plan; a failure is a UserError naming ``file:line``. A
-byte-order mark and CRLF line ends (an editor's) are accepted.
-"""
+The files and columns are :mod:`tribench.harness.runfolder`'s (docs/run-folder.md), the one-writer lock
+:mod:`.lock`'s. Each row is one ``write`` in append mode, so a kill leaves at most one partial last line,
+which readers drop and :func:`repair_csv` cuts before a resume appends; a failed write is undone. Every
+reader validates in :func:`_read_table` (header, types, run id, the sweep's kernels and workloads, positive
+counts and times, no batch twice or outside the plan), raising a UserError naming ``file:line``; a BOM and
+CRLF line ends are accepted."""
 
 from __future__ import annotations
 
@@ -95,12 +91,8 @@ def _csv_line(values: Sequence[Any]) -> str:
 
 
 class RowWriter:
-    """Appends rows of one dataclass type to a CSV file, one unbuffered ``write`` per row.
-
-    A row that cannot be written whole is cut off again before the ``OSError``
-    is raised, so the file keeps whole lines only. The file must not be a
-    symbolic link (a run folder's files are tribench's own).
-    """
+    """Appends rows of one dataclass type to a CSV file (not a symbolic link), one unbuffered ``write`` per row; a
+    row that cannot be written whole is cut off again before the ``OSError`` is raised."""
 
     def __init__(self, path: str | Path, columns: Sequence[str]) -> None:
         self.path = Path(path)
@@ -204,8 +196,7 @@ Rule = tuple[Callable[..., Any], Callable[..., str]]  # ...: the lambdas bind na
 def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | None):
     """``path`` as a DataFrame of ``cls``'s columns and types, every row checked; a partial last line dropped.
 
-    Raises a UserError naming ``path:line`` for the first thing wrong.
-    """
+    Raises a UserError naming ``path:line`` for the first thing wrong."""
     import pandas as pd
 
     columns = [f.name for f in fields(cls)]
@@ -224,8 +215,7 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
 
 
 def _text(path: Path, max_bytes: int | None) -> str:
-    """A measured file's text: a plain file of a plausible size, UTF-8 (a byte-order mark dropped), its
-    partial last line cut off (a batch that did not finish)."""
+    """A measured file's text: a plain file of a plausible size, UTF-8 (BOM dropped), its partial last line cut off."""
     _check_plain_file(path, max_bytes)
     data = path.read_bytes()
     if data.startswith(b"\xef\xbb\xbf"):
@@ -370,12 +360,9 @@ def _run_or_none(run_dir: Path, run: Mapping[str, Any] | None) -> Mapping[str, A
 
 
 def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
-    """``batches.csv`` of a run as a DataFrame, validated (a partial last line is ignored).
-
-    With ``run`` (``run.json``'s record, read when not given if there), every row
-    must carry its run id, a kernel and workload of its sweep and a key of its
-    plan, at most once; without one only the file's consistency is checked.
-    """
+    """``batches.csv`` of a run as a DataFrame, validated (a partial last line is ignored). With ``run``
+    (``run.json``'s record, read if there when not given) every row must carry its run id, a kernel and
+    workload of its sweep and a key of its plan, at most once."""
     run_dir = Path(run_dir)
     path = run_dir / BATCHES
     run = _run_or_none(run_dir, run)

@@ -1,9 +1,7 @@
 """The run folder's one-writer lock: an exclusive ``flock`` on ``RUN_DIR/.lock``.
 
-A sweep or a resume holds it while it appends, so a second writer is refused
-with the first one's pid. Readers (``stats``, ``report``) take no lock: they
-may read a folder a live sweep is writing.
-"""
+A sweep or a resume holds it while it appends, so a second writer is refused with the first one's pid. Readers
+(``stats``, ``report``) take no lock: they may read a folder a live sweep is writing."""
 
 from __future__ import annotations
 
@@ -46,12 +44,9 @@ def _describe(holder: Mapping[str, Any]) -> str:
 def writer_lock(run_dir: str | Path) -> Iterator[None]:
     """Hold the run folder's one-writer lock for the body; raise a UserError if a live process holds it.
 
-    The kernel releases a ``flock`` however its holder dies. The holder writes its
-    pid, host and start time into the file for the refusal message and empties it
-    on a clean release, so a non-empty file found unlocked was a killed writer's:
-    taken over, saying so on stderr. The file is never removed (two writers could
-    then lock two different files).
-    """
+    The holder writes its pid, host and start time into the file and empties it on a clean release, so a non-empty
+    file found unlocked (the kernel releases a ``flock`` however its holder dies) was a killed writer's: taken over,
+    saying so. The file is never removed (two writers could then lock two different files)."""
     run_dir = Path(run_dir)
     path = run_dir / LOCK
     try:

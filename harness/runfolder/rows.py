@@ -1,10 +1,6 @@
-"""The measured files' rows: one dataclass per file, each field a column with its meaning.
-
-The one schema the measured files are written from and read back with: a
-field's type is the column's (the readers check every value), its ``doc`` the
-column's meaning (docs/run-folder.md is made from it), the fields' order the
-columns'. Rows are built with keywords.
-"""
+"""The measured files' rows: one dataclass per file, each field a column, the one schema they are written from
+and read back with: a field's type is the column's (readers check every value), its ``doc`` the column's
+meaning (docs/run-folder.md is made from it), the fields' order the columns'. Rows are built with keywords."""
 
 from __future__ import annotations
 
@@ -80,9 +76,7 @@ class ProcessRow:
 
 @dataclass(frozen=True)
 class CheckRow:
-    """One kernel's answers on one workload against the float64 reference, per worker process before
-    any batch: a row of ``checks.csv``.
-    """
+    """A row of ``checks.csv``: one kernel's answers on one workload against the reference, per process."""
 
     run_id: str = _col(_RUN_ID)
     process: int = _col(_PROCESS)
@@ -102,11 +96,8 @@ class CheckRow:
 
 @dataclass(frozen=True)
 class TraversalRow:
-    """What one batch on a BVH workload did inside the tree, and its null-leaf twin: a row of ``traversals.csv``.
-
-    Its key is its batch's; the counts are summed over every ray and loop, so
-    ``1 - null_elapsed_ns / elapsed_ns`` is the leaf tests' share.
-    """
+    """A row of ``traversals.csv``: what one BVH batch and its null-leaf twin did inside the tree, keyed as its
+    batch, summed over every ray and loop (``1 - null_elapsed_ns / elapsed_ns`` is the leaf tests' share)."""
 
     run_id: str = _col(_RUN_ID)
     process: int = _col("index of the worker process (with workload_id, round, position and kernel, a batch's key)")

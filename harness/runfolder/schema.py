@@ -1,11 +1,8 @@
 """The run folder's contract: every file name, and every CSV's columns in file order with their meaning.
 
-Written once here (the derived tables' columns in :mod:`.derived_columns`),
-importing nothing else, so every stage reads it; who writes which file is
-docs/run-folder.md's, made from it. Every CSV is tidy, in raw units
-(nanoseconds, counts, fractions). Tests check a run's files against these
-lists exactly, so a change here is a change of the format and must be deliberate.
-"""
+Written once here (the derived tables' in :mod:`.derived_columns`), importing nothing else, so every stage
+reads it; docs/run-folder.md is made from it. Every CSV is tidy, in raw units (ns, counts, fractions); tests
+check a run's files against these lists exactly, so a change here is a deliberate change of the format."""
 
 from __future__ import annotations
 

@@ -1,12 +1,10 @@
 """Statistics for tribench: pure functions from timed batches to estimates, importing ``tribench.common`` only.
 
 Nothing here reads or writes files, prints, or touches global random state; results are frozen dataclasses
-that carry their confidence level, and defaults live in :data:`DEFAULTS`. The replicate is the worker
-process: its batches share a memory layout, so each process is reduced to the median ns/test of its
-non-warm-up batches and intervals are taken across processes. A speedup of K over baseline B is
-``time_B / time_K`` (above 1: K is faster), estimated from ``log B_p - log K_p`` so that swapping the two
-inverts it exactly. Warm-up batches and outliers are labelled, never dropped. What each figure means:
-docs/methodology.md, "The statistics"; the batch table's columns: ``tribench.harness.runfolder.schema``."""
+carrying their confidence level; defaults live in :data:`DEFAULTS`. The replicate is the worker process (its
+batches share a memory layout), reduced to the median ns/test of its non-warm-up batches; a speedup of K over
+B is ``time_B / time_K``, from ``log B_p - log K_p``, so swapping the two inverts it exactly. What each
+figure means: docs/methodology.md, "The statistics"."""
 
 from .calibration import AASummary, aa_noise_floor, aa_summary
 from .compare import LogRatio, unpaired_ratio

@@ -13,8 +13,7 @@ import pandas as pd
 
 
 def _scipy_stats() -> ModuleType:
-    """scipy.stats, imported at first use: it takes most of a second, which every command (its help and usage
-    errors too) paid before reading its arguments."""
+    """scipy.stats, imported at first use: most of a second that every command would pay before its arguments."""
     import scipy.stats
 
     return scipy.stats

@@ -27,10 +27,9 @@ class LogRatio:
 
 
 def unpaired_ratio(log_a: npt.ArrayLike, log_b: npt.ArrayLike, confidence: float = 0.95) -> LogRatio:
-    """Ratio ``exp(mean(log_b) - mean(log_a))`` of two independent samples (one log value per process: log
-    speedups, or log ns/test), with a Welch interval ``exp(diff -/+ t_df se)``,
-    ``se = sqrt(s_a^2/n_a + s_b^2/n_b)``. Swapping the samples inverts ratio and interval exactly; under two
-    values in either sample the interval is nan.
+    """Ratio ``exp(mean(log_b) - mean(log_a))`` of two independent samples (one log value per process: log speedups,
+    or log ns/test), with a Welch interval ``exp(diff -/+ t_df se)``, ``se = sqrt(s_a^2/n_a + s_b^2/n_b)``. Swapping
+    the samples inverts ratio and interval exactly; under two values in either sample the interval is nan.
 
     >>> r = unpaired_ratio(np.log([1.0, 1.1, 0.9]), np.log([2.0, 2.2, 1.8]))
     >>> round(r.ratio, 6), r.ci_low < 2.0 < r.ci_high

@@ -36,11 +36,9 @@ def crossover(
 ) -> Crossover:
     """Where the speedup of one kernel over another crosses 1, with its interval.
 
-    ``per_process_log_ratios`` is (processes, k): each process's log speedup at the ``k >= 2`` distinct
-    ``hit_rates``. Each process gets its own least-squares line; the lines are averaged and the root is
-    ``-intercept / slope``. The interval is Fieller's with the process as replicate: exact for normal
-    per-process coefficients (no bootstrap noise, no delta-method symmetry). A straight line is a local model:
-    use hit rates near the crossing.
+    ``per_process_log_ratios`` (processes, k): each process's log speedup at ``k >= 2`` distinct ``hit_rates``.
+    The per-process least-squares lines are averaged, the root is ``-intercept / slope``, and the interval is
+    Fieller's over processes (exact for normal coefficients). A line is a local model: use hit rates near the root.
 
     >>> import math, numpy as np
     >>> h = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
@@ -100,8 +98,7 @@ def scaling_slope(
     """Log–log slope of cost against triangle count or working-set size: ``ns_per_test_per_process`` is
     (processes, k), at the ``k >= 2`` distinct positive ``sizes``.
 
-    One least-squares slope per process, then a t-interval across processes: one regression of every point
-    would treat the sizes measured in one process as independent, which they are not.
+    One slope per process, then a t-interval across processes (the sizes of one process are not independent).
 
     >>> import numpy as np
     >>> sizes = np.array([1e3, 1e4, 1e5, 1e6])

@@ -100,12 +100,10 @@ def suggest_design(
 ) -> Design:
     """Rounds per process and processes needed, from a pilot's components (Kalibera & Jones 2013).
 
-    Rounds: ``ceil(sqrt((c2 / c1) * (T1^2 / T2^2)))``, ``c1 = round_cost``, ``c2 = process_cost`` (one unit for
-    both): repetitions go where the variance is and where they are cheap; ``max_rounds`` caps them (with
-    ``T2^2 = 0`` more always pay), and ``rounds`` fixes them instead. Processes: the smallest ``R >= 2`` with
-    ``t_{R-1} * sqrt((T2^2 + T1^2 / I) / R) / mean <= target_rel_halfwidth`` (0.01 = 1 %). tribench summarises
-    a process by its median, noisier than the mean for Gaussian rounds (up to ``pi/2`` on ``T1^2``): treat the
-    answer as a lower bound.
+    Rounds: ``ceil(sqrt((c2 / c1) * (T1^2 / T2^2)))`` (``c1 = round_cost``, ``c2 = process_cost``), capped by
+    ``max_rounds`` or fixed by ``rounds``. Processes: the smallest ``R >= 2`` with
+    ``t_{R-1} * sqrt((T2^2 + T1^2 / I) / R) / mean <= target_rel_halfwidth``. A process's median is noisier than
+    its mean for Gaussian rounds (up to ``pi/2`` on ``T1^2``): treat the answer as a lower bound.
 
     >>> vc = VarianceComponents(between_round=4.0, between_process=1.0, mean=100.0,
     ...                         n_processes=10, n_rounds=10)

@@ -77,8 +77,8 @@ class Speedup:
     """Speedup ``time_baseline / time_kernel`` (above 1: the kernel is faster) over ``n`` paired processes.
 
     ``ratio = exp(mean d)``, ``d_p = log baseline_p - log kernel_p``; the interval is
-    ``exp(mean d -/+ t_{n-1} sd(d) / sqrt(n))``, nan for one process; ``p_value`` is the two-sided t-test of
-    ``d`` against 0."""
+    ``exp(mean d -/+ t_{n-1} sd(d) / sqrt(n))``, nan for one process;
+    ``p_value`` is the two-sided t-test of ``d`` against 0."""
 
     ratio: float
     ci_low: float

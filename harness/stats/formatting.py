@@ -15,9 +15,8 @@ NO_INTERVAL = "[no interval]"
 def format_interval(value: float | None, low: float, high: float, spec: str = ".3g", unit: str = "") -> str:
     """``value`` followed by its interval in brackets: ``"1.18× [1.15, 1.21]"``.
 
-    ``value`` None writes the interval alone, a non-finite one ``–``; a non-finite bound gives
-    :data:`NO_INTERVAL`. ``spec`` formats all three numbers; ``unit`` follows the estimate as given (``"×"``,
-    ``" ns"``).
+    ``value`` None writes the interval alone, a non-finite one ``–``; a non-finite bound gives :data:`NO_INTERVAL`.
+    ``spec`` formats all three numbers; ``unit`` follows the estimate as given (``"×"``, ``" ns"``).
 
     >>> format_interval(1.18, 1.15, 1.21, unit="×")
     '1.18× [1.15, 1.21]'

@@ -54,12 +54,10 @@ def simultaneous_confidence(confidence: float, m: int) -> float:
 
 
 def verdict(ci_low: float, ci_high: float, margin: float = DEFAULTS.margin) -> str:
-    """Classify a speedup interval against a relative equivalence ``margin``.
-
-    ``"equivalent"`` where it lies inside ``[1/(1+margin), 1+margin]`` (interval inclusion: at 95 %, TOST at
-    the 2.5 % level on the symmetric log scale), significant or not: the margin is what counts as a difference
-    worth reporting. Else ``"faster"`` (``ci_low > 1``), ``"slower"`` (``ci_high < 1``) or ``"inconclusive"``
-    (a nan interval too).
+    """Classify a speedup interval against a relative equivalence ``margin``: ``"equivalent"`` inside
+    ``[1/(1+margin), 1+margin]`` (at 95 %, TOST at 2.5 % on the log scale), significant or not, as the margin is
+    what counts as a difference worth reporting; else ``"faster"`` (``ci_low > 1``), ``"slower"``
+    (``ci_high < 1``) or ``"inconclusive"`` (a nan interval too).
 
     >>> verdict(1.10, 1.30, margin=0.01), verdict(0.80, 0.95, margin=0.01)
     ('faster', 'slower')
@@ -150,11 +148,9 @@ def speedup_table(
 ) -> pd.DataFrame:
     """Every kernel of a :func:`per_process` table against ``baseline``, workload by workload, with multiplicity.
 
-    A workload's family is its kernels compared with ``baseline``: each interval is a Bonferroni simultaneous
-    one (:func:`simultaneous_confidence`; the ``confidence`` column is the per-comparison level used), its
-    verdict is taken from it, and ``p_holm`` is Holm-adjusted. Processes pair by their id; one missing either
-    kernel is left out of that comparison. speedups.csv renames some columns
-    (``tribench.reports.tables.pipeline.SPEEDUP_COLUMNS``).
+    A workload's kernels against ``baseline`` are one family: Bonferroni simultaneous intervals (``confidence``:
+    the per-comparison level), verdicts from them, Holm-adjusted ``p_holm``. Processes pair by id (one missing
+    either kernel is left out); speedups.csv renames columns (``tribench.reports.tables.pipeline.SPEEDUP_COLUMNS``).
 
     >>> import pandas as pd
     >>> table = pd.DataFrame({

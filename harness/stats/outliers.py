@@ -17,13 +17,12 @@ from .defaults import DEFAULTS
 class Drift:
     """Trends against wall time inside processes, and whether to warn (:func:`drift`).
 
-    Slopes are per second on the log scale (0.001 is about 0.1 % a second), means of per-process Theil–Sen
-    slopes t-tested across processes. ``baseline_*``: the log baseline time's trend, harmless when kernels are
-    interleaved, so it never raises the flag. ``ratio_*``: the log speedup's (the kernels drift differently);
-    ``ratio_change`` is its slope times the median process duration. ``confound_bias``: per process, the
-    common drift rate times the gap between the kernels' mean start times (near 0 when rounds interleave in
-    random order). ``flagged``: a ratio trend or a confound both significant (``p < 1 - confidence``) and above
-    the threshold; ``reason`` says which ("" when not flagged)."""
+    Slopes are per second on the log scale, means of per-process Theil–Sen slopes t-tested across processes.
+    ``baseline_*``: the baseline time's trend, harmless when kernels interleave, so it never raises the flag;
+    ``ratio_*``: the log speedup's, ``ratio_change`` its slope times the median process duration;
+    ``confound_bias``: per process, the common drift rate times the gap between the kernels' mean start times.
+    ``flagged``: a ratio trend or a confound both significant (``p < 1 - confidence``) and above the threshold;
+    ``reason`` says which."""
 
     baseline_slope: float
     baseline_p: float
@@ -63,8 +62,7 @@ def _timed_pair(batches: pd.DataFrame, kernel: str, baseline: str, workload_id: 
 
 
 def _paired_rounds(timed: pd.DataFrame, kernel: str, baseline: str) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """The rounds pairing the two kernels (same process and round) in processes with 3 or more, and those
-    processes' batches."""
+    """The rounds pairing the two kernels (same process and round) in processes with 3 or more, and their batches."""
     wide = timed.pivot(index=["process", "round"], columns="kernel", values=["log_ns", "t_s"]).dropna()
     rounds = pd.DataFrame(
         {
@@ -135,9 +133,8 @@ def drift(
 ) -> Drift:
     """Trend tests against wall time, and a time/order confound check, of two kernels (see :class:`Drift`).
 
-    Rounds pair the two kernels (same process and round). The confound check catches a bias that no per-round
-    ratio trend shows: one kernel running later than the other on a drifting machine. ``threshold``: the
-    practical size (log scale, about relative) of a drift worth a warning.
+    Rounds pair the two kernels. The confound check catches one kernel running later than the other on a
+    drifting machine, which no ratio trend shows; ``threshold``: the log-scale size of a drift worth a warning.
 
     >>> import numpy as np, pandas as pd
     >>> rng = np.random.default_rng(0)

@@ -1,9 +1,7 @@
-"""The stopping rule of a sequential design: which comparisons still need processes.
-
-After each stage, a comparison (a kernel against its workload's reference kernel, paired per process)
-whose interval is already narrower than a target stops. The rule reads the interval's width, never its
-position, so stopping barely changes what it covers (docs/methodology.md, "The main job's sequential
-design"; tests/test_stats.py measures it)."""
+"""The stopping rule of a sequential design: which comparisons still need processes. A comparison (a kernel
+against its workload's reference kernel, paired per process) stops once its interval is narrower than a
+target; the rule reads the width, never the position, so stopping barely changes what the interval covers
+(docs/methodology.md, "The main job's sequential design"; tests/test_stats.py measures it)."""
 
 from __future__ import annotations
 

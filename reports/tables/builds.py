@@ -1,10 +1,8 @@
 """Across the builds of one run (``--builds``): does the ranking hold under every build?
 
-Each build's processes are a run of their own to a comparison, so builds are
-compared by the code that compares machines
-(:func:`tribench.reports.tables.compare.compare_many`); ``builds.csv`` has each
-order's test in long form, a row per pair and build.
-"""
+Each build's processes are a run of their own to a comparison, so builds are compared by the code that compares
+machines (:func:`tribench.reports.tables.compare.compare_many`); ``builds.csv`` has each order's test in long form,
+a row per pair and build."""
 
 from __future__ import annotations
 

@@ -59,8 +59,7 @@ def bvh_table(
 
     Rates and the ``null / real`` ratio are per-process medians, geometric means
     over processes; speedups are paired per-process ratios, Bonferroni over the
-    workload's kernels, of ns per ray in the BVH and ns per test on the brute-force twin.
-    """
+    workload's kernels, of ns per ray in the BVH and ns per test on the brute-force twin."""
     rows: list[dict[str, Any]] = []
     bvh_wids = [wid for wid in wl["workload_id"] if specs[wid].get("accel") == "bvh"]
     if not bvh_wids:

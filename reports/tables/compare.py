@@ -1,13 +1,10 @@
 """The same kernels on N runs (N machines, N builds): what ``tribench compare`` shows, as tables.
 
-What it shows is docs/results.md's ("Compare runs"). Workloads match by id (a
-hash of the spec, so byte-identical). The runs are independent, so two runs'
-ratios are Welch intervals on the log scale (:func:`tribench.harness.stats.unpaired_ratio`),
-simultaneous over a workload's kernels, judged with the larger margin. As in a
-run's rankings, a kernel whose answers differ from the reference on a workload
-did other work there and is compared nowhere on it. A run is any object with
-the fields of :class:`RunTables`.
-"""
+What it shows is docs/results.md's ("Compare runs"). Workloads match by id (a hash of the spec, so byte-identical).
+The runs are independent, so two runs' ratios are Welch intervals on the log scale
+(:func:`tribench.harness.stats.unpaired_ratio`), simultaneous over a workload's kernels, judged with the larger
+margin. As in a run's rankings, a kernel whose answers differ from the reference on a workload did other work there
+and is compared nowhere on it. A run is any object with the fields of :class:`RunTables`."""
 
 from __future__ import annotations
 
@@ -76,9 +73,7 @@ class Comparison:
 
 
 def _per_process(data: RunTables) -> pd.DataFrame:
-    """The run's per-process values a comparison may compare: none of a kernel where its answers differ
-    from the reference (its time there is of other work).
-    """
+    """The run's per-process values, none of a kernel where its answers differ from the reference (other work)."""
     return compared(data.tables[runfolder.PER_PROCESS], data.tables.get(runfolder.CORRECTNESS))
 
 
@@ -104,8 +99,7 @@ def _ratio_fields(r: stats.LogRatio, confidence: float, margin: float) -> dict[s
 
 def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Comparison:
     """Ratio of speedups (``speedup_B / speedup_A``) and time ratios (``time_B / time_A``) of the kernels
-    and workloads two runs share; ValueError when they share none or their baselines differ.
-    """
+    and workloads two runs share; ValueError when they share none or their baselines differ."""
     if a.baseline != b.baseline:
         raise UserError(
             f"the runs have different baselines ({a.baseline} and {b.baseline}): "
@@ -176,11 +170,9 @@ MAX_RUNS = 26
 class MultiComparison:
     """N runs side by side: each run's speedups, and the orders of kernels every run agrees on.
 
-    ``orders``: per workload and pair, ``kernel`` the faster on the first run,
-    per run tag ``T`` its ``ratio_T`` (time_other / time_kernel) with interval and
-    ``verdict_T``, then ``order``: ``holds`` (faster on every run), ``differs``
-    (significantly faster on one and slower on another) or ``undecided``.
-    """
+    ``orders``: per workload and pair, ``kernel`` the faster on the first run, per run tag ``T`` its ``ratio_T``
+    (time_other / time_kernel) with interval and ``verdict_T``, then ``order``: ``holds`` (faster on every run),
+    ``differs`` (significantly faster on one and slower on another) or ``undecided``."""
 
     tags: list[str]
     speedups: pd.DataFrame
@@ -202,9 +194,7 @@ def run_tags(n: int) -> list[str]:
 
 
 def order_summary(m: MultiComparison) -> pd.DataFrame:
-    """Per pair of kernels, over the workloads: how often each is faster on every machine, the
-    machines differ, or some machine cannot tell.
-    """
+    """Per pair of kernels, over the workloads: faster everywhere, machines differ, or one cannot tell."""
     rank = {k: i for i, k in enumerate(m.kernels)}
     counts: dict[tuple[str, str], dict[str, int]] = {}
     for r in m.orders.itertuples(index=False):
@@ -223,13 +213,11 @@ def order_summary(m: MultiComparison) -> pd.DataFrame:
 def compare_many(runs: Sequence[RunTables], confidence: float = 0.95, same_run: bool = False) -> MultiComparison:
     """Speedups of every run, and which orders of two kernels hold on every run.
 
-    Each order is tested in each run as ``algorithms.csv`` tests one (paired,
-    Bonferroni over the workload's pairs, the run's margin). It *holds* when every
-    run finds the same kernel significantly faster: an intersection of tests, so
-    the claim keeps their level without a further correction. ``same_run``: the
-    runs are one folder's builds. Raises UserError for fewer than two or more than
-    26 runs, different baselines, or no workload in every run.
-    """
+    Each order is tested in each run as ``algorithms.csv`` tests one (paired, Bonferroni over the workload's pairs,
+    the run's margin). It *holds* when every run finds the same kernel significantly faster: an intersection of
+    tests, so the claim keeps their level without a further correction. ``same_run``: the runs are one folder's
+    builds. Raises UserError for fewer than two or more than 26 runs, different baselines, or no workload in every
+    run."""
     tags = run_tags(len(runs))
     folders = [Path(d.run_dir).resolve() for d in runs]
     twice = sorted({str(f) for f in folders if folders.count(f) > 1})

@@ -59,8 +59,7 @@ def warmup_table(labels: pd.DataFrame, wl: pd.DataFrame) -> pd.DataFrame:
 def drift_table(
     batches: pd.DataFrame, kernels: Sequence[str], baseline: str, workload_ids: Sequence[str], wl: pd.DataFrame
 ) -> pd.DataFrame:
-    """``stats.drift`` of every kernel against the baseline on every workload (``drift.csv``);
-    ``reason`` explains a comparison that could not be tested."""
+    """``drift.csv``: ``stats.drift`` of each kernel against the baseline per workload (``reason``: why untested)."""
     rows = []
     labels = dict(zip(wl["workload_id"], wl["label"], strict=True))
     for wid in workload_ids:
@@ -91,8 +90,7 @@ def drift_table(
 def variance_table(
     batches: pd.DataFrame, kernels: Sequence[str], workload_ids: Sequence[str], wl: pd.DataFrame
 ) -> pd.DataFrame:
-    """Kalibera-Jones variance components per kernel and workload (``variance.csv``): square roots of
-    ``stats.variance_components`` relative to the mean, in percent."""
+    """``variance.csv``: the roots of ``stats.variance_components`` in percent of the mean, per kernel and workload."""
     rows = []
     labels = dict(zip(wl["workload_id"], wl["label"], strict=True))
     for wid in workload_ids:

@@ -1,11 +1,7 @@
-"""A run's estimates and speedups in Google Benchmark's JSON format (``google_benchmark.json``).
-
-Why this format and how a run maps onto it: docs/results.md, "Export: Google
-Benchmark JSON". Google Benchmark has no interval field, so each interval
-travels as extra numeric fields, as its user counters do; a process is one
-``iteration`` entry, so ``compare.py`` can run its U test on two exports. No
-number is NaN or infinite (strict JSON): an undefined interval is left out.
-"""
+"""A run's estimates and speedups in Google Benchmark's JSON format (``google_benchmark.json``; why and how:
+docs/results.md, "Export: Google Benchmark JSON"). Each interval travels as extra numeric fields, as its user
+counters do, and each process is one ``iteration`` entry, so ``compare.py`` can run its U test on two
+exports. Strict JSON: an undefined interval is left out, never NaN."""
 
 from __future__ import annotations
 
@@ -97,11 +93,8 @@ def _entry(name: str, run_name: str, family: int, instance: int, label: str, **f
 def google_benchmark(
     run: Mapping[str, Any], tables: Mapping[str, pd.DataFrame], baseline: str, margin: Mapping[str, Any]
 ) -> dict[str, Any]:
-    """A run's estimates, speedups and machine record as ``{"context": ..., "benchmarks": [...]}``.
-
-    ``tables`` are the derived tables by file name; ``margin`` is ``{"value", "source"}``
-    of the verdicts. Ready for ``json.dumps(..., allow_nan=False)``.
-    """
+    """A run's estimates, speedups and machine record as ``{"context": ..., "benchmarks": [...]}`` from ``tables``
+    (by file name) and the verdicts' ``margin`` (``{"value", "source"}``), ready for ``allow_nan=False``."""
     keys = ["build", "kernel", "workload_id"]
     est = tables[runfolder.ESTIMATES]
     spd = tables[runfolder.SPEEDUPS].set_index(keys)

@@ -1,5 +1,4 @@
-"""What every table builder shares: a table's rows as a frame with exactly its documented columns, and the
-paired time ratio of two kernels from per-process values."""
+"""What every table builder shares: rows as a frame of exactly its columns, and two kernels' paired time ratio."""
 
 from __future__ import annotations
 
@@ -17,9 +16,8 @@ def table_frame(rows: list[dict[str, Any]], name: str) -> pd.DataFrame:
 
 
 def paired_time_ratio(per: pd.DataFrame, slower: str, faster: str, level: float) -> tuple[float, float, float, int]:
-    """time_slower / time_faster from per-process values (``per``: one column per kernel), its
-    interval at ``level`` (``stats.speedup``; NaN when fewer than two processes ran both), and
-    how many processes ran both."""
+    """time_slower / time_faster from per-process values (``per``: one column per kernel), its interval at ``level``
+    (``stats.speedup``; NaN when fewer than two processes ran both), and how many processes ran both."""
     both = per[[slower, faster]].dropna()
     if len(both) < 2:
         return math.nan, math.nan, math.nan, len(both)

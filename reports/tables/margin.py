@@ -1,12 +1,9 @@
 """A run's own equivalence margin, from the A/A twin of its baseline timed beside it.
 
-The twin (``moller_seed_aa``) is the baseline's source compiled again under
-another name, so each workload gives an A/A speedup whose true value is 1; its
-noise floor (:func:`tribench.harness.stats.aa_noise_floor`) is what this
-machine, build and load do to identical code, and the margin the run's
-verdicts use unless ``--margin`` is given. The twin is an instrument, not a
-contender: :func:`contenders` leaves it out of every ranking.
-"""
+The twin (``moller_seed_aa``) is the baseline's source compiled again under another name, so each workload gives an
+A/A speedup whose true value is 1; its noise floor (:func:`tribench.harness.stats.aa_noise_floor`) is what this
+machine, build and load do to identical code, and the margin the run's verdicts use unless ``--margin`` is given.
+The twin is an instrument, not a contender: :func:`contenders` leaves it out of every ranking."""
 
 from __future__ import annotations
 

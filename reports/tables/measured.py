@@ -20,8 +20,7 @@ __all__ = ["Measured", "file_digest", "load"]
 
 def file_digest(path: str | Path) -> str | None:
     """SHA-256 of a file's bytes: how the report knows a table is stale. None where there is no regular
-    file (a FIFO in its place would block; the readers refuse it, naming it).
-    """
+    file (a FIFO in its place would block; the readers refuse it, naming it)."""
     try:
         if not stat.S_ISREG(os.lstat(path).st_mode):
             return None

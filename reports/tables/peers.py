@@ -17,8 +17,7 @@ def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFra
 
     Rates are geometric means over processes of each process's geometric mean,
     with t intervals; ratios are paired by process, tribench over each peer (and
-    its C loop over its call, Embree robust over plain: what watertightness costs).
-    """
+    its C loop over its call, Embree robust over plain: what watertightness costs)."""
     rates_ok = np.isfinite(peers["rays_per_s"]) & (peers["rays_per_s"] > 0)
     if peers.empty or not rates_ok.all():
         raise UserError(

@@ -1,15 +1,10 @@
 """The analysis step: every derived table of a run, from its files alone.
 
-:func:`analyse` makes estimates and speedups; :func:`write_all` (``tribench
-run``'s end, ``tribench stats``) writes every table of
-:data:`tribench.harness.runfolder.DERIVED` (columns: docs/run-folder.md), the
-pictures and ``analysis.json``, so the report computes nothing. All statistics
-are :mod:`tribench.harness.stats`'s. A run of several builds is analysed build
-by build, each from its own processes, every table led by a ``build`` column.
-The columns are renamed to carry their units (:data:`ESTIMATE_COLUMNS`,
-:data:`SPEEDUP_COLUMNS`) here and only here: the statistics keep generic names
-that fit any quantity, and :class:`Analysis` holds the tables as the files have them.
-"""
+:func:`analyse` makes estimates and speedups; :func:`write_all` (the end of ``tribench run``, ``tribench
+stats``) writes every table of :data:`tribench.harness.runfolder.DERIVED`, the pictures and
+``analysis.json``, so the report computes nothing. A run of several builds is analysed build by build, every
+table led by a ``build`` column. The statistics (:mod:`tribench.harness.stats`) keep generic names; the
+columns get their units here only (:data:`ESTIMATE_COLUMNS`, :data:`SPEEDUP_COLUMNS`)."""
 
 from __future__ import annotations
 
@@ -89,16 +84,13 @@ class Analysis:
 
 
 def analyse(run_dir: str | Path, baseline: str | None = None, margin: float | None = None) -> Analysis:
-    """Estimates and speedups of ``run_dir``; ``baseline`` defaults to ``moller_seed`` if the run has it,
-    else the first kernel, ``margin`` to the one ``run.json`` recorded.
-    """
+    """Estimates and speedups; ``baseline`` defaults to ``moller_seed`` else the first, ``margin`` to run.json's."""
     return estimate(measured.load(run_dir), baseline, margin)
 
 
 def estimate(m: Measured, baseline: str | None = None, margin: float | None = None) -> Analysis:
     """Estimates and speedups of a run's measured files (``baseline`` and ``margin`` as :func:`analyse`'s),
-    each build's from its own processes, stacked; the margin and baseline are the first build's.
-    """
+    each build's from its own processes, stacked; the margin and baseline are the first build's."""
     return combined(estimate_builds(m, baseline, margin))
 
 
@@ -176,12 +168,9 @@ def _summary(spec: dict) -> str:
 def _peak_columns(
     table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str, str], throughput: dict | None
 ) -> pd.DataFrame:
-    """Per kernel and workload: mean peak, operations per test, the bound and the fraction of it.
-
-    Each process's time is scaled by its FMA peak over the one recorded with the
-    rates (its clock against the probes'); the t-interval of the mean carries over
-    to ``bound / time``, a monotone map (ends swapped). No recorded rates: NaN.
-    """
+    """Per kernel and workload: mean peak, operations per test, the bound and the fraction of it. Each process's
+    time is scaled by its FMA peak over the one recorded with the rates; the t-interval of the mean maps to
+    ``bound / time`` (ends swapped). No recorded rates: NaN."""
     from ... import ext
     from ...harness.peak import bound_from_mix
 
@@ -233,9 +222,7 @@ def _peak_columns(
 
 
 def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
-    """Write ``estimates.csv`` and ``speedups.csv`` into ``run_dir``, each atomically (a failed write: a
-    UserError naming the file, which stays as it was).
-    """
+    """Write ``estimates.csv`` and ``speedups.csv`` atomically (a failed write: a UserError; the file unchanged)."""
     run_dir = Path(run_dir)
     paths = run_dir / ESTIMATES, run_dir / SPEEDUPS
     runfolder.write_csv(analysis.estimates, paths[0])
@@ -265,8 +252,7 @@ class Derived:
 
 def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], dict[str, str]]:
     """The run's workloads from the cache, made from their spec where the cache lacks them; one whose spec
-    now gives another id (another generator or mesh file) is not used, and its source says why.
-    """
+    now gives another id (another generator or mesh file) is not used, and its source says why."""
     import warnings
 
     from ...workloads import cache
@@ -301,8 +287,7 @@ def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], di
 
 def _pictures(run_dir: Path, wids: list[str], workloads: dict[str, Any]) -> dict[str, str]:
     """Draw the first :data:`MAX_PICTURES` workloads into ``pictures/``; workload id -> file name or why not.
-    A picture already there is kept (its workload's id is its spec's hash).
-    """
+    A picture already there is kept (its workload's id is its spec's hash)."""
     from ...workloads import picture
 
     folder = run_dir / runfolder.PICTURES_DIR
@@ -345,8 +330,7 @@ def derive(
     m: Measured, parts: dict[str, Analysis], workloads: dict[str, Any], sources: dict[str, str]
 ) -> dict[str, pd.DataFrame]:
     """Every derived table of the run by file name, in :data:`runfolder.DERIVED`'s order: a pure
-    function of the measured files and the workloads, each build's parts from its processes alone.
-    """
+    function of the measured files and the workloads, each build's parts from its processes alone."""
     from .builds import builds_table
 
     one = {b: _derive_one(m.of_build(b) if len(m.builds) > 1 else m, a, workloads, sources) for b, a in parts.items()}
@@ -410,12 +394,9 @@ def write_all(
 ) -> Derived:
     """Write every derived table of ``run_dir``, its workload pictures and ``analysis.json``.
 
-    ``validate.csv`` is read when present, the peer tables made when ``peers.csv``
-    is. ``analysis.json`` goes last with the SHA-256 of the files the tables were
-    made from, so a reader can tell stale tables. ``validate_note`` says where
-    ``validate.csv`` came from (default: whether the folder has it). Raises
-    UserError when the folder cannot be read or written or has no timed batch.
-    """
+    ``validate.csv`` is read and the peer tables made when their files exist (``validate_note``: where
+    ``validate.csv`` came from). ``analysis.json`` goes last, with the SHA-256 of the files read, so a reader
+    can tell stale tables. Raises UserError when the folder cannot be read or written or has no timed batch."""
     m = measured.load(run_dir)
     parts = estimate_builds(m, baseline, margin)
     result = combined(parts)
@@ -452,8 +433,7 @@ def write_all(
 
 def reanalyse(run_dir: str | Path) -> Derived:
     """Redo the analysis of an analysed run folder with the choices its last one recorded (after
-    ``tribench peers --out RUN_DIR``): its baseline, and its margin where ``--margin`` gave it.
-    """
+    ``tribench peers --out RUN_DIR``): its baseline, and its margin where ``--margin`` gave it."""
     run_dir = Path(run_dir)
     try:
         record = json.loads((run_dir / runfolder.ANALYSIS).read_text(encoding="utf-8"))

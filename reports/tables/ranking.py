@@ -51,8 +51,7 @@ def kernel_table(
     """Per kernel and workload family: how the kernel stores a triangle, beside how fast it ran there (``kernels.csv``).
 
     ``est`` and ``spd``: joined with the workload table (:func:`estimates_with_workloads`).
-    A family where the kernel has no estimate (a wide kernel on pairs) has no row.
-    """
+    A family where the kernel has no estimate (a wide kernel on pairs) has no row."""
     rows = []
     for kernel in kernels:
         form, isa = _form(kernel), _isas(batches, run, kernel)
@@ -99,11 +98,9 @@ def ranking_table(
 ) -> pd.DataFrame:
     """Per workload, every kernel from the fastest down, each against the fastest (``ranking.csv``).
 
-    Paired ratios with Bonferroni intervals over the workload's other kernels. A
-    kernel is tied with the fastest when its interval reaches down to
-    ``1 + margin``: the fastest by point estimate is no evidence it beats those.
-    ``val`` (``validate.csv``, optional) adds each kernel's measured failures.
-    """
+    Paired ratios with Bonferroni intervals over the workload's other kernels. A kernel is tied with the fastest
+    when its interval reaches down to ``1 + margin``: the fastest by point estimate is no evidence it beats those.
+    ``val`` (``validate.csv``, optional) adds each kernel's measured failures."""
     rows = []
     for wid, g in est.groupby("workload_id", sort=False):
         g = g.sort_values(["ns_per_test", "kernel"]).reset_index(drop=True)
@@ -152,8 +149,7 @@ def algorithm_table(rank: pd.DataFrame, pp: pd.DataFrame, margin: float) -> pd.D
     """Per workload, every pair of algorithms, each in its fastest form there (``algorithms.csv``).
 
     A form is chosen by ``rank``'s point estimate; each pair is a paired ratio,
-    Bonferroni over the workload's pairs, the faster first so the ratio is at least 1.
-    """
+    Bonferroni over the workload's pairs, the faster first so the ratio is at least 1."""
     rows = []
     for wid, g in rank.groupby("workload_id", sort=False):
         best = g.sort_values("rank").drop_duplicates("algorithm")
@@ -215,8 +211,7 @@ ROBUSTNESS_TESTS = {
 
 
 def _validated(val: pd.DataFrame | None, kernel: str, dtype: str) -> pd.DataFrame:
-    """validate.csv's rows of one kernel at one precision (none without the table): a kernel's figures at
-    float32 say nothing of it at float64, so the join is on both."""
+    """validate.csv's rows of one kernel at one precision (none without it): float32 says nothing of float64."""
     if val is None or val.empty:
         return pd.DataFrame()
     return val.loc[(val["kernel"] == kernel) & (val["dtype"] == dtype)]
@@ -242,9 +237,7 @@ def measured_robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> di
 
 
 def _robustness(val: pd.DataFrame | None, kernel: str, dtype: str) -> dict[str, Any]:
-    """validate.csv's figures of one kernel at one precision for bands.csv (NaN without them): its
-    promises, then the measured failures.
-    """
+    """validate.csv's figures of one kernel and precision for bands.csv (NaN without): promises, then failures."""
     rows = _validated(val, kernel, dtype)
     out: dict[str, Any] = {"promises_checked": math.nan, "broken_promises": math.nan}
     if len(rows):
@@ -263,11 +256,9 @@ def band_table(
 ) -> pd.DataFrame:
     """Per precision and hit-rate band (:func:`band_of`), every kernel from the fastest down (``bands.csv``).
 
-    A band holds the kernels timed on all its workloads; a kernel's value in a
-    process is the geometric mean of its medians over them, so each workload
-    weighs the same whatever its ns/test. Then as :func:`ranking_table`: a mean
-    with its t interval, paired ratios to the fastest and from the baseline.
-    """
+    A band holds the kernels timed on all its workloads; a kernel's value in a process is the geometric mean of its
+    medians over them, so each workload weighs the same whatever its ns/test. Then as :func:`ranking_table`: a mean
+    with its t interval, paired ratios to the fastest and from the baseline."""
     frame = est.assign(
         band=[
             band_of(str(r.kind), float(r.test_hit_rate), specs.get(r.workload_id, {}).get("accel"))
@@ -287,8 +278,7 @@ def band_table(
 
 def _band_values(g: pd.DataFrame, pp: pd.DataFrame) -> tuple[int, pd.DataFrame]:
     """A band's workload count, and per process and kernel the geometric mean of the kernel's medians
-    over the band's workloads (kernels timed on all, processes that ran them all).
-    """
+    over the band's workloads (kernels timed on all, processes that ran them all)."""
     wids = list(dict.fromkeys(g["workload_id"]))
     kernels = [k for k, n in g.groupby("kernel", sort=False)["workload_id"].nunique().items() if n == len(wids)]
     sub = pp.loc[pp["workload_id"].isin(wids) & pp["kernel"].isin(kernels)]

@@ -1,12 +1,10 @@
 """Whether a run's conclusions hold on another machine: ``tribench replicate``'s ``replication.csv``.
 
-A conclusion is a verdict of the original run: a kernel against the baseline on a
-workload (``speedups.csv``), an order of two kernels on a workload (tested as
-``tribench compare`` tests it, paired within each run) and a kernel's place in a
-band (``bands.csv``: the fastest, or behind the fastest). The replication gives
-the same verdict its own intervals, and each pair of verdicts gets one word
-(:func:`word`). Nothing is pooled across the runs: each run's interval is its own.
-"""
+A conclusion is a verdict of the original run: a kernel against the baseline on a workload (``speedups.csv``), an
+order of two kernels on a workload (tested as ``tribench compare`` tests it, paired within each run) and a kernel's
+place in a band (``bands.csv``: the fastest, or behind the fastest). The replication gives the same verdict its own
+intervals, and each pair of verdicts gets one word (:func:`word`). Nothing is pooled across the runs: each run's
+interval is its own."""
 
 from __future__ import annotations
 

@@ -21,8 +21,7 @@ def crossovers(kernels: Sequence[str], wl: pd.DataFrame, pp: pd.DataFrame) -> pd
     """Per pair family and pair of kernels: where their ranking flips along the per-test hit rate.
 
     ``stats.crossover`` on processes paired across the family's workloads (two
-    hit rates at least); ``hit_rate`` is nan when the lines do not cross in range.
-    """
+    hit rates at least); ``hit_rate`` is nan when the lines do not cross in range."""
     rows = []
     for family, group in wl.loc[wl["kind"] == "pairs"].groupby("family", sort=False):
         group = group.sort_values("test_hit_rate")
@@ -52,9 +51,7 @@ def crossovers(kernels: Sequence[str], wl: pd.DataFrame, pp: pd.DataFrame) -> pd
 
 
 def scaling_slopes(est: pd.DataFrame, pp: pd.DataFrame) -> pd.DataFrame:
-    """Log-log slope of ns/test against triangle count, per mesh family and kernel (``slopes.csv``),
-    processes paired across triangle counts.
-    """
+    """``slopes.csv``: log-log slope of ns/test against triangle count per mesh family and kernel, paired by process."""
     rows = []
     mesh = est.loc[est["kind"] == "mesh"]
     for (family, kernel), group in mesh.groupby(["family", "kernel"], sort=False):

@@ -1,8 +1,7 @@
 """The seed replay's tables, from its run folder alone: render times beside the paper's, per ray kind.
 
 ``tribench seed`` measures (:mod:`tribench.harness.jobs.seed`); these turn its
-batches into ``seed.csv``, ``seed_kinds.csv`` and ``seed_workloads.csv``.
-"""
+batches into ``seed.csv``, ``seed_kinds.csv`` and ``seed_workloads.csv``."""
 
 from __future__ import annotations
 
@@ -44,9 +43,8 @@ def write_seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
 def render_per_process(pp: pd.DataFrame, workloads: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
     """One render's time per scene, kernel and process: ``scene, kernel, process, render_s``.
 
-    ``pp``: per-process ``ns_per_test`` and ``tests_per_pass``; ``workloads``: id ->
-    ``scene``, ``stream_tests``, ``sample_tests``. A process lacking one of the
-    scene's ray kinds is left out (its sum would be short).
+    ``pp``: per-process ``ns_per_test`` and ``tests_per_pass``; ``workloads``: id -> ``scene``, ``stream_tests``,
+    ``sample_tests``. A process lacking one of the scene's ray kinds is left out (its sum would be short).
 
     >>> pp = pd.DataFrame({"kernel": ["k"] * 2, "workload_id": ["a", "b"], "process": [0, 0],
     ...                    "ns_per_test": [2.0, 4.0], "tests_per_pass": [100, 50]})
@@ -68,8 +66,7 @@ def render_per_process(pp: pd.DataFrame, workloads: Mapping[str, Mapping[str, An
 
 
 def ratio_baseline(kernel: str) -> str:
-    """The kernel a render time is divided by: ``moller_seed_object`` for the object forms (the seed's
-    program over itself), ``moller_seed`` for every other kernel."""
+    """A render time's divisor: ``moller_seed_object`` for the object forms, else ``moller_seed``."""
     return PROGRAM[1] if kernel in PROGRAM else BASELINE
 
 
@@ -103,10 +100,8 @@ def _widened(low: float, high: float, kernel: str) -> tuple[float, float]:
 def render_table(per: pd.DataFrame, scenes: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
     """The table beside the paper: one row per scene and kernel (``seed.csv``).
 
-    ``scenes`` maps a scene to ``triangles``, ``render_tests``, ``paper`` (a key of
-    :data:`PAPER` or None) and optionally ``paper_size`` (False: the image is not
-    the paper's 512 x 512, so the paper's bound is left empty).
-    """
+    ``scenes`` maps a scene to ``triangles``, ``render_tests``, ``paper`` (a key of :data:`PAPER` or None) and
+    optionally ``paper_size`` (False: the image is not the paper's 512 x 512, so the paper's bound is left empty)."""
     rows = []
     for (scene, kernel), g in per.groupby(["scene", "kernel"], sort=False):
         e = stats.estimate(g["render_s"].to_numpy())

@@ -25,8 +25,7 @@ def workload_table(
     """One row per workload: family, label and the achieved figures (``workloads.csv``).
 
     ``workloads`` maps an id to its :class:`~tribench.workloads.Workload`, or None
-    when it could not be had: the spec's targets then stand in.
-    """
+    when it could not be had: the spec's targets then stand in."""
     rows = []
     for wid in workload_ids:
         spec = specs[wid]
@@ -85,8 +84,7 @@ def workload_figures(workload_ids: Sequence[str], workloads: Mapping[str, Any]) 
 
 def correctness_table(batches: pd.DataFrame, kernels: Sequence[str], workloads: Mapping[str, Any]) -> pd.DataFrame:
     """Each kernel's checksums against the float64 reference, per workload (``correctness.csv``); a
-    difference may only come from ambiguous rays, whose answer is rounding's.
-    """
+    difference may only come from ambiguous rays, whose answer is rounding's."""
     rows = []
     for (wid, kernel), g in batches.groupby(["workload_id", "kernel"], sort=False):
         w = workloads.get(wid)
@@ -120,8 +118,7 @@ def agreeing(frame: pd.DataFrame, correct: pd.DataFrame) -> pd.DataFrame:
     """``frame`` without the rows of a kernel on a workload where its answers differ from the reference.
 
     A ranking compares the same work: a culling kernel on randomly wound pairs
-    skips half the tests. Rows of unknown agreement (workload not loaded) stay.
-    """
+    skips half the tests. Rows of unknown agreement (workload not loaded) stay."""
     differs = correct.loc[correct["agrees"].eq(False), ["workload_id", "kernel"]]
     if differs.empty:
         return frame

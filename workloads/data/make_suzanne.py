@@ -1,9 +1,8 @@
 """Generate suzanne.obj (Blender's monkey head, triangulated) with the `bpy` package.
 
-Run by hand, once, offline, in a throwaway virtual environment: `bpy` must never become a tribench
-dependency. How, and what the file holds: SUZANNE.md. OUTPUT.obj defaults to suzanne.obj next to this
-script; the mesh is written exactly as Blender holds it, and `repr` of each coordinate (a multiple of
-1/128) is its exact value."""
+Run by hand, once, offline, in a throwaway virtual environment: `bpy` must never become a tribench dependency. How,
+and what the file holds: SUZANNE.md. OUTPUT.obj defaults to suzanne.obj next to this script; the mesh is written
+exactly as Blender holds it, and `repr` of each coordinate (a multiple of 1/128) is its exact value."""
 
 import datetime
 import os

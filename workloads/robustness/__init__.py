@@ -7,46 +7,7 @@ ray about one triangle, with the right answer). A test's rays are a pure functio
 size, precision), so no test depends on which others are built. Sizes: :data:`FULL` and :data:`QUICK`
 (``--quick``). Builders: :mod:`.meshes`, :mod:`.pairs`, :mod:`.exact`; types: :mod:`.sets`.
 
-Tests
------
-``shared_edges``, ``shared_edges_double``, ``shared_vertices``
-    Exactly coplanar ``n x n`` grids, each cell split along one diagonal into a *lower* and an *upper*
-    triangle, on axis-aligned, ``x + y + z = c`` and random planes, moved and scaled by powers of 2: every
-    coordinate is dyadic, exact in float32 (checked). A ray aims at a point of an interior edge, or at an
-    interior vertex, from ``O = P - D``, both exact, so it truly meets it at ``t = 1``. A **crack** is a
-    ray that hits no triangle (closest mode). A **double hit** (edges only) hits both triangles of its
-    edge, each asked alone: by design under closed-triangle rules (the reference's, Woop's), a defect only
-    where crossings are counted (parity tests). Vertices are measured for cracks only.
-``inside_sphere``
-    Embree's watertightness test (``tests/verify.cpp``, ``WatertightTest``): a sphere of radius 2 at
-    (148376, 1234, -223423), where float32 spacing is 1/64, here an icosphere of 20480 triangles; rays
-    start uniform in the centre's ``[-1, 1]^3`` box, directions uniform in it; a miss is a failure (Embree
-    fails above 0.002%). Each ray is asked only about the triangles near where it leaves the circumscribed
-    sphere (grouped by the nearest vertex of a coarser icosphere, with room for rounding), a superset of
-    those that can hold the exit point: brute force over 50 000 rays would be too slow.
-``scales``
-    Safe pairs (:func:`tribench.workloads.pairs.generate_pairs`, hit rate 0.5) scaled by 1e-8 to 1e8: a
-    failure is an answer other than the float64 reference's.
-``tiny_triangles``, ``needle_triangles``, ``grazing_rays``
-    Triangles from 1e-2 down to about 100 ulps of the precision, needles of aspect 1e3 to 1e6, and unit
-    triangles met at slopes 1e-3 to 1e-6, with rays aimed at least 0.2 (barycentric) inside; those the
-    reference no longer sees as hits 0.05 inside once rounded are dropped (``detail`` counts them). A
-    failure is a miss.
-``parallel_rays``, ``in_plane_rays``
-    Dyadic triangles, and rays exactly parallel to the plane just above them: every one must miss. Rays in
-    the plane, through the triangle, touch it along a segment: a kernel whose prepared plane or per-ray
-    transform is rounded (Baldwin-Weber, Havel-Herout, Woop) sees a plane turned by rounding, so these are
-    measured for every kernel, never judged.
-``degenerate_triangles``
-    Zero-area triangles (a point, a repeated vertex, three collinear vertices; dyadic, then from random
-    coordinates, verified in rational arithmetic) with rays aimed at them: every clean kernel must miss
-    (``ext.flat``). The seed replays keep the seed's tests and are measured: ``moller_seed``'s
-    ``|det| < 1e-4`` misses the dyadic ones, but rounding noise reaches 1e-4 on larger others;
-    ``curless_seed`` misses a triangle whose rounded normal is exactly 0 and can hit one whose is noise.
-``nonfinite``
-    Safe hits with one NaN, +Inf or -Inf in one coordinate of the origin, the direction or a vertex
-    (``allow_nonfinite=True``): the call must return, and a hit is a failure, but for the seed replays
-    (faithful copies of flawed code), whose hits are reported, not judged."""
+What each test asks and what fails it: docs/methodology.md, "The robustness suite"."""
 
 from __future__ import annotations
 

@@ -1,5 +1,4 @@
-"""The robustness suite's exactly constructed pair tests (:mod:`tribench.workloads.robustness` describes
-them): parallel and in-plane rays, degenerate triangles."""
+"""The robustness suite's exact pair tests (docs/methodology.md): parallel and in-plane rays, degenerate triangles."""
 
 from __future__ import annotations
 

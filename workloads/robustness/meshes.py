@@ -1,5 +1,4 @@
-"""The robustness suite's closest-mode tests (:mod:`tribench.workloads.robustness` describes them): exactly
-coplanar meshes and Embree's sphere."""
+"""The robustness suite's closest-mode tests (docs/methodology.md): coplanar grids and Embree's sphere."""
 
 from __future__ import annotations
 
@@ -94,8 +93,7 @@ def _coplanar_mesh(rng: np.random.Generator, m: int, size: Size, dtype: str) -> 
 
 
 def sphere_triangles(dtype: str) -> np.ndarray:
-    """The closed sphere of ``inside_sphere``: an icosphere (subdivisions 5, 20480 triangles) of radius 2 at
-    :data:`EMBREE_CENTRE`, rounded to ``dtype``."""
+    """``inside_sphere``'s sphere: an icosphere of 20480 triangles, radius 2, at :data:`EMBREE_CENTRE`, in ``dtype``."""
     import trimesh  # lazy: slow to import
 
     fine = trimesh.creation.icosphere(subdivisions=5, radius=EMBREE_RADIUS)

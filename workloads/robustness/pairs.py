@@ -1,5 +1,5 @@
-"""The robustness suite's aimed pair tests (:mod:`tribench.workloads.robustness` describes them): safe pairs
-at extreme scales, tiny and needle triangles, grazing rays, and non-finite input."""
+"""The robustness suite's aimed pair tests (docs/methodology.md, "The robustness suite"): safe pairs at extreme
+scales, tiny and needle triangles, grazing rays, and non-finite input."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""The robustness suite's sizes and ray-set types (:mod:`tribench.workloads.robustness` describes the tests),
-and the dyadic constructions, exact in float32, its builders share."""
+"""The robustness suite's sizes and ray-set types (the tests: docs/methodology.md, "The robustness suite"), and
+the dyadic constructions, exact in float32, its builders share."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
-"""Where two renders of the seed tracer differ (:func:`difference_mask`, drawn by :func:`save_mask_png`), and
-how near an edge their rays pass (:func:`edge_margins`): a difference near an edge is one two correct
-tests may make."""
+"""Where two renders of the seed tracer differ (:func:`difference_mask`, drawn by :func:`save_mask_png`), and how
+near an edge their rays pass (:func:`edge_margins`): a difference near an edge is one two correct tests may make."""
 
 from __future__ import annotations
 

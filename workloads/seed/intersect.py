@@ -1,5 +1,4 @@
-"""What the seed tracer's rays meet, in file order (the seed's tests: :mod:`.trace`): planes and spheres in
-NumPy, triangles through a kernel."""
+"""What the seed tracer's rays meet, in file order (:mod:`.trace`): planes and spheres in NumPy, triangles by kernel."""
 
 from __future__ import annotations
 

@@ -22,15 +22,12 @@ MISS, PLANE, SPHERE, TRIANGLE = -1, Scene.PLANE, Scene.SPHERE, Scene.TRIANGLE
 class RaySet:
     """Rays of one kind as the seed shot them, with what they hit; every array has length N.
 
-    ``origins``, ``directions``: float64, exactly as shot (shadow directions are ``light - p``, ``t = 1`` at
-    the light). ``pixel``: the row-major pixel ``j * width + i`` the ray adds to. ``depth``: its generation
-    (primary 0, reflected 1 or 2; a shadow ray's is that of the ray whose hit it leaves). ``light``: a shadow
-    ray's light, else -1. ``hit_kind``, ``hit_index``: the closest object (kind -1 none, 0 plane, 1 sphere, 2
-    triangle; index within its kind); for a shadow ray the occluder (-1: the light is visible), a sphere if one
-    cuts the ray before the nearest cutting triangle in file order (the seed stops at the first occluder in
-    file order; exact when the spheres precede the triangles, as in both built-in scenes), else that
-    triangle. ``triangle``, ``t_triangle``: the closest triangle the kernel hit, whatever else is nearer (-1
-    and nan for none): what this ray's triangle tests answer."""
+    ``origins``, ``directions``: float64, exactly as shot. ``pixel``: the row-major pixel the ray adds to;
+    ``depth``: its generation (a shadow ray's is its parent's); ``light``: a shadow ray's light, else -1.
+    ``hit_kind``, ``hit_index``: the closest object (kind -1 none, 0 plane, 1 sphere, 2 triangle), for a shadow
+    ray the occluder (-1: the light is visible; a sphere if one cuts it before the first cutting triangle, exact
+    when the spheres precede the triangles, as in both built-in scenes). ``triangle``, ``t_triangle``: the
+    closest triangle the kernel hit, whatever else is nearer (-1, nan: none): what its triangle tests answer."""
 
     origins: np.ndarray
     directions: np.ndarray
@@ -111,8 +108,7 @@ class Trace:
 
     @property
     def triangle_tests(self) -> dict[str, int]:
-        """Ray-triangle tests a brute-force replay runs per kind, every ray against every triangle (the seed's
-        shadow test, stopping at the first occluder, runs fewer)."""
+        """Tests a brute-force replay runs per kind, every ray against every triangle (the seed's shadows run fewer)."""
         k = len(self.scene.triangles)
         return {kind: len(getattr(self, kind)) * k for kind in KINDS}
 

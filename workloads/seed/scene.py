@@ -1,27 +1,10 @@
 """The seed's scene files: reader, writer and the two built-in scenes.
 
-The seed (Vitse 2022, on C. Renaud's teaching ray tracer) describes a scene in a text file, one keyword per
-line followed by its numbers, ``#`` starting a comment::
-
-    fond r g b                            background colour
-    ambiant r g b                         ambient light
-    source x y z r g b                    point light: position, intensity
-    materiau r g b ka kd ks shininess     material of the objects that follow
-    plan a b c d                          the plane a x + b y + c z + d = 0
-    sphere x y z radius
-    tri x1 y1 z1 x2 y2 z2 x3 y3 z3        triangle; its normal is (v1-v0) x (v2-v0)
-
-The seed's loader (``Scene::charger``, ``LR/Src/Scene.cpp``) skips words it does not know, reads numbers
-with ``>>`` (a bad one leaves garbage) and applies the current material to every object, including those
-before any ``materiau`` line (:data:`DEFAULT_MATERIAL`, ``Materiau.cpp``); ambient and background default
-to :data:`DEFAULT_AMBIENT` and :data:`DEFAULT_BACKGROUND`, and a later ``fond`` or ``ambiant`` replaces an
-earlier one. This reader keeps those semantics but is strict where the seed is silent: every line is blank,
-a comment, or one keyword (any case) with exactly its count of decimal numbers (no underscores, inf or nan)
-within float32's range, the seed's storage. Values are checked too: a positive radius, a non-zero plane
-normal, a non-degenerate triangle (the seed would divide by its zero normal), non-negative colours and
-coefficients; and a scene holds at most :data:`MAX_TRIANGLES` triangles. Anything else raises
-:class:`SceneError` naming the file, the line and what was expected. The built-in scenes
-(:data:`BUILTIN_SCENES`) are text files of ``workloads/data``; :func:`write_scene03` makes ``scene03.txt``."""
+The format (the seed's, one keyword per line), the seed loader's semantics kept here and the checks
+added to them: docs/methodology.md, "The seed's replay". Defaults: :data:`DEFAULT_MATERIAL`,
+:data:`DEFAULT_AMBIENT`, :data:`DEFAULT_BACKGROUND`; a bad file raises :class:`SceneError` naming the
+file, the line and what was expected. The built-in scenes (:data:`BUILTIN_SCENES`) are text files of
+``workloads/data``; :func:`write_scene03` makes ``scene03.txt``."""
 
 from __future__ import annotations
 
@@ -110,11 +93,10 @@ DEFAULT_BACKGROUND = (0.8, 0.8, 0.8)
 class Scene:
     """A scene in the seed's model, its geometry read-only float64 arrays.
 
-    ``materials`` are the distinct materials in order of first use, which ``*_material`` index. ``planes``
-    (P, 4) are ``a b c d`` as written (not normalised), ``spheres`` (S, 4) ``x y z radius``, ``triangles``
-    (K, 3, 3). ``objects`` (P + S + K, 2) lists ``(kind, index)`` in file order (kind 0 plane, 1 sphere, 2
-    triangle): the seed tests objects in this order (its shadow test stops at the first occluder; ties in
-    ``t`` go to the earlier)."""
+    ``materials`` are the distinct materials in order of first use, which ``*_material`` index. ``planes`` (P, 4)
+    are ``a b c d`` as written (not normalised), ``spheres`` (S, 4) ``x y z radius``, ``triangles`` (K, 3, 3).
+    ``objects`` (P + S + K, 2) lists ``(kind, index)`` in file order (kind 0 plane, 1 sphere, 2 triangle): the seed
+    tests objects in this order (its shadow test stops at the first occluder; ties in ``t`` go to the earlier)."""
 
     name: str
     background: tuple[float, float, float]

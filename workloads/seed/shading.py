@@ -1,5 +1,5 @@
-"""The seed tracer's camera and shading (the seed's rules: :mod:`.trace`): primary rays, a hit's normal and
-material, the light it gets from the lights its shadow rays reach."""
+"""The seed tracer's camera and shading (the seed's rules: docs/methodology.md, "The seed's replay"): primary
+rays, a hit's normal and material, the light it gets from the lights its shadow rays reach."""
 
 from __future__ import annotations
 

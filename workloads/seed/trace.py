@@ -1,42 +1,10 @@
 """The seed's Whitted ray tracer, vectorised, with the ray stream it shoots.
 
-:func:`trace` renders a :class:`~tribench.workloads.seed.scene.Scene` as the seed's renderer does (C.
-Renaud's teaching ray tracer with Vitse's triangle tests, ``LR/Src`` of
-github.com/Weamix/InitiationALaRecherche) and records every ray it shoots, by kind: ``primary``,
-``reflected`` and ``shadow``. Planes and spheres are intersected in NumPy float64, triangles by a C kernel
-(``tribench.ext.intersect_closest``) at the chosen precision, or by the float64 reference; a whole
-generation of rays at once, no per-pixel Python loop.
-
-The seed's semantics, and the seed's code that says so:
-
-* Camera (``Camera.cpp``, ``lr.cpp``): eye (0, 0, 2), image plane z = 0 spanning [-1, 1]^2, 512 x 512,
-  each pixel's normalised ray through its centre; the seed loops columns, then rows
-  (:meth:`Trace.seed_order`).
-* Closest hit (``Scene::intersecte``): every object in file order; a hit replaces the current one only if
-  strictly nearer.
-* Planes (``Plan.cpp``): parallel only when the denominator is exactly 0; a hit needs ``t >= 1e-4``.
-  ``Plan::coupe`` returns false at once: **planes cast no shadows**.
-* Spheres (``Sphere.cpp``): a miss when the discriminant is ``< 1e-4`` (an absolute epsilon); ``t`` is the
-  smaller root and a hit needs ``t >= 0`` (a ray starting inside misses); the shadow test is the same.
-* Triangles (``Triangle.cpp``): the kernel, for closest hits and shadows alike (Curless: ``t < 1e-4``
-  rejects, strict edges; Moller: ``|det| < 1e-4`` rejects, ``t > 1e-4``); the normal is
-  ``normalise((v1 - v0) x (v2 - v0))``, never flipped toward the viewer.
-* Shading (``Intersection::getCouleur``, ``Objet::calculerDirect``, ``calculerAmbiant``): ambient
-  ``ka * colour * ambient``, then for each light **one shadow ray** from the hit point ``p`` (no offset)
-  along ``light - p``, **not normalised** (``t = 1`` at the light), tested against every object in file
-  order until the first that cuts it, with **no upper bound on t** (an object beyond the light still
-  shadows). An unshadowed light adds diffuse ``kd * colour * ps * I`` if ``ps = n.l > 0`` and specular
-  ``ks * (v.r)^shininess * I`` if ``v.r > 0``, ``r = normalise(2 ps n - l)`` (computed even when
-  ``ps <= 0``, as the seed does).
-* Reflection (``Objet::getReflechi``): where depth remains and ``ks != 0``, one ray from ``p`` (no offset)
-  along ``normalise(2 (n.v) n - v)``; a hit's colour (the observer at ``p``) is **added unweighted**, a
-  miss adds nothing (not the background). Depth 2 (``#define PROF 2``): two reflected rays a pixel at most.
-* Pixels (``Couleur::getRougei``, ``Image::sauver``): no clamping while shading; on output a channel
-  ``> 1`` becomes 255, else ``int(x * 255)``; a primary miss takes the background colour.
-
-Deviations: the seed computes in single precision (``Vecteur`` holds floats), with non-inlined helpers;
-here only the triangle tests run at the chosen precision, the rest in float64, and the sphere's ``c`` is
-``|o - c|^2 - r^2`` (the seed expands it).
+:func:`trace` renders a :class:`~tribench.workloads.seed.scene.Scene` as the seed's renderer does and records
+every ray it shoots, by kind (``primary``, ``reflected``, ``shadow``): planes and spheres in NumPy float64,
+triangles by a C kernel (``tribench.ext.intersect_closest``) at the chosen precision or by the float64
+reference, a whole generation of rays at once. The seed's rules, with the seed's code that says so, and
+the deviations from them: docs/methodology.md, "The seed's replay".
 
 >>> from tribench.workloads.seed.scene import parse_scene
 >>> s = parse_scene("source 0 5 0 1 1 1\\nmateriau 1 0 0 0.1 0.5 0 10\\n"

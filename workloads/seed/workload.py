@@ -1,30 +1,17 @@
 """The seed's ray stream as a workload: a sample of one kind of ray from a render.
 
-A replay of scene03 is about 10^9 ray-triangle tests, too long for one timed batch. A :class:`SeedSpec`
-names one kind of ray (``primary``, ``reflected`` or ``shadow``) of one scene's render; its workload is a
-reproducible sample of those rays (:func:`sample_runs`) against every triangle of the scene, with float64
-reference answers, and ``achieved`` records what scales a timing of the sample back to the render.
-``stream_rays``, ``stream_tests``: the rays of this kind that test the triangles and the tests they run,
-rays x triangles in mode ``closest``; shadow rays (mode ``any``) stop at the first triangle that cuts them
-in file order, as ``Scene::coupe`` does, so theirs are counted exactly by one pass of a scalar any-hit
-kernel over the stream (one a sphere cuts never reaches the triangles: left out). ``sample_tests``: the
-same on the sample, so ``stream_tests / sample_tests`` scales a pass over it. ``test_hit_rate``,
-``miss_mix``: by the reference, each miss at the stage where Curless's early-exit test rejects it
-(``parallel``, ``behind_origin``, then the first edge it is outside of in Curless's order): unlike
-:func:`~tribench.workloads.pairs.classify_misses`, which calls most of a scene's misses ``other``, this
-says which test pays for each.
-
-The stream is traced once per scene (:func:`stream_trace`) with the seed's semantics in float64 with
-``curless_seed``: a clean kernel (``t > 0``) would hit the triangle a secondary ray leaves at ``t ~ 0``
-(shadow acne: another stream); in double precision Curless's other flaw, strict edges, touches a null set
-of rays; ``moller_seed``'s absolute determinant epsilon drops grazing hits. Secondary rays start on a
-surface, where the seed's kernels reject ``t < 1e-4``; the API has no ``t_min``, so their origins move
-:data:`ORIGIN_SHIFT` along the ray: every kernel, seed or clean, sees the surface it leaves behind it, and
-the reference answers are well posed. Shadow directions are ``light - p`` as the seed shoots them, with
-no ``t_max`` (an object beyond the light still shadows: ``occluded_beyond_light`` counts the sampled rays
-only such an object occludes). Rays keep the seed's shooting order. A ray is ambiguous
-(``ref_edge_margin`` near 0) when it passes near an edge, crosses an inside point at ``|t|`` under
-:data:`T_NEAR_ZERO`, or has two hits within :data:`TIE_RTOL` in t (surfaces that cross).
+A :class:`SeedSpec` names one kind of ray (``primary``, ``reflected`` or ``shadow``) of one scene's render;
+its workload is a reproducible sample of those rays (:func:`sample_runs`) against every triangle of the
+scene, with float64 reference answers, and ``achieved`` records what scales a timing of the sample back to
+the render: ``stream_rays`` and ``stream_tests`` (the rays of this kind that test the triangles and the
+tests they run; a shadow ray's, mode ``any``, counted exactly by one pass of a scalar any-hit kernel),
+``sample_tests`` (the same on the sample), ``test_hit_rate`` and ``miss_mix`` (each miss at the stage
+where Curless's early-exit test rejects it, unlike :func:`~tribench.workloads.pairs.classify_misses`,
+which calls most of a scene's misses ``other``). Why the stream is traced with ``curless_seed`` in
+float64 and why secondary origins move :data:`ORIGIN_SHIFT`: docs/methodology.md, "The seed's replay".
+``occluded_beyond_light`` counts the sampled shadow rays only an object beyond the light occludes. A ray
+is ambiguous (``ref_edge_margin`` near 0) when it passes near an edge, crosses an inside point at ``|t|``
+under :data:`T_NEAR_ZERO`, or has two hits within :data:`TIE_RTOL` in t (surfaces that cross).
 
 >>> s = SeedSpec("scene02", "shadow", sample=64, width=16, height=16)
 >>> s.mode, s.summary()
@@ -65,7 +52,7 @@ __all__ = [
     "trace_forecast",
 ]
 
-#: Kernel and precision that trace the stream (see the module docstring).
+#: Kernel and precision that trace the stream (why: docs/methodology.md, "The seed's replay").
 STREAM_KERNEL = ("curless_seed", "float64")
 #: Secondary rays start this far along their direction: the seed's 1e-4 on t.
 ORIGIN_SHIFT = 1e-4
