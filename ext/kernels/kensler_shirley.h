@@ -4,7 +4,15 @@
  *
  * Reference: A. Kensler, P. Shirley, "Optimizing Ray-Triangle Intersection
  * via Automated Search", IEEE Symposium on Interactive Ray Tracing 2006,
- * pp. 33-38. Written from the paper's idea, not from its listing.
+ * pp. 33-38. Written from the paper's idea, not from its listing. Checked
+ * against the single-ray test in Manta, the Utah ray tracer the authors
+ * worked on (Model/Primitives/KenslerShirleyTriangle.cc, the non-SSE path;
+ * public copy: github.com/jeffamstutz/rfManta): edge0 = v1 - v0,
+ * edge1 = v0 - v2, normal = edge0 x edge1, one reciprocal of normal . d,
+ * t from normal . (v0 - o) tested first, then (v0 - o) x d dotted with
+ * edge1 (u, tested) and with edge0 (v, tested with u + v). The paper's own
+ * text past its abstract could not be read for this check; below, "Manta's"
+ * is that file's test.
  *
  * With the edges f = v0 - v1, g = v2 - v0 and the normal n = g x f
  * (= (v1 - v0) x (v2 - v0)), formed per test from the raw vertices, and
@@ -15,16 +23,23 @@
  * converged to. Hit iff 0 < t < t_max, u >= 0, v >= 0, u + v <= 1.
  *
  * How it differs from the paper (and why):
- *  - the paper's order and single reciprocal: 1 / den once, then t tested
- *    first (a miss in depth costs no barycentric), then u, then v; kept;
+ *  - Manta's order and single reciprocal: 1 / den once, then t tested
+ *    first (a miss in depth costs no barycentric), then u, then v; kept
+ *    (the last test is written v >= 0 && u + v <= 1, Manta's two compares
+ *    in the other order: the same branch);
+ *  - both edges negated (f = -edge0, g = -edge1, so n = -normal): every
+ *    negation is exact and each of t, u, v is a product of two negated
+ *    values, so the results are Manta's, bit for bit in the same
+ *    evaluation order;
  *  - no epsilon and no t_min: 0 < t < t_max strict, closed triangle (u, v >= 0,
  *    u + v <= 1: points on an edge or vertex are inside), as the float64
- *    reference; the paper's interval test is the same shape;
+ *    reference; Manta accepts eps < t < t_hit - eps, an epsilon at both
+ *    ends;
  *  - den == 0 is not tested: its reciprocal is infinite and t becomes
  *    infinite or NaN, a miss through !(t < t_max) (t_max is finite or, at
  *    infinity, never exceeded);
  *  - every rejection is written as !(accept), so a NaN anywhere is a miss;
- *  - both faces: no culling (the search's fastest tests culled nothing).
+ *  - both faces: no culling (Manta's test culls nothing either).
  * Prepared data: the raw vertices (9 reals).
  * Flat triangles: an exactly flat one (zero area, found in exact arithmetic at
  * prepare time, see kernels.h) gets an all-NaN record and misses every ray.
