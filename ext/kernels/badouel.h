@@ -3,6 +3,8 @@
  *
  * Reference: D. Badouel, "An Efficient Ray-Polygon Intersection", in
  * A. S. Glassner (ed.), Graphics Gems, Academic Press, 1990, pp. 390-393.
+ * Checked against the Gem's code as distributed with the book
+ * (erich666/GraphicsGems, gems/RayPolygon.c: the inside test, t given).
  *
  * Per triangle (precomputed): the plane (unit normal N, constant N_c = N . v0)
  * and the dropped axis k = argmax |n_i| (n = e1 x e2), with a, b = the other
@@ -28,10 +30,10 @@
  *    six, in the order a, b of the triangle's own k: the edges (u1, v1),
  *    (u2, v2) are still formed per test, as in the paper;
  *  - both barycentrics by Cramer's rule with one division by det: the paper
- *    computes beta by Cramer's rule and then alpha = (u0 - beta u2) / u1 (or
- *    from v1 when u1 == 0 exactly), a second division, by u1, which amplifies
- *    beta's error without bound as u1 nears 0 (an edge nearly parallel to an
- *    axis of the projection plane);
+ *    computes beta by Cramer's rule and then alpha = (u0 - beta u2) / u1
+ *    (when u1 == 0 exactly: beta = u0 / u2, alpha = (v0 - beta v2) / v1), a
+ *    second division, by u1, which amplifies beta's error without bound as
+ *    u1 nears 0 (an edge nearly parallel to an axis of the projection plane);
  *  - no epsilon, closed triangle: alpha >= 0, beta >= 0, alpha + beta <= 1
  *    (points on an edge or vertex are inside), as the float64 reference;
  *    0 < t < t_max strict; every rejection is !(accept), so a NaN (N . d = 0

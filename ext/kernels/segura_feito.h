@@ -37,8 +37,12 @@
  *  - no epsilon, closed triangle: zeros count with either sign (a point on an
  *    edge or vertex is inside), as the float64 reference; a crossing whose
  *    weights sum to 0, or n . d == 0, misses;
- *  - the paper's order with early exits: two determinants and their signs,
- *    the third against the sum of the first two, then the plane;
+ *  - early exits: two edge determinants and their signs, the third against
+ *    the sum of the first two (which carries their common sign), then the
+ *    plane. The paper's own order could not be checked (its text was not
+ *    at hand); the one public port found, bjourne/embree's
+ *    kernels/geometry/triangle_intersector_sf01.h, also takes the three
+ *    edge signs first (compared pairwise) and the plane after;
  *  - u, v are w1 and w2 over their sum, divided on a hit only;
  *  - every rejection is written as !(accept), so a NaN anywhere is a miss.
  * Prepared data: the raw vertices (9 reals).

@@ -35,6 +35,12 @@
  *    edge or vertex are inside), as the float64 reference; every rejection
  *    is !(accept), so a NaN (a ray in the plane: 0 / 0) is a miss;
  *  - the thesis's order of early exits: t, then beta, then gamma and the sum;
+ *  - t is one division, numerator / denominator: the thesis's code takes the
+ *    reciprocal of the denominator first (to start the slow division early)
+ *    and multiplies the numerator by it, one rounding and one operation more
+ *    (checked against the thesis's code as public renderers reproduce it,
+ *    e.g. its modulo table, "nd = 1 / (d_k + n_u d_u + n_v d_v)", then
+ *    f = (n_d - o_k - n_u o_u - n_v o_v) * nd);
  *  - a triangle with no usable record (n_k == 0 in double, or anything not
  *    finite, in double or after rounding to `real`) gets the plane 0 and
  *    line equations (0, 0, -1): beta = -1 (or NaN), so every ray misses it.
