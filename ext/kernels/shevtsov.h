@@ -6,6 +6,19 @@
  * Reference: M. Shevtsov, A. Soupikov, A. Kapustin, "Ray-Triangle
  * Intersection Algorithm for Modern CPU Architectures", Proceedings of
  * GraphiCon 2007, pp. 33-39. Written from the paper's idea, not its listing.
+ * Checked against the paper's abstract (studylib.net, doc 18260988: the test
+ * is vectorised for ray packets; axis-orthogonal triangles are detected and
+ * handled apart) and against two public implementations that follow its
+ * record and test (bjourne/embree, kernels/geometry/triangle.h init_shev and
+ * triangle_intersector_shev.h; a second with the same 48-byte TriAccel):
+ * the record nu nv np pu pv ci e0u e0v e1u e1v and two pads (there
+ * e0 = v1 - v0, e1 = v2 - v0, scaled by 1 / n_k; here e1, e2); the two kept
+ * axes in ascending order, the scaled edges negated when k = 1; per test
+ *   det = nu d_u + nv d_v + d_k, dett = np - (nu o_u + nv o_v + o_k),
+ *   Du = d_u dett - (pu - o_u) det, Dv likewise,
+ *   detu = e1v Du - e1u Dv, detv = e0u Dv - e0v Du,
+ * a miss when the sign bits of det - detu - detv, detu and detv are not all
+ * equal, then 1 / det, t = dett / det tested, u and v scaled on a hit.
  *
  * Per triangle (precomputed, in double): n = e1 x e2, the dropped axis
  * k = argmax |n_i|, the kept axes u = k + 1, v = k + 2 (cyclic); the plane
@@ -14,18 +27,28 @@
  * q = U e1 + V e2 (q = hit - v0 on the u, v plane, whose determinant is n_k),
  * premultiplied by 1 / n_k: U = (e2_v q_u - e2_u q_v) / n_k,
  * V = (e1_u q_v - e1_v q_u) / n_k. Per test, without a division until a hit:
- *   det = d_k + n_u' d_u + n_v' d_v,  dett = n_d - (o_k + n_u' o_u + n_v' o_v)
- *   (= t det), D_u = dett d_u - det (p_u - o_u) (= det q_u), D_v likewise,
+ *   det = n_u' d_u + n_v' d_v + d_k,  dett = n_d - (n_u' o_u + n_v' o_v + o_k)
+ *   (= t det, both summed in the paper's order),
+ *   D_u = dett d_u - det (p_u - o_u) (= det q_u), D_v likewise,
  *   U' = U(D), V' = V(D) (= det U, det V);
  * hit iff U', V', det - U' - V' share det's sign and 0 < dett / det < t_max
  * (u = U, v = V: the weights of v1 and v2).
  * Record: n_u' n_v' n_d k p_u p_v U_u U_v V_u V_v (10 reals).
  *
  * How it differs from the paper (and why):
- *  - the paper's record packs four triangles' fields into SSE vectors (and a
- *    few more per-triangle values); here one triangle's 10 reals, which the
- *    native form (shevtsov_fma) lays out in blocks of 16 lanes, as every
- *    native record in tribench;
+ *  - the record: 10 reals, no pads (the paper's 48 bytes pad 10 4-byte
+ *    fields to 12); k in slot 3, not 5; the edge coefficients stored with
+ *    their signs as used, U_u U_v V_u V_v = (e2_v, -e2_u, -e1_v, e1_u) / n_k,
+ *    where the paper stores the scaled edges (e0u e0v e1u e1v) and subtracts
+ *    (the negations are exact: the same products);
+ *  - the kept axes in cyclic order (k + 1, k + 2, as wald), which keeps the
+ *    2-D orientation without the paper's negated edges for k = 1;
+ *  - the paper vectorises over ray packets (one triangle's record against
+ *    several rays); the native form (shevtsov_fma) instead lays
+ *    the records of 16 triangles out in blocks of lanes against one ray, as
+ *    every native record in tribench;
+ *  - no separate path for axis-orthogonal triangles (the paper flags them in
+ *    ci): every triangle takes the general test;
  *  - det's sign folded into U', V', dett (a +-1 multiplication, exact), then
  *    closed-triangle compares against |det| (points on an edge or vertex are
  *    inside, as the float64 reference): the paper's integer sign-bit test of
@@ -89,9 +112,10 @@ static inline int TB_FN(tb_shevtsov_test)(const tb_ray *restrict r, const real *
     const int k = (m[3] == 1) + 2 * (m[3] == 2), u = axis[k + 1], v = axis[k + 2];
     const real *o = r->o, *d = r->d;
 
-    /* the plane, its k coefficient 1: det and t det */
-    real det = d[k] + m[0] * d[u] + m[1] * d[v];
-    real dett = m[2] - (o[k] + m[0] * o[u] + m[1] * o[v]);
+    /* the plane, its k coefficient 1: det and t det, summed in the paper's
+     * order (the u and v terms, then the k one) */
+    real det = m[0] * d[u] + m[1] * d[v] + d[k];
+    real dett = m[2] - (m[0] * o[u] + m[1] * o[v] + o[k]);
 
     /* the hit point's offset from v0 on the u, v plane, times det, and the
      * premultiplied edge equations: det U, det V */

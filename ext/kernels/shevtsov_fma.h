@@ -8,8 +8,9 @@
  * AVX2 + FMA, 4 / 2 on the baseline, chosen at run time.
  *
  * Record: shevtsov's 10 reals (n_u' n_v' n_d k p_u p_v U_u U_v V_u V_v), prepared
- * by the same function, in blocks of 16 lanes (the paper's layout of a packet
- * of triangles, at the machine's width).
+ * by the same function, in blocks of 16 lanes: 16 triangles against one ray
+ * (the paper vectorises the other way, over ray packets: one triangle's
+ * record against several rays).
  *
  * The test, without a division (the loop divides): the ray's components in
  * each lane's axis order k, u, v (selects on the stored k); det =
