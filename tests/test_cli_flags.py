@@ -226,6 +226,8 @@ def test_a_flag_the_sweep_would_ignore_is_refused_in_one_line(extra, said, tmp_p
         (["workloads", "make", "pairs", "--n", "64", "--scale", "1e300"], "scale = 1e+300 is outside what float64"),
         (["workloads", "make", "pairs", "--n", "64", "--scale", "1e-320"], "scale = 1e-320 is outside what float64"),
         (["compare", "run", "run", "--out", "run/run.json"], "is a measured file of the run folder"),
+        (["sweep", "--out", "run/sub"], "is inside the run folder"),
+        (["replicate", "run", "--out", "run/again/deeper"], "is inside the run folder"),
     ],
 )
 def test_what_once_raised_a_traceback_is_one_line(argv, said, tmp_path, monkeypatch, capsys):
