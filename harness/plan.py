@@ -360,9 +360,18 @@ def _kernel_file(recorded: Mapping[str, Any], run_dir: str | Path | None) -> str
 
     path, sha = recorded["path"], recorded["sha256"]
     copy = Path(run_dir or "") / KERNELS_FOLDER / f"{sha}{Path(path).suffix.lower()}"
-    if run_dir is not None and copy.is_file() and file_sha256(copy) == sha:
+    if run_dir is None or not copy.is_file():
+        return str(source(path, sha, KERNELS_FOLDER))
+    if file_sha256(copy) == sha:
         return str(copy)
-    return str(source(path, sha, KERNELS_FOLDER))
+    try:  # the recorded code elsewhere (the file itself, the cache's copy): never the edited copy
+        return str(source(path, sha, KERNELS_FOLDER))
+    except UserError:  # source's words would say no copy is kept, and send the user to this very folder
+        raise UserError(
+            f"{copy}: the run folder's copy of the kernel file {path} has changed since the run (its sha256 is "
+            f"no longer {sha[:12]}...), and the file itself is gone or changed too: restore the copy from the "
+            "original run"
+        ) from None
 
 
 #: The main job's sequential design (``tribench run``, ``--quick``); the budget leaves the rest of
