@@ -83,7 +83,7 @@ def kernel_code_cases(s: Scratch) -> list[Outcome]:
     o = judge("K_HOW=printf: a kernel that prints to stdout", kernel_as(s, "printf", *TINY), refused=False)
     o.dropped = o.unclear or "k_how" not in (s.root / "r-printf" / "estimates.csv").read_text()
     out.append(o)
-    p = kernel_as(s, "abort_in_worker", *SMALL)
+    p = kernel_as(s, "abort_in_worker", *SMALL[:6], "--no-progress")
     o = judge("K_HOW=abort_in_worker: a kernel that aborts in a worker", p, refused=True, words=("SIGABRT",), code=1)
     o.unclear |= "--resume" not in p.stderr  # how to finish what was run
     out.append(o)
@@ -134,6 +134,10 @@ def dropped_flag_cases(s: Scratch) -> list[Outcome]:
         "--file with --mesh --camera": (["--file", "s.toml", "--mesh", "suzanne", "--camera", "8x8"], "--mesh"),
         "--triangles without --mesh": (["--kernels", "moller_seed", "--triangles", "100"], "--triangles"),
         "--camera without --mesh": (["--kernels", "moller_seed", "--camera", "8x8"], "--camera"),
+        "a flag given twice": (
+            ["--kernels", "moller_seed", "--hit-rates", "0.2", "--hit-rates", "0.8"],
+            "more than once",
+        ),
         "a kernel that runs no workload": (["--kernels", "moller_trumbore_fma,moller_seed"], "no pairs mode"),
     }
     out = []
@@ -334,30 +338,37 @@ def more_cpus_case(s: Scratch) -> Outcome:
 # ------------------------------------------------------------------- the newer surfaces
 
 NEW = ("badouel", "wald", "segura_feito", "kensler_shirley", "shevtsov")
+NEW_NATIVE = ("badouel_fma", "wald_fma", "segura_feito_fma", "kensler_shirley_fma", "shevtsov_fma")
 
 
 def new_kernel_cases(s: Scratch) -> list[Outcome]:
     """The five new kernels and their _fma forms: validate and sweep with odd inputs; kernel files taking
     their names."""
-    fma = ",".join(f"{k}_fma" for k in NEW)
     out = []
     p = s.tribench("validate", "--kernels", ",".join(NEW), "--quick", "--dtype", "float32", "--out", "v.csv")
     o = judge("validate the five", p, refused=False)
     o.dropped = not o.unclear and set(_column(s.root / "v.csv", "kernel")) != set(NEW)
     out.append(o)
-    p = s.tribench("validate", "--kernels", fma, "--quick", "--dtype", "float64", "--out", "f.csv")
+    p = s.tribench("validate", "--kernels", ",".join(NEW_NATIVE), "--quick", "--dtype", "float64", "--out", "f.csv")
     o = judge("validate their _fma forms", p, refused=False)
-    o.dropped = not o.unclear and set(_column(s.root / "f.csv", "kernel")) != {f"{k}_fma" for k in NEW}
+    o.dropped = not o.unclear and set(_column(s.root / "f.csv", "kernel")) != set(NEW_NATIVE)
     out.append(o)
     odd = {
-        "a name in capitals": ("Wald", ("Wald",)),
-        "a name twice, spaced": ("wald, wald", ("wald",)),
-        "an _fma form of no kernel": ("wald_fma_fma", ("wald_fma_fma",)),
-        "a trailing comma": ("badouel,", ("empty item",)),
+        "a name in capitals": (["Wald"], ("Wald",)),
+        "a name twice, spaced": (["wald, wald"], ("wald",)),
+        "an _fma form of no kernel": (["wald_fma_fma"], ("wald_fma_fma",)),
+        "a trailing comma": (["badouel,"], ("empty item",)),
+        "two --kernels": (["wald", "--kernels", "badouel"], ("given more than once",)),
+        "a name in two words": (["wald", "badouel,wald"], ("wald more than once",)),
     }
     for case, (names, words) in odd.items():
         out.append(
-            judge(f"validate, {case}", s.tribench("validate", "--kernels", names, "--quick"), refused=True, words=words)
+            judge(
+                f"validate, {case}",
+                s.tribench("validate", "--kernels", *names, "--quick", "--out", "twice.csv"),
+                refused=True,
+                words=words,
+            )
         )
     p = s.tribench("sweep", "--kernels", "wald_fma,badouel", "--out", "x", *SMALL)
     out.append(judge("sweep, an _fma form on pairs", p, refused=True, words=("wald_fma", "no pairs mode")))
