@@ -527,6 +527,28 @@ def read_only_cases(s: Scratch, run: Path) -> list[Outcome]:
         subprocess.run(["chattr", "-R", "-i", str(run)], check=True)
 
 
+def aarch64_cases(s: Scratch) -> list[Outcome]:
+    """On aarch64 under qemu, with the package ``bash .ci/aarch64 WORK`` built into WORK (its folder named by
+    $TRIBENCH_AARCH64_WORK; else no case): an x86 ISA asked of NEON's kernels, by variable and by flag."""
+    work = Path(os.environ.get("TRIBENCH_AARCH64_WORK", "/nonexistent"))
+    py = work / "root" / "usr" / "bin" / "python3.11"
+    if not py.is_file():
+        return []
+    env = {**s.env, "QEMU_LD_PREFIX": str(work / "root"), "PYTHONPATH": str(work / "site")}
+    arm, out = [str(py), "-m", "tribench.cli"], []
+    for case, extra, args, words in (
+        ("TRIBENCH_ISA=avx2", {"TRIBENCH_ISA": "avx2"}, ["validate", "--kernels", "moller_trumbore_fma", "--quick"],
+         ("TRIBENCH_ISA='avx2'", "neon")),
+        ("info --peak --isa avx2", {}, ["info", "--peak", "--isa", "avx2"], ("--isa avx2", "neon")),
+        ("info --isa of no ISA", {}, ["info", "--peak", "--isa", "sse9"], ("--isa",)),
+    ):  # fmt: skip
+        p = Scratch(s.root, {**env, **extra}).run([*arm, *args], 300)
+        o = judge(f"aarch64: {case}", p, refused=True, words=words)
+        o.command = " ".join([*(f"{k}={v}" for k, v in extra.items()), "(aarch64, qemu) tribench", *args])
+        out.append(o)
+    return out
+
+
 CLASSES: dict[str, Callable[[Scratch], list[Outcome]]] = {
     "#53.1 the user's kernel code": kernel_code_cases,
     "#53.2 flags silently dropped": dropped_flag_cases,
@@ -539,6 +561,7 @@ CLASSES: dict[str, Callable[[Scratch], list[Outcome]]] = {
     "new: replicate": replicate_cases,
     "new: export": export_cases,
     "new: the moved layout": layout_cases,
+    "new: aarch64 under qemu": aarch64_cases,
 }
 
 
@@ -546,4 +569,6 @@ CLASSES: dict[str, Callable[[Scratch], list[Outcome]]] = {
 @pytest.mark.parametrize("name", list(CLASSES))
 def test_every_hostile_case_is_done_or_refused_in_one_clear_line(name, tmp_path):
     outcomes = run_class(CLASSES[name], tmp_path)
+    if not outcomes and CLASSES[name] is aarch64_cases:
+        pytest.skip("no aarch64 build: TRIBENCH_AARCH64_WORK=WORK after bash .ci/aarch64 WORK")
     assert outcomes and not failures(outcomes), failures(outcomes)
