@@ -332,6 +332,9 @@ class Sweep:
     def from_dict(cls, d: Mapping[str, Any], run_dir: str | Path | None = None) -> Sweep:
         """The sweep of :meth:`to_dict`'s form. Its kernel files are the run folder's copies where
         ``run_dir`` has them, else the files at their recorded paths, if their content is unchanged."""
+        unknown = sorted(set(d) - _SWEEP_FIELDS)
+        if unknown:  # a newer tribench's part of the plan: run without it, the run would be another one
+            raise UserError(f"unknown sweep field(s): {', '.join(map(str, unknown))} (a run of a newer tribench?)")
         return cls(
             kernels=tuple(d["kernels"]),
             workloads=tuple(spec_from_dict(w) for w in d["workloads"]),
@@ -345,6 +348,11 @@ class Sweep:
             kernel_files=tuple(_kernel_file(f, run_dir) for f in d.get("kernel_files", ())),
             builds=tuple(d.get("builds", ())),
         )
+
+
+#: What :meth:`Sweep.to_dict` writes (``workload_ids`` is derived, and checked by the run folder's reader).
+_SWEEP_FIELDS = {"kernels", "workloads", "workload_ids", "processes", "rounds", "warmup", "target_ms", "seed"}
+_SWEEP_FIELDS |= {"workload_kernels", "sequential", "kernel_files", "builds"}
 
 
 def _loaded_file(path: str) -> Any:
