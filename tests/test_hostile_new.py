@@ -436,6 +436,8 @@ def edited_run_cases(s: Scratch) -> list[Outcome]:
             lambda d: (d / "run.json").write_text(json.dumps({**record, "tribench_version": "99.0"})), False, ()),
         "a kernel renamed in run.json": (lambda d: (d / "run.json").write_text(
             json.dumps(record).replace('"moller_seed"', '"nosuch"')), True, ("nosuch",)),
+        "a sweep field of a newer tribench": (lambda d: (d / "run.json").write_text(
+            json.dumps({**record, "sweep": {**record["sweep"], "shuffle": "by-kernel"}})), True, ("shuffle",)),
         "batches.csv gone": (lambda d: (d / "batches.csv").unlink(), True, ("batches.csv",)),
         "its kernel file's copy edited": (lambda d: (d / "kernel_files" / f"{sha}.c").write_text(
             (d / "kernel_files" / f"{sha}.c").read_text().replace("u >= 0", "!(u < 0)")), False, ()),
