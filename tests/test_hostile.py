@@ -228,7 +228,7 @@ def interrupted_cases(s: Scratch) -> list[Outcome]:
     for delay in (3.0, 6.0):
         run = f"i{delay:g}"
         args = ["tribench", "sweep", "--kernels", "moller_seed,curless,moller_trumbore", "--hit-rates", "0.2,0.8"]
-        args += ["--out", run, *SMALL[:-3], "--pairs", "20000", "--rounds", "4"]
+        args += ["--out", run, "--processes", "2", "--rounds", "4", "--target-ms", "1", "--pairs", "20000"]
         p = subprocess.Popen(args, cwd=s.root, env=s.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         time.sleep(delay)
         p.send_signal(signal.SIGINT)
@@ -238,13 +238,15 @@ def interrupted_cases(s: Scratch) -> list[Outcome]:
         o.unclear = p.returncode != 0 and "tribench sweep --resume" not in stderr and "tribench stats" not in stderr
         resumed = s.tribench("sweep", "--resume", run, "--no-progress")
         r = judge(f"resume after Ctrl-C at {delay:g} s", resumed, refused=False)
+        out += [o, r]
+        if not (s.root / run / "batches.csv").is_file():  # refused (then said so above), or nothing run yet
+            continue
         batches = pd.read_csv(s.root / run / "batches.csv")
         planned = json.loads((s.root / run / "run.json").read_text())["sweep"]
         expected = planned["processes"] * (planned["rounds"] + planned.get("warmup", 1)) * len(planned["kernels"])
         expected *= len(planned["workloads"])
         keys = batches[["process", "round", "kernel", "workload_id"]].astype(str).agg("|".join, axis=1)
         r.rows_lost = abs(expected - keys.nunique()) + int(keys.duplicated().sum())
-        out += [o, r]
     out.append(late_ctrl_c_case(s))
     return out
 

@@ -413,6 +413,7 @@ def replicate_cases(s: Scratch) -> list[Outcome]:
               refused=False),
         judge("the replication's report", s.tribench("report", "r"), refused=False),
         judge("export after the mesh moved", s.tribench("export", "m", "--out", "m.json"), refused=False),
+        judge("LaTeX of the replication", s.tribench("export", "r", "--format", "latex"), refused=False),
         judge("replicate into the run", s.tribench("replicate", "m", "--out", "m"), refused=True, words=("not empty",)),
         judge("replicate a folder that is no run", s.tribench("replicate", "."), refused=True, words=("run.json",)),
         judge("resume what is no replication", s.tribench("replicate", "m", "--resume", "m"), refused=True,
