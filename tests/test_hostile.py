@@ -473,7 +473,10 @@ def main(words: list[str]) -> int:
             continue
         t0 = time.monotonic()
         with tempfile.TemporaryDirectory(prefix="hostile-") as root:
-            results[name] = run_class(cases, Path(root))
+            try:
+                results[name] = run_class(cases, Path(root))
+            except Exception as exc:  # the class's own code failed: its row says so, the other rows still come
+                results[name] = [Outcome("the class's own code", name, crash=True, said=f"{type(exc).__name__}: {exc}")]
         print(f"{name}: {len(results[name])} cases in {time.monotonic() - t0:.0f} s", file=sys.stderr)
     print(table(results))
     return 1 if any(o.failed for outcomes in results.values() for o in outcomes) else 0
