@@ -57,8 +57,33 @@ MAX_SEED = 2**63 - 1
 MAX_SIDE = 65536
 
 
+class _StoreOnce(argparse._StoreAction):
+    """argparse's store, refusing a second value: ``--kernels a --kernels b`` would keep b alone, silently."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        given = namespace.__dict__.setdefault(_GIVEN, set())
+        if option_string is not None and self.dest in given:
+            raise argparse.ArgumentError(self, "given more than once: give it once (a list takes commas: a,b)")
+        given.add(self.dest)
+        super().__call__(parser, namespace, values, option_string)
+
+
+_GIVEN = "_flags_given"  # the namespace's record of the stores made, dropped before the command sees it
+
+
 class Parser(argparse.ArgumentParser):
-    """An ArgumentParser whose usage error is one line ending with where the usage is; sub-parsers inherit it."""
+    """An ArgumentParser whose usage error is one line ending with where the usage is, and which refuses an
+    option given twice; sub-parsers inherit it."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _StoreOnce)
+        self.register("action", "store", _StoreOnce)
+
+    def parse_known_args(self, args=None, namespace=None):
+        parsed, extras = super().parse_known_args(args, namespace)
+        parsed.__dict__.pop(_GIVEN, None)
+        return parsed, extras
 
     def error(self, message: str):  # argparse's hook; never returns
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")

@@ -44,6 +44,8 @@ def parse_miss_mix(text: str) -> str | dict[str, float]:
     mix = {}
     for item in text.split(","):
         stage, sep, value = item.partition("=")
+        if stage.strip() in mix:  # a dict would keep the last and the sum would blame the fractions
+            raise UserError(f"--miss-mix names the stage {stage.strip()!r} twice in {text!r}: give each stage once")
         try:
             mix[stage.strip()] = float(value)
         except ValueError:

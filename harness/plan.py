@@ -321,6 +321,9 @@ class Sweep:
     def from_dict(cls, d: Mapping[str, Any], run_dir: str | Path | None = None) -> Sweep:
         """The sweep of :meth:`to_dict`'s form. Its kernel files are the run folder's copies where
         ``run_dir`` has them, else the files at their recorded paths, if their content is unchanged."""
+        unknown = sorted(set(d) - _SWEEP_FIELDS)
+        if unknown:  # a newer tribench's part of the plan: run without it, the run would be another one
+            raise UserError(f"unknown sweep field(s): {', '.join(map(str, unknown))} (a run of a newer tribench?)")
         return cls(
             kernels=tuple(d["kernels"]),
             workloads=tuple(spec_from_dict(w) for w in d["workloads"]),
@@ -336,6 +339,11 @@ class Sweep:
         )
 
 
+#: What :meth:`Sweep.to_dict` writes (``workload_ids`` is derived, and checked by the run folder's reader).
+_SWEEP_FIELDS = {"kernels", "workloads", "workload_ids", "processes", "rounds", "warmup", "target_ms", "seed"}
+_SWEEP_FIELDS |= {"workload_kernels", "sequential", "kernel_files", "builds"}
+
+
 def _loaded_file(path: str) -> Any:
     """The record of a loaded kernel file: the sha256 of what was compiled (with its local headers)."""
     from .. import ext
@@ -349,9 +357,18 @@ def _kernel_file(recorded: Mapping[str, Any], run_dir: str | Path | None) -> str
 
     path, sha = recorded["path"], recorded["sha256"]
     copy = Path(run_dir or "") / KERNELS_FOLDER / f"{sha}{Path(path).suffix.lower()}"
-    if run_dir is not None and copy.is_file() and file_sha256(copy) == sha:
+    if run_dir is None or not copy.is_file():
+        return str(source(path, sha, KERNELS_FOLDER))
+    if file_sha256(copy) == sha:
         return str(copy)
-    return str(source(path, sha, KERNELS_FOLDER))
+    try:  # the recorded code elsewhere (the file itself, the cache's copy): never the edited copy
+        return str(source(path, sha, KERNELS_FOLDER))
+    except UserError:  # source's words would say no copy is kept, and send the user to this very folder
+        raise UserError(
+            f"{copy}: the run folder's copy of the kernel file {path} has changed since the run (its sha256 is "
+            f"no longer {sha[:12]}...), and the file itself is gone or changed too: restore the copy from the "
+            "original run"
+        ) from None
 
 
 #: The main job's sequential design (``tribench run``, ``--quick``); the budget leaves the rest of

@@ -226,6 +226,12 @@ def test_a_flag_the_sweep_would_ignore_is_refused_in_one_line(extra, said, tmp_p
         (["workloads", "make", "pairs", "--n", "64", "--scale", "1e300"], "scale = 1e+300 is outside what float64"),
         (["workloads", "make", "pairs", "--n", "64", "--scale", "1e-320"], "scale = 1e-320 is outside what float64"),
         (["compare", "run", "run", "--out", "run/run.json"], "is a measured file of the run folder"),
+        (["sweep", "--out", "run/sub"], "is inside the run folder"),
+        (["validate", "--kernels", "wald", "--kernels", "badouel", "--quick"], "--kernels: given more than once"),
+        (["sweep", "--hit-rates", "0.2", "--hit-rates", "0.8"], "--hit-rates: given more than once"),
+        (["validate", "--kernels", "wald", "badouel,wald", "--quick"], "kernels name wald more than once"),
+        (["validate", "--dtype", "float32", "float64,float32", "--quick"], "dtypes name float32 more than once"),
+        (["replicate", "run", "--out", "run/again/deeper"], "is inside the run folder"),
     ],
 )
 def test_what_once_raised_a_traceback_is_one_line(argv, said, tmp_path, monkeypatch, capsys):
@@ -251,7 +257,8 @@ def test_resume_refuses_every_other_sweep_flag(tmp_path, capsys):
 
 @pytest.mark.parametrize("flag, value", [("--rounds", "1000000000"), ("--processes", "1000000000000")])
 def test_a_huge_plan_is_refused_before_anything_is_allocated(flag, value, tmp_path):
-    done = run("sweep", *SMALL, flag, value, "--out", tmp_path / "run", timeout=20)
+    i = SMALL.index(flag)  # in place of SMALL's own value: a flag given twice is refused for that alone
+    done = run("sweep", *SMALL[:i], flag, value, *SMALL[i + 2 :], "--out", tmp_path / "run", timeout=20)
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert "must be between 1 and" in done.stderr and len(done.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "run").exists()

@@ -88,6 +88,9 @@ def test_sweep_round_trips_through_json_and_rejects_bad_input():
     assert PairSpec(n=np.int64(5)) == PairSpec(n=5)
     with pytest.raises(ValueError, match="must be an integer"):
         PairSpec(n=np.float64(5.5))
+    # a plan a newer tribench wrote with a part this one does not know is not run without it
+    with pytest.raises(ValueError, match=r"unknown sweep field\(s\): shuffle \(a run of a newer tribench\?\)"):
+        Sweep.from_dict({**s.to_dict(), "shuffle": "by-kernel"})
 
 
 def test_sweep_file_expands_lists_into_a_grid(tmp_path):

@@ -91,6 +91,7 @@ def moller_trumbore(o, d, tri, dtype):
         (dict(miss_mix={"parallel": 1.5, "behind_origin": -0.5}), ">= 0"),
         (dict(miss_mix={"outside_edge_4": 1.0}), "unknown miss stage"),
         (dict(miss_mix="most"), "unknown miss_mix"),
+        (dict(miss_mix=[("parallel", 0.5), ("parallel", 0.5)]), "names the stage.s. parallel twice"),
         (dict(scale=0.0), "scale must be > 0"),
         (dict(offset=float("inf")), "finite"),
         (dict(seed=-1), "between 0 and"),

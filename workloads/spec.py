@@ -107,9 +107,13 @@ def _miss_mix(value: Any) -> tuple[tuple[str, float], ...]:
             )
         value = MISS_MIX_PRESETS[value]
     try:
-        items = dict(value.items() if isinstance(value, Mapping) else value)
+        pairs = list(value.items() if isinstance(value, Mapping) else value)
+        items = dict(pairs)
     except (TypeError, ValueError):
         raise UserError(f"miss_mix must be a preset name or a fraction per stage, got {value!r:.80}") from None
+    if len(items) != len(pairs):  # pairs naming a stage twice: a dict would keep the last one silently
+        twice = sorted({str(s) for s, _ in pairs if [t for t, _ in pairs].count(s) > 1})
+        raise UserError(f"miss_mix names the stage(s) {', '.join(twice)} twice: give each stage once")
     unknown = sorted(set(items) - set(MISS_STAGES))
     if unknown:
         raise UserError(f"unknown miss stage(s) {unknown}: stages are {', '.join(MISS_STAGES)}")

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from ... import ext
+from ...common import UserError
 from ...workloads.geometry import dot, triangle_normals
 from ...workloads.robustness import (
     AIM_MARGIN,
@@ -243,6 +244,10 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=T
     kernels = list(kernels or ext.kernel_names())
     for k in kernels:
         ext.kernel_info(k)  # an unknown name fails here, before any work
+    for what, names in (("kernels", kernels), ("dtypes", list(dtypes))):
+        twice = sorted({str(n) for n in names if names.count(n) > 1})
+        if twice:  # each would be measured twice, and the table's rows would clash
+            raise UserError(f"{what} name {', '.join(twice)} more than once: give each once")
     start = time.perf_counter()
     sets = [build(dtype, quick, seed, tests) for dtype in dtypes]
     bar = (

@@ -63,6 +63,9 @@ def check_new_run_dir(run_dir: str | Path) -> None:
     run_dir = Path(run_dir)
     if run_dir.exists() and not run_dir.is_dir():
         raise UserError(f"{run_dir} is a file, not a folder: a new run needs a new or empty folder")
+    inside = next((p for p in run_dir.resolve().parents if (p / RUN).is_file()), None)
+    if inside is not None:  # the outer run's folder is its record: a copy or replication of it would carry this one
+        raise UserError(f"{run_dir} is inside the run folder {inside}: put the new run beside it, not in it")
     if run_dir.exists() and any(p.name != LOCK for p in run_dir.iterdir()):
         raise UserError(
             f"{run_dir} exists and is not empty: a new run needs a new or empty folder "
