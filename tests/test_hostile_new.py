@@ -407,10 +407,12 @@ def replicate_cases(s: Scratch) -> list[Outcome]:
     args = ["--kernels", "moller_seed,curless", "--mesh", "one.obj", "--camera", "8x8", "--out", "m", *SMALL]
     made = s.tribench("sweep", *args)
     (s.root / "one.obj").rename(s.root / "moved.obj")  # as on another machine: only the run folder's copy
+    shutil.copytree(s.root / "m", s.root / "elsewhere" / "m")  # ... copied there, where the cache is empty
+    there = Scratch(s.root, {**s.env, "TRIBENCH_CACHE": str(s.root / "empty-cache")})
     out = [
         judge("sweep on a mesh file", made, refused=False),
-        judge("replicate after the mesh moved", s.tribench("replicate", "m", "--out", "r", "--no-progress"),
-              refused=False),
+        judge("replicate a copy after the mesh moved",
+              there.tribench("replicate", "elsewhere/m", "--out", "r", "--no-progress"), refused=False),
         judge("the replication's report", s.tribench("report", "r"), refused=False),
         judge("export after the mesh moved", s.tribench("export", "m", "--out", "m.json"), refused=False),
         judge("LaTeX of the replication", s.tribench("export", "r", "--format", "latex"), refused=False),
