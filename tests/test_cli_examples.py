@@ -218,14 +218,22 @@ def test_readme_example_runs(command, env, run_dir, mesh_prefix, tmp_path):
 
 
 def _sized(argv: list[str]) -> list[str]:
-    """The docstring's command with tiny sizes appended (argparse: the last value of a flag wins)."""
+    """The docstring's command with tiny sizes (a flag it gives is set in place: a flag given twice is refused)."""
     if argv[:2] != ["workloads", "make"] or argv[2] == "pairs":
         return argv
     if "--hit-rate" in argv or "--n-rays" in argv:
-        return [*argv, "--n-rays", "64"]
+        return _with(argv, "--n-rays", "64")
     if "--rays" in argv and argv[argv.index("--rays") + 1].endswith(".npz"):
         return argv  # a ray file brings its own rays: no camera to size
-    return [*argv, "--width", "8", "--height", "8"]
+    return _with(_with(argv, "--width", "8"), "--height", "8")
+
+
+def _with(argv: list[str], flag: str, value: str) -> list[str]:
+    """``argv`` with ``flag`` set to ``value``: in place if it is there, else appended."""
+    if flag not in argv:
+        return [*argv, flag, value]
+    at = argv.index(flag) + 1
+    return [*argv[:at], value, *argv[at + 1 :]]
 
 
 @pytest.mark.slow
