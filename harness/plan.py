@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -339,9 +339,8 @@ class Sweep:
         )
 
 
-#: What :meth:`Sweep.to_dict` writes (``workload_ids`` is derived, and checked by the run folder's reader).
-_SWEEP_FIELDS = {"kernels", "workloads", "workload_ids", "processes", "rounds", "warmup", "target_ms", "seed"}
-_SWEEP_FIELDS |= {"workload_kernels", "sequential", "kernel_files", "builds"}
+#: What :meth:`Sweep.to_dict` may write: the sweep's own fields (``workload_ids`` checked by the run folder's reader).
+_SWEEP_FIELDS = frozenset(f.name for f in fields(Sweep))
 
 
 def _loaded_file(path: str) -> Any:
