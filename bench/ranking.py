@@ -89,10 +89,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def runner_machine(run_dir: Path) -> str:
-    import json
-
-    run = json.loads((run_dir / runfolder.RUN).read_text())
-    m = run.get("machine", {})
+    m = runfolder.read_run(run_dir).machine
     return f"{m.get('cpu_model', '?')}; {m.get('build', {}).get('compiler', '?')}"
 
 

@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         if args.out:
             raise UserError("--resume takes no --out: the replication is finished in its own folder")
         out = args.resume
-        if runfolder.read_run(out).get("replicates", {}).get("run_id") != original.run.get("run_id"):
+        if (runfolder.read_run(out).replicates or {}).get("run_id") != original.run.run_id:
             raise UserError(f"{out} is no replication of {args.run_dir}")
         with runner.resumed_with(out, f"tribench replicate {args.run_dir} --resume {out}"):
             result = runner.resume(out, progress=args.progress)

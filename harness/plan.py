@@ -447,13 +447,6 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds:
     )
 
 
-def recorded_builds(sweep: Mapping[str, Any]) -> list[str]:
-    """The builds a run's processes took in turn, from ``run.json``'s sweep, without compiling its kernel files."""
-    from ..ext import INSTALLED
-
-    return list(sweep.get("builds") or [INSTALLED])
-
-
 def rows_of_build(frame: Any, batches: Any, build: str) -> Any:
     """The rows of a per-process table measured by ``build``: those whose batches carry it (its one record)."""
     mine = frame["process"].isin(batches.loc[batches["build"] == build, "process"].unique())

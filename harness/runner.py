@@ -9,6 +9,7 @@ pure function of ``run.json``'s sweep, so the missing batches are the planned ke
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import hashlib
 import json
@@ -199,7 +200,7 @@ def _key(row: Any) -> BatchKey:
     return BatchKey(int(row.process), str(row.workload_id), int(row.round), int(row.position), str(row.kernel))
 
 
-def done_keys(run_dir: str | Path, run: dict[str, Any] | None = None) -> list[BatchKey]:
+def done_keys(run_dir: str | Path, run: runfolder.Run | None = None) -> list[BatchKey]:
     """Keys of the batches in ``batches.csv``, validated (a partial last line is ignored)."""
     frame = runfolder.read_batches(run_dir, run)
     return [_key(r) for r in frame.itertuples(index=False)]
@@ -288,6 +289,7 @@ def _start_locked(
         **(extra or {}),
     }
     runfolder.write_run(run_dir, record)
+    run = runfolder.Run.from_record(record, run_dir, sweep)
     for spec in sweep.workloads:  # a run folder carries the mesh and ray files it used (those that fit)
         if isinstance(spec, MeshSpec) and spec.mesh_sha256 is not None:
             mesh_files.copy_into_run(run_dir, spec.mesh, spec.mesh_sha256)
@@ -297,8 +299,8 @@ def _start_locked(
     for f in record["sweep"].get("kernel_files", ()):  # the C its kernels were compiled from, headers and all
         mesh_files.copy_into_run(run_dir, texts[f["path"]], f["sha256"], mesh_files.KERNELS_FOLDER)
     if sweep.sequential is not None:
-        return _execute_stages(run_dir, record, sweep, keys, progress, worker)
-    return _execute(run_dir, record, sweep, keys, 0, progress, worker)
+        return _execute_stages(run, keys, progress, worker)
+    return _execute(run, keys, 0, progress, worker)
 
 
 def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequence[str] = WORKER) -> RunResult:
@@ -306,19 +308,18 @@ def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequenc
     last line. Raises UserError when another process writes ``run_dir``, its files are not valid, or a file
     cannot be written."""
     run_dir = Path(run_dir)
-    record = runfolder.read_run(run_dir)
-    sweep = Sweep.from_dict(record["sweep"], run_dir)
-    keys = plan(sweep)
-    if _plan_digest(keys) != record["plan_sha256"]:
+    run = runfolder.read_run(run_dir)
+    keys = plan(run.sweep)
+    if _plan_digest(keys) != run.plan_sha256:
         raise UserError(f"{run_dir}: the plan of its sweep changed (another tribench version?); cannot resume")
     usable = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
-    if record.get("cpu") is not None and usable is not None and record["cpu"] not in usable:
+    if run.cpu is not None and usable is not None and run.cpu not in usable:
         # a folder copied from a machine with more CPUs: its workers go on on this machine's choice
         print(
-            f"tribench: CPU {record['cpu']} of the run is not usable here; workers run on CPU {usable[-1]}",
+            f"tribench: CPU {run.cpu} of the run is not usable here; workers run on CPU {usable[-1]}",
             file=sys.stderr,
         )
-        record = {**record, "cpu": usable[-1]}
+        run = dataclasses.replace(run, cpu=usable[-1], raw={**run.raw, "cpu": usable[-1]})
     with runfolder.writer_lock(run_dir):
         for name in (runfolder.BATCHES, runfolder.PROCESSES, runfolder.CHECKS, runfolder.TRAVERSALS):
             try:
@@ -327,19 +328,19 @@ def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequenc
                 raise UserError(f"cannot repair {run_dir / name}: {exc.strerror or exc}") from None
             if cut:
                 print(f"tribench: dropped a partial last line of {run_dir / name}", file=sys.stderr)
-        if sweep.sequential is not None:
-            return _execute_stages(run_dir, record, sweep, keys, progress, worker)
-        done = done_keys(run_dir, record) if os.path.lexists(run_dir / runfolder.BATCHES) else []
-        todo = missing_keys(sweep, done)
-        return _execute(run_dir, record, sweep, todo, len(keys) - len(todo), progress, worker)
+        if run.sweep.sequential is not None:
+            return _execute_stages(run, keys, progress, worker)
+        done = done_keys(run_dir, run) if os.path.lexists(run_dir / runfolder.BATCHES) else []
+        todo = missing_keys(run.sweep, done)
+        return _execute(run, todo, len(keys) - len(todo), progress, worker)
 
 
-def _attempts(run_dir: Path, record: dict[str, Any]) -> dict[int, int]:
+def _attempts(run: runfolder.Run) -> dict[int, int]:
     """The next attempt number of every process that has started before."""
     out: dict[int, int] = {}
     for frame in (
-        runfolder.read_processes(run_dir, record),
-        runfolder.read_batches(run_dir, record) if os.path.lexists(run_dir / runfolder.BATCHES) else None,
+        runfolder.read_processes(run.folder, run),
+        runfolder.read_batches(run.folder, run) if os.path.lexists(run.folder / runfolder.BATCHES) else None,
     ):
         if frame is None or frame.empty:
             continue
@@ -349,9 +350,7 @@ def _attempts(run_dir: Path, record: dict[str, Any]) -> dict[int, int]:
 
 
 def _execute_stages(
-    run_dir: Path,
-    record: dict[str, Any],
-    sweep: Sweep,
+    run: runfolder.Run,
     keys: Sequence[BatchKey],
     progress: bool | None,
     worker: Sequence[str],
@@ -364,15 +363,16 @@ def _execute_stages(
         if progress is not False:
             print(f"tribench sweep: {text}", file=sys.stderr)
 
+    run_dir, sweep = run.folder, run.sweep
     t0 = time.monotonic()
     data = stages.read_stages(run_dir)
-    have = set(done_keys(run_dir, record)) if os.path.lexists(run_dir / runfolder.BATCHES) else set()
+    have = set(done_keys(run_dir, run)) if os.path.lexists(run_dir / runfolder.BATCHES) else set()
     ran, seconds, last_s = 0, 0.0, None
     try:
         for stage in data["stages"]:  # recorded: decided before, finished (or cut short) since
             todo = [k for k in stages.keys_of(sweep, stage, keys) if k not in have]
             if todo:
-                ran += _execute(run_dir, record, sweep, todo, 0, progress, worker, len(todo)).batches_run
+                ran += _execute(run, todo, 0, progress, worker, len(todo)).batches_run
             seconds = stage["seconds_before"] + time.monotonic() - t0
         while data.get("end") is None:
             t_stage = time.monotonic()
@@ -389,7 +389,7 @@ def _execute_stages(
                 f"of at most {sweep.processes}, {sum(len(k) for k in stage['open'].values())} kernel-workload "
                 f"pairs, {len(todo):,} batches"
             )
-            ran += _execute(run_dir, record, sweep, todo, 0, progress, worker, len(todo)).batches_run
+            ran += _execute(run, todo, 0, progress, worker, len(todo)).batches_run
             last_s = time.monotonic() - t_stage
             seconds += last_s
     except SweepInterrupted:
@@ -398,19 +398,17 @@ def _execute_stages(
             f"finish with: tribench sweep --resume {run_dir}"
         ) from None
     say(f"stopped: {data['end']}")
-    done = len(done_keys(run_dir, record))
-    if record["n_batches"] != done:
+    done = len(done_keys(run_dir, run))
+    if run.n_batches != done:
         # the stages are over: what they ran is the run's whole plan now (a reader that
         # compares n_batches with batches.csv sees a finished run), the most it could have run beside it
-        record.update(n_batches=done, n_batches_most=record.get("n_batches_most", record["n_batches"]))
-        runfolder.write_run(run_dir, record)
-    return RunResult(run_dir, record["n_batches"], done, ran, time.monotonic() - t0)
+        most = run.raw.get("n_batches_most", run.n_batches)
+        runfolder.write_run(run_dir, {**run.raw, "n_batches": done, "n_batches_most": most})
+    return RunResult(run_dir, done, done, ran, time.monotonic() - t0)
 
 
 def _execute(
-    run_dir: Path,
-    record: dict[str, Any],
-    sweep: Sweep,
+    run: runfolder.Run,
     todo: Sequence[BatchKey],
     done_before: int,
     progress: bool | None,
@@ -418,12 +416,13 @@ def _execute(
     total: int | None = None,
 ) -> RunResult:
     """Run ``todo``; the progress shows ``done_before`` + its batches of ``total`` (default the plan's)."""
+    run_dir = run.folder
     t0 = time.monotonic()
-    total = record["n_batches"] if total is None else total
+    total = run.n_batches if total is None else total
     by_process: dict[int, list[BatchKey]] = {}
     for k in todo:
         by_process.setdefault(k.process, []).append(k)
-    attempts = _attempts(run_dir, record)
+    attempts = _attempts(run)
     bar = Progress(total, done_before, force=bool(progress)) if progress is not False else None
     ran = 0
     try:
@@ -443,8 +442,7 @@ def _execute(
 
             for p, keys in by_process.items():
                 _run_process(
-                    record,
-                    sweep,
+                    run,
                     p,
                     attempts.get(p, 0),
                     keys,
@@ -476,8 +474,7 @@ def _execute(
 
 
 def _run_process(
-    record: dict[str, Any],
-    sweep: Sweep,
+    run: runfolder.Run,
     process: int,
     attempt: int,
     keys: Sequence[BatchKey],
@@ -491,15 +488,15 @@ def _run_process(
     from .layout import padded_env
     from .worker import WorkerJob
 
-    seed = record["process_seeds"][process]
+    sweep, seed = run.sweep, run.process_seeds[process]
     env = padded_env(seed, attempt)  # moves the worker's initial stack: part of the layout randomisation
     wids = sorted({k.workload_id for k in keys})
     job = WorkerJob(
-        record["run_id"],
+        run.run_id,
         process,
         attempt,
         seed,
-        record["cpu"],
+        run.cpu,
         sweep.target_ms,
         tuple(tuple(k.to_list()) for k in keys),
         {w: sweep.spec_of(w).to_dict() for w in wids},

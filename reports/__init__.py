@@ -48,7 +48,7 @@ def write_report(run_dir: str | Path | RunData, baseline: str | None = None) -> 
     with collecting() as specs:
         page = render(data, SWEEP_FILE)
     write_figures(specs, data.run_dir / FIGURES_DIR)
-    write_text(data.run_dir / SWEEP_FILE, sweep_toml(data.run["sweep"]))
+    write_text(data.run_dir / SWEEP_FILE, sweep_toml(data.run.sweep.to_dict()))
     out = data.run_dir / REPORT
     write_text(out, page)
     return out

@@ -9,6 +9,7 @@ from typing import Any
 
 import pandas as pd
 
+from ..harness.runfolder import Run
 from . import columns, content, figures, page
 from .rundata import RunData
 
@@ -49,19 +50,18 @@ def pictures_section(data: RunData, wl: pd.DataFrame) -> str:
     return "".join(body)
 
 
-def pinning(run: dict) -> str:
+def pinning(run: Run) -> str:
     """Where the workers ran, in words: a CPU, or why they were not pinned."""
-    cpu = run.get("cpu")
-    if isinstance(cpu, int) and cpu >= 0:
-        return f"pinned to CPU {cpu}"
-    if run.get("machine", {}).get("can_pin") is False:
+    if run.cpu is not None and run.cpu >= 0:
+        return f"pinned to CPU {run.cpu}"
+    if run.machine.get("can_pin") is False:
         return "not pinned: this system cannot pin a process to a CPU, so the OS may move a worker mid-batch"
     return "not pinned (the sweep asked for no pinning)"
 
 
-def machine_rows(run: dict) -> list[tuple[str, object]]:
-    """The machine and software a run's ``run.json`` records, as (label, value) rows."""
-    m = run.get("machine", {})
+def machine_rows(run: Run) -> list[tuple[str, object]]:
+    """The machine and software a run records, as (label, value) rows."""
+    m = run.machine
     return [
         ("CPU", m.get("cpu_model")),
         ("logical CPUs", m.get("logical_cpus")),
@@ -85,21 +85,20 @@ def machine_section(data: RunData) -> str:
     build = data.machine.get("build", {})
     rows = machine_rows(data.run)
     brows = [(k, v) for k, v in build.items()]
-    isa = data.run.get("isa", {})
     return "".join(
         [
             page.kv_table(rows),
             "<h3>Build of the C extension</h3>",
             page.kv_table(brows),
             "<h3>Instruction set of each kernel</h3>",
-            page.kv_table(isa.items()),
+            page.kv_table(data.run.isa.items()),
             "<h3>Seeds and plan</h3>",
             page.kv_table(
                 [
-                    ("sweep seed", data.run["sweep"].get("seed")),
-                    ("process seeds", data.run.get("process_seeds")),
-                    ("plan sha256", data.run.get("plan_sha256")),
-                    ("batches planned / recorded", f"{data.run.get('n_batches')} / {len(data.batches)}"),
+                    ("sweep seed", data.run.sweep.seed),
+                    ("process seeds", list(data.run.process_seeds)),
+                    ("plan sha256", data.run.plan_sha256),
+                    ("batches planned / recorded", f"{data.run.n_batches} / {len(data.batches)}"),
                 ]
             ),
         ]
@@ -159,7 +158,7 @@ def sweep_toml(sweep: dict[str, Any]) -> str:
 def reproduce_section(data: RunData, sweep_file: str) -> str:
     """How to run the sweep again and redraw the report, and what every file of the run folder holds."""
     rev = data.machine.get("git_revision")
-    command = data.run.get("command")
+    command = data.run.command
     steps = []
     if rev:
         steps.append(f"git checkout {rev}")
@@ -182,7 +181,7 @@ def reproduce_section(data: RunData, sweep_file: str) -> str:
         "<h3>To run it again</h3>",
         page.code("\n".join(steps)),
         f"<h3>{escape(sweep_file)} (written next to this report)</h3>",
-        page.code(sweep_toml(data.run["sweep"])),
+        page.code(sweep_toml(data.run.sweep.to_dict())),
         "<h3>To redraw this report</h3>",
         page.code(f"tribench report {data.run_dir}"),
         "<h3>Files of the run folder</h3>",

@@ -26,7 +26,7 @@ def builds_section(data: RunData) -> str:
         return ""
     views = build_views(data)
     many = compare_many(views, same_run=True)
-    records = {b.get("spec"): b for b in data.run.get("builds", [])}
+    records = {b.get("spec"): b for b in data.run.builds}
     rows = []
     for tag, view in zip(many.tags, views, strict=True):
         b = records.get(view.build, {})

@@ -56,10 +56,9 @@ def calibration(data: RunData) -> str:
 
     Only the run folder is read: the calibration file the margin's source names may have changed since,
     or not exist on this machine."""
-    recorded = data.run.get("margin") or {}
     body = [page.p(f"Equivalence margin of the verdicts: ±{100 * data.margin:.3g}% — {data.margin_source}.")]
-    value, source = recorded.get("value"), recorded.get("source")
-    if isinstance(value, (int, float)) and (value != data.margin or source != data.margin_source):
+    value, source = data.run.margin.value, data.run.margin.source
+    if value != data.margin or source != data.margin_source:
         body.append(
             page.p(
                 f"The sweep recorded ±{100 * value:.3g}% ({source}) in {runfolder.RUN}; the analysis "

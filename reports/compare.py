@@ -55,7 +55,7 @@ def _run_line(tag: str, d: RunData) -> str:
     m = d.machine
     rev = (m.get("git_revision") or "?")[:12]
     return (
-        f"{tag}: {d.run_dir}  run {d.run.get('run_id', '?')}, {m.get('cpu_model', '?')}, "
+        f"{tag}: {d.run_dir}  run {d.run.run_id}, {m.get('cpu_model', '?')}, "
         f"{m.get('build', {}).get('compiler', '?')}, git {rev}, {d.n_processes} processes"
     )
 
@@ -194,7 +194,7 @@ def _machines_part(runs: list[RunData], tags: list[str]) -> str:
 
 def render_compare(runs: list[RunData], m: MultiComparison, pair: Comparison | None = None) -> str:
     """The comparison as one self-contained HTML page; ``pair`` (:func:`compare_runs`) adds the two-run sections."""
-    ids = [escape(str(d.run.get("run_id", t))) for t, d in zip(m.tags, runs, strict=True)]
+    ids = [escape(d.run.run_id) for d in runs]
     parts = [f"<h1>{' vs '.join(ids)}</h1>", f"<p>{'<br>'.join(escape(x) for x in _run_lines(runs, m.tags))}</p>"]
     parts += _many_parts(runs, m)
     nav = dict(MANY_SECTIONS)

@@ -68,16 +68,16 @@ def _verdict_phrase(verdict: str, base: str) -> str:
 def title(data: RunData, wl: pd.DataFrame) -> str:
     """The page's title and the run in one paragraph: kernels, workloads, processes, machine, baseline."""
     m = data.machine
-    sweep = data.run["sweep"]
+    sweep = data.run.sweep
     families = list(dict.fromkeys(wl["family"]))
     return "".join(
         [
             f"<h1>Which intersector, on {escape(str(m.get('cpu_model', 'this machine')))}</h1>",
             page.p(
-                f"Run {data.run.get('run_id', data.run_dir.name)}, {data.run.get('created', '')}: "
+                f"Run {data.run.run_id}, {data.run.created}: "
                 f"{len(data.kernels)} kernels on {len(wl)} workloads in {len(families)} families, "
-                f"{data.n_processes} worker processes × {sweep.get('rounds')} rounds "
-                f"(+{sweep.get('warmup')} warm-up), on {m.get('cpu_model', 'an unknown CPU')} "
+                f"{data.n_processes} worker processes × {sweep.rounds} rounds "
+                f"(+{sweep.warmup} warm-up), on {m.get('cpu_model', 'an unknown CPU')} "
                 f"({m.get('build', {}).get('compiler', 'unknown compiler')}). Baseline: {data.baseline}. "
                 f"Speedup = time_{data.baseline} / time_kernel, so above 1 means faster.",
                 "sub",
@@ -138,7 +138,7 @@ def run_warnings(data: RunData, drift: pd.DataFrame, correct: pd.DataFrame) -> l
             f"Correctness: {r.kernel} on {where} differs from the reference by "
             f"{page.num(r.hit_difference)} hits per pass, so no ranking names it there (see the correctness table)."
         )
-    expected = data.run.get("n_batches")
+    expected = data.run.n_batches
     if expected and len(data.batches) < expected:
         out.append(
             f"Incomplete run: {len(data.batches)} of {expected} planned batches "

@@ -131,7 +131,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         "note",
     )
     return page.document(
-        f"tribench report — {data.run.get('run_id', data.run_dir.name)}",
+        f"tribench report — {data.run.run_id}",
         body,
         titles,
         footer,

@@ -104,17 +104,18 @@ def _spread(values: pd.Series) -> str:
 
 def methods(data: RunData, latex: bool = False) -> str:
     """The run's methods as one paragraph: machine and build, design, statistics, workloads."""
-    m, sweep, build = data.run.get("machine", {}), data.run["sweep"], data.run.get("machine", {}).get("build", {})
+    m, sweep = data.machine, data.run.sweep
+    build = m.get("build", {})
     est = data.estimates
     confidence = float(est["confidence"].iloc[0]) if len(est) else 0.95
     workloads = list(dict.fromkeys(est["workload"])) if "workload" in est else []
-    sequential = sweep.get("sequential")
+    sequential = sweep.sequential
     design = (
-        f"processes ran in stages of {sequential['stage']} until each kernel's paired interval against its "
-        f"workload's reference was within ±{sequential['target']:.0%} (at most {sweep['processes']} processes "
-        f"and {sequential['budget_s']:g} s), "
-        if isinstance(sequential, dict) and {"stage", "target", "budget_s"} <= sequential.keys()
-        else f"{sweep['processes']} processes were planned, "
+        f"processes ran in stages of {sequential.stage} until each kernel's paired interval against its "
+        f"workload's reference was within ±{sequential.target:.0%} (at most {sweep.processes} processes "
+        f"and {sequential.budget_s:g} s), "
+        if sequential is not None
+        else f"{sweep.processes} processes were planned, "
     )
     text = (
         f"Measurements were taken with tribench {m.get('tribench', '?')} on {m.get('cpu_model', '?')} "
@@ -122,8 +123,8 @@ def methods(data: RunData, latex: bool = False) -> str:
         f"with the kernels compiled by {build.get('compiler', '?')} (flags {build.get('flags', '?')}), "
         f"Python {m.get('python', '?')} and numpy {m.get('numpy', '?')}. "
         f"Each worker process was a fresh interpreter, {pinning(data.run)}, with its memory layout randomised; "
-        f"{design}each of {sweep['warmup']} warm-up and {sweep['rounds']} timed rounds ran every kernel once "
-        f"in a random order, with batches of about {sweep['target_ms']:g} ms; "
+        f"{design}each of {sweep.warmup} warm-up and {sweep.rounds} timed rounds ran every kernel once "
+        f"in a random order, with batches of about {sweep.target_ms:g} ms; "
         f"the estimates rest on {_spread(est['n_processes'])} processes per kernel and workload. "
         f"A time is the mean over processes of each process's median ns per test, with a {confidence:.0%} "
         f"Student-t interval on the log scale; a speedup over {data.baseline} is the geometric mean of the "

@@ -31,11 +31,11 @@ def summary(table: pd.DataFrame) -> str:
 def replication_section(data: RunData) -> str:
     """The section, or "" for a run that replicates nothing."""
     path = data.run_dir / runfolder.REPLICATION
-    rep = data.run.get("replicates")
+    rep = data.run.replicates
     if rep is None or not path.is_file():
         return ""
     table = pd.read_csv(path, keep_default_na=False, na_values=[""])
-    differ = machine_differences({"machine": rep.get("machine", {})}, data.run)
+    differ = machine_differences(rep.get("machine", {}), data.machine)
     parts = [
         page.p(
             f"This run measured again the plan of run {escape(str(rep.get('run_id')))} "

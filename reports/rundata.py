@@ -7,6 +7,7 @@ empty. Peers and robustness are optional (:func:`load_peers`, :func:`load_valida
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -16,7 +17,7 @@ import pandas as pd
 from ..common import UserError
 from ..ext.builds import INSTALLED
 from ..harness import runfolder
-from ..harness.plan import recorded_builds, rows_of_build
+from ..harness.plan import rows_of_build
 from ..workloads.labels import family_of, short_label, spec_text
 from .tables.margin import TWINS
 from .tables.workload_tables import compared
@@ -47,7 +48,7 @@ class RunData:
     """One run folder, read."""
 
     run_dir: Path
-    run: dict[str, Any]
+    run: runfolder.Run
     batches: pd.DataFrame
     processes: pd.DataFrame
     estimates: pd.DataFrame
@@ -69,13 +70,13 @@ class RunData:
     @property
     def builds(self) -> list[str]:
         """The run's builds, in the order its processes take them (one: the installed build)."""
-        return recorded_builds(self.run["sweep"])
+        return list(self.run.sweep.build_names)
 
     @property
     def kernels(self) -> list[str]:
         """Kernels of the run that have timed batches, in sweep order; no A/A twin (a measuring instrument)."""
         present = set(self.batches["kernel"]) - TWINS
-        return [k for k in self.run["sweep"]["kernels"] if k in present]
+        return [k for k in self.run.sweep.kernels if k in present]
 
     @property
     def workload_ids(self) -> list[str]:
@@ -93,8 +94,8 @@ class RunData:
         return int(timed["process"].nunique())
 
     @property
-    def machine(self) -> dict[str, Any]:
-        return self.run.get("machine", {})
+    def machine(self) -> Mapping[str, Any]:
+        return self.run.machine
 
 
 def _stats_hint(run_dir: Path) -> str:
@@ -135,7 +136,7 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
         raise RunError(f"{path} cannot be read ({type(exc).__name__}: {exc}): {_stats_hint(run_dir)}") from None
 
 
-def _read_measured(run_dir: Path) -> tuple[dict, pd.DataFrame, pd.DataFrame]:
+def _read_measured(run_dir: Path) -> tuple[runfolder.Run, pd.DataFrame, pd.DataFrame]:
     """``run.json``, ``batches.csv`` and ``processes.csv``, validated; a RunError says what is wrong."""
     from ..harness import runfolder
 
@@ -163,7 +164,7 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
 
     run_dir = Path(run_dir)
     run, batches, processes = _read_measured(run_dir)
-    builds = recorded_builds(run["sweep"])
+    builds = list(run.sweep.build_names)
     build = builds[0] if build is None else build
     if build not in builds:
         raise RunError(f"{run_dir} has no build {build!r}; its builds: {'; '.join(builds)}")
@@ -196,7 +197,7 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
     margin = record.get("margin") or {}
     if len(builds) > 1 and not speedups.empty:  # each build's own margin (its A/A twin's), as its rows have it
         margin = {"value": float(speedups["margin"].iloc[0]), "source": str(speedups["margin_source"].iloc[0])}
-    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
+    specs = {wid: spec.to_dict() for wid, spec in zip(run.sweep.workload_ids, run.sweep.workloads, strict=True)}
     return RunData(
         run_dir,
         run,

@@ -6,15 +6,19 @@ wrote, and the pictures, inlined as base64 PNG."""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from html import escape
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
 from ..common import write_text
+from ..harness.runfolder import Run
 from ..harness.stats import format_interval
 from . import figures, page
 from .about import machine_rows
+from .tables.seed import read_seed_run
 
 __all__ = ["SEED_REPORT", "render_seed", "write_seed_report"]
 
@@ -176,7 +180,7 @@ def _curless_over_moller(scene: str, g: pd.DataFrame, wl: pd.DataFrame) -> list[
     return [page.p(f"Curless over Möller: {paper}{'; '.join(parts)}." + why)]
 
 
-def _paper(seed: pd.DataFrame, wl: pd.DataFrame, replay: dict) -> str:
+def _paper(seed: pd.DataFrame, wl: pd.DataFrame, replay: Mapping[str, Any]) -> str:
     """The table beside the paper: per scene, every kernel's replay and the paper's times, then Curless over Möller."""
     size = f"{replay['width']}×{replay['height']}"
     body = [page.p(_PAPER_INTRO)]
@@ -287,16 +291,16 @@ def _pictures(run_dir: Path, pics: pd.DataFrame) -> str:
     return _section("pictures", "".join(body))
 
 
-def _machine(run: dict) -> str:
+def _machine(run: Run) -> str:
     rows = machine_rows(run)
-    sweep = run["sweep"]
+    sweep = run.sweep
     design = [
-        ("processes", sweep["processes"]),
-        ("rounds (+ warm-up)", f"{sweep['rounds']} (+{sweep['warmup']})"),
-        ("batch target (ms)", sweep["target_ms"]),
-        ("sweep seed", sweep["seed"]),
-        ("process seeds", run.get("process_seeds")),
-        ("equivalence margin", run.get("margin")),
+        ("processes", sweep.processes),
+        ("rounds (+ warm-up)", f"{sweep.rounds} (+{sweep.warmup})"),
+        ("batch target (ms)", sweep.target_ms),
+        ("sweep seed", sweep.seed),
+        ("process seeds", list(run.process_seeds)),
+        ("equivalence margin", {"value": run.margin.value, "source": run.margin.source}),
     ]
     return _section(
         "machine",
@@ -304,9 +308,9 @@ def _machine(run: dict) -> str:
             [
                 page.kv_table(rows),
                 "<h3>Build of the C extension</h3>",
-                page.kv_table(run.get("machine", {}).get("build", {}).items()),
+                page.kv_table(run.machine.get("build", {}).items()),
                 "<h3>Instruction set of each kernel</h3>",
-                page.kv_table(run.get("isa", {}).items()),
+                page.kv_table(run.isa.items()),
                 "<h3>Design</h3>",
                 page.kv_table(design),
             ]
@@ -314,14 +318,14 @@ def _machine(run: dict) -> str:
     )
 
 
-def _reproduce(run: dict) -> str:
+def _reproduce(run: Run) -> str:
     from ..harness.jobs.seed import COLUMNS
 
-    rev = run.get("machine", {}).get("git_revision")
-    steps = ([f"git checkout {rev}"] if rev else []) + ["pip install -e .", run.get("command") or "tribench seed"]
+    rev = run.machine.get("git_revision")
+    steps = ([f"git checkout {rev}"] if rev else []) + ["pip install -e .", run.command or "tribench seed"]
     body = [
         "<h3>The command that made this run</h3>",
-        page.code(str(run.get("command") or "(not recorded)")),
+        page.code(run.command or "(not recorded)"),
         "<h3>To run it again</h3>",
         page.code("\n".join(steps)),
         page.p(
@@ -338,7 +342,7 @@ def _reproduce(run: dict) -> str:
     return _section("reproduce", "".join(body))
 
 
-def _kernels_timed(replay: dict) -> str:
+def _kernels_timed(replay: Mapping[str, Any]) -> str:
     """Which kernels the run timed, in words (nothing for a run folder older than the choice)."""
     if "all_kernels" not in replay:
         return ""
@@ -352,15 +356,14 @@ def _kernels_timed(replay: dict) -> str:
 
 def render_seed(run_dir: str | Path) -> str:
     """The whole page of a seed run, as a string."""
-    from ..harness import runfolder
     from ..harness.jobs.seed import KINDS_CSV, PICTURES_CSV, SEED_CSV, WORKLOADS_CSV
 
     run_dir = Path(run_dir)
-    run = runfolder.read_run(run_dir)
+    run, replay = read_seed_run(run_dir)
     seed, kinds, wl, pics = (pd.read_csv(run_dir / n) for n in (SEED_CSV, KINDS_CSV, WORKLOADS_CSV, PICTURES_CSV))
-    title = f"tribench seed — {run.get('run_id', run_dir.name)}"
+    title = f"tribench seed — {run.run_id}"
     sections = [
-        _paper(seed, wl, run["seed_replay"]),
+        _paper(seed, wl, replay),
         _kinds(kinds),
         _workload(wl),
         _pictures(run_dir, pics),
@@ -369,7 +372,7 @@ def render_seed(run_dir: str | Path) -> str:
     ]
     head = f"<h1>{escape(title)}</h1>" + page.p(
         f"The seed's renders (Vitse 2022: Curless vs Möller, Unix time) replayed through the harness: "
-        f"{run.get('created')}, {run['sweep']['processes']} processes. {_kernels_timed(run['seed_replay'])}",
+        f"{run.created}, {run.sweep.processes} processes. {_kernels_timed(replay)}",
         "sub",
     )
     footer = page.p(

@@ -13,10 +13,9 @@ __all__ = ["format_answer", "format_run"]
 def format_run(data: RunData, width: int = 24) -> str:
     """Per workload (sweep order): each kernel's ns/test with its 95% CI, then its speedup and verdict."""
     est, spd = data.estimates, data.speedups
-    sweep = data.run["sweep"]
     lines = [
-        f"run {data.run.get('run_id', data.run_dir.name)}: {len(data.kernels)} kernels x "
-        f"{len(data.workload_ids)} workloads, {data.n_processes} processes x {sweep.get('rounds')} rounds"
+        f"run {data.run.run_id}: {len(data.kernels)} kernels x "
+        f"{len(data.workload_ids)} workloads, {data.n_processes} processes x {data.run.sweep.rounds} rounds"
         + (
             f"; build {data.build} ({len(data.builds)} builds: the report's Across builds compares them)"
             if len(data.builds) > 1

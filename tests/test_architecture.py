@@ -264,3 +264,15 @@ def test_the_facade_imports_under_any_name():
     finally:
         del sys.modules["any_name"]
     assert module.__all__[0] == "Results"
+
+
+def test_run_json_is_read_as_a_typed_run_and_only_the_runner_touches_it_as_written():
+    """#52: a run folder's record is one typed value; its JSON object (``Run.raw``) is the runner's, which
+    rewrites the file, so no reader walks it as a dict."""
+    users = sorted(
+        str(path.relative_to(ROOT))
+        for path in MODULES.values()
+        if path.suffix == ".py"
+        and any(isinstance(n, ast.Attribute) and n.attr == "raw" for n in ast.walk(ast.parse(path.read_text())))
+    )
+    assert users == ["harness/runner.py"]

@@ -415,11 +415,13 @@ def test_macos_facts_come_from_sysctl(monkeypatch):
 
 
 def test_a_run_that_could_not_pin_says_so_in_one_line():
+    from types import SimpleNamespace as Run  # the two fields pinning reads
+
     from tribench.reports import about
 
-    assert about.pinning({"cpu": 3}) == "pinned to CPU 3"
-    assert "cannot pin" in about.pinning({"cpu": None, "machine": {"can_pin": False}})
-    assert "asked for no pinning" in about.pinning({"cpu": -1, "machine": {"can_pin": True}})
+    assert about.pinning(Run(cpu=3, machine={})) == "pinned to CPU 3"
+    assert "cannot pin" in about.pinning(Run(cpu=None, machine={"can_pin": False}))
+    assert "asked for no pinning" in about.pinning(Run(cpu=-1, machine={"can_pin": True}))
 
 
 def test_a_bench_figure_names_its_cpu_widest_isa_and_compiler(monkeypatch):

@@ -93,10 +93,10 @@ def test_latex_compiles(run_dir, tmp_path):
 def test_methods_quote_the_run_not_fixed_text(run_dir, tmp_path):
     data = load_run(run_dir)
     text = paper.methods(data)
-    machine, sweep = data.run["machine"], data.run["sweep"]
+    machine, sweep = data.run.machine, data.run.sweep
     for fact in (machine["cpu_model"], machine["build"]["compiler"], data.baseline, f"{data.margin:.1%}"):
         assert fact in text
-    assert f"{sweep['warmup']} warm-up and {sweep['rounds']} timed rounds" in text
+    assert f"{sweep.warmup} warm-up and {sweep.rounds} timed rounds" in text
     assert all(w in text for w in pd.read_csv(run_dir / runfolder.ESTIMATES)["workload"])
     # another machine and compiler in run.json: the paragraph follows them
     other = tmp_path / "other"

@@ -74,7 +74,7 @@ def test_the_report_of_a_replication_opens_its_section_on_the_count_of_each_word
     shutil.copytree(runs[1], rep)
     record = json.loads((rep / runfolder.RUN).read_text())
     machine = {**a.machine, "cpu_model": "Some Other CPU"}
-    record["replicates"] = {"run_dir": str(runs[0]), "run_id": a.run["run_id"], "machine": machine, "left_out": []}
+    record["replicates"] = {"run_dir": str(runs[0]), "run_id": a.run.run_id, "machine": machine, "left_out": []}
     (rep / runfolder.RUN).write_text(json.dumps(record))
     table = conclusions(a, b)
     runfolder.write_csv(table, rep / runfolder.REPLICATION)

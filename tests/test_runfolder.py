@@ -110,7 +110,7 @@ def one_line_error(done, *words, preamble=0):
 
 
 def planned(run_dir):
-    return sorted(plan(Sweep.from_dict(runfolder.read_run(run_dir)["sweep"])))
+    return sorted(plan(runfolder.read_run(run_dir).sweep))
 
 
 def batch_lines(run_dir):
@@ -396,7 +396,7 @@ def test_crlf_and_a_bom_change_no_value_and_are_read(run):
         (
             "processes other run",
             lambda r: (r / "processes.csv").write_text(
-                (r / "processes.csv").read_text().replace(runfolder.read_run(r)["run_id"], "other", 1)
+                (r / "processes.csv").read_text().replace(runfolder.read_run(r).run_id, "other", 1)
             ),
             ["processes.csv:2: run id 'other'"],
         ),

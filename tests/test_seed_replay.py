@@ -319,7 +319,7 @@ def test_all_kernels_times_every_kernel(cache_dir, tmp_path):
     assert main(["seed", *flags, "--out", str(out)]) == 0
     assert list(pd.read_csv(out / "seed.csv")["kernel"].drop_duplicates()) == list(hs.seed_kernels(all_kernels=True))
     run = runfolder.read_run(out)
-    assert run["seed_replay"]["all_kernels"] is True and "--all-kernels" in run["command"]
+    assert run.seed_replay and run.seed_replay["all_kernels"] is True and "--all-kernels" in (run.command or "")
     assert "Kernels: every kernel" in (out / "seed.html").read_text()
 
 

@@ -74,7 +74,7 @@ def test_each_stage_runs_exactly_the_comparisons_still_wide(finished):
     assert set(runner.done_keys(finished)) < set(plan(s))
     # once the stages end, run.json says how many batches the run is (and the most it could have been)
     run = runfolder.read_run(finished)
-    assert (run["n_batches"], run["n_batches_most"]) == (len(batches), len(plan(s)))
+    assert (run.n_batches, run.raw["n_batches_most"]) == (len(batches), len(plan(s)))
 
 
 def test_the_stopped_comparisons_end_narrow_and_the_tables_pair_what_ran(finished, cache):
@@ -107,7 +107,7 @@ def test_a_sweep_cut_mid_stage_resumes_to_the_same_batches(finished, tmp_path):
     kept = batches.loc[batches["process"] != last]
     kept.to_csv(run_dir / runfolder.BATCHES, index=False)
     stages.write_stages(run_dir, {"stages": record["stages"], "end": None})
-    run = runfolder.read_run(run_dir)
+    run = runfolder.read_run(run_dir).raw
     runfolder.write_run(run_dir, {**run, "n_batches": run["n_batches_most"]})  # as it was before the end
     done = runner.resume(run_dir, progress=False)
     resumed = stages.read_stages(run_dir)
@@ -120,7 +120,7 @@ def test_a_sweep_cut_mid_stage_resumes_to_the_same_batches(finished, tmp_path):
     assert set(runner.done_keys(run_dir)) >= keys
     if extra.empty:  # the usual case: the same end, decided the same way
         assert set(runner.done_keys(run_dir)) == keys and resumed == record
-        assert runfolder.read_run(run_dir) == runfolder.read_run(finished)
+        assert runfolder.read_run(run_dir).raw == runfolder.read_run(finished).raw
 
 
 def test_an_ordinary_sweep_keeps_its_run_record_and_the_new_fields_round_trip():

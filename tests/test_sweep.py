@@ -62,12 +62,11 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
     done = cli("sweep", "--out", str(out), *TINY, env=env)
     assert done.returncode == 0, done.stderr
     run = runfolder.read_run(out)
-    sweep = Sweep.from_dict(run["sweep"])
     keys = keys_of(out)
-    assert sorted(keys) == sorted(plan(sweep)) and len(keys) == 3 * 3 * 2
-    assert run["margin"]["source"].startswith("default")
-    assert set(run["isa"]) == {"moller_trumbore", "curless"}
-    assert run["machine"]["build"]["flags"] and len(run["process_seeds"]) == 3
+    assert sorted(keys) == sorted(plan(run.sweep)) and len(keys) == 3 * 3 * 2
+    assert run.margin.source.startswith("default")
+    assert set(run.isa) == {"moller_trumbore", "curless"}
+    assert run.machine["build"]["flags"] and len(run.process_seeds) == 3
     batches = runfolder.read_batches(out)
     assert (batches["hits"] % batches["loops"] == 0).all()
     assert batches["warmup"].sum() == 3 * 2
@@ -114,7 +113,7 @@ def test_sweep_then_stats_writes_every_batch_and_both_tables(tmp_path, env):
     ).all()
     assert ((est["peak_fraction"] > 0) & (est["peak_fraction"] < 1)).all()  # scalar kernels: one lane of 8
     # the bound is the port model's at the rates run.json recorded
-    assert set(run["throughput"]) == {"isa", "peak_gflops", "float32", "float64"}
+    assert set(run.throughput or {}) == {"isa", "peak_gflops", "float32", "float64"}
     assert (est["bound_ns_per_test"] > 0).all() and (est["peak_fraction"] > 0).all()
     assert list(spd["baseline"]) == ["moller_trumbore"] and list(spd["kernel"]) == ["curless"]
     # re-analysis reads files only: the same tables again, with another baseline on request
@@ -143,7 +142,7 @@ def test_sigkill_mid_sweep_then_resume_gives_exactly_the_planned_batches(tmp_pat
     os.killpg(proc.pid, signal.SIGKILL)  # the runner and its worker, mid-write or not
     proc.wait()
     partial = keys_of(killed)
-    sweep = Sweep.from_dict(runfolder.read_run(killed)["sweep"])
+    sweep = runfolder.read_run(killed).sweep
     assert 0 < len(partial) < sweep.n_batches
 
     resumed = cli("sweep", "--resume", str(killed), "--no-progress", env=env)
@@ -263,7 +262,7 @@ def test_calibrate_writes_its_summary_and_the_user_margin(tmp_path, env):
     # the next sweep uses it, and says so
     run = tmp_path / "run"
     assert cli("sweep", "--out", str(run), *TINY, env=env).returncode == 0
-    assert str(user) in runfolder.read_run(run)["margin"]["source"]
+    assert str(user) in runfolder.read_run(run).margin.source
 
 
 def test_a_time_spread_wide_gives_a_wide_but_bounded_peak_fraction():

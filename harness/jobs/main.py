@@ -60,12 +60,12 @@ def resume(out: str | Path, progress: bool | None = None, peers: bool = True, lo
     from ...common import UserError
 
     out = Path(out)
-    record = runfolder.read_run(out)
-    if "main_job" not in record:
+    main_job = runfolder.read_run(out).main_job
+    if main_job is None:
         raise UserError(
             f"{out} is not a main job's run folder (tribench run); finish a sweep with tribench sweep --resume"
         )
-    quick = bool(record["main_job"].get("quick"))
+    quick = bool(main_job.get("quick"))
     _say(log, f"tribench run --resume: finishing the main job in {out}")
     with runner.resumed_with(out, f"tribench run --resume {out}"):
         done = runner.resume(out, progress=progress)

@@ -20,12 +20,12 @@ from .sweep import run_sweep
 __all__ = ["replication_plan", "measure"]
 
 
-def replication_plan(run_dir: str | Path) -> tuple[Sweep, list[str], dict]:
-    """The sweep of ``run_dir`` as this machine can run it, one line per thing it leaves out, and its ``run.json``."""
+def replication_plan(run_dir: str | Path) -> tuple[Sweep, list[str], runfolder.Run]:
+    """The sweep of ``run_dir`` as this machine can run it, one line per thing it leaves out, and its record."""
     run_dir = Path(run_dir)
-    record = runfolder.read_run(run_dir)
+    original = runfolder.read_run(run_dir)
     mesh_files.adopt(run_dir)  # the folder's mesh and ray copies: its workloads rebuild without the originals
-    sweep = Sweep.from_dict(record["sweep"], run_dir)
+    sweep = original.sweep
     for path in sweep.kernel_files:
         ext.load_kernels(path)  # their kernels join the registry (run_sweep checks their answers)
     notes = []
@@ -47,7 +47,7 @@ def replication_plan(run_dir: str | Path) -> tuple[Sweep, list[str], dict]:
     return (
         dataclasses.replace(sweep, kernels=kernels, workload_kernels=per_workload, builds=tuple(builds)),
         notes,
-        record,
+        original,
     )
 
 
@@ -65,8 +65,8 @@ def measure(
         say(line)
     replicates = {
         "run_dir": str(Path(run_dir).resolve()),
-        "run_id": original.get("run_id"),
-        "machine": original.get("machine", {}),
+        "run_id": original.run_id,
+        "machine": dict(original.machine),
         "left_out": notes,
     }
     with runner.resumed_with(out, f"tribench replicate {run_dir} --resume {out}"):

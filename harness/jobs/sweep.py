@@ -100,5 +100,5 @@ def robustness_command(run_dir: str | Path) -> str:
 
 def _kernels_and_dtypes(run_dir: str | Path) -> tuple[list[str], list[str]]:
     """The run's kernels and the precisions of its workloads, which its robustness suite covers."""
-    sweep = runfolder.read_run(run_dir)["sweep"]
-    return list(sweep["kernels"]), sorted({w["dtype"] for w in sweep["workloads"] if "dtype" in w})
+    sweep = runfolder.read_run(run_dir).sweep
+    return list(sweep.kernels), sorted({w.dtype for w in sweep.workloads})

@@ -23,6 +23,7 @@ from typing import Any
 
 from ...common import UserError, atomic_write, write_text
 from .lock import live_writer, writer_lock
+from .record import Run
 from .rows import BatchRow, CheckRow, ProcessRow, TraversalRow
 from .schema import BATCHES, CHECKS, LOCK, PROCESSES, RUN, TRAVERSALS
 
@@ -46,6 +47,7 @@ __all__ = [
     "read_processes",
     "read_traversals",
     "read_run",
+    "Run",
     "repair_csv",
     "write_csv",
     "write_run",
@@ -316,55 +318,51 @@ def _unique(names: Sequence[str], what: str) -> Rule:
     return bad, message
 
 
-def _run_rules(run: Mapping[str, Any] | None, kernel: bool = True, workload: bool = True) -> list[Rule]:
+def _run_rules(run: Run | None, kernel: bool = True, workload: bool = True) -> list[Rule]:
     """Rules that need ``run.json``: the run id, the process range, the sweep's kernels and workloads."""
     if run is None:
         return []
-    sweep = run["sweep"]
+    sweep = run.sweep
     rules: list[Rule] = [
         (
-            lambda f: f["run_id"] != run["run_id"],
-            lambda r: f"run id {_short(r['run_id'])} is not this run's ({run['run_id']}, in {RUN})",
+            lambda f: f["run_id"] != run.run_id,
+            lambda r: f"run id {_short(r['run_id'])} is not this run's ({run.run_id}, in {RUN})",
         ),
         (
-            lambda f: (f["process"] < 0) | (f["process"] >= sweep["processes"]),
-            lambda r: (
-                f"process {r['process']} is not one of the run's {sweep['processes']} (0 to {sweep['processes'] - 1})"
-            ),
+            lambda f: (f["process"] < 0) | (f["process"] >= sweep.processes),
+            lambda r: f"process {r['process']} is not one of the run's {sweep.processes} (0 to {sweep.processes - 1})",
         ),
     ]
     if kernel:
         rules.append(
             (
-                lambda f: ~f["kernel"].isin(sweep["kernels"]),
-                lambda r: (
-                    f"unknown kernel {_short(r['kernel'])}: not in the run's sweep ({', '.join(sweep['kernels'])})"
-                ),
+                lambda f: ~f["kernel"].isin(sweep.kernels),
+                lambda r: f"unknown kernel {_short(r['kernel'])}: not in the run's sweep ({', '.join(sweep.kernels)})",
             )
         )
     if workload:
         rules.append(
             (
-                lambda f: ~f["workload_id"].isin(sweep["workload_ids"]),
+                lambda f: ~f["workload_id"].isin(sweep.workload_ids),
                 lambda r: f"unknown workload {_short(r['workload_id'])}: not in the run's sweep",
             )
         )
     return rules
 
 
-def _max_bytes(run: Mapping[str, Any] | None, rows_per_batch: int) -> int | None:
-    return None if run is None else MAX_ROW_BYTES * (rows_per_batch * int(run["n_batches"]) + 1024)
+def _max_bytes(run: Run | None, rows_per_batch: int) -> int | None:
+    return None if run is None else MAX_ROW_BYTES * (rows_per_batch * run.n_batches + 1024)
 
 
-def _run_or_none(run_dir: Path, run: Mapping[str, Any] | None) -> Mapping[str, Any] | None:
+def _run_or_none(run_dir: Path, run: Run | None) -> Run | None:
     if run is not None:
         return run
     return read_run(run_dir) if (run_dir / RUN).exists() else None
 
 
-def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
+def read_batches(run_dir: str | Path, run: Run | None = None):
     """``batches.csv`` of a run as a DataFrame, validated (a partial last line is ignored). With ``run``
-    (``run.json``'s record, read if there when not given) every row must carry its run id, a kernel and
+    (read from ``run.json`` if there when not given) every row must carry its run id, a kernel and
     workload of its sweep and a key of its plan, at most once."""
     run_dir = Path(run_dir)
     path = run_dir / BATCHES
@@ -384,9 +382,9 @@ def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
         _unique(("process", "workload_id", "round", "position", "kernel"), "the batch"),
     ]
     if run is not None:
-        from ..plan import Sweep, plan
+        from ..plan import plan
 
-        sweep = Sweep.from_dict(run["sweep"], run_dir)
+        sweep = run.sweep
         planned = {(k.process, k.workload_id, k.round, k.position, k.kernel) for k in plan(sweep)}
 
         def outside(f: Any) -> Any:
@@ -413,7 +411,7 @@ def read_batches(run_dir: str | Path, run: Mapping[str, Any] | None = None):
     return _read_table(path, BatchRow, rules, _max_bytes(run, 1))
 
 
-def read_checks(run_dir: str | Path, run: Mapping[str, Any] | None = None):
+def read_checks(run_dir: str | Path, run: Run | None = None):
     """``checks.csv`` of a run, validated (empty frame if the run has none yet)."""
     import pandas as pd
 
@@ -435,7 +433,7 @@ def read_checks(run_dir: str | Path, run: Mapping[str, Any] | None = None):
     return _read_table(path, CheckRow, rules, _max_bytes(run, 4))
 
 
-def read_processes(run_dir: str | Path, run: Mapping[str, Any] | None = None):
+def read_processes(run_dir: str | Path, run: Run | None = None):
     """``processes.csv`` of a run, validated (empty frame if the run has none yet)."""
     import pandas as pd
 
@@ -454,7 +452,7 @@ def read_processes(run_dir: str | Path, run: Mapping[str, Any] | None = None):
     return _read_table(path, ProcessRow, rules, _max_bytes(run, 4))
 
 
-def read_traversals(run_dir: str | Path, run: Mapping[str, Any] | None = None):
+def read_traversals(run_dir: str | Path, run: Run | None = None):
     """``traversals.csv`` of a run, validated (empty if the run has none)."""
     import pandas as pd
 
@@ -490,22 +488,8 @@ def write_run(run_dir: str | Path, record: Mapping[str, Any]) -> None:
     write_text(Path(run_dir) / RUN, json.dumps(record, indent=2, sort_keys=True, allow_nan=False) + "\n")
 
 
-#: The fields of run.json every reader relies on, and their types.
-_RUN_FIELDS: dict[str, type | tuple[type, ...]] = {
-    "run_id": str,
-    "sweep": dict,
-    "n_batches": int,
-    "plan_sha256": str,
-    "process_seeds": list,
-    "margin": dict,
-}
-
-
-def read_run(run_dir: str | Path) -> dict[str, Any]:
-    """``run.json`` of a run, checked: a JSON object with a valid sweep, run id, seeds and margin."""
-    from ..plan import Sweep
-    from ..stats import check_margin
-
+def read_run(run_dir: str | Path) -> Run:
+    """``run.json`` of a run, checked (:class:`~.record.Run`)."""
     run_dir = Path(run_dir)
     path = run_dir / RUN
     if not run_dir.is_dir():
@@ -523,27 +507,7 @@ def read_run(run_dir: str | Path) -> dict[str, Any]:
         raise UserError(f"{path}: not a tribench run record (nested too deeply)") from None
     if not isinstance(run, dict):
         raise UserError(f"{path} is not a tribench run record (not a JSON object)")
-    for key, kind in _RUN_FIELDS.items():
-        if not isinstance(run.get(key), kind) or isinstance(run.get(key), bool):
-            raise UserError(
-                f"{path}: {key!r} is missing or not a {getattr(kind, '__name__', kind)}; not a tribench run record"
-            )
     try:
-        sweep = Sweep.from_dict(run["sweep"], Path(path).parent)
+        return Run.from_record(run, run_dir)
     except UserError as exc:
-        raise UserError(f"{path}: 'sweep' is not valid: {exc}") from None
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise UserError(f"{path}: 'sweep' is not valid ({type(exc).__name__}: {exc})") from None
-    if run["sweep"].get("workload_ids") != sweep.to_dict()["workload_ids"]:
-        raise UserError(f"{path}: 'sweep' workload_ids do not match its workloads (an edited file?)")
-    seeds = run["process_seeds"]
-    if len(seeds) != sweep.processes or not all(isinstance(s, int) and not isinstance(s, bool) for s in seeds):
-        raise UserError(f"{path}: 'process_seeds' must be {sweep.processes} integers, one per process")
-    if not isinstance(run["margin"].get("source"), str):
-        raise UserError(
-            f"{path}: 'margin' must be {{value: a number, source: text}}, got {_short(json.dumps(run['margin']))}"
-        )
-    check_margin(run["margin"].get("value"), f"{path}: key 'margin.value'")
-    if not isinstance(run.get("cpu"), (int, type(None))) or isinstance(run.get("cpu"), bool):
-        raise UserError(f"{path}: 'cpu' must be a CPU number")
-    return run
+        raise UserError(f"{path}: {exc}") from None

@@ -42,14 +42,14 @@ def _caches(sizes: Mapping[str, str]) -> list[dict[str, Any]]:
     return out
 
 
-def _context(run: Mapping[str, Any], baseline: str, margin: Mapping[str, Any]) -> dict[str, Any]:
-    machine = run.get("machine") or {}
+def _context(run: runfolder.Run, baseline: str, margin: Mapping[str, Any]) -> dict[str, Any]:
+    machine = run.machine
     try:
         mhz = round(float(machine.get("cpu_mhz") or 0))
     except ValueError:  # not a number: unknown, as Google Benchmark writes an unknown clock
         mhz = 0
     context: dict[str, Any] = {
-        "date": str(run.get("created", "")),
+        "date": run.created,
         "host_name": "",  # tribench records no host name
         "executable": "tribench",
         "num_cpus": int(machine.get("logical_cpus") or 0),
@@ -63,7 +63,7 @@ def _context(run: Mapping[str, Any], baseline: str, margin: Mapping[str, Any]) -
         "library_version": f"tribench {machine.get('tribench', 'unknown')}",
         "library_build_type": "release",
         "json_schema_version": JSON_SCHEMA_VERSION,
-        "run_id": str(run["run_id"]),
+        "run_id": run.run_id,
         "time_per": "ray-triangle test",
         "baseline": baseline,
         "margin": f"{margin.get('value')} ({margin.get('source')})",
@@ -91,7 +91,7 @@ def _entry(name: str, run_name: str, family: int, instance: int, label: str, **f
 
 
 def google_benchmark(
-    run: Mapping[str, Any], tables: Mapping[str, pd.DataFrame], baseline: str, margin: Mapping[str, Any]
+    run: runfolder.Run, tables: Mapping[str, pd.DataFrame], baseline: str, margin: Mapping[str, Any]
 ) -> dict[str, Any]:
     """A run's estimates, speedups and machine record as ``{"context": ..., "benchmarks": [...]}`` from ``tables``
     (by file name) and the verdicts' ``margin`` (``{"value", "source"}``), ready for ``allow_nan=False``."""
@@ -100,8 +100,8 @@ def google_benchmark(
     spd = tables[runfolder.SPEEDUPS].set_index(keys)
     pp = tables[runfolder.PER_PROCESS]
     builds = list(dict.fromkeys(est["build"]))
-    kernels = [k for k in run["sweep"]["kernels"] if k in set(est["kernel"])]
-    wids = [w for w in run["sweep"]["workload_ids"] if w in set(est["workload_id"])]
+    kernels = [k for k in run.sweep.kernels if k in set(est["kernel"])]
+    wids = [w for w in run.sweep.workload_ids if w in set(est["workload_id"])]
     rows = est.set_index(keys)
     benchmarks: list[dict[str, Any]] = []
     families = [(b, k) for b in builds for k in kernels]

@@ -13,7 +13,7 @@ from typing import Any
 import pandas as pd
 
 from ...harness import runfolder
-from ...harness.plan import recorded_builds, rows_of_build
+from ...harness.plan import rows_of_build
 
 __all__ = ["Measured", "file_digest", "load"]
 
@@ -34,7 +34,7 @@ class Measured:
     """Everything measured about one run, as its files hold it."""
 
     run_dir: Path
-    run: dict[str, Any]
+    run: runfolder.Run
     batches: pd.DataFrame
     processes: pd.DataFrame
     traversals: pd.DataFrame
@@ -49,26 +49,26 @@ class Measured:
 
     @property
     def specs(self) -> dict[str, dict[str, Any]]:
-        """Workload id -> its spec dict, as ``run.json`` records the sweep."""
-        sweep = self.run["sweep"]
-        return dict(zip(sweep["workload_ids"], sweep["workloads"], strict=True))
+        """Workload id -> its spec dict, in sweep order."""
+        sweep = self.run.sweep
+        return {wid: spec.to_dict() for wid, spec in zip(sweep.workload_ids, sweep.workloads, strict=True)}
 
     @property
     def kernels(self) -> list[str]:
         """The sweep's kernels that have batches, in sweep order."""
         present = set(self.batches["kernel"])
-        return [k for k in self.run["sweep"]["kernels"] if k in present]
+        return [k for k in self.run.sweep.kernels if k in present]
 
     @property
     def workload_ids(self) -> list[str]:
         """The sweep's workloads that have batches, in sweep order."""
         present = set(self.batches["workload_id"])
-        return [w for w in self.run["sweep"]["workload_ids"] if w in present]
+        return [w for w in self.run.sweep.workload_ids if w in present]
 
     @property
     def builds(self) -> list[str]:
         """The builds of the run's processes, in turn (``--builds``; else the installed build alone)."""
-        return recorded_builds(self.run["sweep"])
+        return list(self.run.sweep.build_names)
 
     def of_build(self, build: str) -> Measured:
         """The run as its processes of ``build`` measured it (the processes take the builds in turn)."""
@@ -90,7 +90,7 @@ def load(run_dir: str | Path) -> Measured:
     if writer is not None:
         print(
             f"tribench: note: {run_dir} is still being written by {writer}; these tables cover "
-            f"{len(batches)} of its {run['n_batches']} batches",
+            f"{len(batches)} of its {run.n_batches} batches",
             file=sys.stderr,
         )
     peers, peers_note = _read_peers(run_dir)

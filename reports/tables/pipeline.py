@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -132,7 +133,7 @@ def _estimate_one(m: Measured, baseline: str | None, margin: float | None) -> An
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
         raise UserError(f"{m.run_dir} has no timed batches yet")
-    kernels = [k for k in run["sweep"]["kernels"] if k in set(timed["kernel"])]
+    kernels = [k for k in run.sweep.kernels if k in set(timed["kernel"])]
     if baseline is None:
         baseline = DEFAULT_BASELINE if DEFAULT_BASELINE in kernels else kernels[0]
     elif baseline not in kernels:
@@ -142,13 +143,11 @@ def _estimate_one(m: Measured, baseline: str | None, margin: float | None) -> An
     # --margin, else the run's own A/A twin, else what run.json recorded (a calibration's or the default)
     mg = Margin(margin, "--margin") if margin is not None else twin_margin(table, baseline)
     if mg is None:
-        mg = Margin(run["margin"]["value"], run["margin"]["source"])
+        mg = run.margin
     estimates = stats.estimate_table(table).rename(columns=ESTIMATE_COLUMNS)
     estimates["workload"] = estimates["workload_id"].map(names)
     dtypes = {wid: spec["dtype"] for wid, spec in m.specs.items()}
-    estimates = estimates.join(
-        _peak_columns(table, m.processes, dtypes, run.get("throughput")), on=["kernel", "workload_id"]
-    )
+    estimates = estimates.join(_peak_columns(table, m.processes, dtypes, run.throughput), on=["kernel", "workload_id"])
     # against the baseline where it ran: a BVH workload runs only the kernels that can be a
     # BVH's leaf test (pairs workloads no wide kernel), so it may have no speedups (ranking.csv has it)
     ran = table.loc[table["kernel"] == baseline, "workload_id"].unique()
@@ -166,7 +165,7 @@ def _summary(spec: dict) -> str:
 
 
 def _peak_columns(
-    table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str, str], throughput: dict | None
+    table: pd.DataFrame, processes: pd.DataFrame, dtypes: dict[str, str], throughput: Mapping[str, Any] | None
 ) -> pd.DataFrame:
     """Per kernel and workload: mean peak, operations per test, the bound and the fraction of it. Each process's
     time is scaled by its FMA peak over the one recorded with the rates; the t-interval of the mean maps to
@@ -250,16 +249,13 @@ class Derived:
         return self.analysis.speedups
 
 
-def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], dict[str, str]]:
-    """The run's workloads from the cache, made from their spec where the cache lacks them; one whose spec
-    now gives another id (another generator or mesh file) is not used, and its source says why."""
+def _workloads(run: runfolder.Run, wids: list[str]) -> tuple[dict[str, Any], dict[str, str]]:
+    """The run's workloads from the cache, made from their spec where the cache lacks them (the run's reader
+    has checked that each spec still gives its recorded id); the source of each, or why it is not used."""
     import warnings
 
     from ...workloads import cache
-    from ...workloads.kinds import spec_from_dict
-    from ...workloads.spec import workload_id
 
-    specs = dict(zip(run["sweep"]["workload_ids"], run["sweep"]["workloads"], strict=True))
     found: dict[str, Any] = {}
     sources: dict[str, str] = {}
     for wid in wids:
@@ -271,15 +267,8 @@ def _workloads(run: dict[str, Any], wids: list[str]) -> tuple[dict[str, Any], di
         except (FileNotFoundError, ValueError):
             pass
         try:
-            spec = spec_from_dict(specs[wid])
-            if workload_id(spec) != wid:
-                sources[wid] = (
-                    f"not in the cache, and its spec now gives another id ({workload_id(spec)}): "
-                    "generator or mesh file changed; not shown"
-                )
-            else:
-                found[wid] = cache.make(spec)
-                sources[wid] = "not in the cache: rebuilt from the spec recorded in run.json (same bytes)"
+            found[wid] = cache.make(run.sweep.spec_of(wid))
+            sources[wid] = "not in the cache: rebuilt from the spec recorded in run.json (same bytes)"
         except Exception as exc:  # a mesh file that moved, a spec of another version...
             sources[wid] = f"not in the cache and cannot be rebuilt ({type(exc).__name__}: {exc})"
     return found, sources

@@ -33,17 +33,17 @@ def _form(kernel: str) -> str:
     return "scalar" if lanes == 1 else f"{lanes} lanes"
 
 
-def _isas(batches: pd.DataFrame, run: Mapping[str, Any], kernel: str) -> str:
+def _isas(batches: pd.DataFrame, run: runfolder.Run, kernel: str) -> str:
     """The instruction sets the kernel's batches ran with (run.json's record for older runs)."""
     if "isa" not in batches:
-        return str(run.get("isa", {}).get(kernel, "?"))
+        return str(run.isa.get(kernel, "?"))
     return ", ".join(dict.fromkeys(batches.loc[batches["kernel"] == kernel, "isa"].astype(str)))
 
 
 def kernel_table(
     kernels: Sequence[str],
     batches: pd.DataFrame,
-    run: Mapping[str, Any],
+    run: runfolder.Run,
     est: pd.DataFrame,
     spd: pd.DataFrame,
     baseline: str,

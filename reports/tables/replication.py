@@ -123,8 +123,8 @@ def _bands(original: RunTables, replicated: RunTables) -> list[dict[str, Any]]:
     return rows
 
 
-def machine_differences(original: Mapping[str, Any], replicated: Mapping[str, Any]) -> list[tuple[str, str, str]]:
-    """(what, original, here) for each machine or build fact of two ``run.json`` records that differs."""
+def machine_differences(a: Mapping[str, Any], b: Mapping[str, Any]) -> list[tuple[str, str, str]]:
+    """(what, original, here) for each fact of two machine records (``run.json``'s ``machine``) that differs."""
     facts = {
         "CPU": lambda m: m.get("cpu_model"),
         "architecture": lambda m: m.get("machine"),
@@ -134,5 +134,4 @@ def machine_differences(original: Mapping[str, Any], replicated: Mapping[str, An
         "platform": lambda m: m.get("platform"),
         "tribench": lambda m: m.get("tribench"),
     }
-    a, b = original.get("machine", {}), replicated.get("machine", {})
     return [(what, str(get(a)), str(get(b))) for what, get in facts.items() if get(a) != get(b)]

@@ -12,6 +12,7 @@ from typing import Any
 
 import pandas as pd
 
+from ...common import UserError
 from ...harness import runfolder, stats
 from ...harness.jobs.seed import (
     BASELINE,
@@ -28,7 +29,7 @@ from ...harness.jobs.seed import (
 from .frames import paired_time_ratio
 from .pipeline import analyse, write_tables
 
-__all__ = ["ratio_baseline", "render_per_process", "render_table", "seed_tables", "write_seed_tables"]
+__all__ = ["ratio_baseline", "read_seed_run", "render_per_process", "render_table", "seed_tables", "write_seed_tables"]
 
 
 def write_seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
@@ -183,20 +184,28 @@ def _workloads_table(info: Mapping[str, Mapping[str, Any]]) -> pd.DataFrame:
     return pd.concat(out, ignore_index=True)
 
 
+def read_seed_run(run_dir: str | Path) -> tuple[runfolder.Run, Mapping[str, Any]]:
+    """A seed replay's run record and its ``seed_replay`` part; a UserError for any other run folder."""
+    run = runfolder.read_run(run_dir)
+    if run.seed_replay is None:
+        raise UserError(f"{run_dir} is not a run folder of the seed replay (tribench seed makes those)")
+    return run, run.seed_replay
+
+
 def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
     """``seed.csv``, ``seed_kinds.csv`` and ``seed_workloads.csv`` of a seed run, from its files alone."""
     from ...workloads.seed.workload import RAY_KINDS
 
-    run = runfolder.read_run(run_dir)
-    scene_order = {s: i for i, s in enumerate(run["seed_replay"]["scenes"])}
+    run, replay = read_seed_run(run_dir)
+    scene_order = {s: i for i, s in enumerate(replay["scenes"])}
     info = dict(
         sorted(
-            run["seed_replay"]["workloads"].items(),  # scenes as given, kinds in ray order
+            replay["workloads"].items(),  # scenes as given, kinds in ray order
             key=lambda kv: (scene_order.get(kv[1]["scene"], 0), RAY_KINDS.index(kv[1]["rays"])),
         )
     )
-    kernels = run["sweep"]["kernels"]
-    batches = runfolder.read_batches(run_dir)
+    kernels = run.sweep.kernels
+    batches = runfolder.read_batches(run_dir, run)
     pp = stats.per_process(batches)
     timed = batches.loc[~batches["warmup"]]
     passes = (timed["tests"] / timed["loops"]).groupby([timed["kernel"], timed["workload_id"]]).median()
@@ -205,7 +214,7 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
     pp = pp.sort_values("kernel", key=lambda s: s.map(korder), kind="stable")
 
     wl = _workloads_table(info)
-    paper_size = (run["seed_replay"]["width"], run["seed_replay"]["height"]) == (512, 512)
+    paper_size = (replay["width"], replay["height"]) == (512, 512)
     scenes = {
         r.scene: {
             "triangles": r.triangles,
