@@ -546,3 +546,33 @@ def test_the_answer_chart_draws_an_interval_below_zero_on_a_linear_axis(rendered
     assert x_scales(narrow) == {"log"}
     wide = narrow.assign(ns_per_test_ci_low=narrow["ns_per_test_ci_low"] - 2 * narrow["ns_per_test"])
     assert x_scales(wide) == {"linear"}
+
+
+def test_drift_bins_and_round_summary_count_and_place_every_batch():
+    from tribench.reports.tables.diagnostics import drift_bins, round_summary
+
+    rel = [1.0, 1.1, 0.9, 1.0, 4.0, 1.0, 0.5, 1.0]
+    labels = pd.DataFrame(
+        {
+            "kernel": ["a"] * 4 + ["b"] * 4,
+            "round": [-1, 0, 0, 1] * 2,
+            "warmup": [True, False, False, False] * 2,
+            "rel_to_median": rel,
+            "t_in_process_s": [0.0, 1.0, 2.0, 3.0] * 2,
+            "outlier": [False] * 4 + [True, False, True, False],
+            "far_out": [False] * 4 + [True, False, False, False],
+        }
+    )
+    bins = drift_bins(labels, bins=2)  # spans [1, 2] and (2, 3] of the timed batches
+    assert bins.set_index("kernel")["batches"].groupby(level=0).sum().to_dict() == {"a": 3, "b": 3}
+    a = bins.loc[bins["kernel"] == "a"].sort_values("t_s")
+    assert a[["t_s", "rel_q1", "rel_median"]].to_numpy().ravel() == pytest.approx([1.5, 0.95, 1.0, 3.0, 1.0, 1.0])
+    rounds = round_summary(labels).set_index(["kernel", "round"])
+    assert rounds.loc[("a", 0), ["rel_min", "rel_median", "rel_max", "batches"]].tolist() == pytest.approx(
+        [0.9, 1, 1.1, 2]
+    )
+    # b's warm-up batch is far out (4.0); in round 0 the outlier is 0.5; a has none
+    assert rounds.loc[("b", -1), ["outliers", "far_out", "worst_outlier"]].tolist() == [1, 1, 4.0]
+    assert rounds.loc[("b", 0), ["outliers", "far_out", "worst_outlier"]].tolist() == [1, 0, 0.5]
+    assert rounds.loc["a", "worst_outlier"].isna().all() and bool(rounds.loc[("a", -1), "warmup"])
+    assert drift_bins(labels.loc[labels["warmup"]]).empty  # no timed batch, no point
