@@ -1,6 +1,6 @@
 """The page kit of every HTML page tribench writes (report, compare, seed): the shell, the CSS once, and the parts.
 
-A page references nothing outside itself (figures are ``data:`` URIs, scripts inline), so it opens offline.
+A page references nothing outside itself (pictures are ``data:`` URIs, the charts' scripts inline), so it opens offline.
 Every helper escapes the text it is given; a ``body`` argument is HTML these helpers already made."""
 
 from __future__ import annotations
