@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
 import os
 import platform
+import re
 import subprocess
 import sys
 from importlib import metadata
@@ -111,10 +113,21 @@ def cache_sizes() -> dict[str, str]:
     return sizes
 
 
+def size_bytes(size: str) -> float:
+    """A size as Linux prints it in bytes, NaN when it is none (a run folder's caches are read with it too).
+
+    >>> size_bytes("32K"), size_bytes("2M"), size_bytes("512"), size_bytes("?")
+    (32768.0, 2097152.0, 512.0, nan)
+    """
+    m = re.fullmatch(r"\s*([0-9.]+)\s*([KMG]?)i?B?\s*", str(size), flags=re.I)
+    if not m:
+        return math.nan
+    return float(m.group(1)) * {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30}[m.group(2).upper()]
+
+
 def cache_bytes() -> dict[str, int]:
     """:func:`cache_sizes` in bytes ('32K' -> 32768)."""
-    units = {"K": 1 << 10, "M": 1 << 20, "G": 1 << 30}
-    return {name: int(s[:-1]) * units[s[-1]] if s[-1] in units else int(s) for name, s in cache_sizes().items()}
+    return {name: int(size_bytes(s)) for name, s in cache_sizes().items()}
 
 
 def git_revision() -> str | None:

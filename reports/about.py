@@ -10,7 +10,7 @@ from typing import Any
 import pandas as pd
 
 from ..harness.runfolder import Run
-from . import columns, content, figures, page
+from . import columns, content, page
 from .rundata import RunData
 
 __all__ = ["pictures_section", "machine_section", "reproduce_section", "sweep_toml"]
@@ -37,7 +37,7 @@ def pictures_section(data: RunData, wl: pd.DataFrame) -> str:
         png, why = content.picture(data, r.workload_id)
         img = (
             page.figure(
-                figures.png_data_uri(figures.palette_png(png)), f"picture of {r.workload_id}", f"{r.label} ({r.family})"
+                page.png_data_uri(page.palette_png(png)), f"picture of {r.workload_id}", f"{r.label} ({r.family})"
             )
             if png is not None
             else page.p(why, "note")

@@ -11,8 +11,10 @@ import pandas as pd
 
 from ..harness.jobs.peers import PEER_NAMES
 from ..harness.stats import format_estimate
-from . import figures, page
+from . import page
+from .charts import embed
 from .rundata import PeerTables
+from .speed_charts import bvh_chart
 
 __all__ = ["CLAIM", "CLAIMANTS", "bvh_figure", "bvh_rows", "bvh_section", "claim_answer", "claim_sentences"]
 
@@ -115,39 +117,14 @@ def bvh_rows(bvh: pd.DataFrame) -> pd.DataFrame:
 
 
 def bvh_figure(bvh: pd.DataFrame, colours: dict[str, str]) -> str:
-    """Rays/s of every kernel in a BVH against the mesh's triangle count, with 95% CIs, as a page figure."""
-    import numpy as np
-
-    fig = figures._figure(7.0, 3.2)
-    ax = fig.add_subplot(1, 1, 1)
-    styles = {kind: style for kind, style in zip(sorted(set(bvh["rays_kind"])), ["-", "--", ":", "-."], strict=False)}
-    for (kernel, kind, dtype), g in bvh.groupby(["kernel", "rays_kind", "dtype"], sort=False):
-        g = g.sort_values("triangles")
-        x, y = g["triangles"].to_numpy(float), g["rays_per_s"].to_numpy(float)
-        low, high = g["rays_per_s_ci_low"].to_numpy(float), g["rays_per_s_ci_high"].to_numpy(float)
-        err = np.vstack([np.nan_to_num(y - low), np.nan_to_num(high - y)])
-        ax.errorbar(
-            x,
-            y,
-            yerr=err,
-            color=colours.get(kernel, "#333"),
-            ls=styles.get(kind, "-"),
-            marker="o" if dtype == "float32" else "s",
-            ms=4,
-            capsize=2,
-            label=f"{kernel}, {kind} rays, {dtype}",
-        )
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("triangles of the mesh (log scale)")
-    ax.set_ylabel("rays per second (log scale)")
-    ax.grid(which="major", color="#e5e7eb", lw=0.8)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside the axes: never over a line
-    return page.figure(
-        figures.svg_data_uri(fig),
+    """Rays/s of every kernel in a BVH against the mesh's triangle count, with 95% CIs, as a page chart."""
+    return embed(
+        bvh_chart(bvh, colours),
+        "chart-bvh",
         "rays per second of every kernel in a BVH by mesh size",
         "Rays/s end to end in the BVH (traversal and leaf tests, one core): geometric mean over processes, "
-        "bars 95% CI (bvh.csv).",
+        "lines 95% CI (bvh.csv); dashes: the kind of rays, shapes: the precision. Hover for the figures; click a "
+        "kernel in the legend to show it alone.",
     )
 
 

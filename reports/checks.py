@@ -10,8 +10,9 @@ import pandas as pd
 
 from ..harness import runfolder, stats
 from ..harness.jobs import validate
-from . import about, content, figures, page
+from . import about, charts, check_charts, content, page
 from .rundata import VALIDATE, RunData
+from .tables.diagnostics import drift_bins, round_summary
 
 __all__ = ["drift_section", "diagnostics_section", "calibration", "correctness_section", "robustness_section"]
 
@@ -19,12 +20,14 @@ __all__ = ["drift_section", "diagnostics_section", "calibration", "correctness_s
 def drift_section(data: RunData, batches: pd.DataFrame, drift: pd.DataFrame, colours: dict[str, str]) -> str:
     """Batches over time relative to their process, and stats.drift per kernel against the baseline."""
     body = [
-        page.figure(
-            figures.svg_data_uri(figures.drift_panel(batches, colours)),
-            "drift panel",
-            "Every timed batch, ns/test relative to its process's median for that kernel and workload, "
-            "against time since the process started; lines: binned medians per kernel. Kernels moving "
-            "apart over time is drift that can bias a ratio.",
+        _chart(
+            check_charts.drift_chart(drift_bins(batches), colours),
+            "chart-drift",
+            "drift of every kernel over time",
+            "Every timed batch's ns/test relative to its process's median for that kernel and workload, against "
+            "time since the process started, pooled over workloads in twelve equal spans of time: a line through "
+            "each kernel's medians; click a kernel in the legend to show it alone with its quartiles (band). "
+            "Kernels moving apart over time is drift that can bias a ratio.",
         ),
         page.p(
             "stats.drift per kernel against the baseline and workload: slopes are per second on the log "
@@ -112,9 +115,12 @@ def calibration(data: RunData) -> str:
     return "".join(body)
 
 
-def diagnostics_section(data: RunData, batches: pd.DataFrame, wl: pd.DataFrame) -> str:
+def _chart(chart: Any, chart_id: str, description: str, caption: str) -> str:
+    return page.p("No batches.", "note") if chart is None else charts.embed(chart, chart_id, description, caption)
+
+
+def diagnostics_section(data: RunData, batches: pd.DataFrame, colours: dict[str, str]) -> str:
     """Rounds, warm-up, outliers, variance components, the margin, interference, FMA peak."""
-    colours = figures.kernel_colours(data.kernels)
     warm = content.sweep_order(content.table(data, runfolder.WARMUP), data)
     outl = content.sweep_order(content.table(data, runfolder.OUTLIERS), data)
     var = content.table(data, runfolder.VARIANCE)
@@ -122,14 +128,16 @@ def diagnostics_section(data: RunData, batches: pd.DataFrame, wl: pd.DataFrame) 
     ctx = int(timed["invol_ctx_switches"].sum())
     steal = timed.loc[timed["steal_ticks"] > 0, "steal_ticks"].sum() if "steal_ticks" in timed else 0
     body = [
-        page.figure(
-            figures.svg_data_uri(figures.rounds_panel(batches, colours)),
+        _chart(
+            check_charts.rounds_chart(round_summary(batches), colours),
+            "chart-rounds",
             "batches by round",
-            f"Every batch against its round (shaded: warm-up rounds, kept and labelled, left out of every "
-            f"estimate), relative to its process's median. Red rings: Tukey outliers (beyond "
-            f"{stats.DEFAULTS.tukey_k} IQR within the process), crosses: far out "
-            f"({stats.DEFAULTS.tukey_far_k} IQR). Outliers are labelled, never dropped: the per-process "
-            f"median keeps the estimates robust.",
+            f"Every batch by its round (shaded: warm-up rounds, kept and labelled, left out of every estimate), "
+            f"relative to its process's median, pooled over processes and workloads per kernel: the median (dot), "
+            f"quartiles (thick) and least to most (thin). Red ring: the round's farthest Tukey outlier (beyond "
+            f"{stats.DEFAULTS.tukey_k} IQR within the process), a cross when far out "
+            f"({stats.DEFAULTS.tukey_far_k} IQR); hover for the counts. Outliers are labelled, never dropped: the "
+            f"per-process median keeps the estimates robust.",
         ),
         "<h3>Warm-up</h3>",
         page.table(

@@ -10,7 +10,9 @@ import pandas as pd
 
 from ..harness import stats
 from . import page
+from .charts import USED, embed, library
 from .rundata import RunData
+from .speed_charts import forest_chart
 from .tables.compare import (
     Comparison,
     MultiComparison,
@@ -93,25 +95,18 @@ def format_comparison(a: RunData, b: RunData, c: Comparison) -> str:
 
 def _pair_parts(a: RunData, b: RunData, c: Comparison) -> list[str]:
     """The two-run sections: the ratio of speedups (B / A) and the time ratios, with the forest plot."""
-    from . import figures
-
     spd = c.speedups
     parts = []
-    if not spd.empty:
-        fig = figures.forest(
-            spd,
-            c.baseline,
-            c.margin,
-            verdict_words=RATIO_WORDS,
-            xlabel=f"speedup_B / speedup_A (speedup = time_{c.baseline} / time_kernel; log axis; "
-            f"> 1: the kernel's advantage is larger on B; Welch 95% CIs)",
-        )
+    chart = forest_chart(spd, c.margin, "speedup_B / speedup_A", "the kernel's advantage is larger on B", RATIO_WORDS)
+    if chart is not None:
         parts.append(
-            page.figure(
-                figures.svg_data_uri(fig),
+            embed(
+                chart,
+                "chart-forest",
                 "ratio of speedups",
-                f"Ratio of speedups per workload family; grey: the equivalence margin "
-                f"±{100 * c.margin:.2g}% (the larger of the two runs').",
+                f"Ratio of speedups (speedup = time_{c.baseline} / time_kernel) per workload family, with Welch 95% "
+                f"CIs simultaneous per workload; grey: the equivalence margin ±{100 * c.margin:.2g}% (the larger of "
+                "the two runs'). Log axis. Hover for the figures; the menu picks a kernel, the legend a verdict.",
             )
         )
     parts.append(
@@ -205,7 +200,8 @@ def render_compare(runs: list[RunData], m: MultiComparison, pair: Comparison | N
         nav["machines"] = SECTIONS["machines"]
     parts.append(_machines_part(runs, m.tags))
     footer = page.p(f"Written by tribench compare at {page.now()}. Statistics: tribench.harness.stats.", "note")
-    return page.document("tribench compare", "".join(parts), nav, footer)
+    body = "".join(parts)
+    return page.document("tribench compare", body, nav, footer, script=library() if USED in body else "")
 
 
 def format_compare_text(runs: list[RunData], m: MultiComparison, pair: Comparison | None = None) -> str:

@@ -22,7 +22,7 @@ from __future__ import annotations
 import pandas as pd
 
 from ..harness import runfolder
-from . import about, builds, bvh, charts, checks, content, figures, headline, page, ranking, replication, results
+from . import about, builds, bvh, charts, checks, content, headline, page, ranking, replication, results
 from . import tables as analysis
 from .about import sweep_toml
 from .headline import headline_sentences
@@ -79,7 +79,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     kern = content.table(data, runfolder.KERNELS)
     val, val_note = load_validation(data)
     peers, peer_note = load_peers(data)
-    colours = figures.kernel_colours(data.kernels)
+    colours = charts.kernel_colours(data.kernels)
 
     alg = content.table(data, runfolder.ALGORITHMS)
     bands = data.tables.get(runfolder.BANDS)  # None: tables of an older tribench
@@ -97,9 +97,9 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         "hit-rate": results.hit_rate_section(data, est, spd, cross, colours),
         "scaling": results.scaling_section(data, est, slopes, colours),
         "peers": results.peers_section(peers, peer_note),
-        "processes": results.processes_section(data, pp, est, wl, colours),
+        "processes": results.processes_section(pp, est, colours),
         "drift": checks.drift_section(data, batches, drift, colours),
-        "diagnostics": checks.diagnostics_section(data, batches, wl),
+        "diagnostics": checks.diagnostics_section(data, batches, colours),
         "correctness": checks.correctness_section(data, correct, wl),
         "robustness": checks.robustness_section(val, val_note),
         "workloads": about.pictures_section(data, wl),

@@ -1,11 +1,13 @@
 """The page kit of every HTML page tribench writes (report, compare, seed): the shell, the CSS once, and the parts.
 
-A page references nothing outside itself (figures are ``data:`` URIs, scripts inline), so it opens offline.
+A page references nothing outside itself (pictures are ``data:`` URIs, the charts' scripts inline), so it opens offline.
 Every helper escapes the text it is given; a ``body`` argument is HTML these helpers already made."""
 
 from __future__ import annotations
 
+import base64
 import datetime as _dt
+import io
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from html import escape
@@ -14,7 +16,22 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-__all__ = ["CSS", "num", "plain", "p", "warn", "code", "table", "kv_table", "figure", "section", "document", "now"]
+__all__ = [
+    "CSS",
+    "num",
+    "plain",
+    "p",
+    "warn",
+    "code",
+    "table",
+    "kv_table",
+    "figure",
+    "png_data_uri",
+    "palette_png",
+    "section",
+    "document",
+    "now",
+]
 
 CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:0;
@@ -151,6 +168,21 @@ def figure(uri: str, alt: str, caption: str, img_class: str = "") -> str:
     return (
         f'<figure><img src="{escape(uri)}" alt="{escape(alt)}"{c}><figcaption>{escape(caption)}</figcaption></figure>'
     )
+
+
+def png_data_uri(data: bytes) -> str:
+    """PNG bytes as a ``data:image/png;base64,...`` URI, for :func:`figure`."""
+    return "data:image/png;base64," + base64.b64encode(data).decode()
+
+
+def palette_png(data: bytes) -> bytes:
+    """PNG bytes re-encoded with a 256-colour palette: a plot's flat colours look the same at a third of the bytes."""
+    from PIL import Image  # a dependency of matplotlib, which draws the pictures
+
+    out = io.BytesIO()
+    with Image.open(io.BytesIO(data)) as im:
+        im.convert("RGB").quantize(256, method=Image.Quantize.FASTOCTREE).save(out, format="PNG", optimize=True)
+    return out.getvalue()
 
 
 def section(sid: str, title: str | None, body: str, collapsed: bool = False) -> str:

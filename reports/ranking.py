@@ -14,6 +14,7 @@ from ..harness import runfolder
 from ..harness.stats import format_estimate
 from . import charts, page
 from .rundata import RunData
+from .speed_charts import answer_chart
 
 __all__ = [
     "QUESTIONS",
@@ -407,7 +408,7 @@ def answer_section(data: RunData, bands: pd.DataFrame | None, alg: pd.DataFrame 
         )
     parts.append(
         charts.embed(
-            charts.answer_chart(bands, colours),
+            answer_chart(bands, colours),
             "chart-answer",
             "speed against robustness against memory",
             "Speed against robustness against memory, in the band the menu picks: each kernel's ns/test "

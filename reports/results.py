@@ -8,7 +8,7 @@ from html import escape
 import numpy as np
 import pandas as pd
 
-from . import charts, figures, page
+from . import charts, check_charts, page, speed_charts
 from .headline import peer_sentence
 from .rundata import PeerTables, RunData
 
@@ -48,7 +48,7 @@ _SPD_COLS = [
 
 def speedups_section(data: RunData, spd: pd.DataFrame, est: pd.DataFrame) -> str:
     """The forest plot of every speedup, then the speedups and estimates tables."""
-    chart = charts.forest_chart(spd, data.baseline, figures.VERDICT_COLOURS)
+    chart = speed_charts.forest_chart(spd, data.margin, f"speedup over {data.baseline}", "faster")
     body = [
         charts.embed(
             chart,
@@ -143,10 +143,10 @@ def hit_rate_section(
             "note",
         )
     ]
-    curves = charts.hit_rate_chart(est, cross, colours)
-    speedups = charts.speedup_hit_rate_chart(spd, data.baseline, data.margin, colours)
+    curves = speed_charts.hit_rate_chart(est, cross, colours)
+    speedups = speed_charts.speedup_hit_rate_chart(spd, data.baseline, data.margin, colours)
     if curves is None or speedups is None:
-        body.append(page.p(figures.NO_HIT_RATE_CURVE.capitalize() + ".", "note"))
+        body.append(page.p("No pair workload family with two or more per-test hit rates in this run.", "note"))
     else:
         body.append(
             charts.embed(
@@ -208,7 +208,7 @@ def hit_rate_section(
 def scaling_section(data: RunData, est: pd.DataFrame, slopes: pd.DataFrame, colours: dict[str, str]) -> str:
     """Cost against triangle count and working set, and the log–log slopes."""
     caches = data.machine.get("caches", {})
-    chart = charts.scaling_chart(est, caches, colours)
+    chart = speed_charts.scaling_chart(est, caches, colours)
     body = [
         charts.embed(
             chart,
@@ -273,12 +273,13 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
         page.p(
             peer_sentence(peers.ratios, peers.kernel, peers.workload, peers.in_bvh) or "Only tribench was measured."
         ),
-        page.figure(
-            figures.svg_data_uri(figures.peers_rates(peers.rates)),
+        charts.embed(
+            speed_charts.peers_chart(peers.rates),
+            "chart-peers",
             "rays per second of every contender",
-            f"Rays/s on {peers.workload}: geometric mean over processes, lines 95% CI. tribench: "
-            f"{peers.kernel}, the fastest closest-mode kernel on these rays; tribench_call: the same kernel "
-            f"through ext.intersect (checks and output arrays included, like a peer's one call).",
+            f"Rays/s on {peers.workload}: geometric mean over processes (dot), 95% CI (line); hover for the "
+            f"figures. tribench: {peers.kernel}, the fastest closest-mode kernel on these rays; tribench_call: the "
+            f"same kernel through ext.intersect (checks and output arrays included, like a peer's one call).",
         ),
         page.table(
             peers.rates,
@@ -321,16 +322,18 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
     return "".join(body)
 
 
-def processes_section(
-    data: RunData, pp: pd.DataFrame, est: pd.DataFrame, wl: pd.DataFrame, colours: dict[str, str]
-) -> str:
+def processes_section(pp: pd.DataFrame, est: pd.DataFrame, colours: dict[str, str]) -> str:
     """Every worker process's value beside the estimate: the replicate made visible."""
-    labels = {r.workload_id: f"{r.label}\n{r.family}" for r in wl.itertuples(index=False)}
-    fig = figures.process_dots(pp, est, labels, data.kernels, colours)
-    return page.figure(
-        figures.svg_data_uri(fig),
+    labels = {r.workload_id: f"{r.family} · {r.label}" for r in est.drop_duplicates("workload_id").itertuples()}
+    chart = check_charts.processes_chart(pp, est, labels, colours)
+    if chart is None:
+        return page.p("No estimate: no process to show.", "note")
+    return charts.embed(
+        chart,
+        "chart-processes",
         "per-process values",
         "Each dot is one worker process's median ns per test; below the dots, the estimate (diamond, mean "
-        "over processes) and its 95% CI. The process is the replicate: batches inside one process share "
-        "its memory layout and are not independent.",
+        "over processes) and its 95% CI, on the workload the menu picks. The process is the replicate: batches "
+        "inside one process share its memory layout and are not independent. Hover for the figures; click a "
+        "kernel in the legend to show it alone.",
     )

@@ -16,8 +16,9 @@ import pandas as pd
 from ..common import write_text
 from ..harness.runfolder import Run
 from ..harness.stats import format_interval
-from . import figures, page
+from . import charts, page
 from .about import machine_rows
+from .speed_charts import seed_chart
 from .tables.seed import read_seed_run
 
 __all__ = ["SEED_REPORT", "render_seed", "write_seed_report"]
@@ -43,47 +44,15 @@ def _section(sid: str, body: str) -> str:
 
 
 def _ratio_figure(seed: pd.DataFrame) -> str:
-    """Each kernel's render time over moller_seed's with its CI, per scene; the paper's ratio marked."""
-    import matplotlib.pyplot as plt
-    from matplotlib.ticker import FuncFormatter, NullFormatter
-
-    scenes = list(dict.fromkeys(seed["scene"]))
-    kernels = list(dict.fromkeys(seed["kernel"]))
-    colours = figures.kernel_colours(kernels)
-    fig, axes = plt.subplots(
-        1, len(scenes), figsize=(4.6 * len(scenes), 0.45 * len(kernels) + 1.3), squeeze=False, sharey=True
+    """Each kernel's render time over its baseline's with its CI, per scene; the paper's ratios marked."""
+    return charts.embed(
+        seed_chart(seed, charts.kernel_colours(list(dict.fromkeys(seed["kernel"])))),
+        "chart-seed",
+        "ratios to moller_seed",
+        "Render time of each kernel over its baseline's (moller_seed_object for the object forms, moller_seed "
+        "for the others), 95% CIs, log axis; diamonds: the paper's Curless/Möller ratio (open: real, filled: "
+        "user). Hover for the figures.",
     )
-    for ax, scene in zip(axes[0], scenes, strict=True):
-        rows = seed.loc[seed["scene"] == scene].set_index("kernel").reindex(kernels)
-        y = list(range(len(kernels)))[::-1]
-        for yi, (k, r) in zip(y, rows.iterrows(), strict=True):
-            if not math.isfinite(r["ratio_to_moller_seed"]):
-                continue
-            if math.isfinite(r["ratio_to_moller_seed_ci_low"]):
-                ax.plot(
-                    [r["ratio_to_moller_seed_ci_low"], r["ratio_to_moller_seed_ci_high"]],
-                    [yi, yi],
-                    color=colours[k],
-                    lw=2.4,
-                )
-            ax.plot([r["ratio_to_moller_seed"]], [yi], "o", color=colours[k], ms=6)
-            if math.isfinite(r["paper_ratio_real"]) and k != r["ratio_baseline"]:
-                ax.plot([r["paper_ratio_real"]], [yi], "D", color="#333", ms=5, mfc="white", label="paper (real)")
-                ax.plot([r["paper_ratio_user"]], [yi], "D", color="#333", ms=5, label="paper (user)")
-        ax.axvline(1.0, color="#999", lw=0.8)
-        ax.set_xscale("log")
-        ax.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
-        ax.xaxis.set_minor_formatter(NullFormatter())  # minor labels of a short log axis overlap
-        ax.set_yticks(y)
-        ax.set_yticklabels(kernels)
-        ax.set_title(scene, loc="left")
-        ax.set_xlabel("time / its baseline's: moller_seed, or moller_seed_object (log; bars: 95% CI)")
-        handles, labels = ax.get_legend_handles_labels()
-        if handles:
-            keep = dict(zip(labels, handles, strict=True))
-            ax.legend(keep.values(), keep.keys(), frameon=False, loc="lower right", fontsize=8)
-    fig.tight_layout()
-    return figures.svg_data_uri(fig)
 
 
 #: How the replay's table reads beside the paper's, first on the page.
@@ -194,15 +163,7 @@ def _paper(seed: pd.DataFrame, wl: pd.DataFrame, replay: Mapping[str, Any]) -> s
     for scene, g in seed.groupby("scene", sort=False):
         body += _scene_table(scene, g, size)
         body += _curless_over_moller(scene, g, wl)
-    body.append(
-        page.figure(
-            _ratio_figure(seed),
-            "ratios to moller_seed",
-            "Render time of each kernel over its baseline's (moller_seed_object for the object forms, "
-            "moller_seed for the others), 95% CIs; diamonds: the paper's "
-            "Curless/Möller ratio (open: real, filled: user).",
-        )
-    )
+    body.append(_ratio_figure(seed))
     return _section("paper", "".join(body))
 
 
@@ -277,7 +238,7 @@ def _pictures(run_dir: Path, pics: pd.DataFrame) -> str:
             ("difference_png", f"difference: {r.differing_pixels} pixels"),
         ):
             path = run_dir / str(getattr(r, col))
-            uri = figures.png_data_uri(path.read_bytes()) if path.is_file() else ""
+            uri = page.png_data_uri(path.read_bytes()) if path.is_file() else ""
             cards.append(page.figure(uri, caption, caption, img_class="pixels"))
         body.append(f"<h3>{escape(str(r.scene))} ({r.width}×{r.height}, {escape(str(r.dtype))})</h3>")
         body.append(f'<div class="pictures three">{"".join(cards)}</div>')
@@ -378,7 +339,8 @@ def render_seed(run_dir: str | Path) -> str:
     footer = page.p(
         f"Written by tribench seed at {page.now()} from {run_dir}. Statistics: tribench.harness.stats.", "note"
     )
-    return page.document(title, head + "".join(sections), SECTIONS, footer)
+    body = head + "".join(sections)
+    return page.document(title, body, SECTIONS, footer, script=charts.library() if charts.USED in body else "")
 
 
 def write_seed_report(run_dir: str | Path) -> Path:

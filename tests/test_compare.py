@@ -21,8 +21,8 @@ from test_report_run import copy_run_inputs, run_fixture_dir
 from tribench import reports
 from tribench.common import UserError
 from tribench.harness.stats import unpaired_ratio
-from tribench.reports import page
-from tribench.reports.compare import compare_many, compare_runs, format_many, order_summary, render_compare
+from tribench.reports import charts, page
+from tribench.reports.compare import RATIO_WORDS, compare_many, compare_runs, format_many, order_summary, render_compare
 from tribench.reports.rundata import load_run
 
 FACTOR = 1.25  # run B: moller_trumbore made exactly this much faster
@@ -89,10 +89,18 @@ def test_compare_cli_prints_a_table_and_writes_html(two_runs, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "B/A" in proc.stdout and f"{FACTOR:.3f}" in proc.stdout
     text = out.read_text()
-    assert 'id="speedup-ratios"' in text and "data:image/svg+xml;base64," in text
+    assert 'id="speedup-ratios"' in text and text.count(charts.library()) == 1  # the charts' library, once
+    text = text.replace(charts.library(), "")
     assert re.findall(r"<style>(.*?)</style>", text, re.S) == [page.CSS]  # the report's stylesheet, written once
     assert re.search(r"moller_trumbore\s+[\d.]+\s+[\d.]+\s+[\d.]+\s+\[[\d.]+, [\d.]+\]\s+\S", proc.stdout)
-    assert "http://" not in text and "https://" not in text and "<script" not in text
+    assert "http://" not in text and "https://" not in text and "src=" not in text
+    # the report's forest chart draws the ratio of speedups, its verdicts in the words of a ratio of two runs
+    spec = json.loads(re.search(r'vegaEmbed\("#chart-forest",(\{.*?\}),\{actions', text).group(1))
+    rows = [r for values in spec["datasets"].values() for r in values if r.get("kernel") == "moller_trumbore"]
+    assert len(rows) == 4 and np.allclose([r["ratio"] for r in rows], FACTOR, rtol=1e-4)
+    assert {r["verdict"] for r in rows} <= set(RATIO_WORDS.values()) and "larger on B" in {r["verdict"] for r in rows}
+    flat = json.dumps(spec)
+    assert json.dumps(list(RATIO_WORDS.values())) in flat and '"title": "equivalence margin"' in flat
 
 
 def _gate(*runs):
@@ -242,7 +250,7 @@ def test_compare_cli_takes_three_runs(three_runs, tmp_path):
     text = out.read_text()
     assert 'id="speedups"' in text and 'id="orders"' in text and 'id="machines"' in text
     assert 'id="speedup-ratios"' not in text  # the ratio of speedups is a two-run figure
-    assert "http://" not in text and "https://" not in text and "<script" not in text
+    assert "http://" not in text and "https://" not in text and "<script" not in text  # no chart, no library
     assert text.count("speedup on C (×)") == 4  # a machine x kernel table per workload
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tribench.reports import charts, checks, page
+from tribench.reports import checks, page, speed_charts
 from tribench.reports import ranking as report_ranking
 from tribench.reports.tables import ranking
 
@@ -136,7 +136,7 @@ def test_the_first_table_shows_the_fastest_kernels_measured_rates(tables):
 
 def test_the_chart_height_is_the_measured_rate(tables):
     _, bands, _ = tables
-    spec = charts.answer_chart(bands, dict.fromkeys(KERNELS, "#000")).to_dict()
+    spec = speed_charts.answer_chart(bands, dict.fromkeys(KERNELS, "#000")).to_dict()
     values = spec["datasets"][spec["data"]["name"]] if "datasets" in spec else spec["data"]["values"]
     got = {(d["where"].split(" · ")[0], d["kernel"]): d["failures_per_million"] for d in values}
     want = {

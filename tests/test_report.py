@@ -19,7 +19,7 @@ from test_report_run import run_fixture_dir
 
 from tribench import reports
 from tribench.harness.plan import plan
-from tribench.reports import charts, checks, headline
+from tribench.reports import charts, checks, headline, speed_charts
 from tribench.reports import html as report_html
 from tribench.reports.rundata import RunError
 
@@ -86,22 +86,11 @@ def test_report_has_every_section_in_order(rendered):
     assert sections == list(report_html.SECTIONS)
 
 
-def test_report_figures_are_inline_svg_and_png(rendered):
+def test_the_only_images_are_the_workloads_inline_pictures(rendered):
     _, _, text = rendered
     imgs = _parse(text).imgs
-    svgs = [s for s in imgs if s.startswith("data:image/svg+xml;base64,")]
     pngs = [s for s in imgs if s.startswith("data:image/png;base64,")]
-    # static: processes, drift, rounds (the forest, hit-rate and size charts are interactive)
-    assert len(svgs) == 3
-    assert len(pngs) == 4  # one picture per workload
-    assert len(imgs) == len(svgs) + len(pngs)
-    for uri in svgs:
-        svg = base64.b64decode(uri.split(",", 1)[1]).decode()
-        assert svg.lstrip().startswith("<?xml") or svg.lstrip().startswith("<svg")
-        assert "<svg" in svg and "</svg>" in svg
-        # nothing an SVG could fetch: no external href, no font files, no stylesheet imports
-        assert not re.search(r'href="(?!#|data:image/png;base64,)', svg)
-        assert "@import" not in svg and "@font-face" not in svg and "url(http" not in svg
+    assert len(pngs) == len(imgs) == 4  # one picture per workload; every plot is a chart
     for uri in pngs:
         assert base64.b64decode(uri.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n"
         assert len(uri) < 120_000  # low-dpi palette pictures: the report stays a few MB
@@ -144,7 +133,7 @@ def test_tables_carry_units_and_escaped_text(rendered):
 
     page = _parse(text)
     assert page.head_scripts == 2 and page.scripts[0] == charts.library() and "tbOpen" in page.scripts[1]
-    assert all(s.startswith('vegaEmbed("#chart-') for s in page.scripts[2:]) and len(page.scripts) == 2 + 5
+    assert all(s.startswith('vegaEmbed("#chart-') for s in page.scripts[2:]) and len(page.scripts) == 2 + 8
 
 
 def test_reproduce_section_gives_a_sweep_file_that_reads_back(rendered, tmp_path):
@@ -470,8 +459,11 @@ def test_the_charts_show_values_on_hover_and_toggle_kernels(rendered):
     specs = _specs(text)
     assert sorted(specs) == [
         "chart-answer",
+        "chart-drift",
         "chart-forest",
         "chart-hit-rate",
+        "chart-processes",
+        "chart-rounds",
         "chart-scaling",
         "chart-speedup-hit-rate",
     ]
@@ -498,7 +490,7 @@ def test_the_charts_show_values_on_hover_and_toggle_kernels(rendered):
     assert '"field": "failures_per_million"' in json.dumps(answer)
     # where the suite's figures differ between kernels, so do their heights
     cracked = bands.assign(cracks_per_million=[88_250.0 * (r.kernel == "curless") for r in bands.itertuples()])
-    spec = charts.answer_chart(cracked, dict.fromkeys(bands["kernel"], "#000")).to_dict()
+    spec = speed_charts.answer_chart(cracked, dict.fromkeys(bands["kernel"], "#000")).to_dict()
     values = spec["datasets"][spec["data"]["name"]] if "datasets" in spec else spec["data"]["values"]
     heights = {d["kernel"]: d["failures_per_million"] for d in values}
     assert heights["curless"] == 88_250.0 and heights["moller_trumbore"] == 0.0
@@ -509,8 +501,8 @@ def test_the_charts_show_values_on_hover_and_toggle_kernels(rendered):
 def test_each_chart_of_the_page_is_also_a_vector_figure_named_by_what_it_shows(rendered, tmp_path):
     run_dir, _, text = rendered
     folder = run_dir / "figures"
-    shown = _specs(text)
-    assert sorted(p.name for p in folder.iterdir()) == sorted(
+    shown = {c: spec for c, spec in _specs(text).items() if c in charts.FIGURES}  # the diagnostics are no paper's
+    assert len(shown) == 5 and sorted(p.name for p in folder.iterdir()) == sorted(
         f"{charts.FIGURES[c]}.{ext}" for c in shown for ext in ("svg", "pdf")
     )
     kernels = {k for spec in shown.values() for k in re.findall(r"\"kernel\": \"(\w+)\"", json.dumps(spec))}
@@ -531,14 +523,12 @@ def test_each_chart_of_the_page_is_also_a_vector_figure_named_by_what_it_shows(r
 
 def test_the_answer_chart_draws_an_interval_below_zero_on_a_linear_axis(rendered):
     """A t interval over 3 processes may reach below 0 ns (tribench run --quick on a busy machine): no log axis then."""
-    from tribench.reports import charts
-
     run_dir, _, _ = rendered
     bands = pd.read_csv(run_dir / "bands.csv")
     colours = dict.fromkeys(bands["kernel"], "#000")
 
     def x_scales(frame):
-        spec = json.dumps(charts.answer_chart(frame, colours).to_dict())
+        spec = json.dumps(speed_charts.answer_chart(frame, colours).to_dict())
         return set(re.findall(r'"x": \{[^{}]*"scale": \{"type": "(\w+)"\}', spec))
 
     # the fixture's own intervals may reach below 0 on a busy machine: set them
@@ -546,3 +536,75 @@ def test_the_answer_chart_draws_an_interval_below_zero_on_a_linear_axis(rendered
     assert x_scales(narrow) == {"log"}
     wide = narrow.assign(ns_per_test_ci_low=narrow["ns_per_test_ci_low"] - 2 * narrow["ns_per_test"])
     assert x_scales(wide) == {"linear"}
+
+
+def _values(spec, field):
+    """Every record of ``spec``'s inline datasets that has ``field``."""
+    return [r for values in spec.get("datasets", {}).values() for r in values if field in r]
+
+
+def test_the_per_process_chart_holds_every_process_of_every_workload_behind_a_menu(rendered):
+    run_dir, _, text = rendered
+    spec = _specs(text)["chart-processes"]
+    pp = pd.read_csv(run_dir / "per_process.csv")
+    dots = _values(spec, "process")
+    assert sorted((d["workload_id"], d["kernel"], d["process"], d["ns_per_test"]) for d in dots) == sorted(
+        zip(pp["workload_id"], pp["kernel"], pp["process"], pp["ns_per_test"], strict=True)
+    )
+    est = pd.read_csv(run_dir / "estimates.csv")
+    means = {(d["workload_id"], d["kernel"]): d["ns_per_test"] for d in _values(spec, "n_processes")}
+    keys = zip(est["workload_id"], est["kernel"], strict=True)
+    assert means == pytest.approx(dict(zip(keys, est["ns_per_test"], strict=True)))
+    menu = next(p for p in spec["params"] if p["name"] == "workload")
+    swept = json.loads((run_dir / "run.json").read_text())["sweep"]["workload_ids"]
+    assert menu["bind"]["options"] == [w for w in swept if w in set(est["workload_id"])]  # in the sweep's order
+    assert len(menu["bind"]["labels"]) == 4 and all(" · " in label for label in menu["bind"]["labels"])
+
+
+def test_the_drift_and_rounds_charts_draw_the_batches_summaries_not_every_batch(rendered):
+    from tribench.reports.tables.diagnostics import drift_bins, round_summary
+
+    run_dir, _, text = rendered
+    specs = _specs(text)
+    labels = pd.read_csv(run_dir / "batch_labels.csv")
+    drift = drift_bins(labels)
+    points = _values(specs["chart-drift"], "rel_median")
+    assert len(points) == len(drift) <= 3 * 12  # a point per kernel and span of time, whatever the batches
+    assert sorted(p["rel_median"] for p in points) == pytest.approx(sorted(drift["rel_median"]))
+    rounds = round_summary(labels)
+    boxes = _values(specs["chart-rounds"], "rel_q1")
+    assert len(boxes) == len(rounds) == 3 * 4  # 3 kernels, 3 rounds and the warm-up
+    assert {(b["kernel"], b["round"]): b["batches"] for b in boxes} == {
+        (r.kernel, r.round): r.batches for r in rounds.itertuples()
+    }
+    assert sum(b["batches"] for b in boxes) == len(labels)
+
+
+def test_drift_bins_and_round_summary_count_and_place_every_batch():
+    from tribench.reports.tables.diagnostics import drift_bins, round_summary
+
+    rel = [1.0, 1.1, 0.9, 1.0, 4.0, 1.0, 0.5, 1.0]
+    labels = pd.DataFrame(
+        {
+            "kernel": ["a"] * 4 + ["b"] * 4,
+            "round": [-1, 0, 0, 1] * 2,
+            "warmup": [True, False, False, False] * 2,
+            "rel_to_median": rel,
+            "t_in_process_s": [0.0, 1.0, 2.0, 3.0] * 2,
+            "outlier": [False] * 4 + [True, False, True, False],
+            "far_out": [False] * 4 + [True, False, False, False],
+        }
+    )
+    bins = drift_bins(labels, bins=2)  # spans [1, 2] and (2, 3] of the timed batches
+    assert bins.set_index("kernel")["batches"].groupby(level=0).sum().to_dict() == {"a": 3, "b": 3}
+    a = bins.loc[bins["kernel"] == "a"].sort_values("t_s")
+    assert a[["t_s", "rel_q1", "rel_median"]].to_numpy().ravel() == pytest.approx([1.5, 0.95, 1.0, 3.0, 1.0, 1.0])
+    rounds = round_summary(labels).set_index(["kernel", "round"])
+    assert rounds.loc[("a", 0), ["rel_min", "rel_median", "rel_max", "batches"]].tolist() == pytest.approx(
+        [0.9, 1, 1.1, 2]
+    )
+    # b's warm-up batch is far out (4.0); in round 0 the outlier is 0.5; a has none
+    assert rounds.loc[("b", -1), ["outliers", "far_out", "worst_outlier"]].tolist() == [1, 1, 4.0]
+    assert rounds.loc[("b", 0), ["outliers", "far_out", "worst_outlier"]].tolist() == [1, 0, 0.5]
+    assert rounds.loc["a", "worst_outlier"].isna().all() and bool(rounds.loc[("a", -1), "warmup"])
+    assert drift_bins(labels.loc[labels["warmup"]]).empty  # no timed batch, no point

@@ -129,7 +129,7 @@ def test_collapsed_the_report_opens_on_the_ranking_and_is_at_most_10000_px_tall(
     end = text.rindex("</body>")  # the last: the charts' library has the words in its strings
     probed.write_text(text[:end] + _PROBE + text[end:], encoding="utf-8")
     m = _measure(browser, probed.resolve().as_uri())
-    assert int(m["charts"]) == 5  # every chart drew, the collapsed ones too
+    assert int(m["charts"]) == 8  # every chart drew, the collapsed ones too
     assert int(m["open"]) == 0  # every detail collapsed
     assert int(m["width"]) <= SCREEN[0]  # nothing wider than the window
     assert int(m["height"]) <= MAX_HEIGHT_PX
@@ -181,3 +181,63 @@ def test_the_answer_chart_shows_values_on_hover_and_a_kernel_alone_on_a_click(re
     m = {k: int(v) for k, v in found.items()}
     # the first band of the fixture has its 3 kernels: one stays, the other two fade
     assert (m["points"], m["before"], m["after"]) == (3, 0, 2)
+
+
+#: Appended to a page: once its charts have drawn, it writes how many did into the DOM.
+_COUNT = """<script>addEventListener("load", () => setTimeout(() => {
+  const m = document.createElement("div");
+  m.id = "tb-measure";
+  m.dataset.charts = document.querySelectorAll("figure.chart svg.marks").length;
+  document.body.appendChild(m);
+}, 1000));</script>"""
+
+
+@pytest.mark.slow
+def test_the_charts_the_fixture_has_no_data_for_draw_without_console_errors(tmp_path):
+    """The BVH, peers, seed and compare charts, and rounds with outliers, from small frames in their tables' columns."""
+    import pandas as pd
+
+    from tribench.reports import charts, check_charts, page, speed_charts
+    from tribench.reports.compare import RATIO_WORDS
+    from tribench.reports.tables.diagnostics import drift_bins, round_summary
+
+    browser = _chromium()
+    if browser is None:
+        pytest.skip("no chromium or chromium-browser on PATH (.ci/run installs Debian's chromium package)")
+    colours = charts.kernel_colours(["a", "b"])
+    bvh = pd.DataFrame(
+        {"family": "mesh", "label": ["s", "l"] * 2, "dtype": "float32", "rays_kind": "camera"}
+        | {"kernel": ["a", "a", "b", "b"], "triangles": [1e3, 1e5] * 2, "rays_per_s": [4e6, 2e6, 3e6, 1.5e6]}
+        | {"rays_per_s_ci_low": [3.9e6, 1.9e6, 2.9e6, 1.4e6], "rays_per_s_ci_high": [4.1e6, 2.1e6, 3.1e6, 1.6e6]}
+    )
+    rates = pd.DataFrame(
+        {"contender": ["tribench", "embree", "trimesh"], "implementation": ["x", "y", "z"]}
+        | {"rays_per_s": [2e6, 9e6, 5e4], "ci_low": [1.9e6, 8e6, float("nan")], "ci_high": [2.1e6, 1e7, float("nan")]}
+    )
+    seed = pd.DataFrame(
+        {"scene": ["s1", "s1", "s2", "s2"], "kernel": ["a", "b"] * 2, "ratio_baseline": "a"}
+        | {"ratio_to_moller_seed": [1.0, 1.4, 1.0, 1.2], "ratio_to_moller_seed_ci_low": [1.0, 1.3, 1.0, 1.1]}
+        | {"ratio_to_moller_seed_ci_high": [1.0, 1.5, 1.0, 1.3], "paper_ratio_real": [1.0, 1.5, 1.0, float("nan")]}
+        | {"paper_ratio_user": [1.0, 1.6, 1.0, float("nan")]}  # s2: a scene the paper did not render
+    )
+    spd = pd.DataFrame(
+        {"family": "pairs", "label": ["20%", "80%"], "kernel": "b", "verdict": ["faster", "equivalent"]}
+        | {"ratio": [1.25, 1.0], "ratio_ci_low": [1.2, 0.99], "ratio_ci_high": [1.3, 1.01]}
+    )
+    labels = pd.DataFrame(  # batches with a Tukey outlier and a far-out one, which the fixture may lack
+        {"kernel": ["a"] * 4 + ["b"] * 4, "round": [-1, 0, 0, 1] * 2, "warmup": [True, False, False, False] * 2}
+        | {"rel_to_median": [1.0, 1.1, 0.9, 1.0, 4.0, 1.0, 0.5, 1.0], "t_in_process_s": [0.0, 1.0, 2.0, 3.0] * 2}
+        | {"outlier": [False] * 4 + [True, False, True, False], "far_out": [False] * 4 + [True] + [False] * 3}
+    )
+    drawn = [
+        check_charts.rounds_chart(round_summary(labels), colours),
+        check_charts.drift_chart(drift_bins(labels, bins=2), colours),
+        speed_charts.bvh_chart(bvh, colours),
+        speed_charts.peers_chart(rates),
+        speed_charts.seed_chart(seed, colours),
+        speed_charts.forest_chart(spd, 0.02, "speedup_B / speedup_A", "larger on B", RATIO_WORDS),
+    ]
+    body = "".join(charts.embed(c, f"chart-{i}", "a chart", "a chart") for i, c in enumerate(drawn))
+    path = tmp_path / "charts.html"
+    path.write_text(page.document("charts", body + _COUNT, script=charts.library()), encoding="utf-8")
+    assert int(_measure(browser, path.resolve().as_uri())["charts"]) == 6

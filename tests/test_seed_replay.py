@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import math
+import re
 import shutil
 from html import escape
 
@@ -15,6 +17,7 @@ from tribench import ext
 from tribench.cli.command import main
 from tribench.harness import runfolder
 from tribench.harness.jobs import seed as hs
+from tribench.reports import charts
 from tribench.reports.tables import seed as seed_tables
 from tribench.workloads import cache, reference
 from tribench.workloads.kinds import spec_from_dict
@@ -257,7 +260,12 @@ def test_tribench_seed_quick_end_to_end_on_a_tiny_scene(cache_dir, tmp_path, cap
     wl = pd.read_csv(out / "seed_workloads.csv")
     assert list(wl["rays"]) == ["primary", "reflected", "shadow", "render"]
     page = (out / "seed.html").read_text()
-    assert "data:image/png;base64," in page and 'src="http' not in page and "<script" not in page
+    assert "data:image/png;base64," in page and 'src="http' not in page and "<script src" not in page
+    # the ratios chart: every kernel's ratio of seed.csv, the charts' library once in the page's head
+    assert page.count(charts.library()) == 1 and page.index(charts.library()) < page.index("<body>")
+    spec = json.loads(re.search(r'vegaEmbed\("#chart-seed",(\{.*?\}),\{actions', page).group(1))
+    drawn = {r["kernel"]: r["ratio_to_moller_seed"] for v in spec["datasets"].values() for r in v if "text" in r}
+    assert drawn == pytest.approx(dict(zip(seed["kernel"], seed["ratio_to_moller_seed"], strict=True)))
     for words in (
         "The table beside the paper",
         "per-test hit rate",

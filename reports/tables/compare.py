@@ -63,7 +63,7 @@ class RunTables(Protocol):
 class Comparison:
     """Both tables of a comparison and what they rest on."""
 
-    # Columns named as in speedups.csv (ratio, ratio_ci_low, ratio_ci_high), so figures.forest draws both.
+    # Columns named as in speedups.csv (ratio, ratio_ci_low, ratio_ci_high), so speed_charts.forest_chart draws both.
     speedups: pd.DataFrame  # ratio of speedups, per workload and kernel
     times: pd.DataFrame  # time ratio, per workload and kernel
     baseline: str

@@ -6,6 +6,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from ...harness import runfolder, stats
@@ -112,3 +113,38 @@ def variance_table(
                 }
             )
     return table_frame(rows, runfolder.VARIANCE)
+
+
+def _quartiles(groups: Any, out: dict[str, Any]) -> pd.DataFrame:
+    """``out`` with the median and quartiles of ``rel_to_median`` in each of ``groups`` and their batches."""
+    rel = groups["rel_to_median"]
+    out |= {"rel_q1": rel.quantile(0.25), "rel_median": rel.median(), "rel_q3": rel.quantile(0.75)}
+    return pd.DataFrame(out | {"batches": groups.size()}).reset_index()
+
+
+def drift_bins(labels: pd.DataFrame, bins: int = 12) -> pd.DataFrame:
+    """The drift chart's points: each kernel's timed batches of :func:`batch_labels` in ``bins`` equal spans of
+    time in the process, pooled over workloads: the spans' median time ``t_s``, the quartiles of ``rel_to_median``,
+    and ``batches``. A page holds a few hundred of these where the batches are thousands."""
+    timed = labels.loc[~labels["warmup"]]
+    if timed.empty:
+        return pd.DataFrame(columns=["kernel", "t_s", "rel_q1", "rel_median", "rel_q3", "batches"])
+    t = timed["t_in_process_s"]
+    span = pd.cut(t, np.linspace(t.min(), t.max(), bins + 1), include_lowest=True, labels=False)
+    g = timed.groupby(["kernel", span.rename("span")], sort=False)
+    return _quartiles(g, {"t_s": g["t_in_process_s"].median()}).drop(columns="span")
+
+
+def round_summary(labels: pd.DataFrame) -> pd.DataFrame:
+    """The rounds chart's points: per kernel and round (warm-ups negative), pooled over processes and workloads,
+    the quartiles, least and most of ``rel_to_median``, the Tukey outliers and far-outs among the batches, and
+    ``worst_outlier``, the ``rel_to_median`` of the outlier farthest from 1 (NaN without one)."""
+    keys = ["kernel", "round"]
+    g = labels.groupby(keys, sort=False)
+    rel = g["rel_to_median"]
+    out = labels.loc[labels["outlier"]]
+    farthest = np.log(out["rel_to_median"]).abs().groupby([out["kernel"], out["round"]]).idxmax()
+    worst = out.loc[farthest.to_numpy()].set_index(keys)["rel_to_median"].reindex(rel.min().index)
+    fields = {"warmup": g["warmup"].first(), "rel_min": rel.min(), "rel_max": rel.max()}
+    fields |= {"outliers": g["outlier"].sum(), "far_out": g["far_out"].sum(), "worst_outlier": worst}
+    return _quartiles(g, fields)
