@@ -51,7 +51,7 @@ def test_brute_ids_are_unchanged_and_a_bvh_id_differs_from_its_twin():
     bvh = dataclasses.replace(brute, accel="bvh")
     assert workload_id(bvh) != workload_id(brute) and bvh.to_dict()["accel"] == "bvh"
     assert spec_from_dict(bvh.to_dict()) == bvh and bvh.brute_twin() == brute
-    assert bvh.summary() == "mesh suzanne triangles=100 camera 16x16 bvh float32 seed=0"
+    assert bvh.summary() == "mesh suzanne triangles=100 camera 16x16 bvh float32 rng_seed=0"
     with pytest.raises(UserError, match="unknown accel 'kd-tree': choose one of brute, bvh"):
         MeshSpec("suzanne", accel="kd-tree")
 
@@ -61,7 +61,7 @@ def test_max_leaf_is_a_bvh_workloads_field_left_out_when_default():
     small = dataclasses.replace(bvh, max_leaf=4)
     assert "max_leaf" not in bvh.to_dict() and small.to_dict()["max_leaf"] == 4
     assert workload_id(small) != workload_id(bvh) and spec_from_dict(small.to_dict()) == small
-    assert small.brute_twin() == bvh.brute_twin() and small.summary().endswith("bvh max_leaf=4 float32 seed=0")
+    assert small.brute_twin() == bvh.brute_twin() and small.summary().endswith("bvh max_leaf=4 float32 rng_seed=0")
     with pytest.raises(UserError, match="max_leaf applies to accel='bvh' only"):
         MeshSpec("suzanne", max_leaf=4)
     for bad in (0, 2000, 4.5, True):
@@ -78,7 +78,7 @@ def test_max_leaf_is_a_bvh_workloads_field_left_out_when_default():
     seed=st.integers(0, 2**40),
 )
 def test_accel_enters_the_id_only_when_bvh(mesh, triangles, result, dtype, seed):
-    spec = MeshSpec(mesh, triangles=triangles, result=result, dtype=dtype, seed=seed)
+    spec = MeshSpec(mesh, triangles=triangles, result=result, dtype=dtype, rng_seed=seed)
     bvh = dataclasses.replace(spec, accel="bvh")
     assert {k: v for k, v in bvh.to_dict().items() if k != "accel"} == spec.to_dict()
     assert workload_id(bvh) != workload_id(spec) == workload_id(spec_from_dict(spec.to_dict()))

@@ -59,7 +59,7 @@ def test_reproducible_from_the_seed():
     spec = MeshSpec(**SUZANNE, rays="bounce", dtype="float32")
     a, b = generate(spec), generate(spec)
     assert a.checksum() == b.checksum()
-    other = generate(MeshSpec(**SUZANNE, rays="bounce", dtype="float32", seed=1))
+    other = generate(MeshSpec(**SUZANNE, rays="bounce", dtype="float32", rng_seed=1))
     assert not np.array_equal(a.directions, other.directions)
     assert workload_id(spec) != workload_id(MeshSpec(**SUZANNE, dtype="float32"))  # not the camera's id
 
@@ -91,7 +91,7 @@ def test_spec_and_command_line():
         MeshSpec("suzanne", rays="bounce", n_rays=10)
     assert (
         MeshSpec("suzanne", rays="bounce").summary()
-        == "mesh suzanne triangles=base bounces of camera 512x512 float64 seed=0"
+        == "mesh suzanne triangles=base bounces of camera 512x512 float64 rng_seed=0"
     )
     env = {**os.environ}
     done = subprocess.run(

@@ -219,7 +219,7 @@ def test_one_triangle_and_fewer_than_a_leaf(n):
 
 @pytest.fixture(scope="module")
 def suzanne():
-    return build_mesh("suzanne", 100_000, seed=0).triangles
+    return build_mesh("suzanne", 100_000, rng_seed=0).triangles
 
 
 @pytest.mark.slow
@@ -241,7 +241,7 @@ def test_packets_of_camera_rays_answer_as_single_rays_do(dtype):
     """layout="packets" traces a camera's rays 16 at a time (one origin): the closest hits of
     the wide tree's single rays, bit for bit, with far fewer node visits; packets whose rays
     cross an axis (mixed signs), hold a zero direction component or a NaN go ray by ray."""
-    tris = build_mesh("suzanne", 3000, seed=0).triangles
+    tris = build_mesh("suzanne", 3000, rng_seed=0).triangles
     o, d = camera_rays(64, 24)  # packets of 16 in a row of 64: a quarter row each, one sign per axis
     d[[5, 37, 100], 0] = 0.0  # inv = inf: that packet ray by ray
     o[200], o[201, 1], d[300, 2] = np.nan, np.inf, np.nan  # a NaN origin splits a packet; the rest miss

@@ -24,8 +24,8 @@ from tribench.common import UserError
 from tribench.workloads import CacheWarning, list_cached, load, make
 from tribench.workloads.spec import PairSpec
 
-SPEC = PairSpec(n=40, hit_rate=0.5, seed=3)
-OTHER = PairSpec(n=40, hit_rate=0.25, seed=3)
+SPEC = PairSpec(n=40, hit_rate=0.5, rng_seed=3)
+OTHER = PairSpec(n=40, hit_rate=0.25, rng_seed=3)
 
 
 class Pristine(tuple):
@@ -206,5 +206,5 @@ def test_a_cache_path_that_is_a_file_stops_nothing(tmp_path, monkeypatch):
     blocked.write_text("not a folder")
     monkeypatch.setenv("TRIBENCH_CACHE", str(blocked))
     with pytest.warns(CacheWarning, match="is a file, not a folder: the workload is kept in memory"):
-        w = make(PairSpec(n=50, seed=7))
+        w = make(PairSpec(n=50, rng_seed=7))
     assert len(w.triangles) == 50 and blocked.read_text() == "not a folder"

@@ -20,7 +20,7 @@ from tribench.reports.tables.workload_tables import agreeing
 from tribench.workloads.spec import PairSpec, workload_id
 
 CULL = "moller_trumbore_cull"
-RANDOM, FACING = PairSpec(n=400, hit_rate=0.5, seed=3), PairSpec(n=400, hit_rate=0.5, seed=3, winding="facing")
+RANDOM, FACING = PairSpec(n=400, hit_rate=0.5, rng_seed=3), PairSpec(n=400, hit_rate=0.5, rng_seed=3, winding="facing")
 
 
 @pytest.fixture(scope="module")

@@ -45,7 +45,7 @@ def test_equals_brute_force_over_the_front_faces(env, spec):
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**31), flip=st.booleans())
 def test_equals_brute_force_on_any_mesh_from_either_side(env, seed, flip):
-    w = cache.make(MeshSpec("icosphere", triangles=80, rays="hit_rate", hit_rate=0.7, n_rays=64, seed=seed))
+    w = cache.make(MeshSpec("icosphere", triangles=80, rays="hit_rate", hit_rate=0.7, n_rays=64, rng_seed=seed))
     if flip:  # every face turned: the closest hit of every ray is a back face
         w = dataclasses.replace(w, triangles=np.ascontiguousarray(w.triangles[:, [0, 2, 1]]))
     index, t = front.compute_front_reference(w)

@@ -154,7 +154,9 @@ _STRING_TESTS = {
     "count",
 }
 # file: why a name fragment is legitimate there (one line each)
-ALLOWED: dict[str, str] = {}
+ALLOWED: dict[str, str] = {
+    "common/renamed.py": "'seed' in a dict is the old key of an RNG seed (#52), not a name's piece"
+}
 
 
 def _name_inferences(path: Path, root: Path = ROOT) -> list[str]:

@@ -11,11 +11,11 @@ from tribench.workloads.spec import MeshSpec, PairSpec, SeedSpec, workload_id
 #: Ids computed on main at 1229c95, before the rename: a spec's id hashes the same bytes as then.
 PINNED = [
     (PairSpec(), "pairs-7a9fc0e82fdd"),
-    (PairSpec(n=4096, hit_rate=0.25, dtype="float32", winding="facing", seed=7), "pairs-175044538539"),
-    (MeshSpec("suzanne", triangles=968, width=48, height=48, dtype="float32", seed=3), "mesh-e683994e9073"),
+    (PairSpec(n=4096, hit_rate=0.25, dtype="float32", winding="facing", rng_seed=7), "pairs-175044538539"),
+    (MeshSpec("suzanne", triangles=968, width=48, height=48, dtype="float32", rng_seed=3), "mesh-e683994e9073"),
     (MeshSpec("suzanne", triangles=250_000, width=64, height=64, dtype="float32", accel="bvh"), "mesh-245c8209589a"),
-    (MeshSpec("icosphere", rays="hit_rate", n_rays=100, seed=2**63 - 1), "mesh-dc094f916843"),
-    (SeedSpec("scene02", rays="shadow", sample=64, width=16, height=16, seed=5), "seed-8c926e57fd84"),
+    (MeshSpec("icosphere", rays="hit_rate", n_rays=100, rng_seed=2**63 - 1), "mesh-dc094f916843"),
+    (SeedSpec("scene02", rays="shadow", sample=64, width=16, height=16, rng_seed=5), "seed-8c926e57fd84"),
 ]
 #: The main job's workloads (``tribench run``, then ``--quick``), on main at 1229c95.
 MAIN_JOB_IDS = {

@@ -49,7 +49,7 @@ def cache_dir(tmp_path, monkeypatch):
 
 
 def test_spec_is_deterministic_round_trips_and_is_cached(cache_dir, tmp_path):
-    spec = SeedSpec("scene02", "reflected", sample=40, width=16, height=16, seed=3)
+    spec = SeedSpec("scene02", "reflected", sample=40, width=16, height=16, rng_seed=3)
     assert spec_from_dict(spec.to_dict()) == spec and spec.mode == "closest"
     first = cache.generate(spec)
     sw._trace.cache_clear()  # trace the scene again: the same bytes
@@ -59,7 +59,7 @@ def test_spec_is_deterministic_round_trips_and_is_cached(cache_dir, tmp_path):
     assert made.checksum() == first.checksum() == cache.make(spec).checksum()
     assert cache.load(workload_id(spec)).checksum() == first.checksum()
     assert any(c.workload_id == workload_id(spec) and c.problem is None for c in cache.list_cached())
-    other = cache.generate(SeedSpec("scene02", "reflected", sample=40, width=16, height=16, seed=4))
+    other = cache.generate(SeedSpec("scene02", "reflected", sample=40, width=16, height=16, rng_seed=4))
     assert other.checksum() != first.checksum()
     # a scene file is named by its content, not its path
     a, b = tmp_path / "a" / "mine.txt", tmp_path / "b" / "other.txt"

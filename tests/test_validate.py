@@ -168,9 +168,9 @@ def test_the_cases_are_built_in_workloads_and_keep_their_names_here():
 
 
 def test_sets_depend_on_the_seed_and_the_test_only():
-    a = validate.build("float32", quick=True, seed=5, tests=("tiny_triangles", "shared_edges"))
-    b = validate.build("float32", quick=True, seed=5, tests=("tiny_triangles",))
-    c = validate.build("float32", quick=True, seed=6, tests=("tiny_triangles",))
+    a = validate.build("float32", quick=True, rng_seed=5, tests=("tiny_triangles", "shared_edges"))
+    b = validate.build("float32", quick=True, rng_seed=5, tests=("tiny_triangles",))
+    c = validate.build("float32", quick=True, rng_seed=6, tests=("tiny_triangles",))
     np.testing.assert_array_equal(a.pairs["tiny_triangles"].origins, b.pairs["tiny_triangles"].origins)
     assert not np.array_equal(a.pairs["tiny_triangles"].origins, c.pairs["tiny_triangles"].origins)
 

@@ -94,7 +94,7 @@ def moller_trumbore(o, d, tri, dtype):
         (dict(miss_mix=[("parallel", 0.5), ("parallel", 0.5)]), "names the stage.s. parallel twice"),
         (dict(scale=0.0), "scale must be > 0"),
         (dict(offset=float("inf")), "finite"),
-        (dict(seed=-1), "between 0 and"),
+        (dict(rng_seed=-1), "between 0 and"),
     ],
 )
 def test_pair_spec_rejects_impossible_requests(kwargs, message):
@@ -126,7 +126,7 @@ def test_mesh_spec_rejects_impossible_requests(kwargs, message):
 def test_spec_dicts_round_trip_and_are_toml_friendly():
     specs = [
         PairSpec(n=7, hit_rate=0.25, miss_mix={"parallel": 0.5, "outside_edge_2": 0.5}, order="sorted"),
-        MeshSpec("icosphere", 100, rays="hit_rate", hit_rate=0.2, n_rays=50, dtype="float32", seed=3),
+        MeshSpec("icosphere", 100, rays="hit_rate", hit_rate=0.2, n_rays=50, dtype="float32", rng_seed=3),
         MeshSpec("suzanne", width=32, height=16),
     ]
     for spec in specs:
@@ -148,7 +148,7 @@ def test_workload_id_is_canonical_and_sensitive():
     assert workload_id(base) == workload_id(PairSpec(n=100, miss_mix="edges"))
     others = [
         PairSpec(n=101),
-        PairSpec(n=100, seed=1),
+        PairSpec(n=100, rng_seed=1),
         PairSpec(n=100, dtype="float32"),
         PairSpec(n=100, order="sorted"),
     ]
@@ -163,7 +163,7 @@ def test_workload_id_is_canonical_and_sensitive():
 @pytest.mark.parametrize("h", [i / 10 for i in range(11)])
 def test_pairs_hit_exactly_round_h_n_by_the_reference(h):
     n = 2000
-    w = generate(PairSpec(n=n, hit_rate=h, miss_mix="uniform", seed=11))
+    w = generate(PairSpec(n=n, hit_rate=h, miss_mix="uniform", rng_seed=11))
     ans = intersect_pairs(w.origins, w.directions, w.triangles)  # independent of the stored answers
     assert int(ans.hit.sum()) == round(h * n)
     assert np.array_equal(ans.hit, w.ref_hit)
@@ -184,7 +184,7 @@ def test_pairs_hit_exactly_round_h_n_by_the_reference(h):
     ],
 )
 def test_achieved_miss_mix_within_one_percent(mix):
-    spec = PairSpec(n=2000, hit_rate=0.4, miss_mix=mix, seed=5)
+    spec = PairSpec(n=2000, hit_rate=0.4, miss_mix=mix, rng_seed=5)
     w = generate(spec)
     codes = classify_misses(w.origins, w.directions, w.triangles, t_max=w.t_max)
     misses = codes[codes != HIT]
@@ -196,7 +196,7 @@ def test_achieved_miss_mix_within_one_percent(mix):
 
 
 def test_order_sorted_groups_outcomes_and_shuffled_mixes_them():
-    common = dict(n=600, hit_rate=0.5, miss_mix="uniform", seed=2)
+    common = dict(n=600, hit_rate=0.5, miss_mix="uniform", rng_seed=2)
     codes = classify_misses(*_inputs(generate(PairSpec(order="sorted", **common))))
     assert (np.diff(codes.astype(int)) >= 0).all() and codes[0] == HIT
     assert codes[-1] == MISS_STAGES.index("outside_edge_3")  # uniform: the five stages before beyond_t_max
@@ -212,7 +212,9 @@ def _inputs(w):
 @pytest.mark.parametrize("shape", ["sphere", "equilateral", "sliver"])
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
 def test_margins_survive_rounding_and_kernels_agree(shape, dtype):
-    spec = PairSpec(n=2000, hit_rate=0.5, miss_mix="uniform", shape=shape, dtype=dtype, offset=3.0, scale=2.0, seed=9)
+    spec = PairSpec(
+        n=2000, hit_rate=0.5, miss_mix="uniform", shape=shape, dtype=dtype, offset=3.0, scale=2.0, rng_seed=9
+    )
     w = generate(spec)
     assert w.origins.dtype == w.triangles.dtype == np.dtype(dtype)
     assert w.origins.flags.c_contiguous and w.triangles.flags.c_contiguous
@@ -251,7 +253,7 @@ BEYOND = MISS_STAGES.index("beyond_t_max")
 )
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
 def test_beyond_t_max_counts_are_exact(mix, counts, dtype):
-    w = generate(PairSpec(n=1000, hit_rate=0.3, miss_mix=mix, dtype=dtype, seed=3))
+    w = generate(PairSpec(n=1000, hit_rate=0.3, miss_mix=mix, dtype=dtype, rng_seed=3))
     assert w.t_max is not None and w.t_max.dtype == np.dtype(dtype) and w.t_max.shape == (1000,)
     codes = classify_misses(*_inputs(w), t_max=w.t_max)
     want = {s: counts.get(s, 0) for s in MISS_STAGES}
@@ -272,7 +274,7 @@ def test_beyond_t_max_pairs_hit_without_the_limit_and_miss_with_it_by_a_margin(d
         dtype=dtype,
         scale=2.0,
         offset=3.0,
-        seed=8,
+        rng_seed=8,
     )
     w = generate(spec)
     tm = w.t_max.astype(np.float64)
@@ -292,12 +294,12 @@ def test_beyond_t_max_pairs_hit_without_the_limit_and_miss_with_it_by_a_margin(d
 
 
 def test_beyond_t_max_is_deterministic_and_t_max_only_with_the_stage():
-    spec = PairSpec(n=1000, hit_rate=0.3, miss_mix="beyond_t_max", dtype="float32", seed=6)
+    spec = PairSpec(n=1000, hit_rate=0.3, miss_mix="beyond_t_max", dtype="float32", rng_seed=6)
     a, b = generate(spec), generate(spec)
     assert a.checksum() == b.checksum() and a.t_max.tobytes() == b.t_max.tobytes()
     assert "t_max" in a.arrays()
     assert (
-        generate(PairSpec(n=1000, hit_rate=0.3, miss_mix="beyond_t_max", dtype="float32", seed=7)).checksum()
+        generate(PairSpec(n=1000, hit_rate=0.3, miss_mix="beyond_t_max", dtype="float32", rng_seed=7)).checksum()
         != a.checksum()
     )
     for mix in ("edges", "uniform", "parallel", {"beyond_t_max": 0.0, "outside_edge_1": 1.0}):
@@ -315,7 +317,7 @@ def test_every_pairs_kernel_agrees_with_the_reference_on_beyond_t_max(dtype):
         miss_mix={"beyond_t_max": 0.6, "outside_edge_1": 0.2, "behind_origin": 0.2},
         shape="sliver",
         dtype=dtype,
-        seed=12,
+        rng_seed=12,
     )
     w = generate(spec)
     # both faces count here: the culling kernels answer another question
@@ -362,18 +364,18 @@ def test_extreme_offset_in_float32_is_a_clear_error():
 
 
 def test_same_spec_same_bytes():
-    spec = PairSpec(n=1500, hit_rate=0.3, miss_mix="uniform", shape="sliver", dtype="float32", seed=4)
+    spec = PairSpec(n=1500, hit_rate=0.3, miss_mix="uniform", shape="sliver", dtype="float32", rng_seed=4)
     a, b = generate(spec), generate(spec)
     assert a.checksum() == b.checksum()
-    assert generate(PairSpec(n=1500, hit_rate=0.3, seed=5)).checksum() != a.checksum()
-    mesh = MeshSpec("suzanne", 300, rays="hit_rate", n_rays=100, seed=1)
+    assert generate(PairSpec(n=1500, hit_rate=0.3, rng_seed=5)).checksum() != a.checksum()
+    mesh = MeshSpec("suzanne", 300, rays="hit_rate", n_rays=100, rng_seed=1)
     assert generate(mesh).checksum() == generate(mesh).checksum()
 
 
 def test_pair_inputs_match_the_recorded_bytes():
     # Pair inputs use only + - * / sqrt on PCG64 draws: these bytes must come out on any
     # IEEE-754 machine. If a deliberate generator change alters them, bump PAIRS_VERSION.
-    w = generate(PairSpec(n=64, hit_rate=0.5, miss_mix="uniform", shape="sliver", dtype="float64", seed=7))
+    w = generate(PairSpec(n=64, hit_rate=0.5, miss_mix="uniform", shape="sliver", dtype="float64", rng_seed=7))
     assert inputs_sha256(w) == "fb00ea41166edf61770b01f7c73855919de28d6b72fd3928edf3f0fe90615a76"
 
 
@@ -402,7 +404,7 @@ def test_determinism_across_two_fresh_processes(tmp_path):
 
 @pytest.mark.parametrize("count", [100, 968, 5000, 20000])
 def test_suzanne_exact_triangle_counts(count):
-    mesh = build_mesh("suzanne", count, seed=0)
+    mesh = build_mesh("suzanne", count, rng_seed=0)
     assert mesh.faces.shape == (count, 3)
     assert mesh.faces.min() >= 0 and mesh.faces.max() < len(mesh.vertices)
     assert len(np.unique(mesh.faces)) == len(mesh.vertices)  # no unreferenced vertex
@@ -413,7 +415,7 @@ def test_suzanne_exact_triangle_counts(count):
 def test_suzanne_base_is_the_file_turned_and_moved():
     v, f = base_mesh("suzanne")
     assert v.shape == (507, 3) and f.shape == (968, 3)
-    mesh = build_mesh("suzanne", None, seed=0)
+    mesh = build_mesh("suzanne", None, rng_seed=0)
     np.testing.assert_array_equal(mesh.faces, f)
     x, y, z = v.T
     np.testing.assert_array_equal(mesh.vertices, np.column_stack([x, z, -y]) + [0.0, 0.5, -2.0])
@@ -422,19 +424,19 @@ def test_suzanne_base_is_the_file_turned_and_moved():
 @pytest.mark.parametrize("name, counts", [("icosphere", [501, 2000]), ("uvsphere", [777]), ("heightfield", [99, 3001])])
 def test_other_meshes_exact_triangle_counts(name, counts):
     for count in counts:
-        assert build_mesh(name, count, seed=0).faces.shape == (count, 3)
+        assert build_mesh(name, count, rng_seed=0).faces.shape == (count, 3)
 
 
 def test_tiny_counts_are_exact_too():
     for count in (1, 2, 3):
-        assert len(build_mesh("suzanne", count, seed=0).faces) == count
+        assert len(build_mesh("suzanne", count, rng_seed=0).faces) == count
 
 
 def test_soup_is_seeded_and_exact():
-    a, b = build_mesh("soup", 321, seed=1), build_mesh("soup", 321, seed=2)
+    a, b = build_mesh("soup", 321, rng_seed=1), build_mesh("soup", 321, rng_seed=2)
     assert a.faces.shape == (321, 3)
     assert not np.array_equal(a.vertices, b.vertices)
-    assert np.array_equal(a.vertices, build_mesh("soup", 321, seed=1).vertices)
+    assert np.array_equal(a.vertices, build_mesh("soup", 321, rng_seed=1).vertices)
 
 
 def test_other_meshes_are_placed_in_view():
@@ -496,7 +498,7 @@ def test_a_folder_given_as_a_mesh_is_named_a_folder(tmp_path):
 
 
 def test_culled_camera_reference_equals_brute_force():
-    tri = build_mesh("suzanne", 300, seed=0).triangles
+    tri = build_mesh("suzanne", 300, rng_seed=0).triangles
     # Add triangles that straddle the eye's plane, lie behind the eye, or fill the view.
     extra = np.array(
         [
@@ -517,7 +519,7 @@ def test_culled_camera_reference_equals_brute_force():
 
 def test_sphere_culled_reference_equals_brute_force():
     rng = np.random.default_rng(3)
-    tri = build_mesh("soup", 400, seed=0).triangles
+    tri = build_mesh("soup", 400, rng_seed=0).triangles
     o = rng.normal(size=(300, 3)) * 3
     d = rng.normal(size=(300, 3)) * 1.5 + ([0, 0, -2] - o)
     culled = closest_hits(o, d, tri, *sphere_candidates(o, d, tri))
@@ -529,7 +531,7 @@ def test_sphere_culled_reference_equals_brute_force():
 
 @pytest.mark.parametrize("h", [0.0, 0.3, 1.0])
 def test_per_ray_hit_rate_is_exact_by_brute_force(h):
-    w = generate(MeshSpec("suzanne", 400, rays="hit_rate", hit_rate=h, n_rays=150, dtype="float32", seed=2))
+    w = generate(MeshSpec("suzanne", 400, rays="hit_rate", hit_rate=h, n_rays=150, dtype="float32", rng_seed=2))
     index, t = intersect_closest(*_inputs(w))
     assert int((index >= 0).sum()) == round(h * 150)
     assert np.array_equal(index, w.ref_index)
@@ -702,7 +704,7 @@ def test_a_mesh_finite_in_float64_but_past_float32_is_refused_for_float32_only(t
 def test_facing_pairs_face_their_rays_and_keep_every_kind_and_answer(shape, dtype):
     from tribench.workloads.geometry import dot, triangle_normals
 
-    common = dict(n=3000, hit_rate=0.4, miss_mix="uniform", shape=shape, dtype=dtype, seed=4)
+    common = dict(n=3000, hit_rate=0.4, miss_mix="uniform", shape=shape, dtype=dtype, rng_seed=4)
     drawn, facing = generate(PairSpec(**common)), generate(PairSpec(**common, winding="facing"))
     cos = dot(facing.directions.astype(float), triangle_normals(facing.triangles.astype(float)))
     parallel = classify_misses(facing.origins, facing.directions, facing.triangles) == MISS_STAGES.index("parallel")
@@ -726,7 +728,7 @@ def test_every_culling_kernel_agrees_with_the_reference_on_facing_pairs_only():
     with_pairs = [k for k in culling if "pairs" in ext.kernel_info(k).modes]
     assert with_pairs, culling  # else this test tests nothing
     for dtype in ("float32", "float64"):
-        spec = PairSpec(n=2400, hit_rate=0.5, miss_mix=every_stage, dtype=dtype, seed=8)
+        spec = PairSpec(n=2400, hit_rate=0.5, miss_mix=every_stage, dtype=dtype, rng_seed=8)
         for winding, agrees in (("facing", True), ("random", False)):
             w = generate(dataclasses.replace(spec, winding=winding))
             for k in with_pairs:

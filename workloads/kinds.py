@@ -17,6 +17,7 @@ from dataclasses import dataclass, fields
 from typing import Any
 
 from ..common import UserError
+from ..common.renamed import renamed
 from .spec import MeshSpec, PairSpec, SeedSpec, Spec, workload_id
 from .workload import Workload
 
@@ -67,7 +68,7 @@ def spec_from_dict(d: Mapping[str, Any]) -> Spec:
     """Rebuild a spec from its ``to_dict()`` output (the ``kind`` field picks the class)."""
     if not isinstance(d, Mapping):
         raise UserError(f"a workload spec must be a table of fields, got {d!r:.80}")
-    d = dict(d)
+    d = renamed(d)  # a spec dict written before #52 (a run folder's, a sweep file's, a cache file's)
     kind = d.pop("kind", None)
     if not isinstance(kind, str):
         raise UserError(f"workload kind must be {_expected()}, got {kind!r:.80}")

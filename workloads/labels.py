@@ -13,7 +13,7 @@ def family_of(spec: Mapping[str, Any]) -> str:
     curves) and triangle count for meshes (the scaling curves).
 
     >>> family_of({"kind": "pairs", "n": 100, "hit_rate": 0.5, "order": "shuffled",
-    ...            "shape": "sphere", "dtype": "float64", "seed": 0, "scale": 1.0, "offset": 0.0})
+    ...            "shape": "sphere", "dtype": "float64", "rng_seed": 0, "scale": 1.0, "offset": 0.0})
     'pairs n=100 shuffled sphere float64'
 
     Pairs wound to face their rays are another family (a culling kernel does other work on the two):
@@ -22,13 +22,13 @@ def family_of(spec: Mapping[str, Any]) -> str:
     ...            "shape": "sphere", "dtype": "float64", "winding": "facing"})
     'pairs n=100 shuffled sphere facing float64'
     >>> family_of({"kind": "mesh", "mesh": "suzanne", "triangles": 200, "rays": "camera",
-    ...            "width": 64, "height": 64, "dtype": "float64", "seed": 0})
+    ...            "width": 64, "height": 64, "dtype": "float64", "rng_seed": 0})
     'mesh suzanne camera 64x64 float64'
 
     So is a BVH workload (its times per test are of another kind: a slope across both would mean nothing):
 
     >>> family_of({"kind": "mesh", "mesh": "suzanne", "triangles": 200, "rays": "camera",
-    ...            "width": 64, "height": 64, "dtype": "float64", "seed": 0, "accel": "bvh"})
+    ...            "width": 64, "height": 64, "dtype": "float64", "rng_seed": 0, "accel": "bvh"})
     'mesh suzanne camera 64x64 bvh float64'
     """
     if spec.get("kind") == "pairs":

@@ -95,30 +95,30 @@ def read_mesh_file(path: str | Path, dtype: str = "float64") -> tuple[np.ndarray
     return _compact(vertices, faces)
 
 
-def soup(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+def soup(n: int, rng_seed: int) -> tuple[np.ndarray, np.ndarray]:
     """``n`` random triangles in the cube [-1, 1]^3, unconnected, on spheres of radius ``0.25 * sqrt(1000 / n)``
     around uniform centres: the soup keeps about the same look at any count.
 
-    >>> v, f = soup(5, seed=0)
+    >>> v, f = soup(5, rng_seed=0)
     >>> v.shape, f.shape
     ((15, 3), (5, 3))
     """
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(rng_seed)
     size = 0.25 * np.sqrt(1000.0 / n)
     centres = rng.random((n, 3)) * 2.0 - 1.0
     verts = centres[:, None] + size * random_unit_vectors(rng, 3 * n).reshape(n, 3, 3)
     return verts.reshape(-1, 3), np.arange(3 * n, dtype=np.int64).reshape(n, 3)
 
 
-def heightfield(cells: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+def heightfield(cells: int, rng_seed: int) -> tuple[np.ndarray, np.ndarray]:
     """A ``cells`` x ``cells`` grid over [-1, 1]^2 with six smooth bumps, normals toward +z; the bumps are
     ``a / (1 + r^2 / s^2)``, rational, so the heights need no transcendental function.
 
-    >>> v, f = heightfield(2, seed=0)
+    >>> v, f = heightfield(2, rng_seed=0)
     >>> v.shape, f.shape
     ((9, 3), (8, 3))
     """
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(rng_seed)
     g = np.linspace(-1.0, 1.0, cells + 1)
     x, y = np.meshgrid(g, g)  # row j, column i
     z = np.zeros_like(x)
@@ -135,7 +135,7 @@ def heightfield(cells: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return vertices, faces.astype(np.int64)
 
 
-def base_mesh(name: str, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def base_mesh(name: str, rng_seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Vertices and faces of a base mesh by name (see the module docstring) or file path.
 
     >>> v, f = base_mesh("suzanne")
@@ -145,9 +145,9 @@ def base_mesh(name: str, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     if name == "suzanne":
         return read_mesh_file(SUZANNE_PATH)
     if name == "soup":
-        return soup(BASE_COUNTS["soup"], seed)
+        return soup(BASE_COUNTS["soup"], rng_seed)
     if name == "heightfield":
-        return heightfield(24, seed)
+        return heightfield(24, rng_seed)
     if name in ("icosphere", "uvsphere"):
         import trimesh  # lazy: slow to import
 
@@ -259,25 +259,25 @@ def with_triangle_count(vertices: np.ndarray, faces: np.ndarray, n: int) -> Mesh
     return Mesh(v, f, ", ".join([*steps, f"{extra} smallest dropped"]))
 
 
-def build_mesh(mesh: str, triangles: int | None, seed: int) -> Mesh:
-    """The placed mesh of a spec's ``mesh``, ``triangles`` and ``seed``. The soup is made at the count directly,
+def build_mesh(mesh: str, triangles: int | None, rng_seed: int) -> Mesh:
+    """The placed mesh of a spec's ``mesh``, ``triangles`` and ``rng_seed``. The soup is made at the count directly,
     and so is the heightfield above its base count: sampled on the finest grid it needs, then simplified (a
     finer grid of the same function is its exact subdivision; loop subdivision moves a grid's corners).
 
-    >>> len(build_mesh("suzanne", 100, seed=0).faces)
+    >>> len(build_mesh("suzanne", 100, rng_seed=0).faces)
     100
     """
     if mesh == "soup":
         n = BASE_COUNTS["soup"] if triangles is None else triangles
-        v, f = soup(n, seed)
+        v, f = soup(n, rng_seed)
         return Mesh(place(mesh, v), f, "generated")
-    v, f = base_mesh(mesh, seed)
+    v, f = base_mesh(mesh, rng_seed)
     if triangles is None:
         return Mesh(place(mesh, v), f, "base")
     if mesh == "heightfield" and triangles > len(f):
         cells = math.isqrt(-(-triangles // 2))
         cells += 2 * cells * cells < triangles
-        fine_v, fine_f = heightfield(cells, seed)
+        fine_v, fine_f = heightfield(cells, rng_seed)
         m = with_triangle_count(place(mesh, fine_v, like=v), fine_f, triangles)
         return Mesh(m.vertices, m.faces, f"grid {cells}x{cells}" + ("" if m.method == "base" else f", {m.method}"))
     return with_triangle_count(place(mesh, v), f, triangles)

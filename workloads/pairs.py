@@ -324,7 +324,7 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
     >>> w.expected_checksum()[0], w.achieved["miss_counts"]["outside_edge_1"]
     (5, 5)
     """
-    rng = np.random.default_rng(spec.seed)
+    rng = np.random.default_rng(spec.rng_seed)
     kinds = _kinds(spec, rng)
     n, dtype, scale = spec.n, spec.dtype, spec.scale
     if scale + abs(spec.offset) > MAX_COORDINATE[dtype]:  # refused now, not after every redraw has failed

@@ -329,9 +329,9 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
         assert spec.mesh_sha256 is not None  # MeshSpec set it
         found = mesh_files.source(spec.mesh, spec.mesh_sha256)
         mesh_files.keep(found, spec.mesh_sha256)
-        mesh = build_mesh(str(found), spec.triangles, spec.seed)
+        mesh = build_mesh(str(found), spec.triangles, spec.rng_seed)
     else:
-        mesh = build_mesh(spec.mesh, spec.triangles, spec.seed)
+        mesh = build_mesh(spec.mesh, spec.triangles, spec.rng_seed)
     tri = round_to(mesh.triangles, spec.dtype)
     figures: dict = {}
     t_max = None
@@ -344,9 +344,9 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
         ans = closest_hits(o, d, tri, *camera_candidates(tri, spec.width, spec.height))
     elif spec.rays == "bounce":
         assert spec.width is not None and spec.height is not None  # MeshSpec set them
-        o, d, ans, figures = bounce_rays(tri, spec.width, spec.height, spec.dtype, np.random.default_rng(spec.seed))
+        o, d, ans, figures = bounce_rays(tri, spec.width, spec.height, spec.dtype, np.random.default_rng(spec.rng_seed))
     else:
-        rng = np.random.default_rng(spec.seed)
+        rng = np.random.default_rng(spec.rng_seed)
         assert spec.n_rays is not None and spec.hit_rate is not None  # MeshSpec set them
         o, d, ans, figures = hit_rate_rays(tri, spec.n_rays, spec.hit_rate, spec.dtype, rng)
     m, k = len(o), len(tri)

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from ..common import UserError
+from ..common.renamed import takes_old_seed
 from .fields import (
     DTYPES,
     MAX_RAYS,
@@ -126,6 +127,7 @@ def _miss_mix(value: Any) -> tuple[tuple[str, float], ...]:
     return mix
 
 
+@takes_old_seed
 @dataclass(frozen=True)
 class PairSpec:
     """N (ray, triangle) pairs at an exact per-test hit rate: ``round(hit_rate * n)`` pairs hit.
@@ -153,7 +155,7 @@ class PairSpec:
     scale: float = 1.0
     offset: float = 0.0
     dtype: str = "float64"
-    seed: int = 0
+    rng_seed: int = 0
     winding: str = "random"
 
     kind: ClassVar[str] = "pairs"
@@ -172,7 +174,7 @@ class PairSpec:
             raise UserError(f"scale must be > 0, got {self.scale}")
         put(self, "offset", check_float("offset", self.offset))
         check_choice("dtype", self.dtype, DTYPES)
-        put(self, "seed", check_int("seed", self.seed, 0, 2**63 - 1))
+        put(self, "rng_seed", check_int("rng_seed", self.rng_seed, 0, 2**63 - 1))
         check_choice("winding", self.winding, WINDINGS)
 
     def miss_fractions(self) -> dict[str, float]:
@@ -207,10 +209,11 @@ class PairSpec:
         facing = " facing" if self.winding == "facing" else ""
         return (
             f"pairs n={self.n} hit_rate={self.hit_rate:g} {self.order} {self.shape}{facing} "
-            f"misses[{mix}]{extra} {self.dtype} seed={self.seed}"
+            f"misses[{mix}]{extra} {self.dtype} rng_seed={self.rng_seed}"
         )
 
 
+@takes_old_seed
 @dataclass(frozen=True)
 class MeshSpec:
     """A mesh at a target triangle count with rays against it (the ray sets: docs/methodology.md, "What is timed").
@@ -240,7 +243,7 @@ class MeshSpec:
     width: int | None = None
     height: int | None = None
     dtype: str = "float64"
-    seed: int = 0
+    rng_seed: int = 0
     result: str = "closest"
     accel: str = "brute"
     max_leaf: int | None = None
@@ -295,7 +298,7 @@ class MeshSpec:
                     raise UserError(f"{name} applies to rays='camera' or 'bounce' only")
             put(self, "hit_rate", check_hit_rate(0.5 if self.hit_rate is None else self.hit_rate))
             put(self, "n_rays", check_int("n_rays", 4096 if self.n_rays is None else self.n_rays, 1, MAX_RAYS))
-        put(self, "seed", check_int("seed", self.seed, 0, 2**63 - 1))
+        put(self, "rng_seed", check_int("rng_seed", self.rng_seed, 0, 2**63 - 1))
         check_choice("result", self.result, RESULTS)
         check_choice("accel", self.accel, ACCELS)
         if self.max_leaf is not None:
@@ -384,7 +387,7 @@ class MeshSpec:
         result = "" if self.result == "closest" else f" {self.result}"
         accel = "" if self.accel == "brute" else f" {self.accel}"
         accel += "" if self.max_leaf is None else f" max_leaf={self.max_leaf}"
-        return f"mesh {name} triangles={count} {rays}{result}{accel} {self.dtype} seed={self.seed}"
+        return f"mesh {name} triangles={count} {rays}{result}{accel} {self.dtype} rng_seed={self.rng_seed}"
 
 
 Spec = PairSpec | MeshSpec | SeedSpec
@@ -393,6 +396,7 @@ Spec = PairSpec | MeshSpec | SeedSpec
 def identity(spec: Spec) -> dict[str, Any]:
     """What names a workload: the spec, its generator version, and a file by its sha256 and suffix, never its path."""
     d = {**spec.to_dict(), "version": spec.version}
+    d["seed"] = d.pop("rng_seed")  # hashed under its name before #52: every workload keeps its id
     if isinstance(spec, SeedSpec):
         d.update(spec.scene_identity())
     if isinstance(spec, MeshSpec) and spec.is_file:

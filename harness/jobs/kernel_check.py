@@ -112,7 +112,7 @@ def check_builds(sweep, log: TextIO | None = None) -> dict[str, dict[str, list[s
     return checked
 
 
-def check_kernel(kernel: str, seed: int = 0) -> list[str]:
+def check_kernel(kernel: str, rng_seed: int = 0) -> list[str]:
     """What ``kernel`` gets wrong, one line per case; empty if nothing."""
     info = ext.kernel_info(kernel)
     problems = []
@@ -120,9 +120,9 @@ def check_kernel(kernel: str, seed: int = 0) -> list[str]:
         for isa in (i for i, runnable in info.isas.items() if runnable):
             where = f"{dtype}, {isa}"
             if "pairs" in info.modes:
-                problems += [f"{where}: {p}" for p in _check_pairs(kernel, isa, dtype, seed, info.culls_back_faces)]
-            problems += [f"{where}: {p}" for p in _check_mesh(kernel, isa, dtype, seed, info.culls_back_faces)]
-        for row in validate.measure(kernel, validate.build(dtype, quick=True, seed=seed)):
+                problems += [f"{where}: {p}" for p in _check_pairs(kernel, isa, dtype, rng_seed, info.culls_back_faces)]
+            problems += [f"{where}: {p}" for p in _check_mesh(kernel, isa, dtype, rng_seed, info.culls_back_faces)]
+        for row in validate.measure(kernel, validate.build(dtype, quick=True, rng_seed=rng_seed)):
             if row["verdict"] == "fail":
                 problems.append(
                     f"{dtype}: robustness test {row['test']}: {row['failures']} of {row['rays']} rays "
@@ -131,9 +131,9 @@ def check_kernel(kernel: str, seed: int = 0) -> list[str]:
     return problems
 
 
-def _safe_pairs(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _safe_pairs(n: int, rng_seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Random pairs, about half hits, wound at random, each crossing at least MARGIN from every edge."""
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(rng_seed)
     tris = rng.normal(size=(n, 3, 3))
     b = rng.dirichlet([1, 1, 1], n) * 2 - 0.5  # barycentrics of the aim point: inside about half the time
     b /= b.sum(axis=1, keepdims=True)
@@ -148,8 +148,8 @@ def _safe_pairs(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return o[safe], d[safe], tris[safe]
 
 
-def _check_pairs(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) -> list[str]:
-    o, d, tris = (a.astype(dtype) for a in _safe_pairs(4000, seed))
+def _check_pairs(kernel: str, isa: str, dtype: str, rng_seed: int, front_only: bool) -> list[str]:
+    o, d, tris = (a.astype(dtype) for a in _safe_pairs(4000, rng_seed))
     f64 = [a.astype(np.float64) for a in (o, d, tris)]
     ref = reference.intersect_pairs(f64[0], f64[1], f64[2], front_only=front_only)
     index, t, _, _ = ext.intersect(kernel, o, d, tris, "pairs", isa=isa)
@@ -167,12 +167,12 @@ def _check_pairs(kernel: str, isa: str, dtype: str, seed: int, front_only: bool)
     return out
 
 
-def _safe_mesh_rays(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _safe_mesh_rays(rng_seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A closed mesh (an icosphere) and rays from around it whose every plane crossing is safe."""
     import trimesh
 
     tris = np.ascontiguousarray(trimesh.creation.icosphere(subdivisions=2).triangles)
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(rng_seed)
     o = rng.normal(size=(400, 3))
     o = 3 * o / np.linalg.norm(o, axis=1, keepdims=True)
     d = rng.normal(size=(400, 3)) * 0.7 - o
@@ -184,8 +184,8 @@ def _safe_mesh_rays(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return o[safe], d[safe], tris
 
 
-def _check_mesh(kernel: str, isa: str, dtype: str, seed: int, front_only: bool) -> list[str]:
-    o, d, tris = (a.astype(dtype) for a in _safe_mesh_rays(seed))
+def _check_mesh(kernel: str, isa: str, dtype: str, rng_seed: int, front_only: bool) -> list[str]:
+    o, d, tris = (a.astype(dtype) for a in _safe_mesh_rays(rng_seed))
     f64 = [a.astype(np.float64) for a in (o, d, tris)]
     ref_index, ref_t = reference.intersect_closest(f64[0], f64[1], f64[2], front_only=front_only)
     index, t, u, v = ext.intersect(kernel, o, d, tris, "closest_uv", isa=isa)

@@ -3,7 +3,7 @@
 ``tribench validate`` (:mod:`tribench.harness.jobs.validate`) asks every kernel these questions and judges
 the answers; this package only builds them, calling no kernel. :func:`build` returns one precision's
 :class:`RaySets`: :class:`MeshRays` (closest-mode questions about a small mesh) and :class:`PairRays` (each
-ray about one triangle, with the right answer). A test's rays are a pure function of (seed, test name,
+ray about one triangle, with the right answer). A test's rays are a pure function of (rng_seed, test name,
 size, precision), so no test depends on which others are built. Sizes: :data:`FULL` and :data:`QUICK`
 (``--quick``). Builders: :mod:`.meshes`, :mod:`.pairs`, :mod:`.exact`; types: :mod:`.sets`.
 
@@ -85,9 +85,9 @@ TESTS = (
 # ------------------------------------------------------------------ building
 
 
-def _rng(seed: int, test: str) -> np.random.Generator:
+def _rng(rng_seed: int, test: str) -> np.random.Generator:
     # One stream per test, keyed by its name, so adding a test changes no other.
-    return np.random.default_rng([seed, zlib.crc32(test.encode())])
+    return np.random.default_rng([rng_seed, zlib.crc32(test.encode())])
 
 
 _PAIR_TESTS: dict[str, Callable[[np.random.Generator, Size, str], PairRays]] = {
@@ -102,7 +102,7 @@ _PAIR_TESTS: dict[str, Callable[[np.random.Generator, Size, str], PairRays]] = {
 }
 
 
-def build(dtype: str = "float64", quick: bool = False, seed: int = 0, tests=TESTS) -> RaySets:
+def build(dtype: str = "float64", quick: bool = False, rng_seed: int = 0, tests=TESTS) -> RaySets:
     """The rays of ``tests`` at one precision, the same for every kernel.
 
     >>> sets = build("float32", quick=True, tests=("nonfinite", "shared_edges"))
@@ -117,11 +117,11 @@ def build(dtype: str = "float64", quick: bool = False, seed: int = 0, tests=TEST
     size = QUICK if quick else FULL
     meshes = {}
     if {"shared_edges", "shared_edges_double", "shared_vertices"} & set(tests):
-        rng = _rng(seed, "shared")
+        rng = _rng(rng_seed, "shared")
         built = [_coplanar_mesh(rng, m, size, dtype) for m in range(size.meshes)]
         meshes["shared_edges"] = [edges for edges, _ in built]
         meshes["shared_vertices"] = [vertices for _, vertices in built]
     if "inside_sphere" in tests:
-        meshes["inside_sphere"] = _sphere(_rng(seed, "inside_sphere"), size, dtype)
-    pairs = {t: make(_rng(seed, t), size, dtype) for t, make in _PAIR_TESTS.items() if t in tests}
+        meshes["inside_sphere"] = _sphere(_rng(rng_seed, "inside_sphere"), size, dtype)
+    pairs = {t: make(_rng(rng_seed, t), size, dtype) for t, make in _PAIR_TESTS.items() if t in tests}
     return RaySets(dtype, tuple(t for t in TESTS if t in tests), meshes, pairs)

@@ -137,9 +137,11 @@ def _nonfinite(rng, size: Size, dtype: str) -> PairRays:
 
 
 def _scales(rng, size: Size, dtype: str) -> PairRays:
-    seed = int(rng.integers(2**31))  # the same pairs at every scale
+    rng_seed = int(rng.integers(2**31))  # the same pairs at every scale
     parts = [
-        generate_pairs(PairSpec(n=size.pairs_per_scale, hit_rate=0.5, scale=s, dtype=dtype, seed=seed), "validate")
+        generate_pairs(
+            PairSpec(n=size.pairs_per_scale, hit_rate=0.5, scale=s, dtype=dtype, rng_seed=rng_seed), "validate"
+        )
         for s in SCALES
     ]
     n = size.pairs_per_scale

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from ...common import UserError
+from ...common.renamed import takes_old_seed
 from ..fields import DTYPES, MAX_RAYS, check_choice, check_int, file_sha256
 from .scene import BUILTIN_SCENES, builtin_scene_path, read_scene
 
@@ -18,6 +19,7 @@ RAY_KINDS = ("primary", "reflected", "shadow")
 _MAX_SIDE = 4096  # a 4096 x 4096 trace is about 4 GB of ray records
 
 
+@takes_old_seed
 @dataclass(frozen=True)
 class SeedSpec:
     """A sample of one kind of ray from the seed's render of a scene (:mod:`tribench.workloads.seed.workload`).
@@ -34,7 +36,7 @@ class SeedSpec:
     width: int = 512
     height: int = 512
     dtype: str = "float32"
-    seed: int = 0
+    rng_seed: int = 0
 
     kind: ClassVar[str] = "seed"
     version: ClassVar[int] = SEED_VERSION
@@ -58,7 +60,7 @@ class SeedSpec:
         put(self, "width", check_int("width", self.width, 1, _MAX_SIDE))
         put(self, "height", check_int("height", self.height, 1, _MAX_SIDE))
         check_choice("dtype", self.dtype, DTYPES)
-        put(self, "seed", check_int("seed", self.seed, 0, 2**63 - 1))
+        put(self, "rng_seed", check_int("rng_seed", self.rng_seed, 0, 2**63 - 1))
 
     @property
     def mode(self) -> str:
@@ -94,5 +96,5 @@ class SeedSpec:
         """One line for listings."""
         return (
             f"seed {self.scene_label} {self.rays} sample={self.sample} of {self.width}x{self.height} "
-            f"{self.dtype} seed={self.seed}"
+            f"{self.dtype} rng_seed={self.rng_seed}"
         )

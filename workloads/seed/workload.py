@@ -278,7 +278,7 @@ def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
         )
     rs = getattr(tr, spec.rays)
     n_stream = len(rows)
-    pick = sample_runs(n_stream, spec.sample, np.random.default_rng(spec.seed))
+    pick = sample_runs(n_stream, spec.sample, np.random.default_rng(spec.rng_seed))
 
     dt = np.dtype(spec.dtype)
     o_all, d_all = _shifted(rs, rows, spec.rays)
