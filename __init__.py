@@ -137,19 +137,21 @@ def sweep(
     rounds: int | None = None,
     warmup: int | None = None,
     target_ms: float | None = None,
-    seed: int = 0,
+    rng_seed: int | None = None,
     baseline: str | None = None,
     progress: bool | None = None,
     kernel_files: Sequence[str | Path] = (),
     builds: Sequence[str] = (),
+    seed: int | None = None,
 ) -> Results:
     """Time ``kernels`` on ``workloads`` into the new folder ``out``, analyse it and return its tables.
 
     ``tribench sweep`` then ``tribench stats`` (docs/commands.md); the design's defaults are
     :mod:`tribench.harness.plan`'s, ``baseline``'s ``moller_seed`` if swept, else the first kernel.
     ``kernel_files`` (docs/own-kernel.md) are checked before anything is timed; ``builds`` (docs/builds.md): specs,
-    or one string as ``--builds`` takes. Raises UserError for a bad value, an ``out`` that is not a new folder,
-    or a kernel file that does not compile or answers wrongly."""
+    or one string as ``--builds`` takes; ``seed`` is ``rng_seed``'s name before #52. Raises UserError for a bad
+    value, an ``out`` that is not a new folder, or a kernel file that does not compile or answers wrongly."""
+    from .common.renamed import renamed
     from .harness import plan
     from .harness.jobs.kernel_check import load_checked
     from .harness.jobs.sweep import measure_robustness, run_sweep
@@ -157,6 +159,7 @@ def sweep(
 
     load_checked(kernel_files)  # first: ``kernels`` may name their kernels
     progress = _optional_flag(progress, "progress")
+    seeds = {k: v for k, v in {"rng_seed": rng_seed, "seed": seed}.items() if v is not None}
     spec = plan.Sweep(
         _names(kernels, "kernels"),
         _specs(workloads),
@@ -164,7 +167,7 @@ def sweep(
         rounds=plan.DEFAULT_ROUNDS if rounds is None else rounds,
         warmup=plan.DEFAULT_WARMUP if warmup is None else warmup,
         target_ms=plan.DEFAULT_TARGET_MS if target_ms is None else target_ms,
-        seed=seed,
+        rng_seed=renamed(seeds).get("rng_seed", 0),
         kernel_files=tuple(map(str, kernel_files)),
         builds=_builds(builds),
     )

@@ -50,11 +50,11 @@ REFERENCE, SAME, TWICE, AA = "moller_trumbore", "moller_trumbore_same", "moller_
 TRUTH = {SAME: 1.0, TWICE: 2.0, AA: 1.0}
 
 
-def reduced_sweep(budget_s: float, seed: int) -> Sweep:
+def reduced_sweep(budget_s: float, rng_seed: int) -> Sweep:
     """The main job's design on one pair workload and one mesh: the stopping rule, shortened."""
     workloads = (
-        PairSpec(n=4096, hit_rate=0.5, seed=seed),
-        MeshSpec("suzanne", triangles=968, width=32, height=32, seed=seed),
+        PairSpec(n=4096, hit_rate=0.5, rng_seed=rng_seed),
+        MeshSpec("suzanne", triangles=968, width=32, height=32, rng_seed=rng_seed),
     )
     return Sweep(
         (REFERENCE, SAME, TWICE, AA),
@@ -63,14 +63,14 @@ def reduced_sweep(budget_s: float, seed: int) -> Sweep:
         rounds=3,
         warmup=1,
         target_ms=4.0,
-        seed=seed,
+        rng_seed=rng_seed,
         sequential=Sequential(stage=2, target=0.02, budget_s=budget_s),
     )
 
 
-def one_run(run_dir: Path, budget_s: float, seed: int) -> list[dict]:
+def one_run(run_dir: Path, budget_s: float, rng_seed: int) -> list[dict]:
     """One run's intervals: per workload and comparison, both intervals of the cost ratio."""
-    runner.start(reduced_sweep(budget_s, seed), run_dir, progress=False)
+    runner.start(reduced_sweep(budget_s, rng_seed), run_dir, progress=False)
     m = measured.load(run_dir)
     result = estimate(m, baseline=REFERENCE)
     per_process = stats.per_process(m.batches)
@@ -124,8 +124,8 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[dict] = []
     start = time.monotonic()
     for i in range(args.runs):
-        # a fresh seed per run: new workloads and a new layout of the rounds, as separate experiments
-        run = one_run(root / f"run{i:03d}", args.budget, seed=i)
+        # a fresh RNG seed per run: new workloads and a new layout of the rounds, as separate experiments
+        run = one_run(root / f"run{i:03d}", args.budget, rng_seed=i)
         rows += run
         missed = [
             f"{r['kernel']} {r['cost']:.3f}" for r in run if not r["plain"][0] <= TRUTH[r["kernel"]] <= r["plain"][1]

@@ -91,7 +91,7 @@ def in_process_gaps(target_ms: float, rounds: int, cpu):
         "in-process",
         0,
         0,
-        process_seed(sweep.seed, 0),
+        process_seed(sweep.rng_seed, 0),
         cpu,
         target_ms,
         tuple(tuple(k.to_list()) for k in plan(sweep)),

@@ -30,7 +30,7 @@ from typing import TypeVar
 __all__ = [
     "MAX_COUNT",
     "Parser",
-    "MAX_SEED",
+    "MAX_RNG_SEED",
     "camera",
     "choice_list",
     "cpu",
@@ -44,27 +44,32 @@ __all__ = [
     "output_file",
     "output_folder",
     "positive_int",
-    "seed",
+    "rng_seed",
 ]
 
 T = TypeVar("T")
 
 #: Larger counts are typos (and an int this big still fits every C and NumPy type).
 MAX_COUNT = 10**12
-#: The seeds of the specs and the plan are non-negative int64.
-MAX_SEED = 2**63 - 1
+#: The RNG seeds of the specs and the plan are non-negative int64.
+MAX_RNG_SEED = 2**63 - 1
 #: A camera side; a camera's rays are further bounded by the workload specs.
 MAX_SIDE = 65536
 
 
 class _StoreOnce(argparse._StoreAction):
-    """argparse's store, refusing a second value: ``--kernels a --kernels b`` would keep b alone, silently."""
+    """argparse's store, refusing a second value: ``--kernels a --kernels b`` would keep b alone, silently (so
+    would ``--rng-seed 1 --seed 2``, two names of one flag)."""
 
     def __call__(self, parser, namespace, values, option_string=None):
-        given = namespace.__dict__.setdefault(_GIVEN, set())
+        given = namespace.__dict__.setdefault(_GIVEN, {})
         if option_string is not None and self.dest in given:
-            raise argparse.ArgumentError(self, "given more than once: give it once (a list takes commas: a,b)")
-        given.add(self.dest)
+            first = given[self.dest]
+            again = "given more than once: give it once (a list takes commas: a,b)"
+            raise argparse.ArgumentError(
+                self, again if first == option_string else f"the same flag as {first}: give one"
+            )
+        given[self.dest] = option_string
         super().__call__(parser, namespace, values, option_string)
 
 
@@ -117,7 +122,7 @@ def int_in(lo: int, hi: int) -> Callable[[str], int]:
 
 
 positive_int = int_in(1, MAX_COUNT)
-seed = int_in(0, MAX_SEED)
+rng_seed = int_in(0, MAX_RNG_SEED)
 
 
 def float_in(lo: float, hi: float, *, low_open: bool = False) -> Callable[[str], float]:

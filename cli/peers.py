@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..common import UserError
 from . import flags
-from .options import add_no_progress
+from .options import add_no_progress, add_rng_seed
 
 __all__ = ["add_parser", "run"]
 
@@ -70,7 +70,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument("--kernel", help="tribench's kernel (default: the fastest on this workload)")
     p.add_argument("--cpu", type=flags.cpu, help="CPU to pin the workers to (default: the last usable one)")
-    p.add_argument("--seed", type=flags.seed, help="seed of the ray samples and orders (default 0)")
+    add_rng_seed(p, "the ray samples and orders")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _design(args: argparse.Namespace, design):
     """The peer design of the flags given, over the full or quick default."""
-    given = {k: getattr(args, k) for k in ("processes", "reps", "triangles", "seed", "accel")}
+    given = {k: getattr(args, k) for k in ("processes", "reps", "triangles", "rng_seed", "accel")}
     changes = {k: v for k, v in given.items() if v is not None}
     if args.camera:
         changes["width"], changes["height"] = args.camera

@@ -243,7 +243,7 @@ def _sweep_from_args(args: argparse.Namespace):
         "rounds": DEFAULT_ROUNDS,
         "warmup": DEFAULT_WARMUP,
         "target_ms": DEFAULT_TARGET_MS,
-        "seed": 0,
+        "rng_seed": 0,
     }
     design = {k: defaults[k] if v is None else v for k, v in design.items()}
     sweep = Sweep(

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from . import flags
-from .options import DTYPES, add_kernel_files, add_no_progress
+from .options import DTYPES, add_kernel_files, add_no_progress, add_rng_seed
 
 __all__ = ["add_parser", "run"]
 
@@ -38,7 +38,7 @@ def add_parser(sub) -> None:
         "--out", metavar="FILE.csv", type=_out, help="the CSV (default ./validate.csv; in a directory: validate.csv)"
     )
     p.add_argument("--quick", action="store_true", help="small sets, a few seconds (the tests' size)")
-    p.add_argument("--seed", type=flags.seed, default=0, help="seed of every test's rays (default 0)")
+    add_rng_seed(p, "every test's rays", default=0)
     add_kernel_files(p, "then validated with the others")
     add_no_progress(p)
     p.set_defaults(func=run)
@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     # each --kernels/--dtype word may itself be a comma list
     kernels = [k for words in args.kernels for k in words] if args.kernels else None
     dtypes = [d for words in args.dtype for d in words] if args.dtype else validate.DTYPES
-    df = validate.run(kernels, dtypes, quick=args.quick, seed=args.seed, progress=args.progress)
+    df = validate.run(kernels, dtypes, quick=args.quick, rng_seed=args.rng_seed, progress=args.progress)
     out = Path(args.out or _out("validate.csv"))
     write_csv(df, out)
     print(validate.format_table(df))

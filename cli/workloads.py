@@ -21,6 +21,7 @@ from typing import Any
 
 from ..common import UserError
 from . import flags
+from .options import add_rng_seed
 
 __all__ = ["add_parser", "main", "parse_miss_mix"]
 
@@ -28,7 +29,7 @@ __all__ = ["add_parser", "main", "parse_miss_mix"]
 # arguments that go into a spec (the namespace also holds the command's own).
 _PAIR_OPTIONS = ("n", "order", "miss_mix", "shape", "scale", "offset", "winding")
 _MESH_OPTIONS = ("triangles", "rays", "n_rays", "width", "height", "accel")
-_SHARED_OPTIONS = ("hit_rate", "dtype", "seed")
+_SHARED_OPTIONS = ("hit_rate", "dtype", "rng_seed")
 
 
 def parse_miss_mix(text: str) -> str | dict[str, float]:
@@ -113,7 +114,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     both = make.add_argument_group("both")
     both.add_argument("--hit-rate", type=float, help="per-test (pairs) or per-ray (meshes) hit rate, default 0.5")
     both.add_argument("--dtype", choices=("float64", "float32"), help="default float64")
-    both.add_argument("--seed", type=flags.seed, help="default 0")
+    add_rng_seed(both, "the workload's random choices")
     both.add_argument("--json", action="store_true", help="print the spec and figures as JSON")
     make.set_defaults(func=_make)
 

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..common import UserError
+from ..common.renamed import renamed
 from ..workloads.kinds import spec_from_dict
 from ..workloads.spec import MeshSpec, Spec, file_sha256, workload_id
 from .margin import AA_TWINS
@@ -131,7 +132,7 @@ class Sweep:
     """A grid of kernels x workloads and the design that measures it.
 
     ``kernels`` may be internal (the harness's checks use them); ``loops`` is calibrated per kernel, workload and
-    process to ``target_ms``; ``seed`` drives every random choice, layout included. ``workload_kernels``: per
+    process to ``target_ms``; ``rng_seed`` drives every random choice, layout included. ``workload_kernels``: per
     workload, the kernels that run it (empty: :meth:`kernels_for`). ``kernel_files`` are loaded here and by every
     worker (checked by :mod:`tribench.harness.jobs.kernel_check`). ``builds`` (:func:`tribench.ext.parse_builds`;
     empty: the installed one) are taken in turn by the processes: 10 processes and 2 builds are 5 of each."""
@@ -142,7 +143,7 @@ class Sweep:
     rounds: int = DEFAULT_ROUNDS
     warmup: int = DEFAULT_WARMUP
     target_ms: float = DEFAULT_TARGET_MS
-    seed: int = 0
+    rng_seed: int = 0
     workload_kernels: tuple[tuple[str, ...], ...] = ()
     sequential: Sequential | None = None
     kernel_files: tuple[str, ...] = ()
@@ -158,7 +159,7 @@ class Sweep:
             ("processes", 1, MAX_PROCESSES),
             ("rounds", 1, MAX_ROUNDS),
             ("warmup", 0, MAX_WARMUP),
-            ("seed", 0, 2**63 - 1),
+            ("rng_seed", 0, 2**63 - 1),
         ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
@@ -305,7 +306,7 @@ class Sweep:
             "rounds": self.rounds,
             "warmup": self.warmup,
             "target_ms": self.target_ms,
-            "seed": self.seed,
+            "rng_seed": self.rng_seed,
             # only when used, so the run.json of an ordinary sweep is what it always was
             **({"workload_kernels": [list(k) for k in self.workload_kernels]} if self.workload_kernels else {}),
             **({"sequential": self.sequential.to_dict()} if self.sequential is not None else {}),
@@ -321,6 +322,7 @@ class Sweep:
     def from_dict(cls, d: Mapping[str, Any], run_dir: str | Path | None = None) -> Sweep:
         """The sweep of :meth:`to_dict`'s form. Its kernel files are the run folder's copies where
         ``run_dir`` has them, else the files at their recorded paths, if their content is unchanged."""
+        d = renamed(d)  # a run before #52 wrote its RNG seed as "seed" (its workloads': spec_from_dict)
         unknown = sorted(set(d) - _SWEEP_FIELDS)
         if unknown:  # a newer tribench's part of the plan: run without it, the run would be another one
             raise UserError(f"unknown sweep field(s): {', '.join(map(str, unknown))} (a run of a newer tribench?)")
@@ -331,7 +333,7 @@ class Sweep:
             rounds=d["rounds"],
             warmup=d["warmup"],
             target_ms=d["target_ms"],
-            seed=d["seed"],
+            rng_seed=d["rng_seed"],
             workload_kernels=tuple(tuple(k) for k in d.get("workload_kernels", ())),
             sequential=Sequential(**d["sequential"]) if d.get("sequential") is not None else None,
             kernel_files=tuple(_kernel_file(f, run_dir) for f in d.get("kernel_files", ())),
@@ -453,13 +455,13 @@ def rows_of_build(frame: Any, batches: Any, build: str) -> Any:
     return frame.loc[mine].reset_index(drop=True)
 
 
-def process_seed(seed: int, process: int) -> int:
-    """The seed of one process's random choices (kernel orders, layout).
+def process_seed(rng_seed: int, process: int) -> int:
+    """The seed of one process's random choices (kernel orders, layout), from the sweep's ``rng_seed``.
 
     >>> process_seed(0, 3) == process_seed(0, 3) != process_seed(0, 4)
     True
     """
-    return int(np.random.SeedSequence([seed, process]).generate_state(1, np.uint64)[0])
+    return int(np.random.SeedSequence([rng_seed, process]).generate_state(1, np.uint64)[0])
 
 
 def plan(sweep: Sweep) -> list[BatchKey]:
@@ -478,7 +480,7 @@ def plan(sweep: Sweep) -> list[BatchKey]:
     keys = []
     kernel_sets = [sweep.kernels_for(spec) for spec in sweep.workloads]  # once: it asks the registry
     for p in range(sweep.processes):
-        rng = np.random.default_rng(process_seed(sweep.seed, p))
+        rng = np.random.default_rng(process_seed(sweep.rng_seed, p))
         for w in rng.permutation(len(sweep.workloads)):
             wid = sweep.workload_ids[w]
             for r in range(-sweep.warmup, sweep.rounds):

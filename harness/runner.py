@@ -277,7 +277,7 @@ def _start_locked(
         "sweep": sweep.to_dict(),
         "n_batches": len(keys),
         "plan_sha256": _plan_digest(keys),
-        "process_seeds": [process_seed(sweep.seed, p) for p in range(sweep.processes)],
+        "process_seeds": [process_seed(sweep.rng_seed, p) for p in range(sweep.processes)],
         "cpu": default_cpu() if cpu is None else cpu,
         "isa": {k: kernel_isa(k) for k in sweep.kernels},
         "margin": {"value": margin.value, "source": margin.source},

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from ..common import UserError, read_user_text
+from ..common.renamed import renamed
 from ..workloads.kinds import spec_from_dict
 from ..workloads.spec import Spec
 from .plan import Sequential, Sweep, check_workload_count
@@ -46,7 +47,7 @@ _TOP_LEVEL = (
     "rounds",
     "warmup",
     "target_ms",
-    "seed",
+    "rng_seed",
     "kernel_files",
     "builds",
     "workload_kernels",
@@ -67,6 +68,7 @@ def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None
         raise UserError(f"{path}: not valid TOML ({exc})") from None
     except RecursionError:
         raise UserError(f"{path}: not a sweep file (values nested too deeply to read)") from None
+    data = renamed(data, f"{path}: ")  # a sweep file before #52 (a run folder's sweep.toml) spells it "seed"
     unknown = sorted(set(data) - set(_TOP_LEVEL))
     if unknown:
         raise UserError(f"{path}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(sorted(_TOP_LEVEL))}")

@@ -95,7 +95,7 @@ def machine_section(data: RunData) -> str:
             "<h3>Seeds and plan</h3>",
             page.kv_table(
                 [
-                    ("sweep seed", data.run.sweep.seed),
+                    ("sweep RNG seed", data.run.sweep.rng_seed),
                     ("process seeds", list(data.run.process_seeds)),
                     ("plan sha256", data.run.plan_sha256),
                     ("batches planned / recorded", f"{data.run.n_batches} / {len(data.batches)}"),
@@ -124,14 +124,14 @@ def sweep_toml(sweep: dict[str, Any]) -> str:
     its kernel files are the run folder's copies, since the file sits in the run folder.
 
     >>> print(sweep_toml({"kernels": ["a"], "processes": 2, "rounds": 3, "warmup": 1,
-    ...     "target_ms": 2.0, "seed": 0, "workloads": [{"kind": "pairs", "n": 10}]}))
+    ...     "target_ms": 2.0, "rng_seed": 0, "workloads": [{"kind": "pairs", "n": 10}]}))
     # tribench sweep file, written by tribench report
     kernels = ["a"]
     processes = 2
     rounds = 3
     warmup = 1
     target_ms = 2.0
-    seed = 0
+    rng_seed = 0
     <BLANKLINE>
     [[workloads]]
     kind = "pairs"
@@ -141,7 +141,7 @@ def sweep_toml(sweep: dict[str, Any]) -> str:
     from ..workloads.mesh_files import KERNELS_FOLDER
 
     lines = ["# tribench sweep file, written by tribench report"]
-    for key in ("kernels", "processes", "rounds", "warmup", "target_ms", "seed", "builds", "workload_kernels"):
+    for key in ("kernels", "processes", "rounds", "warmup", "target_ms", "rng_seed", "builds", "workload_kernels"):
         if key in sweep:
             lines.append(f"{key} = {_toml_value(sweep[key])}")
     if sweep.get("kernel_files"):

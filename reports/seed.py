@@ -259,7 +259,7 @@ def _machine(run: Run) -> str:
         ("processes", sweep.processes),
         ("rounds (+ warm-up)", f"{sweep.rounds} (+{sweep.warmup})"),
         ("batch target (ms)", sweep.target_ms),
-        ("sweep seed", sweep.seed),
+        ("sweep RNG seed", sweep.rng_seed),
         ("process seeds", list(run.process_seeds)),
         ("equivalence margin", {"value": run.margin.value, "source": run.margin.source}),
     ]

@@ -47,7 +47,7 @@ def _run(tmp_path_factory, name: str, sweep: Sweep):
 def bvh_run(tmp_path_factory):
     """Two native kernels on a BVH workload and on its brute-force twin: 3 processes x 3 rounds (+1 warm-up)
     (medians of 3: one batch the loaded machine stalled cannot move a process's value)."""
-    sweep = Sweep(KERNELS, (BRUTE_SPEC, BVH_SPEC), processes=3, rounds=3, warmup=1, target_ms=0.2, seed=3)
+    sweep = Sweep(KERNELS, (BRUTE_SPEC, BVH_SPEC), processes=3, rounds=3, warmup=1, target_ms=0.2, rng_seed=3)
     run_dir, cache_dir = _run(tmp_path_factory, "bvh-run", sweep)
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("TRIBENCH_CACHE", str(cache_dir))

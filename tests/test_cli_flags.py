@@ -76,8 +76,8 @@ HOSTILE = [
     (["sweep", "--target-ms", "0"], "--target-ms"),
     (["sweep", "--target-ms", "nan"], "--target-ms"),
     (["sweep", "--target-ms", "inf"], "--target-ms"),
-    (["sweep", "--seed", "-1"], "--seed"),
-    (["sweep", "--seed", str(2**64)], "--seed"),
+    (["sweep", "--rng-seed", "-1"], "--rng-seed"),
+    (["sweep", "--rng-seed", str(2**64)], "--rng-seed"),
     (["sweep", "--cpu", NOT_A_CPU], "--cpu"),
     (["sweep", "--cpu", "999"], "--cpu"),
     (["sweep", "--cpu", "-1"], "--cpu"),
@@ -121,7 +121,7 @@ HOSTILE = [
     (["validate", "--out", "afile/x.csv"], "--out"),
     (["validate", "--kernels", ""], "--kernels"),
     (["validate", "--dtype", "float16"], "--dtype"),
-    (["validate", "--seed", "-1"], "--seed"),
+    (["validate", "--rng-seed", "-1"], "--rng-seed"),
     (["report", "nowhere"], "RUN_DIR"),
     (["report", "afile"], "RUN_DIR"),
     (["compare", "adir", "nowhere"], "RUN"),
@@ -133,7 +133,7 @@ HOSTILE = [
     (["workloads", "make", "pairs", "--n", "0"], "n (number of pairs)"),
     (["workloads", "make", "pairs", "--n", str(10**30)], "n (number of pairs)"),
     (["workloads", "make", "pairs", "--hit-rate", "nan"], "hit_rate"),
-    (["workloads", "make", "pairs", "--seed", "-1"], "--seed"),
+    (["workloads", "make", "pairs", "--rng-seed", "-1"], "--rng-seed"),
     (["workloads", "make", "pairs", "--width", "8"], "--width"),
     (["workloads", "make", "suzanne", "--n", "8"], "--n"),
     (["workloads", "make", "suzanne", "--width", "0"], "width"),
@@ -249,7 +249,7 @@ def test_what_once_raised_a_traceback_is_one_line(argv, said, tmp_path, monkeypa
 
 def test_resume_refuses_every_other_sweep_flag(tmp_path, capsys):
     (tmp_path / "run").mkdir()
-    for extra in (["--camera", "8x8"], ["--cpu", str(min(os.sched_getaffinity(0)))], ["--seed", "3"]):
+    for extra in (["--camera", "8x8"], ["--cpu", str(min(os.sched_getaffinity(0)))], ["--rng-seed", "3"]):
         assert "--resume takes no other sweep options" in _refused(
             ["sweep", "--resume", str(tmp_path / "run"), *extra], capsys
         )

@@ -46,7 +46,7 @@ def small_sweep(**kw) -> Sweep:
         processes=3,
         rounds=4,
         warmup=2,
-        seed=5,
+        rng_seed=5,
     )
     return Sweep(**{**base, **kw})
 
@@ -72,7 +72,7 @@ def test_plan_is_deterministic_and_complete():
     # orders are randomised, and depend on the seed
     orders = {tuple(k.kernel for k in g) for g in groups.values()}
     assert len(orders) > 1
-    assert plan(small_sweep(seed=6)) != keys
+    assert plan(small_sweep(rng_seed=6)) != keys
 
 
 def test_sweep_round_trips_through_json_and_rejects_bad_input():
@@ -100,8 +100,8 @@ def test_sweep_file_expands_lists_into_a_grid(tmp_path):
         '[[workloads]]\nkind = "pairs"\nn = 20\nhit_rate = [0.1, 0.9]\ndtype = ["float32", "float64"]\n'
         '[[workloads]]\nkind = "mesh"\nmesh = "icosphere"\ntriangles = [20, 80]\nwidth = 4\nheight = 4\n'
     )
-    s = load_sweep_file(path, {"rounds": 2, "seed": None})
-    assert (s.processes, s.rounds, s.seed) == (2, 2, 0)
+    s = load_sweep_file(path, {"rounds": 2, "rng_seed": None})
+    assert (s.processes, s.rounds, s.rng_seed) == (2, 2, 0)
     assert len(s.workloads) == 6
     assert s.workloads[4] == MeshSpec("icosphere", triangles=20, width=4, height=4)
     assert len(expand_workloads({"kind": "pairs", "n": 3})) == 1

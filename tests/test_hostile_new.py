@@ -174,7 +174,7 @@ def dropped_flag_cases(s: Scratch) -> list[Outcome]:
     return [*out, o]
 
 
-PLAN_KEYS = ("kernels", "workloads", "workload_kernels", "sequential", "builds", "processes", "rounds", "seed")
+PLAN_KEYS = ("kernels", "workloads", "workload_kernels", "sequential", "builds", "processes", "rounds", "rng_seed")
 
 
 def sweep_file_cases(s: Scratch) -> list[Outcome]:

@@ -50,7 +50,7 @@ TABLE = '[[workloads]]\nkind = "pairs"\nn = 100\n'
         ({"processes": True}, "processes must be an integer"),
         ({"target_ms": True}, "target_ms must be a number"),
         ({"target_ms": math.nan}, "target_ms must be a number"),
-        ({"seed": 2**64}, "seed must be between 0 and"),
+        ({"rng_seed": 2**64}, "rng_seed must be between 0 and"),
     ],
 )
 def test_plan_bounds_from_the_api(design, message):
@@ -85,8 +85,8 @@ def test_kernels_of_the_wrong_type_name_the_file_and_key(tmp_path, bad):
         ("processes = 1.5", "processes must be an integer"),
         ('processes = "3"', "processes must be an integer"),
         ("target_ms = true", "target_ms must be a number"),
-        ("seed = -1", "seed must be between 0"),
-        ("seed = 1979-05-27", "seed must be an integer"),
+        ("rng_seed = -1", "rng_seed must be between 0"),
+        ("rng_seed = 1979-05-27", "rng_seed must be an integer"),
         ("colour = 3", r"unknown key\(s\) colour"),
     ],
 )
@@ -166,7 +166,7 @@ def test_flags_over_a_sweep_file_are_named(tmp_path):
     f.write_text(HEAD + TABLE)
     with pytest.raises(UserError, match=f"{f} with the command-line flags: rounds must be between"):
         load_sweep_file(f, {"rounds": 10**9})
-    assert load_sweep_file(f, {"rounds": 3, "seed": None}).rounds == 3
+    assert load_sweep_file(f, {"rounds": 3, "rng_seed": None}).rounds == 3
 
 
 def test_plan_bounds_from_the_command_line(tmp_path):

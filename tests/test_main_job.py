@@ -27,7 +27,7 @@ TINY = Sweep(
     rounds=2,
     warmup=1,
     target_ms=0.2,
-    seed=3,
+    rng_seed=3,
 )
 
 

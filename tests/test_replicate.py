@@ -96,8 +96,8 @@ def test_the_plan_leaves_out_a_missing_compiler_and_says_so(tmp_path_factory, tm
     sweep, notes, _ = replication_plan(copy)
     assert sweep.kernels == tuple(record["sweep"]["kernels"]) and notes == []
     assert [s.to_dict() for s in sweep.workloads] == record["sweep"]["workloads"]
-    assert (sweep.processes, sweep.rounds, sweep.seed) == tuple(
-        record["sweep"][k] for k in ("processes", "rounds", "seed")
+    assert (sweep.processes, sweep.rounds, sweep.rng_seed) == tuple(
+        record["sweep"][k] for k in ("processes", "rounds", "rng_seed")
     )
     record["sweep"] |= {"builds": ["installed", "no-such-cc -O2"], "processes": 4}  # a build needs two processes
     record["process_seeds"] = [*record["process_seeds"], 12345]
@@ -121,7 +121,7 @@ def test_tribench_replicate_reruns_a_copied_run_with_an_empty_cache(tmp_path_fac
     table = pd.read_csv(out / runfolder.REPLICATION)
     assert summary(table) in done.stdout and len(table) > 0
     original, new = (json.loads((d / runfolder.RUN).read_text()) for d in (copy, out))
-    assert new["sweep"]["workload_ids"] == original["sweep"]["workload_ids"]  # the same workloads, by spec and seed
+    assert new["sweep"]["workload_ids"] == original["sweep"]["workload_ids"]  # the same workloads, by spec and RNG seed
     assert new["replicates"]["run_id"] == original["run_id"]
     assert 'id="replication"' in (out / runfolder.REPORT).read_text(encoding="utf-8")
     again = subprocess.run(

@@ -145,11 +145,11 @@ def test_reproduce_section_gives_a_sweep_file_that_reads_back(rendered, tmp_path
     sweep = load_sweep_file(run_dir / "sweep.toml")
     recorded = Sweep.from_dict(json.loads((run_dir / "run.json").read_text())["sweep"])
     assert sweep.workload_ids == recorded.workload_ids
-    assert (sweep.kernels, sweep.processes, sweep.rounds, sweep.seed) == (
+    assert (sweep.kernels, sweep.processes, sweep.rounds, sweep.rng_seed) == (
         recorded.kernels,
         recorded.processes,
         recorded.rounds,
-        recorded.seed,
+        recorded.rng_seed,
     )
     assert plan(sweep) == plan(recorded)  # the same batches, in the same order
 

@@ -65,7 +65,7 @@ def _made_once(tmp_path_factory: pytest.TempPathFactory) -> Path:
             shutil.rmtree(made, ignore_errors=True)  # a worker that died making it
             with pytest.MonkeyPatch.context() as mp:
                 mp.setenv("TRIBENCH_CACHE", str(made / "cache"))
-                sweep = Sweep(KERNELS, WORKLOADS, processes=3, rounds=3, warmup=1, target_ms=0.2, seed=5)
+                sweep = Sweep(KERNELS, WORKLOADS, processes=3, rounds=3, warmup=1, target_ms=0.2, rng_seed=5)
                 runner.start(sweep, made / "run", progress=False)
                 validate.run(KERNELS, ["float64"], quick=True).to_csv(made / "run" / "validate.csv", index=False)
                 analysed(made / "run")

@@ -30,7 +30,7 @@ def sweep(target: float = 1.0, budget_s: float = 600.0, processes: int = 16) -> 
         rounds=2,
         warmup=1,
         target_ms=0.2,
-        seed=3,
+        rng_seed=3,
         workload_kernels=SETS,
         sequential=Sequential(stage=4, target=target, budget_s=budget_s),
     )
@@ -133,7 +133,7 @@ def test_an_ordinary_sweep_keeps_its_run_record_and_the_new_fields_round_trip():
         "rounds",
         "warmup",
         "target_ms",
-        "seed",
+        "rng_seed",
     }
     s = sweep()
     again = Sweep.from_dict(json.loads(json.dumps(s.to_dict())))

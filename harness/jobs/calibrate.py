@@ -71,7 +71,7 @@ def calibrate(
     rounds: int = DEFAULT_ROUNDS,
     warmup: int = DEFAULT_WARMUP,
     target_ms: float = DEFAULT_TARGET_MS,
-    seed: int = 0,
+    rng_seed: int = 0,
     progress: bool | None = None,
     save: bool = True,
 ) -> dict[str, Any]:
@@ -102,7 +102,7 @@ def calibrate(
         rounds=rounds,
         warmup=warmup,
         target_ms=target_ms,
-        seed=seed,
+        rng_seed=rng_seed,
     )
     run_dir = Path(run_dir)
     # an A/A run records the default margin: the margin is what it measures

@@ -91,7 +91,7 @@ class PeerDesign:
     trimesh_rays: int = 8192
     choice_rays: int = 8192
     choice_rounds: int = 7
-    seed: int = 0
+    rng_seed: int = 0
     accel: str = "brute"
 
     #: At most this many timed repetitions (processes x reps): at about a second each
@@ -184,7 +184,7 @@ def candidate_kernels(accel: str) -> list[str]:
     return [k for k in kernels if k in ext.bvh_kernel_names()] if accel == "bvh" else kernels
 
 
-def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str:
+def choose_kernel(workload: Any, n_rays: int, rounds: int, rng_seed: int = 0) -> str:
     """The fastest of :func:`candidate_kernels` on a random subset of the rays (through its BVH on a BVH workload).
 
     Judged by the median CPU time per ray, kernels interleaved: on a shared core, wall time
@@ -192,7 +192,7 @@ def choose_kernel(workload: Any, n_rays: int, rounds: int, seed: int = 0) -> str
     from ... import ext
     from ...workloads import bvh_cache
 
-    rng = np.random.default_rng([seed, 1])
+    rng = np.random.default_rng([rng_seed, 1])
     bvh = workload.spec.accel == "bvh"
     kernels = candidate_kernels(workload.spec.accel)
     rows = np.sort(rng.choice(len(workload.origins), size=min(n_rays, len(workload.origins)), replace=False))
@@ -250,7 +250,7 @@ def measure(
     path = peers_path(out)
     workload = cache.make(camera_spec(design))  # built once here; the workers read the cache
     if kernel is None:
-        kernel = choose_kernel(workload, design.choice_rays, design.choice_rounds, design.seed)
+        kernel = choose_kernel(workload, design.choice_rays, design.choice_rounds, design.rng_seed)
     cpu = default_cpu() if cpu is None else cpu
     # one BLAS thread, set before the worker imports NumPy (see the module's docstring)
     blas = {**os.environ, **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
@@ -273,7 +273,11 @@ def measure(
             name = f"peers worker of process {process}"
             try:
                 protocol.run_worker(
-                    WORKER, json.dumps(job), layout.padded_env(design.seed, process, blas), {"peer": rows.append}, name
+                    WORKER,
+                    json.dumps(job),
+                    layout.padded_env(design.rng_seed, process, blas),
+                    {"peer": rows.append},
+                    name,
                 )
             except protocol.WorkerError as exc:
                 raise RuntimeError(f"{name}: {exc}" if exc.said else str(exc)) from None
@@ -323,7 +327,7 @@ def _worker(text: str) -> None:
     layout.pin(cpu)  # cpu -1: not pinned, and the rows say so, as the sweep worker's do
     # the sweep worker's layout randomisation: its environment was padded, then small allocations and
     # the arrays every contender reads in fresh buffers at random offsets
-    rng = np.random.default_rng([design.seed, 4, job["process"]])
+    rng = np.random.default_rng([design.rng_seed, 4, job["process"]])
     dummies = layout.dummy_allocations(rng)
     w = cache.make(camera_spec(design))
     o, d, tris = (layout.fresh_copy(a, rng) for a in (w.origins, w.directions, w.triangles))
@@ -342,7 +346,7 @@ def _worker(text: str) -> None:
     contenders.update(natives)
     differ.update({name: disagreements(index, slice(None)) for name, index in native_answers.items()})
     contenders.update(_peer_contenders(job["peers"], design, w))
-    rng = np.random.default_rng([design.seed, 2, job["process"]])
+    rng = np.random.default_rng([design.rng_seed, 2, job["process"]])
     for rep in range(design.reps):
         for position, name in enumerate(rng.permutation(list(contenders))):
             c = contenders[name]
@@ -468,7 +472,7 @@ def _peer_contenders(peers: Sequence[str], design: PeerDesign, w: Any) -> dict[s
         from trimesh.ray import ray_triangle
 
         subset = np.sort(
-            np.random.default_rng([design.seed, 3]).choice(n, size=min(design.trimesh_rays, n), replace=False)
+            np.random.default_rng([design.rng_seed, 3]).choice(n, size=min(design.trimesh_rays, n), replace=False)
         )
         o_sub, d_sub = o[subset].astype(np.float64), d[subset].astype(np.float64)
         t0 = time.perf_counter_ns()

@@ -87,7 +87,7 @@ def measure_robustness(run_dir: str | Path, quick: bool = False) -> str:
     runfolder.write_csv(df, path)
     return (
         f"Read from {runfolder.VALIDATE} in the run folder, made by the robustness suite ({df.attrs['size']} "
-        f"sizes, RNG seed {df.attrs['seed']}, {df.attrs['seconds']:.1f} s)."
+        f"sizes, RNG seed {df.attrs['rng_seed']}, {df.attrs['seconds']:.1f} s)."
     )
 
 

@@ -232,11 +232,11 @@ def measure(kernel: str, sets: RaySets) -> list[dict]:
     return rows
 
 
-def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=TESTS, progress: bool | None = None):
+def run(kernels=None, dtypes=DTYPES, quick: bool = False, rng_seed: int = 0, tests=TESTS, progress: bool | None = None):
     """The whole suite as a tidy DataFrame (:data:`COLUMNS`), ordered by kernel, dtype and test.
 
     ``kernels`` default to ``ext.kernel_names()``; ``quick``: the ``QUICK`` sizes;
-    ``progress`` False for none. The frame's ``attrs`` record the seed, size and seconds."""
+    ``progress`` False for none. The frame's ``attrs`` record the RNG seed (``rng_seed``), size and seconds."""
     import pandas as pd
 
     from ..runner import Progress
@@ -249,7 +249,7 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=T
         if twice:  # each would be measured twice, and the table's rows would clash
             raise UserError(f"{what} name {', '.join(twice)} more than once: give each once")
     start = time.perf_counter()
-    sets = [build(dtype, quick, seed, tests) for dtype in dtypes]
+    sets = [build(dtype, quick, rng_seed, tests) for dtype in dtypes]
     bar = (
         Progress(len(kernels), 0, force=bool(progress), unit="kernels", label="validate")
         if progress is not False
@@ -265,7 +265,7 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, seed: int = 0, tests=T
         if bar:
             bar.close()
     df = pd.DataFrame(rows, columns=list(COLUMNS))
-    df.attrs.update(seed=seed, size="quick" if quick else "full", seconds=time.perf_counter() - start)
+    df.attrs.update(rng_seed=rng_seed, size="quick" if quick else "full", seconds=time.perf_counter() - start)
     return df
 
 
