@@ -95,7 +95,7 @@ def _parser() -> argparse.ArgumentParser:
         metavar="CPU",
         help="pin to this CPU (default: not pinned; the harness's workers, everyone's, pin to the last CPU)",
     )
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--rng-seed", type=int, default=0)
     return ap
 
 
@@ -116,7 +116,7 @@ def main() -> None:
         f"CPUs: {sorted(os.sched_getaffinity(0))}; load average {os.getloadavg()[0]:.2f}"
     )
 
-    rng = np.random.default_rng(args.seed)
+    rng = np.random.default_rng(args.rng_seed)
     counts = []
     k = args.min_k
     while k <= args.max_k:

@@ -52,11 +52,11 @@ FORMS = [
 ]
 
 
-def stack(n_tris: int, n_rays: int, hit_rate: float, dtype: type, seed: int = 0) -> tuple:
+def stack(n_tris: int, n_rays: int, hit_rate: float, dtype: type, rng_seed: int = 0) -> tuple:
     """Rays straight down through n_tris unit triangles at z = -1, -2, ...;
     a fraction hit_rate of them (random) contain the rays' crossing points,
     the others are shifted 2 along x (their u test fails first)."""
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(rng_seed)
     unit = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
     tris = np.tile(unit, (n_tris, 1, 1))
     tris[:, :, 2] = -1.0 - np.arange(n_tris)[:, None]

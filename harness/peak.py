@@ -68,7 +68,7 @@ def measure_peak(repeats: int = 5) -> ext.Peak:
     return max((ext.fma_peak(PROBE_ITERATIONS) for _ in range(repeats)), key=lambda p: p.gflops)
 
 
-def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int = 64, seed: int = 0, isa=None):
+def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int = 64, rng_seed: int = 0, isa=None):
     """Every public kernel on the in-cache camera workload, as a fraction of its bound (``tribench info --peak``).
 
     A quick look in this process, not the sweep's protocol: Suzanne at 968 triangles (in L2, which the port model
@@ -81,7 +81,7 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     from ..workloads.spec import MeshSpec
     from .worker import calibrate_loops
 
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(rng_seed)
     jobs = {}
     for dtype in dtypes:
         w = cache.make(MeshSpec("suzanne", triangles=968, width=size, height=size, dtype=dtype, result="closest"))

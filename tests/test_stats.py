@@ -198,7 +198,7 @@ def test_estimate_bootstrap_agrees_with_t_and_is_reproducible():
     assert abs(e.bootstrap_low - e.ci_low) < 0.15 * width
     assert abs(e.bootstrap_high - e.ci_high) < 0.15 * width
     assert stats.estimate(values) == e  # seeded
-    assert stats.estimate(values, seed=1).bootstrap_low != e.bootstrap_low
+    assert stats.estimate(values, rng_seed=1).bootstrap_low != e.bootstrap_low
 
 
 def test_a_time_s_interval_stays_positive_however_few_and_spread_its_processes():

@@ -85,7 +85,7 @@ def _log_interval(x: np.ndarray, confidence: float) -> tuple[float, float, float
     return mean, mean * math.exp(-half), mean * math.exp(half)
 
 
-def _bca_interval(x: np.ndarray, confidence: float, n_resamples: int, seed: int) -> tuple[float, float]:
+def _bca_interval(x: np.ndarray, confidence: float, n_resamples: int, rng_seed: int) -> tuple[float, float]:
     """BCa bootstrap interval of the mean; nan when the data cannot support one."""
     # BCa needs a jackknife with some spread; below 3 values or with all values
     # equal the bootstrap distribution is degenerate.
@@ -100,7 +100,7 @@ def _bca_interval(x: np.ndarray, confidence: float, n_resamples: int, seed: int)
             n_resamples=n_resamples,
             method="BCa",
             # random_state (not rng) keeps scipy >= 1.10 working, as pyproject allows.
-            random_state=np.random.default_rng(seed),
+            random_state=np.random.default_rng(rng_seed),
             vectorized=True,
         )
     interval = result.confidence_interval

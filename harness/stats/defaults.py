@@ -46,7 +46,7 @@ class Defaults:
     #: Resamples of the BCa bootstrap (scipy's default).
     n_resamples: int = 9999
     #: Seed of the bootstrap, so that a re-analysis gives the same numbers.
-    seed: int = 20130616
+    rng_seed: int = 20130616
     #: Drift worth a warning: change of the log speedup across one process
     #: (0.01 is about 1 %), see :func:`drift`.
     drift_threshold: float = 0.01

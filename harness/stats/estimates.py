@@ -52,7 +52,7 @@ def estimate(
     values: npt.ArrayLike,
     confidence: float = DEFAULTS.confidence,
     n_resamples: int = DEFAULTS.n_resamples,
-    seed: int = DEFAULTS.seed,
+    rng_seed: int = DEFAULTS.rng_seed,
 ) -> Estimate:
     """A kernel's cost from one value per process; the bootstrap is seeded, so a re-analysis repeats it.
 
@@ -67,7 +67,7 @@ def estimate(
     _check_confidence(confidence)
     x = _vector(values, "values")
     mean, low, high = _log_interval(x, confidence)
-    boot_low, boot_high = _bca_interval(x, confidence, n_resamples, seed)
+    boot_low, boot_high = _bca_interval(x, confidence, n_resamples, rng_seed)
     sd = float(np.std(x, ddof=1)) if x.size > 1 else math.nan
     return Estimate(mean, low, high, boot_low, boot_high, float(x.min()), sd, x.size, confidence)
 
