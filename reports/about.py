@@ -81,7 +81,7 @@ def machine_rows(run: Run) -> list[tuple[str, object]]:
 
 
 def machine_section(data: RunData) -> str:
-    """The CPU, caches, software, build, each kernel's instruction set, seeds and plan."""
+    """The CPU, caches, software, build, each kernel's instruction set, RNG seeds and plan."""
     build = data.machine.get("build", {})
     rows = machine_rows(data.run)
     brows = [(k, v) for k, v in build.items()]
@@ -92,7 +92,7 @@ def machine_section(data: RunData) -> str:
             page.kv_table(brows),
             "<h3>Instruction set of each kernel</h3>",
             page.kv_table(data.run.isa.items()),
-            "<h3>Seeds and plan</h3>",
+            "<h3>RNG seeds and plan</h3>",
             page.kv_table(
                 [
                     ("sweep RNG seed", data.run.sweep.rng_seed),

@@ -290,7 +290,7 @@ def _reproduce(run: Run) -> str:
         "<h3>To run it again</h3>",
         page.code("\n".join(steps)),
         page.p(
-            "Every workload is a pure function of its spec (the sampled rays are drawn with a fixed seed) and "
+            "Every workload is a pure function of its spec (the sampled rays are drawn with a fixed RNG seed) and "
             "the plan a pure function of the sweep in run.json; times differ by the machine's noise. The run "
             "folder also holds the runner's batches.csv, processes.csv, checks.csv and the analysis's "
             "estimates.csv and speedups.csv.",
