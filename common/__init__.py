@@ -1,5 +1,6 @@
 """What every tribench package shares, at the bottom of the import order (it may import nothing else of
-tribench): the user-error types (:mod:`.errors`) and the atomic file write (:mod:`.files`)."""
+tribench): the user-error types (:mod:`.errors`), the atomic file write (:mod:`.files`), and an RNG seed's old
+name read as its new one (:mod:`.renamed`)."""
 
 from .errors import Notice, UserError, UserTypeError
 from .files import atomic_write, read_user_text, write_bytes, write_text
