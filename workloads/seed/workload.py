@@ -15,7 +15,7 @@ under :data:`T_NEAR_ZERO`, or has two hits within :data:`TIE_RTOL` in t (surface
 
 >>> s = SeedSpec("scene02", "shadow", sample=64, width=16, height=16)
 >>> s.mode, s.summary()
-('any', 'seed scene02 shadow sample=64 of 16x16 float32 seed=0')
+('any', 'seed scene02 shadow sample=64 of 16x16 float32 rng_seed=0')
 >>> SeedSpec(rays="diffuse")
 Traceback (most recent call last):
 ...
