@@ -4,6 +4,7 @@ before (a run folder, a sweep file, a spec dict, a spec's keyword) goes through 
 from __future__ import annotations
 
 import functools
+import warnings
 from collections.abc import Mapping
 from typing import Any, TypeVar
 
@@ -29,12 +30,18 @@ def renamed(d: Mapping[str, Any], where: str = "") -> dict[str, Any]:
 
 
 def takes_old_seed(cls: type[T]) -> type[T]:
-    """``cls`` also taking ``seed=`` for ``rng_seed=`` (code written before #52); its signature shows ``rng_seed``."""
+    """``cls`` also taking ``seed=`` for ``rng_seed=``, and reading ``.seed`` as ``.rng_seed`` with a
+    DeprecationWarning (code written before #52); its signature and fields show ``rng_seed`` only."""
     init = cls.__init__
 
     @functools.wraps(init)
     def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
         init(self, *args, **renamed(kwargs))
 
+    def seed(self: Any) -> int:
+        warnings.warn(f"{cls.__name__}.seed is {cls.__name__}.rng_seed now", DeprecationWarning, stacklevel=2)
+        return int(self.rng_seed)
+
     cls.__init__ = __init__  # type: ignore[method-assign]
+    cls.seed = property(seed)  # type: ignore[attr-defined]
     return cls

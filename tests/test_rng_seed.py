@@ -152,6 +152,8 @@ def test_a_spec_takes_seed_as_rng_seed_and_shows_rng_seed(cls):
     assert cls(seed=7) == cls(rng_seed=7) == spec_from_dict({"kind": cls.kind, "seed": 7})
     assert cls(rng_seed=7).to_dict()["rng_seed"] == 7 and "seed" not in cls().to_dict()
     assert "rng_seed" in inspect.signature(cls).parameters and "seed" not in inspect.signature(cls).parameters
+    with pytest.warns(DeprecationWarning, match="rng_seed"):
+        assert cls(rng_seed=7).seed == 7  # read as before, with a warning that names the new field
 
 
 def test_tribench_sweep_takes_seed_as_rng_seed(monkeypatch, tmp_path):
