@@ -172,6 +172,15 @@ def test_per_process_agrees_with_the_numpy_shortcut_of_the_simulation():
     assert (table["n_rounds"] == 20).all()
 
 
+def test_two_processes_at_a_simultaneous_level_give_an_unbounded_interval_not_an_overflow():
+    # one degree of freedom at 0.9999: t is about 6366, so the log-scale half-width passes e^709 (#53.1 under load)
+    wide = [1.0, 1e150]
+    assert stats.estimate(wide, confidence=0.9999).ci_high == math.inf
+    assert stats.speedup(wide, [1.0, 1.0], confidence=0.9999).ci_high == math.inf
+    assert stats.geometric_mean(wide, confidence=0.9999).ci_high == math.inf
+    assert stats.unpaired_ratio(np.log([1.0, 2.0]), np.log(wide), confidence=0.9999).ci_high == math.inf
+
+
 def test_estimate_t_interval_by_hand():
     # mean 3, sd sqrt(2.5), se sqrt(0.5); t(0.975, 4) = 2.7764 from a printed table; on the log
     # scale the half-width is t se / mean

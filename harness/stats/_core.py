@@ -54,6 +54,15 @@ def _t_quantile(confidence: float, df: int) -> float:
     return float(_scipy_stats().t.ppf(0.5 + confidence / 2, df))
 
 
+def _exp(x: float) -> float:
+    """``math.exp``, saturating at infinity: a t quantile of one degree of freedom at a simultaneous level (two
+    processes, thirty kernels) is in the thousands, so an interval on the log scale can end past e^709."""
+    try:
+        return math.exp(x)
+    except OverflowError:
+        return math.inf
+
+
 def _t_interval(x: np.ndarray, confidence: float) -> tuple[float, float, float, float]:
     """Mean, t-interval and two-sided p-value (against 0) of ``x``: nan under two values; zero spread gives a
     zero-width interval (what the formula says), not an error."""
@@ -82,7 +91,7 @@ def _log_interval(x: np.ndarray, confidence: float) -> tuple[float, float, float
     if not mean > 0:
         raise ValueError(f"times must be positive for a log-scale interval, got a mean of {mean}")
     half = _t_quantile(confidence, n - 1) * float(np.std(x, ddof=1)) / (mean * math.sqrt(n))
-    return mean, mean * math.exp(-half), mean * math.exp(half)
+    return mean, mean * _exp(-half), mean * _exp(half)
 
 
 def _bca_interval(x: np.ndarray, confidence: float, n_resamples: int, rng_seed: int) -> tuple[float, float]:

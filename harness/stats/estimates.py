@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from ._core import _GROUP, _bca_interval, _check_confidence, _log_interval, _t_interval, _timed, _vector
+from ._core import _GROUP, _bca_interval, _check_confidence, _exp, _log_interval, _t_interval, _timed, _vector
 from .defaults import DEFAULTS
 
 
@@ -109,7 +109,7 @@ def speedup(
         raise ValueError(f"paired values differ in length: {base.size} != {kern.size}")
     d = np.log(base) - np.log(kern)
     mean, low, high, p = _t_interval(d, confidence)
-    return Speedup(math.exp(mean), math.exp(low), math.exp(high), p, d.size, confidence)
+    return Speedup(_exp(mean), _exp(low), _exp(high), p, d.size, confidence)
 
 
 @dataclass(frozen=True)
@@ -134,4 +134,4 @@ def geometric_mean(values: npt.ArrayLike, confidence: float = DEFAULTS.confidenc
     _check_confidence(confidence)
     logs = np.log(_vector(values, "values", positive=True))
     mean, low, high, _ = _t_interval(logs, confidence)
-    return GeometricMean(math.exp(mean), math.exp(low), math.exp(high), logs.size, confidence)
+    return GeometricMean(_exp(mean), _exp(low), _exp(high), logs.size, confidence)
