@@ -17,7 +17,7 @@ from .tables.diagnostics import drift_bins, round_summary
 __all__ = ["drift_section", "diagnostics_section", "calibration", "correctness_section", "robustness_section"]
 
 
-def drift_section(data: RunData, batches: pd.DataFrame, drift: pd.DataFrame, colours: dict[str, str]) -> str:
+def drift_section(batches: pd.DataFrame, drift: pd.DataFrame, colours: dict[str, str]) -> str:
     """Batches over time relative to their process, and stats.drift per kernel against the baseline."""
     body = [
         _chart(
@@ -198,7 +198,7 @@ def diagnostics_section(data: RunData, batches: pd.DataFrame, colours: dict[str,
     return "".join(body)
 
 
-def correctness_section(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) -> str:
+def correctness_section(correct: pd.DataFrame, wl: pd.DataFrame) -> str:
     """Every kernel's hits against the float64 reference, per workload."""
     # the family too: two workloads of a run can share a label (a hit rate at both precisions or windings)
     labels = {
