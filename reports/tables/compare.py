@@ -82,8 +82,10 @@ def _log_per_process(data: RunTables) -> pd.DataFrame:
     return pp.assign(log_ns=np.log(pp["ns_per_test"]))
 
 
-def _ratio_fields(r: stats.LogRatio, confidence: float, margin: float) -> dict[str, float | int | str]:
-    """The columns every row of a comparison has: the ratio, its interval and test, and the verdict."""
+def _ratio_fields(a: pd.Series, b: pd.Series, confidence: float, margin: float) -> dict[str, float | int | str]:
+    """The columns every row of a comparison has: the ratio of ``b`` to ``a`` (logs), its interval and test, and
+    the verdict."""
+    r = stats.unpaired_ratio(a, b, confidence)
     return {
         "ratio": r.ratio,
         "ratio_ci_low": r.ci_low,
@@ -125,31 +127,13 @@ def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Compar
         level_s = stats.simultaneous_confidence(confidence, len(others)) if others else confidence
         level_t = stats.simultaneous_confidence(confidence, len(present)) if present else confidence
         for k in others:
-            da = (wa[a.baseline] - wa[k]).dropna()
-            db = (wb[a.baseline] - wb[k]).dropna()
-            r = stats.unpaired_ratio(da, db, level_s)
-            spd_rows.append(
-                {
-                    **info,
-                    "kernel": k,
-                    "baseline": a.baseline,
-                    "speedup_a": math.exp(da.mean()),
-                    "speedup_b": math.exp(db.mean()),
-                    **_ratio_fields(r, level_s, margin),
-                }
-            )
+            da, db = (wa[a.baseline] - wa[k]).dropna(), (wb[a.baseline] - wb[k]).dropna()
+            row = {**info, "kernel": k, "baseline": a.baseline, "speedup_a": math.exp(da.mean())}
+            spd_rows.append({**row, "speedup_b": math.exp(db.mean()), **_ratio_fields(da, db, level_s, margin)})
         for k in present:
             ta, tb = wa[k].dropna(), wb[k].dropna()
-            r = stats.unpaired_ratio(ta, tb, level_t)
-            time_rows.append(
-                {
-                    **info,
-                    "kernel": k,
-                    "ns_per_test_a": math.exp(ta.mean()),
-                    "ns_per_test_b": math.exp(tb.mean()),
-                    **_ratio_fields(r, level_t, margin),
-                }
-            )
+            row = {**info, "kernel": k, "ns_per_test_a": math.exp(ta.mean()), "ns_per_test_b": math.exp(tb.mean())}
+            time_rows.append({**row, **_ratio_fields(ta, tb, level_t, margin)})
     ratio = ["ratio", "ratio_ci_low", "ratio_ci_high", "p_value", "df", "n_a", "n_b", "confidence", "verdict"]
     keys = ["workload_id", "family", "label", "kernel"]  # explicit: two runs may share only the baseline
     return Comparison(
