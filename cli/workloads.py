@@ -21,7 +21,7 @@ from typing import Any
 
 from ..common import UserError
 from . import flags
-from .options import add_rng_seed
+from .options import add_rng_seed, usage
 
 __all__ = ["add_parser", "main", "parse_miss_mix"]
 
@@ -64,7 +64,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description="Workloads are pure functions of a spec, cached by the spec's hash "
         "(directory: $TRIBENCH_CACHE, default ~/.cache/tribench/workloads).",
     )
-    parser.set_defaults(func=lambda args: _usage(parser))
+    parser.set_defaults(func=lambda args: usage(parser))
     sub = parser.add_subparsers(title="commands", metavar="COMMAND")
 
     make = sub.add_parser(
@@ -127,11 +127,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     show.add_argument("--json", action="store_true", help="print the spec and figures as JSON")
     show.set_defaults(func=_show)
     return parser
-
-
-def _usage(parser: argparse.ArgumentParser) -> int:
-    parser.print_help(sys.stderr)
-    return 2
 
 
 def _error(message: str) -> int:
