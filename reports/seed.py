@@ -18,7 +18,7 @@ from ..harness.jobs.seed import MISS_STAGES, PROGRAM
 from ..harness.runfolder import Run
 from ..harness.stats import format_interval
 from . import charts, page
-from .about import machine_rows
+from .about import machine_tables
 from .speed_charts import seed_chart
 from .tables.seed import ratio_baseline, read_seed_run
 
@@ -254,7 +254,6 @@ def _pictures(run_dir: Path, pics: pd.DataFrame) -> str:
 
 
 def _machine(run: Run) -> str:
-    rows = machine_rows(run)
     sweep = run.sweep
     design = [
         ("processes", sweep.processes),
@@ -268,11 +267,7 @@ def _machine(run: Run) -> str:
         "machine",
         "".join(
             [
-                page.kv_table(rows),
-                "<h3>Build of the C extension</h3>",
-                page.kv_table(run.machine.get("build", {}).items()),
-                "<h3>Instruction set of each kernel</h3>",
-                page.kv_table(run.isa.items()),
+                *machine_tables(run),
                 "<h3>Design</h3>",
                 page.kv_table(design),
             ]
