@@ -77,11 +77,6 @@ def _per_process(data: RunTables) -> pd.DataFrame:
     return compared(data.tables[runfolder.PER_PROCESS], data.tables.get(runfolder.CORRECTNESS))
 
 
-def _log_per_process(data: RunTables) -> pd.DataFrame:
-    pp = _per_process(data)
-    return pp.assign(log_ns=np.log(pp["ns_per_test"]))
-
-
 def _ratio_fields(a: pd.Series, b: pd.Series, confidence: float, margin: float) -> dict[str, float | int | str]:
     """The columns every row of a comparison has: the ratio of ``b`` to ``a`` (logs), its interval and test, and
     the verdict."""
@@ -114,7 +109,7 @@ def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Compar
     if a.baseline not in kernels:
         raise UserError(f"baseline {a.baseline} is missing from one run")
     margin = max(a.margin, b.margin)
-    pa, pb = _log_per_process(a), _log_per_process(b)
+    pa, pb = (pp.assign(log_ns=np.log(pp["ns_per_test"])) for pp in (_per_process(a), _per_process(b)))
     spd_rows, time_rows = [], []
     for wid in shared:
         spec = a.specs[wid]
