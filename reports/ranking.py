@@ -228,10 +228,6 @@ def ranking_section(data: RunData, rank: pd.DataFrame, alg: pd.DataFrame | None 
 # ------------------------------------------------------------ the answer: bands.csv
 
 
-def _place(dtype: str, band: str) -> str:
-    return f"{dtype} {band}"
-
-
 def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
     """One display row per precision and band of ``bands.csv``: the fastest, its figures, the runners-up.
 
@@ -314,7 +310,7 @@ def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]
     """
     out = []
     best = bands.loc[bands["rank"] == 1]
-    places = {k: [_place(r.dtype, r.band) for r in g.itertuples()] for k, g in best.groupby("kernel", sort=False)}
+    places = {k: [f"{r.dtype} {r.band}" for r in g.itertuples()] for k, g in best.groupby("kernel", sort=False)}
     n = len(best)
     out.append(
         "Fastest: "
