@@ -265,17 +265,8 @@ def _run_speedups(tag: str, d: RunTables, wids: list[str], kernels: list[str]) -
         if d.baseline in ran:
             one = {"ratio": 1.0, "ratio_ci_low": 1.0, "ratio_ci_high": 1.0, "verdict": "baseline"}
             rows.append({**info, "kernel": d.baseline, **one})
-        for r in s.loc[s["workload_id"] == wid].itertuples(index=False):
-            rows.append(
-                {
-                    **info,
-                    "kernel": r.kernel,
-                    "ratio": r.ratio,
-                    "ratio_ci_low": r.ratio_ci_low,
-                    "ratio_ci_high": r.ratio_ci_high,
-                    "verdict": r.verdict,
-                }
-            )
+        mine = s.loc[s["workload_id"] == wid, ["kernel", "ratio", "ratio_ci_low", "ratio_ci_high", "verdict"]]
+        rows += [{**info, **r} for r in mine.to_dict("records")]
     return rows
 
 
