@@ -27,24 +27,7 @@ DEFAULT_CAMERA = (64, 64)
 #: The flags that make the workload grid (a sweep file has its own).
 _WORKLOAD_FLAGS = ("hit_rates", "pairs", "mesh", "triangles", "camera", "rays", "accel", "max_leaf", "dtype")
 #: The flags that describe a new sweep: --resume takes none of them (the run's own sweep is used).
-_NEW_SWEEP_FLAGS = (
-    "file",
-    "kernels",
-    "hit_rates",
-    "pairs",
-    "mesh",
-    "triangles",
-    "camera",
-    "rays",
-    "accel",
-    "max_leaf",
-    "dtype",
-    *DESIGN_FLAGS,
-    "cpu",
-    "out",
-    "kernel_files",
-    "builds",
-)
+_NEW_SWEEP_FLAGS = ("file", "kernels", *_WORKLOAD_FLAGS, *DESIGN_FLAGS, "cpu", "out", "kernel_files", "builds")
 
 
 def add_parser(sub) -> None:
