@@ -166,17 +166,8 @@ def _format(value: Any) -> str:
 
 def _report(w, as_json: bool) -> None:
     if as_json:
-        print(
-            json.dumps(
-                {
-                    "workload_id": w.workload_id,
-                    "spec": w.spec.to_dict(),
-                    "targets": w.targets(),
-                    "achieved": w.achieved,
-                },
-                indent=2,
-            )
-        )
+        shown = {"workload_id": w.workload_id, "spec": w.spec.to_dict(), "targets": w.targets(), "achieved": w.achieved}
+        print(json.dumps(shown, indent=2))
         return
     print(f"{w.workload_id}  {w.spec.summary()}")
     rows = [(name, _format(t), _format(a)) for name, t, a in w.compare()]
