@@ -6,6 +6,8 @@ import argparse
 import sys
 import time
 
+from .options import usage
+
 __all__ = ["add_parser"]
 
 
@@ -16,7 +18,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="list the cache (workloads, BVH trees, front-face references, mesh copies) and prune it",
         description="The cache folder is $TRIBENCH_CACHE, default ~/.cache/tribench/workloads.",
     )
-    parser.set_defaults(func=lambda args: _usage(parser))
+    parser.set_defaults(func=lambda args: usage(parser))
     sub = parser.add_subparsers(title="commands", metavar="COMMAND")
     lister = sub.add_parser("list", help="every cached file with its size, last use and whether it can be used")
     lister.set_defaults(func=_list)
@@ -33,11 +35,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     pruner.add_argument("--dry-run", action="store_true", help="say what would be removed, remove nothing")
     pruner.set_defaults(func=_prune)
     return parser
-
-
-def _usage(parser: argparse.ArgumentParser) -> int:
-    parser.print_help(sys.stderr)
-    return 2
 
 
 def _mb(n: int) -> str:

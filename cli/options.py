@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from ..common import UserError
 from . import flags
@@ -44,6 +45,12 @@ def _new_run_folder(text: str) -> str:
     return out
 
 
+def usage(parser: argparse.ArgumentParser) -> int:
+    """A command given without its subcommand: its help on stderr, exit status 2."""
+    parser.print_help(sys.stderr)
+    return 2
+
+
 def add_no_progress(parser: argparse.ArgumentParser) -> None:
     """--no-progress, stored as the library's ``progress``: False, or None (a bar on a terminal, else plain lines)."""
     parser.add_argument(
@@ -62,8 +69,6 @@ def add_kernel_files(
     what: str = "checked against the float64 reference, then known by the names it declares",
 ) -> None:
     """--kernel-file FILE.c, repeatable: kernels of the user's own, loaded by :func:`load_kernel_files`."""
-    from . import flags
-
     parser.add_argument(
         "--kernel-file",
         dest="kernel_files",

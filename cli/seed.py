@@ -44,8 +44,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..harness.jobs.seed import KINDS_CSV, SEED_CSV, WORKLOADS_CSV, run_seed
-    from ..reports.seed import write_seed_report
-    from ..reports.seed_terminal import format_table
+    from ..reports.seed import format_table, write_seed_report
     from ..reports.tables.seed import write_seed_tables
 
     out = args.out or default_run_dir("seed-quick" if args.quick else "seed")

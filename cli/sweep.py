@@ -27,24 +27,7 @@ DEFAULT_CAMERA = (64, 64)
 #: The flags that make the workload grid (a sweep file has its own).
 _WORKLOAD_FLAGS = ("hit_rates", "pairs", "mesh", "triangles", "camera", "rays", "accel", "max_leaf", "dtype")
 #: The flags that describe a new sweep: --resume takes none of them (the run's own sweep is used).
-_NEW_SWEEP_FLAGS = (
-    "file",
-    "kernels",
-    "hit_rates",
-    "pairs",
-    "mesh",
-    "triangles",
-    "camera",
-    "rays",
-    "accel",
-    "max_leaf",
-    "dtype",
-    *DESIGN_FLAGS,
-    "cpu",
-    "out",
-    "kernel_files",
-    "builds",
-)
+_NEW_SWEEP_FLAGS = ("file", "kernels", *_WORKLOAD_FLAGS, *DESIGN_FLAGS, "cpu", "out", "kernel_files", "builds")
 
 
 def add_parser(sub) -> None:
@@ -219,13 +202,7 @@ def _workloads_from_flags(args: argparse.Namespace) -> list:
 
 def _sweep_from_args(args: argparse.Namespace):
     from .. import ext
-    from ..harness.plan import (
-        DEFAULT_PROCESSES,
-        DEFAULT_ROUNDS,
-        DEFAULT_TARGET_MS,
-        DEFAULT_WARMUP,
-        Sweep,
-    )
+    from ..harness.plan import Sweep
     from ..harness.sweep_file import load_sweep_file
 
     design = {k: getattr(args, k) for k in DESIGN_FLAGS}
@@ -238,18 +215,10 @@ def _sweep_from_args(args: argparse.Namespace):
     if args.file:
         given = {"kernels": args.kernels, "kernel_files": args.kernel_files, "builds": args.builds}
         return load_sweep_file(args.file, {**design, **given})
-    defaults = {
-        "processes": DEFAULT_PROCESSES,
-        "rounds": DEFAULT_ROUNDS,
-        "warmup": DEFAULT_WARMUP,
-        "target_ms": DEFAULT_TARGET_MS,
-        "rng_seed": 0,
-    }
-    design = {k: defaults[k] if v is None else v for k, v in design.items()}
     sweep = Sweep(
         tuple(args.kernels or ext.kernel_names()),
         tuple(_workloads_from_flags(args)),
-        **design,
+        **{k: v for k, v in design.items() if v is not None},  # the rest: Sweep's defaults, which --help names
         kernel_files=tuple(args.kernel_files or ()),
         builds=tuple(args.builds or ()),
     )

@@ -21,7 +21,7 @@ from typing import Any
 
 from ..common import UserError
 from . import flags
-from .options import add_rng_seed
+from .options import add_rng_seed, usage
 
 __all__ = ["add_parser", "main", "parse_miss_mix"]
 
@@ -64,7 +64,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description="Workloads are pure functions of a spec, cached by the spec's hash "
         "(directory: $TRIBENCH_CACHE, default ~/.cache/tribench/workloads).",
     )
-    parser.set_defaults(func=lambda args: _usage(parser))
+    parser.set_defaults(func=lambda args: usage(parser))
     sub = parser.add_subparsers(title="commands", metavar="COMMAND")
 
     make = sub.add_parser(
@@ -129,11 +129,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return parser
 
 
-def _usage(parser: argparse.ArgumentParser) -> int:
-    parser.print_help(sys.stderr)
-    return 2
-
-
 def _error(message: str) -> int:
     print(f"tribench workloads: error: {message}", file=sys.stderr)
     return 2
@@ -171,17 +166,8 @@ def _format(value: Any) -> str:
 
 def _report(w, as_json: bool) -> None:
     if as_json:
-        print(
-            json.dumps(
-                {
-                    "workload_id": w.workload_id,
-                    "spec": w.spec.to_dict(),
-                    "targets": w.targets(),
-                    "achieved": w.achieved,
-                },
-                indent=2,
-            )
-        )
+        shown = {"workload_id": w.workload_id, "spec": w.spec.to_dict(), "targets": w.targets(), "achieved": w.achieved}
+        print(json.dumps(shown, indent=2))
         return
     print(f"{w.workload_id}  {w.spec.summary()}")
     rows = [(name, _format(t), _format(a)) for name, t, a in w.compare()]

@@ -80,18 +80,22 @@ def machine_rows(run: Run) -> list[tuple[str, object]]:
     ]
 
 
+def machine_tables(run: Run) -> list[str]:
+    """The machine and software, the build of the C extension and each kernel's instruction set, as tables."""
+    return [
+        page.kv_table(machine_rows(run)),
+        "<h3>Build of the C extension</h3>",
+        page.kv_table(run.machine.get("build", {}).items()),
+        "<h3>Instruction set of each kernel</h3>",
+        page.kv_table(run.isa.items()),
+    ]
+
+
 def machine_section(data: RunData) -> str:
     """The CPU, caches, software, build, each kernel's instruction set, RNG seeds and plan."""
-    build = data.machine.get("build", {})
-    rows = machine_rows(data.run)
-    brows = [(k, v) for k, v in build.items()]
     return "".join(
         [
-            page.kv_table(rows),
-            "<h3>Build of the C extension</h3>",
-            page.kv_table(brows),
-            "<h3>Instruction set of each kernel</h3>",
-            page.kv_table(data.run.isa.items()),
+            *machine_tables(data.run),
             "<h3>RNG seeds and plan</h3>",
             page.kv_table(
                 [

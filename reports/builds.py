@@ -61,7 +61,7 @@ def builds_section(data: RunData) -> str:
         intro
         + warnings
         + page.table(pd.DataFrame(rows), cols)
-        + "".join(_many_parts(views, many, unit="build", ids=("build-speedups", "build-orders")))
+        + "".join(_many_parts(many, unit="build", ids=("build-speedups", "build-orders")))
     )
 
 

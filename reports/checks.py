@@ -17,7 +17,7 @@ from .tables.diagnostics import drift_bins, round_summary
 __all__ = ["drift_section", "diagnostics_section", "calibration", "correctness_section", "robustness_section"]
 
 
-def drift_section(data: RunData, batches: pd.DataFrame, drift: pd.DataFrame, colours: dict[str, str]) -> str:
+def drift_section(batches: pd.DataFrame, drift: pd.DataFrame, colours: dict[str, str]) -> str:
     """Batches over time relative to their process, and stats.drift per kernel against the baseline."""
     body = [
         _chart(
@@ -121,9 +121,9 @@ def _chart(chart: Any, chart_id: str, description: str, caption: str) -> str:
 
 def diagnostics_section(data: RunData, batches: pd.DataFrame, colours: dict[str, str]) -> str:
     """Rounds, warm-up, outliers, variance components, the margin, interference, FMA peak."""
-    warm = content.sweep_order(content.table(data, runfolder.WARMUP), data)
-    outl = content.sweep_order(content.table(data, runfolder.OUTLIERS), data)
-    var = content.table(data, runfolder.VARIANCE)
+    warm = content.sweep_order(data.tables[runfolder.WARMUP], data)
+    outl = content.sweep_order(data.tables[runfolder.OUTLIERS], data)
+    var = data.tables[runfolder.VARIANCE]
     timed = data.batches.loc[~data.batches["warmup"]]
     ctx = int(timed["invol_ctx_switches"].sum())
     steal = timed.loc[timed["steal_ticks"] > 0, "steal_ticks"].sum() if "steal_ticks" in timed else 0
@@ -198,7 +198,7 @@ def diagnostics_section(data: RunData, batches: pd.DataFrame, colours: dict[str,
     return "".join(body)
 
 
-def correctness_section(data: RunData, correct: pd.DataFrame, wl: pd.DataFrame) -> str:
+def correctness_section(correct: pd.DataFrame, wl: pd.DataFrame) -> str:
     """Every kernel's hits against the float64 reference, per workload."""
     # the family too: two workloads of a run can share a label (a hit rate at both precisions or windings)
     labels = {

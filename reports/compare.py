@@ -93,7 +93,7 @@ def format_comparison(a: RunData, b: RunData, c: Comparison) -> str:
     return "\n".join(lines)
 
 
-def _pair_parts(a: RunData, b: RunData, c: Comparison) -> list[str]:
+def _pair_parts(c: Comparison) -> list[str]:
     """The two-run sections: the ratio of speedups (B / A) and the time ratios, with the forest plot."""
     spd = c.speedups
     parts = []
@@ -191,10 +191,10 @@ def render_compare(runs: list[RunData], m: MultiComparison, pair: Comparison | N
     """The comparison as one self-contained HTML page; ``pair`` (:func:`compare_runs`) adds the two-run sections."""
     ids = [escape(d.run.run_id) for d in runs]
     parts = [f"<h1>{' vs '.join(ids)}</h1>", f"<p>{'<br>'.join(escape(x) for x in _run_lines(runs, m.tags))}</p>"]
-    parts += _many_parts(runs, m)
+    parts += _many_parts(m)
     nav = dict(MANY_SECTIONS)
     if pair is not None:
-        parts += _pair_parts(runs[0], runs[1], pair)
+        parts += _pair_parts(pair)
         nav |= SECTIONS
     else:
         nav["machines"] = SECTIONS["machines"]
@@ -292,9 +292,7 @@ def format_many(runs: list[RunData], m: MultiComparison) -> str:
     return "\n".join(lines)
 
 
-def _many_parts(
-    runs: list[RunData], m: MultiComparison, unit: str = "machine", ids: tuple[str, str] = ("speedups", "orders")
-) -> list[str]:
+def _many_parts(m: MultiComparison, unit: str = "machine", ids: tuple[str, str] = ("speedups", "orders")) -> list[str]:
     """The N-run sections: machine x kernel speedup tables per workload, and the orders that hold.
     ``unit`` names what the runs are (``build`` for :mod:`.builds`); ``ids`` the sections'."""
     speed = []

@@ -16,19 +16,12 @@ from ..harness import runfolder
 from .rundata import RunData
 
 __all__ = [
-    "table",
-    "workload_table",
     "estimates_table",
     "speedups_table",
     "working_set_bytes",
     "workload_figures",
     "picture",
 ]
-
-
-def table(data: RunData, name: str) -> pd.DataFrame:
-    """A derived table of the run by file name (:data:`tribench.harness.runfolder.DERIVED`)."""
-    return data.tables[name]
 
 
 def sweep_order(frame: pd.DataFrame, data: RunData) -> pd.DataFrame:
@@ -39,11 +32,6 @@ def sweep_order(frame: pd.DataFrame, data: RunData) -> pd.DataFrame:
     k = {x: i for i, x in enumerate(data.kernels)}
     key = frame["workload_id"].map(w) * 1000 + frame["kernel"].map(k)
     return frame.assign(_key=key).sort_values("_key", kind="stable").drop(columns="_key").reset_index(drop=True)
-
-
-def workload_table(data: RunData) -> pd.DataFrame:
-    """``workloads.csv``: one row per workload, family, label and achieved figures."""
-    return data.tables[runfolder.WORKLOADS]
 
 
 def working_set_bytes(bytes_per_triangle: float, dtype: str, triangles: float, rays: float) -> float:

@@ -26,6 +26,7 @@ def headline_sentences(spd: pd.DataFrame) -> dict[str, list[tuple[str, str]]]:
     """
     out: dict[str, list[tuple[str, str]]] = {}
     for family, fam in spd.groupby("family", sort=False):
+        said = out[family] = []
         for kernel, g in fam.groupby("kernel", sort=False):
             base = g["baseline"].iloc[0]
             n = int(g["n_processes"].min())
@@ -34,22 +35,17 @@ def headline_sentences(spd: pd.DataFrame) -> dict[str, list[tuple[str, str]]]:
             if len(g) == 1:
                 r = g.iloc[0]
                 where = f"on {family} at {r['label']}" if r["label"] not in family else f"on {family}"
-                out.setdefault(family, []).append(
-                    (
-                        r["verdict"],
-                        f"{kernel} {_verdict_phrase(r['verdict'], base)}: {_ratio(r)} (95% CI, {procs}) {where}.",
-                    )
-                )
+                text = f"{kernel} {_verdict_phrase(r['verdict'], base)}: {_ratio(r)} (95% CI, {procs}) {where}."
+                said.append((r["verdict"], text))
                 continue
             lo, hi = g.loc[g["ratio"].idxmin()], g.loc[g["ratio"].idxmax()]
             span = f"from {_ratio(lo)} at {lo['label']} to {_ratio(hi)} at {hi['label']} (95% CIs)"
             if len(verdicts) == 1:
                 text = f"{kernel} {_verdict_phrase(verdicts[0], base)} on all {len(g)} workloads: {span}; {procs}."
-                out.setdefault(family, []).append((verdicts[0], text))
+                said.append((verdicts[0], text))
             else:
                 parts = "; ".join(f"{v} at " + ", ".join(g.loc[g["verdict"] == v, "label"]) for v in verdicts)
-                text = f"{kernel} against {base} depends on the workload — {parts}: {span}; {procs}."
-                out.setdefault(family, []).append(("mixed", text))
+                said.append(("mixed", f"{kernel} against {base} depends on the workload — {parts}: {span}; {procs}."))
     return out
 
 

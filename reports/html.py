@@ -67,21 +67,21 @@ MAX_PICTURES, PICTURE_DPI = analysis.MAX_PICTURES, analysis.PICTURE_DPI
 
 def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     """The whole page for one run, as a string: every number from the run folder's files."""
-    wl = content.workload_table(data)
+    wl = data.tables[runfolder.WORKLOADS]
     est = content.sweep_order(content.estimates_table(data, wl), data)
     spd = content.sweep_order(content.speedups_table(data, wl), data)
-    pp = content.table(data, runfolder.PER_PROCESS)
-    batches = content.table(data, runfolder.BATCH_LABELS)
-    cross = content.table(data, runfolder.CROSSOVERS)
-    slopes = content.table(data, runfolder.SLOPES)
-    drift = content.table(data, runfolder.DRIFT)
-    correct = content.table(data, runfolder.CORRECTNESS)
-    kern = content.table(data, runfolder.KERNELS)
+    pp = data.tables[runfolder.PER_PROCESS]
+    batches = data.tables[runfolder.BATCH_LABELS]
+    cross = data.tables[runfolder.CROSSOVERS]
+    slopes = data.tables[runfolder.SLOPES]
+    drift = data.tables[runfolder.DRIFT]
+    correct = data.tables[runfolder.CORRECTNESS]
+    kern = data.tables[runfolder.KERNELS]
     val, val_note = load_validation(data)
     peers, peer_note = load_peers(data)
     colours = charts.kernel_colours(data.kernels)
 
-    alg = content.table(data, runfolder.ALGORITHMS)
+    alg = data.tables[runfolder.ALGORITHMS]
     bands = data.tables.get(runfolder.BANDS)  # None: tables of an older tribench
     bodies = {
         "answer": headline.title(data, wl)
@@ -89,18 +89,16 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         + ranking.answer_section(data, bands, alg, colours)
         + "".join(page.warn(w) for w in headline.run_warnings(data, drift, correct)),
         "headline": headline.headline_section(data, spd, wl, peers),
-        "ranking": ranking.ranking_section(
-            data, content.sweep_order(content.table(data, runfolder.RANKING), data), alg
-        ),
+        "ranking": ranking.ranking_section(data, content.sweep_order(data.tables[runfolder.RANKING], data), alg),
         "kernels": results.kernels_section(data, kern),
         "speedups": results.speedups_section(data, spd, est),
         "hit-rate": results.hit_rate_section(data, est, spd, cross, colours),
         "scaling": results.scaling_section(data, est, slopes, colours),
         "peers": results.peers_section(peers, peer_note),
         "processes": results.processes_section(pp, est, colours),
-        "drift": checks.drift_section(data, batches, drift, colours),
+        "drift": checks.drift_section(batches, drift, colours),
         "diagnostics": checks.diagnostics_section(data, batches, colours),
-        "correctness": checks.correctness_section(data, correct, wl),
+        "correctness": checks.correctness_section(correct, wl),
         "robustness": checks.robustness_section(val, val_note),
         "workloads": about.pictures_section(data, wl),
         "machine": about.machine_section(data),

@@ -45,6 +45,27 @@ def _named(kernel: str, rows: pd.DataFrame) -> str:
     return f"{kernel} (front faces only)" if len(culls) and str(culls.iloc[0]) == "True" else kernel
 
 
+def _slower(r: pd.Series, g: pd.DataFrame) -> str:
+    ratio = format_estimate(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
+    return f"{_named(r['kernel'], g)}: {ratio} slower"
+
+
+def _fastest_cells(best: pd.Series, g: pd.DataFrame) -> dict[str, str]:
+    """The fastest kernel of ``g``: its name, ns/test and speedup cells."""
+    if best["kernel"] == best["baseline"]:
+        speedup = "(the baseline)"
+    else:
+        speedup = format_estimate(best["speedup"], best["speedup_ci_low"], best["speedup_ci_high"], "×")
+    ns = format_estimate(best["ns_per_test"], best["ns_per_test_ci_low"], best["ns_per_test_ci_high"])
+    return {"fastest": _named(best["kernel"], g), "ns": ns, "speedup": speedup}
+
+
+def _pair(frame: pd.DataFrame, a: str, b: str) -> pd.DataFrame:
+    """The rows of ``algorithms.csv`` that set algorithms ``a`` and ``b`` against each other, either way round."""
+    algorithm, other = frame["algorithm"], frame["other_algorithm"]
+    return frame.loc[((algorithm == a) & (other == b)) | ((algorithm == b) & (other == a))]
+
+
 def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
     """One display row per workload of ``ranking.csv`` (its rows in file order).
 
@@ -67,30 +88,20 @@ def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
         tied = [_named(k, g) for k in g.loc[g["tied_with_fastest"].astype(bool), "kernel"] if k != best["kernel"]]
         rest = g.iloc[1:]
 
-        def slower(r: pd.Series, g: pd.DataFrame = g) -> str:
-            ratio = format_estimate(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
-            return f"{_named(r['kernel'], g)}: {ratio} slower"
-
         tight = g.loc[g["watertight"].astype(str) == "True"]
         if tight.empty:
             watertight = "none in this run"
         elif tight.iloc[0]["rank"] == 1:
             watertight = f"{tight.iloc[0]['kernel']} (the fastest)"
         else:
-            watertight = slower(tight.iloc[0])
+            watertight = _slower(tight.iloc[0], g)
         rows.append(
             {
                 "dtype": best["dtype"],
                 "workload": f"{best['family']} · {best['label']}",
-                "fastest": _named(best["kernel"], g),
-                "ns": format_estimate(best["ns_per_test"], best["ns_per_test_ci_low"], best["ns_per_test_ci_high"]),
-                "speedup": (
-                    "(the baseline)"
-                    if best["kernel"] == best["baseline"]
-                    else format_estimate(best["speedup"], best["speedup_ci_low"], best["speedup_ci_high"], "×")
-                ),
+                **_fastest_cells(best, g),
                 "tied": ", ".join(tied) or "none",
-                "next": slower(rest.iloc[0]) if len(rest) else "–",
+                "next": _slower(rest.iloc[0], g) if len(rest) else "–",
                 "watertight_best": watertight,
                 # a frame built by hand may lack validate's columns: its cells then say not validated
                 "cracks": _per_million(best.get("cracks_per_million", math.nan), best.get("shared_edge_rays")),
@@ -116,13 +127,9 @@ def algorithm_order(rank: pd.DataFrame) -> pd.DataFrame:
         best = g.sort_values("rank").drop_duplicates("algorithm")
         parts = []
         for r in best.itertuples(index=False):
-            if r.rank == 1:
-                form = f" ({r.kernel})" if r.kernel != r.algorithm else ""
-                parts.append(f"{r.algorithm}{form}")
-            else:
-                form = f" ({r.kernel})" if r.kernel != r.algorithm else ""
-                ratio = format_estimate(r.vs_fastest, r.vs_fastest_ci_low, r.vs_fastest_ci_high, "×")
-                parts.append(f"{r.algorithm}{form} {ratio}")
+            form = f" ({r.kernel})" if r.kernel != r.algorithm else ""
+            ratio = format_estimate(r.vs_fastest, r.vs_fastest_ci_low, r.vs_fastest_ci_high, "×")
+            parts.append(f"{r.algorithm}{form}" + ("" if r.rank == 1 else f" {ratio}"))
         first = g.iloc[0]
         rows.append(
             {"dtype": first["dtype"], "workload": f"{first['family']} · {first['label']}", "order": " · ".join(parts)}
@@ -145,10 +152,7 @@ def question_rows(alg: pd.DataFrame) -> pd.DataFrame:
         first = g.iloc[0]
         row = {"dtype": first["dtype"], "workload": f"{first['family']} · {first['label']}"}
         for a, b in QUESTIONS:
-            hit = g.loc[
-                ((g["algorithm"] == a) & (g["other_algorithm"] == b))
-                | ((g["algorithm"] == b) & (g["other_algorithm"] == a))
-            ]
+            hit = _pair(g, a, b)
             if hit.empty:
                 continue
             r = hit.iloc[0]
@@ -224,10 +228,6 @@ def ranking_section(data: RunData, rank: pd.DataFrame, alg: pd.DataFrame | None 
 # ------------------------------------------------------------ the answer: bands.csv
 
 
-def _place(dtype: str, band: str) -> str:
-    return f"{dtype} {band}"
-
-
 def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
     """One display row per precision and band of ``bands.csv``: the fastest, its figures, the runners-up.
 
@@ -253,30 +253,20 @@ def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
         tied = g.iloc[1:].loc[g["tied_with_fastest"].iloc[1:].astype(bool)]
         rest = g.iloc[1:].loc[~g["tied_with_fastest"].iloc[1:].astype(bool)]
 
-        def slower(r: pd.Series, g: pd.DataFrame = g) -> str:
-            ratio = format_estimate(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
-            return f"{_named(r['kernel'], g)}: {ratio} slower"
-
         tight = g.loc[g["watertight"].astype(str) == "True"]
         if str(best["watertight"]) == "True":
             watertight = "yes"
         elif tight.empty:
             watertight = "no (no watertight kernel in this run)"
         else:
-            watertight = "no; fastest watertight: " + slower(tight.iloc[0]).replace(":", ",", 1)
+            watertight = "no; fastest watertight: " + _slower(tight.iloc[0], g).replace(":", ",", 1)
         rows.append(
             {
                 "dtype": best["dtype"],
                 "band": f"{best['band']} ({best['workloads']} workload{'s' if best['workloads'] != 1 else ''})",
-                "fastest": _named(best["kernel"], g),
-                "ns": format_estimate(best["ns_per_test"], best["ns_per_test_ci_low"], best["ns_per_test_ci_high"]),
-                "speedup": (
-                    "(the baseline)"
-                    if best["kernel"] == best["baseline"]
-                    else format_estimate(best["speedup"], best["speedup_ci_low"], best["speedup_ci_high"], "×")
-                ),
+                **_fastest_cells(best, g),
                 "tied": ", ".join(_named(k, g) for k in tied["kernel"]) or "none",
-                "next": slower(rest.iloc[0]) if len(rest) else "–",
+                "next": _slower(rest.iloc[0], g) if len(rest) else "–",
                 "watertight": watertight,
                 "cracks": _per_million(best["cracks_per_million"], best["shared_edge_rays"]),
                 "sphere": _per_million(best["sphere_misses_per_million"], best["sphere_rays"]),
@@ -320,7 +310,7 @@ def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]
     """
     out = []
     best = bands.loc[bands["rank"] == 1]
-    places = {k: [_place(r.dtype, r.band) for r in g.itertuples()] for k, g in best.groupby("kernel", sort=False)}
+    places = {k: [f"{r.dtype} {r.band}" for r in g.itertuples()] for k, g in best.groupby("kernel", sort=False)}
     n = len(best)
     out.append(
         "Fastest: "
@@ -348,10 +338,7 @@ def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]
             out.append(text + (f"; it is the fastest in {free} of {len(first)} bands." if free else "."))
     if alg is not None and not alg.empty:
         for a, b in QUESTIONS:
-            rows = alg.loc[
-                ((alg["algorithm"] == a) & (alg["other_algorithm"] == b))
-                | ((alg["algorithm"] == b) & (alg["other_algorithm"] == a))
-            ]
+            rows = _pair(alg, a, b)
             if rows.empty:
                 continue
             parts = []

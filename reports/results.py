@@ -169,39 +169,38 @@ def hit_rate_section(
             )
         )
     body.append("<h3>Crossovers</h3>")
-    found = cross.loc[np.isfinite(cross["hit_rate"].astype(float))] if not cross.empty else cross
     if cross.empty:
-        body.append(page.p("No family with two or more per-test hit rates: no crossover to look for.", "note"))
-    else:
-        none = cross.loc[~cross.index.isin(found.index)]
-        if found.empty:
-            body.append(page.p("No ranking flips inside the measured per-test hit rates.", "note"))
-        else:
-            body.append(
-                page.p(
-                    f"Kernel pairs whose ranking flips inside the measured per-test hit rates "
-                    f"({len(none)} other pairs keep their order throughout).",
-                    "note",
-                )
-            )
-        if not found.empty:
-            shown = found.assign(
-                hit_rate_pct=100 * found["hit_rate"], low_pct=100 * found["ci_low"], high_pct=100 * found["ci_high"]
-            )
-            body.append(
-                page.table(
-                    shown,
-                    [
-                        ("family", "family"),
-                        ("kernel_a", "kernel A"),
-                        ("kernel_b", "kernel B"),
-                        ("hit_rate_pct", "crossover (% per-test hit rate)"),
-                        ("low_pct", "95% CI low (%)"),
-                        ("high_pct", "95% CI high (%)"),
-                        ("n", "processes"),
-                    ],
-                )
-            )
+        return "".join(
+            body + [page.p("No family with two or more per-test hit rates: no crossover to look for.", "note")]
+        )
+    found = cross.loc[np.isfinite(cross["hit_rate"].astype(float))]
+    if found.empty:
+        return "".join(body + [page.p("No ranking flips inside the measured per-test hit rates.", "note")])
+    none = cross.loc[~cross.index.isin(found.index)]
+    body.append(
+        page.p(
+            f"Kernel pairs whose ranking flips inside the measured per-test hit rates "
+            f"({len(none)} other pairs keep their order throughout).",
+            "note",
+        )
+    )
+    shown = found.assign(
+        hit_rate_pct=100 * found["hit_rate"], low_pct=100 * found["ci_low"], high_pct=100 * found["ci_high"]
+    )
+    body.append(
+        page.table(
+            shown,
+            [
+                ("family", "family"),
+                ("kernel_a", "kernel A"),
+                ("kernel_b", "kernel B"),
+                ("hit_rate_pct", "crossover (% per-test hit rate)"),
+                ("low_pct", "95% CI low (%)"),
+                ("high_pct", "95% CI high (%)"),
+                ("n", "processes"),
+            ],
+        )
+    )
     return "".join(body)
 
 

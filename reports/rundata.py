@@ -138,8 +138,6 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
 
 def _read_measured(run_dir: Path) -> tuple[runfolder.Run, pd.DataFrame, pd.DataFrame]:
     """``run.json``, ``batches.csv`` and ``processes.csv``, validated; a RunError says what is wrong."""
-    from ..harness import runfolder
-
     if not run_dir.is_dir():
         raise RunError(f"no run directory {run_dir}")
     try:
@@ -159,7 +157,6 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
     """Read a run folder and its derived tables, as one build measured them (default: its first): its batches,
     processes and rows of every :data:`~tribench.harness.runfolder.BY_BUILD` table. Raises RunError when the
     folder is unusable, has nothing timed, or its tables are stale or against another ``baseline`` than asked."""
-    from ..harness import runfolder
     from . import tables as analysis
 
     run_dir = Path(run_dir)

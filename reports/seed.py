@@ -14,14 +14,15 @@ from typing import Any
 import pandas as pd
 
 from ..common import write_text
+from ..harness.jobs.seed import MISS_STAGES, PROGRAM
 from ..harness.runfolder import Run
 from ..harness.stats import format_interval
 from . import charts, page
-from .about import machine_rows
+from .about import machine_tables
 from .speed_charts import seed_chart
-from .tables.seed import read_seed_run
+from .tables.seed import ratio_baseline, read_seed_run
 
-__all__ = ["SEED_REPORT", "render_seed", "write_seed_report"]
+__all__ = ["SEED_REPORT", "format_table", "render_seed", "write_seed_report"]
 
 SEED_REPORT = "seed.html"
 
@@ -253,7 +254,6 @@ def _pictures(run_dir: Path, pics: pd.DataFrame) -> str:
 
 
 def _machine(run: Run) -> str:
-    rows = machine_rows(run)
     sweep = run.sweep
     design = [
         ("processes", sweep.processes),
@@ -267,11 +267,7 @@ def _machine(run: Run) -> str:
         "machine",
         "".join(
             [
-                page.kv_table(rows),
-                "<h3>Build of the C extension</h3>",
-                page.kv_table(run.machine.get("build", {}).items()),
-                "<h3>Instruction set of each kernel</h3>",
-                page.kv_table(run.isa.items()),
+                *machine_tables(run),
                 "<h3>Design</h3>",
                 page.kv_table(design),
             ]
@@ -348,3 +344,61 @@ def write_seed_report(run_dir: str | Path) -> Path:
     out = Path(run_dir) / SEED_REPORT
     write_text(out, render_seed(run_dir))
     return out
+
+
+# ------------------------------------------------------------------ the terminal's table (``tribench seed``)
+
+
+def _terminal_curless_over_moller(g: pd.DataFrame) -> list[str]:
+    """The paper's ratio beside the replay's: the program's (object forms), predicted with the model's error."""
+    rows = g.set_index("kernel")
+    kernel = PROGRAM[0] if PROGRAM[0] in rows.index else "curless_seed"
+    if kernel not in rows.index or ratio_baseline(kernel) not in rows.index:
+        return []
+    c = rows.loc[kernel]
+    paper = (
+        f"paper {c.paper_ratio_real:.3f} (real), {c.paper_ratio_user:.3f} (user); "
+        if math.isfinite(c.paper_ratio_real)
+        else ""
+    )
+    replay = format_interval(
+        c.ratio_to_moller_seed, c.ratio_to_moller_seed_ci_low, c.ratio_to_moller_seed_ci_high, ".3f"
+    )
+    line = f"  Curless / Moller: {paper}replay ({kernel}) {replay}"
+    if math.isfinite(c.predicted_ratio_low):
+        predicted = format_interval(None, c.predicted_ratio_low, c.predicted_ratio_high, ".3f")
+        line += f"; the seed's program here: {predicted}"
+    return [line]
+
+
+def format_table(seed: pd.DataFrame, workloads: pd.DataFrame | None = None) -> str:
+    """The table beside the paper, for the terminal."""
+    lines = [
+        "The seed's renders replayed, triangle tests only, mean over processes with 95% CIs: the _object forms",
+        "as the seed's program runs them (its objects, calls and scene loop), the others as tribench's loop does.",
+        "ratio = time_kernel / time of moller_seed_object for the _object forms, of moller_seed for the others",
+        "(paired per process). Paper: Unix time of the whole render.",
+    ]
+    for scene, g in seed.groupby("scene", sort=False):
+        first = g.iloc[0]
+        lines += [
+            "",
+            f"{scene}: {first['triangles']} triangles, {first['render_tests']:.3g} ray-triangle tests "
+            f"per render, {first['n_processes']} processes",
+        ]
+        if workloads is not None:
+            r = workloads.loc[(workloads["scene"] == scene) & (workloads["rays"] == "render")]
+            if len(r):
+                r = r.iloc[0]
+                mix = ", ".join(f"{s.replace('outside_', '')} {100 * r[f'miss_{s}']:.1f}%" for s in MISS_STAGES)
+                lines.append(f"  per-test hit rate {100 * r['test_hit_rate']:.3f}%; misses: {mix}")
+        lines.append(f"  {'kernel':<26}{'paper real s':>13}{'replay s':>11}  {'95% CI':<22}{'ratio':>7}  95% CI")
+        for r in g.itertuples(index=False):
+            paper = f"{r.paper_real_s:13.3f}" if math.isfinite(r.paper_real_s) else f"{'':13}"
+            render_ci = format_interval(None, r.render_s_ci_low, r.render_s_ci_high, ".4g")
+            ratio_ci = format_interval(None, r.ratio_to_moller_seed_ci_low, r.ratio_to_moller_seed_ci_high, ".3f")
+            lines.append(
+                f"  {r.kernel:<26}{paper}{r.render_s:11.4g}  {render_ci:<22}{r.ratio_to_moller_seed:7.3f}  {ratio_ci}"
+            )
+        lines += _terminal_curless_over_moller(g)
+    return "\n".join(lines)

@@ -77,13 +77,10 @@ def _per_process(data: RunTables) -> pd.DataFrame:
     return compared(data.tables[runfolder.PER_PROCESS], data.tables.get(runfolder.CORRECTNESS))
 
 
-def _log_per_process(data: RunTables) -> pd.DataFrame:
-    pp = _per_process(data)
-    return pp.assign(log_ns=np.log(pp["ns_per_test"]))
-
-
-def _ratio_fields(r: stats.LogRatio, confidence: float, margin: float) -> dict[str, float | int | str]:
-    """The columns every row of a comparison has: the ratio, its interval and test, and the verdict."""
+def _ratio_fields(a: pd.Series, b: pd.Series, confidence: float, margin: float) -> dict[str, float | int | str]:
+    """The columns every row of a comparison has: the ratio of ``b`` to ``a`` (logs), its interval and test, and
+    the verdict."""
+    r = stats.unpaired_ratio(a, b, confidence)
     return {
         "ratio": r.ratio,
         "ratio_ci_low": r.ci_low,
@@ -112,7 +109,7 @@ def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Compar
     if a.baseline not in kernels:
         raise UserError(f"baseline {a.baseline} is missing from one run")
     margin = max(a.margin, b.margin)
-    pa, pb = _log_per_process(a), _log_per_process(b)
+    pa, pb = (pp.assign(log_ns=np.log(pp["ns_per_test"])) for pp in (_per_process(a), _per_process(b)))
     spd_rows, time_rows = [], []
     for wid in shared:
         spec = a.specs[wid]
@@ -125,31 +122,13 @@ def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Compar
         level_s = stats.simultaneous_confidence(confidence, len(others)) if others else confidence
         level_t = stats.simultaneous_confidence(confidence, len(present)) if present else confidence
         for k in others:
-            da = (wa[a.baseline] - wa[k]).dropna()
-            db = (wb[a.baseline] - wb[k]).dropna()
-            r = stats.unpaired_ratio(da, db, level_s)
-            spd_rows.append(
-                {
-                    **info,
-                    "kernel": k,
-                    "baseline": a.baseline,
-                    "speedup_a": math.exp(da.mean()),
-                    "speedup_b": math.exp(db.mean()),
-                    **_ratio_fields(r, level_s, margin),
-                }
-            )
+            da, db = (wa[a.baseline] - wa[k]).dropna(), (wb[a.baseline] - wb[k]).dropna()
+            row = {**info, "kernel": k, "baseline": a.baseline, "speedup_a": math.exp(da.mean())}
+            spd_rows.append({**row, "speedup_b": math.exp(db.mean()), **_ratio_fields(da, db, level_s, margin)})
         for k in present:
             ta, tb = wa[k].dropna(), wb[k].dropna()
-            r = stats.unpaired_ratio(ta, tb, level_t)
-            time_rows.append(
-                {
-                    **info,
-                    "kernel": k,
-                    "ns_per_test_a": math.exp(ta.mean()),
-                    "ns_per_test_b": math.exp(tb.mean()),
-                    **_ratio_fields(r, level_t, margin),
-                }
-            )
+            row = {**info, "kernel": k, "ns_per_test_a": math.exp(ta.mean()), "ns_per_test_b": math.exp(tb.mean())}
+            time_rows.append({**row, **_ratio_fields(ta, tb, level_t, margin)})
     ratio = ["ratio", "ratio_ci_low", "ratio_ci_high", "p_value", "df", "n_a", "n_b", "confidence", "verdict"]
     keys = ["workload_id", "family", "label", "kernel"]  # explicit: two runs may share only the baseline
     return Comparison(
@@ -286,17 +265,8 @@ def _run_speedups(tag: str, d: RunTables, wids: list[str], kernels: list[str]) -
         if d.baseline in ran:
             one = {"ratio": 1.0, "ratio_ci_low": 1.0, "ratio_ci_high": 1.0, "verdict": "baseline"}
             rows.append({**info, "kernel": d.baseline, **one})
-        for r in s.loc[s["workload_id"] == wid].itertuples(index=False):
-            rows.append(
-                {
-                    **info,
-                    "kernel": r.kernel,
-                    "ratio": r.ratio,
-                    "ratio_ci_low": r.ratio_ci_low,
-                    "ratio_ci_high": r.ratio_ci_high,
-                    "verdict": r.verdict,
-                }
-            )
+        mine = s.loc[s["workload_id"] == wid, ["kernel", "ratio", "ratio_ci_low", "ratio_ci_high", "verdict"]]
+        rows += [{**info, **r} for r in mine.to_dict("records")]
     return rows
 
 

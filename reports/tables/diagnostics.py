@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -73,17 +74,7 @@ def drift_table(
             except ValueError as exc:
                 row.update(flagged=False, reason=f"not tested: {exc}")
             else:
-                row.update(
-                    baseline_slope=d.baseline_slope,
-                    ratio_slope=d.ratio_slope,
-                    ratio_p=d.ratio_p,
-                    ratio_change=d.ratio_change,
-                    confound_bias=d.confound_bias,
-                    confound_p=d.confound_p,
-                    flagged=d.flagged,
-                    reason=d.reason,
-                    n=d.n,
-                )
+                row.update(dataclasses.asdict(d))  # the fields drift.csv has (table_frame keeps only those)
             rows.append(row)
     return table_frame(rows, runfolder.DRIFT)
 

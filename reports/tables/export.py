@@ -78,9 +78,11 @@ def _finite(fields: Mapping[str, Any]) -> dict[str, float]:
     return {k: float(v) for k, v in fields.items() if v is not None and math.isfinite(float(v))}
 
 
-def _entry(name: str, run_name: str, family: int, instance: int, label: str, **fields: Any) -> dict[str, Any]:
+def _entry(suffix: str, ids: tuple[str, int, int], label: str, **fields: Any) -> dict[str, Any]:
+    """One benchmark entry of ``ids`` (its run name, family and instance), named its run name + ``suffix``."""
+    run_name, family, instance = ids
     return {
-        "name": name,
+        "name": run_name + suffix,
         "family_index": family,
         "per_family_instance_index": instance,
         "run_name": run_name,
@@ -126,13 +128,10 @@ def google_benchmark(
 
 def _repetitions(ids: tuple[str, int, int], label: str, per: pd.DataFrame) -> list[dict[str, Any]]:
     """One ``iteration`` entry per worker process: its median ns per test (the replicate)."""
-    name, family, instance = ids
     return [
         _entry(
-            name,
-            name,
-            family,
-            instance,
+            "",
+            ids,
             label,
             run_type="iteration",
             repetitions=len(per),
@@ -149,14 +148,11 @@ def _repetitions(ids: tuple[str, int, int], label: str, per: pd.DataFrame) -> li
 
 def _time_aggregates(ids: tuple[str, int, int], label: str, r: pd.Series, n: int) -> list[dict[str, Any]]:
     """The ``_mean`` entry (ns per test with its intervals) and, where finite, the ``_stddev`` entry."""
-    name, family, instance = ids
     aggregate = {"run_type": "aggregate", "repetitions": n, "threads": 1}
     out = [
         _entry(
-            f"{name}_mean",
-            name,
-            family,
-            instance,
+            "_mean",
+            ids,
             label,
             **aggregate,
             aggregate_name="mean",
@@ -179,10 +175,8 @@ def _time_aggregates(ids: tuple[str, int, int], label: str, r: pd.Series, n: int
         sd = float(r["ns_per_test_sd"])
         out.append(
             _entry(
-                f"{name}_stddev",
-                name,
-                family,
-                instance,
+                "_stddev",
+                ids,
                 label,
                 **aggregate,
                 aggregate_name="stddev",
@@ -197,12 +191,9 @@ def _time_aggregates(ids: tuple[str, int, int], label: str, r: pd.Series, n: int
 
 def _speedup(ids: tuple[str, int, int], label: str, s: pd.Series, baseline: str, n: int) -> dict[str, Any]:
     """The ``_speedup`` entry: the ratio over the baseline with its simultaneous interval and verdict."""
-    name, family, instance = ids
     return _entry(
-        f"{name}_speedup",
-        name,
-        family,
-        instance,
+        "_speedup",
+        ids,
         f"{label}; {s['verdict']} against {baseline}",
         run_type="aggregate",
         repetitions=n,

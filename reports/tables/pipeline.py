@@ -354,7 +354,7 @@ def _derive_one(
     est, spd, pp, ranked_batches = (workload_tables.compared(f, correct) for f in (est, spd, measured_pp, batches))
     ranked = [k for k in kernels if k not in TWINS]
     rank = ranking.ranking_table(est, spd, pp, margin, m.validate)
-    tables = {
+    return {
         runfolder.ESTIMATES: result.estimates,
         runfolder.SPEEDUPS: result.speedups,
         runfolder.WORKLOADS: wl,
@@ -375,7 +375,6 @@ def _derive_one(
         runfolder.BANDS: ranking.band_table(est, pp, specs, base, margin, m.validate),
         runfolder.BVH: bvh.bvh_table(ranked_batches, m.traversals, wl, specs, pp, ranked, base, margin),
     }
-    return tables
 
 
 def write_all(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from collections.abc import Sequence
 
@@ -34,19 +35,8 @@ def crossovers(kernels: Sequence[str], wl: pd.DataFrame, pp: pd.DataFrame) -> pd
             if len(both) < 2:
                 continue
             c = stats.crossover(group["test_hit_rate"].to_numpy(), both.to_numpy())
-            rows.append(
-                {
-                    "family": family,
-                    "kernel_a": a,
-                    "kernel_b": b,
-                    "hit_rate": c.hit_rate,
-                    "ci_low": c.ci_low,
-                    "ci_high": c.ci_high,
-                    "slope": c.slope,
-                    "n": c.n,
-                    "confidence": c.confidence,
-                }
-            )
+            # of the result's fields, table_frame keeps the file's columns (here: not the intercept)
+            rows.append({"family": family, "kernel_a": a, "kernel_b": b, **dataclasses.asdict(c)})
     return table_frame(rows, runfolder.CROSSOVERS)
 
 
@@ -62,15 +52,5 @@ def scaling_slopes(est: pd.DataFrame, pp: pd.DataFrame) -> pd.DataFrame:
         if len(wide) < 2:
             continue
         s = stats.scaling_slope(group["triangles"].to_numpy(dtype=float), wide.to_numpy())
-        rows.append(
-            {
-                "family": family,
-                "kernel": kernel,
-                "slope": s.slope,
-                "ci_low": s.ci_low,
-                "ci_high": s.ci_high,
-                "n": s.n,
-                "sizes": len(group),
-            }
-        )
+        rows.append({"family": family, "kernel": kernel, **dataclasses.asdict(s), "sizes": len(group)})
     return table_frame(rows, runfolder.SLOPES)

@@ -75,10 +75,6 @@ def ratio_baseline(kernel: str) -> str:
 PAPER_KERNEL = {"curless_seed_object": "curless_seed", "moller_seed_object": "moller_seed"}
 
 
-def _paper_kernel(kernel: str) -> str:
-    return PAPER_KERNEL.get(kernel, kernel)
-
-
 def _paired_ratio(per: pd.DataFrame, scene: str, kernel: str) -> tuple[float, float, float]:
     """time_kernel / time of its ratio_baseline, paired by process (nan when the baseline is absent)."""
     base = ratio_baseline(kernel)
@@ -109,7 +105,7 @@ def render_table(per: pd.DataFrame, scenes: Mapping[str, Mapping[str, Any]]) -> 
         ratio, low, high = _paired_ratio(per, scene, kernel)
         sc = scenes[scene]
         paper = PAPER.get(sc.get("paper") or "", {})
-        mine, base = paper.get(_paper_kernel(kernel), {}), paper.get(BASELINE, {})
+        mine, base = paper.get(PAPER_KERNEL.get(kernel, kernel), {}), paper.get(BASELINE, {})
         predicted = _widened(e.ci_low, e.ci_high, kernel)
         predicted_ratio = _widened(low, high, kernel) if kernel != ratio_baseline(kernel) else (1.0, 1.0)
         tests = sc["render_tests"]
