@@ -194,7 +194,6 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
     margin = record.get("margin") or {}
     if len(builds) > 1 and not speedups.empty:  # each build's own margin (its A/A twin's), as its rows have it
         margin = {"value": float(speedups["margin"].iloc[0]), "source": str(speedups["margin_source"].iloc[0])}
-    specs = {wid: spec.to_dict() for wid, spec in zip(run.sweep.workload_ids, run.sweep.workloads, strict=True)}
     return RunData(
         run_dir,
         run,
@@ -205,7 +204,7 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
         str(record.get("baseline")),
         float(margin.get("value", 0.01)),
         str(margin.get("source", "unknown")),
-        specs,
+        run.specs,
         tables,
         record,
         build,

@@ -76,6 +76,11 @@ class Run:
     #: The file as written: for the runner, which updates it, and for nothing else
     raw: Mapping[str, Any]
 
+    @property
+    def specs(self) -> dict[str, dict[str, Any]]:
+        """Workload id -> its spec dict, in sweep order."""
+        return {wid: spec.to_dict() for wid, spec in zip(self.sweep.workload_ids, self.sweep.workloads, strict=True)}
+
     @classmethod
     def from_record(cls, raw: Mapping[str, Any], folder: str | Path, sweep: Sweep | None = None) -> Run:
         """Check ``raw`` (the JSON object of ``folder``'s ``run.json``); a UserError says what is wrong.

@@ -50,8 +50,7 @@ class Measured:
     @property
     def specs(self) -> dict[str, dict[str, Any]]:
         """Workload id -> its spec dict, in sweep order."""
-        sweep = self.run.sweep
-        return {wid: spec.to_dict() for wid, spec in zip(sweep.workload_ids, sweep.workloads, strict=True)}
+        return self.run.specs
 
     @property
     def kernels(self) -> list[str]:
