@@ -20,6 +20,7 @@ from ..harness import runfolder
 from ..harness.plan import rows_of_build
 from ..workloads.labels import family_of, short_label, spec_text
 from .tables.margin import TWINS
+from .tables.measured import file_digest, has_columns, read_documented
 from .tables.workload_tables import compared
 
 __all__ = [
@@ -124,7 +125,7 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
         )
     if not path.is_file() or path.is_symlink():
         raise RunError(f"{path} is missing: {_stats_hint(run_dir)}")
-    if not _has_columns(path, runfolder.FILES[name]):
+    if not has_columns(path, name):
         raise RunError(
             f"{path} is not in today's columns (an older tribench, or an edited file): {_stats_hint(run_dir)}"
         )
@@ -157,7 +158,6 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
     """Read a run folder and its derived tables, as one build measured them (default: its first): its batches,
     processes and rows of every :data:`~tribench.harness.runfolder.BY_BUILD` table. Raises RunError when the
     folder is unusable, has nothing timed, or its tables are stale or against another ``baseline`` than asked."""
-    from . import tables as analysis
 
     run_dir = Path(run_dir)
     run, batches, processes = _read_measured(run_dir)
@@ -168,7 +168,7 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
     batches, processes = (rows_of_build(f, batches, build) for f in (batches, processes))
 
     record = _read_record(run_dir)
-    if record.get("batches_sha256") != analysis.file_digest(run_dir / runfolder.BATCHES):
+    if record.get("batches_sha256") != file_digest(run_dir / runfolder.BATCHES):
         raise RunError(
             f"the tables in {run_dir} were made from another {runfolder.BATCHES} (a resumed or edited "
             f"run): {_stats_hint(run_dir)}"
@@ -216,20 +216,19 @@ def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
     """``validate.csv``'s rows of the run's kernels (in its order) and precisions, and a sentence saying
     where they came from; missing or unusable: an empty frame and a sentence saying what to run."""
     path = data.run_dir / VALIDATE
-    columns = runfolder.FILES[VALIDATE]
-    empty = pd.DataFrame(columns=list(columns))
-    if not path.is_file():
-        why = data.record.get("validate") or f"No {VALIDATE} in the run folder."
-        from ..harness.jobs.sweep import robustness_command
+    df, why = read_documented(path)
+    if df is None:
+        if not path.is_file():
+            from ..harness.jobs.sweep import robustness_command
 
-        command = robustness_command(data.run_dir)
-        return empty, f"{why} `{command}` measures it; then `tribench stats {data.run_dir}`."
-    if not _has_columns(path, columns):
-        return empty, (
-            f"{VALIDATE} is not in today's columns (an older tribench wrote it): measure it again with "
-            f"`tribench validate ... --out {path}`, then `tribench stats {data.run_dir}`."
+            why = data.record.get("validate") or f"No {VALIDATE} in the run folder."
+            return (
+                _NO_VALIDATION,
+                f"{why} `{robustness_command(data.run_dir)}` measures it; then `tribench stats {data.run_dir}`.",
+            )
+        return _NO_VALIDATION, (
+            f"{why}: measure it again with `tribench validate ... --out {path}`, then `tribench stats {data.run_dir}`."
         )
-    df = pd.read_csv(path)
     note = str(data.record.get("validate") or f"Read from {VALIDATE} in the run folder.")
     missing = [
         f"{k} {d}" for k in data.kernels for d in data.dtypes if not ((df["kernel"] == k) & (df["dtype"] == d)).any()
@@ -239,6 +238,9 @@ def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
     order = {k: i for i, k in enumerate(data.kernels)}
     df = df.loc[df["kernel"].isin(order) & df["dtype"].isin(data.dtypes)]
     return df.sort_values("kernel", key=lambda s: s.map(order), kind="stable").reset_index(drop=True), note
+
+
+_NO_VALIDATION = pd.DataFrame(columns=list(runfolder.FILES[VALIDATE]))
 
 
 @dataclass
@@ -268,7 +270,6 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
     """The run's peers (rows and figures) and a sentence on where they came from; None, and what to run,
     when ``peers.csv`` is absent, unusable or not yet summarised by the analysis step."""
     from ..harness.jobs.peers import INSTALL
-    from . import tables as analysis
 
     path = data.run_dir / runfolder.PEERS
     how = (
@@ -276,33 +277,21 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
         f"then `tribench peers --out {data.run_dir}` (it refreshes the run's "
         f"tables) and `tribench report {data.run_dir}` add them"
     )
-    if not path.is_file():
-        return None, f"No peers were measured with this run (no {runfolder.PEERS}): {how}."
-    if not _has_columns(path, runfolder.FILES[runfolder.PEERS]):
-        return None, f"{runfolder.PEERS} is not in today's columns (an older tribench wrote it): {how}."
+    frame, why = read_documented(path)
+    if frame is None:
+        return None, (
+            f"No peers were measured with this run ({why}): " if not path.is_file() else f"{why}: "
+        ) + f"{how}."
     if runfolder.PEER_RATES not in data.tables or runfolder.PEER_RATIOS not in data.tables:
         reason = data.record.get("peers") or "not summarised"
         return None, (
             f"{runfolder.PEERS} is not summarised by the analysis ({reason}): run `tribench stats {data.run_dir}`."
         )
-    if data.record.get("peers_sha256") != analysis.file_digest(path):
+    if data.record.get("peers_sha256") != file_digest(path):
         return None, (
             f"{runfolder.PEERS} changed since the analysis summarised it: run `tribench stats {data.run_dir}`."
         )
-    try:
-        frame = pd.read_csv(path)
-    except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError) as exc:
-        return None, f"{runfolder.PEERS} cannot be used ({type(exc).__name__}: {exc}): {how}."
     return (
         PeerTables(frame, data.tables[runfolder.PEER_RATES], data.tables[runfolder.PEER_RATIOS]),
         f"Read from {runfolder.PEERS}, {runfolder.PEER_RATES} and {runfolder.PEER_RATIOS} in the run folder.",
     )
-
-
-def _has_columns(path: Path, documented: dict[str, str]) -> bool:
-    """True if the CSV's header is exactly the documented columns."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            return f.readline(65536).rstrip("\r\n").split(",") == list(documented)
-    except (OSError, UnicodeDecodeError):
-        return False

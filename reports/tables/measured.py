@@ -15,7 +15,7 @@ import pandas as pd
 from ...harness import runfolder
 from ...harness.plan import rows_of_build
 
-__all__ = ["Measured", "file_digest", "load"]
+__all__ = ["Measured", "file_digest", "has_columns", "load", "read_documented"]
 
 
 def file_digest(path: str | Path) -> str | None:
@@ -92,14 +92,14 @@ def load(run_dir: str | Path) -> Measured:
             f"{len(batches)} of its {run.n_batches} batches",
             file=sys.stderr,
         )
-    peers, peers_note = _read_peers(run_dir)
+    peers, peers_note = read_documented(run_dir / runfolder.PEERS)
     return Measured(
         run_dir=run_dir,
         run=run,
         batches=batches,
         processes=runfolder.read_processes(run_dir, run),
         traversals=runfolder.read_traversals(run_dir, run),
-        validate=_read_validation(run_dir),
+        validate=read_documented(run_dir / runfolder.VALIDATE)[0],
         peers=peers,
         peers_note=peers_note,
         batches_sha256=batches_sha256,
@@ -107,24 +107,23 @@ def load(run_dir: str | Path) -> Measured:
     )
 
 
-def _read_validation(run_dir: Path) -> pd.DataFrame | None:
-    path = run_dir / runfolder.VALIDATE
-    try:
-        frame = pd.read_csv(path)
-    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError):
-        return None
-    return frame if list(frame.columns) == list(runfolder.FILES[runfolder.VALIDATE]) else None
-
-
-def _read_peers(run_dir: Path) -> tuple[pd.DataFrame | None, str]:
-    path = run_dir / runfolder.PEERS
-    if not path.is_file():
-        return None, f"no {runfolder.PEERS}"
+def has_columns(path: Path, name: str) -> bool:
+    """True if the CSV's header is exactly the documented columns of the run folder's file ``name``."""
     try:
         with open(path, encoding="utf-8") as f:
-            header = f.readline(65536).rstrip("\r\n").split(",")
-        if header != list(runfolder.FILES[runfolder.PEERS]):
-            return None, f"{runfolder.PEERS} is not in today's columns (an older tribench wrote it)"
+            return f.readline(65536).rstrip("\r\n").split(",") == list(runfolder.FILES[name])
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
+def read_documented(path: Path) -> tuple[pd.DataFrame | None, str]:
+    """An optional file of the run folder in exactly its documented columns, and "read"; else None and why."""
+    name = path.name
+    if not path.is_file():
+        return None, f"no {name}"
+    if not has_columns(path, name):
+        return None, f"{name} is not in today's columns (an older tribench wrote it)"
+    try:
         return pd.read_csv(path), "read"
     except (OSError, UnicodeDecodeError, pd.errors.ParserError, ValueError) as exc:
-        return None, f"{runfolder.PEERS} cannot be used ({type(exc).__name__}: {exc})"
+        return None, f"{name} cannot be used ({type(exc).__name__}: {exc})"
