@@ -78,11 +78,6 @@ def safe_pairs(n: int, seed: int, hit_rate: float = 0.5):
     return o, d, tris
 
 
-@pytest.fixture
-def pairs_f64():
-    return safe_pairs(2000, seed=7)
-
-
 def as_dtype(arrays, dtype):
     return tuple(np.ascontiguousarray(a, dtype=dtype) for a in arrays)
 

@@ -178,11 +178,6 @@ def _adopt(b: ext.BVH, tris=None, nodes=None, perm=None, records=None, max_leaf=
     )
 
 
-def _words(b: ext.BVH, nodes: np.ndarray) -> np.ndarray:
-    """The (a, n) words of each node, writable into ``nodes``."""
-    return nodes.view(np.uint32)[:, [6, 7] if b.dtype.itemsize == 4 else [12, 13]]
-
-
 @pytest.mark.parametrize("dtype", [np.float32, np.float64], ids=["f32", "f64"])
 def test_adopt_refuses_each_broken_invariant(dtype):
     tris, _, _ = _scene(400, dtype)

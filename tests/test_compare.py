@@ -279,7 +279,7 @@ def test_compare_refuses_runs_with_different_baselines(three_runs, tmp_path):
 # ------------------------------------------------------------- the statistic
 
 
-def testunpaired_ratio_matches_scipy_welch_t_test():
+def test_unpaired_ratio_matches_scipy_welch_t_test():
     from scipy import stats as sps
 
     rng = np.random.default_rng(3)
@@ -292,7 +292,7 @@ def testunpaired_ratio_matches_scipy_welch_t_test():
     assert math.isclose(half, sps.t.ppf(0.975, r.df) * r.se, rel_tol=1e-9)
 
 
-def testunpaired_ratio_covers_the_true_ratio_about_95_percent():
+def test_unpaired_ratio_covers_the_true_ratio_about_95_percent():
     rng = np.random.default_rng(11)
     true = math.log(1.2)
     covered = 0
@@ -304,7 +304,7 @@ def testunpaired_ratio_covers_the_true_ratio_about_95_percent():
     assert 0.93 <= covered / 2000 <= 0.97
 
 
-def testunpaired_ratio_edge_cases():
+def test_unpaired_ratio_edge_cases():
     one = unpaired_ratio([0.0], [0.1, 0.2])
     assert math.isnan(one.ci_low) and math.isclose(one.ratio, math.exp(0.15))
     flat = unpaired_ratio([0.1, 0.1], [0.1, 0.1])
