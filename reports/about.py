@@ -9,8 +9,8 @@ from typing import Any
 
 import pandas as pd
 
-from ..harness.runfolder import Run
-from . import columns, content, page
+from ..harness.runfolder import FILES, Run
+from . import content, page
 from .rundata import RunData
 
 __all__ = ["pictures_section", "machine_section", "reproduce_section", "sweep_toml"]
@@ -191,7 +191,7 @@ def reproduce_section(data: RunData, sweep_file: str) -> str:
         "<h3>Files of the run folder</h3>",
         page.p("Tidy CSVs, one row per observation, raw units (nanoseconds, counts, fractions).", "note"),
     ]
-    for name, cols in columns.FILES.items():
+    for name, cols in FILES.items():
         present = (data.run_dir / name).is_file()
         body.append(
             f"<details><summary>{escape(name)}{'' if present else ' (absent)'}</summary>"

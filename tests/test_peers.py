@@ -15,9 +15,8 @@ from test_report_run import run_fixture_dir
 
 from tribench import reports
 from tribench.ext import embree
-from tribench.harness import stats
+from tribench.harness import runfolder, stats
 from tribench.harness.jobs import peers
-from tribench.reports import columns
 from tribench.reports import html as report_html
 from tribench.reports import tables as analysis
 from tribench.reports.rundata import load_peers, load_run
@@ -102,7 +101,7 @@ def measured(tmp_path_factory):
 
 def test_a_real_measurement_times_every_installed_contender_in_every_repetition(measured):
     path, frame = measured
-    assert list(pd.read_csv(path, nrows=0).columns) == list(columns.PEERS)
+    assert list(pd.read_csv(path, nrows=0).columns) == list(runfolder.FILES[runfolder.PEERS])
     expected = {"tribench", "tribench_call", *CONTENDERS}
     assert set(frame["contender"]) == expected
     counts = frame.groupby(["contender", "process"]).size()
@@ -273,8 +272,6 @@ def test_tribench_run_goes_on_without_peers_or_when_they_fail(monkeypatch, capsy
 @needs_a_peer
 def test_peers_into_an_analysed_run_folder_refresh_its_peer_tables(run_copy):
     import json
-
-    from tribench.harness import runfolder
 
     analysed(run_copy, baseline="curless")  # a choice of `tribench stats` the refresh must keep
     assert load_peers(load_run(run_copy))[0] is None  # no peers yet

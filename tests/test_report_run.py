@@ -18,7 +18,6 @@ from conftest import analysed
 from tribench.harness import runfolder, runner
 from tribench.harness.jobs import peers, validate
 from tribench.harness.plan import Sweep
-from tribench.reports import columns
 from tribench.reports import tables as analysis
 from tribench.workloads.spec import MeshSpec, PairSpec
 
@@ -93,8 +92,8 @@ def small_run(tmp_path_factory):
 
 
 def test_the_run_folder_csvs_have_exactly_the_documented_columns(small_run):
-    for name, documented in columns.FILES.items():
-        if name in columns.OPTIONAL:  # peers.csv: its own test, when a peer is installed
+    for name, documented in runfolder.FILES.items():
+        if name in runfolder.OPTIONAL:  # peers.csv: its own test, when a peer is installed
             continue
         header = list(pd.read_csv(small_run / name, nrows=0).columns)
         assert header == list(documented), f"{name}: columns changed; update harness/runfolder.py deliberately"
@@ -102,7 +101,7 @@ def test_the_run_folder_csvs_have_exactly_the_documented_columns(small_run):
 
 def test_the_analysis_writes_every_derived_table_and_lists_it(small_run):
     record = json.loads((small_run / runfolder.ANALYSIS).read_text())
-    assert set(record["tables"]) == set(runfolder.DERIVED) - {runfolder.VALIDATE} - columns.OPTIONAL
+    assert set(record["tables"]) == set(runfolder.DERIVED) - {runfolder.VALIDATE} - runfolder.OPTIONAL
     assert record["batches_sha256"] == analysis.file_digest(small_run / runfolder.BATCHES)
     wids = list(pd.read_csv(small_run / runfolder.WORKLOADS)["workload_id"])
     assert record["pictures"] == {w: f"pictures/{w}.png" for w in wids}
@@ -117,26 +116,25 @@ def test_the_analysis_writes_every_derived_table_and_lists_it(small_run):
 def test_one_module_owns_the_names_and_columns():
     from tribench.harness.jobs import seed
 
-    assert tuple(columns.BATCHES) == runfolder.BATCH_COLUMNS
-    assert tuple(columns.PROCESSES) == runfolder.PROCESS_COLUMNS
-    assert tuple(columns.CHECKS) == runfolder.CHECK_COLUMNS
+    assert tuple(runfolder.FILES[runfolder.BATCHES]) == runfolder.BATCH_COLUMNS
+    assert tuple(runfolder.FILES[runfolder.PROCESSES]) == runfolder.PROCESS_COLUMNS
+    assert tuple(runfolder.FILES[runfolder.CHECKS]) == runfolder.CHECK_COLUMNS
     assert validate.COLUMNS is runfolder.FILES[runfolder.VALIDATE]
-    assert tuple(columns.PEERS) == peers.COLUMNS and peers.PEERS == runfolder.PEERS
+    assert tuple(runfolder.FILES[runfolder.PEERS]) == peers.COLUMNS and peers.PEERS == runfolder.PEERS
     assert seed.COLUMNS is runfolder.SEED_FILES
-    assert columns.FILES is runfolder.FILES
     assert runfolder.BATCHES == runfolder.BATCHES and analysis.ESTIMATES == runfolder.ESTIMATES
 
 
 def test_estimate_and_speedup_columns_say_their_unit():
     # every renamed column is documented, and no bare statistic name is left in the files
-    assert set(analysis.ESTIMATE_COLUMNS.values()) <= set(columns.ESTIMATES)
-    assert set(analysis.SPEEDUP_COLUMNS.values()) <= set(columns.SPEEDUPS)
-    for cols in (columns.ESTIMATES, columns.SPEEDUPS):
+    assert set(analysis.ESTIMATE_COLUMNS.values()) <= set(runfolder.FILES[runfolder.ESTIMATES])
+    assert set(analysis.SPEEDUP_COLUMNS.values()) <= set(runfolder.FILES[runfolder.SPEEDUPS])
+    for cols in (runfolder.FILES[runfolder.ESTIMATES], runfolder.FILES[runfolder.SPEEDUPS]):
         assert not {"mean", "ci_low", "ci_high", "minimum", "sd", "n"} & set(cols)
 
 
 def test_every_documented_column_has_a_description_and_snake_case_name():
-    for name, cols in {**columns.FILES, **runfolder.SEED_FILES}.items():
+    for name, cols in {**runfolder.FILES, **runfolder.SEED_FILES}.items():
         for column, text in cols.items():
             assert column == column.lower() and " " not in column, (name, column)
             assert len(text) > 10, (name, column)
@@ -207,7 +205,7 @@ def test_a_missing_robustness_table_is_named_with_its_command_and_the_sweep_path
     data = load_run(copy)
     df, note = load_validation(data)
     assert note.startswith("Read from validate.csv") and "made by the robustness suite" in note
-    assert list(pd.read_csv(copy / "validate.csv", nrows=0).columns) == list(columns.VALIDATE)
+    assert list(pd.read_csv(copy / "validate.csv", nrows=0).columns) == list(runfolder.FILES[runfolder.VALIDATE])
     assert len(df) == len(KERNELS) * len(validate.TESTS) and set(df["dtype"]) == {"float64"}
     assert list(dict.fromkeys(df["kernel"])) == list(data.kernels)  # in the run's order
 
