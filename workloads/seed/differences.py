@@ -18,14 +18,11 @@ def _hit_codes(tr: Trace) -> np.ndarray:
     parts = []
     for name in KINDS:
         rs = getattr(tr, name)
-        n_lights = len(tr.scene.lights)
-        seq = rs.depth.astype(np.int64) * (n_lights + 1)
         if name == "shadow":
-            seq = seq + 1 + rs.light.astype(np.int64)
             what = (rs.hit_kind >= 0).astype(np.int64)  # occluded or not: all the seed uses
         else:
             what = (rs.hit_kind.astype(np.int64) + 1) * (1 << 21) + (rs.hit_index + 1)
-        key = rs.pixel * stride + seq
+        key = rs.pixel * stride + tr._seq(rs, name == "shadow")
         parts.append(key * (1 << 23) + what)
     return np.concatenate(parts)
 

@@ -55,19 +55,8 @@ class RaySet:
 
     @staticmethod
     def empty() -> RaySet:
-        z3 = np.zeros((0, 3))
-        i64 = np.zeros(0, np.int64)
-        return RaySet(
-            z3,
-            z3.copy(),
-            i64,
-            np.zeros(0, np.int8),
-            np.zeros(0, np.int16),
-            np.zeros(0, np.int8),
-            i64.copy(),
-            i64.copy(),
-            np.zeros(0),
-        )
+        none = np.zeros(0, np.int64)
+        return _rayset(np.zeros((0, 3)), np.zeros((0, 3)), none, 0, -1, none, none, none, np.zeros(0))
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,14 +148,14 @@ class Trace:
     def _seq_stride(self) -> int:
         return (self.depth + 1) * (len(self.scene.lights) + 1)
 
+    def _seq(self, rs: RaySet, shadow: bool) -> np.ndarray:
+        seq = rs.depth.astype(np.int64) * (len(self.scene.lights) + 1)
+        return seq + 1 + rs.light.astype(np.int64) if shadow else seq
+
     def _order_key(self, rs: RaySet, shadow: bool) -> np.ndarray:
-        n_lights = len(self.scene.lights)
-        seq = rs.depth.astype(np.int64) * (n_lights + 1)
-        if shadow:
-            seq = seq + 1 + rs.light.astype(np.int64)
         i, j = rs.pixel % self.width, rs.pixel // self.width
         column_major = i * self.height + j
-        return column_major * self._seq_stride() + seq
+        return column_major * self._seq_stride() + self._seq(rs, shadow)
 
 
 def _rayset(o, d, pixel, depth, light, hit_kind, hit_index, tri_index, tri_t) -> RaySet:
