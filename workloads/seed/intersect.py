@@ -7,6 +7,7 @@ import time
 import numpy as np
 
 from ...common import UserError
+from ..geometry import dot
 from ..reference import intersect_closest as _reference_closest
 from .records import MISS, PLANE, SPHERE, TRIANGLE
 from .scene import Scene
@@ -17,14 +18,6 @@ TRIANGLE_EPS = 1e-4  # Triangle.cpp: TRI_EPSILON (inside the kernels); also the 
 
 # Largest rays x triangles product the float64 reference (kernel=None) is asked for.
 REFERENCE_LIMIT = 50_000_000
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
-
-
-def _normalise(a: np.ndarray) -> np.ndarray:
-    return a / np.sqrt(_dot(a, a))[..., None]
 
 
 def _plane_t(scene: Scene, o: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -41,11 +34,11 @@ def _sphere_t(scene: Scene, o: np.ndarray, d: np.ndarray) -> np.ndarray:
     """t (S, M) of every sphere, inf for a miss (Sphere::intersecte; coupe is the same test)."""
     sp = scene.spheres
     out = np.full((len(sp), len(o)), np.inf)
-    a = _dot(d, d)
+    a = dot(d, d)
     for s, (cx, cy, cz, r) in enumerate(sp):
         oc = o - np.array([cx, cy, cz])
-        b = 2.0 * _dot(d, oc)
-        c = _dot(oc, oc) - r * r
+        b = 2.0 * dot(d, oc)
+        c = dot(oc, oc) - r * r
         disc = b * b - 4.0 * a * c
         ok = disc >= SPHERE_EPS
         t = (-b - np.sqrt(np.where(ok, disc, 0.0))) / (2.0 * a)  # the smaller root

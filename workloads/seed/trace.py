@@ -22,12 +22,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...common import UserError
+from ..geometry import normalise
 from .differences import difference_mask, edge_margins, pixel_edge_margins, save_mask_png
 from .intersect import PLANE_EPS as PLANE_EPS
 from .intersect import REFERENCE_LIMIT as REFERENCE_LIMIT
 from .intersect import SPHERE_EPS as SPHERE_EPS
 from .intersect import TRIANGLE_EPS as TRIANGLE_EPS
-from .intersect import _closest, _normalise, _occluders
+from .intersect import _closest, _occluders
 from .records import KINDS, MISS, RaySet, Trace, _rayset
 from .records import PLANE as PLANE
 from .records import SPHERE as SPHERE
@@ -120,7 +121,7 @@ def _generation(
     p = o + t[:, None] * d
     n = _normals(r.scene, kind, index, p)
     mat = _material_arrays(r.scene, kind, index)
-    view = _normalise(o - p)  # toward the observer: the eye, or the previous hit point
+    view = normalise(o - p)  # toward the observer: the eye, or the previous hit point
     np.add.at(r.colour, pixel, _shade(r, gen, pixel, p, n, view, mat))
     if gen == depth:
         return None
