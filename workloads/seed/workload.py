@@ -200,14 +200,8 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
             e1 = rest & (v < 0)
             e2 = rest & ~e1 & (w < 0)
             e3 = rest & ~e1 & ~e2  # a finite forward crossing that misses is outside some edge
-        for name, mask in (
-            ("parallel", parallel),
-            ("behind_origin", behind),
-            ("outside_edge_1", e1),
-            ("outside_edge_2", e2),
-            ("outside_edge_3", e3),
-        ):
-            stages[MISS_STAGES.index(name)] += int(mask.sum())
+        for i, mask in enumerate((parallel, behind, e1, e2, e3)):  # MISS_STAGES' first five, in order
+            stages[i] += int(mask.sum())
     misses = int(stages.sum())
     return {
         "index": index,
