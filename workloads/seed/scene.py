@@ -11,7 +11,7 @@ from __future__ import annotations
 import difflib
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -310,11 +310,7 @@ def read_scene(path_or_text: str | os.PathLike, name: str | None = None) -> Scen
     path = Path(path_or_text)
     text = read_user_text(path, "scene file", SceneError)
     scene = parse_scene(text, str(path_or_text))
-    return _renamed(scene, name or path.stem)
-
-
-def _renamed(scene: Scene, name: str) -> Scene:
-    return Scene(**{**scene.__dict__, "name": name})
+    return replace(scene, name=name or path.stem)
 
 
 def builtin_scene_path(name: str) -> Path:
