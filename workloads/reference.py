@@ -127,11 +127,7 @@ def intersect_pairs(
 def edge_clearance(o: np.ndarray, d: np.ndarray, tri: np.ndarray, t: np.ndarray, u: np.ndarray, v: np.ndarray):
     """The crossings' distance from their triangle's nearest edge line (negative outside), in units of a kernel's
     rounding there: over ``(|o| + max |v_i| + |t d|) / |cos|``, so ``|clearance|`` under a few epsilons of a
-    precision means a correct kernel in it may decide either way.
-
-    The barycentric margin alone cannot say so: a kernel's point is off by about
-    ``eps (|o| + |v0| + t |d|) / |cos|`` (Curless's and Plucker's sums of products, Moller-Trumbore's
-    translated origin at worst), on a small triangle far from the origin many thousandths of its height.
+    precision means a correct kernel in it may decide either way (docs/decisions.md, "Ambiguous rays").
 
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
     >>> a = intersect_pairs([[0.25, 0.5, 1]], [[0., 0, -1]], tri)  # 0.25 / sqrt(2) from x + y = 1

@@ -1,11 +1,8 @@
 """Workload specs: frozen, validated descriptions from which a workload is a pure function.
 
-Three kinds, :class:`PairSpec`, :class:`MeshSpec` and :class:`SeedSpec` (:mod:`~tribench.workloads.kinds` maps each
-``kind`` to its class and generator). :func:`workload_id` hashes a spec's canonical JSON, its generator's version
-and any file's sha256 into the cached workload's name, so a field that does not apply must stay ``None`` (one
-workload, one id), and a deliberate change to a generator's output must bump its version. Pair geometry uses
-correctly rounded operations only (:mod:`~tribench.workloads.geometry`): the same bytes on any machine with the same
-numpy; meshes are the same with the same library builds (``achieved["generated_with"]``)."""
+:func:`workload_id` hashes a spec's canonical JSON, its generator's version and any file's sha256 into the cached
+workload's name, so a field that does not apply must stay ``None`` (one workload, one id), and a deliberate change
+to a generator's output must bump its version."""
 
 from __future__ import annotations
 

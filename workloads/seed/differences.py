@@ -28,13 +28,9 @@ def _hit_codes(tr: Trace) -> np.ndarray:
 
 
 def difference_mask(a: Trace, b: Trace, by: str = "image") -> tuple[np.ndarray, int]:
-    """Pixels where two traces of the same scene and size differ, and their count.
-
-    ``by="image"``: the 8-bit pixels differ, what the seed's pictures show. ``by="hits"``: the pixel's ray
-    trees differ (an object hit, a shadow ray's occlusion, a ray in one trace only). Far more pixels differ by
-    hits than by image: a last-bit change of a triangle's ``t`` moves the hit point, and the seed's sphere test
-    (``t >= 0``, no epsilon) then flips the self-occlusion of shadow rays leaving a sphere toward a light
-    behind it, which changes no colour (such a light adds no diffuse term)."""
+    """Pixels where two traces of the same scene and size differ, and their count: ``by="image"``, their 8-bit
+    pixels; ``by="hits"``, their ray trees (an object hit, a shadow ray's occlusion, a ray in one trace only),
+    which differ far more often (a shadow ray leaving a sphere flips on a last-bit change, with no colour)."""
     if (a.width, a.height) != (b.width, b.height):
         raise UserError(f"traces differ in size: {a.width}x{a.height} and {b.width}x{b.height}")
     if by == "image":

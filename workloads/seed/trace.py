@@ -1,10 +1,6 @@
-"""The seed's Whitted ray tracer, vectorised, with the ray stream it shoots.
-
-:func:`trace` renders a :class:`~tribench.workloads.seed.scene.Scene` as the seed's renderer does and records
-every ray it shoots, by kind (``primary``, ``reflected``, ``shadow``): planes and spheres in NumPy float64,
-triangles by a C kernel (``tribench.ext.intersect_closest``) at the chosen precision or by the float64
-reference, a whole generation of rays at once. The seed's rules, with the seed's code that says so, and
-the deviations from them: docs/methodology.md, "The seed's replay".
+"""The seed's Whitted ray tracer, vectorised a generation of rays at a time, recording every ray it shoots:
+planes and spheres in NumPy float64, triangles by a C kernel at the chosen precision or by the float64
+reference. The seed's rules and the deviations from them: docs/methodology.md, "The seed's replay".
 
 >>> from tribench.workloads.seed.scene import parse_scene
 >>> s = parse_scene("source 0 5 0 1 1 1\\nmateriau 1 0 0 0.1 0.5 0 10\\n"

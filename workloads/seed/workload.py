@@ -1,17 +1,7 @@
-"""The seed's ray stream as a workload: a sample of one kind of ray from a render.
-
-A :class:`SeedSpec` names one kind of ray (``primary``, ``reflected`` or ``shadow``) of one scene's render;
-its workload is a reproducible sample of those rays (:func:`sample_runs`) against every triangle of the
-scene, with float64 reference answers, and ``achieved`` records what scales a timing of the sample back to
-the render: ``stream_rays`` and ``stream_tests`` (the rays of this kind that test the triangles and the
-tests they run; a shadow ray's, mode ``any``, counted exactly by one pass of a scalar any-hit kernel),
-``sample_tests`` (the same on the sample), ``test_hit_rate`` and ``miss_mix`` (each miss at the stage
-where Curless's early-exit test rejects it, unlike :func:`~tribench.workloads.pairs.classify_misses`,
-which calls most of a scene's misses ``other``). Why the stream is traced with ``curless_seed`` in
-float64 and why secondary origins move :data:`ORIGIN_SHIFT`: docs/methodology.md, "The seed's replay".
-``occluded_beyond_light`` counts the sampled shadow rays only an object beyond the light occludes. A ray
-is ambiguous (``ref_edge_margin`` near 0) when it passes near an edge, crosses an inside point at ``|t|``
-under :data:`T_NEAR_ZERO`, or has two hits within :data:`TIE_RTOL` in t (surfaces that cross).
+"""The seed's ray stream as a workload: a reproducible sample (:func:`sample_runs`) of one kind of ray from a
+scene's render against every triangle, with float64 reference answers; ``achieved`` holds what scales a timing
+of the sample back to the render (``stream_tests / sample_tests``). Why and how: docs/methodology.md, "The
+seed's replay". Misses are counted at the stage where Curless's early-exit test rejects them.
 
 >>> s = SeedSpec("scene02", "shadow", sample=64, width=16, height=16)
 >>> s.mode, s.summary()
@@ -92,8 +82,8 @@ MAX_TRACE_S = 3600.0
 
 
 def trace_forecast(spec: SeedSpec) -> float:
-    """Seconds the render ``spec`` samples should take to trace, from timed small renders of its scene; a
-    UserError stating the bound when that is more than :data:`MAX_TRACE_S`."""
+    """Seconds the render ``spec`` samples should take to trace, from timed small renders; a UserError past
+    :data:`MAX_TRACE_S`."""
     from .trace import trace
 
     kernel, dtype = STREAM_KERNEL
@@ -188,7 +178,7 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
         if any_hit:
             first = np.where(hit.any(axis=1), np.argmax(hit, axis=1), k - 1)
             ran = np.arange(k)[None, :] <= first[:, None]
-            beyond_light += int((found & (tj >= 1.0 - ORIGIN_SHIFT)).sum())
+            beyond_light += int((found & (tj >= 1.0 - ORIGIN_SHIFT)).sum())  # occluded only beyond the light
         tests += int(ran.sum())
         test_hits += int((hit & ran).sum())
         # Curless's order: parallel, t, then the edges v0v1 (v < 0), v1v2 (w < 0), v2v0 (u < 0)
@@ -223,18 +213,15 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
 
 # ---------------------------------------------------------------- generator
 
+#: Consecutive rays per run of the sample: neighbours in the seed's shooting order travel alike, so a kernel's
+#: branches are predicted as in the render (docs/decisions.md, "The seed replay's model").
 RUN_LENGTH = 64
-"""Consecutive rays per run of the sample: neighbours in the seed's shooting
-order travel alike, so a kernel's branches are predicted as in the render.
-A uniform draw lost that and timed the seed's Moller 5-11% slow per ray
-kind (docs/decisions.md, "The seed replay's model")."""
 
 
 def sample_runs(n_stream: int, size: int, rng: np.random.Generator) -> np.ndarray:
-    """Sorted rows of ``size`` rays of a stream of ``n_stream`` (all if ``size >= n_stream``), as runs of
-    :data:`RUN_LENGTH`: a stratified cluster sample. The stream is cut into one share a run, a run's length
-    plus an equal part of the rows left out, and each run is placed at random in its share, so runs never
-    overlap and cover the render evenly.
+    """Sorted rows of ``size`` rays of a stream of ``n_stream`` (all if ``size >= n_stream``) in runs of
+    :data:`RUN_LENGTH`, each placed at random in its own equal share of the stream: runs never overlap and
+    cover the render evenly.
 
     >>> rows = sample_runs(1000, 130, np.random.default_rng(0))
     >>> len(rows), len(set(rows)), bool(np.all(np.diff(rows) > 0))
