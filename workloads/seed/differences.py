@@ -71,7 +71,7 @@ def edge_margins(origins: np.ndarray, directions: np.ndarray, triangles: np.ndar
     """How close each ray passes to the boundary of any triangle: the smallest ``|min(u, v, w)|`` over the
     triangles whose plane it crosses at ``t > t_min`` (float64 reference barycentrics), ``inf`` if none. Near
     0: next to an edge or a vertex, where two correct tests may disagree."""
-    from ..reference import intersect_pairs
+    from ..reference import all_pairs
 
     o = np.asarray(origins, np.float64)
     d = np.asarray(directions, np.float64)
@@ -80,15 +80,11 @@ def edge_margins(origins: np.ndarray, directions: np.ndarray, triangles: np.ndar
     out = np.full(m, np.inf)
     if m == 0 or k == 0:
         return out
-    step = max(1, (1 << 18) // k)
-    for lo in range(0, m, step):
-        hi = min(lo + step, m)
-        n = hi - lo
-        ans = intersect_pairs(np.repeat(o[lo:hi], k, 0), np.repeat(d[lo:hi], k, 0), np.tile(tri, (n, 1, 1)))
+    for lo, hi, ans in all_pairs(o, d, tri, budget=1 << 18):
         margin = np.abs(ans.edge_margin)
         with np.errstate(invalid="ignore"):
             margin = np.where(ans.t > t_min, margin, np.inf)
-        margin = np.where(np.isnan(margin), np.inf, margin).reshape(n, k)
+        margin = np.where(np.isnan(margin), np.inf, margin).reshape(hi - lo, k)
         out[lo:hi] = margin.min(axis=1)
     return out
 

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ...common import UserError
-from ..reference import intersect_pairs
+from ..reference import all_pairs
 from ..spec import MISS_STAGES, RAY_KINDS, SEED_VERSION, SeedSpec  # the spec is defined with the others
 from ..workload import AMBIGUOUS_MARGIN, Workload, ambiguous_rays, library_versions
 from .scene import Scene, load_scene
@@ -144,11 +144,8 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
     margin, clearance = np.empty(m), np.empty(m)
     stages = np.zeros(len(MISS_STAGES), np.int64)
     tests = test_hits = ties = on_surface = beyond_light = 0
-    step = max(1, (1 << 16) // k)
-    for lo in range(0, m, step):
-        hi = min(lo + step, m)
+    for lo, hi, a in all_pairs(o, d, tri, budget=1 << 16):
         n = hi - lo
-        a = intersect_pairs(np.repeat(o[lo:hi], k, 0), np.repeat(d[lo:hi], k, 0), np.tile(tri, (n, 1, 1)))
         hit, t = a.hit.reshape(n, k), a.t.reshape(n, k)
         v, w = a.v.reshape(n, k), a.w.reshape(n, k)
         th = np.where(hit, t, np.inf)
