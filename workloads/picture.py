@@ -1,8 +1,6 @@
 """Pictures of workloads, so a person can see what a workload is (``workloads show --png``): a camera workload's
-view (every pixel's ray: hit, shaded by the surface's angle, or miss; ambiguous rays marked) beside a side view with
-the eye and a fan of rays; a hit-rate workload's mesh with a sample of rays; a pair workload's crossings mapped into
-one reference triangle, the outcome counts and a few pairs in 3-D. The title gives the spec and the targets against
-the achieved figures. Only this module imports matplotlib (Agg)."""
+view beside a side view of its rays, a hit-rate workload's mesh with a sample of rays, a pair workload's crossings,
+outcome counts and a few pairs in 3-D, each titled with its spec, targets and achieved figures."""
 
 from __future__ import annotations
 

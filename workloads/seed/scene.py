@@ -1,10 +1,7 @@
-"""The seed's scene files: reader, writer and the two built-in scenes.
+"""The seed's scene files: reader, writer and the two built-in scenes (text files of ``workloads/data``).
 
-The format (the seed's, one keyword per line), the seed loader's semantics kept here and the checks
-added to them: docs/methodology.md, "The seed's replay". Defaults: :data:`DEFAULT_MATERIAL`,
-:data:`DEFAULT_AMBIENT`, :data:`DEFAULT_BACKGROUND`; a bad file raises :class:`SceneError` naming the
-file, the line and what was expected. The built-in scenes (:data:`BUILTIN_SCENES`) are text files of
-``workloads/data``; :func:`write_scene03` makes ``scene03.txt``."""
+The format, the seed loader's semantics kept here and the checks added to them: docs/methodology.md, "The
+seed's replay"; a bad file raises :class:`SceneError` naming the file, the line and what was expected."""
 
 from __future__ import annotations
 
