@@ -53,10 +53,8 @@ class Mesh:
 
 def _compact(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Drop unreferenced vertices, keeping the order of the rest."""
-    used = np.unique(faces)
-    remap = np.full(len(vertices), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    return np.ascontiguousarray(vertices[used], dtype=np.float64), remap[faces]
+    used, inverse = np.unique(faces, return_inverse=True)  # faces renumbered over the used vertices
+    return np.ascontiguousarray(vertices[used], dtype=np.float64), inverse.reshape(faces.shape).astype(np.int64)
 
 
 def read_mesh_file(path: str | Path, dtype: str = "float64") -> tuple[np.ndarray, np.ndarray]:
