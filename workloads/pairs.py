@@ -17,6 +17,7 @@ from .geometry import (
     aspect_ratios,
     dot,
     normalise,
+    random_frames,
     random_in_ball,
     random_perpendicular,
     random_unit_vectors,
@@ -162,10 +163,7 @@ def _triangles(shape: str, k: int, rng: np.random.Generator) -> np.ndarray:
             out[todo[ok]] = t[ok]
             todo = todo[~ok]
         return out
-    centre = 0.5 * random_in_ball(rng, k)
-    normal = random_unit_vectors(rng, k)
-    a = random_perpendicular(rng, normal)
-    b = np.cross(normal, a)
+    centre, a, b = random_frames(rng, k)
     if shape == "equilateral":
         radius = 0.5
         cx = np.array([1.0, -0.5, -0.5])
