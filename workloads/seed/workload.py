@@ -118,13 +118,6 @@ def stream_indices(tr, rays: str) -> np.ndarray:
     return rows
 
 
-def _shifted(rs, rows: np.ndarray, rays: str) -> tuple[np.ndarray, np.ndarray]:
-    o, d = rs.origins[rows], rs.directions[rows]
-    if rays != "primary":
-        o = o + ORIGIN_SHIFT * d
-    return o, d
-
-
 def _any_hit_tests(o, d, tri) -> np.ndarray:
     """Tests a scalar any-hit kernel runs per ray: up to its first hit in index order."""
     from ... import ext
@@ -259,7 +252,9 @@ def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
     pick = sample_runs(n_stream, spec.sample, np.random.default_rng(spec.rng_seed))
 
     dt = np.dtype(spec.dtype)
-    o_all, d_all = _shifted(rs, rows, spec.rays)
+    o_all, d_all = rs.origins[rows], rs.directions[rows]
+    if spec.rays != "primary":
+        o_all = o_all + ORIGIN_SHIFT * d_all
     o_all, d_all = o_all.astype(dt), d_all.astype(dt)
     tri = np.ascontiguousarray(tri64.astype(dt))
     o, d = np.ascontiguousarray(o_all[pick]), np.ascontiguousarray(d_all[pick])
