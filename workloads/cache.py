@@ -1,10 +1,8 @@
 """The workload cache: one ``.npz`` file per workload, named by its id, under ``$TRIBENCH_CACHE``.
 
-A file holds the arrays and a JSON ``meta`` member (format, id, spec, identity, achieved figures, library
-versions); its zip comment seals everything before it (``tribench-sha256:`` and the rest's sha256), so any
-change is detected. A file that fails the seal or whose format, identity, version or id does not match is
-never used: :func:`make` and :func:`load` rebuild it with a :class:`CacheWarning`, :func:`list_cached` marks
-it. Files are written atomically."""
+A file holds the arrays and a JSON ``meta`` member; its zip comment seals everything before it (its sha256), so
+any change is detected. A file that fails the seal or whose format, identity, version or id does not match is
+never used: :func:`make` and :func:`load` rebuild it with a :class:`CacheWarning`, :func:`list_cached` marks it."""
 
 from __future__ import annotations
 
