@@ -60,15 +60,6 @@ class _Render:
     clock: list[float] = field(default_factory=lambda: [0.0])  # seconds spent in triangle tests
     closest: list[RaySet] = field(default_factory=list)  # the primary rays, then each reflected generation
     shadow: list[RaySet] = field(default_factory=list)
-    lights_p: np.ndarray = field(init=False)
-    lights_i: np.ndarray = field(init=False)
-    ambient: np.ndarray = field(init=False)
-
-    def __post_init__(self) -> None:
-        lights = self.scene.lights
-        self.lights_p = np.array([light.position for light in lights], dtype=np.float64).reshape(-1, 3)
-        self.lights_i = np.array([light.intensity for light in lights], dtype=np.float64).reshape(-1, 3)
-        self.ambient = np.array(self.scene.ambient)
 
 
 def _check_arguments(kernel: str | None, dtype: str, width: int, height: int, depth: int) -> np.dtype:
@@ -93,12 +84,12 @@ def _shade(
 ) -> np.ndarray:
     """Each hit's colour: ambient, then every light its shadow ray reaches (the shadow rays are recorded)."""
     base, ka = mat[:, :3], mat[:, 3]
-    shade = ka[:, None] * base * r.ambient
-    for li in range(len(r.lights_p)):
-        sd = r.lights_p[li] - p  # not normalised, as the seed shoots it
+    shade = ka[:, None] * base * np.array(r.scene.ambient, np.float64)
+    for li, light in enumerate(r.scene.lights):
+        sd = np.array(light.position, np.float64) - p  # not normalised, as the seed shoots it
         s_kind, s_index, s_tri, s_tri_t = _occluders(r.scene, r.kernel, r.dtype, p, sd, r.clock)
         r.shadow.append(_rayset(p, sd, pixel, gen, li, s_kind, s_index, s_tri, s_tri_t))
-        shade += _direct(n, view, sd, s_kind == MISS, mat) * r.lights_i[li]
+        shade += _direct(n, view, sd, s_kind == MISS, mat) * np.array(light.intensity, np.float64)
     return shade
 
 
