@@ -4,12 +4,11 @@ near an edge their rays pass (:func:`edge_margins`): a difference near an edge i
 from __future__ import annotations
 
 from pathlib import Path
-from typing import BinaryIO, cast
 
 import numpy as np
 
-from ...common import UserError, atomic_write
-from .records import KINDS, Trace
+from ...common import UserError
+from .records import KINDS, Trace, save_png
 
 
 def _hit_codes(tr: Trace) -> np.ndarray:
@@ -50,21 +49,13 @@ def difference_mask(a: Trace, b: Trace, by: str = "image") -> tuple[np.ndarray, 
 
 def save_mask_png(mask: np.ndarray, path: str | Path, background: np.ndarray | None = None) -> Path:
     """Save a difference mask as PNG: differing pixels red, over a dimmed ``background`` image if given."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
     h, w = mask.shape
     if background is None:
         rgb = np.full((h, w, 3), 255, np.uint8)
     else:
         rgb = (0.35 * np.asarray(background, np.float64) + 0.65 * 255).astype(np.uint8)
     rgb[mask] = (220, 0, 0)
-    path = Path(path)
-    with atomic_write(path, "wb") as f:
-        plt.imsave(cast(BinaryIO, f), rgb, format="png")  # "wb": a binary file
-    return path
+    return save_png(path, rgb)
 
 
 def edge_margins(origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray, t_min: float = 0.0) -> np.ndarray:

@@ -107,16 +107,8 @@ class Trace:
         return np.where(x > 1.0, 255, np.floor(np.maximum(x, 0.0) * 255.0)).astype(np.uint8)
 
     def to_png(self, path: str | Path) -> Path:
-        """Save the image as PNG (matplotlib's ``imsave``); returns the path."""
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
-
-        path = Path(path)
-        with atomic_write(path, "wb") as f:
-            plt.imsave(cast(BinaryIO, f), self.to_uint8(), format="png")
-        return path
+        """Save the image as PNG; returns the path."""
+        return save_png(path, self.to_uint8())
 
     def seed_order(self) -> tuple[np.ndarray, np.ndarray]:
         """The seed's shooting order, ``(kind, index)`` arrays over all rays (``kind`` indexes :data:`KINDS`,
@@ -156,6 +148,19 @@ class Trace:
         i, j = rs.pixel % self.width, rs.pixel // self.width
         column_major = i * self.height + j
         return column_major * self._seq_stride() + self._seq(rs, shadow)
+
+
+def save_png(path: str | Path, rgb: np.ndarray) -> Path:
+    """Save an 8-bit RGB image as a PNG file (matplotlib's ``imsave``), atomically; returns the path."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    with atomic_write(path, "wb") as f:
+        plt.imsave(cast(BinaryIO, f), rgb, format="png")  # "wb": a binary file
+    return path
 
 
 def _rayset(o, d, pixel, depth, light, hit_kind, hit_index, tri_index, tri_t) -> RaySet:
