@@ -24,7 +24,8 @@ _HIT = "#2e9e44"
 _MISS = "#d43d3d"
 _AMBIGUOUS = "#111111"
 _MESH = "#9aa4b1"
-_STAGE_COLOURS = {
+_OUTCOME_COLOURS = {
+    "hit": _HIT,
     "parallel": "#8c564b",
     "behind_origin": "#9467bd",
     "outside_edge_1": "#ff7f0e",
@@ -33,7 +34,6 @@ _STAGE_COLOURS = {
     "beyond_t_max": "#bcbd22",
     "other": "#7f7f7f",
 }
-_OUTCOME_COLOURS = {"hit": _HIT, **_STAGE_COLOURS}
 _MAX_DRAWN_TRIANGLES = 25000
 
 
