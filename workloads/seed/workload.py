@@ -149,13 +149,12 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
         best[lo:hi] = np.where(found, tj, np.nan)
         # margin as in rays.closest_hits: the nearest brush with an edge among crossings that decide
         edge = np.abs(a.edge_margin.reshape(n, k))
+        second = np.partition(th, 1, axis=1)[:, 1] if k > 1 else np.full(n, np.inf)
         with np.errstate(invalid="ignore"):
             decisive = np.isfinite(t) & (t > 0) & (t <= tj[:, None])
             near = np.where(decisive, edge, np.inf).min(axis=1)
             clear = np.where(decisive, np.abs(a.clearance.reshape(n, k)), np.inf).min(axis=1)
             surface = (np.abs(t) < T_NEAR_ZERO) & (a.edge_margin.reshape(n, k) > -AMBIGUOUS_MARGIN)
-        second = np.partition(th, 1, axis=1)[:, 1] if k > 1 else np.full(n, np.inf)
-        with np.errstate(invalid="ignore"):
             tie = found & (second - tj <= TIE_RTOL * tj)
         unsure = surface.any(axis=1) | tie
         near, clear = np.where(unsure, 0.0, near), np.where(unsure, 0.0, clear)
