@@ -223,10 +223,9 @@ def closest_hits(
 
 
 def hit_rate_rays(triangles: np.ndarray, n: int, hit_rate: float, dtype: str, rng: np.random.Generator):
-    """``n`` rays from twice the bounding radius of which exactly ``round(hit_rate * n)`` hit the mesh, hits aimed
-    at area-weighted surface points, misses into the bounding ball (outside it after :data:`NEAR_MISS_ROUNDS`
-    tries), each clear of every triangle's edges by ``BARY_MARGIN``: origins and directions float64, rounded to
-    ``dtype``, their :class:`ClosestAnswers`, and the figures ``misses_outside_bounding_sphere``, ``redrawn_rays``."""
+    """The ``hit_rate`` ray set (docs/methodology.md, "What is timed"), misses aimed into the bounding ball (outside
+    it after :data:`NEAR_MISS_ROUNDS` tries): origins and directions float64 rounded to ``dtype``, their
+    :class:`ClosestAnswers`, and the figures ``misses_outside_bounding_sphere`` and ``redrawn_rays``."""
     tri = np.asarray(triangles, dtype=np.float64)
     centre, radius = bounding_sphere(tri.reshape(-1, 3))
     wants_hit = rng.permutation(np.arange(n) < round(hit_rate * n))
