@@ -1,11 +1,11 @@
 """Pair workloads: N (ray, triangle) pairs with an exact per-test hit rate and miss-stage mix.
 
 Each pair is built for one outcome, its *kind* (the misses shared among the stages by :func:`apportion`): a
-triangle (``sphere``: vertices uniform on the unit sphere; ``equilateral``; ``sliver``), then a point of its
-plane by barycentric weights ``(w, u, v)`` inside it or outside one edge, then a ray through it (in the plane
-for ``parallel``). Every pair keeps the safe margins :data:`BARY_MARGIN`, :data:`T_MARGIN`, :data:`PLANE_MARGIN`
-and :data:`PARALLEL_COS` (lengths times ``scale``) after rounding to the dtype, so that all kernels agree; a
-pair that lost one is drawn again."""
+triangle (``sphere``: vertices uniform on the unit sphere, Loefstedt & Akenine-Moeller 2005; ``equilateral``;
+``sliver``), then a point of its plane by barycentric weights ``(w, u, v)`` inside it or outside one edge, then
+a ray through it (in the plane for ``parallel``). Every pair keeps the safe margins :data:`BARY_MARGIN`,
+:data:`T_MARGIN`, :data:`PLANE_MARGIN` and :data:`PARALLEL_COS` (lengths times ``scale``) after rounding to
+the dtype, so that all kernels agree; a pair that lost one is drawn again."""
 
 from __future__ import annotations
 

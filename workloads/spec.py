@@ -131,7 +131,8 @@ class PairSpec:
 
     ``order``: ``"shuffled"`` or ``"sorted"`` (hits first, then misses by stage). ``miss_mix``: the fraction of the
     misses each stage of :data:`MISS_STAGES` rejects, or a preset; the default, ``"edges"``, spreads them evenly
-    over the three edges, as a scene's rejected tests nearly all pass beside a triangle.
+    over the three edges, as a scene's rejected tests nearly all pass beside a triangle, favouring no kernel's order
+    of edge tests.
 
     >>> PairSpec(n=100, hit_rate=0.3).miss_fractions()["outside_edge_2"]
     0.3333333333333333
