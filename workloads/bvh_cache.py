@@ -1,10 +1,7 @@
 """The BVH cache: a kernel's BVH over a mesh's triangles, built once per machine, not once per process.
 
-``bvh/bvh-<16 hex>.npz`` is named by the sha256 of :func:`bvh_identity`: the triangles (sha256, dtype and
-count, so every ray set of a mesh shares it), the kernel, ``max_leaf``, :data:`BVH_FORMAT`,
-``ext.BVH_BUILD_VERSION`` and the compiled extension's sha256. It holds ``nodes``, ``perm``, ``records`` and
-``meta``, sealed as workload files are (:func:`tribench.workloads.cache.sealed_npz`); a file that fails the
-seal, names another identity or that :func:`tribench.ext.adopt_bvh` refuses is rebuilt with a
+``bvh/bvh-<16 hex>.npz`` is named by the sha256 of :func:`bvh_identity` and sealed as workload files are; a file
+that fails the seal, names another identity or that :func:`tribench.ext.adopt_bvh` refuses is rebuilt with a
 :class:`~tribench.workloads.cache.CacheWarning`."""
 
 from __future__ import annotations

@@ -1,10 +1,8 @@
 """The workload cache: one ``.npz`` file per workload, named by its id, under ``$TRIBENCH_CACHE``.
 
-A file holds the arrays and a JSON ``meta`` member (format, id, spec, identity, achieved figures, library
-versions); its zip comment seals everything before it (``tribench-sha256:`` and the rest's sha256), so any
-change is detected. A file that fails the seal or whose format, identity, version or id does not match is
-never used: :func:`make` and :func:`load` rebuild it with a :class:`CacheWarning`, :func:`list_cached` marks
-it. Files are written atomically."""
+A file holds the arrays and a JSON ``meta`` member; its zip comment seals everything before it (its sha256), so
+any change is detected. A file that fails the seal or whose format, identity, version or id does not match is
+never used: :func:`make` and :func:`load` rebuild it with a :class:`CacheWarning`, :func:`list_cached` marks it."""
 
 from __future__ import annotations
 
@@ -150,31 +148,26 @@ def _read_meta(npz) -> dict[str, Any]:
 def _read(path: Path, spec: Spec | None) -> Workload:
     """The workload in ``path``, checked against ``spec`` (or against its own stored spec)."""
     try:
-        return _read_checked(path, spec)
+        with np.load(io.BytesIO(unsealed(path)), allow_pickle=False) as npz:
+            meta = _read_meta(npz)
+            if spec is None:
+                spec = spec_from_dict(meta["spec"])
+            if meta.get("version") != spec.version:
+                raise Invalid(f"stale: generator version {meta.get('version')}, current {spec.version}")
+            if canonical_json(meta["identity"]) != canonical_json(identity(spec)):
+                raise Invalid("spec does not match")
+            if spec_from_dict(meta["spec"]) != spec:  # as a spec: a file before #52 spells the RNG seed "seed"
+                raise Invalid("stored spec does not match")
+            if meta.get("workload_id") != path.stem or path.stem != workload_id(spec):
+                raise Invalid("workload id does not match")
+            if sorted(npz.files) != sorted(["meta", *meta["arrays"]]):
+                raise Invalid("arrays do not match the metadata")
+            arrays = {name: npz[name] for name in meta["arrays"]}
+        return Workload(workload_id=path.stem, spec=spec, achieved=meta["achieved"], **arrays)
     except Invalid:
         raise
     except Exception as e:  # garbage under a valid seal, a spec this version cannot rebuild...
         raise Invalid(f"{type(e).__name__}: {e}") from None
-
-
-def _read_checked(path: Path, spec: Spec | None) -> Workload:
-    data = unsealed(path)
-    with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-        meta = _read_meta(npz)
-        if spec is None:
-            spec = spec_from_dict(meta["spec"])
-        if meta.get("version") != spec.version:
-            raise Invalid(f"stale: generator version {meta.get('version')}, current {spec.version}")
-        if canonical_json(meta["identity"]) != canonical_json(identity(spec)):
-            raise Invalid("spec does not match")
-        if spec_from_dict(meta["spec"]) != spec:  # as a spec: a file before #52 spells the RNG seed "seed"
-            raise Invalid("stored spec does not match")
-        if meta.get("workload_id") != path.stem or path.stem != workload_id(spec):
-            raise Invalid("workload id does not match")
-        if sorted(npz.files) != sorted(["meta", *meta["arrays"]]):
-            raise Invalid("arrays do not match the metadata")
-        arrays = {name: npz[name] for name in meta["arrays"]}
-    return Workload(workload_id=path.stem, spec=spec, achieved=meta["achieved"], **arrays)
 
 
 def _build(spec: Spec, path: Path, invalid: Invalid | None = None) -> Workload:

@@ -1,10 +1,6 @@
-"""What the cache holds, and pruning what no installed build can use.
-
-:func:`entries` lists every file under :func:`~tribench.common.location.cache_dir` (workloads, ``bvh/``, ``front/``,
-the copies in ``meshes/``, ``rays/`` and ``kernel_files/``, ``kernel_builds/``, a killed write's ``.*.tmp`` and
-anything else) with its size, when it was last used and why it cannot be used, if so. :func:`prune` removes what
-cannot be used (a tree of another build of the extension, a file that fails its seal, a stale version, a temporary
-file whose writer is gone), then, under a size bound, the regenerable files used longest ago."""
+"""What the cache holds (:func:`entries`: every file, its size, when it was last used and why it cannot be used,
+if so), and pruning (:func:`prune`) what no installed build can use, then, under a size bound, the regenerable
+files used longest ago."""
 
 from __future__ import annotations
 

@@ -1,10 +1,7 @@
-"""The front-face reference of a workload, cached beside it: what a kernel that culls back faces must answer.
-
-A culling kernel (``ext.kernel_info(k).culls_back_faces``) is checked against every ray's closest *front-face* hit.
-Every worker of a sweep checks its culling kernels, so the answer is kept in ``<cache>/front/<workload id>.npz``,
-sealed as a workload's file is (:func:`~tribench.workloads.cache.sealed_npz`), naming :data:`FRONT_VERSION` and the
-checksum of the workload's arrays; a file that fails any of these, or does not fit the workload, is recomputed with
-a :class:`~tribench.workloads.cache.CacheWarning`."""
+"""The front-face reference of a workload, what a kernel that culls back faces must answer, cached beside it
+(every worker of a sweep checks its culling kernels) in a sealed file naming :data:`FRONT_VERSION` and the
+workload's checksum; a file that fails any of these is recomputed with a
+:class:`~tribench.workloads.cache.CacheWarning`."""
 
 from __future__ import annotations
 

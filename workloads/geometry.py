@@ -14,6 +14,7 @@ __all__ = [
     "random_in_ball",
     "random_unit_vectors",
     "random_perpendicular",
+    "random_frames",
     "sample_inside",
     "triangle_normals",
     "triangle_areas",
@@ -86,6 +87,15 @@ def random_perpendicular(rng: np.random.Generator, axis: np.ndarray) -> np.ndarr
         out[todo[ok]] = normalise(p[ok])
         todo = todo[~ok]
     return out
+
+
+def random_frames(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``n`` random placements: centres uniform in the ball of radius 1/2, and unit ``a``, ``b`` spanning a
+    random plane (``a x b`` its normal)."""
+    centre = 0.5 * random_in_ball(rng, n)
+    normal = random_unit_vectors(rng, n)
+    a = random_perpendicular(rng, normal)
+    return centre, a, np.cross(normal, a)
 
 
 def sample_inside(rng: np.random.Generator, n: int, margin: float = 0.0) -> np.ndarray:

@@ -1,11 +1,6 @@
-"""A mesh or ray file named by its content: kept beside the cache and in run folders, found again when it moves.
-
-A spec over a file carries its sha256, and its workload id comes from that hash, not from the path; so
-:func:`source` finds the file at the spec's path if its content still matches, else in the cache's copy.
-Files up to :data:`MAX_COPY_BYTES` are copied there when their workload is built (:func:`keep`) and into
-every run folder that uses them (:func:`copy_into_run`); a run folder's copies join the cache when it is
-analysed elsewhere (:func:`adopt`). A larger file's run folder still reports (from its tables), but a
-rebuild needs the file back. Ray files go in :data:`RAYS_FOLDER`, kernel files in :data:`KERNELS_FOLDER`."""
+"""A mesh, ray or kernel file named by its content (a spec carries its sha256): copies up to
+:data:`MAX_COPY_BYTES` are kept beside the cache and in the run folders that use it, so :func:`source` finds the
+file again when it moves or changes."""
 
 from __future__ import annotations
 

@@ -1,11 +1,5 @@
-"""Meshes at controlled triangle counts.
-
-Base meshes (``triangles=None``): ``suzanne`` (968, Blender's monkey, ``data/suzanne.obj``), ``icosphere``
-(1280, 3 subdivisions), ``uvsphere`` (896, 16 x 16), ``heightfield`` (1152, a 24 x 24 grid with six seeded
-bumps), ``soup`` (1000 seeded random triangles; any count directly), or any mesh file trimesh reads
-(``process=False``). Every count of a mesh sits where the seed's camera sees it (:func:`place`): Suzanne as
-in scene03 (Blender ``(x, y, z)`` -> ``(x, z, -y)``, moved by (0, 0.5, -2)), any other mesh with its
-bounding sphere of radius 1.5 at (0, 0, -2). :func:`with_triangle_count` reaches the exact count."""
+"""Meshes at controlled triangle counts: a base mesh (:data:`BASE_COUNTS`) or any mesh file trimesh reads, brought
+to the exact count by :func:`with_triangle_count` and placed where the seed's camera sees it (:func:`place`)."""
 
 from __future__ import annotations
 
@@ -59,10 +53,8 @@ class Mesh:
 
 def _compact(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Drop unreferenced vertices, keeping the order of the rest."""
-    used = np.unique(faces)
-    remap = np.full(len(vertices), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    return np.ascontiguousarray(vertices[used], dtype=np.float64), remap[faces]
+    used, inverse = np.unique(faces, return_inverse=True)  # faces renumbered over the used vertices
+    return np.ascontiguousarray(vertices[used], dtype=np.float64), inverse.reshape(faces.shape).astype(np.int64)
 
 
 def read_mesh_file(path: str | Path, dtype: str = "float64") -> tuple[np.ndarray, np.ndarray]:
@@ -136,7 +128,7 @@ def heightfield(cells: int, rng_seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def base_mesh(name: str, rng_seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices and faces of a base mesh by name (see the module docstring) or file path.
+    """Vertices and faces of a base mesh by name or of a mesh file by path.
 
     >>> v, f = base_mesh("suzanne")
     >>> v.shape, f.shape
@@ -166,8 +158,8 @@ def bounding_sphere(vertices: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def place(name: str, vertices: np.ndarray, like: np.ndarray | None = None) -> np.ndarray:
-    """Vertices moved where the seed's camera sees them (see the module docstring); ``like`` (default
-    ``vertices``) sets the move, so a finer version of a mesh is placed exactly as the base mesh.
+    """Vertices moved where the seed's camera sees them: Suzanne as in scene03, any other mesh with its bounding
+    sphere of radius 1.5 at (0, 0, -2) (``like``'s, so a finer version is placed exactly as the base mesh).
 
     >>> place("suzanne", np.array([[1.0, 2.0, 3.0]]))
     array([[ 1. ,  3.5, -4. ]])

@@ -1,17 +1,11 @@
 """Pair workloads: N (ray, triangle) pairs with an exact per-test hit rate and miss-stage mix.
 
-Each pair is built for one outcome, its *kind*, before any geometry: ``round(h * N)`` hits, the misses shared among
-:data:`~tribench.workloads.spec.MISS_STAGES` by :func:`apportion`. The triangle comes first, then a point of its
-plane by barycentric weights ``(w, u, v)``: uniform in area inside it for a **hit** (**behind_origin**: the ray
-starts past the point, ``t < 0``; **beyond_t_max**: ``t_max`` 0.2 to 0.8 of the distance, the only kind that gives
-the workload a ``t_max`` array), negative only opposite edge ``e`` for **outside_edge_e** (1 = v0->v1, 2 = v1->v2, 3
-= v2->v0), and a direction in the rounded plane for **parallel**. Other rays meet the plane at least ~5.7 degrees
-off it; ``winding="facing"`` swaps two vertices where a ray would meet the back face. Every pair keeps the safe
-margins :data:`BARY_MARGIN`, :data:`T_MARGIN`, :data:`PLANE_MARGIN` and :data:`PARALLEL_COS` (lengths times
-``scale``), checked after rounding to the dtype, so that all kernels agree; a pair that lost one is drawn again, and
-an extreme ``offset / scale`` in float32 at last raises. Shapes: ``sphere`` (vertices uniform on the unit sphere,
-Loefstedt & Akenine-Moeller 2005), ``equilateral`` (circumradius 0.5, 5% jitter), ``sliver`` (aspect in [10, 100) or
-[100, 1000)), all at most :data:`MAX_ASPECT`."""
+Each pair is built for one outcome, its *kind* (the misses shared among the stages by :func:`apportion`): a
+triangle (``sphere``: vertices uniform on the unit sphere, Loefstedt & Akenine-Moeller 2005; ``equilateral``;
+``sliver``), then a point of its plane by barycentric weights ``(w, u, v)`` inside it or outside one edge, then
+a ray through it (in the plane for ``parallel``). Every pair keeps the safe margins :data:`BARY_MARGIN`,
+:data:`T_MARGIN`, :data:`PLANE_MARGIN` and :data:`PARALLEL_COS` (lengths times ``scale``) after rounding to
+the dtype, so that all kernels agree; a pair that lost one is drawn again."""
 
 from __future__ import annotations
 
@@ -23,6 +17,7 @@ from .geometry import (
     aspect_ratios,
     dot,
     normalise,
+    random_frames,
     random_in_ball,
     random_perpendicular,
     random_unit_vectors,
@@ -168,10 +163,7 @@ def _triangles(shape: str, k: int, rng: np.random.Generator) -> np.ndarray:
             out[todo[ok]] = t[ok]
             todo = todo[~ok]
         return out
-    centre = 0.5 * random_in_ball(rng, k)
-    normal = random_unit_vectors(rng, k)
-    a = random_perpendicular(rng, normal)
-    b = np.cross(normal, a)
+    centre, a, b = random_frames(rng, k)
     if shape == "equilateral":
         radius = 0.5
         cx = np.array([1.0, -0.5, -0.5])

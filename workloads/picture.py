@@ -1,8 +1,6 @@
 """Pictures of workloads, so a person can see what a workload is (``workloads show --png``): a camera workload's
-view (every pixel's ray: hit, shaded by the surface's angle, or miss; ambiguous rays marked) beside a side view with
-the eye and a fan of rays; a hit-rate workload's mesh with a sample of rays; a pair workload's crossings mapped into
-one reference triangle, the outcome counts and a few pairs in 3-D. The title gives the spec and the targets against
-the achieved figures. Only this module imports matplotlib (Agg)."""
+view beside a side view of its rays, a hit-rate workload's mesh with a sample of rays, a pair workload's crossings,
+outcome counts and a few pairs in 3-D, each titled with its spec, targets and achieved figures."""
 
 from __future__ import annotations
 
@@ -26,7 +24,8 @@ _HIT = "#2e9e44"
 _MISS = "#d43d3d"
 _AMBIGUOUS = "#111111"
 _MESH = "#9aa4b1"
-_STAGE_COLOURS = {
+_OUTCOME_COLOURS = {
+    "hit": _HIT,
     "parallel": "#8c564b",
     "behind_origin": "#9467bd",
     "outside_edge_1": "#ff7f0e",
@@ -35,7 +34,6 @@ _STAGE_COLOURS = {
     "beyond_t_max": "#bcbd22",
     "other": "#7f7f7f",
 }
-_OUTCOME_COLOURS = {"hit": _HIT, **_STAGE_COLOURS}
 _MAX_DRAWN_TRIANGLES = 25000
 
 

@@ -1,7 +1,5 @@
-"""A user's own rays: an ``.npz`` file read and checked before any array reaches a kernel (the format:
-docs/own-rays.md). Shapes and dtypes are read from the arrays' headers before their data, so an oversized
-or mistyped array is refused unread; every problem is one UserError naming the file, the array and, for a
-bad value, its first row. The checks run again on the arrays rounded to the workload's precision."""
+"""A user's own rays: an ``.npz`` file checked before any array reaches a kernel, its headers before its data, and
+again once rounded to the workload's precision (the format and every check: docs/own-rays.md)."""
 
 from __future__ import annotations
 

@@ -1,13 +1,5 @@
-"""Ray sets for meshes, and their closest-hit reference answers computed with exact culling.
-
-The reference tests only *candidate* (ray, triangle) pairs (:func:`closest_hits`), a superset of those that
-hit, so its answers are brute force's at a fraction of the cost: for the camera, the pixels of a triangle's
-projected bounding box grown by one pixel (:func:`camera_candidates`); for other rays, the triangles whose
-bounding sphere, grown by 1e-6 of the distance, their line passes, grouped on a coarse grid
-(:func:`sphere_candidates`). :func:`hit_rate_rays`: exactly ``round(h * n)`` hit by the reference on the
-rounded arrays, hits aimed from twice the bounding radius at area-weighted surface points, misses at the
-bounding ball (outside it after :data:`NEAR_MISS_ROUNDS` tries); every ray clears every triangle it crosses
-by :data:`~tribench.workloads.pairs.BARY_MARGIN`, so all kernels agree on it."""
+"""Ray sets for meshes (docs/methodology.md, "What is timed"), and their closest-hit reference answers: brute
+force's, but solved only for *candidate* (ray, triangle) pairs, a superset of those that hit (exact culling)."""
 
 from __future__ import annotations
 
@@ -60,9 +52,8 @@ _CULL_CHUNK = 1 << 22  # ray x triangle pairs examined at once, at most
 
 @dataclass(frozen=True, eq=False)
 class ClosestAnswers:
-    """Closest-hit reference answers for M rays (the fields of :mod:`tribench.workloads.workload`'s ``ref_*``);
-    ``test_hits`` counts every (ray, triangle) pair that hits, closest or not (the per-test hit rate's
-    numerator), ``tests`` the candidate pairs the culled reference solved."""
+    """Closest-hit reference answers for M rays (a workload's ``ref_*``); ``test_hits`` counts every (ray,
+    triangle) pair that hits, closest or not, ``tests`` the candidate pairs solved."""
 
     index: np.ndarray
     t: np.ndarray
@@ -99,7 +90,8 @@ def _boxes_to_pairs(i0, i1, j0, j1, width: int) -> tuple[np.ndarray, np.ndarray]
 
 
 def camera_candidates(triangles: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
-    """(ray, triangle) index pairs that may hit, for the seed's camera (exact culling).
+    """(ray, triangle) index pairs that may hit, for the seed's camera: the pixels of each triangle's projected
+    bounding box grown by one pixel.
 
     >>> tri = np.array([[[-0.1, -0.1, 0], [0.1, -0.1, 0], [0, 0.1, 0]]])
     >>> rays, tris = camera_candidates(tri, 4, 4)
@@ -139,7 +131,8 @@ def _near(w: np.ndarray, d: np.ndarray, radius: np.ndarray) -> np.ndarray:
 def sphere_candidates(
     origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(ray, triangle) index pairs whose ray line passes through the triangle's bounding sphere.
+    """(ray, triangle) index pairs whose ray line passes through the triangle's bounding sphere (grown by 1e-6 of
+    the distance), tested a group of nearby triangles at a time.
 
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]], [[5., 5, 0], [6, 5, 0], [5, 6, 0]]])
     >>> sphere_candidates([[0.2, 0.2, 1]], [[0, 0, -1]], tri)
@@ -230,9 +223,9 @@ def closest_hits(
 
 
 def hit_rate_rays(triangles: np.ndarray, n: int, hit_rate: float, dtype: str, rng: np.random.Generator):
-    """``n`` rays of which exactly ``round(hit_rate * n)`` hit the mesh (see the module docstring): origins and
-    directions float64 (n, 3), already rounded to ``dtype``, their :class:`ClosestAnswers`, and the figures
-    ``misses_outside_bounding_sphere`` and ``redrawn_rays``."""
+    """The ``hit_rate`` ray set (docs/methodology.md, "What is timed"), misses aimed into the bounding ball (outside
+    it after :data:`NEAR_MISS_ROUNDS` tries): origins and directions float64 rounded to ``dtype``, their
+    :class:`ClosestAnswers`, and the figures ``misses_outside_bounding_sphere`` and ``redrawn_rays``."""
     tri = np.asarray(triangles, dtype=np.float64)
     centre, radius = bounding_sphere(tri.reshape(-1, 3))
     wants_hit = rng.permutation(np.arange(n) < round(hit_rate * n))
@@ -279,11 +272,10 @@ def hit_rate_rays(triangles: np.ndarray, n: int, hit_rate: float, dtype: str, rn
 
 
 def bounce_rays(triangles: np.ndarray, width: int, height: int, dtype: str, rng: np.random.Generator):
-    """One cosine-distributed bounce from each camera ray's reference hit: origins and directions float64 (hits, 3)
-    rounded to ``dtype``, their :class:`ClosestAnswers`, and the figures ``primary_rays``, ``primary_hits`` and
-    ``bounce_offset``. Each hit point moves off its triangle, on the camera's side, by :data:`BOUNCE_OFFSET`
-    times the mesh's scale (bounding radius plus the centre's distance from the origin: a vertex's rounding
-    grows with both), and leaves along ``sqrt(u)`` a random tangent plus ``sqrt(1 - u)`` the normal."""
+    """One cosine-distributed bounce from each camera ray's reference hit, leaving it on the camera's side
+    :data:`BOUNCE_OFFSET` times the mesh's scale (bounding radius plus the centre's distance from the origin: a
+    vertex's rounding grows with both): origins and directions float64 rounded to ``dtype``, their
+    :class:`ClosestAnswers`, and the figures ``primary_rays``, ``primary_hits`` and ``bounce_offset``."""
     tri = np.asarray(triangles, dtype=np.float64)
     o, d = (round_to(a, dtype) for a in camera_rays(width, height))
     primary = closest_hits(o, d, tri, *camera_candidates(tri, width, height))

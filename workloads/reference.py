@@ -9,6 +9,7 @@ triangle) is a miss; a hit needs ``t_min < t < t_max`` (``t_max`` per ray; None:
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,14 +125,24 @@ def intersect_pairs(
     return PairAnswers(hit=hit, t=t, u=u, v=v, clearance=edge_clearance(o, d, tri, t, u, v))
 
 
+def all_pairs(
+    o: np.ndarray, d: np.ndarray, tri: np.ndarray, budget: int = _CHUNK, t_max=None, **kwargs
+) -> Iterator[tuple[int, int, PairAnswers]]:
+    """Every ray against every triangle by :func:`intersect_pairs`, ``budget // K`` rays at a time (bounding the
+    memory): ``(lo, hi, answers)`` per chunk, the answers of rays ``lo:hi`` in row-major (ray, triangle) order."""
+    k = len(tri)
+    step = max(1, budget // max(k, 1))
+    for lo in range(0, len(o), step):
+        hi = min(lo + step, len(o))
+        o_k, d_k = np.repeat(o[lo:hi], k, axis=0), np.repeat(d[lo:hi], k, axis=0)
+        limit = None if t_max is None else np.repeat(t_max[lo:hi], k)
+        yield lo, hi, intersect_pairs(o_k, d_k, np.tile(tri, (hi - lo, 1, 1)), t_max=limit, **kwargs)
+
+
 def edge_clearance(o: np.ndarray, d: np.ndarray, tri: np.ndarray, t: np.ndarray, u: np.ndarray, v: np.ndarray):
     """The crossings' distance from their triangle's nearest edge line (negative outside), in units of a kernel's
     rounding there: over ``(|o| + max |v_i| + |t d|) / |cos|``, so ``|clearance|`` under a few epsilons of a
-    precision means a correct kernel in it may decide either way.
-
-    The barycentric margin alone cannot say so: a kernel's point is off by about
-    ``eps (|o| + |v0| + t |d|) / |cos|`` (Curless's and Plucker's sums of products, Moller-Trumbore's
-    translated origin at worst), on a small triangle far from the origin many thousandths of its height.
+    precision means a correct kernel in it may decide either way (docs/decisions.md, "Ambiguous rays").
 
     >>> tri = np.array([[[0., 0, 0], [1, 0, 0], [0, 1, 0]]])
     >>> a = intersect_pairs([[0.25, 0.5, 1]], [[0., 0, -1]], tri)  # 0.25 / sqrt(2) from x + y = 1
@@ -172,21 +183,10 @@ def intersect_closest(
     d = _as_f64("directions", directions, (3,))
     tri = _as_f64("triangles", triangles, (3, 3))
     m, k = len(o), len(tri)
-    limit = _as_t_max(t_max, m)
     index = np.full(m, -1, dtype=np.int64)
     best = np.full(m, np.inf)
-    rays_per_chunk = max(1, _CHUNK // max(k, 1))
-    for lo in range(0, m, rays_per_chunk):
-        hi = min(lo + rays_per_chunk, m)
+    for lo, hi, ans in all_pairs(o, d, tri, t_min=t_min, t_max=_as_t_max(t_max, m), front_only=front_only):
         n = hi - lo
-        ans = intersect_pairs(
-            np.repeat(o[lo:hi], k, axis=0),
-            np.repeat(d[lo:hi], k, axis=0),
-            np.tile(tri, (n, 1, 1)),
-            t_min=t_min,
-            t_max=np.repeat(limit[lo:hi], k),
-            front_only=front_only,
-        )
         t = np.where(ans.hit, ans.t, np.inf).reshape(n, k)
         j = np.argmin(t, axis=1)  # argmin returns the first of equal minima
         tj = t[np.arange(n), j]

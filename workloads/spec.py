@@ -1,11 +1,8 @@
 """Workload specs: frozen, validated descriptions from which a workload is a pure function.
 
-Three kinds, :class:`PairSpec`, :class:`MeshSpec` and :class:`SeedSpec` (:mod:`~tribench.workloads.kinds` maps each
-``kind`` to its class and generator). :func:`workload_id` hashes a spec's canonical JSON, its generator's version
-and any file's sha256 into the cached workload's name, so a field that does not apply must stay ``None`` (one
-workload, one id), and a deliberate change to a generator's output must bump its version. Pair geometry uses
-correctly rounded operations only (:mod:`~tribench.workloads.geometry`): the same bytes on any machine with the same
-numpy; meshes are the same with the same library builds (``achieved["generated_with"]``)."""
+:func:`workload_id` hashes a spec's canonical JSON, its generator's version and any file's sha256 into the cached
+workload's name, so a field that does not apply must stay ``None`` (one workload, one id), and a deliberate change
+to a generator's output must bump its version."""
 
 from __future__ import annotations
 
@@ -132,12 +129,10 @@ def _miss_mix(value: Any) -> tuple[tuple[str, float], ...]:
 class PairSpec:
     """N (ray, triangle) pairs at an exact per-test hit rate: ``round(hit_rate * n)`` pairs hit.
 
-    ``order``: ``"shuffled"`` (hits and misses at random) or ``"sorted"`` (hits first, then misses by stage).
-    ``miss_mix``: the fraction of the misses each stage of :data:`MISS_STAGES` rejects, or a preset of
-    :data:`MISS_MIX_PRESETS`; the default, ``"edges"``, spreads them evenly over the three edges, as a scene's
-    rejected tests nearly all pass beside a triangle, favouring no kernel's order of edge tests.
-    ``winding="facing"`` rewinds each triangle to face its ray (a culling kernel then does every test the others
-    do); ``shape``, ``scale``, ``offset``: :mod:`~tribench.workloads.pairs`.
+    ``order``: ``"shuffled"`` or ``"sorted"`` (hits first, then misses by stage). ``miss_mix``: the fraction of the
+    misses each stage of :data:`MISS_STAGES` rejects, or a preset; the default, ``"edges"``, spreads them evenly
+    over the three edges, as a scene's rejected tests nearly all pass beside a triangle, favouring no kernel's order
+    of edge tests.
 
     >>> PairSpec(n=100, hit_rate=0.3).miss_fractions()["outside_edge_2"]
     0.3333333333333333
@@ -219,12 +214,9 @@ class MeshSpec:
     """A mesh at a target triangle count with rays against it (the ray sets: docs/methodology.md, "What is timed").
 
     ``mesh``: one of :data:`MESH_NAMES` or a mesh file (refused here if it does not parse); ``triangles``: the
-    exact count (None: the base mesh); ``rays``: ``"camera"``, ``"hit_rate"``, ``"bounce"`` or a ray file's path
-    (:mod:`~tribench.workloads.ray_files`). ``result`` is the kernels' mode only. ``accel="bvh"`` runs each
-    native kernel as the leaf test of a BVH (leaves of at most ``max_leaf``) on the brute-force twin's rays and
-    answers. ``mesh_sha256`` and ``rays_sha256``, when given (a spec read back from a run folder), are trusted
-    without reading the files, so a run folder renders after they moved. :meth:`to_dict` leaves out
-    ``accel="brute"`` and None fields, so older workloads keep their ids.
+    exact count (None: the base mesh); ``rays``: one of :data:`RAY_SETS` or a ray file's path. ``mesh_sha256`` and
+    ``rays_sha256``, when given (a spec read back from a run folder), are trusted without reading the files, so a
+    run folder renders after they moved.
 
     >>> MeshSpec("icosphere", rays="hit_rate").n_rays
     4096
@@ -351,7 +343,7 @@ class MeshSpec:
         return self.n_rays
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON- and TOML-friendly fields with ``kind`` (None fields and ``accel="brute"`` left out: see the class)."""
+        """JSON- and TOML-friendly fields with ``kind``, without None fields and ``accel="brute"``: older ids stay."""
         d = {f.name: getattr(self, f.name) for f in fields(self)}
         if d["accel"] == "brute":
             del d["accel"]

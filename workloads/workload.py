@@ -5,10 +5,9 @@ A :class:`Workload` is what a spec generates and the cache stores, its arrays re
 the spec's dtype, an optional ``t_max`` (M,) (hits at ``t >= t_max`` do not count), and the float64
 answers for the arrays as stored (:mod:`tribench.workloads.reference`): ``ref_hit`` and ``ref_t`` (nan: a
 miss) in mode ``"pairs"`` (M == K), else ``ref_index`` (-1: a miss; ties to the lowest index) and ``ref_t``.
-``ref_edge_margin`` (barycentric, the smallest ``|min(u, v, w)|`` over the crossings that decide the
-answer, negative for a miss, nan when parallel) and ``ref_edge_clearance`` (the same in units of a kernel's
-rounding: :func:`tribench.workloads.reference.edge_clearance`) say how near an edge the answer is; a ray is
-ambiguous (:meth:`Workload.ambiguous`) when either is small (docs/decisions.md, "Ambiguous rays")."""
+``ref_edge_margin`` (the smallest ``|min(u, v, w)|`` over the crossings that decide the answer, negative for a
+miss, nan when parallel) and ``ref_edge_clearance`` (:func:`~tribench.workloads.reference.edge_clearance`) say
+how near an edge the answer is (docs/decisions.md, "Ambiguous rays")."""
 
 from __future__ import annotations
 

@@ -1,13 +1,7 @@
-"""The robustness suite's cases: rays aimed at the hard spots of ray-triangle tests, with their answers.
-
-``tribench validate`` (:mod:`tribench.harness.jobs.validate`) asks every kernel these questions and judges
-the answers; this package only builds them, calling no kernel. :func:`build` returns one precision's
-:class:`RaySets`: :class:`MeshRays` (closest-mode questions about a small mesh) and :class:`PairRays` (each
-ray about one triangle, with the right answer). A test's rays are a pure function of (rng_seed, test name,
-size, precision), so no test depends on which others are built. Sizes: :data:`FULL` and :data:`QUICK`
-(``--quick``). Builders: :mod:`.meshes`, :mod:`.pairs`, :mod:`.exact`; types: :mod:`.sets`.
-
-What each test asks and what fails it: docs/methodology.md, "The robustness suite"."""
+"""The robustness suite's cases, rays aimed at the hard spots of ray-triangle tests with their answers, built
+without calling a kernel (``tribench validate`` asks and judges). A test's rays are a pure function of
+(rng_seed, test name, size, precision). What each test asks and what fails it: docs/methodology.md, "The
+robustness suite"."""
 
 from __future__ import annotations
 

@@ -100,9 +100,8 @@ def sphere_triangles(dtype: str) -> np.ndarray:
     return round_to(np.asarray(fine.vertices) + np.array(EMBREE_CENTRE), dtype)[fine.faces]
 
 
-#: The icosphere whose vertices group the sphere's rays: 162 patches of about 300 triangles each.
-#: At 3 (642 patches of 76) the kernel calls' fixed cost ruled: the quick suite's sphere took 2.8x
-#: as long, the full one 1.2x, with the same answers (docs/decisions.md, "The robustness suite's time").
+#: The icosphere whose vertices group the sphere's rays: 162 patches of about 300 triangles each (at 3, the
+#: kernel calls' fixed cost ruled: docs/decisions.md, "The robustness suite's time").
 _PATCH_SUBDIVISIONS = 2
 
 

@@ -8,9 +8,9 @@ import numpy as np
 from .. import reference
 from ..geometry import (
     normalise,
+    random_frames,
     random_in_ball,
     random_perpendicular,
-    random_unit_vectors,
     round_to,
     sample_inside,
     triangle_normals,
@@ -26,16 +26,8 @@ AIM_MARGIN = 0.2  # barycentric margin the rays of the pair tests aim at
 KEEP_MARGIN = 0.05  # ... and the least the reference must still see after rounding
 
 
-def _frames(rng: np.random.Generator, g: int):
-    """Random placements: centres in the ball of radius 1/2 and orthonormal frames (a, b, normal)."""
-    centre = 0.5 * random_in_ball(rng, g)
-    normal = random_unit_vectors(rng, g)
-    a = random_perpendicular(rng, normal)
-    return centre, a, np.cross(normal, a)
-
-
 def _equilateral(rng: np.random.Generator, g: int, radius: np.ndarray) -> np.ndarray:
-    centre, a, b = _frames(rng, g)
+    centre, a, b = random_frames(rng, g)
     cx = np.array([1.0, -0.5, -0.5])
     cy = np.array([0.0, 0.5, -0.5]) * np.sqrt(3.0)
     corners = cx[None, :, None] * a[:, None] + cy[None, :, None] * b[:, None]
@@ -88,7 +80,7 @@ def _tiny(rng, size: Size, dtype: str) -> PairRays:
 def _needles(rng, size: Size, dtype: str) -> PairRays:
     g = size.triangles
     aspect, label = _decades(rng, NEEDLE_ASPECTS, g)
-    centre, a, b = _frames(rng, g)
+    centre, a, b = random_frames(rng, g)
     apex = rng.uniform(0.05, 0.95, g)
     tris = np.stack([-0.5 * a, 0.5 * a, (apex - 0.5)[:, None] * a + b / aspect[:, None]], axis=1)
     tris += centre[:, None] - tris.mean(axis=1, keepdims=True)

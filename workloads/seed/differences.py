@@ -4,12 +4,11 @@ near an edge their rays pass (:func:`edge_margins`): a difference near an edge i
 from __future__ import annotations
 
 from pathlib import Path
-from typing import BinaryIO, cast
 
 import numpy as np
 
-from ...common import UserError, atomic_write
-from .records import KINDS, Trace
+from ...common import UserError
+from .records import KINDS, Trace, save_png
 
 
 def _hit_codes(tr: Trace) -> np.ndarray:
@@ -18,26 +17,19 @@ def _hit_codes(tr: Trace) -> np.ndarray:
     parts = []
     for name in KINDS:
         rs = getattr(tr, name)
-        n_lights = len(tr.scene.lights)
-        seq = rs.depth.astype(np.int64) * (n_lights + 1)
         if name == "shadow":
-            seq = seq + 1 + rs.light.astype(np.int64)
             what = (rs.hit_kind >= 0).astype(np.int64)  # occluded or not: all the seed uses
         else:
             what = (rs.hit_kind.astype(np.int64) + 1) * (1 << 21) + (rs.hit_index + 1)
-        key = rs.pixel * stride + seq
+        key = rs.pixel * stride + tr._seq(rs, name == "shadow")
         parts.append(key * (1 << 23) + what)
     return np.concatenate(parts)
 
 
 def difference_mask(a: Trace, b: Trace, by: str = "image") -> tuple[np.ndarray, int]:
-    """Pixels where two traces of the same scene and size differ, and their count.
-
-    ``by="image"``: the 8-bit pixels differ, what the seed's pictures show. ``by="hits"``: the pixel's ray
-    trees differ (an object hit, a shadow ray's occlusion, a ray in one trace only). Far more pixels differ by
-    hits than by image: a last-bit change of a triangle's ``t`` moves the hit point, and the seed's sphere test
-    (``t >= 0``, no epsilon) then flips the self-occlusion of shadow rays leaving a sphere toward a light
-    behind it, which changes no colour (such a light adds no diffuse term)."""
+    """Pixels where two traces of the same scene and size differ, and their count: ``by="image"``, their 8-bit
+    pixels; ``by="hits"``, their ray trees (an object hit, a shadow ray's occlusion, a ray in one trace only),
+    which differ far more often (a shadow ray leaving a sphere flips on a last-bit change, with no colour)."""
     if (a.width, a.height) != (b.width, b.height):
         raise UserError(f"traces differ in size: {a.width}x{a.height} and {b.width}x{b.height}")
     if by == "image":
@@ -57,28 +49,20 @@ def difference_mask(a: Trace, b: Trace, by: str = "image") -> tuple[np.ndarray, 
 
 def save_mask_png(mask: np.ndarray, path: str | Path, background: np.ndarray | None = None) -> Path:
     """Save a difference mask as PNG: differing pixels red, over a dimmed ``background`` image if given."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
     h, w = mask.shape
     if background is None:
         rgb = np.full((h, w, 3), 255, np.uint8)
     else:
         rgb = (0.35 * np.asarray(background, np.float64) + 0.65 * 255).astype(np.uint8)
     rgb[mask] = (220, 0, 0)
-    path = Path(path)
-    with atomic_write(path, "wb") as f:
-        plt.imsave(cast(BinaryIO, f), rgb, format="png")  # "wb": a binary file
-    return path
+    return save_png(path, rgb)
 
 
 def edge_margins(origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray, t_min: float = 0.0) -> np.ndarray:
     """How close each ray passes to the boundary of any triangle: the smallest ``|min(u, v, w)|`` over the
     triangles whose plane it crosses at ``t > t_min`` (float64 reference barycentrics), ``inf`` if none. Near
     0: next to an edge or a vertex, where two correct tests may disagree."""
-    from ..reference import intersect_pairs
+    from ..reference import all_pairs
 
     o = np.asarray(origins, np.float64)
     d = np.asarray(directions, np.float64)
@@ -87,15 +71,11 @@ def edge_margins(origins: np.ndarray, directions: np.ndarray, triangles: np.ndar
     out = np.full(m, np.inf)
     if m == 0 or k == 0:
         return out
-    step = max(1, (1 << 18) // k)
-    for lo in range(0, m, step):
-        hi = min(lo + step, m)
-        n = hi - lo
-        ans = intersect_pairs(np.repeat(o[lo:hi], k, 0), np.repeat(d[lo:hi], k, 0), np.tile(tri, (n, 1, 1)))
+    for lo, hi, ans in all_pairs(o, d, tri, budget=1 << 18):
         margin = np.abs(ans.edge_margin)
         with np.errstate(invalid="ignore"):
             margin = np.where(ans.t > t_min, margin, np.inf)
-        margin = np.where(np.isnan(margin), np.inf, margin).reshape(n, k)
+        margin = np.where(np.isnan(margin), np.inf, margin).reshape(hi - lo, k)
         out[lo:hi] = margin.min(axis=1)
     return out
 

@@ -7,6 +7,7 @@ import time
 import numpy as np
 
 from ...common import UserError
+from ..geometry import dot
 from ..reference import intersect_closest as _reference_closest
 from .records import MISS, PLANE, SPHERE, TRIANGLE
 from .scene import Scene
@@ -17,14 +18,6 @@ TRIANGLE_EPS = 1e-4  # Triangle.cpp: TRI_EPSILON (inside the kernels); also the 
 
 # Largest rays x triangles product the float64 reference (kernel=None) is asked for.
 REFERENCE_LIMIT = 50_000_000
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
-
-
-def _normalise(a: np.ndarray) -> np.ndarray:
-    return a / np.sqrt(_dot(a, a))[..., None]
 
 
 def _plane_t(scene: Scene, o: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -41,11 +34,11 @@ def _sphere_t(scene: Scene, o: np.ndarray, d: np.ndarray) -> np.ndarray:
     """t (S, M) of every sphere, inf for a miss (Sphere::intersecte; coupe is the same test)."""
     sp = scene.spheres
     out = np.full((len(sp), len(o)), np.inf)
-    a = _dot(d, d)
+    a = dot(d, d)
     for s, (cx, cy, cz, r) in enumerate(sp):
         oc = o - np.array([cx, cy, cz])
-        b = 2.0 * _dot(d, oc)
-        c = _dot(oc, oc) - r * r
+        b = 2.0 * dot(d, oc)
+        c = dot(oc, oc) - r * r
         disc = b * b - 4.0 * a * c
         ok = disc >= SPHERE_EPS
         t = (-b - np.sqrt(np.where(ok, disc, 0.0))) / (2.0 * a)  # the smaller root
@@ -81,24 +74,19 @@ def _triangles_closest(
 def _closest(scene: Scene, kernel, dtype, o, d, clock):
     """Closest object of every ray in the seed's file order: kind, index, t, and the triangle answer."""
     tri_index, tri_t = _triangles_closest(scene, kernel, dtype, o, d, clock)
-    # candidates in file order; the triangles as one group at the first triangle's place
-    tp = _plane_t(scene, o, d) if len(scene.planes) else None
-    ts = _sphere_t(scene, o, d) if len(scene.spheres) else None
-    cands, kinds, idxs = [], [], []
+    t_of = {PLANE: _plane_t(scene, o, d), SPHERE: _sphere_t(scene, o, d)}  # (0, M) for a kind the scene lacks
+    cands, kinds, idxs = [], [], []  # in file order
     tri_done = False
     for kind, i in scene.objects.tolist():
-        if kind == TRIANGLE:
-            if not tri_done:
-                cands.append(tri_t)
-                kinds.append(TRIANGLE)
-                idxs.append(tri_index)
-                tri_done = True
-            continue
-        t_kind = tp if kind == PLANE else ts
-        assert t_kind is not None  # the scene has an object of this kind
-        cands.append(t_kind[i])
-        kinds.append(kind)
-        idxs.append(np.full(len(o), i, np.int64))
+        if kind != TRIANGLE:
+            cands.append(t_of[kind][i])
+            kinds.append(kind)
+            idxs.append(np.full(len(o), i, np.int64))
+        elif not tri_done:  # the triangles as one group, at the first triangle's place
+            cands.append(tri_t)
+            kinds.append(TRIANGLE)
+            idxs.append(tri_index)
+            tri_done = True
     m = len(o)
     if not cands:
         return (np.full(m, MISS, np.int8), np.full(m, -1, np.int64), np.full(m, np.inf), tri_index, tri_t)
@@ -119,7 +107,7 @@ def _occluders(scene: Scene, kernel, dtype, o, d, clock):
     index = np.full(m, -1, np.int64)
     sphere_pos = [pos for pos, (k, _) in enumerate(scene.objects.tolist()) if k == SPHERE]
     tri_pos = np.flatnonzero(scene.objects[:, 0] == TRIANGLE)
-    ts = _sphere_t(scene, o, d) if len(scene.spheres) else np.zeros((0, m))
+    ts = _sphere_t(scene, o, d)
     # first sphere (in file order) that cuts each ray
     first_sphere_pos = np.full(m, np.iinfo(np.int64).max)
     first_sphere = np.full(m, -1, np.int64)

@@ -55,19 +55,8 @@ class RaySet:
 
     @staticmethod
     def empty() -> RaySet:
-        z3 = np.zeros((0, 3))
-        i64 = np.zeros(0, np.int64)
-        return RaySet(
-            z3,
-            z3.copy(),
-            i64,
-            np.zeros(0, np.int8),
-            np.zeros(0, np.int16),
-            np.zeros(0, np.int8),
-            i64.copy(),
-            i64.copy(),
-            np.zeros(0),
-        )
+        none = np.zeros(0, np.int64)
+        return _rayset(np.zeros((0, 3)), np.zeros((0, 3)), none, 0, -1, none, none, none, np.zeros(0))
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,16 +107,8 @@ class Trace:
         return np.where(x > 1.0, 255, np.floor(np.maximum(x, 0.0) * 255.0)).astype(np.uint8)
 
     def to_png(self, path: str | Path) -> Path:
-        """Save the image as PNG (matplotlib's ``imsave``); returns the path."""
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
-
-        path = Path(path)
-        with atomic_write(path, "wb") as f:
-            plt.imsave(cast(BinaryIO, f), self.to_uint8(), format="png")
-        return path
+        """Save the image as PNG; returns the path."""
+        return save_png(path, self.to_uint8())
 
     def seed_order(self) -> tuple[np.ndarray, np.ndarray]:
         """The seed's shooting order, ``(kind, index)`` arrays over all rays (``kind`` indexes :data:`KINDS`,
@@ -159,14 +140,27 @@ class Trace:
     def _seq_stride(self) -> int:
         return (self.depth + 1) * (len(self.scene.lights) + 1)
 
+    def _seq(self, rs: RaySet, shadow: bool) -> np.ndarray:
+        seq = rs.depth.astype(np.int64) * (len(self.scene.lights) + 1)
+        return seq + 1 + rs.light.astype(np.int64) if shadow else seq
+
     def _order_key(self, rs: RaySet, shadow: bool) -> np.ndarray:
-        n_lights = len(self.scene.lights)
-        seq = rs.depth.astype(np.int64) * (n_lights + 1)
-        if shadow:
-            seq = seq + 1 + rs.light.astype(np.int64)
         i, j = rs.pixel % self.width, rs.pixel // self.width
         column_major = i * self.height + j
-        return column_major * self._seq_stride() + seq
+        return column_major * self._seq_stride() + self._seq(rs, shadow)
+
+
+def save_png(path: str | Path, rgb: np.ndarray) -> Path:
+    """Save an 8-bit RGB image as a PNG file (matplotlib's ``imsave``), atomically; returns the path."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    with atomic_write(path, "wb") as f:
+        plt.imsave(cast(BinaryIO, f), rgb, format="png")  # "wb": a binary file
+    return path
 
 
 def _rayset(o, d, pixel, depth, light, hit_kind, hit_index, tri_index, tri_t) -> RaySet:

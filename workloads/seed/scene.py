@@ -1,17 +1,14 @@
-"""The seed's scene files: reader, writer and the two built-in scenes.
+"""The seed's scene files: reader, writer and the two built-in scenes (text files of ``workloads/data``).
 
-The format (the seed's, one keyword per line), the seed loader's semantics kept here and the checks
-added to them: docs/methodology.md, "The seed's replay". Defaults: :data:`DEFAULT_MATERIAL`,
-:data:`DEFAULT_AMBIENT`, :data:`DEFAULT_BACKGROUND`; a bad file raises :class:`SceneError` naming the
-file, the line and what was expected. The built-in scenes (:data:`BUILTIN_SCENES`) are text files of
-``workloads/data``; :func:`write_scene03` makes ``scene03.txt``."""
+The format, the seed loader's semantics kept here and the checks added to them: docs/methodology.md, "The
+seed's replay"; a bad file raises :class:`SceneError` naming the file, the line and what was expected."""
 
 from __future__ import annotations
 
 import difflib
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -212,63 +209,6 @@ def _frozen(rows: list, dtype: type, shape: tuple[int, ...] | None = None) -> np
     return a
 
 
-@dataclass
-class _SceneReader:
-    """What the lines read so far say: the settings, the lights, the current material and the objects in order."""
-
-    background: tuple[float, float, float] = DEFAULT_BACKGROUND
-    ambient: tuple[float, float, float] = DEFAULT_AMBIENT
-    current: Material = DEFAULT_MATERIAL  # the seed applies it to every object that follows
-    lights: list[Light] = field(default_factory=list)
-    materials: list[Material] = field(default_factory=list)  # in order of first use
-    material_index: dict[Material, int] = field(default_factory=dict)
-    # per kind (plane, sphere, triangle): the objects' numbers and their materials
-    rows: tuple[list[list[float]], ...] = field(default_factory=lambda: ([], [], []))
-    mats: tuple[list[int], ...] = field(default_factory=lambda: ([], [], []))
-    objects: list[tuple[int, int]] = field(default_factory=list)  # (kind, index) in file order
-
-    def add(self, keyword: str, v: list[float]) -> None:
-        """Apply one line: a setting, a light or a material replaces or adds; an object is stored."""
-        if keyword == "fond":
-            self.background = (v[0], v[1], v[2])
-        elif keyword == "ambiant":
-            self.ambient = (v[0], v[1], v[2])
-        elif keyword == "source":
-            self.lights.append(Light((v[0], v[1], v[2]), (v[3], v[4], v[5])))
-        elif keyword == "materiau":
-            self.current = Material((v[0], v[1], v[2]), v[3], v[4], v[5], v[6])
-        else:
-            self._add_object(("plan", "sphere", "tri").index(keyword), v)
-
-    def _add_object(self, kind: int, v: list[float]) -> None:
-        """Store an object with the current material, which joins the materials on its first use."""
-        if self.current not in self.material_index:
-            self.material_index[self.current] = len(self.materials)
-            self.materials.append(self.current)
-        store = self.rows[kind]
-        self.objects.append((kind, len(store)))
-        store.append(v)
-        self.mats[kind].append(self.material_index[self.current])
-
-    def scene(self, name: str) -> Scene:
-        """The Scene read, its arrays read-only (an empty kind is an array of 0 rows)."""
-        planes, spheres, tris = self.rows
-        return Scene(
-            name=name,
-            background=self.background,
-            ambient=self.ambient,
-            lights=tuple(self.lights),
-            materials=tuple(self.materials),
-            planes=_frozen(planes, np.float64, (-1, 4)),
-            plane_material=_frozen(self.mats[0], np.int64),
-            spheres=_frozen(spheres, np.float64, (-1, 4)),
-            sphere_material=_frozen(self.mats[1], np.int64),
-            triangles=_frozen(tris, np.float64, (-1, 3, 3)),
-            triangle_material=_frozen(self.mats[2], np.int64),
-            objects=_frozen(self.objects, np.int64).reshape(-1, 2),
-        )
-
-
 #: The most triangles a scene may hold (the main job's largest mesh): the seed replay traces brute force,
 #: as the seed's renderer does, so a larger scene takes hours (docs/decisions.md, "The seed replay's design").
 MAX_TRIANGLES = 250_000
@@ -294,12 +234,44 @@ def parse_scene(text: str, name: str = "<string>") -> Scene:
             f"{name}: {triangles:,} triangles, more than the {MAX_TRIANGLES:,} a seed scene may hold "
             "(the seed's renderer tests every triangle for every ray)"
         )
-    reader = _SceneReader()
+    background, ambient, current = DEFAULT_BACKGROUND, DEFAULT_AMBIENT, DEFAULT_MATERIAL
+    lights: list[Light] = []
+    materials: dict[Material, int] = {}  # in order of first use by an object
+    rows: tuple[list[list[float]], ...] = ([], [], [])  # per kind (plane, sphere, triangle): numbers, materials
+    mats: tuple[list[int], ...] = ([], [], [])
+    objects: list[tuple[int, int]] = []  # (kind, index) in file order
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = _read_line(raw, f"{name}:{lineno}")
-        if line is not None:
-            reader.add(*line)
-    return reader.scene(name)
+        if line is None:
+            continue
+        keyword, v = line
+        if keyword == "fond":
+            background = (v[0], v[1], v[2])
+        elif keyword == "ambiant":
+            ambient = (v[0], v[1], v[2])
+        elif keyword == "source":
+            lights.append(Light((v[0], v[1], v[2]), (v[3], v[4], v[5])))
+        elif keyword == "materiau":  # the seed applies it to every object that follows
+            current = Material((v[0], v[1], v[2]), v[3], v[4], v[5], v[6])
+        else:
+            kind = ("plan", "sphere", "tri").index(keyword)
+            objects.append((kind, len(rows[kind])))
+            rows[kind].append(v)
+            mats[kind].append(materials.setdefault(current, len(materials)))
+    return Scene(
+        name=name,
+        background=background,
+        ambient=ambient,
+        lights=tuple(lights),
+        materials=tuple(materials),
+        planes=_frozen(rows[0], np.float64, (-1, 4)),
+        plane_material=_frozen(mats[0], np.int64),
+        spheres=_frozen(rows[1], np.float64, (-1, 4)),
+        sphere_material=_frozen(mats[1], np.int64),
+        triangles=_frozen(rows[2], np.float64, (-1, 3, 3)),
+        triangle_material=_frozen(mats[2], np.int64),
+        objects=_frozen(objects, np.int64).reshape(-1, 2),
+    )
 
 
 def read_scene(path_or_text: str | os.PathLike, name: str | None = None) -> Scene:
@@ -310,11 +282,7 @@ def read_scene(path_or_text: str | os.PathLike, name: str | None = None) -> Scen
     path = Path(path_or_text)
     text = read_user_text(path, "scene file", SceneError)
     scene = parse_scene(text, str(path_or_text))
-    return _renamed(scene, name or path.stem)
-
-
-def _renamed(scene: Scene, name: str) -> Scene:
-    return Scene(**{**scene.__dict__, "name": name})
+    return replace(scene, name=name or path.stem)
 
 
 def builtin_scene_path(name: str) -> Path:

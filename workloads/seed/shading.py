@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .intersect import _dot, _normalise
+from ..geometry import dot, normalise
 from .records import PLANE, SPHERE, TRIANGLE
 from .scene import Scene
 
@@ -31,14 +31,14 @@ def _normals(scene: Scene, kind: np.ndarray, index: np.ndarray, p: np.ndarray) -
     n = np.empty_like(p)
     sel = kind == PLANE
     if sel.any():
-        n[sel] = _normalise(scene.planes[index[sel], :3])
+        n[sel] = normalise(scene.planes[index[sel], :3])
     sel = kind == SPHERE
     if sel.any():
-        n[sel] = _normalise(p[sel] - scene.spheres[index[sel], :3])
+        n[sel] = normalise(p[sel] - scene.spheres[index[sel], :3])
     sel = kind == TRIANGLE
     if sel.any():
         tri = scene.triangles[index[sel]]
-        n[sel] = _normalise(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
+        n[sel] = normalise(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))
     return n
 
 
@@ -62,11 +62,11 @@ def _direct(
     """One light's diffuse plus specular colour at each hit, before its intensity (0 where not ``lit``);
     ``to_light`` is ``light - p``, ``view`` the unit vector toward the observer."""
     base, kd, ks, shine = material[:, :3], material[:, 4], material[:, 5], material[:, 6]
-    inc = _normalise(to_light)
-    ps = _dot(n, inc)
+    inc = normalise(to_light)
+    ps = dot(n, inc)
     diffuse = np.where(lit & (ps > 0.0), kd * ps, 0.0)
-    refl = _normalise(2.0 * ps[:, None] * n - inc)
-    vr = _dot(view, refl)
+    refl = normalise(2.0 * ps[:, None] * n - inc)
+    vr = dot(view, refl)
     with np.errstate(invalid="ignore", over="ignore"):
         spec = np.where(lit & (vr > 0.0), ks * np.power(np.maximum(vr, 0.0), shine), 0.0)
     return diffuse[:, None] * base + spec[:, None]
@@ -74,5 +74,5 @@ def _direct(
 
 def _reflect(n: np.ndarray, view: np.ndarray) -> np.ndarray:
     """The mirror direction of ``view`` about ``n``, normalised (``Objet::getReflechi``)."""
-    nv = _dot(n, view)
-    return _normalise(2.0 * nv[:, None] * n - view)
+    nv = dot(n, view)
+    return normalise(2.0 * nv[:, None] * n - view)

@@ -24,11 +24,9 @@ _MAX_SIDE = 4096  # a 4096 x 4096 trace is about 4 GB of ray records
 class SeedSpec:
     """A sample of one kind of ray from the seed's render of a scene (:mod:`tribench.workloads.seed.workload`).
 
-    ``scene``: ``"scene02"``, ``"scene03"`` or a scene file in the seed's format, stored absolute (refused
-    here if it does not parse). ``rays``: ``"primary"`` and ``"reflected"`` ask for the closest hit,
-    ``"shadow"`` for any hit. ``sample``: the rays drawn, in runs spread over the render (all if fewer).
-    ``width`` x ``height``: the render (the seed's is 512 x 512). ``dtype``: the seed's ``Vecteur`` holds
-    float, so float32 is the faithful replay."""
+    ``scene``: a built-in scene or a scene file, stored absolute (refused here if it does not parse).
+    ``sample``: the rays drawn from the ``width`` x ``height`` render (all if fewer). ``dtype``: the seed's
+    ``Vecteur`` holds float, so float32 is the faithful replay."""
 
     scene: str = "scene02"
     rays: str = "primary"

@@ -1,10 +1,6 @@
-"""The seed's Whitted ray tracer, vectorised, with the ray stream it shoots.
-
-:func:`trace` renders a :class:`~tribench.workloads.seed.scene.Scene` as the seed's renderer does and records
-every ray it shoots, by kind (``primary``, ``reflected``, ``shadow``): planes and spheres in NumPy float64,
-triangles by a C kernel (``tribench.ext.intersect_closest``) at the chosen precision or by the float64
-reference, a whole generation of rays at once. The seed's rules, with the seed's code that says so, and
-the deviations from them: docs/methodology.md, "The seed's replay".
+"""The seed's Whitted ray tracer, vectorised a generation of rays at a time, recording every ray it shoots:
+planes and spheres in NumPy float64, triangles by a C kernel at the chosen precision or by the float64
+reference. The seed's rules and the deviations from them: docs/methodology.md, "The seed's replay".
 
 >>> from tribench.workloads.seed.scene import parse_scene
 >>> s = parse_scene("source 0 5 0 1 1 1\\nmateriau 1 0 0 0.1 0.5 0 10\\n"
@@ -22,12 +18,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...common import UserError
+from ..geometry import normalise
 from .differences import difference_mask, edge_margins, pixel_edge_margins, save_mask_png
 from .intersect import PLANE_EPS as PLANE_EPS
 from .intersect import REFERENCE_LIMIT as REFERENCE_LIMIT
 from .intersect import SPHERE_EPS as SPHERE_EPS
 from .intersect import TRIANGLE_EPS as TRIANGLE_EPS
-from .intersect import _closest, _normalise, _occluders
+from .intersect import _closest, _occluders
 from .records import KINDS, MISS, RaySet, Trace, _rayset
 from .records import PLANE as PLANE
 from .records import SPHERE as SPHERE
@@ -63,15 +60,6 @@ class _Render:
     clock: list[float] = field(default_factory=lambda: [0.0])  # seconds spent in triangle tests
     closest: list[RaySet] = field(default_factory=list)  # the primary rays, then each reflected generation
     shadow: list[RaySet] = field(default_factory=list)
-    lights_p: np.ndarray = field(init=False)
-    lights_i: np.ndarray = field(init=False)
-    ambient: np.ndarray = field(init=False)
-
-    def __post_init__(self) -> None:
-        lights = self.scene.lights
-        self.lights_p = np.array([light.position for light in lights], dtype=np.float64).reshape(-1, 3)
-        self.lights_i = np.array([light.intensity for light in lights], dtype=np.float64).reshape(-1, 3)
-        self.ambient = np.array(self.scene.ambient)
 
 
 def _check_arguments(kernel: str | None, dtype: str, width: int, height: int, depth: int) -> np.dtype:
@@ -96,12 +84,12 @@ def _shade(
 ) -> np.ndarray:
     """Each hit's colour: ambient, then every light its shadow ray reaches (the shadow rays are recorded)."""
     base, ka = mat[:, :3], mat[:, 3]
-    shade = ka[:, None] * base * r.ambient
-    for li in range(len(r.lights_p)):
-        sd = r.lights_p[li] - p  # not normalised, as the seed shoots it
+    shade = ka[:, None] * base * np.array(r.scene.ambient, np.float64)
+    for li, light in enumerate(r.scene.lights):
+        sd = np.array(light.position, np.float64) - p  # not normalised, as the seed shoots it
         s_kind, s_index, s_tri, s_tri_t = _occluders(r.scene, r.kernel, r.dtype, p, sd, r.clock)
         r.shadow.append(_rayset(p, sd, pixel, gen, li, s_kind, s_index, s_tri, s_tri_t))
-        shade += _direct(n, view, sd, s_kind == MISS, mat) * r.lights_i[li]
+        shade += _direct(n, view, sd, s_kind == MISS, mat) * np.array(light.intensity, np.float64)
     return shade
 
 
@@ -120,7 +108,7 @@ def _generation(
     p = o + t[:, None] * d
     n = _normals(r.scene, kind, index, p)
     mat = _material_arrays(r.scene, kind, index)
-    view = _normalise(o - p)  # toward the observer: the eye, or the previous hit point
+    view = normalise(o - p)  # toward the observer: the eye, or the previous hit point
     np.add.at(r.colour, pixel, _shade(r, gen, pixel, p, n, view, mat))
     if gen == depth:
         return None

@@ -1,17 +1,7 @@
-"""The seed's ray stream as a workload: a sample of one kind of ray from a render.
-
-A :class:`SeedSpec` names one kind of ray (``primary``, ``reflected`` or ``shadow``) of one scene's render;
-its workload is a reproducible sample of those rays (:func:`sample_runs`) against every triangle of the
-scene, with float64 reference answers, and ``achieved`` records what scales a timing of the sample back to
-the render: ``stream_rays`` and ``stream_tests`` (the rays of this kind that test the triangles and the
-tests they run; a shadow ray's, mode ``any``, counted exactly by one pass of a scalar any-hit kernel),
-``sample_tests`` (the same on the sample), ``test_hit_rate`` and ``miss_mix`` (each miss at the stage
-where Curless's early-exit test rejects it, unlike :func:`~tribench.workloads.pairs.classify_misses`,
-which calls most of a scene's misses ``other``). Why the stream is traced with ``curless_seed`` in
-float64 and why secondary origins move :data:`ORIGIN_SHIFT`: docs/methodology.md, "The seed's replay".
-``occluded_beyond_light`` counts the sampled shadow rays only an object beyond the light occludes. A ray
-is ambiguous (``ref_edge_margin`` near 0) when it passes near an edge, crosses an inside point at ``|t|``
-under :data:`T_NEAR_ZERO`, or has two hits within :data:`TIE_RTOL` in t (surfaces that cross).
+"""The seed's ray stream as a workload: a reproducible sample (:func:`sample_runs`) of one kind of ray from a
+scene's render against every triangle, with float64 reference answers; ``achieved`` holds what scales a timing
+of the sample back to the render (``stream_tests / sample_tests``). Why and how: docs/methodology.md, "The
+seed's replay". Misses are counted at the stage where Curless's early-exit test rejects them.
 
 >>> s = SeedSpec("scene02", "shadow", sample=64, width=16, height=16)
 >>> s.mode, s.summary()
@@ -32,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ...common import UserError
-from ..reference import intersect_pairs
+from ..reference import all_pairs
 from ..spec import MISS_STAGES, RAY_KINDS, SEED_VERSION, SeedSpec  # the spec is defined with the others
 from ..workload import AMBIGUOUS_MARGIN, Workload, ambiguous_rays, library_versions
 from .scene import Scene, load_scene
@@ -92,8 +82,8 @@ MAX_TRACE_S = 3600.0
 
 
 def trace_forecast(spec: SeedSpec) -> float:
-    """Seconds the render ``spec`` samples should take to trace, from timed small renders of its scene; a
-    UserError stating the bound when that is more than :data:`MAX_TRACE_S`."""
+    """Seconds the render ``spec`` samples should take to trace, from timed small renders; a UserError past
+    :data:`MAX_TRACE_S`."""
     from .trace import trace
 
     kernel, dtype = STREAM_KERNEL
@@ -128,13 +118,6 @@ def stream_indices(tr, rays: str) -> np.ndarray:
     return rows
 
 
-def _shifted(rs, rows: np.ndarray, rays: str) -> tuple[np.ndarray, np.ndarray]:
-    o, d = rs.origins[rows], rs.directions[rows]
-    if rays != "primary":
-        o = o + ORIGIN_SHIFT * d
-    return o, d
-
-
 def _any_hit_tests(o, d, tri) -> np.ndarray:
     """Tests a scalar any-hit kernel runs per ray: up to its first hit in index order."""
     from ... import ext
@@ -154,11 +137,8 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
     margin, clearance = np.empty(m), np.empty(m)
     stages = np.zeros(len(MISS_STAGES), np.int64)
     tests = test_hits = ties = on_surface = beyond_light = 0
-    step = max(1, (1 << 16) // k)
-    for lo in range(0, m, step):
-        hi = min(lo + step, m)
+    for lo, hi, a in all_pairs(o, d, tri, budget=1 << 16):
         n = hi - lo
-        a = intersect_pairs(np.repeat(o[lo:hi], k, 0), np.repeat(d[lo:hi], k, 0), np.tile(tri, (n, 1, 1)))
         hit, t = a.hit.reshape(n, k), a.t.reshape(n, k)
         v, w = a.v.reshape(n, k), a.w.reshape(n, k)
         th = np.where(hit, t, np.inf)
@@ -169,13 +149,12 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
         best[lo:hi] = np.where(found, tj, np.nan)
         # margin as in rays.closest_hits: the nearest brush with an edge among crossings that decide
         edge = np.abs(a.edge_margin.reshape(n, k))
+        second = np.partition(th, 1, axis=1)[:, 1] if k > 1 else np.full(n, np.inf)
         with np.errstate(invalid="ignore"):
             decisive = np.isfinite(t) & (t > 0) & (t <= tj[:, None])
             near = np.where(decisive, edge, np.inf).min(axis=1)
             clear = np.where(decisive, np.abs(a.clearance.reshape(n, k)), np.inf).min(axis=1)
             surface = (np.abs(t) < T_NEAR_ZERO) & (a.edge_margin.reshape(n, k) > -AMBIGUOUS_MARGIN)
-        second = np.partition(th, 1, axis=1)[:, 1] if k > 1 else np.full(n, np.inf)
-        with np.errstate(invalid="ignore"):
             tie = found & (second - tj <= TIE_RTOL * tj)
         unsure = surface.any(axis=1) | tie
         near, clear = np.where(unsure, 0.0, near), np.where(unsure, 0.0, clear)
@@ -188,7 +167,7 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
         if any_hit:
             first = np.where(hit.any(axis=1), np.argmax(hit, axis=1), k - 1)
             ran = np.arange(k)[None, :] <= first[:, None]
-            beyond_light += int((found & (tj >= 1.0 - ORIGIN_SHIFT)).sum())
+            beyond_light += int((found & (tj >= 1.0 - ORIGIN_SHIFT)).sum())  # occluded only beyond the light
         tests += int(ran.sum())
         test_hits += int((hit & ran).sum())
         # Curless's order: parallel, t, then the edges v0v1 (v < 0), v1v2 (w < 0), v2v0 (u < 0)
@@ -200,14 +179,8 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
             e1 = rest & (v < 0)
             e2 = rest & ~e1 & (w < 0)
             e3 = rest & ~e1 & ~e2  # a finite forward crossing that misses is outside some edge
-        for name, mask in (
-            ("parallel", parallel),
-            ("behind_origin", behind),
-            ("outside_edge_1", e1),
-            ("outside_edge_2", e2),
-            ("outside_edge_3", e3),
-        ):
-            stages[MISS_STAGES.index(name)] += int(mask.sum())
+        for i, mask in enumerate((parallel, behind, e1, e2, e3)):  # MISS_STAGES' first five, in order
+            stages[i] += int(mask.sum())
     misses = int(stages.sum())
     return {
         "index": index,
@@ -229,18 +202,15 @@ def _reference(o: np.ndarray, d: np.ndarray, tri: np.ndarray, any_hit: bool) -> 
 
 # ---------------------------------------------------------------- generator
 
+#: Consecutive rays per run of the sample: neighbours in the seed's shooting order travel alike, so a kernel's
+#: branches are predicted as in the render (docs/decisions.md, "The seed replay's model").
 RUN_LENGTH = 64
-"""Consecutive rays per run of the sample: neighbours in the seed's shooting
-order travel alike, so a kernel's branches are predicted as in the render.
-A uniform draw lost that and timed the seed's Moller 5-11% slow per ray
-kind (docs/decisions.md, "The seed replay's model")."""
 
 
 def sample_runs(n_stream: int, size: int, rng: np.random.Generator) -> np.ndarray:
-    """Sorted rows of ``size`` rays of a stream of ``n_stream`` (all if ``size >= n_stream``), as runs of
-    :data:`RUN_LENGTH`: a stratified cluster sample. The stream is cut into one share a run, a run's length
-    plus an equal part of the rows left out, and each run is placed at random in its share, so runs never
-    overlap and cover the render evenly.
+    """Sorted rows of ``size`` rays of a stream of ``n_stream`` (all if ``size >= n_stream``) in runs of
+    :data:`RUN_LENGTH`, each placed at random in its own equal share of the stream: runs never overlap and
+    cover the render evenly.
 
     >>> rows = sample_runs(1000, 130, np.random.default_rng(0))
     >>> len(rows), len(set(rows)), bool(np.all(np.diff(rows) > 0))
@@ -281,7 +251,9 @@ def generate_seed_workload(spec: SeedSpec, workload_id: str) -> Workload:
     pick = sample_runs(n_stream, spec.sample, np.random.default_rng(spec.rng_seed))
 
     dt = np.dtype(spec.dtype)
-    o_all, d_all = _shifted(rs, rows, spec.rays)
+    o_all, d_all = rs.origins[rows], rs.directions[rows]
+    if spec.rays != "primary":
+        o_all = o_all + ORIGIN_SHIFT * d_all
     o_all, d_all = o_all.astype(dt), d_all.astype(dt)
     tri = np.ascontiguousarray(tri64.astype(dt))
     o, d = np.ascontiguousarray(o_all[pick]), np.ascontiguousarray(d_all[pick])
