@@ -15,62 +15,22 @@ import numpy as np
 from ... import ext
 from ...common import UserError
 from ...workloads.geometry import dot, triangle_normals
-from ...workloads.robustness import (
-    AIM_MARGIN,
-    DTYPES,
-    EMBREE_CENTRE,
-    EMBREE_MAX_MISS_RATE,
-    EMBREE_RADIUS,
-    FULL,
-    GRAZING_SLOPES,
-    KEEP_MARGIN,
-    MIN_COS,
-    NEEDLE_ASPECTS,
-    QUICK,
-    SCALES,
-    TESTS,
-    MeshRays,
-    PairRays,
-    RaySets,
-    Size,
-    build,
-    exactly_collinear,
-    grid_topology,
-    sphere_triangles,
-)
+from ...workloads.robustness import *  # noqa: F403
+from ...workloads.robustness import DTYPES, EMBREE_MAX_MISS_RATE, TESTS, MeshRays, PairRays, RaySets, build
+from ...workloads.robustness import __all__ as _cases
 from .. import runfolder
 
 __all__ = [
-    "AIM_MARGIN",
+    *_cases,
     "COLUMNS",
-    "DTYPES",
-    "EMBREE_CENTRE",
-    "EMBREE_MAX_MISS_RATE",
-    "EMBREE_RADIUS",
-    "FULL",
-    "GRAZING_SLOPES",
-    "KEEP_MARGIN",
-    "MIN_COS",
-    "NEEDLE_ASPECTS",
-    "QUICK",
-    "SCALES",
     "SHORT_NAMES",
-    "TESTS",
     "WATERTIGHT",
-    "MeshRays",
-    "PairRays",
-    "RaySets",
-    "Size",
-    "build",
     "culls",
-    "exactly_collinear",
     "format_rate",
     "format_table",
-    "grid_topology",
     "measure",
     "promise",
     "run",
-    "sphere_triangles",
     "table",
 ]
 
