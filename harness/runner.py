@@ -180,6 +180,20 @@ class Progress:
             self.stream.flush()
 
 
+@contextmanager
+def progress_ticks(progress: bool | None, total: int, done: int = 0, **kw: str) -> Iterator[Callable[[], None]]:
+    """:meth:`Progress.advance` of a bar shown for the body and closed after it (``progress`` True: forced,
+    None: as :class:`Progress` decides, False: none, and a callable that does nothing)."""
+    if progress is False:
+        yield lambda: None
+        return
+    bar = Progress(total, done, force=bool(progress), **kw)
+    try:
+        yield bar.advance
+    finally:
+        bar.close()
+
+
 def _clock(seconds: float) -> str:
     s = int(round(seconds))
     return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
@@ -423,10 +437,10 @@ def _execute(
     for k in todo:
         by_process.setdefault(k.process, []).append(k)
     attempts = _attempts(run)
-    bar = Progress(total, done_before, force=bool(progress)) if progress is not False else None
     ran = 0
     try:
         with (
+            progress_ticks(progress, total, done_before) as advance,
             RowWriter(run_dir / runfolder.BATCHES, BATCH_COLUMNS) as batches,
             RowWriter(run_dir / runfolder.PROCESSES, PROCESS_COLUMNS) as processes,
             RowWriter(run_dir / runfolder.CHECKS, CHECK_COLUMNS) as checks,
@@ -437,8 +451,7 @@ def _execute(
                 nonlocal ran
                 batches.append(row)
                 ran += 1
-                if bar:
-                    bar.advance()
+                advance()
 
             for p, keys in by_process.items():
                 _run_process(
@@ -467,9 +480,6 @@ def _execute(
             f"cannot write {exc.filename or run_dir}: {exc.strerror or exc}; {done_before + ran} of {total} "
             f"batches saved in {run_dir}; make room, then finish with: tribench sweep --resume {run_dir}"
         ) from None
-    finally:
-        if bar:
-            bar.close()
     return RunResult(run_dir, total, done_before + ran, ran, time.monotonic() - t0)
 
 

@@ -227,7 +227,7 @@ def measure(
 
     from ...workloads import cache
     from ..runfolder import write_csv
-    from ..runner import Progress, default_cpu
+    from ..runner import default_cpu, progress_ticks
 
     bvh = design.accel == "bvh"
     from ... import ext
@@ -254,14 +254,9 @@ def measure(
     cpu = default_cpu() if cpu is None else cpu
     # one BLAS thread, set before the worker imports NumPy (see the module's docstring)
     blas = {**os.environ, **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
-    bar = (
-        Progress(design.processes, 0, force=bool(progress), unit="processes", label="peers")
-        if progress is not False
-        else None
-    )
     rows: list[dict[str, Any]] = []
     frame = pd.DataFrame(rows, columns=list(COLUMNS))
-    try:
+    with progress_ticks(progress, design.processes, unit="processes", label="peers") as advance:
         for process in range(design.processes):
             job = {
                 "design": asdict(design),
@@ -283,11 +278,7 @@ def measure(
                 raise RuntimeError(f"{name}: {exc}" if exc.said else str(exc)) from None
             frame = pd.DataFrame(rows, columns=list(COLUMNS))
             write_csv(frame, path)
-            if bar:
-                bar.advance()
-    finally:
-        if bar:
-            bar.close()
+            advance()
     return frame
 
 
