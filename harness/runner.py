@@ -453,18 +453,14 @@ def _execute(
                 ran += 1
                 advance()
 
+            keep: dict[str, Callable[[Any], None]] = {
+                "batch": on_batch,
+                "process": processes.append,
+                "check": checks.append,
+                "traversal": traversals.append,
+            }
             for p, keys in by_process.items():
-                _run_process(
-                    run,
-                    p,
-                    attempts.get(p, 0),
-                    keys,
-                    worker,
-                    on_batch,
-                    processes.append,
-                    checks.append,
-                    traversals.append,
-                )
+                _run_process(run, p, attempts.get(p, 0), keys, worker, keep)
     except KeyboardInterrupt:
         raise SweepInterrupted(
             f"interrupted: {done_before + ran} of {total} batches saved in {run_dir}; "
@@ -489,12 +485,10 @@ def _run_process(
     attempt: int,
     keys: Sequence[BatchKey],
     worker: Sequence[str],
-    on_batch: Callable[[BatchRow], None],
-    on_process: Callable[[ProcessRow], None],
-    on_check: Callable[[CheckRow], None],
-    on_traversal: Callable[[TraversalRow], None],
+    keep: Mapping[str, Callable[[Any], None]],
 ) -> None:
-    """One worker process: send its job, keep its rows, raise on its error."""
+    """One worker process: send its job, keep each row (``keep[type]``: batch, process, check, traversal), raise
+    on its error."""
     from .layout import padded_env
     from .worker import WorkerJob
 
@@ -521,19 +515,19 @@ def _run_process(
         if _key(row) not in expected:
             raise SweepError(f"worker of process {process} sent an unplanned batch {_key(row)}")
         expected.discard(_key(row))
-        on_batch(row)
+        keep["batch"](row)
 
     def on_traversal_line(message: dict[str, Any]) -> None:
         trav = TraversalRow(**message)
         if _key(trav) not in planned:
             raise SweepError(f"worker of process {process} sent an unplanned traversal {_key(trav)}")
-        on_traversal(trav)
+        keep["traversal"](trav)
 
     handlers = {
         "batch": on_batch_line,
         "traversal": on_traversal_line,
-        "process": lambda m: on_process(ProcessRow(**m)),
-        "check": lambda m: on_check(CheckRow(**m)),
+        "process": lambda m: keep["process"](ProcessRow(**m)),
+        "check": lambda m: keep["check"](CheckRow(**m)),
     }
     try:
         run_worker(worker, job.to_json(), env, handlers, f"worker of process {process}")
