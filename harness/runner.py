@@ -248,6 +248,8 @@ def start(
     when ``run_dir`` is not empty, is locked, or cannot be written."""
     from .machine import machine_record
     from .margin import latest_margin
+    from .peak import throughput_record
+    from .worker import kernel_isa
 
     run_dir = Path(run_dir)
     runfolder.check_new_run_dir(run_dir)
@@ -266,55 +268,37 @@ def start(
         raise UserError(f"cannot create the run folder {run_dir}: {exc.strerror or exc}") from None
     with runfolder.writer_lock(run_dir):
         runfolder.check_new_run_dir(run_dir)  # again, under the lock: another start may have been faster
-        return _start_locked(
-            sweep, run_dir, margin, machine, keys, cpu, progress, worker, {"builds": builds, **(extra or {})}
-        )
-
-
-def _start_locked(
-    sweep: Sweep,
-    run_dir: Path,
-    margin: Any,
-    machine: dict[str, Any],
-    keys: list[BatchKey],
-    cpu: int | None,
-    progress: bool | None,
-    worker: Sequence[str],
-    extra: dict[str, Any] | None,
-) -> RunResult:
-    from .peak import throughput_record
-    from .worker import kernel_isa
-
-    record = {
-        "run_id": _dt.datetime.now().strftime("%Y%m%dT%H%M%S-") + secrets.token_hex(3),
-        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-        "sweep": sweep.to_dict(),
-        "n_batches": len(keys),
-        "plan_sha256": _plan_digest(keys),
-        "process_seeds": [process_seed(sweep.rng_seed, p) for p in range(sweep.processes)],
-        "cpu": default_cpu() if cpu is None else cpu,
-        "isa": {k: kernel_isa(k) for k in sweep.kernels},
-        "margin": {"value": margin.value, "source": margin.source},
-        "machine": machine,
-        "throughput": throughput_record(),
-        "python_executable": sys.executable,
-        "batch_columns": list(BATCH_COLUMNS),
-        "process_columns": list(PROCESS_COLUMNS),
-        **(extra or {}),
-    }
-    runfolder.write_run(run_dir, record)
-    run = runfolder.Run.from_record(record, run_dir, sweep)
-    for spec in sweep.workloads:  # a run folder carries the mesh and ray files it used (those that fit)
-        if isinstance(spec, MeshSpec) and spec.mesh_sha256 is not None:
-            mesh_files.copy_into_run(run_dir, spec.mesh, spec.mesh_sha256)
-        if isinstance(spec, MeshSpec) and spec.rays_sha256 is not None:
-            mesh_files.copy_into_run(run_dir, spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
-    texts = {f.path: f.text for f in ext.loaded_kernel_files()}
-    for f in record["sweep"].get("kernel_files", ()):  # the C its kernels were compiled from, headers and all
-        mesh_files.copy_into_run(run_dir, texts[f["path"]], f["sha256"], mesh_files.KERNELS_FOLDER)
-    if sweep.sequential is not None:
-        return _execute_stages(run, keys, progress, worker)
-    return _execute(run, keys, 0, progress, worker)
+        record = {
+            "run_id": _dt.datetime.now().strftime("%Y%m%dT%H%M%S-") + secrets.token_hex(3),
+            "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+            "sweep": sweep.to_dict(),
+            "n_batches": len(keys),
+            "plan_sha256": _plan_digest(keys),
+            "process_seeds": [process_seed(sweep.rng_seed, p) for p in range(sweep.processes)],
+            "cpu": default_cpu() if cpu is None else cpu,
+            "isa": {k: kernel_isa(k) for k in sweep.kernels},
+            "margin": {"value": margin.value, "source": margin.source},
+            "machine": machine,
+            "throughput": throughput_record(),
+            "python_executable": sys.executable,
+            "batch_columns": list(BATCH_COLUMNS),
+            "process_columns": list(PROCESS_COLUMNS),
+            "builds": builds,
+            **(extra or {}),
+        }
+        runfolder.write_run(run_dir, record)
+        run = runfolder.Run.from_record(record, run_dir, sweep)
+        for spec in sweep.workloads:  # a run folder carries the mesh and ray files it used (those that fit)
+            if isinstance(spec, MeshSpec) and spec.mesh_sha256 is not None:
+                mesh_files.copy_into_run(run_dir, spec.mesh, spec.mesh_sha256)
+            if isinstance(spec, MeshSpec) and spec.rays_sha256 is not None:
+                mesh_files.copy_into_run(run_dir, spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
+        texts = {f.path: f.text for f in ext.loaded_kernel_files()}
+        for f in record["sweep"].get("kernel_files", ()):  # the C its kernels were compiled from, headers and all
+            mesh_files.copy_into_run(run_dir, texts[f["path"]], f["sha256"], mesh_files.KERNELS_FOLDER)
+        if sweep.sequential is not None:
+            return _execute_stages(run, keys, progress, worker)
+        return _execute(run, keys, 0, progress, worker)
 
 
 def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequence[str] = WORKER) -> RunResult:
