@@ -24,6 +24,7 @@ import pandas as pd
 from ...common import UserError
 from .. import runfolder
 from ..plan import DEFAULT_BASELINE
+from ..runfolder.seed_files import MISS_STAGES as MISS_STAGES  # reports.seed's, as before
 
 __all__ = [
     "BASELINE",
@@ -78,8 +79,6 @@ STREAM_FIGURES = (
     "ambiguous_rays",
 )
 
-
-MISS_STAGES = ("parallel", "behind_origin", "outside_edge_1", "outside_edge_2", "outside_edge_3")
 
 SEED_CSV = runfolder.SEED
 KINDS_CSV = runfolder.SEED_KINDS
@@ -313,6 +312,3 @@ def make_pictures(scene: str, label: str, size: int, out: Path) -> dict[str, Any
         edge_tolerance=EDGE_TOLERANCE,
     )
     return row
-
-
-# ------------------------------------------------------------------ figures
