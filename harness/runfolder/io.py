@@ -309,13 +309,10 @@ def _not_negative(*names: str) -> list[Rule]:
 
 
 def _unique(names: Sequence[str], what: str) -> Rule:
-    def bad(f: Any) -> Any:
-        return f.duplicated(subset=list(names), keep="first")
-
-    def message(r: Any) -> str:
-        return f"{what} ({', '.join(f'{n} {r[n]}' for n in names)}) is written twice (two writers?)"
-
-    return bad, message
+    return (
+        lambda f: f.duplicated(subset=list(names), keep="first"),
+        lambda r: f"{what} ({', '.join(f'{n} {r[n]}' for n in names)}) is written twice (two writers?)",
+    )
 
 
 def _run_rules(run: Run | None, keyed: bool) -> list[Rule]:
