@@ -181,13 +181,15 @@ class Progress:
 
 
 @contextmanager
-def progress_ticks(progress: bool | None, total: int, done: int = 0, **kw: str) -> Iterator[Callable[[], None]]:
+def progress_ticks(
+    progress: bool | None, total: int, done: int = 0, unit: str = "batches", label: str = "sweep"
+) -> Iterator[Callable[[], None]]:
     """:meth:`Progress.advance` of a bar shown for the body and closed after it (``progress`` True: forced,
     None: as :class:`Progress` decides, False: none, and a callable that does nothing)."""
     if progress is False:
         yield lambda: None
         return
-    bar = Progress(total, done, force=bool(progress), **kw)
+    bar = Progress(total, done, force=bool(progress), unit=unit, label=label)
     try:
         yield bar.advance
     finally:
