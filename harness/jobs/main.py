@@ -105,8 +105,10 @@ def _announce(sweep, out: str | Path) -> str:
     if sweep.sequential is None:
         return f"{head}{duration.estimate(sweep).line('for the sweep')}, {then}"
     design = sweep.sequential
+    # the budget exactly below a minute and a half (15 s), else in format_duration's words
+    budget = f"{design.budget_s:.0f} s" if design.budget_s < 90 else format_duration(design.budget_s)
     return (
-        f"{head}expected for the sweep: about {_seconds(design.budget_s)} at most: "
+        f"{head}expected for the sweep: about {budget} at most: "
         f"stages of {design.stage} processes "
         f"x {sweep.rounds} rounds, each kernel stopped once its speedup is known within "
         f"±{100 * design.target:g}%; {then}"
@@ -122,11 +124,6 @@ def _robustness(out: Path, note: str, log: TextIO | None) -> None:
     else:
         broken, checked = int((val.verdict == "fail").sum()), int((val.verdict != "measured").sum())
         _say(log, f"validate: {broken} of {checked} promises broken -> {path}")
-
-
-def _seconds(seconds: float) -> str:
-    """A budget as said: ``15 s`` exactly below a minute and a half, else in :func:`format_duration`'s words."""
-    return f"{seconds:.0f} s" if seconds < 90 else format_duration(seconds)
 
 
 def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO | None = None) -> None:
