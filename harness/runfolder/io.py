@@ -191,9 +191,6 @@ def _short(value: str) -> str:
     return repr(value if len(value) <= 40 else value[:37] + "...")
 
 
-_KIND = {"int": "an integer", "float": "a finite number", "bool": "True or False", "str": "text"}
-
-
 #: A rule on parsed rows: a function of the frame giving a bad-row mask, and the message for one bad row.
 Rule = tuple[Callable[..., Any], Callable[..., str]]  # ...: the lambdas bind names as defaults
 
@@ -278,7 +275,7 @@ def _column(path: Path, lines: list[int], s: Any, c: str, kind: str) -> Any:
         _refuse(path, lines, bad, message)
 
     if kind == "int":
-        refuse(~s.str.fullmatch(r"-?[0-9]{1,20}"), lambda i: f"{c} is {_short(s.iloc[i])}, not {_KIND['int']}")
+        refuse(~s.str.fullmatch(r"-?[0-9]{1,20}"), lambda i: f"{c} is {_short(s.iloc[i])}, not an integer")
         try:
             return s.astype(np.int64)
         except OverflowError:  # the layout seeds are unsigned 64-bit
@@ -291,7 +288,7 @@ def _column(path: Path, lines: list[int], s: Any, c: str, kind: str) -> Any:
                 raise  # not reached: one of the two refusals holds
     if kind == "float":
         values = pd.to_numeric(s, errors="coerce").astype(float)
-        refuse(~np.isfinite(values), lambda i: f"{c} is {_short(s.iloc[i])}, not {_KIND['float']}")
+        refuse(~np.isfinite(values), lambda i: f"{c} is {_short(s.iloc[i])}, not a finite number")
         return values
     if kind == "bool":
         refuse(~s.isin(["True", "False"]), lambda i: f"{c} is {_short(s.iloc[i])}, not True or False")
