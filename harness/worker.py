@@ -285,10 +285,9 @@ def run_job(job: WorkerJob, emit) -> None:
     emit("process", _peak_row(job, "start", cpu, pad, len(dummies)))
 
     isa = {k: kernel_isa(k) for k in {key[4] for key in job.keys}}
-    kernels_of: dict[str, list[str]] = {}
+    kernels_of: dict[str, dict[str, None]] = {}  # per workload, its kernels in the order they first come
     for _, wid, _, _, kernel in job.keys:
-        if kernel not in kernels_of.setdefault(wid, []):
-            kernels_of[wid].append(kernel)
+        kernels_of.setdefault(wid, {})[kernel] = None
     prepared: dict[tuple[str, str], tuple[ext.Job | BvhJob, int, Checksum]] = {}
     meter = _Meter()
     for process, wid, rnd, position, kernel in job.keys:
