@@ -447,20 +447,16 @@ def _execute(
             }
             for p, keys in by_process.items():
                 _run_process(run, p, attempts.get(p, 0), keys, worker, keep)
-    except KeyboardInterrupt:
-        raise SweepInterrupted(
-            f"interrupted: {done_before + ran} of {total} batches saved in {run_dir}; "
-            f"finish with: tribench sweep --resume {run_dir}"
-        ) from None
-    except SweepError as exc:  # a worker died: what is kept, and how to go on once its cause is fixed
-        raise SweepError(
-            f"{exc}; {done_before + ran} of {total} batches saved in {run_dir}; once the cause is fixed, "
-            f"finish with: tribench sweep --resume {run_dir}"
-        ) from None
-    except OSError as exc:  # a full disk, mostly; the writers left whole lines only
+    except (KeyboardInterrupt, SweepError, OSError) as exc:  # what is kept, and how to go on
+        saved = f"{done_before + ran} of {total} batches saved in {run_dir}"
+        finish = f"finish with: tribench sweep --resume {run_dir}"
+        if isinstance(exc, KeyboardInterrupt):
+            raise SweepInterrupted(f"interrupted: {saved}; {finish}") from None
+        if isinstance(exc, SweepError):  # a worker died: go on once its cause is fixed
+            raise SweepError(f"{exc}; {saved}; once the cause is fixed, {finish}") from None
+        # a full disk, mostly; the writers left whole lines only
         raise UserError(
-            f"cannot write {exc.filename or run_dir}: {exc.strerror or exc}; {done_before + ran} of {total} "
-            f"batches saved in {run_dir}; make room, then finish with: tribench sweep --resume {run_dir}"
+            f"cannot write {exc.filename or run_dir}: {exc.strerror or exc}; {saved}; make room, then {finish}"
         ) from None
     return RunResult(run_dir, total, done_before + ran, ran, time.monotonic() - t0)
 
