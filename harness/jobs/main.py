@@ -92,7 +92,13 @@ def _complete(
     if peers:
         _run_peers(out, quick=quick, progress=progress, log=log)
     note = measure_robustness(out, quick=quick)  # quick: the suite at its quick sizes
-    _robustness(out, note, log)
+    path = out / runfolder.VALIDATE  # a line on what the suite found, or why it could not run
+    val = pd.read_csv(path) if path.is_file() else None
+    if val is None or val.empty:
+        _say(log, f"validate: {note}")
+    else:
+        broken, checked = int((val.verdict == "fail").sum()), int((val.verdict != "measured").sum())
+        _say(log, f"validate: {broken} of {checked} promises broken -> {path}")
     return note
 
 
@@ -113,17 +119,6 @@ def _announce(sweep, out: str | Path) -> str:
         f"x {sweep.rounds} rounds, each kernel stopped once its speedup is known within "
         f"±{100 * design.target:g}%; {then}"
     )
-
-
-def _robustness(out: Path, note: str, log: TextIO | None) -> None:
-    """A line on what the robustness suite found (or why it could not run)."""
-    path = out / runfolder.VALIDATE
-    val = pd.read_csv(path) if path.is_file() else None
-    if val is None or val.empty:
-        _say(log, f"validate: {note}")
-    else:
-        broken, checked = int((val.verdict == "fail").sum()), int((val.verdict != "measured").sum())
-        _say(log, f"validate: {broken} of {checked} promises broken -> {path}")
 
 
 def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO | None = None) -> None:
