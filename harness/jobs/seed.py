@@ -266,11 +266,10 @@ TABLES_S = 10.0
 
 def _expected(sweep: Any, info: Mapping[str, Mapping[str, Any]], size: int) -> str:
     """The line said before the sweep: its forecast (:mod:`..duration`), then the pictures'."""
-    from .. import duration
-    from ..duration import format_duration
+    from ..duration import format_duration, measure_passes, model
 
-    tests, pass_s, _ = duration.measure_passes(sweep)  # the seed's workloads are brute force
-    sweep_estimate = duration.model(sweep, tests, pass_s)
+    tests, pass_s, _ = measure_passes(sweep)  # the seed's workloads are brute force
+    sweep_estimate = model(sweep, tests, pass_s)
     after = TABLES_S
     for wid in sweep.workload_ids:  # one pass over the sample, scaled to the render as render_per_process does
         render = info[wid]["stream_tests"] / info[wid]["sample_tests"]
