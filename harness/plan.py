@@ -232,9 +232,8 @@ class Sweep:
         from .. import ext
 
         files = self.kernel_files
-        if isinstance(files, (str, bytes, Mapping)) or not isinstance(files, Sequence):
-            raise UserError(f"kernel_files must be a list of paths, got {files!r:.80}")
-        if not all(isinstance(f, (str, os.PathLike)) for f in files):
+        listed = not isinstance(files, (str, bytes, Mapping)) and isinstance(files, Sequence)
+        if not listed or not all(isinstance(f, (str, os.PathLike)) for f in files):
             raise UserError(f"kernel_files must be a list of paths, got {files!r:.80}")
         object.__setattr__(self, "kernel_files", tuple(str(Path(f).expanduser().resolve()) for f in files))
         for f in self.kernel_files:

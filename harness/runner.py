@@ -180,6 +180,22 @@ class Progress:
             self.stream.flush()
 
 
+@contextmanager
+def progress_ticks(
+    progress: bool | None, total: int, done: int = 0, unit: str = "batches", label: str = "sweep"
+) -> Iterator[Callable[[], None]]:
+    """:meth:`Progress.advance` of a bar shown for the body and closed after it (``progress`` True: forced,
+    None: as :class:`Progress` decides, False: none, and a callable that does nothing)."""
+    if progress is False:
+        yield lambda: None
+        return
+    bar = Progress(total, done, force=bool(progress), unit=unit, label=label)
+    try:
+        yield bar.advance
+    finally:
+        bar.close()
+
+
 def _clock(seconds: float) -> str:
     s = int(round(seconds))
     return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
@@ -234,6 +250,8 @@ def start(
     when ``run_dir`` is not empty, is locked, or cannot be written."""
     from .machine import machine_record
     from .margin import latest_margin
+    from .peak import throughput_record
+    from .worker import kernel_isa
 
     run_dir = Path(run_dir)
     runfolder.check_new_run_dir(run_dir)
@@ -252,55 +270,37 @@ def start(
         raise UserError(f"cannot create the run folder {run_dir}: {exc.strerror or exc}") from None
     with runfolder.writer_lock(run_dir):
         runfolder.check_new_run_dir(run_dir)  # again, under the lock: another start may have been faster
-        return _start_locked(
-            sweep, run_dir, margin, machine, keys, cpu, progress, worker, {"builds": builds, **(extra or {})}
-        )
-
-
-def _start_locked(
-    sweep: Sweep,
-    run_dir: Path,
-    margin: Any,
-    machine: dict[str, Any],
-    keys: list[BatchKey],
-    cpu: int | None,
-    progress: bool | None,
-    worker: Sequence[str],
-    extra: dict[str, Any] | None,
-) -> RunResult:
-    from .peak import throughput_record
-    from .worker import kernel_isa
-
-    record = {
-        "run_id": _dt.datetime.now().strftime("%Y%m%dT%H%M%S-") + secrets.token_hex(3),
-        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-        "sweep": sweep.to_dict(),
-        "n_batches": len(keys),
-        "plan_sha256": _plan_digest(keys),
-        "process_seeds": [process_seed(sweep.rng_seed, p) for p in range(sweep.processes)],
-        "cpu": default_cpu() if cpu is None else cpu,
-        "isa": {k: kernel_isa(k) for k in sweep.kernels},
-        "margin": {"value": margin.value, "source": margin.source},
-        "machine": machine,
-        "throughput": throughput_record(),
-        "python_executable": sys.executable,
-        "batch_columns": list(BATCH_COLUMNS),
-        "process_columns": list(PROCESS_COLUMNS),
-        **(extra or {}),
-    }
-    runfolder.write_run(run_dir, record)
-    run = runfolder.Run.from_record(record, run_dir, sweep)
-    for spec in sweep.workloads:  # a run folder carries the mesh and ray files it used (those that fit)
-        if isinstance(spec, MeshSpec) and spec.mesh_sha256 is not None:
-            mesh_files.copy_into_run(run_dir, spec.mesh, spec.mesh_sha256)
-        if isinstance(spec, MeshSpec) and spec.rays_sha256 is not None:
-            mesh_files.copy_into_run(run_dir, spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
-    texts = {f.path: f.text for f in ext.loaded_kernel_files()}
-    for f in record["sweep"].get("kernel_files", ()):  # the C its kernels were compiled from, headers and all
-        mesh_files.copy_into_run(run_dir, texts[f["path"]], f["sha256"], mesh_files.KERNELS_FOLDER)
-    if sweep.sequential is not None:
-        return _execute_stages(run, keys, progress, worker)
-    return _execute(run, keys, 0, progress, worker)
+        record = {
+            "run_id": _dt.datetime.now().strftime("%Y%m%dT%H%M%S-") + secrets.token_hex(3),
+            "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+            "sweep": sweep.to_dict(),
+            "n_batches": len(keys),
+            "plan_sha256": _plan_digest(keys),
+            "process_seeds": [process_seed(sweep.rng_seed, p) for p in range(sweep.processes)],
+            "cpu": default_cpu() if cpu is None else cpu,
+            "isa": {k: kernel_isa(k) for k in sweep.kernels},
+            "margin": {"value": margin.value, "source": margin.source},
+            "machine": machine,
+            "throughput": throughput_record(),
+            "python_executable": sys.executable,
+            "batch_columns": list(BATCH_COLUMNS),
+            "process_columns": list(PROCESS_COLUMNS),
+            "builds": builds,
+            **(extra or {}),
+        }
+        runfolder.write_run(run_dir, record)
+        run = runfolder.Run.from_record(record, run_dir, sweep)
+        for spec in sweep.workloads:  # a run folder carries the mesh and ray files it used (those that fit)
+            if isinstance(spec, MeshSpec) and spec.mesh_sha256 is not None:
+                mesh_files.copy_into_run(run_dir, spec.mesh, spec.mesh_sha256)
+            if isinstance(spec, MeshSpec) and spec.rays_sha256 is not None:
+                mesh_files.copy_into_run(run_dir, spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
+        texts = {f.path: f.text for f in ext.loaded_kernel_files()}
+        for f in record["sweep"].get("kernel_files", ()):  # the C its kernels were compiled from, headers and all
+            mesh_files.copy_into_run(run_dir, texts[f["path"]], f["sha256"], mesh_files.KERNELS_FOLDER)
+        if sweep.sequential is not None:
+            return _execute_stages(run, keys, progress, worker)
+        return _execute(run, keys, 0, progress, worker)
 
 
 def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequence[str] = WORKER) -> RunResult:
@@ -423,10 +423,10 @@ def _execute(
     for k in todo:
         by_process.setdefault(k.process, []).append(k)
     attempts = _attempts(run)
-    bar = Progress(total, done_before, force=bool(progress)) if progress is not False else None
     ran = 0
     try:
         with (
+            progress_ticks(progress, total, done_before) as advance,
             RowWriter(run_dir / runfolder.BATCHES, BATCH_COLUMNS) as batches,
             RowWriter(run_dir / runfolder.PROCESSES, PROCESS_COLUMNS) as processes,
             RowWriter(run_dir / runfolder.CHECKS, CHECK_COLUMNS) as checks,
@@ -437,39 +437,27 @@ def _execute(
                 nonlocal ran
                 batches.append(row)
                 ran += 1
-                if bar:
-                    bar.advance()
+                advance()
 
+            keep: dict[str, Callable[[Any], None]] = {
+                "batch": on_batch,
+                "process": processes.append,
+                "check": checks.append,
+                "traversal": traversals.append,
+            }
             for p, keys in by_process.items():
-                _run_process(
-                    run,
-                    p,
-                    attempts.get(p, 0),
-                    keys,
-                    worker,
-                    on_batch,
-                    processes.append,
-                    checks.append,
-                    traversals.append,
-                )
-    except KeyboardInterrupt:
-        raise SweepInterrupted(
-            f"interrupted: {done_before + ran} of {total} batches saved in {run_dir}; "
-            f"finish with: tribench sweep --resume {run_dir}"
-        ) from None
-    except SweepError as exc:  # a worker died: what is kept, and how to go on once its cause is fixed
-        raise SweepError(
-            f"{exc}; {done_before + ran} of {total} batches saved in {run_dir}; once the cause is fixed, "
-            f"finish with: tribench sweep --resume {run_dir}"
-        ) from None
-    except OSError as exc:  # a full disk, mostly; the writers left whole lines only
+                _run_process(run, p, attempts.get(p, 0), keys, worker, keep)
+    except (KeyboardInterrupt, SweepError, OSError) as exc:  # what is kept, and how to go on
+        saved = f"{done_before + ran} of {total} batches saved in {run_dir}"
+        finish = f"finish with: tribench sweep --resume {run_dir}"
+        if isinstance(exc, KeyboardInterrupt):
+            raise SweepInterrupted(f"interrupted: {saved}; {finish}") from None
+        if isinstance(exc, SweepError):  # a worker died: go on once its cause is fixed
+            raise SweepError(f"{exc}; {saved}; once the cause is fixed, {finish}") from None
+        # a full disk, mostly; the writers left whole lines only
         raise UserError(
-            f"cannot write {exc.filename or run_dir}: {exc.strerror or exc}; {done_before + ran} of {total} "
-            f"batches saved in {run_dir}; make room, then finish with: tribench sweep --resume {run_dir}"
+            f"cannot write {exc.filename or run_dir}: {exc.strerror or exc}; {saved}; make room, then {finish}"
         ) from None
-    finally:
-        if bar:
-            bar.close()
     return RunResult(run_dir, total, done_before + ran, ran, time.monotonic() - t0)
 
 
@@ -479,12 +467,10 @@ def _run_process(
     attempt: int,
     keys: Sequence[BatchKey],
     worker: Sequence[str],
-    on_batch: Callable[[BatchRow], None],
-    on_process: Callable[[ProcessRow], None],
-    on_check: Callable[[CheckRow], None],
-    on_traversal: Callable[[TraversalRow], None],
+    keep: Mapping[str, Callable[[Any], None]],
 ) -> None:
-    """One worker process: send its job, keep its rows, raise on its error."""
+    """One worker process: send its job, keep each row (``keep[type]``: batch, process, check, traversal), raise
+    on its error."""
     from .layout import padded_env
     from .worker import WorkerJob
 
@@ -511,19 +497,19 @@ def _run_process(
         if _key(row) not in expected:
             raise SweepError(f"worker of process {process} sent an unplanned batch {_key(row)}")
         expected.discard(_key(row))
-        on_batch(row)
+        keep["batch"](row)
 
     def on_traversal_line(message: dict[str, Any]) -> None:
         trav = TraversalRow(**message)
         if _key(trav) not in planned:
             raise SweepError(f"worker of process {process} sent an unplanned traversal {_key(trav)}")
-        on_traversal(trav)
+        keep["traversal"](trav)
 
     handlers = {
         "batch": on_batch_line,
         "traversal": on_traversal_line,
-        "process": lambda m: on_process(ProcessRow(**m)),
-        "check": lambda m: on_check(CheckRow(**m)),
+        "process": lambda m: keep["process"](ProcessRow(**m)),
+        "check": lambda m: keep["check"](CheckRow(**m)),
     }
     try:
         run_worker(worker, job.to_json(), env, handlers, f"worker of process {process}")

@@ -58,10 +58,6 @@ def keys_of(sweep: Sweep, stage: StageRecord, keys: Sequence[BatchKey] | None = 
     ]
 
 
-def _comparisons(sweep: Sweep) -> dict[str, list[str]]:
-    return {wid: list(sweep.kernels_for(spec)) for wid, spec in zip(sweep.workload_ids, sweep.workloads, strict=True)}
-
-
 def _block_seconds(batches: pd.DataFrame, processes: range) -> dict[str, float]:
     """Per workload, the wall seconds one kernel of it cost a process of the last stage (its block
     over its kernels, the mean over processes; a process's first block counted from its first batch)."""
@@ -94,7 +90,7 @@ def decide(
     first = 0 if not done else done[-1]["last_process"] + 1
     if first >= sweep.processes:
         return None, f"all {sweep.processes} processes ran"
-    candidates = _comparisons(sweep)
+    candidates = {w: list(sweep.kernels_for(s)) for w, s in zip(sweep.workload_ids, sweep.workloads, strict=True)}
     references = {wid: sweep.reference_of(sweep.spec_of(wid), BASELINE) for wid in sweep.workload_ids}
     if done:
         batches = runfolder.read_batches(run_dir)

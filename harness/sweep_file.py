@@ -9,6 +9,7 @@ import itertools
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -40,19 +41,8 @@ def expand_workloads(table: Mapping[str, Any]) -> list[Spec]:
     ]
 
 
-_TOP_LEVEL = (
-    "kernels",
-    "workloads",
-    "processes",
-    "rounds",
-    "warmup",
-    "target_ms",
-    "rng_seed",
-    "kernel_files",
-    "builds",
-    "workload_kernels",
-    "sequential",
-)
+#: The keys a sweep file may have: the arguments of :class:`~tribench.harness.plan.Sweep`.
+_TOP_LEVEL = frozenset(f.name for f in fields(Sweep) if f.init)
 
 
 def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Sweep:
@@ -69,7 +59,7 @@ def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None
     except RecursionError:
         raise UserError(f"{path}: not a sweep file (values nested too deeply to read)") from None
     data = renamed(data, f"{path}: ")  # a sweep file before #52 (a run folder's sweep.toml) spells it "seed"
-    unknown = sorted(set(data) - set(_TOP_LEVEL))
+    unknown = sorted(set(data) - _TOP_LEVEL)
     if unknown:
         raise UserError(f"{path}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(sorted(_TOP_LEVEL))}")
     files = data.get("kernel_files", [])

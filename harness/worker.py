@@ -142,31 +142,6 @@ def calibrate_loops(job: ext.Job | BvhJob, target_ns: float) -> int:
 # ------------------------------------------------------------------ layout
 
 
-class _StealClock:
-    """The machine's steal time so far, in clock ticks (-1 where unreadable); ``/proc/stat`` stays open and is
-    re-read with ``pread``, a quarter of the cost of opening it anew, once per batch."""
-
-    def __init__(self) -> None:
-        try:
-            self._fd = os.open("/proc/stat", os.O_RDONLY)
-        except OSError:
-            self._fd = -1
-
-    def ticks(self) -> int:
-        if self._fd < 0:
-            return -1
-        try:
-            fields = os.pread(self._fd, 256, 0).split(b"\n", 1)[0].split()
-            return int(fields[8]) if fields[0] == b"cpu" and len(fields) > 8 else -1
-        except (OSError, ValueError, IndexError):
-            return -1
-
-    def close(self) -> None:
-        if self._fd >= 0:
-            os.close(self._fd)
-            self._fd = -1
-
-
 def _peak_row(job: WorkerJob, phase: str, cpu: int, pad: int, dummies: int) -> ProcessRow:
     p = ext.fma_peak(PEAK_ITERATIONS)
     return ProcessRow(
@@ -192,13 +167,26 @@ def _peak_row(job: WorkerJob, phase: str, cpu: int, pad: int, dummies: int) -> P
 
 class _Meter:
     """What happened around one timed batch: its start, the involuntary context switches during it, and the
-    machine's steal time since the previous batch ended (one reading per batch; -1 where unreadable)."""
+    machine's steal time since the previous batch ended (one reading per batch; -1 where unreadable), in clock
+    ticks from ``/proc/stat``, which stays open and is re-read with ``pread``, a quarter of the cost of opening it."""
 
     def __init__(self) -> None:
-        self._clock = _StealClock()
+        try:
+            self._fd = os.open("/proc/stat", os.O_RDONLY)
+        except OSError:
+            self._fd = -1
         self._steal_before: int | None = None
         self._switches_before = 0
         self.start_ns = 0
+
+    def _ticks(self) -> int:
+        if self._fd < 0:
+            return -1
+        try:
+            fields = os.pread(self._fd, 256, 0).split(b"\n", 1)[0].split()
+            return int(fields[8]) if fields[0] == b"cpu" and len(fields) > 8 else -1
+        except (OSError, ValueError, IndexError):
+            return -1
 
     def forget(self) -> None:
         """What ran since the last batch (a check, a calibration, a null trace) is not the next batch's steal."""
@@ -207,19 +195,21 @@ class _Meter:
     def start(self) -> None:
         self._switches_before = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
         if self._steal_before is None:
-            self._steal_before = self._clock.ticks()
+            self._steal_before = self._ticks()
         self.start_ns = time.monotonic_ns()
 
     def stop(self) -> tuple[int, int]:
         """(switches, steal ticks) of the batch since :meth:`start` (ticks are 10 ms; the bookkeeping
         between batches takes ~0.05 ms, so the steal since the previous batch ended is this one's)."""
         switches = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - self._switches_before
-        after, before = self._clock.ticks(), self._steal_before
+        after, before = self._ticks(), self._steal_before
         self._steal_before = after
         return switches, (after - before if before is not None and before >= 0 and after >= 0 else -1)
 
     def close(self) -> None:
-        self._clock.close()
+        if self._fd >= 0:
+            os.close(self._fd)
+            self._fd = -1
 
 
 def _timed(kjob: ext.Job | BvhJob, loops: int, rng: np.random.Generator, meter: _Meter):
@@ -295,10 +285,9 @@ def run_job(job: WorkerJob, emit) -> None:
     emit("process", _peak_row(job, "start", cpu, pad, len(dummies)))
 
     isa = {k: kernel_isa(k) for k in {key[4] for key in job.keys}}
-    kernels_of: dict[str, list[str]] = {}
+    kernels_of: dict[str, dict[str, None]] = {}  # per workload, its kernels in the order they first come
     for _, wid, _, _, kernel in job.keys:
-        if kernel not in kernels_of.setdefault(wid, []):
-            kernels_of[wid].append(kernel)
+        kernels_of.setdefault(wid, {})[kernel] = None
     prepared: dict[tuple[str, str], tuple[ext.Job | BvhJob, int, Checksum]] = {}
     meter = _Meter()
     for process, wid, rnd, position, kernel in job.keys:

@@ -92,7 +92,13 @@ def _complete(
     if peers:
         _run_peers(out, quick=quick, progress=progress, log=log)
     note = measure_robustness(out, quick=quick)  # quick: the suite at its quick sizes
-    _robustness(out, note, log)
+    path = out / runfolder.VALIDATE  # a line on what the suite found, or why it could not run
+    val = pd.read_csv(path) if path.is_file() else None
+    if val is None or val.empty:
+        _say(log, f"validate: {note}")
+    else:
+        broken, checked = int((val.verdict == "fail").sum()), int((val.verdict != "measured").sum())
+        _say(log, f"validate: {broken} of {checked} promises broken -> {path}")
     return note
 
 
@@ -105,28 +111,14 @@ def _announce(sweep, out: str | Path) -> str:
     if sweep.sequential is None:
         return f"{head}{duration.estimate(sweep).line('for the sweep')}, {then}"
     design = sweep.sequential
+    # the budget exactly below a minute and a half (15 s), else in format_duration's words
+    budget = f"{design.budget_s:.0f} s" if design.budget_s < 90 else format_duration(design.budget_s)
     return (
-        f"{head}expected for the sweep: about {_seconds(design.budget_s)} at most: "
+        f"{head}expected for the sweep: about {budget} at most: "
         f"stages of {design.stage} processes "
         f"x {sweep.rounds} rounds, each kernel stopped once its speedup is known within "
         f"±{100 * design.target:g}%; {then}"
     )
-
-
-def _robustness(out: Path, note: str, log: TextIO | None) -> None:
-    """A line on what the robustness suite found (or why it could not run)."""
-    path = out / runfolder.VALIDATE
-    val = pd.read_csv(path) if path.is_file() else None
-    if val is None or val.empty:
-        _say(log, f"validate: {note}")
-    else:
-        broken, checked = int((val.verdict == "fail").sum()), int((val.verdict != "measured").sum())
-        _say(log, f"validate: {broken} of {checked} promises broken -> {path}")
-
-
-def _seconds(seconds: float) -> str:
-    """A budget as said: ``15 s`` exactly below a minute and a half, else in :func:`format_duration`'s words."""
-    return f"{seconds:.0f} s" if seconds < 90 else format_duration(seconds)
 
 
 def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO | None = None) -> None:

@@ -225,14 +225,13 @@ def measure(
     tribench's rows are still measured, with a Notice), and ``kernel`` must be one of ``ext.bvh_kernel_names()``."""
     import pandas as pd
 
+    from ... import ext
+    from ...ext import embree
     from ...workloads import cache
     from ..runfolder import write_csv
-    from ..runner import Progress, default_cpu
+    from ..runner import default_cpu, progress_ticks
 
     bvh = design.accel == "bvh"
-    from ... import ext
-    from ...ext.embree import INSTALL as EMBREE_INSTALL
-
     if bvh and kernel is not None and kernel not in ext.bvh_kernel_names():  # a user's choice may cull
         raise UserError(
             f"kernel {kernel!r} cannot be a BVH's leaf test; these can: {', '.join(ext.bvh_kernel_names())}"
@@ -240,10 +239,8 @@ def measure(
     found = available()
     peers = [p for p, v in found.items() if v is not None and (p != "trimesh" or not bvh)]
     if not peers and not bvh:
-        raise RuntimeError(f"no peer is installed ({INSTALL}: embreex and rtree; native Embree: {EMBREE_INSTALL})")
+        raise RuntimeError(f"no peer is installed ({INSTALL}: embreex and rtree; native Embree: {embree.INSTALL})")
     if found["embree"] is None:
-        from ...ext import embree
-
         alone = ": tribench's BVH is timed alone" if bvh and not peers else ""
         why = embree.missing() or f"native Embree is not available; {embree.INSTALL}"
         warnings.warn(f"{why}{alone}", Notice, stacklevel=2)
@@ -254,14 +251,9 @@ def measure(
     cpu = default_cpu() if cpu is None else cpu
     # one BLAS thread, set before the worker imports NumPy (see the module's docstring)
     blas = {**os.environ, **{v: "1" for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}}
-    bar = (
-        Progress(design.processes, 0, force=bool(progress), unit="processes", label="peers")
-        if progress is not False
-        else None
-    )
     rows: list[dict[str, Any]] = []
     frame = pd.DataFrame(rows, columns=list(COLUMNS))
-    try:
+    with progress_ticks(progress, design.processes, unit="processes", label="peers") as advance:
         for process in range(design.processes):
             job = {
                 "design": asdict(design),
@@ -283,11 +275,7 @@ def measure(
                 raise RuntimeError(f"{name}: {exc}" if exc.said else str(exc)) from None
             frame = pd.DataFrame(rows, columns=list(COLUMNS))
             write_csv(frame, path)
-            if bar:
-                bar.advance()
-    finally:
-        if bar:
-            bar.close()
+            advance()
     return frame
 
 

@@ -24,6 +24,7 @@ import pandas as pd
 from ...common import UserError
 from .. import runfolder
 from ..plan import DEFAULT_BASELINE
+from ..runfolder.seed_files import MISS_STAGES as MISS_STAGES  # reports.seed's, as before
 
 __all__ = [
     "BASELINE",
@@ -78,8 +79,6 @@ STREAM_FIGURES = (
     "ambiguous_rays",
 )
 
-
-MISS_STAGES = ("parallel", "behind_origin", "outside_edge_1", "outside_edge_2", "outside_edge_3")
 
 SEED_CSV = runfolder.SEED
 KINDS_CSV = runfolder.SEED_KINDS
@@ -267,11 +266,10 @@ TABLES_S = 10.0
 
 def _expected(sweep: Any, info: Mapping[str, Mapping[str, Any]], size: int) -> str:
     """The line said before the sweep: its forecast (:mod:`..duration`), then the pictures'."""
-    from .. import duration
-    from ..duration import format_duration
+    from ..duration import format_duration, measure_passes, model
 
-    tests, pass_s, _ = duration.measure_passes(sweep)  # the seed's workloads are brute force
-    sweep_estimate = duration.model(sweep, tests, pass_s)
+    tests, pass_s, _ = measure_passes(sweep)  # the seed's workloads are brute force
+    sweep_estimate = model(sweep, tests, pass_s)
     after = TABLES_S
     for wid in sweep.workload_ids:  # one pass over the sample, scaled to the render as render_per_process does
         render = info[wid]["stream_tests"] / info[wid]["sample_tests"]
@@ -313,6 +311,3 @@ def make_pictures(scene: str, label: str, size: int, out: Path) -> dict[str, Any
         edge_tolerance=EDGE_TOLERANCE,
     )
     return row
-
-
-# ------------------------------------------------------------------ figures

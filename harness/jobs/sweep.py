@@ -33,7 +33,10 @@ def run_sweep(
     who brings a kernel wants it ranked), the folder claimed, each build checked, then the workers.
     ``say`` gets one line on what runs before the first batch (default: the expected duration)."""
     sweep = with_file_kernels(sweep, load_checked(sweep.kernel_files), say)
-    _refuse_idle_kernels(sweep)
+    idle = sweep.idle_kernels()
+    if idle:  # a kernel that runs none of the sweep's workloads would be dropped without a word: refused
+        why = "; ".join(_why_idle(k) for k in idle)
+        raise UserError(f"{', '.join(idle)} would run none of the sweep's workloads ({why}): drop or give them some")
     out = Path(out)
     runfolder.check_new_run_dir(out)  # before the estimate, which builds the workloads
     checks = check_builds(sweep)
@@ -41,14 +44,6 @@ def run_sweep(
     return runner.start(
         sweep, out, cpu=cpu, progress=progress, extra=dict(extra) if extra else None, build_checks=checks
     )
-
-
-def _refuse_idle_kernels(sweep: Sweep) -> None:
-    """A kernel that runs none of the sweep's workloads would be dropped without a word: refused."""
-    idle = sweep.idle_kernels()
-    if idle:
-        why = "; ".join(_why_idle(k) for k in idle)
-        raise UserError(f"{', '.join(idle)} would run none of the sweep's workloads ({why}): drop or give them some")
 
 
 def _why_idle(kernel: str) -> str:

@@ -15,62 +15,22 @@ import numpy as np
 from ... import ext
 from ...common import UserError
 from ...workloads.geometry import dot, triangle_normals
-from ...workloads.robustness import (
-    AIM_MARGIN,
-    DTYPES,
-    EMBREE_CENTRE,
-    EMBREE_MAX_MISS_RATE,
-    EMBREE_RADIUS,
-    FULL,
-    GRAZING_SLOPES,
-    KEEP_MARGIN,
-    MIN_COS,
-    NEEDLE_ASPECTS,
-    QUICK,
-    SCALES,
-    TESTS,
-    MeshRays,
-    PairRays,
-    RaySets,
-    Size,
-    build,
-    exactly_collinear,
-    grid_topology,
-    sphere_triangles,
-)
+from ...workloads.robustness import *  # noqa: F403
+from ...workloads.robustness import DTYPES, EMBREE_MAX_MISS_RATE, TESTS, MeshRays, PairRays, RaySets, build
+from ...workloads.robustness import __all__ as _cases
 from .. import runfolder
 
 __all__ = [
-    "AIM_MARGIN",
+    *_cases,
     "COLUMNS",
-    "DTYPES",
-    "EMBREE_CENTRE",
-    "EMBREE_MAX_MISS_RATE",
-    "EMBREE_RADIUS",
-    "FULL",
-    "GRAZING_SLOPES",
-    "KEEP_MARGIN",
-    "MIN_COS",
-    "NEEDLE_ASPECTS",
-    "QUICK",
-    "SCALES",
     "SHORT_NAMES",
-    "TESTS",
     "WATERTIGHT",
-    "MeshRays",
-    "PairRays",
-    "RaySets",
-    "Size",
-    "build",
     "culls",
-    "exactly_collinear",
     "format_rate",
     "format_table",
-    "grid_topology",
     "measure",
     "promise",
     "run",
-    "sphere_triangles",
     "table",
 ]
 
@@ -239,7 +199,7 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, rng_seed: int = 0, tes
     ``progress`` False for none. The frame's ``attrs`` record the RNG seed (``rng_seed``), size and seconds."""
     import pandas as pd
 
-    from ..runner import Progress
+    from ..runner import progress_ticks
 
     kernels = list(kernels or ext.kernel_names())
     for k in kernels:
@@ -250,20 +210,11 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, rng_seed: int = 0, tes
             raise UserError(f"{what} name {', '.join(twice)} more than once: give each once")
     start = time.perf_counter()
     sets = [build(dtype, quick, rng_seed, tests) for dtype in dtypes]
-    bar = (
-        Progress(len(kernels), 0, force=bool(progress), unit="kernels", label="validate")
-        if progress is not False
-        else None
-    )
     rows = []
-    try:
+    with progress_ticks(progress, len(kernels), unit="kernels", label="validate") as advance:
         for k in kernels:
             rows += [r for s in sets for r in measure(k, s)]
-            if bar:
-                bar.advance()
-    finally:
-        if bar:
-            bar.close()
+            advance()
     df = pd.DataFrame(rows, columns=list(COLUMNS))
     df.attrs.update(rng_seed=rng_seed, size="quick" if quick else "full", seconds=time.perf_counter() - start)
     return df

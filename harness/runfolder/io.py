@@ -191,9 +191,6 @@ def _short(value: str) -> str:
     return repr(value if len(value) <= 40 else value[:37] + "...")
 
 
-_KIND = {"int": "an integer", "float": "a finite number", "bool": "True or False", "str": "text"}
-
-
 #: A rule on parsed rows: a function of the frame giving a bad-row mask, and the message for one bad row.
 Rule = tuple[Callable[..., Any], Callable[..., str]]  # ...: the lambdas bind names as defaults
 
@@ -278,7 +275,7 @@ def _column(path: Path, lines: list[int], s: Any, c: str, kind: str) -> Any:
         _refuse(path, lines, bad, message)
 
     if kind == "int":
-        refuse(~s.str.fullmatch(r"-?[0-9]{1,20}"), lambda i: f"{c} is {_short(s.iloc[i])}, not {_KIND['int']}")
+        refuse(~s.str.fullmatch(r"-?[0-9]{1,20}"), lambda i: f"{c} is {_short(s.iloc[i])}, not an integer")
         try:
             return s.astype(np.int64)
         except OverflowError:  # the layout seeds are unsigned 64-bit
@@ -291,7 +288,7 @@ def _column(path: Path, lines: list[int], s: Any, c: str, kind: str) -> Any:
                 raise  # not reached: one of the two refusals holds
     if kind == "float":
         values = pd.to_numeric(s, errors="coerce").astype(float)
-        refuse(~np.isfinite(values), lambda i: f"{c} is {_short(s.iloc[i])}, not {_KIND['float']}")
+        refuse(~np.isfinite(values), lambda i: f"{c} is {_short(s.iloc[i])}, not a finite number")
         return values
     if kind == "bool":
         refuse(~s.isin(["True", "False"]), lambda i: f"{c} is {_short(s.iloc[i])}, not True or False")
@@ -309,17 +306,14 @@ def _not_negative(*names: str) -> list[Rule]:
 
 
 def _unique(names: Sequence[str], what: str) -> Rule:
-    def bad(f: Any) -> Any:
-        return f.duplicated(subset=list(names), keep="first")
-
-    def message(r: Any) -> str:
-        return f"{what} ({', '.join(f'{n} {r[n]}' for n in names)}) is written twice (two writers?)"
-
-    return bad, message
+    return (
+        lambda f: f.duplicated(subset=list(names), keep="first"),
+        lambda r: f"{what} ({', '.join(f'{n} {r[n]}' for n in names)}) is written twice (two writers?)",
+    )
 
 
-def _run_rules(run: Run | None, kernel: bool = True, workload: bool = True) -> list[Rule]:
-    """Rules that need ``run.json``: the run id, the process range, the sweep's kernels and workloads."""
+def _run_rules(run: Run | None, keyed: bool) -> list[Rule]:
+    """Rules that need ``run.json``: the run id, the process range and (``keyed``) the sweep's kernels and workloads."""
     if run is None:
         return []
     sweep = run.sweep
@@ -333,95 +327,100 @@ def _run_rules(run: Run | None, kernel: bool = True, workload: bool = True) -> l
             lambda r: f"process {r['process']} is not one of the run's {sweep.processes} (0 to {sweep.processes - 1})",
         ),
     ]
-    if kernel:
-        rules.append(
+    if keyed:
+        rules += [
             (
                 lambda f: ~f["kernel"].isin(sweep.kernels),
                 lambda r: f"unknown kernel {_short(r['kernel'])}: not in the run's sweep ({', '.join(sweep.kernels)})",
-            )
-        )
-    if workload:
-        rules.append(
+            ),
             (
                 lambda f: ~f["workload_id"].isin(sweep.workload_ids),
                 lambda r: f"unknown workload {_short(r['workload_id'])}: not in the run's sweep",
-            )
-        )
+            ),
+        ]
     return rules
 
 
-def _max_bytes(run: Run | None, rows_per_batch: int) -> int | None:
-    return None if run is None else MAX_ROW_BYTES * (rows_per_batch * run.n_batches + 1024)
+#: A warm-up batch is one of a negative round (batches.csv, traversals.csv).
+_WARMUP: Rule = (
+    lambda f: f["warmup"] != (f["round"] < 0),
+    lambda r: f"warmup is {r['warmup']} but round is {r['round']} (warm-up rounds are negative)",
+)
 
 
-def _run_or_none(run_dir: Path, run: Run | None) -> Run | None:
-    if run is not None:
-        return run
-    return read_run(run_dir) if (run_dir / RUN).exists() else None
+def _read(
+    run_dir: str | Path,
+    name: str,
+    cls: type,
+    run: Run | None,
+    rows_per_batch: int,
+    rules: list[Rule],
+    keyed: bool = True,
+    optional: bool = True,
+):
+    """``name`` of ``run_dir`` by :func:`_read_table`: :func:`_run_rules` (``run`` read from ``run.json``, if
+    there, when not given), ``rules`` and for batches the plan's; an ``optional`` file not there is an empty frame."""
+    import pandas as pd
+
+    run_dir = Path(run_dir)
+    path = run_dir / name
+    if optional and not os.path.lexists(path):
+        return pd.DataFrame(columns=[f.name for f in fields(cls)])
+    if run is None and (run_dir / RUN).exists():
+        run = read_run(run_dir)
+    max_bytes = None if run is None else MAX_ROW_BYTES * (rows_per_batch * run.n_batches + 1024)
+    plan_rules = _plan_rules(run) if cls is BatchRow and run is not None else []
+    return _read_table(path, cls, [*_run_rules(run, keyed), *rules, *plan_rules], max_bytes)
 
 
 def read_batches(run_dir: str | Path, run: Run | None = None):
     """``batches.csv`` of a run as a DataFrame, validated (a partial last line is ignored). With ``run``
     (read from ``run.json`` if there when not given) every row must carry its run id, a kernel and
     workload of its sweep and a key of its plan, at most once."""
-    run_dir = Path(run_dir)
-    path = run_dir / BATCHES
-    run = _run_or_none(run_dir, run)
     rules: list[Rule] = [
-        *_run_rules(run),
         *_positive("loops", "tests", "elapsed_ns"),
         *_not_negative("hits", "attempt", "position"),
-        (
-            lambda f: f["warmup"] != (f["round"] < 0),
-            lambda r: f"warmup is {r['warmup']} but round is {r['round']} (warm-up rounds are negative)",
-        ),
+        _WARMUP,
         (
             lambda f: ~f["dtype"].isin(["float32", "float64"]),
             lambda r: f"dtype {_short(r['dtype'])} is not float32 or float64",
         ),
         _unique(("process", "workload_id", "round", "position", "kernel"), "the batch"),
     ]
-    if run is not None:
-        from ..plan import plan
+    return _read(run_dir, BATCHES, BatchRow, run, 1, rules, optional=False)
 
-        sweep = run.sweep
-        planned = {(k.process, k.workload_id, k.round, k.position, k.kernel) for k in plan(sweep)}
 
-        def outside(f: Any) -> Any:
-            return [
-                key not in planned
-                for key in zip(f["process"], f["workload_id"], f["round"], f["position"], f["kernel"], strict=True)
-            ]
+def _plan_rules(run: Run) -> list[Rule]:
+    """Each batch is of its process's build and in the run's plan."""
+    from ..plan import plan
 
-        rules.append(
-            (
-                lambda f: [b != sweep.build_of(p) for p, b in zip(f["process"], f["build"], strict=True)],
-                lambda r: f"build {_short(r['build'])} is not process {r['process']}'s, {sweep.build_of(r['process'])}",
-            )
-        )
-        rules.append(
-            (
-                outside,
-                lambda r: (
-                    f"batch (process {r['process']}, round {r['round']}, position "
-                    f"{r['position']}, kernel {r['kernel']}) is not in the run's plan"
-                ),
-            )
-        )
-    return _read_table(path, BatchRow, rules, _max_bytes(run, 1))
+    sweep = run.sweep
+    planned = {(k.process, k.workload_id, k.round, k.position, k.kernel) for k in plan(sweep)}
+
+    def outside(f: Any) -> Any:
+        return [
+            key not in planned
+            for key in zip(f["process"], f["workload_id"], f["round"], f["position"], f["kernel"], strict=True)
+        ]
+
+    return [
+        (
+            lambda f: [b != sweep.build_of(p) for p, b in zip(f["process"], f["build"], strict=True)],
+            lambda r: f"build {_short(r['build'])} is not process {r['process']}'s, {sweep.build_of(r['process'])}",
+        ),
+        (
+            outside,
+            lambda r: (
+                f"batch (process {r['process']}, round {r['round']}, position "
+                f"{r['position']}, kernel {r['kernel']}) is not in the run's plan"
+            ),
+        ),
+    ]
 
 
 def read_checks(run_dir: str | Path, run: Run | None = None):
     """``checks.csv`` of a run, validated (empty frame if the run has none yet)."""
-    import pandas as pd
-
-    run_dir = Path(run_dir)
-    path = run_dir / CHECKS
-    if not os.path.lexists(path):
-        return pd.DataFrame(columns=list(CHECK_COLUMNS))
-    run = _run_or_none(run_dir, run)
     rules: list[Rule] = [
-        *_run_rules(run),
         *_positive("rays"),
         *_not_negative("attempt", "ambiguous_rays", "disagreements", "ambiguous_disagreements", "hits"),
         (
@@ -430,48 +429,29 @@ def read_checks(run_dir: str | Path, run: Run | None = None):
         ),
         _unique(("process", "attempt", "workload_id", "kernel"), "the check"),
     ]
-    return _read_table(path, CheckRow, rules, _max_bytes(run, 4))
+    return _read(run_dir, CHECKS, CheckRow, run, 4, rules)
 
 
 def read_processes(run_dir: str | Path, run: Run | None = None):
     """``processes.csv`` of a run, validated (empty frame if the run has none yet)."""
-    import pandas as pd
-
-    run_dir = Path(run_dir)
-    path = run_dir / PROCESSES
-    if not os.path.lexists(path):
-        return pd.DataFrame(columns=list(PROCESS_COLUMNS))
-    run = _run_or_none(run_dir, run)
     rules: list[Rule] = [
-        *_run_rules(run, kernel=False, workload=False),
         *_positive("pid", "peak_gflops", "peak_flops", "peak_elapsed_ns"),
         *_not_negative("attempt", "env_pad_bytes", "dummy_allocs"),
         (lambda f: ~f["phase"].isin(["start", "end"]), lambda r: f"phase {_short(r['phase'])} is not start or end"),
         _unique(("process", "attempt", "phase"), "the peak probe"),
     ]
-    return _read_table(path, ProcessRow, rules, _max_bytes(run, 4))
+    return _read(run_dir, PROCESSES, ProcessRow, run, 4, rules, keyed=False)
 
 
 def read_traversals(run_dir: str | Path, run: Run | None = None):
     """``traversals.csv`` of a run, validated (empty if the run has none)."""
-    import pandas as pd
-
-    run_dir = Path(run_dir)
-    path = run_dir / TRAVERSALS
-    if not os.path.lexists(path):
-        return pd.DataFrame(columns=list(TRAVERSAL_COLUMNS))
-    run = _run_or_none(run_dir, run)
     rules: list[Rule] = [
-        *_run_rules(run),
         *_positive("rays", "null_elapsed_ns"),
         *_not_negative("attempt", "position", "nodes", "box_tests", "leaves", "triangle_tests", "null_nodes"),
-        (
-            lambda f: f["warmup"] != (f["round"] < 0),
-            lambda r: f"warmup is {r['warmup']} but round is {r['round']} (warm-up rounds are negative)",
-        ),
+        _WARMUP,
         _unique(("process", "workload_id", "round", "position", "kernel"), "the traversal of the batch"),
     ]
-    return _read_table(path, TraversalRow, rules, _max_bytes(run, 1))
+    return _read(run_dir, TRAVERSALS, TraversalRow, run, 1, rules)
 
 
 # ------------------------------------------------------------ whole files

@@ -72,11 +72,7 @@ def writer_lock(run_dir: str | Path) -> Iterator[None]:
             raise UserError(f"cannot lock {path}: {exc.strerror} (a file system without locks?)") from None
         previous = _holder(fd)
         if previous:
-            print(
-                f"tribench: taking over the lock of dead process {previous.get('pid', '?')} on "
-                f"{previous.get('host', '?')} (since {previous.get('since', '?')}) in {run_dir}",
-                file=sys.stderr,
-            )
+            print(f"tribench: taking over the lock of dead {_describe(previous)} in {run_dir}", file=sys.stderr)
         me = {
             "pid": os.getpid(),
             "host": socket.gethostname(),

@@ -6,31 +6,7 @@ check a run's files against these lists exactly, so a change here is a deliberat
 
 from __future__ import annotations
 
-from .derived_columns import (
-    ALGORITHMS_COLUMNS,
-    BANDS_COLUMNS,
-    BATCH_LABELS_COLUMNS,
-    BUILDS_COLUMNS,
-    BVH_COLUMNS,
-    CORRECTNESS_COLUMNS,
-    CROSSOVERS_COLUMNS,
-    DRIFT_COLUMNS,
-    ESTIMATES_COLUMNS,
-    KERNELS_COLUMNS,
-    OUTLIERS_COLUMNS,
-    PEER_RATES_COLUMNS,
-    PEER_RATIOS_COLUMNS,
-    PER_PROCESS_COLUMNS,
-    RANKING_COLUMNS,
-    REPLICATION_COLUMNS,
-    SLOPES_COLUMNS,
-    SPEEDUPS_COLUMNS,
-    VALIDATE_COLUMNS,
-    VARIANCE_COLUMNS,
-    WARMUP_COLUMNS,
-    WORKLOAD_FIGURES_COLUMNS,
-    WORKLOADS_COLUMNS,
-)
+from . import derived_columns as _derived
 from .rows import BatchRow, CheckRow, PeerRow, ProcessRow, TraversalRow, column_docs
 from .seed_files import SEED, SEED_FILES, SEED_KINDS, SEED_PICTURES, SEED_WORKLOADS
 
@@ -155,48 +131,40 @@ FIGURES_DIR = "figures"
 SWEEP_FILE = "sweep.toml"
 
 
-# ---------------------------------------------------------------- measured
-
-# The measured files' columns are the fields of their row dataclasses (:mod:`.rows`).
-_BATCHES = column_docs(BatchRow)
-_PROCESSES = column_docs(ProcessRow)
-_CHECKS = column_docs(CheckRow)
-_TRAVERSALS = column_docs(TraversalRow)
-_PEERS = column_docs(PeerRow)
-
-# ----------------------------------------------------------------- derived
-# The derived tables' columns are in :mod:`.derived_columns`.
+# ---------------------------------------------------------------- columns
+# The measured files' columns are the fields of their row dataclasses (:mod:`.rows`),
+# the derived tables' are in :mod:`.derived_columns`.
 
 #: Every CSV of a run folder: file name -> {column: meaning}, columns in file order.
 FILES: dict[str, dict[str, str]] = {
-    BATCHES: _BATCHES,
-    PROCESSES: _PROCESSES,
-    CHECKS: _CHECKS,
-    TRAVERSALS: _TRAVERSALS,
-    ESTIMATES: ESTIMATES_COLUMNS,
-    SPEEDUPS: SPEEDUPS_COLUMNS,
-    VALIDATE: VALIDATE_COLUMNS,
-    PEERS: _PEERS,
-    WORKLOADS: WORKLOADS_COLUMNS,
-    WORKLOAD_FIGURES: WORKLOAD_FIGURES_COLUMNS,
-    CORRECTNESS: CORRECTNESS_COLUMNS,
-    PER_PROCESS: PER_PROCESS_COLUMNS,
-    BATCH_LABELS: BATCH_LABELS_COLUMNS,
-    CROSSOVERS: CROSSOVERS_COLUMNS,
-    SLOPES: SLOPES_COLUMNS,
-    DRIFT: DRIFT_COLUMNS,
-    VARIANCE: VARIANCE_COLUMNS,
-    OUTLIERS: OUTLIERS_COLUMNS,
-    WARMUP: WARMUP_COLUMNS,
-    KERNELS: KERNELS_COLUMNS,
-    RANKING: RANKING_COLUMNS,
-    ALGORITHMS: ALGORITHMS_COLUMNS,
-    BANDS: BANDS_COLUMNS,
-    BVH: BVH_COLUMNS,
-    PEER_RATES: PEER_RATES_COLUMNS,
-    PEER_RATIOS: PEER_RATIOS_COLUMNS,
-    BUILDS: BUILDS_COLUMNS,
-    REPLICATION: REPLICATION_COLUMNS,
+    BATCHES: column_docs(BatchRow),
+    PROCESSES: column_docs(ProcessRow),
+    CHECKS: column_docs(CheckRow),
+    TRAVERSALS: column_docs(TraversalRow),
+    ESTIMATES: _derived.ESTIMATES_COLUMNS,
+    SPEEDUPS: _derived.SPEEDUPS_COLUMNS,
+    VALIDATE: _derived.VALIDATE_COLUMNS,
+    PEERS: column_docs(PeerRow),
+    WORKLOADS: _derived.WORKLOADS_COLUMNS,
+    WORKLOAD_FIGURES: _derived.WORKLOAD_FIGURES_COLUMNS,
+    CORRECTNESS: _derived.CORRECTNESS_COLUMNS,
+    PER_PROCESS: _derived.PER_PROCESS_COLUMNS,
+    BATCH_LABELS: _derived.BATCH_LABELS_COLUMNS,
+    CROSSOVERS: _derived.CROSSOVERS_COLUMNS,
+    SLOPES: _derived.SLOPES_COLUMNS,
+    DRIFT: _derived.DRIFT_COLUMNS,
+    VARIANCE: _derived.VARIANCE_COLUMNS,
+    OUTLIERS: _derived.OUTLIERS_COLUMNS,
+    WARMUP: _derived.WARMUP_COLUMNS,
+    KERNELS: _derived.KERNELS_COLUMNS,
+    RANKING: _derived.RANKING_COLUMNS,
+    ALGORITHMS: _derived.ALGORITHMS_COLUMNS,
+    BANDS: _derived.BANDS_COLUMNS,
+    BVH: _derived.BVH_COLUMNS,
+    PEER_RATES: _derived.PEER_RATES_COLUMNS,
+    PEER_RATIOS: _derived.PEER_RATIOS_COLUMNS,
+    BUILDS: _derived.BUILDS_COLUMNS,
+    REPLICATION: _derived.REPLICATION_COLUMNS,
 }
 #: The derived tables made from the batches, one part per build: each starts with a ``build`` column,
 #: and a build's rows are made from its own processes alone (the processes take the builds in turn).

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from ._core import _exp, _scipy_stats
+from ._core import _check_confidence, _exp, _scipy_stats
 
 
 @dataclass(frozen=True)
@@ -44,26 +44,16 @@ def unpaired_ratio(log_a: npt.ArrayLike, log_b: npt.ArrayLike, confidence: float
         raise ValueError("both samples must be non-empty 1-D sequences")
     if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
         raise ValueError("log values must be finite")
-    if not 0 < confidence < 1:
-        raise ValueError(f"confidence must lie in (0, 1), got {confidence}")
+    _check_confidence(confidence)
     diff = float(b.mean() - a.mean())
+    ratio = _exp(diff)
     if a.size < 2 or b.size < 2:
-        return LogRatio(_exp(diff), math.nan, math.nan, math.nan, math.nan, math.nan, a.size, b.size, confidence)
+        return LogRatio(ratio, math.nan, math.nan, math.nan, math.nan, math.nan, a.size, b.size, confidence)
     va, vb = float(a.var(ddof=1)) / a.size, float(b.var(ddof=1)) / b.size
     se = math.sqrt(va + vb)
     if se == 0:
-        return LogRatio(
-            _exp(diff),
-            _exp(diff),
-            _exp(diff),
-            0.0,
-            math.inf,
-            0.0 if diff else 1.0,
-            a.size,
-            b.size,
-            confidence,
-        )
+        return LogRatio(ratio, ratio, ratio, 0.0, math.inf, 0.0 if diff else 1.0, a.size, b.size, confidence)
     df = (va + vb) ** 2 / (va**2 / (a.size - 1) + vb**2 / (b.size - 1))
     q = float(_scipy_stats().t.ppf(0.5 + confidence / 2, df))
     p = float(2 * _scipy_stats().t.sf(abs(diff) / se, df))
-    return LogRatio(_exp(diff), _exp(diff - q * se), _exp(diff + q * se), se, df, p, a.size, b.size, confidence)
+    return LogRatio(ratio, _exp(diff - q * se), _exp(diff + q * se), se, df, p, a.size, b.size, confidence)

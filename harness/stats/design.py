@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from ._core import _check_confidence, _require_columns, _scipy_stats, _t_quantile, _timed
+from ._core import _check_confidence, _finite, _require_columns, _scipy_stats, _t_quantile, _timed
 from .defaults import DEFAULTS
 
 
@@ -69,8 +69,7 @@ def variance_components(matrix: npt.ArrayLike) -> VarianceComponents:
     y = np.asarray(matrix, dtype=float)
     if y.ndim != 2 or y.shape[0] < 2 or y.shape[1] < 2:
         raise ValueError(f"need at least 2 processes x 2 rounds, got shape {y.shape}")
-    if not np.all(np.isfinite(y)):
-        raise ValueError("matrix must be finite")
+    _finite(y, "matrix", positive=False)
     n_processes, n_rounds = y.shape
     s1 = float(np.mean(np.var(y, axis=1, ddof=1)))
     s2 = float(np.var(y.mean(axis=1), ddof=1))
@@ -115,10 +114,9 @@ def suggest_design(
     if round_cost <= 0 or process_cost < 0 or target_rel_halfwidth <= 0:
         raise ValueError("costs must be positive (process_cost may be 0) and the target positive")
     t1, t2 = components.between_round, components.between_process
-    if rounds is not None:
-        if rounds < 1:
-            raise ValueError(f"rounds must be at least 1, got {rounds}")
-    else:
+    if rounds is not None and rounds < 1:
+        raise ValueError(f"rounds must be at least 1, got {rounds}")
+    if rounds is None:
         if t1 == 0:
             rounds = 1
         elif t2 == 0:

@@ -31,11 +31,8 @@ def holm(p_values: npt.ArrayLike) -> np.ndarray:
     m = q.size
     order = np.argsort(q, kind="stable")
     stepped = np.maximum.accumulate((m - np.arange(m)) * q[order])
-    adjusted_sorted = np.minimum(stepped, 1.0)
-    adjusted = np.empty(m)
-    adjusted[order] = adjusted_sorted
     out = np.full(p.shape, np.nan)
-    out[known] = adjusted
+    out[np.flatnonzero(known)[order]] = np.minimum(stepped, 1.0)
     return out
 
 

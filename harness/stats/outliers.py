@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -82,24 +81,15 @@ def _paired_rounds(timed: pd.DataFrame, kernel: str, baseline: str) -> tuple[pd.
     return rounds, timed.loc[timed["process"].isin(used)]
 
 
-class _Trends(NamedTuple):
-    """The trends :class:`Drift` starts with (its first five fields, in order)."""
-
-    baseline_slope: float
-    baseline_p: float
-    ratio_slope: float
-    ratio_p: float
-    ratio_change: float
-
-
-def _trends(rounds: pd.DataFrame, timed: pd.DataFrame, confidence: float) -> _Trends:
-    """Per-process Theil–Sen slopes of the log baseline time and of the log speedup, t-tested across processes."""
+def _trends(rounds: pd.DataFrame, timed: pd.DataFrame, confidence: float) -> tuple[float, float, float, float, float]:
+    """:class:`Drift`'s first five fields: per-process Theil–Sen slopes of the log baseline time and of the log
+    speedup, t-tested across processes, and the speedup's change over the median process."""
     base_slopes = _theil_sen_slopes(rounds, "process", "t_base", "log_base").to_numpy()
     ratio_slopes = _theil_sen_slopes(rounds, "process", "t_pair", "log_ratio").to_numpy()
     base_slope, _, _, base_p = _t_interval(base_slopes, confidence)
     ratio_slope, _, _, ratio_p = _t_interval(ratio_slopes, confidence)
     duration = float(timed.groupby("process")["t_s"].agg(lambda t: t.max() - t.min()).median())
-    return _Trends(base_slope, base_p, ratio_slope, ratio_p, ratio_slope * duration)
+    return base_slope, base_p, ratio_slope, ratio_p, ratio_slope * duration
 
 
 def _confound(timed: pd.DataFrame, kernel: str, baseline: str, confidence: float) -> tuple[float, float]:
@@ -110,17 +100,6 @@ def _confound(timed: pd.DataFrame, kernel: str, baseline: str, confidence: float
     gap = mean_time[baseline] - mean_time[kernel]
     bias, _, _, bias_p = _t_interval((rate * gap).to_numpy(), confidence)
     return bias, bias_p
-
-
-def _judged(trends: _Trends, bias: float, bias_p: float, n: int, confidence: float, threshold: float) -> Drift:
-    """The :class:`Drift`, flagged where the ratio trend or the confound is significant and above ``threshold``."""
-    alpha = 1 - confidence
-    reasons = []
-    if trends.ratio_p < alpha and abs(trends.ratio_change) > threshold:
-        reasons.append("ratio drift")
-    if bias_p < alpha and abs(bias) > threshold:
-        reasons.append("time confound")
-    return Drift(*trends, bias, bias_p, bool(reasons), ", ".join(reasons), n, confidence)
 
 
 def drift(
@@ -156,7 +135,15 @@ def drift(
     rounds, timed = _paired_rounds(timed, kernel, baseline)
     trends = _trends(rounds, timed, confidence)
     bias, bias_p = _confound(timed, kernel, baseline, confidence)
-    return _judged(trends, bias, bias_p, int(np.unique(rounds["process"]).size), confidence, threshold)
+    ratio_p, ratio_change = trends[3:]
+    alpha = 1 - confidence
+    reasons = []
+    if ratio_p < alpha and abs(ratio_change) > threshold:
+        reasons.append("ratio drift")
+    if bias_p < alpha and abs(bias) > threshold:
+        reasons.append("time confound")
+    n = int(np.unique(rounds["process"]).size)
+    return Drift(*trends, bias, bias_p, bool(reasons), ", ".join(reasons), n, confidence)
 
 
 def tukey_outliers(values: npt.ArrayLike, k: float = DEFAULTS.tukey_k) -> np.ndarray:
