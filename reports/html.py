@@ -145,7 +145,3 @@ def _build_shown(data: RunData) -> str:
         f"{'; '.join(data.builds)}); Across builds compares them.",
         "note",
     )
-
-
-# tests/test_peers.py renders the peers section alone under its old name.
-_peers = results.peers_section
