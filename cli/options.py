@@ -108,6 +108,11 @@ def add_rng_seed(
     parser.add_argument("--seed", dest="rng_seed", type=flags.rng_seed, default=default, help=argparse.SUPPRESS)
 
 
+def add_resume(parser: argparse.ArgumentParser, what: str, metavar: str = "RUN_DIR") -> None:
+    """--resume RUN_DIR: an existing folder whose interrupted ``what`` the command finishes."""
+    parser.add_argument("--resume", metavar=metavar, type=flags.existing_folder, help=f"finish {what}")
+
+
 def add_run_out(parser: argparse.ArgumentParser, default: str = "runs/<date-time>") -> None:
     """--out RUN_DIR of a command that creates a run folder (refused up front if it cannot be one)."""
     parser.add_argument("--out", metavar="RUN_DIR", type=_new_run_folder, help=f"new run folder (default {default})")

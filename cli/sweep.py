@@ -15,6 +15,7 @@ from .options import (
     add_design_flags,
     add_kernel_files,
     add_no_progress,
+    add_resume,
     add_run_out,
     default_run_dir,
     load_kernel_files,
@@ -44,12 +45,7 @@ def add_parser(sub) -> None:
         "processes.csv, run.json.",
     )
     add_run_out(p)
-    p.add_argument(
-        "--resume",
-        metavar="RUN_DIR",
-        type=flags.existing_folder,
-        help="finish the missing batches of an interrupted run",
-    )
+    add_resume(p, "the missing batches of an interrupted run")
     p.add_argument(
         "--file",
         metavar="SWEEP.toml",
