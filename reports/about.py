@@ -93,19 +93,17 @@ def machine_tables(run: Run) -> list[str]:
 
 def machine_section(data: RunData) -> str:
     """The CPU, caches, software, build, each kernel's instruction set, RNG seeds and plan."""
-    return "".join(
-        [
-            *machine_tables(data.run),
-            "<h3>RNG seeds and plan</h3>",
-            page.kv_table(
-                [
-                    ("sweep RNG seed", data.run.sweep.rng_seed),
-                    ("process seeds", list(data.run.process_seeds)),
-                    ("plan sha256", data.run.plan_sha256),
-                    ("batches planned / recorded", f"{data.run.n_batches} / {len(data.batches)}"),
-                ]
-            ),
-        ]
+    return (
+        "".join(machine_tables(data.run))
+        + "<h3>RNG seeds and plan</h3>"
+        + page.kv_table(
+            [
+                ("sweep RNG seed", data.run.sweep.rng_seed),
+                ("process seeds", list(data.run.process_seeds)),
+                ("plan sha256", data.run.plan_sha256),
+                ("batches planned / recorded", f"{data.run.n_batches} / {len(data.batches)}"),
+            ]
+        )
     )
 
 
