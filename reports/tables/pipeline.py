@@ -207,17 +207,8 @@ def _peak_columns(
         # a time interval reaching 0 or below (few, noisy processes) leaves the fraction unbounded above
         ci_low = scaled["ci_low"].to_numpy()
         high = np.where(ci_low > 0, bound_ref / np.where(ci_low > 0, ci_low, np.nan), np.inf)
-    return pd.DataFrame(
-        {
-            "peak_gflops": peaks["peak_gflops"],
-            "ops_per_test": ops,
-            "bound_ns_per_test": bound,
-            "peak_fraction": fraction,
-            "peak_fraction_ci_low": low,
-            "peak_fraction_ci_high": high,
-        },
-        index=peaks.index,
-    )
+    values = (peaks["peak_gflops"], ops, bound, fraction, low, high)
+    return pd.DataFrame(dict(zip(columns, values, strict=True)), index=peaks.index)
 
 
 def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
