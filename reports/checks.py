@@ -77,23 +77,17 @@ def calibration(data: RunData) -> str:
         return "".join(body)
     if not isinstance(cal, dict):
         if data.margin_source.startswith("calibration "):
-            body.append(
-                page.p(
-                    "That A/A calibration's record is not part of this run folder; its margin and "
-                    f"source are the ones {runfolder.RUN} recorded when the sweep started.",
-                    "note",
-                )
+            why = (
+                "That A/A calibration's record is not part of this run folder; its margin and "
+                f"source are the ones {runfolder.RUN} recorded when the sweep started."
             )
         else:
-            body.append(
-                page.p(
-                    "No A/A calibration stood behind this run: the verdicts rest on the default margin. "
-                    "`tribench calibrate` measures this machine's noise floor (a kernel against its "
-                    "identical copy) and later sweeps use it.",
-                    "note",
-                )
+            why = (
+                "No A/A calibration stood behind this run: the verdicts rest on the default margin. "
+                "`tribench calibrate` measures this machine's noise floor (a kernel against its "
+                "identical copy) and later sweeps use it."
             )
-        return "".join(body)
+        return "".join([*body, page.p(why, "note")])
     body.append(page.p(f"This run folder is an A/A calibration; its record ({runfolder.CALIBRATION}):", "note"))
     body.append(
         page.kv_table(
