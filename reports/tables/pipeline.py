@@ -129,6 +129,8 @@ def by_build(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
 
 
 def _estimate_one(m: Measured, baseline: str | None, margin: float | None) -> Analysis:
+    from ...workloads.kinds import spec_from_dict
+
     run, batches = m.run, m.batches
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
@@ -138,7 +140,7 @@ def _estimate_one(m: Measured, baseline: str | None, margin: float | None) -> An
         baseline = DEFAULT_BASELINE if DEFAULT_BASELINE in kernels else kernels[0]
     elif baseline not in kernels:
         raise UserError(f"baseline {baseline!r} is not in this run; its kernels: {', '.join(kernels)}")
-    names = {wid: _summary(spec) for wid, spec in m.specs.items()}
+    names = {wid: spec_from_dict(spec).summary() for wid, spec in m.specs.items()}
     table = stats.per_process(batches)
     # --margin, else the run's own A/A twin, else what run.json recorded (a calibration's or the default)
     mg = Margin(margin, "--margin") if margin is not None else twin_margin(table, baseline)
@@ -156,12 +158,6 @@ def _estimate_one(m: Measured, baseline: str | None, margin: float | None) -> An
     speedups["workload"] = speedups["workload_id"].map(names)
     speedups["margin_source"] = mg.source
     return Analysis(estimates, speedups, baseline, mg, len(batches), int(table["process"].nunique()), table)
-
-
-def _summary(spec: dict) -> str:
-    from ...workloads.kinds import spec_from_dict
-
-    return spec_from_dict(spec).summary()
 
 
 def _peak_columns(
