@@ -15,7 +15,6 @@ __all__ = [
     "add_design_flags",
     "add_no_progress",
     "add_run_out",
-    "default_run_dir",
     "DESIGN_FLAGS",
 ]
 
@@ -24,13 +23,6 @@ DTYPES = ("float32", "float64")
 
 #: The attributes add_design_flags sets on the parsed arguments.
 DESIGN_FLAGS = ("processes", "rounds", "warmup", "target_ms", "rng_seed")
-
-
-def default_run_dir(kind: str = "") -> str:
-    """The run folder a command writes when --out is not given: runs/[KIND-]<date-time>."""
-    from ..harness.runfolder import default_run_dir as default
-
-    return default(kind)
 
 
 def _new_run_folder(text: str) -> str:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..common import UserError
 from . import flags
-from .options import add_no_progress, add_resume, add_run_out, default_run_dir
+from .options import add_no_progress, add_resume, add_run_out
 
 __all__ = ["add_parser", "run"]
 
@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         with runner.resumed_with(out, f"tribench replicate {args.run_dir} --resume {out}"):
             result = runner.resume(out, progress=args.progress)
     else:
-        out = args.out or default_run_dir("replicate")
+        out = args.out or runfolder.default_run_dir("replicate")
         result = replicate.measure(
             args.run_dir, out, say=lambda line: print(line, file=sys.stderr), progress=args.progress
         )

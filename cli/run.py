@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..common import UserError
-from .options import add_builds, add_kernel_files, add_no_progress, add_resume, add_run_out, default_run_dir
+from .options import add_builds, add_kernel_files, add_no_progress, add_resume, add_run_out
 
 __all__ = ["add_parser", "run"]
 
@@ -35,6 +35,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..harness.jobs import main as main_job
+    from ..harness.runfolder import default_run_dir
     from ..reports import format_tables, load, tables, write_report
 
     if args.resume:

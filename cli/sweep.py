@@ -17,7 +17,6 @@ from .options import (
     add_no_progress,
     add_resume,
     add_run_out,
-    default_run_dir,
     load_kernel_files,
 )
 
@@ -110,7 +109,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..harness import runner
+    from ..harness import runfolder, runner
 
     if args.resume:
         if any(getattr(args, k) is not None for k in _NEW_SWEEP_FLAGS):
@@ -122,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
 
         load_kernel_files(args)  # first: --kernels may name their kernels
         sweep = _sweep_from_args(args)
-        out = args.out or default_run_dir()
+        out = args.out or runfolder.default_run_dir()
 
         def announce(sweep) -> str:
             return (
