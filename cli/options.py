@@ -60,7 +60,8 @@ def add_kernel_files(
     parser: argparse.ArgumentParser,
     what: str = "checked against the float64 reference, then known by the names it declares",
 ) -> None:
-    """--kernel-file FILE.c, repeatable: kernels of the user's own, loaded by :func:`load_kernel_files`."""
+    """--kernel-file FILE.c, repeatable: kernels of the user's own; a command that times them checks them first
+    (``load_checked``: exit 2, nothing timed, if one is refused)."""
     parser.add_argument(
         "--kernel-file",
         dest="kernel_files",
@@ -82,13 +83,6 @@ def add_builds(parser: argparse.ArgumentParser) -> None:
         "each is compiled once and checked against the reference, and the processes take them in turn "
         "(docs/builds.md)",
     )
-
-
-def load_kernel_files(args: argparse.Namespace) -> tuple[str, ...]:
-    """Compile, load and check the --kernel-file files (exit 2, nothing timed, if one is refused): their kernels."""
-    from ..harness.jobs.kernel_check import load_checked
-
-    return load_checked(args.kernel_files or ())
 
 
 def add_rng_seed(

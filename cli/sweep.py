@@ -17,7 +17,6 @@ from .options import (
     add_no_progress,
     add_resume,
     add_run_out,
-    load_kernel_files,
 )
 
 __all__ = ["add_parser", "run"]
@@ -117,9 +116,10 @@ def run(args: argparse.Namespace) -> int:
         result = runner.resume(args.resume, progress=args.progress)
     else:
         from ..harness import duration
+        from ..harness.jobs.kernel_check import load_checked
         from ..harness.jobs.sweep import run_sweep
 
-        load_kernel_files(args)  # first: --kernels may name their kernels
+        load_checked(args.kernel_files or ())  # first: --kernels may name their kernels
         sweep = _sweep_from_args(args)
         out = args.out or runfolder.default_run_dir()
 
