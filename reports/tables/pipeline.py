@@ -8,6 +8,7 @@ columns get their units here only (:data:`ESTIMATE_COLUMNS`, :data:`SPEEDUP_COLU
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import json
 from collections.abc import Mapping
@@ -246,13 +247,10 @@ def _workloads(run: runfolder.Run, wids: list[str]) -> tuple[dict[str, Any], dic
     found: dict[str, Any] = {}
     sources: dict[str, str] = {}
     for wid in wids:
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                found[wid], sources[wid] = cache.load(wid), "cache"
+        with contextlib.suppress(FileNotFoundError, ValueError), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            found[wid], sources[wid] = cache.load(wid), "cache"
             continue
-        except (FileNotFoundError, ValueError):
-            pass
         try:
             found[wid] = cache.make(run.sweep.spec_of(wid))
             sources[wid] = "not in the cache: rebuilt from the spec recorded in run.json (same bytes)"
