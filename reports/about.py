@@ -161,9 +161,7 @@ def reproduce_section(data: RunData, sweep_file: str) -> str:
     """How to run the sweep again and redraw the report, and what every file of the run folder holds."""
     rev = data.machine.get("git_revision")
     command = data.run.command
-    steps = []
-    if rev:
-        steps.append(f"git checkout {rev}")
+    steps = [f"git checkout {rev}"] if rev else []
     steps += [
         "pip install -e .",
         f"tribench sweep --file {sweep_file} --out NEW_RUN_DIR",
