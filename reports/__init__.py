@@ -32,10 +32,9 @@ def load(run_dir: str | Path | RunData, baseline: str | None = None) -> RunData:
 def write_report(run_dir: str | Path | RunData, baseline: str | None = None) -> Path:
     """Write ``RUN_DIR/report.html`` and its main charts as SVG and PDF in ``figures/``; return the page's path.
 
-    ``run_dir`` may be :func:`load`'s result.
-
-    ``baseline``: the one the tables must compare against (default: theirs). Raises RunError,
-    one line naming ``tribench stats``, when the folder or its tables are missing, unreadable or stale."""
+    ``run_dir`` may be :func:`load`'s result; ``baseline``: the one the tables must compare against (default:
+    theirs). Raises RunError, one line naming ``tribench stats``, when the folder or its tables are missing,
+    unreadable or stale."""
     from ..common import write_text
     from .charts import collecting, write_figures
     from .html import render, sweep_toml
