@@ -13,6 +13,7 @@ from ..harness.jobs import validate
 from . import about, charts, check_charts, content, page
 from .rundata import VALIDATE, RunData
 from .tables.diagnostics import drift_bins, round_summary
+from .tables.ranking import declared
 
 __all__ = ["drift_section", "diagnostics_section", "calibration", "correctness_section", "robustness_section"]
 
@@ -237,19 +238,11 @@ def correctness_section(correct: pd.DataFrame, wl: pd.DataFrame) -> str:
 
 def _left_out(differs: pd.DataFrame) -> str:
     """The sentence naming the kernels left out of the rankings where their answers differ, and why."""
-    from .. import ext
-
-    def culls(kernel: str) -> bool:
-        try:
-            return ext.kernel_info(kernel).culls_back_faces
-        except (KeyError, ValueError):  # a kernel this build lacks
-            return False
-
     parts = []
     for r in differs.itertuples(index=False):
         why = (
             "it culls back faces, so the tests it rejects at once are work it skipped, not speed"
-            if culls(r.kernel)
+            if declared(r.kernel, "culls_back_faces")  # None: a kernel this build lacks
             else "its answers differ"
         )
         share = f", {100 * r.hits_per_pass_min / r.ref_hits:.0f}%" if r.ref_hits else ""
