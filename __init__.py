@@ -109,17 +109,12 @@ def _builds(value: Any) -> tuple[str, ...]:
     return parse_builds(value) if isinstance(value, str) else check_builds(value)
 
 
-def _flag(value: Any, what: str) -> bool:
-    """True or False: a string such as "no" is refused, never read as true."""
-    if not isinstance(value, bool):
-        raise _user_error("type", f"{what} must be True or False, got {_shown(value)}")
-    return value
-
-
-def _optional_flag(value: Any, what: str) -> bool | None:
-    """True, False or None (the default: a bar on a terminal, plain lines elsewhere)."""
-    if value is not None and not isinstance(value, bool):
-        raise _user_error("type", f"{what} must be True, False or None, got {_shown(value)}")
+def _flag(value: Any, what: str, none: bool = False) -> Any:
+    """True or False, or None where ``none``: a string such as "no" is refused, never read as true."""
+    if not isinstance(value, bool) and not (none and value is None):
+        raise _user_error(
+            "type", f"{what} must be True{', False or None' if none else ' or False'}, got {_shown(value)}"
+        )
     return value
 
 
@@ -158,15 +153,13 @@ def sweep(
     from .reports import tables
 
     load_checked(kernel_files)  # first: ``kernels`` may name their kernels
-    progress = _optional_flag(progress, "progress")
+    progress = _flag(progress, "progress", none=True)
     seeds = {k: v for k, v in {"rng_seed": rng_seed, "seed": seed}.items() if v is not None}
+    design: dict[str, Any] = {"processes": processes, "rounds": rounds, "warmup": warmup, "target_ms": target_ms}
     spec = plan.Sweep(
         _names(kernels, "kernels"),
         _specs(workloads),
-        processes=plan.DEFAULT_PROCESSES if processes is None else processes,
-        rounds=plan.DEFAULT_ROUNDS if rounds is None else rounds,
-        warmup=plan.DEFAULT_WARMUP if warmup is None else warmup,
-        target_ms=plan.DEFAULT_TARGET_MS if target_ms is None else target_ms,
+        **{k: v for k, v in design.items() if v is not None},  # the rest: Sweep's defaults, plan.DEFAULT_*
         rng_seed=renamed(seeds).get("rng_seed", 0),
         kernel_files=tuple(map(str, kernel_files)),
         builds=_builds(builds),
@@ -204,7 +197,7 @@ def run(
     note = main_job.run(
         folder,
         quick=quick,
-        progress=_optional_flag(progress, "progress"),
+        progress=_flag(progress, "progress", none=True),
         peers=peers,
         kernel_files=tuple(map(str, kernel_files)),
         builds=_builds(builds),

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from . import flags
-from .options import DESIGN_FLAGS, add_design_flags, add_no_progress, add_run_out, default_run_dir
+from .options import DESIGN_FLAGS, add_design_flags, add_no_progress, add_run_out
 
 __all__ = ["add_parser", "run"]
 
@@ -31,6 +31,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..harness.jobs.calibrate import calibrate, user_calibration_path
+    from ..harness.runfolder import default_run_dir
 
     workloads: tuple = ()
     if args.workload:

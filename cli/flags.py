@@ -94,9 +94,7 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def _refuse(message: str) -> argparse.ArgumentTypeError:
-    return argparse.ArgumentTypeError(message)
-
+_refuse = argparse.ArgumentTypeError
 
 # Numbers on the command line are plain ASCII decimals: Python's int() and float()
 # also take "1_000", other scripts' digits and control characters as spaces.
@@ -139,7 +137,8 @@ def float_in(lo: float, hi: float, *, low_open: bool = False) -> Callable[[str],
     return check
 
 
-def _items(text: str) -> list[str]:
+def name_list(text: str) -> list[str]:
+    """Comma-separated non-empty names (kernels, meshes), each once; what they name is checked where they are used."""
     items = [item.strip() for item in text.split(",")]
     if not any(items):
         raise _refuse(f"must be a non-empty comma-separated list, got {text!r}")
@@ -154,7 +153,7 @@ def _items(text: str) -> list[str]:
 def _list_of(item: Callable[[str], T]) -> Callable[[str], list[T]]:
     def check(text: str) -> list[T]:
         values = []
-        for part in _items(text):
+        for part in name_list(text):
             try:
                 values.append(item(part))
             except argparse.ArgumentTypeError as exc:
@@ -163,11 +162,6 @@ def _list_of(item: Callable[[str], T]) -> Callable[[str], list[T]]:
 
     check.__name__ = "list"
     return check
-
-
-def name_list(text: str) -> list[str]:
-    """Comma-separated non-empty names (kernels, meshes); what they name is checked where they are used."""
-    return _items(text)
 
 
 def int_list(lo: int, hi: int) -> Callable[[str], list[int]]:

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from ..common import UserError
-from .options import add_kernel_files, load_kernel_files
+from .options import add_kernel_files
 
 __all__ = ["add_parser", "run"]
 
@@ -31,12 +31,13 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from .. import ext
+    from ..harness.jobs.kernel_check import load_checked
     from ..harness.machine import machine_record
 
     if args.isa and not args.peak:
         raise UserError("--isa chooses what --peak measures; add --peak")
     if args.peak:
-        load_kernel_files(args)  # checked: --peak times them
+        load_checked(args.kernel_files or ())  # --peak times them
         if args.isa and args.isa not in ext.probe_isas():
             raise UserError(f"--isa {args.isa}: this CPU runs only {', '.join(ext.probe_isas())}")
     for path in args.kernel_files or ():

@@ -15,7 +15,6 @@ __all__ = [
     "add_design_flags",
     "add_no_progress",
     "add_run_out",
-    "default_run_dir",
     "DESIGN_FLAGS",
 ]
 
@@ -24,13 +23,6 @@ DTYPES = ("float32", "float64")
 
 #: The attributes add_design_flags sets on the parsed arguments.
 DESIGN_FLAGS = ("processes", "rounds", "warmup", "target_ms", "rng_seed")
-
-
-def default_run_dir(kind: str = "") -> str:
-    """The run folder a command writes when --out is not given: runs/[KIND-]<date-time>."""
-    from ..harness.runfolder import default_run_dir as default
-
-    return default(kind)
 
 
 def _new_run_folder(text: str) -> str:
@@ -68,7 +60,8 @@ def add_kernel_files(
     parser: argparse.ArgumentParser,
     what: str = "checked against the float64 reference, then known by the names it declares",
 ) -> None:
-    """--kernel-file FILE.c, repeatable: kernels of the user's own, loaded by :func:`load_kernel_files`."""
+    """--kernel-file FILE.c, repeatable: kernels of the user's own; a command that times them checks them first
+    (``load_checked``: exit 2, nothing timed, if one is refused)."""
     parser.add_argument(
         "--kernel-file",
         dest="kernel_files",
@@ -92,13 +85,6 @@ def add_builds(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def load_kernel_files(args: argparse.Namespace) -> tuple[str, ...]:
-    """Compile, load and check the --kernel-file files (exit 2, nothing timed, if one is refused): their kernels."""
-    from ..harness.jobs.kernel_check import load_checked
-
-    return load_checked(args.kernel_files or ())
-
-
 def add_rng_seed(
     parser: argparse.ArgumentParser | argparse._ArgumentGroup, what: str, default: int | None = None
 ) -> None:
@@ -106,6 +92,11 @@ def add_rng_seed(
     the 2022 paper now (``tribench seed``); both at once are refused (:class:`~.flags.Parser`)."""
     parser.add_argument("--rng-seed", type=flags.rng_seed, default=default, help=f"RNG seed of {what} (default 0)")
     parser.add_argument("--seed", dest="rng_seed", type=flags.rng_seed, default=default, help=argparse.SUPPRESS)
+
+
+def add_resume(parser: argparse.ArgumentParser, what: str, metavar: str = "RUN_DIR") -> None:
+    """--resume RUN_DIR: an existing folder whose interrupted ``what`` the command finishes."""
+    parser.add_argument("--resume", metavar=metavar, type=flags.existing_folder, help=f"finish {what}")
 
 
 def add_run_out(parser: argparse.ArgumentParser, default: str = "runs/<date-time>") -> None:

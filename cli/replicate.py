@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..common import UserError
 from . import flags
-from .options import add_no_progress, add_run_out, default_run_dir
+from .options import add_no_progress, add_resume, add_run_out
 
 __all__ = ["add_parser", "run"]
 
@@ -27,12 +27,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument("run_dir", metavar="RUN_DIR", type=flags.existing_folder, help="an analysed run folder")
     add_run_out(p, "runs/replicate-<date-time>")
-    p.add_argument(
-        "--resume",
-        metavar="NEW_DIR",
-        type=flags.existing_folder,
-        help="finish an interrupted replication of RUN_DIR in NEW_DIR, then compare",
-    )
+    add_resume(p, "an interrupted replication of RUN_DIR in NEW_DIR, then compare", "NEW_DIR")
     add_no_progress(p)
     p.set_defaults(func=run)
 
@@ -55,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         with runner.resumed_with(out, f"tribench replicate {args.run_dir} --resume {out}"):
             result = runner.resume(out, progress=args.progress)
     else:
-        out = args.out or default_run_dir("replicate")
+        out = args.out or runfolder.default_run_dir("replicate")
         result = replicate.measure(
             args.run_dir, out, say=lambda line: print(line, file=sys.stderr), progress=args.progress
         )

@@ -5,8 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..common import UserError
-from . import flags
-from .options import add_builds, add_kernel_files, add_no_progress, add_run_out, default_run_dir
+from .options import add_builds, add_kernel_files, add_no_progress, add_resume, add_run_out
 
 __all__ = ["add_parser", "run"]
 
@@ -27,12 +26,7 @@ def add_parser(sub) -> None:
         help="every kernel on fewer workloads with a 15 s sweep: about a minute (wide intervals)",
     )
     add_run_out(p, "runs/[quick-]<date-time>")
-    p.add_argument(
-        "--resume",
-        metavar="RUN_DIR",
-        type=flags.existing_folder,
-        help="finish an interrupted main job: the rest of its sweep, its peers, the robustness suite, the report",
-    )
+    add_resume(p, "an interrupted main job: the rest of its sweep, its peers, the robustness suite, the report")
     add_kernel_files(p)
     add_builds(p)
     add_no_progress(p)
@@ -41,6 +35,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..harness.jobs import main as main_job
+    from ..harness.runfolder import default_run_dir
     from ..reports import format_tables, load, tables, write_report
 
     if args.resume:

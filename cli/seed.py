@@ -6,7 +6,7 @@ import argparse
 import shlex
 
 from . import flags
-from .options import add_no_progress, add_run_out, default_run_dir
+from .options import add_no_progress, add_run_out
 
 __all__ = ["add_parser", "run"]
 
@@ -44,6 +44,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..harness.jobs.seed import KINDS_CSV, SEED_CSV, WORKLOADS_CSV, run_seed
+    from ..harness.runfolder import default_run_dir
     from ..reports.seed import format_table, write_seed_report
     from ..reports.tables.seed import write_seed_tables
 

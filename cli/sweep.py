@@ -15,9 +15,8 @@ from .options import (
     add_design_flags,
     add_kernel_files,
     add_no_progress,
+    add_resume,
     add_run_out,
-    default_run_dir,
-    load_kernel_files,
 )
 
 __all__ = ["add_parser", "run"]
@@ -44,12 +43,7 @@ def add_parser(sub) -> None:
         "processes.csv, run.json.",
     )
     add_run_out(p)
-    p.add_argument(
-        "--resume",
-        metavar="RUN_DIR",
-        type=flags.existing_folder,
-        help="finish the missing batches of an interrupted run",
-    )
+    add_resume(p, "the missing batches of an interrupted run")
     p.add_argument(
         "--file",
         metavar="SWEEP.toml",
@@ -114,7 +108,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..harness import runner
+    from ..harness import runfolder, runner
 
     if args.resume:
         if any(getattr(args, k) is not None for k in _NEW_SWEEP_FLAGS):
@@ -122,11 +116,12 @@ def run(args: argparse.Namespace) -> int:
         result = runner.resume(args.resume, progress=args.progress)
     else:
         from ..harness import duration
+        from ..harness.jobs.kernel_check import load_checked
         from ..harness.jobs.sweep import run_sweep
 
-        load_kernel_files(args)  # first: --kernels may name their kernels
+        load_checked(args.kernel_files or ())  # first: --kernels may name their kernels
         sweep = _sweep_from_args(args)
-        out = args.out or default_run_dir()
+        out = args.out or runfolder.default_run_dir()
 
         def announce(sweep) -> str:
             return (

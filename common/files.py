@@ -14,6 +14,7 @@ truncated one; a failure to write is the environment's, a UserError naming the f
 
 from __future__ import annotations
 
+import contextlib
 import os
 import secrets
 import stat
@@ -66,10 +67,8 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
         raise UserError(f"cannot write {path}: {exc.strerror or exc}") from exc
     finally:
         if tmp is not None:
-            try:
+            with contextlib.suppress(OSError):
                 os.unlink(tmp)
-            except OSError:
-                pass
 
 
 def write_text(path: str | Path, text: str, *, encoding: str = "utf-8") -> None:

@@ -48,12 +48,6 @@ LAYOUTS: tuple[str, ...] = ("wide", "binary", "packets")
 WIDE_NODE_BYTES: int = 256
 
 
-def _check_layout(layout: object) -> int:
-    if not isinstance(layout, str) or layout not in LAYOUTS:
-        raise UserError(f"layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
-    return LAYOUTS.index(layout)
-
-
 class Trace(NamedTuple):
     """Answers of :meth:`BVH.intersect` (as :func:`intersect`'s, in the caller's triangle indices) and, per ray,
     its work: int64 (N, 4), the columns of :data:`COUNT_NAMES`."""
@@ -119,10 +113,15 @@ class BVH:
         """(first slot, triangles) of every leaf, in slot order: int64 (L, 2)."""
         return _leaves(self.nodes)
 
-    def _rays(self, origins, directions, mode, t_max, isa, allow_nonfinite):
+    def _rays(self, origins, directions, mode, t_max, isa, allow_nonfinite, layout):
         _check_leaf_kernel(self.kernel)  # a BVH made by hand may have any kernel
         # one row stands for the triangles (checked finite at the build): dtype and kernel checks only
-        return check_workload(self.kernel, origins, directions, self.triangles[:1], mode, t_max, isa, allow_nonfinite)
+        checked = check_workload(
+            self.kernel, origins, directions, self.triangles[:1], mode, t_max, isa, allow_nonfinite
+        )
+        if not isinstance(layout, str) or layout not in LAYOUTS:
+            raise UserError(f"layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
+        return (*checked, LAYOUTS.index(layout))
 
     def intersect(
         self,
@@ -148,8 +147,7 @@ class BVH:
         >>> int(tr.hits.index[0]), float(tr.hits.t[0])
         (1, 2.0)
         """
-        o, d, _, tm, isa = self._rays(origins, directions, mode, t_max, isa, allow_nonfinite)
-        which = _check_layout(layout)
+        o, d, _, tm, isa, which = self._rays(origins, directions, mode, t_max, isa, allow_nonfinite, layout)
         n, dtype = len(o), self.dtype
         hits = Hits(np.empty(n, np.int64), np.empty(n, dtype), np.empty(n, dtype), np.empty(n, dtype))
         counts = np.empty((n, len(COUNT_NAMES)), np.int64)
@@ -174,8 +172,7 @@ class BVH:
         ``loops * len(origins)`` at most :data:`MAX_BVH_BATCH_RAYS`. ``null_leaf`` puts a compiler barrier in place
         of the leaf test: nothing is hit, so give each ray's closest ``t`` as ``t_max`` to walk as if it found it
         at once."""
-        o, d, _, tm, isa = self._rays(origins, directions, mode, t_max, isa, False)
-        which = _check_layout(layout)
+        o, d, _, tm, isa, which = self._rays(origins, directions, mode, t_max, isa, False, layout)
         if isinstance(loops, bool) or not isinstance(loops, (int, np.integer)):
             raise UserTypeError(f"loops must be an int, got {type(loops).__name__}")
         if not 1 <= loops <= MAX_BVH_BATCH_RAYS // len(o):

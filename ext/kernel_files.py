@@ -69,7 +69,7 @@ def load_kernels(path: str | os.PathLike) -> tuple[str, ...]:
     text = _with_local_headers(source, raw)
     sha = hashlib.sha256(text).hexdigest()
     toolchain = current()
-    key = _build_key(text, toolchain)
+    key = hashlib.sha256(text + toolchain.key.encode()).hexdigest()  # the file and all else the module depends on
     name = f"_kf_{key[:20]}"
     module_path = cache_dir() / "kernel_builds" / key[:20] / f"{name}{sysconfig.get_config_var('EXT_SUFFIX')}"
     compiled = source if text == raw else module_path.with_name(f"{source.stem}.c")
@@ -144,11 +144,6 @@ def _with_local_headers(path: Path, text: bytes, depth: int = 0) -> bytes:
     if not parts:
         return text
     return b"".join([b'#line 1 "%s"\n' % str(path).encode(), *parts, text[at:]])
-
-
-def _build_key(text: bytes, toolchain: Toolchain) -> str:
-    """The hash that names a kernel file's build: the file and everything else the module depends on."""
-    return hashlib.sha256(text + toolchain.key.encode()).hexdigest()
 
 
 def _compile(compiled: Path, name: str, module_path: Path, toolchain: Toolchain, source: Path) -> None:

@@ -46,12 +46,10 @@ def make_job(
     """Validate a workload for timing (finite inputs; ``mode``, ``t_max`` and ``isa`` as in ``intersect``) and
     prepare ``kernel``'s records; the arrays are kept as read-only views, not copied."""
     o, d, tris, tm, isa = check_workload(kernel, origins, directions, triangles, mode, t_max, isa, False)
-    views = []
+    o, d, tm = (a.view() for a in (o, d, tm))
     for a in (o, d, tm):
-        v = a.view()
-        v.flags.writeable = False
-        views.append(v)
-    return Job(kernel, mode, views[0], views[1], views[2], prepare(kernel, tris), isa)
+        a.flags.writeable = False
+    return Job(kernel, mode, o, d, tm, prepare(kernel, tris), isa)
 
 
 @dataclass(frozen=True)

@@ -17,34 +17,29 @@ if TYPE_CHECKING:
     from .rundata import RunData
 
 
-def _load(run: str | Path | RunData, baseline: str | None = None) -> RunData:
-    """A run folder's tables for the pages: read from ``run`` (a folder), or ``run`` itself if already read."""
+def load(run_dir: str | Path | RunData, baseline: str | None = None) -> RunData:
+    """Read a run folder's tables once, for :func:`write_report` and :func:`format_tables` both (an already read
+    ``run_dir`` is returned as it is)."""
     from .rundata import RunData, load_run
 
-    if isinstance(run, RunData):
-        if baseline is not None and baseline != run.baseline:
-            return load_run(run.run_dir, baseline=baseline)  # refused there, naming `tribench stats --baseline`
-        return run
-    return load_run(run, baseline=baseline)
-
-
-def load(run_dir: str | Path, baseline: str | None = None) -> RunData:
-    """Read a run folder's tables once, for :func:`write_report` and :func:`format_tables` both."""
-    return _load(run_dir, baseline)
+    if isinstance(run_dir, RunData):
+        if baseline is not None and baseline != run_dir.baseline:
+            return load_run(run_dir.run_dir, baseline=baseline)  # refused there, naming `tribench stats --baseline`
+        return run_dir
+    return load_run(run_dir, baseline=baseline)
 
 
 def write_report(run_dir: str | Path | RunData, baseline: str | None = None) -> Path:
     """Write ``RUN_DIR/report.html`` and its main charts as SVG and PDF in ``figures/``; return the page's path.
 
-    ``run_dir`` may be :func:`load`'s result.
-
-    ``baseline``: the one the tables must compare against (default: theirs). Raises RunError,
-    one line naming ``tribench stats``, when the folder or its tables are missing, unreadable or stale."""
+    ``run_dir`` may be :func:`load`'s result; ``baseline``: the one the tables must compare against (default:
+    theirs). Raises RunError, one line naming ``tribench stats``, when the folder or its tables are missing,
+    unreadable or stale."""
     from ..common import write_text
     from .charts import collecting, write_figures
     from .html import render, sweep_toml
 
-    data = _load(run_dir, baseline)
+    data = load(run_dir, baseline)
     with collecting() as specs:
         page = render(data, SWEEP_FILE)
     write_figures(specs, data.run_dir / FIGURES_DIR)
@@ -59,7 +54,7 @@ def write_compare(*run_dirs: str | Path, out: str | Path | None = None) -> Path:
     from ..common import write_text
     from .compare import compare, render_compare
 
-    runs = [_load(r) for r in run_dirs]
+    runs = [load(r) for r in run_dirs]
     many, pair = compare(runs)
     path = Path(out) if out is not None else runs[-1].run_dir / "compare.html"
     write_text(path, render_compare(runs, many, pair))
@@ -70,14 +65,14 @@ def format_tables(run_dir: str | Path | RunData) -> str:
     """Compact terminal tables of a run's estimates and speedups with CIs and verdicts."""
     from .terminal import format_run
 
-    return format_run(_load(run_dir))
+    return format_run(load(run_dir))
 
 
 def format_compare(*run_dirs: str | Path) -> str:
     """The comparison of N >= 2 runs, for the terminal."""
     from .compare import compare, format_compare_text
 
-    runs = [_load(r) for r in run_dirs]
+    runs = [load(r) for r in run_dirs]
     return format_compare_text(runs, *compare(runs))
 
 

@@ -93,19 +93,17 @@ def machine_tables(run: Run) -> list[str]:
 
 def machine_section(data: RunData) -> str:
     """The CPU, caches, software, build, each kernel's instruction set, RNG seeds and plan."""
-    return "".join(
-        [
-            *machine_tables(data.run),
-            "<h3>RNG seeds and plan</h3>",
-            page.kv_table(
-                [
-                    ("sweep RNG seed", data.run.sweep.rng_seed),
-                    ("process seeds", list(data.run.process_seeds)),
-                    ("plan sha256", data.run.plan_sha256),
-                    ("batches planned / recorded", f"{data.run.n_batches} / {len(data.batches)}"),
-                ]
-            ),
-        ]
+    return (
+        "".join(machine_tables(data.run))
+        + "<h3>RNG seeds and plan</h3>"
+        + page.kv_table(
+            [
+                ("sweep RNG seed", data.run.sweep.rng_seed),
+                ("process seeds", list(data.run.process_seeds)),
+                ("plan sha256", data.run.plan_sha256),
+                ("batches planned / recorded", f"{data.run.n_batches} / {len(data.batches)}"),
+            ]
+        )
     )
 
 
@@ -163,9 +161,7 @@ def reproduce_section(data: RunData, sweep_file: str) -> str:
     """How to run the sweep again and redraw the report, and what every file of the run folder holds."""
     rev = data.machine.get("git_revision")
     command = data.run.command
-    steps = []
-    if rev:
-        steps.append(f"git checkout {rev}")
+    steps = [f"git checkout {rev}"] if rev else []
     steps += [
         "pip install -e .",
         f"tribench sweep --file {sweep_file} --out NEW_RUN_DIR",

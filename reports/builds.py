@@ -1,7 +1,6 @@
 """The report's section on a run of several builds (``--builds``): do the answers hold under every build?
 
-Each build's processes are read as a run of their own (``load_run(build=)``) and compared by the code that compares
-machines (:func:`tribench.reports.tables.compare.compare_many`)."""
+Each build is read as a run of its own (``load_run(build=)``) and compared as :mod:`.tables.builds` says."""
 
 from __future__ import annotations
 

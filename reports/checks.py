@@ -13,6 +13,7 @@ from ..harness.jobs import validate
 from . import about, charts, check_charts, content, page
 from .rundata import VALIDATE, RunData
 from .tables.diagnostics import drift_bins, round_summary
+from .tables.ranking import declared
 
 __all__ = ["drift_section", "diagnostics_section", "calibration", "correctness_section", "robustness_section"]
 
@@ -77,23 +78,17 @@ def calibration(data: RunData) -> str:
         return "".join(body)
     if not isinstance(cal, dict):
         if data.margin_source.startswith("calibration "):
-            body.append(
-                page.p(
-                    "That A/A calibration's record is not part of this run folder; its margin and "
-                    f"source are the ones {runfolder.RUN} recorded when the sweep started.",
-                    "note",
-                )
+            why = (
+                "That A/A calibration's record is not part of this run folder; its margin and "
+                f"source are the ones {runfolder.RUN} recorded when the sweep started."
             )
         else:
-            body.append(
-                page.p(
-                    "No A/A calibration stood behind this run: the verdicts rest on the default margin. "
-                    "`tribench calibrate` measures this machine's noise floor (a kernel against its "
-                    "identical copy) and later sweeps use it.",
-                    "note",
-                )
+            why = (
+                "No A/A calibration stood behind this run: the verdicts rest on the default margin. "
+                "`tribench calibrate` measures this machine's noise floor (a kernel against its "
+                "identical copy) and later sweeps use it."
             )
-        return "".join(body)
+        return "".join([*body, page.p(why, "note")])
     body.append(page.p(f"This run folder is an A/A calibration; its record ({runfolder.CALIBRATION}):", "note"))
     body.append(
         page.kv_table(
@@ -243,19 +238,11 @@ def correctness_section(correct: pd.DataFrame, wl: pd.DataFrame) -> str:
 
 def _left_out(differs: pd.DataFrame) -> str:
     """The sentence naming the kernels left out of the rankings where their answers differ, and why."""
-    from .. import ext
-
-    def culls(kernel: str) -> bool:
-        try:
-            return ext.kernel_info(kernel).culls_back_faces
-        except (KeyError, ValueError):  # a kernel this build lacks
-            return False
-
     parts = []
     for r in differs.itertuples(index=False):
         why = (
             "it culls back faces, so the tests it rejects at once are work it skipped, not speed"
-            if culls(r.kernel)
+            if declared(r.kernel, "culls_back_faces")  # None: a kernel this build lacks
             else "its answers differ"
         )
         share = f", {100 * r.hits_per_pass_min / r.ref_hits:.0f}%" if r.ref_hits else ""

@@ -135,26 +135,22 @@ def _pair_parts(c: Comparison) -> list[str]:
         page.section(
             "time-ratios",
             SECTIONS["time-ratios"],
-            "".join(
+            page.p(
+                "Absolute ns/test across machines moves with clock speed and load; the ratio of speedups above "
+                "is the steadier figure."
+            )
+            + page.table(
+                c.times.assign(verdict=c.times["verdict"].map(TIME_WORDS)) if not c.times.empty else c.times,
                 [
-                    page.p(
-                        "Absolute ns/test across machines moves with clock speed and load; the ratio of speedups above "
-                        "is the steadier figure."
-                    ),
-                    page.table(
-                        c.times.assign(verdict=c.times["verdict"].map(TIME_WORDS)) if not c.times.empty else c.times,
-                        [
-                            ("kernel", "kernel"),
-                            ("label", "workload"),
-                            ("ns_per_test_a", "ns/test on A (geo. mean)"),
-                            ("ns_per_test_b", "ns/test on B (geo. mean)"),
-                            ("ratio", "B / A"),
-                            ("ratio_ci_low", "CI low"),
-                            ("ratio_ci_high", "CI high"),
-                            ("verdict", "verdict"),
-                        ],
-                    ),
-                ]
+                    ("kernel", "kernel"),
+                    ("label", "workload"),
+                    ("ns_per_test_a", "ns/test on A (geo. mean)"),
+                    ("ns_per_test_b", "ns/test on B (geo. mean)"),
+                    ("ratio", "B / A"),
+                    ("ratio_ci_low", "CI low"),
+                    ("ratio_ci_high", "CI high"),
+                    ("verdict", "verdict"),
+                ],
             ),
         )
     )

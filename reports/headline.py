@@ -66,19 +66,14 @@ def title(data: RunData, wl: pd.DataFrame) -> str:
     m = data.machine
     sweep = data.run.sweep
     families = list(dict.fromkeys(wl["family"]))
-    return "".join(
-        [
-            f"<h1>Which intersector, on {escape(str(m.get('cpu_model', 'this machine')))}</h1>",
-            page.p(
-                f"Run {data.run.run_id}, {data.run.created}: "
-                f"{len(data.kernels)} kernels on {len(wl)} workloads in {len(families)} families, "
-                f"{data.n_processes} worker processes × {sweep.rounds} rounds "
-                f"(+{sweep.warmup} warm-up), on {m.get('cpu_model', 'an unknown CPU')} "
-                f"({m.get('build', {}).get('compiler', 'unknown compiler')}). Baseline: {data.baseline}. "
-                f"Speedup = time_{data.baseline} / time_kernel, so above 1 means faster.",
-                "sub",
-            ),
-        ]
+    return f"<h1>Which intersector, on {escape(str(m.get('cpu_model', 'this machine')))}</h1>" + page.p(
+        f"Run {data.run.run_id}, {data.run.created}: "
+        f"{len(data.kernels)} kernels on {len(wl)} workloads in {len(families)} families, "
+        f"{data.n_processes} worker processes × {sweep.rounds} rounds "
+        f"(+{sweep.warmup} warm-up), on {m.get('cpu_model', 'an unknown CPU')} "
+        f"({m.get('build', {}).get('compiler', 'unknown compiler')}). Baseline: {data.baseline}. "
+        f"Speedup = time_{data.baseline} / time_kernel, so above 1 means faster.",
+        "sub",
     )
 
 

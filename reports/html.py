@@ -70,13 +70,9 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     wl = data.tables[runfolder.WORKLOADS]
     est = content.sweep_order(content.estimates_table(data, wl), data)
     spd = content.sweep_order(content.speedups_table(data, wl), data)
-    pp = data.tables[runfolder.PER_PROCESS]
     batches = data.tables[runfolder.BATCH_LABELS]
-    cross = data.tables[runfolder.CROSSOVERS]
-    slopes = data.tables[runfolder.SLOPES]
     drift = data.tables[runfolder.DRIFT]
     correct = data.tables[runfolder.CORRECTNESS]
-    kern = data.tables[runfolder.KERNELS]
     val, val_note = load_validation(data)
     peers, peer_note = load_peers(data)
     colours = charts.kernel_colours(data.kernels)
@@ -90,12 +86,12 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         + "".join(page.warn(w) for w in headline.run_warnings(data, drift, correct)),
         "headline": headline.headline_section(data, spd, wl, peers),
         "ranking": ranking.ranking_section(data, content.sweep_order(data.tables[runfolder.RANKING], data), alg),
-        "kernels": results.kernels_section(data, kern),
+        "kernels": results.kernels_section(data, data.tables[runfolder.KERNELS]),
         "speedups": results.speedups_section(data, spd, est),
-        "hit-rate": results.hit_rate_section(data, est, spd, cross, colours),
-        "scaling": results.scaling_section(data, est, slopes, colours),
+        "hit-rate": results.hit_rate_section(data, est, spd, data.tables[runfolder.CROSSOVERS], colours),
+        "scaling": results.scaling_section(data, est, data.tables[runfolder.SLOPES], colours),
         "peers": results.peers_section(peers, peer_note),
-        "processes": results.processes_section(pp, est, colours),
+        "processes": results.processes_section(data.tables[runfolder.PER_PROCESS], est, colours),
         "drift": checks.drift_section(batches, drift, colours),
         "diagnostics": checks.diagnostics_section(data, batches, colours),
         "correctness": checks.correctness_section(correct, wl),
@@ -145,7 +141,3 @@ def _build_shown(data: RunData) -> str:
         f"{'; '.join(data.builds)}); Across builds compares them.",
         "note",
     )
-
-
-# tests/test_peers.py renders the peers section alone under its old name.
-_peers = results.peers_section

@@ -64,9 +64,7 @@ def latex_tables(data: RunData) -> str:
             + r" \\"
             for r in g.sort_values("rank").itertuples(index=False)
         ]
-        processes = f"{g['n_processes'].min()}" + (
-            f"--{g['n_processes'].max()}" if g["n_processes"].nunique() > 1 else ""
-        )
+        processes = _spread(g["n_processes"])  # tex() writes its en dash as --
         caption = (
             f"Ranking, {where} ({_count(int(g['workloads'].iloc[0]), 'workload')}, {processes} processes). "
             f"Times in ns per ray–triangle test, mean over processes with a {confidence:.0%} interval; "

@@ -51,13 +51,21 @@ def _slower(r: pd.Series, g: pd.DataFrame) -> str:
 
 
 def _fastest_cells(best: pd.Series, g: pd.DataFrame) -> dict[str, str]:
-    """The fastest kernel of ``g``: its name, ns/test and speedup cells."""
+    """The fastest kernel of ``g``: its name, ns/test, speedup, measured robustness and bytes per triangle cells."""
     if best["kernel"] == best["baseline"]:
         speedup = "(the baseline)"
     else:
         speedup = format_estimate(best["speedup"], best["speedup_ci_low"], best["speedup_ci_high"], "×")
     ns = format_estimate(best["ns_per_test"], best["ns_per_test_ci_low"], best["ns_per_test_ci_high"])
-    return {"fastest": _named(best["kernel"], g), "ns": ns, "speedup": speedup}
+    return {
+        "fastest": _named(best["kernel"], g),
+        "ns": ns,
+        "speedup": speedup,
+        # a frame built by hand may lack validate's columns: its cells then say not validated
+        "cracks": _per_million(best.get("cracks_per_million", math.nan), best.get("shared_edge_rays")),
+        "sphere": _per_million(best.get("sphere_misses_per_million", math.nan), best.get("sphere_rays")),
+        "bytes": best["bytes_per_triangle"],
+    }
 
 
 def _pair(frame: pd.DataFrame, a: str, b: str) -> pd.DataFrame:
@@ -103,10 +111,6 @@ def ranking_rows(rank: pd.DataFrame) -> pd.DataFrame:
                 "tied": ", ".join(tied) or "none",
                 "next": _slower(rest.iloc[0], g) if len(rest) else "–",
                 "watertight_best": watertight,
-                # a frame built by hand may lack validate's columns: its cells then say not validated
-                "cracks": _per_million(best.get("cracks_per_million", math.nan), best.get("shared_edge_rays")),
-                "sphere": _per_million(best.get("sphere_misses_per_million", math.nan), best.get("sphere_rays")),
-                "bytes": best["bytes_per_triangle"],
             }
         )
     return pd.DataFrame(rows)
@@ -268,9 +272,6 @@ def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
                 "tied": ", ".join(_named(k, g) for k in tied["kernel"]) or "none",
                 "next": _slower(rest.iloc[0], g) if len(rest) else "–",
                 "watertight": watertight,
-                "cracks": _per_million(best["cracks_per_million"], best["shared_edge_rays"]),
-                "sphere": _per_million(best["sphere_misses_per_million"], best["sphere_rays"]),
-                "bytes": best["bytes_per_triangle"],
             }
         )
     return pd.DataFrame(rows)

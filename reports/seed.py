@@ -263,16 +263,7 @@ def _machine(run: Run) -> str:
         ("process seeds", list(run.process_seeds)),
         ("equivalence margin", {"value": run.margin.value, "source": run.margin.source}),
     ]
-    return _section(
-        "machine",
-        "".join(
-            [
-                *machine_tables(run),
-                "<h3>Design</h3>",
-                page.kv_table(design),
-            ]
-        ),
-    )
+    return _section("machine", "".join(machine_tables(run)) + "<h3>Design</h3>" + page.kv_table(design))
 
 
 def _reproduce(run: Run) -> str:

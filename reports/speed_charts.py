@@ -68,10 +68,8 @@ def _answer_data(bands: pd.DataFrame) -> pd.DataFrame:
 
 def _answer_axes(bands: pd.DataFrame) -> tuple[alt.Scale, alt.X, alt.Y]:
     """x: ns/test, log when the intervals allow; y: failures per million rays, symlog (0 to tens of thousands)."""
-    # a t interval over few processes may reach below 0, which a log axis cannot show
-    log = bool((bands["ns_per_test_ci_low"].dropna() > 0).all())
-    x_scale = alt.Scale(type="log") if log else alt.Scale(type="linear")
-    x = alt.X("ns_per_test:Q", scale=x_scale, title="ns per ray–triangle test" + (" (log)" if log else ""))
+    x_scale, log = _axis_scale(bands["ns_per_test_ci_low"])
+    x = alt.X("ns_per_test:Q", scale=x_scale, title="ns per ray–triangle test" + log)
     y = alt.Y(
         "failures_per_million:Q",
         title="cracks + far-sphere misses per million rays (symlog)",
@@ -286,7 +284,7 @@ def forest_chart(
 
 
 def _axis_scale(*columns: pd.Series) -> tuple[alt.Scale, str]:
-    """A log scale when every value is above 0, else linear."""
+    """A log scale when every value is above 0 (a t interval over few processes may reach below), else linear."""
     values = pd.concat([c.dropna() for c in columns])
     return (alt.Scale(type="log"), " (log)") if bool((values > 0).all()) else (alt.Scale(type="linear"), "")
 

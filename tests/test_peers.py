@@ -17,7 +17,7 @@ from tribench import reports
 from tribench.ext import embree
 from tribench.harness import runfolder, stats
 from tribench.harness.jobs import peers
-from tribench.reports import html as report_html
+from tribench.reports import results
 from tribench.reports import tables as analysis
 from tribench.reports.rundata import load_peers, load_run
 from tribench.reports.tables.peers import summarise
@@ -190,7 +190,7 @@ def test_report_shows_the_peers_with_their_ratios_and_a_headline_sentence(run_co
 def _peers_section(run_dir) -> str:
     """The report's peers section for ``run_dir``, as render() makes it (without drawing the whole page)."""
     tables, note = load_peers(load_run(run_dir))
-    return report_html._peers(tables, note)
+    return results.peers_section(tables, note)
 
 
 def test_report_without_peers_says_how_to_add_them(run_copy):

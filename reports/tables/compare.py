@@ -8,6 +8,7 @@ and is compared nowhere on it. A run is any object with the fields of :class:`Ru
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -78,20 +79,11 @@ def _per_process(data: RunTables) -> pd.DataFrame:
 
 
 def _ratio_fields(a: pd.Series, b: pd.Series, confidence: float, margin: float) -> dict[str, float | int | str]:
-    """The columns every row of a comparison has: the ratio of ``b`` to ``a`` (logs), its interval and test, and
-    the verdict."""
+    """The columns every row of a comparison has: the ratio of ``b`` to ``a`` (logs), its interval (``ratio_ci_*``)
+    and test, and the verdict (the frame's columns pick them: not ``se``)."""
     r = stats.unpaired_ratio(a, b, confidence)
-    return {
-        "ratio": r.ratio,
-        "ratio_ci_low": r.ci_low,
-        "ratio_ci_high": r.ci_high,
-        "p_value": r.p_value,
-        "df": r.df,
-        "n_a": r.n_a,
-        "n_b": r.n_b,
-        "confidence": confidence,
-        "verdict": stats.verdict(r.ci_low, r.ci_high, margin),
-    }
+    fields = {k.replace("ci_", "ratio_ci_"): v for k, v in dataclasses.asdict(r).items()}
+    return fields | {"verdict": stats.verdict(r.ci_low, r.ci_high, margin)}
 
 
 def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Comparison:

@@ -146,72 +146,53 @@ def _repetitions(ids: tuple[str, int, int], label: str, per: pd.DataFrame) -> li
     ]
 
 
+def _aggregate(
+    ids: tuple[str, int, int], label: str, n: int, name: str, unit: str, iterations: int, value: float, **fields: Any
+) -> dict[str, Any]:
+    """The ``_<name>`` aggregate entry of ``n`` processes: ``value`` as its real and CPU time, then ``fields``."""
+    return _entry(
+        f"_{name}",
+        ids,
+        label,
+        run_type="aggregate",
+        repetitions=n,
+        threads=1,
+        aggregate_name=name,
+        aggregate_unit=unit,
+        iterations=iterations,
+        real_time=value,
+        cpu_time=value,
+        **fields,
+    )
+
+
 def _time_aggregates(ids: tuple[str, int, int], label: str, r: pd.Series, n: int) -> list[dict[str, Any]]:
     """The ``_mean`` entry (ns per test with its intervals) and, where finite, the ``_stddev`` entry."""
-    aggregate = {"run_type": "aggregate", "repetitions": n, "threads": 1}
-    out = [
-        _entry(
-            "_mean",
-            ids,
-            label,
-            **aggregate,
-            aggregate_name="mean",
-            aggregate_unit="time",
-            iterations=n,
-            real_time=float(r["ns_per_test"]),
-            cpu_time=float(r["ns_per_test"]),
-            **_finite(
-                {
-                    "ci_low": r["ns_per_test_ci_low"],
-                    "ci_high": r["ns_per_test_ci_high"],
-                    "bootstrap_low": r["ns_per_test_bootstrap_low"],
-                    "bootstrap_high": r["ns_per_test_bootstrap_high"],
-                    "confidence": r["confidence"],
-                }
-            ),
-        )
-    ]
+    interval = {
+        "ci_low": r["ns_per_test_ci_low"],
+        "ci_high": r["ns_per_test_ci_high"],
+        "bootstrap_low": r["ns_per_test_bootstrap_low"],
+        "bootstrap_high": r["ns_per_test_bootstrap_high"],
+        "confidence": r["confidence"],
+    }
+    out = [_aggregate(ids, label, n, "mean", "time", n, float(r["ns_per_test"]), **_finite(interval))]
     if math.isfinite(r["ns_per_test_sd"]):
-        sd = float(r["ns_per_test_sd"])
-        out.append(
-            _entry(
-                "_stddev",
-                ids,
-                label,
-                **aggregate,
-                aggregate_name="stddev",
-                aggregate_unit="time",
-                iterations=n,
-                real_time=sd,
-                cpu_time=sd,
-            )
-        )
+        out.append(_aggregate(ids, label, n, "stddev", "time", n, float(r["ns_per_test_sd"])))
     return out
 
 
 def _speedup(ids: tuple[str, int, int], label: str, s: pd.Series, baseline: str, n: int) -> dict[str, Any]:
     """The ``_speedup`` entry: the ratio over the baseline with its simultaneous interval and verdict."""
-    return _entry(
-        "_speedup",
-        ids,
-        f"{label}; {s['verdict']} against {baseline}",
-        run_type="aggregate",
-        repetitions=n,
-        threads=1,
-        aggregate_name="speedup",
-        aggregate_unit="percentage",
-        iterations=int(s["n_processes"]),
-        real_time=float(s["ratio"]),
-        cpu_time=float(s["ratio"]),
-        **_finite(
-            {
-                "ci_low": s["ratio_ci_low"],
-                "ci_high": s["ratio_ci_high"],
-                "confidence": s["confidence"],
-                "p_holm": s["p_holm"],
-                "margin": s["margin"],
-            }
-        ),
+    interval = {
+        "ci_low": s["ratio_ci_low"],
+        "ci_high": s["ratio_ci_high"],
+        "confidence": s["confidence"],
+        "p_holm": s["p_holm"],
+        "margin": s["margin"],
+    }
+    label = f"{label}; {s['verdict']} against {baseline}"
+    return _aggregate(
+        ids, label, n, "speedup", "percentage", int(s["n_processes"]), float(s["ratio"]), **_finite(interval)
     )
 
 

@@ -8,6 +8,7 @@ columns get their units here only (:data:`ESTIMATE_COLUMNS`, :data:`SPEEDUP_COLU
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import json
 from collections.abc import Mapping
@@ -129,6 +130,8 @@ def by_build(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
 
 
 def _estimate_one(m: Measured, baseline: str | None, margin: float | None) -> Analysis:
+    from ...workloads.kinds import spec_from_dict
+
     run, batches = m.run, m.batches
     timed = batches.loc[~batches["warmup"]]
     if timed.empty:
@@ -138,7 +141,7 @@ def _estimate_one(m: Measured, baseline: str | None, margin: float | None) -> An
         baseline = DEFAULT_BASELINE if DEFAULT_BASELINE in kernels else kernels[0]
     elif baseline not in kernels:
         raise UserError(f"baseline {baseline!r} is not in this run; its kernels: {', '.join(kernels)}")
-    names = {wid: _summary(spec) for wid, spec in m.specs.items()}
+    names = {wid: spec_from_dict(spec).summary() for wid, spec in m.specs.items()}
     table = stats.per_process(batches)
     # --margin, else the run's own A/A twin, else what run.json recorded (a calibration's or the default)
     mg = Margin(margin, "--margin") if margin is not None else twin_margin(table, baseline)
@@ -156,12 +159,6 @@ def _estimate_one(m: Measured, baseline: str | None, margin: float | None) -> An
     speedups["workload"] = speedups["workload_id"].map(names)
     speedups["margin_source"] = mg.source
     return Analysis(estimates, speedups, baseline, mg, len(batches), int(table["process"].nunique()), table)
-
-
-def _summary(spec: dict) -> str:
-    from ...workloads.kinds import spec_from_dict
-
-    return spec_from_dict(spec).summary()
 
 
 def _peak_columns(
@@ -207,17 +204,8 @@ def _peak_columns(
         # a time interval reaching 0 or below (few, noisy processes) leaves the fraction unbounded above
         ci_low = scaled["ci_low"].to_numpy()
         high = np.where(ci_low > 0, bound_ref / np.where(ci_low > 0, ci_low, np.nan), np.inf)
-    return pd.DataFrame(
-        {
-            "peak_gflops": peaks["peak_gflops"],
-            "ops_per_test": ops,
-            "bound_ns_per_test": bound,
-            "peak_fraction": fraction,
-            "peak_fraction_ci_low": low,
-            "peak_fraction_ci_high": high,
-        },
-        index=peaks.index,
-    )
+    values = (peaks["peak_gflops"], ops, bound, fraction, low, high)
+    return pd.DataFrame(dict(zip(columns, values, strict=True)), index=peaks.index)
 
 
 def write_tables(run_dir: str | Path, analysis: Analysis) -> tuple[Path, Path]:
@@ -259,13 +247,10 @@ def _workloads(run: runfolder.Run, wids: list[str]) -> tuple[dict[str, Any], dic
     found: dict[str, Any] = {}
     sources: dict[str, str] = {}
     for wid in wids:
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                found[wid], sources[wid] = cache.load(wid), "cache"
+        with contextlib.suppress(FileNotFoundError, ValueError), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            found[wid], sources[wid] = cache.load(wid), "cache"
             continue
-        except (FileNotFoundError, ValueError):
-            pass
         try:
             found[wid] = cache.make(run.sweep.spec_of(wid))
             sources[wid] = "not in the cache: rebuilt from the spec recorded in run.json (same bytes)"

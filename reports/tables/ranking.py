@@ -24,13 +24,8 @@ def _bytes_per_triangle(kernel: str, dtype: str) -> int | None:
 
 
 def _form(kernel: str) -> str:
-    from ... import ext
-
-    try:
-        lanes = ext.kernel_info(kernel).lanes
-    except ValueError:  # a kernel this build no longer has
-        return "?"
-    return "scalar" if lanes == 1 else f"{lanes} lanes"
+    lanes = declared(kernel, "lanes")  # None: a kernel this build no longer has
+    return "?" if lanes is None else "scalar" if lanes == 1 else f"{lanes} lanes"
 
 
 def _isas(batches: pd.DataFrame, run: runfolder.Run, kernel: str) -> str:

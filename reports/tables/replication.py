@@ -65,10 +65,6 @@ def _row(kind: str, where: str, wid: str, kernel: str, other: str, a: tuple, b: 
     }
 
 
-def _where(spec: Mapping[str, Any]) -> str:
-    return f"{family_of(spec)}: {short_label(spec)}"
-
-
 def _verdicts(original: RunTables, replicated: RunTables) -> list[dict[str, Any]]:
     """Each kernel against the baseline (ratio: its speedup), per workload and kernel both runs have."""
     fields = ["ratio", "ratio_ci_low", "ratio_ci_high", "verdict"]
@@ -78,7 +74,8 @@ def _verdicts(original: RunTables, replicated: RunTables) -> list[dict[str, Any]
         if (r.workload_id, r.kernel) in new.index:
             a = (r.ratio, r.ratio_ci_low, r.ratio_ci_high, r.verdict)
             b = tuple(new.loc[(r.workload_id, r.kernel)])
-            where = _where(original.specs[r.workload_id])
+            spec = original.specs[r.workload_id]
+            where = f"{family_of(spec)}: {short_label(spec)}"
             rows.append(_row("against the baseline", where, r.workload_id, r.kernel, original.baseline, a, b))
     return rows
 
