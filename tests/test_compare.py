@@ -18,7 +18,7 @@ import pytest
 from conftest import analysed
 from test_report_run import copy_run_inputs, run_fixture_dir
 
-from tribench import reports
+from tribench import cli, reports
 from tribench.common import UserError
 from tribench.harness.stats import unpaired_ratio
 from tribench.reports import charts, page
@@ -103,20 +103,19 @@ def test_compare_cli_prints_a_table_and_writes_html(two_runs, tmp_path):
     assert json.dumps(list(RATIO_WORDS.values())) in flat and '"title": "equivalence margin"' in flat
 
 
-def _gate(*runs):
-    argv = [sys.executable, "-m", "tribench.cli", "compare", *map(str, runs), "--fail-if-slower"]
-    return subprocess.run(argv, capture_output=True, text=True, timeout=120)
+def test_fail_if_slower_names_the_kernel_that_became_slower(two_runs, tmp_path, capsys):
+    def gate(*runs):  # in this process: the command's exit code and its stderr
+        code = cli.main(["compare", *map(str, runs), "--fail-if-slower", "--out", str(tmp_path / "c.html")])
+        return code, capsys.readouterr().err
 
-
-def test_fail_if_slower_names_the_kernel_that_became_slower(two_runs, tmp_path):
     a, b = two_runs  # b: moller_trumbore 1.25x faster, every other kernel's times the same to the bit
-    assert _gate(a, b).returncode == 0  # faster, or no change (an A/A pair): the gate passes
-    back = _gate(b, a)  # from b to a: moller_trumbore takes 1.25x the time
-    assert back.returncode == 1, back.stderr
-    lines = [line for line in back.stderr.splitlines() if line.startswith("slower in ")]
+    assert gate(a, b)[0] == 0  # faster, or no change (an A/A pair): the gate passes
+    code, err = gate(b, a)  # from b to a: moller_trumbore takes 1.25x the time
+    assert code == 1, err
+    lines = [line for line in err.splitlines() if line.startswith("slower in ")]
     assert lines and all(" moller_trumbore on " in line and "1.250x the time" in line for line in lines)
-    refused = _gate(a, b, a)
-    assert refused.returncode == 2 and "--fail-if-slower compares two runs" in refused.stderr
+    code, err = gate(a, b, a)
+    assert code == 2 and "--fail-if-slower compares two runs" in err
 
 
 def test_write_compare_default_path(two_runs):
