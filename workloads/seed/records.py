@@ -5,7 +5,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import BinaryIO, cast
 
 import numpy as np
 
@@ -151,15 +150,12 @@ class Trace:
 
 
 def save_png(path: str | Path, rgb: np.ndarray) -> Path:
-    """Save an 8-bit RGB image as a PNG file (matplotlib's ``imsave``), atomically; returns the path."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    """Save an 8-bit RGB image as a PNG file, atomically; returns the path."""
+    from PIL import Image
 
     path = Path(path)
     with atomic_write(path, "wb") as f:
-        plt.imsave(cast(BinaryIO, f), rgb, format="png")  # "wb": a binary file
+        Image.fromarray(rgb).save(f, format="PNG")
     return path
 
 
