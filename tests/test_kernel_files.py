@@ -43,6 +43,7 @@ def variant(tmp_path: Path, name: str, old: str = "", new: str = "") -> Path:
     return path
 
 
+@pytest.mark.slow  # a compile (seconds)
 def test_the_example_loads_from_python_and_answers_as_moller_trumbore(builds):
     done = python(
         f"""

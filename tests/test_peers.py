@@ -99,6 +99,7 @@ def measured(tmp_path_factory):
     return base / "peers.csv", frame
 
 
+@pytest.mark.slow  # a real measurement of every contender (seconds)
 def test_a_real_measurement_times_every_installed_contender_in_every_repetition(measured):
     path, frame = measured
     assert list(pd.read_csv(path, nrows=0).columns) == list(runfolder.FILES[runfolder.PEERS])

@@ -51,6 +51,7 @@ def finished(cache, tmp_path_factory):
     return run_dir
 
 
+@pytest.mark.slow  # a staged sweep (seconds)
 def test_each_stage_runs_exactly_the_comparisons_still_wide(finished):
     record = stages.read_stages(finished)
     s = sweep()
@@ -77,6 +78,7 @@ def test_each_stage_runs_exactly_the_comparisons_still_wide(finished):
     assert (run.n_batches, run.raw["n_batches_most"]) == (len(batches), len(plan(s)))
 
 
+@pytest.mark.slow  # a staged sweep (seconds)
 def test_the_stopped_comparisons_end_narrow_and_the_tables_pair_what_ran(finished, cache):
     result = analysed(finished, quick=True)
     spd = result.speedups
@@ -88,6 +90,7 @@ def test_the_stopped_comparisons_end_narrow_and_the_tables_pair_what_ran(finishe
     assert spd["n_processes"].nunique() >= 1 and spd["ratio"].notna().all()
 
 
+@pytest.mark.slow  # a staged sweep (seconds)
 def test_a_spent_budget_ends_the_sweep_after_its_first_stage(cache, tmp_path):
     runner.start(sweep(target=0.001, budget_s=0.01), tmp_path / "run", progress=False)
     record = stages.read_stages(tmp_path / "run")
@@ -95,6 +98,7 @@ def test_a_spent_budget_ends_the_sweep_after_its_first_stage(cache, tmp_path):
     assert set(runfolder.read_batches(tmp_path / "run")["process"]) == {0, 1, 2, 3}
 
 
+@pytest.mark.slow  # a staged sweep (seconds)
 def test_a_sweep_cut_mid_stage_resumes_to_the_same_batches(finished, tmp_path):
     run_dir = tmp_path / "run"
     shutil.copytree(finished, run_dir)
