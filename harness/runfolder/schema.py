@@ -401,9 +401,11 @@ FILES: dict[str, dict[str, str]] = {
         "watertight": "True when the kernel's paper promises no crack on shared edges (tribench.ext.kernel_info)",
         "culls_back_faces": "True when the kernel skips back faces (it answers a different question)",
         "bytes_per_triangle": "bytes of prepared data per triangle at that precision (empty: unknown to this build)",
-        "promises_checked": "validate.csv's judged tests of the kernel at this precision (count; empty: no validate.csv)",
+        "promises_checked": "validate.csv's judged tests of the kernel at this precision "
+        "(count; empty: no validate.csv)",
         "broken_promises": "of those, failed (count; empty: no validate.csv)",
-        "cracks_per_million": "validate.csv's shared_edges test: rays at an exact shared edge hitting nothing, per million",
+        "cracks_per_million": "validate.csv's shared_edges test: rays at an exact shared edge hitting nothing, "
+        "per million",
         "shared_edge_rays": "the rays of that test",
         "sphere_misses_per_million": "validate.csv's inside_sphere test (Embree's): rays from inside a far-off closed "
         "sphere that hit nothing, per million",
@@ -439,7 +441,8 @@ FILES: dict[str, dict[str, str]] = {
         "speedup_ci_low": "lower end of its simultaneous confidence interval (Bonferroni over the workload's kernels)",
         "speedup_ci_high": "upper end of that interval",
         "verdict": "faster, slower, equivalent or inconclusive (stats.verdict with the run's margin)",
-        "brute_workload_id": "the brute-force twin (same rays and mesh, every ray against every triangle) if in the run",
+        "brute_workload_id": "the brute-force twin (same rays and mesh, every ray against every triangle) "
+        "if in the run",
         "brute_speedup": "the same kernel's speedup over the same baseline in brute force on the twin (ns per test)",
         "brute_speedup_ci_low": "lower end of its simultaneous confidence interval",
         "brute_speedup_ci_high": "upper end of that interval",
@@ -476,11 +479,13 @@ FILES: dict[str, dict[str, str]] = {
         "ratio_ci_low": "lower end of its interval, simultaneous over the workload's pairs (Bonferroni)",
         "ratio_ci_high": "upper end of that interval",
         "verdict": "faster, slower, equivalent or undecided under this build (the build's own margin)",
-        "order": "holds (kernel faster under every build), differs (faster under one, slower under another) or undecided",
+        "order": "holds (kernel faster under every build), differs (faster under one, slower under another) "
+        "or undecided",
         "confidence": "the simultaneous confidence level of the interval",
     },
     REPLICATION: {
-        "conclusion": "against the baseline (speedups.csv), order of two (two kernels on a workload) or place in its band",
+        "conclusion": "against the baseline (speedups.csv), order of two (two kernels on a workload) "
+        "or place in its band",
         "where": "the workload (family: label), or the band (precision, band)",
         "workload_id": "the workload's id (empty for a band)",
         "kernel": "the kernel the conclusion is about",
