@@ -69,13 +69,6 @@ def check_workload_count(n: int) -> None:
         )
 
 
-def _spec_types() -> tuple[type, ...]:
-    from ..workloads.seed.workload import SeedSpec
-    from ..workloads.spec import MeshSpec, PairSpec
-
-    return (PairSpec, MeshSpec, SeedSpec)
-
-
 def is_bvh(spec: Spec) -> bool:
     """Whether the workload runs through a BVH (a mesh spec's ``accel``)."""
     return isinstance(spec, MeshSpec) and spec.accel == "bvh"
@@ -155,6 +148,8 @@ class Sweep:
 
     def __post_init__(self) -> None:
         from .. import ext
+        from ..workloads.seed.workload import SeedSpec
+        from ..workloads.spec import PairSpec
 
         put = object.__setattr__  # frozen: normalise once, here
         # sizes first, arithmetically: nothing is expanded before the plan is known to be bounded
@@ -201,7 +196,7 @@ class Sweep:
             raise UserError("a sweep needs at least one workload")
         check_workload_count(len(self.workloads))
         for spec in self.workloads:
-            if not isinstance(spec, _spec_types()):
+            if not isinstance(spec, (PairSpec, MeshSpec, SeedSpec)):
                 raise UserError(f"a workload must be a PairSpec, MeshSpec or SeedSpec, got {type(spec).__name__}")
         ids = tuple(workload_id(s) for s in self.workloads)
         if len(set(ids)) != len(ids):
