@@ -123,13 +123,13 @@ positive_int = int_in(1, MAX_COUNT)
 rng_seed = int_in(0, MAX_RNG_SEED)
 
 
-def float_in(lo: float, hi: float, *, low_open: bool = False) -> Callable[[str], float]:
-    """A finite number in ``[lo, hi]`` (``(lo, hi]`` with ``low_open``); NaN and infinities are refused."""
-    interval = f"{'(' if low_open else '['}{lo:g}, {hi:g}]"
+def float_in(lo: float, hi: float) -> Callable[[str], float]:
+    """A finite number in ``[lo, hi]``; NaN and infinities are refused."""
+    interval = f"[{lo:g}, {hi:g}]"
 
     def check(text: str) -> float:
         value = float(text) if _FLOAT.fullmatch(text) else math.nan
-        if not (math.isfinite(value) and (lo < value if low_open else lo <= value) and value <= hi):
+        if not (math.isfinite(value) and lo <= value <= hi):
             raise _refuse(f"must be a number in {interval}, got {text!r}")
         return value
 

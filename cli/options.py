@@ -6,6 +6,8 @@ import argparse
 import sys
 
 from ..common import UserError
+from ..harness.plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
+from ..harness.plan import DESIGN as DESIGN_FLAGS  # the attributes add_design_flags sets on the parsed arguments
 from . import flags
 
 __all__ = [
@@ -20,9 +22,6 @@ __all__ = [
 
 #: Precisions of the workloads (workloads.spec.DTYPES, kept here so --help imports nothing heavy).
 DTYPES = ("float32", "float64")
-
-#: The attributes add_design_flags sets on the parsed arguments.
-DESIGN_FLAGS = ("processes", "rounds", "warmup", "target_ms", "rng_seed")
 
 
 def _new_run_folder(text: str) -> str:
@@ -106,27 +105,16 @@ def add_run_out(parser: argparse.ArgumentParser, default: str = "runs/<date-time
 
 def add_design_flags(p: argparse.ArgumentParser) -> None:
     """The sweep design's flags (:data:`DESIGN_FLAGS`); None where not given."""
-    from ..harness.plan import (
-        DEFAULT_PROCESSES,
-        DEFAULT_ROUNDS,
-        DEFAULT_TARGET_MS,
-        DEFAULT_WARMUP,
-    )
-
-    p.add_argument(
-        "--processes", type=flags.positive_int, help=f"worker processes, the replicates (default {DEFAULT_PROCESSES})"
-    )
-    p.add_argument(
-        "--rounds", type=flags.positive_int, help=f"timed rounds per workload per process (default {DEFAULT_ROUNDS})"
-    )
-    p.add_argument(
-        "--warmup",
-        type=flags.int_in(0, flags.MAX_COUNT),
-        help=f"warm-up rounds per workload per process (default {DEFAULT_WARMUP})",
-    )
-    p.add_argument(
-        "--target-ms",
-        type=flags.float_in(0.01, 1000),
-        help=f"wanted length of one batch in ms, 0.01 to 1000 (default {DEFAULT_TARGET_MS:g})",
-    )
+    for flag, kind, text, default in (
+        ("--processes", flags.positive_int, "worker processes, the replicates", DEFAULT_PROCESSES),
+        ("--rounds", flags.positive_int, "timed rounds per workload per process", DEFAULT_ROUNDS),
+        ("--warmup", flags.int_in(0, flags.MAX_COUNT), "warm-up rounds per workload per process", DEFAULT_WARMUP),
+        (
+            "--target-ms",
+            flags.float_in(0.01, 1000),
+            "wanted length of one batch in ms, 0.01 to 1000",
+            DEFAULT_TARGET_MS,
+        ),
+    ):
+        p.add_argument(flag, type=kind, help=f"{text} (default {default:g})")
     add_rng_seed(p, "the plan and the layout randomisation")

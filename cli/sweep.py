@@ -7,6 +7,7 @@ import dataclasses
 import sys
 
 from ..common import UserError
+from ..workloads.spec import ACCELS
 from . import flags
 from .options import (
     DESIGN_FLAGS,
@@ -23,15 +24,37 @@ __all__ = ["add_parser", "run"]
 
 DEFAULT_CAMERA = (64, 64)
 
-#: The flags that make the workload grid (a sweep file has its own).
-_WORKLOAD_FLAGS = ("hit_rates", "pairs", "mesh", "triangles", "camera", "rays", "accel", "max_leaf", "dtype")
+#: The flags that make the workload grid (a sweep file has its own): metavar, type and help of each.
+_WORKLOAD_FLAGS = {
+    "hit_rates": ("H,..", flags.float_list(0, 1), "per-test hit rates of pair workloads, each in [0, 1] (default 0.5)"),
+    "pairs": ("N", flags.positive_int, "pairs per pair workload (default 10000)"),
+    "mesh": ("NAME,..", flags.name_list, "mesh workloads (suzanne, icosphere, ... or a file)"),
+    "triangles": ("K,..", flags.int_list(1, flags.MAX_COUNT), "triangle counts of the meshes (default: base mesh)"),
+    "camera": ("WxH", flags.camera, "camera rays of mesh workloads (default {}x{})".format(*DEFAULT_CAMERA)),
+    "rays": (
+        "FILE.npz,..",
+        flags.name_list,
+        "your own rays for the mesh workloads instead of the camera: .npz files of origins and directions, "
+        "each (N, 3), and optionally t_max (N,) (docs/own-rays.md)",
+    ),
+    "accel": (
+        "brute,bvh",
+        flags.choice_list(ACCELS),
+        "how kernels run the mesh workloads: every ray against every triangle (brute, the default) or "
+        "through a BVH with the kernel as its leaf test (bvh: only the kernels of ext.bvh_kernel_names())",
+    ),
+    "max_leaf": (
+        "N,..",
+        flags.int_list(1, 1024),
+        "the most triangles in a BVH leaf, one workload per value (with --accel bvh; default ext.DEFAULT_MAX_LEAF, 32)",
+    ),
+    "dtype": ("float32,float64", flags.choice_list(DTYPES), "precisions (default float64)"),
+}
 #: The flags that describe a new sweep: --resume takes none of them (the run's own sweep is used).
 _NEW_SWEEP_FLAGS = ("file", "kernels", *_WORKLOAD_FLAGS, *DESIGN_FLAGS, "cpu", "out", "kernel_files", "builds")
 
 
 def add_parser(sub) -> None:
-    from ..workloads.spec import ACCELS
-
     p = sub.add_parser(
         "sweep",
         help="time kernels x workloads in fresh worker processes; write a run folder",
@@ -55,52 +78,8 @@ def add_parser(sub) -> None:
     )
     add_kernel_files(p)
     add_builds(p)
-    p.add_argument(
-        "--hit-rates",
-        metavar="H,..",
-        type=flags.float_list(0, 1),
-        help="per-test hit rates of pair workloads, each in [0, 1] (default 0.5)",
-    )
-    p.add_argument("--pairs", type=flags.positive_int, metavar="N", help="pairs per pair workload (default 10000)")
-    p.add_argument(
-        "--mesh", metavar="NAME,..", type=flags.name_list, help="mesh workloads (suzanne, icosphere, ... or a file)"
-    )
-    p.add_argument(
-        "--triangles",
-        metavar="K,..",
-        type=flags.int_list(1, flags.MAX_COUNT),
-        help="triangle counts of the meshes (default: base mesh)",
-    )
-    p.add_argument(
-        "--camera",
-        metavar="WxH",
-        type=flags.camera,
-        help="camera rays of mesh workloads (default {}x{})".format(*DEFAULT_CAMERA),
-    )
-    p.add_argument(
-        "--rays",
-        metavar="FILE.npz,..",
-        type=flags.name_list,
-        help="your own rays for the mesh workloads instead of the camera: .npz files of origins and directions, "
-        "each (N, 3), and optionally t_max (N,) (docs/own-rays.md)",
-    )
-    p.add_argument(
-        "--accel",
-        metavar="brute,bvh",
-        type=flags.choice_list(ACCELS),
-        help="how kernels run the mesh workloads: every ray against every triangle (brute, the default) or "
-        "through a BVH with the kernel as its leaf test (bvh: only the kernels of ext.bvh_kernel_names())",
-    )
-    p.add_argument(
-        "--max-leaf",
-        metavar="N,..",
-        type=flags.int_list(1, 1024),
-        help="the most triangles in a BVH leaf, one workload per value (with --accel bvh; default "
-        "ext.DEFAULT_MAX_LEAF, 32)",
-    )
-    p.add_argument(
-        "--dtype", metavar="float32,float64", type=flags.choice_list(DTYPES), help="precisions (default float64)"
-    )
+    for dest, (metavar, kind, text) in _WORKLOAD_FLAGS.items():
+        p.add_argument(f"--{dest.replace('_', '-')}", metavar=metavar, type=kind, help=text)
     add_design_flags(p)
     p.add_argument("--cpu", type=flags.cpu, help="CPU to pin workers to (default: the last usable one)")
     add_no_progress(p)

@@ -20,15 +20,47 @@ import sys
 from typing import Any
 
 from ..common import UserError
+from ..workloads.spec import ACCELS, RAY_SETS
 from . import flags
 from .options import add_rng_seed, usage
 
 __all__ = ["add_parser", "main", "parse_miss_mix"]
 
-# The spec fields `make` has a flag for: the only attributes of the parsed
-# arguments that go into a spec (the namespace also holds the command's own).
-_PAIR_OPTIONS = ("n", "order", "miss_mix", "shape", "scale", "offset", "winding")
-_MESH_OPTIONS = ("triangles", "rays", "n_rays", "width", "height", "accel")
+# The spec fields `make` has a flag for, with the flag's argparse options: the only attributes of the
+# parsed arguments that go into a spec (the namespace also holds the command's own).
+_PAIR_OPTIONS: dict[str, dict[str, Any]] = {
+    "n": {"type": int, "help": "number of pairs (default 10000)"},
+    "order": {"choices": ("shuffled", "sorted"), "help": "default shuffled"},
+    "miss_mix": {
+        "metavar": "MIX",
+        "help": "edges (default), uniform, one stage name, or stage=fraction,... over parallel, "
+        "behind_origin, outside_edge_1, outside_edge_2, outside_edge_3",
+    },
+    "shape": {"choices": ("sphere", "equilateral", "sliver"), "help": "default sphere"},
+    "scale": {"type": float, "help": "size of every pair (default 1)"},
+    "offset": {"type": float, "help": "distance moved from the origin (default 0)"},
+    "winding": {
+        "choices": ("random", "facing"),
+        "help": "random (default: a ray meets a back face half the time) or facing (every ray meets a front face)",
+    },
+}
+_MESH_OPTIONS: dict[str, dict[str, Any]] = {
+    "triangles": {"type": int, "help": "exact triangle count (default: the base mesh)"},
+    "rays": {
+        "metavar": "SET|FILE.npz",
+        "help": f"{', '.join(RAY_SETS)} (default camera; bounce: one cosine-distributed bounce from each camera hit, "
+        "incoherent secondary rays), or your own rays: an .npz file of origins and directions, each (N, 3), "
+        "and optionally t_max (N,) (docs/own-rays.md)",
+    },
+    "n_rays": {"type": int, "help": "rays at a per-ray hit rate (default 4096)"},
+    "width": {"type": int, "help": "camera width in pixels (default 512)"},
+    "height": {"type": int, "help": "camera height in pixels (default 512)"},
+    "accel": {
+        "choices": ACCELS,
+        "help": "how kernels run it: every ray against every triangle (default brute) or through a BVH with the "
+        "kernel as its leaf test (native kernels only); the rays and answers are the same",
+    },
+}
 _SHARED_OPTIONS = ("hit_rate", "dtype", "rng_seed")
 
 
@@ -56,8 +88,6 @@ def parse_miss_mix(text: str) -> str | dict[str, float]:
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Add the ``workloads`` command (``make``, ``list``, ``show``) to ``subparsers``."""
-    from ..workloads.spec import ACCELS, RAY_SETS
-
     parser = subparsers.add_parser(
         "workloads",
         help="make, list and show workloads (meshes, rays, reference answers)",
@@ -76,41 +106,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "for rays at a per-ray hit rate, or --rays bounce for one diffuse bounce from each camera hit.",
     )
     make.add_argument("kind", metavar="KIND")
-    pairs = make.add_argument_group("pairs")
-    pairs.add_argument("--n", type=int, help="number of pairs (default 10000)")
-    pairs.add_argument("--order", choices=("shuffled", "sorted"), help="default shuffled")
-    pairs.add_argument(
-        "--miss-mix",
-        metavar="MIX",
-        help="edges (default), uniform, one stage name, or stage=fraction,... over parallel, "
-        "behind_origin, outside_edge_1, outside_edge_2, outside_edge_3",
-    )
-    pairs.add_argument("--shape", choices=("sphere", "equilateral", "sliver"), help="default sphere")
-    pairs.add_argument("--scale", type=float, help="size of every pair (default 1)")
-    pairs.add_argument("--offset", type=float, help="distance moved from the origin (default 0)")
-    pairs.add_argument(
-        "--winding",
-        choices=("random", "facing"),
-        help="random (default: a ray meets a back face half the time) or facing (every ray meets a front face)",
-    )
-    mesh = make.add_argument_group("meshes")
-    mesh.add_argument("--triangles", type=int, help="exact triangle count (default: the base mesh)")
-    mesh.add_argument(
-        "--rays",
-        metavar="SET|FILE.npz",
-        help=f"{', '.join(RAY_SETS)} (default camera; bounce: one cosine-distributed bounce from each camera hit, "
-        "incoherent secondary rays), or your own rays: an .npz file of origins and directions, each (N, 3), "
-        "and optionally t_max (N,) (docs/own-rays.md)",
-    )
-    mesh.add_argument("--n-rays", type=int, help="rays at a per-ray hit rate (default 4096)")
-    mesh.add_argument("--width", type=int, help="camera width in pixels (default 512)")
-    mesh.add_argument("--height", type=int, help="camera height in pixels (default 512)")
-    mesh.add_argument(
-        "--accel",
-        choices=ACCELS,
-        help="how kernels run it: every ray against every triangle (default brute) or through a BVH with the "
-        "kernel as its leaf test (native kernels only); the rays and answers are the same",
-    )
+    for title, options in (("pairs", _PAIR_OPTIONS), ("meshes", _MESH_OPTIONS)):
+        group = make.add_argument_group(title)
+        for dest, kwargs in options.items():
+            group.add_argument(f"--{dest.replace('_', '-')}", **kwargs)
     both = make.add_argument_group("both")
     both.add_argument("--hit-rate", type=float, help="per-test (pairs) or per-ray (meshes) hit rate, default 0.5")
     both.add_argument("--dtype", choices=("float64", "float32"), help="default float64")
@@ -137,7 +136,7 @@ def _error(message: str) -> int:
 def _spec_from_args(args: argparse.Namespace):
     from ..workloads.spec import MeshSpec, PairSpec
 
-    options = _PAIR_OPTIONS + _MESH_OPTIONS + _SHARED_OPTIONS
+    options = (*_PAIR_OPTIONS, *_MESH_OPTIONS, *_SHARED_OPTIONS)
     given = {k: getattr(args, k) for k in options if getattr(args, k) is not None}
     if "miss_mix" in given:  # parsed here, not by argparse, so a bad mix is a one-line error
         given["miss_mix"] = parse_miss_mix(given["miss_mix"])

@@ -42,6 +42,9 @@ DEFAULT_TARGET_MS = 8.0
 #: historical baseline (the analysis's default, the main job's comparisons, the seed replay's ratio).
 DEFAULT_BASELINE = "moller_seed"
 
+#: The design of a sweep, beside its kernels and workloads: the fields the command line's flags set too.
+DESIGN = ("processes", "rounds", "warmup", "target_ms", "rng_seed")
+
 # Bounds of a sweep, so a typo (--rounds 1000000000) is refused before anything is allocated:
 # a million batches (the main job plans at most 18,864) is about 150 MB of plan and 2.2 hours
 # of timed batches; past that, a study is several sweeps.
@@ -64,13 +67,6 @@ def check_workload_count(n: int) -> None:
             f"the sweep has {n:,} workloads; at most {MAX_WORKLOADS:,} (each is generated, cached "
             f"and calibrated in every process; the main job has 13): split it into several sweeps"
         )
-
-
-def _spec_types() -> tuple[type, ...]:
-    from ..workloads.seed.workload import SeedSpec
-    from ..workloads.spec import MeshSpec, PairSpec
-
-    return (PairSpec, MeshSpec, SeedSpec)
 
 
 def is_bvh(spec: Spec) -> bool:
@@ -152,6 +148,8 @@ class Sweep:
 
     def __post_init__(self) -> None:
         from .. import ext
+        from ..workloads.seed.workload import SeedSpec
+        from ..workloads.spec import PairSpec
 
         put = object.__setattr__  # frozen: normalise once, here
         # sizes first, arithmetically: nothing is expanded before the plan is known to be bounded
@@ -198,7 +196,7 @@ class Sweep:
             raise UserError("a sweep needs at least one workload")
         check_workload_count(len(self.workloads))
         for spec in self.workloads:
-            if not isinstance(spec, _spec_types()):
+            if not isinstance(spec, (PairSpec, MeshSpec, SeedSpec)):
                 raise UserError(f"a workload must be a PairSpec, MeshSpec or SeedSpec, got {type(spec).__name__}")
         ids = tuple(workload_id(s) for s in self.workloads)
         if len(set(ids)) != len(ids):
@@ -301,11 +299,7 @@ class Sweep:
             "kernels": list(self.kernels),
             "workloads": [s.to_dict() for s in self.workloads],
             "workload_ids": list(self.workload_ids),
-            "processes": self.processes,
-            "rounds": self.rounds,
-            "warmup": self.warmup,
-            "target_ms": self.target_ms,
-            "rng_seed": self.rng_seed,
+            **{k: getattr(self, k) for k in DESIGN},
             # only when used, so the run.json of an ordinary sweep is what it always was
             **({"workload_kernels": [list(k) for k in self.workload_kernels]} if self.workload_kernels else {}),
             **({"sequential": self.sequential.to_dict()} if self.sequential is not None else {}),
@@ -328,11 +322,7 @@ class Sweep:
         return cls(
             kernels=tuple(d["kernels"]),
             workloads=tuple(spec_from_dict(w) for w in d["workloads"]),
-            processes=d["processes"],
-            rounds=d["rounds"],
-            warmup=d["warmup"],
-            target_ms=d["target_ms"],
-            rng_seed=d["rng_seed"],
+            **{k: d[k] for k in DESIGN},
             workload_kernels=tuple(tuple(k) for k in d.get("workload_kernels", ())),
             sequential=Sequential(**d["sequential"]) if d.get("sequential") is not None else None,
             kernel_files=tuple(_kernel_file(f, run_dir) for f in d.get("kernel_files", ())),

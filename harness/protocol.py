@@ -22,7 +22,7 @@ from typing import Any, TextIO
 
 from ..common import Notice
 
-__all__ = ["WorkerError", "emit", "run_worker", "serve", "stderr_tail"]
+__all__ = ["WorkerError", "emit", "run_worker", "serve"]
 
 
 class WorkerError(RuntimeError):
@@ -34,13 +34,6 @@ class WorkerError(RuntimeError):
 
 
 _NOTICES_SHOWN: set[str] = set()
-
-
-def stderr_tail(err: TextIO, lines: int = 5) -> str:
-    """The last lines a dead worker wrote to ``err`` (a temporary file), as ": a | b", or "" if none."""
-    err.seek(0)
-    tail = err.read().strip().splitlines()[-lines:]
-    return f": {' | '.join(tail)}" if tail else ""
 
 
 def run_worker(
@@ -104,19 +97,19 @@ def run_worker(
         if error is not None:
             raise WorkerError(error, said=True)
         if code != 0:
-            raise WorkerError(f"{name} {_exit_words(code)}{stderr_tail(err)}")
+            raise WorkerError(f"{name} {_exit_words(code, err)}")
         if not ended:
             raise WorkerError(f"{name} exited before its job was done (exit code 0: its code called exit()?)")
 
 
-def _exit_words(code: int) -> str:
-    """How a worker ended, as said: ``exited with code 4`` or ``was killed by SIGSEGV``."""
-    if code < 0:
-        try:
-            return f"was killed by {signal.Signals(-code).name}"
-        except ValueError:
-            pass
-    return f"exited with code {code}"
+def _exit_words(code: int, err: TextIO) -> str:
+    """How a worker ended, as said, and the last lines it wrote to ``err`` (a temporary file):
+    ``exited with code 4``, ``was killed by SIGSEGV: a | b``."""
+    names = {-s.value: s.name for s in signal.Signals}
+    how = f"was killed by {names[code]}" if code in names else f"exited with code {code}"
+    err.seek(0)
+    tail = err.read().strip().splitlines()[-5:]
+    return f"{how}: {' | '.join(tail)}" if tail else how
 
 
 #: The worker's end of the channel (see :func:`serve`); stdout outside a worker.

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
+import functools
 import hashlib
 import json
 import math
@@ -19,7 +20,7 @@ import secrets
 import sys
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -59,6 +60,13 @@ __all__ = [
 ]
 
 WORKER = (sys.executable, "-m", "tribench.harness.worker")
+#: The measured files by the type of the worker's lines: file, row type, columns.
+_MEASURED_ROWS: dict[str, tuple[str, Any, Sequence[str]]] = {
+    "batch": (runfolder.BATCHES, BatchRow, BATCH_COLUMNS),
+    "process": (runfolder.PROCESSES, ProcessRow, PROCESS_COLUMNS),
+    "check": (runfolder.CHECKS, CheckRow, CHECK_COLUMNS),
+    "traversal": (runfolder.TRAVERSALS, TraversalRow, TRAVERSAL_COLUMNS),
+}
 
 
 class SweepError(Exception):
@@ -425,26 +433,19 @@ def _execute(
     attempts = _attempts(run)
     ran = 0
     try:
-        with (
-            progress_ticks(progress, total, done_before) as advance,
-            RowWriter(run_dir / runfolder.BATCHES, BATCH_COLUMNS) as batches,
-            RowWriter(run_dir / runfolder.PROCESSES, PROCESS_COLUMNS) as processes,
-            RowWriter(run_dir / runfolder.CHECKS, CHECK_COLUMNS) as checks,
-            RowWriter(run_dir / runfolder.TRAVERSALS, TRAVERSAL_COLUMNS) as traversals,
-        ):
-
-            def on_batch(row: BatchRow) -> None:
-                nonlocal ran
-                batches.append(row)
-                ran += 1
-                advance()
-
-            keep: dict[str, Callable[[Any], None]] = {
-                "batch": on_batch,
-                "process": processes.append,
-                "check": checks.append,
-                "traversal": traversals.append,
+        with progress_ticks(progress, total, done_before) as advance, ExitStack() as files:
+            writers = {
+                kind: files.enter_context(RowWriter(run_dir / name, columns))
+                for kind, (name, _, columns) in _MEASURED_ROWS.items()
             }
+
+            def keep(kind: str, row: Any) -> None:
+                nonlocal ran
+                writers[kind].append(row)
+                if kind == "batch":
+                    ran += 1
+                    advance()
+
             for p, keys in by_process.items():
                 _run_process(run, p, attempts.get(p, 0), keys, worker, keep)
     except (KeyboardInterrupt, SweepError, OSError) as exc:  # what is kept, and how to go on
@@ -467,9 +468,9 @@ def _run_process(
     attempt: int,
     keys: Sequence[BatchKey],
     worker: Sequence[str],
-    keep: Mapping[str, Callable[[Any], None]],
+    keep: Callable[[str, Any], None],
 ) -> None:
-    """One worker process: send its job, keep each row (``keep[type]``: batch, process, check, traversal), raise
+    """One worker process: send its job, ``keep(type, row)`` each row (batch, process, check, traversal), raise
     on its error."""
     from .layout import padded_env
     from .worker import WorkerJob
@@ -489,28 +490,18 @@ def _run_process(
         sweep.kernel_files,
         sweep.build_of(process),
     )
-    planned = frozenset(keys)
-    expected = set(planned)
+    planned, expected = frozenset(keys), set(keys)
 
-    def on_batch_line(message: dict[str, Any]) -> None:
-        row = BatchRow(**message)
-        if _key(row) not in expected:
-            raise SweepError(f"worker of process {process} sent an unplanned batch {_key(row)}")
-        expected.discard(_key(row))
-        keep["batch"](row)
+    def on_line(kind: str, message: dict[str, Any]) -> None:
+        row = _MEASURED_ROWS[kind][1](**message)
+        key = _key(row) if kind in ("batch", "traversal") else None  # a batch comes once, a traversal is a batch's
+        if key is not None and key not in (expected if kind == "batch" else planned):
+            raise SweepError(f"worker of process {process} sent an unplanned {kind} {key}")
+        if kind == "batch":
+            expected.discard(key)
+        keep(kind, row)
 
-    def on_traversal_line(message: dict[str, Any]) -> None:
-        trav = TraversalRow(**message)
-        if _key(trav) not in planned:
-            raise SweepError(f"worker of process {process} sent an unplanned traversal {_key(trav)}")
-        keep["traversal"](trav)
-
-    handlers = {
-        "batch": on_batch_line,
-        "traversal": on_traversal_line,
-        "process": lambda m: keep["process"](ProcessRow(**m)),
-        "check": lambda m: keep["check"](CheckRow(**m)),
-    }
+    handlers = {kind: functools.partial(on_line, kind) for kind in _MEASURED_ROWS}
     try:
         run_worker(worker, job.to_json(), env, handlers, f"worker of process {process}")
     except WorkerError as exc:

@@ -12,7 +12,6 @@ import os
 import sys
 import time
 from collections.abc import Sequence
-from typing import TextIO
 
 import numpy as np
 
@@ -89,7 +88,7 @@ def _in_a_process(argv: list[str], what: str, kernels: int) -> dict[str, list[st
     return checked
 
 
-def check_builds(sweep, log: TextIO | None = None) -> dict[str, dict[str, list[str]]]:
+def check_builds(sweep) -> dict[str, dict[str, list[str]]]:
     """Every kernel of ``sweep`` checked again under each build but the installed one: build -> kernel -> problems.
 
     A build may change results (``-ffast-math``), so nothing is refused: ``run.json``
@@ -107,7 +106,7 @@ def check_builds(sweep, log: TextIO | None = None) -> dict[str, dict[str, list[s
         print(
             f"build {build}: compiled (or cached) and its {len(checked[build])} kernels checked again in "
             f"{time.monotonic() - t0:.0f} s: {verdict}",
-            file=sys.stderr if log is None else log,
+            file=sys.stderr,
         )
     return checked
 

@@ -16,7 +16,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -159,7 +159,6 @@ def run_seed(
     all_kernels: bool = False,
     progress: bool | None = None,
     command: str | None = None,
-    log: TextIO | None = None,
 ) -> float:
     """Make the workloads, run the sweep into ``out`` and draw the pictures; the seconds it took.
 
@@ -170,7 +169,6 @@ def run_seed(
     from .sweep import run_sweep
 
     t0 = time.monotonic()
-    log = sys.stderr if log is None else log
     design = QUICK if quick else FULL
     size, sample = size or design.size, sample or design.sample
     out = Path(out)
@@ -178,7 +176,7 @@ def run_seed(
     scenes = [str(s) for s in (scenes or tuple(PAPER))]
     resolved = [SeedSpec(s, sample=sample, width=size, height=size).scene for s in scenes]
     labels = _labels(resolved)
-    specs, info = _workloads(resolved, labels, size, sample, log)
+    specs, info = _workloads(resolved, labels, size, sample)
     sweep = Sweep(
         seed_kernels(all_kernels),
         tuple(specs),
@@ -190,7 +188,7 @@ def run_seed(
     print(
         f"sweep: {len(sweep.kernels)} kernels x {len(specs)} workloads, {sweep.processes} processes x "
         f"{sweep.rounds} rounds: {sweep.n_batches} batches -> {out}",
-        file=log,
+        file=sys.stderr,
     )
     replay = {
         "scenes": [labels[s] for s in resolved],
@@ -205,7 +203,7 @@ def run_seed(
     run_sweep(
         sweep,
         out,
-        say=lambda line: print(line, file=log),
+        say=lambda line: print(line, file=sys.stderr),
         progress=progress,
         extra={"command": command, "seed_replay": replay},
         announce=lambda sweep: _expected(sweep, info, size),
@@ -214,14 +212,14 @@ def run_seed(
     pictures = []
     for scene in resolved:
         if any(v["scene"] == labels[scene] for v in info.values()):
-            print(f"pictures: {labels[scene]}, curless_seed and moller_seed at {size}x{size}", file=log)
+            print(f"pictures: {labels[scene]}, curless_seed and moller_seed at {size}x{size}", file=sys.stderr)
             pictures.append(make_pictures(scene, labels[scene], size, out))
     runfolder.write_csv(pd.DataFrame(pictures, columns=list(COLUMNS[PICTURES_CSV])), out / PICTURES_CSV)
     return time.monotonic() - t0
 
 
 def _workloads(
-    resolved: list[str], labels: dict[str, str], size: int, sample: int, log: TextIO
+    resolved: list[str], labels: dict[str, str], size: int, sample: int
 ) -> tuple[list, dict[str, dict[str, Any]]]:
     """Every scene's ray streams as workloads (traced the first time, then cached), and what each is:
     its scene's label, the paper's scene it replays, its ray kind and its stream's figures."""
@@ -235,13 +233,15 @@ def _workloads(
     for scene in resolved:
         kinds = [SeedSpec(scene, rays, sample=sample, width=size, height=size) for rays in RAY_KINDS]
         if not any(cache.cached(spec) for spec in kinds):  # one trace makes them all: said (or refused) first
-            print(f"tracing {labels[scene]}: expected about {format_duration(trace_forecast(kinds[0]))}", file=log)
+            print(
+                f"tracing {labels[scene]}: expected about {format_duration(trace_forecast(kinds[0]))}", file=sys.stderr
+            )
         for spec in kinds:
-            print(f"workload: {spec.summary()}", file=log)
+            print(f"workload: {spec.summary()}", file=sys.stderr)
             try:
                 w = cache.make(spec)  # the first time, traces the scene (seconds at 512 x 512)
             except EmptyStream as exc:
-                print(f"  skipped: {exc}", file=log)
+                print(f"  skipped: {exc}", file=sys.stderr)
                 continue
             specs.append(spec)
             a = w.achieved

@@ -175,20 +175,8 @@ def measure(kernel: str, sets: RaySets) -> list[dict]:
         expected, allowed = promise(kernel, test)
         rate = failures / rays if rays else float("nan")
         verdict = "measured" if allowed is None else ("pass" if rate <= allowed else "fail")
-        rows.append(
-            {
-                "kernel": kernel,
-                "dtype": sets.dtype,
-                "isa": isa,
-                "test": test,
-                "rays": rays,
-                "failures": failures,
-                "rate": rate,
-                "expected": expected,
-                "verdict": verdict,
-                "detail": detail,
-            }
-        )
+        values = (kernel, sets.dtype, isa, test, rays, failures, rate, expected, verdict, detail)
+        rows.append(dict(zip(COLUMNS, values, strict=True)))
     return rows
 
 

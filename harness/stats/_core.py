@@ -50,7 +50,7 @@ def _check_confidence(confidence: float) -> None:
         raise ValueError(f"confidence must lie in (0, 1), got {confidence}")
 
 
-def _t_quantile(confidence: float, df: int) -> float:
+def _t_quantile(confidence: float, df: float) -> float:
     return float(_scipy_stats().t.ppf(0.5 + confidence / 2, df))
 
 

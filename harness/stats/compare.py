@@ -5,10 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
 import numpy.typing as npt
 
-from ._core import _check_confidence, _exp, _scipy_stats
+from ._core import _check_confidence, _exp, _scipy_stats, _t_quantile, _vector
 
 
 @dataclass(frozen=True)
@@ -31,6 +30,7 @@ def unpaired_ratio(log_a: npt.ArrayLike, log_b: npt.ArrayLike, confidence: float
     or log ns/test), with a Welch interval ``exp(diff -/+ t_df se)``, ``se = sqrt(s_a^2/n_a + s_b^2/n_b)``. Swapping
     the samples inverts ratio and interval exactly; under two values in either sample the interval is nan.
 
+    >>> import numpy as np
     >>> r = unpaired_ratio(np.log([1.0, 1.1, 0.9]), np.log([2.0, 2.2, 1.8]))
     >>> round(r.ratio, 6), r.ci_low < 2.0 < r.ci_high
     (2.0, True)
@@ -38,12 +38,7 @@ def unpaired_ratio(log_a: npt.ArrayLike, log_b: npt.ArrayLike, confidence: float
     >>> round(back.ratio * r.ratio, 12), round(back.ci_low * r.ci_high, 12)
     (1.0, 1.0)
     """
-    a = np.asarray(log_a, dtype=float)
-    b = np.asarray(log_b, dtype=float)
-    if a.ndim != 1 or b.ndim != 1 or a.size == 0 or b.size == 0:
-        raise ValueError("both samples must be non-empty 1-D sequences")
-    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
-        raise ValueError("log values must be finite")
+    a, b = _vector(log_a, "log_a"), _vector(log_b, "log_b")
     _check_confidence(confidence)
     diff = float(b.mean() - a.mean())
     ratio = _exp(diff)
@@ -54,6 +49,6 @@ def unpaired_ratio(log_a: npt.ArrayLike, log_b: npt.ArrayLike, confidence: float
     if se == 0:
         return LogRatio(ratio, ratio, ratio, 0.0, math.inf, 0.0 if diff else 1.0, a.size, b.size, confidence)
     df = (va + vb) ** 2 / (va**2 / (a.size - 1) + vb**2 / (b.size - 1))
-    q = float(_scipy_stats().t.ppf(0.5 + confidence / 2, df))
+    q = _t_quantile(confidence, df)
     p = float(2 * _scipy_stats().t.sf(abs(diff) / se, df))
     return LogRatio(ratio, _exp(diff - q * se), _exp(diff + q * se), se, df, p, a.size, b.size, confidence)
