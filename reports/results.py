@@ -8,7 +8,7 @@ from html import escape
 import numpy as np
 import pandas as pd
 
-from . import charts, check_charts, page, speed_charts
+from . import charts, page, speed_charts
 from .headline import peer_sentence
 from .rundata import PeerTables, RunData
 
@@ -324,7 +324,7 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
 def processes_section(pp: pd.DataFrame, est: pd.DataFrame, colours: dict[str, str]) -> str:
     """Every worker process's value beside the estimate: the replicate made visible."""
     labels = {r.workload_id: f"{r.family} · {r.label}" for r in est.drop_duplicates("workload_id").itertuples()}
-    chart = check_charts.processes_chart(pp, est, labels, colours)
+    chart = charts.processes_chart(pp, est, labels, colours)
     if chart is None:
         return page.p("No estimate: no process to show.", "note")
     return charts.embed(

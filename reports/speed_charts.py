@@ -336,7 +336,7 @@ def _cache_marks(caches: dict[str, Any] | None) -> list[alt.Chart]:
 def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) -> alt.VConcatChart | None:
     """ns/test against the mesh's triangle count, and against the working set with the data caches marked.
 
-    ``est``: :func:`.content.estimates_table`'s frame. None without an estimate."""
+    ``est``: :func:`.rundata.estimates_table`'s frame. None without an estimate."""
     if est.empty:
         return None
     frame = est.assign(ns=intervals(est, "ns_per_test", " ns"))

@@ -197,7 +197,7 @@ def test_the_charts_the_fixture_has_no_data_for_draw_without_console_errors(tmp_
     """The BVH, peers, seed and compare charts, and rounds with outliers, from small frames in their tables' columns."""
     import pandas as pd
 
-    from tribench.reports import charts, check_charts, page, speed_charts
+    from tribench.reports import charts, page, speed_charts
     from tribench.reports.compare import RATIO_WORDS
     from tribench.reports.tables.diagnostics import drift_bins, round_summary
 
@@ -230,8 +230,8 @@ def test_the_charts_the_fixture_has_no_data_for_draw_without_console_errors(tmp_
         | {"outlier": [False] * 4 + [True, False, True, False], "far_out": [False] * 4 + [True] + [False] * 3}
     )
     drawn = [
-        check_charts.rounds_chart(round_summary(labels), colours),
-        check_charts.drift_chart(drift_bins(labels, bins=2), colours),
+        charts.rounds_chart(round_summary(labels), colours),
+        charts.drift_chart(drift_bins(labels, bins=2), colours),
         speed_charts.bvh_chart(bvh, colours),
         speed_charts.peers_chart(rates),
         speed_charts.seed_chart(seed, colours),

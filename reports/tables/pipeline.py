@@ -305,7 +305,7 @@ def derive(
 ) -> dict[str, pd.DataFrame]:
     """Every derived table of the run by file name, in :data:`runfolder.DERIVED`'s order: a pure
     function of the measured files and the workloads, each build's parts from its processes alone."""
-    from .builds import builds_table
+    from .compare import builds_table
 
     one = {b: _derive_one(m.of_build(b) if len(m.builds) > 1 else m, a, workloads, sources) for b, a in parts.items()}
     first = next(iter(one.values()))
