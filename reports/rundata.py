@@ -22,6 +22,7 @@ from ..ext.builds import INSTALLED
 from ..harness import runfolder
 from ..harness.plan import rows_of_build
 from ..workloads.labels import family_of, short_label, spec_text
+from .tables.frames import in_order
 from .tables.margin import TWINS
 from .tables.measured import file_digest, has_columns, read_documented
 from .tables.workload_tables import compared, estimates_with_workloads
@@ -243,9 +244,8 @@ def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
     ]
     if missing:
         note += f" Not in the table: {', '.join(missing)}."
-    order = {k: i for i, k in enumerate(data.kernels)}
-    df = df.loc[df["kernel"].isin(order) & df["dtype"].isin(data.dtypes)]
-    return df.sort_values("kernel", key=lambda s: s.map(order), kind="stable").reset_index(drop=True), note
+    df = df.loc[df["kernel"].isin(data.kernels) & df["dtype"].isin(data.dtypes)]
+    return in_order(df, kernel=data.kernels), note
 
 
 _NO_VALIDATION = pd.DataFrame(columns=list(runfolder.FILES[VALIDATE]))
@@ -310,12 +310,7 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
 
 def sweep_order(frame: pd.DataFrame, data: RunData) -> pd.DataFrame:
     """Rows in sweep order: workloads, then kernels."""
-    if frame.empty:
-        return frame
-    w = {x: i for i, x in enumerate(data.workload_ids)}
-    k = {x: i for i, x in enumerate(data.kernels)}
-    key = frame["workload_id"].map(w) * 1000 + frame["kernel"].map(k)
-    return frame.assign(_key=key).sort_values("_key", kind="stable").drop(columns="_key").reset_index(drop=True)
+    return in_order(frame, workload_id=data.workload_ids, kernel=data.kernels)
 
 
 def working_set_bytes(bytes_per_triangle: float, dtype: str, triangles: float, rays: float) -> float:

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from ...harness import runfolder, stats
-from .frames import paired_time_ratio, table_frame
+from .frames import paired_time_ratio, table_frame, with_ci
 
 
 def _bytes_per_triangle(kernel: str, dtype: str) -> int | None:
@@ -99,9 +99,7 @@ def _ranked(rank: int, kernel: str, dtype: str, against: tuple[pd.DataFrame, str
         "kernel": kernel,
         "algorithm": declared(kernel, "algorithm"),
         "form": _form(kernel),
-        "vs_fastest": ratio,
-        "vs_fastest_ci_low": low,
-        "vs_fastest_ci_high": high,
+        **with_ci("vs_fastest", ratio, low, high),
         "tied_with_fastest": bool(low <= 1 + margin) if not math.isnan(low) else False,
         "watertight": declared(kernel, "watertight"),
         "culls_back_faces": declared(kernel, "culls_back_faces"),
@@ -126,20 +124,19 @@ def ranking_table(
         s = spd.loc[spd["workload_id"] == wid].set_index("kernel")
         for rank, r in enumerate(g.itertuples(index=False), start=1):
             kernel = str(r.kernel)
-            base = s.loc[kernel] if kernel in s.index else None
             baseline = str(s["baseline"].iloc[0]) if len(s) else kernel
+            if kernel in s.index:
+                speedup = tuple(s.loc[kernel, ["ratio", "ratio_ci_low", "ratio_ci_high"]])
+            else:
+                speedup = (1.0 if kernel == baseline else math.nan, math.nan, math.nan)
             rows.append(
                 {
                     "workload_id": wid,
                     "family": r.family,
                     "label": r.label,
                     "dtype": r.dtype,
-                    "ns_per_test": r.ns_per_test,
-                    "ns_per_test_ci_low": r.ns_per_test_ci_low,
-                    "ns_per_test_ci_high": r.ns_per_test_ci_high,
-                    "speedup": base["ratio"] if base is not None else (1.0 if kernel == baseline else math.nan),
-                    "speedup_ci_low": base["ratio_ci_low"] if base is not None else math.nan,
-                    "speedup_ci_high": base["ratio_ci_high"] if base is not None else math.nan,
+                    **with_ci("ns_per_test", r.ns_per_test, r.ns_per_test_ci_low, r.ns_per_test_ci_high),
+                    **with_ci("speedup", *speedup),
                     "baseline": baseline,
                     **_ranked(rank, kernel, str(r.dtype), (per, fastest, level), margin),
                     **measured_robustness(val, kernel, str(r.dtype)),
@@ -320,12 +317,8 @@ def _band_rows(
                 "dtype": dtype,
                 "band": band,
                 "workloads": n_workloads,
-                "ns_per_test": e.mean,
-                "ns_per_test_ci_low": e.ci_low,
-                "ns_per_test_ci_high": e.ci_high,
-                "speedup": speedup[0],
-                "speedup_ci_low": speedup[1],
-                "speedup_ci_high": speedup[2],
+                **with_ci("ns_per_test", e.mean, e.ci_low, e.ci_high),
+                **with_ci("speedup", *speedup),
                 "baseline": baseline,
                 "n_processes": e.n,
                 **_ranked(rank, kernel, dtype, (per, fastest, level), margin),

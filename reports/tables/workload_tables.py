@@ -12,7 +12,7 @@ import pandas as pd
 
 from ...harness import runfolder
 from ...workloads.labels import family_of, short_label, spec_text
-from .frames import table_frame
+from .frames import in_order, table_frame
 from .margin import contenders
 
 
@@ -109,9 +109,7 @@ def correctness_table(batches: pd.DataFrame, kernels: Sequence[str], workloads: 
                 agrees=bool(diff <= ambiguous and hits.nunique() == 1),
             )
         rows.append(row)
-    order = {k: i for i, k in enumerate(kernels)}
-    out = table_frame(rows, runfolder.CORRECTNESS)
-    return out.sort_values("kernel", key=lambda s: s.map(order), kind="stable").reset_index(drop=True)
+    return in_order(table_frame(rows, runfolder.CORRECTNESS), kernel=kernels)
 
 
 def agreeing(frame: pd.DataFrame, correct: pd.DataFrame) -> pd.DataFrame:
