@@ -11,7 +11,7 @@ import pandas as pd
 
 from ..harness import stats
 from . import page
-from .charts import USED, embed, library
+from .charts import embed
 from .rundata import RunData, load_run
 from .speed_charts import forest_chart
 from .tables.compare import (
@@ -198,9 +198,7 @@ def render_compare(runs: list[RunData], m: MultiComparison, pair: Comparison | N
     else:
         nav["machines"] = SECTIONS["machines"]
     parts.append(_machines_part(runs, m.tags))
-    footer = page.p(f"Written by tribench compare at {page.now()}. Statistics: tribench.harness.stats.", "note")
-    body = "".join(parts)
-    return page.document("tribench compare", body, nav, footer, script=library() if USED in body else "")
+    return page.document("tribench compare", "".join(parts), nav, f"tribench compare at {page.now()}")
 
 
 def format_compare_text(runs: list[RunData], m: MultiComparison, pair: Comparison | None = None) -> str:

@@ -119,18 +119,11 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         page.section(sid, None if sid == "answer" else titles[sid], bodies[sid], collapsed=sid not in OPEN)
         for sid in titles
     )
-    footer = page.p(
-        f"Written by tribench report at {page.now()} from {data.run_dir}; tables made by the analysis "
-        f"step at {data.record.get('created', '?')}. Statistics: tribench.harness.stats.",
-        "note",
+    written = (
+        f"tribench report at {page.now()} from {data.run_dir}; tables made by the analysis step at "
+        f"{data.record.get('created', '?')}"
     )
-    return page.document(
-        f"tribench report — {data.run.run_id}",
-        body,
-        titles,
-        footer,
-        script=charts.library() if charts.USED in body else "",
-    )
+    return page.document(f"tribench report — {data.run.run_id}", body, titles, written)
 
 
 def _build_shown(data: RunData) -> str:

@@ -323,11 +323,7 @@ def render_seed(run_dir: str | Path) -> str:
         f"{run.created}, {run.sweep.processes} processes. {_kernels_timed(replay)}",
         "sub",
     )
-    footer = page.p(
-        f"Written by tribench seed at {page.now()} from {run_dir}. Statistics: tribench.harness.stats.", "note"
-    )
-    body = head + "".join(sections)
-    return page.document(title, body, SECTIONS, footer, script=charts.library() if charts.USED in body else "")
+    return page.document(title, head + "".join(sections), SECTIONS, f"tribench seed at {page.now()} from {run_dir}")
 
 
 def write_seed_report(run_dir: str | Path) -> Path:

@@ -239,5 +239,5 @@ def test_the_charts_the_fixture_has_no_data_for_draw_without_console_errors(tmp_
     ]
     body = "".join(charts.embed(c, f"chart-{i}", "a chart", "a chart") for i, c in enumerate(drawn))
     path = tmp_path / "charts.html"
-    path.write_text(page.document("charts", body + _COUNT, script=charts.library()), encoding="utf-8")
+    path.write_text(page.document("charts", body + _COUNT), encoding="utf-8")
     assert int(_measure(browser, path.resolve().as_uri())["charts"]) == 6
