@@ -22,6 +22,7 @@ import pandas as pd
 from ...common import UserError
 from ...harness import runfolder, stats
 from ...workloads.labels import family_of, short_label
+from .frames import paired_time_ratio
 from .margin import TWINS
 from .workload_tables import compared
 
@@ -291,12 +292,7 @@ def _orders(
         }
         verdicts = []
         for tag, d, per in zip(tags, runs, pers, strict=True):
-            both = per[[a, b]].dropna()
-            if len(both) >= 2:
-                v = stats.speedup(both[b], both[a], confidence=level)
-                ratio, low, high = v.ratio, v.ci_low, v.ci_high
-            else:
-                ratio = low = high = math.nan
+            ratio, low, high, _ = paired_time_ratio(per, b, a, level)
             verdict = stats.verdict(low, high, d.margin)
             verdicts.append(verdict)
             row |= {

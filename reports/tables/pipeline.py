@@ -324,7 +324,7 @@ def _derive_one(
     m: Measured, result: Analysis, workloads: dict[str, Any], sources: dict[str, str]
 ) -> dict[str, pd.DataFrame]:
     """The derived tables of one build's processes (no ``build`` column)."""
-    from . import bvh, diagnostics, ranking, scaling, workload_tables
+    from . import bvh, diagnostics, ranking, workload_tables
 
     batches, kernels, wids, specs = m.batches, m.kernels, m.workload_ids, m.specs
     base, margin = result.baseline, result.margin.value
@@ -347,8 +347,8 @@ def _derive_one(
         runfolder.CORRECTNESS: correct,
         runfolder.PER_PROCESS: measured_pp,
         runfolder.BATCH_LABELS: labels,
-        runfolder.CROSSOVERS: scaling.crossovers(ranked, wl, pp),
-        runfolder.SLOPES: scaling.scaling_slopes(est, pp),
+        runfolder.CROSSOVERS: workload_tables.crossovers(ranked, wl, pp),
+        runfolder.SLOPES: workload_tables.scaling_slopes(est, pp),
         runfolder.DRIFT: diagnostics.drift_table(batches, kernels, base, wids, wl),
         runfolder.VARIANCE: diagnostics.variance_table(batches, kernels, wids, wl),
         runfolder.OUTLIERS: diagnostics.outlier_table(labels, wl),
