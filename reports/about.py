@@ -10,7 +10,7 @@ from typing import Any
 import pandas as pd
 
 from ..harness.runfolder import FILES, Run
-from . import content, page
+from . import page, rundata
 from .rundata import RunData
 
 __all__ = ["pictures_section", "machine_section", "reproduce_section", "sweep_toml"]
@@ -27,14 +27,14 @@ def pictures_section(data: RunData, wl: pd.DataFrame) -> str:
         )
     ]
     cards = []
-    achieved = content.workload_figures(data)
+    achieved = rundata.workload_figures(data)
     for r in wl.itertuples(index=False):
         rows = [("workload", f"{r.workload_id}: {r.summary}"), ("obtained from", r.source)]
         rows += [
             (f"{k}", f"target {page.plain(t)}, achieved {page.plain(a)}" if t is not None else page.plain(a))
             for k, t, a in achieved.get(r.workload_id, [])
         ]
-        png, why = content.picture(data, r.workload_id)
+        png, why = rundata.picture(data, r.workload_id)
         img = (
             page.figure(
                 page.png_data_uri(page.palette_png(png)), f"picture of {r.workload_id}", f"{r.label} ({r.family})"

@@ -13,6 +13,7 @@ from ..harness.jobs.peers import PEER_NAMES
 from ..harness.stats import format_estimate
 from . import page
 from .charts import embed
+from .results import PEER_RATE_COLUMNS
 from .rundata import PeerTables
 from .speed_charts import bvh_chart
 
@@ -157,16 +158,7 @@ def _embree(peers: PeerTables | None) -> str:
         "<h3>Against Embree</h3>"
         + page.p(text)
         + page.table(
-            shown,
-            [
-                ("contender", "contender"),
-                ("implementation", "implementation"),
-                ("rays_per_s", "rays/s"),
-                ("ci_low", "95% CI low"),
-                ("ci_high", "95% CI high"),
-                ("n_processes", "processes"),
-                ("setup_ms", "set-up ms (the build)"),
-            ],
+            shown, [*(c for c in PEER_RATE_COLUMNS[:7] if c[0] != "rays"), ("setup_ms", "set-up ms (the build)")]
         )
     )
 

@@ -10,7 +10,7 @@ import pandas as pd
 
 from ..harness import runfolder, stats
 from ..harness.jobs import validate
-from . import about, charts, check_charts, content, page
+from . import about, charts, page, rundata
 from .rundata import VALIDATE, RunData
 from .tables.diagnostics import drift_bins, round_summary
 from .tables.ranking import declared
@@ -22,7 +22,7 @@ def drift_section(batches: pd.DataFrame, drift: pd.DataFrame, colours: dict[str,
     """Batches over time relative to their process, and stats.drift per kernel against the baseline."""
     body = [
         _chart(
-            check_charts.drift_chart(drift_bins(batches), colours),
+            charts.drift_chart(drift_bins(batches), colours),
             "chart-drift",
             "drift of every kernel over time",
             "Every timed batch's ns/test relative to its process's median for that kernel and workload, against "
@@ -116,15 +116,15 @@ def _chart(chart: Any, chart_id: str, description: str, caption: str) -> str:
 
 def diagnostics_section(data: RunData, batches: pd.DataFrame, colours: dict[str, str]) -> str:
     """Rounds, warm-up, outliers, variance components, the margin, interference, FMA peak."""
-    warm = content.sweep_order(data.tables[runfolder.WARMUP], data)
-    outl = content.sweep_order(data.tables[runfolder.OUTLIERS], data)
+    warm = rundata.sweep_order(data.tables[runfolder.WARMUP], data)
+    outl = rundata.sweep_order(data.tables[runfolder.OUTLIERS], data)
     var = data.tables[runfolder.VARIANCE]
     timed = data.batches.loc[~data.batches["warmup"]]
     ctx = int(timed["invol_ctx_switches"].sum())
     steal = timed.loc[timed["steal_ticks"] > 0, "steal_ticks"].sum() if "steal_ticks" in timed else 0
     body = [
         _chart(
-            check_charts.rounds_chart(round_summary(batches), colours),
+            charts.rounds_chart(round_summary(batches), colours),
             "chart-rounds",
             "batches by round",
             f"Every batch by its round (shaded: warm-up rounds, kept and labelled, left out of every estimate), "

@@ -1,4 +1,5 @@
-"""``tribench compare RUN...``: the comparison of N runs as text and as an HTML page.
+"""``tribench compare RUN...``: the comparison of N runs as text and as an HTML page, and the report's section on a
+run of several builds (``--builds``), whose builds are compared as runs.
 
 :mod:`tribench.reports.tables.compare` computes the tables; this module only words and renders them."""
 
@@ -10,8 +11,8 @@ import pandas as pd
 
 from ..harness import stats
 from . import page
-from .charts import USED, embed, library
-from .rundata import RunData
+from .charts import embed
+from .rundata import RunData, load_run
 from .speed_charts import forest_chart
 from .tables.compare import (
     Comparison,
@@ -23,6 +24,8 @@ from .tables.compare import (
 )
 
 __all__ = [
+    "build_views",
+    "builds_section",
     "Comparison",
     "MultiComparison",
     "compare",
@@ -195,9 +198,7 @@ def render_compare(runs: list[RunData], m: MultiComparison, pair: Comparison | N
     else:
         nav["machines"] = SECTIONS["machines"]
     parts.append(_machines_part(runs, m.tags))
-    footer = page.p(f"Written by tribench compare at {page.now()}. Statistics: tribench.harness.stats.", "note")
-    body = "".join(parts)
-    return page.document("tribench compare", body, nav, footer, script=library() if USED in body else "")
+    return page.document("tribench compare", "".join(parts), nav, f"tribench compare at {page.now()}")
 
 
 def format_compare_text(runs: list[RunData], m: MultiComparison, pair: Comparison | None = None) -> str:
@@ -290,7 +291,7 @@ def format_many(runs: list[RunData], m: MultiComparison) -> str:
 
 def _many_parts(m: MultiComparison, unit: str = "machine", ids: tuple[str, str] = ("speedups", "orders")) -> list[str]:
     """The N-run sections: machine x kernel speedup tables per workload, and the orders that hold.
-    ``unit`` names what the runs are (``build`` for :mod:`.builds`); ``ids`` the sections'."""
+    ``unit`` names what the runs are (``build`` for :func:`builds_section`); ``ids`` the sections'."""
     speed = []
     for wid in m.workload_ids:
         label, family = m.labels[wid]
@@ -342,3 +343,65 @@ def _many_parts(m: MultiComparison, unit: str = "machine", ids: tuple[str, str] 
         ),
         page.section(ids[1], MANY_SECTIONS["orders"].replace("machine", unit), "".join(orders)),
     ]
+
+
+# ------------------------------------------------------------------ the builds of one run
+
+
+def build_views(data: RunData) -> list[RunData]:
+    """The run as each of its builds measured it, the build ``data`` shows first."""
+    return [data] + [load_run(data.run_dir, build=b) for b in data.builds if b != data.build]
+
+
+def builds_section(data: RunData) -> str:
+    """The section, or "" for a run of one build."""
+    if len(data.builds) < 2:
+        return ""
+    views = build_views(data)
+    many = compare_many(views, same_run=True)
+    records = {b.get("spec"): b for b in data.run.builds}
+    rows = []
+    for tag, view in zip(many.tags, views, strict=True):
+        b = records.get(view.build, {})
+        rows.append(
+            {
+                "tag": tag,
+                "build": view.build,
+                "compiler": b.get("compiler", "?"),
+                "flags": b.get("flags", "?"),
+                "processes": view.n_processes,
+                "check": _check_text(b.get("check")),
+            }
+        )
+    cols = [
+        ("tag", ""),
+        ("build", "build"),
+        ("compiler", "compiler"),
+        ("flags", "exact flags"),
+        ("processes", "processes"),
+        ("check", "checked against the reference again, before timing"),
+    ]
+    intro = page.p(
+        f"The processes took the {len(views)} builds in turn, so each build's figures come from its own "
+        f"processes; the rest of this page shows build {data.build}. Each build below is a run of its own: its "
+        "speedups, and every order of two kernels tested under each build (builds.csv). A build that breaks "
+        "a promise of a kernel (a flag such as -ffast-math or -ffp-contract=fast changes results) still ran: "
+        "the last column says what its kernels got wrong."
+    )
+    broken = [r for r in rows if r["check"] not in ("every kernel right", "not checked (pip's build)")]
+    warnings = "".join(page.warn(f"build {r['build']}: {r['check']}") for r in broken)
+    return (
+        intro
+        + warnings
+        + page.table(pd.DataFrame(rows), cols)
+        + "".join(_many_parts(many, unit="build", ids=("build-speedups", "build-orders")))
+    )
+
+
+def _check_text(check: dict | None) -> str:
+    if check is None:
+        return "not checked (pip's build)"
+    wrong = {k: v for k, v in check.items() if v}
+    if not wrong:
+        return "every kernel right"
+    return "; ".join(f"{k}: {', '.join(v[:2])}{' ...' if len(v) > 2 else ''}" for k, v in wrong.items())

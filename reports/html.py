@@ -1,7 +1,7 @@
 """``report.html``: one self-contained page per run, put together from its sections.
 
 What each section shows is docs/results.md's. The page kit is :mod:`.page`; the bodies come from
-:mod:`.ranking`, :mod:`.headline`, :mod:`.results`, :mod:`.bvh`, :mod:`.builds`, :mod:`.replication`,
+:mod:`.ranking`, :mod:`.headline`, :mod:`.results`, :mod:`.bvh`, :mod:`.compare` (builds), :mod:`.replication`,
 :mod:`.checks` and :mod:`.about`.
 
 Sections, by id, in page order (a new section: its title here and its body in :func:`render`):
@@ -22,7 +22,7 @@ from __future__ import annotations
 import pandas as pd
 
 from ..harness import runfolder
-from . import about, builds, bvh, charts, checks, content, headline, page, ranking, replication, results
+from . import about, bvh, charts, checks, compare, headline, page, ranking, replication, results, rundata
 from . import tables as analysis
 from .about import sweep_toml
 from .headline import headline_sentences
@@ -68,8 +68,8 @@ MAX_PICTURES, PICTURE_DPI = analysis.MAX_PICTURES, analysis.PICTURE_DPI
 def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     """The whole page for one run, as a string: every number from the run folder's files."""
     wl = data.tables[runfolder.WORKLOADS]
-    est = content.sweep_order(content.estimates_table(data, wl), data)
-    spd = content.sweep_order(content.speedups_table(data, wl), data)
+    est = rundata.sweep_order(rundata.estimates_table(data, wl), data)
+    spd = rundata.sweep_order(rundata.speedups_table(data, wl), data)
     batches = data.tables[runfolder.BATCH_LABELS]
     drift = data.tables[runfolder.DRIFT]
     correct = data.tables[runfolder.CORRECTNESS]
@@ -85,7 +85,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         + ranking.answer_section(data, bands, alg, colours)
         + "".join(page.warn(w) for w in headline.run_warnings(data, drift, correct)),
         "headline": headline.headline_section(data, spd, wl, peers),
-        "ranking": ranking.ranking_section(data, content.sweep_order(data.tables[runfolder.RANKING], data), alg),
+        "ranking": ranking.ranking_section(data, rundata.sweep_order(data.tables[runfolder.RANKING], data), alg),
         "kernels": results.kernels_section(data, data.tables[runfolder.KERNELS]),
         "speedups": results.speedups_section(data, spd, est),
         "hit-rate": results.hit_rate_section(data, est, spd, data.tables[runfolder.CROSSOVERS], colours),
@@ -104,7 +104,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
     in_bvh = data.tables.get(runfolder.BVH, pd.DataFrame())
     optional = {
         "replication": replication.replication_section(data),
-        "builds": builds.builds_section(data),
+        "builds": compare.builds_section(data),
         "bvh": bvh.bvh_section(in_bvh, peers, colours),
     }
     titles: dict[str, str] = {}
@@ -119,18 +119,11 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         page.section(sid, None if sid == "answer" else titles[sid], bodies[sid], collapsed=sid not in OPEN)
         for sid in titles
     )
-    footer = page.p(
-        f"Written by tribench report at {page.now()} from {data.run_dir}; tables made by the analysis "
-        f"step at {data.record.get('created', '?')}. Statistics: tribench.harness.stats.",
-        "note",
+    written = (
+        f"tribench report at {page.now()} from {data.run_dir}; tables made by the analysis step at "
+        f"{data.record.get('created', '?')}"
     )
-    return page.document(
-        f"tribench report — {data.run.run_id}",
-        body,
-        titles,
-        footer,
-        script=charts.library() if charts.USED in body else "",
-    )
+    return page.document(f"tribench report — {data.run.run_id}", body, titles, written)
 
 
 def _build_shown(data: RunData) -> str:

@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from .charts import USED, library
+
 __all__ = [
     "CSS",
     "num",
@@ -203,9 +205,10 @@ def now() -> str:
     return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
 
 
-def document(title: str, body: str, nav: Mapping[str, str] | None = None, footer: str = "", script: str = "") -> str:
-    """A whole page: ``nav`` maps section ids to the titles linked from the bar at the top; ``script``
-    (the charts' library) is inlined once in the head.
+def document(title: str, body: str, nav: Mapping[str, str] | None = None, written: str = "") -> str:
+    """A whole page: ``nav`` maps section ids to the titles linked from the bar at the top; ``written``: by what,
+    when and from what, for the footer (none if empty). A body that draws a chart gets the charts' library, once,
+    in the head.
 
     >>> page = document("a <b>", section("x", "X", p("text")), nav={"x": "X"})
     >>> page.startswith("<!DOCTYPE html>") and "<title>a &lt;b&gt;</title>" in page
@@ -215,7 +218,10 @@ def document(title: str, body: str, nav: Mapping[str, str] | None = None, footer
     """
     links = "".join(f'<a href="#{escape(sid)}">{escape(t)}</a>' for sid, t in (nav or {}).items())
     bar = f"<nav>{links}</nav>" if links else ""
-    end = f"<footer>{footer}</footer>" if footer else ""
+    end = (
+        f"<footer>{p(f'Written by {written}. Statistics: tribench.harness.stats.', 'note')}</footer>" if written else ""
+    )
+    script = library() if USED in body else ""
     if "</script" in script.lower():
         raise ValueError("a page's script must not contain '</script'")  # it would end the element early
     head = f"<script>{script}</script>" if script else ""

@@ -8,7 +8,7 @@ from html import escape
 import numpy as np
 import pandas as pd
 
-from . import charts, check_charts, page, speed_charts
+from . import charts, page, speed_charts
 from .headline import peer_sentence
 from .rundata import PeerTables, RunData
 
@@ -280,22 +280,7 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
             f"figures. tribench: {peers.kernel}, the fastest closest-mode kernel on these rays; tribench_call: the "
             f"same kernel through ext.intersect (checks and output arrays included, like a peer's one call).",
         ),
-        page.table(
-            peers.rates,
-            [
-                ("contender", "contender"),
-                ("implementation", "implementation"),
-                ("rays", "rays per call"),
-                ("rays_per_s", "rays/s"),
-                ("ci_low", "95% CI low"),
-                ("ci_high", "95% CI high"),
-                ("n_processes", "processes"),
-                ("cpu_share", "CPU / wall"),
-                ("setup_ms", "set-up ms (untimed)"),
-                ("differ", "closest triangle ≠ reference"),
-                ("differ_ambiguous", "of which ambiguous"),
-            ],
-        ),
+        page.table(peers.rates, PEER_RATE_COLUMNS),
         "<h3>Ratios of rays/s</h3>",
         page.table(
             peers.ratios,
@@ -321,10 +306,26 @@ def peers_section(peers: PeerTables | None, note: str) -> str:
     return "".join(body)
 
 
+#: The columns of a table of the contenders' rays/s (``peer_rates.csv``).
+PEER_RATE_COLUMNS = [
+    ("contender", "contender"),
+    ("implementation", "implementation"),
+    ("rays", "rays per call"),
+    ("rays_per_s", "rays/s"),
+    ("ci_low", "95% CI low"),
+    ("ci_high", "95% CI high"),
+    ("n_processes", "processes"),
+    ("cpu_share", "CPU / wall"),
+    ("setup_ms", "set-up ms (untimed)"),
+    ("differ", "closest triangle ≠ reference"),
+    ("differ_ambiguous", "of which ambiguous"),
+]
+
+
 def processes_section(pp: pd.DataFrame, est: pd.DataFrame, colours: dict[str, str]) -> str:
     """Every worker process's value beside the estimate: the replicate made visible."""
     labels = {r.workload_id: f"{r.family} · {r.label}" for r in est.drop_duplicates("workload_id").itertuples()}
-    chart = check_charts.processes_chart(pp, est, labels, colours)
+    chart = charts.processes_chart(pp, est, labels, colours)
     if chart is None:
         return page.p("No estimate: no process to show.", "note")
     return charts.embed(

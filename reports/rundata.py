@@ -2,16 +2,19 @@
 
 Stale tables (made from another ``batches.csv``, by its SHA-256), missing ones or ones in other columns are
 refused in one line that says to run ``tribench stats RUN_DIR``, rather than a report with sections silently
-empty. Peers and robustness are optional (:func:`load_peers`, :func:`load_validation`): their sections say why."""
+empty. Peers and robustness are optional (:func:`load_peers`, :func:`load_validation`): their sections say why.
+The last functions join those tables for display and read the workload pictures."""
 
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from ..common import UserError
@@ -19,9 +22,10 @@ from ..ext.builds import INSTALLED
 from ..harness import runfolder
 from ..harness.plan import rows_of_build
 from ..workloads.labels import family_of, short_label, spec_text
+from .tables.frames import in_order
 from .tables.margin import TWINS
 from .tables.measured import file_digest, has_columns, read_documented
-from .tables.workload_tables import compared
+from .tables.workload_tables import compared, estimates_with_workloads
 
 __all__ = [
     "RunData",
@@ -34,6 +38,11 @@ __all__ = [
     "short_label",
     "spec_text",
     "VALIDATE",
+    "estimates_table",
+    "speedups_table",
+    "working_set_bytes",
+    "workload_figures",
+    "picture",
 ]
 
 #: The robustness table in a run folder.
@@ -235,9 +244,8 @@ def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
     ]
     if missing:
         note += f" Not in the table: {', '.join(missing)}."
-    order = {k: i for i, k in enumerate(data.kernels)}
-    df = df.loc[df["kernel"].isin(order) & df["dtype"].isin(data.dtypes)]
-    return df.sort_values("kernel", key=lambda s: s.map(order), kind="stable").reset_index(drop=True), note
+    df = df.loc[df["kernel"].isin(data.kernels) & df["dtype"].isin(data.dtypes)]
+    return in_order(df, kernel=data.kernels), note
 
 
 _NO_VALIDATION = pd.DataFrame(columns=list(runfolder.FILES[VALIDATE]))
@@ -295,3 +303,59 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
         PeerTables(frame, data.tables[runfolder.PEER_RATES], data.tables[runfolder.PEER_RATIOS]),
         f"Read from {runfolder.PEERS}, {runfolder.PEER_RATES} and {runfolder.PEER_RATIOS} in the run folder.",
     )
+
+
+# ------------------------------------------------------------ the tables joined for display
+
+
+def sweep_order(frame: pd.DataFrame, data: RunData) -> pd.DataFrame:
+    """Rows in sweep order: workloads, then kernels."""
+    return in_order(frame, workload_id=data.workload_ids, kernel=data.kernels)
+
+
+def working_set_bytes(bytes_per_triangle: float, dtype: str, triangles: float, rays: float) -> float:
+    """Bytes of prepared triangles plus rays (origin and direction, 3 components each)."""
+    if any(pd.isna(x) for x in (bytes_per_triangle, triangles, rays)):
+        return math.nan
+    return float(triangles) * float(bytes_per_triangle) + float(rays) * 6 * np.dtype(dtype).itemsize
+
+
+def estimates_table(data: RunData, wl: pd.DataFrame) -> pd.DataFrame:
+    """``estimates.csv`` joined with the workload table and the working-set size, from the bytes per
+    triangle ``kernels.csv`` recorded for the kernel and family (the build that measured the run)."""
+    est = estimates_with_workloads(data.estimates, wl)
+    kern = data.tables[runfolder.KERNELS]
+    per = dict(zip(zip(kern["kernel"], kern["family"], strict=True), kern["bytes_per_triangle"], strict=True))
+    est["working_set_bytes"] = [
+        working_set_bytes(per.get((r.kernel, r.family), math.nan), r.dtype, r.triangles, r.rays)
+        for r in est.itertuples(index=False)
+    ]
+    return est
+
+
+def speedups_table(data: RunData, wl: pd.DataFrame) -> pd.DataFrame:
+    """``speedups.csv`` joined with the workload table."""
+    return data.speedups.merge(wl.drop(columns=["dtype"]), on="workload_id", how="left", suffixes=("", "_wl"))
+
+
+def workload_figures(data: RunData) -> dict[str, list[tuple[str, Any, Any]]]:
+    """Per workload id, its ``(figure, target, achieved)`` rows from ``workload_figures.csv``."""
+    out: dict[str, list[tuple[str, Any, Any]]] = {}
+    frame = data.tables[runfolder.WORKLOAD_FIGURES]
+    for r in frame.itertuples(index=False):
+        out.setdefault(r.workload_id, []).append((r.figure, json.loads(r.target), json.loads(r.achieved)))
+    return out
+
+
+def picture(data: RunData, workload_id: str) -> tuple[bytes | None, str]:
+    """The workload's PNG drawn by the analysis step, or None and why there is none."""
+    entry = (data.record.get("pictures") or {}).get(workload_id)
+    if entry is None:
+        return None, "no picture: the workload was not available to the analysis"
+    if entry != f"{runfolder.PICTURES_DIR}/{workload_id}.png":
+        return None, entry  # the analysis's reason why not
+    path = data.run_dir / entry
+    try:
+        return path.read_bytes(), ""
+    except OSError:
+        return None, f"{entry} is missing: run `tribench stats {data.run_dir}`"

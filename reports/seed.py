@@ -40,6 +40,12 @@ def _v(x: float, fmt: str = ".4g") -> str:
     return "–" if x is None or not math.isfinite(float(x)) else f"{x:{fmt}}"
 
 
+def _intervals(frame: pd.DataFrame, name: str, fmt: str) -> list[str]:
+    """Each row's interval of ``name`` (its ``_ci_low`` and ``_ci_high`` columns) as text."""
+    lows, highs = frame[f"{name}_ci_low"], frame[f"{name}_ci_high"]
+    return [format_interval(None, a, b, fmt) for a, b in zip(lows, highs, strict=True)]
+
+
 def _section(sid: str, body: str) -> str:
     return page.section(sid, SECTIONS[sid], body)
 
@@ -86,10 +92,7 @@ def _scene_table(scene: str, g: pd.DataFrame, size: str) -> list[str]:
             "paper real (s)": [_v(x, ".3f") for x in g["paper_real_s"]],
             "paper user (s)": [_v(x, ".3f") for x in g["paper_user_s"]],
             "replay (s)": [_v(x) for x in g["render_s"]],
-            "95% CI (s)": [
-                format_interval(None, a, b, ".4g")
-                for a, b in zip(g["render_s_ci_low"], g["render_s_ci_high"], strict=True)
-            ],
+            "95% CI (s)": _intervals(g, "render_s", ".4g"),
             "replay ns/test": [_v(x, ".3g") for x in g["replay_ns_per_test"]],
             "paper user ns/test (bound)": [_v(x, ".3g") for x in g["paper_user_ns_per_test"]],
             "paper ratio real / user": [
@@ -98,10 +101,7 @@ def _scene_table(scene: str, g: pd.DataFrame, size: str) -> list[str]:
             ],
             "replay ratio": [_v(x, ".3f") for x in g["ratio_to_moller_seed"]],
             "to": g["ratio_baseline"],
-            "95% CI": [
-                format_interval(None, a, b, ".3f")
-                for a, b in zip(g["ratio_to_moller_seed_ci_low"], g["ratio_to_moller_seed_ci_high"], strict=True)
-            ],
+            "95% CI": _intervals(g, "ratio_to_moller_seed", ".3f"),
             "processes": g["n_processes"],
         }
     )
@@ -176,10 +176,7 @@ def _kinds(kinds: pd.DataFrame) -> str:
             "mode": kinds["mode"],
             "kernel": kinds["kernel"],
             "ns/test": [_v(x, ".4g") for x in kinds["ns_per_test"]],
-            "95% CI": [
-                format_interval(None, a, b, ".4g")
-                for a, b in zip(kinds["ns_per_test_ci_low"], kinds["ns_per_test_ci_high"], strict=True)
-            ],
+            "95% CI": _intervals(kinds, "ns_per_test", ".4g"),
             "tests per pass": kinds["tests_per_pass"].astype(int),
             "render tests": kinds["stream_tests"],
             "share of render (s)": [_v(x) for x in kinds["render_s"]],
@@ -323,11 +320,7 @@ def render_seed(run_dir: str | Path) -> str:
         f"{run.created}, {run.sweep.processes} processes. {_kernels_timed(replay)}",
         "sub",
     )
-    footer = page.p(
-        f"Written by tribench seed at {page.now()} from {run_dir}. Statistics: tribench.harness.stats.", "note"
-    )
-    body = head + "".join(sections)
-    return page.document(title, body, SECTIONS, footer, script=charts.library() if charts.USED in body else "")
+    return page.document(title, head + "".join(sections), SECTIONS, f"tribench seed at {page.now()} from {run_dir}")
 
 
 def write_seed_report(run_dir: str | Path) -> Path:

@@ -5,7 +5,6 @@ the kit they share is :mod:`.charts`."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import altair as alt
@@ -66,18 +65,6 @@ def _answer_data(bands: pd.DataFrame) -> pd.DataFrame:
     return frame[columns + ["over_baseline", "cracks_per_million", "sphere_misses_per_million"]]
 
 
-def _answer_axes(bands: pd.DataFrame) -> tuple[alt.Scale, alt.X, alt.Y]:
-    """x: ns/test, log when the intervals allow; y: failures per million rays, symlog (0 to tens of thousands)."""
-    x_scale, log = _axis_scale(bands["ns_per_test_ci_low"])
-    x = alt.X("ns_per_test:Q", scale=x_scale, title="ns per ray–triangle test" + log)
-    y = alt.Y(
-        "failures_per_million:Q",
-        title="cracks + far-sphere misses per million rays (symlog)",
-        scale=alt.Scale(type="symlog", constant=1),
-    )
-    return x_scale, x, y
-
-
 def _answer_points(base: alt.Chart, x: alt.X, y: alt.Y, opacity: Any, colours: dict[str, str], baseline: str):
     """A point per kernel: sized by its bytes per triangle, shaped by its watertightness, every figure on hover."""
     return base.mark_point(filled=True, stroke="#333", strokeWidth=0.6).encode(
@@ -112,7 +99,14 @@ def answer_chart(bands: pd.DataFrame, colours: dict[str, str]) -> alt.LayerChart
     kernels = kernel_legend()
     baseline = str(bands["baseline"].iloc[0]) if len(bands) else "the baseline"
     base = alt.Chart(data).transform_filter(alt.datum.where == place)
-    x_scale, x, y = _answer_axes(bands)
+    # x: ns/test, log when the intervals allow; y: failures per million rays, symlog (0 to tens of thousands)
+    x_scale, log = _axis_scale(bands["ns_per_test_ci_low"])
+    x = alt.X("ns_per_test:Q", scale=x_scale, title="ns per ray–triangle test" + log)
+    y = alt.Y(
+        "failures_per_million:Q",
+        title="cracks + far-sphere misses per million rays (symlog)",
+        scale=alt.Scale(type="symlog", constant=1),
+    )
     opacity = shown(kernels, 0.95)
     rules = base.mark_rule(strokeWidth=2).encode(
         x=alt.X("ns_per_test_ci_low:Q", scale=x_scale),
@@ -289,31 +283,6 @@ def _axis_scale(*columns: pd.Series) -> tuple[alt.Scale, str]:
     return (alt.Scale(type="log"), " (log)") if bool((values > 0).all()) else (alt.Scale(type="linear"), "")
 
 
-@dataclass(frozen=True)
-class _CostLayers:
-    """What both scaling panels draw against their x: each workload's 95% CI and a line per kernel and family."""
-
-    y_scale: alt.Scale
-    y_title: str
-    colours: dict[str, str]
-    kernels: alt.Parameter  # the legend's selection, carried by one panel only
-    tooltip: list[alt.Tooltip]
-
-    def layer(self, x: alt.X, rows: pd.DataFrame, with_legend: bool) -> Any:
-        """The intervals and the lines of ``rows`` against ``x``; ``with_legend``: this layer defines the selection."""
-        base = alt.Chart(rows).encode(x=x, color=kernel_colour(self.colours), opacity=shown(self.kernels))
-        interval = base.mark_rule().encode(
-            y=alt.Y("ns_per_test_ci_low:Q", scale=self.y_scale), y2="ns_per_test_ci_high:Q"
-        )
-        line = base.mark_line(point=True).encode(
-            y=alt.Y("ns_per_test:Q", scale=self.y_scale, title=self.y_title),
-            strokeDash=alt.StrokeDash("family:N", legend=None),
-            detail="family:N",
-            tooltip=self.tooltip,
-        )
-        return alt.layer(interval, line.add_params(self.kernels) if with_legend else line)
-
-
 def _cache_marks(caches: dict[str, Any] | None) -> list[alt.Chart]:
     """The data caches as dashed rules named at their sizes (none when no size is known)."""
     marks = pd.DataFrame(
@@ -336,7 +305,7 @@ def _cache_marks(caches: dict[str, Any] | None) -> list[alt.Chart]:
 def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, str]) -> alt.VConcatChart | None:
     """ns/test against the mesh's triangle count, and against the working set with the data caches marked.
 
-    ``est``: :func:`.content.estimates_table`'s frame. None without an estimate."""
+    ``est``: :func:`.rundata.estimates_table`'s frame. None without an estimate."""
     if est.empty:
         return None
     frame = est.assign(ns=intervals(est, "ns_per_test", " ns"))
@@ -350,7 +319,21 @@ def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, 
         alt.Tooltip("ns:N", title="ns/test [95% CI]"),
         alt.Tooltip("working_set_bytes:Q", title="working set (bytes)", format=",.0f"),
     ]
-    cost = _CostLayers(y_scale, f"ns per ray–triangle test{y_log}", colours, kernel_legend(), tooltip)
+    kernels = kernel_legend()
+
+    def cost(x: alt.X, rows: pd.DataFrame, with_legend: bool) -> Any:
+        """Each workload's 95% CI and a line per kernel and family of ``rows`` against ``x``; ``with_legend``: this
+        panel carries the legend's selection (one panel only)."""
+        base = alt.Chart(rows).encode(x=x, color=kernel_colour(colours), opacity=shown(kernels))
+        interval = base.mark_rule().encode(y=alt.Y("ns_per_test_ci_low:Q", scale=y_scale), y2="ns_per_test_ci_high:Q")
+        line = base.mark_line(point=True).encode(
+            y=alt.Y("ns_per_test:Q", scale=y_scale, title=f"ns per ray–triangle test{y_log}"),
+            strokeDash=alt.StrokeDash("family:N", legend=None),
+            detail="family:N",
+            tooltip=tooltip,
+        )
+        return alt.layer(interval, line.add_params(kernels) if with_legend else line)
+
     panels: list[Any] = []
     mesh = data.loc[(data["kind"] == "mesh") & data["triangles"].notna()]
     if len(mesh):
@@ -361,14 +344,14 @@ def scaling_chart(est: pd.DataFrame, caches: dict[str, Any], colours: dict[str, 
             title="triangles in the mesh (log; brute force: every ray tests every triangle)",
         )
         panels.append(
-            cost.layer(x, mesh, True).properties(width=WIDTH, height=240, title=title("cost against triangle count"))
+            cost(x, mesh, True).properties(width=WIDTH, height=240, title=title("cost against triangle count"))
         )
     sized = data.loc[data["working_set_bytes"].notna()]
     if len(sized):
         x = alt.X(
             "working_set_bytes:Q", scale=_LOG, axis=_SI, title="working set: prepared triangles + rays (bytes, log)"
         )
-        layers = [cost.layer(x, sized, with_legend=not panels), *_cache_marks(caches)]
+        layers = [cost(x, sized, with_legend=not panels), *_cache_marks(caches)]
         panels.append(
             alt.layer(*layers).properties(
                 width=WIDTH, height=240, title=title("cost against working-set size, data caches marked")

@@ -6,6 +6,7 @@ from ..harness import runfolder
 from ..harness.stats import format_interval
 from ..workloads.labels import family_of
 from .rundata import RunData, short_label
+from .tables.frames import in_order
 
 __all__ = ["format_answer", "format_run"]
 
@@ -24,10 +25,9 @@ def format_run(data: RunData, width: int = 24) -> str:
         f"ns/test: mean over processes, 95% CI; speedup = time_{data.baseline} / time_kernel, "
         f"simultaneous 95% CI; margin ±{100 * data.margin:.2g}%",
     ]
-    korder = {k: i for i, k in enumerate(data.kernels)}
     for wid in data.workload_ids:
         spec = data.specs[wid]
-        rows = est.loc[est["workload_id"] == wid].sort_values("kernel", key=lambda s: s.map(korder))
+        rows = in_order(est.loc[est["workload_id"] == wid], kernel=data.kernels)
         if rows.empty:
             continue
         sp = spd.loc[spd["workload_id"] == wid].set_index("kernel")

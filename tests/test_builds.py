@@ -131,8 +131,7 @@ def test_a_sweep_of_two_builds_has_estimates_speedups_and_orders_per_build(tmp_p
         and "moller_trumbore: float32: robustness test nonfinite" in html
     )
     # the page's orders are builds.csv's: one function made both, from the same tables
-    from tribench.reports.builds import build_views
-    from tribench.reports.compare import compare_many
+    from tribench.reports.compare import build_views, compare_many
     from tribench.reports.rundata import load_run
 
     many = compare_many(build_views(load_run(out)), same_run=True)

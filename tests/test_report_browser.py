@@ -197,7 +197,7 @@ def test_the_charts_the_fixture_has_no_data_for_draw_without_console_errors(tmp_
     """The BVH, peers, seed and compare charts, and rounds with outliers, from small frames in their tables' columns."""
     import pandas as pd
 
-    from tribench.reports import charts, check_charts, page, speed_charts
+    from tribench.reports import charts, page, speed_charts
     from tribench.reports.compare import RATIO_WORDS
     from tribench.reports.tables.diagnostics import drift_bins, round_summary
 
@@ -230,8 +230,8 @@ def test_the_charts_the_fixture_has_no_data_for_draw_without_console_errors(tmp_
         | {"outlier": [False] * 4 + [True, False, True, False], "far_out": [False] * 4 + [True] + [False] * 3}
     )
     drawn = [
-        check_charts.rounds_chart(round_summary(labels), colours),
-        check_charts.drift_chart(drift_bins(labels, bins=2), colours),
+        charts.rounds_chart(round_summary(labels), colours),
+        charts.drift_chart(drift_bins(labels, bins=2), colours),
         speed_charts.bvh_chart(bvh, colours),
         speed_charts.peers_chart(rates),
         speed_charts.seed_chart(seed, colours),
@@ -239,5 +239,5 @@ def test_the_charts_the_fixture_has_no_data_for_draw_without_console_errors(tmp_
     ]
     body = "".join(charts.embed(c, f"chart-{i}", "a chart", "a chart") for i, c in enumerate(drawn))
     path = tmp_path / "charts.html"
-    path.write_text(page.document("charts", body + _COUNT, script=charts.library()), encoding="utf-8")
+    path.write_text(page.document("charts", body + _COUNT), encoding="utf-8")
     assert int(_measure(browser, path.resolve().as_uri())["charts"]) == 6

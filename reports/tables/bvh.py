@@ -9,7 +9,7 @@ from typing import Any
 import pandas as pd
 
 from ...harness import runfolder, stats
-from .frames import paired_time_ratio, table_frame
+from .frames import paired_time_ratio, table_frame, with_ci
 from .ranking import declared
 
 #: The algorithm whose BVH-capable form the speedups in a BVH are against when the run's
@@ -108,12 +108,7 @@ def bvh_table(
 def _rate(per_ray_ns: pd.Series) -> dict[str, float]:
     """Rays/s: the geometric mean over processes of each process's median rate."""
     rate = stats.geometric_mean(1e9 / per_ray_ns.dropna())
-    return {
-        "rays_per_s": rate.mean,
-        "rays_per_s_ci_low": rate.ci_low,
-        "rays_per_s_ci_high": rate.ci_high,
-        "n_processes": rate.n,
-    }
+    return with_ci("rays_per_s", rate.mean, rate.ci_low, rate.ci_high) | {"n_processes": rate.n}
 
 
 def _work_per_ray(tk: pd.DataFrame) -> dict[str, float]:
@@ -129,7 +124,7 @@ def _leaf_share(shares: pd.DataFrame, kernel: str) -> dict[str, float]:
     if kernel in shares and shares[kernel].notna().any():
         g = stats.geometric_mean(shares[kernel].dropna())
         share, share_low, share_high = 1 - g.mean, 1 - g.ci_high, 1 - g.ci_low
-    return {"leaf_share": share, "leaf_share_ci_low": share_low, "leaf_share_ci_high": share_high}
+    return with_ci("leaf_share", share, share_low, share_high)
 
 
 class _Speeds:
@@ -157,12 +152,8 @@ class _Speeds:
             brute_speedup = one if kernel == base else paired_time_ratio(self.brute, base, kernel, self.level)[:3]
         return {
             "baseline": base,
-            "speedup": speedup[0],
-            "speedup_ci_low": speedup[1],
-            "speedup_ci_high": speedup[2],
+            **with_ci("speedup", *speedup),
             "verdict": "baseline" if kernel == base else stats.verdict(speedup[1], speedup[2], margin),
             "brute_workload_id": self.twin if self.brute is not None else "",
-            "brute_speedup": brute_speedup[0],
-            "brute_speedup_ci_low": brute_speedup[1],
-            "brute_speedup_ci_high": brute_speedup[2],
+            **with_ci("brute_speedup", *brute_speedup),
         }

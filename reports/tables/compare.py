@@ -4,7 +4,8 @@ What it shows is docs/results.md's ("Compare runs"). Workloads match by id (a ha
 The runs are independent, so two runs' ratios are Welch intervals on the log scale
 (:func:`tribench.harness.stats.unpaired_ratio`), simultaneous over a workload's kernels, judged with the larger
 margin. As in a run's rankings, a kernel whose answers differ from the reference on a workload did other work there
-and is compared nowhere on it. A run is any object with the fields of :class:`RunTables`."""
+and is compared nowhere on it. A run is any object with the fields of :class:`RunTables`. The builds of one run
+(``--builds``) are compared as runs too: :func:`builds_table`."""
 
 from __future__ import annotations
 
@@ -21,13 +22,17 @@ import pandas as pd
 from ...common import UserError
 from ...harness import runfolder, stats
 from ...workloads.labels import family_of, short_label
+from .frames import paired_time_ratio
+from .margin import TWINS
 from .workload_tables import compared
 
 __all__ = [
     "MAX_RUNS",
+    "BuildView",
     "Comparison",
     "MultiComparison",
     "RunTables",
+    "builds_table",
     "compare",
     "compare_many",
     "compare_runs",
@@ -287,12 +292,7 @@ def _orders(
         }
         verdicts = []
         for tag, d, per in zip(tags, runs, pers, strict=True):
-            both = per[[a, b]].dropna()
-            if len(both) >= 2:
-                v = stats.speedup(both[b], both[a], confidence=level)
-                ratio, low, high = v.ratio, v.ci_low, v.ci_high
-            else:
-                ratio = low = high = math.nan
+            ratio, low, high, _ = paired_time_ratio(per, b, a, level)
             verdict = stats.verdict(low, high, d.margin)
             verdicts.append(verdict)
             row |= {
@@ -323,3 +323,48 @@ def compare(runs: Sequence[RunTables]) -> tuple[MultiComparison, Comparison | No
     """Every run side by side (:func:`compare_many`), and for two runs the ratio of their speedups too."""
     many = compare_many(runs)
     return many, compare_runs(runs[0], runs[1]) if len(runs) == 2 else None
+
+
+@dataclass(frozen=True)
+class BuildView:
+    """One build's part of a run, as a comparison reads a run (:class:`RunTables`)."""
+
+    run_dir: Path
+    baseline: str
+    margin: float
+    kernels: list[str]
+    workload_ids: list[str]
+    specs: dict[str, Any]
+    tables: dict[str, pd.DataFrame]
+    estimates: pd.DataFrame
+    speedups: pd.DataFrame
+
+
+def builds_table(m: Any, parts: dict[str, Any], tables: dict[str, dict[str, pd.DataFrame]]) -> pd.DataFrame:
+    """``builds.csv``: every order of two kernels per workload, tested under each build (none for one build), in
+    long form: a row per pair and build. ``parts`` maps a build to its analysis, ``tables`` to its tables."""
+    columns = list(runfolder.FILES[runfolder.BUILDS])
+    if len(parts) < 2:
+        return pd.DataFrame(columns=columns)
+    baseline = next(iter(parts.values())).baseline
+    views = []
+    for build, analysis in parts.items():
+        est = tables[build][runfolder.ESTIMATES]
+        kernels = [k for k in dict.fromkeys(est["kernel"]) if k not in TWINS]
+        wids = [w for w in m.specs if w in set(est["workload_id"])]
+        speedups = tables[build][runfolder.SPEEDUPS]
+        views.append(
+            BuildView(m.run_dir, baseline, analysis.margin.value, kernels, wids, m.specs, tables[build], est, speedups)
+        )
+    orders = compare_many(views, same_run=True).orders
+    per_build = [
+        orders.assign(
+            build=build,
+            ratio=orders[f"ratio_{tag}"],
+            ratio_ci_low=orders[f"ratio_{tag}_ci_low"],
+            ratio_ci_high=orders[f"ratio_{tag}_ci_high"],
+            verdict=orders[f"verdict_{tag}"],
+        )
+        for tag, build in zip(run_tags(len(parts)), parts, strict=True)
+    ]
+    return pd.concat(per_build).sort_index(kind="stable")[columns].reset_index(drop=True)

@@ -305,7 +305,7 @@ def derive(
 ) -> dict[str, pd.DataFrame]:
     """Every derived table of the run by file name, in :data:`runfolder.DERIVED`'s order: a pure
     function of the measured files and the workloads, each build's parts from its processes alone."""
-    from .builds import builds_table
+    from .compare import builds_table
 
     one = {b: _derive_one(m.of_build(b) if len(m.builds) > 1 else m, a, workloads, sources) for b, a in parts.items()}
     first = next(iter(one.values()))
@@ -324,7 +324,7 @@ def _derive_one(
     m: Measured, result: Analysis, workloads: dict[str, Any], sources: dict[str, str]
 ) -> dict[str, pd.DataFrame]:
     """The derived tables of one build's processes (no ``build`` column)."""
-    from . import bvh, diagnostics, ranking, scaling, workload_tables
+    from . import bvh, diagnostics, ranking, workload_tables
 
     batches, kernels, wids, specs = m.batches, m.kernels, m.workload_ids, m.specs
     base, margin = result.baseline, result.margin.value
@@ -347,8 +347,8 @@ def _derive_one(
         runfolder.CORRECTNESS: correct,
         runfolder.PER_PROCESS: measured_pp,
         runfolder.BATCH_LABELS: labels,
-        runfolder.CROSSOVERS: scaling.crossovers(ranked, wl, pp),
-        runfolder.SLOPES: scaling.scaling_slopes(est, pp),
+        runfolder.CROSSOVERS: workload_tables.crossovers(ranked, wl, pp),
+        runfolder.SLOPES: workload_tables.scaling_slopes(est, pp),
         runfolder.DRIFT: diagnostics.drift_table(batches, kernels, base, wids, wl),
         runfolder.VARIANCE: diagnostics.variance_table(batches, kernels, wids, wl),
         runfolder.OUTLIERS: diagnostics.outlier_table(labels, wl),

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from ...harness import runfolder, stats
-from .frames import paired_time_ratio, table_frame
+from .frames import paired_time_ratio, table_frame, with_ci
 
 
 def _bytes_per_triangle(kernel: str, dtype: str) -> int | None:
@@ -88,6 +88,25 @@ def declared(kernel: str, field: str) -> Any:
     return info.watertight != "none" if field == "watertight" else getattr(info, field)
 
 
+def _ranked(rank: int, kernel: str, dtype: str, against: tuple[pd.DataFrame, str, float], margin: float) -> dict:
+    """The columns ranking.csv and bands.csv share: the kernel's rank, its time over the fastest's (``against``:
+    the per-process values, the fastest kernel and the interval's level), whether it is tied with the fastest,
+    and what it declares."""
+    per, fastest, level = against
+    ratio, low, high = (1.0, 1.0, 1.0) if kernel == fastest else paired_time_ratio(per, kernel, fastest, level)[:3]
+    return {
+        "rank": rank,
+        "kernel": kernel,
+        "algorithm": declared(kernel, "algorithm"),
+        "form": _form(kernel),
+        **with_ci("vs_fastest", ratio, low, high),
+        "tied_with_fastest": bool(low <= 1 + margin) if not math.isnan(low) else False,
+        "watertight": declared(kernel, "watertight"),
+        "culls_back_faces": declared(kernel, "culls_back_faces"),
+        "bytes_per_triangle": _bytes_per_triangle(kernel, dtype),
+    }
+
+
 def ranking_table(
     est: pd.DataFrame, spd: pd.DataFrame, pp: pd.DataFrame, margin: float, val: pd.DataFrame | None = None
 ) -> pd.DataFrame:
@@ -105,35 +124,21 @@ def ranking_table(
         s = spd.loc[spd["workload_id"] == wid].set_index("kernel")
         for rank, r in enumerate(g.itertuples(index=False), start=1):
             kernel = str(r.kernel)
-            ratio, low, high = (
-                (1.0, 1.0, 1.0) if kernel == fastest else paired_time_ratio(per, kernel, fastest, level)[:3]
-            )
-            base = s.loc[kernel] if kernel in s.index else None
             baseline = str(s["baseline"].iloc[0]) if len(s) else kernel
+            if kernel in s.index:
+                speedup = tuple(s.loc[kernel, ["ratio", "ratio_ci_low", "ratio_ci_high"]])
+            else:
+                speedup = (1.0 if kernel == baseline else math.nan, math.nan, math.nan)
             rows.append(
                 {
                     "workload_id": wid,
                     "family": r.family,
                     "label": r.label,
                     "dtype": r.dtype,
-                    "rank": rank,
-                    "kernel": kernel,
-                    "algorithm": declared(kernel, "algorithm"),
-                    "ns_per_test": r.ns_per_test,
-                    "ns_per_test_ci_low": r.ns_per_test_ci_low,
-                    "ns_per_test_ci_high": r.ns_per_test_ci_high,
-                    "vs_fastest": ratio,
-                    "vs_fastest_ci_low": low,
-                    "vs_fastest_ci_high": high,
-                    "tied_with_fastest": bool(low <= 1 + margin) if not math.isnan(low) else False,
-                    "speedup": base["ratio"] if base is not None else (1.0 if kernel == baseline else math.nan),
-                    "speedup_ci_low": base["ratio_ci_low"] if base is not None else math.nan,
-                    "speedup_ci_high": base["ratio_ci_high"] if base is not None else math.nan,
+                    **with_ci("ns_per_test", r.ns_per_test, r.ns_per_test_ci_low, r.ns_per_test_ci_high),
+                    **with_ci("speedup", *speedup),
                     "baseline": baseline,
-                    "watertight": declared(kernel, "watertight"),
-                    "culls_back_faces": declared(kernel, "culls_back_faces"),
-                    "bytes_per_triangle": _bytes_per_triangle(kernel, str(r.dtype)),
-                    "form": _form(kernel),
+                    **_ranked(rank, kernel, str(r.dtype), (per, fastest, level), margin),
                     **measured_robustness(val, kernel, str(r.dtype)),
                 }
             )
@@ -301,7 +306,6 @@ def _band_rows(
     rows = []
     for rank, kernel in enumerate(ranked, start=1):
         e = estimates[kernel]
-        ratio, low, high = (1.0, 1.0, 1.0) if kernel == fastest else paired_time_ratio(per, kernel, fastest, level)[:3]
         if kernel == baseline:
             speedup = (1.0, math.nan, math.nan)
         elif baseline in per:
@@ -313,25 +317,11 @@ def _band_rows(
                 "dtype": dtype,
                 "band": band,
                 "workloads": n_workloads,
-                "rank": rank,
-                "kernel": kernel,
-                "algorithm": declared(kernel, "algorithm"),
-                "form": _form(kernel),
-                "ns_per_test": e.mean,
-                "ns_per_test_ci_low": e.ci_low,
-                "ns_per_test_ci_high": e.ci_high,
-                "vs_fastest": ratio,
-                "vs_fastest_ci_low": low,
-                "vs_fastest_ci_high": high,
-                "tied_with_fastest": bool(low <= 1 + margin) if not math.isnan(low) else False,
-                "speedup": speedup[0],
-                "speedup_ci_low": speedup[1],
-                "speedup_ci_high": speedup[2],
+                **with_ci("ns_per_test", e.mean, e.ci_low, e.ci_high),
+                **with_ci("speedup", *speedup),
                 "baseline": baseline,
                 "n_processes": e.n,
-                "watertight": declared(kernel, "watertight"),
-                "culls_back_faces": declared(kernel, "culls_back_faces"),
-                "bytes_per_triangle": _bytes_per_triangle(kernel, dtype),
+                **_ranked(rank, kernel, dtype, (per, fastest, level), margin),
                 **_robustness(val, kernel, dtype),
             }
         )

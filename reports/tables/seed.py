@@ -26,7 +26,7 @@ from ...harness.jobs.seed import (
     STREAM_FIGURES,
     WORKLOADS_CSV,
 )
-from .frames import paired_time_ratio
+from .frames import in_order, paired_time_ratio, with_ci
 from .pipeline import analyse, write_tables
 
 __all__ = ["ratio_baseline", "read_seed_run", "render_per_process", "render_table", "seed_tables", "write_seed_tables"]
@@ -115,15 +115,11 @@ def render_table(per: pd.DataFrame, scenes: Mapping[str, Mapping[str, Any]]) -> 
                 "kernel": kernel,
                 "triangles": sc["triangles"],
                 "render_tests": tests,
-                "render_s": e.mean,
-                "render_s_ci_low": e.ci_low,
-                "render_s_ci_high": e.ci_high,
+                **with_ci("render_s", e.mean, e.ci_low, e.ci_high),
                 "render_s_min": e.minimum,
                 "replay_ns_per_test": e.mean / tests * 1e9,
                 "ratio_baseline": ratio_baseline(kernel),
-                "ratio_to_moller_seed": ratio,
-                "ratio_to_moller_seed_ci_low": low,
-                "ratio_to_moller_seed_ci_high": high,
+                **with_ci("ratio_to_moller_seed", ratio, low, high),
                 "predicted_s_low": predicted[0],
                 "predicted_s_high": predicted[1],
                 "predicted_ratio_low": predicted_ratio[0] if kernel in PROGRAM else math.nan,
@@ -206,8 +202,7 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
     timed = batches.loc[~batches["warmup"]]
     passes = (timed["tests"] / timed["loops"]).groupby([timed["kernel"], timed["workload_id"]]).median()
     pp = pp.join(passes.rename("tests_per_pass"), on=["kernel", "workload_id"])
-    korder = {k: i for i, k in enumerate(kernels)}
-    pp = pp.sort_values("kernel", key=lambda s: s.map(korder), kind="stable")
+    pp = in_order(pp, kernel=kernels)
 
     wl = _workloads_table(info)
     paper_size = (replay["width"], replay["height"]) == (512, 512)
@@ -221,10 +216,7 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
         for r in wl.loc[wl["rays"] == "render"].itertuples()
     }
     per = render_per_process(pp, info)
-    seed = render_table(per, scenes)
-    sorder = {s: i for i, s in enumerate(scenes)}
-    seed = seed.assign(_o=seed["scene"].map(sorder) * 1000 + seed["kernel"].map(korder))
-    seed = seed.sort_values("_o").drop(columns="_o").reset_index(drop=True)
+    seed = in_order(render_table(per, scenes), scene=list(scenes), kernel=kernels)
 
     kinds = []
     d = pp.join(pd.DataFrame.from_dict(info, orient="index"), on="workload_id", how="inner")
@@ -241,9 +233,7 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
                 "kernel": kernel,
                 "workload_id": wid,
                 "mode": w["mode"],
-                "ns_per_test": e.mean,
-                "ns_per_test_ci_low": e.ci_low,
-                "ns_per_test_ci_high": e.ci_high,
+                **with_ci("ns_per_test", e.mean, e.ci_low, e.ci_high),
                 "tests_per_pass": float(g["tests_per_pass"].iloc[0]),
                 "sample_tests": w["sample_tests"],
                 "stream_tests": w["stream_tests"],
@@ -252,10 +242,7 @@ def seed_tables(run_dir: str | Path) -> dict[str, pd.DataFrame]:
                 "n_processes": e.n,
             }
         )
-    kt = pd.DataFrame(kinds, columns=list(COLUMNS[KINDS_CSV]))
-    order = {(s, r): i for i, (s, r) in enumerate(zip(wl["scene"], wl["rays"], strict=True))}
-    kt = kt.assign(
-        _o=[order[(s, r)] * 1000 + korder[k] for s, r, k in zip(kt["scene"], kt["rays"], kt["kernel"], strict=True)]
+    kt = in_order(
+        pd.DataFrame(kinds, columns=list(COLUMNS[KINDS_CSV])), scene=list(scenes), rays=RAY_KINDS, kernel=kernels
     )
-    kt = kt.sort_values("_o").drop(columns="_o").reset_index(drop=True)
     return {SEED_CSV: seed, KINDS_CSV: kt, WORKLOADS_CSV: wl}
