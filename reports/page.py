@@ -179,7 +179,7 @@ def png_data_uri(data: bytes) -> str:
 
 def palette_png(data: bytes) -> bytes:
     """PNG bytes re-encoded with a 256-colour palette: a plot's flat colours look the same at a third of the bytes."""
-    from PIL import Image  # a dependency of matplotlib, which draws the pictures
+    from PIL import Image
 
     out = io.BytesIO()
     with Image.open(io.BytesIO(data)) as im:
