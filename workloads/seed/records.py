@@ -94,12 +94,6 @@ class Trace:
         out[p.pixel] = seen
         return out.reshape(self.height, self.width)
 
-    @property
-    def triangle_tests(self) -> dict[str, int]:
-        """Tests a brute-force replay runs per kind, every ray against every triangle (the seed's shadows run fewer)."""
-        k = len(self.scene.triangles)
-        return {kind: len(getattr(self, kind)) * k for kind in KINDS}
-
     def to_uint8(self) -> np.ndarray:
         """The image as the seed writes it: ``> 1`` gives 255, else ``int(x * 255)``."""
         x = self.image
@@ -122,18 +116,6 @@ class Trace:
         key = np.concatenate(keys)
         order = np.argsort(key, kind="stable")
         return np.concatenate(kinds)[order], np.concatenate(idx)[order]
-
-    def replay_rays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """All rays in the seed's order: ``origins, directions`` float64 (N, 3) and ``kind`` int8."""
-        kind, idx = self.seed_order()
-        o = np.empty((len(kind), 3))
-        d = np.empty((len(kind), 3))
-        for k, name in enumerate(KINDS):
-            rs = getattr(self, name)
-            sel = kind == k
-            o[sel] = rs.origins[idx[sel]]
-            d[sel] = rs.directions[idx[sel]]
-        return o, d, kind
 
     # A per-pixel sequence number: the seed's position of each ray within its pixel.
     def _seq_stride(self) -> int:
