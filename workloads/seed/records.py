@@ -80,7 +80,6 @@ class Trace:
 
     @property
     def counts(self) -> dict[str, int]:
-        """Rays shot per kind, and in total."""
         c = {k: len(getattr(self, k)) for k in KINDS}
         c["total"] = sum(c.values())
         return c
@@ -100,7 +99,6 @@ class Trace:
         return np.where(x > 1.0, 255, np.floor(np.maximum(x, 0.0) * 255.0)).astype(np.uint8)
 
     def to_png(self, path: str | Path) -> Path:
-        """Save the image as PNG; returns the path."""
         return save_png(path, self.to_uint8())
 
     def seed_order(self) -> tuple[np.ndarray, np.ndarray]:
