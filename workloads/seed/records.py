@@ -105,28 +105,19 @@ class Trace:
         """The seed's shooting order, ``(kind, index)`` arrays over all rays (``kind`` indexes :data:`KINDS`,
         ``index`` the row in its :class:`RaySet`): pixel by pixel, columns outer and rows inner, and within a
         pixel depth first (the primary ray, its hit's shadow rays by light, the reflected ray, its shadow rays...)."""
+        per_pixel = len(self.scene.lights) + 1  # a ray's place in its pixel: depth, then its light if a shadow ray
         keys, kinds, idx = [], [], []
         for k, name in enumerate(KINDS):
             rs = getattr(self, name)
-            keys.append(self._order_key(rs, shadow=(name == "shadow")))
+            seq = rs.depth.astype(np.int64) * per_pixel
+            if name == "shadow":
+                seq += 1 + rs.light.astype(np.int64)
+            column_major = (rs.pixel % self.width) * self.height + rs.pixel // self.width
+            keys.append(column_major * (self.depth + 1) * per_pixel + seq)
             kinds.append(np.full(len(rs), k, dtype=np.int8))
             idx.append(np.arange(len(rs)))
-        key = np.concatenate(keys)
-        order = np.argsort(key, kind="stable")
+        order = np.argsort(np.concatenate(keys), kind="stable")
         return np.concatenate(kinds)[order], np.concatenate(idx)[order]
-
-    # A per-pixel sequence number: the seed's position of each ray within its pixel.
-    def _seq_stride(self) -> int:
-        return (self.depth + 1) * (len(self.scene.lights) + 1)
-
-    def _seq(self, rs: RaySet, shadow: bool) -> np.ndarray:
-        seq = rs.depth.astype(np.int64) * (len(self.scene.lights) + 1)
-        return seq + 1 + rs.light.astype(np.int64) if shadow else seq
-
-    def _order_key(self, rs: RaySet, shadow: bool) -> np.ndarray:
-        i, j = rs.pixel % self.width, rs.pixel // self.width
-        column_major = i * self.height + j
-        return column_major * self._seq_stride() + self._seq(rs, shadow)
 
 
 def save_png(path: str | Path, rgb: np.ndarray) -> Path:
