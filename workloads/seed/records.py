@@ -3,7 +3,7 @@ the kinds of rays (:data:`KINDS`) and of hits (``MISS``, ``PLANE``, ``SPHERE``, 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -76,7 +76,6 @@ class Trace:
     shadow: RaySet
     elapsed_s: float
     triangle_s: float
-    extra: dict = field(default_factory=dict)
 
     @property
     def counts(self) -> dict[str, int]:
