@@ -15,6 +15,7 @@ truncated one; a failure to write is the environment's, a UserError naming the f
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import secrets
 import stat
@@ -25,7 +26,7 @@ from typing import IO, Any
 
 from .errors import UserError
 
-__all__ = ["atomic_write", "read_user_text", "write_bytes", "write_text"]
+__all__ = ["atomic_write", "file_sha256", "read_user_text", "write_bytes", "write_text"]
 
 
 @contextmanager
@@ -97,3 +98,9 @@ def read_user_text(path: str | Path, what: str, error: type[UserError] = UserErr
         raise error(f"{path}: not a text file ({exc.reason} at byte {exc.start})") from None
     except OSError as exc:
         raise error(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a file's bytes, read in blocks (a mesh file may be large)."""
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()

@@ -15,7 +15,7 @@ from types import ModuleType
 from ..common import UserError
 from ..common.location import cache_dir
 from . import _core
-from .registry import file_sha256, use_module
+from .registry import module_sha256, use_module
 from .toolchain import Toolchain, compile_module, import_module, installed, set_current
 
 __all__ = ["INSTALLED", "BuildError", "build_record", "load_build", "parse_builds", "use_build"]
@@ -158,5 +158,5 @@ def build_record(spec: str) -> dict:
         "compiler": (toolchain.version.splitlines() or [info["compiler"]])[0],
         "flags": shlex.join(toolchain.flags) if spec != INSTALLED else info["flags"],
         "fast_math": bool(info["fast_math"]),
-        "module_sha256": file_sha256(module.__file__ or ""),
+        "module_sha256": module_sha256(module.__file__ or ""),
     }

@@ -25,6 +25,7 @@ def bvh_kernel_names() -> tuple[str, ...]:
 
 
 def _check_leaf_kernel(kernel: str) -> None:
+    check_kernel(kernel)
     if kernel not in bvh_kernel_names():
         raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(bvh_kernel_names())}")
 
@@ -223,7 +224,6 @@ def build_bvh(kernel: str, triangles: np.ndarray, *, max_leaf: int = DEFAULT_MAX
     >>> sorted(bvh.perm[bvh.perm >= 0].tolist()) == list(range(1000))
     True
     """
-    check_kernel(kernel)
     _check_leaf_kernel(kernel)
     if isinstance(max_leaf, bool) or not isinstance(max_leaf, (int, np.integer)):
         raise UserTypeError(f"max_leaf must be an int, got {type(max_leaf).__name__}")
@@ -295,7 +295,6 @@ def adopt_bvh(
     >>> adopt_bvh(b.kernel, tri, b.nodes, b.perm, b.prepared.records, b.max_leaf).n_nodes == b.n_nodes
     True
     """
-    check_kernel(kernel)
     _check_leaf_kernel(kernel)
     if isinstance(max_leaf, bool) or not isinstance(max_leaf, (int, np.integer)) or not 1 <= max_leaf <= 1024:
         raise UserError(f"max_leaf must be an int between 1 and 1024, got {max_leaf!r}")

@@ -45,7 +45,6 @@ class OpThroughput:
     float64: dict[str, float]
 
     def rates(self, dtype) -> dict[str, float]:
-        """The rates of one precision."""
         return self.float32 if np.dtype(dtype).itemsize == 4 else self.float64
 
 

@@ -4,7 +4,6 @@ the compiled module (``ext/kernels/list.h`` and the kernels' files), none inferr
 from __future__ import annotations
 
 import functools
-import hashlib
 import os
 from dataclasses import dataclass
 from types import ModuleType
@@ -13,6 +12,7 @@ from typing import Literal
 import numpy as np
 
 from ..common import UserError, UserTypeError
+from ..common.files import file_sha256
 from . import _core
 from .checks import check_dtype_name
 
@@ -134,14 +134,11 @@ def build_info() -> dict:
 
 def extension_sha256() -> str:
     """The sha256 of the compiled extension's file: which build of the C code this is."""
-    return file_sha256(_core.__file__)
+    return module_sha256(_core.__file__)
 
 
-@functools.cache
-def file_sha256(path: str) -> str:
-    """The sha256 of a compiled module's file (read once per process)."""
-    with open(path, "rb") as f:
-        return hashlib.file_digest(f, "sha256").hexdigest()
+#: The sha256 of a compiled module's file (read once per process).
+module_sha256 = functools.cache(file_sha256)
 
 
 def use_module(module: ModuleType) -> None:

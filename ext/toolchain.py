@@ -107,7 +107,8 @@ def compile_module(
         first = _first_failure([[*compile_c, str(c), "-o", str(o)] for c, o in zip(sources, objects, strict=True)])
         if first is not None:
             raise failed(first)
-        linked = run([*toolchain.link, *map(str, objects), *libs, "-o", str(Path(tmp) / module_path.name)])
+        link = [*toolchain.link, *map(str, objects), *libs, "-o", str(Path(tmp) / module_path.name)]
+        linked = _finish(_start(link), link)
         if linked.returncode or not (Path(tmp) / module_path.name).is_file():
             said = linked.stderr.strip() or "it wrote no module"
             raise UserError(f"does not link ({shlex.join(toolchain.link)}):\n{said}")
@@ -183,11 +184,6 @@ def _finish(proc: subprocess.Popen, argv: list[str]) -> subprocess.CompletedProc
             raise UserError(f"{argv[0]} took over 10 minutes on one file; stopped") from None
         raise
     return subprocess.CompletedProcess(argv, proc.returncode, out, err)
-
-
-def run(argv: list[str]) -> subprocess.CompletedProcess:
-    """A compiler's run, its output captured; a missing compiler or a 10-minute compile is a UserError."""
-    return _finish(_start(argv), argv)
 
 
 def import_module(name: str, path: Path) -> ModuleType | None:

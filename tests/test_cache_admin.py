@@ -187,7 +187,7 @@ def test_a_sweep_shows_its_workers_cache_notices_once_each_and_finishes(cache, t
     notices = [line for line in second.stderr.splitlines() if "not a cache file" in line]
     assert notices == [
         f"tribench: cache file {tree} is a folder, not a cache file (remove it to cache it again): "
-        "the BVH is built in memory"
+        "the BVH is kept in memory"
     ], second.stderr
     assert "Traceback" not in second.stderr
 

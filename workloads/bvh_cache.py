@@ -7,18 +7,15 @@ that fails the seal, names another identity or that :func:`tribench.ext.adopt_bv
 from __future__ import annotations
 
 import hashlib
-import io
-import json
 import time
-import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .. import ext
-from ..common import UserError, write_bytes
-from .cache import CacheWarning, Invalid, cache_dir, not_a_file, sealed_npz, unsealed
+from ..common import UserError
+from .cache import Invalid, cache_dir, read_sealed, sealed_npz, through_cache
 from .spec import canonical_json
 
 __all__ = ["BVH_FORMAT", "bvh_identity", "bvh_path", "cached_bvh"]
@@ -55,40 +52,26 @@ def cached_bvh(kernel: str, triangles: np.ndarray, max_leaf: int = ext.DEFAULT_M
     if kernel not in ext.bvh_kernel_names():  # before hashing anything
         raise UserError(f"{kernel} cannot be a BVH's leaf test; these can: {', '.join(ext.bvh_kernel_names())}")
     identity = bvh_identity(kernel, triangles, max_leaf)
-    path = bvh_path(identity)
-    in_the_way = not_a_file(path)
-    if in_the_way:  # never followed nor replaced: the tree is kept in memory
-        warnings.warn(f"cache file {path} {in_the_way}: the BVH is built in memory", CacheWarning, stacklevel=2)
-    elif path.exists():
-        try:
-            return _read(path, identity, triangles)
-        except Invalid as e:
-            warnings.warn(f"cache file {path} is invalid ({e}); rebuilding it", CacheWarning, stacklevel=2)
-    t0 = time.perf_counter_ns()
-    bvh = ext.build_bvh(kernel, triangles, max_leaf=max_leaf)
-    build_ns = time.perf_counter_ns() - t0
-    if not in_the_way:
+
+    def build() -> tuple[ext.BVH, int]:
+        t0 = time.perf_counter_ns()
+        bvh = ext.build_bvh(kernel, triangles, max_leaf=max_leaf)
+        return bvh, time.perf_counter_ns() - t0
+
+    def encode(built: tuple[ext.BVH, int]) -> bytes:
+        bvh, build_ns = built
         arrays = {"nodes": bvh.nodes, "perm": bvh.perm, "records": bvh.prepared.records}
-        try:
-            write_bytes(path, sealed_npz({"identity": identity, "build_ns": build_ns}, arrays))
-        except UserError as e:  # a read-only cache stops nothing: this process uses the tree it built
-            warnings.warn(f"{e}: the BVH is kept in memory", CacheWarning, stacklevel=2)
-    return bvh, build_ns
+        return sealed_npz({"identity": identity, "build_ns": build_ns}, arrays)
+
+    path = bvh_path(identity)
+    return through_cache(path, "BVH", lambda: _read(path, identity, triangles), build, encode)
 
 
 def _read(path: Path, identity: dict[str, Any], triangles: np.ndarray) -> tuple[ext.BVH, int]:
-    data = unsealed(path)
-    try:
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            if sorted(npz.files) != sorted(["meta", *_ARRAYS]):
-                raise Invalid("its arrays are not nodes, perm and records")
-            meta = json.loads(str(npz["meta"][()]))
-            arrays = {name: npz[name] for name in _ARRAYS}
-    except Invalid:
-        raise
-    except Exception as e:  # garbage under a valid seal
-        raise Invalid(f"{type(e).__name__}: {e}") from None
-    if not isinstance(meta, dict) or canonical_json(meta.get("identity")) != canonical_json(identity):
+    meta, arrays = read_sealed(path)
+    if sorted(arrays) != sorted(_ARRAYS):
+        raise Invalid("its arrays are not nodes, perm and records")
+    if canonical_json(meta.get("identity")) != canonical_json(identity):
         raise Invalid("stale: made by another version of the build, format or extension, or for other triangles")
     build_ns = meta.get("build_ns")
     if isinstance(build_ns, bool) or not isinstance(build_ns, int) or build_ns < 0:

@@ -13,9 +13,10 @@ import os
 import stat
 import warnings
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -48,6 +49,7 @@ __all__ = [
 CACHE_FORMAT = 3
 _SEAL_PREFIX = b"tribench-sha256:"
 _SEAL_LEN = len(_SEAL_PREFIX) + 64
+T = TypeVar("T")
 
 
 class CacheWarning(Notice):
@@ -93,7 +95,7 @@ def _seal(body: bytes) -> bytes:
     return _SEAL_PREFIX + hashlib.sha256(body).hexdigest().encode()
 
 
-def _write(w: Workload, path: Path) -> None:
+def _encode(w: Workload) -> bytes:
     arrays = w.arrays()
     meta = {
         "format": CACHE_FORMAT,
@@ -104,7 +106,7 @@ def _write(w: Workload, path: Path) -> None:
         "achieved": w.achieved,
         "arrays": sorted(arrays),
     }
-    write_bytes(path, sealed_npz(meta, arrays))
+    return sealed_npz(meta, arrays)
 
 
 def sealed_npz(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
@@ -117,9 +119,9 @@ def sealed_npz(meta: dict[str, Any], arrays: dict[str, np.ndarray]) -> bytes:
     return body + _seal(body)
 
 
-def unsealed(path: Path) -> bytes:
-    """The bytes of a file :func:`sealed_npz` made, if its seal matches them (else :class:`Invalid`). Only a
-    regular file is read: a link, folder or pipe in a cache file's place is never followed or opened."""
+def read_sealed(path: Path, arrays: bool = True) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """The ``meta`` and (if ``arrays``) the arrays of a file :func:`sealed_npz` made, if its seal matches them
+    (else :class:`Invalid`). Only a regular file is read: a link, folder or pipe in its place is never opened."""
     if not stat.S_ISREG(os.lstat(path).st_mode):
         raise Invalid("not a regular file (a link, folder or pipe in a cache file's place)")
     data = path.read_bytes()
@@ -127,42 +129,55 @@ def unsealed(path: Path) -> bytes:
         raise Invalid(
             "its checksum does not match: the file was changed, cut or not written by this version of tribench"
         )
-    return data
-
-
-def _read_meta(npz) -> dict[str, Any]:
     try:
-        meta = json.loads(str(npz["meta"][()]))
-    except Exception as e:
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            meta = json.loads(str(npz["meta"][()]))
+            found = {name: npz[name] for name in npz.files if name != "meta"} if arrays else {}
+    except Exception as e:  # garbage under a valid seal
         raise Invalid(f"unreadable metadata ({type(e).__name__})") from None
-    if not isinstance(meta, dict) or meta.get("format") != CACHE_FORMAT:
-        old = isinstance(meta, dict) and isinstance(meta.get("format"), int) and 0 < meta["format"] < CACHE_FORMAT
-        why = f"stale: cache format {meta['format']}, current {CACHE_FORMAT}" if old else "unknown cache format"
-        raise Invalid(why)
+    if not isinstance(meta, dict):
+        raise Invalid("unreadable metadata")
+    return meta, found
+
+
+def _claimed_meta(path: Path) -> dict[str, Any]:
+    """The ``meta`` a file claims, its seal unchecked ({} if unreadable)."""
+    try:
+        with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
+            meta = json.loads(str(npz["meta"][()]))
+    except Exception:
+        return {}
+    return meta if isinstance(meta, dict) else {}
+
+
+def _check_meta(meta: dict[str, Any]) -> None:
+    if meta.get("format") != CACHE_FORMAT:
+        old = isinstance(meta.get("format"), int) and 0 < meta["format"] < CACHE_FORMAT
+        raise Invalid(
+            f"stale: cache format {meta['format']}, current {CACHE_FORMAT}" if old else "unknown cache format"
+        )
     for key, kind in (("spec", dict), ("identity", dict), ("achieved", dict), ("arrays", list)):
         if not isinstance(meta.get(key), kind):
             raise Invalid(f"metadata key {key!r} is missing or not a {kind.__name__}")
-    return meta
 
 
 def _read(path: Path, spec: Spec | None) -> Workload:
     """The workload in ``path``, checked against ``spec`` (or against its own stored spec)."""
+    meta, arrays = read_sealed(path)
+    _check_meta(meta)
     try:
-        with np.load(io.BytesIO(unsealed(path)), allow_pickle=False) as npz:
-            meta = _read_meta(npz)
-            if spec is None:
-                spec = spec_from_dict(meta["spec"])
-            if meta.get("version") != spec.version:
-                raise Invalid(f"stale: generator version {meta.get('version')}, current {spec.version}")
-            if canonical_json(meta["identity"]) != canonical_json(identity(spec)):
-                raise Invalid("spec does not match")
-            if spec_from_dict(meta["spec"]) != spec:  # as a spec: a file before #52 spells the RNG seed "seed"
-                raise Invalid("stored spec does not match")
-            if meta.get("workload_id") != path.stem or path.stem != workload_id(spec):
-                raise Invalid("workload id does not match")
-            if sorted(npz.files) != sorted(["meta", *meta["arrays"]]):
-                raise Invalid("arrays do not match the metadata")
-            arrays = {name: npz[name] for name in meta["arrays"]}
+        if spec is None:
+            spec = spec_from_dict(meta["spec"])
+        if meta.get("version") != spec.version:
+            raise Invalid(f"stale: generator version {meta.get('version')}, current {spec.version}")
+        if canonical_json(meta["identity"]) != canonical_json(identity(spec)):
+            raise Invalid("spec does not match")
+        if spec_from_dict(meta["spec"]) != spec:  # as a spec: a file before #52 spells the RNG seed "seed"
+            raise Invalid("stored spec does not match")
+        if meta.get("workload_id") != path.stem or path.stem != workload_id(spec):
+            raise Invalid("workload id does not match")
+        if sorted(arrays) != sorted(meta["arrays"]):
+            raise Invalid("arrays do not match the metadata")
         return Workload(workload_id=path.stem, spec=spec, achieved=meta["achieved"], **arrays)
     except Invalid:
         raise
@@ -170,15 +185,27 @@ def _read(path: Path, spec: Spec | None) -> Workload:
         raise Invalid(f"{type(e).__name__}: {e}") from None
 
 
-def _build(spec: Spec, path: Path, invalid: Invalid | None = None) -> Workload:
-    if invalid is not None:
-        warnings.warn(f"cache file {path} is invalid ({invalid}); rebuilding it", CacheWarning, stacklevel=3)
-    w = _generate(spec)
-    try:
-        _write(w, path)
-    except UserError as e:  # a cache that cannot be written stops nothing (docs/input.md)
-        warnings.warn(f"{e}: the workload is kept in memory", CacheWarning, stacklevel=3)
-    return w
+def through_cache(
+    path: Path, what: str, read: Callable[[], T], compute: Callable[[], T], encode: Callable[[T], bytes]
+) -> T:
+    """``read()`` the cache file ``path``, else ``compute()`` the value and write ``encode(value)`` there. The
+    cache never stops anything: a file that is invalid (``read`` raised :class:`Invalid`: rebuilt), in the way
+    (never followed nor replaced) or unwritable is a :class:`CacheWarning`, ``what`` then kept in memory."""
+    in_the_way = not_a_file(path)
+    if in_the_way:
+        warnings.warn(f"cache file {path} {in_the_way}: the {what} is kept in memory", CacheWarning, stacklevel=3)
+    elif path.exists():
+        try:
+            return read()
+        except Invalid as e:
+            warnings.warn(f"cache file {path} is invalid ({e}); rebuilding it", CacheWarning, stacklevel=3)
+    value = compute()
+    if not in_the_way:
+        try:
+            write_bytes(path, encode(value))
+        except UserError as e:  # a cache that cannot be written stops nothing (docs/input.md)
+            warnings.warn(f"{e}: the {what} is kept in memory", CacheWarning, stacklevel=3)
+    return value
 
 
 def _generate(spec: Spec) -> Workload:
@@ -193,16 +220,7 @@ def _generate(spec: Spec) -> Workload:
 def make(spec: Spec) -> Workload:
     """The workload of ``spec``: cached if valid, else built and cached (an invalid file: a :class:`CacheWarning`)."""
     path = _path(workload_id(spec))
-    in_the_way = not_a_file(path)
-    if in_the_way:  # never followed nor replaced
-        warnings.warn(f"cache file {path} {in_the_way}: the workload is kept in memory", CacheWarning, stacklevel=2)
-        return _generate(spec)
-    if not path.exists():
-        return _build(spec, path)
-    try:
-        return _read(path, spec)
-    except Invalid as e:
-        return _build(spec, path, e)
+    return through_cache(path, "workload", lambda: _read(path, spec), lambda: _generate(spec), _encode)
 
 
 def cached(spec: Spec) -> bool:
@@ -220,22 +238,16 @@ def load(wid: str) -> Workload:
         return _read(path, None)
     except Invalid as e:
         invalid = e
-    spec = _stored_spec(path)
+    try:  # the spec of an invalid file, used only when it hashes to the file's own id
+        spec = spec_from_dict(_claimed_meta(path)["spec"])
+    except Exception:
+        spec = None
     if spec is None or workload_id(spec) != wid:
         raise UserError(
             f"cache file {path} is invalid ({invalid}) and holds no spec that still gives this id "
             f"(a mesh file changed or moved?): make the workload again"
         )
-    return _build(spec, path, invalid)
-
-
-def _stored_spec(path: Path) -> Spec | None:
-    """The spec of an invalid file if still readable (used only when it hashes to the file's own id)."""
-    try:
-        with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
-            return spec_from_dict(json.loads(str(npz["meta"][()]))["spec"])
-    except Exception:
-        return None
+    return make(spec)
 
 
 def resolve_id(prefix: str) -> str:
@@ -267,14 +279,8 @@ def list_cached() -> list[CachedWorkload]:
             spec, achieved = w.spec.to_dict(), dict(w.achieved)
         except Invalid as e:
             problem = str(e)
-            try:
-                if not stat.S_ISREG(st.st_mode):  # never opened: a pipe would block, a link lead out
-                    raise Invalid(problem)
-                with open(path, "rb") as f, np.load(f, allow_pickle=False) as npz:
-                    claimed = json.loads(str(npz["meta"][()]))
-                spec, achieved = claimed.get("spec"), claimed.get("achieved")
-            except Exception:
-                pass
+            claimed = _claimed_meta(path) if stat.S_ISREG(st.st_mode) else {}  # a pipe would block, a link lead out
+            spec, achieved = claimed.get("spec"), claimed.get("achieved")
         out.append(
             CachedWorkload(
                 path.stem,

@@ -4,15 +4,11 @@ files used longest ago."""
 
 from __future__ import annotations
 
-import io
-import json
 import os
 import re
 import stat
 from dataclasses import dataclass
 from pathlib import Path
-
-import numpy as np
 
 from ..common import UserError
 from ..common.location import cache_dir
@@ -76,26 +72,12 @@ def _kind(rel: Path) -> str:
     return kinds.get(rel.parts[0], "other")
 
 
-def _meta(path: Path) -> dict:
-    """The ``meta`` member of a sealed cache file, after checking its seal (``Invalid`` if either fails)."""
-    from .cache import Invalid, unsealed
-
-    data = unsealed(path)
-    try:
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            meta = json.loads(str(npz["meta"][()]))
-    except Exception as e:  # garbage under a valid seal
-        raise Invalid(f"unreadable metadata ({type(e).__name__})") from None
-    if not isinstance(meta, dict):
-        raise Invalid("unreadable metadata")
-    return meta
-
-
 def _bvh_problem(path: Path) -> str | None:
     from .. import ext
     from .bvh_cache import BVH_FORMAT
+    from .cache import read_sealed
 
-    identity = _meta(path).get("identity")
+    identity = read_sealed(path, arrays=False)[0].get("identity")
     current = {"format": BVH_FORMAT, "build_version": ext.BVH_BUILD_VERSION, "extension_sha256": ext.extension_sha256()}
     if not isinstance(identity, dict) or any(identity.get(k) != v for k, v in current.items()):
         return "made by another build of the extension"
@@ -103,9 +85,10 @@ def _bvh_problem(path: Path) -> str | None:
 
 
 def _front_problem(path: Path) -> str | None:
+    from .cache import read_sealed
     from .front import FRONT_VERSION
 
-    if _meta(path).get("front_version") != FRONT_VERSION:
+    if read_sealed(path, arrays=False)[0].get("front_version") != FRONT_VERSION:
         return "made by another version of the front-face reference"
     return None
 

@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import numbers
-import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from ..common import UserError
+from ..common.files import file_sha256
 
 __all__ = [
     "DTYPES",
@@ -92,9 +91,3 @@ def canonical_json(obj: Any) -> str:
     '{"a":[0.1,"x"],"b":1}'
     """
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
-
-
-def file_sha256(path: str | os.PathLike) -> str:
-    """SHA-256 of a file's bytes, read in blocks (a mesh file may be large)."""
-    with open(path, "rb") as f:
-        return hashlib.file_digest(f, "sha256").hexdigest()

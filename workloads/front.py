@@ -5,16 +5,12 @@ workload's checksum; a file that fails any of these is recomputed with a
 
 from __future__ import annotations
 
-import io
-import json
-import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..common import UserError, write_bytes
 from . import reference
-from .cache import CacheWarning, Invalid, cache_dir, not_a_file, sealed_npz, unsealed
+from .cache import Invalid, cache_dir, read_sealed, sealed_npz, through_cache
 from .workload import Workload
 
 __all__ = ["FRONT_VERSION", "compute_front_reference", "front_path", "front_reference"]
@@ -53,42 +49,24 @@ def front_path(workload_id: str) -> Path:
 def front_reference(w: Workload) -> tuple[np.ndarray, np.ndarray]:
     """:func:`compute_front_reference`, from the cache when a valid file is there, else computed and cached."""
     path = front_path(w.workload_id)
-    in_the_way = not_a_file(path)
-    if in_the_way:  # never followed nor replaced
-        warnings.warn(f"cache file {path} {in_the_way}: the reference is kept in memory", CacheWarning, stacklevel=2)
-    elif path.exists():
-        try:
-            return _read(path, w)
-        except Invalid as e:
-            warnings.warn(f"cache file {path} is invalid ({e}); rebuilding it", CacheWarning, stacklevel=2)
-    index, t = compute_front_reference(w)
-    if not in_the_way:
-        try:
-            _write(path, w, index, t)
-        except UserError as e:  # a read-only cache stops nothing
-            warnings.warn(f"{e}: the reference is kept in memory", CacheWarning, stacklevel=2)
-    return index, t
+
+    def encode(reference: tuple[np.ndarray, np.ndarray]) -> bytes:
+        return sealed_npz(_meta(w), dict(zip(("index", "t"), reference, strict=True)))
+
+    return through_cache(path, "reference", lambda: _read(path, w), lambda: compute_front_reference(w), encode)
 
 
 def _meta(w: Workload) -> dict[str, object]:
     return {"front_version": FRONT_VERSION, "workload_id": w.workload_id, "workload_sha256": w.checksum()}
 
 
-def _write(path: Path, w: Workload, index: np.ndarray, t: np.ndarray) -> None:
-    write_bytes(path, sealed_npz(_meta(w), {"index": index, "t": t}))
-
-
 def _read(path: Path, w: Workload) -> tuple[np.ndarray, np.ndarray]:
-    data = unsealed(path)
-    try:
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            meta = json.loads(str(npz["meta"][()]))
-            index, t = npz["index"], npz["t"]
-    except Exception as e:  # garbage under a valid seal
-        raise Invalid(f"{type(e).__name__}: {e}") from None
+    meta, arrays = read_sealed(path)
     if meta != _meta(w):
         raise Invalid("made from another workload or by another version")
-    n = len(w.origins)
-    if index.shape != (n,) or t.shape != (n,) or index.dtype != np.int64 or t.dtype != np.float64:
+    index, t = arrays.get("index"), arrays.get("t")
+    if index is None or t is None or index.shape != (len(w.origins),) or t.shape != index.shape:
+        raise Invalid("its arrays do not fit the workload")
+    if (index.dtype, t.dtype) != (np.int64, np.float64):
         raise Invalid("its arrays do not fit the workload")
     return index, t

@@ -1,7 +1,8 @@
 """The workload kinds, in one registry: each ``kind`` names its spec class and its generator.
 
 A spec's ``kind`` (in a cache file, a run folder's ``run.json`` or a sweep file) is looked up here and nowhere else.
-A new kind is one spec class in :mod:`.spec`, one generator module and one line in :data:`KINDS`.
+A new kind is one spec class in :mod:`.spec`, one generator module, one line in :data:`KINDS` and one in
+:func:`generate`.
 
 >>> sorted(KINDS)
 ['mesh', 'pairs', 'seed']
@@ -12,8 +13,8 @@ True
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, fields
+from collections.abc import Mapping
+from dataclasses import fields
 from typing import Any
 
 from ..common import UserError
@@ -21,41 +22,11 @@ from ..common.renamed import renamed
 from .spec import MeshSpec, PairSpec, SeedSpec, Spec, workload_id
 from .workload import Workload
 
-__all__ = ["KINDS", "Kind", "generate", "spec_from_dict"]
+__all__ = ["KINDS", "generate", "spec_from_dict"]
 
 
-@dataclass(frozen=True)
-class Kind:
-    """One kind of workload: its frozen spec class and the function that builds it."""
-
-    spec: type
-    #: ``generate(spec, workload_id) -> Workload``; imports its module on first use.
-    generate: Callable[[Any, str], Workload]
-
-
-def _pairs(spec: PairSpec, wid: str) -> Workload:
-    from .pairs import generate_pairs
-
-    return generate_pairs(spec, wid)
-
-
-def _mesh(spec: MeshSpec, wid: str) -> Workload:
-    from .rays import generate_mesh_workload  # lazy: pulls in trimesh on use
-
-    return generate_mesh_workload(spec, wid)
-
-
-def _seed(spec: SeedSpec, wid: str) -> Workload:
-    from .seed.workload import generate_seed_workload  # lazy: traces a scene on use
-
-    return generate_seed_workload(spec, wid)
-
-
-KINDS: dict[str, Kind] = {
-    "pairs": Kind(PairSpec, _pairs),
-    "mesh": Kind(MeshSpec, _mesh),
-    "seed": Kind(SeedSpec, _seed),
-}
+#: A spec's ``kind`` -> its spec class.
+KINDS: dict[str, type] = {"pairs": PairSpec, "mesh": MeshSpec, "seed": SeedSpec}
 
 
 def _expected() -> str:
@@ -74,7 +45,7 @@ def spec_from_dict(d: Mapping[str, Any]) -> Spec:
         raise UserError(f"workload kind must be {_expected()}, got {kind!r:.80}")
     if kind not in KINDS:
         raise UserError(f"unknown workload kind {kind!r}: expected {_expected()}")
-    cls = KINDS[kind].spec
+    cls = KINDS[kind]
     names = {f.name for f in fields(cls)}
     unknown = sorted(map(str, set(d) - names))
     if unknown:
@@ -83,5 +54,15 @@ def spec_from_dict(d: Mapping[str, Any]) -> Spec:
 
 
 def generate(spec: Spec) -> Workload:
-    """Build the workload of ``spec`` without touching the cache."""
-    return KINDS[spec.kind].generate(spec, workload_id(spec))
+    """Build the workload of ``spec`` without touching the cache (its generator's module imported on first use)."""
+    if isinstance(spec, PairSpec):
+        from .pairs import generate_pairs
+
+        return generate_pairs(spec, workload_id(spec))
+    if isinstance(spec, MeshSpec):
+        from .rays import generate_mesh_workload  # lazy: pulls in trimesh on use
+
+        return generate_mesh_workload(spec, workload_id(spec))
+    from .seed.workload import generate_seed_workload  # lazy: traces a scene on use
+
+    return generate_seed_workload(spec, workload_id(spec))

@@ -343,13 +343,16 @@ def _draw_outcomes(ax, w: Workload) -> None:
 def _draw_sample_pairs(ax, w: Workload, s: _PairSample) -> None:
     """A few pairs in 3-D: the triangle and the ray up to its crossing (or a bit past)."""
     from matplotlib.lines import Line2D
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     assert isinstance(w.spec, PairSpec)
     o, d, tri, sample, names = s.o, s.d, s.tri, s.sample, s.names
     few = sample[:: max(1, len(sample) // 8)][:8]
     for i, j in zip(few, np.searchsorted(sample, few), strict=True):
         colour = _OUTCOME_COLOURS[names[j]]
-        ax.add_collection3d(_poly3d(tri[i], colour))
+        ax.add_collection3d(
+            Poly3DCollection([tri[i]], facecolors=colour, edgecolors=colour, linewidths=0.8, alpha=0.35)
+        )
         t_end = s.ans.t[j] if np.isfinite(s.ans.t[j]) and s.ans.t[j] > 0 else 3.0 * w.spec.scale
         end = o[i] + t_end * d[i]
         ax.plot(*np.stack([o[i], end]).T, color=colour, lw=1.2)
@@ -390,9 +393,3 @@ def _draw_pairs(plt, w: Workload):
     _draw_sample_pairs(fig.add_subplot(grid[2], projection="3d"), w, s)
     _title(fig, w, _pairs_line(w))
     return fig
-
-
-def _poly3d(vertices: np.ndarray, colour: str):
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-    return Poly3DCollection([vertices], facecolors=colour, edgecolors=colour, linewidths=0.8, alpha=0.35)

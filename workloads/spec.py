@@ -186,7 +186,6 @@ class PairSpec:
         return {"kind": self.kind, **d}
 
     def targets(self) -> dict[str, Any]:
-        """Target figures, keyed like the achieved figures they are compared with."""
         out: dict[str, Any] = {
             "pairs": self.n,
             "hits": round(self.hit_rate * self.n),
@@ -198,7 +197,6 @@ class PairSpec:
         return out
 
     def summary(self) -> str:
-        """One line for listings."""
         mix = ",".join(f"{s}={f:.3g}" for s, f in self.miss_fractions().items() if f)
         extra = "" if (self.scale, self.offset) == (1.0, 0.0) else f" scale={self.scale:g} offset={self.offset:g}"
         facing = " facing" if self.winding == "facing" else ""
@@ -247,7 +245,6 @@ class MeshSpec:
 
     @property
     def mode(self) -> str:
-        """The kernels' mode: the spec's ``result``."""
         return self.result
 
     def __post_init__(self) -> None:
@@ -325,12 +322,10 @@ class MeshSpec:
 
     @property
     def is_file(self) -> bool:
-        """Whether the mesh comes from a file rather than a built-in generator."""
         return self.mesh not in MESH_NAMES
 
     @property
     def rays_from_file(self) -> bool:
-        """Whether the rays are the user's own, from a ray file."""
         return self.rays_sha256 is not None
 
     @property
@@ -354,7 +349,6 @@ class MeshSpec:
         return replace(self, accel="brute", max_leaf=None)
 
     def targets(self) -> dict[str, Any]:
-        """Target figures, keyed like the achieved figures they are compared with."""
         t: dict[str, Any] = {"triangles": "base" if self.triangles is None else self.triangles}
         if self.rays == "bounce":  # one per camera hit: a result
             t["primary_rays"] = self.n_rays_total
@@ -367,7 +361,6 @@ class MeshSpec:
         return t
 
     def summary(self) -> str:
-        """One line for listings."""
         name = Path(self.mesh).name if self.is_file else self.mesh
         count = "base" if self.triangles is None else str(self.triangles)
         if self.rays == "hit_rate":

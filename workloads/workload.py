@@ -161,7 +161,6 @@ class Workload:
         return {n: getattr(self, n) for n in _ARRAY_NAMES if getattr(self, n) is not None}
 
     def checksum(self) -> str:
-        """sha256 of every array's name, dtype, shape and bytes."""
         return arrays_sha256(self.arrays())
 
     def expected_checksum(self) -> tuple[int, float]:
@@ -175,7 +174,6 @@ class Workload:
         return ambiguous_rays(self.ref_edge_margin, self.ref_edge_clearance, self.spec.dtype, margin)
 
     def targets(self) -> dict[str, Any]:
-        """The spec's target figures (see ``achieved`` for what was reached)."""
         return self.spec.targets()
 
     def compare(self) -> list[tuple[str, Any, Any]]:
@@ -187,5 +185,4 @@ class Workload:
 
     @property
     def kind(self) -> str:
-        """The spec's kind: ``"pairs"``, ``"mesh"`` or ``"seed"``."""
         return self.spec.kind

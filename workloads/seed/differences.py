@@ -11,39 +11,11 @@ from ...common import UserError
 from .records import KINDS, Trace, save_png
 
 
-def _hit_codes(tr: Trace) -> np.ndarray:
-    """One int64 per ray: (pixel, position in the pixel's ray tree, what it hit)."""
-    stride = tr._seq_stride()
-    parts = []
-    for name in KINDS:
-        rs = getattr(tr, name)
-        if name == "shadow":
-            what = (rs.hit_kind >= 0).astype(np.int64)  # occluded or not: all the seed uses
-        else:
-            what = (rs.hit_kind.astype(np.int64) + 1) * (1 << 21) + (rs.hit_index + 1)
-        key = rs.pixel * stride + tr._seq(rs, name == "shadow")
-        parts.append(key * (1 << 23) + what)
-    return np.concatenate(parts)
-
-
-def difference_mask(a: Trace, b: Trace, by: str = "image") -> tuple[np.ndarray, int]:
-    """Pixels where two traces of the same scene and size differ, and their count: ``by="image"``, their 8-bit
-    pixels; ``by="hits"``, their ray trees (an object hit, a shadow ray's occlusion, a ray in one trace only),
-    which differ far more often (a shadow ray leaving a sphere flips on a last-bit change, with no colour)."""
+def difference_mask(a: Trace, b: Trace) -> tuple[np.ndarray, int]:
+    """Pixels where two traces of the same scene and size differ in their 8-bit image, and their count."""
     if (a.width, a.height) != (b.width, b.height):
         raise UserError(f"traces differ in size: {a.width}x{a.height} and {b.width}x{b.height}")
-    if by == "image":
-        mask = (a.to_uint8() != b.to_uint8()).any(axis=2)
-    elif by == "hits":
-        if len(a.scene.lights) != len(b.scene.lights) or a.depth != b.depth:
-            raise UserError("traces of different scenes or depths cannot be compared by hits")
-        diff = np.setxor1d(_hit_codes(a), _hit_codes(b))
-        pixels = (diff >> 23) // a._seq_stride()
-        mask = np.zeros(a.width * a.height, bool)
-        mask[pixels] = True
-        mask = mask.reshape(a.height, a.width)
-    else:
-        raise UserError(f"by must be 'hits' or 'image', got {by!r}")
+    mask = (a.to_uint8() != b.to_uint8()).any(axis=2)
     return mask, int(mask.sum())
 
 

@@ -3,7 +3,7 @@ the kinds of rays (:data:`KINDS`) and of hits (``MISS``, ``PLANE``, ``SPHERE``, 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -76,11 +76,9 @@ class Trace:
     shadow: RaySet
     elapsed_s: float
     triangle_s: float
-    extra: dict = field(default_factory=dict)
 
     @property
     def counts(self) -> dict[str, int]:
-        """Rays shot per kind, and in total."""
         c = {k: len(getattr(self, k)) for k in KINDS}
         c["total"] = sum(c.values())
         return c
@@ -94,59 +92,31 @@ class Trace:
         out[p.pixel] = seen
         return out.reshape(self.height, self.width)
 
-    @property
-    def triangle_tests(self) -> dict[str, int]:
-        """Tests a brute-force replay runs per kind, every ray against every triangle (the seed's shadows run fewer)."""
-        k = len(self.scene.triangles)
-        return {kind: len(getattr(self, kind)) * k for kind in KINDS}
-
     def to_uint8(self) -> np.ndarray:
         """The image as the seed writes it: ``> 1`` gives 255, else ``int(x * 255)``."""
         x = self.image
         return np.where(x > 1.0, 255, np.floor(np.maximum(x, 0.0) * 255.0)).astype(np.uint8)
 
     def to_png(self, path: str | Path) -> Path:
-        """Save the image as PNG; returns the path."""
         return save_png(path, self.to_uint8())
 
     def seed_order(self) -> tuple[np.ndarray, np.ndarray]:
         """The seed's shooting order, ``(kind, index)`` arrays over all rays (``kind`` indexes :data:`KINDS`,
         ``index`` the row in its :class:`RaySet`): pixel by pixel, columns outer and rows inner, and within a
         pixel depth first (the primary ray, its hit's shadow rays by light, the reflected ray, its shadow rays...)."""
+        per_pixel = len(self.scene.lights) + 1  # a ray's place in its pixel: depth, then its light if a shadow ray
         keys, kinds, idx = [], [], []
         for k, name in enumerate(KINDS):
             rs = getattr(self, name)
-            keys.append(self._order_key(rs, shadow=(name == "shadow")))
+            seq = rs.depth.astype(np.int64) * per_pixel
+            if name == "shadow":
+                seq += 1 + rs.light.astype(np.int64)
+            column_major = (rs.pixel % self.width) * self.height + rs.pixel // self.width
+            keys.append(column_major * (self.depth + 1) * per_pixel + seq)
             kinds.append(np.full(len(rs), k, dtype=np.int8))
             idx.append(np.arange(len(rs)))
-        key = np.concatenate(keys)
-        order = np.argsort(key, kind="stable")
+        order = np.argsort(np.concatenate(keys), kind="stable")
         return np.concatenate(kinds)[order], np.concatenate(idx)[order]
-
-    def replay_rays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """All rays in the seed's order: ``origins, directions`` float64 (N, 3) and ``kind`` int8."""
-        kind, idx = self.seed_order()
-        o = np.empty((len(kind), 3))
-        d = np.empty((len(kind), 3))
-        for k, name in enumerate(KINDS):
-            rs = getattr(self, name)
-            sel = kind == k
-            o[sel] = rs.origins[idx[sel]]
-            d[sel] = rs.directions[idx[sel]]
-        return o, d, kind
-
-    # A per-pixel sequence number: the seed's position of each ray within its pixel.
-    def _seq_stride(self) -> int:
-        return (self.depth + 1) * (len(self.scene.lights) + 1)
-
-    def _seq(self, rs: RaySet, shadow: bool) -> np.ndarray:
-        seq = rs.depth.astype(np.int64) * (len(self.scene.lights) + 1)
-        return seq + 1 + rs.light.astype(np.int64) if shadow else seq
-
-    def _order_key(self, rs: RaySet, shadow: bool) -> np.ndarray:
-        i, j = rs.pixel % self.width, rs.pixel // self.width
-        column_major = i * self.height + j
-        return column_major * self._seq_stride() + self._seq(rs, shadow)
 
 
 def save_png(path: str | Path, rgb: np.ndarray) -> Path:

@@ -49,9 +49,6 @@ KEYWORDS: dict[str, tuple[str, ...]] = {
     "tri": ("x1", "y1", "z1", "x2", "y2", "z2", "x3", "y3", "z3"),
 }
 
-# Suzanne's placement in scene03: Blender (x, y, z) -> (x, z, -y), then moved.
-SUZANNE_OFFSET = (0.0, 0.5, -2.0)
-
 
 class SceneError(UserError):
     """A scene file that cannot be read: the message names file, line and what was expected."""
@@ -374,11 +371,13 @@ def scene03_text(obj_path: str | os.PathLike | None = None) -> str:
     """The text of ``scene03.txt``, built from ``suzanne.obj`` (see :func:`write_scene03`)."""
     import trimesh  # lazy: slow to import
 
+    from ..meshes import place
+
     path = Path(obj_path) if obj_path is not None else DATA_DIR / "suzanne.obj"
     mesh = trimesh.load(str(path), force="mesh", process=False)  # keep the 507 vertices as made
     assert isinstance(mesh, trimesh.Trimesh)  # force="mesh" gives one
     v = np.asarray(mesh.vertices, dtype=np.float64)
-    placed = np.column_stack([v[:, 0], v[:, 2], -v[:, 1]]) + np.array(SUZANNE_OFFSET)
+    placed = place("suzanne", v)  # Blender (x, y, z) -> (x, z, -y), then moved as the mesh workloads' Suzanne
     tris = placed[np.asarray(mesh.faces, dtype=np.int64)]
     lines = [f"# {h}".rstrip() for h in _SCENE03_HEADER.splitlines()]
     lines += _SCENE03_SETUP.splitlines()

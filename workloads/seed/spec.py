@@ -83,15 +83,12 @@ class SeedSpec:
         return {"scene": "file" if self.is_file else self.scene, "scene_sha256": file_sha256(str(self.scene_path))}
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON- and TOML-friendly fields, with ``kind``."""
         return {"kind": self.kind, **{f.name: getattr(self, f.name) for f in fields(self)}}
 
     def targets(self) -> dict[str, Any]:
-        """Target figures, keyed like the achieved figures they are compared with."""
         return {"sample_rays": self.sample}
 
     def summary(self) -> str:
-        """One line for listings."""
         return (
             f"seed {self.scene_label} {self.rays} sample={self.sample} of {self.width}x{self.height} "
             f"{self.dtype} rng_seed={self.rng_seed}"
