@@ -150,6 +150,7 @@ def test_an_interrupted_main_job_resumes_to_the_end(tmp_path, monkeypatch):
     assert "finishing the main job" in log.getvalue()
 
 
+@pytest.mark.slow  # a sweep, then its refusal (seconds)
 def test_resume_refuses_a_folder_that_is_not_a_main_job(tmp_path, monkeypatch):
     from tribench.common import UserError
     from tribench.harness import runner

@@ -68,6 +68,7 @@ def test_a_kernel_made_faster_reverses_its_conclusions_and_the_rest_keep_theirs(
     assert summary(table).startswith(f"Of {len(table)} conclusions of the original run: holds ")
 
 
+@pytest.mark.slow  # a report (seconds)
 def test_the_report_of_a_replication_opens_its_section_on_the_count_of_each_word(runs, tmp_path):
     a, b = (load_run(r) for r in runs)
     rep = tmp_path / "rep"

@@ -266,6 +266,7 @@ def test_the_page_uses_the_one_stylesheet_of_the_page_kit(rendered):
     assert text.count("<nav>") == 1 and text.endswith("</main></body></html>\n")
 
 
+@pytest.mark.slow  # a run analysed and reported again (seconds)
 def test_the_calibration_note_shows_run_json_and_reads_no_file_outside_the_run(rendered, tmp_path):
     run_dir, _, _ = rendered
     copy = tmp_path / "run"
@@ -287,6 +288,7 @@ def test_the_calibration_note_shows_run_json_and_reads_no_file_outside_the_run(r
     assert "OUTSIDE_KERNEL" not in text
 
 
+@pytest.mark.slow  # a run analysed and reported again (seconds)
 def test_a_calibration_run_shows_its_own_record(rendered, tmp_path):
     run_dir, _, _ = rendered
     copy = tmp_path / "run"
@@ -300,6 +302,7 @@ def test_a_calibration_run_shows_its_own_record(rendered, tmp_path):
     assert "<td>moller_trumbore vs moller_trumbore_aa</td>" in part and "<td>0.0123</td>" in part
 
 
+@pytest.mark.slow  # a run analysed and reported again (seconds)
 def test_the_analysis_rebuilds_a_workload_missing_from_the_cache(tmp_path_factory, monkeypatch):
 
     run_dir, cache = run_fixture_dir(tmp_path_factory)

@@ -77,6 +77,7 @@ def copied(tmp_path_factory):
     return run_dir, original, copy
 
 
+@pytest.mark.slow  # two reports of a copied run (seconds)
 def test_a_copied_run_renders_the_same_report_with_an_empty_cache_and_nothing_computed(copied, tmp_path, monkeypatch):
     run_dir, original, copy = copied
     empty = tmp_path / "empty-cache"

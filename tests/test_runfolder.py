@@ -185,6 +185,7 @@ def test_a_second_writer_is_refused_while_the_first_lives_and_readers_are_not(ru
     assert again.returncode == 0 and "taking over" not in again.stderr, again.stderr
 
 
+@pytest.mark.slow  # two sweeps at once (seconds)
 def test_start_into_a_folder_another_start_is_writing_is_refused(run):
     other = run.parent / "fresh"
     other.mkdir()

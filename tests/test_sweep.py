@@ -163,6 +163,7 @@ def test_sigkill_mid_sweep_then_resume_gives_exactly_the_planned_batches(tmp_pat
     assert again.returncode == 0 and "0 batches run" in again.stderr
 
 
+@pytest.mark.slow  # a sweep resumed (seconds)
 def test_resume_drops_a_truncated_last_line(tmp_path, env):
     out = tmp_path / "run"
     sweep = Sweep(("moller_trumbore",), (PairSpec(n=100),), processes=2, rounds=2, target_ms=0.2)

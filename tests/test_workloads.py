@@ -628,6 +628,7 @@ def run_cli(*argv):
     return args.func(args)
 
 
+@pytest.mark.slow  # workloads made and drawn through the command (seconds)
 def test_cli_make_list_show_and_picture(tmp_path, capsys):
     assert run_cli("make", "pairs", "--n", "500", "--hit-rate", "0.3", "--miss-mix", "uniform") == 0
     out = capsys.readouterr().out
