@@ -78,6 +78,7 @@ def test_ratio_of_speedups_recovers_a_known_factor(two_runs):
     assert c.only_a == [] and c.only_b == []
 
 
+@pytest.mark.slow  # the command in a fresh interpreter (seconds)
 def test_compare_cli_prints_a_table_and_writes_html(two_runs, tmp_path):
     out = tmp_path / "cmp.html"
     proc = subprocess.run(

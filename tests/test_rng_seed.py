@@ -75,6 +75,7 @@ def test_an_old_run_folder_reads_in_todays_names(old_run):
     assert sweep.workloads[0] == PairSpec(n=64, hit_rate=0.5, rng_seed=3)
 
 
+@pytest.mark.slow  # stats and report of a run (seconds)
 def test_an_old_run_folder_gets_its_tables_and_report(old_run, monkeypatch, capsys):
     monkeypatch.chdir(old_run.parent)  # the fixture set the cache
     for command in ("stats", "report"):

@@ -243,6 +243,7 @@ def test_full_disk_mid_sweep_exits_2_with_the_resume_command_and_whole_lines(fin
     assert sorted(after) == planned(out) and set(kept) <= set(after)
 
 
+@pytest.mark.slow  # the analysis run twice on a full disk (seconds)
 def test_stats_on_a_full_disk_keeps_the_previous_tables(run):
     before = {name: (run / name).read_bytes() for name in (analysis.ESTIMATES, analysis.SPEEDUPS)}
     full = cli("stats", str(run), limit_bytes=100)
