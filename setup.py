@@ -8,6 +8,9 @@ can record how its kernels were built, and its C files compile in parallel
 Environment:
   TRIBENCH_SANITIZE=1  build with AddressSanitizer and UndefinedBehaviorSanitizer
                        (for the CI's sanitizer step; run with libasan preloaded).
+  TRIBENCH_LINE_TABLES=1
+                       keep line tables (-g1), which bench/bvh_counts.py needs to
+                       split a ray's cost between the walk and the leaf test.
 """
 
 import os
@@ -31,6 +34,7 @@ KERNEL_FLAGS = ["-std=c11", "-O3", "-ffp-contract=off", "-fno-math-errno", "-Wal
 SANITIZE_FLAGS = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", "-O1", "-g1"]
 
 compile_flags = KERNEL_FLAGS + (SANITIZE_FLAGS if os.environ.get("TRIBENCH_SANITIZE") == "1" else [])
+compile_flags += ["-g1"] if os.environ.get("TRIBENCH_LINE_TABLES") == "1" else []
 link_flags = SANITIZE_FLAGS[:1] if os.environ.get("TRIBENCH_SANITIZE") == "1" else []
 recorded = " ".join([sysconfig.get_config_var("CFLAGS") or ""] + compile_flags).strip()
 

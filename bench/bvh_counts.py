@@ -10,11 +10,12 @@ Printed per ray: instructions, loads, stores, L1 and L2 load misses, conditional
 the model's mispredictions. For tribench, instructions and misses are also split by source file
 between the walk (ext/bvh*), the leaf test (ext/kernels/, ext/native.h and fmaintrin.h: the
 leaves' loads) and code either inlines (avxintrin.h, ext/core.h), beside tribench's own counts
-of nodes entered and triangles tested. Embree's library has no line tables, so its costs are one;
-but its single-ray walk tests a node with one 8-wide mask (vmovmskps of a ymm register) and a
-block of four triangles with one 4-wide mask (the one after the triangle test's products), so the
-executions of those instructions, found in its disassembly (objdump), count its node tests and its
-triangle blocks a ray.
+of nodes entered and triangles tested; that split needs the extension's line tables, which a
+default build leaves out (build it with TRIBENCH_LINE_TABLES=1, see setup.py). Embree's library
+has no line tables, so its costs are one; but its single-ray walk tests a node with one 8-wide
+mask (vmovmskps of a ymm register) and a block of four triangles with one 4-wide mask (the one
+after the triangle test's products), so the executions of those instructions, found in its
+disassembly (objdump), count its node tests and its triangle blocks a ray.
 As in bench/embree_native.py, a contender is counted only where its closest triangles, traced
 natively, are the float64 reference's (but on ambiguous rays): the same work on every side.
 
@@ -218,6 +219,12 @@ def embree_masks(library: str, ran: dict[int, int], rays: int) -> str:
     return f"{nodes / rays:.2f} node tests (8-wide masks), {blocks[1] / rays:.2f} blocks of 4 triangles a ray"
 
 
+def has_line_tables() -> bool:
+    """Whether tribench's extension keeps line tables (built with TRIBENCH_LINE_TABLES=1): without
+    them callgrind files all its code under "???", and the walk cannot be told from the leaf test."""
+    return b".debug_line" in Path(ext._core.__file__).read_bytes()
+
+
 def part(file: str) -> str:
     """Which part of tribench's trace a source file's code is: the walk, the leaf test, or either.
     The walk's vectors load through ext/bvh_trace.h and use no FMA, so fmaintrin.h (whose lines
@@ -249,6 +256,8 @@ def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray | 
             f"{EVENTS[e]} " + " | ".join(f"{parts[p][events.index(e)]:.1f}" for p in PARTS)
             for e in ("Ir", "D1mr", "DLmr")
         )
+        if not has_line_tables():
+            split = "not split: the extension has no line tables (build it with TRIBENCH_LINE_TABLES=1)"
         nodes, _, leaves, tests = tree
         print(f"    walk | leaf test | either: {split}")
         print(f"    {nodes:.2f} nodes entered, {leaves:.2f} of them leaves, {tests:.1f} triangle tests a ray")
