@@ -41,7 +41,7 @@ def main() -> None:
                 for k in rng.permutation(kernels):
                     times[k].append(ext.time_batch(jobs[k], loops).ns_per_test)
             med = {k: float(np.median(v)) for k, v in times.items()}
-            cells = "".join(f"{med[k]:>{width - 8}.2f} {med['moller_seed'] / med[k]:>5.2f}x " for k in kernels)
+            cells = "".join(f"{med[k]:>{width - 7}.2f} {med['moller_seed'] / med[k]:>5.2f}x" for k in kernels)
             print(f"{np.dtype(dtype).name:<8}{h:>5.2f}  {cells}")
 
 
