@@ -106,7 +106,8 @@ def bench_trace(
         share = 1 - np.median(null_cpu) / np.median(real_cpu)
         print(
             f"trace  {kernel} ({ext.kernel_info(kernel).isa}): {rate[-1] / 1e6:6.2f} M rays/s best wall (timed in C), "
-            f"{np.median(rate) / 1e6:6.2f} median; {m / min(real_cpu) / 1e6:6.2f} best by CPU time; {loops} passes a batch"
+            f"{np.median(rate) / 1e6:6.2f} median; {m / min(real_cpu) / 1e6:6.2f} best by CPU time; "
+            f"{loops} passes a batch"
         )
         print(
             f"       per ray: nodes {b.nodes / m:.1f}, box tests {b.box_tests / m:.1f}, leaves {b.leaves / m:.1f}, "

@@ -220,7 +220,9 @@ def test_bvh_bench_builds_the_default_tree_and_counts_per_ray_over_every_pass(mo
     leaves = []
     build = script._core.bvh_build
     monkeypatch.setattr(
-        script._core, "bvh_build", lambda size, tris, n, leaf, *out: leaves.append(leaf) or build(size, tris, n, leaf, *out)
+        script._core,
+        "bvh_build",
+        lambda size, tris, n, leaf, *out: leaves.append(leaf) or build(size, tris, n, leaf, *out),
     )
     rng = np.random.default_rng(0)
     tris = (rng.uniform(-1, 1, (500, 1, 3)) + rng.normal(0, 0.05, (500, 3, 3))).astype(np.float32)
