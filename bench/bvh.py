@@ -11,17 +11,18 @@ Printed:
   trace     camera rays (the seed's camera, --camera WxH) against the
             247,808-triangle mesh (--trace-level), closest hit, single rays,
             one core: rays/s of each --kernels kernel in BVH mode (best and
-            median of --reps batches, each timed in C), nodes, box tests,
+            median of --reps batches of about --batch-ms, each timed in C;
+            and by the process's CPU time), nodes, box tests,
             leaves and triangle tests per ray, and the same traversal with a
             null leaf test (t_max = each ray's closest hit, so it traverses
             as a ray that found its hit at once): the leaf test's share of
-            trace time is 1 - null / real;
+            trace time is 1 - null / real (median CPU times);
 
 Against native Embree, side by side with intervals: bench/embree_native.py.
 
 One process, no CIs: a quick look, not the harness's protocol. Run it alone:
 
-    flock /tmp/tribench-timing.lock python bench/bvh.py [--quick] [--camera 512x512] [--reps 5]
+    flock /tmp/tribench-timing.lock python bench/bvh.py [--quick] [--camera 512x512] [--reps 5] [--batch-ms 50]
 """
 
 from __future__ import annotations
@@ -52,7 +53,9 @@ def suzanne(level: int) -> np.ndarray:
 def bench_build(tris: np.ndarray, reps: int) -> None:
     n = len(tris)
     nodes, order = np.empty((2 * n - 1, 8), tris.dtype), np.empty(n, np.int64)
-    c_best = min(_timed(lambda: _core.bvh_build(tris.itemsize, tris, n, 16, nodes, order)) for _ in range(reps))
+    # the tree build_bvh makes: its default leaf size
+    leaf = ext.DEFAULT_MAX_LEAF
+    c_best = min(_timed(lambda: _core.bvh_build(tris.itemsize, tris, n, leaf, nodes, order)) for _ in range(reps))
     full_best = min(_timed(lambda: ext.build_bvh("moller_trumbore_fma", tris)) for _ in range(reps))
     bvh = ext.build_bvh("moller_trumbore_fma", tris)
     print(
@@ -76,27 +79,35 @@ def _timed(call) -> float:
     return time.perf_counter() - t0
 
 
-def bench_trace(tris: np.ndarray, o: np.ndarray, d: np.ndarray, kernels: list[str], reps: int) -> np.ndarray | None:
-    """Prints rays/s and counts per kernel; returns the first kernel's closest indices."""
+def bench_trace(
+    tris: np.ndarray, o: np.ndarray, d: np.ndarray, kernels: list[str], reps: int, batch_ms: float
+) -> np.ndarray | None:
+    """Prints rays/s and counts per kernel; returns the first kernel's closest indices.
+
+    A batch is ``loops`` passes, enough for about ``batch_ms`` in C: the CPU time is taken around the
+    call, which also checks the rays in Python (20-30 ns a ray, once per call), so one pass a call
+    would count those checks in the trace and in the null traversal alike."""
     first = None
     for kernel in kernels:
         bvh = ext.build_bvh(kernel, tris)
         tr = bvh.intersect(o, d)
         first = tr.hits.index if first is None else first
         t_hit = np.where(tr.hits.hit, tr.hits.t * np.float32(1 + 1e-6), np.inf).astype(tris.dtype)
-        bvh.time(o, d, "closest", 1)  # warm-up: pages, caches, clock
+        warm = bvh.time(o, d, "closest", 1)  # warm-up: pages, caches, clock; sizes the batch
+        loops = max(1, round(batch_ms * 1e6 / max(warm.elapsed_ns, 1)))
         real, null, real_cpu, null_cpu = [], [], [], []
         for _ in range(reps):
             for out, cpu, options in ((real, real_cpu, {}), (null, null_cpu, {"t_max": t_hit, "null_leaf": True})):
-                batch, seconds = _cpu(bvh.time, o, d, "closest", 1, **options)
+                batch, seconds = _cpu(bvh.time, o, d, "closest", loops, **options)
                 out.append(batch)
                 cpu.append(seconds)
         rate = sorted(b.rays_per_s for b in real)
-        b, m = real[0], len(o)
+        b, m = real[0], loops * len(o)  # counts are summed over every pass
         share = 1 - np.median(null_cpu) / np.median(real_cpu)
         print(
             f"trace  {kernel} ({ext.kernel_info(kernel).isa}): {rate[-1] / 1e6:6.2f} M rays/s best wall (timed in C), "
-            f"{np.median(rate) / 1e6:6.2f} median; {m / min(real_cpu) / 1e6:6.2f} best by CPU time"
+            f"{np.median(rate) / 1e6:6.2f} median; {m / min(real_cpu) / 1e6:6.2f} best by CPU time; "
+            f"{loops} passes a batch"
         )
         print(
             f"       per ray: nodes {b.nodes / m:.1f}, box tests {b.box_tests / m:.1f}, leaves {b.leaves / m:.1f}, "
@@ -116,6 +127,7 @@ def main() -> None:
     parser.add_argument("--reps", type=int, default=5)
     parser.add_argument("--trace-level", type=int, default=4, help="subdivisions of the traced mesh (4: 247,808)")
     parser.add_argument("--kernels", nargs="+", default=["moller_trumbore_fma", "moller_trumbore_fma_exit"])
+    parser.add_argument("--batch-ms", type=float, default=50.0, help="passes a batch for about this long (C-timed)")
     args = parser.parse_args()
     print(describe())
     layout.pin(default_cpu())  # one core
@@ -132,7 +144,7 @@ def main() -> None:
     assert traced is not None
     o, d = (np.ascontiguousarray(a, np.float32) for a in camera_rays(width, height))
     print(f"camera {width}x{height} rays, Suzanne {len(traced):,} triangles, float32, one thread")
-    bench_trace(traced, o, d, args.kernels, reps)
+    bench_trace(traced, o, d, args.kernels, reps, args.batch_ms)
 
 
 if __name__ == "__main__":

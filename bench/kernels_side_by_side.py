@@ -28,7 +28,9 @@ def main() -> None:
     print(describe())
     rng = np.random.default_rng(0)
     kernels = [k for k in ext.kernel_names() if "pairs" in ext.kernel_info(k).modes]  # native kernels have no pairs
-    print(f"{'dtype':<8}{'hit':>5}  " + "".join(f"{k:>17}" for k in kernels) + "   (ns/test, x = speed vs moller_seed)")
+    width = max(17, *(len(k) + 1 for k in kernels))  # a column per kernel, as wide as its name
+    head = "".join(f"{k:>{width}}" for k in kernels)
+    print(f"{'dtype':<8}{'hit':>5}  {head}   (ns/test, x = speed vs moller_seed)")
     for dtype in (np.float32, np.float64):
         for h in map(float, args.hit_rates.split(",")):
             o, d, t = (np.ascontiguousarray(a, dtype) for a in safe_pairs(args.pairs, seed=1, hit_rate=h))
@@ -39,7 +41,7 @@ def main() -> None:
                 for k in rng.permutation(kernels):
                     times[k].append(ext.time_batch(jobs[k], loops).ns_per_test)
             med = {k: float(np.median(v)) for k, v in times.items()}
-            cells = "".join(f"{med[k]:>9.2f} {med['moller_seed'] / med[k]:>5.2f}x " for k in kernels)
+            cells = "".join(f"{med[k]:>{width - 7}.2f} {med['moller_seed'] / med[k]:>5.2f}x" for k in kernels)
             print(f"{np.dtype(dtype).name:<8}{h:>5.2f}  {cells}")
 
 

@@ -54,7 +54,9 @@ def pilot(target_ms: float, processes: int, rounds: int, root: str, cpu):
     starts = timed.groupby(["process", "round"])["start_ns"].min().unstack("round").to_numpy()
     c1 = float(np.nanmedian(np.diff(starts, axis=1))) / 1e9
     c2 = max(result.elapsed_s / processes - rounds * c1, 0.0)
-    return ratio, c1, c2, result.elapsed_s
+    # the batches as run: a batch is at least one pass over the rays, which may outlast target_ms
+    batch_ms, one_pass = float(timed["elapsed_ns"].median()) / 1e6, bool((timed["loops"] == 1).all())
+    return ratio, c1, c2, result.elapsed_s, batch_ms, one_pass
 
 
 def main() -> None:
@@ -72,14 +74,15 @@ def main() -> None:
     root = tempfile.mkdtemp(prefix="tribench-design-")
     try:
         for target_ms in (float(t) for t in args.target_ms.split(",")):
-            ratio, c1, c2, elapsed = pilot(target_ms, args.processes, args.rounds, root, cpu)
+            ratio, c1, c2, elapsed, batch_ms, one_pass = pilot(target_ms, args.processes, args.rounds, root, cpu)
             vc = stats.variance_components(ratio)
             best = stats.suggest_design(vc, round_cost=c1, process_cost=c2, target_rel_halfwidth=TARGET)
             default = stats.suggest_design(
                 vc, round_cost=c1, process_cost=c2, target_rel_halfwidth=TARGET, rounds=DEFAULT_ROUNDS
             )
+            ran = f"{batch_ms:.1f} ms run" + (" (one pass over the rays: no shorter batch)" if one_pass else "")
             print(
-                f"\nbatches of {target_ms:g} ms: pilot {elapsed:.1f} s; speedup {vc.mean:.4f}; "
+                f"\nbatches of {target_ms:g} ms asked, {ran}: pilot {elapsed:.1f} s; speedup {vc.mean:.4f}; "
                 f"sd between rounds {100 * math.sqrt(vc.between_round) / vc.mean:.2f}%, "
                 f"between processes {100 * math.sqrt(vc.between_process) / vc.mean:.2f}%; "
                 f"c1 (a round) {1e3 * c1:.1f} ms, c2 (a process beyond its rounds) {c2:.2f} s"

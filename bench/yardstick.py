@@ -32,24 +32,20 @@ from tribench.harness.machine import describe
 from tribench.workloads.spec import MeshSpec
 
 YARDSTICK = "moller_trumbore_yardstick"
-# (kernel, ISA or None for its default): the Moller forms, each algorithm's native
-# form, and the native Moller forms held to AVX2 as well (what an AVX2-only
-# machine would run)
-FORMS = [
-    (YARDSTICK, "avx2"),
-    ("moller_trumbore", None),
-    ("moller_trumbore_fma", None),
-    ("moller_trumbore_fma_exit", None),
-    ("moller_trumbore_fma", "avx2"),
-    ("moller_trumbore_fma_exit", "avx2"),
-    ("moller_trumbore_cull_fma", None),
-    ("baldwin_weber_12_fma", None),
-    ("baldwin_weber_9_fma", None),
-    ("havel_herout_fma", None),
-    ("woop_fma", None),
-    ("plucker_fma", None),
-    ("curless_fma", None),
-]
+
+
+def all_forms() -> list[tuple[str, str | None]]:
+    """(kernel, ISA or None for its default): the scalar Moller form, every algorithm's native
+    form (from the registry: native kernels have no pairs mode), and the native Moller forms
+    held to AVX2 as well (what an AVX2-only machine would run)."""
+    native = [k for k in ext.kernel_names() if "pairs" not in ext.kernel_info(k).modes]
+    return [
+        (YARDSTICK, "avx2"),
+        ("moller_trumbore", None),
+        *((k, None) for k in native),
+        ("moller_trumbore_fma", "avx2"),
+        ("moller_trumbore_fma_exit", "avx2"),
+    ]
 
 
 def stack(n_tris: int, n_rays: int, hit_rate: float, dtype: type, rng_seed: int = 0) -> tuple:
@@ -72,7 +68,7 @@ def runnable(kernel: str, isa: str | None) -> bool:
 
 
 def bench(name: str, o: np.ndarray, d: np.ndarray, tris: np.ndarray, rounds: int, rng: np.random.Generator) -> None:
-    forms = [f for f in FORMS if runnable(*f)]
+    forms = [f for f in all_forms() if runnable(*f)]
     jobs = {f: ext.make_job(f[0], o, d, tris, "closest", isa=f[1]) for f in forms}
     tests = len(o) * len(tris)
     loops = max(1, int(2e6 / tests))  # about 2 ms per batch at 1 ns/test

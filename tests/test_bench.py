@@ -7,6 +7,7 @@ runs end to end through the harness on a tiny design.
 
 import importlib.util
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -169,3 +170,71 @@ def test_bvh_counts_counts_each_contender_under_valgrind(tmp_path):
     # Embree's single rays, both modes, both ray sets: its node tests and triangle blocks, counted
     masks = [line.split() for line in done.stdout.splitlines() if "node tests (8-wide masks)" in line]
     assert len(masks) == 4 and all(float(m[0]) > 0 and float(m[5]) > 0 for m in masks)
+
+
+def test_the_yardstick_times_every_algorithms_native_form():
+    from tribench import ext
+
+    forms = load_script("yardstick").all_forms()
+    native = {k for k in ext.kernel_names() if "pairs" not in ext.kernel_info(k).modes}
+    assert native <= {k for k, isa in forms if isa is None}
+    assert {ext.kernel_info(k).algorithm for k in native} == {
+        ext.kernel_info(k).algorithm for k in ext.kernel_names() if ext.kernel_info(k).lanes > 1
+    }
+
+
+@pytest.mark.slow
+def test_kernels_side_by_side_heads_each_column_with_its_kernel(tmp_path):
+    from tribench import ext
+
+    done = bench(BENCH / "kernels_side_by_side.py", "--pairs", "64", "--rounds", "1", "--hit-rates", "1")
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    head = next(line for line in lines if line.startswith("dtype"))
+    rows = [line for line in lines if line.startswith("float")]
+    kernels = [k for k in ext.kernel_names() if "pairs" in ext.kernel_info(k).modes]
+    assert head.split()[2 : 2 + len(kernels)] == kernels  # no two names run together
+    for row in rows:
+        # each kernel's ratio ("0.97x") ends where its name ends in the header
+        ends = [m.end() for m in re.finditer(r"\S+x(?= |$)", row)]
+        assert ends == [m.end() for m in re.finditer(r"\S+", head)][2 : 2 + len(kernels)], (head, row)
+
+
+@pytest.mark.slow
+def test_protocol_design_says_the_batch_length_it_ran(tmp_path):
+    env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
+    done = bench(BENCH / "protocol_design.py", "--target-ms", "0.5", "--processes", "2", "--rounds", "2", env=env)
+    assert done.returncode == 0, done.stderr
+    # one pass over the camera workload outlasts 0.5 ms: the pilot ran longer batches and says so
+    line = next(line for line in done.stdout.splitlines() if line.startswith("batches of"))
+    ran = float(re.search(r"asked, ([0-9.]+) ms run", line).group(1))
+    assert ran > 0.5 and "one pass over the rays" in line, line
+
+
+def test_bvh_bench_builds_the_default_tree_and_counts_per_ray_over_every_pass(monkeypatch, capsys):
+    import numpy as np
+
+    from tribench import ext
+
+    script = load_script("bvh")
+    leaves = []
+    build = script._core.bvh_build
+    monkeypatch.setattr(
+        script._core,
+        "bvh_build",
+        lambda size, tris, n, leaf, *out: leaves.append(leaf) or build(size, tris, n, leaf, *out),
+    )
+    rng = np.random.default_rng(0)
+    tris = (rng.uniform(-1, 1, (500, 1, 3)) + rng.normal(0, 0.05, (500, 3, 3))).astype(np.float32)
+    script.bench_build(tris, reps=1)
+    assert set(leaves) == {ext.DEFAULT_MAX_LEAF}  # the C build alone and build_bvh: one tree
+
+    o = np.tile(np.float32([0, 0, -4]), (256, 1))
+    d = np.ascontiguousarray(rng.uniform(-0.2, 0.2, (256, 3)) + [0, 0, 1], np.float32)
+    capsys.readouterr()
+    script.bench_trace(tris, o, d, ["moller_trumbore_fma"], reps=1, batch_ms=2.0)
+    out = capsys.readouterr().out
+    passes = int(re.search(r"(\d+) passes a batch", out).group(1))
+    assert passes >= 1
+    counts = ext.build_bvh("moller_trumbore_fma", tris).intersect(o, d).counts.mean(axis=0)
+    assert f"nodes {counts[0]:.1f}, box tests" in out and f"triangle tests {counts[3]:.1f};" in out, out
