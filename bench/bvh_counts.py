@@ -33,6 +33,7 @@ triangles each contender takes 1-3 minutes (Embree's build most of it), two at a
 from __future__ import annotations
 
 import argparse
+import functools
 import re
 import shutil
 import subprocess
@@ -219,6 +220,7 @@ def embree_masks(library: str, ran: dict[int, int], rays: int) -> str:
     return f"{nodes / rays:.2f} node tests (8-wide masks), {blocks[1] / rays:.2f} blocks of 4 triangles a ray"
 
 
+@functools.cache
 def has_line_tables() -> bool:
     """Whether tribench's extension keeps line tables (built with TRIBENCH_LINE_TABLES=1): without
     them callgrind files all its code under "???", and the walk cannot be told from the leaf test."""
@@ -249,15 +251,15 @@ def report(profiles: dict[str, Path], rays: int, counts: dict[str, np.ndarray | 
             if not name.endswith("16"):  # single rays (rtcIntersect16's masks are over rays)
                 print(f"    {embree_masks(*executions(events, rows, 'libembree'), rays)}")
             continue
-        parts = {p: np.zeros(len(events)) for p in PARTS}
-        for file, cost in by_file.items():
-            parts[part(file)] += cost / rays
-        split = ", ".join(
-            f"{EVENTS[e]} " + " | ".join(f"{parts[p][events.index(e)]:.1f}" for p in PARTS)
-            for e in ("Ir", "D1mr", "DLmr")
-        )
-        if not has_line_tables():
-            split = "not split: the extension has no line tables (build it with TRIBENCH_LINE_TABLES=1)"
+        split = "not split: the extension has no line tables (build it with TRIBENCH_LINE_TABLES=1)"
+        if has_line_tables():
+            parts = {p: np.zeros(len(events)) for p in PARTS}
+            for file, cost in by_file.items():
+                parts[part(file)] += cost / rays
+            split = ", ".join(
+                f"{EVENTS[e]} " + " | ".join(f"{parts[p][events.index(e)]:.1f}" for p in PARTS)
+                for e in ("Ir", "D1mr", "DLmr")
+            )
         nodes, _, leaves, tests = tree
         print(f"    walk | leaf test | either: {split}")
         print(f"    {nodes:.2f} nodes entered, {leaves:.2f} of them leaves, {tests:.1f} triangle tests a ray")
