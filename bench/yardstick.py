@@ -36,13 +36,12 @@ YARDSTICK = "moller_trumbore_yardstick"
 
 def all_forms() -> list[tuple[str, str | None]]:
     """(kernel, ISA or None for its default): the scalar Moller form, every algorithm's native
-    form (from the registry: native kernels have no pairs mode), and the native Moller forms
-    held to AVX2 as well (what an AVX2-only machine would run)."""
-    native = [k for k in ext.kernel_names() if "pairs" not in ext.kernel_info(k).modes]
+    form (the registry's, ext.bvh_kernel_names), and the native Moller forms held to AVX2 as
+    well (what an AVX2-only machine would run)."""
     return [
         (YARDSTICK, "avx2"),
         ("moller_trumbore", None),
-        *((k, None) for k in native),
+        *((k, None) for k in ext.bvh_kernel_names()),
         ("moller_trumbore_fma", "avx2"),
         ("moller_trumbore_fma_exit", "avx2"),
     ]

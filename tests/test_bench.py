@@ -146,7 +146,6 @@ def test_the_callgrind_profile_by_instruction_is_read_by_address(tmp_path):
 @pytest.mark.slow
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
 def test_bvh_counts_counts_each_contender_under_valgrind(tmp_path):
-    from tribench import ext
     from tribench.ext import embree
 
     if embree.missing():
@@ -162,7 +161,7 @@ def test_bvh_counts_counts_each_contender_under_valgrind(tmp_path):
         assert all(float(r[-7]) > 0 for r in counted)  # instructions a ray
     split = [line.split(":", 1)[1] for line in done.stdout.splitlines() if "walk | leaf test | either" in line]
     assert len(split) == 2
-    if b".debug_line" in Path(ext._core.__file__).read_bytes():  # built with TRIBENCH_LINE_TABLES=1
+    if load_script("bvh_counts").has_line_tables():  # built with TRIBENCH_LINE_TABLES=1
         # instructions of the walk, then of the leaf test: both counted
         assert all(float(s.split()[1]) > 0 and float(s.split()[3]) > 0 for s in split), split
     else:  # a default build: callgrind cannot tell the two apart, and the bench says so
@@ -176,7 +175,7 @@ def test_the_yardstick_times_every_algorithms_native_form():
     from tribench import ext
 
     forms = load_script("yardstick").all_forms()
-    native = {k for k in ext.kernel_names() if "pairs" not in ext.kernel_info(k).modes}
+    native = set(ext.bvh_kernel_names())
     assert native <= {k for k, isa in forms if isa is None}
     assert {ext.kernel_info(k).algorithm for k in native} == {
         ext.kernel_info(k).algorithm for k in ext.kernel_names() if ext.kernel_info(k).lanes > 1
