@@ -36,8 +36,9 @@ def write_report(run_dir: str | Path | RunData, baseline: str | None = None) -> 
     theirs). Raises RunError, one line naming ``tribench stats``, when the folder or its tables are missing,
     unreadable or stale."""
     from ..common import write_text
+    from .about import sweep_toml
     from .charts import collecting, write_figures
-    from .html import render, sweep_toml
+    from .html import render
 
     data = load(run_dir, baseline)
     with collecting() as specs:
@@ -63,7 +64,7 @@ def write_compare(*run_dirs: str | Path, out: str | Path | None = None) -> Path:
 
 def format_tables(run_dir: str | Path | RunData) -> str:
     """Compact terminal tables of a run's estimates and speedups with CIs and verdicts."""
-    from .terminal import format_run
+    from .ranking import format_run
 
     return format_run(load(run_dir))
 

@@ -59,10 +59,10 @@ def pinning(run: Run) -> str:
     return "not pinned (the sweep asked for no pinning)"
 
 
-def machine_rows(run: Run) -> list[tuple[str, object]]:
-    """The machine and software a run records, as (label, value) rows."""
+def machine_tables(run: Run) -> list[str]:
+    """The machine and software, the build of the C extension and each kernel's instruction set, as tables."""
     m = run.machine
-    return [
+    rows = [
         ("CPU", m.get("cpu_model")),
         ("logical CPUs", m.get("logical_cpus")),
         ("usable CPUs", m.get("usable_cpus")),
@@ -78,14 +78,10 @@ def machine_rows(run: Run) -> list[tuple[str, object]]:
         ("tribench", m.get("tribench")),
         ("git revision", m.get("git_revision")),
     ]
-
-
-def machine_tables(run: Run) -> list[str]:
-    """The machine and software, the build of the C extension and each kernel's instruction set, as tables."""
     return [
-        page.kv_table(machine_rows(run)),
+        page.kv_table(rows),
         "<h3>Build of the C extension</h3>",
-        page.kv_table(run.machine.get("build", {}).items()),
+        page.kv_table(m.get("build", {}).items()),
         "<h3>Instruction set of each kernel</h3>",
         page.kv_table(run.isa.items()),
     ]

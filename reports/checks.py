@@ -11,7 +11,7 @@ import pandas as pd
 from ..harness import runfolder, stats
 from ..harness.jobs import validate
 from . import about, charts, page, rundata
-from .rundata import VALIDATE, RunData
+from .rundata import RunData
 from .tables.diagnostics import drift_bins, round_summary
 from .tables.ranking import declared
 
@@ -348,7 +348,7 @@ def _test_legend(val: pd.DataFrame, tests: list[str]) -> list[str]:
         "<h3>The tests</h3>",
         page.p(
             f"Every kernel is asked the same rays at a precision. The breakdown of every rate is in "
-            f"{VALIDATE}'s detail column.",
+            f"{runfolder.VALIDATE}'s detail column.",
             "note",
         ),
         page.table(

@@ -8,8 +8,9 @@ import pandas as pd
 
 from ..harness.jobs.peers import HEADLINE_PEERS
 from ..harness.stats import format_interval
+from ..workloads.labels import family_of, short_label
 from . import page
-from .rundata import PeerTables, RunData, family_of, short_label
+from .rundata import PeerTables, RunData
 
 __all__ = ["title", "headline_sentences", "headline_section", "run_warnings", "peer_sentence"]
 

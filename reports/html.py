@@ -23,12 +23,9 @@ import pandas as pd
 
 from ..harness import runfolder
 from . import about, bvh, charts, checks, compare, headline, page, ranking, replication, results, rundata
-from . import tables as analysis
-from .about import sweep_toml
-from .headline import headline_sentences
 from .rundata import RunData, load_peers, load_validation
 
-__all__ = ["OPTIONAL_SECTIONS", "SECTIONS", "OPEN", "render", "headline_sentences", "sweep_toml", "MAX_PICTURES"]
+__all__ = ["OPTIONAL_SECTIONS", "SECTIONS", "OPEN", "render"]
 
 #: Section ids, in page order, with their titles.
 SECTIONS = {
@@ -59,10 +56,6 @@ OPTIONAL_SECTIONS = {
     "builds": ("Across builds", "ranking"),
     "bvh": ("In a BVH", "scaling"),
 }
-
-#: At most this many workload pictures are drawn, at this resolution, by the analysis step
-#: (:mod:`tribench.reports.tables.pipeline`; 60 dpi: 840 to 1080 px wide, 1.5 to 2 times the ~550 px shown).
-MAX_PICTURES, PICTURE_DPI = analysis.MAX_PICTURES, analysis.PICTURE_DPI
 
 
 def render(data: RunData, sweep_file: str = "sweep.toml") -> str:

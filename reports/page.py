@@ -21,6 +21,7 @@ from .charts import USED, library
 __all__ = [
     "CSS",
     "num",
+    "span",
     "plain",
     "p",
     "warn",
@@ -97,6 +98,13 @@ def num(x: Any, digits: int = 3) -> str:
     return str(x)
 
 
+def span(low: float, high: float, unit: str = "") -> str:
+    """``low–high`` at 3 significant digits, one number where they agree, ``–`` for a non-finite end."""
+    if not (math.isfinite(low) and math.isfinite(high)):
+        return "–"
+    return f"{low:.3g}{unit}" if f"{low:.3g}" == f"{high:.3g}" else f"{low:.3g}–{high:.3g}{unit}"
+
+
 def plain(v: Any) -> str:
     """A value of a record (list, dict, None) as one line of text."""
     if v is None:
@@ -147,13 +155,12 @@ def table(
         for c, _ in cols:
             v = row.get(c)
             numeric = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
-            text = num(v, digits) if v is not None and not (isinstance(v, float) and math.isnan(v)) else "–"
             cls = ' class="num"' if numeric else ""
             if c == "verdict" and isinstance(v, str):
                 cls = f' class="{escape(v)}"'
             if classes and c in classes:
                 cls = f' class="{escape(classes[c](v))}"'
-            cells.append(f"<td{cls}>{escape(text)}</td>")
+            cells.append(f"<td{cls}>{escape(num(v, digits))}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
 

@@ -1,4 +1,4 @@
-"""The report's ranking: the answer it opens on, per band, and the ranking per workload.
+"""The report's ranking: the answer it opens on, per band, and the ranking per workload; and their terminal tables.
 
 Every number is read from ``bands.csv``, ``ranking.csv`` and ``algorithms.csv``
 (:mod:`tribench.reports.tables.ranking` wrote them)."""
@@ -11,10 +11,12 @@ from html import escape
 import pandas as pd
 
 from ..harness import runfolder
-from ..harness.stats import format_estimate
+from ..harness.stats import format_estimate, format_interval
+from ..workloads.labels import family_of, short_label
 from . import charts, page
 from .rundata import RunData
 from .speed_charts import answer_chart
+from .tables.frames import in_order
 
 __all__ = [
     "QUESTIONS",
@@ -22,6 +24,8 @@ __all__ = [
     "answer_section",
     "answer_sentences",
     "band_rows",
+    "format_answer",
+    "format_run",
     "question_rows",
     "ranking_rows",
     "ranking_section",
@@ -293,9 +297,8 @@ def _per_million(rate: float, rays: float) -> str:
     return "not validated" if pd.isna(rate) else f"{rate:,.0f} ({int(rays):,} rays)"
 
 
-def _span(values: list[float], unit: str = "×") -> str:
-    low, high = min(values), max(values)
-    return f"{low:.3g}{unit}" if f"{low:.3g}" == f"{high:.3g}" else f"{low:.3g}–{high:.3g}{unit}"
+def _span(values: list[float]) -> str:
+    return page.span(min(values), max(values), "×")
 
 
 def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]:
@@ -424,3 +427,59 @@ def answer_section(data: RunData, bands: pd.DataFrame | None, alg: pd.DataFrame 
         )
     )
     return "".join(parts)
+
+
+# ------------------------------------------------------------ the terminal
+
+
+def format_run(data: RunData) -> str:
+    """Per workload (sweep order): each kernel's ns/test with its 95% CI, then its speedup and verdict."""
+    est, spd = data.estimates, data.speedups
+    lines = [
+        f"run {data.run.run_id}: {len(data.kernels)} kernels x "
+        f"{len(data.workload_ids)} workloads, {data.n_processes} processes x {data.run.sweep.rounds} rounds"
+        + (
+            f"; build {data.build} ({len(data.builds)} builds: the report's Across builds compares them)"
+            if len(data.builds) > 1
+            else ""
+        ),
+        f"ns/test: mean over processes, 95% CI; speedup = time_{data.baseline} / time_kernel, "
+        f"simultaneous 95% CI; margin ±{100 * data.margin:.2g}%",
+    ]
+    for wid in data.workload_ids:
+        spec = data.specs[wid]
+        rows = in_order(est.loc[est["workload_id"] == wid], kernel=data.kernels)
+        if rows.empty:
+            continue
+        sp = spd.loc[spd["workload_id"] == wid].set_index("kernel")
+        lines += [
+            "",
+            f"{family_of(spec)}: {short_label(spec)}  [{wid}]",
+            f"  {'kernel':<24}{'ns/test':>9}  {'95% CI':<18}{'speedup':>8}  {'CI':<16}  verdict",
+        ]
+        for r in rows.itertuples(index=False):
+            ci = format_interval(None, r.ns_per_test_ci_low, r.ns_per_test_ci_high, ".3f")
+            left = f"  {r.kernel:<24}{r.ns_per_test:9.3f}  {ci:<18}"
+            if r.kernel in sp.index:
+                s = sp.loc[r.kernel]
+                ci = format_interval(None, s["ratio_ci_low"], s["ratio_ci_high"], ".3f")
+                left += f"{s['ratio']:7.3f}x  {ci:<16}  {s['verdict']}"
+            elif r.kernel == data.baseline:
+                left += "(baseline)"
+            lines.append(left.rstrip())
+    return "\n".join(lines + ["", format_answer(data)])
+
+
+def format_answer(data: RunData) -> str:
+    """The first screen in words: per precision and band the fastest kernel, its speedup and ties, then the answers."""
+    bands = data.tables.get(runfolder.BANDS)
+    if bands is None or bands.empty:
+        return "the answer: no ranking by band in these tables (run tribench stats on the folder)"
+    lines = [f"the answer, per precision and band (speedup over {data.baseline}, 95% CI):"]
+    for r in band_rows(bands).itertuples(index=False):
+        lines.append(
+            f"  {r.dtype} {r.band}: {r.fastest}, {r.ns} ns/test, {r.speedup}; tied with it: {r.tied}; "
+            f"watertight: {r.watertight}"
+        )
+    lines += [f"  {sentence}" for sentence in answer_sentences(bands, data.tables.get(runfolder.ALGORITHMS))]
+    return "\n".join(lines)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from html import escape
 
 import numpy as np
@@ -95,17 +94,11 @@ _KERNEL_COLS = [
 ]
 
 
-def _range(low: float, high: float) -> str:
-    if not (math.isfinite(low) and math.isfinite(high)):
-        return "–"
-    return f"{low:.3g}" if f"{low:.3g}" == f"{high:.3g}" else f"{low:.3g}–{high:.3g}"
-
-
 def kernels_section(data: RunData, kern: pd.DataFrame) -> str:
     """Each kernel's form, storage and arithmetic beside its speed, per workload family."""
     shown = kern.assign(
-        ns_range=[_range(a, b) for a, b in zip(kern["ns_per_test_min"], kern["ns_per_test_max"], strict=True)],
-        ratio_range=[_range(a, b) for a, b in zip(kern["ratio_min"], kern["ratio_max"], strict=True)],
+        ns_range=[page.span(a, b) for a, b in zip(kern["ns_per_test_min"], kern["ns_per_test_max"], strict=True)],
+        ratio_range=[page.span(a, b) for a, b in zip(kern["ratio_min"], kern["ratio_max"], strict=True)],
     )
     note = (
         "Each kernel's storage beside its speed, per workload family (a family has one precision). "

@@ -21,7 +21,6 @@ from ..common import UserError
 from ..ext.builds import INSTALLED
 from ..harness import runfolder
 from ..harness.plan import rows_of_build
-from ..workloads.labels import family_of, short_label, spec_text
 from .tables.frames import in_order
 from .tables.margin import TWINS
 from .tables.measured import file_digest, has_columns, read_documented
@@ -34,19 +33,12 @@ __all__ = [
     "load_validation",
     "load_peers",
     "PeerTables",
-    "family_of",
-    "short_label",
-    "spec_text",
-    "VALIDATE",
     "estimates_table",
     "speedups_table",
     "working_set_bytes",
     "workload_figures",
     "picture",
 ]
-
-#: The robustness table in a run folder.
-VALIDATE = runfolder.VALIDATE
 
 
 class RunError(UserError):
@@ -224,13 +216,13 @@ def load_run(run_dir: str | Path, baseline: str | None = None, build: str | None
 def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
     """``validate.csv``'s rows of the run's kernels (in its order) and precisions, and a sentence saying
     where they came from; missing or unusable: an empty frame and a sentence saying what to run."""
-    path = data.run_dir / VALIDATE
+    path = data.run_dir / runfolder.VALIDATE
     df, why = read_documented(path)
     if df is None:
         if not path.is_file():
             from ..harness.jobs.sweep import robustness_command
 
-            why = data.record.get("validate") or f"No {VALIDATE} in the run folder."
+            why = data.record.get("validate") or f"No {runfolder.VALIDATE} in the run folder."
             return (
                 _NO_VALIDATION,
                 f"{why} `{robustness_command(data.run_dir)}` measures it; then `tribench stats {data.run_dir}`.",
@@ -238,7 +230,7 @@ def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
         return _NO_VALIDATION, (
             f"{why}: measure it again with `tribench validate ... --out {path}`, then `tribench stats {data.run_dir}`."
         )
-    note = str(data.record.get("validate") or f"Read from {VALIDATE} in the run folder.")
+    note = str(data.record.get("validate") or f"Read from {runfolder.VALIDATE} in the run folder.")
     missing = [
         f"{k} {d}" for k in data.kernels for d in data.dtypes if not ((df["kernel"] == k) & (df["dtype"] == d)).any()
     ]
@@ -248,7 +240,7 @@ def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
     return in_order(df, kernel=data.kernels), note
 
 
-_NO_VALIDATION = pd.DataFrame(columns=list(runfolder.FILES[VALIDATE]))
+_NO_VALIDATION = pd.DataFrame(columns=list(runfolder.FILES[runfolder.VALIDATE]))
 
 
 @dataclass

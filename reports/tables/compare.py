@@ -91,7 +91,7 @@ def _ratio_fields(a: pd.Series, b: pd.Series, confidence: float, margin: float) 
     return fields | {"verdict": stats.verdict(r.ci_low, r.ci_high, margin)}
 
 
-def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Comparison:
+def compare_runs(a: RunTables, b: RunTables) -> Comparison:
     """Ratio of speedups (``speedup_B / speedup_A``) and time ratios (``time_B / time_A``) of the kernels
     and workloads two runs share; ValueError when they share none or their baselines differ."""
     if a.baseline != b.baseline:
@@ -116,8 +116,8 @@ def compare_runs(a: RunTables, b: RunTables, confidence: float = 0.95) -> Compar
         present = [k for k in kernels if k in wa.columns and k in wb.columns]
         # no speedups where the baseline did not run (a BVH workload runs native kernels only): times still
         others = [k for k in present if k != a.baseline] if a.baseline in present else []
-        level_s = stats.simultaneous_confidence(confidence, len(others)) if others else confidence
-        level_t = stats.simultaneous_confidence(confidence, len(present)) if present else confidence
+        level_s = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(others), 1))
+        level_t = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(present), 1))
         for k in others:
             da, db = (wa[a.baseline] - wa[k]).dropna(), (wb[a.baseline] - wb[k]).dropna()
             row = {**info, "kernel": k, "baseline": a.baseline, "speedup_a": math.exp(da.mean())}
@@ -186,7 +186,7 @@ def order_summary(m: MultiComparison) -> pd.DataFrame:
     )
 
 
-def compare_many(runs: Sequence[RunTables], confidence: float = 0.95, same_run: bool = False) -> MultiComparison:
+def compare_many(runs: Sequence[RunTables], same_run: bool = False) -> MultiComparison:
     """Speedups of every run, and which orders of two kernels hold on every run.
 
     Each order is tested in each run as ``algorithms.csv`` tests one (paired, Bonferroni over the workload's pairs,
@@ -215,7 +215,7 @@ def compare_many(runs: Sequence[RunTables], confidence: float = 0.95, same_run: 
     not_shared = list(dict.fromkeys(w for w in seen if w not in in_all))
     kernels = [k for k in runs[0].kernels if all(k in d.kernels for d in runs)]
     spd_rows = [row for tag, d in zip(tags, runs, strict=True) for row in _run_speedups(tag, d, wids, kernels)]
-    order_rows = [row for wid in wids for row in _orders(tags, runs, wid, kernels, confidence)]
+    order_rows = [row for wid in wids for row in _orders(tags, runs, wid, kernels)]
     labels = {w: (short_label(runs[0].specs[w]), family_of(runs[0].specs[w])) for w in wids}
     # explicit columns: runs that share only the baseline have no pair of kernels, and still a table
     order_columns = [
@@ -267,9 +267,7 @@ def _run_speedups(tag: str, d: RunTables, wids: list[str], kernels: list[str]) -
     return rows
 
 
-def _orders(
-    tags: list[str], runs: Sequence[RunTables], wid: str, kernels: list[str], confidence: float
-) -> list[dict[str, object]]:
+def _orders(tags: list[str], runs: Sequence[RunTables], wid: str, kernels: list[str]) -> list[dict[str, object]]:
     """Every pair of kernels on one workload, oriented by run A's estimates, tested in each run."""
     spec = runs[0].specs[wid]
     pers = []
@@ -280,7 +278,7 @@ def _orders(
     first = pers[0][present].mean().sort_values(kind="stable")  # orient each pair by run A's estimate
     ordered = list(first.index)
     pairs = [(a, b) for i, a in enumerate(ordered) for b in ordered[i + 1 :]]
-    level = stats.simultaneous_confidence(confidence, max(len(pairs), 1))
+    level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(pairs), 1))
     rows = []
     for a, b in pairs:
         row: dict[str, object] = {

@@ -107,22 +107,19 @@ def google_benchmark(
     rows = est.set_index(keys)
     benchmarks: list[dict[str, Any]] = []
     families = [(b, k) for b in builds for k in kernels]
-    for family, instance, r in (
-        (f, i, rows.loc[(b, k, w)])
-        for f, (b, k) in enumerate(families)
-        for i, w in enumerate(wids)
-        if (b, k, w) in rows.index
-    ):
-        build, kernel, wid = r.name
+    for family, instance, key in ((f, i, (*bk, w)) for f, bk in enumerate(families) for i, w in enumerate(wids)):
+        if key not in rows.index:
+            continue
+        build, kernel, wid = key
+        r = rows.loc[key]
         # a run of several builds names each benchmark's build too (its own processes)
         name, label = f"{kernel}/{wid}" + (f"/{build}" if len(builds) > 1 else ""), str(r["workload"])
         per = pp.loc[(pp["build"] == build) & (pp["kernel"] == kernel) & (pp["workload_id"] == wid)]
         per = per.sort_values("process")
         ids = (name, family, instance)
-        benchmarks += _repetitions(ids, label, per)
-        benchmarks += _time_aggregates(ids, label, r, len(per))
-        if (build, kernel, wid) in spd.index and math.isfinite(spd.loc[(build, kernel, wid)]["ratio"]):
-            benchmarks.append(_speedup(ids, label, spd.loc[(build, kernel, wid)], baseline, len(per)))
+        benchmarks += _repetitions(ids, label, per) + _time_aggregates(ids, label, r, len(per))
+        if key in spd.index and math.isfinite(spd.loc[key]["ratio"]):
+            benchmarks.append(_speedup(ids, label, spd.loc[key], baseline, len(per)))
     return {"context": _context(run, baseline, margin), "benchmarks": benchmarks}
 
 
@@ -168,13 +165,8 @@ def _aggregate(
 
 def _time_aggregates(ids: tuple[str, int, int], label: str, r: pd.Series, n: int) -> list[dict[str, Any]]:
     """The ``_mean`` entry (ns per test with its intervals) and, where finite, the ``_stddev`` entry."""
-    interval = {
-        "ci_low": r["ns_per_test_ci_low"],
-        "ci_high": r["ns_per_test_ci_high"],
-        "bootstrap_low": r["ns_per_test_bootstrap_low"],
-        "bootstrap_high": r["ns_per_test_bootstrap_high"],
-        "confidence": r["confidence"],
-    }
+    interval = {k: r[f"ns_per_test_{k}"] for k in ("ci_low", "ci_high", "bootstrap_low", "bootstrap_high")}
+    interval["confidence"] = r["confidence"]
     out = [_aggregate(ids, label, n, "mean", "time", n, float(r["ns_per_test"]), **_finite(interval))]
     if math.isfinite(r["ns_per_test_sd"]):
         out.append(_aggregate(ids, label, n, "stddev", "time", n, float(r["ns_per_test_sd"])))
@@ -183,13 +175,8 @@ def _time_aggregates(ids: tuple[str, int, int], label: str, r: pd.Series, n: int
 
 def _speedup(ids: tuple[str, int, int], label: str, s: pd.Series, baseline: str, n: int) -> dict[str, Any]:
     """The ``_speedup`` entry: the ratio over the baseline with its simultaneous interval and verdict."""
-    interval = {
-        "ci_low": s["ratio_ci_low"],
-        "ci_high": s["ratio_ci_high"],
-        "confidence": s["confidence"],
-        "p_holm": s["p_holm"],
-        "margin": s["margin"],
-    }
+    interval = {k: s[f"ratio_{k}"] for k in ("ci_low", "ci_high")}
+    interval |= {k: s[k] for k in ("confidence", "p_holm", "margin")}
     label = f"{label}; {s['verdict']} against {baseline}"
     return _aggregate(
         ids, label, n, "speedup", "percentage", int(s["n_processes"]), float(s["ratio"]), **_finite(interval)

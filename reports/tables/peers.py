@@ -12,7 +12,7 @@ from ...harness.jobs.peers import CONTENDERS, NATIVE_EMBREE, PEER_NAMES
 __all__ = ["format_summary", "summarise"]
 
 
-def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFrame, pd.DataFrame]:
+def summarise(peers: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
     """``(rates, ratios)`` of a ``peers.csv`` (``peer_rates.csv``, ``peer_ratios.csv``: docs/run-folder.md).
 
     Rates are geometric means over processes of each process's geometric mean,
@@ -42,7 +42,7 @@ def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFra
     rates = []
     for name in order:
         g = per_process.loc[per_process["contender"] == name]
-        gm = stats.geometric_mean(g["rays_per_s"], confidence)
+        gm = stats.geometric_mean(g["rays_per_s"])
         rates.append(
             {
                 "contender": name,
@@ -70,7 +70,7 @@ def summarise(peers: pd.DataFrame, confidence: float = 0.95) -> tuple[pd.DataFra
         if a in wide and b in wide:
             pair = wide[[a, b]].dropna()
             # rays/s a over b = time per ray of b over a's: a speedup with b as the baseline
-            s = stats.speedup(1 / pair[b], 1 / pair[a], confidence)
+            s = stats.speedup(1 / pair[b], 1 / pair[a])
             ratios.append(
                 {
                     "contender": a,
