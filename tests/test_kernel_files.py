@@ -337,6 +337,23 @@ def test_a_damaged_build_in_the_cache_is_rebuilt(tmp_path):
     assert done.stdout.strip() == "('my_moller',)"
 
 
+def test_a_compiled_module_cut_short_is_removed_not_loaded(tmp_path):
+    """A compiled module cut short (a full disk, a crash) kills the process that loads it with SIGBUS, before any
+    ImportError: it is checked against its sha256 first, removed with it, and compiled again (None here)."""
+    from tribench.ext import _core
+
+    whole = Path(_core.__file__).read_bytes()
+    module = tmp_path / "kernel_builds" / "cut" / Path(_core.__file__).name.replace("_core", "_cut")
+    module.parent.mkdir(parents=True)
+    module.write_bytes(whole[:1000])
+    module.with_name(f"{module.name}.sha256").write_text(hashlib.sha256(whole).hexdigest())
+    code = "from pathlib import Path; from tribench.ext.toolchain import import_module; "
+    code += f"print(import_module('_cut', Path({str(module)!r})))"
+    done = python(code, tmp_path)
+    assert (done.returncode, done.stdout.strip()) == (0, "None"), done.stderr
+    assert list(module.parent.iterdir()) == []
+
+
 @pytest.mark.slow
 def test_the_walk_through_of_docs_own_kernel_runs_as_written(tmp_path, builds):
     """The bash block of docs/own-kernel.md, line for line, from a folder holding the examples: a culling
