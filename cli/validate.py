@@ -50,11 +50,15 @@ def run(args: argparse.Namespace) -> int:
     from ..harness.jobs.kernel_check import refuse_crashing
     from ..harness.runfolder import write_csv
 
+    file_kernels: list[str] = []
     for path in args.kernel_files or ():  # what fails is this command's table; only a crash is refused first
-        ext.load_kernels(path)
+        file_kernels += ext.load_kernels(path)
         refuse_crashing(path)
     # each --kernels/--dtype word may itself be a comma list
     kernels = [k for words in args.kernels for k in words] if args.kernels else None
+    if kernels is not None and (missing := [k for k in dict.fromkeys(file_kernels) if k not in kernels]):
+        print(f"the kernel files' {', '.join(missing)} join the kernels validated", file=sys.stderr)
+        kernels += missing
     dtypes = [d for words in args.dtype for d in words] if args.dtype else validate.DTYPES
     df = validate.run(kernels, dtypes, quick=args.quick, rng_seed=args.rng_seed, progress=args.progress)
     out = Path(args.out or _out("validate.csv"))

@@ -12,7 +12,6 @@ import importlib.machinery
 import importlib.util
 import os
 import shlex
-import shutil
 import signal
 import subprocess
 import sysconfig
@@ -24,7 +23,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 
-from ..common import UserError
+from ..common import UserError, write_text
+from ..common.files import file_sha256
 from .registry import build_info
 
 __all__ = ["EXT", "SOURCES", "Toolchain", "compile_module", "current", "import_module", "installed", "set_current"]
@@ -112,7 +112,14 @@ def compile_module(
         if linked.returncode or not (Path(tmp) / module_path.name).is_file():
             said = linked.stderr.strip() or "it wrote no module"
             raise UserError(f"does not link ({shlex.join(toolchain.link)}):\n{said}")
+        write_text(_seal(module_path), file_sha256(Path(tmp) / module_path.name))  # before the module: no stale seal
         os.replace(Path(tmp) / module_path.name, module_path)
+
+
+def _seal(module_path: Path) -> Path:
+    """The file beside a compiled module holding its sha256: a cut or changed module is compiled again, never loaded
+    (a truncated shared object kills the process that loads it with SIGBUS, before any ImportError)."""
+    return module_path.with_name(f"{module_path.name}.sha256")
 
 
 def _first_failure(commands: list[list[str]]) -> subprocess.CompletedProcess | None:
@@ -187,16 +194,20 @@ def _finish(proc: subprocess.Popen, argv: list[str]) -> subprocess.CompletedProc
 
 
 def import_module(name: str, path: Path) -> ModuleType | None:
-    """The compiled module at ``path``, or None if it does not import (a damaged cache file: removed)."""
+    """The compiled module at ``path``, or None if it does not match its seal or does not import (a damaged cache
+    file: removed, with its seal, so it compiles again)."""
     qualified = f"tribench.ext.{name}"
     loader = importlib.machinery.ExtensionFileLoader(qualified, str(path))
     spec = importlib.util.spec_from_file_location(qualified, path, loader=loader)
     if spec is None:
         return None
     try:
+        if _seal(path).read_text().strip() != file_sha256(path):
+            raise ImportError(f"{path} does not match its sha256")
         module = importlib.util.module_from_spec(spec)
         loader.exec_module(module)
-    except ImportError:
-        shutil.rmtree(path.parent, ignore_errors=True)
+    except (ImportError, OSError):
+        for stale in (path, _seal(path)):
+            stale.unlink(missing_ok=True)
         return None
     return module

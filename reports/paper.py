@@ -106,7 +106,7 @@ def methods(data: RunData, latex: bool = False) -> str:
     build = m.get("build", {})
     est = data.estimates
     confidence = float(est["confidence"].iloc[0]) if len(est) else 0.95
-    workloads = list(dict.fromkeys(est["workload"])) if "workload" in est else []
+    workloads = list(dict.fromkeys(est["workload"])) if len(est) else [w.summary() for w in sweep.workloads]
     sequential = sweep.sequential
     design = (
         f"processes ran in stages of {sequential.stage} until each kernel's paired interval against its "
@@ -123,8 +123,12 @@ def methods(data: RunData, latex: bool = False) -> str:
         f"Each worker process was a fresh interpreter, {pinning(data.run)}, with its memory layout randomised; "
         f"{design}each of {sweep.warmup} warm-up and {sweep.rounds} timed rounds ran every kernel once "
         f"in a random order, with batches of about {sweep.target_ms:g} ms; "
-        f"the estimates rest on {_spread(est['n_processes'])} processes per kernel and workload. "
-        f"A time is the mean over processes of each process's median ns per test, with a {confidence:.0%} "
+        + (
+            f"the estimates rest on {_spread(est['n_processes'])} processes per kernel and workload. "
+            if len(est)  # none where every kernel is an A/A copy or disagrees with the reference
+            else "no kernel's estimate is reported (each was an A/A copy or disagreed with the reference). "
+        )
+        + f"A time is the mean over processes of each process's median ns per test, with a {confidence:.0%} "
         f"Student-t interval on the log scale; a speedup over {data.baseline} is the geometric mean of the "
         f"paired per-process time ratios, with Bonferroni-simultaneous intervals over a workload's kernels "
         f"and Holm-adjusted p-values. Two kernels are called equivalent where the interval lies within a "

@@ -74,15 +74,12 @@ def kernel_code_cases(s: Scratch) -> list[Outcome]:
     own_kernel(s, "k_how", HOW, prelude=HOSTILE_C)
     out = []
     for how, words in (("exit0", "exited before its job was done"), ("exit2", "exited with code 2"),
-                       ("abort", "SIGABRT")):  # fmt: skip
+                       ("abort", "SIGABRT"), ("printf", "writes to standard output")):  # fmt: skip
         o = judge(
             f"K_HOW={how}: a kernel that calls it in the check", kernel_as(s, how, *TINY), refused=True, words=(words,)
         )
         o.dropped = (s.root / f"r-{how}" / "batches.csv").exists()  # timed after all
         out.append(o)
-    o = judge("K_HOW=printf: a kernel that prints to stdout", kernel_as(s, "printf", *TINY), refused=False)
-    o.dropped = o.unclear or "k_how" not in (s.root / "r-printf" / "estimates.csv").read_text()
-    out.append(o)
     p = kernel_as(s, "abort_in_worker", *SMALL[:6], "--no-progress")
     o = judge("K_HOW=abort_in_worker: a kernel that aborts in a worker", p, refused=True, words=("SIGABRT",), code=1)
     o.unclear |= "--resume" not in p.stderr  # how to finish what was run

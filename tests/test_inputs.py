@@ -280,3 +280,14 @@ def test_a_sweep_with_a_bad_calibration_stops_before_measuring(tmp_path):
     assert r.returncode == 2 and f"{tmp_path / 'calibration.json'}: key 'margin'" in r.stderr, r.stderr
     assert "Traceback" not in r.stderr and not (tmp_path / "run").exists()
     assert calibration.CALIBRATION == "calibration.json"
+
+
+def test_calibrate_on_a_bvh_workload_says_its_kernel_cannot_be_a_leaf_test(tmp_path):
+    """The sweep below said 'add one of moller_trumbore_fma, ...': a kernel a calibration cannot add."""
+    from tribench.harness.jobs.calibrate import calibrate
+    from tribench.workloads.spec import MeshSpec
+
+    bvh = MeshSpec(mesh="suzanne", triangles=100, width=8, height=8, accel="bvh")
+    with pytest.raises(UserError, match=r"^moller_trumbore cannot be a BVH's leaf test, .*brute-force mesh"):
+        calibrate(tmp_path / "cal", workloads=(bvh,), processes=2, experiments=1, save=False)
+    assert not (tmp_path / "cal").exists()

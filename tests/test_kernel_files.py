@@ -129,15 +129,43 @@ except kernel_check.KernelRefused as e:
 
 
 @pytest.mark.slow
-def test_a_kernel_that_prints_neither_breaks_the_check_nor_the_sweep(tmp_path, builds):
+def test_a_kernel_that_prints_is_refused_in_one_line_before_anything_is_timed(tmp_path, builds):
+    """Its output would be timed with it, and ran into validate's table and a sweep's own output (the robustness
+    step runs the kernels in the sweep's process): millions of lines, exit 0, where the check broke nothing."""
     path = injected(tmp_path, "k_prints", 'printf("debug\\n");')
+    said = f"k_prints (from {path}) is refused: it writes to standard output ("
     done = tribench(
         "sweep", "--kernel-file", path, "--kernels", "k_prints", "--pairs", "200", "--processes", "2",
         "--rounds", "1", "--warmup", "0", "--target-ms", "0.2", "--out", "run", "--no-progress",
         cwd=tmp_path, cache=builds,
     )  # fmt: skip
-    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
-    assert (tmp_path / "run" / "estimates.csv").is_file()
+    assert done.returncode == 2 and done.stdout == "", done.stdout[:300]
+    assert done.stderr.startswith(f"tribench sweep: error: {said}") and done.stderr.count("\n") == 1, done.stderr
+    assert not (tmp_path / "run").exists()
+    done = tribench("validate", "--kernel-file", path, "--quick", "--out", "v.csv", cwd=tmp_path, cache=builds)
+    assert done.returncode == 2 and done.stdout == "" and said in done.stderr, done.stderr
+    assert not (tmp_path / "v.csv").exists()
+
+
+def test_the_check_catches_what_a_kernel_writes_to_standard_output(monkeypatch):
+    """By fd 1 and through C's stdio buffer alike, and says it first; fd 1 is as it was after."""
+    import ctypes
+
+    from tribench.harness.jobs import kernel_check
+
+    def loud(kernel):
+        os.write(1, b"from write\n")
+        ctypes.CDLL(None).printf(b"from printf\n")
+        return ["a wrong answer"]
+
+    monkeypatch.setattr(kernel_check, "check_kernel", loud)
+    before = os.fstat(1)
+    problems = kernel_check._quiet_check("k")
+    assert problems[1:] == ["a wrong answer"] and problems[0].startswith(kernel_check.PRINTS)
+    assert "(23 bytes in its check, the first 'from write')" in problems[0]
+    assert (os.fstat(1).st_ino, os.fstat(1).st_dev) == (before.st_ino, before.st_dev)
+    monkeypatch.setattr(kernel_check, "check_kernel", lambda kernel: [])
+    assert kernel_check._quiet_check("k") == []
 
 
 def test_with_file_kernels_adds_the_missing_ones_and_says_so_unless_workloads_name_theirs():
@@ -335,6 +363,23 @@ def test_a_damaged_build_in_the_cache_is_rebuilt(tmp_path):
     done = python(code, cache)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "('my_moller',)"
+
+
+def test_a_compiled_module_cut_short_is_removed_not_loaded(tmp_path):
+    """A compiled module cut short (a full disk, a crash) kills the process that loads it with SIGBUS, before any
+    ImportError: it is checked against its sha256 first, removed with it, and compiled again (None here)."""
+    from tribench.ext import _core
+
+    whole = Path(_core.__file__).read_bytes()
+    module = tmp_path / "kernel_builds" / "cut" / Path(_core.__file__).name.replace("_core", "_cut")
+    module.parent.mkdir(parents=True)
+    module.write_bytes(whole[:1000])
+    module.with_name(f"{module.name}.sha256").write_text(hashlib.sha256(whole).hexdigest())
+    code = "from pathlib import Path; from tribench.ext.toolchain import import_module; "
+    code += f"print(import_module('_cut', Path({str(module)!r})))"
+    done = python(code, tmp_path)
+    assert (done.returncode, done.stdout.strip()) == (0, "None"), done.stderr
+    assert list(module.parent.iterdir()) == []
 
 
 @pytest.mark.slow

@@ -106,3 +106,14 @@ def test_methods_quote_the_run_not_fixed_text(run_dir, tmp_path):
     (other / "run.json").write_text(json.dumps(run))
     moved = paper.methods(load_run(other))
     assert "ARM Neoverse-V1" in moved and "by clang 19" in moved and machine["cpu_model"] not in moved
+
+
+def test_methods_of_a_run_with_no_compared_estimate_say_so(run_dir):
+    """Every kernel an A/A copy (sweep --kernels moller_trumbore_aa) or disagreeing with the reference: the
+    paragraph took the spread of no process counts, and export --format methods|latex raised a traceback."""
+    import dataclasses
+
+    data = load_run(run_dir)
+    text = paper.methods(dataclasses.replace(data, estimates=data.estimates.iloc[:0]))
+    assert "no kernel's estimate is reported (each was an A/A copy or disagreed with the reference)" in text
+    assert all(w.summary() in text for w in data.run.sweep.workloads)

@@ -473,3 +473,30 @@ def test_a_whole_file_write_replaces_only_a_regular_file(tmp_path, make):
     assert (after.st_mode, after.st_ino) == (before.st_mode, before.st_ino)
     assert not (tmp_path / "elsewhere").exists()
     assert [p.name for p in tmp_path.iterdir()] == ["report.html"]  # no temporary file left
+
+
+@pytest.mark.parametrize(
+    ("record", "finish"),
+    [
+        ({"main_job": {"quick": True}}, "(tribench run --resume {d} finishes an interrupted run)"),
+        ({"replicates": {"run_dir": "/runs/old"}}, "(tribench replicate /runs/old --resume {d} finishes an"),
+        ({}, "(tribench sweep --resume {d} finishes an interrupted run)"),
+        ({"seed_replay": {"scenes": []}}, None),  # no command resumes these
+        ({"calibration": {"margin": 0.01}}, None),
+        (None, None),  # no run.json: no run to finish
+    ],
+)
+def test_an_occupied_out_folder_names_the_command_that_finishes_its_own_job(tmp_path, record, finish):
+    """It said 'tribench sweep --resume D' for every folder: a main job's or a replication's folder needs its own
+    command (sweep --resume finishes a main job's sweep alone), and a seed replay or a folder of other files none."""
+    from tribench.harness.runfolder.io import check_new_run_dir
+
+    (tmp_path / "d").mkdir()
+    (tmp_path / "d" / ("run.json" if record is not None else "notes.txt")).write_text(json.dumps(record or {}))
+    with pytest.raises(UserError, match="exists and is not empty") as refused:
+        check_new_run_dir(tmp_path / "d")
+    said = str(refused.value)
+    if finish is None:
+        assert said.endswith("a new run needs a new or empty folder"), said
+    else:
+        assert finish.format(d=tmp_path / "d") in said, said

@@ -271,3 +271,16 @@ def test_validate_runs_as_a_command_and_writes_validate_csv_here(tmp_path):
     )
     assert done.returncode == 0, done.stderr
     assert len(pd.read_csv(tmp_path / "validate.csv")) == len(validate.TESTS)
+
+
+def test_a_kernel_files_kernels_join_whatever_kernels_names(tmp_path, monkeypatch, capsys):
+    """--kernel-file my.c --kernels other validated only other, without a word (as sweep once timed it)."""
+    from tribench.harness.jobs import kernel_check
+
+    (tmp_path / "my.c").write_text("/* stands for a file declaring curless */\n")
+    monkeypatch.setattr(ext, "load_kernels", lambda path: ("curless",))
+    monkeypatch.setattr(kernel_check, "refuse_crashing", lambda path: None)
+    argv = ["validate", "--kernel-file", str(tmp_path / "my.c"), "--kernels", "moller_trumbore", "--dtype", "float64"]
+    assert main([*argv, "--quick", "--no-progress", "--out", str(tmp_path / "v.csv")]) == 0
+    assert "the kernel files' curless join the kernels validated" in capsys.readouterr().err
+    assert set(pd.read_csv(tmp_path / "v.csv").kernel) == {"moller_trumbore", "curless"}

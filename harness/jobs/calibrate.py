@@ -14,11 +14,12 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from ... import ext
 from ...common import UserError, write_text
 
 # reading the margin is below the runner, which uses it; calibrating is above it
 from ..margin import AA_TWINS, CALIBRATION, Margin, latest_margin, user_calibration_path
-from ..plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP
+from ..plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP, is_bvh
 from ..stats import DEFAULTS, MAX_MARGIN, check_margin
 
 __all__ = [
@@ -93,6 +94,12 @@ def calibrate(
         raise UserError(
             f"{experiments:,} experiments of {processes:,} processes make {processes * experiments:,} "
             f"processes; a calibration runs at most {MAX_PROCESSES:,}: use fewer experiments"
+        )
+    if any(is_bvh(spec) for spec in workloads) and kernel not in ext.bvh_kernel_names():
+        # checked here: the sweep would say to add a leaf kernel, which a calibration cannot
+        raise UserError(
+            f"{kernel} cannot be a BVH's leaf test, so it cannot run a BVH workload: calibrate on pairs or "
+            "a brute-force mesh (--workload)"
         )
     copy = AA_COPIES[kernel]
     sweep = Sweep(

@@ -22,7 +22,7 @@ from ..protocol import WorkerError, emit, run_worker, serve
 from . import validate
 
 __all__ = ["CHECK_SECONDS", "MARGIN", "KernelRefused", "check_builds", "check_kernel", "load_checked"]
-__all__ += ["refuse_crashing"]
+__all__ += ["PRINTS", "refuse_crashing"]
 
 #: The longest a check may take: a start-up, then per kernel (both precisions, every ISA: about a
 #: second each here); past it the check is stopped and its kernels refused, so an unattended run never hangs.
@@ -55,19 +55,25 @@ def load_checked(paths: Sequence[str | os.PathLike]) -> tuple[str, ...]:
         if all((k, ext.kernel_file_of(k)) in _PASSED for k in declared):
             continue
         for kernel, problems in _checked_elsewhere(path).items():
+            printed = [p for p in problems if p.startswith(PRINTS)]
+            wrong = [p for p in problems if not p.startswith(PRINTS)]
             if problems:
                 raise KernelRefused(
-                    f"{kernel} (from {path}) is refused: its answers differ from the float64 reference's:\n  "
-                    + "\n  ".join(problems)
+                    f"{kernel} (from {path}) is refused: "
+                    + "; ".join(printed + ["its answers differ from the float64 reference's:"] * bool(wrong))
+                    + "".join(f"\n  {p}" for p in wrong)
                 )
             _PASSED.add((kernel, ext.kernel_file_of(kernel)))
     return tuple(names)
 
 
 def refuse_crashing(path: str | os.PathLike) -> None:
-    """Refuse a kernel file (:class:`KernelRefused`) only if its kernels crash a process of their own: what
-    ``tribench validate`` needs before running them in its process, where wrong answers are the measurement."""
-    _checked_elsewhere(path)
+    """Refuse a kernel file (:class:`KernelRefused`) only if its kernels crash a process of their own or print:
+    what ``tribench validate`` needs before running them in its process, where wrong answers are the measurement
+    (and a kernel's output would run into its table)."""
+    for kernel, problems in _checked_elsewhere(path).items():
+        for printed in (p for p in problems if p.startswith(PRINTS)):
+            raise KernelRefused(f"{kernel} (from {path}) is refused: {printed}")
 
 
 def _checked_elsewhere(path: str | os.PathLike) -> dict[str, list[str]]:
@@ -221,7 +227,35 @@ def _work(job: str) -> None:
         declared = [k for f in args.kernel_file for k in ext.load_kernels(f)]
     except UserError as e:
         raise UserError(f"build {args.build}: {e}" if args.build else str(e)) from None
-    emit("checked", {k: check_kernel(k) for k in args.kernels or declared})
+    emit("checked", {k: _quiet_check(k) for k in args.kernels or declared})
+
+
+#: How a kernel that writes to standard output is refused (its output would be timed with it, and would run into
+#: the tables of a command that runs it in its own process: ``tribench validate``, the sweep's robustness step).
+PRINTS = "it writes to standard output"
+
+
+def _quiet_check(kernel: str) -> list[str]:
+    """:func:`check_kernel`, with what the kernel writes to standard output (fd 1) caught: if anything, the first
+    problem says so."""
+    import ctypes
+    import tempfile
+
+    with tempfile.TemporaryFile() as caught:
+        kept = os.dup(1)
+        os.dup2(caught.fileno(), 1)
+        try:
+            problems = check_kernel(kernel)
+        finally:
+            ctypes.CDLL(None).fflush(None)  # C's stdio buffers what goes to a file
+            os.dup2(kept, 1)
+            os.close(kept)
+        size = os.fstat(caught.fileno()).st_size
+        caught.seek(0)
+        first = caught.readline(80).decode(errors="replace").strip()
+    if size:
+        problems.insert(0, f"{PRINTS} ({size:,} bytes in its check, the first {first!r}): a kernel must print nothing")
+    return problems
 
 
 if __name__ == "__main__":

@@ -69,10 +69,27 @@ def check_new_run_dir(run_dir: str | Path) -> None:
     if inside is not None:  # the outer run's folder is its record: a copy or replication of it would carry this one
         raise UserError(f"{run_dir} is inside the run folder {inside}: put the new run beside it, not in it")
     if run_dir.exists() and any(p.name != LOCK for p in run_dir.iterdir()):
+        finish = _finish_command(run_dir)
         raise UserError(
-            f"{run_dir} exists and is not empty: a new run needs a new or empty folder "
-            f"(tribench sweep --resume {run_dir} finishes an interrupted run)"
+            f"{run_dir} exists and is not empty: a new run needs a new or empty folder"
+            + (f" ({finish} finishes an interrupted run)" if finish else "")
         )
+
+
+def _finish_command(run_dir: Path) -> str | None:
+    """The command that finishes the run in ``run_dir`` as its own job (a main job, a replication, a sweep);
+    None for a folder that is no run, or a job with no way to resume (a seed replay, a calibration)."""
+    try:
+        raw = json.loads((run_dir / RUN).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(raw, dict) or raw.get("seed_replay") or raw.get("calibration"):
+        return None
+    if raw.get("main_job"):
+        return f"tribench run --resume {run_dir}"
+    if isinstance(raw.get("replicates"), dict) and raw["replicates"].get("run_dir"):
+        return f"tribench replicate {raw['replicates']['run_dir']} --resume {run_dir}"
+    return f"tribench sweep --resume {run_dir}"
 
 
 #: No row tribench writes is longer; a file larger than its rows allow is not tribench's.
