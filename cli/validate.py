@@ -13,8 +13,17 @@ __all__ = ["add_parser", "run"]
 
 
 def _out(text: str) -> str:
-    """validate --out: the CSV to write; a folder means FILE/validate.csv."""
-    return flags.output_file(str(Path(text) / "validate.csv") if text.strip() and Path(text).is_dir() else text)
+    """validate --out: the CSV to write; a folder means FILE/validate.csv. A run folder's own validate.csv, the
+    robustness suite measured with the run, is never written over: one missing or removed is measured anew."""
+    from ..harness.runfolder import RUN, VALIDATE
+
+    out = Path(flags.output_file(str(Path(text) / VALIDATE) if text.strip() and Path(text).is_dir() else text))
+    if out.name == VALIDATE and (out.parent / RUN).is_file() and out.exists():
+        raise argparse.ArgumentTypeError(
+            f"{str(out)!r} is the robustness suite of the run in {str(out.parent)!r}: write elsewhere, "
+            "or remove it first to measure it again"
+        )
+    return str(out)
 
 
 def add_parser(sub) -> None:

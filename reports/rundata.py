@@ -228,7 +228,8 @@ def load_validation(data: RunData) -> tuple[pd.DataFrame, str]:
                 f"{why} `{robustness_command(data.run_dir)}` measures it; then `tribench stats {data.run_dir}`.",
             )
         return _NO_VALIDATION, (
-            f"{why}: measure it again with `tribench validate ... --out {path}`, then `tribench stats {data.run_dir}`."
+            f"{why}: remove it, measure it again with `tribench validate ... --out {path}`, then "
+            f"`tribench stats {data.run_dir}`."
         )
     note = str(data.record.get("validate") or f"Read from {runfolder.VALIDATE} in the run folder.")
     missing = [

@@ -255,6 +255,22 @@ def test_cli_prints_the_table_and_writes_the_documented_csv(tmp_path, capsys):
     assert "wrote" in out.err
 
 
+def test_cli_never_writes_over_a_runs_own_robustness_suite(tmp_path, capsys):
+    (tmp_path / "run.json").write_text("{}")  # what makes a folder a run's, for --out
+    measured = tmp_path / "validate.csv"
+    measured.write_text("the run's own\n")
+    for out in (tmp_path, measured):
+        with pytest.raises(SystemExit) as stop:
+            main(["validate", "--quick", "--kernels", KERNELS[0], "--out", str(out)])
+        assert stop.value.code == 2
+        err = capsys.readouterr().err
+        assert "is the robustness suite of the run" in err and "remove it first" in err
+    assert measured.read_text() == "the run's own\n"
+    measured.unlink()  # one removed is measured anew
+    assert main(["validate", "--quick", "--kernels", KERNELS[0], "--dtype", "float32", "--out", str(tmp_path)]) == 0
+    assert set(pd.read_csv(measured).kernel) == {KERNELS[0]}
+
+
 def test_cli_unknown_kernel_is_a_user_error(capsys):
     assert main(["validate", "--quick", "--kernels", "no_such_kernel"]) == 2
     err = capsys.readouterr().err
