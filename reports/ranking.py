@@ -31,6 +31,9 @@ __all__ = [
     "ranking_section",
 ]
 
+#: Why a run's tables rank nothing: the analysis ranks no A/A copy and no kernel whose answers differ.
+NOTHING_RANKED = "no kernel of this run is ranked (each was an A/A copy or disagreed with the reference)"
+
 #: The head-to-head questions the report answers when a run has both algorithms (algorithm names:
 #: tribench.ext.kernel_info(k).algorithm): Baldwin & Weber's claim, and the seed's question.
 QUESTIONS: tuple[tuple[str, str], ...] = (
@@ -177,7 +180,7 @@ def question_rows(alg: pd.DataFrame) -> pd.DataFrame:
 def ranking_section(data: RunData, rank: pd.DataFrame, alg: pd.DataFrame | None = None) -> str:
     """The ranking table per precision, the order of the algorithms, the head-to-head questions."""
     if rank.empty:
-        return page.p("No ranking: this run has no estimate.")
+        return page.p(f"No ranking: {NOTHING_RANKED}.")
     shown = ranking_rows(rank)
     cols = [
         ("workload", "workload"),
@@ -369,7 +372,7 @@ def answer_section(data: RunData, bands: pd.DataFrame | None, alg: pd.DataFrame 
             f"No ranking by band: these tables were made by an older tribench. Run `tribench stats {data.run_dir}`."
         )
     if bands.empty:
-        return page.p("No ranking: this run has no estimate.")
+        return page.p(f"No ranking: {NOTHING_RANKED}.")
     shown = band_rows(bands)
     cols = [
         ("band", "band"),
@@ -473,8 +476,10 @@ def format_run(data: RunData) -> str:
 def format_answer(data: RunData) -> str:
     """The first screen in words: per precision and band the fastest kernel, its speedup and ties, then the answers."""
     bands = data.tables.get(runfolder.BANDS)
-    if bands is None or bands.empty:
+    if bands is None:
         return "the answer: no ranking by band in these tables (run tribench stats on the folder)"
+    if bands.empty:
+        return f"the answer: {NOTHING_RANKED}"
     lines = [f"the answer, per precision and band (speedup over {data.baseline}, 95% CI):"]
     for r in band_rows(bands).itertuples(index=False):
         lines.append(

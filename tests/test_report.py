@@ -18,6 +18,7 @@ from conftest import analysed
 from test_report_run import run_fixture_dir
 
 from tribench import reports
+from tribench.harness import runfolder
 from tribench.harness.plan import plan
 from tribench.reports import charts, checks, headline, speed_charts
 from tribench.reports import html as report_html
@@ -352,6 +353,25 @@ def test_format_tables_lists_estimates_and_speedups(rendered):
     answer = text[text.index("the answer, per precision and band") :].splitlines()
     assert answer[1].startswith("  float") and "ns/test" in answer[1] and "tied with it" in answer[1]
     assert any(line.startswith("  Fastest: ") for line in answer) and text.endswith(answer[-1])
+
+
+def test_a_run_that_ranks_no_kernel_says_why(rendered):
+    """Every kernel an A/A copy (``sweep --kernels moller_trumbore_aa``): the tables hold no ranking, and the
+    terminal said to run the stats it had just run, the page that the run had no estimate."""
+    import dataclasses
+
+    from tribench.reports import ranking
+    from tribench.reports.rundata import load_run
+
+    data = load_run(rendered[0])
+    empty = {name: df.iloc[:0] for name, df in data.tables.items() if name in (runfolder.BANDS, runfolder.RANKING)}
+    data = dataclasses.replace(data, tables={**data.tables, **empty})
+    assert ranking.format_answer(data) == f"the answer: {ranking.NOTHING_RANKED}"
+    for section in (
+        ranking.ranking_section(data, empty[runfolder.RANKING]),
+        ranking.answer_section(data, empty[runfolder.BANDS], None, {}),
+    ):
+        assert ranking.NOTHING_RANKED in section
 
 
 # ----------------------------------------------------------------- bad input
