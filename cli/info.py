@@ -25,7 +25,9 @@ def add_parser(sub) -> None:
         help="with --peak: hold every native kernel to this instruction set and probe the pipes on it "
         "(default: the widest this CPU runs)",
     )
-    add_kernel_files(p)
+    add_kernel_files(
+        p, "then listed with the others (with --peak, which times them: checked against the float64 reference first)"
+    )
     p.set_defaults(func=run)
 
 
