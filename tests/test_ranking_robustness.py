@@ -170,3 +170,19 @@ def test_the_headers_say_what_the_rates_count(tables):
     assert "shared_edges" in tips["cracks"] and "inside_sphere" in tips["sphere"]
     table = page.table(html, [("cracks", "cracks"), ("sphere", "sphere")], titles=tips)
     assert re.findall(r'<th title="([^"]*)">', table)[0].startswith("tribench validate&#x27;s shared_edges")
+
+
+def test_on_a_workload_the_baseline_did_not_run_no_kernel_is_the_baseline():
+    """A BVH workload runs no moller_seed: ranking.csv once named each kernel its own baseline at 1.00x there,
+    and the report's ranking per workload called the fastest '(the baseline)'."""
+    est, spd, pp = _timings()
+    gone = "pairs-float64"  # as a BVH workload: the baseline did not run it, so it has no speedups
+    est = est.loc[~((est["workload_id"] == gone) & (est["kernel"] == "moller_trumbore"))]
+    pp = pp.loc[~((pp["workload_id"] == gone) & (pp["kernel"] == "moller_trumbore"))]
+    spd = spd.loc[spd["workload_id"] != gone]
+    rank = ranking.ranking_table(est, spd, pp, 0.01, baseline="moller_trumbore")
+    there = rank.loc[rank["workload_id"] == gone]
+    assert set(rank["baseline"]) == {"moller_trumbore"}
+    assert there["speedup"].isna().all()
+    fastest = report_ranking.ranking_rows(rank).set_index("dtype").loc["float64"]
+    assert fastest["fastest"] == "baldwin_weber_12" and fastest["speedup"] == "–"

@@ -339,7 +339,7 @@ def _derive_one(
     # the diagnostics keep both, no ranking does
     est, spd, pp, ranked_batches = (workload_tables.compared(f, correct) for f in (est, spd, measured_pp, batches))
     ranked = [k for k in kernels if k not in TWINS]
-    rank = ranking.ranking_table(est, spd, pp, margin, m.validate)
+    rank = ranking.ranking_table(est, spd, pp, margin, m.validate, base)
     return {
         runfolder.ESTIMATES: result.estimates,
         runfolder.SPEEDUPS: result.speedups,

@@ -108,13 +108,21 @@ def _ranked(rank: int, kernel: str, dtype: str, against: tuple[pd.DataFrame, str
 
 
 def ranking_table(
-    est: pd.DataFrame, spd: pd.DataFrame, pp: pd.DataFrame, margin: float, val: pd.DataFrame | None = None
+    est: pd.DataFrame,
+    spd: pd.DataFrame,
+    pp: pd.DataFrame,
+    margin: float,
+    val: pd.DataFrame | None = None,
+    baseline: str | None = None,
 ) -> pd.DataFrame:
     """Per workload, every kernel from the fastest down, each against the fastest (``ranking.csv``).
 
     Paired ratios with Bonferroni intervals over the workload's other kernels. A kernel is tied with the fastest
     when its interval reaches down to ``1 + margin``: the fastest by point estimate is no evidence it beats those.
-    ``val`` (``validate.csv``, optional) adds each kernel's measured failures."""
+    ``val`` (``validate.csv``, optional) adds each kernel's measured failures. ``baseline``: the run's (default:
+    the speedups'); on a workload it did not run (a BVH's) no kernel has a speedup, and none is the baseline."""
+    if baseline is None:
+        baseline = str(spd["baseline"].iloc[0]) if len(spd) else ""
     rows = []
     for wid, g in est.groupby("workload_id", sort=False):
         g = g.sort_values(["ns_per_test", "kernel"]).reset_index(drop=True)
@@ -124,7 +132,6 @@ def ranking_table(
         s = spd.loc[spd["workload_id"] == wid].set_index("kernel")
         for rank, r in enumerate(g.itertuples(index=False), start=1):
             kernel = str(r.kernel)
-            baseline = str(s["baseline"].iloc[0]) if len(s) else kernel
             if kernel in s.index:
                 speedup = tuple(s.loc[kernel, ["ratio", "ratio_ci_low", "ratio_ci_high"]])
             else:
