@@ -116,9 +116,9 @@ def _chart(chart: Any, chart_id: str, description: str, caption: str) -> str:
 
 def diagnostics_section(data: RunData, batches: pd.DataFrame, colours: dict[str, str]) -> str:
     """Rounds, warm-up, outliers, variance components, the margin, interference, FMA peak."""
-    warm = rundata.sweep_order(data.tables[runfolder.WARMUP], data)
-    outl = rundata.sweep_order(data.tables[runfolder.OUTLIERS], data)
-    var = data.tables[runfolder.VARIANCE]
+    warm = rundata.named(rundata.sweep_order(data.tables[runfolder.WARMUP], data), data)
+    outl = rundata.named(rundata.sweep_order(data.tables[runfolder.OUTLIERS], data), data)
+    var = rundata.named(data.tables[runfolder.VARIANCE], data)
     timed = data.batches.loc[~data.batches["warmup"]]
     ctx = int(timed["invol_ctx_switches"].sum())
     steal = timed.loc[timed["steal_ticks"] > 0, "steal_ticks"].sum() if "steal_ticks" in timed else 0

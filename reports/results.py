@@ -7,7 +7,7 @@ from html import escape
 import numpy as np
 import pandas as pd
 
-from . import charts, page, speed_charts
+from . import charts, page, rundata, speed_charts
 from .headline import peer_sentence
 from .rundata import PeerTables, RunData
 
@@ -48,6 +48,7 @@ _SPD_COLS = [
 def speedups_section(data: RunData, spd: pd.DataFrame, est: pd.DataFrame) -> str:
     """The forest plot of every speedup, then the speedups and estimates tables."""
     chart = speed_charts.forest_chart(spd, data.margin, f"speedup over {data.baseline}", "faster")
+    spd, est = rundata.named(spd, data), rundata.named(est, data)
     body = [
         charts.embed(
             chart,

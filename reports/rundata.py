@@ -34,6 +34,7 @@ __all__ = [
     "load_peers",
     "PeerTables",
     "estimates_table",
+    "named",
     "speedups_table",
     "working_set_bytes",
     "workload_figures",
@@ -304,6 +305,15 @@ def load_peers(data: RunData) -> tuple[PeerTables | None, str]:
 def sweep_order(frame: pd.DataFrame, data: RunData) -> pd.DataFrame:
     """Rows in sweep order: workloads, then kernels."""
     return in_order(frame, workload_id=data.workload_ids, kernel=data.kernels)
+
+
+def named(frame: pd.DataFrame, data: RunData) -> pd.DataFrame:
+    """``frame`` with its ``label`` the workload in words, family and label (``pairs n=10000 shuffled sphere float32
+    · per-test hit rate 50%``), as the ranking names it: a label alone is two workloads' when the run has a hit
+    rate or a mesh at both precisions."""
+    wl = data.tables[runfolder.WORKLOADS]
+    names = {w: f"{f} · {lab}" for w, f, lab in zip(wl["workload_id"], wl["family"], wl["label"], strict=True)}
+    return frame.assign(label=frame["workload_id"].map(names).fillna(frame["label"])) if len(frame) else frame
 
 
 def working_set_bytes(bytes_per_triangle: float, dtype: str, triangles: float, rays: float) -> float:

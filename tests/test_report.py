@@ -197,6 +197,26 @@ def _section_rows(text, sid):
     ]
 
 
+def test_every_table_names_its_workload_by_family_and_label(rendered):
+    """The speedups, estimates, drift and diagnostics tables named a workload by its label alone
+    ("suzanne, 968 triangles"): at two precisions, two rows per kernel said the same. Each names its family too."""
+    run_dir, _, text = rendered
+    wl = pd.read_csv(run_dir / "workloads.csv")
+    names = {f"{f} · {lab}" for f, lab in zip(wl["family"], wl["label"], strict=True)}
+    tables = 0
+    for sid in ("speedups", "drift", "diagnostics"):
+        part = text[text.index(f'id="{sid}"') :]
+        for table in re.findall(r"<table.*?</table>", part[: part.index("</section>")], flags=re.S):
+            rows = [
+                [html.unescape(re.sub(r"<[^>]+>", "", c)) for c in re.findall(r"<t[dh][^>]*>(.*?)</t[dh]>", row)]
+                for row in re.findall(r"<tr>(.*?)</tr>", table, flags=re.S)
+            ]
+            if rows and rows[0][:2] == ["kernel", "workload"]:
+                tables += 1
+                assert {r[1] for r in rows[1:]} <= names, (sid, {r[1] for r in rows[1:]} - names)
+    assert tables == 6  # speedups, estimates, drift, warm-up, outliers, variance
+
+
 def test_kernels_section_gives_bytes_per_triangle_beside_speed(rendered):
     from test_report_run import KERNELS
 
