@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     data = load_run(args.run_dir)
     if args.format == "gbench":
         margin = {"value": data.margin, "source": data.margin_source}
-        text = export.dumps(export.google_benchmark(data.run, data.tables, data.baseline, margin))
+        text = export.dumps(export.google_benchmark(data.run, data.tables | data.every_build, data.baseline, margin))
     elif args.format == "bmf":
         text = export.dumps(paper.bencher(data))
     elif args.format == "latex":

@@ -11,7 +11,9 @@ import pandas as pd
 
 from ..harness import runfolder, stats
 from .about import pinning
+from ..ext.builds import INSTALLED
 from .rundata import RunData
+from .tables.workload_tables import compared
 
 __all__ = ["bencher", "latex_tables", "methods"]
 
@@ -39,9 +41,14 @@ def _verdict(r: Any, margin: float) -> str:
     return stats.verdict(r.speedup_ci_low, r.speedup_ci_high, margin)
 
 
+def _every_build(data: RunData, name: str) -> pd.DataFrame:
+    """Table ``name`` with every build's rows (``data`` shows one build's): a paper gets each build's figures."""
+    return data.every_build.get(name, data.tables[name])
+
+
 def latex_tables(data: RunData) -> str:
     """One booktabs table per build, precision and band (``bands.csv``), with intervals and verdicts."""
-    bands = data.tables[runfolder.BANDS]
+    bands = _every_build(data, runfolder.BANDS)
     confidence = float(data.estimates["confidence"].iloc[0]) if len(data.estimates) else 0.95
     several = bands["build"].nunique() > 1
     out = []
@@ -103,8 +110,7 @@ def _spread(values: pd.Series) -> str:
 def methods(data: RunData, latex: bool = False) -> str:
     """The run's methods as one paragraph: machine and build, design, statistics, workloads."""
     m, sweep = data.machine, data.run.sweep
-    build = m.get("build", {})
-    est = data.estimates
+    est = compared(_every_build(data, runfolder.ESTIMATES), _every_build(data, runfolder.CORRECTNESS))
     confidence = float(est["confidence"].iloc[0]) if len(est) else 0.95
     workloads = list(dict.fromkeys(est["workload"])) if len(est) else [w.summary() for w in sweep.workloads]
     sequential = sweep.sequential
@@ -118,7 +124,7 @@ def methods(data: RunData, latex: bool = False) -> str:
     text = (
         f"Measurements were taken with tribench {m.get('tribench', '?')} on {m.get('cpu_model', '?')} "
         f"({', '.join(m.get('simd_features') or []) or 'no SIMD features recorded'}; {m.get('platform', '?')}), "
-        f"with the kernels compiled by {build.get('compiler', '?')} (flags {build.get('flags', '?')}), "
+        f"with the kernels compiled by {_compilers(data)}, "
         f"Python {m.get('python', '?')} and numpy {m.get('numpy', '?')}. "
         f"Each worker process was a fresh interpreter, {pinning(data.run)}, with its memory layout randomised; "
         f"{design}each of {sweep.warmup} warm-up and {sweep.rounds} timed rounds ran every kernel once "
@@ -139,13 +145,29 @@ def methods(data: RunData, latex: bool = False) -> str:
     return tex(text) + "\n" if latex else text + "\n"
 
 
+def _compilers(data: RunData) -> str:
+    """The compiler and flags of each build the run's processes took in turn (one: the installed build's)."""
+    installed = data.machine.get("build", {})
+    records = {b.get("spec"): b for b in data.run.builds if b.get("spec") != INSTALLED}  # the installed: machine.build
+    each = [
+        f"{r.get('compiler', '?')} (flags {r.get('flags', '?')})"
+        for r in (records.get(spec, installed) for spec in data.builds)
+    ]
+    if len(each) == 1:
+        return each[0]
+    named = "; ".join(f"{spec}: {text}" for spec, text in zip(data.builds, each, strict=True))
+    return f"each of {len(each)} builds, whose processes took turns ({named})"
+
+
 def bencher(data: RunData) -> dict[str, Any]:
     """Bencher's Metric Format: per kernel, workload (and build, if several), its ns per test and, where it
     has one, its speedup over the baseline, each with its interval as lower and upper values."""
-    several = data.estimates["build"].nunique() > 1 if "build" in data.estimates else False
+    correct = _every_build(data, runfolder.CORRECTNESS)
+    est, spd = (compared(_every_build(data, name), correct) for name in (runfolder.ESTIMATES, runfolder.SPEEDUPS))
+    several = est["build"].nunique() > 1 if "build" in est else False
     doc: dict[str, Any] = {}
-    speedups = data.speedups.set_index(["build", "kernel", "workload_id"]) if len(data.speedups) else None
-    for r in data.estimates.itertuples(index=False):
+    speedups = spd.set_index(["build", "kernel", "workload_id"]) if len(spd) else None
+    for r in est.itertuples(index=False):
         name = f"{r.kernel}/{r.workload}" + (f"/{r.build}" if several else "")
         measures = {"ns-per-test": _bounds(r.ns_per_test, r.ns_per_test_ci_low, r.ns_per_test_ci_high)}
         key = (r.build, r.kernel, r.workload_id)

@@ -122,6 +122,10 @@ def test_a_sweep_of_two_builds_has_estimates_speedups_and_orders_per_build(tmp_p
     assert set(broken) == {"moller_seed", "moller_trumbore", "curless", "my_moller"}
     assert any("nonfinite" in p for p in broken["moller_trumbore"]), broken
 
+    # export prints what the analysis wrote, every build's benchmarks (it printed the first build's alone)
+    exported = tribench("export", out, cwd=tmp_path, cache=cache)
+    assert exported.returncode == 0, exported.stderr
+    assert json.loads(exported.stdout) == json.loads((out / "google_benchmark.json").read_text())
     report = tribench("report", out, cwd=tmp_path, cache=cache)
     assert report.returncode == 0, report.stderr
     html = (out / "report.html").read_text()

@@ -114,6 +114,36 @@ def test_methods_of_a_run_with_no_compared_estimate_say_so(run_dir):
     import dataclasses
 
     data = load_run(run_dir)
-    text = paper.methods(dataclasses.replace(data, estimates=data.estimates.iloc[:0]))
+    none = data.estimates.iloc[:0]
+    text = paper.methods(dataclasses.replace(data, estimates=none, every_build={runfolder.ESTIMATES: none}))
     assert "no kernel's estimate is reported (each was an A/A copy or disagreed with the reference)" in text
     assert all(w.summary() in text for w in data.run.sweep.workloads)
+
+
+def _two_builds(data):
+    """``data`` as a run of two builds would read: the installed one's rows again as clang's."""
+    import dataclasses
+
+    from tribench.ext import INSTALLED
+
+    clang = {"spec": "clang -O2", "compiler": "Debian clang version 14.0.6", "flags": "-std=c11 -DNDEBUG -fPIC -O2"}
+    sweep = dataclasses.replace(data.run.sweep, builds=(INSTALLED, clang["spec"]), processes=4)
+    run = dataclasses.replace(data.run, sweep=sweep, builds=(*data.run.builds, clang))
+    every = {name: pd.concat([t, t.assign(build=clang["spec"])]) for name, t in data.every_build.items()}
+    return dataclasses.replace(data, run=run, every_build=every)
+
+
+def test_every_export_of_a_run_of_two_builds_has_both_builds_and_names_their_compilers(run_dir):
+    """export --format bmf|latex|methods of a --builds run wrote the first build's figures alone, named no build,
+    and the methods paragraph named the installed build's compiler and flags, not the builds'."""
+    data = load_run(run_dir)
+    both = _two_builds(data)
+    doc = paper.bencher(both)
+    assert len(doc) == 2 * len(data.estimates)
+    assert {name.rsplit("/", 1)[1] for name in doc} == {"installed", "clang -O2"}
+    tables = paper.latex_tables(both).split(r"\begin{table}")[1:]
+    assert len(tables) == 2 * data.tables[runfolder.BANDS].groupby(["dtype", "band"]).ngroups
+    assert sum("build clang -O2" in t for t in tables) == len(tables) // 2
+    text = paper.methods(both)
+    assert "clang -O2: Debian clang version 14.0.6 (flags -std=c11 -DNDEBUG -fPIC -O2)" in text
+    assert f"installed: {data.run.machine['build']['compiler']}" in text
