@@ -117,7 +117,7 @@ def _pair_parts(c: Comparison) -> list[str]:
             "speedup-ratios",
             SECTIONS["speedup-ratios"],
             page.table(
-                spd.assign(verdict=spd["verdict"].map(RATIO_WORDS)) if not spd.empty else spd,
+                _named(spd.assign(verdict=spd["verdict"].map(RATIO_WORDS))) if not spd.empty else spd,
                 [
                     ("kernel", "kernel"),
                     ("label", "workload"),
@@ -143,7 +143,7 @@ def _pair_parts(c: Comparison) -> list[str]:
                 "is the steadier figure."
             )
             + page.table(
-                c.times.assign(verdict=c.times["verdict"].map(TIME_WORDS)) if not c.times.empty else c.times,
+                _named(c.times.assign(verdict=c.times["verdict"].map(TIME_WORDS))) if not c.times.empty else c.times,
                 [
                     ("kernel", "kernel"),
                     ("label", "workload"),
@@ -289,6 +289,12 @@ def format_many(runs: list[RunData], m: MultiComparison) -> str:
     return "\n".join(lines)
 
 
+def _named(frame: pd.DataFrame) -> pd.DataFrame:
+    """``frame`` with its ``label`` the workload in words, family and label: a label alone ("per-test hit rate
+    50%") is two workloads' when the runs have a hit rate at both precisions."""
+    return frame.assign(label=frame["family"] + " · " + frame["label"])
+
+
 def _many_parts(m: MultiComparison, unit: str = "machine", ids: tuple[str, str] = ("speedups", "orders")) -> list[str]:
     """The N-run sections: machine x kernel speedup tables per workload, and the orders that hold.
     ``unit`` names what the runs are (``build`` for :func:`builds_section`); ``ids`` the sections'."""
@@ -329,7 +335,7 @@ def _many_parts(m: MultiComparison, unit: str = "machine", ids: tuple[str, str] 
             "each faster. Pairs undecided on some run are left out of this table "
             f"({int((o['order'] == 'undecided').sum()) if not o.empty else 0} of {len(o)})."
         ),
-        page.table(shown, order_cols, classes={"order": lambda v: ORDER_CLASSES.get(v, "")}),
+        page.table(_named(shown), order_cols, classes={"order": lambda v: ORDER_CLASSES.get(v, "")}),
     ]
     return [
         page.section(

@@ -400,3 +400,20 @@ def test_a_comparison_where_the_baseline_is_missing_keeps_the_times(three_runs, 
     pair = compare_runs(load_run(three_runs[0]), load_run(differing))
     assert wid not in set(pair.speedups["workload_id"]) and len(set(pair.speedups["workload_id"])) == 3
     assert set(pair.times.loc[pair.times["workload_id"] == wid, "kernel"]) == {"moller_trumbore", "curless"}
+
+
+def test_the_comparisons_tables_name_each_workload_by_family_and_label(two_runs, tmp_path):
+    """compare.html's ratio tables named a workload by its label alone: two runs with a hit rate at both
+    precisions showed two rows per kernel that said the same. Each names its family too."""
+    import html
+
+    text = html.unescape(reports.write_compare(*two_runs, out=tmp_path / "cmp.html").read_text())
+    wl = pd.read_csv(two_runs[0] / "workloads.csv")
+    names = {f"{f} · {lab}" for f, lab in zip(wl["family"], wl["label"], strict=True)}
+    for sid in ("speedup-ratios", "time-ratios", "orders"):
+        part = text[text.index(f'id="{sid}"') :]
+        for table in re.findall(r"<table.*?</table>", part[: part.index("</section>")], flags=re.S):
+            rows = [re.findall(r"<t[dh][^>]*>([^<]*)</t[dh]>", row) for row in re.findall(r"<tr>(.*?)</tr>", table)]
+            if "workload" in rows[0]:
+                cells = {r[rows[0].index("workload")] for r in rows[1:]}
+                assert cells and cells <= names, (sid, cells - names)
