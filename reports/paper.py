@@ -9,9 +9,9 @@ from typing import Any
 
 import pandas as pd
 
+from ..ext.builds import INSTALLED
 from ..harness import runfolder, stats
 from .about import pinning
-from ..ext.builds import INSTALLED
 from .rundata import RunData
 from .tables.workload_tables import compared
 
