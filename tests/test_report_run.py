@@ -240,6 +240,9 @@ def test_the_ranking_orders_every_workload_and_pairs_each_kernel_with_the_fastes
     est = pd.read_csv(small_run / runfolder.ESTIMATES)
     val = pd.read_csv(small_run / runfolder.VALIDATE)
     assert set(rank["workload_id"]) == set(est["workload_id"])
+    # the sweep's own order (workloads.csv's), not the ids' hashes: hit rates read 0%, 50%, 100%
+    planned = pd.read_csv(small_run / runfolder.WORKLOADS)["workload_id"]
+    assert list(dict.fromkeys(rank["workload_id"])) == [w for w in planned if w in set(rank["workload_id"])]
     for wid, g in rank.groupby("workload_id"):
         assert list(g["rank"]) == list(range(1, len(g) + 1))
         assert g["ns_per_test"].is_monotonic_increasing

@@ -25,6 +25,7 @@ from ...harness.margin import Margin
 from ...harness.plan import DEFAULT_BASELINE
 from ...workloads import mesh_files
 from . import export, measured
+from .frames import in_order
 from .margin import TWINS, twin_margin
 from .measured import Measured, file_digest
 
@@ -339,7 +340,7 @@ def _derive_one(
     # the diagnostics keep both, no ranking does
     est, spd, pp, ranked_batches = (workload_tables.compared(f, correct) for f in (est, spd, measured_pp, batches))
     ranked = [k for k in kernels if k not in TWINS]
-    rank = ranking.ranking_table(est, spd, pp, margin, m.validate, base)
+    rank = ranking.ranking_table(in_order(est, workload_id=wids), spd, pp, margin, m.validate, base)  # plan order
     return {
         runfolder.ESTIMATES: result.estimates,
         runfolder.SPEEDUPS: result.speedups,
