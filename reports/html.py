@@ -78,7 +78,7 @@ def render(data: RunData, sweep_file: str = "sweep.toml") -> str:
         + ranking.answer_section(data, bands, alg, colours)
         + "".join(page.warn(w) for w in headline.run_warnings(data, drift, correct)),
         "headline": headline.headline_section(data, spd, wl, peers),
-        "ranking": ranking.ranking_section(data, rundata.sweep_order(data.tables[runfolder.RANKING], data), alg),
+        "ranking": ranking.ranking_section(data, data.tables[runfolder.RANKING], alg),
         "kernels": results.kernels_section(data, data.tables[runfolder.KERNELS]),
         "speedups": results.speedups_section(data, spd, est),
         "hit-rate": results.hit_rate_section(data, est, spd, data.tables[runfolder.CROSSOVERS], colours),

@@ -174,12 +174,15 @@ def hit_rate_section(
     body.append(
         page.p(
             f"Kernel pairs whose ranking flips inside the measured per-test hit rates "
-            f"({len(none)} other pairs keep their order throughout).",
+            f"({len(none)} other pairs keep their order throughout). An interval is shown cut to 0–100%, the hit "
+            f"rates there are (crossovers.csv has Fieller's, which a line's extrapolation can carry past them).",
             "note",
         )
     )
     shown = found.assign(
-        hit_rate_pct=100 * found["hit_rate"], low_pct=100 * found["ci_low"], high_pct=100 * found["ci_high"]
+        hit_rate_pct=100 * found["hit_rate"],
+        low_pct=100 * found["ci_low"].clip(0, 1),
+        high_pct=100 * found["ci_high"].clip(0, 1),
     )
     body.append(
         page.table(

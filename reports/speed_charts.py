@@ -176,7 +176,7 @@ def hit_rate_chart(est: pd.DataFrame, cross: pd.DataFrame, colours: dict[str, st
             pair=found["kernel_a"] + " = " + found["kernel_b"],
             at=[
                 f"{100 * h:.3g}% [{100 * lo:.3g}%, {100 * hi:.3g}%]"
-                for h, lo, hi in found[["hit_rate", "ci_low", "ci_high"]].to_numpy()
+                for h, lo, hi in found[["hit_rate", "ci_low", "ci_high"]].clip(0, 1).to_numpy()  # rates there are
             ],
         )
     )[["family", "hit_rate", "pair", "at"]]

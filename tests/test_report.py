@@ -394,6 +394,21 @@ def test_a_run_that_ranks_no_kernel_says_why(rendered):
         assert ranking.NOTHING_RANKED in section
 
 
+def test_a_crossovers_interval_is_shown_within_the_hit_rates_there_are(rendered):
+    """Fieller's interval of a line's root can run past 0-100% (-294% to 388% was shown): the report cuts it there."""
+    from tribench.reports import results, rundata
+
+    data = rundata.load_run(rendered[0])
+    wl = data.tables[runfolder.WORKLOADS]
+    cross = data.tables[runfolder.CROSSOVERS].iloc[:1].assign(hit_rate=0.4, ci_low=-2.941, ci_high=3.884)
+    est, spd = rundata.estimates_table(data, wl), rundata.speedups_table(data, wl)
+    html = results.hit_rate_section(data, est, spd, cross, charts.kernel_colours(data.kernels))
+    table = html[html.index("<h3>Crossovers</h3>") :]
+    assert "294" not in table and "388" not in table and "cut to 0–100%" in table
+    cells = re.findall(r"<td[^>]*>([^<]*)</td>", table)
+    assert cells[3:6] == ["40", "0", "100"], cells
+
+
 # ----------------------------------------------------------------- bad input
 
 
