@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import math
+import re
 from typing import Any
 
 import pandas as pd
@@ -23,16 +24,18 @@ _TEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "
 
 
 def tex(text: object) -> str:
-    """``text`` with LaTeX's special characters escaped (and the few non-ASCII ones tribench writes spelled)."""
-    return "".join(_TEX_SPECIAL.get(c, c) for c in str(text))
+    """``text`` with LaTeX's special characters escaped (and the few non-ASCII ones tribench writes spelled), and a
+    line break allowed after a comma inside a word (a workload's spec: ``misses[outside_edge_1=0.333,...]``)."""
+    return re.sub(r",(?=\S)", r",\\allowbreak{}", "".join(_TEX_SPECIAL.get(c, c) for c in str(text)))
 
 
-def _interval(value: float, low: float, high: float, digits: int = 2) -> str:
+def _interval(value: float, low: float, high: float, digits: int = 2) -> tuple[str, str]:
+    """The estimate and its interval ("" when it has none), as the table's two lines show them."""
     if not math.isfinite(value):
-        return "--"
+        return "--", ""
     if not (math.isfinite(low) and math.isfinite(high)):
-        return f"{value:.{digits}f}"
-    return f"{value:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
+        return f"{value:.{digits}f}", ""
+    return f"{value:.{digits}f}", f"[{low:.{digits}f}, {high:.{digits}f}]"
 
 
 def _verdict(r: Any, margin: float) -> str:
@@ -54,23 +57,18 @@ def latex_tables(data: RunData) -> str:
     out = []
     for (build, dtype, band), g in bands.groupby(["build", "dtype", "band"], sort=False):
         where = f"{dtype}, {band}" + (f", build {build}" if several else "")
-        rows = [
-            " & ".join(
-                [
-                    str(r.rank),
-                    tex(r.kernel),
-                    _interval(r.ns_per_test, r.ns_per_test_ci_low, r.ns_per_test_ci_high),
-                    "1.00"
-                    if r.rank == 1
-                    else _interval(r.vs_fastest, r.vs_fastest_ci_low, r.vs_fastest_ci_high)
-                    + (" (tied)" if r.tied_with_fastest else ""),
-                    _interval(r.speedup, r.speedup_ci_low, r.speedup_ci_high),
-                    _verdict(r, data.margin),
-                ]
+        rows = []
+        for r in g.sort_values("rank").itertuples(index=False):
+            ns = _interval(r.ns_per_test, r.ns_per_test_ci_low, r.ns_per_test_ci_high)
+            vs = ("1.00", "") if r.rank == 1 else _interval(r.vs_fastest, r.vs_fastest_ci_low, r.vs_fastest_ci_high)
+            speedup = _interval(r.speedup, r.speedup_ci_low, r.speedup_ci_high)
+            tied = " (tied)" if r.rank > 1 and r.tied_with_fastest else ""
+            rows.append(
+                rf"{r.rank} & {tex(r.kernel)} & {ns[0]} & {vs[0]}{tied} & {speedup[0]} & {_verdict(r, data.margin)} \\"
             )
-            + r" \\"
-            for r in g.sort_values("rank").itertuples(index=False)
-        ]
+            # each interval in small type under its estimate: the table fits an article's text width
+            small = [rf"{{\footnotesize {i}}}" if i else "" for _, i in (ns, vs, speedup)]
+            rows += [rf" & & {' & '.join(small)} & \\"] if any(small) else []
         processes = _spread(g["n_processes"])  # tex() writes its en dash as --
         caption = (
             f"Ranking, {where} ({_count(int(g['workloads'].iloc[0]), 'workload')}, {processes} processes). "
@@ -83,6 +81,7 @@ def latex_tables(data: RunData) -> str:
                 [
                     r"\begin{table}[ht]",
                     r"\centering",
+                    r"\small",
                     rf"\caption{{{tex(caption)}}}",
                     r"\begin{tabular}{rlllll}",
                     r"\toprule",
@@ -142,7 +141,8 @@ def methods(data: RunData, latex: bool = False) -> str:
         f"The {_count(len(workloads), 'workload')}: {'; '.join(workloads)}. Every kernel's answers were checked "
         f"against float64 reference answers, and a kernel is ranked only where they agree."
     )
-    return tex(text) + "\n" if latex else text + "\n"
+    # \sloppy: a line with a workload's long spec in it stretches its spaces rather than run into the margin
+    return f"{{\\sloppy {tex(text)}\\par}}\n" if latex else text + "\n"
 
 
 def _compilers(data: RunData) -> str:

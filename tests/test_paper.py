@@ -66,7 +66,11 @@ def test_latex_has_one_booktabs_table_per_band_with_every_ranked_kernel(run_dir)
     tables = text.split(r"\begin{table}")[1:]
     assert len(tables) == bands.groupby(["build", "dtype", "band"]).ngroups
     rows = [row for t in tables for row in _rows(t)]
-    assert len(rows) == len(bands) and all(row.count("&") == 5 for row in rows)
+    assert all(row.count("&") == 5 for row in rows)
+    # a kernel's row, then its intervals under its estimates, in small type
+    kernels, intervals = rows[::2], rows[1::2]
+    assert len(kernels) == len(intervals) == len(bands)
+    assert all(row.startswith(" & & {\\footnotesize [") for row in intervals)
     for t in tables:
         assert t.index(r"\toprule") < t.index(r"\midrule") < t.index(r"\bottomrule") < t.index(r"\end{table}")
     # nothing LaTeX would read as markup: every _ and % escaped
@@ -88,6 +92,8 @@ def test_latex_compiles(run_dir, tmp_path):
     )
     assert done.returncode == 0, done.stdout[-2000:]
     assert (tmp_path / "t.pdf").stat().st_size > 1000
+    # every table and the methods paragraph within an article's text width (they ran 107-122 pt past it)
+    assert "Overfull \\hbox" not in (tmp_path / "t.log").read_text(errors="replace")
 
 
 def test_methods_quote_the_run_not_fixed_text(run_dir, tmp_path):
