@@ -470,6 +470,8 @@ def format_run(data: RunData) -> str:
             elif r.kernel == data.baseline:
                 left += "(baseline)"
             lines.append(left.rstrip())
+        if data.baseline not in set(rows["kernel"]):  # a BVH workload: the brute-force baseline is no leaf test
+            lines.append(f"  no speedups: {data.baseline} did not run on this workload")
     return "\n".join(lines + ["", format_answer(data)])
 
 

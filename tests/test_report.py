@@ -394,6 +394,28 @@ def test_a_run_that_ranks_no_kernel_says_why(rendered):
         assert ranking.NOTHING_RANKED in section
 
 
+def test_a_workload_the_baseline_did_not_run_says_why_it_has_no_speedups(rendered):
+    """A BVH workload runs no moller_seed (no leaf test): its terminal block had blank speedup columns."""
+    import dataclasses
+
+    from tribench.reports import ranking
+    from tribench.reports.rundata import load_run
+
+    data = load_run(rendered[0])
+    gone = data.workload_ids[0]
+    est, spd = data.estimates, data.speedups
+    data = dataclasses.replace(
+        data,
+        estimates=est.loc[~((est["workload_id"] == gone) & (est["kernel"] == data.baseline))],
+        speedups=spd.loc[spd["workload_id"] != gone],
+    )
+    blocks = ranking.format_run(data).split("\n\n")
+    said = f"  no speedups: {data.baseline} did not run on this workload"
+    assert [said in b for b in blocks[1 : 1 + len(data.workload_ids)]] == [True] + [False] * (
+        len(data.workload_ids) - 1
+    )
+
+
 def test_a_crossovers_interval_is_shown_within_the_hit_rates_there_are(rendered):
     """Fieller's interval of a line's root can run past 0-100% (-294% to 388% was shown): the report cuts it there."""
     from tribench.reports import results, rundata
