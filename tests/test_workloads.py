@@ -157,6 +157,18 @@ def test_workload_id_is_canonical_and_sensitive():
     assert workload_id(MeshSpec("suzanne")) != workload_id(MeshSpec("suzanne", 968))
 
 
+def test_numpy_scalars_are_numbers_in_a_spec_and_bools_are_not():
+    # a notebook's np.linspace(0, 1, 5, dtype=np.float32) or np.int64 hit rate was "not a finite number"
+    assert PairSpec(n=10, hit_rate=np.float32(0.5), scale=np.float32(2.0)) == PairSpec(n=10, hit_rate=0.5, scale=2.0)
+    assert PairSpec(n=10, hit_rate=np.int64(1), miss_mix={"parallel": np.float32(1)}) == PairSpec(
+        n=10, hit_rate=1.0, miss_mix="parallel"
+    )
+    assert MeshSpec("icosphere", rays="hit_rate", hit_rate=np.float16(0.25)).hit_rate == 0.25
+    for bad in (True, np.bool_(True), "0.5", np.float32("nan"), 10**400):
+        with pytest.raises(UserError, match=r"^hit_rate must be a finite number, got .{1,80}$"):
+            PairSpec(n=10, hit_rate=bad)
+
+
 # ---------------------------------------------------------------- pairs
 
 
