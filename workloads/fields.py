@@ -49,7 +49,7 @@ def check_float(name: str, value: Any) -> float:
     """A finite real number as a float: numpy's scalars too (``np.float32(0.2)``, ``np.int64(1)``), never a bool."""
     number = value
     if isinstance(value, numbers.Integral) and not isinstance(value, bool):
-        number = float(value) if abs(value) < 2**1000 else math.inf  # an int past float64's range is not finite
+        number = float(value) if abs(int(value)) < 2**1000 else math.inf  # an int past float64's range is not finite
     elif isinstance(value, numbers.Real) and not isinstance(value, bool):
         number = float(value)
     if not isinstance(number, float) or not math.isfinite(number):
