@@ -5,7 +5,10 @@ start-up, then per kernel and workload a check, a calibration and its batches, e
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, cast
@@ -113,11 +116,60 @@ def model(
     )
 
 
-def measure_passes(
-    sweep: Sweep,
-) -> tuple[dict[str, int], dict[tuple[str, str], float], dict[tuple[str, str], float]]:
+Passes = tuple[dict[str, int], dict[tuple[str, str], float], dict[tuple[str, str], float]]
+
+
+def measure_passes(sweep: Sweep) -> Passes:
     """Tests per pass of every workload and one pass's seconds per (kernel, workload id), BVH twins included, timed
-    on a strided slice and scaled; what it builds into the caches the workers would build anyway."""
+    on a strided slice and scaled; what it builds into the caches the workers would build anyway.
+
+    With kernel files, the passes are timed in a worker of their own: their check never ran this sweep's
+    workloads, and a kernel that crashes on one (an ``abort()`` past a size) would end this process without a word."""
+    if sweep.kernel_files:
+        return _passes_in_a_worker(sweep)
+    return _passes(sweep)
+
+
+def _passes_in_a_worker(sweep: Sweep) -> Passes:
+    from ..common import UserError
+    from .protocol import WorkerError, run_worker
+
+    got: dict[str, Any] = {}
+    command = [sys.executable, "-m", "tribench.harness.duration"]
+    try:
+        run_worker(
+            command,
+            json.dumps(sweep.to_dict()),
+            os.environ,
+            {"passes": got.update},
+            "the worker timing a pass of each kernel",
+        )
+    except WorkerError as exc:
+        raise UserError(
+            f"{exc}: a kernel file's kernel fails on this sweep's workloads (its check ran others); nothing was timed"
+        ) from None
+    return (
+        got["tests"],
+        {(k, w): s for k, w, s in got["seconds"]},
+        {(k, w): s for k, w, s in got["twins"]},
+    )
+
+
+def _work(job: str) -> None:
+    """The worker of :func:`_passes_in_a_worker`: one ``passes`` line."""
+    from .protocol import emit
+
+    tests, seconds, twins = _passes(Sweep.from_dict(json.loads(job)))
+    emit(
+        "passes",
+        {
+            "tests": tests,
+            **{k: [[*key, s] for key, s in d.items()] for k, d in (("seconds", seconds), ("twins", twins))},
+        },
+    )
+
+
+def _passes(sweep: Sweep) -> Passes:
     from .. import ext
     from ..workloads import cache
     from ..workloads.front import front_reference
@@ -170,3 +222,12 @@ def _bvh_passes(kernel: str, w: Any, o: np.ndarray, d: np.ndarray, t_max: Any) -
 def estimate(sweep: Sweep) -> Estimate:
     """:func:`model` on :func:`measure_passes`: the line ``tribench seed``, ``run`` and ``sweep`` print first."""
     return model(sweep, *measure_passes(sweep))
+
+
+if __name__ == "__main__":
+    import faulthandler
+
+    from .protocol import serve
+
+    faulthandler.disable()  # a crash is reported by the parent, in one line
+    sys.exit(serve(_work))

@@ -288,6 +288,39 @@ def test_a_kernel_that_crashes_is_refused_in_one_line(tmp_path, builds):
     assert "Traceback" not in done.stderr and not (tmp_path / "v.csv").exists()
 
 
+@pytest.mark.slow  # a compile (seconds)
+def test_a_kernel_that_crashes_only_on_the_sweeps_workloads_ends_no_process_but_a_worker(tmp_path, builds):
+    # it passes the check (a few thousand triangles); the duration forecast timed it in the sweep's own
+    # process, where an abort() on the sweep's 20000 pairs ended the notebook (exit 134) and the command
+    capped = variant(
+        tmp_path,
+        "capped_moller",
+        "#define tb_capped_moller_prepare_f32 tb_prepare_vertices_f32 /* the vertices as they are */\n"
+        "#define tb_capped_moller_prepare_f64 tb_prepare_vertices_f64\n",
+        "#include <stdlib.h>\n#include <string.h>\n"
+        "static inline void TB_FN(capped_prepare)(const real *vertices, size_t n, real *out)\n{\n"
+        "    if (n > 10000) /* a scratch table of 10000 triangles */\n        abort();\n"
+        "    memcpy(out, vertices, n * 9 * sizeof(real));\n}\n"
+        "#define tb_capped_moller_prepare_f32 capped_prepare_f32\n"
+        "#define tb_capped_moller_prepare_f64 capped_prepare_f64\n",
+    )
+    done = python(
+        f"""
+import tribench
+from tribench.common import UserError
+try:
+    tribench.sweep(["capped_moller"], [tribench.PairSpec(n=20000)], out={str(tmp_path / "run")!r},
+                   processes=2, rounds=1, target_ms=0.2, progress=False, kernel_files=[{str(capped)!r}])
+except UserError as e:
+    print("refused:", e)
+""",
+        builds,
+    )
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    assert done.stdout.startswith("refused: the worker timing a pass of each kernel was killed by SIGABRT"), done.stdout
+    assert done.stdout.count("\n") == 1 and not (tmp_path / "run").exists()
+
+
 @pytest.mark.slow
 def test_a_kernel_file_may_not_take_a_built_in_name(tmp_path, builds):
     clash = tmp_path / "clash.c"

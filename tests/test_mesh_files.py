@@ -102,3 +102,16 @@ def test_a_folder_where_a_copy_goes_is_a_notice_not_a_stop(tmp_path):
     (tmp_path / "run" / mesh_files.RUN_FOLDER / f"{sha}.obj").mkdir(parents=True)
     with pytest.warns(Notice, match="is not a regular file: no copy of one.obj is kept there"):
         mesh_files.copy_into_run(tmp_path / "run", mesh, sha)
+
+
+@pytest.mark.parametrize("index", [5, -1])
+def test_a_ply_face_naming_a_vertex_it_lacks_is_one_line(tmp_path, index):
+    # trimesh reads a PLY's faces as written: 5 was numpy's IndexError, -1 silently the last vertex
+    path = tmp_path / "bad.ply"
+    path.write_text(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+        f"0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 1 {index}\n"
+    )
+    with pytest.raises(UserError, match=rf"^mesh file .* has a face naming vertex {index}, .* vertices are 0 to 3\)$"):
+        MeshSpec(str(path))

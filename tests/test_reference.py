@@ -93,6 +93,12 @@ def test_bad_shapes_are_errors():
         reference.intersect_pairs([[0, 0, 0]] * 2, [[0, 0, 1]], TRI)
 
 
+def test_no_triangle_is_a_miss_for_every_ray():
+    # it raised numpy's "attempt to get argmin of an empty sequence"
+    index, t = reference.intersect_closest([[0.0, 0, 1]] * 2, [[0.0, 0, -1]] * 2, np.zeros((0, 3, 3)), t_max=[1.0, 2.0])
+    assert index.tolist() == [-1, -1] and np.isnan(t).all()
+
+
 def _split_quads_far_away(rng, n: int, scale: float, offset: float):
     """``n`` small quads (``scale``) ``offset`` from the origin, each split along its diagonal
     q0-q2 into triangles 2i and 2i + 1, and ray i aimed within 1e-8..1e-3 (barycentric) of its

@@ -12,6 +12,7 @@ import argparse
 import dataclasses
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -20,6 +21,7 @@ import warnings
 import numpy as np
 import pytest
 
+from tribench import ext
 from tribench.cli.workloads import add_parser
 from tribench.common import UserError
 from tribench.workloads import (
@@ -39,7 +41,7 @@ from tribench.workloads import (
     workload_id,
 )
 from tribench.workloads.meshes import base_mesh, build_mesh, place
-from tribench.workloads.pairs import BARY_MARGIN, HIT, OTHER, T_MARGIN
+from tribench.workloads.pairs import BARY_MARGIN, HIT, OTHER, SCALE_RANGE, T_MARGIN
 from tribench.workloads.rays import camera_candidates, camera_rays, closest_hits, sphere_candidates
 from tribench.workloads.workload import arrays_sha256
 
@@ -155,6 +157,18 @@ def test_workload_id_is_canonical_and_sensitive():
     ids = {workload_id(s) for s in others}
     assert workload_id(base) not in ids and len(ids) == len(others)
     assert workload_id(MeshSpec("suzanne")) != workload_id(MeshSpec("suzanne", 968))
+
+
+def test_numpy_scalars_are_numbers_in_a_spec_and_bools_are_not():
+    # a notebook's np.linspace(0, 1, 5, dtype=np.float32) or np.int64 hit rate was "not a finite number"
+    assert PairSpec(n=10, hit_rate=np.float32(0.5), scale=np.float32(2.0)) == PairSpec(n=10, hit_rate=0.5, scale=2.0)
+    assert PairSpec(n=10, hit_rate=np.int64(1), miss_mix={"parallel": np.float32(1)}) == PairSpec(
+        n=10, hit_rate=1.0, miss_mix="parallel"
+    )
+    assert MeshSpec("icosphere", rays="hit_rate", hit_rate=np.float16(0.25)).hit_rate == 0.25
+    for bad in (True, np.bool_(True), "0.5", np.float32("nan"), 10**400):
+        with pytest.raises(UserError, match=r"^hit_rate must be a finite number, got .{1,80}$"):
+            PairSpec(n=10, hit_rate=bad)
 
 
 # ---------------------------------------------------------------- pairs
@@ -361,6 +375,29 @@ def test_shapes_have_the_stated_aspect_ratios():
 def test_extreme_offset_in_float32_is_a_clear_error():
     with pytest.raises(ValueError, match="too large for this precision"):
         generate(PairSpec(n=200, dtype="float32", offset=1e6, scale=1e-3, shape="sliver"))
+
+
+@pytest.mark.parametrize(
+    ("dtype", "scale"), [("float32", 1e13), ("float32", 1e-15), ("float64", 1e80), ("float64", 1e-90)]
+)
+def test_a_pair_scale_past_the_precisions_products_is_refused_before_generating(dtype, scale):
+    # float32 at 1e13 was made, and 90% of moller_trumbore's hits were misses; float64 at 1e80 never ended
+    with pytest.raises(
+        UserError, match=rf"^scale = {re.escape(f'{scale:.3g}')} is outside what {dtype} holds .*: a pair's scale may"
+    ):
+        generate(PairSpec(n=50, dtype=dtype, scale=scale))
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_at_both_ends_of_the_scale_range_every_clean_kernel_agrees_with_the_reference(dtype):
+    kernels = [
+        k for k in ext.kernel_names() if "pairs" in ext.kernel_info(k).modes and not ext.kernel_info(k).seed_replay
+    ]
+    for scale in SCALE_RANGE[dtype]:
+        w = generate(PairSpec(n=300, dtype=dtype, scale=scale, shape="sliver", miss_mix="uniform", winding="facing"))
+        for k in (k for k in kernels if dtype in ext.kernel_info(k).precisions):
+            hit = ext.intersect(k, w.origins, w.directions, w.triangles, "pairs", t_max=w.t_max).hit
+            assert np.array_equal(hit, w.ref_hit), (k, scale)
 
 
 def test_same_spec_same_bytes():

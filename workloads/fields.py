@@ -46,11 +46,15 @@ def check_int(name: str, value: Any, lo: int, hi: int) -> int:
 
 
 def check_float(name: str, value: Any) -> float:
-    if isinstance(value, int) and not isinstance(value, bool) and abs(value) < 2**1000:
-        value = float(value)  # an int past float64's range is not a finite number
-    if not isinstance(value, float) or not math.isfinite(value):
-        raise UserError(f"{name} must be a finite number, got {value!r}")
-    return float(value)
+    """A finite real number as a float: numpy's scalars too (``np.float32(0.2)``, ``np.int64(1)``), never a bool."""
+    number = value
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        number = float(value) if abs(int(value)) < 2**1000 else math.inf  # an int past float64's range is not finite
+    elif isinstance(value, numbers.Real) and not isinstance(value, bool):
+        number = float(value)
+    if not isinstance(number, float) or not math.isfinite(number):
+        raise UserError(f"{name} must be a finite number, got {value!r:.80}")
+    return float(number)
 
 
 def check_hit_rate(value: Any) -> float:

@@ -73,6 +73,12 @@ def read_mesh_file(path: str | Path, dtype: str = "float64") -> tuple[np.ndarray
         raise UserError(f"cannot read mesh file {str(path)!r}: {type(e).__name__}: {e}") from None
     if len(faces) == 0:
         raise UserError(f"mesh file {str(path)!r} holds no triangles")
+    outside = faces[(faces < 0) | (faces >= len(vertices))]  # trimesh checks an OBJ's, not a PLY's
+    if outside.size:
+        raise UserError(
+            f"mesh file {str(path)!r} has a face naming vertex {outside[0]}, which it does not have "
+            f"(its vertices are 0 to {len(vertices) - 1})"
+        )
     if not np.isfinite(vertices).all():
         raise UserError(f"mesh file {str(path)!r} has non-finite vertex coordinates")
     largest, limit = float(np.abs(vertices).max()), MAX_COORDINATE[dtype]

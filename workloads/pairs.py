@@ -32,6 +32,7 @@ from .workload import Workload, library_versions
 __all__ = [
     "BARY_MARGIN",
     "T_MARGIN",
+    "SCALE_RANGE",
     "PLANE_MARGIN",
     "PARALLEL_COS",
     "MAX_ASPECT",
@@ -58,6 +59,13 @@ _PARALLEL, _BEHIND = MISS_STAGES.index("parallel"), MISS_STAGES.index("behind_or
 _BEYOND = MISS_STAGES.index("beyond_t_max")
 
 _MAX_ROUNDS = 50
+
+#: The pair scales each precision holds. A kernel's t is a triple product of edges and offsets (scale**3),
+#: Curless's edge tests a fourfold one, the generator's normals a squared cross product (scale**4): past these
+#: one of them leaves the precision's range. MAX_COORDINATE (squares) let float32 through at 1e13, where 90% of
+#: the hits of moller_trumbore, plucker and woop were misses, and float64 at 1e80, where generating never ended;
+#: at 1e-10 a float32 sliver's Curless tests underflowed. Inside, every clean kernel agrees with the reference.
+SCALE_RANGE = {"float32": (1e-8, 1e11), "float64": (1e-70, 1e70)}
 _OFFSET_AXIS = np.full(3, 1.0) / np.sqrt(3.0)
 
 
@@ -319,6 +327,12 @@ def generate_pairs(spec: PairSpec, workload_id: str) -> Workload:
     rng = np.random.default_rng(spec.rng_seed)
     kinds = _kinds(spec, rng)
     n, dtype, scale = spec.n, spec.dtype, spec.scale
+    low, high = SCALE_RANGE[dtype]
+    if not low <= scale <= high:  # refused now, not after every redraw has failed or every kernel missed
+        raise UserError(
+            f"scale = {scale:.3g} is outside what {dtype} holds with its products (they overflow or underflow): "
+            f"a pair's scale may be {low:.0e} to {high:.0e} in {dtype}"
+        )
     if scale + abs(spec.offset) > MAX_COORDINATE[dtype]:  # refused now, not after every redraw has failed
         raise UserError(
             f"scale = {scale:.3g} is outside what {dtype} holds with its products (they overflow): "

@@ -185,7 +185,8 @@ def intersect_closest(
     m, k = len(o), len(tri)
     index = np.full(m, -1, dtype=np.int64)
     best = np.full(m, np.inf)
-    for lo, hi, ans in all_pairs(o, d, tri, t_min=t_min, t_max=_as_t_max(t_max, m), front_only=front_only):
+    pairs = all_pairs(o, d, tri, t_min=t_min, t_max=_as_t_max(t_max, m), front_only=front_only) if k else ()
+    for lo, hi, ans in pairs:  # no triangle: every ray misses
         n = hi - lo
         t = np.where(ans.hit, ans.t, np.inf).reshape(n, k)
         j = np.argmin(t, axis=1)  # argmin returns the first of equal minima
