@@ -20,6 +20,7 @@ import sys
 from typing import Any
 
 from ..common import UserError
+from ..workloads.pairs import SCALE_RANGE
 from ..workloads.spec import ACCELS, RAY_SETS
 from . import flags
 from .options import add_rng_seed, usage
@@ -37,7 +38,11 @@ _PAIR_OPTIONS: dict[str, dict[str, Any]] = {
         "behind_origin, outside_edge_1, outside_edge_2, outside_edge_3",
     },
     "shape": {"choices": ("sphere", "equilateral", "sliver"), "help": "default sphere"},
-    "scale": {"type": float, "help": "size of every pair (default 1)"},
+    "scale": {
+        "type": float,
+        "help": "size of every pair (default 1): "
+        + ", ".join(f"{lo:g} to {hi:g} in {dtype}" for dtype, (lo, hi) in SCALE_RANGE.items()),
+    },
     "offset": {"type": float, "help": "distance moved from the origin (default 0)"},
     "winding": {
         "choices": ("random", "facing"),
