@@ -237,24 +237,20 @@ def test_sweep_refuses_a_non_empty_out_dir(tmp_path, env):
 
 @pytest.mark.slow
 def test_calibrate_writes_its_summary_and_the_user_margin(tmp_path, env):
-    out = tmp_path / "cal"
-    done = cli(
-        "calibrate",
-        # 4 processes x 3 rounds of 0.5 ms: with 2 x 2 of 0.2 ms (one degree of freedom) a loaded machine
-        # measured a noise floor of 313%, past the largest usable margin, and the command rightly refused it
-        "--processes",
-        "4",
-        "--experiments",
-        "3",
-        "--rounds",
-        "3",
-        "--target-ms",
-        "0.5",
-        "--out",
-        str(out),
-        "--no-progress",
-        env=env,
-    )
+    # 4 processes x 3 rounds of 2 ms: with 2 x 2 of 0.2 ms (one degree of freedom) a loaded machine measured a
+    # noise floor of 313%, and with 0.5 ms batches CI's (two test workers on two cores) 53%: past the largest
+    # usable margin, which the command rightly refuses. A noise floor is the machine's, so a refusal for it
+    # alone is measured again, twice at most; any other failure fails the test.
+    for attempt in range(3):
+        out = tmp_path / f"cal{attempt}"
+        done = cli(
+            "calibrate",
+            *("--processes", "4", "--experiments", "3", "--rounds", "3", "--target-ms", "2"),
+            *("--out", str(out), "--no-progress"),
+            env=env,
+        )
+        if "an equivalence margin must be a number between 0 and 0.5" not in done.stderr:
+            break
     assert done.returncode == 0, done.stderr
     assert "coverage of 1" in done.stdout and "noise floor" in done.stdout
     assert (out / "calibration.json").is_file()
