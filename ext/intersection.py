@@ -9,7 +9,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..common import UserError
+from ..common import UserError, UserTypeError
 from .checks import check_array, check_name, check_same_dtype, check_t_max
 from .registry import MODES, Mode, core_of, kernel_info
 
@@ -64,7 +64,13 @@ def flat(triangles: np.ndarray) -> np.ndarray:
     >>> flat(np.stack([line, line + [[0, 0, 0], [0, 0, 0], [0, 0, 1e-15]], [a, a, a]])).tolist()
     [True, False, True]
     """
-    v = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    try:
+        v = np.asarray(triangles, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise UserTypeError(f"triangles must be an array of real numbers, got {type(triangles).__name__}") from None
+    if v.ndim < 2 or v.shape[-2:] != (3, 3):
+        raise UserError(f"triangles must have shape (N, 3, 3), got {v.shape}")
+    v = v.reshape(-1, 3, 3)
     with np.errstate(all="ignore"):  # overflow and NaN only leave a triangle undecided
         e, f = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
         left = e[:, [1, 2, 0]] * f[:, [2, 0, 1]]

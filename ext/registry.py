@@ -14,7 +14,7 @@ import numpy as np
 from ..common import UserError, UserTypeError
 from ..common.files import file_sha256
 from . import _core
-from .checks import check_dtype_name
+from .checks import check_dtype_name, check_flag
 
 Mode = Literal["pairs", "any", "closest", "closest_uv"]
 MODES: tuple[str, ...] = ("pairs", "any", "closest", "closest_uv")  # the C enum's order
@@ -38,7 +38,7 @@ def kernel_names(internal: bool = False) -> tuple[str, ...]:
     ['moller_trumbore_aa', 'moller_seed_aa', 'moller_seed_object', 'curless_seed_object',
      'moller_trumbore_same', 'moller_trumbore_twice', 'moller_trumbore_yardstick']
     """
-    return _KERNELS if internal else _PUBLIC
+    return _KERNELS if check_flag("internal", internal) else _PUBLIC
 
 
 @dataclass(frozen=True)

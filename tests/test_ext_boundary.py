@@ -260,3 +260,27 @@ def test_ctrl_c_stops_a_long_kernel_call_within_a_second(call):
     assert "finished" not in out
     assert proc.returncode != 0 and "KeyboardInterrupt" in err, err
     assert took < 2.0, took
+
+
+@pytest.mark.parametrize(
+    "triangles, error, words",
+    [
+        (np.zeros((2, 2)), ext.UserError, "must have shape (N, 3, 3), got (2, 2)"),
+        (np.zeros(9), ext.UserError, "got (9,)"),
+        ("abc", ext.UserTypeError, "array of real numbers, got str"),
+    ],
+)
+def test_flat_refuses_what_is_no_triangle_array_in_one_line(triangles, error, words):
+    with pytest.raises(error) as refused:
+        ext.flat(triangles)
+    assert words in str(refused.value)
+
+
+def test_flat_takes_one_triangle_a_list_and_none_at_all():
+    assert ext.flat([[0, 0, 0], [1, 0, 0], [2, 0, 0]]).tolist() == [True]
+    assert ext.flat(np.zeros((0, 3, 3))).tolist() == []
+
+
+def test_kernel_names_refuses_a_truthy_string_as_its_flag():
+    with pytest.raises(ext.UserTypeError, match="internal must be True or False, got str"):
+        ext.kernel_names(internal="yes")
