@@ -486,13 +486,17 @@ def test_a_whole_file_write_replaces_only_a_regular_file(tmp_path, make):
         (None, None),  # no run.json: no run to finish
     ],
 )
-def test_an_occupied_out_folder_names_the_command_that_finishes_its_own_job(tmp_path, record, finish):
+def test_an_occupied_out_folder_names_the_command_that_finishes_its_own_job(finished, tmp_path, record, finish):
     """It said 'tribench sweep --resume D' for every folder: a main job's or a replication's folder needs its own
     command (sweep --resume finishes a main job's sweep alone), and a seed replay or a folder of other files none."""
     from tribench.harness.runfolder.io import check_new_run_dir
 
     (tmp_path / "d").mkdir()
-    (tmp_path / "d" / ("run.json" if record is not None else "notes.txt")).write_text(json.dumps(record or {}))
+    if record is None:
+        (tmp_path / "d" / "notes.txt").write_text("{}")
+    else:  # a real run's record, as each job writes it
+        whole = {**json.loads((finished / "run.json").read_text()), **record}
+        (tmp_path / "d" / "run.json").write_text(json.dumps(whole))
     with pytest.raises(UserError, match="exists and is not empty") as refused:
         check_new_run_dir(tmp_path / "d")
     said = str(refused.value)

@@ -80,15 +80,15 @@ def _finish_command(run_dir: Path) -> str | None:
     """The command that finishes the run in ``run_dir`` as its own job (a main job, a replication, a sweep);
     None for a folder that is no run, or a job with no way to resume (a seed replay, a calibration)."""
     try:
-        raw = json.loads((run_dir / RUN).read_text())
-    except (OSError, ValueError):
+        run = read_run(run_dir)
+    except UserError:
         return None
-    if not isinstance(raw, dict) or raw.get("seed_replay") or raw.get("calibration"):
+    if run.seed_replay or run.calibration:
         return None
-    if raw.get("main_job"):
+    if run.main_job:
         return f"tribench run --resume {run_dir}"
-    if isinstance(raw.get("replicates"), dict) and raw["replicates"].get("run_dir"):
-        return f"tribench replicate {raw['replicates']['run_dir']} --resume {run_dir}"
+    if run.replicates and run.replicates.get("run_dir"):
+        return f"tribench replicate {run.replicates['run_dir']} --resume {run_dir}"
     return f"tribench sweep --resume {run_dir}"
 
 

@@ -73,6 +73,8 @@ class Run:
     replicates: Mapping[str, Any] | None
     #: The main job's options (``tribench run``), if this is one
     main_job: Mapping[str, Any] | None
+    #: The A/A calibration's kernel, copy and processes per experiment (``tribench calibrate``), if this is one
+    calibration: Mapping[str, Any] | None
     #: The file as written: for the runner, which updates it, and for nothing else
     raw: Mapping[str, Any]
 
@@ -123,5 +125,6 @@ class Run:
             seed_replay=_field(raw, "seed_replay", dict, required=False),
             replicates=_field(raw, "replicates", dict, required=False),
             main_job=_field(raw, "main_job", dict, required=False),
+            calibration=_field(raw, "calibration", dict, required=False),
             raw=raw,
         )
