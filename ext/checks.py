@@ -107,4 +107,6 @@ def check_t_max(t_max, n: int, dtype: np.dtype) -> np.ndarray:
         raise UserTypeError(f"t_max must have the rays' dtype {dtype}, got {t_max.dtype}")
     if not (t_max > 0).all():
         raise UserError(f"t_max must be > 0 (inf allowed), got {t_max[~(t_max > 0)][0]!r}")
+    if not t_max.flags.aligned:  # as check_array's inputs: C reads it as whole reals
+        raise UserError("t_max is not aligned to its dtype")
     return np.ascontiguousarray(t_max)

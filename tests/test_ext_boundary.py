@@ -284,3 +284,16 @@ def test_flat_takes_one_triangle_a_list_and_none_at_all():
 def test_kernel_names_refuses_a_truthy_string_as_its_flag():
     with pytest.raises(ext.UserTypeError, match="internal must be True or False, got str"):
         ext.kernel_names(internal="yes")
+
+
+def test_a_t_max_off_its_alignment_is_refused_before_c():
+    # hypothesis found it: the rays' arrays are checked for alignment, t_max was not, and C said
+    # "buffer is not aligned to 8 bytes" as a plain ValueError
+    o = np.zeros((2, 3))
+    d = np.tile([0.0, 0.0, 1.0], (2, 1))
+    tri = np.array([[[-1.0, -1, 1], [1, -1, 1], [0, 1, 1]]])
+    t_max = np.frombuffer(np.full(17, 2, np.uint8).tobytes(), np.uint8)[1:].view(np.float64)
+    assert not t_max.flags.aligned
+    for call in (ext.intersect, ext.make_job):
+        with pytest.raises(ext.UserError, match="t_max is not aligned to its dtype"):
+            call("moller_trumbore", o, d, tri, "closest", t_max=t_max)
