@@ -3,7 +3,7 @@
 A quick look, not the harness's protocol (one process, so no CI across
 processes): rounds interleave the kernels in a fresh random order, each batch
 timed in C, and the median ns/test per kernel is printed with its ratio to
-moller_seed. Run: python bench/kernels_side_by_side.py [--pairs N] [--rounds R]
+moller_seed. Run: python bench/kernels_side_by_side.py [--pairs N] [--rounds R] [--internal]
 """
 
 import argparse
@@ -24,10 +24,13 @@ def main() -> None:
     ap.add_argument("--pairs", type=int, default=2000, help="pairs per workload (2000 fits in L1/L2)")
     ap.add_argument("--rounds", type=int, default=30)
     ap.add_argument("--hit-rates", default="0,0.5,1")
+    ap.add_argument("--internal", action="store_true", help="the internal kernels too (the seed's object forms)")
     args = ap.parse_args()
     print(describe())
     rng = np.random.default_rng(0)
-    kernels = [k for k in ext.kernel_names() if "pairs" in ext.kernel_info(k).modes]  # native kernels have no pairs
+    kernels = [
+        k for k in ext.kernel_names(internal=args.internal) if "pairs" in ext.kernel_info(k).modes
+    ]  # native kernels have no pairs
     width = max(17, *(len(k) + 1 for k in kernels))  # a column per kernel, as wide as its name
     head = "".join(f"{k:>{width}}" for k in kernels)
     print(f"{'dtype':<8}{'hit':>5}  {head}   (ns/test, x = speed vs moller_seed)")

@@ -108,9 +108,11 @@ def _run_command(argv: list[str] | None) -> int:
         args = build_parser().parse_args(argv)
         prog = f"tribench {args.command}"
         from ..harness.runner import SweepError, SweepInterrupted, progress_seconds
+        from ..harness.worker import silence_floor_s
 
         if getattr(args, "progress", False) is not False:
             progress_seconds()  # a bad $TRIBENCH_PROGRESS_SECONDS fails first, like a bad flag
+        silence_floor_s()  # and a bad $TRIBENCH_SILENCE_SECONDS
         try:
             return args.func(args)
         except SweepError as exc:

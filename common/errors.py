@@ -12,7 +12,10 @@ built-in types still works.
 
 from __future__ import annotations
 
-__all__ = ["Notice", "UserError", "UserTypeError"]
+import math
+import os
+
+__all__ = ["Notice", "UserError", "UserTypeError", "seconds_from_env"]
 
 
 class UserError(ValueError):
@@ -25,3 +28,17 @@ class UserTypeError(UserError, TypeError):
 
 class Notice(UserWarning):
     """Something the user should know that stops nothing (a corrupt cache file rebuilt); printed as one line."""
+
+
+def seconds_from_env(variable: str, default: float, what: str) -> float:
+    """``$variable`` as seconds (``what`` they are, for the error), else ``default``: a number >= 0."""
+    text = os.environ.get(variable, "").strip()
+    if not text:
+        return default
+    try:
+        seconds = float(text)
+    except ValueError:
+        seconds = math.nan
+    if not 0 <= seconds < math.inf:
+        raise UserError(f"{variable}={text!r}: expected {what}, a number >= 0")
+    return seconds

@@ -9,7 +9,7 @@ import json
 import math
 import os
 import sys
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -165,7 +165,7 @@ def _work(job: str) -> None:
     d = json.loads(job)
     for path in d["kernel_files"]:
         ext.load_kernels(path)
-    tests, seconds, twins = _passes(Sweep.from_dict(d["sweep"]))
+    tests, seconds, twins = _passes(Sweep.from_dict(d["sweep"]), emit)
     emit(
         "passes",
         {
@@ -175,15 +175,19 @@ def _work(job: str) -> None:
     )
 
 
-def _passes(sweep: Sweep) -> Passes:
+def _passes(sweep: Sweep, emit: Callable[[str, dict], None] | None = None) -> Passes:
+    """The passes, in this process; in a worker, ``emit`` says how long each step may be silent (protocol)."""
     from .. import ext
     from ..workloads import cache
     from ..workloads.front import front_reference
+    from .worker import BVH_RAY_TESTS, SLOW_TEST_S, silence_floor_s
 
     tests: dict[str, int] = {}
     seconds: dict[tuple[str, str], float] = {}
     twins: dict[tuple[str, str], float] = {}
     for spec, wid in zip(sweep.workloads, sweep.workload_ids, strict=True):
+        if emit:  # no kernel runs while the workload is made, however long that takes
+            emit("silence", {"seconds": None, "during": f"making workload {wid}"})
         w = cache.make(spec)
         pairs = w.mode == "pairs"
         if not pairs and any(ext.kernel_info(k).culls_back_faces for k in sweep.kernels_for(spec)):
@@ -193,12 +197,15 @@ def _passes(sweep: Sweep) -> Passes:
         bvh = getattr(spec, "accel", "brute") == "bvh"  # a ray costs a traversal, not a test of every triangle
         step = math.ceil(rays / SLICE_RAYS) if bvh else math.ceil(tests[wid] / SLICE_TESTS)
         part = slice(None, None, max(1, step))
+        silence_s = silence_floor_s() + SLOW_TEST_S * 10 * (SLICE_RAYS * BVH_RAY_TESTS if bvh else SLICE_TESTS)
 
         def cut(a: Any, part: slice = part) -> Any:
             return None if a is None or np.ndim(a) == 0 else np.ascontiguousarray(a[part])
 
         o, d, tm = cut(w.origins), cut(w.directions), cut(w.t_max)
         for kernel in sweep.kernels_for(spec):
+            if emit:  # a BVH's build, then a few passes
+                emit("silence", {"seconds": silence_s, "during": f"timing a pass of {kernel} on {wid}"})
             if bvh:
                 seconds[(kernel, wid)], twins[(kernel, wid)] = _bvh_passes(kernel, w, o, d, tm)
                 continue

@@ -3,8 +3,10 @@
 Every measurement (the sweeps', the peers', a kernel file's check) runs in such a worker. :func:`run_worker`
 is the parent's side, :func:`serve` the worker's: the channel is stdout moved to a descriptor of its own,
 fd 1 going to stderr, so a ``printf`` in a user's kernel cannot break a line. The protocol's own types:
-``notice`` (printed once however many workers send it), ``error`` (exit code 3: :class:`WorkerError`) and
-``end``, without which a worker failed (a kernel that called ``exit()``). Its stderr shows only on failure."""
+``notice`` (printed once however many workers send it), ``error`` (exit code 3: :class:`WorkerError`),
+``silence`` (``seconds``: how long the worker may now go without a line, None for ever; ``during``: what it does;
+past it, it is stopped, as a kernel that never returns) and ``end``, without which a worker failed (a kernel that
+called ``exit()``). Its stderr shows only on failure."""
 
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TextIO
@@ -47,26 +50,20 @@ def run_worker(
     """Run one worker to its end: ``job`` to its stdin, each line to ``handlers[type]``.
 
     Raises :class:`WorkerError` on an error line, a line not the protocol's, an exit before ``end`` or with a
-    non-zero code, or past ``timeout`` seconds (killed); a handler's exception kills the worker and propagates."""
+    non-zero code, or a silence longer than allowed (killed): ``timeout`` seconds until the worker's ``silence``
+    lines say otherwise. A handler's exception kills the worker and propagates."""
     error, ended = None, False
     with tempfile.TemporaryFile("w+") as err:
         proc = subprocess.Popen(
             list(command), stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, env=dict(env), text=True
         )
         assert proc.stdin is not None and proc.stdout is not None  # both are pipes
-        timed_out = threading.Event()
-
-        def stop() -> None:
-            timed_out.set()
-            proc.kill()
-
-        timer = threading.Timer(timeout, stop) if timeout is not None else None
-        if timer is not None:
-            timer.start()
+        watch = _Watch(proc, timeout)
         try:
             proc.stdin.write(job)
             proc.stdin.close()
             for line in proc.stdout:
+                watch.heard()
                 try:
                     message = json.loads(line)
                     kind = message.pop("type")
@@ -74,6 +71,8 @@ def run_worker(
                     raise WorkerError(f"{name} sent a line that is not the protocol's: {line.strip()[:80]!r}") from None
                 if kind == "end":
                     ended = True
+                elif kind == "silence":
+                    watch.limit, watch.during = message["seconds"], message["during"]
                 elif kind == "notice":
                     if message["message"] not in _NOTICES_SHOWN:  # once: ten workers, one file
                         _NOTICES_SHOWN.add(message["message"])
@@ -90,16 +89,48 @@ def run_worker(
             proc.wait()
             raise
         finally:
-            if timer is not None:
-                timer.cancel()
-        if timed_out.is_set():
-            raise WorkerError(f"{name} did not finish in {timeout:g} s (a kernel that never returns?): it was stopped")
+            watch.stop()
+        if watch.fired is not None:
+            during = f" while {watch.during}" if watch.during else ""
+            raise WorkerError(
+                f"{name} sent nothing for {watch.fired:.3g} s{during} (a kernel that never returns?): it was stopped"
+            )
         if error is not None:
             raise WorkerError(error, said=True)
         if code != 0:
             raise WorkerError(f"{name} {_exit_words(code, err)}")
         if not ended:
             raise WorkerError(f"{name} exited before its job was done (exit code 0: its code called exit()?)")
+
+
+class _Watch:
+    """Kills ``proc`` once it has sent no line for ``limit`` seconds (None: never); ``fired`` is then that limit."""
+
+    def __init__(self, proc: subprocess.Popen, limit: float | None) -> None:
+        self.proc, self.limit, self.during = proc, limit, ""
+        self.last = time.monotonic()
+        self.fired: float | None = None
+        self._stopped = threading.Event()
+        threading.Thread(target=self._watch, daemon=True).start()
+
+    def heard(self) -> None:
+        self.last = time.monotonic()
+
+    def stop(self) -> None:
+        self._stopped.set()
+
+    def _watch(self) -> None:
+        while not self._stopped.wait(self._left()):
+            limit = self.limit
+            if limit is not None and time.monotonic() - self.last >= limit:
+                self.fired = limit
+                self.proc.kill()
+                return
+
+    def _left(self) -> float:
+        """How long to sleep: until the limit would pass, at most a second (a ``silence`` line may change it)."""
+        limit = self.limit
+        return 1.0 if limit is None else min(1.0, max(0.001, self.last + limit - time.monotonic()))
 
 
 def _exit_words(code: int, err: TextIO) -> str:

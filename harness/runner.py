@@ -14,7 +14,6 @@ import datetime as _dt
 import functools
 import hashlib
 import json
-import math
 import os
 import secrets
 import sys
@@ -26,7 +25,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from .. import ext
-from ..common import UserError
+from ..common import UserError, seconds_from_env
 from ..workloads import mesh_files
 from ..workloads.spec import MeshSpec
 from . import runfolder
@@ -104,16 +103,7 @@ PROGRESS_SECONDS = 10.0
 
 def progress_seconds() -> float:
     """The interval of plain progress lines: ``$TRIBENCH_PROGRESS_SECONDS``, else :data:`PROGRESS_SECONDS`."""
-    text = os.environ.get(PROGRESS_VARIABLE, "").strip()
-    if not text:
-        return PROGRESS_SECONDS
-    try:
-        seconds = float(text)
-    except ValueError:
-        seconds = math.nan
-    if not 0 <= seconds < math.inf:
-        raise UserError(f"{PROGRESS_VARIABLE}={text!r}: expected seconds between progress lines, a number >= 0")
-    return seconds
+    return seconds_from_env(PROGRESS_VARIABLE, PROGRESS_SECONDS, "seconds between progress lines")
 
 
 class Progress:
@@ -259,12 +249,13 @@ def start(
     from .machine import machine_record
     from .margin import latest_margin
     from .peak import throughput_record
-    from .worker import kernel_isa
+    from .worker import kernel_isa, silence_floor_s
 
     run_dir = Path(run_dir)
     runfolder.check_new_run_dir(run_dir)
     if progress is not False:
         progress_seconds()  # a bad $TRIBENCH_PROGRESS_SECONDS fails before the run folder exists
+    silence_floor_s()  # and a bad $TRIBENCH_SILENCE_SECONDS
     machine = machine_record()
     margin = margin if margin is not None else latest_margin(machine["cpu_model"])
     keys = plan(sweep)

@@ -22,6 +22,7 @@ from typing import Any, cast
 import numpy as np
 
 from .. import ext
+from ..common import seconds_from_env
 from ..workloads import bvh_cache
 from ..workloads.spec import MeshSpec
 from . import layout, protocol
@@ -39,6 +40,14 @@ __all__ = [
 
 #: Iterations of the FMA probe: 192 flops each, about 0.4 ms at 100 GFLOP/s.
 PEAK_ITERATIONS = 200_000
+
+#: How long a worker may go without a line (protocol ``silence``), so that a kernel that never returns stops the
+#: sweep, which keeps its batches: a floor for what runs no kernel (a cache read, a reference; ``$SILENCE_VARIABLE``
+#: seconds), then, for a kernel's check, a pass at 10 us a test (a BVH ray: 1,000 tests), 100x the slowest built-in
+#: kernel, and from then on ten times the slowest check and batch (docs/decisions.md, "A kernel that never returns").
+SILENCE_VARIABLE, SILENCE_FLOOR_S = "TRIBENCH_SILENCE_SECONDS", 60.0
+SLOW_TEST_S = 1e-5
+BVH_RAY_TESTS = 1000
 
 
 @dataclass(frozen=True)
@@ -250,10 +259,16 @@ def _load_workloads(job: WorkerJob, rng: np.random.Generator) -> tuple[dict[str,
 
 def _prepare(job: WorkerJob, process: int, kernel: str, w: Any, arrays: tuple, emit):
     """One kernel on one workload before its first batch: its job (brute force or through its BVH),
-    its answers checked against the reference (a ``check`` row), and its batch length calibrated."""
+    its answers checked against the reference (a ``check`` row), and its batch length calibrated;
+    and the seconds its check took."""
     o, d, tris = arrays
+    bvh = isinstance(w.spec, MeshSpec) and w.spec.accel == "bvh"
+    tests = len(o) * (BVH_RAY_TESTS if bvh else len(tris) if w.mode != "pairs" else 1)
+    during = f"checking {kernel} on {w.workload_id}"
+    emit("silence", {"seconds": silence_floor_s() + SLOW_TEST_S * tests, "during": during})
+    started = time.monotonic()
     kjob: ext.Job | BvhJob
-    if isinstance(w.spec, MeshSpec) and w.spec.accel == "bvh":
+    if bvh:
         kjob = _bvh_job(kernel, w, o, d, tris)
         expected, counts = one_pass_checksum(kernel, w, kjob.bvh)
     else:
@@ -270,7 +285,20 @@ def _prepare(job: WorkerJob, process: int, kernel: str, w: Any, arrays: tuple, e
         t_sum=expected.t_sum,
     )
     emit("check", check)
-    return kjob, calibrate_loops(kjob, job.target_ms * 1e6), expected
+    checked_s = time.monotonic() - started
+    during = f"calibrating {kernel} on {w.workload_id}"
+    emit("silence", {"seconds": _silence_s(checked_s, job), "during": during})
+    return kjob, calibrate_loops(kjob, job.target_ms * 1e6), expected, checked_s
+
+
+def silence_floor_s() -> float:
+    """The least a worker may go without a line: ``$TRIBENCH_SILENCE_SECONDS``, else :data:`SILENCE_FLOOR_S`."""
+    return seconds_from_env(SILENCE_VARIABLE, SILENCE_FLOOR_S, "the least seconds a worker may go without a line")
+
+
+def _silence_s(slowest_s: float, job: WorkerJob) -> float:
+    """How long a worker may be silent once its slowest check took ``slowest_s``: a batch is one pass or the target."""
+    return silence_floor_s() + 10 * (slowest_s + job.target_ms * 1e-3)
 
 
 def run_job(job: WorkerJob, emit) -> None:
@@ -290,11 +318,16 @@ def run_job(job: WorkerJob, emit) -> None:
         kernels_of.setdefault(wid, {})[kernel] = None
     prepared: dict[tuple[str, str], tuple[ext.Job | BvhJob, int, Checksum]] = {}
     meter = _Meter()
+    slowest_s = 0.0
     for process, wid, rnd, position, kernel in job.keys:
         w = workloads[wid]
         if (kernel, wid) not in prepared:  # a new workload block: check and calibrate all its kernels first
             for k in kernels_of[wid]:
-                prepared[(k, wid)] = _prepare(job, process, k, w, arrays[wid], emit)
+                kjob, loops, expected, checked_s = _prepare(job, process, k, w, arrays[wid], emit)
+                prepared[(k, wid)] = (kjob, loops, expected)
+                slowest_s = max(slowest_s, checked_s)
+            during = f"timing the batches of {', '.join(kernels_of[wid])} on {wid}"
+            emit("silence", {"seconds": _silence_s(slowest_s, job), "during": during})
             meter.forget()
         kjob, loops, expected = prepared[(kernel, wid)]
         batch, switches, steal, bvh_trace = _timed(kjob, loops, rng, meter)

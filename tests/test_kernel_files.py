@@ -104,7 +104,7 @@ HOSTILE_C = {
     "exits_0": ("exit(0);", "exited before its job was done"),
     "exits_2": ("exit(2);", "exited with code 2"),
     "aborts": ("abort();", "was killed by SIGABRT"),
-    "loops": ("for (volatile int i = 0;; ++i) {}", "did not finish in 5 s"),
+    "loops": ("for (volatile int i = 0;; ++i) {}", "sent nothing for 5 s"),
 }
 
 
@@ -319,6 +319,27 @@ except UserError as e:
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
     assert done.stdout.startswith("refused: the worker timing a pass of each kernel was killed by SIGABRT"), done.stdout
     assert done.stdout.count("\n") == 1 and not (tmp_path / "run").exists()
+
+
+@pytest.mark.slow  # a compile (seconds)
+def test_a_kernel_that_never_returns_in_a_sweep_stops_it_in_one_line_and_its_batches_are_kept(
+    tmp_path, builds, monkeypatch
+):
+    # it passes its check (a few hundred thousand tests), then loops for ever past its two millionth test in a
+    # process: the sweep once waited for it for ever; the worker's silence limit now stops it
+    path = injected(tmp_path, "k_stalls", "static long calls; if (++calls > 2000000) for (volatile int i = 0;; ++i) {}")
+    monkeypatch.setenv("TRIBENCH_SILENCE_SECONDS", "1")  # the floor of the limit, 60 s by default
+    done = tribench(
+        "sweep", "--kernel-file", path, "--kernels", "k_stalls,moller_trumbore", "--pairs", "500",
+        "--processes", "2", "--rounds", "60", "--target-ms", "2", "--out", "run", "--no-progress",
+        cwd=tmp_path, cache=builds,
+    )  # fmt: skip
+    assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
+    said = done.stderr.strip().splitlines()[-1]
+    assert re.search(r"worker of process \d sent nothing for [\d.]+ s while \w+ [^;]*k_stalls", said), said
+    assert "(a kernel that never returns?)" in said and "finish with: tribench sweep --resume run" in said
+    saved = int(re.search(r"(\d+) of \d+ batches saved in run", said).group(1))
+    assert saved == len((tmp_path / "run" / "batches.csv").read_text().splitlines()) - 1
 
 
 @pytest.mark.slow

@@ -160,6 +160,20 @@ def test_the_estimate_counts_every_batch_and_grows_with_the_design(tmp_path, mon
     assert a.line().startswith("expected: about ") and a.line("for the sweep").startswith("expected for the sweep: ")
 
 
+def test_the_forecasts_worker_may_be_silent_while_a_workload_is_made_and_briefly_while_a_kernel_runs(
+    tmp_path, monkeypatch
+):
+    monkeypatch.setenv("TRIBENCH_CACHE", str(tmp_path / "cache"))
+    sweep = Sweep(("moller_trumbore", "curless"), (PairSpec(n=300),), processes=2, rounds=2, warmup=1, target_ms=0.2)
+    lines: list[dict] = []
+    duration._passes(sweep, lambda kind, line: lines.append({"type": kind, **line}))
+    assert {line["type"] for line in lines} == {"silence"}
+    making, *passes = lines
+    assert making["seconds"] is None and sweep.workload_ids[0] in making["during"]
+    assert [p["during"].split()[4] for p in passes] == list(sweep.kernels)  # "timing a pass of K on W"
+    assert all(60 <= p["seconds"] < 600 for p in passes)
+
+
 def test_a_bvh_workloads_forecast_times_its_tree_and_the_null_twin_of_each_batch(tmp_path, monkeypatch):
     # a BVH pass was once forecast as brute force (rays x triangles tests): 11 minutes for a sweep of 2 s
     from tribench.workloads.spec import MeshSpec

@@ -84,5 +84,22 @@ def test_a_worker_that_exits_or_dies_before_its_end_line_fails_in_one_line(job, 
 
 
 def test_a_worker_past_its_time_limit_is_stopped_and_said_so():
-    with pytest.raises(protocol.WorkerError, match=r"did not finish in 1 s"):
-        protocol.run_worker(WORKER, "import time; time.sleep(60)", os.environ, {}, "test worker", timeout=1.0)
+    with pytest.raises(protocol.WorkerError, match=r"sent nothing for 0.3 s"):
+        protocol.run_worker(WORKER, "import time; time.sleep(60)", os.environ, {}, "test worker", timeout=0.3)
+
+
+def test_a_worker_sets_how_long_it_may_be_silent_and_each_line_restarts_the_clock():
+    lines = []
+    speaks = (
+        "import time; emit('silence', {'seconds': 0.6, 'during': 'talking'});"
+        "[(time.sleep(0.2), emit('row', {'i': i})) for i in range(4)]"  # 0.8 s in all, never 0.6 s silent
+    )
+    protocol.run_worker(WORKER, speaks, os.environ, {"row": lines.append}, "test worker", timeout=30)
+    assert len(lines) == 4
+    stalls = "import time; emit('silence', {'seconds': 0.3, 'during': 'timing k on w'}); time.sleep(60)"
+    with pytest.raises(protocol.WorkerError, match=r"sent nothing for 0.3 s while timing k on w \(a kernel"):
+        protocol.run_worker(WORKER, stalls, os.environ, {}, "test worker", timeout=30)
+    unbounded = (
+        "import time; emit('silence', {'seconds': None, 'during': 'building'}); time.sleep(0.8); emit('row', {})"
+    )
+    protocol.run_worker(WORKER, unbounded, os.environ, {"row": lines.append}, "test worker", timeout=0.3)
