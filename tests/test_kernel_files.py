@@ -282,10 +282,26 @@ def test_a_kernel_that_crashes_is_refused_in_one_line(tmp_path, builds):
     assert done.returncode == 2
     assert done.stderr.splitlines() == [f"tribench sweep: error: the reference check of {crashy} was killed by SIGSEGV"]
     assert not (tmp_path / "run").exists()
-    # validate runs kernels in its own process: a crashing one is refused first, the same way
+    # validate refuses a crashing one first, the same way
     done = tribench("validate", "--kernel-file", crashy, "--quick", "--out", "v.csv", cwd=tmp_path, cache=builds)
     assert done.returncode == 2 and "reference check of" in done.stderr and "was killed by SIGSEGV" in done.stderr
     assert "Traceback" not in done.stderr and not (tmp_path / "v.csv").exists()
+
+
+@pytest.mark.slow  # a compile (seconds)
+def test_a_kernel_that_crashes_only_on_the_full_robustness_suite_ends_a_worker_not_validate(tmp_path, builds):
+    # its check runs the quick suite (under a million tests a precision); the full one runs 15 million, and
+    # validate (and a sweep's robustness step) ran it in their own process: validate died of SIGABRT, no word
+    path = injected(tmp_path, "k_tires", "static long calls; if (++calls > 2000000) abort();")
+    done = tribench(
+        "validate", "--kernel-file", path, "--kernels", "moller_trumbore", "--dtype", "float32", "--out", "v.csv",
+        "--no-progress", cwd=tmp_path, cache=builds,
+    )  # fmt: skip
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    said = done.stderr.strip().splitlines()[-1]
+    assert said.startswith("tribench validate: error: the robustness suite's worker was killed by SIGABRT"), said
+    assert said.endswith("a kernel file's kernel failed on the robustness suite; nothing was measured"), said
+    assert not (tmp_path / "v.csv").exists()
 
 
 @pytest.mark.slow  # a compile (seconds)

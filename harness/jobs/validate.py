@@ -183,8 +183,10 @@ def measure(kernel: str, sets: RaySets) -> list[dict]:
 def run(kernels=None, dtypes=DTYPES, quick: bool = False, rng_seed: int = 0, tests=TESTS, progress: bool | None = None):
     """The whole suite as a tidy DataFrame (:data:`COLUMNS`), ordered by kernel, dtype and test.
 
-    ``kernels`` default to ``ext.kernel_names()``; ``quick``: the ``QUICK`` sizes;
-    ``progress`` False for none. The frame's ``attrs`` record the RNG seed (``rng_seed``), size and seconds."""
+    ``kernels`` default to ``ext.kernel_names()``; ``quick``: the ``QUICK`` sizes; ``progress`` False for none.
+    With a kernel file's kernel among them, the suite runs in a worker of the protocol: the kernel's check ran the
+    quick suite only, and one that crashes or never returns on the full one ends the worker, not this process
+    (UserError). The frame's ``attrs`` record the RNG seed (``rng_seed``), size and seconds."""
     import pandas as pd
 
     from ..runner import progress_ticks
@@ -197,15 +199,64 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, rng_seed: int = 0, tes
         if twice:  # each would be measured twice, and the table's rows would clash
             raise UserError(f"{what} name {', '.join(twice)} more than once: give each once")
     start = time.perf_counter()
-    sets = [build(dtype, quick, rng_seed, tests) for dtype in dtypes]
-    rows = []
+    rows: list[dict] = []
+    files = sorted({f.path for k in kernels if (f := ext.kernel_file_of(k)) is not None})
     with progress_ticks(progress, len(kernels), unit="kernels", label="validate") as advance:
-        for k in kernels:
-            rows += [r for s in sets for r in measure(k, s)]
+
+        def got(kernel_rows: list[dict]) -> None:
+            rows.extend(kernel_rows)
             advance()
+
+        suite = {"kernels": kernels, "dtypes": list(dtypes), "quick": quick, "rng_seed": rng_seed, "tests": list(tests)}
+        if files:
+            _in_a_worker(files, suite, got)
+        else:
+            _measure_each(**suite, got=got)
     df = pd.DataFrame(rows, columns=list(COLUMNS))
     df.attrs.update(rng_seed=rng_seed, size="quick" if quick else "full", seconds=time.perf_counter() - start)
     return df
+
+
+def _measure_each(kernels, dtypes, quick, rng_seed, tests, got, emit=None) -> None:
+    """``got(rows)`` of each kernel in turn; in a worker, ``emit`` says how long each kernel may take (protocol)."""
+    from ..worker import SLOW_TEST_S, silence_floor_s
+
+    sets = [build(dtype, quick, rng_seed, tests) for dtype in dtypes]
+    rays = sum(len(m.origins) * len(m.triangles) for s in sets for ms in s.meshes.values() for m in ms)
+    rays += sum(len(p.origins) for s in sets for p in s.pairs.values())
+    for k in kernels:
+        if emit:  # every test, twice (a mesh's rays serve two tests)
+            emit("silence", {"seconds": silence_floor_s() + 2 * SLOW_TEST_S * rays, "during": f"validating {k}"})
+        got([r for s in sets for r in measure(k, s)])
+
+
+def _in_a_worker(files: list[str], suite: dict[str, Any], got) -> None:
+    import json
+    import os
+    import sys
+
+    from ..protocol import WorkerError, run_worker
+
+    command = [sys.executable, "-m", "tribench.harness.jobs.validate"]
+    job = json.dumps({"kernel_files": files, "suite": suite})
+    try:
+        run_worker(command, job, os.environ, {"rows": lambda m: got(m["rows"])}, "the robustness suite's worker")
+    except WorkerError as exc:
+        if exc.said:
+            raise UserError(str(exc)) from None
+        raise UserError(f"{exc}: a kernel file's kernel failed on the robustness suite; nothing was measured") from None
+
+
+def _work(job: str) -> None:
+    """The worker of :func:`_in_a_worker`: a ``rows`` line per kernel."""
+    import json
+
+    from ..protocol import emit
+
+    d = json.loads(job)
+    for path in d["kernel_files"]:
+        ext.load_kernels(path)
+    _measure_each(**d["suite"], got=lambda rows: emit("rows", {"rows": rows}), emit=emit)
 
 
 # ---------------------------------------------------------------- displaying
@@ -272,3 +323,13 @@ def format_table(df) -> str:
         f"{int((df.verdict == 'fail').sum())} broken, marked !",
     ]
     return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    import faulthandler
+    import sys
+
+    from ..protocol import serve
+
+    faulthandler.disable()  # a crash is reported by the parent, in one line
+    sys.exit(serve(_work))
