@@ -25,6 +25,8 @@ from tribench.reports.tables import bvh as bvh_tables
 from tribench.workloads import cache
 from tribench.workloads.spec import MeshSpec, PairSpec, workload_id
 
+pytestmark = pytest.mark.slow  # small runs with a BVH workload, measured and reported: CI runs it
+
 SMALL = {"mesh": "suzanne", "triangles": 200, "width": 16, "height": 16, "dtype": "float32"}
 KERNELS = ("moller_trumbore_fma", "baldwin_weber_12_fma")
 BVH_SPEC = MeshSpec(**SMALL, accel="bvh")

@@ -137,6 +137,7 @@ def _detected(folder, path, fresh_checksum) -> None:
         assert make(SPEC).checksum() == fresh_checksum
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_every_random_corruption_is_detected(pristine, data):

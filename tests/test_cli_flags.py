@@ -255,6 +255,7 @@ def test_resume_refuses_every_other_sweep_flag(tmp_path, capsys):
         )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("flag, value", [("--rounds", "1000000000"), ("--processes", "1000000000000")])
 def test_a_huge_plan_is_refused_before_anything_is_allocated(flag, value, tmp_path):
     i = SMALL.index(flag)  # in place of SMALL's own value: a flag given twice is refused for that alone
@@ -405,6 +406,7 @@ def _lines(path: Path) -> int:
     return len(path.read_text().splitlines()) if path.exists() else 0
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_a_sweep_keeping_its_batches(tmp_path):
     out = tmp_path / "run"
     code, err, seconds = _interrupt(
@@ -425,6 +427,7 @@ def test_ctrl_c_stops_a_sweep_keeping_its_batches(tmp_path):
         (["seed", "--quick", "--no-progress", "--out", "seed"], "workload: "),
     ],
 )
+@pytest.mark.slow
 def test_ctrl_c_stops_a_command_with_one_line(args, marker, tmp_path):
     code, err, seconds = _interrupt(args, marker, tmp_path)
     assert code == 130 and "Traceback" not in err and seconds < 3, err

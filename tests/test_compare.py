@@ -25,6 +25,8 @@ from tribench.reports import charts, page
 from tribench.reports.compare import RATIO_WORDS, compare_many, compare_runs, format_many, order_summary, render_compare
 from tribench.reports.rundata import load_run
 
+pytestmark = pytest.mark.slow  # small runs measured, then compared: CI runs it
+
 FACTOR = 1.25  # run B: moller_trumbore made exactly this much faster
 
 
@@ -78,7 +80,7 @@ def test_ratio_of_speedups_recovers_a_known_factor(two_runs):
     assert c.only_a == [] and c.only_b == []
 
 
-@pytest.mark.slow  # the command in a fresh interpreter (seconds)
+# the command in a fresh interpreter (seconds)
 def test_compare_cli_prints_a_table_and_writes_html(two_runs, tmp_path):
     out = tmp_path / "cmp.html"
     proc = subprocess.run(
@@ -188,7 +190,6 @@ def three_runs(tmp_path_factory):
         yield [_fake_run(real, base / tag, f, f"machine {tag}") for tag, f in FACTORS.items()]
 
 
-@pytest.mark.slow
 def test_n_runs_give_a_machine_by_kernel_table_of_known_speedups(three_runs):
     m = compare_many([load_run(r) for r in three_runs])
     assert m.tags == ["A", "B", "C"] and m.baseline == "moller_seed" and len(m.workload_ids) == 4
@@ -202,7 +203,6 @@ def test_n_runs_give_a_machine_by_kernel_table_of_known_speedups(three_runs):
                 assert r["ratio_ci_low"] <= r["ratio"] <= r["ratio_ci_high"] and r["verdict"] == "faster"
 
 
-@pytest.mark.slow
 def test_n_runs_say_which_orders_hold_on_every_machine(three_runs):
     m = compare_many([load_run(r) for r in three_runs])
     o = m.orders
@@ -233,7 +233,6 @@ def test_a_workload_without_the_baseline_still_shows_its_orders(three_runs):
     assert f'{bvh_like})</small></h3><p class="note">(none)</p>' in render_compare(runs, m)
 
 
-@pytest.mark.slow
 def test_compare_cli_takes_three_runs(three_runs, tmp_path):
     out = tmp_path / "three.html"
     proc = subprocess.run(
@@ -333,7 +332,6 @@ def runs_sharing_only_the_baseline(two_runs, tmp_path_factory):
     return folders
 
 
-@pytest.mark.slow
 def test_runs_sharing_only_the_baseline_give_tables_of_what_they_share(runs_sharing_only_the_baseline, tmp_path):
     runs = [load_run(r) for r in runs_sharing_only_the_baseline]
     many = compare_many(runs)

@@ -188,6 +188,7 @@ def test_an_undefined_interval_is_left_out_not_written_as_nan(run_dir):
 # ------------------------------------------------------------------ the command
 
 
+@pytest.mark.slow
 def test_tribench_export_prints_what_the_analysis_wrote(run_dir, tmp_path):
     proc = _tribench("export", str(run_dir))
     assert proc.returncode == 0, proc.stderr

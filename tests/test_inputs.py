@@ -169,6 +169,7 @@ def test_flags_over_a_sweep_file_are_named(tmp_path):
     assert load_sweep_file(f, {"rounds": 3, "rng_seed": None}).rounds == 3
 
 
+@pytest.mark.slow
 def test_plan_bounds_from_the_command_line(tmp_path):
     f = tmp_path / "sweep.toml"
     f.write_text(f"{HEAD.replace('processes = 2', 'processes = 9223372036854775807')}{TABLE}")

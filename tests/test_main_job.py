@@ -15,6 +15,8 @@ from tribench.harness.plan import Sweep
 from tribench.reports import tables as analysis
 from tribench.workloads.spec import MeshSpec, PairSpec
 
+pytestmark = pytest.mark.slow  # the main job's small runs: CI runs it
+
 #: The default sweep's shape (pairs at two hit rates, a mesh; the baseline and a clean kernel), as small as it goes.
 TINY = Sweep(
     ("moller_seed", "moller_trumbore"),
@@ -134,7 +136,6 @@ def test_the_default_sweep_ranks_every_algorithm_in_its_best_form_against_the_se
     assert set(s.kernels) == set(info) | {"moller_seed_aa"}
 
 
-@pytest.mark.slow
 def test_an_interrupted_main_job_resumes_to_the_end(tmp_path, monkeypatch):
     from tribench.harness import runner
 
@@ -150,7 +151,7 @@ def test_an_interrupted_main_job_resumes_to_the_end(tmp_path, monkeypatch):
     assert "finishing the main job" in log.getvalue()
 
 
-@pytest.mark.slow  # a sweep, then its refusal (seconds)
+# a sweep, then its refusal (seconds)
 def test_resume_refuses_a_folder_that_is_not_a_main_job(tmp_path, monkeypatch):
     from tribench.common import UserError
     from tribench.harness import runner
@@ -194,7 +195,6 @@ def test_run_resume_is_refused_in_one_line_where_it_cannot_apply(tmp_path):
         assert done.returncode == 2 and said in done.stderr and "Traceback" not in done.stderr, done.stderr
 
 
-@pytest.mark.slow
 def test_the_baselines_a_a_twin_sets_the_margin_and_is_ranked_nowhere(tmp_path, monkeypatch):
     from tribench import reports
     from tribench.reports.tables import margin as twin

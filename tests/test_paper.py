@@ -78,6 +78,7 @@ def test_latex_has_one_booktabs_table_per_band_with_every_ranked_kernel(run_dir)
     assert r"moller\_seed & " in text and "baseline" in text
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(shutil.which("pdflatex") is None, reason="no TeX installation (Debian: texlive-latex-recommended)")
 def test_latex_compiles(run_dir, tmp_path):
     body = _export(run_dir, "latex")

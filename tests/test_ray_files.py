@@ -199,6 +199,7 @@ def tribench(*args, cwd, cache_dir):
     return subprocess.run([TRIBENCH, *map(str, args)], capture_output=True, text=True, timeout=300, cwd=cwd, env=env)
 
 
+@pytest.mark.slow
 def test_workloads_make_takes_a_ray_file_through_the_installed_command(tmp_path):
     save(tmp_path / "mine.npz", **own_rays())
     done = tribench("workloads", "make", "icosphere", "--rays", "mine.npz", cwd=tmp_path, cache_dir=tmp_path / "c")

@@ -24,6 +24,8 @@ from tribench.reports import charts, checks, headline, speed_charts
 from tribench.reports import html as report_html
 from tribench.reports.rundata import RunError
 
+pytestmark = pytest.mark.slow  # the report of a small run, rendered (10 s) and read section by section: CI runs it
+
 
 @pytest.fixture(scope="module")
 def rendered(tmp_path_factory):
@@ -287,7 +289,7 @@ def test_the_page_uses_the_one_stylesheet_of_the_page_kit(rendered):
     assert text.count("<nav>") == 1 and text.endswith("</main></body></html>\n")
 
 
-@pytest.mark.slow  # a run analysed and reported again (seconds)
+# a run analysed and reported again (seconds)
 def test_the_calibration_note_shows_run_json_and_reads_no_file_outside_the_run(rendered, tmp_path):
     run_dir, _, _ = rendered
     copy = tmp_path / "run"
@@ -309,7 +311,7 @@ def test_the_calibration_note_shows_run_json_and_reads_no_file_outside_the_run(r
     assert "OUTSIDE_KERNEL" not in text
 
 
-@pytest.mark.slow  # a run analysed and reported again (seconds)
+# a run analysed and reported again (seconds)
 def test_a_calibration_run_shows_its_own_record(rendered, tmp_path):
     run_dir, _, _ = rendered
     copy = tmp_path / "run"
@@ -323,7 +325,7 @@ def test_a_calibration_run_shows_its_own_record(rendered, tmp_path):
     assert "<td>moller_trumbore vs moller_trumbore_aa</td>" in part and "<td>0.0123</td>" in part
 
 
-@pytest.mark.slow  # a run analysed and reported again (seconds)
+# a run analysed and reported again (seconds)
 def test_the_analysis_rebuilds_a_workload_missing_from_the_cache(tmp_path_factory, monkeypatch):
 
     run_dir, cache = run_fixture_dir(tmp_path_factory)

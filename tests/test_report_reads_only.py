@@ -19,6 +19,8 @@ from tribench.reports import tables as analysis
 from tribench.reports.tables import pipeline
 from tribench.workloads import cache
 
+pytestmark = pytest.mark.slow  # small runs measured, then reported: CI runs it
+
 #: Every entry point that measures, makes a workload, runs the suite, computes a statistic or writes a table.
 POISONED = [
     (ext, "time_batch"),
@@ -77,7 +79,7 @@ def copied(tmp_path_factory):
     return run_dir, original, copy
 
 
-@pytest.mark.slow  # two reports of a copied run (seconds)
+# two reports of a copied run (seconds)
 def test_a_copied_run_renders_the_same_report_with_an_empty_cache_and_nothing_computed(copied, tmp_path, monkeypatch):
     run_dir, original, copy = copied
     empty = tmp_path / "empty-cache"
@@ -97,7 +99,6 @@ def test_a_copied_run_renders_the_same_report_with_an_empty_cache_and_nothing_co
     assert reports.format_tables(copy) == reports.format_tables(run_dir).replace(str(run_dir), str(copy))
 
 
-@pytest.mark.slow
 def test_the_report_command_on_a_copied_run_creates_no_cache_file(copied, tmp_path):
     run_dir, _, copy = copied
     empty = tmp_path / "cache"

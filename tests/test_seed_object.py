@@ -65,6 +65,7 @@ def test_a_timed_batch_counts_the_twins_tests_and_hits(kernel, mode):
     assert mine.t_sum == pytest.approx(twin.t_sum, rel=1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="x86-64 code")
 @pytest.mark.skipif(shutil.which("objdump") is None, reason="needs objdump (binutils)")
 def test_every_vector_operation_stays_a_call_as_in_the_seeds_build():

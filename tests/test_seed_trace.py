@@ -15,6 +15,8 @@ from tribench.workloads.seed.trace import (
     trace,
 )
 
+pytestmark = pytest.mark.slow  # the seed's scenes traced at full size: CI runs it
+
 # Two big facing mirrors: one at z = -1 (facing +z, reflective), one at z = 3
 # behind the eye (facing -z). The 2 x 2 camera's rays aim at (+-0.5, +-0.5, 0),
 # direction (+-1/4, +-1/4, -1) per unit of z, so every ray bounces between them.

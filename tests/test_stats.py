@@ -378,6 +378,7 @@ def test_interleaved_design_covers_the_true_ratio(true_ratio, seed):
     assert 0.93 <= coverage(sim, true_ratio) <= 0.97
 
 
+@pytest.mark.slow
 def test_sequential_design_under_drift_collapses_and_is_flagged():
     interleaved = simulate(1000, (1.25,), seed=303, design="interleaved")
     sequential = simulate(1000, (1.25,), seed=303, design="sequential")

@@ -416,6 +416,7 @@ def test_pair_inputs_match_the_recorded_bytes():
     assert inputs_sha256(w) == "fb00ea41166edf61770b01f7c73855919de28d6b72fd3928edf3f0fe90615a76"
 
 
+@pytest.mark.slow
 def test_determinism_across_two_fresh_processes(tmp_path):
     code = (
         "from tribench.workloads import make, PairSpec, MeshSpec\n"
