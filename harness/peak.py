@@ -8,11 +8,16 @@ bound"). ``fraction = bound / measured ns per test``, 1 at the bound."""
 
 from __future__ import annotations
 
+import json
+import os
+import sys
 from collections.abc import Mapping
 
 import numpy as np
 
 from .. import ext
+from ..common import UserError
+from .protocol import WorkerError, emit, run_worker
 
 #: probe iterations: about 20 ms at 100 GFLOP/s (12 chains x 16 flops each)
 PROBE_ITERATIONS = 10_000_000
@@ -71,10 +76,43 @@ def measure_peak(repeats: int = 5) -> ext.Peak:
 def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int = 64, rng_seed: int = 0, isa=None):
     """Every public kernel on the in-cache camera workload, as a fraction of its bound (``tribench info --peak``).
 
-    A quick look in this process, not the sweep's protocol: Suzanne at 968 triangles (in L2, which the port model
+    A quick look in one process, not the sweep's protocol: Suzanne at 968 triangles (in L2, which the port model
     does not count), every kernel once per round in a fresh order, the probes' mean before and after as the peak
     and rates. Returns ``(gflops, isa, rate_isa, rates, table)``; ``isa`` holds every native kernel and the
-    probes to that ISA, so an AVX-512 core answers for AVX2 too."""
+    probes to that ISA, so an AVX-512 core answers for AVX2 too. With kernel files loaded, that process is a
+    worker of the protocol: their check ran other triangles, and a kernel that crashes on these ends the worker
+    (UserError), not this process."""
+    import pandas as pd
+
+    args = {"dtypes": list(dtypes), "rounds": rounds, "size": size, "rng_seed": rng_seed, "isa": isa}
+    files = sorted({f.path for k in ext.kernel_names() if (f := ext.kernel_file_of(k)) is not None})
+    if not files:
+        return _camera_fractions(**args)
+    got: dict = {}
+    try:
+        run_worker(
+            [sys.executable, "-m", "tribench.harness.peak"],
+            json.dumps({"kernel_files": files, "args": args}),
+            os.environ,
+            {"fractions": got.update},
+            "the worker timing every kernel",
+        )
+    except WorkerError as exc:
+        raise UserError(f"{exc}: a kernel file's kernel fails on the camera workload (its check ran others)") from None
+    return got["gflops"], got["isa"], got["rate_isa"], got["rates"], pd.DataFrame(got["table"])
+
+
+def _work(job: str) -> None:
+    """The worker of :func:`camera_fractions`: one ``fractions`` line."""
+    d = json.loads(job)
+    for path in d["kernel_files"]:
+        ext.load_kernels(path)
+    gflops, isa, rate_isa, rates, table = _camera_fractions(**d["args"])
+    fractions = {"gflops": gflops, "isa": isa, "rate_isa": rate_isa, "rates": rates}
+    emit("fractions", {**fractions, "table": table.to_dict("records")})
+
+
+def _camera_fractions(dtypes, rounds: int, size: int, rng_seed: int, isa):
     import pandas as pd
 
     from ..workloads import cache
@@ -119,3 +157,12 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
             }
         )
     return gflops, before.isa, rates_before.isa, rates, pd.DataFrame(rows)
+
+
+if __name__ == "__main__":
+    import faulthandler
+
+    from .protocol import serve
+
+    faulthandler.disable()  # a crash is reported by the parent, in one line
+    sys.exit(serve(_work))

@@ -289,6 +289,33 @@ def test_a_kernel_that_crashes_is_refused_in_one_line(tmp_path, builds):
 
 
 @pytest.mark.slow  # a compile (seconds)
+def test_a_kernel_that_crashes_only_on_the_camera_workload_ends_a_worker_not_info_peak(tmp_path, builds):
+    # its check never prepares 968 triangles; info --peak timed it in its own process, which died of SIGABRT
+    path = variant(
+        tmp_path,
+        "k_suzanne",
+        "#define tb_k_suzanne_prepare_f32 tb_prepare_vertices_f32 /* the vertices as they are */\n"
+        "#define tb_k_suzanne_prepare_f64 tb_prepare_vertices_f64\n",
+        "#include <stdlib.h>\n#include <string.h>\n"
+        "static inline void TB_FN(suzanne_prepare)(const real *vertices, size_t n, real *out)\n{\n"
+        "    if (n == 968) /* the camera workload's Suzanne */\n        abort();\n"
+        "    memcpy(out, vertices, n * 9 * sizeof(real));\n}\n"
+        "#define tb_k_suzanne_prepare_f32 suzanne_prepare_f32\n"
+        "#define tb_k_suzanne_prepare_f64 suzanne_prepare_f64\n",
+    )
+    done = tribench("info", "--kernel-file", path, "--peak", cwd=tmp_path, cache=builds)
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    assert done.stderr.strip().splitlines()[-1] == (
+        "tribench info: error: the worker timing every kernel was killed by SIGABRT: a kernel file's kernel fails "
+        "on the camera workload (its check ran others)"
+    )
+    done = tribench("info", "--kernel-file", EXAMPLE, "--peak", cwd=tmp_path, cache=builds)  # timed in that worker
+    assert done.returncode == 0, done.stderr
+    rows = [line.split() for line in done.stdout.splitlines() if line.startswith("my_moller ")]
+    assert len(rows) == 3 and all(r[-1].endswith("%") for r in rows[1:])  # the list, then a row per precision
+
+
+@pytest.mark.slow  # a compile (seconds)
 def test_a_kernel_that_crashes_only_on_the_full_robustness_suite_ends_a_worker_not_validate(tmp_path, builds):
     # its check runs the quick suite (under a million tests a precision); the full one runs 15 million, and
     # validate (and a sweep's robustness step) ran it in their own process: validate died of SIGABRT, no word
