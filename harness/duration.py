@@ -5,9 +5,7 @@ start-up, then per kernel and workload a check, a calibration and its batches, e
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -131,25 +129,19 @@ def measure_passes(sweep: Sweep) -> Passes:
 
 
 def _passes_in_a_worker(sweep: Sweep) -> Passes:
-    from ..common import UserError
-    from .protocol import WorkerError, run_worker
+    from .protocol import run_apart
 
     got: dict[str, Any] = {}
-    command = [sys.executable, "-m", "tribench.harness.duration"]
-    try:
-        run_worker(
-            command,
-            # the files by path, loaded as the sweep's workers load them: the recorded sha256 is of the code
-            # compiled, local headers included, which no one file has
-            json.dumps({"sweep": {**sweep.to_dict(), "kernel_files": []}, "kernel_files": sweep.kernel_files}),
-            os.environ,
-            {"passes": got.update},
-            "the worker timing a pass of each kernel",
-        )
-    except WorkerError as exc:
-        raise UserError(
-            f"{exc}: a kernel file's kernel fails on this sweep's workloads (its check ran others); nothing was timed"
-        ) from None
+    run_apart(
+        "tribench.harness.duration",
+        # the files by path, loaded as the sweep's workers load them: the recorded sha256 is of the code
+        # compiled, local headers included, which no one file has
+        {**sweep.to_dict(), "kernel_files": []},
+        sweep.kernel_files,
+        {"passes": got.update},
+        "the worker timing a pass of each kernel",
+        "a kernel file's kernel fails on this sweep's workloads (its check ran others); nothing was timed",
+    )
     return (
         got["tests"],
         {(k, w): s for k, w, s in got["seconds"]},
@@ -157,15 +149,11 @@ def _passes_in_a_worker(sweep: Sweep) -> Passes:
     )
 
 
-def _work(job: str) -> None:
+def _work(sweep: dict[str, Any]) -> None:
     """The worker of :func:`_passes_in_a_worker`: one ``passes`` line."""
-    from .. import ext
     from .protocol import emit
 
-    d = json.loads(job)
-    for path in d["kernel_files"]:
-        ext.load_kernels(path)
-    tests, seconds, twins = _passes(Sweep.from_dict(d["sweep"]), emit)
+    tests, seconds, twins = _passes(Sweep.from_dict(sweep), emit)
     emit(
         "passes",
         {
@@ -238,9 +226,6 @@ def estimate(sweep: Sweep) -> Estimate:
 
 
 if __name__ == "__main__":
-    import faulthandler
+    from .protocol import serve_apart
 
-    from .protocol import serve
-
-    faulthandler.disable()  # a crash is reported by the parent, in one line
-    sys.exit(serve(_work))
+    sys.exit(serve_apart(_work))

@@ -8,16 +8,13 @@ bound"). ``fraction = bound / measured ns per test``, 1 at the bound."""
 
 from __future__ import annotations
 
-import json
-import os
 import sys
 from collections.abc import Mapping
 
 import numpy as np
 
 from .. import ext
-from ..common import UserError
-from .protocol import WorkerError, emit, run_worker
+from .protocol import emit, run_apart
 
 #: probe iterations: about 20 ms at 100 GFLOP/s (12 chains x 16 flops each)
 PROBE_ITERATIONS = 10_000_000
@@ -89,25 +86,20 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
     if not files:
         return _camera_fractions(**args)
     got: dict = {}
-    try:
-        run_worker(
-            [sys.executable, "-m", "tribench.harness.peak"],
-            json.dumps({"kernel_files": files, "args": args}),
-            os.environ,
-            {"fractions": got.update},
-            "the worker timing every kernel",
-        )
-    except WorkerError as exc:
-        raise UserError(f"{exc}: a kernel file's kernel fails on the camera workload (its check ran others)") from None
+    run_apart(
+        "tribench.harness.peak",
+        args,
+        files,
+        {"fractions": got.update},
+        "the worker timing every kernel",
+        "a kernel file's kernel fails on the camera workload (its check ran others)",
+    )
     return got["gflops"], got["isa"], got["rate_isa"], got["rates"], pd.DataFrame(got["table"])
 
 
-def _work(job: str) -> None:
+def _work(args: dict) -> None:
     """The worker of :func:`camera_fractions`: one ``fractions`` line."""
-    d = json.loads(job)
-    for path in d["kernel_files"]:
-        ext.load_kernels(path)
-    gflops, isa, rate_isa, rates, table = _camera_fractions(**d["args"])
+    gflops, isa, rate_isa, rates, table = _camera_fractions(**args)
     fractions = {"gflops": gflops, "isa": isa, "rate_isa": rate_isa, "rates": rates}
     emit("fractions", {**fractions, "table": table.to_dict("records")})
 
@@ -160,9 +152,6 @@ def _camera_fractions(dtypes, rounds: int, size: int, rng_seed: int, isa):
 
 
 if __name__ == "__main__":
-    import faulthandler
+    from .protocol import serve_apart
 
-    from .protocol import serve
-
-    faulthandler.disable()  # a crash is reported by the parent, in one line
-    sys.exit(serve(_work))
+    sys.exit(serve_apart(_work))

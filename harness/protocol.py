@@ -23,9 +23,9 @@ import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TextIO
 
-from ..common import Notice
+from ..common import Notice, UserError
 
-__all__ = ["WorkerError", "emit", "run_worker", "serve"]
+__all__ = ["WorkerError", "emit", "run_apart", "run_worker", "serve", "serve_apart"]
 
 
 class WorkerError(RuntimeError):
@@ -131,6 +131,39 @@ class _Watch:
         """How long to sleep: until the limit would pass, at most a second (a ``silence`` line may change it)."""
         limit = self.limit
         return 1.0 if limit is None else min(1.0, max(0.001, self.last + limit - time.monotonic()))
+
+
+def run_apart(
+    module: str,
+    job: Any,
+    kernel_files: Sequence[str],
+    handlers: Mapping[str, Callable[[dict[str, Any]], None]],
+    name: str,
+    fails: str,
+) -> None:
+    """``job`` in ``python -m module``'s worker (:func:`serve_apart`), ``kernel_files`` loaded there first: a user's
+    kernels on inputs their check never ran. A failure is one UserError, ``fails`` said after a crash or a hang."""
+    text = json.dumps({"kernel_files": list(kernel_files), "job": job})
+    try:
+        run_worker([sys.executable, "-m", module], text, os.environ, handlers, name)
+    except WorkerError as exc:
+        raise UserError(str(exc) if exc.said else f"{exc}: {fails}") from None
+
+
+def serve_apart(work: Callable[[Any], None]) -> int:
+    """The worker's main for :func:`run_apart`: the kernel files loaded, then ``work(job)``; the exit code."""
+    import faulthandler
+
+    from .. import ext
+
+    def load_then_work(text: str) -> None:
+        d = json.loads(text)
+        for path in d["kernel_files"]:  # by path, as the sweep's workers load them
+            ext.load_kernels(path)
+        work(d["job"])
+
+    faulthandler.disable()  # a crash is reported by the parent, in one line
+    return serve(load_then_work)
 
 
 def _exit_words(code: int, err: TextIO) -> str:

@@ -231,32 +231,23 @@ def _measure_each(kernels, dtypes, quick, rng_seed, tests, got, emit=None) -> No
 
 
 def _in_a_worker(files: list[str], suite: dict[str, Any], got) -> None:
-    import json
-    import os
-    import sys
+    from ..protocol import run_apart
 
-    from ..protocol import WorkerError, run_worker
-
-    command = [sys.executable, "-m", "tribench.harness.jobs.validate"]
-    job = json.dumps({"kernel_files": files, "suite": suite})
-    try:
-        run_worker(command, job, os.environ, {"rows": lambda m: got(m["rows"])}, "the robustness suite's worker")
-    except WorkerError as exc:
-        if exc.said:
-            raise UserError(str(exc)) from None
-        raise UserError(f"{exc}: a kernel file's kernel failed on the robustness suite; nothing was measured") from None
+    run_apart(
+        "tribench.harness.jobs.validate",
+        suite,
+        files,
+        {"rows": lambda m: got(m["rows"])},
+        "the robustness suite's worker",
+        "a kernel file's kernel failed on the robustness suite; nothing was measured",
+    )
 
 
-def _work(job: str) -> None:
+def _work(suite: dict[str, Any]) -> None:
     """The worker of :func:`_in_a_worker`: a ``rows`` line per kernel."""
-    import json
-
     from ..protocol import emit
 
-    d = json.loads(job)
-    for path in d["kernel_files"]:
-        ext.load_kernels(path)
-    _measure_each(**d["suite"], got=lambda rows: emit("rows", {"rows": rows}), emit=emit)
+    _measure_each(**suite, got=lambda rows: emit("rows", {"rows": rows}), emit=emit)
 
 
 # ---------------------------------------------------------------- displaying
@@ -326,10 +317,8 @@ def format_table(df) -> str:
 
 
 if __name__ == "__main__":
-    import faulthandler
     import sys
 
-    from ..protocol import serve
+    from ..protocol import serve_apart
 
-    faulthandler.disable()  # a crash is reported by the parent, in one line
-    sys.exit(serve(_work))
+    sys.exit(serve_apart(_work))
