@@ -99,26 +99,35 @@ def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int =
 
 def _work(args: dict) -> None:
     """The worker of :func:`camera_fractions`: one ``fractions`` line."""
-    gflops, isa, rate_isa, rates, table = _camera_fractions(**args)
+    gflops, isa, rate_isa, rates, table = _camera_fractions(**args, emit=emit)
     fractions = {"gflops": gflops, "isa": isa, "rate_isa": rate_isa, "rates": rates}
     emit("fractions", {**fractions, "table": table.to_dict("records")})
 
 
-def _camera_fractions(dtypes, rounds: int, size: int, rng_seed: int, isa):
+def _camera_fractions(dtypes, rounds: int, size: int, rng_seed: int, isa, emit=None):
+    """:func:`camera_fractions` in this process; in a worker, ``emit`` says how long each step may be silent."""
     import pandas as pd
 
     from ..workloads import cache
     from ..workloads.spec import MeshSpec
-    from .worker import calibrate_loops
+    from .worker import SLOW_TEST_S, calibrate_loops, silence_floor_s
 
     rng = np.random.default_rng(rng_seed)
     jobs = {}
     for dtype in dtypes:
+        if emit:
+            emit("silence", {"seconds": None, "during": f"making the camera workload ({dtype})"})
         w = cache.make(MeshSpec("suzanne", triangles=968, width=size, height=size, dtype=dtype, result="closest"))
         for kernel in ext.kernel_names():
             held = isa if isa in ext.kernel_info(kernel).isas else None  # scalar forms have one
+            if emit:  # a calibration is at most four passes
+                silence_s = silence_floor_s() + 4 * SLOW_TEST_S * len(w.origins) * len(w.triangles)
+                emit("silence", {"seconds": silence_s, "during": f"calibrating {kernel} ({dtype})"})
             job = ext.make_job(kernel, w.origins, w.directions, w.triangles, "closest", isa=held)
             jobs[dtype, kernel] = (job, calibrate_loops(job, 5e6))
+    if emit:  # batches of 5 ms, and the probes
+        silence_s = silence_floor_s() + 10 * rounds * len(jobs) * 5e-3
+        emit("silence", {"seconds": silence_s, "during": "timing every kernel"})
     before, rates_before = measure_peak(3), measure_rates(isa=isa)
     times: dict[tuple[str, str], list[float]] = {key: [] for key in jobs}
     keys = list(jobs)
