@@ -99,6 +99,23 @@ def injected(tmp_path: Path, name: str, code: str) -> Path:
     return path
 
 
+def aborting_on(tmp_path: Path, name: str, condition: str) -> Path:
+    """The example kernel renamed to ``name``, whose preparation of ``n`` triangles aborts when ``condition``."""
+    plain = (
+        f"#define tb_{name}_prepare_f32 tb_prepare_vertices_f32 /* the vertices as they are */\n"
+        f"#define tb_{name}_prepare_f64 tb_prepare_vertices_f64\n"
+    )
+    aborting = (
+        "#include <stdlib.h>\n#include <string.h>\n"
+        "static inline void TB_FN(aborting_prepare)(const real *vertices, size_t n, real *out)\n{\n"
+        f"    if ({condition})\n        abort();\n"
+        "    memcpy(out, vertices, n * 9 * sizeof(real));\n}\n"
+        f"#define tb_{name}_prepare_f32 aborting_prepare_f32\n"
+        f"#define tb_{name}_prepare_f64 aborting_prepare_f64\n"
+    )
+    return variant(tmp_path, name, plain, aborting)
+
+
 # what a kernel file's C may do to the process it runs in, and the one line the check then says
 HOSTILE_C = {
     "exits_0": ("exit(0);", "exited before its job was done"),
@@ -291,18 +308,7 @@ def test_a_kernel_that_crashes_is_refused_in_one_line(tmp_path, builds):
 @pytest.mark.slow  # a compile (seconds)
 def test_a_kernel_that_crashes_only_on_the_camera_workload_ends_a_worker_not_info_peak(tmp_path, builds):
     # its check never prepares 968 triangles; info --peak timed it in its own process, which died of SIGABRT
-    path = variant(
-        tmp_path,
-        "k_suzanne",
-        "#define tb_k_suzanne_prepare_f32 tb_prepare_vertices_f32 /* the vertices as they are */\n"
-        "#define tb_k_suzanne_prepare_f64 tb_prepare_vertices_f64\n",
-        "#include <stdlib.h>\n#include <string.h>\n"
-        "static inline void TB_FN(suzanne_prepare)(const real *vertices, size_t n, real *out)\n{\n"
-        "    if (n == 968) /* the camera workload's Suzanne */\n        abort();\n"
-        "    memcpy(out, vertices, n * 9 * sizeof(real));\n}\n"
-        "#define tb_k_suzanne_prepare_f32 suzanne_prepare_f32\n"
-        "#define tb_k_suzanne_prepare_f64 suzanne_prepare_f64\n",
-    )
+    path = aborting_on(tmp_path, "k_suzanne", "n == 968")  # the camera workload's Suzanne
     done = tribench("info", "--kernel-file", path, "--peak", cwd=tmp_path, cache=builds)
     assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
     assert done.stderr.strip().splitlines()[-1] == (
@@ -335,18 +341,7 @@ def test_a_kernel_that_crashes_only_on_the_full_robustness_suite_ends_a_worker_n
 def test_a_kernel_that_crashes_only_on_the_sweeps_workloads_ends_no_process_but_a_worker(tmp_path, builds):
     # it passes the check (a few thousand triangles); the duration forecast timed it in the sweep's own
     # process, where an abort() on the sweep's 20000 pairs ended the notebook (exit 134) and the command
-    capped = variant(
-        tmp_path,
-        "capped_moller",
-        "#define tb_capped_moller_prepare_f32 tb_prepare_vertices_f32 /* the vertices as they are */\n"
-        "#define tb_capped_moller_prepare_f64 tb_prepare_vertices_f64\n",
-        "#include <stdlib.h>\n#include <string.h>\n"
-        "static inline void TB_FN(capped_prepare)(const real *vertices, size_t n, real *out)\n{\n"
-        "    if (n > 10000) /* a scratch table of 10000 triangles */\n        abort();\n"
-        "    memcpy(out, vertices, n * 9 * sizeof(real));\n}\n"
-        "#define tb_capped_moller_prepare_f32 capped_prepare_f32\n"
-        "#define tb_capped_moller_prepare_f64 capped_prepare_f64\n",
-    )
+    capped = aborting_on(tmp_path, "capped_moller", "n > 10000")  # a scratch table of 10000 triangles
     done = python(
         f"""
 import tribench
