@@ -168,7 +168,7 @@ def _passes(sweep: Sweep, emit: Callable[[str, dict], None] | None = None) -> Pa
     from .. import ext
     from ..workloads import cache
     from ..workloads.front import front_reference
-    from .worker import BVH_RAY_TESTS, SLOW_TEST_S, silence_floor_s
+    from .worker import BVH_RAY_TESTS, unmeasured_limit_s
 
     tests: dict[str, int] = {}
     seconds: dict[tuple[str, str], float] = {}
@@ -185,7 +185,7 @@ def _passes(sweep: Sweep, emit: Callable[[str, dict], None] | None = None) -> Pa
         bvh = getattr(spec, "accel", "brute") == "bvh"  # a ray costs a traversal, not a test of every triangle
         step = math.ceil(rays / SLICE_RAYS) if bvh else math.ceil(tests[wid] / SLICE_TESTS)
         part = slice(None, None, max(1, step))
-        silence_s = silence_floor_s() + SLOW_TEST_S * 10 * (SLICE_RAYS * BVH_RAY_TESTS if bvh else SLICE_TESTS)
+        silence_s = unmeasured_limit_s(10 * (SLICE_RAYS * BVH_RAY_TESTS if bvh else SLICE_TESTS))
 
         def cut(a: Any, part: slice = part) -> Any:
             return None if a is None or np.ndim(a) == 0 else np.ascontiguousarray(a[part])

@@ -110,7 +110,7 @@ def _camera_fractions(dtypes, rounds: int, size: int, rng_seed: int, isa, emit=N
 
     from ..workloads import cache
     from ..workloads.spec import MeshSpec
-    from .worker import SLOW_TEST_S, calibrate_loops, silence_floor_s
+    from .worker import calibrate_loops, measured_limit_s, unmeasured_limit_s
 
     rng = np.random.default_rng(rng_seed)
     jobs = {}
@@ -121,12 +121,12 @@ def _camera_fractions(dtypes, rounds: int, size: int, rng_seed: int, isa, emit=N
         for kernel in ext.kernel_names():
             held = isa if isa in ext.kernel_info(kernel).isas else None  # scalar forms have one
             if emit:  # a calibration is at most four passes
-                silence_s = silence_floor_s() + 4 * SLOW_TEST_S * len(w.origins) * len(w.triangles)
+                silence_s = unmeasured_limit_s(4 * len(w.origins) * len(w.triangles))
                 emit("silence", {"seconds": silence_s, "during": f"calibrating {kernel} ({dtype})"})
             job = ext.make_job(kernel, w.origins, w.directions, w.triangles, "closest", isa=held)
             jobs[dtype, kernel] = (job, calibrate_loops(job, 5e6))
     if emit:  # batches of 5 ms, and the probes
-        silence_s = silence_floor_s() + 10 * rounds * len(jobs) * 5e-3
+        silence_s = measured_limit_s(rounds * len(jobs) * 5e-3)
         emit("silence", {"seconds": silence_s, "during": "timing every kernel"})
     before, rates_before = measure_peak(3), measure_rates(isa=isa)
     times: dict[tuple[str, str], list[float]] = {key: [] for key in jobs}

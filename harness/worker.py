@@ -265,7 +265,7 @@ def _prepare(job: WorkerJob, process: int, kernel: str, w: Any, arrays: tuple, e
     bvh = isinstance(w.spec, MeshSpec) and w.spec.accel == "bvh"
     tests = len(o) * (BVH_RAY_TESTS if bvh else len(tris) if w.mode != "pairs" else 1)
     during = f"checking {kernel} on {w.workload_id}"
-    emit("silence", {"seconds": silence_floor_s() + SLOW_TEST_S * tests, "during": during})
+    emit("silence", {"seconds": unmeasured_limit_s(tests), "during": during})
     started = time.monotonic()
     kjob: ext.Job | BvhJob
     if bvh:
@@ -287,7 +287,7 @@ def _prepare(job: WorkerJob, process: int, kernel: str, w: Any, arrays: tuple, e
     emit("check", check)
     checked_s = time.monotonic() - started
     during = f"calibrating {kernel} on {w.workload_id}"
-    emit("silence", {"seconds": _silence_s(checked_s, job), "during": during})
+    emit("silence", {"seconds": measured_limit_s(checked_s + job.target_ms * 1e-3), "during": during})
     return kjob, calibrate_loops(kjob, job.target_ms * 1e6), expected, checked_s
 
 
@@ -296,9 +296,15 @@ def silence_floor_s() -> float:
     return seconds_from_env(SILENCE_VARIABLE, SILENCE_FLOOR_S, "the least seconds a worker may go without a line")
 
 
-def _silence_s(slowest_s: float, job: WorkerJob) -> float:
-    """How long a worker may be silent once its slowest check took ``slowest_s``: a batch is one pass or the target."""
-    return silence_floor_s() + 10 * (slowest_s + job.target_ms * 1e-3)
+def unmeasured_limit_s(tests: float) -> float:
+    """How long a worker may be silent over ``tests`` tests that no pass has timed yet."""
+    return silence_floor_s() + SLOW_TEST_S * tests
+
+
+def measured_limit_s(seconds: float) -> float:
+    """How long a worker may be silent over work that takes ``seconds`` by a pass timed (a batch: a pass or the
+    target, whichever is longer)."""
+    return silence_floor_s() + 10 * seconds
 
 
 def run_job(job: WorkerJob, emit) -> None:
@@ -327,7 +333,7 @@ def run_job(job: WorkerJob, emit) -> None:
                 prepared[(k, wid)] = (kjob, loops, expected)
                 slowest_s = max(slowest_s, checked_s)
             during = f"timing the batches of {', '.join(kernels_of[wid])} on {wid}"
-            emit("silence", {"seconds": _silence_s(slowest_s, job), "during": during})
+            emit("silence", {"seconds": measured_limit_s(slowest_s + job.target_ms * 1e-3), "during": during})
             meter.forget()
         kjob, loops, expected = prepared[(kernel, wid)]
         batch, switches, steal, bvh_trace = _timed(kjob, loops, rng, meter)

@@ -219,14 +219,14 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, rng_seed: int = 0, tes
 
 def _measure_each(kernels, dtypes, quick, rng_seed, tests, got, emit=None) -> None:
     """``got(rows)`` of each kernel in turn; in a worker, ``emit`` says how long each kernel may take (protocol)."""
-    from ..worker import SLOW_TEST_S, silence_floor_s
+    from ..worker import unmeasured_limit_s
 
     sets = [build(dtype, quick, rng_seed, tests) for dtype in dtypes]
     rays = sum(len(m.origins) * len(m.triangles) for s in sets for ms in s.meshes.values() for m in ms)
     rays += sum(len(p.origins) for s in sets for p in s.pairs.values())
     for k in kernels:
         if emit:  # every test, twice (a mesh's rays serve two tests)
-            emit("silence", {"seconds": silence_floor_s() + 2 * SLOW_TEST_S * rays, "during": f"validating {k}"})
+            emit("silence", {"seconds": unmeasured_limit_s(2 * rays), "during": f"validating {k}"})
         got([r for s in sets for r in measure(k, s)])
 
 
