@@ -22,15 +22,25 @@ packet form's over Embree's packets (rtcIntersect16) and its own single rays: th
 rounds of the per-round ratio with its 95% t interval (rounds paired: one
 process, so the interval covers round-to-round noise, not process layout).
 Answers are checked first: a contender is timed only where its closest
-triangle agrees with the float64 reference but on ambiguous rays. Run it alone:
+triangle agrees with the float64 reference but on ambiguous rays.
 
-    flock /tmp/tribench-timing.lock python bench/embree_native.py [--quick]
+--before CORE sets another build of the extension (its _core*.so, say from the commit
+before a change to the C) beside this one in the same rounds: each tribench form is
+timed in both, and its ratio (this build over the other) is printed, the lowest first.
+Run it alone:
+
+    flock /tmp/tribench-timing.lock python bench/embree_native.py [--quick] [--before CORE]
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
+import shutil
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -53,14 +63,30 @@ EMBREE = {
 }
 
 
-def contenders(tris: np.ndarray, kernels: list[str]) -> dict[str, object]:
+BEFORE = " (before)"  # the suffix of the other build's forms
+
+
+def other_build(core: Path):
+    """The installed package again, as ``tribench_before``, around another build of its extension (its
+    imports are relative, so the copy is a package of its own, with its own ``_core``)."""
+    root, module = Path(ext.__file__).parents[1], Path(ext._core.__file__).name
+    copy = Path(tempfile.mkdtemp()) / "tribench_before"
+    skip = shutil.ignore_patterns(".*", "build", "tests", "docs", "bench", "examples", "*.so")
+    shutil.copytree(root, copy, ignore=skip)
+    shutil.copy(core, copy / "ext" / module)
+    sys.path.insert(0, str(copy.parent))
+    return tuple(importlib.import_module(f"tribench_before.{m}") for m in ("ext", "workloads.bvh_cache"))
+
+
+def contenders(tris: np.ndarray, kernels: list[str], before=None) -> dict[str, object]:
     """Name -> a call ``(o, d, loops) -> elapsed ns`` (timed in C), and each one's closest-hit call."""
     calls, answers = {}, {}
-    for k in kernels:
-        bvh = bvh_cache.cached_bvh(k, tris)[0]
-        isas = [i for i, ok in ext.kernel_info(k).isas.items() if ok and i in ("avx512", "avx2")]
-        for isa, tree in ((i, t) for i in isas for t in ext.LAYOUTS):
-            name = f"{k} {isa}" + ("" if tree == "wide" else f" {tree}")
+    builds = [("", ext, bvh_cache)] + ([(BEFORE, *before)] if before else [])
+    for (suffix, build, cache), k in ((b, k) for k in kernels for b in builds):
+        bvh = cache.cached_bvh(k, tris)[0]
+        isas = [i for i, ok in build.kernel_info(k).isas.items() if ok and i in ("avx512", "avx2")]
+        for isa, tree in ((i, t) for i in isas for t in build.LAYOUTS):
+            name = f"{k} {isa}" + ("" if tree == "wide" else f" {tree}") + suffix
             calls[name] = lambda o, d, n, b=bvh, i=isa, t=tree: b.time(o, d, "closest", n, isa=i, layout=t).elapsed_ns
             answers[name] = lambda o, d, b=bvh, i=isa, t=tree: b.intersect(o, d, isa=i, layout=t).hits.index
     for name, (robust, width, isa) in EMBREE.items():
@@ -90,9 +116,22 @@ def measure(w, named: dict, rounds: int, batch_ms: float, rng: np.random.Generat
     return rates
 
 
+def report_builds(rates: dict[str, list[float]]) -> None:
+    """Each tribench form's speed in this build over the other's, paired by round, the lowest first."""
+    pairs = [(n.removesuffix(BEFORE), n) for n in rates if n.endswith(BEFORE) and n.removesuffix(BEFORE) in rates]
+    ratios = {now: stats.speedup(1 / np.array(rates[then]), 1 / np.array(rates[now])) for now, then in pairs}
+    for n, s in sorted(ratios.items(), key=lambda item: item[1].ratio):
+        print(f"  this build / before: {n:<34}{s.ratio:7.3f}  [{s.ci_low:.3f}, {s.ci_high:.3f}]")
+    if ratios:
+        mean = float(np.exp(np.mean([np.log(s.ratio) for s in ratios.values()])))
+        print(f"  this build / before: geometric mean over {len(ratios)} forms {mean:.3f}")
+
+
 def report(label: str, rates: dict[str, list[float]]) -> None:
-    median = {n: float(np.median(r)) for n, r in rates.items()}
     print(f"\n{label}")
+    report_builds(rates)
+    rates = {n: r for n, r in rates.items() if not n.endswith(BEFORE)}
+    median = {n: float(np.median(r)) for n, r in rates.items()}
     for n in sorted(rates, key=median.__getitem__, reverse=True):
         print(f"  {n:<34}{median[n] / 1e6:8.2f} M rays/s")
     # single rays (the wide tree) face every Embree call; packets face Embree's packets
@@ -126,6 +165,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=7)
     parser.add_argument("--batch-ms", type=float, default=30.0)
     parser.add_argument("--quick", action="store_true", help="20,000 triangles, 64x64, 3 rounds")
+    parser.add_argument("--before", type=Path, help="another build's _core*.so, timed beside this one")
     args = parser.parse_args()
     if args.quick:
         args.triangles, args.camera, args.rounds = [20_000], "64x64", 3
@@ -134,13 +174,14 @@ def main() -> None:
     layout.pin(default_cpu())  # one core, for tribench and Embree alike
     width, height = map(int, args.camera.split("x"))
     rng = np.random.default_rng(0)
+    before = other_build(args.before) if args.before else None
     print(describe())
     print(f"{embree.version()}; tribench {ext.kernel_info(args.kernels[0]).isa} machine; one core, float32")
     for n in args.triangles:
         t0 = time.perf_counter()
         spec = {"width": width, "height": height, "dtype": "float32"}
         workloads = {r: make(MeshSpec("suzanne", n, rays=r, **spec)) for r in RAYS}
-        named = contenders(workloads["camera"].triangles, args.kernels)
+        named = contenders(workloads["camera"].triangles, args.kernels, before)
         print(f"Suzanne {len(workloads['camera'].triangles):,} triangles: ready in {time.perf_counter() - t0:.0f} s")
         for r in RAYS:
             w = workloads[r]

@@ -508,22 +508,30 @@ stop:
 /* Entry points of one native kernel's BVH traversals for this ISA (the wide
  * tree's, which also walk it by packets, then the binary tree's: bvh.c's
  * table in the same order); only the TB_NATIVE kernels of the public list
- * (one line each, from list.h). The walks that are timed (the wide tree's
- * four, which the harness times, and the binary tree's closest hit, which
- * bench/embree_native.py sets beside the wide tree's) are each compiled with
- * their mode and flags as constants; the other seven share one walk that
- * takes them as arguments (TB_SHARED_LOOP), as the packets share theirs
- * (docs/decisions.md, "The extension's compile time"). */
-#define TB_BVH_ENTRY(name, fn_mode, mode, timed, null, wide)                                        \
+ * (one line each, from list.h). The wide tree's four timed walks are each
+ * compiled with their mode and flags as constants: with them as arguments
+ * one kernel's walk ran 4-5% slower. Each tree's other entry points share one
+ * walk compiled for that tree, which takes them as arguments
+ * (TB_SHARED_LOOP), as the packets share their trace: the binary tree's timed
+ * walks ran faster so than with their constants (docs/decisions.md, "One walk
+ * per tree"). */
+#define TB_BVH_ENTRY(name, fn_mode, mode, timed, null)                                              \
     TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_bvh_##fn_mode)(tb_bvh_job *job)                    \
     {                                                                                               \
         TB_NFN(tb_bvh_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, job, \
-                            mode, timed, null, wide, TB_NFN(tb_##name##_bvh_packet));               \
+                            mode, timed, null, 1, TB_NFN(tb_##name##_bvh_packet));                  \
     }
-#define TB_BVH_SHARED_ENTRY(name, fn_mode, mode, timed, null, wide)                                 \
+#define TB_BVH_SHARED_ENTRY(name, fn_mode, mode, timed, null, tree)                                 \
     TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_bvh_##fn_mode)(tb_bvh_job *job)                    \
     {                                                                                               \
-        TB_NFN(tb_##name##_bvh_walk)(job, mode, timed, null, wide);                                 \
+        TB_NFN(tb_##name##_bvh_##tree)(job, mode, timed, null);                                     \
+    }
+#define TB_BVH_WALK(name, tree, wide)                                                               \
+    static TB_SHARED_LOOP TB_NTARGET void TB_NFN(tb_##name##_bvh_##tree)(tb_bvh_job *job, int mode, int timed, \
+                                                                            int null)              \
+    {                                                                                               \
+        TB_NFN(tb_bvh_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, job, \
+                            mode, timed, null, wide, TB_NFN(tb_##name##_bvh_packet));               \
     }
 #define TB_BVH_ENTRIES(name)                                                                        \
     static __attribute__((noinline)) TB_NTARGET int TB_NFN(tb_##name##_bvh_packet)(                \
@@ -532,24 +540,20 @@ stop:
         return TB_NFN(tb_bvh_packet_batch)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, \
                                            job, i, n, mode, timed, null, iota, sum);                \
     }                                                                                               \
-    static TB_SHARED_LOOP TB_NTARGET void TB_NFN(tb_##name##_bvh_walk)(tb_bvh_job *job, int mode, int timed, \
-                                                                          int null, int wide)      \
-    {                                                                                               \
-        TB_NFN(tb_bvh_loop)(TB_NFN(tb_##name##_test), TB_FN(tb_##name##_ray), tb_##name##_stride, job, \
-                            mode, timed, null, wide, TB_NFN(tb_##name##_bvh_packet));               \
-    }                                                                                               \
-    TB_BVH_SHARED_ENTRY(name, run_any, TB_ANY, 0, 0, 1)                                             \
-    TB_BVH_SHARED_ENTRY(name, run_closest, TB_CLOSEST_UV, 0, 0, 1)                                  \
-    TB_BVH_ENTRY(name, time_any, TB_ANY, 1, 0, 1)                                                   \
-    TB_BVH_ENTRY(name, time_closest, TB_CLOSEST, 1, 0, 1)                                           \
-    TB_BVH_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1, 0, 1)                                     \
-    TB_BVH_ENTRY(name, time_null, TB_CLOSEST, 1, 1, 1)                                              \
-    TB_BVH_SHARED_ENTRY(name, binary_run_any, TB_ANY, 0, 0, 0)                                      \
-    TB_BVH_SHARED_ENTRY(name, binary_run_closest, TB_CLOSEST_UV, 0, 0, 0)                           \
-    TB_BVH_SHARED_ENTRY(name, binary_time_any, TB_ANY, 1, 0, 0)                                     \
-    TB_BVH_ENTRY(name, binary_time_closest, TB_CLOSEST, 1, 0, 0)                                    \
-    TB_BVH_SHARED_ENTRY(name, binary_time_closest_uv, TB_CLOSEST_UV, 1, 0, 0)                       \
-    TB_BVH_SHARED_ENTRY(name, binary_time_null, TB_CLOSEST, 1, 1, 0)
+    TB_BVH_WALK(name, wide, 1)                                                                      \
+    TB_BVH_WALK(name, binary, 0)                                                                    \
+    TB_BVH_SHARED_ENTRY(name, run_any, TB_ANY, 0, 0, wide)                                          \
+    TB_BVH_SHARED_ENTRY(name, run_closest, TB_CLOSEST_UV, 0, 0, wide)                               \
+    TB_BVH_ENTRY(name, time_any, TB_ANY, 1, 0)                                                      \
+    TB_BVH_ENTRY(name, time_closest, TB_CLOSEST, 1, 0)                                              \
+    TB_BVH_ENTRY(name, time_closest_uv, TB_CLOSEST_UV, 1, 0)                                        \
+    TB_BVH_ENTRY(name, time_null, TB_CLOSEST, 1, 1)                                                 \
+    TB_BVH_SHARED_ENTRY(name, binary_run_any, TB_ANY, 0, 0, binary)                                 \
+    TB_BVH_SHARED_ENTRY(name, binary_run_closest, TB_CLOSEST_UV, 0, 0, binary)                      \
+    TB_BVH_SHARED_ENTRY(name, binary_time_any, TB_ANY, 1, 0, binary)                                \
+    TB_BVH_SHARED_ENTRY(name, binary_time_closest, TB_CLOSEST, 1, 0, binary)                        \
+    TB_BVH_SHARED_ENTRY(name, binary_time_closest_uv, TB_CLOSEST_UV, 1, 0, binary)                  \
+    TB_BVH_SHARED_ENTRY(name, binary_time_null, TB_CLOSEST, 1, 1, binary)
 #define TB_BVH_INSTANTIATE(name, faces, watertight, promised_by, origin, wide) \
     TB_BVH_IF_##wide(TB_BVH_ENTRIES(name))
 #define TB_BVH_IF_TB_SCALAR_ONLY(...)
@@ -565,3 +569,4 @@ TB_KERNEL_LIST(TB_BVH_INSTANTIATE)
 #undef TB_BVH_ENTRIES
 #undef TB_BVH_ENTRY
 #undef TB_BVH_SHARED_ENTRY
+#undef TB_BVH_WALK
