@@ -139,27 +139,36 @@ def run_apart(
     kernel_files: Sequence[str],
     handlers: Mapping[str, Callable[[dict[str, Any]], None]],
     name: str,
-    fails: str,
+    fails: str | None,
+    build: str | None = None,
 ) -> None:
-    """``job`` in ``python -m module``'s worker (:func:`serve_apart`), ``kernel_files`` loaded there first: a user's
-    kernels on inputs their check never ran. A failure is one UserError, ``fails`` said after a crash or a hang."""
-    text = json.dumps({"kernel_files": list(kernel_files), "job": job})
+    """``job`` in ``python -m module``'s worker (:func:`serve_apart`), ``kernel_files`` loaded there first (under
+    ``build``, if given): a user's kernels on inputs their check never ran. A failure is one UserError, ``fails``
+    (if any) said after a crash or a hang."""
+    text = json.dumps({"build": build, "kernel_files": list(kernel_files), "job": job})
     try:
         run_worker([sys.executable, "-m", module], text, os.environ, handlers, name)
     except WorkerError as exc:
-        raise UserError(str(exc) if exc.said else f"{exc}: {fails}") from None
+        raise UserError(f"{exc}: {fails}" if fails and not exc.said else str(exc)) from None
 
 
 def serve_apart(work: Callable[[Any], None]) -> int:
-    """The worker's main for :func:`run_apart`: the kernel files loaded, then ``work(job)``; the exit code."""
+    """The worker's main for :func:`run_apart`: the build chosen, the kernel files loaded, then ``work(job)``;
+    the exit code."""
     import faulthandler
 
     from .. import ext
 
     def load_then_work(text: str) -> None:
         d = json.loads(text)
-        for path in d["kernel_files"]:  # by path, as the sweep's workers load them
-            ext.load_kernels(path)
+        build = d["build"]
+        try:
+            if build is not None:
+                ext.use_build(build)
+            for path in d["kernel_files"]:  # by path, as the sweep's workers load them
+                ext.load_kernels(path)
+        except UserError as e:
+            raise UserError(f"build {build}: {e}" if build is not None else str(e)) from None
         work(d["job"])
 
     faulthandler.disable()  # a crash is reported by the parent, in one line

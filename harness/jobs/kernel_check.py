@@ -2,34 +2,30 @@
 
 Each kernel must give the float64 reference's answers, in both precisions and on every ISA, where rounding cannot
 decide them (crossings at least :data:`MARGIN` from every edge; rays into a closed mesh), and keep the promises of
-the robustness suite (:func:`tribench.harness.jobs.validate.promise`). The check runs in a worker of its own,
-stopped after :data:`CHECK_SECONDS`, so a kernel that crashes, exits or hangs is refused in one line."""
+the robustness suite (:func:`tribench.harness.jobs.validate.promise`). The check runs in a worker of its own, with
+a silence limit on each of its parts, so a kernel that crashes, exits or hangs is refused in one line."""
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from ... import ext
 from ...common import UserError, UserTypeError
 from ...workloads import reference
-from ..protocol import WorkerError, emit, run_worker, serve
+from ..protocol import emit, run_apart, serve_apart
 from . import validate
 
-__all__ = ["CHECK_SECONDS", "MARGIN", "KernelRefused", "check_builds", "check_kernel", "load_checked"]
-__all__ += ["PRINTS", "refuse_crashing"]
+__all__ = ["MARGIN", "KernelRefused", "check_builds", "check_kernel", "load_checked", "PRINTS", "refuse_crashing"]
 
-#: The longest a check may take: a start-up, then per kernel (both precisions, every ISA: about a
-#: second each here); past it the check is stopped and its kernels refused, so an unattended run never hangs.
-CHECK_SECONDS = (30.0, 15.0)
 #: How far (barycentric) from every edge a checked crossing lies, and how far along the ray.
 MARGIN = 1e-3
 _T_RTOL = {"float32": 1e-4, "float64": 1e-9}
+_PAIRS, _MESH_RAYS, _ICOSPHERE = 4000, 400, 2  # the pairs checked; the rays into the icosphere, its subdivisions
 _UV_ATOL = {"float32": 1e-3, "float64": 1e-9}
 
 
@@ -79,18 +75,24 @@ def refuse_crashing(path: str | os.PathLike) -> None:
 def _checked_elsewhere(path: str | os.PathLike) -> dict[str, list[str]]:
     """:func:`check_kernel` of each kernel of the file, in a process of its own: a kernel that crashes
     (a stray pointer is likely in code being written) is refused in one line, and takes nothing down."""
-    return _in_a_process(["--kernel-file", str(path)], f"the reference check of {path}", len(ext.load_kernels(path)))
+    return _in_a_process([str(path)], list(ext.load_kernels(path)), None, f"the reference check of {path}")
 
 
-def _in_a_process(argv: list[str], what: str, kernels: int) -> dict[str, list[str]]:
+def _in_a_process(kernel_files: list[str], kernels: list[str], build: str | None, what: str) -> dict[str, list[str]]:
+    """kernel -> problems, of ``kernels`` checked in a worker under ``build``, ``kernel_files`` loaded there."""
     checked: dict[str, list[str]] = {}
-    command = [sys.executable, "-m", "tribench.harness.jobs.kernel_check"]
-    timeout = CHECK_SECONDS[0] + CHECK_SECONDS[1] * kernels
     try:
-        run_worker(command, json.dumps(argv), os.environ, {"checked": checked.update}, what, timeout=timeout)
-    except WorkerError as exc:
-        # its own message (a kernel file that does not compile under a build), or how it died
-        raise KernelRefused(str(exc)) from None  # its own message, or how the check ended
+        run_apart(
+            "tribench.harness.jobs.kernel_check",
+            kernels,
+            kernel_files,
+            {"checked": checked.update},
+            what,
+            None,  # "the reference check of F was killed by SIGSEGV" says it
+            build,
+        )
+    except UserError as exc:  # its own message (a kernel file that does not compile under a build), or its end
+        raise KernelRefused(str(exc)) from None
     return checked
 
 
@@ -105,8 +107,8 @@ def check_builds(sweep) -> dict[str, dict[str, list[str]]]:
             continue
         t0 = time.monotonic()
         ext.load_build(build)  # compiled here, so a compile error is one message (and the check's process imports it)
-        argv = ["--build", build, *(a for f in sweep.kernel_files for a in ("--kernel-file", f)), *sweep.kernels]
-        checked[build] = _in_a_process(argv, f"the reference check of build {build!r}", len(sweep.kernels))
+        what = f"the reference check of build {build!r}"
+        checked[build] = _in_a_process(list(sweep.kernel_files), list(sweep.kernels), build, what)
         wrong = sum(1 for problems in checked[build].values() if problems)
         verdict = f"{wrong} broke a promise (shown in the report)" if wrong else "all right"
         print(
@@ -117,17 +119,23 @@ def check_builds(sweep) -> dict[str, dict[str, list[str]]]:
     return checked
 
 
-def check_kernel(kernel: str, rng_seed: int = 0) -> list[str]:
-    """What ``kernel`` gets wrong, one line per case; empty if nothing."""
+def check_kernel(kernel: str, rng_seed: int = 0, before: Callable[[str, int], None] | None = None) -> list[str]:
+    """What ``kernel`` gets wrong, one line per case; empty if nothing. ``before(part, tests)`` is told of each
+    part of the check before it runs, with the most triangle tests it runs (a worker's silence limit)."""
     info = ext.kernel_info(kernel)
+    tell = before or (lambda part, tests: None)
     problems = []
     for dtype in info.precisions:
         for isa in (i for i, runnable in info.isas.items() if runnable):
             where = f"{dtype}, {isa}"
             if "pairs" in info.modes:
+                tell(f"{where}: pairs", _PAIRS)
                 problems += [f"{where}: {p}" for p in _check_pairs(kernel, isa, dtype, rng_seed, info.culls_back_faces)]
+            tell(f"{where}: a closed mesh", 2 * _MESH_RAYS * 20 * 4**_ICOSPHERE)  # closest and any, on every face
             problems += [f"{where}: {p}" for p in _check_mesh(kernel, isa, dtype, rng_seed, info.culls_back_faces)]
-        for row in validate.measure(kernel, validate.build(dtype, quick=True, rng_seed=rng_seed)):
+        sets = validate.build(dtype, quick=True, rng_seed=rng_seed)
+        tell(f"{dtype}: the quick robustness suite", validate.test_count(sets))
+        for row in validate.measure(kernel, sets):
             if row["verdict"] == "fail":
                 problems.append(
                     f"{dtype}: robustness test {row['test']}: {row['failures']} of {row['rays']} rays "
@@ -154,7 +162,7 @@ def _safe_pairs(n: int, rng_seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
 
 def _check_pairs(kernel: str, isa: str, dtype: str, rng_seed: int, front_only: bool) -> list[str]:
-    o, d, tris = (a.astype(dtype) for a in _safe_pairs(4000, rng_seed))
+    o, d, tris = (a.astype(dtype) for a in _safe_pairs(_PAIRS, rng_seed))
     f64 = [a.astype(np.float64) for a in (o, d, tris)]
     ref = reference.intersect_pairs(f64[0], f64[1], f64[2], front_only=front_only)
     index, t, _, _ = ext.intersect(kernel, o, d, tris, "pairs", isa=isa)
@@ -176,11 +184,11 @@ def _safe_mesh_rays(rng_seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A closed mesh (an icosphere) and rays from around it whose every plane crossing is safe."""
     import trimesh
 
-    tris = np.ascontiguousarray(trimesh.creation.icosphere(subdivisions=2).triangles)
+    tris = np.ascontiguousarray(trimesh.creation.icosphere(subdivisions=_ICOSPHERE).triangles)
     rng = np.random.default_rng(rng_seed)
-    o = rng.normal(size=(400, 3))
+    o = rng.normal(size=(_MESH_RAYS, 3))
     o = 3 * o / np.linalg.norm(o, axis=1, keepdims=True)
-    d = rng.normal(size=(400, 3)) * 0.7 - o
+    d = rng.normal(size=(_MESH_RAYS, 3)) * 0.7 - o
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     m, k = len(o), len(tris)
     every = reference.intersect_pairs(np.repeat(o, k, 0), np.repeat(d, k, 0), np.tile(tris, (m, 1, 1)))
@@ -211,23 +219,18 @@ def _check_mesh(kernel: str, isa: str, dtype: str, rng_seed: int, front_only: bo
     return out
 
 
-def _work(job: str) -> None:
-    """The check's worker: the job is [--build SPEC] [--kernel-file FILE]... [KERNEL...] as a JSON list
-    (no kernel: every kernel of the files); one ``checked`` line of kernel -> problems."""
-    import argparse
+def _work(kernels: list[str]) -> None:
+    """The check's worker (the kernel files loaded): one ``checked`` line of kernel -> problems, and a silence
+    limit before each part of each check."""
+    from ..worker import unmeasured_limit_s
 
-    parser = argparse.ArgumentParser(prog="python -m tribench.harness.jobs.kernel_check")
-    parser.add_argument("--build")
-    parser.add_argument("--kernel-file", action="append", default=[])
-    parser.add_argument("kernels", nargs="*")
-    args = parser.parse_args(json.loads(job))
-    try:
-        if args.build:
-            ext.use_build(args.build)
-        declared = [k for f in args.kernel_file for k in ext.load_kernels(f)]
-    except UserError as e:
-        raise UserError(f"build {args.build}: {e}" if args.build else str(e)) from None
-    emit("checked", {k: _quiet_check(k) for k in args.kernels or declared})
+    def check(kernel: str) -> list[str]:
+        def before(part: str, tests: int) -> None:
+            emit("silence", {"seconds": unmeasured_limit_s(tests), "during": f"checking {kernel}, {part}"})
+
+        return _quiet_check(kernel, before)
+
+    emit("checked", {k: check(k) for k in kernels})
 
 
 #: How a kernel that writes to standard output is refused (its output would be timed with it, and would run into
@@ -235,7 +238,7 @@ def _work(job: str) -> None:
 PRINTS = "it writes to standard output"
 
 
-def _quiet_check(kernel: str) -> list[str]:
+def _quiet_check(kernel: str, before: Callable[[str, int], None] | None = None) -> list[str]:
     """:func:`check_kernel`, with what the kernel writes to standard output (fd 1) caught: if anything, the first
     problem says so."""
     import ctypes
@@ -245,7 +248,7 @@ def _quiet_check(kernel: str) -> list[str]:
         kept = os.dup(1)
         os.dup2(caught.fileno(), 1)
         try:
-            problems = check_kernel(kernel)
+            problems = check_kernel(kernel, before=before)
         finally:
             ctypes.CDLL(None).fflush(None)  # C's stdio buffers what goes to a file
             os.dup2(kept, 1)
@@ -259,7 +262,4 @@ def _quiet_check(kernel: str) -> list[str]:
 
 
 if __name__ == "__main__":
-    import faulthandler
-
-    faulthandler.disable()  # a crash is reported by the parent, in one line
-    sys.exit(serve(_work))
+    sys.exit(serve_apart(_work))

@@ -222,12 +222,16 @@ def _measure_each(kernels, dtypes, quick, rng_seed, tests, got, emit=None) -> No
     from ..worker import unmeasured_limit_s
 
     sets = [build(dtype, quick, rng_seed, tests) for dtype in dtypes]
-    rays = sum(len(m.origins) * len(m.triangles) for s in sets for ms in s.meshes.values() for m in ms)
-    rays += sum(len(p.origins) for s in sets for p in s.pairs.values())
     for k in kernels:
-        if emit:  # every test, twice (a mesh's rays serve two tests)
-            emit("silence", {"seconds": unmeasured_limit_s(2 * rays), "during": f"validating {k}"})
+        if emit:
+            emit("silence", {"seconds": unmeasured_limit_s(sum(map(test_count, sets))), "during": f"validating {k}"})
         got([r for s in sets for r in measure(k, s)])
+
+
+def test_count(sets: RaySets) -> int:
+    """The most triangle tests :func:`measure` runs on ``sets`` (a mesh's rays serve two tests)."""
+    rays = sum(len(m.origins) * len(m.triangles) for ms in sets.meshes.values() for m in ms)
+    return 2 * (rays + sum(len(p.origins) for p in sets.pairs.values()))
 
 
 def _in_a_worker(files: list[str], suite: dict[str, Any], got) -> None:
