@@ -222,13 +222,14 @@ def _measure_each(kernels, dtypes, quick, rng_seed, tests, got, emit=None) -> No
     from ..worker import unmeasured_limit_s
 
     sets = [build(dtype, quick, rng_seed, tests) for dtype in dtypes]
+    limit_s = unmeasured_limit_s(sum(map(triangle_tests, sets))) if emit else None
     for k in kernels:
         if emit:
-            emit("silence", {"seconds": unmeasured_limit_s(sum(map(test_count, sets))), "during": f"validating {k}"})
+            emit("silence", {"seconds": limit_s, "during": f"validating {k}"})
         got([r for s in sets for r in measure(k, s)])
 
 
-def test_count(sets: RaySets) -> int:
+def triangle_tests(sets: RaySets) -> int:
     """The most triangle tests :func:`measure` runs on ``sets`` (a mesh's rays serve two tests)."""
     rays = sum(len(m.origins) * len(m.triangles) for ms in sets.meshes.values() for m in ms)
     return 2 * (rays + sum(len(p.origins) for p in sets.pairs.values()))
