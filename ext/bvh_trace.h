@@ -510,11 +510,11 @@ stop:
  * table in the same order); only the TB_NATIVE kernels of the public list
  * (one line each, from list.h). The wide tree's four timed walks are each
  * compiled with their mode and flags as constants: with them as arguments
- * one kernel's walk ran 4-5% slower. Each tree's other entry points share one
+ * one kernel's walk ran 4-7% slower. Each tree's other entry points share one
  * walk compiled for that tree, which takes them as arguments
  * (TB_SHARED_LOOP), as the packets share their trace: the binary tree's timed
- * walks ran faster so than with their constants (docs/decisions.md, "One walk
- * per tree"). */
+ * walks ran faster so than with constants (docs/decisions.md, "One walk per
+ * tree"). */
 #define TB_BVH_ENTRY(name, fn_mode, mode, timed, null)                                              \
     TB_NTARGET TB_HIDDEN void TB_NFN(tb_##name##_bvh_##fn_mode)(tb_bvh_job *job)                    \
     {                                                                                               \

@@ -47,7 +47,7 @@ def test_each_isa_uses_its_registers(disassembly, kernel, suffix):
 
 
 LOOPS = re.compile(
-    r"^tb_\w+_((run|time)_(pairs|any|closest|closest_uv|null)|run|bvh_walk|bvh_packet)(_(avx512|avx2|baseline))?_f(32|64)$"
+    r"^tb_\w+_((run|time)_(pairs|any|closest|closest_uv|null)|run|bvh_wide|bvh_binary|bvh_packet)(_(avx512|avx2|baseline))?_f(32|64)$"
 )
 # the calls a loop makes by design: moller_trumbore_twice's and moller_trumbore_same's loops
 # are moller_trumbore's, called twice over or once; woop_fma's exact fallback for a 0 edge
