@@ -368,17 +368,12 @@ def promises_kept(val: pd.DataFrame) -> pd.DataFrame:
     >>> promises_kept(val).values.tolist()
     [['a', 'float32', '1 of 2 broken'], ['b', 'float64', 'none promised']]
     """
-    rows = []
-    for (kernel, dtype), g in val.groupby(["kernel", "dtype"], sort=False):
-        checked, broken = int((g["verdict"] != "measured").sum()), int((g["verdict"] == "fail").sum())
-        rows.append(
-            {
-                "kernel": kernel,
-                "dtype": dtype,
-                "promises": f"{broken} of {checked} broken" if checked else "none promised",
-            }
-        )
-    return pd.DataFrame(rows, columns=["kernel", "dtype", "promises"])
+    judged = val.assign(checked=val["verdict"] != "measured", broken=val["verdict"] == "fail")
+    counts = judged.groupby(["kernel", "dtype"], sort=False)[["checked", "broken"]].sum().reset_index()
+    pairs = zip(counts["checked"], counts["broken"], strict=True)
+    return counts[["kernel", "dtype"]].assign(
+        promises=[f"{b} of {c} broken" if c else "none promised" for c, b in pairs]
+    )
 
 
 def robustness_section(val: pd.DataFrame, note: str) -> str:
