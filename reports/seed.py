@@ -120,6 +120,16 @@ def _why_curless(r: pd.Series) -> str:
     )
 
 
+def _replayed(c: pd.Series) -> tuple[str, str]:
+    """A kernel's replayed ratio with its 95% CI, and the seed's program's predicted from it ("" if none)."""
+    ratio = format_interval(
+        c["ratio_to_moller_seed"], c["ratio_to_moller_seed_ci_low"], c["ratio_to_moller_seed_ci_high"], ".3f"
+    )
+    if not math.isfinite(c["predicted_ratio_low"]):
+        return ratio, ""
+    return ratio, format_interval(None, c["predicted_ratio_low"], c["predicted_ratio_high"], ".3f")
+
+
 def _curless_over_moller(scene: str, g: pd.DataFrame, wl: pd.DataFrame) -> list[str]:
     """The paper's Curless/Möller ratio beside the replay's, the program's first, and why (none without Curless)."""
     rows = g.set_index("kernel")
@@ -134,17 +144,9 @@ def _curless_over_moller(scene: str, g: pd.DataFrame, wl: pd.DataFrame) -> list[
     parts = []
     for kernel, what in (("curless_seed_object", "the seed's program"), ("curless_seed", "its arithmetic")):
         if kernel in rows.index and math.isfinite(rows.loc[kernel, "ratio_to_moller_seed"]):
-            c = rows.loc[kernel]
-            ratio = format_interval(
-                c["ratio_to_moller_seed"], c["ratio_to_moller_seed_ci_low"], c["ratio_to_moller_seed_ci_high"], ".3f"
-            )
-            parts.append(f"{what} replayed {ratio} (95% CI)")
-            if math.isfinite(c["predicted_ratio_low"]):
-                parts[-1] += (
-                    ", so the program here "
-                    + format_interval(None, c["predicted_ratio_low"], c["predicted_ratio_high"], ".3f")
-                    + " with the model's error"
-                )
+            ratio, predicted = _replayed(rows.loc[kernel])
+            so = f", so the program here {predicted} with the model's error" if predicted else ""
+            parts.append(f"{what} replayed {ratio} (95% CI){so}")
     r = wl.loc[(wl["scene"] == scene) & (wl["rays"] == "render")]
     why = _why_curless(r.iloc[0]) if len(r) else ""
     return [page.p(f"Curless over Möller: {paper}{'; '.join(parts)}." + why)]
@@ -345,14 +347,9 @@ def _terminal_curless_over_moller(g: pd.DataFrame) -> list[str]:
         if math.isfinite(c.paper_ratio_real)
         else ""
     )
-    replay = format_interval(
-        c.ratio_to_moller_seed, c.ratio_to_moller_seed_ci_low, c.ratio_to_moller_seed_ci_high, ".3f"
-    )
-    line = f"  Curless / Moller: {paper}replay ({kernel}) {replay}"
-    if math.isfinite(c.predicted_ratio_low):
-        predicted = format_interval(None, c.predicted_ratio_low, c.predicted_ratio_high, ".3f")
-        line += f"; the seed's program here: {predicted}"
-    return [line]
+    replay, predicted = _replayed(c)
+    program = f"; the seed's program here: {predicted}" if predicted else ""
+    return [f"  Curless / Moller: {paper}replay ({kernel}) {replay}{program}"]
 
 
 def format_table(seed: pd.DataFrame, workloads: pd.DataFrame | None = None) -> str:
