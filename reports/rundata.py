@@ -36,7 +36,6 @@ __all__ = [
     "estimates_table",
     "named",
     "speedups_table",
-    "working_set_bytes",
     "workload_figures",
     "picture",
 ]
@@ -316,23 +315,17 @@ def named(frame: pd.DataFrame, data: RunData) -> pd.DataFrame:
     return frame.assign(label=frame["workload_id"].map(names).fillna(frame["label"])) if len(frame) else frame
 
 
-def working_set_bytes(bytes_per_triangle: float, dtype: str, triangles: float, rays: float) -> float:
-    """Bytes of prepared triangles plus rays (origin and direction, 3 components each)."""
-    if any(pd.isna(x) for x in (bytes_per_triangle, triangles, rays)):
-        return math.nan
-    return float(triangles) * float(bytes_per_triangle) + float(rays) * 6 * np.dtype(dtype).itemsize
-
-
 def estimates_table(data: RunData, wl: pd.DataFrame) -> pd.DataFrame:
-    """``estimates.csv`` joined with the workload table and the working-set size, from the bytes per
-    triangle ``kernels.csv`` recorded for the kernel and family (the build that measured the run)."""
+    """``estimates.csv`` joined with the workload table and the working-set size: bytes of prepared triangles (as
+    ``kernels.csv`` recorded them for the kernel and family, the build that measured the run) plus rays (origin and
+    direction, 3 components each); NaN where a figure is unknown."""
     est = estimates_with_workloads(data.estimates, wl)
     kern = data.tables[runfolder.KERNELS]
     per = dict(zip(zip(kern["kernel"], kern["family"], strict=True), kern["bytes_per_triangle"], strict=True))
-    est["working_set_bytes"] = [
-        working_set_bytes(per.get((r.kernel, r.family), math.nan), r.dtype, r.triangles, r.rays)
-        for r in est.itertuples(index=False)
-    ]
+    keys = zip(est["kernel"], est["family"], strict=True)
+    per_triangle = pd.Series([per.get(k, math.nan) for k in keys], est.index, float)
+    itemsize = est["dtype"].map(lambda d: np.dtype(d).itemsize)
+    est["working_set_bytes"] = est["triangles"] * per_triangle + est["rays"] * 6 * itemsize
     return est
 
 
