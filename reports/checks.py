@@ -121,7 +121,7 @@ def diagnostics_section(data: RunData, batches: pd.DataFrame, colours: dict[str,
     var = rundata.named(data.tables[runfolder.VARIANCE], data)
     timed = data.batches.loc[~data.batches["warmup"]]
     ctx = int(timed["invol_ctx_switches"].sum())
-    steal = timed.loc[timed["steal_ticks"] > 0, "steal_ticks"].sum() if "steal_ticks" in timed else 0
+    steal = timed.loc[timed["steal_ticks"] > 0, "steal_ticks"].sum()
     body = [
         _chart(
             charts.rounds_chart(round_summary(batches), colours),

@@ -164,7 +164,7 @@ def bencher(data: RunData) -> dict[str, Any]:
     has one, its speedup over the baseline, each with its interval as lower and upper values."""
     correct = _every_build(data, runfolder.CORRECTNESS)
     est, spd = (compared(_every_build(data, name), correct) for name in (runfolder.ESTIMATES, runfolder.SPEEDUPS))
-    several = est["build"].nunique() > 1 if "build" in est else False
+    several = est["build"].nunique() > 1
     doc: dict[str, Any] = {}
     speedups = spd.set_index(["build", "kernel", "workload_id"]) if len(spd) else None
     for r in est.itertuples(index=False):

@@ -355,7 +355,7 @@ def _derive_one(
         runfolder.VARIANCE: diagnostics.variance_table(batches, kernels, wids, wl),
         runfolder.OUTLIERS: diagnostics.outlier_table(labels, wl),
         runfolder.WARMUP: diagnostics.warmup_table(labels, wl),
-        runfolder.KERNELS: ranking.kernel_table(ranked, batches, m.run, est, spd, base),
+        runfolder.KERNELS: ranking.kernel_table(ranked, batches, est, spd, base),
         runfolder.RANKING: rank,
         runfolder.ALGORITHMS: ranking.algorithm_table(rank, pp, margin),
         # each kernel's robustness beside its speed

@@ -28,17 +28,14 @@ def _form(kernel: str) -> str:
     return "?" if lanes is None else "scalar" if lanes == 1 else f"{lanes} lanes"
 
 
-def _isas(batches: pd.DataFrame, run: runfolder.Run, kernel: str) -> str:
-    """The instruction sets the kernel's batches ran with (run.json's record for older runs)."""
-    if "isa" not in batches:
-        return str(run.isa.get(kernel, "?"))
+def _isas(batches: pd.DataFrame, kernel: str) -> str:
+    """The instruction sets the kernel's batches ran with."""
     return ", ".join(dict.fromkeys(batches.loc[batches["kernel"] == kernel, "isa"].astype(str)))
 
 
 def kernel_table(
     kernels: Sequence[str],
     batches: pd.DataFrame,
-    run: runfolder.Run,
     est: pd.DataFrame,
     spd: pd.DataFrame,
     baseline: str,
@@ -49,7 +46,7 @@ def kernel_table(
     A family where the kernel has no estimate (a wide kernel on pairs) has no row."""
     rows = []
     for kernel in kernels:
-        form, isa = _form(kernel), _isas(batches, run, kernel)
+        form, isa = _form(kernel), _isas(batches, kernel)
         for family, g in est.loc[est["kernel"] == kernel].groupby("family", sort=False):
             s = spd.loc[(spd["kernel"] == kernel) & (spd["family"] == family)]
             dtype = str(g["dtype"].iloc[0])
@@ -63,8 +60,8 @@ def kernel_table(
                     "dtype": dtype,
                     "bytes_per_triangle": _bytes_per_triangle(kernel, dtype),
                     "workloads": len(g),
-                    "ops_per_test": g["ops_per_test"].iloc[0] if "ops_per_test" in g else math.nan,
-                    "peak_fraction_median": g["peak_fraction"].median() if "peak_fraction" in g else math.nan,
+                    "ops_per_test": g["ops_per_test"].iloc[0],
+                    "peak_fraction_median": g["peak_fraction"].median(),
                     "ns_per_test_median": g["ns_per_test"].median(),
                     "ns_per_test_min": g["ns_per_test"].min(),
                     "ns_per_test_max": g["ns_per_test"].max(),
