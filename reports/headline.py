@@ -66,10 +66,9 @@ def title(data: RunData, wl: pd.DataFrame) -> str:
     """The page's title and the run in one paragraph: kernels, workloads, processes, machine, baseline."""
     m = data.machine
     sweep = data.run.sweep
-    families = list(dict.fromkeys(wl["family"]))
     return f"<h1>Which intersector, on {escape(str(m.get('cpu_model', 'this machine')))}</h1>" + page.p(
         f"Run {data.run.run_id}, {data.run.created}: "
-        f"{len(data.kernels)} kernels on {len(wl)} workloads in {len(families)} families, "
+        f"{len(data.kernels)} kernels on {len(wl)} workloads in {wl['family'].nunique()} families, "
         f"{data.n_processes} worker processes × {sweep.rounds} rounds "
         f"(+{sweep.warmup} warm-up), on {m.get('cpu_model', 'an unknown CPU')} "
         f"({m.get('build', {}).get('compiler', 'unknown compiler')}). Baseline: {data.baseline}. "

@@ -10,6 +10,7 @@ and is compared nowhere on it. A run is any object with the fields of :class:`Ru
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -78,6 +79,11 @@ class Comparison:
     only_b: list[str]
 
 
+def _workload(wid: str, spec: Mapping[str, Any]) -> dict[str, str]:
+    """A row's workload: its id, family and label."""
+    return {"workload_id": wid, "family": family_of(spec), "label": short_label(spec)}
+
+
 def _per_process(data: RunTables) -> pd.DataFrame:
     """The run's per-process values, none of a kernel where its answers differ from the reference (other work)."""
     return compared(data.tables[runfolder.PER_PROCESS], data.tables.get(runfolder.CORRECTNESS))
@@ -109,8 +115,7 @@ def compare_runs(a: RunTables, b: RunTables) -> Comparison:
     pa, pb = (pp.assign(log_ns=np.log(pp["ns_per_test"])) for pp in (_per_process(a), _per_process(b)))
     spd_rows, time_rows = [], []
     for wid in shared:
-        spec = a.specs[wid]
-        info = {"workload_id": wid, "family": family_of(spec), "label": short_label(spec)}
+        info = _workload(wid, a.specs[wid])
         wa = pa.loc[pa["workload_id"] == wid].pivot(index="process", columns="kernel", values="log_ns")
         wb = pb.loc[pb["workload_id"] == wid].pivot(index="process", columns="kernel", values="log_ns")
         present = [k for k in kernels if k in wa.columns and k in wb.columns]
@@ -256,8 +261,7 @@ def _run_speedups(tag: str, d: RunTables, wids: list[str], kernels: list[str]) -
     s = d.speedups.loc[d.speedups["workload_id"].isin(set(wids)) & d.speedups["kernel"].isin(kernels)]
     rows = []
     for wid in wids:
-        spec = d.specs[wid]
-        info = {"run": tag, "workload_id": wid, "family": family_of(spec), "label": short_label(spec)}
+        info = {"run": tag, **_workload(wid, d.specs[wid])}
         ran = set(d.estimates.loc[d.estimates["workload_id"] == wid, "kernel"])
         if d.baseline in ran:
             one = {"ratio": 1.0, "ratio_ci_low": 1.0, "ratio_ci_high": 1.0, "verdict": "baseline"}
@@ -269,7 +273,6 @@ def _run_speedups(tag: str, d: RunTables, wids: list[str], kernels: list[str]) -
 
 def _orders(tags: list[str], runs: Sequence[RunTables], wid: str, kernels: list[str]) -> list[dict[str, object]]:
     """Every pair of kernels on one workload, oriented by run A's estimates, tested in each run."""
-    spec = runs[0].specs[wid]
     pers = []
     for d in runs:
         pp = _per_process(d)
@@ -277,17 +280,11 @@ def _orders(tags: list[str], runs: Sequence[RunTables], wid: str, kernels: list[
     present = [k for k in kernels if all(k in per.columns for per in pers)]
     first = pers[0][present].mean().sort_values(kind="stable")  # orient each pair by run A's estimate
     ordered = list(first.index)
-    pairs = [(a, b) for i, a in enumerate(ordered) for b in ordered[i + 1 :]]
+    pairs = list(itertools.combinations(ordered, 2))
     level = stats.simultaneous_confidence(stats.DEFAULTS.confidence, max(len(pairs), 1))
     rows = []
     for a, b in pairs:
-        row: dict[str, object] = {
-            "workload_id": wid,
-            "family": family_of(spec),
-            "label": short_label(spec),
-            "kernel": a,
-            "other_kernel": b,
-        }
+        row: dict[str, object] = {**_workload(wid, runs[0].specs[wid]), "kernel": a, "other_kernel": b}
         verdicts = []
         for tag, d, per in zip(tags, runs, pers, strict=True):
             ratio, low, high, _ = paired_time_ratio(per, b, a, level)
