@@ -117,7 +117,7 @@ def _pair_parts(c: Comparison) -> list[str]:
             "speedup-ratios",
             SECTIONS["speedup-ratios"],
             page.table(
-                _named(spd.assign(verdict=spd["verdict"].map(RATIO_WORDS))) if not spd.empty else spd,
+                _named(spd.assign(verdict=spd["verdict"].map(RATIO_WORDS))),
                 [
                     ("kernel", "kernel"),
                     ("label", "workload"),
@@ -143,7 +143,7 @@ def _pair_parts(c: Comparison) -> list[str]:
                 "is the steadier figure."
             )
             + page.table(
-                _named(c.times.assign(verdict=c.times["verdict"].map(TIME_WORDS))) if not c.times.empty else c.times,
+                _named(c.times.assign(verdict=c.times["verdict"].map(TIME_WORDS))),
                 [
                     ("kernel", "kernel"),
                     ("label", "workload"),
@@ -226,7 +226,7 @@ def _run_lines(runs: list[RunData], tags: list[str]) -> list[str]:
 
 def _speedup_grid(m: MultiComparison, wid: str) -> pd.DataFrame:
     """One workload's speedups as kernel rows and one column of text per run."""
-    g = m.speedups.loc[m.speedups["workload_id"] == wid] if not m.speedups.empty else m.speedups
+    g = m.speedups.loc[m.speedups["workload_id"] == wid]
     if g.empty:  # the baseline ran on no run's copy of this workload (a BVH workload, say)
         return pd.DataFrame(columns=["kernel", *m.tags])
     cells = g.assign(
@@ -277,7 +277,7 @@ def format_many(runs: list[RunData], m: MultiComparison) -> str:
             f"  {r.kernel} vs {r.other_kernel}: {r.kernel} faster on every machine on {r.kernel_faster}, "
             f"{r.other_kernel} on {r.other_faster}; machines differ on {r.differs}, undecided on {r.undecided}"
         )
-    counts = m.orders["order"].value_counts() if not m.orders.empty else pd.Series(dtype=int)
+    counts = m.orders["order"].value_counts()
     lines += [
         "",
         f"orders of two kernels on one workload: {int(counts.get('holds', 0))} hold on every machine, "
@@ -313,7 +313,7 @@ def _many_parts(m: MultiComparison, unit: str = "machine", ids: tuple[str, str] 
         *((f"ratio_{t}", f"{t}: time other / kernel (×)") for t in m.tags),
         ("order", "order"),
     ]
-    shown = o.loc[o["order"] != "undecided"] if not o.empty else o
+    shown = o.loc[o["order"] != "undecided"]
     summary = order_summary(m)
     orders = [
         page.p(f"Per pair of kernels, over the {len(m.workload_ids)} workloads in every run:"),
@@ -333,7 +333,7 @@ def _many_parts(m: MultiComparison, unit: str = "machine", ids: tuple[str, str] 
             "by process) in each run, with intervals simultaneous over the workload's pairs. It holds when every "
             "run finds the same kernel faster beyond its equivalence margin; it differs when one run finds "
             "each faster. Pairs undecided on some run are left out of this table "
-            f"({int((o['order'] == 'undecided').sum()) if not o.empty else 0} of {len(o)})."
+            f"({int((o['order'] == 'undecided').sum())} of {len(o)})."
         ),
         page.table(_named(shown), order_cols, classes={"order": lambda v: ORDER_CLASSES.get(v, "")}),
     ]
