@@ -1,8 +1,6 @@
 """``report.html``: one self-contained page per run, put together from its sections.
 
-What each section shows is docs/results.md's. The page kit is :mod:`.page`; the bodies come from
-:mod:`.ranking`, :mod:`.headline`, :mod:`.results`, :mod:`.bvh`, :mod:`.compare` (builds), :mod:`.replication`,
-:mod:`.checks` and :mod:`.about`.
+What each section shows is docs/results.md's; the page kit is :mod:`.page`, and :func:`render` names each body's module.
 
 Sections, by id, in page order (a new section: its title here and its body in :func:`render`):
 
