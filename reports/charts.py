@@ -141,16 +141,13 @@ def kernel_colours(kernels: list[str]) -> dict[str, str]:
 
 def _interval(value: Any, low: Any, high: Any, unit: str = "") -> str:
     """A value with its interval (NaN or None: missing); the value alone where it has none."""
-    from ..harness.stats import format_estimate
+    from ..harness.stats import format_interval
 
-    def number(x: Any) -> float:
-        return math.nan if x is None else float(x)
-
-    if math.isnan(number(value)):
+    if pd.isna(value):
         return "–"
-    if math.isnan(number(low)):
+    if pd.isna(low):
         return f"{value:.3g}"
-    return format_estimate(float(value), float(low), number(high), unit)
+    return format_interval(float(value), float(low), math.nan if pd.isna(high) else float(high), unit=unit)
 
 
 def intervals(frame: pd.DataFrame, column: str, unit: str, low: str = "", high: str = "") -> list[str]:
