@@ -97,7 +97,7 @@ def _ranked(rank: int, kernel: str, dtype: str, against: tuple[pd.DataFrame, str
         "algorithm": declared(kernel, "algorithm"),
         "form": _form(kernel),
         **with_ci("vs_fastest", ratio, low, high),
-        "tied_with_fastest": bool(low <= 1 + margin) if not math.isnan(low) else False,
+        "tied_with_fastest": bool(low <= 1 + margin),  # False where there is no interval (NaN)
         "watertight": declared(kernel, "watertight"),
         "culls_back_faces": declared(kernel, "culls_back_faces"),
         "bytes_per_triangle": _bytes_per_triangle(kernel, dtype),
