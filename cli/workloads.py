@@ -133,11 +133,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return parser
 
 
-def _error(message: str) -> int:
-    print(f"tribench workloads: error: {message}", file=sys.stderr)
-    return 2
-
-
 def _spec_from_args(args: argparse.Namespace):
     from ..workloads.spec import MeshSpec, PairSpec
 
@@ -187,11 +182,7 @@ def _report(w, as_json: bool) -> None:
 def _make(args: argparse.Namespace) -> int:
     from ..workloads.cache import make
 
-    try:
-        w = make(_spec_from_args(args))
-    except (UserError, FileNotFoundError) as e:
-        return _error(str(e))
-    _report(w, args.json)
+    _report(make(_spec_from_args(args)), args.json)
     return 0
 
 
@@ -217,10 +208,7 @@ def _list(args: argparse.Namespace) -> int:
 def _show(args: argparse.Namespace) -> int:
     from ..workloads.cache import load, resolve_id
 
-    try:
-        w = load(resolve_id(args.workload_id))
-    except (UserError, FileNotFoundError) as e:
-        return _error(str(e))
+    w = load(resolve_id(args.workload_id))
     _report(w, args.json)
     if args.png:
         from ..workloads.picture import draw
@@ -228,17 +216,16 @@ def _show(args: argparse.Namespace) -> int:
         try:
             draw(w, args.png)
         except OSError as e:
-            return _error(f"cannot write {args.png}: {e}")
+            raise UserError(f"cannot write {args.png}: {e}") from None
         print(f"wrote {args.png}")
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run ``workloads`` alone (``python -m tribench.cli.workloads make pairs``)."""
-    parser = flags.Parser(prog="tribench")
-    add_parser(parser.add_subparsers(metavar="COMMAND"))
-    args = parser.parse_args(["workloads", *(sys.argv[1:] if argv is None else argv)])
-    return args.func(args)
+    """Run ``workloads`` alone (``python -m tribench.cli.workloads make pairs``), its errors as the command's."""
+    from .command import main as command_main
+
+    return command_main(["workloads", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":

@@ -8,7 +8,6 @@ figures.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import os
@@ -22,7 +21,7 @@ import numpy as np
 import pytest
 
 from tribench import ext
-from tribench.cli.workloads import add_parser
+from tribench.cli.workloads import main as workloads_main
 from tribench.common import UserError
 from tribench.workloads import (
     MISS_STAGES,
@@ -660,10 +659,7 @@ def test_workload_arrays_are_read_only():
 
 
 def run_cli(*argv):
-    parser = argparse.ArgumentParser(prog="tribench")
-    add_parser(parser.add_subparsers())
-    args = parser.parse_args(["workloads", *argv])
-    return args.func(args)
+    return workloads_main(list(argv))
 
 
 @pytest.mark.slow  # workloads made and drawn through the command (seconds)

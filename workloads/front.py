@@ -65,8 +65,7 @@ def _read(path: Path, w: Workload) -> tuple[np.ndarray, np.ndarray]:
     if meta != _meta(w):
         raise Invalid("made from another workload or by another version")
     index, t = arrays.get("index"), arrays.get("t")
-    if index is None or t is None or index.shape != (len(w.origins),) or t.shape != index.shape:
-        raise Invalid("its arrays do not fit the workload")
-    if (index.dtype, t.dtype) != (np.int64, np.float64):
+    n = len(w.origins)
+    if index is None or t is None or (index.shape, index.dtype, t.shape, t.dtype) != ((n,), np.int64, (n,), np.float64):
         raise Invalid("its arrays do not fit the workload")
     return index, t
