@@ -11,7 +11,6 @@ from ..harness.plan import DESIGN as DESIGN_FLAGS  # the attributes add_design_f
 from . import flags
 
 __all__ = [
-    "DTYPES",
     "add_builds",
     "add_rng_seed",
     "add_design_flags",
@@ -19,9 +18,6 @@ __all__ = [
     "add_run_out",
     "DESIGN_FLAGS",
 ]
-
-#: Precisions of the workloads (workloads.spec.DTYPES, kept here so --help imports nothing heavy).
-DTYPES = ("float32", "float64")
 
 
 def _new_run_folder(text: str) -> str:

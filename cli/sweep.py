@@ -7,11 +7,10 @@ import dataclasses
 import sys
 
 from ..common import UserError
-from ..workloads.spec import ACCELS
+from ..workloads.spec import ACCELS, DTYPES
 from . import flags
 from .options import (
     DESIGN_FLAGS,
-    DTYPES,
     add_builds,
     add_design_flags,
     add_kernel_files,

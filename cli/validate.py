@@ -6,8 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..workloads.spec import DTYPES
 from . import flags
-from .options import DTYPES, add_kernel_files, add_no_progress, add_rng_seed
+from .options import add_kernel_files, add_no_progress, add_rng_seed
 
 __all__ = ["add_parser", "run"]
 

@@ -21,7 +21,7 @@ from typing import Any
 
 from ..common import UserError
 from ..workloads.pairs import SCALE_RANGE
-from ..workloads.spec import ACCELS, RAY_SETS
+from ..workloads.spec import ACCELS, ORDERS, RAY_SETS, SHAPES, WINDINGS
 from . import flags
 from .options import add_rng_seed, usage
 
@@ -31,13 +31,13 @@ __all__ = ["add_parser", "main", "parse_miss_mix"]
 # parsed arguments that go into a spec (the namespace also holds the command's own).
 _PAIR_OPTIONS: dict[str, dict[str, Any]] = {
     "n": {"type": int, "help": "number of pairs (default 10000)"},
-    "order": {"choices": ("shuffled", "sorted"), "help": "default shuffled"},
+    "order": {"choices": ORDERS, "help": "default shuffled"},
     "miss_mix": {
         "metavar": "MIX",
         "help": "edges (default), uniform, one stage name, or stage=fraction,... over parallel, "
         "behind_origin, outside_edge_1, outside_edge_2, outside_edge_3",
     },
-    "shape": {"choices": ("sphere", "equilateral", "sliver"), "help": "default sphere"},
+    "shape": {"choices": SHAPES, "help": "default sphere"},
     "scale": {
         "type": float,
         "help": "size of every pair (default 1): "
@@ -45,7 +45,7 @@ _PAIR_OPTIONS: dict[str, dict[str, Any]] = {
     },
     "offset": {"type": float, "help": "distance moved from the origin (default 0)"},
     "winding": {
-        "choices": ("random", "facing"),
+        "choices": WINDINGS,
         "help": "random (default: a ray meets a back face half the time) or facing (every ray meets a front face)",
     },
 }

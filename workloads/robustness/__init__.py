@@ -12,6 +12,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ...common import UserError
+from ..fields import DTYPES
 from .exact import _degenerate, _parallel, exactly_collinear
 from .meshes import (
     EMBREE_CENTRE,
@@ -60,7 +61,6 @@ __all__ = [
     "sphere_triangles",
 ]
 
-DTYPES = ("float32", "float64")
 TESTS = (
     "shared_edges",
     "shared_edges_double",
