@@ -124,15 +124,9 @@ def _degenerate(rng, size: Size, dtype: str) -> PairRays:
     o = aims - d
     _exact(tris, o, d)
     rest = _non_dyadic_flat(rng, g, per, dtype)
-    dyadic = _as(dtype, tris, o, d)
+    both = [np.concatenate(pair) for pair in ((tris, rest.triangles), (o, rest.origins), (d, rest.directions))]
     return PairRays(
-        *_as(
-            dtype,
-            *(
-                np.concatenate([x, y])
-                for x, y in zip(dyadic, (rest.triangles, rest.origins, rest.directions), strict=True)
-            ),
-        ),
+        *_as(dtype, *both),
         owner=np.concatenate([owner, g + rest.owner]),
         expect_hit=np.zeros(len(owner) + len(rest.owner), bool),
         label=np.concatenate([np.array(_DEGENERATE)[kind[owner]], rest.label]),
