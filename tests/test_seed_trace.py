@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tribench.workloads.seed import trace as seed_trace
+from tribench.workloads.seed.records import PLANE, TRIANGLE
 from tribench.workloads.seed.scene import builtin_scene, parse_scene
 from tribench.workloads.seed.trace import (
     camera_rays,
@@ -61,7 +61,7 @@ def test_ray_counts_by_hand(kernel, dtype):
     assert np.allclose(sh.origins + sh.directions, light)
     # both mirrors lie beyond the lights (t > 1 on every shadow ray): with no
     # upper bound on t, each shadows every light from the other
-    assert sh.hit.all() and (sh.hit_kind == seed_trace.TRIANGLE).all()
+    assert sh.hit.all() and (sh.hit_kind == TRIANGLE).all()
     assert (sh.hit_index == np.where(sh.depth == 1, 0, 1)).all()
     # the seed's order: per pixel (columns first), primary, its shadows, reflected, ...
     kind, idx = tr.seed_order()
@@ -113,7 +113,7 @@ def test_pictures_look_like_the_seeds(tmp_path):
     seen = tr.primary_triangle
     assert (seen >= 0).sum() > 0.15 * seen.size  # Suzanne fills a good part of the frame
     assert (seen[:4] == -1).all() and (tr.to_uint8()[0] == 255).all()  # white sky at the top
-    assert (tr.primary.hit_kind[tr.primary.pixel >= 47 * 48] == seed_trace.PLANE).all()  # floor at the bottom
+    assert (tr.primary.hit_kind[tr.primary.pixel >= 47 * 48] == PLANE).all()  # floor at the bottom
 
 
 def _check_differences_on_edges(name, dtype, size, tmp_path):

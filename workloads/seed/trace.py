@@ -20,15 +20,8 @@ import numpy as np
 from ...common import UserError
 from ..geometry import normalise
 from .differences import difference_mask, edge_margins, pixel_edge_margins, save_mask_png
-from .intersect import PLANE_EPS as PLANE_EPS
-from .intersect import REFERENCE_LIMIT as REFERENCE_LIMIT
-from .intersect import SPHERE_EPS as SPHERE_EPS
-from .intersect import TRIANGLE_EPS as TRIANGLE_EPS
 from .intersect import _closest, _occluders
 from .records import KINDS, MISS, RaySet, Trace, _rayset
-from .records import PLANE as PLANE
-from .records import SPHERE as SPHERE
-from .records import TRIANGLE as TRIANGLE
 from .scene import Scene
 from .shading import EYE, _direct, _material_arrays, _normals, _reflect, camera_rays
 
