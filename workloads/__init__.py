@@ -1,10 +1,7 @@
-"""Workloads: meshes and ray sets from frozen specs, with float64 reference answers.
-
-``tribench.workloads`` owns specs, generators, reference answers, the workload cache, pictures of
-workloads and the robustness suite's cases (:mod:`.robustness`); it never times anything, and may import
-``tribench.common`` and ``tribench.ext`` (to count a stream's tests). :func:`make` returns a spec's
-workload from the cache or builds and caches it, :func:`load` finds one by id, :func:`list_cached` lists
-the cache. Importing this package does not import trimesh or matplotlib."""
+"""Workloads: meshes and ray sets from frozen specs with float64 reference answers, their caches and pictures,
+and the robustness suite's cases (:mod:`.robustness`); nothing here times anything. It may import
+``tribench.common`` and ``tribench.ext`` (to count a stream's tests); importing it does not import trimesh or
+matplotlib."""
 
 from . import robustness
 from .cache import CachedWorkload, CacheWarning, cache_dir, generate, list_cached, load, make

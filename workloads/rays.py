@@ -19,6 +19,7 @@ from .geometry import (
     round_to,
     sample_inside,
     triangle_areas,
+    triangle_normals,
 )
 from .meshes import bounding_sphere, build_mesh
 from .pairs import BARY_MARGIN
@@ -122,8 +123,7 @@ def camera_candidates(triangles: np.ndarray, width: int, height: int) -> tuple[n
 
 def _near(w: np.ndarray, d: np.ndarray, radius: np.ndarray) -> np.ndarray:
     """Whether the line ``t d`` (unit d, t >= -radius) passes within ``radius`` of ``w``."""
-    along = w[..., 0] * d[..., 0] + w[..., 1] * d[..., 1] + w[..., 2] * d[..., 2]
-    w2 = w[..., 0] * w[..., 0] + w[..., 1] * w[..., 1] + w[..., 2] * w[..., 2]
+    along, w2 = dot(w, d), dot(w, w)
     reach = radius + 1e-6 * np.sqrt(w2)  # grown so rounding never drops a hit
     return (w2 - along * along <= reach * reach) & (along >= -reach)
 
@@ -282,7 +282,7 @@ def bounce_rays(triangles: np.ndarray, width: int, height: int, dtype: str, rng:
     rows = np.flatnonzero(primary.index >= 0)
     k = primary.index[rows]
     point = o[rows] + primary.t[rows, None] * d[rows]
-    normal = normalise(np.cross(tri[k, 1] - tri[k, 0], tri[k, 2] - tri[k, 0]))  # a hit triangle is not flat
+    normal = normalise(triangle_normals(tri[k]))  # a hit triangle is not flat
     normal[dot(normal, d[rows]) > 0] *= -1  # the side the camera saw
     centre, radius = bounding_sphere(tri.reshape(-1, 3))
     offset = BOUNCE_OFFSET * (radius + float(norm(centre)))
