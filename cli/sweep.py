@@ -102,9 +102,11 @@ def run(args: argparse.Namespace) -> int:
         out = args.out or runfolder.default_run_dir()
 
         def announce(sweep) -> str:
+            builds = sweep.build_names
+            per_build = f" ({len(builds)} builds in turn: {'; '.join(builds)})" if len(builds) > 1 else ""
             return (
                 f"sweep: {len(sweep.kernels)} kernels x {len(sweep.workloads)} workloads, "
-                f"{sweep.processes} processes{_per_build(sweep)} x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
+                f"{sweep.processes} processes{per_build} x {sweep.rounds} rounds (+{sweep.warmup} warm-up): "
                 f"{sweep.n_batches} batches -> {out}\n{duration.estimate(sweep).line()}"
             )
 
@@ -136,11 +138,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(f"next: tribench stats {result.run_dir}", file=sys.stderr)
     return 0
-
-
-def _per_build(sweep) -> str:
-    n = len(sweep.build_names)
-    return f" ({n} builds in turn: {'; '.join(sweep.build_names)})" if n > 1 else ""
 
 
 def _workloads_from_flags(args: argparse.Namespace) -> list:

@@ -25,6 +25,7 @@ MAX_FILE_RAYS = 1 << 24
 MAX_FILE_BYTES = MAX_FILE_RAYS * 7 * 8 + (1 << 20)
 
 _FLOATS = (np.dtype(np.float32).itemsize, np.dtype(np.float64).itemsize)
+_HEADER_READERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,12 +48,9 @@ def _header(z: zipfile.ZipFile, member: str, path: Path) -> tuple[tuple[int, ...
     try:
         with z.open(member) as f:
             version = np.lib.format.read_magic(f)
-            if version == (1, 0):
-                shape, _, dtype = np.lib.format.read_array_header_1_0(f)
-            elif version == (2, 0):
-                shape, _, dtype = np.lib.format.read_array_header_2_0(f)
-            else:
+            if version not in _HEADER_READERS:
                 raise ValueError(f".npy format version {version}")
+            shape, _, dtype = _HEADER_READERS[version](f)
     except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as e:
         raise _fail(path, f"array {name!r} is corrupt or not a numpy array ({e})") from None
     return shape, dtype
