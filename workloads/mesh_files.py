@@ -13,7 +13,7 @@ from ..common import Notice, UserError, atomic_write
 from ..common.location import cache_dir
 from .spec import file_sha256
 
-__all__ = ["KERNELS_FOLDER", "MAX_COPY_BYTES", "RAYS_FOLDER", "RUN_FOLDER", "adopt", "copy_into_run", "keep", "source"]
+__all__ = ["KERNELS_FOLDER", "MAX_COPY_BYTES", "RAYS_FOLDER", "RUN_FOLDER", "adopt", "copy_into_run", "kept", "source"]
 
 #: Mesh files up to this size are copied into the cache and into the run folders that use them.
 MAX_COPY_BYTES = 32 * 1024 * 1024
@@ -47,11 +47,11 @@ def _copy(path: Path, folder: Path, sha256: str) -> None:
         shutil.copyfileobj(src, dst)
 
 
-def keep(path: str | Path, sha256: str, folder: str = RUN_FOLDER) -> None:
-    """Keep a copy of the file beside the cache (done when its workload is built)."""
-    path = Path(path)
-    if path.is_file() and file_sha256(path) == sha256:
-        _copy(path, _store(folder), sha256)
+def kept(path: str | Path, sha256: str, folder: str = RUN_FOLDER) -> Path:
+    """:func:`source`, with a copy of what it found kept beside the cache (done when its workload is built)."""
+    found = source(path, sha256, folder)
+    _copy(found, _store(folder), sha256)
+    return found
 
 
 def copy_into_run(run_dir: str | Path, path: str | Path, sha256: str, folder: str = RUN_FOLDER) -> None:

@@ -301,8 +301,7 @@ def file_rays(spec: MeshSpec, triangles: np.ndarray):
     """The rays of ``spec``'s ray file, rounded to its dtype and checked again: origins, directions and ``t_max``
     (or None) as float64, and their :class:`ClosestAnswers`."""
     assert spec.rays_sha256 is not None  # MeshSpec set it
-    found = mesh_files.source(spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
-    mesh_files.keep(found, spec.rays_sha256, mesh_files.RAYS_FOLDER)
+    found = mesh_files.kept(spec.rays, spec.rays_sha256, mesh_files.RAYS_FOLDER)
     rays = ray_files.read_ray_file(found)
     if len(rays.origins) != spec.n_rays:
         raise UserError(f"ray file {found} holds {len(rays.origins)} rays, its spec says {spec.n_rays}")
@@ -319,9 +318,7 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
     """
     if spec.is_file:  # the file with the content the spec names, wherever it now is
         assert spec.mesh_sha256 is not None  # MeshSpec set it
-        found = mesh_files.source(spec.mesh, spec.mesh_sha256)
-        mesh_files.keep(found, spec.mesh_sha256)
-        mesh = build_mesh(str(found), spec.triangles, spec.rng_seed)
+        mesh = build_mesh(str(mesh_files.kept(spec.mesh, spec.mesh_sha256)), spec.triangles, spec.rng_seed)
     else:
         mesh = build_mesh(spec.mesh, spec.triangles, spec.rng_seed)
     tri = round_to(mesh.triangles, spec.dtype)
@@ -331,8 +328,7 @@ def generate_mesh_workload(spec: MeshSpec, workload_id: str) -> Workload:
         o, d, t_max, ans = file_rays(spec, tri)
     elif spec.rays == "camera":
         assert spec.width is not None and spec.height is not None  # MeshSpec set them
-        o, d = camera_rays(spec.width, spec.height)
-        o, d = round_to(o, spec.dtype), round_to(d, spec.dtype)
+        o, d = (round_to(a, spec.dtype) for a in camera_rays(spec.width, spec.height))
         ans = closest_hits(o, d, tri, *camera_candidates(tri, spec.width, spec.height))
     elif spec.rays == "bounce":
         assert spec.width is not None and spec.height is not None  # MeshSpec set them
