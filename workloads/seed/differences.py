@@ -19,20 +19,16 @@ def difference_mask(a: Trace, b: Trace) -> tuple[np.ndarray, int]:
     return mask, int(mask.sum())
 
 
-def save_mask_png(mask: np.ndarray, path: str | Path, background: np.ndarray | None = None) -> Path:
-    """Save a difference mask as PNG: differing pixels red, over a dimmed ``background`` image if given."""
-    h, w = mask.shape
-    if background is None:
-        rgb = np.full((h, w, 3), 255, np.uint8)
-    else:
-        rgb = (0.35 * np.asarray(background, np.float64) + 0.65 * 255).astype(np.uint8)
+def save_mask_png(mask: np.ndarray, path: str | Path, background: np.ndarray) -> Path:
+    """Save a difference mask as PNG: differing pixels red, over the ``background`` image dimmed."""
+    rgb = (0.35 * np.asarray(background, np.float64) + 0.65 * 255).astype(np.uint8)
     rgb[mask] = (220, 0, 0)
     return save_png(path, rgb)
 
 
-def edge_margins(origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray, t_min: float = 0.0) -> np.ndarray:
+def edge_margins(origins: np.ndarray, directions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """How close each ray passes to the boundary of any triangle: the smallest ``|min(u, v, w)|`` over the
-    triangles whose plane it crosses at ``t > t_min`` (float64 reference barycentrics), ``inf`` if none. Near
+    triangles whose plane it crosses at ``t > 0`` (float64 reference barycentrics), ``inf`` if none. Near
     0: next to an edge or a vertex, where two correct tests may disagree."""
     from ..reference import all_pairs
 
@@ -46,7 +42,7 @@ def edge_margins(origins: np.ndarray, directions: np.ndarray, triangles: np.ndar
     for lo, hi, ans in all_pairs(o, d, tri, budget=1 << 18):
         margin = np.abs(ans.edge_margin)
         with np.errstate(invalid="ignore"):
-            margin = np.where(ans.t > t_min, margin, np.inf)
+            margin = np.where(ans.t > 0, margin, np.inf)
         margin = np.where(np.isnan(margin), np.inf, margin).reshape(hi - lo, k)
         out[lo:hi] = margin.min(axis=1)
     return out

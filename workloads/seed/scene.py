@@ -367,14 +367,13 @@ materiau 0.2 0.6 0.3 0.2 0.5 0.5 100
 """
 
 
-def scene03_text(obj_path: str | os.PathLike | None = None) -> str:
+def scene03_text() -> str:
     """The text of ``scene03.txt``, built from ``suzanne.obj`` (see :func:`write_scene03`)."""
     import trimesh  # lazy: slow to import
 
-    from ..meshes import place
+    from ..meshes import SUZANNE_PATH, place
 
-    path = Path(obj_path) if obj_path is not None else DATA_DIR / "suzanne.obj"
-    mesh = trimesh.load(str(path), force="mesh", process=False)  # keep the 507 vertices as made
+    mesh = trimesh.load(str(SUZANNE_PATH), force="mesh", process=False)  # keep the 507 vertices as made
     assert isinstance(mesh, trimesh.Trimesh)  # force="mesh" gives one
     v = np.asarray(mesh.vertices, dtype=np.float64)
     placed = place("suzanne", v)  # Blender (x, y, z) -> (x, z, -y), then moved as the mesh workloads' Suzanne
@@ -385,10 +384,10 @@ def scene03_text(obj_path: str | os.PathLike | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_scene03(path: str | os.PathLike | None = None, obj_path: str | os.PathLike | None = None) -> Path:
-    """Write ``scene03.txt`` (default: the committed one), the same bytes from the same ``suzanne.obj``."""
-    out = Path(path) if path is not None else DATA_DIR / "scene03.txt"
-    write_text(out, scene03_text(obj_path))
+def write_scene03() -> Path:
+    """Write the committed ``scene03.txt`` again: the same bytes from the same ``suzanne.obj``."""
+    out = DATA_DIR / "scene03.txt"
+    write_text(out, scene03_text())
     return out
 
 
