@@ -9,7 +9,7 @@ from __future__ import annotations
 import hashlib
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -179,7 +179,7 @@ class PairSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON- and TOML-friendly fields (no ``None``), with ``kind``."""
-        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        d = asdict(self)
         d["miss_mix"] = self.miss_fractions()
         if self.winding == "random":  # as before the field existed: the same workload ids
             del d["winding"]
@@ -339,7 +339,7 @@ class MeshSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON- and TOML-friendly fields with ``kind``, without None fields and ``accel="brute"``: older ids stay."""
-        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        d = asdict(self)
         if d["accel"] == "brute":
             del d["accel"]
         return {"kind": self.kind, **{k: v for k, v in d.items() if v is not None}}

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, fields
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -83,7 +83,7 @@ class SeedSpec:
         return {"scene": "file" if self.is_file else self.scene, "scene_sha256": file_sha256(str(self.scene_path))}
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, **{f.name: getattr(self, f.name) for f in fields(self)}}
+        return {"kind": self.kind, **asdict(self)}
 
     def targets(self) -> dict[str, Any]:
         return {"sample_rays": self.sample}
