@@ -16,11 +16,12 @@ from typing import Any
 
 from ... import ext
 from ...common import UserError, write_text
+from ...workloads.spec import PairSpec
 
 # reading the margin is below the runner, which uses it; calibrating is above it
 from ..margin import AA_TWINS, CALIBRATION, Margin, latest_margin, user_calibration_path
-from ..plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP, is_bvh
-from ..stats import DEFAULTS, MAX_MARGIN, check_margin
+from ..plan import DEFAULT_PROCESSES, DEFAULT_ROUNDS, DEFAULT_TARGET_MS, DEFAULT_WARMUP, MAX_PROCESSES, Sweep, is_bvh
+from ..stats import DEFAULTS, MAX_MARGIN, aa_summary, check_margin, per_process, speedup
 
 __all__ = [
     "AA_COPIES",
@@ -49,16 +50,14 @@ def _nan_to_none(value: Any) -> Any:
 
 def aa_speedups(batches: Any, kernel: str, copy: str, processes: int) -> list:
     """One A/A :class:`~tribench.harness.stats.Speedup` per full group of ``processes`` processes and workload."""
-    from .. import stats
-
-    table = stats.per_process(batches)
+    table = per_process(batches)
     out = []
     for _, group in table.groupby("workload_id", sort=True):
         wide = group.pivot(index="process", columns="kernel", values="ns_per_test").dropna()
         wide = wide.assign(experiment=wide.index // processes)
         for _, exp in wide.groupby("experiment"):
             if len(exp) == processes:
-                out.append(stats.speedup(exp[kernel], exp[copy]))
+                out.append(speedup(exp[kernel], exp[copy]))
     return out
 
 
@@ -81,9 +80,7 @@ def calibrate(
     ``kernel`` is one of :data:`AA_COPIES`; ``workloads`` default to 10 000 pairs at hit rate 0.5, float64. The
     design defaults are the sweeps', so the margin is that of the default protocol: give your sweeps' values if they
     differ. ``processes * experiments`` processes run; ``save`` also writes the user-level file."""
-    from ...workloads.spec import PairSpec
     from .. import runfolder, runner
-    from ..plan import MAX_PROCESSES, Sweep
 
     if kernel not in AA_COPIES:
         raise UserError(f"no A/A copy of {kernel!r}; kernels with one: {', '.join(AA_COPIES)}")
@@ -140,7 +137,6 @@ def calibrate(
 def _record(run_dir: Path, kernel: str, copy: str, processes: int, results: list) -> dict[str, Any]:
     """calibration.json: the A/A comparisons' summary (coverage, p-values, noise floor, margin) and ratios."""
     from ..machine import cpu_model
-    from ..stats import aa_summary
 
     return {
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),

@@ -11,8 +11,9 @@ from typing import TextIO
 
 import pandas as pd
 
-from .. import runfolder, runner
-from ..duration import format_duration
+from ...common import UserError
+from .. import duration, plan, runfolder, runner
+from .kernel_check import load_checked
 from .sweep import measure_robustness, run_sweep
 
 __all__ = ["resume", "run"]
@@ -36,11 +37,8 @@ def run(
     :func:`tribench.harness.plan.default_sweep` through :func:`~.sweep.run_sweep`, then the peers when installed
     (their failure never stops the job), then the robustness suite. ``log`` takes the one-line notes (default
     stderr). Ctrl-C raises :class:`~tribench.harness.runner.SweepInterrupted` naming ``tribench run --resume``."""
-    from ..plan import default_sweep
-    from .kernel_check import load_checked
-
     load_checked(kernel_files)  # first: the default sweep gives their kernels roles
-    sweep = default_sweep(quick=quick, kernel_files=kernel_files, builds=builds)
+    sweep = plan.default_sweep(quick=quick, kernel_files=kernel_files, builds=builds)
     with runner.resumed_with(out, f"tribench run --resume {out}"):
         done = run_sweep(
             sweep,
@@ -57,8 +55,6 @@ def resume(out: str | Path, progress: bool | None = None, peers: bool = True, lo
     """Finish an interrupted main job in ``out`` as :func:`run` would have (peers unless ``peers.csv`` is complete).
 
     Raises UserError when ``out`` is not a main job's folder, or another process writes it."""
-    from ...common import UserError
-
     out = Path(out)
     main_job = runfolder.read_run(out).main_job
     if main_job is None:
@@ -104,15 +100,13 @@ def _complete(
 
 def _announce(sweep, out: str | Path) -> str:
     """What the job runs, and how long its sweep is expected to take, before it starts."""
-    from .. import duration
-
     head = f"tribench run: {', '.join(sweep.kernels)} on {len(sweep.workloads)} workloads -> {out}\n"
     then = "then the peers, the robustness suite and the tables"
     if sweep.sequential is None:
         return f"{head}{duration.estimate(sweep).line('for the sweep')}, {then}"
     design = sweep.sequential
     # the budget exactly below a minute and a half (15 s), else in format_duration's words
-    budget = f"{design.budget_s:.0f} s" if design.budget_s < 90 else format_duration(design.budget_s)
+    budget = f"{design.budget_s:.0f} s" if design.budget_s < 90 else duration.format_duration(design.budget_s)
     return (
         f"{head}expected for the sweep: about {budget} at most: "
         f"stages of {design.stage} processes "
@@ -123,7 +117,6 @@ def _announce(sweep, out: str | Path) -> str:
 
 def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO | None = None) -> None:
     """The report's peers, when one is installed; their failure never stops the run."""
-    from ..runner import SweepInterrupted
     from . import peers
 
     if not any(peers.available().values()):
@@ -139,7 +132,7 @@ def _run_peers(out: str | Path, quick: bool, progress: bool | None, log: TextIO 
     try:
         frame = peers.measure(out, design, progress=progress)
     except KeyboardInterrupt:
-        raise SweepInterrupted(
+        raise runner.SweepInterrupted(
             f"interrupted during the peers: the sweep is kept in {out}; `tribench run --resume {out}` "
             f"times the peers again and finishes the job"
         ) from None

@@ -18,16 +18,16 @@ import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
+import pandas as pd
 
 from ...common import Notice, UserError
+from ...workloads import cache
+from ...workloads.spec import ACCELS, MESH_NAMES, MeshSpec
 from .. import layout, protocol, runfolder
 from ..runfolder.rows import PeerRow
-
-if TYPE_CHECKING:
-    import pandas as pd  # imported where used: `tribench --help` reads PeerDesign's defaults
 
 __all__ = [
     "PEERS",
@@ -112,8 +112,6 @@ class PeerDesign:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise UserError(f"{name} must be a positive integer, got {value!r}")
-        from ...workloads.spec import ACCELS, MESH_NAMES
-
         if not isinstance(self.mesh, str) or not self.mesh:
             raise UserError(f"mesh must be a built-in mesh name or a file path, got {self.mesh!r:.80}")
         if self.mesh not in MESH_NAMES:  # the workers read it from another process: absolute
@@ -157,8 +155,6 @@ def available() -> dict[str, str | None]:
 
 def camera_spec(design: PeerDesign):
     """The peers' workload: the design's mesh (Suzanne by default) through a pinhole camera, float32, closest hit."""
-    from ...workloads.spec import MeshSpec
-
     return MeshSpec(
         design.mesh,
         triangles=design.triangles,
@@ -223,12 +219,8 @@ def measure(
     """Run the peers' processes one after another into ``peers.csv`` (:func:`peers_path`), rewritten after each.
     Raises RuntimeError when no peer is installed or a worker fails. With a BVH the peer is Embree alone (without it,
     tribench's rows are still measured, with a Notice), and ``kernel`` must be one of ``ext.bvh_kernel_names()``."""
-    import pandas as pd
-
     from ... import ext
     from ...ext import embree
-    from ...workloads import cache
-    from ..runfolder import write_csv
     from ..runner import default_cpu, progress_ticks
 
     bvh = design.accel == "bvh"
@@ -274,7 +266,7 @@ def measure(
             except protocol.WorkerError as exc:
                 raise RuntimeError(f"{name}: {exc}" if exc.said else str(exc)) from None
             frame = pd.DataFrame(rows, columns=list(COLUMNS))
-            write_csv(frame, path)
+            runfolder.write_csv(frame, path)
             advance()
     return frame
 
@@ -307,8 +299,6 @@ class _Contender:
 
 def _worker(text: str) -> None:
     """One replicate: build every contender once, then time them ``reps`` times; rows go to stdout."""
-    from ...workloads import cache
-
     job = json.loads(text)
     design = PeerDesign(**job["design"])
     cpu = job["cpu"]

@@ -22,8 +22,11 @@ import numpy as np
 import pandas as pd
 
 from ...common import UserError
+from ...workloads import cache
+from ...workloads.seed.scene import load_scene
+from ...workloads.spec import workload_id
 from .. import runfolder
-from ..plan import DEFAULT_BASELINE
+from ..plan import DEFAULT_BASELINE, Sweep
 from ..runfolder.seed_files import MISS_STAGES as MISS_STAGES  # reports.seed's, as before
 
 __all__ = [
@@ -165,7 +168,6 @@ def run_seed(
     ``scenes``: built-in names or scene files (default scene02 and scene03); ``size`` and ``sample`` override
     the image side and the rays per kind. The tables are :func:`tribench.reports.tables.seed.write_seed_tables`'."""
     from ...workloads.seed.workload import SeedSpec
-    from ..plan import Sweep
     from .sweep import run_sweep
 
     t0 = time.monotonic()
@@ -223,9 +225,7 @@ def _workloads(
 ) -> tuple[list, dict[str, dict[str, Any]]]:
     """Every scene's ray streams as workloads (traced the first time, then cached), and what each is:
     its scene's label, the paper's scene it replays, its ray kind and its stream's figures."""
-    from ...workloads import cache
     from ...workloads.seed.workload import RAY_KINDS, EmptyStream, SeedSpec, trace_forecast
-    from ...workloads.spec import workload_id
     from ..duration import format_duration
 
     specs: list = []
@@ -284,7 +284,6 @@ def _expected(sweep: Any, info: Mapping[str, Mapping[str, Any]], size: int) -> s
 
 def make_pictures(scene: str, label: str, size: int, out: Path) -> dict[str, Any]:
     """Render ``scene`` with both seed kernels, save the PNGs and the difference mask; count the differences."""
-    from ...workloads.seed.scene import load_scene
     from ...workloads.seed.trace import (
         difference_mask,
         pixel_edge_margins,

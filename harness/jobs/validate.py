@@ -11,6 +11,7 @@ import time
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from ... import ext
 from ...common import UserError
@@ -187,8 +188,6 @@ def run(kernels=None, dtypes=DTYPES, quick: bool = False, rng_seed: int = 0, tes
     With a kernel file's kernel among them, the suite runs in a worker of the protocol: the kernel's check ran the
     quick suite only, and one that crashes or never returns on the full one ends the worker, not this process
     (UserError). The frame's ``attrs`` record the RNG seed (``rng_seed``), size and seconds."""
-    import pandas as pd
-
     from ..runner import progress_ticks
 
     kernels = list(kernels or ext.kernel_names())

@@ -21,7 +21,11 @@ from dataclasses import astuple, fields
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pandas as pd
+
 from ...common import UserError, atomic_write, write_text
+from ..plan import plan
 from .lock import live_writer, writer_lock
 from .record import Run
 from .rows import BatchRow, CheckRow, ProcessRow, TraversalRow
@@ -216,8 +220,6 @@ def _read_table(path: Path, cls: type, rules: Sequence[Rule], max_bytes: int | N
     """``path`` as a DataFrame of ``cls``'s columns and types, every row checked; a partial last line dropped.
 
     Raises a UserError naming ``path:line`` for the first thing wrong."""
-    import pandas as pd
-
     columns = [f.name for f in fields(cls)]
     kinds = {f.name: f.type if isinstance(f.type, str) else f.type.__name__ for f in fields(cls)}
     text = _text(path, max_bytes)
@@ -249,8 +251,6 @@ def _text(path: Path, max_bytes: int | None) -> str:
 
 def _fields(path: Path, text: str, columns: list[str]):
     """The rows as text fields and each row's line number; the header and every field count checked."""
-    import pandas as pd
-
     reader = csv.reader(io.StringIO(text))
     rows: list[list[str]] = []
     lines: list[int] = []
@@ -275,8 +275,6 @@ def _fields(path: Path, text: str, columns: list[str]):
 
 def _refuse(path: Path, lines: list[int], bad: Any, message: Callable[..., str]) -> None:
     """A UserError naming the first bad row's line (``message(i)`` says what is wrong with row ``i``)."""
-    import numpy as np
-
     bad = np.asarray(bad, dtype=bool)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
@@ -285,8 +283,6 @@ def _refuse(path: Path, lines: list[int], bad: Any, message: Callable[..., str])
 
 def _column(path: Path, lines: list[int], s: Any, c: str, kind: str) -> Any:
     """Column ``c``'s text fields as values of its type, each checked (``kind``: int, float, bool or str)."""
-    import numpy as np
-    import pandas as pd
 
     def refuse(bad: Any, message: Callable[..., str]) -> None:
         _refuse(path, lines, bad, message)
@@ -377,8 +373,6 @@ def _read(
 ):
     """``name`` of ``run_dir`` by :func:`_read_table`: :func:`_run_rules` (``run`` read from ``run.json``, if
     there, when not given), ``rules`` and for batches the plan's; an ``optional`` file not there is an empty frame."""
-    import pandas as pd
-
     run_dir = Path(run_dir)
     path = run_dir / name
     if optional and not os.path.lexists(path):
@@ -409,8 +403,6 @@ def read_batches(run_dir: str | Path, run: Run | None = None):
 
 def _plan_rules(run: Run) -> list[Rule]:
     """Each batch is of its process's build and in the run's plan."""
-    from ..plan import plan
-
     sweep = run.sweep
     planned = {(k.process, k.workload_id, k.round, k.position, k.kernel) for k in plan(sweep)}
 
