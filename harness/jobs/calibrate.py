@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
-import math
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -36,16 +35,6 @@ __all__ = [
 
 #: Kernels that have an A/A copy, and its name.
 AA_COPIES = AA_TWINS
-
-
-def _nan_to_none(value: Any) -> Any:
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _nan_to_none(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_nan_to_none(v) for v in value]
-    return value
 
 
 def aa_speedups(batches: Any, kernel: str, copy: str, processes: int) -> list:
@@ -120,8 +109,9 @@ def calibrate(
     record = _record(
         run_dir, kernel, copy, processes, aa_speedups(runfolder.read_batches(run_dir), kernel, copy, processes)
     )
-    # the run keeps its record whatever it measured (NaN as null: JSON has no NaN)
-    text = json.dumps(_nan_to_none(record), indent=2, allow_nan=False) + "\n"
+    # the run keeps its record whatever it measured, NaN as null (JSON has no NaN: read back, it becomes None)
+    nan_as_null = json.loads(json.dumps(record), parse_constant=lambda nan: None)
+    text = json.dumps(nan_as_null, indent=2, allow_nan=False) + "\n"
     write_text(run_dir / CALIBRATION, text)
     if save:
         # only a usable margin becomes the margin of later sweeps
