@@ -3,8 +3,6 @@
 :mod:`.schema` names every file and column once; :mod:`.io` writes, reads and
 validates the measured files. Both are re-exported (``runfolder.BATCHES``)."""
 
-from . import io as io
-from . import schema as schema
 from .io import *  # noqa: F403
 from .io import __all__ as _io_all
 from .schema import *  # noqa: F403
