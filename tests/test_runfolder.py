@@ -6,6 +6,7 @@ file (and line), exit code 2; never a traceback, never a silently wrong table.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import resource
@@ -421,6 +422,24 @@ def test_a_symlinked_batches_file_is_never_appended_to(run, tmp_path):
     with pytest.raises(UserError, match="symbolic link"):
         runfolder.RowWriter(run / "batches.csv", runfolder.BATCH_COLUMNS)
     assert target.read_bytes() == before
+
+
+def test_a_writer_whose_header_cannot_be_written_leaves_no_file_open(tmp_path, monkeypatch):
+    """A full disk at the header: the OSError names the file, the partial header is cut, no descriptor is left."""
+
+    class FullDisk:  # the os module as the writer sees it, every write refused
+        def __getattr__(self, name):
+            return getattr(os, name)
+
+        def write(self, fd, data):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(sys.modules[runfolder.RowWriter.__module__], "os", FullDisk())
+    before = len(os.listdir("/proc/self/fd"))
+    with pytest.raises(OSError, match="batches.csv"):
+        runfolder.RowWriter(tmp_path / "batches.csv", runfolder.BATCH_COLUMNS)
+    assert len(os.listdir("/proc/self/fd")) == before
+    assert (tmp_path / "batches.csv").read_bytes() == b""
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -128,9 +128,13 @@ class RowWriter:
             if exc.errno == errno.ELOOP:
                 raise UserError(f"{self.path} is a symbolic link; a run folder's files are plain files") from None
             raise
-        self._size = os.fstat(self._fd).st_size
-        if self._size == 0:
-            self._write(_csv_line(columns).encode())
+        try:
+            self._size = os.fstat(self._fd).st_size
+            if self._size == 0:
+                self._write(_csv_line(columns).encode())
+        except BaseException:
+            self.close()  # no writer is returned: its file would stay open
+            raise
 
     def append(self, row: Any) -> None:
         self._write(_csv_line(astuple(row)).encode())
