@@ -102,8 +102,8 @@ def kernel_info(kernel: str) -> KernelInfo:
     >>> kernel_info("woop").watertight, kernel_info("moller_trumbore_cull").culls_back_faces
     ('edges_and_vertices', True)
     """
-    check_kernel(kernel)
-    declared = dict(core_of(kernel).kernel_info(kernel))  # afresh: which ISAs run can be asked again
+    module = core_of(kernel)
+    declared = dict(module.kernel_info(kernel))  # afresh: which ISAs run can be asked again
     isas = declared.pop("isas")
     runnable = dict(isas)
     wanted = os.environ.get("TRIBENCH_ISA")
@@ -115,7 +115,6 @@ def kernel_info(kernel: str) -> KernelInfo:
         isa = wanted
     else:
         isa = next(i for i, ok in isas if ok)
-    module = core_of(kernel)
     return KernelInfo(
         name=kernel,
         isas=runnable,

@@ -51,23 +51,18 @@ def bound_from_mix(mix: Mapping[str, float], rates: Mapping[str, float]) -> floa
     return max(alone, pairs, fp_pool, alu_pool)
 
 
-def measure_rates(repeats: int = 3, isa: str | None = None) -> ext.OpThroughput:
-    """The probes on ``isa`` (default: the widest), best of ``repeats`` each (about 0.2 s)."""
-    return ext.op_throughput(isa, repeats=repeats)
-
-
 def throughput_record() -> dict:
     """The probes' rates and the FMA peak of the same moment, as ``run.json``'s ``throughput``.
 
     The analysis scales the rates to each process's moment by the ratio of its FMA
     peak to this one (a clock factor), so every process is held to its own bound."""
-    peak, rates = measure_peak(3), measure_rates()
+    peak, rates = measure_peak(), ext.op_throughput()
     return {"isa": rates.isa, "peak_gflops": peak.gflops, "float32": rates.float32, "float64": rates.float64}
 
 
-def measure_peak(repeats: int = 5) -> ext.Peak:
-    """The best of ``repeats`` probes: the peak of this moment, least disturbed by other processes."""
-    return max((ext.fma_peak(PROBE_ITERATIONS) for _ in range(repeats)), key=lambda p: p.gflops)
+def measure_peak() -> ext.Peak:
+    """The best of three probes: the peak of this moment, least disturbed by other processes."""
+    return max((ext.fma_peak(PROBE_ITERATIONS) for _ in range(3)), key=lambda p: p.gflops)
 
 
 def camera_fractions(dtypes=("float32", "float64"), rounds: int = 5, size: int = 64, rng_seed: int = 0, isa=None):
@@ -128,14 +123,14 @@ def _camera_fractions(dtypes, rounds: int, size: int, rng_seed: int, isa, emit=N
     if emit:  # batches of 5 ms, and the probes
         silence_s = measured_limit_s(rounds * len(jobs) * 5e-3)
         emit("silence", {"seconds": silence_s, "during": "timing every kernel"})
-    before, rates_before = measure_peak(3), measure_rates(isa=isa)
+    before, rates_before = measure_peak(), ext.op_throughput(isa)
     times: dict[tuple[str, str], list[float]] = {key: [] for key in jobs}
     keys = list(jobs)
     for _ in range(rounds):
         for i in rng.permutation(len(keys)):
             job, loops = jobs[keys[i]]
             times[keys[i]].append(ext.time_batch(job, loops).ns_per_test)
-    after, rates_after = measure_peak(3), measure_rates(isa=isa)
+    after, rates_after = measure_peak(), ext.op_throughput(isa)
     gflops = (before.gflops + after.gflops) / 2
     rates = {
         d: {c: (rates_before.rates(d)[c] + rates_after.rates(d)[c]) / 2 for c in rates_before.rates(d)} for d in dtypes
