@@ -13,10 +13,9 @@ import sysconfig
 from types import ModuleType
 
 from ..common import UserError
-from ..common.location import cache_dir
 from . import _core
 from .registry import module_sha256, use_module
-from .toolchain import Toolchain, compile_module, import_module, installed, set_current
+from .toolchain import Toolchain, cached_module, installed, module_file, set_current
 
 __all__ = ["INSTALLED", "BuildError", "build_record", "load_build", "parse_builds", "use_build"]
 
@@ -117,28 +116,13 @@ def load_build(spec: str) -> ModuleType:
     if spec == INSTALLED:
         return _core
     toolchain = toolchain_of(spec)
-    key = toolchain.key
-    name = f"_bd_{key[:20]}"
-    path = cache_dir() / "kernel_builds" / key[:20] / f"{name}{sysconfig.get_config_var('EXT_SUFFIX')}"
-    module = import_module(name, path) if path.is_file() else None
-    if module is None:
+    name, path = module_file("_bd_", toolchain.key)
 
-        def failed(result: subprocess.CompletedProcess) -> BuildError:
-            errors = [line for line in result.stderr.splitlines() if "error" in line][:20]
-            return BuildError(
-                f"build {spec!r} does not compile:\n" + "\n".join(errors or result.stderr.splitlines()[:20])
-            )
+    def failed(result: subprocess.CompletedProcess) -> BuildError:
+        errors = [line for line in result.stderr.splitlines() if "error" in line][:20]
+        return BuildError(f"build {spec!r} does not compile:\n" + "\n".join(errors or result.stderr.splitlines()[:20]))
 
-        try:
-            compile_module(toolchain, name, path, [], failed)
-        except BuildError:
-            raise
-        except UserError as e:
-            raise BuildError(f"build {spec!r}: {e}") from None
-        module = import_module(name, path)
-        if module is None:
-            raise BuildError(f"build {spec!r}: compiled, but its module {path} does not import")
-    return module
+    return cached_module(toolchain, name, path, [], failed, BuildError, f"build {spec!r}")
 
 
 def use_build(spec: str) -> None:

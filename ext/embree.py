@@ -11,16 +11,14 @@ import functools
 import hashlib
 import shlex
 import subprocess
-import sysconfig
 from types import ModuleType
 from typing import NamedTuple
 
 import numpy as np
 
 from ..common import UserError
-from ..common.location import cache_dir
 from .checks import check_array, check_t_max
-from .toolchain import EXT, compile_module, import_module, installed
+from .toolchain import EXT, compile_module, import_module, installed, module_file
 
 __all__ = ["INSTALL", "ISAS", "EmbreeMissing", "EmbreeScene", "Trace", "isas_here", "load", "missing", "version"]
 
@@ -73,10 +71,9 @@ def _flags() -> tuple[list[str], list[str]]:
 def _loaded() -> ModuleType | EmbreeMissing:
     toolchain = installed()
     cflags, libs = _flags()
-    key = hashlib.sha256(repr((SOURCE.read_bytes(), toolchain.key, cflags, libs)).encode()).hexdigest()[:20]
-    name = f"_embree_{key}"
-    path = cache_dir() / "kernel_builds" / key / f"{name}{sysconfig.get_config_var('EXT_SUFFIX')}"
-    module = import_module(name, path) if path.is_file() else None
+    key = hashlib.sha256(repr((SOURCE.read_bytes(), toolchain.key, cflags, libs)).encode()).hexdigest()
+    name, path = module_file("_embree_", key)
+    module = import_module(name, path)
     if module is not None:
         return module
 

@@ -12,14 +12,12 @@ import os
 import re
 import shlex
 import subprocess
-import sysconfig
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..common import UserError
-from ..common.location import cache_dir
 from .registry import adopt
-from .toolchain import Toolchain, compile_module, current, import_module
+from .toolchain import cached_module, current, module_file
 
 __all__ = ["KernelFile", "KernelFileError", "kernel_file_of", "load_kernels", "loaded_kernel_files"]
 
@@ -70,8 +68,7 @@ def load_kernels(path: str | os.PathLike) -> tuple[str, ...]:
     sha = hashlib.sha256(text).hexdigest()
     toolchain = current()
     key = hashlib.sha256(text + toolchain.key.encode()).hexdigest()  # the file and all else the module depends on
-    name = f"_kf_{key[:20]}"
-    module_path = cache_dir() / "kernel_builds" / key[:20] / f"{name}{sysconfig.get_config_var('EXT_SUFFIX')}"
+    name, module_path = module_file("_kf_", key)
     compiled = source if text == raw else module_path.with_name(f"{source.stem}.c")
     if compiled != source and not (compiled.is_file() and compiled.read_bytes() == text):
         compiled.parent.mkdir(parents=True, exist_ok=True)
@@ -79,12 +76,12 @@ def load_kernels(path: str | os.PathLike) -> tuple[str, ...]:
     same = next((f for f in loaded_kernel_files() if f.path == str(source) and f.module == str(module_path)), None)
     if same is not None and all(kernel_file_of(k) is same for k in same.kernels):
         return same.kernels
-    module = import_module(name, module_path) if module_path.is_file() else None
-    if module is None:
-        _compile(compiled, name, module_path, toolchain, source)
-        module = import_module(name, module_path)
-        if module is None:
-            raise KernelFileError(f"{source}: compiled, but its module {module_path} does not import")
+
+    def failed(result: subprocess.CompletedProcess) -> KernelFileError:  # every file includes the kernel file
+        return KernelFileError(f"{source} does not compile ({shlex.join(toolchain.cc)}):\n{_own_lines(result, source)}")
+
+    defines = [f'-DTB_KERNEL_FILE="{compiled}"']
+    module = cached_module(toolchain, name, module_path, defines, failed, KernelFileError, str(source))
     taken = [
         f"{k} (declared by {f.path})"
         for k in module.kernel_names(True)
@@ -144,20 +141,6 @@ def _with_local_headers(path: Path, text: bytes, depth: int = 0) -> bytes:
     if not parts:
         return text
     return b"".join([b'#line 1 "%s"\n' % str(path).encode(), *parts, text[at:]])
-
-
-def _compile(compiled: Path, name: str, module_path: Path, toolchain: Toolchain, source: Path) -> None:
-    """Compile every C file of the extension with ``compiled``'s kernels into ``module_path``, atomically."""
-
-    def failed(result: subprocess.CompletedProcess) -> KernelFileError:  # every file includes the kernel file
-        return KernelFileError(f"{source} does not compile ({shlex.join(toolchain.cc)}):\n{_own_lines(result, source)}")
-
-    try:
-        compile_module(toolchain, name, module_path, [f'-DTB_KERNEL_FILE="{compiled}"'], failed)
-    except KernelFileError:
-        raise
-    except UserError as e:
-        raise KernelFileError(f"{source}: {e}") from None
 
 
 def _own_lines(result: subprocess.CompletedProcess, source: Path, most: int = 60) -> str:

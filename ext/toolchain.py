@@ -1,6 +1,7 @@
 """Compiling the extension's C files into a module of its own, for a kernel file or a build: a
 :class:`Toolchain` (compiler, flags, link), :func:`compile_module` (every C file in parallel, linked
-atomically) and :func:`import_module` (which removes a damaged module, so it compiles again). Kernel files
+atomically), :func:`import_module` (which removes a damaged module, so it compiles again) and, on them,
+:func:`cached_module`, a module from the cache (:func:`module_file`) or compiled into it. Kernel files
 are compiled by the process's :func:`current` toolchain: the installed one, or the build a worker runs."""
 
 from __future__ import annotations
@@ -25,9 +26,8 @@ from types import ModuleType
 
 from ..common import UserError, write_text
 from ..common.files import file_sha256
+from ..common.location import cache_dir
 from .registry import build_info
-
-__all__ = ["EXT", "SOURCES", "Toolchain", "compile_module", "current", "import_module", "installed", "set_current"]
 
 EXT = Path(__file__).resolve().parent
 #: The extension's C files (setup.py's SOURCES) and every header they include.
@@ -114,6 +114,37 @@ def compile_module(
             raise UserError(f"does not link ({shlex.join(toolchain.link)}):\n{said}")
         write_text(_seal(module_path), file_sha256(Path(tmp) / module_path.name))  # before the module: no stale seal
         os.replace(Path(tmp) / module_path.name, module_path)
+
+
+def module_file(prefix: str, key: str) -> tuple[str, Path]:
+    """The name and cache file of a compiled module, by the hash ``key`` of all it is compiled from."""
+    name = f"{prefix}{key[:20]}"
+    return name, cache_dir() / "kernel_builds" / key[:20] / f"{name}{sysconfig.get_config_var('EXT_SUFFIX')}"
+
+
+def cached_module(
+    toolchain: Toolchain,
+    name: str,
+    path: Path,
+    defines: list[str],
+    failed: Callable[[subprocess.CompletedProcess], UserError],
+    error: type[UserError],
+    what: str,
+) -> ModuleType:
+    """The module at ``path``, compiled by :func:`compile_module` first unless the cache holds it whole; a
+    failure is an ``error``: ``failed(result)``'s for a unit that does not compile, else one starting ``what: ``."""
+    module = import_module(name, path)
+    if module is None:
+        try:
+            compile_module(toolchain, name, path, defines, failed)
+        except error:
+            raise
+        except UserError as e:
+            raise error(f"{what}: {e}") from None
+        module = import_module(name, path)
+        if module is None:
+            raise error(f"{what}: compiled, but its module {path} does not import")
+    return module
 
 
 def _seal(module_path: Path) -> Path:
