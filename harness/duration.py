@@ -13,7 +13,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from .plan import Sweep
+from .plan import Sweep, is_bvh
 
 __all__ = ["Estimate", "estimate", "format_duration", "measure_passes", "model"]
 
@@ -182,7 +182,7 @@ def _passes(sweep: Sweep, emit: Callable[[str, dict], None] | None = None) -> Pa
             front_reference(w)
         rays, tris = len(w.origins), len(w.triangles)
         tests[wid] = rays if pairs else rays * tris
-        bvh = getattr(spec, "accel", "brute") == "bvh"  # a ray costs a traversal, not a test of every triangle
+        bvh = is_bvh(spec)  # a ray costs a traversal, not a test of every triangle
         step = math.ceil(rays / SLICE_RAYS) if bvh else math.ceil(tests[wid] / SLICE_TESTS)
         part = slice(None, None, max(1, step))
         silence_s = unmeasured_limit_s(10 * (SLICE_RAYS * BVH_RAY_TESTS if bvh else SLICE_TESTS))

@@ -6,11 +6,11 @@ so the imports stay one-way: runner -> margin, calibration -> runner."""
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..common import UserError
+from ..common.location import cache_dir
 from .stats import DEFAULTS, check_margin
 
 __all__ = ["AA_TWINS", "CALIBRATION", "Margin", "latest_margin", "user_calibration_path"]
@@ -39,9 +39,7 @@ class Margin:
 
 def user_calibration_path() -> Path:
     """The latest calibration of this user, next to the workload cache (``~/.cache/tribench/calibration.json``)."""
-    cache = os.environ.get("TRIBENCH_CACHE")
-    base = Path(cache).expanduser().parent if cache else Path("~/.cache/tribench").expanduser()
-    return base / CALIBRATION
+    return cache_dir().parent / CALIBRATION
 
 
 def latest_margin(cpu_model: str | None = None) -> Margin:

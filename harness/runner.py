@@ -369,7 +369,7 @@ def _execute_stages(
     ran, seconds, last_s = 0, 0.0, None
     try:
         for stage in data["stages"]:  # recorded: decided before, finished (or cut short) since
-            todo = [k for k in stages.keys_of(sweep, stage, keys) if k not in have]
+            todo = [k for k in stages.keys_of(stage, keys) if k not in have]
             if todo:
                 ran += _execute(run, todo, 0, progress, worker, len(todo)).batches_run
             seconds = stage["seconds_before"] + time.monotonic() - t0
@@ -382,7 +382,7 @@ def _execute_stages(
                 break
             data["stages"].append(stage)
             stages.write_stages(run_dir, data)  # decided before it runs: a resume runs the same
-            todo = stages.keys_of(sweep, stage, keys)
+            todo = stages.keys_of(stage, keys)
             say(
                 f"stage {stage['stage'] + 1}: processes {stage['first_process'] + 1}-{stage['last_process'] + 1} "
                 f"of at most {sweep.processes}, {sum(len(k) for k in stage['open'].values())} kernel-workload "

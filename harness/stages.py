@@ -18,7 +18,7 @@ import pandas as pd
 from ..common import UserError, write_text
 from . import runfolder, stats
 from .plan import DEFAULT_BASELINE as BASELINE
-from .plan import BatchKey, Sweep, plan
+from .plan import BatchKey, Sweep
 
 __all__ = ["StageRecord", "decide", "keys_of", "read_stages", "write_stages"]
 
@@ -47,15 +47,11 @@ def write_stages(run_dir: str | Path, data: Mapping[str, Any]) -> None:
     write_text(Path(run_dir) / runfolder.STAGES, json.dumps(data, indent=1, sort_keys=True) + "\n")
 
 
-def keys_of(sweep: Sweep, stage: StageRecord, keys: Sequence[BatchKey] | None = None) -> list[BatchKey]:
-    """The plan's keys (``keys``, default the whole plan) that ``stage`` runs, in plan order."""
+def keys_of(stage: StageRecord, keys: Sequence[BatchKey]) -> list[BatchKey]:
+    """The keys of the plan ``keys`` that ``stage`` runs, in plan order."""
     first, last = stage["first_process"], stage["last_process"]
     open_ = {(w, k) for w, ks in stage["open"].items() for k in ks}
-    return [
-        key
-        for key in (plan(sweep) if keys is None else keys)
-        if first <= key.process <= last and (key.workload_id, key.kernel) in open_
-    ]
+    return [key for key in keys if first <= key.process <= last and (key.workload_id, key.kernel) in open_]
 
 
 def _block_seconds(batches: pd.DataFrame, processes: range) -> dict[str, float]:

@@ -95,7 +95,7 @@ def load_sweep_file(path: str | Path, overrides: Mapping[str, Any] | None = None
             if set(rule) != {"stage", "target", "budget_s"}:
                 raise UserError(f"sequential: expected {{stage = N, target = X, budget_s = S}}, got {rule!r:.80}")
             data["sequential"] = Sequential(**rule)
-        return Sweep(workloads=tuple(workloads), **{k: data[k] for k in data if k != "workloads"})
+        return Sweep(workloads=tuple(workloads), **data)
     except UserError as exc:
         where = f"{path} with the command-line flags" if given else str(path)
         raise UserError(f"{where}: {exc}") from None

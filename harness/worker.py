@@ -24,9 +24,9 @@ import numpy as np
 from .. import ext
 from ..common import seconds_from_env
 from ..workloads import bvh_cache
-from ..workloads.spec import MeshSpec
 from . import layout, protocol
 from .checks import Checksum, KernelCheckError, check_batch, one_pass_checksum
+from .plan import is_bvh
 from .runfolder import BatchRow, CheckRow, ProcessRow, TraversalRow
 
 __all__ = [
@@ -262,7 +262,7 @@ def _prepare(job: WorkerJob, process: int, kernel: str, w: Any, arrays: tuple, e
     its answers checked against the reference (a ``check`` row), and its batch length calibrated;
     and the seconds its check took."""
     o, d, tris = arrays
-    bvh = isinstance(w.spec, MeshSpec) and w.spec.accel == "bvh"
+    bvh = is_bvh(w.spec)
     tests = len(o) * (BVH_RAY_TESTS if bvh else len(tris) if w.mode != "pairs" else 1)
     during = f"checking {kernel} on {w.workload_id}"
     emit("silence", {"seconds": unmeasured_limit_s(tests), "during": during})
