@@ -27,7 +27,6 @@ __all__ = [
     "Sequential",
     "Sweep",
     "default_sweep",
-    "main_job_kernels",
     "is_bvh",
     "plan",
     "process_seed",
@@ -371,20 +370,6 @@ MAIN_JOB_DESIGN = {
 MAIN_JOB_BVH_TRIANGLES = {False: 250_000, True: 10_000}
 
 
-def main_job_kernels() -> dict[str, tuple[str, ...]]:
-    """The main job's kernels by role, from the registry (never from their names):
-    ``seed`` (the seed's replays), ``scalar`` (every clean scalar form, the only
-    ones with a pairs mode) and ``native`` (every native form, also the BVH leaf tests)."""
-    from .. import ext
-
-    info = {k: ext.kernel_info(k) for k in ext.kernel_names()}
-    return {
-        "seed": tuple(k for k, i in info.items() if i.seed_replay),
-        "scalar": tuple(k for k, i in info.items() if i.lanes == 1 and not i.seed_replay),
-        "native": tuple(k for k, i in info.items() if i.lanes > 1),
-    }
-
-
 def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds: Sequence[str] = ()) -> Sweep:
     """The main job's sweep (``tribench run``): which intersector, on this machine.
 
@@ -397,8 +382,12 @@ def default_sweep(quick: bool = False, kernel_files: Sequence[str] = (), builds:
 
     for f in kernel_files:  # before the roles: their kernels have roles too
         ext.load_kernels(f)
-    roles = main_job_kernels()
-    paper, scalar, native = roles["seed"], roles["scalar"], roles["native"]
+    # the kernels by role, from the registry (never from their names): the seed's replays, every clean scalar
+    # form (the only ones with a pairs mode) and every native form (also the BVH leaf tests)
+    info = {k: ext.kernel_info(k) for k in ext.kernel_names()}
+    paper = tuple(k for k, i in info.items() if i.seed_replay)
+    scalar = tuple(k for k, i in info.items() if i.lanes == 1 and not i.seed_replay)
+    native = tuple(k for k, i in info.items() if i.lanes > 1)
     # the baseline's A/A twin, timed wherever the baseline is: the run's own margin (reports/tables/margin.py)
     paper = (*paper, AA_TWINS[DEFAULT_BASELINE])
     kernels = (*paper, *scalar, *native)
