@@ -30,10 +30,10 @@ __all__ = ["atomic_write", "file_sha256", "read_user_text", "write_bytes", "writ
 
 
 @contextmanager
-def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "utf-8") -> Iterator[IO[Any]]:
+def atomic_write(path: str | Path, mode: str = "w") -> Iterator[IO[Any]]:
     """Open a temporary file beside ``path``; on a clean exit, flush it and rename it over ``path``.
 
-    ``mode`` is ``"w"`` (text, ``"\\n"`` line ends) or ``"wb"``. The parent folder is created, and the file
+    ``mode`` is ``"w"`` (UTF-8 text, ``"\\n"`` line ends) or ``"wb"``. The parent folder is created, and the file
     gets ``open``'s permissions (``0o666`` less the umask), not ``mkstemp``'s ``0o600``. If the body raises
     (Ctrl-C included) or the write fails, ``path`` is left as it was; an ``OSError`` becomes a ``UserError``."""
     if mode not in ("w", "wb"):
@@ -56,9 +56,8 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
         name = str(path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
         fd = os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         tmp = name
-        with os.fdopen(
-            fd, mode, encoding=None if mode == "wb" else encoding, newline=None if mode == "wb" else ""
-        ) as f:
+        text = mode == "w"
+        with os.fdopen(fd, mode, encoding="utf-8" if text else None, newline="" if text else None) as f:
             yield f
             f.flush()
             os.fsync(f.fileno())
@@ -72,9 +71,9 @@ def atomic_write(path: str | Path, mode: str = "w", *, encoding: str | None = "u
                 os.unlink(tmp)
 
 
-def write_text(path: str | Path, text: str, *, encoding: str = "utf-8") -> None:
-    """Write ``text`` to ``path`` atomically (see :func:`atomic_write`)."""
-    with atomic_write(path, "w", encoding=encoding) as f:
+def write_text(path: str | Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically, in UTF-8 (see :func:`atomic_write`)."""
+    with atomic_write(path) as f:
         f.write(text)
 
 

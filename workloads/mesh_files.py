@@ -43,7 +43,7 @@ def _copy(path: Path, folder: Path, sha256: str) -> None:
     if os.path.lexists(target):  # a folder or a dangling link where the copy goes: the copy is optional
         warnings.warn(f"{target} is not a regular file: no copy of {path.name} is kept there", Notice, stacklevel=3)
         return
-    with open(path, "rb") as src, atomic_write(target, "wb", encoding=None) as dst:
+    with open(path, "rb") as src, atomic_write(target, "wb") as dst:
         shutil.copyfileobj(src, dst)
 
 
