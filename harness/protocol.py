@@ -215,7 +215,8 @@ def serve(work: Callable[[str], None], errors: tuple[type[BaseException], ...] =
     except expected as exc:
         message = str(exc)
         if isinstance(exc, OSError) and not isinstance(exc, FileNotFoundError):  # a missing file's message names it
-            message = _os_error(exc)
+            where = f" on {exc.filename}" if exc.filename else ""  # what failed, on which file, in one line
+            message = f"a worker could not go on: {exc.strerror or type(exc).__name__}{where}"
         emit("error", {"message": message})
         return 3
     emit("end", {})
@@ -245,9 +246,3 @@ def _pass_notices(shown):
             shown(message, category, filename, lineno, file, line)
 
     return show
-
-
-def _os_error(exc: OSError) -> str:
-    """An operating-system error of a worker as one line: what failed, on which file."""
-    where = f" on {exc.filename}" if exc.filename else ""
-    return f"a worker could not go on: {exc.strerror or type(exc).__name__}{where}"

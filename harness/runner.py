@@ -320,7 +320,7 @@ def resume(run_dir: str | Path, *, progress: bool | None = None, worker: Sequenc
         )
         run = dataclasses.replace(run, cpu=usable[-1], raw={**run.raw, "cpu": usable[-1]})
     with runfolder.writer_lock(run_dir):
-        for name in (runfolder.BATCHES, runfolder.PROCESSES, runfolder.CHECKS, runfolder.TRAVERSALS):
+        for name, _, _ in _MEASURED_ROWS.values():
             try:
                 cut = runfolder.repair_csv(run_dir / name)
             except OSError as exc:
