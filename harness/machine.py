@@ -48,17 +48,14 @@ def _cpuinfo() -> dict[str, str]:
     return fields
 
 
-def _sysctl(*names: str) -> dict[str, str]:
-    """sysctl's values by name (empty where there is no sysctl)."""
-    try:
-        out = subprocess.run(["sysctl", *names], capture_output=True, text=True, timeout=5)
-    except (OSError, subprocess.SubprocessError):
-        return {}
-    return {k.strip(): v.strip() for k, _, v in (line.partition(":") for line in out.stdout.splitlines()) if v}
-
-
 def _macos_cpuinfo() -> dict[str, str]:
-    values = _sysctl("machdep.cpu.brand_string", "hw.optional")
+    """The model name and flags from sysctl (empty where there is no sysctl)."""
+    names = ["machdep.cpu.brand_string", "hw.optional"]
+    try:
+        out = subprocess.run(["sysctl", *names], capture_output=True, text=True, timeout=5).stdout
+    except (OSError, subprocess.SubprocessError):
+        out = ""
+    values = {k.strip(): v.strip() for k, _, v in (line.partition(":") for line in out.splitlines()) if v}
     flags = {flag for key, flag in _MACOS_FLAGS.items() if values.get(key) == "1"}
     return {"model name": values.get("machdep.cpu.brand_string", ""), "flags": " ".join(sorted(flags))}
 
