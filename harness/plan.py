@@ -83,10 +83,6 @@ class BatchKey:
     position: int
     kernel: str
 
-    @property
-    def warmup(self) -> bool:
-        return self.round < 0
-
     def to_list(self) -> list:
         """Compact JSON form, as the worker receives it."""
         return [self.process, self.workload_id, self.round, self.position, self.kernel]
