@@ -19,7 +19,6 @@ __all__ = [
     "KernelCheckError",
     "check_batch",
     "one_pass_checksum",
-    "replicates_a_flawed_original",
 ]
 
 #: Relative tolerance on sums of t, by precision: a kernel's own sum against
@@ -41,22 +40,15 @@ class Checksum:
     uv_sum: float = 0.0
 
 
-def replicates_a_flawed_original(kernel: str) -> bool:
-    """True for the seed's kernels, faithful copies of code with known flaws.
-
-    Their differences from the reference (a small triangle vanishes for
-    ``moller_seed``) are what the seed experiment is about, so checks.csv records
-    them rather than the sweep stopping. Every other kernel must agree outside the ambiguous rays."""
-    return ext.kernel_info(kernel).seed_replay
-
-
 def one_pass_checksum(kernel: str, workload: Any, bvh: ext.BVH | None = None) -> tuple[Checksum, dict[str, int]]:
     """Check ``kernel``'s per-ray answers on ``workload``; return its checksum and the counts of disagreements.
 
     Answers must equal the reference's outside ``workload.ambiguous()``, the sum of t (and u + v) within
     :data:`T_SUM_RTOL` where both hit; an any-hit answer may be any hit triangle, so its t is checked against that
     triangle's. A culling kernel is held to the front-face reference; with ``bvh`` the answers are the BVH's. Raises
-    KernelCheckError naming the first ray that differs (never for :func:`replicates_a_flawed_original` kernels)."""
+    KernelCheckError naming the first ray that differs, but for the seed's replays: faithful copies of code with known
+    flaws (a small triangle vanishes for ``moller_seed``), which is what the seed experiment is about, so checks.csv
+    records their differences rather than the sweep stopping."""
     w = workload
     if bvh is None:
         r = ext.intersect(kernel, w.origins, w.directions, w.triangles, w.mode, t_max=w.t_max)
@@ -83,7 +75,7 @@ def one_pass_checksum(kernel: str, workload: Any, bvh: ext.BVH | None = None) ->
         "ambiguous_disagreements": int((differs & ambiguous).sum()),
     }
     where = f"kernel {kernel!r} on workload {w.workload_id} ({w.spec.summary()})"
-    if wrong.any() and not replicates_a_flawed_original(kernel):
+    if wrong.any() and not ext.kernel_info(kernel).seed_replay:
         first = int(np.argmax(wrong))
         raise KernelCheckError(
             f"{where}: {int(wrong.sum())} of {len(wrong)} rays differ from the reference "
