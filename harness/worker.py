@@ -96,9 +96,6 @@ def kernel_isa(kernel: str) -> str:
     return f"scalar/{baseline}"
 
 
-# ------------------------------------------------------------------ checks
-
-
 @dataclass(frozen=True)
 class BvhJob:
     """The inputs of a BVH workload's timed batches: one kernel's BVH, the rays, and ``null_t_max``,
@@ -148,9 +145,6 @@ def calibrate_loops(job: ext.Job | BvhJob, target_ns: float) -> int:
     return min(most, max(1, round(target_ns / max(per_loop, 1.0))))
 
 
-# ------------------------------------------------------------------ layout
-
-
 def _peak_row(job: WorkerJob, phase: str, cpu: int, pad: int, dummies: int) -> ProcessRow:
     p = ext.fma_peak(PEAK_ITERATIONS)
     return ProcessRow(
@@ -169,9 +163,6 @@ def _peak_row(job: WorkerJob, phase: str, cpu: int, pad: int, dummies: int) -> P
         peak_isa=p.isa,
         start_ns=time.monotonic_ns(),
     )
-
-
-# -------------------------------------------------------------------- run
 
 
 class _Meter:
