@@ -435,10 +435,10 @@ def test_a_writer_whose_header_cannot_be_written_leaves_no_file_open(tmp_path, m
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
     monkeypatch.setattr(sys.modules[runfolder.RowWriter.__module__], "os", FullDisk())
-    before = len(os.listdir("/proc/self/fd"))
+    before = len(os.listdir("/dev/fd"))
     with pytest.raises(OSError, match="batches.csv"):
         runfolder.RowWriter(tmp_path / "batches.csv", runfolder.BATCH_COLUMNS)
-    assert len(os.listdir("/proc/self/fd")) == before
+    assert len(os.listdir("/dev/fd")) == before
     assert (tmp_path / "batches.csv").read_bytes() == b""
 
 
