@@ -183,6 +183,23 @@ def test_the_yardstick_times_every_algorithms_native_form():
 
 
 @pytest.mark.slow
+def test_kernels_side_by_side_sets_every_brute_force_form_beside_another_build(tmp_path):
+    from tribench import ext
+
+    env = {**os.environ, "TRIBENCH_CACHE": str(tmp_path / "cache")}
+    core = ext._core.__file__  # the same build as "before": the mode runs, whatever the ratios
+    args = ("--before", core, "--pairs", "64", "--rounds", "2", "--batch-ms", "0.1")
+    done = bench(BENCH / "kernels_side_by_side.py", *args, env=env)
+    assert done.returncode == 0, done.stderr
+    ratios = [line.split()[4:] for line in done.stdout.splitlines() if line.startswith("this build / before: ")]
+    forms = {(k, "pairs") for k in ext.kernel_names() if "pairs" in ext.kernel_info(k).modes}
+    forms |= {(k, "suzanne") for k in ext.kernel_names()}  # closest mode: every kernel
+    expected = {(k, dtype, where) for k, where in forms for dtype in ("float32", "float64")}
+    assert {(r[0], r[1], r[2]) for r in ratios[:-1]} == expected and len(ratios) == len(expected) + 1
+    assert all(float(r[-3]) > 0 for r in ratios[:-1]) and ratios[-1][:2] == ["geometric", "mean"]
+
+
+@pytest.mark.slow
 def test_kernels_side_by_side_heads_each_column_with_its_kernel(tmp_path):
     from tribench import ext
 
