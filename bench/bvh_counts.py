@@ -21,11 +21,12 @@ natively, are the float64 reference's (but on ambiguous rays): the same work on 
 
 Read the misses as the cache lines a ray brings in, not as stalls: callgrind models no hardware
 prefetcher and ignores prefetch instructions, and its branch predictor is 2004's (two-bit
-counters indexed by address and recent history), not a modern one. Instructions repeat exactly
-from run to run; misses move by a few percent (the addresses differ). Counts are not timings, so
-this may run beside other work. Valgrind has no AVX-512: every form counted is AVX2 or less,
-tribench's and Embree's alike. Under Valgrind a process runs 50-100x slower; at 250,000
-triangles each contender takes 1-3 minutes (Embree's build most of it), two at a time.
+counters indexed by address and recent history), not a modern one. Its models start empty at
+the first ray, for every contender alike: the child runs uninstrumented (Valgrind's 4x, not its
+50-100x) through Python's start and the tree's build, and turns instrumentation on just before
+the pass. Instructions repeat exactly from run to run; misses move by a few percent (the
+addresses differ). Counts are not timings, so this may run beside other work. Valgrind has no
+AVX-512: every form counted is AVX2 or less, tribench's and Embree's alike.
 
     python bench/bvh_counts.py [--triangles 250000] [--rays N] [--packets]
 """
@@ -34,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import os
 import re
 import shutil
 import subprocess
@@ -96,10 +98,23 @@ def trace_once(arrays: Path, name: str, isa: str) -> None:
     with np.load(arrays) as saved:
         triangles, o, d = saved["triangles"], saved["origins"], saved["directions"]
     traced, walk = tracer(name, triangles)
+    start_instrumentation()
     if name.startswith("embree "):
         traced.trace(o, d, None, walk, 1)
     else:
         traced.time(o, d, "closest", 1, isa=isa, layout=walk)
+    os._exit(0)  # callgrind writes its profile; Python's teardown, instrumented, would take seconds
+
+
+def start_instrumentation() -> None:
+    """Have callgrind instrument this process from here on. Python's start, the imports and the tree's build ran
+    uninstrumented, 5-10x faster; the cache and branch models start empty here, before the rays, alike for every
+    contender. Valgrind's gdbserver reads callgrind_control's command while the process runs: poll, not wait."""
+    control = subprocess.Popen(["callgrind_control", "--instr=on", str(os.getpid())], stdout=subprocess.PIPE)
+    while control.poll() is None:
+        pass
+    if control.returncode != 0:
+        raise SystemExit(f"callgrind_control could not start the instrumentation: {control.stdout.read()!r}")
 
 
 def closest_hits(w, pick: np.ndarray, name: str, isa: str) -> tuple[np.ndarray, np.ndarray | None]:
@@ -128,7 +143,7 @@ def count(arrays: Path, name: str, function: str, args: argparse.Namespace) -> P
     """Run the child under callgrind; the path of its profile."""
     out = arrays.with_name(name.replace(" ", "_") + ".callgrind")
     valgrind = ["valgrind", "--tool=callgrind", "--cache-sim=yes", "--branch-sim=yes", f"--D1={args.l1}"]
-    valgrind += [f"--LL={args.l2}", "--collect-atstart=no", f"--toggle-collect={function}"]
+    valgrind += [f"--LL={args.l2}", "--instr-atstart=no", "--collect-atstart=no", f"--toggle-collect={function}"]
     valgrind += ["--dump-instr=yes"] if name.startswith("embree ") else []  # its masks, by address
     child = [sys.executable, __file__, "--child", str(arrays), name, "--isa", args.isa]
     run = subprocess.run([*valgrind, f"--callgrind-out-file={out}", *child], capture_output=True, text=True)
@@ -197,6 +212,22 @@ def executions(events: list[str], rows: list, library: str) -> tuple[str, dict[i
     return found, dict(ran)
 
 
+@functools.cache
+def mask_sites(library: str) -> list[tuple[int, bool, int]]:
+    """Each vmovmskps in ``library``: its address, whether it is 8-wide (a ymm register), and the multiplies
+    (vmul*, vfmadd*, vfmsub*, vfnm*) since the one before; one disassembly (13 s for Embree's), shared by
+    every profile."""
+    listing = subprocess.run(["objdump", "-d", "--no-show-raw-insn", library], capture_output=True, check=True)
+    sites, products = [], 0
+    for found in re.finditer(rb"^ *([0-9a-f]+):\s+(vmovmskps\s.*|v(?:fn?m|mul))", listing.stdout, re.M):
+        if found[2].startswith(b"vmovmskps"):
+            sites.append((int(found[1], 16), b"%ymm" in found[2], products))
+            products = 0
+        else:
+            products += 1
+    return sites
+
+
 def embree_masks(library: str, ran: dict[int, int], rays: int) -> str:
     """Embree's node tests and triangle blocks a ray, from its mask instructions (see above) and
     :func:`executions` in its ``library``: the 8-wide masks are its node tests; of its 4-wide ones,
@@ -204,19 +235,13 @@ def embree_masks(library: str, ran: dict[int, int], rays: int) -> str:
     masks of their own, with little arithmetic)."""
     if not ran or shutil.which("objdump") is None:
         return "its node tests not counted (no instruction costs in its library, or no objdump)"
-    span = [f"--start-address={min(ran):#x}", f"--stop-address={max(ran) + 1:#x}"]
-    listing = subprocess.run(["objdump", "-d", "--no-show-raw-insn", *span, library], capture_output=True, text=True)
-    nodes, blocks, products = 0, (-1, 0), 0  # blocks: (products before the mask, its executions)
-    for line in listing.stdout.splitlines():
-        address, _, text = line.strip().partition(":")
-        products += bool(re.search(r"\bv(fn?m|mul)", text))  # vmul*, vfmadd*, vfmsub*, vfnm*
-        if "vmovmskps" in text:
-            n = ran.get(int(address, 16), 0)
-            if "%ymm" in text:
-                nodes += n
-            elif n and products > blocks[0]:
-                blocks = (products, n)
-            products = 0
+    nodes, blocks = 0, (-1, 0)  # blocks: (products before the mask, its executions)
+    for address, wide, products in mask_sites(library):
+        n = ran.get(address, 0)
+        if wide:
+            nodes += n
+        elif n and products > blocks[0]:
+            blocks = (products, n)
     return f"{nodes / rays:.2f} node tests (8-wide masks), {blocks[1] / rays:.2f} blocks of 4 triangles a ray"
 
 
@@ -288,8 +313,8 @@ def main() -> None:
         return trace_once(Path(args.child[0]), args.child[1], args.isa)
     if unknown := sorted(set(args.kernels) - set(ext.bvh_kernel_names())):
         raise SystemExit(f"not BVH leaf kernels: {', '.join(unknown)}; these are: {', '.join(ext.bvh_kernel_names())}")
-    if shutil.which("valgrind") is None:
-        raise SystemExit("valgrind is not installed (apt-get install valgrind)")
+    if shutil.which("valgrind") is None or shutil.which("callgrind_control") is None:
+        raise SystemExit("valgrind (with its callgrind_control) is not installed (apt-get install valgrind)")
     if (why := embree.missing()) is not None:
         raise SystemExit(why)
     args.l1, args.l2 = args.l1 or cache_option(1, "Data"), args.l2 or cache_option(2, "Unified")
