@@ -15,8 +15,6 @@ triangle met (or nearly) at t ~ 0: the origin in its plane, up to 1e-3 relative.
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -82,22 +80,23 @@ def _check(tris: np.ndarray, o: np.ndarray, d: np.ndarray, max_leaf: int = 16) -
         ref_index, ambiguous = answers[ext.kernel_info(kernel).culls_back_faces]
         ok = ~ambiguous
         bvh = ext.build_bvh(kernel, tris, max_leaf=max_leaf)
-        for isa, layout in itertools.product(_isas(kernel), ext.LAYOUTS):
-            brute = ext.intersect(kernel, o, d, tris, "closest", isa=isa)
-            tr = bvh.intersect(o, d, "closest", isa=isa, layout=layout)
-            where = (kernel, isa, layout, tris.dtype)
-            np.testing.assert_array_equal(tr.hits.index[ok], brute.index[ok], err_msg=str(where))
-            np.testing.assert_array_equal(tr.hits.index[ok], ref_index[ok], err_msg=str(where))
-            same = tr.hits.index == brute.index  # the same triangle: the same arithmetic, bit for bit
-            for name in ("t", "u", "v"):
-                np.testing.assert_array_equal(getattr(tr.hits, name)[same], getattr(brute, name)[same])
-            shadow = bvh.intersect(o, d, "any", isa=isa, layout=layout)
-            np.testing.assert_array_equal(shadow.hits.hit[ok], ref_index[ok] >= 0, err_msg=str(where))
-            hit = shadow.hits.hit  # any hit is a hit of the kernel with t below the closest's bound
-            assert (shadow.hits.t[hit] > 0).all()
-            _check_counts(bvh, tr.counts, layout)
-            _check_counts(bvh, shadow.counts, layout)
-            assert (shadow.counts[:, 0] <= tr.counts[:, 0])[ok & (ref_index < 0)].all()
+        for isa in _isas(kernel):
+            brute = ext.intersect(kernel, o, d, tris, "closest", isa=isa)  # one brute force for every layout
+            for layout in ext.LAYOUTS:
+                tr = bvh.intersect(o, d, "closest", isa=isa, layout=layout)
+                where = (kernel, isa, layout, tris.dtype)
+                np.testing.assert_array_equal(tr.hits.index[ok], brute.index[ok], err_msg=str(where))
+                np.testing.assert_array_equal(tr.hits.index[ok], ref_index[ok], err_msg=str(where))
+                same = tr.hits.index == brute.index  # the same triangle: the same arithmetic, bit for bit
+                for name in ("t", "u", "v"):
+                    np.testing.assert_array_equal(getattr(tr.hits, name)[same], getattr(brute, name)[same])
+                shadow = bvh.intersect(o, d, "any", isa=isa, layout=layout)
+                np.testing.assert_array_equal(shadow.hits.hit[ok], ref_index[ok] >= 0, err_msg=str(where))
+                hit = shadow.hits.hit  # any hit is a hit of the kernel with t below the closest's bound
+                assert (shadow.hits.t[hit] > 0).all()
+                _check_counts(bvh, tr.counts, layout)
+                _check_counts(bvh, shadow.counts, layout)
+                assert (shadow.counts[:, 0] <= tr.counts[:, 0])[ok & (ref_index < 0)].all()
     return float(answers[False][1].mean())
 
 
