@@ -52,9 +52,12 @@ def _named(kernel: str, rows: pd.DataFrame) -> str:
     return f"{kernel} (front faces only)" if len(culls) and str(culls.iloc[0]) == "True" else kernel
 
 
+def _vs_fastest(r: pd.Series) -> str:
+    return format_estimate(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
+
+
 def _slower(r: pd.Series, g: pd.DataFrame) -> str:
-    ratio = format_estimate(r["vs_fastest"], r["vs_fastest_ci_low"], r["vs_fastest_ci_high"], "×")
-    return f"{_named(r['kernel'], g)}: {ratio} slower"
+    return f"{_named(r['kernel'], g)}: {_vs_fastest(r)} slower"
 
 
 def _fastest_cells(best: pd.Series, g: pd.DataFrame) -> dict[str, str]:
@@ -255,7 +258,9 @@ def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
     >>> r["band"], r["fastest"], r["speedup"], r["tied"], r["next"]
     ('meshes, brute force (2 workloads)', 'a', '3× [2.8, 3.2]', 'b', 'c: 2× [1.8, 2.2] slower')
     >>> r["watertight"], r["cracks"], r["sphere"], int(r["bytes"])
-    ('no; fastest watertight: b, 1.1× [0.95, 1.2] slower', '31,600 (20,000 rays)', '0 (2,000 rays)', 48)
+    ('no; fastest watertight: b, not told apart (1.1× [0.95, 1.2])', '31,600 (20,000 rays)', '0 (2,000 rays)', 48)
+    >>> band_rows(bands.assign(tied_with_fastest=[True, False, False])).iloc[0]["watertight"]
+    'no; fastest watertight: b, 1.1× [0.95, 1.2] slower'
     """
     rows = []
     for _, g in bands.groupby(["dtype", "band"], sort=False):
@@ -269,6 +274,9 @@ def band_rows(bands: pd.DataFrame) -> pd.DataFrame:
             watertight = "yes"
         elif tight.empty:
             watertight = "no (no watertight kernel in this run)"
+        elif bool(tight.iloc[0]["tied_with_fastest"]):  # "slower" would overstate what the interval shows
+            r = tight.iloc[0]
+            watertight = f"no; fastest watertight: {_named(r['kernel'], g)}, not told apart ({_vs_fastest(r)})"
         else:
             watertight = "no; fastest watertight: " + _slower(tight.iloc[0], g).replace(":", ",", 1)
         rows.append(
