@@ -312,6 +312,19 @@ def _span(values: list[float]) -> str:
     return page.span(min(values), max(values), "×")
 
 
+def _bands_named(places: list[str]) -> str:
+    """Bands for a sentence, the shared words of a precision's hit-rate bands said once.
+
+    >>> _bands_named(["float32 pairs, hit rate 0–35%", "float32 pairs, hit rate 35–65%", "float64 meshes, in a BVH"])
+    'float32 pairs, hit rate 0–35%, 35–65% and float64 meshes, in a BVH'
+    """
+    shared: dict[str, list[str]] = {}
+    for place in places:
+        words, _, last = place.rpartition(" ")
+        shared.setdefault(words, []).append(last)
+    return " and ".join(f"{words} {', '.join(last)}" for words, last in shared.items())
+
+
 def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]:
     """One sentence per question a user asks (docs/results.md), from ``bands.csv`` and ``algorithms.csv``.
 
@@ -330,7 +343,7 @@ def answer_sentences(bands: pd.DataFrame, alg: pd.DataFrame | None) -> list[str]
     out.append(
         "Fastest: "
         + "; ".join(
-            f"{k} on " + (f"every band ({n})" if len(p) == n and n > 2 else ", ".join(p)) for k, p in places.items()
+            f"{k} on " + (f"every band ({n})" if len(p) == n and n > 2 else _bands_named(p)) for k, p in places.items()
         )
         + "."
     )
