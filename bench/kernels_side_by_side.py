@@ -8,8 +8,8 @@ moller_seed. Run: python bench/kernels_side_by_side.py [--pairs N] [--rounds R] 
 --before CORE times every brute-force form instead, in this build and in another
 build of the extension (its _core*.so, say compiled with other flags) in the same
 rounds: each kernel on the pairs (scalar kernels) and over Suzanne in closest
-mode (every kernel), both precisions. Printed: each form's speed in this build over
-the other's, paired by round, with its 95% t interval, the lowest first.
+mode (every kernel), both precisions; the kernels both builds have. Printed: each form's
+speed in this build over the other's, paired by round, with its 95% t interval, the lowest first.
 """
 
 import argparse
@@ -53,14 +53,15 @@ def two_builds(args, rng: np.random.Generator) -> None:
     before = other_build(args.before)[0]
     mesh = make(MeshSpec("suzanne", 968, rays="camera", width=32, height=32, dtype="float64"))
     pairs = safe_pairs(args.pairs, seed=1, hit_rate=0.5)
+    kernels = [k for k in ext.kernel_names(internal=args.internal) if k in before.kernel_names(internal=True)]
     forms = {}  # name -> (the build's time_batch, its job)
     for dtype in (np.float32, np.float64):
         on_pairs = [np.ascontiguousarray(a, dtype) for a in pairs] + ["pairs"]
         on_mesh = [np.ascontiguousarray(a, dtype) for a in (mesh.origins, mesh.directions, mesh.triangles)]
         for build, suffix in ((ext, ""), (before, BEFORE)):
-            for k in ext.kernel_names(internal=args.internal):
+            for k in kernels:
                 for where, arrays in (("pairs", on_pairs), ("suzanne closest", on_mesh + ["closest"])):
-                    if arrays[-1] in ext.kernel_info(k).modes:
+                    if arrays[-1] in build.kernel_info(k).modes:
                         name = f"{k} {np.dtype(dtype).name} {where}{suffix}"
                         forms[name] = (build.time_batch, build.make_job(k, *arrays))
     batch_ns = args.batch_ms * 1e6
@@ -70,7 +71,7 @@ def two_builds(args, rng: np.random.Generator) -> None:
         for n in rng.permutation(list(forms)):
             time, job = forms[n]
             times[n].append(time(job, loops[n]).ns_per_test)
-    ratios = {n: stats.speedup(times[n + BEFORE], times[n]) for n in forms if not n.endswith(BEFORE)}
+    ratios = {n: stats.speedup(times[n + BEFORE], times[n]) for n in forms if n + BEFORE in forms}  # in both
     for n, s in sorted(ratios.items(), key=lambda item: item[1].ratio):
         print(f"this build / before: {n:<52}{s.ratio:7.3f}  [{s.ci_low:.3f}, {s.ci_high:.3f}]")
     mean = float(np.exp(np.mean([np.log(s.ratio) for s in ratios.values()])))
