@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from embree_native import BEFORE, other_build  # noqa: E402  (the other build, loaded as embree_native does)
+from embree_native import BEFORE, other_build  # the other build, loaded as embree_native loads it
 
 from tribench import ext
 from tribench.harness import stats
