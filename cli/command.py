@@ -51,17 +51,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _ctrl_c(signum: int, frame) -> None:
-    """SIGINT and SIGTERM (and their retry, SIGALRM): KeyboardInterrupt, but never inside an import.
+    """SIGINT and SIGTERM (and their retry, SIGALRM): KeyboardInterrupt, but never inside an import or trimesh.
 
     SIGTERM (a stopped CI job) takes Ctrl-C's way out, so every batch is kept.
-    trimesh's imports catch BaseException, so a Ctrl-C during ``import trimesh``
-    was swallowed: one that lands in an import is retried 50 ms later."""
+    trimesh catches BaseException in its imports and in its loaders (``trimesh.load`` turned a Ctrl-C during
+    its ``os.path.isfile`` into "string is not a file"), so one that lands there is retried 50 ms later."""
     while frame is not None:
-        if frame.f_code.co_filename.startswith("<frozen importlib"):
+        if frame.f_code.co_filename.startswith("<frozen importlib") or _in_trimesh(frame):
             signal.setitimer(signal.ITIMER_REAL, 0.05)
             return
         frame = frame.f_back
     raise KeyboardInterrupt
+
+
+def _in_trimesh(frame) -> bool:
+    """Whether ``frame`` runs code of the trimesh package."""
+    return frame.f_globals.get("__name__", "").partition(".")[0] == "trimesh"
 
 
 def console() -> None:

@@ -70,6 +70,31 @@ def test_a_ctrl_c_after_the_command_finished_changes_nothing():
     assert out.returncode == 0 and "KeyboardInterrupt" not in out.stderr, (out.returncode, out.stderr)
 
 
+def test_a_ctrl_c_inside_trimesh_load_interrupts_and_is_not_a_bad_mesh_file():
+    """trimesh catches BaseException around its ``os.path.isfile``: a Ctrl-C landing there (CI's stop 68) was
+    reported as "cannot read mesh file ...: string is not a file". Now it waits for trimesh and interrupts."""
+    code = (
+        "import os, signal, sys, time\n"
+        "from tribench.cli import command\n"
+        "from tribench.workloads.meshes import SUZANNE_PATH, read_mesh_file\n"
+        "for sig in (signal.SIGINT, signal.SIGALRM):\n"
+        "    signal.signal(sig, command._ctrl_c)\n"
+        "isfile, hits = os.path.isfile, []\n"
+        "def isfile_hit_by_ctrl_c(path):\n"
+        "    if not hits and sys._getframe(1).f_globals['__name__'] == 'trimesh.exchange.load':\n"
+        "        hits.append(os.kill(os.getpid(), signal.SIGINT))\n"
+        "    return isfile(path)\n"
+        "os.path.isfile = isfile_hit_by_ctrl_c\n"
+        "try:\n"
+        "    read_mesh_file(SUZANNE_PATH)\n"
+        "    time.sleep(5)\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted', len(hits))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout == "interrupted 1\n", (out.stdout, out.stderr)
+
+
 @pytest.mark.slow
 def test_run_quick_is_the_main_job_end_to_end(tmp_path):
     # the README's main job, in its quick form: sweep, statistics, report
