@@ -71,7 +71,7 @@ def test_a_ctrl_c_after_the_command_finished_changes_nothing():
 
 
 def test_a_ctrl_c_inside_trimesh_load_interrupts_and_is_not_a_bad_mesh_file():
-    """trimesh catches BaseException around its ``os.path.isfile``: a Ctrl-C landing there (CI's stop 68) was
+    """trimesh catches BaseException around its ``os.path.isfile``: a Ctrl-C landing there (as one did in CI) was
     reported as "cannot read mesh file ...: string is not a file". Now it waits for trimesh and interrupts."""
     code = (
         "import os, signal, sys, time\n"
