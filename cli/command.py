@@ -57,16 +57,12 @@ def _ctrl_c(signum: int, frame) -> None:
     trimesh catches BaseException in its imports and in its loaders (``trimesh.load`` turned a Ctrl-C during
     its ``os.path.isfile`` into "string is not a file"), so one that lands there is retried 50 ms later."""
     while frame is not None:
-        if frame.f_code.co_filename.startswith("<frozen importlib") or _in_trimesh(frame):
+        module = frame.f_globals.get("__name__", "")
+        if frame.f_code.co_filename.startswith("<frozen importlib") or module.partition(".")[0] == "trimesh":
             signal.setitimer(signal.ITIMER_REAL, 0.05)
             return
         frame = frame.f_back
     raise KeyboardInterrupt
-
-
-def _in_trimesh(frame) -> bool:
-    """Whether ``frame`` runs code of the trimesh package."""
-    return frame.f_globals.get("__name__", "").partition(".")[0] == "trimesh"
 
 
 def console() -> None:
